@@ -1,0 +1,134 @@
+// Myriad's shading model, written once in the common subset of GLSL 4.50 and C++20/GLM.
+//
+// The shaders #include this file; server/render/shading.h includes it inside a C++ namespace with
+// `using namespace glm`, and that copy is the reference the tests judge GPU images with. Rules for
+// editing: no swizzles, no in/out/inout parameters, float literals with an f suffix, and only
+// functions GLM also provides (dot, max, min, clamp, mix, sqrt, pow, abs, normalize).
+
+#ifndef MYRIAD_SHADING_GLSL
+#define MYRIAD_SHADING_GLSL
+
+const float kPi = 3.14159265358979f;
+
+// Perceptual roughness below this makes GGX a near-delta that 16-bit targets cannot hold.
+const float kMinRoughness = 0.045f;
+
+// The seed's windowed falloff: exactly 0 at and beyond the radius, 1 at the light.
+// C (>= 0) shapes the curve: 0 gives the quadratic window 1 - d^2/r^2, larger C falls off faster.
+float distanceAttenuation(float d, float radius, float C) {
+  float r2 = radius * radius;
+  float d2 = d * d;
+  return clamp((r2 - d2) / (C * d2 + r2), 0.0f, 1.0f);
+}
+
+// glTF 2.0 metallic-roughness BRDF (specification, Appendix B), times the cosine term:
+// returns f(l, v) * max(N.L, 0). N, V, L are unit vectors; V and L point away from the surface.
+vec3 brdfCosine(vec3 N, vec3 V, vec3 L, vec3 baseColor, float metallic, float roughness) {
+  float NdotL = dot(N, L);
+  float NdotV = abs(dot(N, V)) + 1e-5f;
+  if (NdotL <= 0.0f) {
+    return vec3(0.0f);
+  }
+  vec3 H = normalize(V + L);
+  float NdotH = max(dot(N, H), 0.0f);
+  float VdotH = max(dot(V, H), 0.0f);
+
+  float perceptual = clamp(roughness, kMinRoughness, 1.0f);
+  float alpha = perceptual * perceptual;
+  float alpha2 = alpha * alpha;
+
+  // Schlick Fresnel with F0 = mix(0.04, baseColor, metallic).
+  vec3 F0 = mix(vec3(0.04f), baseColor, metallic);
+  float fresnelWeight = pow(1.0f - VdotH, 5.0f);
+  vec3 F = F0 + (vec3(1.0f) - F0) * fresnelWeight;
+
+  // Trowbridge-Reitz (GGX) distribution.
+  float denom = NdotH * NdotH * (alpha2 - 1.0f) + 1.0f;
+  float D = alpha2 / (kPi * denom * denom);
+
+  // Height-correlated-free Smith joint visibility V = G / (4 N.L N.V), as in the glTF spec.
+  float visL = NdotL + sqrt(alpha2 + (1.0f - alpha2) * NdotL * NdotL);
+  float visV = NdotV + sqrt(alpha2 + (1.0f - alpha2) * NdotV * NdotV);
+  float Vis = 1.0f / (visL * visV);
+
+  vec3 diffuseColor = mix(baseColor, vec3(0.0f), metallic);
+  vec3 diffuse = (vec3(1.0f) - F) * diffuseColor * (1.0f / kPi);
+  vec3 specular = F * (D * Vis);
+  return (diffuse + specular) * NdotL;
+}
+
+// Outgoing radiance from a point light at lightPosition reaching surface point P.
+vec3 shadePointLight(vec3 P, vec3 N, vec3 V, vec3 baseColor, float metallic, float roughness,
+                     vec3 lightPosition, float radius, vec3 radiance, float C) {
+  vec3 toLight = lightPosition - P;
+  float d = length(toLight);
+  if (d >= radius) {
+    return vec3(0.0f);
+  }
+  vec3 L = d > 1e-6f ? toLight * (1.0f / d) : N;
+  return brdfCosine(N, V, L, baseColor, metallic, roughness) * radiance *
+         distanceAttenuation(d, radius, C);
+}
+
+// Sun (directional, towards-the-sun unit vector) plus a uniform ambient environment. The ambient
+// term is the BRDF's hemispherical integral under constant radiance, approximated as the diffuse
+// colour plus F0 (a rough split-sum): metals reflect their base colour, dielectrics ~4% more.
+vec3 shadeSunAndAmbient(vec3 N, vec3 V, vec3 baseColor, float metallic, float roughness,
+                        vec3 sunDirection, vec3 sunRadiance, vec3 ambient) {
+  vec3 diffuseColor = mix(baseColor, vec3(0.0f), metallic);
+  vec3 F0 = mix(vec3(0.04f), baseColor, metallic);
+  vec3 ambientTerm = ambient * (diffuseColor + F0);
+  return brdfCosine(N, V, sunDirection, baseColor, metallic, roughness) * sunRadiance +
+         ambientTerm;
+}
+
+// Khronos PBR Neutral tone mapping (Khronos 3D Commerce, 2024): hue-preserving, identity below
+// 0.76, smooth compression of highlights towards white above it. Input: exposed linear colour.
+vec3 tonemapPbrNeutral(vec3 color) {
+  const float startCompression = 0.8f - 0.04f;
+  const float desaturation = 0.15f;
+  float x = min(color.x, min(color.y, color.z));
+  float offset = x < 0.08f ? x - 6.25f * x * x : 0.04f;
+  color = color - vec3(offset);
+  float peak = max(color.x, max(color.y, color.z));
+  if (peak < startCompression) {
+    return color;
+  }
+  const float d = 1.0f - startCompression;
+  float newPeak = 1.0f - d * d / (peak + d - startCompression);
+  color = color * (newPeak / peak);
+  float g = 1.0f - 1.0f / (desaturation * (peak - newPeak) + 1.0f);
+  return mix(color, vec3(newPeak), g);
+}
+
+// Linear -> sRGB transfer (IEC 61966-2-1), per channel, input clamped to [0, 1].
+float srgbEncode(float linear) {
+  float c = clamp(linear, 0.0f, 1.0f);
+  return c <= 0.0031308f ? 12.92f * c : 1.055f * pow(c, 1.0f / 2.4f) - 0.055f;
+}
+
+vec3 srgbEncode3(vec3 linear) {
+  return vec3(srgbEncode(linear.x), srgbEncode(linear.y), srgbEncode(linear.z));
+}
+
+// Octahedral normal encoding (Cigolle et al., JCGT 2014) into [-1, 1]^2, stored as RG16_SNORM.
+float signNotZero(float v) { return v >= 0.0f ? 1.0f : -1.0f; }
+
+vec2 octahedralEncode(vec3 n) {
+  float l1 = abs(n.x) + abs(n.y) + abs(n.z);
+  vec2 p = vec2(n.x, n.y) * (1.0f / l1);
+  if (n.z < 0.0f) {
+    p = vec2((1.0f - abs(p.y)) * signNotZero(p.x), (1.0f - abs(p.x)) * signNotZero(p.y));
+  }
+  return p;
+}
+
+vec3 octahedralDecode(vec2 e) {
+  vec3 n = vec3(e.x, e.y, 1.0f - abs(e.x) - abs(e.y));
+  if (n.z < 0.0f) {
+    n = vec3((1.0f - abs(e.y)) * signNotZero(e.x), (1.0f - abs(e.x)) * signNotZero(e.y), n.z);
+  }
+  return normalize(n);
+}
+
+#endif
