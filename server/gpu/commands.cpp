@@ -1,0 +1,138 @@
+#include "gpu/commands.h"
+
+#include "gpu/vk_check.h"
+
+namespace myriad::gpu {
+
+void barrier(VkCommandBuffer cmd, std::span<const ImageTransition> transitions) {
+  std::vector<VkImageMemoryBarrier2> barriers;
+  barriers.reserve(transitions.size());
+  for (const ImageTransition& t : transitions) {
+    VkImageMemoryBarrier2 b{VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER_2};
+    b.srcStageMask = t.srcStage;
+    b.srcAccessMask = t.srcAccess;
+    b.dstStageMask = t.dstStage;
+    b.dstAccessMask = t.dstAccess;
+    b.oldLayout = t.oldLayout;
+    b.newLayout = t.newLayout;
+    b.srcQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+    b.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+    b.image = t.image->image;
+    b.subresourceRange = {t.image->aspect, 0, 1, 0, 1};
+    barriers.push_back(b);
+  }
+  VkDependencyInfo dependency{VK_STRUCTURE_TYPE_DEPENDENCY_INFO};
+  dependency.imageMemoryBarrierCount = static_cast<uint32_t>(barriers.size());
+  dependency.pImageMemoryBarriers = barriers.data();
+  vkCmdPipelineBarrier2(cmd, &dependency);
+}
+
+void bufferBarrier(VkCommandBuffer cmd, const Buffer& buffer, VkPipelineStageFlags2 srcStage,
+                   VkAccessFlags2 srcAccess, VkPipelineStageFlags2 dstStage,
+                   VkAccessFlags2 dstAccess) {
+  VkBufferMemoryBarrier2 b{VK_STRUCTURE_TYPE_BUFFER_MEMORY_BARRIER_2};
+  b.srcStageMask = srcStage;
+  b.srcAccessMask = srcAccess;
+  b.dstStageMask = dstStage;
+  b.dstAccessMask = dstAccess;
+  b.srcQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+  b.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+  b.buffer = buffer.buffer;
+  b.offset = 0;
+  b.size = VK_WHOLE_SIZE;
+  VkDependencyInfo dependency{VK_STRUCTURE_TYPE_DEPENDENCY_INFO};
+  dependency.bufferMemoryBarrierCount = 1;
+  dependency.pBufferMemoryBarriers = &b;
+  vkCmdPipelineBarrier2(cmd, &dependency);
+}
+
+CommandRecorder createCommandRecorder(Context& context) {
+  CommandRecorder r;
+  VkCommandPoolCreateInfo poolInfo{VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO};
+  poolInfo.flags = VK_COMMAND_POOL_CREATE_RESET_COMMAND_BUFFER_BIT;
+  poolInfo.queueFamilyIndex = context.queueFamily;
+  VK_CHECK(vkCreateCommandPool(context.device, &poolInfo, nullptr, &r.pool));
+  VkCommandBufferAllocateInfo alloc{VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO};
+  alloc.commandPool = r.pool;
+  alloc.level = VK_COMMAND_BUFFER_LEVEL_PRIMARY;
+  alloc.commandBufferCount = 1;
+  VK_CHECK(vkAllocateCommandBuffers(context.device, &alloc, &r.cmd));
+  VkFenceCreateInfo fenceInfo{VK_STRUCTURE_TYPE_FENCE_CREATE_INFO};
+  VK_CHECK(vkCreateFence(context.device, &fenceInfo, nullptr, &r.fence));
+  return r;
+}
+
+void destroyCommandRecorder(Context& context, CommandRecorder& r) {
+  if (r.fence) vkDestroyFence(context.device, r.fence, nullptr);
+  if (r.pool) vkDestroyCommandPool(context.device, r.pool, nullptr);  // frees r.cmd
+  r = {};
+}
+
+VkCommandBuffer beginCommands(Context&, CommandRecorder& r) {
+  VK_CHECK(vkResetCommandBuffer(r.cmd, 0));
+  VkCommandBufferBeginInfo begin{VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO};
+  begin.flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT;
+  VK_CHECK(vkBeginCommandBuffer(r.cmd, &begin));
+  return r.cmd;
+}
+
+void submitAndWait(Context& context, CommandRecorder& r) {
+  VK_CHECK(vkEndCommandBuffer(r.cmd));
+  VkCommandBufferSubmitInfo cmdInfo{VK_STRUCTURE_TYPE_COMMAND_BUFFER_SUBMIT_INFO};
+  cmdInfo.commandBuffer = r.cmd;
+  VkSubmitInfo2 submit{VK_STRUCTURE_TYPE_SUBMIT_INFO_2};
+  submit.commandBufferInfoCount = 1;
+  submit.pCommandBufferInfos = &cmdInfo;
+  VK_CHECK(vkResetFences(context.device, 1, &r.fence));
+  VK_CHECK(vkQueueSubmit2(context.queue, 1, &submit, r.fence));
+  VK_CHECK(vkWaitForFences(context.device, 1, &r.fence, VK_TRUE, UINT64_MAX));
+}
+
+PassTimer::PassTimer(Context& context, uint32_t maxPasses)
+    : context_(&context), capacity_(maxPasses + 1) {
+  if (!context.info.timestampsSupported) return;
+  VkQueryPoolCreateInfo info{VK_STRUCTURE_TYPE_QUERY_POOL_CREATE_INFO};
+  info.queryType = VK_QUERY_TYPE_TIMESTAMP;
+  info.queryCount = capacity_;
+  VK_CHECK(vkCreateQueryPool(context.device, &info, nullptr, &pool_));
+}
+
+PassTimer::~PassTimer() {
+  if (pool_) vkDestroyQueryPool(context_->device, pool_, nullptr);
+}
+
+void PassTimer::reset(VkCommandBuffer cmd) {
+  names_.clear();
+  written_ = 0;
+  if (pool_) vkCmdResetQueryPool(cmd, pool_, 0, capacity_);
+}
+
+// Timestamps wait for all earlier work (ALL_COMMANDS): a pass's time is then the time between the
+// end of the previous pass and its own end, which is what a per-pass budget needs. This is a
+// timestamp stage, not a barrier; it orders nothing.
+void PassTimer::beginPass(VkCommandBuffer cmd, const char* name) {
+  if (!pool_ || written_ + 1 >= capacity_) return;
+  vkCmdWriteTimestamp2(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, pool_, written_++);
+  names_.emplace_back(name);
+}
+
+void PassTimer::end(VkCommandBuffer cmd) {
+  if (!pool_ || written_ == 0) return;
+  vkCmdWriteTimestamp2(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, pool_, written_++);
+}
+
+std::vector<std::pair<std::string, double>> PassTimer::results() {
+  std::vector<std::pair<std::string, double>> out;
+  if (!pool_ || written_ < 2) return out;
+  std::vector<uint64_t> ticks(written_);
+  VK_CHECK(vkGetQueryPoolResults(context_->device, pool_, 0, written_, ticks.size() * sizeof(uint64_t),
+                                 ticks.data(), sizeof(uint64_t),
+                                 VK_QUERY_RESULT_64_BIT | VK_QUERY_RESULT_WAIT_BIT));
+  double msPerTick = context_->info.timestampPeriodNs * 1e-6;
+  for (uint32_t i = 0; i + 1 < written_ && i < names_.size(); ++i) {
+    out.emplace_back(names_[i], static_cast<double>(ticks[i + 1] - ticks[i]) * msPerTick);
+  }
+  return out;
+}
+
+}  // namespace myriad::gpu

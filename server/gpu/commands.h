@@ -1,0 +1,71 @@
+// Command recording helpers: barriers (synchronization2), one command buffer with its fence, and
+// GPU timestamps per pass.
+#pragma once
+
+#include <span>
+#include <string>
+#include <vector>
+
+#include <vulkan/vulkan.h>
+
+#include "gpu/context.h"
+#include "gpu/resources.h"
+
+namespace myriad::gpu {
+
+// One layout/access transition of a whole single-mip image. Stages and accesses are the exact
+// producer and consumer of the dependency; callers batch them with `barrier`.
+struct ImageTransition {
+  const Image* image;
+  VkPipelineStageFlags2 srcStage;
+  VkAccessFlags2 srcAccess;
+  VkPipelineStageFlags2 dstStage;
+  VkAccessFlags2 dstAccess;
+  VkImageLayout oldLayout;
+  VkImageLayout newLayout;
+};
+
+void barrier(VkCommandBuffer cmd, std::span<const ImageTransition> transitions);
+
+// A buffer dependency (e.g. a copy into the readback buffer, then the host reads it).
+void bufferBarrier(VkCommandBuffer cmd, const Buffer& buffer, VkPipelineStageFlags2 srcStage,
+                   VkAccessFlags2 srcAccess, VkPipelineStageFlags2 dstStage,
+                   VkAccessFlags2 dstAccess);
+
+// A primary command buffer, re-recorded every frame, and the fence its submission signals.
+struct CommandRecorder {
+  VkCommandPool pool = VK_NULL_HANDLE;
+  VkCommandBuffer cmd = VK_NULL_HANDLE;
+  VkFence fence = VK_NULL_HANDLE;
+};
+
+CommandRecorder createCommandRecorder(Context& context);
+void destroyCommandRecorder(Context& context, CommandRecorder& recorder);
+VkCommandBuffer beginCommands(Context& context, CommandRecorder& recorder);
+// Ends, submits on the context's queue and waits for completion.
+void submitAndWait(Context& context, CommandRecorder& recorder);
+
+// Timestamps between passes: mark(i) after pass i-1 ends; pass i takes t[i+1] - t[i].
+class PassTimer {
+ public:
+  PassTimer(Context& context, uint32_t maxPasses);
+  ~PassTimer();
+  PassTimer(const PassTimer&) = delete;
+  PassTimer& operator=(const PassTimer&) = delete;
+
+  void reset(VkCommandBuffer cmd);
+  // Marks the end of everything recorded so far and the start of pass `name`.
+  void beginPass(VkCommandBuffer cmd, const char* name);
+  void end(VkCommandBuffer cmd);
+  // After the submission completed: (name, milliseconds) per pass; empty without timestamps.
+  std::vector<std::pair<std::string, double>> results();
+
+ private:
+  Context* context_;
+  VkQueryPool pool_ = VK_NULL_HANDLE;
+  uint32_t capacity_;
+  std::vector<std::string> names_;
+  uint32_t written_ = 0;
+};
+
+}  // namespace myriad::gpu

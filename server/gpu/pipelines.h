@@ -1,0 +1,42 @@
+// Graphics pipelines for dynamic rendering, described by a plain struct.
+#pragma once
+
+#include <cstdint>
+#include <span>
+#include <vector>
+
+#include <vulkan/vulkan.h>
+
+namespace myriad::gpu {
+
+enum class Blend { None, Additive };
+
+struct VertexLayout {
+  uint32_t stride = 0;  // 0: no vertex buffer (fullscreen triangle)
+  std::vector<VkVertexInputAttributeDescription> attributes;
+};
+
+struct GraphicsPipelineDesc {
+  std::span<const uint32_t> vertexShader;
+  std::span<const uint32_t> fragmentShader;
+  VertexLayout vertexLayout;
+  std::vector<VkFormat> colorFormats;
+  Blend blend = Blend::None;  // applied to every colour attachment
+  VkFormat depthFormat = VK_FORMAT_UNDEFINED;
+  bool depthTest = false;
+  bool depthWrite = false;
+  VkCompareOp depthCompare = VK_COMPARE_OP_LESS;
+  bool depthClamp = false;  // requires the depthClamp feature
+  VkCullModeFlags cullMode = VK_CULL_MODE_NONE;
+};
+
+VkShaderModule createShaderModule(VkDevice device, std::span<const uint32_t> spirv);
+
+// Viewport and scissor are dynamic; everything else is baked from `desc`.
+VkPipeline createGraphicsPipeline(VkDevice device, VkPipelineLayout layout,
+                                  const GraphicsPipelineDesc& desc);
+
+VkDescriptorSetLayout createDescriptorSetLayout(
+    VkDevice device, std::span<const VkDescriptorSetLayoutBinding> bindings);
+
+}  // namespace myriad::gpu

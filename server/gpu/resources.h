@@ -1,0 +1,78 @@
+// Buffers and images, allocated from arenas: every resource in an arena shares one lifetime and
+// a few large vkAllocateMemory blocks, and the arena frees them all at once. Renderer state that
+// changes together (the frame's targets, the scene's buffers) lives in one arena, so there is no
+// per-resource bookkeeping and no hand-kept destructor list.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include <vulkan/vulkan.h>
+
+#include "gpu/context.h"
+
+namespace myriad::gpu {
+
+enum class MemoryUse {
+  DeviceLocal,  // GPU-only: targets, geometry (filled through a staging copy)
+  Upload,       // host-visible, coherent, mapped: CPU writes, GPU reads
+  Readback,     // host-visible, cached where possible, mapped: GPU writes, CPU reads
+};
+
+struct Buffer {
+  VkBuffer buffer = VK_NULL_HANDLE;
+  VkDeviceSize size = 0;
+  void* mapped = nullptr;  // non-null for Upload and Readback buffers
+};
+
+struct Image {
+  VkImage image = VK_NULL_HANDLE;
+  VkImageView view = VK_NULL_HANDLE;
+  VkFormat format = VK_FORMAT_UNDEFINED;
+  VkExtent2D extent{0, 0};
+  VkImageAspectFlags aspect = VK_IMAGE_ASPECT_COLOR_BIT;
+};
+
+class Arena {
+ public:
+  explicit Arena(Context& context) : context_(&context) {}
+  ~Arena() { release(); }
+  Arena(const Arena&) = delete;
+  Arena& operator=(const Arena&) = delete;
+
+  Buffer createBuffer(VkDeviceSize size, VkBufferUsageFlags usage, MemoryUse use);
+  Image createImage2D(VkExtent2D extent, VkFormat format, VkImageUsageFlags usage);
+
+  // Destroys every resource and frees every block. The caller ensures the GPU is done with them.
+  void release();
+
+  VkDeviceSize bytesAllocated() const;
+
+ private:
+  struct Block {
+    VkDeviceMemory memory = VK_NULL_HANDLE;
+    uint32_t memoryType = 0;
+    VkDeviceSize size = 0;
+    VkDeviceSize used = 0;
+    void* mapped = nullptr;
+  };
+  struct Placement {
+    VkDeviceMemory memory;
+    VkDeviceSize offset;
+    void* mapped;
+  };
+  Placement place(const VkMemoryRequirements& requirements, MemoryUse use);
+
+  Context* context_;
+  std::vector<Block> blocks_;
+  std::vector<VkBuffer> buffers_;
+  std::vector<VkImage> images_;
+  std::vector<VkImageView> views_;
+};
+
+// Index of a memory type allowed by `typeBits` with all of `required` (and `preferred` if any
+// type has them). Throws if none.
+uint32_t findMemoryType(const VkPhysicalDeviceMemoryProperties& props, uint32_t typeBits,
+                        VkMemoryPropertyFlags required, VkMemoryPropertyFlags preferred);
+
+}  // namespace myriad::gpu

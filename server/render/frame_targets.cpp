@@ -1,0 +1,21 @@
+#include "render/frame_targets.h"
+
+namespace myriad::render {
+
+FrameTargets::FrameTargets(gpu::Context& context, VkExtent2D size) : extent(size), arena(context) {
+  const VkImageUsageFlags gbufferUsage =
+      VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_SAMPLED_BIT;
+  depth = arena.createImage2D(extent, kDepthFormat,
+                              VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT | VK_IMAGE_USAGE_SAMPLED_BIT);
+  normal = arena.createImage2D(extent, kNormalFormat, gbufferUsage);
+  baseColor = arena.createImage2D(extent, kBaseColorFormat, gbufferUsage);
+  material = arena.createImage2D(extent, kMaterialFormat, gbufferUsage);
+  uv = arena.createImage2D(extent, kUvFormat, gbufferUsage);
+  hdr = arena.createImage2D(extent, kHdrFormat, gbufferUsage);
+  output = arena.createImage2D(extent, kOutputFormat,
+                               VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT);
+  readback = arena.createBuffer(VkDeviceSize(extent.width) * extent.height * 4,
+                                VK_BUFFER_USAGE_TRANSFER_DST_BIT, gpu::MemoryUse::Readback);
+}
+
+}  // namespace myriad::render

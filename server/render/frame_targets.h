@@ -1,0 +1,38 @@
+// The images one frame renders into, sized to the requested output (never a fixed size), and the
+// host buffer the output is read back through. Recreated together when the size changes.
+#pragma once
+
+#include <vulkan/vulkan.h>
+
+#include "gpu/context.h"
+#include "gpu/resources.h"
+
+namespace myriad::render {
+
+// G-buffer formats. Normals are octahedral in two 16-bit signed-normalised channels (about 0.002
+// degrees of error); base colour is sRGB so 8 bits hold dark shades well; metallic and roughness
+// are perceptual [0,1] values, fine in 8 bits; uvs may leave [0,1], so they are half floats.
+inline constexpr VkFormat kDepthFormat = VK_FORMAT_D32_SFLOAT;
+inline constexpr VkFormat kNormalFormat = VK_FORMAT_R16G16_SNORM;
+inline constexpr VkFormat kBaseColorFormat = VK_FORMAT_R8G8B8A8_SRGB;
+inline constexpr VkFormat kMaterialFormat = VK_FORMAT_R8G8_UNORM;
+inline constexpr VkFormat kUvFormat = VK_FORMAT_R16G16_SFLOAT;
+inline constexpr VkFormat kHdrFormat = VK_FORMAT_R16G16B16A16_SFLOAT;
+inline constexpr VkFormat kOutputFormat = VK_FORMAT_R8G8B8A8_UNORM;
+
+struct FrameTargets {
+  explicit FrameTargets(gpu::Context& context, VkExtent2D extent);
+
+  VkExtent2D extent;
+  gpu::Arena arena;
+  gpu::Image depth;
+  gpu::Image normal;
+  gpu::Image baseColor;
+  gpu::Image material;
+  gpu::Image uv;
+  gpu::Image hdr;
+  gpu::Image output;
+  gpu::Buffer readback;  // output pixels, RGBA8 rows
+};
+
+}  // namespace myriad::render

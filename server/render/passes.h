@@ -1,0 +1,51 @@
+// The frame's passes. Each pass is a function that records its commands and names, in its
+// signature and its barriers, what it reads and what it writes. renderer.cpp calls them in order.
+#pragma once
+
+#include <vulkan/vulkan.h>
+
+#include "gpu/context.h"
+#include "render/frame_targets.h"
+#include "render/scene_buffers.h"
+
+namespace myriad::render {
+
+// Every pipeline of the frame, sharing one layout: set 0 = scene, set 1 = targets.
+struct Pipelines {
+  explicit Pipelines(gpu::Context& context);
+  ~Pipelines();
+  Pipelines(const Pipelines&) = delete;
+  Pipelines& operator=(const Pipelines&) = delete;
+
+  VkDevice device;
+  VkDescriptorSetLayout sceneSetLayout = VK_NULL_HANDLE;
+  VkDescriptorSetLayout targetSetLayout = VK_NULL_HANDLE;
+  VkPipelineLayout layout = VK_NULL_HANDLE;
+  VkPipeline gbuffer = VK_NULL_HANDLE;
+  VkPipeline sun = VK_NULL_HANDLE;
+  VkPipeline lightVolumes = VK_NULL_HANDLE;
+  VkPipeline lightVolumeOverlay = VK_NULL_HANDLE;
+  VkPipeline markers = VK_NULL_HANDLE;
+  VkPipeline tonemap = VK_NULL_HANDLE;
+};
+
+// 1. Writes depth, normal, base colour, material, uv; leaves them readable by later passes.
+void recordGBufferPass(VkCommandBuffer cmd, const Pipelines& p, const FrameTargets& t,
+                       const SceneBuffers& scene);
+// 2. Reads the G-buffer; writes sun + ambient (or the background) into every HDR pixel.
+void recordSunPass(VkCommandBuffer cmd, const Pipelines& p, const FrameTargets& t);
+// 3. Reads the G-buffer and lights; adds each light's contribution to HDR inside its sphere.
+void recordLightVolumePass(VkCommandBuffer cmd, const Pipelines& p, const FrameTargets& t,
+                           const SceneBuffers& scene);
+// 4. Reads depth (test only, kept from pass 1); draws light markers into HDR.
+void recordMarkerPass(VkCommandBuffer cmd, const Pipelines& p, const FrameTargets& t,
+                      const SceneBuffers& scene);
+// 5. Reads HDR and the G-buffer; writes the chosen view into the output image.
+void recordTonemapPass(VkCommandBuffer cmd, const Pipelines& p, const FrameTargets& t);
+// 5b. (light-volumes view) Reads depth and lights; adds each volume's coverage to the output.
+void recordLightVolumeOverlayPass(VkCommandBuffer cmd, const Pipelines& p, const FrameTargets& t,
+                                  const SceneBuffers& scene);
+// 6. Reads the output image; writes it to the host-visible readback buffer.
+void recordReadback(VkCommandBuffer cmd, const FrameTargets& t);
+
+}  // namespace myriad::render

@@ -1,0 +1,190 @@
+#include "render/reference.h"
+
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+
+#include <glm/gtc/packing.hpp>
+
+#include "render/shading.h"
+#include "scene/camera.h"
+
+namespace myriad::render {
+
+namespace {
+
+struct Hit {
+  float t = std::numeric_limits<float>::max();
+  glm::vec3 position{0.0f};
+  glm::vec3 normal{0.0f, 1.0f, 0.0f};
+  glm::vec2 uv{0.0f};
+  uint32_t material = 0;
+};
+
+struct Triangle {
+  glm::vec3 p[3];
+  glm::vec3 n[3];
+  glm::vec2 uv[3];
+  uint32_t material;
+};
+
+std::vector<Triangle> worldTriangles(const scene::Scene& scene) {
+  std::vector<Triangle> triangles;
+  for (const scene::Instance& instance : scene.instances) {
+    const scene::Mesh& mesh = scene.meshes.at(instance.mesh);
+    glm::mat3 normalMatrix = glm::transpose(glm::inverse(glm::mat3(instance.transform)));
+    for (size_t i = 0; i + 2 < mesh.indices.size(); i += 3) {
+      Triangle t;
+      for (int k = 0; k < 3; ++k) {
+        const scene::Vertex& v = mesh.vertices.at(mesh.indices[i + k]);
+        t.p[k] = glm::vec3(instance.transform * glm::vec4(v.position, 1.0f));
+        t.n[k] = normalMatrix * v.normal;
+        t.uv[k] = v.uv;
+      }
+      t.material = instance.material;
+      triangles.push_back(t);
+    }
+  }
+  return triangles;
+}
+
+// Möller-Trumbore; barycentric interpolation in world space equals the rasteriser's
+// perspective-correct interpolation at the same pixel centre.
+void intersect(const Triangle& tri, glm::vec3 origin, glm::vec3 dir, Hit& best) {
+  glm::vec3 e1 = tri.p[1] - tri.p[0];
+  glm::vec3 e2 = tri.p[2] - tri.p[0];
+  glm::vec3 pv = glm::cross(dir, e2);
+  float det = glm::dot(e1, pv);
+  if (std::abs(det) < 1e-12f) return;
+  float inv = 1.0f / det;
+  glm::vec3 tv = origin - tri.p[0];
+  float u = glm::dot(tv, pv) * inv;
+  if (u < 0.0f || u > 1.0f) return;
+  glm::vec3 qv = glm::cross(tv, e1);
+  float v = glm::dot(dir, qv) * inv;
+  if (v < 0.0f || u + v > 1.0f) return;
+  float t = glm::dot(e2, qv) * inv;
+  if (t <= 0.0f || t >= best.t) return;
+  float w = 1.0f - u - v;
+  best.t = t;
+  best.position = origin + dir * t;
+  glm::vec3 n = w * tri.n[0] + u * tri.n[1] + v * tri.n[2];
+  glm::vec3 geometric = glm::cross(e1, e2);
+  if (!(glm::dot(n, n) > 1e-12f)) n = geometric;
+  n = glm::normalize(n);
+  // Both sides are drawn; seen from the back (clockwise on screen) the normal flips, as on the GPU.
+  if (glm::dot(geometric, dir) > 0.0f) n = -n;
+  best.normal = n;
+  best.uv = w * tri.uv[0] + u * tri.uv[1] + v * tri.uv[2];
+  best.material = tri.material;
+}
+
+float quantizeSnorm16(float x) { return std::round(glm::clamp(x, -1.0f, 1.0f) * 32767.0f) / 32767.0f; }
+float quantizeUnorm8(float x) { return std::round(glm::clamp(x, 0.0f, 1.0f) * 255.0f) / 255.0f; }
+float half(float x) { return glm::unpackHalf1x16(glm::packHalf1x16(x)); }
+glm::vec3 half3(glm::vec3 v) { return {half(v.x), half(v.y), half(v.z)}; }
+
+float srgbDecode(float c) {
+  return c <= 0.04045f ? c / 12.92f : std::pow((c + 0.055f) / 1.055f, 2.4f);
+}
+
+// What the RGBA8_SRGB base-colour target gives back when sampled.
+glm::vec3 storeBaseColor(glm::vec3 c) {
+  glm::vec3 out;
+  for (int i = 0; i < 3; ++i) out[i] = srgbDecode(quantizeUnorm8(shading::srgbEncode(c[i])));
+  return out;
+}
+
+glm::vec3 storeNormal(glm::vec3 n) {
+  glm::vec2 e = shading::octahedralEncode(n);
+  return shading::octahedralDecode(glm::vec2(quantizeSnorm16(e.x), quantizeSnorm16(e.y)));
+}
+
+uint8_t toByte(float x) { return static_cast<uint8_t>(std::round(glm::clamp(x, 0.0f, 1.0f) * 255.0f)); }
+
+}  // namespace
+
+std::vector<uint8_t> renderReference(const scene::Scene& scene, const FrameSettings& s) {
+  if (s.target == Target::LightVolumes) {
+    throw std::invalid_argument("the reference renderer has no light-volumes view");
+  }
+  const std::vector<Triangle> triangles = worldTriangles(scene);
+  const float aspect = float(s.width) / float(s.height);
+  const glm::mat4 viewProjection =
+      scene::projectionMatrix(s.camera, aspect) * scene::viewMatrix(s.camera);
+  const glm::mat4 inverse = glm::inverse(viewProjection);
+  const scene::Bounds bounds = scene.bounds();
+  const glm::vec3 sunDirection = -glm::normalize(scene.sun.direction);
+  const glm::vec3 sunRadiance = scene.sun.color * scene.sun.intensity;
+  const float n = s.camera.nearPlane;
+  const float f = s.camera.farPlane;
+
+  std::vector<uint8_t> image(size_t(s.width) * s.height * 4);
+  for (uint32_t y = 0; y < s.height; ++y) {
+    for (uint32_t x = 0; x < s.width; ++x) {
+      glm::vec2 ndc((x + 0.5f) / s.width * 2.0f - 1.0f, (y + 0.5f) / s.height * 2.0f - 1.0f);
+      glm::vec4 nearPoint = inverse * glm::vec4(ndc, 0.0f, 1.0f);
+      glm::vec4 farPoint = inverse * glm::vec4(ndc, 1.0f, 1.0f);
+      glm::vec3 origin = glm::vec3(nearPoint) / nearPoint.w;
+      glm::vec3 dir = glm::normalize(glm::vec3(farPoint) / farPoint.w - origin);
+      Hit hit;
+      for (const Triangle& tri : triangles) intersect(tri, origin, dir, hit);
+      bool found = hit.t < std::numeric_limits<float>::max();
+      float depth = 1.0f;
+      if (found) {
+        glm::vec4 clip = viewProjection * glm::vec4(hit.position, 1.0f);
+        depth = clip.z / clip.w;
+        if (depth > 1.0f) found = false;  // beyond the far plane: clipped on the GPU too
+      }
+
+      glm::vec3 color(0.0f);
+      const scene::Material material = found ? scene.materials.at(hit.material) : scene::Material{};
+      const glm::vec3 normal = storeNormal(hit.normal);
+      const glm::vec3 baseColor = storeBaseColor(material.baseColor);
+      const float metallic = quantizeUnorm8(material.metallic);
+      const float roughness = quantizeUnorm8(material.roughness);
+      switch (s.target) {
+        case Target::Final: {
+          glm::vec3 hdr = half3(scene.background);
+          if (found) {
+            glm::vec3 V = glm::normalize(s.camera.eye - hit.position);
+            hdr = half3(shading::shadeSunAndAmbient(normal, V, baseColor, metallic, roughness,
+                                                    sunDirection, sunRadiance, scene.ambient));
+            for (const scene::PointLight& l : scene.lights) {
+              glm::vec3 c = shading::shadePointLight(hit.position, normal, V, baseColor, metallic,
+                                                     roughness, l.position, l.radius,
+                                                     l.color * l.intensity, l.falloff);
+              if (c != glm::vec3(0.0f)) hdr = half3(hdr + half3(c));
+            }
+          }
+          color = shading::srgbEncode3(shading::tonemapPbrNeutral(hdr * s.exposure));
+          break;
+        }
+        case Target::Albedo: color = found ? shading::srgbEncode3(baseColor) : glm::vec3(0.0f); break;
+        case Target::Normal: color = found ? normal * 0.5f + 0.5f : glm::vec3(0.0f); break;
+        case Target::Position: {
+          glm::vec3 extent = glm::max(bounds.max - bounds.min, glm::vec3(1e-6f));
+          color = found ? glm::clamp((hit.position - bounds.min) / extent, 0.0f, 1.0f) : glm::vec3(0.0f);
+          break;
+        }
+        case Target::Uv: color = found ? glm::vec3(glm::fract(hit.uv), 0.0f) : glm::vec3(0.0f); break;
+        case Target::Metallic: color = glm::vec3(found ? metallic : 0.0f); break;
+        case Target::Roughness: color = glm::vec3(found ? roughness : 0.0f); break;
+        case Target::Depth: {
+          float linear = n * f / (f - depth * (f - n));
+          color = glm::vec3(found ? glm::clamp((linear - n) / (f - n), 0.0f, 1.0f) : 1.0f);
+          break;
+        }
+        case Target::LightVolumes: break;
+      }
+      uint8_t* px = &image[(size_t(y) * s.width + x) * 4];
+      px[0] = toByte(color.r);
+      px[1] = toByte(color.g);
+      px[2] = toByte(color.b);
+      px[3] = 255;
+    }
+  }
+  return image;
+}
+
+}  // namespace myriad::render

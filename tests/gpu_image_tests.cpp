@@ -1,0 +1,286 @@
+// GPU images of small analytic scenes, rendered through the real frame on whatever Vulkan device
+// is present (lavapipe in CI) with validation on, compared pixel by pixel with the C++ reference
+// (render/reference.h).
+//
+// Tolerance: the reference rounds wherever the GPU stores, so the remaining differences are float
+// evaluation order and half-float blending: at most 2/255 per channel on every pixel of scenes
+// without silhouettes. Where object silhouettes are in view, pixel centres exactly on an edge may
+// fall on either side, so up to 0.5% of pixels may differ by more.
+#include <doctest/doctest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <memory>
+
+#include <glm/gtc/matrix_transform.hpp>
+
+#include "gpu/context.h"
+#include "render/reference.h"
+#include "render/renderer.h"
+#include "scene/camera.h"
+#include "scene/primitives.h"
+
+using namespace myriad;
+
+namespace {
+
+struct Gpu {
+  std::unique_ptr<gpu::Context> context;
+  std::unique_ptr<render::Renderer> renderer;
+};
+
+// One device for the whole suite: creating instances per test would dominate the run time.
+Gpu& sharedGpu() {
+  static Gpu gpu = [] {
+    Gpu g;
+    g.context = gpu::createContext({.validation = true, .device = ""});
+    std::printf("GPU tests on %s (%s)\n", g.context->info.name.c_str(), g.context->info.type.c_str());
+    g.renderer = std::make_unique<render::Renderer>(*g.context);
+    return g;
+  }();
+  return gpu;
+}
+
+struct Comparison {
+  int maxDifference = 0;
+  size_t pixelsOver = 0;  // pixels with a channel differing by more than the tolerance
+  size_t pixels = 0;
+};
+
+Comparison compare(const std::vector<uint8_t>& a, const std::vector<uint8_t>& b, int tolerance) {
+  REQUIRE(a.size() == b.size());
+  Comparison c;
+  c.pixels = a.size() / 4;
+  for (size_t p = 0; p < c.pixels; ++p) {
+    int worst = 0;
+    for (int ch = 0; ch < 3; ++ch) worst = std::max(worst, std::abs(int(a[p * 4 + ch]) - int(b[p * 4 + ch])));
+    c.maxDifference = std::max(c.maxDifference, worst);
+    if (worst > tolerance) ++c.pixelsOver;
+  }
+  return c;
+}
+
+// A 40 m floor, mid-grey, slightly rough; a dim sun so local lights dominate where present.
+scene::Scene floorScene() {
+  scene::Scene s;
+  s.meshes.push_back(scene::makePlane(4.0f));
+  s.materials.push_back({"floor", glm::vec3(0.5f, 0.45f, 0.4f), 0.0f, 0.6f});
+  s.instances.push_back({0, 0, glm::scale(glm::mat4(1.0f), glm::vec3(40.0f, 1.0f, 40.0f))});
+  s.sun.direction = glm::normalize(glm::vec3(-0.3f, -1.0f, -0.2f));
+  s.sun.intensity = 0.4f;
+  s.ambient = glm::vec3(0.02f);
+  return s;
+}
+
+render::FrameSettings settingsFor(const scene::Camera& camera, render::Target target, uint32_t w = 96,
+                                  uint32_t h = 64) {
+  render::FrameSettings f;
+  f.width = w;
+  f.height = h;
+  f.camera = camera;
+  f.target = target;
+  f.markers = false;
+  return f;
+}
+
+scene::Camera lookingDownAtFloor() {
+  scene::Camera c;
+  c.eye = glm::vec3(0.0f, 3.0f, 5.0f);
+  c.target = glm::vec3(0.0f, 0.0f, -1.0f);
+  c.fovYDegrees = 60.0f;
+  c.nearPlane = 0.1f;
+  c.farPlane = 100.0f;
+  return c;
+}
+
+Comparison renderAndCompare(const scene::Scene& s, const render::FrameSettings& f, int tolerance) {
+  Gpu& gpu = sharedGpu();
+  gpu.renderer->setScene(s);
+  render::Frame frame = gpu.renderer->render(f);
+  REQUIRE(frame.width == f.width);
+  REQUIRE(frame.height == f.height);
+  std::vector<uint8_t> reference = render::renderReference(s, f);
+  Comparison c = compare(frame.rgba, reference, tolerance);
+  MESSAGE("target " << render::targetName(f.target) << ": max difference " << c.maxDifference
+                    << "/255, " << c.pixelsOver << " of " << c.pixels << " pixels over " << tolerance);
+  CHECK(gpu.context->validationMessages.load() == 0);
+  return c;
+}
+
+}  // namespace
+
+TEST_CASE("sun and ambient on a floor match the reference on every pixel") {
+  Comparison c = renderAndCompare(floorScene(), settingsFor(lookingDownAtFloor(), render::Target::Final), 2);
+  CHECK(c.pixelsOver == 0);
+}
+
+TEST_CASE("local lights on a floor match the reference on every pixel") {
+  scene::Scene s = floorScene();
+  s.lights = {
+      {glm::vec3(0.0f, 0.5f, 0.0f), 2.5f, glm::vec3(1.0f, 0.3f, 0.1f), 6.0f, 1.0f},
+      {glm::vec3(-2.0f, 0.3f, -2.0f), 1.5f, glm::vec3(0.2f, 0.5f, 1.0f), 8.0f, 4.0f},
+      {glm::vec3(1.5f, 0.2f, 1.0f), 1.0f, glm::vec3(0.2f, 1.0f, 0.3f), 5.0f, 0.0f},
+      {glm::vec3(0.5f, 0.1f, -0.5f), 0.05f, glm::vec3(1.0f), 20.0f, 1.0f},  // tiny
+      {glm::vec3(0.0f, 1.0f, -30.0f), 4.0f, glm::vec3(1.0f, 1.0f, 0.2f), 3.0f, 1.0f},  // far away
+  };
+  Comparison c = renderAndCompare(s, settingsFor(lookingDownAtFloor(), render::Target::Final), 2);
+  CHECK(c.pixelsOver == 0);
+  // And the lights are really there: the GPU image differs from the sun-only one.
+  Gpu& gpu = sharedGpu();
+  render::Frame lit = gpu.renderer->render(settingsFor(lookingDownAtFloor(), render::Target::Final));
+  gpu.renderer->setScene(floorScene());
+  render::Frame unlit = gpu.renderer->render(settingsFor(lookingDownAtFloor(), render::Target::Final));
+  CHECK(compare(lit.rgba, unlit.rgba, 8).pixelsOver > lit.rgba.size() / 4 / 10);
+}
+
+TEST_CASE("camera inside a light volume: no missing or doubled light") {
+  scene::Scene s = floorScene();
+  scene::Camera camera = lookingDownAtFloor();
+  camera.eye = glm::vec3(0.0f, 1.2f, 2.0f);
+  camera.target = glm::vec3(0.0f, 0.0f, 0.0f);
+  // The eye is 0.9 m from the light and well inside its 4 m sphere; the floor inside is lit.
+  s.lights = {{glm::vec3(0.0f, 0.8f, 1.2f), 4.0f, glm::vec3(1.0f, 0.8f, 0.6f), 4.0f, 1.0f}};
+  Comparison c = renderAndCompare(s, settingsFor(camera, render::Target::Final), 2);
+  CHECK(c.pixelsOver == 0);
+}
+
+TEST_CASE("a light volume crossing the near plane: no missing or doubled light") {
+  scene::Scene s = floorScene();
+  scene::Camera camera;
+  camera.eye = glm::vec3(0.0f, 0.6f, 3.0f);
+  camera.target = glm::vec3(0.0f, 0.0f, 0.0f);
+  camera.nearPlane = 0.5f;
+  camera.farPlane = 60.0f;
+  glm::vec3 forward = glm::normalize(camera.target - camera.eye);
+  // Centre 1.2 m ahead, radius 1.0: the sphere spans 0.2..2.2 m along the view, across the near
+  // plane at 0.5 m, with the camera outside it.
+  glm::vec3 centre = camera.eye + forward * 1.2f;
+  s.lights = {{centre, 1.0f, glm::vec3(0.3f, 0.6f, 1.0f), 6.0f, 1.0f}};
+  REQUIRE(glm::length(camera.eye - centre) > 1.0f);
+  Comparison c = renderAndCompare(s, settingsFor(camera, render::Target::Final), 2);
+  CHECK(c.pixelsOver == 0);
+}
+
+TEST_CASE("spheres of every metallic and roughness match the reference") {
+  scene::Scene s = floorScene();
+  s.meshes.push_back(scene::makeSphere(48, 24));
+  for (int i = 0; i < 4; ++i) {
+    float m = i / 3.0f;
+    s.materials.push_back({"sphere", glm::vec3(0.9f, 0.6f, 0.3f), m, 0.2f + 0.25f * i});
+    glm::mat4 t = glm::translate(glm::mat4(1.0f), glm::vec3(-2.4f + 1.6f * i, 0.6f, 0.0f));
+    s.instances.push_back({1, uint32_t(s.materials.size() - 1), glm::scale(t, glm::vec3(0.6f))});
+  }
+  s.lights = {{glm::vec3(0.0f, 1.8f, 1.5f), 4.0f, glm::vec3(1.0f), 6.0f, 1.0f}};
+  s.sun.intensity = 1.5f;
+  Comparison c = renderAndCompare(s, settingsFor(lookingDownAtFloor(), render::Target::Final, 128, 80), 2);
+  CHECK(c.pixelsOver <= c.pixels / 200);
+}
+
+TEST_CASE("normal target equals the analytic normal: floor (0,1,0) and a tilted plane") {
+  scene::Scene s = floorScene();
+  Gpu& gpu = sharedGpu();
+  gpu.renderer->setScene(s);
+  render::Frame frame = gpu.renderer->render(settingsFor(lookingDownAtFloor(), render::Target::Normal));
+  // (0,1,0) * 0.5 + 0.5 = (0.5, 1, 0.5) -> bytes (128, 255, 128); the sky (no geometry) is black.
+  auto isBackground = [](const uint8_t* px) { return px[0] == 0 && px[1] == 0 && px[2] == 0; };
+  size_t wrong = 0, floor = 0;
+  for (size_t p = 0; p < frame.rgba.size(); p += 4) {
+    if (isBackground(&frame.rgba[p])) continue;
+    ++floor;
+    if (std::abs(frame.rgba[p] - 128) > 1 || frame.rgba[p + 1] != 255 || std::abs(frame.rgba[p + 2] - 128) > 1) ++wrong;
+  }
+  CHECK(wrong == 0);
+  CHECK(floor > frame.rgba.size() / 4 * 3 / 4);
+
+  // A plane tilted 30 degrees about z: normal (-sin 30, cos 30, 0).
+  scene::Scene tilted = s;
+  tilted.instances[0].transform =
+      glm::rotate(glm::mat4(1.0f), glm::radians(30.0f), glm::vec3(0, 0, 1)) * s.instances[0].transform;
+  gpu.renderer->setScene(tilted);
+  scene::Camera camera = lookingDownAtFloor();
+  camera.eye = glm::vec3(0.0f, 6.0f, 6.0f);
+  frame = gpu.renderer->render(settingsFor(camera, render::Target::Normal));
+  glm::vec3 expected = glm::vec3(-0.5f, std::sqrt(3.0f) / 2.0f, 0.0f) * 0.5f + 0.5f;
+  wrong = 0;
+  floor = 0;
+  for (size_t p = 0; p < frame.rgba.size(); p += 4) {
+    if (isBackground(&frame.rgba[p])) continue;
+    ++floor;
+    for (int ch = 0; ch < 3; ++ch) {
+      if (std::abs(frame.rgba[p + ch] - std::round(expected[ch] * 255.0f)) > 1) ++wrong;
+    }
+  }
+  CHECK(wrong == 0);
+  CHECK(floor > frame.rgba.size() / 4 * 3 / 4);
+  CHECK(gpu.context->validationMessages.load() == 0);
+}
+
+TEST_CASE("depth target equals the analytic linear depth of the floor") {
+  scene::Scene s = floorScene();
+  scene::Camera camera = lookingDownAtFloor();
+  render::FrameSettings f = settingsFor(camera, render::Target::Depth);
+  Gpu& gpu = sharedGpu();
+  gpu.renderer->setScene(s);
+  render::Frame frame = gpu.renderer->render(f);
+  // Per pixel: intersect the view ray with y = 0 and take the distance along the view axis.
+  glm::mat4 inverse = glm::inverse(scene::projectionMatrix(camera, float(f.width) / f.height) *
+                                    scene::viewMatrix(camera));
+  glm::vec3 forward = glm::normalize(camera.target - camera.eye);
+  size_t wrong = 0, background = 0;
+  for (uint32_t y = 0; y < f.height; ++y) {
+    for (uint32_t x = 0; x < f.width; ++x) {
+      glm::vec4 ndc((x + 0.5f) / f.width * 2 - 1, (y + 0.5f) / f.height * 2 - 1, 1.0f, 1.0f);
+      glm::vec4 far = inverse * ndc;
+      glm::vec3 dir = glm::normalize(glm::vec3(far) / far.w - camera.eye);
+      float expected = 1.0f;
+      if (dir.y < 0.0f) {
+        float t = -camera.eye.y / dir.y;
+        float viewDepth = t * glm::dot(dir, forward);
+        glm::vec3 hit = camera.eye + dir * t;
+        if (std::abs(hit.x) <= 20.0f && std::abs(hit.z) <= 20.0f && viewDepth < camera.farPlane) {
+          expected = (viewDepth - camera.nearPlane) / (camera.farPlane - camera.nearPlane);
+        }
+      }
+      if (expected == 1.0f) ++background;
+      int got = frame.rgba[(size_t(y) * f.width + x) * 4];
+      if (std::abs(got - int(std::round(expected * 255.0f))) > 1) ++wrong;
+    }
+  }
+  CHECK(wrong == 0);
+  CHECK(background > 0);  // the horizon is in view: both floor and sky were checked
+  CHECK(gpu.context->validationMessages.load() == 0);
+}
+
+TEST_CASE("every target of every view matches the reference on a small scene") {
+  scene::Scene s = floorScene();
+  s.meshes.push_back(scene::makeCube());
+  s.materials.push_back({"cube", glm::vec3(0.2f, 0.7f, 0.3f), 0.8f, 0.3f});
+  s.instances.push_back({1, 1, glm::translate(glm::mat4(1.0f), glm::vec3(0.0f, 0.5f, 0.0f))});
+  s.lights = {{glm::vec3(1.0f, 1.0f, 1.0f), 3.0f, glm::vec3(1.0f, 0.5f, 0.2f), 5.0f, 1.0f}};
+  for (render::Target target : {render::Target::Final, render::Target::Albedo, render::Target::Normal,
+                                render::Target::Position, render::Target::Uv, render::Target::Metallic,
+                                render::Target::Roughness, render::Target::Depth}) {
+    Comparison c = renderAndCompare(s, settingsFor(lookingDownAtFloor(), target), 2);
+    CHECK(c.pixelsOver <= c.pixels / 200);
+  }
+}
+
+TEST_CASE("light-volumes view tints exactly the pixels inside some light's sphere") {
+  scene::Scene s = floorScene();
+  s.lights = {{glm::vec3(0.0f, 0.2f, 0.0f), 1.5f, glm::vec3(1.0f, 0.0f, 0.0f), 5.0f, 1.0f}};
+  Gpu& gpu = sharedGpu();
+  gpu.renderer->setScene(s);
+  render::FrameSettings f = settingsFor(lookingDownAtFloor(), render::Target::LightVolumes);
+  render::Frame volumes = gpu.renderer->render(f);
+  f.target = render::Target::Final;
+  render::Frame final = gpu.renderer->render(f);
+  // Outside the sphere the view is the final image halved; inside, red is added on top.
+  size_t tinted = 0;
+  for (size_t p = 0; p < final.rgba.size(); p += 4) {
+    int halfRed = int(std::round(final.rgba[p] / 255.0f * 0.5f * 255.0f));
+    if (volumes.rgba[p] > halfRed + 10) ++tinted;
+  }
+  CHECK(tinted > 20);
+  CHECK(tinted < final.rgba.size() / 4 / 2);
+  CHECK(gpu.context->validationMessages.load() == 0);
+}
