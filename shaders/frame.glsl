@@ -25,6 +25,7 @@ layout(set = MYRIAD_SET_TARGETS, binding = MYRIAD_BINDING_GBUFFER_BASE_COLOR) un
 layout(set = MYRIAD_SET_TARGETS, binding = MYRIAD_BINDING_GBUFFER_MATERIAL) uniform sampler2D gbufferMaterial;
 layout(set = MYRIAD_SET_TARGETS, binding = MYRIAD_BINDING_GBUFFER_UV) uniform sampler2D gbufferUv;
 layout(set = MYRIAD_SET_TARGETS, binding = MYRIAD_BINDING_HDR) uniform sampler2D hdrColor;
+layout(set = MYRIAD_SET_TARGETS, binding = MYRIAD_BINDING_LIGHT_COUNT) uniform sampler2D lightCount;
 
 struct Surface {
   vec3 position;
@@ -42,8 +43,7 @@ vec3 worldFromDepth(ivec2 pixel, float depth) {
 }
 
 // False where no geometry was drawn (depth still at the cleared far value).
-bool loadSurface(ivec2 pixel, out Surface s) {
-  float depth = texelFetch(gbufferDepth, pixel, 0).r;
+bool loadSurfaceWithDepth(ivec2 pixel, float depth, out Surface s) {
   if (depth >= 1.0) {
     return false;
   }
@@ -54,6 +54,57 @@ bool loadSurface(ivec2 pixel, out Surface s) {
   s.metallic = material.x;
   s.roughness = material.y;
   return true;
+}
+
+bool loadSurface(ivec2 pixel, out Surface s) {
+  return loadSurfaceWithDepth(pixel, texelFetch(gbufferDepth, pixel, 0).r, s);
+}
+
+// Distance from the eye along the view axis, from a [0,1] depth value (right-handed, zero-to-one).
+float viewDepthFromDepth(float depth) {
+  float n = frame.camera.y;
+  float f = frame.camera.z;
+  return n * f / (f - depth * (f - n));
+}
+
+vec3 sunAndAmbient(Surface s) {
+  return shadeSunAndAmbient(s.normal, normalize(frame.cameraPosition.xyz - s.position), s.baseColor,
+                            s.metallic, s.roughness, frame.sunDirection.xyz,
+                            frame.sunColor.rgb * frame.sunDirection.w, frame.ambient.rgb);
+}
+
+vec3 shadeLight(Surface s, uint index) {
+  GpuPointLight light = lights[index];
+  return shadePointLight(s.position, s.normal, normalize(frame.cameraPosition.xyz - s.position),
+                         s.baseColor, s.metallic, s.roughness, light.positionRadius.xyz,
+                         light.positionRadius.w, light.radianceFalloff.rgb, light.radianceFalloff.w);
+}
+
+// Whether the light reaches the surface point at all (what the light-count view counts).
+bool lightReaches(Surface s, uint index) {
+  vec3 d = lights[index].positionRadius.xyz - s.position;
+  float r = lights[index].positionRadius.w;
+  return dot(d, d) < r * r;
+}
+
+// Exponential depth slices (Olsson et al. 2012): slice k spans near * (far/near)^(k/S) onwards, so
+// clusters stay roughly cubic in view space at every distance.
+uint sliceOfViewDepth(float z) {
+  float s = floor(log(max(z, frame.camera.y)) * frame.slicing.x - frame.slicing.y);
+  return uint(clamp(s, 0.0, float(frame.grid.z - 1)));
+}
+
+float viewDepthOfSlice(uint k) {
+  return exp((float(k) + frame.slicing.y) / frame.slicing.x);
+}
+
+uint clusterIndex(uvec3 c) {
+  return c.x + frame.grid.x * (c.y + frame.grid.y * c.z);
+}
+
+uint clusterOfPixel(ivec2 pixel, float depth) {
+  uvec2 tile = uvec2(pixel) / MYRIAD_CLUSTER_TILE_SIZE;
+  return clusterIndex(uvec3(tile, sliceOfViewDepth(viewDepthFromDepth(depth))));
 }
 
 vec3 viewVector(vec3 position) {

@@ -3,7 +3,8 @@
 #include "frame.glsl"
 
 layout(location = 0) flat in uint inLight;
-layout(location = 0) out vec4 outColor;  // added to the HDR target
+layout(location = 0) out vec4 outColor;       // added to the HDR target
+layout(location = 1) out float outLightCount;  // added to the light count
 
 // Runs once per pixel the light's back faces cover (and that passed the depth test: the surface
 // is not behind the sphere). The exact test is here: only points inside the sphere get light.
@@ -12,10 +13,7 @@ void main() {
   if (!loadSurface(ivec2(gl_FragCoord.xy), s)) {
     discard;
   }
-  GpuPointLight light = lights[inLight];
-  vec3 color = shadePointLight(s.position, s.normal, viewVector(s.position), s.baseColor,
-                               s.metallic, s.roughness, light.positionRadius.xyz,
-                               light.positionRadius.w, light.radianceFalloff.rgb,
-                               light.radianceFalloff.w);
-  outColor = vec4(color, 0.0);
+  bool reaches = lightReaches(s, inLight);
+  outColor = vec4(reaches ? shadeLight(s, inLight) : vec3(0.0), 0.0);
+  outLightCount = reaches ? 1.0 : 0.0;
 }

@@ -24,6 +24,7 @@ using mat4 = glm::mat4;
 #define MYRIAD_BINDING_LIGHTS 1     // storage GpuPointLight[]
 #define MYRIAD_BINDING_INSTANCES 2  // storage GpuInstance[]
 #define MYRIAD_BINDING_MATERIALS 3  // storage GpuMaterial[]
+#define MYRIAD_BINDING_LIGHT_ORIGINS 4  // storage GpuPointLight[]: where animation starts from
 
 // Descriptor set 1: the frame's render targets, read by later passes (changes with the size).
 #define MYRIAD_SET_TARGETS 1
@@ -33,6 +34,35 @@ using mat4 = glm::mat4;
 #define MYRIAD_BINDING_GBUFFER_MATERIAL 3
 #define MYRIAD_BINDING_GBUFFER_UV 4
 #define MYRIAD_BINDING_HDR 5
+#define MYRIAD_BINDING_LIGHT_COUNT 6          // sampled: lights that shaded each pixel (R32F)
+#define MYRIAD_BINDING_HDR_STORAGE 7          // storage image: compute lighting writes HDR here
+#define MYRIAD_BINDING_LIGHT_COUNT_STORAGE 8  // storage image: compute lighting writes counts here
+
+// Descriptor set 2: light culling (tiled and clustered techniques).
+#define MYRIAD_SET_CULLING 2
+#define MYRIAD_BINDING_CLUSTER_RANGES 0    // uvec2 per cluster: first index, light count
+#define MYRIAD_BINDING_CLUSTER_LIGHTS 1    // uint light indices, every cluster's list back to back
+#define MYRIAD_BINDING_CULLING_STATS 2     // CullingStats, read back after the frame
+#define MYRIAD_BINDING_CLUSTER_CURSORS 3   // uint per cluster: count, then fill cursor
+
+// Techniques (FrameUniforms.grid.w).
+#define MYRIAD_TECHNIQUE_VOLUMES 0
+#define MYRIAD_TECHNIQUE_TILED 1
+#define MYRIAD_TECHNIQUE_CLUSTERED 2
+
+// Tiled: 16x16-pixel tiles, one workgroup each; a tile's list lives in shared memory.
+#define MYRIAD_TILE_SIZE 16
+#define MYRIAD_TILE_MAX_LIGHTS 2048
+
+// Clustered: 64x64-pixel screen tiles x exponential depth slices between near and far.
+#define MYRIAD_CLUSTER_TILE_SIZE 64
+#define MYRIAD_CLUSTER_SLICES 32
+#define MYRIAD_CLUSTER_INACTIVE 0xFFFFFFFFu  // cursor value of a cluster no pixel falls in
+
+// Workgroup sizes, checked at dispatch against the shaders' local_size (render/compute.cpp).
+#define MYRIAD_LIGHTS_PER_GROUP 64
+#define MYRIAD_PIXEL_GROUP 8
+#define MYRIAD_SCAN_GROUP 1024
 
 // The view the tonemap pass writes (FrameUniforms.flags.x). Order matches render::Target.
 #define MYRIAD_VIEW_FINAL 0
@@ -44,6 +74,8 @@ using mat4 = glm::mat4;
 #define MYRIAD_VIEW_ROUGHNESS 6
 #define MYRIAD_VIEW_DEPTH 7
 #define MYRIAD_VIEW_LIGHT_VOLUMES 8
+#define MYRIAD_VIEW_LIGHT_COUNT 9
+#define MYRIAD_VIEW_CLUSTERS 10
 
 MYRIAD_STRUCT(FrameUniforms) {
   mat4 view;
@@ -59,7 +91,17 @@ MYRIAD_STRUCT(FrameUniforms) {
   vec4 camera;           // x exposure, y near, z far, w light-marker radius (world units)
   vec4 boundsMin;        // scene bounds, for the position view; w unused
   vec4 boundsMax;
-  uvec4 flags;           // x view (MYRIAD_VIEW_*), y light count, z, w unused
+  uvec4 flags;           // x view (MYRIAD_VIEW_*), y light count, z raw output (0/1), w list capacity
+  uvec4 grid;            // x,y clusters across/down, z depth slices, w technique
+  vec4 slicing;          // x slices / ln(far/near), y ln(near) * x, z heat-map max, w time (s)
+};
+
+// Counters the culling passes write and the host reads back: nothing is dropped silently.
+MYRIAD_STRUCT(CullingStats) {
+  uvec4 overflow;  // x tiles that overflowed, y light indices dropped (tiles), z light indices
+                   // dropped (clusters), w unused
+  uvec4 totals;    // x light indices written (clusters), y active clusters, z most lights in a
+                   // tile or cluster, w unused
 };
 
 // A local point light. radiance = color * intensity; attenuation slope C in radianceFalloff.w.

@@ -32,6 +32,16 @@ void bufferBarrier(VkCommandBuffer cmd, const Buffer& buffer, VkPipelineStageFla
                    VkAccessFlags2 srcAccess, VkPipelineStageFlags2 dstStage,
                    VkAccessFlags2 dstAccess);
 
+// A global memory dependency: every buffer written by `src` becomes visible to `dst`. Used
+// between compute passes that hand several buffers to each other.
+void memoryBarrier(VkCommandBuffer cmd, VkPipelineStageFlags2 srcStage, VkAccessFlags2 srcAccess,
+                   VkPipelineStageFlags2 dstStage, VkAccessFlags2 dstAccess);
+
+// Workgroups needed to cover `items` with groups of `groupSize`.
+inline uint32_t groupCount(uint32_t items, uint32_t groupSize) {
+  return (items + groupSize - 1) / groupSize;
+}
+
 // A primary command buffer, re-recorded every frame, and the fence its submission signals.
 struct CommandRecorder {
   VkCommandPool pool = VK_NULL_HANDLE;

@@ -270,9 +270,22 @@ std::unique_ptr<Context> createContext(const ContextOptions& options) {
   vkGetPhysicalDeviceFeatures(context->physicalDevice, &supported);
   context->depthClamp = supported.depthClamp == VK_TRUE;
 
+  VkPhysicalDeviceVulkan13Features supported13{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_VULKAN_1_3_FEATURES};
+  VkPhysicalDeviceFeatures2 query{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_FEATURES_2};
+  query.pNext = &supported13;
+  vkGetPhysicalDeviceFeatures2(context->physicalDevice, &query);
+  // Shaders are SPIR-V 1.6 (--target-env vulkan1.3), whose compute shaders declare their workgroup
+  // size with LocalSizeId: that needs maintenance4.
+  if (!supported13.dynamicRendering || !supported13.synchronization2 || !supported13.maintenance4) {
+    throw NoDeviceError(context->info.name +
+                        " lacks a Vulkan 1.3 feature Myriad needs (dynamicRendering, "
+                        "synchronization2, maintenance4): update its driver, or choose another "
+                        "device with --device.");
+  }
   VkPhysicalDeviceVulkan13Features features13{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_VULKAN_1_3_FEATURES};
   features13.dynamicRendering = VK_TRUE;
   features13.synchronization2 = VK_TRUE;
+  features13.maintenance4 = VK_TRUE;
   VkPhysicalDeviceFeatures2 features{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_FEATURES_2};
   features.pNext = &features13;
   features.features.depthClamp = supported.depthClamp;

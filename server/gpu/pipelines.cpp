@@ -108,6 +108,21 @@ VkPipeline createGraphicsPipeline(VkDevice device, VkPipelineLayout layout,
   return pipeline;
 }
 
+VkPipeline createComputePipeline(VkDevice device, VkPipelineLayout layout,
+                                 std::span<const uint32_t> shader,
+                                 const VkSpecializationInfo* specialization) {
+  VkShaderModule module = createShaderModule(device, shader);
+  VkComputePipelineCreateInfo info{VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO};
+  info.stage = {VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO, nullptr, 0,
+                VK_SHADER_STAGE_COMPUTE_BIT, module, "main", specialization};
+  info.layout = layout;
+  VkPipeline pipeline = VK_NULL_HANDLE;
+  VkResult result = vkCreateComputePipelines(device, VK_NULL_HANDLE, 1, &info, nullptr, &pipeline);
+  vkDestroyShaderModule(device, module, nullptr);
+  VK_CHECK(result);
+  return pipeline;
+}
+
 VkDescriptorSetLayout createDescriptorSetLayout(
     VkDevice device, std::span<const VkDescriptorSetLayoutBinding> bindings) {
   VkDescriptorSetLayoutCreateInfo info{VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO};

@@ -36,6 +36,11 @@ VkShaderModule createShaderModule(VkDevice device, std::span<const uint32_t> spi
 VkPipeline createGraphicsPipeline(VkDevice device, VkPipelineLayout layout,
                                   const GraphicsPipelineDesc& desc);
 
+// `specialization` may be null.
+VkPipeline createComputePipeline(VkDevice device, VkPipelineLayout layout,
+                                 std::span<const uint32_t> shader,
+                                 const VkSpecializationInfo* specialization = nullptr);
+
 VkDescriptorSetLayout createDescriptorSetLayout(
     VkDevice device, std::span<const VkDescriptorSetLayoutBinding> bindings);
 

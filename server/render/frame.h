@@ -25,17 +25,40 @@ enum class Target : uint32_t {
   Roughness,
   Depth,
   LightVolumes,
+  LightCount,  // heat map of the lights that shade each pixel, with its scale drawn in
+  Clusters,    // the clustered technique's depth slices, one colour each
 };
 
-inline constexpr std::array<std::string_view, 9> kTargetNames = {
-    "final", "albedo", "normal", "position", "uv", "metallic", "roughness", "depth",
-    "light-volumes"};
+inline constexpr std::array<std::string_view, 11> kTargetNames = {
+    "final", "albedo",        "normal",      "position", "uv", "metallic", "roughness",
+    "depth", "light-volumes", "light-count", "clusters"};
 
 inline std::string_view targetName(Target t) { return kTargetNames[static_cast<uint32_t>(t)]; }
 
 inline std::optional<Target> parseTarget(std::string_view name) {
   for (uint32_t i = 0; i < kTargetNames.size(); ++i) {
     if (kTargetNames[i] == name) return static_cast<Target>(i);
+  }
+  return std::nullopt;
+}
+
+// How local lights are shaded. The same image either way (tests hold them to 1/255 of each other);
+// they differ in cost. Values match MYRIAD_TECHNIQUE_* in shaders/shared_types.h.
+enum class Technique : uint32_t {
+  Volumes = 0,  // the seed's: one instanced draw of sphere proxies, additive blending
+  Tiled,        // compute: 16x16-pixel tiles, lists in shared memory (Andersson 2011)
+  Clustered,    // compute: tiles x depth slices, lists assigned on the GPU (Olsson et al. 2012)
+};
+
+inline constexpr std::array<std::string_view, 3> kTechniqueNames = {"volumes", "tiled", "clustered"};
+
+inline std::string_view techniqueName(Technique t) {
+  return kTechniqueNames[static_cast<uint32_t>(t)];
+}
+
+inline std::optional<Technique> parseTechnique(std::string_view name) {
+  for (uint32_t i = 0; i < kTechniqueNames.size(); ++i) {
+    if (kTechniqueNames[i] == name) return static_cast<Technique>(i);
   }
   return std::nullopt;
 }
@@ -47,7 +70,45 @@ struct FrameSettings {
   Target target = Target::Final;
   bool markers = true;
   float exposure = 1.0f;
+  Technique technique = Technique::Clustered;
+  bool animate = false;       // move the lights on the GPU to where they are at `time`
+  double time = 0.0;          // animation time in seconds
+  uint32_t heatMapMax = 0;    // light-count view: count shown as the hottest colour (0 = auto)
+  bool raw = false;           // return the view's float values (Frame::data), not an image
 };
+
+// What light culling did this frame. Nothing is dropped silently: a list that overflowed its
+// capacity is counted here (and reported in stats, Server-Timing and the log).
+struct CullingReport {
+  uint32_t tilesOverflowed = 0;       // tiled: tiles with more lights than a tile list holds
+  uint32_t tileLightsDropped = 0;     // tiled: light references those tiles could not hold
+  uint32_t clusterLightsDropped = 0;  // clustered: light references past the list capacity
+  uint32_t listEntries = 0;           // clustered: light references written
+  uint32_t activeClusters = 0;        // clustered: clusters holding visible geometry
+  uint32_t mostLightsInList = 0;      // tiled or clustered: the longest list
+  uint64_t lightBytes = 0;            // GPU memory holding the lights (current + origins)
+  uint64_t listBytes = 0;             // GPU memory holding the cluster grid and lists
+
+  bool overflowed() const { return tileLightsDropped > 0 || clusterLightsDropped > 0; }
+};
+
+// Names of the meaningful channels of a raw frame of `target`, in order (the rest are 0/1).
+inline std::vector<std::string_view> rawChannels(Target target) {
+  switch (target) {
+    case Target::Final:
+    case Target::LightVolumes: return {"r", "g", "b"};  // HDR radiance, before exposure
+    case Target::Albedo: return {"r", "g", "b"};        // linear base colour
+    case Target::Normal: return {"x", "y", "z"};        // world-space unit normal
+    case Target::Position: return {"x", "y", "z"};      // world-space position
+    case Target::Uv: return {"u", "v"};
+    case Target::Metallic: return {"metallic"};
+    case Target::Roughness: return {"roughness"};
+    case Target::Depth: return {"depth"};               // view depth in scene units (far if none)
+    case Target::LightCount: return {"count"};
+    case Target::Clusters: return {"slice", "tile_x", "tile_y"};
+  }
+  return {};
+}
 
 struct PassTiming {
   std::string name;     // e.g. "gbuffer", "sun", "lights", "markers", "tonemap", "readback"
@@ -60,7 +121,13 @@ struct Frame {
   uint32_t width = 0;
   uint32_t height = 0;
   std::vector<uint8_t> rgba;
+  // With FrameSettings::raw: 4 floats per pixel, rows top first, instead of `rgba`. What the
+  // channels hold per target is rawChannels(target).
+  std::vector<float> data;
   std::vector<PassTiming> passes;
+  Technique technique = Technique::Clustered;
+  uint32_t lightCount = 0;
+  CullingReport culling;
 };
 
 }  // namespace myriad::render

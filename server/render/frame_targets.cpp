@@ -2,7 +2,8 @@
 
 namespace myriad::render {
 
-FrameTargets::FrameTargets(gpu::Context& context, VkExtent2D size) : extent(size), arena(context) {
+FrameTargets::FrameTargets(gpu::Context& context, VkExtent2D size, bool rawOutput)
+    : extent(size), raw(rawOutput), arena(context) {
   const VkImageUsageFlags gbufferUsage =
       VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_SAMPLED_BIT;
   depth = arena.createImage2D(extent, kDepthFormat,
@@ -11,10 +12,12 @@ FrameTargets::FrameTargets(gpu::Context& context, VkExtent2D size) : extent(size
   baseColor = arena.createImage2D(extent, kBaseColorFormat, gbufferUsage);
   material = arena.createImage2D(extent, kMaterialFormat, gbufferUsage);
   uv = arena.createImage2D(extent, kUvFormat, gbufferUsage);
-  hdr = arena.createImage2D(extent, kHdrFormat, gbufferUsage);
-  output = arena.createImage2D(extent, kOutputFormat,
+  // Compute lighting (tiled, clustered) stores into these; volumes blend into them.
+  hdr = arena.createImage2D(extent, kHdrFormat, gbufferUsage | VK_IMAGE_USAGE_STORAGE_BIT);
+  lightCount = arena.createImage2D(extent, kLightCountFormat, gbufferUsage | VK_IMAGE_USAGE_STORAGE_BIT);
+  output = arena.createImage2D(extent, raw ? kRawOutputFormat : kOutputFormat,
                                VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT);
-  readback = arena.createBuffer(VkDeviceSize(extent.width) * extent.height * 4,
+  readback = arena.createBuffer(VkDeviceSize(extent.width) * extent.height * (raw ? 16 : 4),
                                 VK_BUFFER_USAGE_TRANSFER_DST_BIT, gpu::MemoryUse::Readback);
 }
 

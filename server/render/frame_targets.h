@@ -19,11 +19,16 @@ inline constexpr VkFormat kMaterialFormat = VK_FORMAT_R8G8_UNORM;
 inline constexpr VkFormat kUvFormat = VK_FORMAT_R16G16_SFLOAT;
 inline constexpr VkFormat kHdrFormat = VK_FORMAT_R16G16B16A16_SFLOAT;
 inline constexpr VkFormat kOutputFormat = VK_FORMAT_R8G8B8A8_UNORM;
+inline constexpr VkFormat kRawOutputFormat = VK_FORMAT_R32G32B32A32_SFLOAT;
+// Lights that shaded each pixel: exact integers up to 2^24 in a float, and blendable (volumes add 1).
+inline constexpr VkFormat kLightCountFormat = VK_FORMAT_R32_SFLOAT;
 
 struct FrameTargets {
-  explicit FrameTargets(gpu::Context& context, VkExtent2D extent);
+  // `raw`: the output holds float values (kRawOutputFormat) instead of an 8-bit image.
+  FrameTargets(gpu::Context& context, VkExtent2D extent, bool raw);
 
   VkExtent2D extent;
+  bool raw;
   gpu::Arena arena;
   gpu::Image depth;
   gpu::Image normal;
@@ -31,8 +36,9 @@ struct FrameTargets {
   gpu::Image material;
   gpu::Image uv;
   gpu::Image hdr;
+  gpu::Image lightCount;
   gpu::Image output;
-  gpu::Buffer readback;  // output pixels, RGBA8 rows
+  gpu::Buffer readback;  // output pixels, rows top first
 };
 
 }  // namespace myriad::render

@@ -98,26 +98,57 @@ ImageTransition colorWriteToSampled(const gpu::Image& image) {
           VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL, VK_IMAGE_LAYOUT_READ_ONLY_OPTIMAL};
 }
 
+// After a compute pass stored into an image, before a raster pass writes it as an attachment.
+ImageTransition storageWriteToColorWrite(const gpu::Image& image) {
+  return {&image, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
+          VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT,
+          VK_ACCESS_2_COLOR_ATTACHMENT_READ_BIT | VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT,
+          VK_IMAGE_LAYOUT_GENERAL, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL};
+}
+
+// From whichever kind of write produced the image (attachment or storage) to sampling.
+ImageTransition writtenToSampled(const gpu::Image& image, VkImageLayout layout) {
+  if (layout == VK_IMAGE_LAYOUT_GENERAL) {
+    return {&image, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
+            VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT, VK_ACCESS_2_SHADER_SAMPLED_READ_BIT,
+            VK_IMAGE_LAYOUT_GENERAL, VK_IMAGE_LAYOUT_READ_ONLY_OPTIMAL};
+  }
+  return colorWriteToSampled(image);
+}
+
 }  // namespace
 
 Pipelines::Pipelines(gpu::Context& context) : device(context.device) {
-  const VkShaderStageFlags graphics = VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT;
-  std::array<VkDescriptorSetLayoutBinding, 4> sceneBindings{{
-      {MYRIAD_BINDING_FRAME, VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1, graphics, nullptr},
-      {MYRIAD_BINDING_LIGHTS, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, graphics, nullptr},
-      {MYRIAD_BINDING_INSTANCES, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, graphics, nullptr},
-      {MYRIAD_BINDING_MATERIALS, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, graphics, nullptr},
+  const VkShaderStageFlags all =
+      VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT | VK_SHADER_STAGE_COMPUTE_BIT;
+  std::array<VkDescriptorSetLayoutBinding, 5> sceneBindings{{
+      {MYRIAD_BINDING_FRAME, VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1, all, nullptr},
+      {MYRIAD_BINDING_LIGHTS, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, all, nullptr},
+      {MYRIAD_BINDING_INSTANCES, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, all, nullptr},
+      {MYRIAD_BINDING_MATERIALS, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, all, nullptr},
+      {MYRIAD_BINDING_LIGHT_ORIGINS, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, all, nullptr},
   }};
   sceneSetLayout = gpu::createDescriptorSetLayout(device, sceneBindings);
-  std::array<VkDescriptorSetLayoutBinding, 6> targetBindings{};
-  for (uint32_t i = 0; i < targetBindings.size(); ++i) {
-    targetBindings[i] = {i, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1,
-                         VK_SHADER_STAGE_FRAGMENT_BIT, nullptr};
+  const VkShaderStageFlags readers = VK_SHADER_STAGE_FRAGMENT_BIT | VK_SHADER_STAGE_COMPUTE_BIT;
+  std::array<VkDescriptorSetLayoutBinding, 9> targetBindings{};
+  for (uint32_t i = 0; i <= MYRIAD_BINDING_LIGHT_COUNT; ++i) {
+    targetBindings[i] = {i, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, readers, nullptr};
   }
+  targetBindings[MYRIAD_BINDING_HDR_STORAGE] = {MYRIAD_BINDING_HDR_STORAGE,
+                                                VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, 1,
+                                                VK_SHADER_STAGE_COMPUTE_BIT, nullptr};
+  targetBindings[MYRIAD_BINDING_LIGHT_COUNT_STORAGE] = {MYRIAD_BINDING_LIGHT_COUNT_STORAGE,
+                                                        VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, 1,
+                                                        VK_SHADER_STAGE_COMPUTE_BIT, nullptr};
   targetSetLayout = gpu::createDescriptorSetLayout(device, targetBindings);
-  VkDescriptorSetLayout setLayouts[] = {sceneSetLayout, targetSetLayout};
+  std::array<VkDescriptorSetLayoutBinding, 4> cullingBindings{};
+  for (uint32_t i = 0; i < cullingBindings.size(); ++i) {
+    cullingBindings[i] = {i, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, VK_SHADER_STAGE_COMPUTE_BIT, nullptr};
+  }
+  cullingSetLayout = gpu::createDescriptorSetLayout(device, cullingBindings);
+  VkDescriptorSetLayout setLayouts[] = {sceneSetLayout, targetSetLayout, cullingSetLayout};
   VkPipelineLayoutCreateInfo layoutInfo{VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO};
-  layoutInfo.setLayoutCount = 2;
+  layoutInfo.setLayoutCount = 3;
   layoutInfo.pSetLayouts = setLayouts;
   VK_CHECK(vkCreatePipelineLayout(device, &layoutInfo, nullptr, &layout));
 
@@ -134,7 +165,7 @@ Pipelines::Pipelines(gpu::Context& context) : device(context.device) {
   d = {};
   d.vertexShader = spirv::fullscreen_vert;
   d.fragmentShader = spirv::sun_frag;
-  d.colorFormats = {kHdrFormat};
+  d.colorFormats = {kHdrFormat, kLightCountFormat};
   sun = gpu::createGraphicsPipeline(device, layout, d);
 
   // Light volumes draw the sphere's BACK faces: exactly one fragment per covered pixel whether
@@ -146,7 +177,7 @@ Pipelines::Pipelines(gpu::Context& context) : device(context.device) {
   d.vertexShader = spirv::light_volume_vert;
   d.fragmentShader = spirv::light_volume_frag;
   d.vertexLayout = positionOnlyLayout();
-  d.colorFormats = {kHdrFormat};
+  d.colorFormats = {kHdrFormat, kLightCountFormat};
   d.blend = gpu::Blend::Additive;
   d.depthFormat = kDepthFormat;
   d.depthTest = true;
@@ -175,15 +206,34 @@ Pipelines::Pipelines(gpu::Context& context) : device(context.device) {
   d.fragmentShader = spirv::tonemap_frag;
   d.colorFormats = {kOutputFormat};
   tonemap = gpu::createGraphicsPipeline(device, layout, d);
+  d.colorFormats = {kRawOutputFormat};
+  tonemapRaw = gpu::createGraphicsPipeline(device, layout, d);
+
+  animateLights = gpu::createComputePipeline(device, layout, spirv::light_animate_comp);
+  tiledLighting = gpu::createComputePipeline(device, layout, spirv::light_tiled_comp);
+  clusterMark = gpu::createComputePipeline(device, layout, spirv::cluster_mark_comp);
+  clusterScan = gpu::createComputePipeline(device, layout, spirv::cluster_scan_comp);
+  clusteredLighting = gpu::createComputePipeline(device, layout, spirv::light_clustered_comp);
+  // cluster_assign.comp counts (kAssign = false) or fills the lists (true): one source, so both
+  // passes run the identical overlap test.
+  VkSpecializationMapEntry entry{0, 0, sizeof(VkBool32)};
+  for (VkBool32 assign : {VK_FALSE, VK_TRUE}) {
+    VkSpecializationInfo spec{1, &entry, sizeof(VkBool32), &assign};
+    VkPipeline& target = assign ? clusterAssign : clusterCount;
+    target = gpu::createComputePipeline(device, layout, spirv::cluster_assign_comp, &spec);
+  }
 }
 
 Pipelines::~Pipelines() {
-  for (VkPipeline p : {gbuffer, sun, lightVolumes, lightVolumeOverlay, markers, tonemap}) {
+  for (VkPipeline p : {gbuffer, sun, lightVolumes, lightVolumeOverlay, markers, tonemap, tonemapRaw,
+                       animateLights, tiledLighting, clusterMark, clusterCount, clusterScan,
+                       clusterAssign, clusteredLighting}) {
     if (p) vkDestroyPipeline(device, p, nullptr);
   }
   if (layout) vkDestroyPipelineLayout(device, layout, nullptr);
   if (sceneSetLayout) vkDestroyDescriptorSetLayout(device, sceneSetLayout, nullptr);
   if (targetSetLayout) vkDestroyDescriptorSetLayout(device, targetSetLayout, nullptr);
+  if (cullingSetLayout) vkDestroyDescriptorSetLayout(device, cullingSetLayout, nullptr);
 }
 
 void recordGBufferPass(VkCommandBuffer cmd, const Pipelines& p, const FrameTargets& t,
@@ -239,11 +289,14 @@ void recordGBufferPass(VkCommandBuffer cmd, const Pipelines& p, const FrameTarge
 
 void recordSunPass(VkCommandBuffer cmd, const Pipelines& p, const FrameTargets& t) {
   const ImageTransition before[] = {
-      discardForColorWrite(t.hdr, VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT)};
+      discardForColorWrite(t.hdr, VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT),
+      discardForColorWrite(t.lightCount, VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT)};
   gpu::barrier(cmd, before);
   // Every pixel is written (background included), so nothing is loaded or cleared.
-  VkRenderingAttachmentInfo color = colorAttachment(t.hdr, VK_ATTACHMENT_LOAD_OP_DONT_CARE);
-  beginRendering(cmd, t.extent, {&color, 1}, nullptr);
+  std::array<VkRenderingAttachmentInfo, 2> colors = {
+      colorAttachment(t.hdr, VK_ATTACHMENT_LOAD_OP_DONT_CARE),
+      colorAttachment(t.lightCount, VK_ATTACHMENT_LOAD_OP_DONT_CARE)};
+  beginRendering(cmd, t.extent, colors, nullptr);
   vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, p.sun);
   vkCmdDraw(cmd, 3, 1, 0, 0);
   vkCmdEndRendering(cmd);
@@ -251,19 +304,23 @@ void recordSunPass(VkCommandBuffer cmd, const Pipelines& p, const FrameTargets& 
 
 void recordLightVolumePass(VkCommandBuffer cmd, const Pipelines& p, const FrameTargets& t,
                            const SceneBuffers& scene) {
-  const ImageTransition before[] = {colorWriteToBlend(t.hdr)};
+  const ImageTransition before[] = {colorWriteToBlend(t.hdr), colorWriteToBlend(t.lightCount)};
   gpu::barrier(cmd, before);
-  VkRenderingAttachmentInfo color = colorAttachment(t.hdr, VK_ATTACHMENT_LOAD_OP_LOAD);
+  std::array<VkRenderingAttachmentInfo, 2> colors = {
+      colorAttachment(t.hdr, VK_ATTACHMENT_LOAD_OP_LOAD),
+      colorAttachment(t.lightCount, VK_ATTACHMENT_LOAD_OP_LOAD)};
   VkRenderingAttachmentInfo depth = readOnlyDepth(t.depth);
-  beginRendering(cmd, t.extent, {&color, 1}, &depth);
+  beginRendering(cmd, t.extent, colors, &depth);
   vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, p.lightVolumes);
   drawLightProxies(cmd, scene);
   vkCmdEndRendering(cmd);
 }
 
 void recordMarkerPass(VkCommandBuffer cmd, const Pipelines& p, const FrameTargets& t,
-                      const SceneBuffers& scene) {
-  const ImageTransition before[] = {colorWriteToBlend(t.hdr)};
+                      const SceneBuffers& scene, VkImageLayout hdrLayout) {
+  const ImageTransition before[] = {hdrLayout == VK_IMAGE_LAYOUT_GENERAL
+                                        ? storageWriteToColorWrite(t.hdr)
+                                        : colorWriteToBlend(t.hdr)};
   gpu::barrier(cmd, before);
   VkRenderingAttachmentInfo color = colorAttachment(t.hdr, VK_ATTACHMENT_LOAD_OP_LOAD);
   VkRenderingAttachmentInfo depth = readOnlyDepth(t.depth);
@@ -273,9 +330,11 @@ void recordMarkerPass(VkCommandBuffer cmd, const Pipelines& p, const FrameTarget
   vkCmdEndRendering(cmd);
 }
 
-void recordTonemapPass(VkCommandBuffer cmd, const Pipelines& p, const FrameTargets& t) {
+void recordTonemapPass(VkCommandBuffer cmd, const Pipelines& p, const FrameTargets& t,
+                       VkImageLayout hdrLayout, VkImageLayout lightCountLayout) {
   const ImageTransition before[] = {
-      colorWriteToSampled(t.hdr),
+      writtenToSampled(t.hdr, hdrLayout),
+      writtenToSampled(t.lightCount, lightCountLayout),
       // The previous frame's last use of the output was the readback copy.
       {&t.output, VK_PIPELINE_STAGE_2_COPY_BIT, VK_ACCESS_2_NONE,
        VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT, VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT,
@@ -284,7 +343,7 @@ void recordTonemapPass(VkCommandBuffer cmd, const Pipelines& p, const FrameTarge
   gpu::barrier(cmd, before);
   VkRenderingAttachmentInfo color = colorAttachment(t.output, VK_ATTACHMENT_LOAD_OP_DONT_CARE);
   beginRendering(cmd, t.extent, {&color, 1}, nullptr);
-  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, p.tonemap);
+  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, t.raw ? p.tonemapRaw : p.tonemap);
   vkCmdDraw(cmd, 3, 1, 0, 0);
   vkCmdEndRendering(cmd);
 }

@@ -10,7 +10,8 @@
 
 namespace myriad::render {
 
-// Every pipeline of the frame, sharing one layout: set 0 = scene, set 1 = targets.
+// Every pipeline of the frame, sharing one layout: set 0 = scene, set 1 = targets,
+// set 2 = light culling.
 struct Pipelines {
   explicit Pipelines(gpu::Context& context);
   ~Pipelines();
@@ -20,6 +21,7 @@ struct Pipelines {
   VkDevice device;
   VkDescriptorSetLayout sceneSetLayout = VK_NULL_HANDLE;
   VkDescriptorSetLayout targetSetLayout = VK_NULL_HANDLE;
+  VkDescriptorSetLayout cullingSetLayout = VK_NULL_HANDLE;
   VkPipelineLayout layout = VK_NULL_HANDLE;
   VkPipeline gbuffer = VK_NULL_HANDLE;
   VkPipeline sun = VK_NULL_HANDLE;
@@ -27,21 +29,34 @@ struct Pipelines {
   VkPipeline lightVolumeOverlay = VK_NULL_HANDLE;
   VkPipeline markers = VK_NULL_HANDLE;
   VkPipeline tonemap = VK_NULL_HANDLE;
+  VkPipeline tonemapRaw = VK_NULL_HANDLE;  // same shader, float output
+  // Compute (render/compute_passes.h).
+  VkPipeline animateLights = VK_NULL_HANDLE;
+  VkPipeline tiledLighting = VK_NULL_HANDLE;
+  VkPipeline clusterMark = VK_NULL_HANDLE;
+  VkPipeline clusterCount = VK_NULL_HANDLE;
+  VkPipeline clusterScan = VK_NULL_HANDLE;
+  VkPipeline clusterAssign = VK_NULL_HANDLE;
+  VkPipeline clusteredLighting = VK_NULL_HANDLE;
 };
 
 // 1. Writes depth, normal, base colour, material, uv; leaves them readable by later passes.
 void recordGBufferPass(VkCommandBuffer cmd, const Pipelines& p, const FrameTargets& t,
                        const SceneBuffers& scene);
-// 2. Reads the G-buffer; writes sun + ambient (or the background) into every HDR pixel.
+// 2. (volumes) Reads the G-buffer; writes sun + ambient (or the background) into every HDR
+//    pixel and zero light counts.
 void recordSunPass(VkCommandBuffer cmd, const Pipelines& p, const FrameTargets& t);
-// 3. Reads the G-buffer and lights; adds each light's contribution to HDR inside its sphere.
+// 3. (volumes) Reads the G-buffer and lights; adds each light's contribution to HDR inside its
+//    sphere, and 1 to the light count there.
 void recordLightVolumePass(VkCommandBuffer cmd, const Pipelines& p, const FrameTargets& t,
                            const SceneBuffers& scene);
-// 4. Reads depth (test only, kept from pass 1); draws light markers into HDR.
+// 4. Reads depth (test only, kept from pass 1); draws light markers into HDR. `hdrLayout` is
+//    where the lighting pass left HDR (GENERAL after compute, COLOR_ATTACHMENT after volumes).
 void recordMarkerPass(VkCommandBuffer cmd, const Pipelines& p, const FrameTargets& t,
-                      const SceneBuffers& scene);
+                      const SceneBuffers& scene, VkImageLayout hdrLayout);
 // 5. Reads HDR and the G-buffer; writes the chosen view into the output image.
-void recordTonemapPass(VkCommandBuffer cmd, const Pipelines& p, const FrameTargets& t);
+void recordTonemapPass(VkCommandBuffer cmd, const Pipelines& p, const FrameTargets& t,
+                       VkImageLayout hdrLayout, VkImageLayout lightCountLayout);
 // 5b. (light-volumes view) Reads depth and lights; adds each volume's coverage to the output.
 void recordLightVolumeOverlayPass(VkCommandBuffer cmd, const Pipelines& p, const FrameTargets& t,
                                   const SceneBuffers& scene);

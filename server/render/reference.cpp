@@ -105,8 +105,10 @@ uint8_t toByte(float x) { return static_cast<uint8_t>(std::round(glm::clamp(x, 0
 }  // namespace
 
 std::vector<uint8_t> renderReference(const scene::Scene& scene, const FrameSettings& s) {
-  if (s.target == Target::LightVolumes) {
-    throw std::invalid_argument("the reference renderer has no light-volumes view");
+  if (s.target == Target::LightVolumes || s.target == Target::LightCount ||
+      s.target == Target::Clusters) {
+    throw std::invalid_argument("the reference renderer draws no light-volumes, light-count or "
+                                "clusters view");
   }
   const std::vector<Triangle> triangles = worldTriangles(scene);
   const float aspect = float(s.width) / float(s.height);
@@ -175,7 +177,9 @@ std::vector<uint8_t> renderReference(const scene::Scene& scene, const FrameSetti
           color = glm::vec3(found ? glm::clamp((linear - n) / (f - n), 0.0f, 1.0f) : 1.0f);
           break;
         }
-        case Target::LightVolumes: break;
+        case Target::LightVolumes:
+        case Target::LightCount:
+        case Target::Clusters: break;
       }
       uint8_t* px = &image[(size_t(y) * s.width + x) * 4];
       px[0] = toByte(color.r);

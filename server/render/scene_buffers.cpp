@@ -124,12 +124,15 @@ SceneBuffers::SceneBuffers(gpu::Context& context, gpu::CommandRecorder& recorder
   instances = arena.createBuffer(bytes(gpuInstances), storage, gpu::MemoryUse::DeviceLocal);
   materials = arena.createBuffer(bytes(gpuMaterials), storage, gpu::MemoryUse::DeviceLocal);
   lights = arena.createBuffer(bytes(gpuLights), storage, gpu::MemoryUse::DeviceLocal);
+  lightOrigins = arena.createBuffer(bytes(gpuLights), storage | VK_BUFFER_USAGE_TRANSFER_SRC_BIT,
+                                    gpu::MemoryUse::DeviceLocal);
   uploadAll(context, recorder,
             {{&vertices, allVertices.data(), bytes(allVertices)},
              {&indices, allIndices.data(), bytes(allIndices)},
              {&instances, gpuInstances.data(), bytes(gpuInstances)},
              {&materials, gpuMaterials.data(), bytes(gpuMaterials)},
-             {&lights, gpuLights.data(), bytes(gpuLights)}});
+             {&lights, gpuLights.data(), bytes(gpuLights)},
+             {&lightOrigins, gpuLights.data(), bytes(gpuLights)}});
 }
 
 }  // namespace myriad::render

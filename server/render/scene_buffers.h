@@ -32,7 +32,8 @@ struct SceneBuffers {
   gpu::Buffer indices;
   gpu::Buffer instances;
   gpu::Buffer materials;
-  gpu::Buffer lights;
+  gpu::Buffer lights;        // where the lights are this frame (animation writes here)
+  gpu::Buffer lightOrigins;  // where the scene put them
   std::vector<DrawItem> draws;
   MeshRange lightProxy;  // icosphere circumscribing the unit sphere (volumes, markers)
   uint32_t lightCount = 0;
