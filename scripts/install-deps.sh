@@ -1,6 +1,10 @@
 #!/usr/bin/env bash
 # The one place that names Myriad's dependencies. Debian 12 (bookworm) packages only.
-# Usage: scripts/install-deps.sh [--with-test-tools]   (run as root, or with sudo available)
+# Usage: scripts/install-deps.sh [--with-test-tools] [--container-test]   (root, or sudo available)
+#   --with-test-tools   also what the test suites need
+#   --container-test    the tools tests/container/container_test.sh needs to build and run
+#                       docker/Dockerfile without a Docker engine (buildah, debootstrap, ...);
+#                       given alone, only those (the server is then compiled inside the image)
 set -euo pipefail
 
 build_packages=(
@@ -20,11 +24,30 @@ test_packages=(
   assimp-testmodels        # /usr/share/assimp/models: real (and deliberately broken) models
   curl
 )
+container_test_packages=(
+  buildah                  # builds and runs the OCI image daemonless (--isolation chroot)
+  podman                   # imports the bootstrapped base image into the local image store
+  debootstrap              # makes debian:bookworm-slim from the apt archive (no registry needed)
+  curl                     # talks to the server in the container from outside
+  file                     # checks that /v1/frame is a PNG of the asked size
+  python3                  # checks that the PNG is not one flat colour
+)
 
-packages=("${build_packages[@]}")
-if [[ "${1:-}" == "--with-test-tools" ]]; then
-  packages+=("${test_packages[@]}")
-fi
+with_test_tools=false
+container_test=false
+for arg in "$@"; do
+  case "$arg" in
+    --with-test-tools) with_test_tools=true ;;
+    --container-test) container_test=true ;;
+    *) echo "install-deps: unknown option \"$arg\" (see the usage line)" >&2; exit 2 ;;
+  esac
+done
+
+packages=()
+# The container test builds the server inside the image, so alone it needs no build packages here.
+if $with_test_tools || ! $container_test; then packages+=("${build_packages[@]}"); fi
+if $with_test_tools; then packages+=("${test_packages[@]}"); fi
+if $container_test; then packages+=("${container_test_packages[@]}"); fi
 
 missing=()
 for p in "${packages[@]}"; do

@@ -3,6 +3,7 @@
 #include <doctest/doctest.h>
 
 #include <cmath>
+#include <initializer_list>
 
 #include "render/shading.h"
 
@@ -69,8 +70,15 @@ TEST_CASE("BRDF is zero for light from below the surface and scales with N.L") {
   CHECK(grazing < head);
 }
 
-TEST_CASE("BRDF energy is bounded: the hemispherical integral of f*cos never exceeds 1") {
+TEST_CASE("BRDF energy is bounded: the hemispherical integral of f*cos (white furnace)") {
   // Midpoint rule over (theta, phi); fine enough for roughness >= 0.3.
+  //
+  // A white metal (F = 1 everywhere) is pure GGX-Smith specular, which only loses energy: <= 1.
+  // A white dielectric is glTF's fresnel_mix of Lambert and specular, weighted per light direction
+  // by F(V.H). That layering is not energy conserving at grazing view: where the specular lobe
+  // sits, F is ~0.25 while the diffuse under it is still weighted by ~0.96, so the integral
+  // reaches ~1.14 at 74 degrees (roughness 0.3). The glTF spec accepts this approximation; we keep
+  // its BRDF so our images agree with other glTF viewers, and bound the gain instead.
   const int nt = 256, np = 256;
   for (float roughness : {0.3f, 0.6f, 1.0f}) {
     for (float metallic : {0.0f, 1.0f}) {
@@ -90,7 +98,8 @@ TEST_CASE("BRDF energy is bounded: the hemispherical integral of f*cos never exc
         CAPTURE(roughness);
         CAPTURE(metallic);
         CAPTURE(viewAngle);
-        CHECK(sum <= 1.0f + 1e-3f);
+        const float bound = metallic == 1.0f || viewAngle == 0.0f ? 1.0f + 1e-3f : 1.15f;
+        CHECK(sum <= bound);
         CHECK(sum > 0.3f);
       }
     }

@@ -16,4 +16,9 @@ glm::mat4 projectionMatrix(const Camera& camera, float aspect);
 // from the front-right and above; near/far enclose the bounds with margin.
 Camera frameBounds(const Bounds& bounds, float fovYDegrees = 50.0f, float aspect = 16.0f / 9.0f);
 
+// As above, with the eye placed along `towardsEye` (from the bounds' centre to the eye; need not be
+// unit length) instead of the default front-right-above direction.
+Camera frameBounds(const Bounds& bounds, const glm::vec3& towardsEye, float fovYDegrees,
+                   float aspect);
+
 }  // namespace myriad::scene

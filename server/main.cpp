@@ -1,0 +1,121 @@
+// myriad-server: parse flags, build the scene, start the render thread, serve HTTP until
+// SIGINT/SIGTERM. The work lives in service/; this file only orders it and maps failures to exit
+// statuses (2 bad flag, 1 cannot start, 0 clean shutdown).
+#include <atomic>
+#include <csignal>
+#include <cstdio>
+#include <string>
+#include <string_view>
+#include <thread>
+#include <vector>
+
+#include <pthread.h>
+
+#include "gpu/context.h"
+#include "scene/model_loader.h"
+#include "service/http_server.h"
+#include "service/options.h"
+#include "service/render_thread.h"
+#include "service/startup.h"
+
+namespace {
+
+using namespace myriad;
+
+int fail(const std::string& sentence) {
+  std::fprintf(stderr, "myriad-server: %s\n", sentence.c_str());
+  return 1;
+}
+
+int run(const service::Options& options, const sigset_t& shutdownSignals) {
+  scene::Scene scene;
+  try {
+    scene = service::buildScene(options);
+  } catch (const std::exception& e) {
+    return fail(e.what());
+  }
+
+  std::unique_ptr<service::RenderThread> renderThread;
+  try {
+    renderThread = std::make_unique<service::RenderThread>(
+        gpu::ContextOptions{options.validate, options.device}, scene, options.maxQueuedFrames);
+  } catch (const gpu::NoDeviceError& e) {
+    return fail(e.what());
+  } catch (const std::exception& e) {
+    return fail(std::string("cannot start the renderer: ") + e.what());
+  }
+  const gpu::DeviceInfo& device = renderThread->device();
+  std::fprintf(stderr, "myriad-server: rendering on %s\n", service::describeDevice(device).c_str());
+  if (device.isCpu) {
+    std::fprintf(stderr,
+                 "myriad-server: WARNING: %s is a CPU implementation (lavapipe or similar); "
+                 "expect software-rendering speed.\n",
+                 device.name.c_str());
+  }
+  std::fprintf(stderr, "myriad-server: scene: %s, %zu instances, %zu lights%s\n",
+               options.model ? options.model->c_str() : "built-in", scene.instances.size(),
+               scene.lights.size(), options.validate ? "; validation layers on" : "");
+
+  service::HttpConfig config{options.host, options.port, options.threads,
+                             std::min(options.maxResolution, renderThread->maxDimension()),
+                             options.validate};
+  service::HttpServer server(config, *renderThread, scene);
+  uint16_t port = 0;
+  try {
+    port = server.bind();
+  } catch (const std::exception& e) {
+    return fail(e.what());
+  }
+  std::printf("Myriad listening on %s\n", service::serverUrl(options.host, port).c_str());
+  std::fflush(stdout);
+
+  // The signals are blocked in every thread (see main), so this thread alone receives them.
+  std::atomic<bool> serving{true};
+  std::atomic<bool> signalled{false};
+  std::thread signalWaiter([&] {
+    int signal = 0;
+    sigwait(&shutdownSignals, &signal);
+    if (!serving) return;  // woken by main below, not by a user
+    signalled = true;
+    std::fprintf(stderr, "myriad-server: %s received, shutting down\n",
+                 signal == SIGINT ? "SIGINT" : "SIGTERM");
+    server.stop();
+  });
+  const bool stoppedCleanly = server.serve();
+  serving = false;
+  // serve() also returns when listening fails; then the waiter is still waiting.
+  if (!signalled) pthread_kill(signalWaiter.native_handle(), SIGTERM);
+  signalWaiter.join();
+
+  renderThread->stop();
+  if (!stoppedCleanly) return fail("stopped serving: accepting connections failed.");
+  std::fprintf(stderr, "myriad-server: stopped\n");
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  std::vector<std::string_view> args(argv + 1, argv + argc);
+  service::Options options;
+  try {
+    options = service::parseOptions(args);
+  } catch (const service::UsageError& e) {
+    std::fprintf(stderr, "myriad-server: %s\n", e.what());
+    return 2;
+  }
+  if (options.help) {
+    std::fputs(service::usage().c_str(), stdout);
+    return 0;
+  }
+
+  // Blocked before any thread exists, so every thread inherits the mask and a shutdown signal can
+  // only be taken by sigwait in the waiter thread, never interrupt a worker or the render thread.
+  sigset_t shutdownSignals;
+  sigemptyset(&shutdownSignals);
+  sigaddset(&shutdownSignals, SIGINT);
+  sigaddset(&shutdownSignals, SIGTERM);
+  pthread_sigmask(SIG_BLOCK, &shutdownSignals, nullptr);
+
+  return run(options, shutdownSignals);
+}

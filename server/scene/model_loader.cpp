@@ -1,0 +1,410 @@
+#include "scene/model_loader.h"
+
+#include <algorithm>
+#include <cmath>
+#include <string>
+#include <system_error>
+#include <unordered_map>
+
+#include <assimp/material.h>
+#include <assimp/postprocess.h>
+#include <assimp/scene.h>
+#include <assimp/Importer.hpp>
+
+#include "scene/camera.h"
+
+namespace myriad::scene {
+
+namespace {
+
+// A real model is a few levels deep; anything deeper is a cycle Assimp did not catch or a file
+// built to exhaust the stack.
+constexpr int kMaxNodeDepth = 64;
+// Bounds on flattening: a DAG of nodes that share children multiplies out exponentially, so both
+// the nodes visited and the instances produced are capped, and the file rejected past either.
+constexpr size_t kMaxNodeVisits = size_t(1) << 20;
+constexpr size_t kMaxInstances = size_t(1) << 18;
+
+// Where a light without a glTF `range` is cut: its inverse-square illuminance has fallen to 1/256
+// of what it is at unit distance, about one step of an 8-bit image at unit exposure.
+constexpr float kLightCutoff = 1.0f / 256.0f;
+
+// Everything reaching the renderer comes from here, so each step is chosen for what it guarantees
+// on a broken file as much as for what it does on a good one:
+// - Triangulate: the renderer draws triangle lists only.
+// - SortByPType (with SBP_REMOVE): splits mixed meshes so that points and lines go whole.
+// - FindDegenerates (with FD_REMOVE): zero-area triangles are removed, not turned into lines.
+// - FindInvalidData: deletes meshes with NaN/inf positions. It runs before the spatial sorts of the
+//   two steps below, whose comparisons assume finite keys.
+// - GenSmoothNormals: only where the file has none.
+// - JoinIdenticalVertices: indexed meshes; OBJ and others arrive unwelded.
+// - FlipUVs: uv origin at the top left, as Vulkan addresses images (and as glTF stores them).
+constexpr unsigned kPostProcess = aiProcess_Triangulate | aiProcess_SortByPType |
+                                  aiProcess_FindDegenerates | aiProcess_FindInvalidData |
+                                  aiProcess_GenSmoothNormals | aiProcess_JoinIdenticalVertices |
+                                  aiProcess_FlipUVs;
+
+std::string quoted(const std::filesystem::path& path) {
+  return "'" + path.filename().string() + "'";
+}
+
+[[noreturn]] void fail(const std::filesystem::path& path, const std::string& reason) {
+  throw ModelLoadError("Cannot load model " + quoted(path) + ": " + reason);
+}
+
+bool isFinite(const aiVector3D& v) {
+  return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z);
+}
+
+bool isFinite(const glm::mat4& m) {
+  for (int c = 0; c < 4; ++c) {
+    for (int r = 0; r < 4; ++r) {
+      if (!std::isfinite(m[c][r])) return false;
+    }
+  }
+  return true;
+}
+
+float clampOr(float value, float low, float high, float fallback) {
+  return std::isfinite(value) ? std::clamp(value, low, high) : fallback;
+}
+
+glm::mat4 toGlm(const aiMatrix4x4& m) {
+  // Assimp stores rows (a1..a4 is the first row); glm stores columns.
+  return glm::mat4(m.a1, m.b1, m.c1, m.d1, m.a2, m.b2, m.c2, m.d2, m.a3, m.b3, m.c3, m.d3, m.a4,
+                   m.b4, m.c4, m.d4);
+}
+
+Material convertMaterial(const aiMaterial& source, size_t index) {
+  Material material;
+  aiString name;
+  material.name = source.Get(AI_MATKEY_NAME, name) == AI_SUCCESS && name.length > 0
+                      ? std::string(name.C_Str())
+                      : "material " + std::to_string(index);
+
+  aiColor4D color;
+  if (source.Get(AI_MATKEY_BASE_COLOR, color) == AI_SUCCESS ||
+      source.Get(AI_MATKEY_COLOR_DIFFUSE, color) == AI_SUCCESS) {
+    const glm::vec3 fallback = Material{}.baseColor;
+    material.baseColor = {clampOr(color.r, 0.0f, 1.0f, fallback.r),
+                          clampOr(color.g, 0.0f, 1.0f, fallback.g),
+                          clampOr(color.b, 0.0f, 1.0f, fallback.b)};
+  }
+
+  float value = 0.0f;
+  if (source.Get(AI_MATKEY_METALLIC_FACTOR, value) == AI_SUCCESS) {
+    material.metallic = clampOr(value, 0.0f, 1.0f, Material{}.metallic);
+  }
+  if (source.Get(AI_MATKEY_ROUGHNESS_FACTOR, value) == AI_SUCCESS) {
+    material.roughness = clampOr(value, 0.0f, 1.0f, Material{}.roughness);
+  } else if (source.Get(AI_MATKEY_GLOSSINESS_FACTOR, value) == AI_SUCCESS) {
+    material.roughness = clampOr(1.0f - value, 0.0f, 1.0f, Material{}.roughness);
+  } else if (source.Get(AI_MATKEY_SHININESS, value) == AI_SUCCESS && std::isfinite(value)) {
+    // Blinn-Phong exponent n to GGX: alpha = sqrt(2 / (n + 2)) matches the lobes' widths (Walter et
+    // al. 2007), and roughness = sqrt(alpha) since the BRDF squares roughness into alpha.
+    const float alpha = std::sqrt(2.0f / (std::max(value, 0.0f) + 2.0f));
+    material.roughness = clampOr(std::sqrt(alpha), 0.0f, 1.0f, Material{}.roughness);
+  }
+  return material;
+}
+
+// Copies the triangles of `source` whose corners are all finite and in range, keeping only the
+// vertices they use: an unreferenced NaN vertex would otherwise still poison the bounds.
+Mesh convertMesh(const aiMesh& source, size_t index) {
+  Mesh mesh;
+  mesh.name =
+      source.mName.length > 0 ? std::string(source.mName.C_Str()) : "mesh " + std::to_string(index);
+  if (!(source.mPrimitiveTypes & aiPrimitiveType_TRIANGLE) || source.mVertices == nullptr) {
+    return mesh;
+  }
+  const unsigned vertexCount = source.mNumVertices;
+  const aiVector3D* uvs = source.HasTextureCoords(0) ? source.mTextureCoords[0] : nullptr;
+  std::vector<uint32_t> remap(vertexCount, UINT32_MAX);
+  std::vector<bool> needsNormal;
+
+  for (unsigned f = 0; f < source.mNumFaces; ++f) {
+    const aiFace& face = source.mFaces[f];
+    if (face.mNumIndices != 3 || face.mIndices == nullptr) continue;
+    bool usable = true;
+    for (unsigned k = 0; k < 3; ++k) {
+      const unsigned i = face.mIndices[k];
+      usable = usable && i < vertexCount && isFinite(source.mVertices[i]);
+    }
+    if (!usable) continue;
+    for (unsigned k = 0; k < 3; ++k) {
+      const unsigned i = face.mIndices[k];
+      if (remap[i] == UINT32_MAX) {
+        remap[i] = uint32_t(mesh.vertices.size());
+        Vertex vertex;
+        const aiVector3D& p = source.mVertices[i];
+        vertex.position = {p.x, p.y, p.z};
+        bool normalOk = false;
+        if (source.mNormals != nullptr && isFinite(source.mNormals[i])) {
+          const glm::vec3 n(source.mNormals[i].x, source.mNormals[i].y, source.mNormals[i].z);
+          const float length = glm::length(n);
+          if (length > 1e-12f && std::isfinite(length)) {
+            vertex.normal = n / length;
+            normalOk = true;
+          }
+        }
+        if (uvs != nullptr && std::isfinite(uvs[i].x) && std::isfinite(uvs[i].y)) {
+          vertex.uv = {uvs[i].x, uvs[i].y};
+        }
+        mesh.vertices.push_back(vertex);
+        needsNormal.push_back(!normalOk);
+      }
+      mesh.indices.push_back(remap[i]);
+    }
+  }
+
+  // Files with zero or NaN normals on some vertices (glTF2/BoxBadNormals) get area-weighted face
+  // normals there, rather than black or NaN shading.
+  if (std::find(needsNormal.begin(), needsNormal.end(), true) != needsNormal.end()) {
+    std::vector<glm::vec3> sums(mesh.vertices.size(), glm::vec3(0.0f));
+    for (size_t t = 0; t + 2 < mesh.indices.size(); t += 3) {
+      const uint32_t a = mesh.indices[t], b = mesh.indices[t + 1], c = mesh.indices[t + 2];
+      const glm::vec3 n = glm::cross(mesh.vertices[b].position - mesh.vertices[a].position,
+                                     mesh.vertices[c].position - mesh.vertices[a].position);
+      if (!std::isfinite(n.x + n.y + n.z)) continue;
+      sums[a] += n;
+      sums[b] += n;
+      sums[c] += n;
+    }
+    for (size_t v = 0; v < mesh.vertices.size(); ++v) {
+      if (!needsNormal[v]) continue;
+      const float length = glm::length(sums[v]);
+      mesh.vertices[v].normal =
+          length > 1e-20f && std::isfinite(length) ? sums[v] / length : glm::vec3(0.0f, 1.0f, 0.0f);
+    }
+  }
+  return mesh;
+}
+
+// Walks the node tree once, turning every (node, mesh) pair into an Instance and every node that
+// carries a light into a PointLight.
+class Flattener {
+ public:
+  Flattener(const aiScene& source, const std::filesystem::path& path, Scene& scene)
+      : source_(source), path_(path), scene_(scene), meshIndex_(source.mNumMeshes, kUnconverted) {
+    for (unsigned i = 0; source.mLights != nullptr && i < source.mNumLights; ++i) {
+      const aiLight* light = source.mLights[i];
+      if (light != nullptr && light->mName.length > 0) {
+        lightsByNode_.emplace(std::string(light->mName.C_Str()), light);
+      }
+    }
+  }
+
+  void visit(const aiNode& node, const glm::mat4& parent, int depth) {
+    if (depth > kMaxNodeDepth) {
+      fail(path_, "its node hierarchy is deeper than " + std::to_string(kMaxNodeDepth) +
+                      " levels (a cycle?)");
+    }
+    if (++visits_ > kMaxNodeVisits) {
+      fail(path_, "it has more than " + std::to_string(kMaxNodeVisits) + " nodes");
+    }
+    const glm::mat4 transform = parent * toGlm(node.mTransformation);
+    // A non-finite transform (a NaN rotation, an overflowing scale) would put NaNs into the bounds
+    // and the camera; what hangs below it is skipped instead.
+    const bool placeable = isFinite(transform);
+
+    if (placeable && node.mMeshes != nullptr) {
+      for (unsigned k = 0; k < node.mNumMeshes; ++k) {
+        const unsigned sourceMesh = node.mMeshes[k];
+        if (source_.mMeshes == nullptr || sourceMesh >= source_.mNumMeshes ||
+            source_.mMeshes[sourceMesh] == nullptr) {
+          continue;
+        }
+        const uint32_t mesh = meshFor(sourceMesh);
+        if (mesh == kNoTriangles) continue;
+        if (scene_.instances.size() >= kMaxInstances) {
+          fail(path_, "it places more than " + std::to_string(kMaxInstances) + " mesh instances");
+        }
+        scene_.instances.push_back(
+            {mesh, materialFor(source_.mMeshes[sourceMesh]->mMaterialIndex), transform});
+      }
+    }
+
+    if (placeable) placeLight(node, transform);
+
+    if (node.mChildren != nullptr) {
+      for (unsigned c = 0; c < node.mNumChildren; ++c) {
+        if (node.mChildren[c] != nullptr) visit(*node.mChildren[c], transform, depth + 1);
+      }
+    }
+  }
+
+  // One entry per scene light: whether its radius came from the file rather than a guess.
+  const std::vector<bool>& radiusFromFile() const { return radiusFromFile_; }
+
+ private:
+  static constexpr uint32_t kUnconverted = UINT32_MAX;
+  static constexpr uint32_t kNoTriangles = UINT32_MAX - 1;
+
+  // Meshes are converted on first use, so ones no node places cost nothing and add nothing.
+  uint32_t meshFor(unsigned sourceMesh) {
+    uint32_t& index = meshIndex_[sourceMesh];
+    if (index == kUnconverted) {
+      Mesh mesh = convertMesh(*source_.mMeshes[sourceMesh], sourceMesh);
+      if (mesh.indices.empty()) {
+        index = kNoTriangles;
+      } else {
+        index = uint32_t(scene_.meshes.size());
+        scene_.meshes.push_back(std::move(mesh));
+      }
+    }
+    return index;
+  }
+
+  uint32_t materialFor(unsigned sourceMaterial) {
+    if (sourceMaterial < scene_.materials.size() && sourceMaterial != defaultMaterial_) {
+      return sourceMaterial;
+    }
+    // Assimp always gives a mesh a material, but a broken file can index past the list.
+    if (defaultMaterial_ == kUnconverted) {
+      defaultMaterial_ = uint32_t(scene_.materials.size());
+      scene_.materials.push_back(Material{"default", {}, 0.0f, 0.5f});
+    }
+    return defaultMaterial_;
+  }
+
+  void placeLight(const aiNode& node, const glm::mat4& transform) {
+    auto it = lightsByNode_.find(std::string(node.mName.C_Str()));
+    if (it == lightsByNode_.end()) return;
+    const aiLight& source = *it->second;
+    // Placed once: glTF names need not be unique, and a light belongs to the first node naming it.
+    lightsByNode_.erase(it);
+    if (source.mType != aiLightSource_POINT) return;  // spot and directional: not modelled yet
+
+    // Assimp hands over colour already multiplied by intensity; split it back so the colour is at
+    // most 1 in its brightest channel and the intensity carries the rest.
+    const aiColor3D& c = source.mColorDiffuse;
+    const float intensity = std::max({c.r, c.g, c.b});
+    if (!std::isfinite(intensity) || intensity <= 0.0f) return;
+    PointLight light;
+    light.color = glm::vec3(c.r, c.g, c.b) / intensity;
+    light.intensity = intensity;
+    const glm::vec4 position =
+        transform * glm::vec4(source.mPosition.x, source.mPosition.y, source.mPosition.z, 1.0f);
+    light.position = glm::vec3(position);
+    if (!std::isfinite(light.position.x + light.position.y + light.position.z)) return;
+
+    // glTF's `range` arrives as node metadata (float or double, depending on the Assimp build).
+    float range = 0.0f;
+    if (node.mMetaData != nullptr) {
+      double asDouble = 0.0;
+      if (!node.mMetaData->Get("PBR_LightRange", range) &&
+          node.mMetaData->Get("PBR_LightRange", asDouble)) {
+        range = float(asDouble);
+      }
+    }
+    light.radius =
+        std::isfinite(range) && range > 0.0f ? range : std::sqrt(intensity / kLightCutoff);
+    radiusFromFile_.push_back(std::isfinite(range) && range > 0.0f);
+    scene_.lights.push_back(light);
+  }
+
+  const aiScene& source_;
+  const std::filesystem::path& path_;
+  Scene& scene_;
+  std::vector<uint32_t> meshIndex_;
+  std::unordered_multimap<std::string, const aiLight*> lightsByNode_;
+  uint32_t defaultMaterial_ = kUnconverted;
+  size_t visits_ = 0;
+  std::vector<bool> radiusFromFile_;
+};
+
+// Drops materials no instance uses (glTF files gain an unused Assimp default, OBJ libraries list
+// whole catalogues), so the material panel shows only what is on screen.
+void dropUnusedMaterials(Scene& scene) {
+  std::vector<uint32_t> remap(scene.materials.size(), UINT32_MAX);
+  std::vector<Material> used;
+  for (Instance& instance : scene.instances) {
+    uint32_t& index = remap[instance.material];
+    if (index == UINT32_MAX) {
+      index = uint32_t(used.size());
+      used.push_back(scene.materials[instance.material]);
+    }
+    instance.material = index;
+  }
+  scene.materials = std::move(used);
+}
+
+// glTF point lights follow the inverse-square law, I / d^2. The renderer's window,
+// (r^2 - d^2) / (C d^2 + r^2), matches I / (1 + d^2) * (1 - d^2 / r^2) when C = r^2: inverse
+// square beyond a unit distance, bounded near the light instead of infinite, and exactly zero at
+// the radius. Radii guessed from intensity are capped at the model's size, so one bright light
+// does not make every tile of the picture shade it.
+void fitLightFalloff(Scene& scene, const std::vector<bool>& radiusGiven, float sceneSize) {
+  const float cap = std::max(sceneSize, 1e-3f);
+  for (size_t i = 0; i < scene.lights.size(); ++i) {
+    PointLight& light = scene.lights[i];
+    if (!radiusGiven[i]) light.radius = std::clamp(light.radius, 1e-3f * cap, cap);
+    light.falloff = light.radius * light.radius;
+  }
+}
+
+}  // namespace
+
+Scene loadModel(const std::filesystem::path& path) {
+  std::error_code error;
+  if (!std::filesystem::exists(path, error)) fail(path, "the file does not exist");
+  if (!std::filesystem::is_regular_file(path, error)) fail(path, "it is not a regular file");
+
+  Assimp::Importer importer;
+  importer.SetPropertyInteger(AI_CONFIG_PP_SBP_REMOVE,
+                              aiPrimitiveType_POINT | aiPrimitiveType_LINE);
+  importer.SetPropertyBool(AI_CONFIG_PP_FD_REMOVE, true);
+  // Without this, a file holding only a skeleton (BVH, some FBX) "loads" as a bone-shaped mesh.
+  importer.SetPropertyBool(AI_CONFIG_IMPORT_NO_SKELETON_MESHES, true);
+
+  // Two phases so that the raw import can be inspected before post-processing deletes the evidence:
+  // validation first (indices in range, counts consistent), then the steps above.
+  const aiScene* raw = importer.ReadFile(path.string(), aiProcess_ValidateDataStructure);
+  if (raw == nullptr) fail(path, importer.GetErrorString());
+  bool anyTriangles = false;
+  bool anyNonFinite = false;
+  for (unsigned m = 0; raw->mMeshes != nullptr && m < raw->mNumMeshes; ++m) {
+    const aiMesh* mesh = raw->mMeshes[m];
+    if (mesh == nullptr || mesh->mVertices == nullptr) continue;
+    anyTriangles = anyTriangles ||
+                   (mesh->mPrimitiveTypes & (aiPrimitiveType_TRIANGLE | aiPrimitiveType_POLYGON));
+    for (unsigned v = 0; v < mesh->mNumVertices && !anyNonFinite; ++v) {
+      anyNonFinite = !isFinite(mesh->mVertices[v]);
+    }
+  }
+  const std::string nonFinite = "its meshes have non-finite (NaN or infinite) vertex positions";
+  const std::string noTriangles = "it contains no triangle meshes";
+  const aiScene* source = importer.ApplyPostProcessing(kPostProcess);
+  if (source == nullptr) {
+    // Assimp's reason here is "No meshes remaining" whether it dropped points, lines, degenerate
+    // triangles or non-finite meshes; what was seen before post-processing says which.
+    if (anyNonFinite) fail(path, nonFinite);
+    if (!anyTriangles) fail(path, noTriangles + " (only points or lines)");
+    fail(path, noTriangles + " (" + importer.GetErrorString() + ")");
+  }
+
+  Scene scene;
+  scene.materials.reserve(source->mNumMaterials);
+  for (unsigned i = 0; source->mMaterials != nullptr && i < source->mNumMaterials; ++i) {
+    scene.materials.push_back(source->mMaterials[i] != nullptr
+                                  ? convertMaterial(*source->mMaterials[i], i)
+                                  : Material{"material " + std::to_string(i)});
+  }
+  Flattener flattener(*source, path, scene);
+  if (source->mRootNode != nullptr) flattener.visit(*source->mRootNode, glm::mat4(1.0f), 0);
+
+  if (scene.instances.empty()) {
+    fail(path, anyNonFinite ? nonFinite : noTriangles);
+  }
+  const Bounds bounds = scene.bounds();
+  const glm::vec3 size = bounds.size();
+  if (!std::isfinite(size.x + size.y + size.z) || !std::isfinite(glm::length(size))) {
+    fail(path, "its coordinates are too large to render");
+  }
+  dropUnusedMaterials(scene);
+  fitLightFalloff(scene, flattener.radiusFromFile(), glm::length(size));
+  scene.camera = frameBounds(bounds);
+  return scene;
+}
+
+}  // namespace myriad::scene

@@ -1,0 +1,18 @@
+#include "scene/scene.h"
+
+namespace myriad::scene {
+
+Bounds Scene::bounds() const {
+  Bounds result;
+  for (const Instance& instance : instances) {
+    // An instance naming a mesh that does not exist contributes nothing rather than faulting:
+    // scenes are edited over the API and may be briefly inconsistent.
+    if (instance.mesh >= meshes.size()) continue;
+    for (const Vertex& vertex : meshes[instance.mesh].vertices) {
+      result.extend(glm::vec3(instance.transform * glm::vec4(vertex.position, 1.0f)));
+    }
+  }
+  return result;
+}
+
+}  // namespace myriad::scene

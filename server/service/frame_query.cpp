@@ -1,0 +1,217 @@
+#include "service/frame_query.h"
+
+#include <algorithm>
+#include <cctype>
+#include <charconv>
+#include <cmath>
+#include <limits>
+#include <optional>
+
+#include <glm/glm.hpp>
+
+#include "service/problem.h"
+
+namespace myriad::service {
+namespace {
+
+// Beyond this, squared distances in the camera maths overflow float precision into nonsense.
+constexpr float kMaxCoordinate = 1.0e6f;
+// Closer than this, the view direction normalises to noise.
+constexpr float kMinViewDistance = 1.0e-4f;
+
+const std::string* single(const std::multimap<std::string, std::string>& params,
+                          std::string_view name) {
+  auto [first, last] = params.equal_range(std::string(name));
+  if (first == last) return nullptr;
+  return &first->second;
+}
+
+// The whole text as a float, or nothing ("1.5x", "", " 1" and "nan" are rejected; "inf" parses
+// and is rejected by callers through isfinite).
+std::optional<float> parseFloat(std::string_view text) {
+  float value = 0.0f;
+  const char* end = text.data() + text.size();
+  auto [ptr, ec] = std::from_chars(text.data(), end, value);
+  if (text.empty() || ec != std::errc() || ptr != end || !std::isfinite(value)) return std::nullopt;
+  return value;
+}
+
+uint32_t parseSize(std::string_view name, const std::string& text, uint32_t maxResolution) {
+  const std::string expectation =
+      std::string(name) + " must be a whole number of pixels from 1 to " +
+      std::to_string(maxResolution) + ", got " + quoteClientText(text) + ".";
+  uint64_t value = 0;
+  const char* end = text.data() + text.size();
+  auto [ptr, ec] = std::from_chars(text.data(), end, value);
+  if (text.empty() || ptr != end || (ec != std::errc() && ec != std::errc::result_out_of_range)) {
+    throw FrameQueryError(std::string(name), expectation);
+  }
+  if (value == 0) throw FrameQueryError(std::string(name), expectation);
+  if (ec == std::errc::result_out_of_range || value > maxResolution) {
+    throw FrameQueryError(std::string(name), std::string(name) + " " + quoteClientText(text) +
+                                                 " exceeds this server's maximum resolution of " +
+                                                 std::to_string(maxResolution) + " pixels.");
+  }
+  return static_cast<uint32_t>(value);
+}
+
+glm::vec3 parseVector(std::string_view name, const std::string& text) {
+  const std::string expectation =
+      std::string(name) + " must be three finite numbers separated by commas (x,y,z), got " +
+      quoteClientText(text) + ".";
+  glm::vec3 v(0.0f);
+  std::string_view rest = text;
+  for (int i = 0; i < 3; ++i) {
+    size_t comma = rest.find(',');
+    if ((i < 2) != (comma != std::string_view::npos))
+      throw FrameQueryError(std::string(name), expectation);
+    std::optional<float> component = parseFloat(rest.substr(0, comma));
+    if (!component) throw FrameQueryError(std::string(name), expectation);
+    if (std::abs(*component) > kMaxCoordinate) {
+      throw FrameQueryError(std::string(name),
+                            std::string(name) + " " + quoteClientText(text) +
+                                " has a coordinate beyond +-1e6, outside any scene.");
+    }
+    v[i] = *component;
+    rest = comma == std::string_view::npos ? std::string_view() : rest.substr(comma + 1);
+  }
+  return v;
+}
+
+// Keeps the camera's up vector usable: looking straight up or down along the default up would
+// make the view matrix degenerate.
+glm::vec3 upFor(const glm::vec3& eye, const glm::vec3& target, const glm::vec3& up) {
+  glm::vec3 forward = glm::normalize(target - eye);
+  if (glm::length(glm::cross(forward, glm::normalize(up))) > 1.0e-3f) return up;
+  return std::abs(forward.z) < 0.9f ? glm::vec3(0.0f, 0.0f, -1.0f) : glm::vec3(1.0f, 0.0f, 0.0f);
+}
+
+}  // namespace
+
+render::FrameSettings parseFrameQuery(const std::multimap<std::string, std::string>& params,
+                                      const FrameDefaults& defaults) {
+  for (auto it = params.begin(); it != params.end(); it = params.upper_bound(it->first)) {
+    bool known = false;
+    for (std::string_view name : kFrameParameters) known = known || name == it->first;
+    if (!known) {
+      std::string allowed;
+      for (std::string_view name : kFrameParameters) {
+        allowed += (allowed.empty() ? "" : ", ") + std::string(name);
+      }
+      throw FrameQueryError(it->first,
+                            "Unknown query parameter " + quoteClientText(it->first) +
+                                "; /v1/frame takes " + allowed + ".",
+                            true);
+    }
+    if (params.count(it->first) > 1) {
+      throw FrameQueryError(it->first, it->first + " is given more than once.");
+    }
+  }
+
+  render::FrameSettings settings;
+  settings.camera = defaults.camera;
+
+  if (const std::string* text = single(params, "target")) {
+    std::optional<render::Target> target = render::parseTarget(*text);
+    if (!target) {
+      std::string names;
+      for (std::string_view name : render::kTargetNames) {
+        names += (names.empty() ? "" : ", ") + std::string(name);
+      }
+      throw FrameQueryError("target",
+                            "target " + quoteClientText(*text) + " is not one of: " + names + ".");
+    }
+    settings.target = *target;
+  }
+
+  // The default size is 720p, shrunk with its aspect ratio kept when the server's maximum is
+  // smaller, so a bare /v1/frame always succeeds.
+  const uint32_t maxRes = defaults.maxResolution;
+  settings.width = std::min<uint32_t>(1280, maxRes);
+  settings.height = std::max<uint32_t>(1, settings.width * 9 / 16);
+  if (const std::string* text = single(params, "width")) {
+    settings.width = parseSize("width", *text, maxRes);
+  }
+  if (const std::string* text = single(params, "height")) {
+    settings.height = parseSize("height", *text, maxRes);
+  }
+
+  const std::string* eyeText = single(params, "eye");
+  const std::string* lookAtText = single(params, "look_at");
+  if (eyeText) settings.camera.eye = parseVector("eye", *eyeText);
+  if (lookAtText) settings.camera.target = parseVector("look_at", *lookAtText);
+  if (eyeText || lookAtText) {
+    // Blame the parameter the client sent; look_at when both were.
+    const char* culprit = lookAtText ? "look_at" : "eye";
+    if (glm::length(settings.camera.target - settings.camera.eye) < kMinViewDistance) {
+      throw FrameQueryError(culprit, std::string(culprit) +
+                                         " must differ from the eye position; the camera would "
+                                         "have no view direction.");
+    }
+    scene::Camera& camera = settings.camera;
+    camera.up = upFor(camera.eye, camera.target, camera.up);
+    // The default far plane encloses the scene from the default eye only.
+    if (!defaults.sceneBounds.empty()) {
+      float radius = 0.5f * glm::length(defaults.sceneBounds.size());
+      float reach = glm::length(camera.eye - defaults.sceneBounds.center()) + radius;
+      camera.farPlane = std::max(camera.farPlane, reach * 1.05f);
+    }
+  }
+
+  if (const std::string* text = single(params, "fov")) {
+    std::optional<float> fov = parseFloat(*text);
+    if (!fov || *fov <= 0.0f || *fov >= 180.0f) {
+      throw FrameQueryError("fov",
+                            "fov must be a vertical field of view in degrees, above 0 and "
+                            "below 180, got " +
+                                quoteClientText(*text) + ".");
+    }
+    settings.camera.fovYDegrees = *fov;
+  }
+
+  if (const std::string* text = single(params, "markers")) {
+    if (*text == "true" || *text == "1") {
+      settings.markers = true;
+    } else if (*text == "false" || *text == "0") {
+      settings.markers = false;
+    } else {
+      throw FrameQueryError(
+          "markers", "markers must be true, false, 1 or 0, got " + quoteClientText(*text) + ".");
+    }
+  }
+
+  if (const std::string* text = single(params, "exposure")) {
+    std::optional<float> exposure = parseFloat(*text);
+    if (!exposure || *exposure <= 0.0f) {
+      throw FrameQueryError("exposure",
+                            "exposure must be a finite number above 0 (1 = as lit), got " +
+                                quoteClientText(*text) + ".");
+    }
+    settings.exposure = *exposure;
+  }
+  return settings;
+}
+
+std::string formatServerTiming(const std::vector<render::PassTiming>& passes, double encodeMs) {
+  std::string header;
+  auto append = [&header](std::string_view name, double ms) {
+    // Server-Timing metric names are HTTP tokens; pass names are ours, but a space or comma
+    // slipping in would silently corrupt the header for every client.
+    std::string token;
+    for (char c : name) {
+      bool ok = std::isalnum(static_cast<unsigned char>(c)) || c == '-' || c == '_' || c == '.';
+      token += ok ? c : '-';
+    }
+    char number[32];
+    double value = std::isfinite(ms) && ms >= 0.0 ? ms : 0.0;
+    auto [end, ec] =
+        std::to_chars(number, number + sizeof number, value, std::chars_format::fixed, 3);
+    if (!header.empty()) header += ", ";
+    header += token + ";dur=" + std::string(number, ec == std::errc() ? end : number);
+  };
+  for (const render::PassTiming& pass : passes) append(pass.name, pass.milliseconds);
+  append("encode", encodeMs);
+  return header;
+}
+
+}  // namespace myriad::service

@@ -1,0 +1,288 @@
+#include "service/http_server.h"
+
+#include <httplib.h>
+#include <sys/socket.h>
+
+#include <array>
+#include <atomic>
+#include <cerrno>
+#include <chrono>
+#include <cstdio>
+#include <cstring>
+#include <stdexcept>
+#include <string_view>
+#include <thread>
+
+#include <nlohmann/json.hpp>
+
+#include "encode/png.h"
+#include "service/frame_query.h"
+#include "service/problem.h"
+
+namespace myriad::service {
+namespace {
+
+// Every route answers GET (and HEAD, which httplib serves from the GET handler without a body).
+constexpr std::array<std::string_view, 3> kRoutes = {"/v1/health", "/v1/info", "/v1/frame"};
+constexpr std::string_view kAllowedMethods = "GET, HEAD";
+
+// No route takes a body; anything larger than a small form is a mistake or an attack.
+constexpr size_t kMaxRequestBody = 64 * 1024;
+
+// An idle keep-alive connection holds a worker until this expires, and shutdown waits for it, so
+// it is short: reconnecting on loopback or a LAN costs far less than a stalled shutdown.
+constexpr time_t kKeepAliveSeconds = 2;
+
+// A 4096x4096 frame is tens of MiB of PNG; a slow client must still be able to take it.
+constexpr time_t kWriteTimeoutSeconds = 30;
+
+// What a 503 suggests; a frame on lavapipe takes from tens of milliseconds to a few seconds.
+constexpr const char* kRetryAfterSeconds = "1";
+
+void sendProblem(httplib::Response& res, const Problem& problem) {
+  res.status = problem.status;
+  res.set_content(toBody(problem), std::string(kProblemContentType));
+}
+
+// Problems for the statuses httplib produces itself, before any handler runs.
+Problem problemForStatus(int status, const httplib::Request& req) {
+  switch (status) {
+    case 404:
+      return notFound(req.path);
+    case 413:
+      return badRequest(413, "The request body is larger than " + std::to_string(kMaxRequestBody) +
+                                 " bytes; no route takes one.");
+    case 414:
+      return badRequest(414, "The request URI is too long.");
+    default:
+      if (status >= 500) return internalError("The server failed to handle the request.");
+      return badRequest(status, "The request is not valid HTTP/1.1 for this server.");
+  }
+}
+
+void logRequest(const httplib::Request& req, const httplib::Response& res) {
+  std::string line = req.method + " " + req.path + " -> " + std::to_string(res.status) + " (" +
+                     std::to_string(res.body.size()) + " bytes)\n";
+  // One write per line keeps lines from concurrent workers whole.
+  std::fwrite(line.data(), 1, line.size(), stderr);
+}
+
+nlohmann::json deviceJson(const gpu::DeviceInfo& d) {
+  return {
+      {"name", d.name},
+      {"type", d.type},
+      {"driverName", d.driverName},
+      {"driverInfo", d.driverInfo},
+      {"apiVersion", d.apiVersion},
+      {"vendorId", d.vendorId},
+      {"deviceId", d.deviceId},
+      {"index", d.index},
+      {"isCpu", d.isCpu},
+      {"maxImageDimension2D", d.maxImageDimension2D},
+      {"maxStorageBufferRange", d.maxStorageBufferRange},
+      {"maxComputeSharedMemorySize", d.maxComputeSharedMemorySize},
+      {"subgroupSize", d.subgroupSize},
+      {"timestampPeriodNs", d.timestampPeriodNs},
+      {"timestampsSupported", d.timestampsSupported},
+  };
+}
+
+}  // namespace
+
+struct HttpServer::State {
+  HttpConfig config;
+  RenderThread& renderThread;
+  FrameDefaults frameDefaults;
+  SceneSummary scene;
+  httplib::Server server;
+
+  // The hand-shake between stop() and serve(); see stop().
+  std::atomic<bool> stopRequested{false};
+  std::atomic<bool> serveEntered{false};
+  std::atomic<bool> serveFinished{false};
+
+  State(const HttpConfig& c, RenderThread& r) : config(c), renderThread(r) {}
+
+  void handleInfo(httplib::Response& res) const;
+  void handleFrame(const httplib::Request& req, httplib::Response& res) const;
+};
+
+void HttpServer::State::handleInfo(httplib::Response& res) const {
+  nlohmann::json targets = nlohmann::json::array();
+  for (std::string_view name : render::kTargetNames) targets.push_back(name);
+  nlohmann::json info = {
+      {"server", {{"name", "myriad-server"}, {"version", MYRIAD_VERSION}}},
+      {"device", deviceJson(renderThread.device())},
+      {"limits",
+       {{"maxResolution", config.maxResolution},
+        {"maxQueuedFrames", renderThread.maxQueuedFrames()}}},
+      {"validation",
+       {{"enabled", config.validation}, {"messages", renderThread.validationMessages()}}},
+      {"scene",
+       {{"lights", scene.lights},
+        {"instances", scene.instances},
+        {"materials", scene.materials},
+        {"meshes", scene.meshes}}},
+      {"targets", targets},
+  };
+  res.set_content(info.dump(2, ' ', false, nlohmann::json::error_handler_t::replace),
+                  "application/json");
+}
+
+void HttpServer::State::handleFrame(const httplib::Request& req, httplib::Response& res) const {
+  render::FrameSettings settings;
+  try {
+    settings = parseFrameQuery(req.params, frameDefaults);
+  } catch (const FrameQueryError& e) {
+    sendProblem(res, e.unknownParameter() ? unknownParameter(e.parameter(), e.what())
+                                          : invalidParameter(e.parameter(), e.what()));
+    return;
+  }
+
+  std::future<render::Frame> pending;
+  try {
+    pending = renderThread.submit(settings);
+  } catch (const RenderQueueFullError& e) {
+    res.set_header("Retry-After", kRetryAfterSeconds);
+    sendProblem(res, serverBusy(std::string("The renderer is busy: ") + e.what() + "."));
+    return;
+  }
+
+  render::Frame frame;
+  try {
+    frame = pending.get();
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "myriad-server: frame failed: %s\n", e.what());
+    sendProblem(res, renderFailed(std::string("The renderer failed: ") + e.what()));
+    return;
+  }
+
+  // Encoding here, on the worker, keeps the render thread free for the next frame.
+  auto start = std::chrono::steady_clock::now();
+  std::vector<uint8_t> png = encode::encodePng(frame.width, frame.height, frame.rgba);
+  double encodeMs =
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+
+  res.set_header("Server-Timing", formatServerTiming(frame.passes, encodeMs));
+  // Frames depend on server state that can change between identical URLs.
+  res.set_header("Cache-Control", "no-store");
+  res.set_content(reinterpret_cast<const char*>(png.data()), png.size(), "image/png");
+}
+
+HttpServer::HttpServer(const HttpConfig& config, RenderThread& renderThread,
+                       const scene::Scene& scene)
+    : state_(std::make_unique<State>(config, renderThread)) {
+  State& s = *state_;
+  s.frameDefaults = FrameDefaults{scene.camera, scene.bounds(), config.maxResolution};
+  s.scene = SceneSummary{scene.lights.size(), scene.instances.size(), scene.materials.size(),
+                         scene.meshes.size()};
+
+  httplib::Server& server = s.server;
+  const uint32_t threads = config.threads;
+  server.new_task_queue = [threads] { return new httplib::ThreadPool(threads); };
+  server.set_payload_max_length(kMaxRequestBody);
+  server.set_keep_alive_timeout(kKeepAliveSeconds);
+  server.set_write_timeout(kWriteTimeoutSeconds, 0);
+  // httplib's default sets SO_REUSEPORT, which lets a second server bind the same port and take
+  // a share of its connections. SO_REUSEADDR alone still allows a restart while old connections
+  // sit in TIME_WAIT, but makes a port in use a start-up error.
+  server.set_socket_options([](socket_t sock) {
+    int yes = 1;
+    setsockopt(sock, SOL_SOCKET, SO_REUSEADDR, &yes, sizeof yes);
+  });
+
+  // Unknown paths and methods are answered before routing, so that a known path with the wrong
+  // method is a 405 with Allow rather than httplib's 404.
+  server.set_pre_routing_handler([](const httplib::Request& req, httplib::Response& res) {
+    bool known = false;
+    for (std::string_view route : kRoutes) known = known || req.path == route;
+    if (!known) {
+      sendProblem(res, notFound(req.path));
+      return httplib::Server::HandlerResponse::Handled;
+    }
+    if (req.method != "GET" && req.method != "HEAD") {
+      res.set_header("Allow", std::string(kAllowedMethods));
+      sendProblem(res, methodNotAllowed(req.method, req.path, kAllowedMethods));
+      return httplib::Server::HandlerResponse::Handled;
+    }
+    return httplib::Server::HandlerResponse::Unhandled;
+  });
+
+  // httplib calls this for every status >= 400, including our own problem responses; only
+  // statuses httplib produced itself (malformed requests, oversize bodies) arrive without a body.
+  server.set_error_handler(
+      httplib::Server::HandlerWithResponse([](const httplib::Request& req, httplib::Response& res) {
+        if (!res.body.empty()) return httplib::Server::HandlerResponse::Unhandled;
+        sendProblem(res, problemForStatus(res.status, req));
+        return httplib::Server::HandlerResponse::Handled;
+      }));
+
+  server.set_exception_handler(
+      [](const httplib::Request& req, httplib::Response& res, std::exception_ptr thrown) {
+        std::string what = "unknown exception";
+        try {
+          std::rethrow_exception(thrown);
+        } catch (const std::exception& e) {
+          what = e.what();
+        } catch (...) {
+        }
+        std::fprintf(stderr, "myriad-server: %s %s failed: %s\n", req.method.c_str(),
+                     req.path.c_str(), what.c_str());
+        sendProblem(res, internalError("The server failed while handling " +
+                                       quoteClientText(req.path) + ": " + what));
+      });
+
+  server.set_logger(logRequest);
+
+  server.Get("/v1/health", [](const httplib::Request&, httplib::Response& res) {
+    res.set_content(R"({"status":"ok"})", "application/json");
+  });
+  server.Get("/v1/info",
+             [&s](const httplib::Request&, httplib::Response& res) { s.handleInfo(res); });
+  server.Get("/v1/frame", [&s](const httplib::Request& req, httplib::Response& res) {
+    s.handleFrame(req, res);
+  });
+}
+
+HttpServer::~HttpServer() = default;
+
+uint16_t HttpServer::bind() {
+  const HttpConfig& config = state_->config;
+  errno = 0;
+  int port = -1;
+  if (config.port == 0) {
+    port = state_->server.bind_to_any_port(config.host);
+  } else if (state_->server.bind_to_port(config.host, config.port)) {
+    port = config.port;
+  }
+  if (port <= 0) {
+    // httplib reports only failure; errno still holds bind()'s reason when that was the step.
+    std::string reason = errno != 0 ? std::strerror(errno) : "the address is not valid here";
+    throw std::runtime_error("cannot listen on " + config.host + ":" + std::to_string(config.port) +
+                             " (" + reason + ").");
+  }
+  return static_cast<uint16_t>(port);
+}
+
+bool HttpServer::serve() {
+  state_->serveEntered = true;
+  bool stoppedCleanly = state_->stopRequested || state_->server.listen_after_bind();
+  state_->serveFinished = true;
+  return stoppedCleanly;
+}
+
+void HttpServer::stop() {
+  State& s = *state_;
+  s.stopRequested = true;
+  // serve() checks stopRequested after announcing itself, and this checks serveEntered after
+  // setting stopRequested (both sequentially consistent), so at least one side sees the other.
+  if (!s.serveEntered) return;
+  // httplib's stop() does nothing until listen has marked itself running; wait for that (or for
+  // serve() to have given up) so a signal that arrives just after start-up is not lost.
+  while (!s.server.is_running() && !s.serveFinished) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  }
+  s.server.stop();
+}
+
+}  // namespace myriad::service

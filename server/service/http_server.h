@@ -1,0 +1,53 @@
+// The HTTP API (protocol/reference.md): routes, validation, problem responses, and the hand-off of
+// frame requests to the render thread. Workers parse, wait and encode; they never touch Vulkan.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <string>
+
+#include "service/render_thread.h"
+
+namespace myriad::service {
+
+struct HttpConfig {
+  std::string host;
+  uint16_t port = 0;  // 0 = any free port
+  uint32_t threads = 8;
+  uint32_t maxResolution = 4096;  // already capped by the renderer's maximum
+  bool validation = false;
+};
+
+// What GET /v1/info reports about the scene; counted once at start-up.
+struct SceneSummary {
+  size_t lights = 0;
+  size_t instances = 0;
+  size_t materials = 0;
+  size_t meshes = 0;
+};
+
+class HttpServer {
+ public:
+  // `renderThread` must outlive the server. `scene` supplies the default camera and bounds.
+  HttpServer(const HttpConfig& config, RenderThread& renderThread, const scene::Scene& scene);
+  ~HttpServer();
+  HttpServer(const HttpServer&) = delete;
+  HttpServer& operator=(const HttpServer&) = delete;
+
+  // Binds the listening socket and returns the port (the chosen one when config.port is 0).
+  // Throws std::runtime_error with one sentence when the address cannot be bound.
+  uint16_t bind();
+
+  // Serves until stop(); returns after the requests in flight have been answered and the worker
+  // threads joined. False when listening failed rather than being stopped.
+  bool serve();
+
+  // Callable from any thread, before or during serve(); serve() then returns.
+  void stop();
+
+ private:
+  struct State;
+  std::unique_ptr<State> state_;
+};
+
+}  // namespace myriad::service

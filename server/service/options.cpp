@@ -1,0 +1,158 @@
+#include "service/options.h"
+
+#include <charconv>
+#include <functional>
+#include <limits>
+#include <vector>
+
+namespace myriad::service {
+namespace {
+
+// A million lights is the design's upper end; far beyond that the light buffers outgrow what
+// lavapipe can bind (128 MiB per storage buffer).
+constexpr uint32_t kMaxLights = 1u << 20;
+// Sizes beyond this are far past any Vulkan device's maxImageDimension2D.
+constexpr uint32_t kMaxResolutionLimit = 65536;
+constexpr uint32_t kMaxThreads = 256;
+constexpr uint32_t kMaxQueuedFramesLimit = 1024;
+
+template <typename T>
+T parseUnsigned(std::string_view flag, std::string_view text, T min, T max) {
+  T value{};
+  const char* end = text.data() + text.size();
+  auto [ptr, ec] = std::from_chars(text.data(), end, value);
+  if (text.empty() || ec != std::errc() || ptr != end || value < min || value > max) {
+    throw UsageError(std::string(flag) + " expects an integer from " + std::to_string(min) +
+                     " to " + std::to_string(max) + ", not \"" + std::string(text) + "\".");
+  }
+  return value;
+}
+
+struct Flag {
+  std::string_view name;
+  bool takesValue;
+  std::function<void(Options&, std::string_view)> apply;
+};
+
+const std::vector<Flag>& flags() {
+  static const std::vector<Flag> table = {
+      {"--host", true,
+       [](Options& o, std::string_view v) {
+         if (v.empty()) throw UsageError("--host expects an address, not an empty string.");
+         o.host = v;
+       }},
+      {"--port", true,
+       [](Options& o, std::string_view v) {
+         o.port = parseUnsigned<uint16_t>("--port", v, 0, 65535);
+       }},
+      {"--device", true,
+       [](Options& o, std::string_view v) {
+         if (v.empty()) throw UsageError("--device expects a device index or name.");
+         o.device = v;
+       }},
+      {"--validate", false, [](Options& o, std::string_view) { o.validate = true; }},
+      {"--model", true,
+       [](Options& o, std::string_view v) {
+         if (v.empty()) throw UsageError("--model expects a file path.");
+         o.model = std::string(v);
+       }},
+      {"--lights", true,
+       [](Options& o, std::string_view v) {
+         o.lights = parseUnsigned<uint32_t>("--lights", v, 0, kMaxLights);
+       }},
+      {"--seed", true,
+       [](Options& o, std::string_view v) {
+         o.seed = parseUnsigned<uint64_t>("--seed", v, 0, std::numeric_limits<uint64_t>::max());
+       }},
+      {"--max-resolution", true,
+       [](Options& o, std::string_view v) {
+         o.maxResolution = parseUnsigned<uint32_t>("--max-resolution", v, 1, kMaxResolutionLimit);
+       }},
+      {"--threads", true,
+       [](Options& o, std::string_view v) {
+         o.threads = parseUnsigned<uint32_t>("--threads", v, 1, kMaxThreads);
+       }},
+      {"--max-queued-frames", true,
+       [](Options& o, std::string_view v) {
+         o.maxQueuedFrames =
+             parseUnsigned<uint32_t>("--max-queued-frames", v, 0, kMaxQueuedFramesLimit);
+       }},
+      {"--help", false, [](Options& o, std::string_view) { o.help = true; }},
+      {"-h", false, [](Options& o, std::string_view) { o.help = true; }},
+  };
+  return table;
+}
+
+}  // namespace
+
+Options parseOptions(std::span<const std::string_view> args) {
+  Options options;
+  for (size_t i = 0; i < args.size(); ++i) {
+    std::string_view arg = args[i];
+    std::string_view name = arg;
+    std::optional<std::string_view> inlineValue;
+    if (size_t eq = arg.find('='); arg.starts_with("--") && eq != std::string_view::npos) {
+      name = arg.substr(0, eq);
+      inlineValue = arg.substr(eq + 1);
+    }
+
+    const Flag* flag = nullptr;
+    for (const Flag& f : flags()) {
+      if (f.name == name) flag = &f;
+    }
+    if (flag == nullptr) {
+      if (!arg.starts_with("-")) {
+        throw UsageError("Unexpected argument \"" + std::string(arg) +
+                         "\"; myriad-server takes only flags (see --help).");
+      }
+      throw UsageError("Unknown flag \"" + std::string(name) + "\" (see --help).");
+    }
+
+    if (!flag->takesValue) {
+      if (inlineValue) {
+        throw UsageError(std::string(name) + " takes no value, but was given \"" +
+                         std::string(*inlineValue) + "\".");
+      }
+      flag->apply(options, {});
+      continue;
+    }
+    if (!inlineValue) {
+      // A following flag is not a value: "--model --validate" is a forgotten path.
+      if (i + 1 >= args.size() || args[i + 1].starts_with("--")) {
+        throw UsageError(std::string(name) + " needs a value.");
+      }
+      inlineValue = args[++i];
+    }
+    flag->apply(options, *inlineValue);
+  }
+  return options;
+}
+
+std::string usage() {
+  return R"(Usage: myriad-server [flags]
+
+Serves frames of a Vulkan deferred renderer over HTTP (GET /v1/health, /v1/info, /v1/frame).
+
+  --host ADDR              address to listen on (default 127.0.0.1)
+  --port N                 TCP port; 0 picks a free one (default 8080). The URL is printed on
+                           stdout once the server listens.
+  --device NAME|INDEX      Vulkan device by index or name substring (default: the best GPU,
+                           else a CPU implementation such as lavapipe)
+  --validate               enable Vulkan validation layers; /v1/info counts their messages
+  --model PATH             render a model file (glTF, OBJ, ... anything Assimp reads) instead
+                           of the built-in scene
+  --lights N               local lights to generate (default 256, at most 1048576)
+  --seed S                 seed for the generated lights (default 1)
+  --max-resolution N       largest frame width or height served (default 4096; also capped by
+                           the device)
+  --threads N              HTTP worker threads (default 8)
+  --max-queued-frames N    frame requests that may wait for the renderer; more get
+                           503 + Retry-After (default 4)
+  --help                   this text
+
+Exit status: 0 after SIGINT/SIGTERM, 1 when the server cannot start (no device, model not
+loadable, address in use), 2 for a bad flag.
+)";
+}
+
+}  // namespace myriad::service

@@ -1,0 +1,45 @@
+// Command-line options of myriad-server, parsed without side effects so the rules are unit-tested.
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <span>
+#include <stdexcept>
+#include <string>
+#include <string_view>
+
+namespace myriad::service {
+
+struct Options {
+  std::string host = "127.0.0.1";    // loopback unless asked: the API has no authentication yet
+  uint16_t port = 8080;              // 0 = any free port (the chosen one is printed)
+  std::string device;                // "" = best device; else an index or a name substring
+  bool validate = false;             // Vulkan validation layers, messages counted in /v1/info
+  std::optional<std::string> model;  // a model file instead of the built-in scene
+  uint32_t lights = 256;
+  uint64_t seed = 1;
+  // Upper bound on frame width and height; the effective bound is also capped by the device.
+  uint32_t maxResolution = 4096;
+  // HTTP worker threads. A worker waits while its frame renders, so this must exceed
+  // maxQueuedFrames + 1 for health and info requests to stay answerable under a full queue.
+  uint32_t threads = 8;
+  // Frame requests allowed to wait for the render thread (besides the one rendering); more get
+  // 503 + Retry-After. Each waiting frame holds a worker thread and, later, its pixels in memory.
+  uint32_t maxQueuedFrames = 4;
+  bool help = false;
+};
+
+// A bad flag or value. what() is one sentence for stderr.
+class UsageError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+// Parses the arguments after the program name. Accepts "--flag value" and "--flag=value"; a flag
+// given twice takes its last value. Throws UsageError.
+Options parseOptions(std::span<const std::string_view> args);
+
+// The --help text.
+std::string usage();
+
+}  // namespace myriad::service

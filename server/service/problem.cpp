@@ -1,0 +1,75 @@
+#include "service/problem.h"
+
+namespace myriad::service {
+namespace {
+
+// Enough to recognise a value in an error message; longer values are cut.
+constexpr size_t kMaxQuotedLength = 64;
+
+Problem make(int status, std::string_view type, std::string title, std::string detail,
+             std::optional<std::string> parameter = std::nullopt) {
+  return Problem{status, std::string(type), std::move(title), std::move(detail),
+                 std::move(parameter)};
+}
+
+}  // namespace
+
+nlohmann::json toJson(const Problem& problem) {
+  nlohmann::json body = {
+      {"type", problem.type},
+      {"title", problem.title},
+      {"status", problem.status},
+      {"detail", problem.detail},
+  };
+  if (problem.parameter) body["parameter"] = *problem.parameter;
+  return body;
+}
+
+std::string toBody(const Problem& problem) {
+  return toJson(problem).dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
+}
+
+Problem invalidParameter(std::string parameter, std::string detail) {
+  return make(400, problem_type::kInvalidParameter, "Invalid query parameter", std::move(detail),
+              std::move(parameter));
+}
+
+Problem unknownParameter(std::string parameter, std::string detail) {
+  return make(400, problem_type::kUnknownParameter, "Unknown query parameter", std::move(detail),
+              std::move(parameter));
+}
+
+Problem notFound(std::string_view path) {
+  return make(
+      404, problem_type::kNotFound, "Not found",
+      "There is no resource at " + quoteClientText(path) + "; see GET /v1/info for the API.");
+}
+
+Problem methodNotAllowed(std::string_view method, std::string_view path, std::string_view allow) {
+  return make(405, problem_type::kMethodNotAllowed, "Method not allowed",
+              quoteClientText(path) + " does not support " + quoteClientText(method) +
+                  "; allowed: " + std::string(allow) + ".");
+}
+
+Problem badRequest(int status, std::string detail) {
+  return make(status, problem_type::kBadRequest, "Bad request", std::move(detail));
+}
+
+Problem serverBusy(std::string detail) {
+  return make(503, problem_type::kServerBusy, "Server busy", std::move(detail));
+}
+
+Problem renderFailed(std::string detail) {
+  return make(500, problem_type::kRenderFailed, "Rendering failed", std::move(detail));
+}
+
+Problem internalError(std::string detail) {
+  return make(500, problem_type::kInternalError, "Internal server error", std::move(detail));
+}
+
+std::string quoteClientText(std::string_view text) {
+  if (text.size() <= kMaxQuotedLength) return "\"" + std::string(text) + "\"";
+  return "\"" + std::string(text.substr(0, kMaxQuotedLength)) + "...\"";
+}
+
+}  // namespace myriad::service

@@ -1,0 +1,56 @@
+// RFC 9457 problem details: the body of every error response. Each kind of problem has a type URI
+// under https://myriad.dev/problems/ (listed in protocol/reference.md) so clients can branch on the
+// type rather than on the English title or detail.
+#pragma once
+
+#include <optional>
+#include <string>
+#include <string_view>
+
+#include <nlohmann/json.hpp>
+
+namespace myriad::service {
+
+inline constexpr std::string_view kProblemContentType = "application/problem+json";
+
+namespace problem_type {
+inline constexpr std::string_view kInvalidParameter =
+    "https://myriad.dev/problems/invalid-parameter";
+inline constexpr std::string_view kUnknownParameter =
+    "https://myriad.dev/problems/unknown-parameter";
+inline constexpr std::string_view kNotFound = "https://myriad.dev/problems/not-found";
+inline constexpr std::string_view kMethodNotAllowed =
+    "https://myriad.dev/problems/method-not-allowed";
+inline constexpr std::string_view kBadRequest = "https://myriad.dev/problems/bad-request";
+inline constexpr std::string_view kServerBusy = "https://myriad.dev/problems/server-busy";
+inline constexpr std::string_view kRenderFailed = "https://myriad.dev/problems/render-failed";
+inline constexpr std::string_view kInternalError = "https://myriad.dev/problems/internal-error";
+}  // namespace problem_type
+
+struct Problem {
+  int status = 500;
+  std::string type;
+  std::string title;                     // the same for every problem of this type
+  std::string detail;                    // this occurrence, naming what was wrong
+  std::optional<std::string> parameter;  // the offending query parameter, when there is one
+};
+
+nlohmann::json toJson(const Problem& problem);
+
+// The response body. Never throws on client-supplied text: invalid UTF-8 is replaced.
+std::string toBody(const Problem& problem);
+
+Problem invalidParameter(std::string parameter, std::string detail);
+Problem unknownParameter(std::string parameter, std::string detail);
+Problem notFound(std::string_view path);
+Problem methodNotAllowed(std::string_view method, std::string_view path, std::string_view allow);
+Problem badRequest(int status, std::string detail);
+Problem serverBusy(std::string detail);
+Problem renderFailed(std::string detail);
+Problem internalError(std::string detail);
+
+// Client-supplied text quoted in a detail: shortened, so a huge query cannot produce a huge
+// error body.
+std::string quoteClientText(std::string_view text);
+
+}  // namespace myriad::service

@@ -1,0 +1,56 @@
+#include "service/startup.h"
+
+#include <glm/glm.hpp>
+
+#include "scene/builtin_scene.h"
+#include "scene/light_generator.h"
+#include "scene/model_loader.h"
+
+namespace myriad::service {
+namespace {
+
+// Of the model's diagonal, on every side of its bounds.
+constexpr float kLightMargin = 0.1f;
+
+}  // namespace
+
+scene::Scene buildScene(const Options& options) {
+  if (!options.model) return scene::makeBuiltinScene(options.lights, options.seed);
+
+  scene::Scene scene = scene::loadModel(*options.model);
+  const scene::Bounds bounds = scene.bounds();
+  if (options.lights == 0 || bounds.empty()) return scene;
+
+  // Radii as fractions of the model's diagonal: large enough that a light's pool covers a visible
+  // patch, small enough that many lights stay distinguishable instead of summing to a wash.
+  const float diagonal = glm::length(bounds.size());
+  scene::LightGeneration lights;
+  lights.count = options.lights;
+  lights.seed = options.seed;
+  // A margin around the model: lights strictly inside a closed mesh light nothing a camera sees.
+  const glm::vec3 margin(kLightMargin * diagonal);
+  lights.bounds.min = bounds.min - margin;
+  lights.bounds.max = bounds.max + margin;
+  lights.minRadius = std::max(0.04f * diagonal, 1.0e-3f);
+  lights.maxRadius = std::max(0.15f * diagonal, 2.0e-3f);
+  lights.minIntensity = 2.0f;
+  lights.maxIntensity = 6.0f;
+  lights.falloff = 4.0f;
+  std::vector<scene::PointLight> generated = scene::generateLights(lights);
+  scene.lights.insert(scene.lights.end(), generated.begin(), generated.end());
+  return scene;
+}
+
+std::string describeDevice(const gpu::DeviceInfo& device) {
+  std::string text = device.name + " [device " + std::to_string(device.index) + ", " + device.type +
+                     "], driver " + device.driverName;
+  if (!device.driverInfo.empty()) text += " (" + device.driverInfo + ")";
+  return text + ", Vulkan " + device.apiVersion;
+}
+
+std::string serverUrl(const std::string& host, uint16_t port) {
+  bool ipv6 = host.find(':') != std::string::npos;
+  return "http://" + (ipv6 ? "[" + host + "]" : host) + ":" + std::to_string(port);
+}
+
+}  // namespace myriad::service

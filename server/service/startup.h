@@ -1,0 +1,24 @@
+// The pieces of start-up that main() strings together and tests can call: which scene to serve,
+// and how to describe the device in the log.
+#pragma once
+
+#include <string>
+
+#include "gpu/device_info.h"
+#include "scene/scene.h"
+#include "service/options.h"
+
+namespace myriad::service {
+
+// The built-in scene, or options.model with options.lights generated lights spread through and around it
+// (sized to the model, so a 10 cm object and a 100 m hall both get visible pools). Throws
+// scene::ModelLoadError.
+scene::Scene buildScene(const Options& options);
+
+// "llvmpipe (LLVM 15.0.6, 256 bits) [device 0, cpu], driver llvmpipe (Mesa 22.3.6), Vulkan 1.3.230"
+std::string describeDevice(const gpu::DeviceInfo& device);
+
+// "http://127.0.0.1:8080" ("http://[::1]:8080" for IPv6 hosts).
+std::string serverUrl(const std::string& host, uint16_t port);
+
+}  // namespace myriad::service

@@ -1,0 +1,243 @@
+// The three lighting techniques (volumes, tiled, clustered) on lavapipe with validation on:
+// the same image within 1/255, matching the C++ reference; exact light counts; reported overflow;
+// a million animated lights.
+#include <doctest/doctest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <memory>
+
+#include <glm/gtc/matrix_transform.hpp>
+
+#include "gpu/context.h"
+#include "render/reference.h"
+#include "shared_types.h"
+#include "render/renderer.h"
+#include "scene/builtin_scene.h"
+#include "scene/light_generator.h"
+#include "scene/primitives.h"
+
+using namespace myriad;
+using render::Technique;
+
+namespace {
+
+constexpr Technique kTechniques[] = {Technique::Volumes, Technique::Tiled, Technique::Clustered};
+
+struct Gpu {
+  std::unique_ptr<gpu::Context> context;
+  std::unique_ptr<render::Renderer> renderer;
+};
+
+Gpu& sharedGpu() {
+  static Gpu gpu = [] {
+    Gpu g;
+    g.context = gpu::createContext({.validation = true, .device = ""});
+    g.renderer = std::make_unique<render::Renderer>(*g.context);
+    return g;
+  }();
+  return gpu;
+}
+
+int maxDifference(const std::vector<uint8_t>& a, const std::vector<uint8_t>& b) {
+  REQUIRE(a.size() == b.size());
+  int worst = 0;
+  for (size_t i = 0; i < a.size(); ++i) worst = std::max(worst, std::abs(int(a[i]) - int(b[i])));
+  return worst;
+}
+
+// A floor with a few boxes, lit by `count` lights just above it; lights' reach scales so about
+// the same number of them covers each point whatever the count.
+scene::Scene litFloor(uint32_t count, uint64_t seed) {
+  scene::Scene s;
+  s.meshes.push_back(scene::makePlane(4.0f));
+  s.meshes.push_back(scene::makeCube());
+  s.materials.push_back({"floor", glm::vec3(0.6f), 0.0f, 0.7f});
+  s.materials.push_back({"box", glm::vec3(0.8f, 0.5f, 0.3f), 0.5f, 0.35f});
+  s.instances.push_back({0, 0, glm::scale(glm::mat4(1.0f), glm::vec3(20.0f, 1.0f, 20.0f))});
+  for (int i = 0; i < 3; ++i) {
+    glm::mat4 t = glm::translate(glm::mat4(1.0f), glm::vec3(-3.0f + 3.0f * i, 0.5f, -1.0f - i));
+    s.instances.push_back({1, 1, t});
+  }
+  s.sun.intensity = 0.3f;
+  scene::LightGeneration g;
+  g.count = count;
+  g.seed = seed;
+  g.bounds.min = glm::vec3(-10.0f, 0.05f, -10.0f);
+  g.bounds.max = glm::vec3(10.0f, 1.2f, 6.0f);
+  float reach = count <= 1 ? 6.0f : std::max(0.25f, 6.0f / std::cbrt(float(count)));
+  g.minRadius = 0.5f * reach;
+  g.maxRadius = 1.5f * reach;
+  g.minIntensity = 1.0f;
+  g.maxIntensity = 3.0f;
+  s.lights = scene::generateLights(g);
+  return s;
+}
+
+render::FrameSettings frameSettings(Technique technique, uint32_t w = 96, uint32_t h = 64) {
+  render::FrameSettings f;
+  f.width = w;
+  f.height = h;
+  f.camera.eye = glm::vec3(0.0f, 4.0f, 8.0f);
+  f.camera.target = glm::vec3(0.0f, 0.0f, -2.0f);
+  f.camera.nearPlane = 0.1f;
+  f.camera.farPlane = 60.0f;
+  f.markers = false;
+  f.technique = technique;
+  return f;
+}
+
+}  // namespace
+
+TEST_CASE("volumes, tiled and clustered give the same image within 1/255, matching the reference") {
+  Gpu& gpu = sharedGpu();
+  for (uint32_t count : {1u, 100u, 10000u}) {
+    scene::Scene s = litFloor(count, 7);
+    gpu.renderer->setScene(s);
+    std::vector<uint8_t> reference = render::renderReference(s, frameSettings(Technique::Clustered));
+    std::vector<std::vector<uint8_t>> images;
+    for (Technique t : kTechniques) {
+      render::Frame frame = gpu.renderer->render(frameSettings(t));
+      CHECK_FALSE(frame.culling.overflowed());
+      int vsReference = maxDifference(frame.rgba, reference);
+      MESSAGE(count << " lights, " << render::techniqueName(t) << ": max difference from the reference "
+                    << vsReference << "/255, longest list " << frame.culling.mostLightsInList);
+      CHECK(vsReference <= 2);
+      images.push_back(std::move(frame.rgba));
+    }
+    CAPTURE(count);
+    CHECK(maxDifference(images[0], images[1]) <= 1);
+    CHECK(maxDifference(images[0], images[2]) <= 1);
+    CHECK(maxDifference(images[1], images[2]) <= 1);
+  }
+  CHECK(gpu.context->validationMessages.load() == 0);
+}
+
+TEST_CASE("awkward lights are right in every technique: tiny, huge, behind the camera, across near and far") {
+  scene::Scene s = litFloor(0, 1);
+  render::FrameSettings base = frameSettings(Technique::Clustered);
+  glm::vec3 forward = glm::normalize(base.camera.target - base.camera.eye);
+  s.lights = {
+      {glm::vec3(0.5f, 0.02f, 0.0f), 0.03f, glm::vec3(1.0f), 50.0f, 1.0f},                 // tiny
+      {glm::vec3(0.0f, 30.0f, 0.0f), 45.0f, glm::vec3(0.3f, 0.3f, 1.0f), 1.5f, 1.0f},     // huge
+      {base.camera.eye - forward * 2.0f, 6.0f, glm::vec3(1.0f, 0.2f, 0.2f), 4.0f, 1.0f},  // behind
+      {base.camera.eye + forward * 0.3f, 2.5f, glm::vec3(0.2f, 1.0f, 0.2f), 3.0f, 1.0f},  // camera inside
+      {base.camera.eye + forward * 0.9f + glm::vec3(0, -1.2f, 0), 1.0f, glm::vec3(1.0f, 1.0f, 0.0f), 5.0f, 2.0f},
+      {base.camera.eye + forward * 59.0f, 8.0f, glm::vec3(1.0f, 0.5f, 1.0f), 4.0f, 1.0f},  // across far
+  };
+  Gpu& gpu = sharedGpu();
+  gpu.renderer->setScene(s);
+  std::vector<uint8_t> reference = render::renderReference(s, base);
+  for (Technique t : kTechniques) {
+    render::Frame frame = gpu.renderer->render(frameSettings(t));
+    CAPTURE(render::techniqueName(t));
+    CHECK(maxDifference(frame.rgba, reference) <= 2);
+  }
+  CHECK(gpu.context->validationMessages.load() == 0);
+}
+
+TEST_CASE("light-count target is exact at sampled pixels with 200,000 lights") {
+  Gpu& gpu = sharedGpu();
+  scene::Scene s = litFloor(200000, 11);
+  gpu.renderer->setScene(s);
+  render::FrameSettings f = frameSettings(Technique::Clustered, 80, 56);
+  f.raw = true;
+  f.target = render::Target::Position;
+  render::Frame positions = gpu.renderer->render(f);
+  for (Technique t : {Technique::Clustered, Technique::Tiled, Technique::Volumes}) {
+    f.technique = t;
+    f.target = render::Target::LightCount;
+    render::Frame counts = gpu.renderer->render(f);
+    CAPTURE(render::techniqueName(t));
+    if (t == Technique::Tiled && counts.culling.overflowed()) {
+      // 16x16-pixel tiles this large on screen hold more than a tile list: reported, not hidden.
+      MESSAGE("tiled overflowed as expected: " << counts.culling.tilesOverflowed << " tiles, "
+                                               << counts.culling.tileLightsDropped << " dropped");
+      CHECK(counts.culling.tilesOverflowed > 0);
+      continue;
+    }
+    CHECK_FALSE(counts.culling.overflowed());
+    size_t sampled = 0, exact = 0, nonzero = 0;
+    for (uint32_t y = 1; y < f.height; y += 5) {
+      for (uint32_t x = 1; x < f.width; x += 5) {
+        size_t i = (size_t(y) * f.width + x) * 4;
+        glm::vec3 p(positions.data[i], positions.data[i + 1], positions.data[i + 2]);
+        if (p == glm::vec3(0.0f)) continue;  // sky
+        // Lights within a hair of the boundary may fall either way in float; count them apart.
+        uint32_t inside = 0, boundary = 0;
+        for (const scene::PointLight& l : s.lights) {
+          glm::vec3 d = l.position - p;
+          float dd = glm::dot(d, d), rr = l.radius * l.radius;
+          if (std::abs(dd - rr) <= 1e-4f * rr) ++boundary;
+          else if (dd < rr) ++inside;
+        }
+        uint32_t gpuCount = uint32_t(counts.data[i]);
+        ++sampled;
+        if (gpuCount >= inside && gpuCount <= inside + boundary) ++exact;
+        if (gpuCount > 0) ++nonzero;
+      }
+    }
+    MESSAGE(render::techniqueName(t) << ": " << exact << " of " << sampled << " sampled pixels exact, "
+                                     << nonzero << " lit");
+    CHECK(sampled > 100);
+    CHECK(nonzero > sampled / 2);
+    CHECK(exact == sampled);
+  }
+  CHECK(gpu.context->validationMessages.load() == 0);
+}
+
+TEST_CASE("overflowing lists are counted and reported, never silent") {
+  // 3,000 lights of radius 100 all cover every cluster and tile with geometry.
+  scene::Scene s = litFloor(0, 1);
+  for (int i = 0; i < 3000; ++i) {
+    s.lights.push_back({glm::vec3(0.01f * i, 2.0f, 0.0f), 100.0f, glm::vec3(0.0005f), 1.0f, 1.0f});
+  }
+  Gpu& gpu = sharedGpu();
+  gpu.renderer->setScene(s);
+
+  render::Frame tiled = gpu.renderer->render(frameSettings(Technique::Tiled, 256, 160));
+  CHECK(tiled.culling.tilesOverflowed > 0);
+  CHECK(tiled.culling.tileLightsDropped ==
+        tiled.culling.tilesOverflowed * (3000u - uint32_t(MYRIAD_TILE_MAX_LIGHTS)));
+  CHECK(tiled.culling.mostLightsInList == 3000);
+
+  // Clustered lists hold at least 2^18 references: 3,000 lights x every active cluster is more
+  // once enough clusters are active.
+  render::Frame clustered = gpu.renderer->render(frameSettings(Technique::Clustered, 1024, 640));
+  uint64_t wanted = uint64_t(clustered.culling.activeClusters) * 3000;
+  MESSAGE("clustered: " << clustered.culling.activeClusters << " active clusters, "
+                        << clustered.culling.listEntries << " references kept, "
+                        << clustered.culling.clusterLightsDropped << " dropped");
+  REQUIRE(wanted > clustered.culling.listEntries);
+  CHECK(clustered.culling.clusterLightsDropped == wanted - clustered.culling.listEntries);
+  CHECK(clustered.culling.overflowed());
+  CHECK(gpu.context->validationMessages.load() == 0);
+}
+
+TEST_CASE("a million animated lights render with the clustered technique, without overflow") {
+  Gpu& gpu = sharedGpu();
+  scene::Scene s = scene::makeBuiltinScene(1000000, 3);
+  REQUIRE(s.lights.size() == 1000000);
+  gpu.renderer->setScene(s);
+  render::FrameSettings f;
+  f.width = 160;
+  f.height = 90;
+  f.camera = s.camera;
+  f.animate = true;
+  std::vector<uint8_t> previous;
+  for (double time : {0.0, 0.5}) {
+    f.time = time;
+    render::Frame frame = gpu.renderer->render(f);
+    MESSAGE("1M lights, t=" << time << ": " << frame.culling.listEntries << " references, "
+                            << frame.culling.activeClusters << " active clusters, longest list "
+                            << frame.culling.mostLightsInList << ", lists "
+                            << frame.culling.listBytes / (1 << 20) << " MiB");
+    for (const auto& pass : frame.passes) MESSAGE("  " << pass.name << ": " << pass.milliseconds << " ms");
+    CHECK(frame.lightCount == 1000000);
+    CHECK_FALSE(frame.culling.overflowed());
+    CHECK(frame.culling.listEntries > 0);
+    if (!previous.empty()) CHECK(maxDifference(previous, frame.rgba) > 10);  // the lights moved
+    previous = frame.rgba;
+  }
+  CHECK(gpu.context->validationMessages.load() == 0);
+}
