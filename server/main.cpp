@@ -58,7 +58,7 @@ int run(const service::Options& options, const sigset_t& shutdownSignals) {
 
   service::HttpConfig config{options.host, options.port, options.threads,
                              std::min(options.maxResolution, renderThread->maxDimension()),
-                             options.validate};
+                             options.validate, options.technique};
   service::HttpServer server(config, *renderThread, scene);
   uint16_t port = 0;
   try {

@@ -100,7 +100,8 @@ TEST_CASE("options: defaults") {
 TEST_CASE("options: every flag, in both spellings") {
   Options o = parse({"--host", "0.0.0.0", "--port=0", "--device", "1", "--validate", "--model",
                      "/tmp/a.glb", "--lights=16", "--seed", "18446744073709551615",
-                     "--max-resolution", "512", "--threads=3", "--max-queued-frames", "0"});
+                     "--max-resolution", "512", "--threads=3", "--max-queued-frames", "0",
+                     "--technique", "tiled"});
   CHECK(o.host == "0.0.0.0");
   CHECK(o.port == 0);
   CHECK(o.device == "1");
@@ -112,6 +113,9 @@ TEST_CASE("options: every flag, in both spellings") {
   CHECK(o.maxResolution == 512);
   CHECK(o.threads == 3);
   CHECK(o.maxQueuedFrames == 0);
+  CHECK(o.technique == render::Technique::Tiled);
+  CHECK(parse({}).technique == render::Technique::Clustered);
+  CHECK(parse({"--technique=volumes"}).technique == render::Technique::Volumes);
   CHECK(parse({"--help"}).help);
   CHECK(parse({"-h"}).help);
   CHECK(parse({"--port", "1", "--port", "2"}).port == 2);  // last one wins
@@ -135,6 +139,7 @@ TEST_CASE("options: bad flags and values are one sentence naming the flag") {
       {{"--port="}, "--port"},
       {{"--lights", "2000000"}, "--lights"},
       {{"--lights", "1.5"}, "--lights"},
+      {{"--technique", "deferred"}, "--technique"},
       {{"--seed", "-3"}, "--seed"},
       {{"--seed", "18446744073709551616"}, "--seed"},
       {{"--max-resolution", "0"}, "--max-resolution"},
@@ -191,8 +196,10 @@ TEST_CASE("frame query: every parameter applies") {
                                    {"look_at", "0,0.5,0"},
                                    {"fov", "90"},
                                    {"markers", "false"},
-                                   {"exposure", "2.5"}});
+                                   {"exposure", "2.5"},
+                                   {"technique", "volumes"}});
   CHECK(s.target == render::Target::LightVolumes);
+  CHECK(s.technique == render::Technique::Volumes);
   CHECK(s.width == 2048);
   CHECK(s.height == 1);
   CHECK(s.camera.eye == glm::vec3(1.0f, 2.5f, -30.0f));
@@ -271,6 +278,8 @@ TEST_CASE("frame query: every bad value names its parameter") {
       {{{"exposure", "-1"}}, "exposure"},
       {{{"exposure", "inf"}}, "exposure"},
       {{{"exposure", "bright"}}, "exposure"},
+      {{{"technique", "deferred"}}, "technique"},
+      {{{"technique", ""}}, "technique"},
       {{{"zoom", "2"}}, "zoom"},
       {{{"Width", "64"}}, "Width"},
       {{{"width", "64"}, {"width", "65"}}, "width"},

@@ -157,7 +157,7 @@ void Renderer::State::writeUniforms(const FrameSettings& s) {
   u.background = glm::vec4(background, 0.0f);
   u.viewport = glm::vec4(s.width, s.height, 1.0f / s.width, 1.0f / s.height);
   // Markers are a fixed fraction of the scene's size: visible in a wide shot, never huge.
-  u.camera = glm::vec4(s.exposure, s.camera.nearPlane, s.camera.farPlane, diagonal * 0.004f);
+  u.camera = glm::vec4(s.exposure, s.camera.nearPlane, s.camera.farPlane, diagonal * 0.0025f);
   u.boundsMin = glm::vec4(bounds.empty() ? glm::vec3(0.0f) : bounds.min, 0.0f);
   u.boundsMax = glm::vec4(bounds.empty() ? glm::vec3(1.0f) : bounds.max, 0.0f);
   const LightGridSize& g = grid->size;

@@ -110,6 +110,7 @@ render::FrameSettings parseFrameQuery(const std::multimap<std::string, std::stri
 
   render::FrameSettings settings;
   settings.camera = defaults.camera;
+  settings.technique = defaults.technique;
 
   if (const std::string* text = single(params, "target")) {
     std::optional<render::Target> target = render::parseTarget(*text);
@@ -189,10 +190,20 @@ render::FrameSettings parseFrameQuery(const std::multimap<std::string, std::stri
     }
     settings.exposure = *exposure;
   }
+
+  if (const std::string* text = single(params, "technique")) {
+    std::optional<render::Technique> technique = render::parseTechnique(*text);
+    if (!technique) {
+      throw FrameQueryError("technique", "technique must be volumes, tiled or clustered, got " +
+                                             quoteClientText(*text) + ".");
+    }
+    settings.technique = *technique;
+  }
   return settings;
 }
 
-std::string formatServerTiming(const std::vector<render::PassTiming>& passes, double encodeMs) {
+std::string formatServerTiming(const std::vector<render::PassTiming>& passes, double encodeMs,
+                               const render::CullingReport* culling) {
   std::string header;
   auto append = [&header](std::string_view name, double ms) {
     // Server-Timing metric names are HTTP tokens; pass names are ours, but a space or comma
@@ -211,7 +222,18 @@ std::string formatServerTiming(const std::vector<render::PassTiming>& passes, do
   };
   for (const render::PassTiming& pass : passes) append(pass.name, pass.milliseconds);
   append("encode", encodeMs);
+  if (culling != nullptr) header += ", culling;desc=\"" + describeCulling(*culling) + "\"";
   return header;
+}
+
+std::string describeCulling(const render::CullingReport& c) {
+  // Words, digits and slashes only: this goes inside a quoted Server-Timing desc, and clients that
+  // split the header on commas or semicolons without honouring quotes must still parse it.
+  return "dropped " + std::to_string(c.tileLightsDropped + c.clusterLightsDropped) +
+         " light references (tiles overflowed " + std::to_string(c.tilesOverflowed) +
+         ") / list entries " + std::to_string(c.listEntries) + " / active clusters " +
+         std::to_string(c.activeClusters) + " / longest list " +
+         std::to_string(c.mostLightsInList);
 }
 
 }  // namespace myriad::service

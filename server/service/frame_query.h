@@ -15,14 +15,15 @@
 
 namespace myriad::service {
 
-inline constexpr std::array<std::string_view, 8> kFrameParameters = {
-    "target", "width", "height", "eye", "look_at", "fov", "markers", "exposure"};
+inline constexpr std::array<std::string_view, 9> kFrameParameters = {
+    "target", "width", "height", "eye", "look_at", "fov", "markers", "exposure", "technique"};
 
 // What a frame request starts from before its parameters apply.
 struct FrameDefaults {
   scene::Camera camera;       // the scene's default view
   scene::Bounds sceneBounds;  // to keep the scene inside the far plane from any eye
   uint32_t maxResolution = 4096;
+  render::Technique technique = render::Technique::Clustered;  // --technique
 };
 
 class FrameQueryError : public std::runtime_error {
@@ -48,6 +49,13 @@ render::FrameSettings parseFrameQuery(const std::multimap<std::string, std::stri
 
 // The Server-Timing header value: one metric per GPU pass, then the CPU PNG encode, durations in
 // milliseconds ("gbuffer;dur=1.234, sun;dur=0.5, encode;dur=3.1").
-std::string formatServerTiming(const std::vector<render::PassTiming>& passes, double encodeMs);
+// With `culling` (tiled and clustered frames), a last entry without a duration carries the light
+// lists' report, so that an overflow is visible in every browser's network panel:
+// culling;desc="dropped 0 light references (tiles overflowed 0), list entries 5123 / ...".
+std::string formatServerTiming(const std::vector<render::PassTiming>& passes, double encodeMs,
+                               const render::CullingReport* culling = nullptr);
+
+// One line for logs and headers: what light culling did this frame.
+std::string describeCulling(const render::CullingReport& culling);
 
 }  // namespace myriad::service

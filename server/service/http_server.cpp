@@ -110,6 +110,8 @@ struct HttpServer::State {
 void HttpServer::State::handleInfo(httplib::Response& res) const {
   nlohmann::json targets = nlohmann::json::array();
   for (std::string_view name : render::kTargetNames) targets.push_back(name);
+  nlohmann::json techniques = nlohmann::json::array();
+  for (std::string_view name : render::kTechniqueNames) techniques.push_back(name);
   nlohmann::json info = {
       {"server", {{"name", "myriad-server"}, {"version", MYRIAD_VERSION}}},
       {"device", deviceJson(renderThread.device())},
@@ -124,6 +126,8 @@ void HttpServer::State::handleInfo(httplib::Response& res) const {
         {"materials", scene.materials},
         {"meshes", scene.meshes}}},
       {"targets", targets},
+      {"techniques", techniques},
+      {"defaultTechnique", render::techniqueName(config.technique)},
   };
   res.set_content(info.dump(2, ' ', false, nlohmann::json::error_handler_t::replace),
                   "application/json");
@@ -163,7 +167,14 @@ void HttpServer::State::handleFrame(const httplib::Request& req, httplib::Respon
   double encodeMs =
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
 
-  res.set_header("Server-Timing", formatServerTiming(frame.passes, encodeMs));
+  const bool culled = frame.technique != render::Technique::Volumes;
+  res.set_header("Server-Timing",
+                 formatServerTiming(frame.passes, encodeMs, culled ? &frame.culling : nullptr));
+  res.set_header("X-Myriad-Technique", std::string(render::techniqueName(frame.technique)));
+  if (frame.culling.overflowed()) {
+    std::fprintf(stderr, "myriad-server: WARNING: light lists overflowed, lights are missing from "
+                         "this frame: %s\n", describeCulling(frame.culling).c_str());
+  }
   // Frames depend on server state that can change between identical URLs.
   res.set_header("Cache-Control", "no-store");
   res.set_content(reinterpret_cast<const char*>(png.data()), png.size(), "image/png");
@@ -173,7 +184,8 @@ HttpServer::HttpServer(const HttpConfig& config, RenderThread& renderThread,
                        const scene::Scene& scene)
     : state_(std::make_unique<State>(config, renderThread)) {
   State& s = *state_;
-  s.frameDefaults = FrameDefaults{scene.camera, scene.bounds(), config.maxResolution};
+  s.frameDefaults = FrameDefaults{scene.camera, scene.bounds(), config.maxResolution,
+                                 config.technique};
   s.scene = SceneSummary{scene.lights.size(), scene.instances.size(), scene.materials.size(),
                          scene.meshes.size()};
 

@@ -16,6 +16,7 @@ struct HttpConfig {
   uint32_t threads = 8;
   uint32_t maxResolution = 4096;  // already capped by the renderer's maximum
   bool validation = false;
+  render::Technique technique = render::Technique::Clustered;  // unless a request names one
 };
 
 // What GET /v1/info reports about the scene; counted once at start-up.

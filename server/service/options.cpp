@@ -64,6 +64,15 @@ const std::vector<Flag>& flags() {
        [](Options& o, std::string_view v) {
          o.seed = parseUnsigned<uint64_t>("--seed", v, 0, std::numeric_limits<uint64_t>::max());
        }},
+      {"--technique", true,
+       [](Options& o, std::string_view v) {
+         std::optional<render::Technique> t = render::parseTechnique(v);
+         if (!t) {
+           throw UsageError("--technique expects volumes, tiled or clustered, got \"" +
+                            std::string(v) + "\".");
+         }
+         o.technique = *t;
+       }},
       {"--max-resolution", true,
        [](Options& o, std::string_view v) {
          o.maxResolution = parseUnsigned<uint32_t>("--max-resolution", v, 1, kMaxResolutionLimit);
@@ -143,6 +152,8 @@ Serves frames of a Vulkan deferred renderer over HTTP (GET /v1/health, /v1/info,
                            of the built-in scene
   --lights N               local lights to generate (default 256, at most 1048576)
   --seed S                 seed for the generated lights (default 1)
+  --technique T            local-light shading: volumes (the seed's light volumes), tiled or
+                           clustered (compute culling; default clustered)
   --max-resolution N       largest frame width or height served (default 4096; also capped by
                            the device)
   --threads N              HTTP worker threads (default 8)

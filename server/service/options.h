@@ -8,6 +8,8 @@
 #include <string>
 #include <string_view>
 
+#include "render/frame.h"
+
 namespace myriad::service {
 
 struct Options {
@@ -18,6 +20,9 @@ struct Options {
   std::optional<std::string> model;  // a model file instead of the built-in scene
   uint32_t lights = 256;
   uint64_t seed = 1;
+  // How local lights are shaded unless a request says otherwise. Clustered is the default: it is
+  // the one whose cost stays flat from a handful of lights to a million (docs/performance.md).
+  render::Technique technique = render::Technique::Clustered;
   // Upper bound on frame width and height; the effective bound is also capped by the device.
   uint32_t maxResolution = 4096;
   // HTTP worker threads. A worker waits while its frame renders, so this must exceed
