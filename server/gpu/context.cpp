@@ -160,8 +160,19 @@ VkInstance createInstance(bool validation, uint32_t* apiVersionOut) {
     }
     layers.push_back(kValidationLayer);
     extensions.push_back(VK_EXT_DEBUG_UTILS_EXTENSION_NAME);
+    extensions.push_back(VK_EXT_VALIDATION_FEATURES_EXTENSION_NAME);  // provided by the layer
   }
+  // Core validation checks API usage, not whether barriers order the work: a compute pass reading
+  // an image whose barrier only waited for fragment shaders passes core validation and races on
+  // a real GPU. Synchronization validation catches exactly that, so it is on whenever
+  // validation is.
+  const VkValidationFeatureEnableEXT enabledChecks[] = {
+      VK_VALIDATION_FEATURE_ENABLE_SYNCHRONIZATION_VALIDATION_EXT};
+  VkValidationFeaturesEXT validationFeatures{VK_STRUCTURE_TYPE_VALIDATION_FEATURES_EXT};
+  validationFeatures.enabledValidationFeatureCount = 1;
+  validationFeatures.pEnabledValidationFeatures = enabledChecks;
   VkInstanceCreateInfo info{VK_STRUCTURE_TYPE_INSTANCE_CREATE_INFO};
+  info.pNext = validation ? &validationFeatures : nullptr;
   info.pApplicationInfo = &app;
   info.enabledLayerCount = static_cast<uint32_t>(layers.size());
   info.ppEnabledLayerNames = layers.data();

@@ -25,6 +25,10 @@ void prepareLightingTargets(VkCommandBuffer cmd, const FrameTargets& t) {
   gpu::barrier(cmd, transitions);
 }
 
+// vkCmdFillBuffer is a transfer command whose exact stage (CLEAR or COPY) the specification and
+// the validation layers have disagreed on; ALL_TRANSFER covers both at no cost here.
+constexpr VkPipelineStageFlags2 kFillStage = VK_PIPELINE_STAGE_2_ALL_TRANSFER_BIT;
+
 void resetStats(VkCommandBuffer cmd, const LightGrid& grid) {
   vkCmdFillBuffer(cmd, grid.stats.buffer, 0, VK_WHOLE_SIZE, 0);
 }
@@ -62,7 +66,7 @@ void recordRestoreLights(VkCommandBuffer cmd, const SceneBuffers& scene) {
 void recordTiledLighting(VkCommandBuffer cmd, const Pipelines& p, const FrameTargets& t,
                          const LightGrid& grid) {
   resetStats(cmd, grid);
-  gpu::memoryBarrier(cmd, VK_PIPELINE_STAGE_2_CLEAR_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT, kCompute,
+  gpu::memoryBarrier(cmd, kFillStage, VK_ACCESS_2_TRANSFER_WRITE_BIT, kCompute,
                      kStorageReadWrite);
   prepareLightingTargets(cmd, t);
   dispatchPixels(cmd, p.tiledLighting, t.extent, MYRIAD_TILE_SIZE);
@@ -73,7 +77,7 @@ void recordClusteredLighting(VkCommandBuffer cmd, const Pipelines& p, const Fram
   // Every cluster starts inactive; the stats start at zero.
   vkCmdFillBuffer(cmd, grid.cursors.buffer, 0, VK_WHOLE_SIZE, MYRIAD_CLUSTER_INACTIVE);
   resetStats(cmd, grid);
-  gpu::memoryBarrier(cmd, VK_PIPELINE_STAGE_2_CLEAR_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT, kCompute,
+  gpu::memoryBarrier(cmd, kFillStage, VK_ACCESS_2_TRANSFER_WRITE_BIT, kCompute,
                      kStorageReadWrite);
 
   // 1. Mark clusters holding visible geometry.
