@@ -1,0 +1,35 @@
+// The scenes the benchmark renders, each with the camera it is measured from.
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <string_view>
+
+#include "scene/scene.h"
+
+namespace myriad::bench {
+
+enum class BenchScene {
+  // A wide floor with a few boxes, seen from above at a slant so geometry fills the picture. Light
+  // radii shrink as the count grows so that about the same number of lights reaches each point of
+  // the floor: the cost of light count alone, not of ever denser light.
+  Floor,
+  // The server's built-in scene (server/scene/builtin_scene.h) with its own light radii: the
+  // density of light grows with the count (about 0.026 lights per point per light).
+  Builtin,
+};
+
+std::string_view benchSceneName(BenchScene scene);
+std::optional<BenchScene> parseBenchScene(std::string_view name);
+
+struct BenchSceneSpec {
+  BenchScene kind = BenchScene::Floor;
+  uint32_t lightCount = 0;
+  uint64_t seed = 1;
+  float lightsPerPoint = 64.0f;  // Floor: the mean number of lights meant to reach a floor point
+};
+
+// The scene, with scene.camera the view the benchmark renders.
+scene::Scene makeBenchScene(const BenchSceneSpec& spec);
+
+}  // namespace myriad::bench

@@ -1,0 +1,32 @@
+#!/usr/bin/env bash
+# The benchmark suite behind docs/performance.md, as run on the GPU machine:
+#   bash server/bench/gpu_suite.sh BENCH_BINARY OUT_DIR
+# (on the GPU machine, BENCH_BINARY is ".devpack/run.sh .devpack/bin/myriad-bench", quoted).
+# Each step writes OUT_DIR/<step>.json and appends its table to OUT_DIR/bench.log.
+set -uo pipefail
+bench=$1
+out=$2
+mkdir -p "$out"
+status=0
+step() {
+  local name=$1; shift
+  echo "== $name: myriad-bench $*" | tee -a "$out/bench.log"
+  $bench "$@" --json "$out/$name.json" 2>&1 | tee -a "$out/bench.log" || status=1
+}
+# Every technique, 1k to 1M lights at about 64 lights per floor point (volumes up to 100k).
+step floor-1080p --width 1920 --height 1080 --frames 50 --warmup 10 --max-seconds 20
+step floor-2160p --width 3840 --height 2160 --frames 30 --warmup 5 --max-seconds 20 \
+  --volumes-max-lights 10000
+# Density: the same counts with fewer and more lights reaching each point.
+step floor-1080p-density4 --techniques tiled,clustered --lights 1000,1000000 --lights-per-point 4 \
+  --frames 50 --warmup 10
+step floor-1080p-density256 --techniques tiled,clustered --lights 1000,1000000 \
+  --lights-per-point 256 --frames 30 --warmup 5 --max-seconds 20
+# The built-in scene, whose light density grows with the count (about 0.026 per point per light).
+step builtin-1080p --scene builtin --lights 1000,10000,100000 --volumes-max-lights 10000 \
+  --frames 30 --warmup 5 --max-seconds 20
+# Validation on (core + synchronization): every technique once, and a million lights at both sizes.
+step validate-1080p --validate --lights 10000,1000000 --frames 5 --warmup 2
+step validate-2160p --validate --width 3840 --height 2160 --techniques clustered --lights 1000000 \
+  --frames 5 --warmup 2
+exit $status

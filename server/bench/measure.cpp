@@ -1,0 +1,124 @@
+#include "bench/measure.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <map>
+
+namespace myriad::bench {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+// Frames of the benchmark always animate: light assignment then runs every frame, as it must
+// when lights move, rather than being skipped for a static scene.
+render::FrameSettings frameSettings(const scene::Camera& camera, render::Technique technique,
+                                    const Plan& plan, uint32_t frameIndex) {
+  render::FrameSettings f;
+  f.width = plan.width;
+  f.height = plan.height;
+  f.camera = camera;
+  f.technique = technique;
+  f.markers = plan.markers;
+  f.animate = true;
+  f.time = frameIndex * plan.frameSeconds;
+  return f;
+}
+
+double lightingMilliseconds(const render::Frame& frame) {
+  double ms = 0.0;
+  for (const auto& pass : frame.passes) {
+    if (pass.name == "sun" || pass.name == "lights" || pass.name == "lighting") ms += pass.milliseconds;
+  }
+  return ms;
+}
+
+}  // namespace
+
+Summary summarize(std::vector<double> values) {
+  Summary s;
+  if (values.empty()) return s;
+  std::sort(values.begin(), values.end());
+  size_t n = values.size();
+  s.median = n % 2 == 1 ? values[n / 2] : 0.5 * (values[n / 2 - 1] + values[n / 2]);
+  size_t rank = static_cast<size_t>(std::ceil(0.9 * double(n)));
+  s.p90 = values[std::clamp<size_t>(rank, 1, n) - 1];
+  return s;
+}
+
+ConfigResult measure(render::Renderer& renderer, gpu::Context& context, const scene::Camera& camera,
+                     render::Technique technique, uint32_t lightCount, const Plan& plan) {
+  ConfigResult r;
+  r.width = plan.width;
+  r.height = plan.height;
+  r.lights = lightCount;
+  r.technique = technique;
+  const uint32_t messagesBefore = context.validationMessages.load();
+
+  uint32_t frameIndex = 0;
+  for (uint32_t i = 0; i < plan.warmupFrames; ++i) {
+    renderer.render(frameSettings(camera, technique, plan, frameIndex++));
+  }
+  r.warmupFrames = plan.warmupFrames;
+
+  const uint32_t firstTimed = frameIndex;
+  std::vector<std::string> passOrder;
+  std::map<std::string, std::vector<double>> passTimes;
+  std::vector<double> totals, lighting, walls;
+  const Clock::time_point started = Clock::now();
+  constexpr uint32_t kFewestTimedFrames = 3;
+  for (uint32_t i = 0; i < plan.timedFrames; ++i) {
+    if (i >= kFewestTimedFrames &&
+        std::chrono::duration<double>(Clock::now() - started).count() > plan.maxSecondsPerConfig) {
+      break;
+    }
+    Clock::time_point before = Clock::now();
+    render::Frame frame = renderer.render(frameSettings(camera, technique, plan, frameIndex++));
+    walls.push_back(std::chrono::duration<double, std::milli>(Clock::now() - before).count());
+    double total = 0.0;
+    for (const auto& pass : frame.passes) {
+      if (!passTimes.contains(pass.name)) passOrder.push_back(pass.name);
+      passTimes[pass.name].push_back(pass.milliseconds);
+      total += pass.milliseconds;
+    }
+    totals.push_back(total);
+    lighting.push_back(lightingMilliseconds(frame));
+
+    const render::CullingReport& c = frame.culling;
+    if (c.overflowed()) ++r.framesOverflowed;
+    r.mostTilesOverflowed = std::max(r.mostTilesOverflowed, c.tilesOverflowed);
+    r.mostTileLightsDropped = std::max(r.mostTileLightsDropped, c.tileLightsDropped);
+    r.mostClusterLightsDropped = std::max(r.mostClusterLightsDropped, c.clusterLightsDropped);
+    r.mostLightsInList = std::max(r.mostLightsInList, c.mostLightsInList);
+    r.listEntries = c.listEntries;
+    r.activeClusters = c.activeClusters;
+    r.lightBytes = c.lightBytes;
+    r.listBytes = c.listBytes;
+    ++r.timedFrames;
+  }
+  for (const std::string& name : passOrder) r.passes.push_back({name, summarize(passTimes[name])});
+  r.totalMs = summarize(totals);
+  r.lightingMs = summarize(lighting);
+  r.wallMs = summarize(walls);
+
+  // The pairs the lighting shaded: every light that reaches a pixel is one BRDF evaluation, the
+  // same count for every technique (they shade the same image).
+  render::FrameSettings countSettings = frameSettings(camera, technique, plan, firstTimed);
+  countSettings.target = render::Target::LightCount;
+  countSettings.raw = true;
+  render::Frame counts = renderer.render(countSettings);
+  for (size_t i = 0; i < counts.data.size(); i += 4) {
+    const auto lights = static_cast<uint32_t>(std::lround(counts.data[i]));
+    r.pairs += lights;
+    r.mostLightsAtPixel = std::max(r.mostLightsAtPixel, lights);
+  }
+  if (r.lightingMs.median > 0.0) {
+    r.pairsPerSecond = double(r.pairs) / (r.lightingMs.median * 1e-3);
+    r.ceilingFraction = r.pairsPerSecond / kH200PairsPerSecondCeiling;
+  }
+  r.validationMessages = context.validationMessages.load() - messagesBefore;
+  return r;
+}
+
+}  // namespace myriad::bench

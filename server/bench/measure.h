@@ -1,0 +1,83 @@
+// Measuring one configuration (scene, size, light count, technique): warm-up frames, then timed
+// frames whose per-pass GPU times (timestamp queries) are summarised as medians and 90th
+// percentiles, the culling report, and the pixel-light pairs one frame shades.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "gpu/context.h"
+#include "render/frame.h"
+#include "render/renderer.h"
+
+namespace myriad::bench {
+
+// A practical ceiling for the lighting inner loop on an NVIDIA H200: a CUDA microkernel
+// evaluating the glTF BRDF with windowed attenuation for every (pixel, light) pair, no culling,
+// at 3840x2160 (../shared/device/README.md). Lighting time >= pairs / this.
+inline constexpr double kH200PairsPerSecondCeiling = 3.1e11;
+
+struct Plan {
+  uint32_t width = 1920;
+  uint32_t height = 1080;
+  uint32_t warmupFrames = 10;
+  uint32_t timedFrames = 50;
+  double maxSecondsPerConfig = 30.0;  // timed frames stop early past this (at least 3 are kept)
+  bool markers = false;
+  double frameSeconds = 1.0 / 60.0;  // animation time between frames
+};
+
+struct Summary {
+  double median = 0.0;
+  double p90 = 0.0;
+};
+
+struct PassSummary {
+  std::string name;
+  Summary ms;
+};
+
+struct ConfigResult {
+  std::string scene;
+  uint32_t width = 0;
+  uint32_t height = 0;
+  uint32_t lights = 0;
+  render::Technique technique = render::Technique::Clustered;
+  std::string skipped;  // why the configuration was not run; empty when it ran
+
+  uint32_t warmupFrames = 0;
+  uint32_t timedFrames = 0;
+  std::vector<PassSummary> passes;  // in frame order
+  Summary totalMs;                  // sum of the passes of each frame
+  Summary lightingMs;               // sun + lights (volumes) or lighting (compute, incl. assignment)
+  Summary wallMs;                   // CPU wall time per frame: submit, wait, read back
+
+  // Culling, over the timed frames: the worst frame for what must be zero, the last for the rest.
+  uint32_t framesOverflowed = 0;
+  uint32_t mostTilesOverflowed = 0;
+  uint32_t mostTileLightsDropped = 0;
+  uint32_t mostClusterLightsDropped = 0;
+  uint32_t mostLightsInList = 0;
+  uint32_t listEntries = 0;
+  uint32_t activeClusters = 0;
+  uint64_t lightBytes = 0;
+  uint64_t listBytes = 0;
+
+  // From one raw light-count frame at the first timed frame's time: lights that reach each pixel.
+  uint64_t pairs = 0;
+  uint32_t mostLightsAtPixel = 0;
+  double pairsPerSecond = 0.0;   // pairs / median lighting time
+  double ceilingFraction = 0.0;  // pairsPerSecond / kH200PairsPerSecondCeiling
+
+  uint32_t validationMessages = 0;  // new validation messages during this configuration
+};
+
+// Median and 90th percentile (nearest rank) of `values`; zeros when empty.
+Summary summarize(std::vector<double> values);
+
+// Runs one configuration on the scene the renderer holds, viewed from `camera`.
+ConfigResult measure(render::Renderer& renderer, gpu::Context& context, const scene::Camera& camera,
+                     render::Technique technique, uint32_t lightCount, const Plan& plan);
+
+}  // namespace myriad::bench

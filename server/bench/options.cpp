@@ -1,0 +1,126 @@
+#include "bench/options.h"
+
+#include <charconv>
+#include <cmath>
+
+namespace myriad::bench {
+
+namespace {
+
+// Past this the light buffers outgrow what some devices bind (lavapipe: 128 MiB per buffer).
+constexpr uint64_t kMaxLights = 1u << 22;
+constexpr uint64_t kMaxDimension = 16384;
+constexpr uint64_t kMaxFrames = 100000;
+
+uint64_t parseCount(const std::string& flag, std::string_view text, uint64_t min, uint64_t max) {
+  uint64_t value = 0;
+  const char* end = text.data() + text.size();
+  auto [ptr, ec] = std::from_chars(text.data(), end, value);
+  if (text.empty() || ec != std::errc() || ptr != end || value < min || value > max) {
+    throw UsageError(flag + " expects an integer from " + std::to_string(min) + " to " +
+                     std::to_string(max) + ", not \"" + std::string(text) + "\".");
+  }
+  return value;
+}
+
+double parsePositive(const std::string& flag, std::string_view text) {
+  double value = 0.0;
+  const char* end = text.data() + text.size();
+  auto [ptr, ec] = std::from_chars(text.data(), end, value);
+  if (text.empty() || ec != std::errc() || ptr != end || !std::isfinite(value) || value <= 0.0) {
+    throw UsageError(flag + " expects a positive number, not \"" + std::string(text) + "\".");
+  }
+  return value;
+}
+
+std::vector<std::string_view> splitList(const std::string& flag, std::string_view text) {
+  std::vector<std::string_view> items;
+  size_t start = 0;
+  while (start <= text.size()) {
+    size_t comma = text.find(',', start);
+    if (comma == std::string_view::npos) comma = text.size();
+    std::string_view item = text.substr(start, comma - start);
+    if (item.empty()) throw UsageError(flag + " expects a comma-separated list without empty items.");
+    items.push_back(item);
+    start = comma + 1;
+  }
+  return items;
+}
+
+}  // namespace
+
+const char* const kUsage =
+    "usage: myriad-bench [--width N] [--height N] [--lights N,N,...] [--techniques T,T,...]\n"
+    "                    [--frames N] [--warmup N] [--scene floor|builtin] [--lights-per-point F]\n"
+    "                    [--seed N] [--max-seconds S] [--volumes-max-lights N] [--markers]\n"
+    "                    [--json PATH] [--validate] [--device INDEX|NAME]\n"
+    "Renders animated frames for every light count x technique, timing each pass with GPU\n"
+    "timestamp queries after warm-up, and prints medians and 90th percentiles.\n"
+    "defaults: 1920x1080, lights 1000,10000,100000,1000000, techniques volumes,tiled,clustered,\n"
+    "          50 frames after 10 warm-up, scene floor with 64 lights per point, volumes only up to\n"
+    "          100000 lights, at most 30 s of timed frames per configuration, markers off.\n"
+    "--validate enables VK_LAYER_KHRONOS_validation; any message makes the exit status 1.\n";
+
+Options parseOptions(const std::vector<std::string>& args) {
+  Options o;
+  for (size_t i = 0; i < args.size(); ++i) {
+    const std::string& flag = args[i];
+    auto value = [&]() -> std::string_view {
+      if (i + 1 >= args.size()) throw UsageError(flag + " expects a value.");
+      return args[++i];
+    };
+    if (flag == "--help" || flag == "-h") {
+      o.help = true;
+    } else if (flag == "--width") {
+      o.plan.width = uint32_t(parseCount(flag, value(), 1, kMaxDimension));
+    } else if (flag == "--height") {
+      o.plan.height = uint32_t(parseCount(flag, value(), 1, kMaxDimension));
+    } else if (flag == "--lights") {
+      o.lightCounts.clear();
+      for (auto item : splitList(flag, value())) o.lightCounts.push_back(uint32_t(parseCount(flag, item, 0, kMaxLights)));
+    } else if (flag == "--techniques") {
+      o.techniques.clear();
+      for (auto item : splitList(flag, value())) {
+        auto technique = render::parseTechnique(item);
+        if (!technique) {
+          throw UsageError("--techniques expects volumes, tiled or clustered, not \"" + std::string(item) + "\".");
+        }
+        o.techniques.push_back(*technique);
+      }
+    } else if (flag == "--frames") {
+      o.plan.timedFrames = uint32_t(parseCount(flag, value(), 1, kMaxFrames));
+    } else if (flag == "--warmup") {
+      o.plan.warmupFrames = uint32_t(parseCount(flag, value(), 0, kMaxFrames));
+    } else if (flag == "--scene") {
+      std::string_view name = value();
+      auto scene = parseBenchScene(name);
+      if (!scene) throw UsageError("--scene expects floor or builtin, not \"" + std::string(name) + "\".");
+      o.scene = *scene;
+    } else if (flag == "--lights-per-point") {
+      o.lightsPerPoint = float(parsePositive(flag, value()));
+    } else if (flag == "--seed") {
+      o.seed = parseCount(flag, value(), 0, UINT64_MAX);
+    } else if (flag == "--max-seconds") {
+      o.plan.maxSecondsPerConfig = parsePositive(flag, value());
+    } else if (flag == "--volumes-max-lights") {
+      o.volumesMaxLights = uint32_t(parseCount(flag, value(), 0, kMaxLights));
+    } else if (flag == "--markers") {
+      o.plan.markers = true;
+    } else if (flag == "--json") {
+      std::string_view path = value();
+      if (path.empty()) throw UsageError("--json expects a file path.");
+      o.jsonPath = path;
+    } else if (flag == "--validate") {
+      o.validate = true;
+    } else if (flag == "--device") {
+      std::string_view device = value();
+      if (device.empty()) throw UsageError("--device expects a device index or name.");
+      o.device = device;
+    } else {
+      throw UsageError("unknown flag \"" + flag + "\" (see --help).");
+    }
+  }
+  return o;
+}
+
+}  // namespace myriad::bench
