@@ -59,7 +59,9 @@ using mat4 = glm::mat4;
 #define MYRIAD_CLUSTER_SLICES 32
 #define MYRIAD_CLUSTER_INACTIVE 0xFFFFFFFFu  // cursor value of a cluster no pixel falls in
 
-// Workgroup sizes, checked at dispatch against the shaders' local_size (render/compute.cpp).
+// Workgroup sizes. The shaders' local_size and the C++ dispatch counts both use these macros, so
+// they cannot disagree; Pipelines checks at start-up that the device runs groups this large
+// (Vulkan guarantees only 128 invocations; lavapipe and desktop GPUs give 1024).
 #define MYRIAD_LIGHTS_PER_GROUP 64
 #define MYRIAD_PIXEL_GROUP 8
 #define MYRIAD_SCAN_GROUP 1024

@@ -124,6 +124,8 @@ DeviceInfo describe(VkPhysicalDevice physical, uint32_t index) {
   info.maxImageDimension2D = p.limits.maxImageDimension2D;
   info.maxStorageBufferRange = p.limits.maxStorageBufferRange;
   info.maxComputeSharedMemorySize = p.limits.maxComputeSharedMemorySize;
+  info.maxComputeWorkGroupInvocations = p.limits.maxComputeWorkGroupInvocations;
+  info.maxComputeWorkGroupSizeX = p.limits.maxComputeWorkGroupSize[0];
   info.subgroupSize = subgroup.subgroupSize;
   info.timestampPeriodNs = p.limits.timestampPeriod;
   int family = findQueueFamily(physical);

@@ -19,6 +19,8 @@ struct DeviceInfo {
   uint32_t maxImageDimension2D = 0;
   uint64_t maxStorageBufferRange = 0;
   uint32_t maxComputeSharedMemorySize = 0;
+  uint32_t maxComputeWorkGroupInvocations = 0;
+  uint32_t maxComputeWorkGroupSizeX = 0;
   uint32_t subgroupSize = 0;
   double timestampPeriodNs = 0.0;
   bool timestampsSupported = false;

@@ -1,6 +1,9 @@
 #include "render/passes.h"
 
+#include <algorithm>
 #include <array>
+#include <stdexcept>
+#include <string>
 
 #include "embedded_shaders.h"
 #include "gpu/commands.h"
@@ -122,6 +125,17 @@ ImageTransition writtenToSampled(const gpu::Image& image, VkImageLayout layout) 
 }  // namespace
 
 Pipelines::Pipelines(gpu::Context& context) : device(context.device) {
+  // The largest workgroups: the cluster scan's 1D group and the tiled shader's 2D tile.
+  const gpu::DeviceInfo& limits = context.info;
+  const uint32_t largestGroup =
+      std::max<uint32_t>(MYRIAD_SCAN_GROUP, MYRIAD_TILE_SIZE * MYRIAD_TILE_SIZE);
+  if (limits.maxComputeWorkGroupInvocations < largestGroup ||
+      limits.maxComputeWorkGroupSizeX < MYRIAD_SCAN_GROUP) {
+    throw std::runtime_error(limits.name + " runs compute workgroups of at most " +
+                             std::to_string(limits.maxComputeWorkGroupInvocations) +
+                             " invocations; Myriad's light culling needs " +
+                             std::to_string(largestGroup) + ".");
+  }
   const VkShaderStageFlags all =
       VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT | VK_SHADER_STAGE_COMPUTE_BIT;
   std::array<VkDescriptorSetLayoutBinding, 5> sceneBindings{{
