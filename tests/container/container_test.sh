@@ -251,32 +251,29 @@ EOF
 step "SIGTERM"
 # A frame still rendering when SIGTERM arrives must be answered, then the server exits 0.
 curl -sS --max-time 120 -o "$work/inflight.png" -w '%{http_code}' \
-  "http://127.0.0.1:$port/v1/frame?width=1280&height=720" >"$work/inflight.code" 2>"$work/inflight.err" &
+  "http://127.0.0.1:$port/v1/frame?width=1920&height=1080" >"$work/inflight.code" 2>"$work/inflight.err" &
 inflight_pid=$!
 # Signal once the server has accepted that connection (a socket of its own, established, on the
-# port): a connection still in the listen backlog would be reset by the stop, not served.
+# port): a connection still in the listen backlog would be reset by the stop, not served. Bash and
+# one awk, no interpreter start-up: on a loaded 2-core machine python3 alone takes over a second,
+# longer than some frames.
 accepted() {
-  python3 - "$server_pid" "$port" <<'PY'
-import os, sys
-pid, port = sys.argv[1], int(sys.argv[2])
-owned = set()
-for fd in os.listdir(f"/proc/{pid}/fd"):
-    try: target = os.readlink(f"/proc/{pid}/fd/{fd}")
-    except OSError: continue
-    if target.startswith("socket:["): owned.add(target[8:-1])
-for table in ("/proc/net/tcp", "/proc/net/tcp6"):
-    for line in open(table).readlines()[1:]:
-        f = line.split()
-        if f[3] == "01" and int(f[1].rsplit(":", 1)[1], 16) == port and f[9] in owned:
-            sys.exit(0)
-sys.exit(1)
-PY
+  local sockets
+  sockets=$(ls -l "/proc/$server_pid/fd" 2>/dev/null | sed -n 's/.*socket:\[\([0-9]*\)\]$/\1/p')
+  awk -v port="$(printf '%04X' "$port")" -v sockets="$sockets" '
+    BEGIN { n = split(sockets, list, "\n"); for (i = 1; i <= n; i++) owned[list[i]] = 1 }
+    FNR > 1 && $4 == "01" && toupper($2) ~ (":" port "$") && ($10 in owned) { found = 1 }
+    END { exit !found }' /proc/net/tcp /proc/net/tcp6
 }
 deadline=$((SECONDS + 10))
 until accepted; do
   (( SECONDS < deadline )) || fail "the server did not accept the frame request within 10 s."
-  sleep 0.05
+  kill -0 "$inflight_pid" 2>/dev/null ||
+    fail "the frame request ended before the server was seen accepting it: $(cat "$work/inflight.err")."
+  sleep 0.02
 done
+kill -0 "$inflight_pid" 2>/dev/null ||
+  fail "the frame was answered before SIGTERM (too quick to test stopping with a frame in flight)."
 kill -TERM "$server_pid"
 deadline=$((SECONDS + stop_timeout))
 while kill -0 "$runner_pid" 2>/dev/null; do
