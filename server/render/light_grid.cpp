@@ -14,6 +14,12 @@ namespace {
 // says when it does not); the floor keeps small scenes from being starved by a few huge lights.
 constexpr uint32_t kReferencesPerLight = 8;
 constexpr uint32_t kMinimumListCapacity = 1u << 18;
+// References per cluster of the whole grid. Per light alone is not enough when the lights are
+// dense or the output large: on the H200 the lists overflowed at 3840x2160 with 10,000 and
+// 100,000 floor lights and at 1920x1080 in the built-in scene with 10,000 (docs/performance.md),
+// needing 400-450 references per active cluster. About 4-5% of clusters hold geometry in those
+// views, so 32 per grid cluster leaves 650-800 per active one: 2 MiB at 1080p, 8 MiB at 4K.
+constexpr uint32_t kReferencesPerCluster = 32;
 
 }  // namespace
 
@@ -22,7 +28,8 @@ LightGridSize lightGridSize(VkExtent2D extent, uint32_t lightCount, uint64_t max
   size.clustersX = (extent.width + MYRIAD_CLUSTER_TILE_SIZE - 1) / MYRIAD_CLUSTER_TILE_SIZE;
   size.clustersY = (extent.height + MYRIAD_CLUSTER_TILE_SIZE - 1) / MYRIAD_CLUSTER_TILE_SIZE;
   size.slices = MYRIAD_CLUSTER_SLICES;
-  uint64_t wanted = std::max<uint64_t>(kMinimumListCapacity, uint64_t(lightCount) * kReferencesPerLight);
+  uint64_t wanted = std::max({uint64_t(kMinimumListCapacity), uint64_t(lightCount) * kReferencesPerLight,
+                               uint64_t(size.clusterCount()) * kReferencesPerCluster});
   // lavapipe caps a storage buffer at 128 MiB: 32M references. Overflow beyond is reported.
   size.listCapacity = static_cast<uint32_t>(std::min<uint64_t>(wanted, maxStorageBytes / sizeof(uint32_t)));
   return size;
