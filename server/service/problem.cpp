@@ -8,8 +8,13 @@ constexpr size_t kMaxQuotedLength = 64;
 
 Problem make(int status, std::string_view type, std::string title, std::string detail,
              std::optional<std::string> parameter = std::nullopt) {
-  return Problem{status, std::string(type), std::move(title), std::move(detail),
-                 std::move(parameter)};
+  Problem problem;
+  problem.status = status;
+  problem.type = std::string(type);
+  problem.title = std::move(title);
+  problem.detail = std::move(detail);
+  problem.parameter = std::move(parameter);
+  return problem;
 }
 
 }  // namespace
@@ -22,6 +27,8 @@ nlohmann::json toJson(const Problem& problem) {
       {"detail", problem.detail},
   };
   if (problem.parameter) body["parameter"] = *problem.parameter;
+  if (problem.pointer) body["pointer"] = *problem.pointer;
+  if (problem.limit) body["limit"] = *problem.limit;
   return body;
 }
 
@@ -65,6 +72,41 @@ Problem renderFailed(std::string detail) {
 
 Problem internalError(std::string detail) {
   return make(500, problem_type::kInternalError, "Internal server error", std::move(detail));
+}
+
+Problem invalidBody(std::string pointer, std::string detail) {
+  Problem p = make(400, problem_type::kInvalidBody, "Invalid request body", std::move(detail));
+  p.pointer = std::move(pointer);
+  return p;
+}
+
+Problem unauthorized(std::string detail) {
+  return make(401, problem_type::kUnauthorized, "Unauthorized", std::move(detail));
+}
+
+Problem forbidden(std::string detail) {
+  return make(403, problem_type::kForbidden, "Forbidden", std::move(detail));
+}
+
+Problem unsupportedMediaType(std::string detail) {
+  return make(415, problem_type::kUnsupportedMediaType, "Unsupported media type",
+              std::move(detail));
+}
+
+Problem limitExceeded(int status, std::string limit, std::string detail) {
+  Problem p = make(status, problem_type::kLimitExceeded, "Limit exceeded", std::move(detail));
+  p.limit = std::move(limit);
+  // Sessions expire and requests finish within seconds; a client retrying sooner only adds load.
+  if (status == 429) p.retryAfterSeconds = 1;
+  return p;
+}
+
+Problem modelRejected(std::string detail) {
+  return make(422, problem_type::kModelRejected, "Model rejected", std::move(detail));
+}
+
+Problem notFoundDetail(std::string detail) {
+  return make(404, problem_type::kNotFound, "Not found", std::move(detail));
 }
 
 std::string quoteClientText(std::string_view text) {

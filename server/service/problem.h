@@ -25,6 +25,13 @@ inline constexpr std::string_view kBadRequest = "https://myriad.dev/problems/bad
 inline constexpr std::string_view kServerBusy = "https://myriad.dev/problems/server-busy";
 inline constexpr std::string_view kRenderFailed = "https://myriad.dev/problems/render-failed";
 inline constexpr std::string_view kInternalError = "https://myriad.dev/problems/internal-error";
+inline constexpr std::string_view kInvalidBody = "https://myriad.dev/problems/invalid-body";
+inline constexpr std::string_view kUnauthorized = "https://myriad.dev/problems/unauthorized";
+inline constexpr std::string_view kForbidden = "https://myriad.dev/problems/forbidden";
+inline constexpr std::string_view kUnsupportedMediaType =
+    "https://myriad.dev/problems/unsupported-media-type";
+inline constexpr std::string_view kLimitExceeded = "https://myriad.dev/problems/limit-exceeded";
+inline constexpr std::string_view kModelRejected = "https://myriad.dev/problems/model-rejected";
 }  // namespace problem_type
 
 struct Problem {
@@ -33,6 +40,21 @@ struct Problem {
   std::string title;                     // the same for every problem of this type
   std::string detail;                    // this occurrence, naming what was wrong
   std::optional<std::string> parameter;  // the offending query parameter, when there is one
+  std::optional<std::string> pointer;    // JSON Pointer to the offending body member
+  std::optional<std::string> limit;      // the limit's name as in /v1/info "limits"
+  // Sent as the Retry-After header (429, 503), not in the body.
+  std::optional<int> retryAfterSeconds;
+};
+
+// A handler's way out with a problem: the route wrapper (api.h) catches it and answers with it.
+class ProblemError : public std::exception {
+ public:
+  explicit ProblemError(Problem problem) : problem_(std::move(problem)) {}
+  const Problem& problem() const { return problem_; }
+  const char* what() const noexcept override { return problem_.detail.c_str(); }
+
+ private:
+  Problem problem_;
 };
 
 nlohmann::json toJson(const Problem& problem);
@@ -48,6 +70,16 @@ Problem badRequest(int status, std::string detail);
 Problem serverBusy(std::string detail);
 Problem renderFailed(std::string detail);
 Problem internalError(std::string detail);
+// 400 invalid-body; `pointer` is "" for the whole body.
+Problem invalidBody(std::string pointer, std::string detail);
+Problem unauthorized(std::string detail);
+Problem forbidden(std::string detail);
+Problem unsupportedMediaType(std::string detail);
+// 413 (sizes, counts) or 429 (sessions, streams, requests; Retry-After set) limit-exceeded.
+Problem limitExceeded(int status, std::string limit, std::string detail);
+Problem modelRejected(std::string detail);
+// 404 not-found for a thing that does not exist (a session, light, material or model).
+Problem notFoundDetail(std::string detail);
 
 // Client-supplied text quoted in a detail: shortened, so a huge query cannot produce a huge
 // error body.

@@ -1,0 +1,133 @@
+// What the route files share: the server's limits and configuration, the render thread, the
+// sessions, the model library, and a route table that answers 404, 405 (with Allow), 413 on
+// oversize bodies and 429 on too many requests in flight before any handler runs. Handlers throw
+// ProblemError for a client mistake; the table's wrapper turns it into a problem response.
+#pragma once
+
+#include <httplib.h>
+
+#include <atomic>
+#include <cstdint>
+#include <functional>
+#include <optional>
+#include <regex>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "render/frame.h"
+#include "service/problem.h"
+#include "service/session.h"
+
+namespace myriad::loader {
+class ModelLibrary;
+}
+
+namespace myriad::service {
+
+class RenderThread;
+
+// Every limit /v1/info lists under "limits", with the same names.
+struct ApiLimits {
+  uint32_t maxResolution = 4096;
+  uint32_t maxQueuedFrames = 4;
+  uint32_t maxSessions = 16;
+  uint32_t maxLightsPerSession = 1000000;
+  uint64_t maxUploadBytes = 64ull << 20;
+  uint64_t maxBodyBytes = 1ull << 20;
+  uint32_t maxStreams = 8;
+  uint32_t maxRequestsInFlight = 64;
+  uint32_t sessionIdleSeconds = 600;
+
+  nlohmann::json toJson() const;
+};
+
+struct ApiConfig {
+  ApiLimits limits;
+  std::optional<std::string> apiKey;     // POST /v1/sessions needs "Bearer <apiKey>" when set
+  std::vector<std::string> corsOrigins;  // "*" allowed; empty = no CORS headers
+  render::Technique defaultTechnique = render::Technique::Clustered;
+  bool validation = false;
+};
+
+struct ApiContext {
+  ApiConfig config;
+  RenderThread& renderThread;
+  SessionManager& sessions;
+  loader::ModelLibrary* models = nullptr;  // null without --models
+  // Called once per answered request with the route's pattern ("unmatched" for 404s before
+  // routing) and the status; the metrics routes count these. Optional.
+  std::function<void(const std::string& route, int status)> countRequest;
+};
+
+// Sends `problem` as application/problem+json, with Retry-After when it says so.
+void sendProblem(httplib::Response& res, const Problem& problem);
+
+// Sends `body` as application/json (pretty enough for curl users, without escaping UTF-8).
+void sendJson(httplib::Response& res, const nlohmann::json& body, int status = 200);
+
+struct RouteOptions {
+  // Counted against maxRequestsInFlight while the handler runs (429 beyond). Health is not.
+  bool countsInFlight = true;
+  // Largest body accepted (413 limit maxBodyBytes beyond); 0 = the context's maxBodyBytes.
+  uint64_t maxBodyBytes = 0;
+  // The limit named in a 413 for this route's body.
+  std::string bodyLimitName = "maxBodyBytes";
+};
+
+class Routes {
+ public:
+  using Handler = std::function<void(const httplib::Request&, httplib::Response&)>;
+
+  Routes(httplib::Server& server, ApiContext& context);
+
+  // Registers `handler` for `method` ("GET", "POST", "PUT", "PATCH", "DELETE") on `pattern`, an
+  // httplib regex matched against the whole path (groups land in req.matches). GET also answers
+  // HEAD. The handler may throw ProblemError.
+  void add(std::string_view method, const std::string& pattern, Handler handler,
+           RouteOptions options = {});
+
+  // For the pre-routing handler: answers 404 (no route has this path), 405 with Allow, OPTIONS
+  // preflights (with CORS) and 413 on a Content-Length over the route's limit. True when it
+  // answered and routing must stop.
+  bool answerBeforeRouting(const httplib::Request& req, httplib::Response& res) const;
+
+  // Sets Access-Control-Allow-Origin when the request's Origin is allowed.
+  void addCorsHeaders(const httplib::Request& req, httplib::Response& res) const;
+
+  // The pattern of the route `req` matched, for metrics ("unmatched" when none).
+  std::string routeOf(const httplib::Request& req) const;
+
+  uint32_t requestsInFlight() const { return inFlight_.load(); }
+
+ private:
+  struct Entry {
+    std::string pattern;
+    std::regex regex;
+    std::vector<std::string> methods;
+    RouteOptions options;
+  };
+  const Entry* match(const std::string& path) const;
+  static std::string allowHeader(const Entry& entry);
+
+  httplib::Server& server_;
+  ApiContext& context_;
+  std::vector<Entry> entries_;
+  mutable std::atomic<uint32_t> inFlight_{0};
+};
+
+// The session routes (POST/GET/DELETE sessions, model, camera, settings, materials, lights) and
+// GET /v1/models. FRAMES registers frame, stream and stats routes next to them.
+void addSessionRoutes(Routes& routes, ApiContext& context);
+
+// Credentials of a request: the Authorization header and, for routes that allow it, ?token=.
+Credentials credentialsOf(const httplib::Request& req);
+
+// The authorized session named by the first regex group of the route (…/sessions/([^/]+)…).
+// Throws ProblemError (401/403/404).
+SessionPtr authorizeSession(const ApiContext& context, const httplib::Request& req,
+                            bool allowQueryToken = false);
+
+}  // namespace myriad::service

@@ -1,0 +1,225 @@
+#include "service/session.h"
+
+#include <sys/random.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <cstdio>
+#include <stdexcept>
+
+namespace myriad::service {
+namespace {
+
+constexpr size_t kTokenBytes = 32;
+constexpr size_t kIdBytes = 8;
+constexpr std::string_view kBearerPrefix = "Bearer ";
+
+// Tokens guard a session; they come from the kernel's CSPRNG, never from a seeded engine.
+std::string randomHex(size_t bytes) {
+  std::vector<unsigned char> buffer(bytes);
+  size_t filled = 0;
+  while (filled < bytes) {
+    ssize_t n = getrandom(buffer.data() + filled, bytes - filled, 0);
+    if (n < 0) {
+      if (errno == EINTR) continue;
+      throw std::runtime_error("getrandom failed");
+    }
+    filled += size_t(n);
+  }
+  static constexpr char kDigits[] = "0123456789abcdef";
+  std::string text;
+  text.reserve(bytes * 2);
+  for (unsigned char b : buffer) {
+    text.push_back(kDigits[b >> 4]);
+    text.push_back(kDigits[b & 15]);
+  }
+  return text;
+}
+
+}  // namespace
+
+bool constantTimeEquals(std::string_view a, std::string_view b) {
+  if (a.size() != b.size()) return false;
+  unsigned char difference = 0;
+  for (size_t i = 0; i < a.size(); ++i) {
+    difference |= static_cast<unsigned char>(a[i] ^ b[i]);
+  }
+  // Through a volatile so the compiler cannot turn the loop into an early exit.
+  volatile unsigned char result = difference;
+  return result == 0;
+}
+
+std::optional<std::string> bearerToken(std::string_view authorization) {
+  if (!authorization.starts_with(kBearerPrefix)) return std::nullopt;
+  std::string_view token = authorization.substr(kBearerPrefix.size());
+  if (token.empty() || token.size() > 256) return std::nullopt;
+  for (char c : token) {
+    if (c <= ' ' || c > '~') return std::nullopt;
+  }
+  return std::string(token);
+}
+
+SessionManager::SessionManager(uint32_t maxSessions, std::chrono::seconds idleTimeout,
+                               SceneReleaser release)
+    : maxSessions_(maxSessions), idleTimeout_(idleTimeout), release_(std::move(release)) {
+  sweeper_ = std::thread([this] { sweeperLoop(); });
+}
+
+SessionManager::~SessionManager() {
+  {
+    std::lock_guard lock(mutex_);
+    stopping_ = true;
+  }
+  sweeperWake_.notify_all();
+  if (sweeper_.joinable()) sweeper_.join();
+  closeAll();
+}
+
+SessionPtr SessionManager::create() {
+  std::lock_guard lock(mutex_);
+  if (sessions_.size() >= maxSessions_) {
+    throw ProblemError(limitExceeded(
+        429, "maxSessions",
+        "The server already holds " + std::to_string(sessions_.size()) +
+            " sessions, its limit; delete one or wait for an idle one to expire."));
+  }
+  std::string id;
+  do {
+    id = "s-" + randomHex(kIdBytes);
+  } while (sessions_.contains(id));
+  auto session = std::make_shared<Session>(id, randomHex(kTokenBytes));
+  sessions_.emplace(id, session);
+  return session;
+}
+
+SessionPtr SessionManager::find(std::string_view id) const {
+  std::lock_guard lock(mutex_);
+  auto it = sessions_.find(id);
+  return it == sessions_.end() ? nullptr : it->second;
+}
+
+SessionPtr SessionManager::authorize(std::string_view id, const Credentials& credentials,
+                                     bool allowQueryToken) const {
+  std::optional<std::string> token;
+  if (credentials.authorization) {
+    token = bearerToken(*credentials.authorization);
+    if (!token) {
+      throw ProblemError(unauthorized(
+          "The Authorization header is not \"Bearer <token>\" with the token POST /v1/sessions "
+          "returned."));
+    }
+  } else if (allowQueryToken && credentials.queryToken) {
+    token = *credentials.queryToken;
+  }
+  if (!token) {
+    throw ProblemError(unauthorized(
+        allowQueryToken
+            ? "This route needs the session's token: Authorization: Bearer <token> or ?token=."
+            : "This route needs the session's token: Authorization: Bearer <token>."));
+  }
+
+  SessionPtr session;
+  bool otherSession = false;
+  {
+    std::lock_guard lock(mutex_);
+    auto it = sessions_.find(id);
+    if (it != sessions_.end()) session = it->second;
+    // Every open session's token is compared, so the time taken does not tell which matched.
+    for (const auto& [otherId, other] : sessions_) {
+      if (constantTimeEquals(other->token, *token) && other != session) otherSession = true;
+    }
+  }
+  if (!session) {
+    throw ProblemError(notFoundDetail("There is no session " + quoteClientText(id) +
+                                      " (never created, deleted, or expired after " +
+                                      std::to_string(idleTimeout_.count()) + " s idle)."));
+  }
+  if (!constantTimeEquals(session->token, *token)) {
+    if (otherSession) {
+      throw ProblemError(forbidden("The token belongs to another session, not to " +
+                                   quoteClientText(id) + "."));
+    }
+    throw ProblemError(unauthorized("The token is not the token of any open session."));
+  }
+  std::lock_guard lock(session->mutex);
+  if (session->closed) {
+    throw ProblemError(notFoundDetail("The session " + quoteClientText(id) + " was deleted."));
+  }
+  session->lastUsed = Clock::now();
+  return session;
+}
+
+bool SessionManager::remove(std::string_view id) {
+  SessionPtr session;
+  {
+    std::lock_guard lock(mutex_);
+    auto it = sessions_.find(id);
+    if (it == sessions_.end()) return false;
+    session = it->second;
+    sessions_.erase(it);
+  }
+  {
+    std::lock_guard lock(session->mutex);
+    session->closed = true;
+    session->changed.notify_all();
+  }
+  if (release_) release_(*session);
+  return true;
+}
+
+void SessionManager::closeAll() {
+  std::vector<std::string> ids;
+  {
+    std::lock_guard lock(mutex_);
+    for (const auto& [id, session] : sessions_) ids.push_back(id);
+  }
+  for (const std::string& id : ids) remove(id);
+}
+
+size_t SessionManager::count() const {
+  std::lock_guard lock(mutex_);
+  return sessions_.size();
+}
+
+int64_t SessionManager::expiresInSeconds(const Session& session) const {
+  // Callers hold session.mutex or accept a value a moment stale.
+  auto left = idleTimeout_ - std::chrono::duration_cast<std::chrono::seconds>(Clock::now() -
+                                                                              session.lastUsed);
+  return std::max<int64_t>(0, left.count());
+}
+
+size_t SessionManager::sweepExpired() {
+  std::vector<std::string> expired;
+  const Clock::time_point now = Clock::now();
+  {
+    std::lock_guard lock(mutex_);
+    for (const auto& [id, session] : sessions_) {
+      std::lock_guard sessionLock(session->mutex);
+      if (now - session->lastUsed > idleTimeout_) expired.push_back(id);
+    }
+  }
+  size_t removed = 0;
+  for (const std::string& id : expired) {
+    if (remove(id)) {
+      std::fprintf(stderr, "myriad-server: session %s expired after %lld s idle\n", id.c_str(),
+                   static_cast<long long>(idleTimeout_.count()));
+      ++removed;
+    }
+  }
+  return removed;
+}
+
+void SessionManager::sweeperLoop() {
+  // A quarter second keeps expiry within a second of the timeout and costs nothing when idle.
+  constexpr auto kPeriod = std::chrono::milliseconds(250);
+  std::unique_lock lock(mutex_);
+  while (!stopping_) {
+    sweeperWake_.wait_for(lock, kPeriod, [this] { return stopping_; });
+    if (stopping_) break;
+    lock.unlock();
+    sweepExpired();
+    lock.lock();
+  }
+}
+
+}  // namespace myriad::service

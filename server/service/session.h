@@ -1,0 +1,184 @@
+// Sessions: one client's scene (model, camera, settings, materials, lights) held on the CPU, with
+// a GPU scene of its own on the render thread. HTTP workers read and edit a session under its
+// mutex; every edit bumps `version` and notifies `changed`, which is what streams wait on.
+//
+// Locking order: SessionManager's mutex, then a Session's mutex, never the reverse. A worker that
+// edits lights holds the session's mutex while it hands the change to the render thread, so the
+// render thread sees a session's edits in the order the CPU copy took them (swap-removes depend
+// on it).
+#pragma once
+
+#include <chrono>
+#include <condition_variable>
+#include <cstdint>
+#include <functional>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <thread>
+#include <unordered_map>
+#include <vector>
+
+#include <glm/glm.hpp>
+
+#include "render/frame.h"
+#include "scene/scene.h"
+#include "service/problem.h"
+
+namespace myriad::service {
+
+using Clock = std::chrono::steady_clock;
+
+// What GET /v1/sessions/{id} reports about the loaded model.
+struct ModelSummary {
+  std::string source = "builtin:default";  // "builtin:default" | "library:NAME" | "upload:FILE"
+  size_t meshes = 0;
+  size_t instances = 0;
+  size_t materials = 0;
+  scene::Bounds bounds;
+};
+
+// The Settings object of the protocol, in scene units.
+struct SessionSettings {
+  scene::Sun sun;
+  glm::vec3 ambient{0.03f, 0.035f, 0.045f};
+  glm::vec3 background{0.02f, 0.025f, 0.035f};
+  float exposure = 1.0f;
+  bool markers = true;
+  render::Technique technique = render::Technique::Clustered;
+  bool animate = false;
+};
+
+struct Session {
+  Session(std::string id, std::string token) : id(std::move(id)), token(std::move(token)) {}
+  Session(const Session&) = delete;
+  Session& operator=(const Session&) = delete;
+
+  const std::string id;     // "s-" + 16 hex digits
+  const std::string token;  // 64 hex digits (32 random bytes)
+
+  // Guards everything below. Never held while waiting for a frame.
+  mutable std::mutex mutex;
+  // Notified (notify_all) on every version bump and on close.
+  std::condition_variable changed;
+
+  uint64_t sceneId = 0;  // the render thread's scene of this session
+  ModelSummary model;
+  scene::Camera camera;
+  SessionSettings settings;
+  std::vector<scene::Material> materials;  // material id = index
+
+  // The lights in render-thread order. lightIds[i] is the stable id of lights[i]; lightIndex maps
+  // an id back to its index. Deleting swaps the last light into the hole, on both sides.
+  std::vector<scene::PointLight> lights;
+  std::vector<uint64_t> lightIds;
+  std::unordered_map<uint64_t, uint32_t> lightIndex;
+  uint64_t nextLightId = 1;  // ids are never reused within a session
+
+  // Bumped (under `mutex`) on every change that can alter a frame; streams compare it.
+  uint64_t version = 0;
+  // Set when the session is deleted, expired or the server stops; streams end when they see it.
+  bool closed = false;
+
+  Clock::time_point created = Clock::now();
+  Clock::time_point animationStart = Clock::now();  // time 0 of the light animation
+  Clock::time_point lastUsed = Clock::now();         // refreshed by every authorized request
+
+  // With `mutex` held: records a change and wakes whoever waits on `changed`.
+  void bump() {
+    ++version;
+    changed.notify_all();
+  }
+
+  // Seconds since animationStart, what a frame of an animated session passes as its time.
+  double animationSeconds(Clock::time_point now = Clock::now()) const {
+    return std::chrono::duration<double>(now - animationStart).count();
+  }
+
+  // Blocks until version differs from `seen`, the session closes, or `deadline`. Returns the
+  // version then (unchanged on timeout). For streams: take a snapshot, render, wait here.
+  uint64_t waitForChange(uint64_t seen, Clock::time_point deadline) {
+    std::unique_lock lock(mutex);
+    changed.wait_until(lock, deadline, [&] { return version != seen || closed; });
+    return version;
+  }
+};
+
+using SessionPtr = std::shared_ptr<Session>;
+
+// Client-supplied credentials of one request: the Authorization header and the ?token= query
+// parameter (accepted by frame and stream only; the header wins when both are present).
+struct Credentials {
+  std::optional<std::string> authorization;  // the whole header value, "Bearer <token>"
+  std::optional<std::string> queryToken;
+};
+
+class SessionManager {
+ public:
+  // Releases a session's GPU scene; runs on the caller's thread and returns once the render
+  // thread has destroyed the scene (so DELETE answers after the memory is free).
+  using SceneReleaser = std::function<void(Session&)>;
+
+  SessionManager(uint32_t maxSessions, std::chrono::seconds idleTimeout, SceneReleaser release);
+  ~SessionManager();  // stops the sweeper; closes (and releases) every session left
+  SessionManager(const SessionManager&) = delete;
+  SessionManager& operator=(const SessionManager&) = delete;
+
+  // A new session with a fresh id and token, not yet holding a scene (the caller creates one and
+  // fills in the state before returning it). Throws ProblemError 429 limit maxSessions when
+  // `maxSessions` are open.
+  SessionPtr create();
+
+  // The open session with this id, or null.
+  SessionPtr find(std::string_view id) const;
+
+  // The session `id` if `credentials` carry its token. Problems: 401 (no or malformed bearer
+  // token, or one that belongs to no session), 404 (no such session: never created, deleted or
+  // expired), 403 (the token of another session). Tokens are compared in constant time. Refreshes
+  // the session's idle timer. Throws ProblemError.
+  SessionPtr authorize(std::string_view id, const Credentials& credentials,
+                       bool allowQueryToken = false) const;
+
+  // Closes the session (streams wake and end), releases its GPU scene and forgets it. False when
+  // there was no such session.
+  bool remove(std::string_view id);
+
+  // Closes every session (server shutdown): streams end; GPU scenes are released.
+  void closeAll();
+
+  size_t count() const;
+  uint32_t maxSessions() const { return maxSessions_; }
+  std::chrono::seconds idleTimeout() const { return idleTimeout_; }
+
+  // Seconds until `session` expires if left alone (what responses report as expiresInSeconds).
+  int64_t expiresInSeconds(const Session& session) const;
+
+  // Removes sessions idle for longer than the timeout; returns how many. The sweeper thread calls
+  // this about once a second; tests and handlers may call it too.
+  size_t sweepExpired();
+
+ private:
+  void sweeperLoop();
+
+  const uint32_t maxSessions_;
+  const std::chrono::seconds idleTimeout_;
+  const SceneReleaser release_;
+
+  mutable std::mutex mutex_;
+  std::map<std::string, SessionPtr, std::less<>> sessions_;
+  std::condition_variable sweeperWake_;
+  bool stopping_ = false;
+  std::thread sweeper_;
+};
+
+// Constant-time equality of two strings of equal length (false, quickly, when lengths differ:
+// every token has the same length, so that reveals nothing).
+bool constantTimeEquals(std::string_view a, std::string_view b);
+
+// "Bearer <64 hex>" -> the token; nullopt when the header is missing or malformed.
+std::optional<std::string> bearerToken(std::string_view authorization);
+
+}  // namespace myriad::service
