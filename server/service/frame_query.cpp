@@ -18,6 +18,8 @@ namespace {
 constexpr float kMaxCoordinate = 1.0e6f;
 // Closer than this, the view direction normalises to noise.
 constexpr float kMinViewDistance = 1.0e-4f;
+// Eleven days: beyond this, float animation phases lose the precision to move lights smoothly.
+constexpr float kMaxAnimationSeconds = 1.0e6f;
 
 const std::string* single(const std::multimap<std::string, std::string>& params,
                           std::string_view name) {
@@ -88,30 +90,50 @@ glm::vec3 upFor(const glm::vec3& eye, const glm::vec3& target, const glm::vec3& 
 
 }  // namespace
 
-render::FrameSettings parseFrameQuery(const std::multimap<std::string, std::string>& params,
-                                      const FrameDefaults& defaults) {
+namespace {
+
+// Unknown or repeated parameters, before any value is looked at.
+template <size_t N>
+void checkNames(const QueryParams& params, const std::array<std::string_view, N>& allowed,
+                std::string_view route) {
   for (auto it = params.begin(); it != params.end(); it = params.upper_bound(it->first)) {
     bool known = false;
-    for (std::string_view name : kFrameParameters) known = known || name == it->first;
+    for (std::string_view name : allowed) known = known || name == it->first;
     if (!known) {
-      std::string allowed;
-      for (std::string_view name : kFrameParameters) {
-        allowed += (allowed.empty() ? "" : ", ") + std::string(name);
-      }
+      std::string names;
+      for (std::string_view name : allowed) names += (names.empty() ? "" : ", ") + std::string(name);
       throw FrameQueryError(it->first,
-                            "Unknown query parameter " + quoteClientText(it->first) +
-                                "; /v1/frame takes " + allowed + ".",
+                            "Unknown query parameter " + quoteClientText(it->first) + "; " +
+                                std::string(route) + " takes " + names + ".",
                             true);
     }
     if (params.count(it->first) > 1) {
       throw FrameQueryError(it->first, it->first + " is given more than once.");
     }
   }
+}
 
-  render::FrameSettings settings;
-  settings.camera = defaults.camera;
-  settings.technique = defaults.technique;
+// A whole number in [min, max], or FrameQueryError naming the range.
+uint32_t parseBoundedInteger(std::string_view name, const std::string& text, uint32_t min,
+                             uint32_t max, std::string_view what) {
+  uint64_t value = 0;
+  const char* end = text.data() + text.size();
+  auto [ptr, ec] = std::from_chars(text.data(), end, value);
+  if (text.empty() || ptr != end || ec != std::errc() || value < min || value > max) {
+    throw FrameQueryError(std::string(name), std::string(name) + " must be " + std::string(what) +
+                                                 ", a whole number from " + std::to_string(min) +
+                                                 " to " + std::to_string(max) + ", got " +
+                                                 quoteClientText(text) + ".");
+  }
+  return static_cast<uint32_t>(value);
+}
 
+// The parameters every frame route shares: target, width, height, format, quality. Formats
+// outside `formats` are rejected; `request.format` holds the route's default on entry.
+template <size_t N>
+void parseOutput(const QueryParams& params, uint32_t maxRes,
+                 const std::array<ImageFormat, N>& formats, FrameRequest& request) {
+  render::FrameSettings& settings = request.settings;
   if (const std::string* text = single(params, "target")) {
     std::optional<render::Target> target = render::parseTarget(*text);
     if (!target) {
@@ -126,8 +148,7 @@ render::FrameSettings parseFrameQuery(const std::multimap<std::string, std::stri
   }
 
   // The default size is 720p, shrunk with its aspect ratio kept when the server's maximum is
-  // smaller, so a bare /v1/frame always succeeds.
-  const uint32_t maxRes = defaults.maxResolution;
+  // smaller, so a bare request always succeeds.
   settings.width = std::min<uint32_t>(1280, maxRes);
   settings.height = std::max<uint32_t>(1, settings.width * 9 / 16);
   if (const std::string* text = single(params, "width")) {
@@ -136,6 +157,69 @@ render::FrameSettings parseFrameQuery(const std::multimap<std::string, std::stri
   if (const std::string* text = single(params, "height")) {
     settings.height = parseSize("height", *text, maxRes);
   }
+
+  if (const std::string* text = single(params, "format")) {
+    std::optional<ImageFormat> format;
+    std::string names;
+    for (ImageFormat f : formats) {
+      if (formatName(f) == *text) format = f;
+      names += (names.empty() ? "" : ", ") + std::string(formatName(f));
+    }
+    if (!format) {
+      throw FrameQueryError("format",
+                            "format " + quoteClientText(*text) + " is not one of: " + names + ".");
+    }
+    request.format = *format;
+  }
+  settings.raw = request.format == ImageFormat::Raw;
+
+  if (const std::string* text = single(params, "quality")) {
+    request.quality = static_cast<int>(parseBoundedInteger("quality", *text, 1, 100, "the JPEG quality"));
+  }
+}
+
+}  // namespace
+
+render::FrameSettings parseFrameQuery(const QueryParams& params, const FrameDefaults& defaults) {
+  return parseFrameRequest(params, defaults).settings;
+}
+
+FrameRequest parseSessionFrameQuery(const QueryParams& params, uint32_t maxResolution) {
+  checkNames(params, kSessionFrameParameters, "/v1/sessions/{id}/frame");
+  FrameRequest request;
+  parseOutput(params, maxResolution,
+              std::array{ImageFormat::Png, ImageFormat::Jpeg, ImageFormat::Raw}, request);
+  if (const std::string* text = single(params, "time")) {
+    std::optional<float> time = parseFloat(*text);
+    if (!time || *time < 0.0f || *time > kMaxAnimationSeconds) {
+      throw FrameQueryError("time", "time must be an animation time in seconds from 0 to 1e6, got " +
+                                        quoteClientText(*text) + ".");
+    }
+    request.time = *time;
+  }
+  return request;
+}
+
+FrameRequest parseStreamQuery(const QueryParams& params, uint32_t maxResolution) {
+  checkNames(params, kStreamParameters, "/v1/sessions/{id}/stream");
+  FrameRequest request;
+  request.format = ImageFormat::Jpeg;
+  parseOutput(params, maxResolution, std::array{ImageFormat::Jpeg, ImageFormat::Png}, request);
+  if (const std::string* text = single(params, "fps")) {
+    request.fps = parseBoundedInteger("fps", *text, 1, kMaxStreamFps, "frames per second");
+  }
+  return request;
+}
+
+FrameRequest parseFrameRequest(const QueryParams& params, const FrameDefaults& defaults) {
+  checkNames(params, kFrameParameters, "/v1/frame");
+
+  FrameRequest request;
+  render::FrameSettings& settings = request.settings;
+  settings.camera = defaults.camera;
+  settings.technique = defaults.technique;
+  parseOutput(params, defaults.maxResolution,
+              std::array{ImageFormat::Png, ImageFormat::Jpeg, ImageFormat::Raw}, request);
 
   const std::string* eyeText = single(params, "eye");
   const std::string* lookAtText = single(params, "look_at");
@@ -199,7 +283,7 @@ render::FrameSettings parseFrameQuery(const std::multimap<std::string, std::stri
     }
     settings.technique = *technique;
   }
-  return settings;
+  return request;
 }
 
 std::string formatServerTiming(const std::vector<render::PassTiming>& passes, double encodeMs,

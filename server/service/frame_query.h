@@ -5,6 +5,7 @@
 #include <array>
 #include <cstdint>
 #include <map>
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <string_view>
@@ -15,8 +16,36 @@
 
 namespace myriad::service {
 
-inline constexpr std::array<std::string_view, 9> kFrameParameters = {
-    "target", "width", "height", "eye", "look_at", "fov", "markers", "exposure", "technique"};
+// GET /v1/frame (stateless, the built-in scene).
+inline constexpr std::array<std::string_view, 11> kFrameParameters = {
+    "target", "width",   "height", "format",  "quality", "eye",
+    "look_at", "fov",    "markers", "exposure", "technique"};
+// GET /v1/sessions/{id}/frame: camera and settings come from the session.
+inline constexpr std::array<std::string_view, 7> kSessionFrameParameters = {
+    "target", "format", "width", "height", "quality", "time", "token"};
+// GET /v1/sessions/{id}/stream.
+inline constexpr std::array<std::string_view, 7> kStreamParameters = {
+    "target", "format", "fps", "width", "height", "quality", "token"};
+
+// How a frame's pixels are sent.
+enum class ImageFormat { Png, Jpeg, Raw };
+inline constexpr std::array<std::string_view, 3> kFormatNames = {"png", "jpeg", "raw"};
+inline std::string_view formatName(ImageFormat f) { return kFormatNames[static_cast<size_t>(f)]; }
+
+// JPEG quality when a request names none: small files with artefacts hard to see in a live view.
+inline constexpr int kDefaultJpegQuality = 85;
+// Stream frame rate bounds and default (frames per second).
+inline constexpr uint32_t kMaxStreamFps = 60;
+inline constexpr uint32_t kDefaultStreamFps = 15;
+
+// What a frame request asks for: the render settings and how to encode the result.
+struct FrameRequest {
+  render::FrameSettings settings;  // settings.raw is set for ImageFormat::Raw
+  ImageFormat format = ImageFormat::Png;
+  int quality = kDefaultJpegQuality;  // JPEG only; accepted (and checked) but unused otherwise
+  std::optional<double> time;         // session frames: animation time asked for, in seconds
+  uint32_t fps = kDefaultStreamFps;   // streams only
+};
 
 // What a frame request starts from before its parameters apply.
 struct FrameDefaults {
@@ -41,11 +70,23 @@ class FrameQueryError : public std::runtime_error {
   bool unknownParameter_;
 };
 
-// `params` is the decoded query (the same type as httplib::Params). Throws FrameQueryError for
-// the first problem found: unknown or repeated parameters first, then values in the order of
-// kFrameParameters.
-render::FrameSettings parseFrameQuery(const std::multimap<std::string, std::string>& params,
-                                      const FrameDefaults& defaults);
+using QueryParams = std::multimap<std::string, std::string>;
+
+// GET /v1/frame. `params` is the decoded query (the same type as httplib::Params). Throws
+// FrameQueryError for the first problem found: unknown or repeated parameters first, then values
+// in the order of kFrameParameters.
+FrameRequest parseFrameRequest(const QueryParams& params, const FrameDefaults& defaults);
+
+// parseFrameRequest's settings alone.
+render::FrameSettings parseFrameQuery(const QueryParams& params, const FrameDefaults& defaults);
+
+// GET /v1/sessions/{id}/frame: target, format, size, quality and time; the caller fills in the
+// session's camera and settings. `token` is accepted (authorization reads it) and ignored here.
+FrameRequest parseSessionFrameQuery(const QueryParams& params, uint32_t maxResolution);
+
+// GET /v1/sessions/{id}/stream: as a session frame, without time, with fps; format png or jpeg
+// (default jpeg).
+FrameRequest parseStreamQuery(const QueryParams& params, uint32_t maxResolution);
 
 // The Server-Timing header value: one metric per GPU pass, then the CPU PNG encode, durations in
 // milliseconds ("gbuffer;dur=1.234, sun;dur=0.5, encode;dur=3.1").

@@ -1,0 +1,139 @@
+#include "service/metrics.h"
+
+#include <charconv>
+#include <cmath>
+
+namespace myriad::service {
+namespace {
+
+std::string placeholderAfter(std::string_view segment) {
+  if (segment == "sessions") return "{id}";
+  if (segment == "lights") return "{lid}";
+  if (segment == "materials") return "{mid}";
+  return "{param}";
+}
+
+// Label values are quoted; the format requires backslash, quote and newline escaped.
+std::string labelValue(std::string_view text) {
+  std::string out;
+  for (char c : text) {
+    if (c == '\\') out += "\\\\";
+    else if (c == '"') out += "\\\"";
+    else if (c == '\n') out += "\\n";
+    else out += c;
+  }
+  return out;
+}
+
+// Shortest text that reads back as the same double; Prometheus accepts any float syntax.
+std::string number(double value) {
+  if (std::isinf(value)) return value > 0 ? "+Inf" : "-Inf";
+  char buffer[32];
+  auto [end, ec] = std::to_chars(buffer, buffer + sizeof buffer, value);
+  return ec == std::errc() ? std::string(buffer, end) : "NaN";
+}
+
+void family(std::string& out, std::string_view name, std::string_view type,
+            std::string_view help) {
+  out += "# HELP " + std::string(name) + " " + std::string(help) + "\n";
+  out += "# TYPE " + std::string(name) + " " + std::string(type) + "\n";
+}
+
+}  // namespace
+
+std::string routeTemplateOf(std::string_view pattern) {
+  std::string out;
+  size_t i = 0;
+  while (i < pattern.size()) {
+    if (pattern[i] == '\\' && i + 1 < pattern.size()) {  // an escaped literal: "\\." is "."
+      out += pattern[i + 1];
+      i += 2;
+      continue;
+    }
+    if (pattern[i] != '(') {
+      out += pattern[i++];
+      continue;
+    }
+    // Skip the group, nested groups and escapes included.
+    int depth = 0;
+    for (; i < pattern.size(); ++i) {
+      if (pattern[i] == '\\') {
+        ++i;
+      } else if (pattern[i] == '(') {
+        ++depth;
+      } else if (pattern[i] == ')' && --depth == 0) {
+        ++i;
+        break;
+      }
+    }
+    // The group follows "/name/": name the placeholder after that segment.
+    std::string_view previous = out;
+    if (!previous.empty() && previous.back() == '/') previous.remove_suffix(1);
+    size_t slash = previous.find_last_of('/');
+    previous = slash == std::string_view::npos ? previous : previous.substr(slash + 1);
+    out += placeholderAfter(previous);
+  }
+  return out;
+}
+
+void Metrics::countRequest(std::string_view routeTemplate, int status) {
+  std::lock_guard lock(mutex_);
+  ++requests_[{std::string(routeTemplate), status}];
+}
+
+void Metrics::observeFrame(double seconds) {
+  if (!std::isfinite(seconds) || seconds < 0.0) seconds = 0.0;
+  std::lock_guard lock(mutex_);
+  for (size_t i = 0; i < kFrameBuckets.size(); ++i) {
+    if (seconds <= kFrameBuckets[i]) {
+      ++frameBucketCounts_[i];
+      break;
+    }
+  }
+  ++frameCount_;
+  frameSecondsSum_ += seconds;
+}
+
+uint64_t Metrics::requests(std::string_view routeTemplate, int status) const {
+  std::lock_guard lock(mutex_);
+  auto it = requests_.find({std::string(routeTemplate), status});
+  return it == requests_.end() ? 0 : it->second;
+}
+
+std::string Metrics::exposition(const MetricGauges& gauges) const {
+  std::string out;
+  std::lock_guard lock(mutex_);
+
+  family(out, "myriad_http_requests_total", "counter",
+         "HTTP responses sent, by route template and status code.");
+  for (const auto& [key, count] : requests_) {
+    out += "myriad_http_requests_total{route=\"" + labelValue(key.first) + "\",status=\"" +
+           std::to_string(key.second) + "\"} " + std::to_string(count) + "\n";
+  }
+
+  family(out, "myriad_frame_seconds", "histogram",
+         "Time to deliver one frame: render queue, GPU, readback and encoding.");
+  uint64_t cumulative = 0;
+  for (size_t i = 0; i < kFrameBuckets.size(); ++i) {
+    cumulative += frameBucketCounts_[i];
+    out += "myriad_frame_seconds_bucket{le=\"" + number(kFrameBuckets[i]) + "\"} " +
+           std::to_string(cumulative) + "\n";
+  }
+  out += "myriad_frame_seconds_bucket{le=\"+Inf\"} " + std::to_string(frameCount_) + "\n";
+  out += "myriad_frame_seconds_sum " + number(frameSecondsSum_) + "\n";
+  out += "myriad_frame_seconds_count " + std::to_string(frameCount_) + "\n";
+
+  family(out, "myriad_sessions", "gauge", "Sessions open now.");
+  out += "myriad_sessions " + std::to_string(gauges.sessions) + "\n";
+  family(out, "myriad_streams", "gauge", "Frame streams open now.");
+  out += "myriad_streams " + std::to_string(gauges.streams) + "\n";
+  family(out, "myriad_gpu_memory_bytes", "gauge",
+         "GPU memory held for scenes, lights and light lists.");
+  out += "myriad_gpu_memory_bytes " + std::to_string(gauges.gpuMemoryBytes) + "\n";
+  family(out, "myriad_validation_messages_total", "counter",
+         "Vulkan validation messages since start-up (0 unless --validate).");
+  out += "myriad_validation_messages_total " + std::to_string(gauges.validationMessages) + "\n";
+  return out;
+}
+
+}  // namespace myriad::service

@@ -1,0 +1,60 @@
+// GET /metrics: counters and a histogram kept by the HTTP layer, written out in the Prometheus
+// text exposition format 0.0.4. Thread-safe; no HTTP, no Vulkan.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <map>
+#include <mutex>
+#include <string>
+#include <string_view>
+#include <utility>
+#include <vector>
+
+namespace myriad::service {
+
+// The label a route is counted under: its path template, "/v1/sessions/{id}/frame" for the
+// route pattern "/v1/sessions/([^/]+)/frame". Requests are counted per route, never per raw path:
+// a label per session id or per mistyped URL would grow the exposition without bound. A regex
+// group becomes a placeholder named after the segment before it, with the names protocol/
+// CONTRACT.md uses ({id} after sessions, {lid} after lights, {mid} after materials); other groups
+// become {param}. Patterns without groups come back unchanged.
+std::string routeTemplateOf(std::string_view pattern);
+
+// Values the exposition reads from elsewhere at scrape time.
+struct MetricGauges {
+  uint64_t sessions = 0;
+  uint64_t streams = 0;
+  uint64_t gpuMemoryBytes = 0;
+  uint64_t validationMessages = 0;
+};
+
+class Metrics {
+ public:
+  // Upper bounds of myriad_frame_seconds' buckets (+Inf is implicit). A 64x64 frame on a GPU takes
+  // about a millisecond, a 4K frame on lavapipe with validation several seconds.
+  static constexpr std::array<double, 12> kFrameBuckets = {0.005, 0.01, 0.025, 0.05, 0.1, 0.25,
+                                                           0.5,   1.0,  2.5,   5.0,  10.0, 30.0};
+
+  void countRequest(std::string_view routeTemplate, int status);
+
+  // One frame delivered: from submission to the renderer to encoded bytes.
+  void observeFrame(double seconds);
+
+  // The text/plain; version=0.0.4 body.
+  std::string exposition(const MetricGauges& gauges) const;
+
+  // The count so far for one route and status (tests and logs).
+  uint64_t requests(std::string_view routeTemplate, int status) const;
+
+ private:
+  mutable std::mutex mutex_;
+  std::map<std::pair<std::string, int>, uint64_t> requests_;
+  std::array<uint64_t, kFrameBuckets.size()> frameBucketCounts_{};  // not cumulative
+  uint64_t frameCount_ = 0;
+  double frameSecondsSum_ = 0.0;
+};
+
+inline constexpr std::string_view kMetricsContentType = "text/plain; version=0.0.4; charset=utf-8";
+
+}  // namespace myriad::service
