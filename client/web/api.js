@@ -1,0 +1,159 @@
+// The HTTP API (protocol/CONTRACT.md) as a few functions: requests with the session's bearer
+// token, RFC 9457 problem bodies turned into one readable sentence, and the session kept in
+// localStorage so that a reload continues where it was.
+
+const STORAGE_KEY = 'myriad.session';
+
+// A failed request: `message` is the readable sentence shown to the user.
+export class ApiError extends Error {
+  constructor(status, problem, message) {
+    super(message);
+    this.status = status;
+    this.problem = problem;
+  }
+  get typeName() {
+    return problemTypeName(this.problem);
+  }
+}
+
+// The session is gone (expired, deleted, or the server restarted): only a new one helps.
+export class SessionLostError extends ApiError {}
+
+function problemTypeName(problem) {
+  const type = problem && typeof problem.type === 'string' ? problem.type : '';
+  return type.slice(type.lastIndexOf('/') + 1);
+}
+
+// "Width must be at most 4096 (parameter width; 400 invalid-parameter)".
+export function problemMessage(status, problem, fallback) {
+  if (!problem || typeof problem !== 'object') {
+    return `${fallback || 'The request failed'} (${status})`;
+  }
+  const text = problem.detail || problem.title || fallback || 'The request failed';
+  const where = [];
+  if (problem.parameter) where.push(`parameter ${problem.parameter}`);
+  if (problem.pointer) where.push(`at ${problem.pointer}`);
+  if (problem.limit) where.push(`limit ${problem.limit}`);
+  const name = problemTypeName(problem);
+  where.push(name ? `${status} ${name}` : String(status));
+  return `${text} (${where.join('; ')})`;
+}
+
+async function errorFromResponse(response) {
+  const text = await response.text().catch(() => '');
+  let problem = null;
+  try {
+    problem = JSON.parse(text);
+  } catch {
+    // Not JSON (a proxy's page, a truncated body): show the start of the text instead.
+  }
+  const fallback = text && !problem ? text.slice(0, 200) : response.statusText;
+  return new ApiError(response.status, problem, problemMessage(response.status, problem, fallback));
+}
+
+function loadStoredSession() {
+  try {
+    const value = JSON.parse(localStorage.getItem(STORAGE_KEY) || 'null');
+    if (value && typeof value.id === 'string' && typeof value.token === 'string') return value;
+  } catch {
+    // A corrupt entry is the same as none.
+  }
+  return null;
+}
+
+export class Api {
+  constructor() {
+    this.session = loadStoredSession();  // {id, token} or null
+    this.apiKey = '';                    // only for creating a session with --api-key
+  }
+
+  get hasSession() {
+    return this.session !== null;
+  }
+
+  sessionPath(sub = '') {
+    return `/v1/sessions/${encodeURIComponent(this.session.id)}${sub}`;
+  }
+
+  // One request. `path` starting with "/v1/sessions/" carries the session token. Returns the
+  // parsed JSON, null for 204, or the Response itself when `raw` is set.
+  async request(method, path, {json, body, contentType, query, signal, raw = false, auth = true} = {}) {
+    const headers = {};
+    let payload = body;
+    if (json !== undefined) {
+      payload = JSON.stringify(json);
+      headers['Content-Type'] = 'application/json';
+    } else if (contentType) {
+      headers['Content-Type'] = contentType;
+    }
+    const sessionRoute = path.startsWith('/v1/sessions/');
+    if (auth && sessionRoute && this.session) headers.Authorization = `Bearer ${this.session.token}`;
+    const url = query ? `${path}?${new URLSearchParams(query)}` : path;
+
+    let response;
+    try {
+      response = await fetch(url, {method, headers, body: payload, signal, cache: 'no-store'});
+    } catch (e) {
+      throw new ApiError(0, null, `The server cannot be reached (${e.message}).`);
+    }
+    if (!response.ok) {
+      const error = await errorFromResponse(response);
+      if (sessionRoute && await this.isSessionLost(error)) {
+        throw new SessionLostError(error.status, error.problem,
+                                   `The session is gone: ${error.message}`);
+      }
+      throw error;
+    }
+    if (raw) return response;
+    if (response.status === 204) return null;
+    return response.json();
+  }
+
+  // 401/403: the token no longer fits. 404: either the session or something inside it (a light
+  // id) is missing; asking for the session itself tells which.
+  async isSessionLost(error) {
+    if (error.status === 401 || error.status === 403) return true;
+    if (error.status !== 404 || !this.session) return false;
+    try {
+      const r = await fetch(this.sessionPath(), {
+        headers: {Authorization: `Bearer ${this.session.token}`}, cache: 'no-store'});
+      return r.status === 404 || r.status === 401 || r.status === 403;
+    } catch {
+      return false;
+    }
+  }
+
+  get(path, options) { return this.request('GET', path, options); }
+  patch(path, json) { return this.request('PATCH', path, {json}); }
+  put(path, json) { return this.request('PUT', path, {json}); }
+  post(path, json) { return this.request('POST', path, {json}); }
+  delete(path) { return this.request('DELETE', path); }
+
+  // POST /v1/sessions, with the API key when the server asks for one.
+  async createSession() {
+    const headers = {'Content-Type': 'application/json'};
+    if (this.apiKey) headers.Authorization = `Bearer ${this.apiKey}`;
+    let response;
+    try {
+      response = await fetch('/v1/sessions', {method: 'POST', headers, body: '{}'});
+    } catch (e) {
+      throw new ApiError(0, null, `The server cannot be reached (${e.message}).`);
+    }
+    if (!response.ok) throw await errorFromResponse(response);
+    const created = await response.json();
+    this.session = {id: created.id, token: created.token};
+    localStorage.setItem(STORAGE_KEY, JSON.stringify(this.session));
+    return created.session;
+  }
+
+  forgetSession() {
+    this.session = null;
+    localStorage.removeItem(STORAGE_KEY);
+  }
+
+  // A URL an <img> can load: it cannot send headers, so the token goes in the query.
+  sessionImageUrl(route, params) {
+    const query = new URLSearchParams({...params, token: this.session.token});
+    return `${this.sessionPath(route)}?${query}`;
+  }
+}

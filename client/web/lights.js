@@ -1,0 +1,233 @@
+// Local lights: generate (count, seed, radius, intensity, falloff C), delete, a paged list, an
+// editor for one light, and picking a light by clicking its marker in the view: the listed
+// lights are projected with the session's camera and the nearest one to the click is chosen.
+
+import {hexToLinear, linearToHex} from './color.js';
+import {fmt} from './panels.js';
+import {project} from './vec.js';
+
+const $ = (id) => document.getElementById(id);
+const PAGE_SIZE = 50;
+const PICK_LIMIT = 1000;     // the API's page limit; picking considers the first this many
+const PICK_RADIUS_PX = 16;   // how far from a marker a click still selects it
+
+export class LightsPanel {
+  constructor(api, {onProblem, onInfo, getCamera, getViewSize, overlay}) {
+    this.api = api;
+    this.onProblem = onProblem;
+    this.onInfo = onInfo;
+    this.getCamera = getCamera;      // () => Camera
+    this.getViewSize = getViewSize;  // () => {width, height} in CSS pixels
+    this.overlay = overlay;          // canvas over the view: the selected light's ring
+    this.offset = 0;
+    this.total = 0;
+    this.page = [];
+    this.pickable = null;            // the first PICK_LIMIT lights, fetched on the first click
+    this.selected = null;            // a Light
+
+    $('gen-lights').addEventListener('click', () => this.generate());
+    $('delete-lights').addEventListener('click', () => this.deleteAll());
+    $('lights-prev').addEventListener('click', () => this.showPage(this.offset - PAGE_SIZE));
+    $('lights-next').addEventListener('click', () => this.showPage(this.offset + PAGE_SIZE));
+    $('light-editor').addEventListener('submit', (e) => {
+      e.preventDefault();
+      this.applyEdit();
+    });
+    $('light-delete').addEventListener('click', () => this.deleteSelected());
+  }
+
+  numberField(id) {
+    const value = $(id).valueAsNumber;
+    if (!Number.isFinite(value)) throw new Error(`${$(id).labels[0]?.textContent || id} is not a number.`);
+    return value;
+  }
+
+  async generate() {
+    let body;
+    try {
+      body = {
+        count: Math.round(this.numberField('gen-count')),
+        seed: Math.round(this.numberField('gen-seed')),
+        replace: $('gen-replace').checked,
+        radius: [this.numberField('gen-radius-min'), this.numberField('gen-radius-max')],
+        intensity: [this.numberField('gen-intensity-min'), this.numberField('gen-intensity-max')],
+        falloff: this.numberField('gen-falloff'),
+      };
+    } catch (e) {
+      this.onProblem(e);
+      return;
+    }
+    this.onInfo(`Generating ${body.count} lights...`);
+    try {
+      const {total} = await this.api.post(this.api.sessionPath('/lights/generate'), body);
+      this.onInfo(null);
+      this.changed(total);
+    } catch (e) {
+      this.onProblem(e);
+    }
+  }
+
+  async deleteAll() {
+    try {
+      await this.api.delete(this.api.sessionPath('/lights'));
+      this.changed(0);
+    } catch (e) {
+      this.onProblem(e);
+    }
+  }
+
+  // After the set of lights changed: back to the first page, nothing selected.
+  changed(total) {
+    this.total = total;
+    this.pickable = null;
+    this.select(null);
+    this.showPage(0);
+  }
+
+  async showPage(offset) {
+    offset = Math.max(0, offset);
+    try {
+      const answer = await this.api.get(this.api.sessionPath('/lights'),
+                                        {query: {offset, limit: PAGE_SIZE}});
+      this.offset = answer.offset;
+      this.total = answer.total;
+      this.page = answer.lights;
+      this.renderList();
+    } catch (e) {
+      this.onProblem(e);
+    }
+  }
+
+  renderList() {
+    const last = Math.min(this.total, this.offset + this.page.length);
+    $('lights-summary').textContent = `${this.total} lights`;
+    $('lights-page').textContent = this.total ? `${this.offset + 1}\u2013${last} of ${this.total}` : 'none';
+    $('lights-prev').disabled = this.offset === 0;
+    $('lights-next').disabled = last >= this.total;
+    $('light-list').replaceChildren(...this.page.map((light) => {
+      const item = document.createElement('li');
+      item.dataset.id = light.id;
+      const swatch = document.createElement('span');
+      swatch.className = 'swatch';
+      swatch.style.background = linearToHex(light.color);
+      const text = document.createElement('span');
+      text.textContent = `#${light.id} ${fmt(light.position)} r=${+light.radius.toFixed(3)}`;
+      item.append(swatch, text);
+      item.classList.toggle('selected', light.id === this.selected?.id);
+      item.addEventListener('click', () => this.select(light));
+      return item;
+    }));
+  }
+
+  select(light) {
+    this.selected = light;
+    for (const item of $('light-list').children) {
+      item.classList.toggle('selected', Number(item.dataset.id) === light?.id);
+    }
+    $('light-editor').hidden = !light;
+    if (light) {
+      $('light-editor-title').textContent = `Light #${light.id}`;
+      [$('light-x').value, $('light-y').value, $('light-z').value] = light.position;
+      $('light-color').value = linearToHex(light.color);
+      $('light-radius').value = light.radius;
+      $('light-intensity').value = light.intensity;
+      $('light-falloff').value = light.falloff;
+    }
+    this.drawOverlay();
+  }
+
+  async applyEdit() {
+    const light = this.selected;
+    if (!light) return;
+    let patch;
+    try {
+      patch = {
+        position: ['light-x', 'light-y', 'light-z'].map((id) => this.numberField(id)),
+        color: hexToLinear($('light-color').value),
+        radius: this.numberField('light-radius'),
+        intensity: this.numberField('light-intensity'),
+        falloff: this.numberField('light-falloff'),
+      };
+    } catch (e) {
+      this.onProblem(e);
+      return;
+    }
+    try {
+      const updated = await this.api.patch(this.api.sessionPath(`/lights/${light.id}`), patch);
+      this.replace(updated);
+      this.select(updated);
+    } catch (e) {
+      this.onProblem(e);
+    }
+  }
+
+  replace(light) {
+    const i = this.page.findIndex((l) => l.id === light.id);
+    if (i >= 0) this.page[i] = light;
+    const j = this.pickable ? this.pickable.findIndex((l) => l.id === light.id) : -1;
+    if (j >= 0) this.pickable[j] = light;
+    this.renderList();
+  }
+
+  async deleteSelected() {
+    const light = this.selected;
+    if (!light) return;
+    try {
+      await this.api.delete(this.api.sessionPath(`/lights/${light.id}`));
+      this.changed(this.total - 1);
+    } catch (e) {
+      this.onProblem(e);
+    }
+  }
+
+  // A click in the view: the nearest projected light within PICK_RADIUS_PX, nearer to the eye
+  // when two are equally close.
+  async pick(x, y) {
+    const camera = this.getCamera();
+    if (!camera || this.total === 0) return;
+    try {
+      if (!this.pickable) {
+        const answer = await this.api.get(this.api.sessionPath('/lights'),
+                                          {query: {offset: 0, limit: PICK_LIMIT}});
+        this.pickable = answer.lights;
+      }
+    } catch (e) {
+      this.onProblem(e);
+      return;
+    }
+    const {width, height} = this.getViewSize();
+    let best = null;
+    for (const light of this.pickable) {
+      const p = project(camera, light.position, width, height);
+      if (!p) continue;
+      const distance = Math.hypot(p.x - x, p.y - y);
+      if (distance > PICK_RADIUS_PX) continue;
+      if (!best || distance < best.distance - 1 || (distance < best.distance + 1 && p.depth < best.depth)) {
+        best = {light, distance, depth: p.depth};
+      }
+    }
+    if (best) this.select(best.light);
+  }
+
+  // A ring around the selected light, re-projected whenever the camera or the view changes.
+  drawOverlay() {
+    const canvas = this.overlay;
+    const {width, height} = this.getViewSize();
+    const ratio = window.devicePixelRatio || 1;
+    if (canvas.width !== Math.round(width * ratio)) canvas.width = Math.round(width * ratio);
+    if (canvas.height !== Math.round(height * ratio)) canvas.height = Math.round(height * ratio);
+    const g = canvas.getContext('2d');
+    g.clearRect(0, 0, canvas.width, canvas.height);
+    const camera = this.getCamera();
+    if (!this.selected || !camera) return;
+    const p = project(camera, this.selected.position, width, height);
+    if (!p) return;
+    g.scale(ratio, ratio);
+    g.strokeStyle = '#5fa8ff';
+    g.lineWidth = 2;
+    g.beginPath();
+    g.arc(p.x, p.y, 10, 0, 2 * Math.PI);
+    g.stroke();
+    g.setTransform(1, 0, 0, 1, 0, 0);
+  }
+}

@@ -1,0 +1,238 @@
+// Wires the page together: the session (restored from localStorage or created), the live view,
+// camera input, panels, stats, messages, the help overlay and keyboard shortcuts.
+
+import {Api, SessionLostError} from './api.js';
+import {CameraControl, isTyping} from './camera.js';
+import {LightsPanel} from './lights.js';
+import {MaterialPanel, ModelPanel, SettingsPanel} from './panels.js';
+import {StatsPanel} from './stats.js';
+import {LiveView} from './view.js';
+
+const $ = (id) => document.getElementById(id);
+
+const api = new Api();
+let targets = ['final'];
+let messageIsInfo = false;
+
+// --- messages -----------------------------------------------------------------------------
+
+function showMessage(text, {info = false, newSession = false, apiKey = false} = {}) {
+  messageIsInfo = info;
+  $('message').hidden = false;
+  $('message').classList.toggle('info', info);
+  $('message-text').textContent = text;
+  $('new-session').hidden = !newSession;
+  $('api-key-label').hidden = !apiKey;
+}
+
+function hideMessage() {
+  $('message').hidden = true;
+}
+
+function showInfo(text) {
+  if (text) showMessage(text, {info: true});
+  else if (messageIsInfo) hideMessage();
+}
+
+function showProblem(error) {
+  if (error instanceof SessionLostError) {
+    sessionLost(error.message);
+    return;
+  }
+  showMessage(error.message || String(error));
+}
+
+function sessionLost(text) {
+  view.stop();
+  stats.stop();
+  showMessage(`${text}\nSettings, lights and the model of that session are gone with it.`,
+              {newSession: true});
+}
+
+// --- parts ----------------------------------------------------------------------------------
+
+const view = new LiveView(api, $('view'), $('stream'), $('view-status'));
+view.onProblem = showProblem;
+
+const camera = new CameraControl(api, $('view'), view);
+camera.onProblem = showProblem;
+
+const viewSize = () => ({width: $('view').clientWidth, height: $('view').clientHeight});
+const lights = new LightsPanel(api, {
+  onProblem: showProblem, onInfo: showInfo, getCamera: () => camera.camera,
+  getViewSize: viewSize, overlay: $('markers-overlay'),
+});
+camera.onChange = () => lights.drawOverlay();
+camera.onClick = (x, y) => lights.pick(x, y);
+new ResizeObserver(() => lights.drawOverlay()).observe($('view'));
+
+const materials = new MaterialPanel(api, {onProblem: showProblem});
+const settings = new SettingsPanel(api, {
+  onProblem: showProblem,
+  onChange: () => {},
+});
+const stats = new StatsPanel(api, $('stats-graph'), $('stats-table'), {onProblem: showProblem});
+
+const model = new ModelPanel(api, {
+  onProblem: showProblem,
+  onInfo: showInfo,
+  // A new model replaced meshes and materials and reset the camera; lights may have come too.
+  onLoaded: (state) => {
+    model.show(state);
+    camera.setModelBounds(state.model.bounds);
+    camera.pending = false;
+    camera.setFromServer(state.camera);
+    materials.refresh();
+    lights.changed(state.lights.count);
+  },
+});
+
+// --- the session ----------------------------------------------------------------------------
+
+function startSession(state) {
+  hideMessage();
+  $('session-label').textContent = api.session.id;
+  $('session-label').title = `session ${api.session.id}`;
+  model.show(state);
+  camera.setModelBounds(state.model.bounds);
+  camera.setFromServer(state.camera);
+  settings.show(state.settings);
+  materials.refresh();
+  lights.changed(state.lights.count);
+  model.refreshLibrary();
+  view.restart();
+  stats.start();
+}
+
+async function newSession() {
+  if ($('api-key').value) api.apiKey = $('api-key').value;
+  api.forgetSession();
+  try {
+    startSession(await api.createSession());
+  } catch (e) {
+    if (e.status === 401) {
+      showMessage(`${e.message}\nThis server needs an API key to create a session.`,
+                  {newSession: true, apiKey: true});
+    } else {
+      showMessage(e.message, {newSession: true});
+    }
+  }
+}
+
+async function boot() {
+  try {
+    const info = await api.get('/v1/info');
+    targets = info.targets || targets;
+    $('target').replaceChildren(...targets.map((t, i) => {
+      const option = document.createElement('option');
+      option.value = t;
+      option.textContent = i < 10 ? `${t} (${(i + 1) % 10})` : t;
+      return option;
+    }));
+    settings.setTechniques(info.techniques || []);
+    if (info.limits?.maxResolution) view.maxResolution = info.limits.maxResolution;
+  } catch (e) {
+    showMessage(`${e.message}\nReload the page once the server runs.`);
+    return;
+  }
+  if (!api.hasSession) {
+    await newSession();
+    return;
+  }
+  try {
+    startSession(await api.get(api.sessionPath()));
+  } catch (e) {
+    if (e instanceof SessionLostError) sessionLost(`The saved session ${api.session.id} is gone.`);
+    else showMessage(e.message, {newSession: true});
+  }
+}
+
+// --- actions --------------------------------------------------------------------------------
+
+async function screenshot() {
+  if (!api.hasSession) return;
+  const {width, height} = view.fullSize();
+  const target = view.target;
+  try {
+    const response = await api.request('GET', api.sessionPath('/frame'), {
+      raw: true, query: {target, format: 'png', width, height}});
+    const url = URL.createObjectURL(await response.blob());
+    const link = document.createElement('a');
+    link.href = url;
+    link.download = `myriad-${target}-${width}x${height}.png`;
+    document.body.append(link);
+    link.click();
+    link.remove();
+    setTimeout(() => URL.revokeObjectURL(url), 10000);
+  } catch (e) {
+    showProblem(e);
+  }
+}
+
+// The clipboard API needs a secure context (https or localhost); elsewhere the text is shown.
+async function copyText(text, what) {
+  try {
+    await navigator.clipboard.writeText(text);
+    showInfo(`Copied the camera as ${what}.`);
+    setTimeout(() => showInfo(null), 2000);
+  } catch {
+    showMessage(`Copy this (${what}):\n${text}`, {info: true});
+  }
+}
+
+function setTarget(target) {
+  $('target').value = target;
+  view.setTarget(target);
+}
+
+function setCameraMode(mode) {
+  $('camera-mode').value = mode;
+  camera.setMode(mode);
+  $('view-status').textContent = `${mode} camera`;
+}
+
+function toggleHelp(show = $('help').hidden) {
+  $('help').hidden = !show;
+  if (show) $('help-close').focus();
+}
+
+$('new-session').addEventListener('click', newSession);
+$('message-close').addEventListener('click', hideMessage);
+$('target').addEventListener('change', (e) => view.setTarget(e.target.value));
+$('camera-mode').addEventListener('change', (e) => setCameraMode(e.target.value));
+$('frame-model').addEventListener('click', () => camera.frameModel());
+$('screenshot').addEventListener('click', screenshot);
+$('copy-camera-json').addEventListener('click', () => camera.camera && copyText(camera.asJson(), 'JSON'));
+$('copy-camera-curl').addEventListener('click', () => camera.camera && copyText(camera.asCurl(), 'a curl command'));
+$('help-button').addEventListener('click', () => toggleHelp(true));
+$('help-close').addEventListener('click', () => toggleHelp(false));
+$('help').addEventListener('click', (e) => { if (e.target === $('help')) toggleHelp(false); });
+
+window.addEventListener('keydown', (e) => {
+  if (e.key === 'Escape' && !$('help').hidden) {
+    toggleHelp(false);
+    return;
+  }
+  if (isTyping(e) || e.ctrlKey || e.metaKey || e.altKey) return;
+  if (e.key === '?') {
+    toggleHelp();
+  } else if (!$('help').hidden || !api.hasSession) {
+    return;
+  } else if (e.code === 'KeyF') {
+    camera.frameModel();
+  } else if (e.code === 'KeyC') {
+    setCameraMode(camera.mode === 'orbit' ? 'fly' : 'orbit');
+  } else if (e.code === 'KeyM') {
+    settings.toggleMarkers();
+  } else if (e.code === 'KeyP') {
+    screenshot();
+  } else if (/^Digit[0-9]$/.test(e.code)) {
+    const index = (Number(e.code.slice(5)) + 9) % 10;  // 1 -> 0, ..., 0 -> 9
+    if (index < targets.length) setTarget(targets[index]);
+  } else {
+    return;
+  }
+  e.preventDefault();
+});
+
+boot();

@@ -1,0 +1,242 @@
+// The side panels for what the session holds: the model (upload, library, built-in), materials,
+// and the settings (sun, ambient, exposure, markers, technique, animation). Every control shows
+// the server's value and every change is a request; the answer is what the control shows next.
+
+import {hexToLinear, linearToHex, splitStrength} from './color.js';
+import {PatchSender} from './sender.js';
+
+const $ = (id) => document.getElementById(id);
+const round = (x, digits = 4) => Math.round(x * 10 ** digits) / 10 ** digits;
+
+function fillSelect(select, items, selected) {
+  select.replaceChildren(...items.map(({value, label}) => {
+    const option = document.createElement('option');
+    option.value = value;
+    option.textContent = label ?? value;
+    return option;
+  }));
+  if (selected !== undefined) select.value = selected;
+}
+
+// Model: the source, upload, the --models library, the built-in scene.
+export class ModelPanel {
+  constructor(api, {onLoaded, onProblem, onInfo}) {
+    this.api = api;
+    this.onLoaded = onLoaded;    // (SessionState) after a model replaced the scene
+    this.onProblem = onProblem;
+    this.onInfo = onInfo;        // (text) progress shown to the user
+    $('model-file').addEventListener('change', () => this.upload());
+    $('model-library-load').addEventListener('click', () => this.loadLibrary());
+    $('model-builtin').addEventListener('click', () => this.load({source: 'builtin:default'}));
+  }
+
+  show(state) {
+    const m = state.model;
+    $('model-summary').textContent =
+        `${m.source}: ${m.meshes} meshes, ${m.instances} instances, ${m.materials} materials`;
+  }
+
+  async refreshLibrary() {
+    try {
+      const {models} = await this.api.get('/v1/models');
+      const items = models.map((m) => ({value: m.name,
+                                         label: `${m.name} (${(m.bytes / 1024).toFixed(0)} KiB)`}));
+      fillSelect($('model-library'), items.length ? items
+                                                  : [{value: '', label: 'none (server has no --models)'}]);
+      $('model-library-load').disabled = items.length === 0;
+    } catch (e) {
+      this.onProblem(e);
+    }
+  }
+
+  lightsQuery() {
+    return $('model-lights').checked ? {lights: 'model'} : undefined;
+  }
+
+  async load(json) {
+    this.onInfo(`Loading ${json.source}...`);
+    try {
+      const state = await this.api.request('PUT', this.api.sessionPath('/model'),
+                                           {json, query: this.lightsQuery()});
+      this.onInfo(null);
+      this.onLoaded(state);
+    } catch (e) {
+      this.onProblem(e);
+    }
+  }
+
+  loadLibrary() {
+    const name = $('model-library').value;
+    if (name) this.load({source: `library:${name}`});
+  }
+
+  async upload() {
+    const input = $('model-file');
+    const file = input.files[0];
+    if (!file) return;
+    this.onInfo(`Uploading ${file.name} (${(file.size / 1024).toFixed(0)} KiB)...`);
+    try {
+      const state = await this.api.request('PUT', this.api.sessionPath('/model'), {
+        body: file, contentType: 'application/octet-stream',
+        query: {filename: file.name, ...(this.lightsQuery() || {})},
+      });
+      this.onInfo(null);
+      this.onLoaded(state);
+    } catch (e) {
+      this.onProblem(e);
+    } finally {
+      input.value = '';  // choosing the same file again loads it again
+    }
+  }
+}
+
+// Materials: pick one, edit base colour, metallic, roughness.
+export class MaterialPanel {
+  constructor(api, {onProblem}) {
+    this.api = api;
+    this.materials = [];
+    this.sender = new PatchSender((patch) => this.api.patch(
+        this.api.sessionPath(`/materials/${this.current().id}`), patch));
+    this.sender.onProblem = onProblem;
+    this.sender.onAnswer = (material) => this.replace(material);
+    this.onProblem = onProblem;
+
+    $('material').addEventListener('change', () => this.showCurrent());
+    $('material-color').addEventListener('input', (e) =>
+        this.edit({baseColor: hexToLinear(e.target.value)}));
+    $('material-metallic').addEventListener('input', (e) =>
+        this.edit({metallic: Number(e.target.value)}));
+    $('material-roughness').addEventListener('input', (e) =>
+        this.edit({roughness: Number(e.target.value)}));
+  }
+
+  current() {
+    return this.materials.find((m) => String(m.id) === $('material').value);
+  }
+
+  async refresh() {
+    try {
+      const {materials} = await this.api.get(this.api.sessionPath('/materials'));
+      const keep = $('material').value;
+      this.materials = materials;
+      fillSelect($('material'), materials.map((m) => ({value: String(m.id),
+                                                       label: `${m.id}: ${m.name || '(unnamed)'}`})));
+      if (materials.some((m) => String(m.id) === keep)) $('material').value = keep;
+      this.showCurrent();
+    } catch (e) {
+      this.onProblem(e);
+    }
+  }
+
+  showCurrent() {
+    const m = this.current();
+    for (const id of ['material-color', 'material-metallic', 'material-roughness']) {
+      $(id).disabled = !m;
+    }
+    if (!m) return;
+    $('material-color').value = linearToHex(m.baseColor);
+    $('material-metallic').value = m.metallic;
+    $('material-roughness').value = m.roughness;
+  }
+
+  edit(patch) {
+    if (this.current()) this.sender.queue(patch);
+  }
+
+  replace(material) {
+    const i = this.materials.findIndex((m) => m.id === material.id);
+    if (i >= 0) this.materials[i] = material;
+    if (this.current()?.id === material.id && !this.sender.busy) this.showCurrent();
+  }
+}
+
+// Settings: sun (as azimuth and elevation of the direction towards the sun), its colour and
+// intensity, ambient, exposure, markers, technique, animation.
+export class SettingsPanel {
+  constructor(api, {onProblem, onChange}) {
+    this.api = api;
+    this.settings = null;
+    this.sunColorStrength = 1;
+    this.onChange = onChange;  // (Settings) after the server answered
+    this.sender = new PatchSender((patch) => this.api.patch(this.api.sessionPath('/settings'), patch));
+    this.sender.onProblem = onProblem;
+    this.sender.onAnswer = (settings) => this.show(settings);
+    this.onProblem = onProblem;
+
+    const sunDirection = () => {
+      const az = (Number($('sun-azimuth').value) * Math.PI) / 180;
+      const el = (Number($('sun-elevation').value) * Math.PI) / 180;
+      // The API's direction is the way the light travels: from the sun, so the negated vector.
+      return [-Math.cos(el) * Math.sin(az), -Math.sin(el), -Math.cos(el) * Math.cos(az)].map(
+          (c) => round(c, 5));
+    };
+    $('sun-azimuth').addEventListener('input', () => this.edit({sun: {direction: sunDirection()}}));
+    $('sun-elevation').addEventListener('input', () => this.edit({sun: {direction: sunDirection()}}));
+    // The picker shows the sun colour's hue; its strength above 1 (colours go to 64) is kept.
+    $('sun-color').addEventListener('input', (e) => this.edit({sun: {color:
+        hexToLinear(e.target.value).map((c) => round(c * this.sunColorStrength))}}));
+    $('sun-intensity').addEventListener('input', (e) =>
+        this.edit({sun: {intensity: Number(e.target.value)}}));
+    const ambient = () => {
+      const strength = Number($('ambient-strength').value);
+      return hexToLinear($('ambient-color').value).map((c) => round(c * strength));
+    };
+    $('ambient-color').addEventListener('input', () => this.edit({ambient: ambient()}));
+    $('ambient-strength').addEventListener('input', () => this.edit({ambient: ambient()}));
+    $('exposure').addEventListener('input', (e) =>
+        this.edit({exposure: round(2 ** Number(e.target.value))}));
+    $('markers').addEventListener('change', (e) => this.edit({markers: e.target.checked}));
+    $('animate').addEventListener('change', (e) => this.edit({animate: e.target.checked}));
+    $('technique').addEventListener('change', (e) => this.edit({technique: e.target.value}));
+  }
+
+  setTechniques(techniques) {
+    fillSelect($('technique'), techniques.map((t) => ({value: t})));
+  }
+
+  async refresh() {
+    try {
+      this.show(await this.api.get(this.api.sessionPath('/settings')));
+    } catch (e) {
+      this.onProblem(e);
+    }
+  }
+
+  edit(patch) {
+    this.sender.queue(patch);
+  }
+
+  toggleMarkers() {
+    if (this.settings) this.edit({markers: !this.settings.markers});
+  }
+
+  // Shows the server's values; a control being dragged keeps its own until its patch landed.
+  show(s) {
+    this.settings = s;
+    this.onChange(s);
+    if (this.sender.busy) return;
+    const toSun = s.sun.direction.map((c) => -c);
+    $('sun-elevation').value = (Math.asin(Math.max(-1, Math.min(1, toSun[1]))) * 180) / Math.PI;
+    $('sun-azimuth').value = (Math.atan2(toSun[0], toSun[2]) * 180) / Math.PI;
+    const sun = splitStrength(s.sun.color);
+    $('sun-color').value = linearToHex(sun.hue);
+    this.sunColorStrength = sun.strength || 1;
+    $('sun-intensity').max = Math.max(20, s.sun.intensity);
+    $('sun-intensity').value = s.sun.intensity;
+    const ambient = splitStrength(s.ambient);
+    $('ambient-color').value = linearToHex(ambient.hue);
+    $('ambient-strength').max = Math.max(1, ambient.strength);
+    $('ambient-strength').value = ambient.strength;
+    $('exposure').value = Math.log2(s.exposure);
+    $('markers').checked = s.markers;
+    $('animate').checked = s.animate;
+    $('technique').value = s.technique;
+    $('settings-summary').textContent =
+        `sun ${fmt(s.sun.direction)} \u00d7${round(s.sun.intensity, 3)}, ` +
+        `ambient ${fmt(s.ambient)}, exposure ${round(s.exposure, 3)}`;
+  }
+}
+
+export function fmt(v) {
+  return `[${v.map((c) => round(c, 3)).join(', ')}]`;
+}

@@ -1,0 +1,158 @@
+// Stats: GET stats about twice a second; per-pass GPU times as numbers and as a rolling stacked
+// graph, frame time, readback and encode, light counts, the light lists' overflow counters.
+
+const POLL_MS = 500;
+const HISTORY = 120;  // samples in the graph: a minute at two a second
+const PALETTE = ['#5fa8ff', '#ffb454', '#7fd962', '#ff7a6b', '#c792ea', '#4dd0e1', '#f07178',
+                 '#ffd866', '#a6accd', '#89ddff'];
+
+export class StatsPanel {
+  constructor(api, canvas, table, {onProblem}) {
+    this.api = api;
+    this.canvas = canvas;
+    this.table = table;
+    this.onProblem = onProblem;
+    this.history = [];          // [{passes: Map(name -> ms)}]
+    this.colors = new Map();    // pass name -> colour, stable for the page's life
+    this.lastFrames = -1;
+    this.timer = 0;
+    this.running = false;
+    this.latest = null;
+  }
+
+  start() {
+    if (this.running) return;
+    this.running = true;
+    this.poll();
+  }
+
+  stop() {
+    this.running = false;
+    clearTimeout(this.timer);
+  }
+
+  async poll() {
+    if (!this.running) return;
+    if (!document.hidden) {
+      try {
+        this.show(await this.api.get(this.api.sessionPath('/stats')));
+      } catch (e) {
+        this.onProblem(e);
+        if (e.name === 'SessionLostError') return this.stop();
+      }
+    }
+    if (this.running) this.timer = setTimeout(() => this.poll(), POLL_MS);
+  }
+
+  colorOf(name) {
+    if (!this.colors.has(name)) this.colors.set(name, PALETTE[this.colors.size % PALETTE.length]);
+    return this.colors.get(name);
+  }
+
+  show(stats) {
+    this.latest = stats;
+    // A sample per new frame only: an idle stream does not flatten the graph into the past.
+    if (stats.frame && stats.frames !== this.lastFrames) {
+      this.lastFrames = stats.frames;
+      this.history.push(new Map(stats.frame.passes.map((p) => [p.name, p.ms])));
+      if (this.history.length > HISTORY) this.history.shift();
+    }
+    this.renderTable(stats);
+    this.renderGraph();
+  }
+
+  renderTable(stats) {
+    const rows = [];
+    const row = (label, value, color, warn = false) => rows.push({label, value, color, warn});
+    const ms = (x) => (typeof x === 'number' ? `${x.toFixed(3)} ms` : '\u2013');
+    const f = stats.frame;
+    if (f) {
+      for (const pass of f.passes) row(pass.name, ms(pass.ms), this.colorOf(pass.name));
+      row('GPU total', ms(f.totalGpuMs));
+      row('readback', ms(f.readbackMs));
+      row('encode', ms(f.encodeMs));
+      row('frame', `${f.width}\u00d7${f.height} ${f.technique} ${f.target}`);
+    } else {
+      row('frame', 'none rendered yet');
+    }
+    row('frames', String(stats.frames));
+    if (stats.lights) {
+      row('lights', `${stats.lights.count}${stats.lights.animated ? ' (animated)' : ''}`);
+    }
+    // The culling report's members depend on the technique: show every number it has, and
+    // any overflow counter above zero as a warning (lights were dropped from a list).
+    for (const [key, value] of flatten(stats.culling)) {
+      row(key, formatNumber(value), undefined, /overflow/i.test(key) && value > 0);
+    }
+    for (const [key, value] of flatten(stats.gpuMemory)) {
+      row(key, typeof value === 'number' ? `${(value / 1048576).toFixed(2)} MiB` : String(value));
+    }
+
+    const body = this.table.tBodies[0];
+    body.replaceChildren(...rows.map(({label, value, color, warn}) => {
+      const tr = document.createElement('tr');
+      const name = document.createElement('td');
+      if (color) {
+        const key = document.createElement('span');
+        key.className = 'key';
+        key.style.background = color;
+        name.append(key);
+      }
+      name.append(label);
+      const cell = document.createElement('td');
+      cell.textContent = value;
+      if (warn) tr.style.color = 'var(--error)';
+      tr.dataset.stat = label;
+      tr.append(name, cell);
+      return tr;
+    }));
+  }
+
+  // Stacked areas, newest on the right, scaled to the window's largest frame.
+  renderGraph() {
+    const c = this.canvas;
+    const ratio = window.devicePixelRatio || 1;
+    const width = Math.round(c.clientWidth * ratio) || c.width;
+    const height = Math.round(c.clientHeight * ratio) || c.height;
+    if (c.width !== width) c.width = width;
+    if (c.height !== height) c.height = height;
+    const g = c.getContext('2d');
+    g.clearRect(0, 0, width, height);
+    if (!this.history.length) return;
+    const totals = this.history.map((m) => [...m.values()].reduce((a, b) => a + b, 0));
+    const top = Math.max(...totals, 1e-3) * 1.1;
+    const names = [...new Set(this.history.flatMap((m) => [...m.keys()]))];
+    const step = width / (HISTORY - 1);
+    const x0 = width - (this.history.length - 1) * step;
+    const y = (v) => height - (v / top) * height;
+    const base = new Array(this.history.length).fill(0);
+    for (const name of names) {
+      const upper = this.history.map((m, i) => base[i] + (m.get(name) || 0));
+      g.beginPath();
+      upper.forEach((v, i) => g.lineTo(x0 + i * step, y(v)));
+      for (let i = base.length - 1; i >= 0; --i) g.lineTo(x0 + i * step, y(base[i]));
+      g.closePath();
+      g.fillStyle = this.colorOf(name);
+      g.fill();
+      upper.forEach((v, i) => { base[i] = v; });
+    }
+    g.fillStyle = '#d8dde5';
+    g.font = `${11 * ratio}px ui-monospace, monospace`;
+    g.fillText(`${(top / 1.1).toFixed(2)} ms`, 4 * ratio, 12 * ratio);
+  }
+}
+
+function formatNumber(v) {
+  if (typeof v !== 'number') return String(v);
+  return Number.isInteger(v) ? v.toLocaleString('en') : v.toFixed(3);
+}
+
+// {a: 1, b: {c: 2}} -> [["a", 1], ["b.c", 2]]; arrays and null are shown as text.
+function flatten(object, prefix = '') {
+  if (!object || typeof object !== 'object') return [];
+  return Object.entries(object).flatMap(([key, value]) => {
+    const name = prefix ? `${prefix}.${key}` : key;
+    if (value && typeof value === 'object' && !Array.isArray(value)) return flatten(value, name);
+    return [[name, Array.isArray(value) ? JSON.stringify(value) : value]];
+  });
+}
