@@ -12,6 +12,7 @@
 #include <pthread.h>
 
 #include "gpu/context.h"
+#include "loader/loader.h"
 #include "scene/model_loader.h"
 #include "service/http_server.h"
 #include "service/options.h"
@@ -96,6 +97,8 @@ int run(const service::Options& options, const sigset_t& shutdownSignals) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  // The model loader child is this executable re-executed; it exits inside this call.
+  if (loader::runChildIfRequested(argc, argv)) return 0;
   std::vector<std::string_view> args(argv + 1, argv + argc);
   service::Options options;
   try {

@@ -1,11 +1,14 @@
 #include "scene/model_loader.h"
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <string>
 #include <system_error>
 #include <unordered_map>
+#include <vector>
 
+#include <assimp/DefaultIOSystem.h>
 #include <assimp/material.h>
 #include <assimp/postprocess.h>
 #include <assimp/scene.h>
@@ -44,12 +47,63 @@ constexpr unsigned kPostProcess = aiProcess_Triangulate | aiProcess_SortByPType 
                                   aiProcess_GenSmoothNormals | aiProcess_JoinIdenticalVertices |
                                   aiProcess_FlipUVs;
 
-std::string quoted(const std::filesystem::path& path) {
-  return "'" + path.filename().string() + "'";
+using Kind = ModelLoadError::Kind;
+
+[[noreturn]] void fail(const std::string& name, const std::string& reason,
+                       Kind kind = Kind::parse) {
+  throw ModelLoadError("Cannot load model '" + name + "': " + reason, kind);
 }
 
-[[noreturn]] void fail(const std::filesystem::path& path, const std::string& reason) {
-  throw ModelLoadError("Cannot load model " + quoted(path) + ": " + reason);
+// The file system as Assimp sees it while importing: only files at or below `root` exist, and with
+// an empty root (an upload, read from memory) none do. Without this, a glTF buffer URI such as
+// "../../etc/shadow" or an absolute path would be read and turned into geometry. Records what was
+// refused so that the error can say so.
+class ConfinedIOSystem : public Assimp::DefaultIOSystem {
+ public:
+  explicit ConfinedIOSystem(std::filesystem::path root) : root_(std::move(root)) {}
+
+  bool Exists(const char* file) const override {
+    return allowed(file) && Assimp::DefaultIOSystem::Exists(file);
+  }
+
+  Assimp::IOStream* Open(const char* file, const char* mode) override {
+    if (!allowed(file) || std::string_view(mode).find_first_of("wa+") != std::string_view::npos) {
+      if (refused_.size() < 4) refused_.emplace_back(file);
+      return nullptr;
+    }
+    return Assimp::DefaultIOSystem::Open(file, mode);
+  }
+
+  const std::vector<std::string>& refused() const { return refused_; }
+
+ private:
+  bool allowed(const char* file) const {
+    if (root_.empty() || file == nullptr) return false;
+    std::error_code error;
+    const std::filesystem::path resolved = std::filesystem::weakly_canonical(file, error);
+    if (error) return false;
+    const std::filesystem::path relative = resolved.lexically_relative(root_);
+    return !relative.empty() && *relative.begin() != ".." && relative.is_relative();
+  }
+
+  std::filesystem::path root_;
+  mutable std::vector<std::string> refused_;
+};
+
+void configure(Assimp::Importer& importer) {
+  importer.SetPropertyInteger(AI_CONFIG_PP_SBP_REMOVE,
+                              aiPrimitiveType_POINT | aiPrimitiveType_LINE);
+  importer.SetPropertyBool(AI_CONFIG_PP_FD_REMOVE, true);
+  // Without this, a file holding only a skeleton (BVH, some FBX) "loads" as a bone-shaped mesh.
+  importer.SetPropertyBool(AI_CONFIG_IMPORT_NO_SKELETON_MESHES, true);
+}
+
+std::string lowerExtension(std::string_view extension) {
+  if (!extension.empty() && extension.front() == '.') extension.remove_prefix(1);
+  std::string lower(extension);
+  std::transform(lower.begin(), lower.end(), lower.begin(),
+                 [](unsigned char c) { return char(std::tolower(c)); });
+  return lower;
 }
 
 bool isFinite(const aiVector3D& v) {
@@ -184,8 +238,8 @@ Mesh convertMesh(const aiMesh& source, size_t index) {
 // carries a light into a PointLight.
 class Flattener {
  public:
-  Flattener(const aiScene& source, const std::filesystem::path& path, Scene& scene)
-      : source_(source), path_(path), scene_(scene), meshIndex_(source.mNumMeshes, kUnconverted) {
+  Flattener(const aiScene& source, const std::string& name, Scene& scene)
+      : source_(source), name_(name), scene_(scene), meshIndex_(source.mNumMeshes, kUnconverted) {
     for (unsigned i = 0; source.mLights != nullptr && i < source.mNumLights; ++i) {
       const aiLight* light = source.mLights[i];
       if (light != nullptr && light->mName.length > 0) {
@@ -196,11 +250,11 @@ class Flattener {
 
   void visit(const aiNode& node, const glm::mat4& parent, int depth) {
     if (depth > kMaxNodeDepth) {
-      fail(path_, "its node hierarchy is deeper than " + std::to_string(kMaxNodeDepth) +
+      fail(name_, "its node hierarchy is deeper than " + std::to_string(kMaxNodeDepth) +
                       " levels (a cycle?)");
     }
     if (++visits_ > kMaxNodeVisits) {
-      fail(path_, "it has more than " + std::to_string(kMaxNodeVisits) + " nodes");
+      fail(name_, "it has more than " + std::to_string(kMaxNodeVisits) + " nodes");
     }
     const glm::mat4 transform = parent * toGlm(node.mTransformation);
     // A non-finite transform (a NaN rotation, an overflowing scale) would put NaNs into the bounds
@@ -217,7 +271,7 @@ class Flattener {
         const uint32_t mesh = meshFor(sourceMesh);
         if (mesh == kNoTriangles) continue;
         if (scene_.instances.size() >= kMaxInstances) {
-          fail(path_, "it places more than " + std::to_string(kMaxInstances) + " mesh instances");
+          fail(name_, "it places more than " + std::to_string(kMaxInstances) + " mesh instances");
         }
         scene_.instances.push_back(
             {mesh, materialFor(source_.mMeshes[sourceMesh]->mMaterialIndex), transform});
@@ -304,7 +358,7 @@ class Flattener {
   }
 
   const aiScene& source_;
-  const std::filesystem::path& path_;
+  const std::string& name_;
   Scene& scene_;
   std::vector<uint32_t> meshIndex_;
   std::unordered_multimap<std::string, const aiLight*> lightsByNode_;
@@ -343,24 +397,8 @@ void fitLightFalloff(Scene& scene, const std::vector<bool>& radiusGiven, float s
   }
 }
 
-}  // namespace
-
-Scene loadModel(const std::filesystem::path& path) {
-  std::error_code error;
-  if (!std::filesystem::exists(path, error)) fail(path, "the file does not exist");
-  if (!std::filesystem::is_regular_file(path, error)) fail(path, "it is not a regular file");
-
-  Assimp::Importer importer;
-  importer.SetPropertyInteger(AI_CONFIG_PP_SBP_REMOVE,
-                              aiPrimitiveType_POINT | aiPrimitiveType_LINE);
-  importer.SetPropertyBool(AI_CONFIG_PP_FD_REMOVE, true);
-  // Without this, a file holding only a skeleton (BVH, some FBX) "loads" as a bone-shaped mesh.
-  importer.SetPropertyBool(AI_CONFIG_IMPORT_NO_SKELETON_MESHES, true);
-
-  // Two phases so that the raw import can be inspected before post-processing deletes the evidence:
-  // validation first (indices in range, counts consistent), then the steps above.
-  const aiScene* raw = importer.ReadFile(path.string(), aiProcess_ValidateDataStructure);
-  if (raw == nullptr) fail(path, importer.GetErrorString());
+// Turns what Assimp read (`raw`: validated, not yet post-processed) into a Scene.
+Scene convertImport(Assimp::Importer& importer, const aiScene* raw, const std::string& name) {
   bool anyTriangles = false;
   bool anyNonFinite = false;
   for (unsigned m = 0; raw->mMeshes != nullptr && m < raw->mNumMeshes; ++m) {
@@ -378,9 +416,9 @@ Scene loadModel(const std::filesystem::path& path) {
   if (source == nullptr) {
     // Assimp's reason here is "No meshes remaining" whether it dropped points, lines, degenerate
     // triangles or non-finite meshes; what was seen before post-processing says which.
-    if (anyNonFinite) fail(path, nonFinite);
-    if (!anyTriangles) fail(path, noTriangles + " (only points or lines)");
-    fail(path, noTriangles + " (" + importer.GetErrorString() + ")");
+    if (anyNonFinite) fail(name, nonFinite, Kind::empty);
+    if (!anyTriangles) fail(name, noTriangles + " (only points or lines)", Kind::empty);
+    fail(name, noTriangles + " (" + importer.GetErrorString() + ")", Kind::empty);
   }
 
   Scene scene;
@@ -390,21 +428,96 @@ Scene loadModel(const std::filesystem::path& path) {
                                   ? convertMaterial(*source->mMaterials[i], i)
                                   : Material{"material " + std::to_string(i)});
   }
-  Flattener flattener(*source, path, scene);
+  Flattener flattener(*source, name, scene);
   if (source->mRootNode != nullptr) flattener.visit(*source->mRootNode, glm::mat4(1.0f), 0);
 
   if (scene.instances.empty()) {
-    fail(path, anyNonFinite ? nonFinite : noTriangles);
+    fail(name, anyNonFinite ? nonFinite : noTriangles, Kind::empty);
   }
   const Bounds bounds = scene.bounds();
   const glm::vec3 size = bounds.size();
   if (!std::isfinite(size.x + size.y + size.z) || !std::isfinite(glm::length(size))) {
-    fail(path, "its coordinates are too large to render");
+    fail(name, "its coordinates are too large to render");
   }
   dropUnusedMaterials(scene);
   fitLightFalloff(scene, flattener.radiusFromFile(), glm::length(size));
   scene.camera = frameBounds(bounds);
   return scene;
+}
+
+}  // namespace
+
+Scene loadModel(const std::filesystem::path& path) {
+  const std::string name = path.filename().string();
+  std::error_code error;
+  if (!std::filesystem::exists(path, error)) fail(name, "the file does not exist");
+  if (!std::filesystem::is_regular_file(path, error)) fail(name, "it is not a regular file");
+  const std::filesystem::path absolute = std::filesystem::weakly_canonical(path, error);
+  if (error) fail(name, "its path cannot be resolved (" + error.message() + ")");
+
+  Assimp::Importer importer;
+  configure(importer);
+  importer.SetIOHandler(new ConfinedIOSystem(absolute.parent_path()));  // the importer owns it
+  // Two phases so that the raw import can be inspected before post-processing deletes the evidence:
+  // validation first (indices in range, counts consistent), then the steps above.
+  const aiScene* raw = importer.ReadFile(absolute.string(), aiProcess_ValidateDataStructure);
+  if (raw == nullptr) fail(name, importer.GetErrorString());
+  return convertImport(importer, raw, name);
+}
+
+Scene loadModelFromMemory(std::string_view bytes, std::string_view filename) {
+  const std::string name = std::filesystem::path(filename).filename().string();
+  const std::string hint = lowerExtension(std::filesystem::path(filename).extension().string());
+  if (hint.empty()) {
+    fail(name, "the file name has no extension to tell its format", Kind::unsupported);
+  }
+  if (!isSupportedModelExtension(hint)) {
+    fail(name, "'." + hint + "' is not a model format this server reads", Kind::unsupported);
+  }
+  if (bytes.empty()) fail(name, "the file is empty", Kind::empty);
+
+  Assimp::Importer importer;
+  configure(importer);
+  // Assimp's memory reader passes every name but the buffer's own to this handler; with no root
+  // it refuses them all, so an upload reads nothing but its own bytes.
+  auto* io = new ConfinedIOSystem({});
+  importer.SetIOHandler(io);  // the importer owns it
+  const aiScene* raw = importer.ReadFileFromMemory(bytes.data(), bytes.size(),
+                                                   aiProcess_ValidateDataStructure, hint.c_str());
+  if (raw == nullptr) {
+    if (!io->refused().empty()) {
+      fail(name,
+           "it refers to the separate file '" +
+               std::filesystem::path(io->refused().front()).filename().string() +
+               "', which an upload cannot carry (send a .glb or a .gltf with embedded data, or "
+               "put the files in the model library)",
+           Kind::unsupported);
+    }
+    fail(name, importer.GetErrorString());
+  }
+  return convertImport(importer, raw, name);
+}
+
+bool isSupportedModelExtension(std::string_view extension) {
+  // Asked once per file of a library listing, so the list is built once (thread-safe static).
+  static const std::vector<std::string> supported = [] {
+    Assimp::Importer importer;
+    std::string list;  // "*.3ds;*.obj;..."
+    importer.GetExtensionList(list);
+    std::vector<std::string> extensions;
+    size_t start = 0;
+    while (start < list.size()) {
+      size_t end = list.find(';', start);
+      if (end == std::string::npos) end = list.size();
+      std::string_view item(list.data() + start, end - start);
+      if (item.substr(0, 2) == "*.") extensions.push_back(lowerExtension(item.substr(2)));
+      start = end + 1;
+    }
+    std::sort(extensions.begin(), extensions.end());
+    return extensions;
+  }();
+  const std::string lower = lowerExtension(extension);
+  return !lower.empty() && std::binary_search(supported.begin(), supported.end(), lower);
 }
 
 }  // namespace myriad::scene

@@ -1,0 +1,171 @@
+// The loader child: this executable re-executed with --myriad-loader-child. It narrows what it may
+// do (limits below), reads one request from stdin, parses it with the scene loader, writes one
+// reply to stdout and exits. Everything that can go wrong with a hostile file happens here.
+#include <linux/close_range.h>
+#include <sys/resource.h>
+#include <sys/syscall.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <csignal>
+#include <cstring>
+#include <new>
+#include <string>
+
+#include "loader/child_protocol.h"
+#include "loader/loader.h"
+#include "loader/scene_wire.h"
+#include "scene/model_loader.h"
+
+namespace myriad::loader {
+
+namespace {
+
+using namespace child;
+
+// Files the child may hold open at once besides stdin/stdout/stderr: a glTF and its buffers are
+// read one after another, so a handful is plenty, and a file that makes Assimp leak descriptors
+// fails instead of exhausting anything.
+constexpr rlim_t kMaxOpenFiles = 16;
+
+bool readAll(int fd, void* buffer, size_t size) {
+  auto* at = static_cast<char*>(buffer);
+  while (size > 0) {
+    const ssize_t n = ::read(fd, at, size);
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) return false;
+    at += n;
+    size -= size_t(n);
+  }
+  return true;
+}
+
+bool writeAll(int fd, const void* buffer, size_t size) {
+  auto* at = static_cast<const char*>(buffer);
+  while (size > 0) {
+    const ssize_t n = ::write(fd, at, size);
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) return false;
+    at += n;
+    size -= size_t(n);
+  }
+  return true;
+}
+
+void setLimit(int resource, rlim_t soft, rlim_t hard) {
+  const rlimit limit{soft, hard};
+  ::setrlimit(resource, &limit);  // may only lower limits; failing leaves the stricter one
+}
+
+// Descriptors the server opened without O_CLOEXEC (a library's socket, say) would otherwise live
+// on in the child for as long as it runs.
+void closeInheritedDescriptors() {
+  if (::syscall(SYS_close_range, 3u, ~0u, 0u) == 0) return;
+  for (int fd = 3; fd < 1024; ++fd) ::close(fd);
+}
+
+// Called by operator new when an allocation fails, which under RLIMIT_AS means the model wants
+// more memory than it is allowed. Exiting here, before Assimp can catch std::bad_alloc and report
+// it as a parse error, lets the parent name the reason exactly.
+void outOfMemory() { ::_exit(kExitOutOfMemory); }
+
+[[noreturn]] void commit(InjectedFault fault) {
+  switch (fault) {
+    case InjectedFault::crash:
+      ::raise(SIGSEGV);
+      break;
+    case InjectedFault::hang:
+      for (;;) ::pause();
+    case InjectedFault::spin: {
+      volatile uint64_t counter = 0;
+      for (;;) counter = counter + 1;
+    }
+    case InjectedFault::allocate: {
+      static char* volatile newest = nullptr;  // keeps the allocations observable
+      for (;;) {
+        char* block = new char[16 << 20];
+        std::memset(block, 1, 16 << 20);  // touched, so it is really used
+        *reinterpret_cast<char**>(block) = newest;
+        newest = block;
+      }
+    }
+    case InjectedFault::none:
+      break;
+  }
+  ::_exit(kExitBadRequest);
+}
+
+int reply(uint8_t status, const std::string& body) {
+  std::string out(kReplyMagic, 4);
+  out += char(status);
+  out += body;
+  return writeAll(STDOUT_FILENO, out.data(), out.size()) ? 0 : kExitWriteFailed;
+}
+
+int rejected(scene::ModelLoadError::Kind kind, std::string sentence) {
+  if (sentence.size() > kMaxSentenceBytes) sentence.resize(kMaxSentenceBytes);
+  std::string body(1, char(kind));
+  const uint32_t length = uint32_t(sentence.size());
+  body.append(reinterpret_cast<const char*>(&length), 4);
+  body += sentence;
+  return reply(kReplyRejected, body);
+}
+
+int serve() {
+  closeInheritedDescriptors();
+  setLimit(RLIMIT_CORE, 0, 0);   // a crash must not write a core of a 2 GiB address space
+  setLimit(RLIMIT_FSIZE, 0, 0);  // it reads files, never writes one
+  setLimit(RLIMIT_NOFILE, kMaxOpenFiles, kMaxOpenFiles);
+  setLimit(RLIMIT_NPROC, 0, 0);  // and starts no processes (counts the user's, so only fork fails)
+
+  RequestHeader header;
+  if (!readAll(STDIN_FILENO, &header, sizeof header) ||
+      std::memcmp(header.magic, kRequestMagic, 4) != 0 || header.version != kProtocolVersion ||
+      header.nameBytes > kMaxNameBytes) {
+    return kExitBadRequest;
+  }
+  const rlim_t cpu = header.cpuSeconds;
+  // SIGXCPU at the soft limit (the parent reports "timeout"), SIGKILL a second later if ignored.
+  setLimit(RLIMIT_CPU, cpu, cpu + 1);
+#if !defined(__SANITIZE_ADDRESS__)
+  // AddressSanitizer reserves terabytes of address space for its shadow; there the memory limit
+  // is left to the wall clock.
+  setLimit(RLIMIT_AS, header.memoryBytes, header.memoryBytes);
+#endif
+  std::set_new_handler(outOfMemory);
+
+  std::string name(header.nameBytes, '\0');
+  uint64_t dataBytes = 0;
+  if (!readAll(STDIN_FILENO, name.data(), name.size()) ||
+      !readAll(STDIN_FILENO, &dataBytes, sizeof dataBytes)) {
+    return kExitBadRequest;
+  }
+  const auto fault = InjectedFault(header.fault);
+  if (fault != InjectedFault::none) commit(fault);
+
+  try {
+    std::string data(dataBytes, '\0');
+    if (!readAll(STDIN_FILENO, data.data(), data.size())) return kExitBadRequest;
+    const scene::Scene scene = header.mode == Mode::file
+                                   ? scene::loadModel(name)
+                                   : scene::loadModelFromMemory(data, name);
+    return reply(kReplyScene, encodeScene(scene));
+  } catch (const scene::ModelLoadError& e) {
+    return rejected(e.kind(), e.what());
+  } catch (const std::bad_alloc&) {
+    return kExitOutOfMemory;
+  } catch (const std::exception& e) {
+    return rejected(scene::ModelLoadError::Kind::parse,
+                    "Cannot load model '" + std::string(name) + "': " + e.what());
+  }
+}
+
+}  // namespace
+
+bool runChildIfRequested(int argc, char** argv) {
+  if (argc < 2 || argv[1] != kChildFlag) return false;
+  // _exit: no static destructors or atexit handlers of a process that may be in a bad state.
+  ::_exit(serve());
+}
+
+}  // namespace myriad::loader

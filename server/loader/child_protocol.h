@@ -1,0 +1,46 @@
+// What the parent and the loader child say to each other over the child's stdin and stdout. Both
+// ends are this executable, so the layout is shared by including this file; the parent still
+// checks every byte it reads back (decodeScene).
+//
+// Request (stdin):  "MYLQ" u32 version u8 mode u8 fault u16 0 u32 cpuSeconds u64 memoryBytes
+//                   u32 nameBytes, name (a file name for messages and the format hint, or the
+//                   path to open), u64 dataBytes, data (the upload; none for a file)
+// Reply (stdout):   "MYLR" u8 status, then for kReplyScene the scene (scene_wire.h), for
+//                   kReplyRejected u8 ModelLoadError::Kind, u32 sentenceBytes, sentence.
+#pragma once
+
+#include <cstdint>
+
+namespace myriad::loader::child {
+
+inline constexpr char kRequestMagic[4] = {'M', 'Y', 'L', 'Q'};
+inline constexpr char kReplyMagic[4] = {'M', 'Y', 'L', 'R'};
+inline constexpr uint32_t kProtocolVersion = 1;
+
+enum class Mode : uint8_t { bytes = 0, file = 1 };
+
+#pragma pack(push, 1)
+struct RequestHeader {
+  char magic[4];
+  uint32_t version;
+  Mode mode;
+  uint8_t fault;  // InjectedFault
+  uint16_t reserved;
+  uint32_t cpuSeconds;
+  uint64_t memoryBytes;
+  uint32_t nameBytes;
+};
+#pragma pack(pop)
+
+inline constexpr uint32_t kMaxNameBytes = 4096;
+
+inline constexpr uint8_t kReplyScene = 0;
+inline constexpr uint8_t kReplyRejected = 1;
+inline constexpr uint32_t kMaxSentenceBytes = 2048;
+
+// Exit statuses of the child beyond 0, so the parent can tell why it ended without a reply.
+inline constexpr int kExitOutOfMemory = 86;  // an allocation failed under RLIMIT_AS
+inline constexpr int kExitBadRequest = 87;   // the parent sent something malformed (a bug)
+inline constexpr int kExitWriteFailed = 88;  // the parent stopped reading
+
+}  // namespace myriad::loader::child

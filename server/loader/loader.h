@@ -1,0 +1,61 @@
+// Untrusted model files are parsed in a child process: this very executable, re-executed with
+// --myriad-loader-child, under CPU, memory, file and time limits. Whatever Assimp does with a
+// hostile file (crash, hang, unbounded allocation), the caller gets a ModelRejected with a reason
+// and the server's own address space is untouched. Safe to call from several threads at once.
+#pragma once
+
+#include <cstdint>
+#include <filesystem>
+#include <stdexcept>
+#include <string>
+#include <string_view>
+
+#include "scene/scene.h"
+
+namespace myriad::loader {
+
+// Faults the child can be told to commit, so that tests prove each failure path end to end. Set
+// only from C++ (never from a request); production code leaves it at none.
+enum class InjectedFault : uint8_t {
+  none,
+  crash,     // SIGSEGV
+  hang,      // sleeps forever, using no CPU: only the wall-clock limit stops it
+  spin,      // busy loop: the CPU limit stops it
+  allocate,  // allocates and touches memory without bound: the memory limit stops it
+};
+
+struct LoadLimits {
+  uint32_t cpuSeconds = 20;                  // RLIMIT_CPU of the child
+  uint32_t wallSeconds = 30;                 // the parent kills the child after this
+  uint64_t memoryBytes = 2ull << 30;         // RLIMIT_AS of the child
+  uint64_t maxOutputBytes = 512ull << 20;    // the serialized scene the child may send back
+  InjectedFault fault = InjectedFault::none; // tests only
+};
+
+// Why a model was not loaded. what() is one sentence for a 422 problem's `detail`.
+struct ModelRejected : std::runtime_error {
+  // "parse", "crash", "timeout", "memory", "empty", "too-large", "unsupported", "internal"
+  // ("internal": the loader itself could not run, e.g. no processes left; not the file's fault).
+  std::string reason;
+
+  ModelRejected(std::string reasonName, const std::string& sentence)
+      : std::runtime_error(sentence), reason(std::move(reasonName)) {}
+};
+
+// Parses an uploaded file. `filename`'s extension is the format hint (".glb", ".obj", ...); only
+// the bytes given are read, so a .gltf naming external files is rejected ("unsupported").
+scene::Scene loadModelBytes(std::string_view bytes, std::string_view filename,
+                            const LoadLimits& limits = {});
+
+// Parses a file on disk (a library model). The child opens it, so a .gltf may use the .bin and
+// images beside it (but nothing outside the file's directory).
+scene::Scene loadModelFile(const std::filesystem::path& path, const LoadLimits& limits = {});
+
+// Call first thing in main(). In the loader child it does the work and never returns (exits the
+// process); otherwise it returns false at once.
+bool runChildIfRequested(int argc, char** argv);
+
+// The flag that marks a loader child on the command line.
+inline constexpr std::string_view kChildFlag = "--myriad-loader-child";
+
+}  // namespace myriad::loader

@@ -1,0 +1,37 @@
+// The scene as bytes on the loader child's stdout. Versioned and little-endian (the child is this
+// same executable, so both ends agree on the layout, but the parent still trusts nothing in it):
+//
+//   "MYRW" u32 version u32 meshes u32 materials u32 instances u32 lights u64 bodyBytes
+//   body: sun (7 f32), ambient (3), background (3), camera (12)
+//         materials: u32 nameBytes, name, baseColor (3 f32), metallic, roughness
+//         meshes:    u32 nameBytes, name, u32 vertices, u32 indices, vertices (8 f32 each), indices
+//         instances: u32 mesh, u32 material, transform (16 f32, column-major)
+//         lights:    position (3 f32), radius, color (3), intensity, falloff
+#pragma once
+
+#include <stdexcept>
+#include <string>
+#include <string_view>
+
+#include "scene/scene.h"
+
+namespace myriad::loader {
+
+inline constexpr uint32_t kSceneWireVersion = 1;
+
+// The bytes were not a scene this version of the server wrote: what() says what was wrong.
+struct SceneWireError : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
+std::string encodeScene(const scene::Scene& scene);
+
+// Checks everything before trusting it: counts against the bytes present (nothing is reserved
+// from a count alone), every index in range, every float finite, factors in their ranges, names
+// at most kMaxWireNameBytes (invalid UTF-8 and control characters in names are replaced, since
+// names go into JSON), and nothing left over at the end. Throws SceneWireError.
+scene::Scene decodeScene(std::string_view bytes);
+
+inline constexpr uint32_t kMaxWireNameBytes = 256;
+
+}  // namespace myriad::loader
