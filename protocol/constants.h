@@ -1,0 +1,149 @@
+// Names both sides of the v1 protocol share: routes, headers, problem types, limits, schema names
+// and fixed values of the formats. A string used by the server and by a client belongs here.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <string>
+#include <string_view>
+
+namespace myriad::protocol {
+
+// Route templates; {id}, {mid} and {lid} are path segments (session id, material id, light id).
+namespace routes {
+inline constexpr std::string_view kHealth = "/v1/health";
+inline constexpr std::string_view kInfo = "/v1/info";
+inline constexpr std::string_view kFrame = "/v1/frame";
+inline constexpr std::string_view kModels = "/v1/models";
+inline constexpr std::string_view kMetrics = "/metrics";
+inline constexpr std::string_view kSessions = "/v1/sessions";
+inline constexpr std::string_view kSession = "/v1/sessions/{id}";
+inline constexpr std::string_view kSessionModel = "/v1/sessions/{id}/model";
+inline constexpr std::string_view kSessionCamera = "/v1/sessions/{id}/camera";
+inline constexpr std::string_view kSessionCameraFrame = "/v1/sessions/{id}/camera/frame";
+inline constexpr std::string_view kSessionSettings = "/v1/sessions/{id}/settings";
+inline constexpr std::string_view kSessionMaterials = "/v1/sessions/{id}/materials";
+inline constexpr std::string_view kSessionMaterial = "/v1/sessions/{id}/materials/{mid}";
+inline constexpr std::string_view kSessionLights = "/v1/sessions/{id}/lights";
+inline constexpr std::string_view kSessionLight = "/v1/sessions/{id}/lights/{lid}";
+inline constexpr std::string_view kSessionLightsGenerate = "/v1/sessions/{id}/lights/generate";
+inline constexpr std::string_view kSessionFrame = "/v1/sessions/{id}/frame";
+inline constexpr std::string_view kSessionStream = "/v1/sessions/{id}/stream";
+inline constexpr std::string_view kSessionStats = "/v1/sessions/{id}/stats";
+}  // namespace routes
+
+// A route template with {name} replaced by `value` (every occurrence), e.g.
+// expandRoute(routes::kSessionCamera, "id", "s-0123456789abcdef").
+std::string expandRoute(std::string_view route, std::string_view name, std::string_view value);
+
+// Schema names for validate() (protocol/schemas/NAME.schema.json).
+namespace schema_names {
+inline constexpr std::string_view kSessionCreate = "session-create";
+inline constexpr std::string_view kSessionCreated = "session-created";
+inline constexpr std::string_view kSessionState = "session-state";
+inline constexpr std::string_view kModelSource = "model-source";
+inline constexpr std::string_view kCamera = "camera";
+inline constexpr std::string_view kCameraPatch = "camera-patch";
+inline constexpr std::string_view kSettings = "settings";
+inline constexpr std::string_view kSettingsPatch = "settings-patch";
+inline constexpr std::string_view kMaterial = "material";
+inline constexpr std::string_view kMaterialPatch = "material-patch";
+inline constexpr std::string_view kMaterialsList = "materials-list";
+inline constexpr std::string_view kLight = "light";
+inline constexpr std::string_view kLightNew = "light-new";
+inline constexpr std::string_view kLightPatch = "light-patch";
+inline constexpr std::string_view kLightsAdd = "lights-add";
+inline constexpr std::string_view kLightsAdded = "lights-added";
+inline constexpr std::string_view kLightsGenerate = "lights-generate";
+inline constexpr std::string_view kLightsGenerated = "lights-generated";
+inline constexpr std::string_view kLightsPage = "lights-page";
+inline constexpr std::string_view kStats = "stats";
+inline constexpr std::string_view kInfo = "info";
+inline constexpr std::string_view kModelsList = "models-list";
+inline constexpr std::string_view kProblem = "problem";
+inline constexpr std::string_view kHealth = "health";
+}  // namespace schema_names
+
+// Problem types: the last segment of https://myriad.dev/problems/NAME.
+namespace problems {
+inline constexpr std::string_view kTypePrefix = "https://myriad.dev/problems/";
+inline constexpr std::string_view kInvalidParameter = "invalid-parameter";    // 400, parameter
+inline constexpr std::string_view kUnknownParameter = "unknown-parameter";    // 400, parameter
+inline constexpr std::string_view kInvalidBody = "invalid-body";              // 400, pointer
+inline constexpr std::string_view kBadRequest = "bad-request";                // 400/413/414
+inline constexpr std::string_view kUnauthorized = "unauthorized";             // 401
+inline constexpr std::string_view kForbidden = "forbidden";                   // 403
+inline constexpr std::string_view kNotFound = "not-found";                    // 404
+inline constexpr std::string_view kMethodNotAllowed = "method-not-allowed";   // 405, Allow
+inline constexpr std::string_view kUnsupportedMediaType = "unsupported-media-type";  // 415
+inline constexpr std::string_view kModelRejected = "model-rejected";          // 422
+inline constexpr std::string_view kLimitExceeded = "limit-exceeded";          // 413/429, limit
+inline constexpr std::string_view kServerBusy = "server-busy";                // 503, Retry-After
+inline constexpr std::string_view kRenderFailed = "render-failed";            // 500
+inline constexpr std::string_view kInternalError = "internal-error";          // 500
+inline constexpr std::array<std::string_view, 14> kAll = {
+    kInvalidParameter, kUnknownParameter, kInvalidBody,     kBadRequest,     kUnauthorized,
+    kForbidden,        kNotFound,         kMethodNotAllowed, kUnsupportedMediaType,
+    kModelRejected,    kLimitExceeded,    kServerBusy,       kRenderFailed,   kInternalError};
+}  // namespace problems
+
+// "invalid-body" -> "https://myriad.dev/problems/invalid-body".
+std::string problemTypeUri(std::string_view name);
+// The reverse: the NAME of a problem type URI, or "" when it is not one of ours.
+std::string_view problemTypeName(std::string_view typeUri);
+
+// Limits, by their names in GET /v1/info "limits" and in problems' "limit" member.
+namespace limits {
+inline constexpr std::string_view kMaxResolution = "maxResolution";              // --max-resolution
+inline constexpr std::string_view kMaxQueuedFrames = "maxQueuedFrames";          // --max-queued-frames
+inline constexpr std::string_view kMaxSessions = "maxSessions";                  // --max-sessions
+inline constexpr std::string_view kMaxLightsPerSession = "maxLightsPerSession";  // --max-lights
+inline constexpr std::string_view kMaxUploadBytes = "maxUploadBytes";            // --max-upload-bytes
+inline constexpr std::string_view kMaxBodyBytes = "maxBodyBytes";                // --max-body-bytes
+inline constexpr std::string_view kMaxStreams = "maxStreams";                    // --max-streams
+inline constexpr std::string_view kMaxRequestsInFlight = "maxRequestsInFlight";  // --max-requests-in-flight
+inline constexpr std::string_view kSessionIdleSeconds = "sessionIdleSeconds";    // --session-idle-seconds
+}  // namespace limits
+
+// Headers.
+namespace headers {
+inline constexpr std::string_view kAuthorization = "Authorization";  // "Bearer TOKEN"
+inline constexpr std::string_view kBearerPrefix = "Bearer ";
+inline constexpr std::string_view kChannels = "X-Myriad-Channels";    // raw: "x,y,z"
+inline constexpr std::string_view kWidth = "X-Myriad-Width";          // raw
+inline constexpr std::string_view kHeight = "X-Myriad-Height";        // raw
+inline constexpr std::string_view kTarget = "X-Myriad-Target";        // raw
+inline constexpr std::string_view kTechnique = "X-Myriad-Technique";  // every frame
+inline constexpr std::string_view kFrameSequence = "X-Myriad-Frame";  // each stream part
+inline constexpr std::string_view kServerTiming = "Server-Timing";
+inline constexpr std::string_view kRetryAfter = "Retry-After";
+inline constexpr std::string_view kAllow = "Allow";
+}  // namespace headers
+
+// Query parameters with meaning on both sides.
+namespace query {
+inline constexpr std::string_view kToken = "token";  // for <img>, which cannot send headers
+inline constexpr uint32_t kMaxLightsPageLimit = 1000;
+inline constexpr uint32_t kDefaultLightsPageLimit = 100;
+inline constexpr uint32_t kMinFps = 1;
+inline constexpr uint32_t kMaxFps = 60;
+inline constexpr uint32_t kDefaultFps = 15;
+inline constexpr uint32_t kMinQuality = 1;
+inline constexpr uint32_t kMaxQuality = 100;
+}  // namespace query
+
+inline constexpr std::string_view kStreamBoundary = "myriad-frame";
+inline constexpr std::string_view kStreamContentType = "multipart/x-mixed-replace; boundary=myriad-frame";
+inline constexpr std::string_view kJsonContentType = "application/json";
+inline constexpr std::string_view kProblemContentType = "application/problem+json";
+inline constexpr std::string_view kUploadContentType = "application/octet-stream";
+inline constexpr std::string_view kRawContentType = "application/octet-stream";
+inline constexpr std::string_view kBuiltinModel = "builtin:default";
+inline constexpr std::string_view kLibraryPrefix = "library:";
+inline constexpr std::string_view kUploadPrefix = "upload:";
+inline constexpr size_t kMaxLightsPerAdd = 100000;  // POST .../lights, per request
+inline constexpr size_t kTokenBytes = 32;           // 64 hex digits
+inline constexpr std::array<std::string_view, 3> kTechniques = {"volumes", "tiled", "clustered"};
+inline constexpr std::array<std::string_view, 3> kFormats = {"png", "jpeg", "raw"};
+
+}  // namespace myriad::protocol

@@ -1,0 +1,350 @@
+// The v1 bodies as plain C++ structs, shared by the server, the CLI and the tests, with
+// nlohmann::json conversions (to_json/from_json, found by ADL: `body.get<Camera>()`, `json(x)`).
+// No glm here: the CLI links this library and nothing else of the server.
+//
+// from_json assumes the JSON already passed its schema (validate.h): call it only after validate()
+// or on bodies the server itself wrote. Optional members that are absent stay std::nullopt, and
+// to_json leaves out what is nullopt, so a body survives the trip JSON -> struct -> JSON unchanged.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json_fwd.hpp>
+
+namespace myriad::protocol {
+
+using Vec3 = std::array<double, 3>;   // [x, y, z] in scene units
+using Color = std::array<double, 3>;  // linear RGB
+
+struct Bounds {
+  Vec3 min{};
+  Vec3 max{};
+};
+
+struct Camera {
+  Vec3 eye{};
+  Vec3 target{};
+  Vec3 up{0, 1, 0};
+  double fovY = 60;  // degrees
+  double near = 0.1;
+  double far = 1000;
+};
+
+struct CameraPatch {
+  std::optional<Vec3> eye, target, up;
+  std::optional<double> fovY, near, far;
+};
+Camera applied(Camera camera, const CameraPatch& patch);
+
+struct Sun {
+  Vec3 direction{};  // the way the light travels (not normalized on the wire)
+  Color color{};
+  double intensity = 0;
+};
+
+struct SunPatch {
+  std::optional<Vec3> direction;
+  std::optional<Color> color;
+  std::optional<double> intensity;
+};
+
+struct Settings {
+  Sun sun;
+  Color ambient{};
+  double exposure = 1;
+  bool markers = false;
+  std::string technique;  // "volumes" | "tiled" | "clustered" (constants.h technique_names::)
+  bool animate = false;
+  Color background{};
+};
+
+struct SettingsPatch {
+  std::optional<SunPatch> sun;
+  std::optional<Color> ambient;
+  std::optional<double> exposure;
+  std::optional<bool> markers;
+  std::optional<std::string> technique;
+  std::optional<bool> animate;
+  std::optional<Color> background;
+};
+Settings applied(Settings settings, const SettingsPatch& patch);
+
+struct Material {
+  uint32_t id = 0;
+  std::string name;
+  Color baseColor{};
+  double metallic = 0;
+  double roughness = 1;
+};
+
+struct MaterialPatch {
+  std::optional<Color> baseColor;
+  std::optional<double> metallic, roughness;
+};
+Material applied(Material material, const MaterialPatch& patch);
+
+struct MaterialsList {
+  std::vector<Material> materials;
+};
+
+// A light as sent to POST .../lights: without its id.
+struct LightNew {
+  Vec3 position{};
+  double radius = 1;
+  Color color{};
+  double intensity = 0;
+  double falloff = 0;  // C in (r^2 - d^2) / (C d^2 + r^2)
+};
+
+struct Light {
+  uint64_t id = 0;
+  Vec3 position{};
+  double radius = 1;
+  Color color{};
+  double intensity = 0;
+  double falloff = 0;
+};
+Light withId(const LightNew& light, uint64_t id);
+
+struct LightPatch {
+  std::optional<Vec3> position;
+  std::optional<double> radius;
+  std::optional<Color> color;
+  std::optional<double> intensity, falloff;
+};
+Light applied(Light light, const LightPatch& patch);
+
+struct LightsAdd {
+  std::vector<LightNew> lights;
+};
+
+struct LightsAdded {
+  std::vector<uint64_t> ids;
+  uint64_t total = 0;
+};
+
+// [min, max] on the wire.
+struct Range {
+  double min = 0;
+  double max = 0;
+};
+
+struct LightsGenerate {
+  uint64_t count = 0;
+  uint64_t seed = 0;
+  std::optional<bool> replace;  // absent = true
+  std::optional<Bounds> bounds;  // absent = the model's bounds, grown a little
+  std::optional<Range> radius, intensity;
+  std::optional<double> falloff;
+  bool replaces() const { return replace.value_or(true); }
+};
+
+struct LightsGenerated {
+  uint64_t total = 0;
+};
+
+struct LightsPage {
+  uint64_t total = 0;
+  uint64_t offset = 0;
+  std::vector<Light> lights;
+};
+
+// PUT .../model as JSON.
+struct ModelSource {
+  std::string source;  // "builtin:default" | "library:NAME"
+};
+
+// POST /v1/sessions.
+struct SessionCreate {
+  std::optional<std::string> model;  // absent = "builtin:default"
+};
+
+struct ModelSummary {
+  std::string source;  // "builtin:default" | "library:NAME" | "upload:FILENAME"
+  uint64_t meshes = 0;
+  uint64_t instances = 0;
+  uint64_t materials = 0;
+  Bounds bounds;
+};
+
+struct SessionState {
+  std::string id;  // "s-" + 16 hex digits
+  ModelSummary model;
+  Camera camera;
+  Settings settings;
+  uint64_t lightCount = 0;  // "lights": {"count": N}
+  uint64_t expiresInSeconds = 0;
+};
+
+struct SessionCreated {
+  std::string id;
+  std::string token;  // 64 hex digits
+  uint64_t expiresInSeconds = 0;
+  SessionState session;
+};
+
+struct PassTiming {
+  std::string name;
+  double ms = 0;
+};
+
+struct FrameStats {
+  std::vector<PassTiming> passes;
+  double totalGpuMs = 0;
+  double readbackMs = 0;
+  double encodeMs = 0;
+  uint32_t width = 0;
+  uint32_t height = 0;
+  std::string technique;
+  std::string target;
+};
+
+struct CullingStats {
+  uint64_t tilesOverflowed = 0;
+  uint64_t tileLightsDropped = 0;
+  uint64_t clusterLightsDropped = 0;
+  uint64_t listEntries = 0;
+  uint64_t activeClusters = 0;
+  uint64_t mostLightsInList = 0;
+};
+
+struct GpuMemory {
+  uint64_t lightBytes = 0;
+  uint64_t listBytes = 0;
+  uint64_t sceneBytes = 0;
+};
+
+struct Stats {
+  std::optional<FrameStats> frame;      // null before the session's first frame
+  uint64_t lightCount = 0;              // "lights": {"count", "animated"}
+  bool lightsAnimated = false;
+  std::optional<CullingStats> culling;  // null before the first frame
+  GpuMemory gpuMemory;
+  uint64_t frames = 0;
+};
+
+struct Limits {
+  uint32_t maxResolution = 0;
+  uint64_t maxQueuedFrames = 0;
+  uint64_t maxSessions = 0;
+  uint64_t maxLightsPerSession = 0;
+  uint64_t maxUploadBytes = 0;
+  uint64_t maxBodyBytes = 0;
+  uint64_t maxStreams = 0;
+  uint64_t maxRequestsInFlight = 0;
+  uint64_t sessionIdleSeconds = 0;
+};
+
+struct DeviceSummary {
+  std::string name;
+  std::string type;  // "discrete-gpu" | "integrated-gpu" | "virtual-gpu" | "cpu" | "other"
+  std::string driverName;
+  std::string driverInfo;
+  std::string apiVersion;
+  uint32_t vendorId = 0;
+  uint32_t deviceId = 0;
+  uint32_t index = 0;
+  bool isCpu = false;
+  uint32_t maxImageDimension2D = 0;
+  uint64_t maxStorageBufferRange = 0;
+  uint32_t maxComputeSharedMemorySize = 0;
+  uint32_t subgroupSize = 0;
+  double timestampPeriodNs = 0;
+  bool timestampsSupported = false;
+};
+
+struct SceneCounts {
+  uint64_t lights = 0;
+  uint64_t instances = 0;
+  uint64_t materials = 0;
+  uint64_t meshes = 0;
+};
+
+struct Info {
+  std::string serverName = "myriad-server";
+  std::string serverVersion;
+  DeviceSummary device;
+  Limits limits;
+  bool validationEnabled = false;
+  uint64_t validationMessages = 0;
+  SceneCounts scene;  // the built-in scene of GET /v1/frame
+  std::vector<std::string> targets;
+  std::vector<std::string> techniques;
+  std::string defaultTechnique;
+  std::vector<std::string> formats;
+  bool apiKeyRequired = false;
+};
+
+struct LibraryModel {
+  std::string name;  // relative to --models, '/' separators
+  uint64_t bytes = 0;
+};
+
+struct ModelsList {
+  std::vector<LibraryModel> models;
+};
+
+struct Health {
+  std::string status = "ok";
+};
+
+// RFC 9457 problem details (application/problem+json).
+struct Problem {
+  std::string type;  // https://myriad.dev/problems/NAME (problemTypeUri() in constants.h)
+  std::string title;
+  int status = 500;
+  std::string detail;
+  std::optional<std::string> parameter;  // the query parameter to blame
+  std::optional<std::string> pointer;    // JSON Pointer into the request body
+  std::optional<std::string> limit;      // the limit exceeded, as named in /v1/info limits
+};
+
+#define MYRIAD_PROTOCOL_JSON(Type)                  \
+  void to_json(nlohmann::json& j, const Type& v);   \
+  void from_json(const nlohmann::json& j, Type& v)
+
+MYRIAD_PROTOCOL_JSON(Bounds);
+MYRIAD_PROTOCOL_JSON(Camera);
+MYRIAD_PROTOCOL_JSON(CameraPatch);
+MYRIAD_PROTOCOL_JSON(Sun);
+MYRIAD_PROTOCOL_JSON(SunPatch);
+MYRIAD_PROTOCOL_JSON(Settings);
+MYRIAD_PROTOCOL_JSON(SettingsPatch);
+MYRIAD_PROTOCOL_JSON(Material);
+MYRIAD_PROTOCOL_JSON(MaterialPatch);
+MYRIAD_PROTOCOL_JSON(MaterialsList);
+MYRIAD_PROTOCOL_JSON(LightNew);
+MYRIAD_PROTOCOL_JSON(Light);
+MYRIAD_PROTOCOL_JSON(LightPatch);
+MYRIAD_PROTOCOL_JSON(LightsAdd);
+MYRIAD_PROTOCOL_JSON(LightsAdded);
+MYRIAD_PROTOCOL_JSON(Range);
+MYRIAD_PROTOCOL_JSON(LightsGenerate);
+MYRIAD_PROTOCOL_JSON(LightsGenerated);
+MYRIAD_PROTOCOL_JSON(LightsPage);
+MYRIAD_PROTOCOL_JSON(ModelSource);
+MYRIAD_PROTOCOL_JSON(SessionCreate);
+MYRIAD_PROTOCOL_JSON(ModelSummary);
+MYRIAD_PROTOCOL_JSON(SessionState);
+MYRIAD_PROTOCOL_JSON(SessionCreated);
+MYRIAD_PROTOCOL_JSON(PassTiming);
+MYRIAD_PROTOCOL_JSON(FrameStats);
+MYRIAD_PROTOCOL_JSON(CullingStats);
+MYRIAD_PROTOCOL_JSON(GpuMemory);
+MYRIAD_PROTOCOL_JSON(Stats);
+MYRIAD_PROTOCOL_JSON(Limits);
+MYRIAD_PROTOCOL_JSON(DeviceSummary);
+MYRIAD_PROTOCOL_JSON(SceneCounts);
+MYRIAD_PROTOCOL_JSON(Info);
+MYRIAD_PROTOCOL_JSON(LibraryModel);
+MYRIAD_PROTOCOL_JSON(ModelsList);
+MYRIAD_PROTOCOL_JSON(Health);
+MYRIAD_PROTOCOL_JSON(Problem);
+
+#undef MYRIAD_PROTOCOL_JSON
+
+}  // namespace myriad::protocol
