@@ -23,7 +23,12 @@ build_packages=(
 test_packages=(
   assimp-testmodels        # /usr/share/assimp/models: real (and deliberately broken) models
   curl
+  chromium                 # the browser test's headless browser (never a downloaded one)
+  nodejs                   # runs the browser test (tests/browser, playwright-core)
 )
+# npm installs the browser test's playwright-core. Only where no npm exists: NodeSource's nodejs
+# bundles its own and conflicts with Debian's npm package.
+if ! command -v npm >/dev/null 2>&1; then test_packages+=(npm); fi
 container_test_packages=(
   buildah                  # builds and runs the OCI image daemonless (--isolation chroot)
   podman                   # imports the bootstrapped base image into the local image store

@@ -1,0 +1,400 @@
+// The web client in a real browser (Debian's Chromium, headless, driven by playwright-core)
+// against the real myriad-server with validation layers: the stream shows frames, a drag moves
+// the camera, panels change materials and lights through the API, every target gives its own
+// picture, the screenshot button's PNG is the frame the API returns, errors are readable, a
+// lost session can be replaced, and neither console errors nor validation messages appear.
+//
+// Usage: node browser_test.mjs <path to myriad-server>. Exit 0 pass, 1 fail, 77 skip (no
+// Chromium at /usr/bin/chromium).
+
+import {existsSync, readFileSync} from 'node:fs';
+import {startServer} from './server_process.mjs';
+
+const CHROMIUM = '/usr/bin/chromium';
+const BROKEN_MODEL = '/usr/share/assimp/models/invalid/empty.obj';
+// The view is the window less the 340 px panel: a 400x300 stream keeps lavapipe quick.
+const VIEWPORT = {width: 740, height: 300};
+const CHANGED = 1.0;   // mean absolute difference (0..255) of the 32x32 signature that counts
+const WAIT_MS = 30000;
+
+if (!existsSync(CHROMIUM)) {
+  console.log(`SKIP: ${CHROMIUM} is absent (scripts/install-deps.sh --with-test-tools installs it).`);
+  process.exit(77);
+}
+let chromium;
+try {
+  ({chromium} = await import('playwright-core'));
+} catch (e) {
+  console.error(`playwright-core is not installed (${e.message}); ` +
+                'run "npm ci" in tests/browser (scripts/test.sh does it).');
+  process.exit(1);
+}
+
+const serverPath = process.argv[2];
+if (!serverPath) {
+  console.error('usage: node browser_test.mjs <myriad-server>');
+  process.exit(2);
+}
+
+const failures = [];
+const timings = [];
+
+async function step(name, fn) {
+  const start = performance.now();
+  try {
+    await fn();
+    const ms = Math.round(performance.now() - start);
+    timings.push(`${name}: ${ms} ms`);
+    console.log(`ok   ${name} (${ms} ms)`);
+  } catch (e) {
+    failures.push(`${name}: ${e.message}`);
+    console.log(`FAIL ${name}: ${e.message}`);
+  }
+}
+
+function check(condition, message) {
+  if (!condition) throw new Error(message);
+}
+
+async function until(what, probe, timeoutMs = WAIT_MS, intervalMs = 150) {
+  const end = Date.now() + timeoutMs;
+  let last;
+  for (;;) {
+    last = await probe();
+    if (last) return last;
+    if (Date.now() > end) throw new Error(`timed out after ${timeoutMs} ms waiting for ${what}`);
+    await new Promise((r) => setTimeout(r, intervalMs));
+  }
+}
+
+// The picture in the view as 32x32 mean colours, from the <img> itself (same origin, so the
+// canvas can read it): what the user sees, not a screenshot of the page around it.
+function signatureInPage() {
+  const img = document.getElementById('stream');
+  if (!img.complete || img.naturalWidth === 0) return null;
+  const n = 32;
+  const c = document.createElement('canvas');
+  c.width = img.naturalWidth;
+  c.height = img.naturalHeight;
+  const g = c.getContext('2d', {willReadFrequently: true});
+  g.drawImage(img, 0, 0);
+  const {data} = g.getImageData(0, 0, c.width, c.height);
+  const sums = new Float64Array(n * n * 3);
+  const counts = new Float64Array(n * n);
+  for (let y = 0; y < c.height; ++y) {
+    for (let x = 0; x < c.width; ++x) {
+      const cell = Math.floor((y * n) / c.height) * n + Math.floor((x * n) / c.width);
+      const i = (y * c.width + x) * 4;
+      sums[cell * 3] += data[i];
+      sums[cell * 3 + 1] += data[i + 1];
+      sums[cell * 3 + 2] += data[i + 2];
+      counts[cell] += 1;
+    }
+  }
+  const sig = Array.from(sums, (s, i) => s / Math.max(1, counts[Math.floor(i / 3)]));
+  return {width: img.naturalWidth, height: img.naturalHeight, src: img.getAttribute('src'), sig};
+}
+
+function difference(a, b) {
+  let sum = 0;
+  for (let i = 0; i < a.sig.length; ++i) sum += Math.abs(a.sig[i] - b.sig[i]);
+  return sum / a.sig.length;
+}
+
+const server = await startServer(serverPath, ['--validate', '--port', '0', '--lights', '64']);
+console.log(`server at ${server.url}`);
+const base = server.url;
+
+async function api(method, path, {token, json} = {}) {
+  const headers = {};
+  if (token) headers.Authorization = `Bearer ${token}`;
+  if (json !== undefined) headers['Content-Type'] = 'application/json';
+  const response = await fetch(base + path, {
+    method, headers, body: json === undefined ? undefined : JSON.stringify(json)});
+  const type = response.headers.get('content-type') || '';
+  const body = type.includes('json') ? await response.json() : Buffer.from(await response.arrayBuffer());
+  return {status: response.status, body, headers: response.headers};
+}
+
+const browser = await chromium.launch({
+  executablePath: CHROMIUM,
+  args: ['--headless', '--no-sandbox', '--disable-gpu'],
+});
+const context = await browser.newContext({viewport: VIEWPORT, acceptDownloads: true});
+const page = await context.newPage();
+
+// Console errors fail the test, except the HTTP errors a step provokes on purpose (Chromium
+// logs every 4xx response of fetch as "Failed to load resource").
+const consoleErrors = [];
+let expectedHttpErrors = null;  // RegExp of allowed "status of N" while a step provokes them
+page.on('console', (msg) => {
+  if (msg.type() !== 'error') return;
+  const text = msg.text();
+  if (expectedHttpErrors && /Failed to load resource/.test(text) && expectedHttpErrors.test(text)) return;
+  consoleErrors.push(text);
+});
+page.on('pageerror', (e) => consoleErrors.push(`uncaught: ${e.message}`));
+
+const signature = () => page.evaluate(signatureInPage);
+const session = () => page.evaluate(() => JSON.parse(localStorage.getItem('myriad.session')));
+
+// The full-quality stream is showing: quality 90 at the size its URL asks for.
+async function settled() {
+  return until('the full-quality stream', async () => {
+    const s = await signature();
+    if (!s || !s.src.includes('quality=90')) return null;
+    const q = new URL(s.src, base).searchParams;
+    return s.width === Number(q.get('width')) && s.height === Number(q.get('height')) ? s : null;
+  });
+}
+
+// Waits until the settled picture differs from `before` (all of them, for a list).
+async function changedFrom(what, before) {
+  const list = Array.isArray(before) ? before : [before];
+  return until(what, async () => {
+    const s = await settled();
+    return list.every((b) => difference(s, b) > CHANGED) ? s : null;
+  });
+}
+
+let token = '';
+let sessionId = '';
+let picture = null;
+
+try {
+  await step('page loads, creates a session and shows stream frames', async () => {
+    await page.goto(`${base}/`);
+    picture = await settled();
+    check(picture.width > 0 && picture.height > 0, 'the stream image has no size');
+    ({id: sessionId, token} = await session());
+    check(/^s-[0-9a-f]{16}$/.test(sessionId), `session id "${sessionId}" in localStorage`);
+    check((await page.textContent('#session-label')) === sessionId, 'the session label');
+    const state = await api('GET', `/v1/sessions/${sessionId}`, {token});
+    check(state.status === 200, `GET session: ${state.status}`);
+  });
+
+  let draggedEye = null;
+  await step('a drag moves the camera and the picture (a second, distinct frame)', async () => {
+    const before = (await api('GET', `/v1/sessions/${sessionId}/camera`, {token})).body;
+    const box = await page.locator('#view').boundingBox();
+    const x = box.x + box.width / 2;
+    const y = box.y + box.height / 2;
+    await page.mouse.move(x, y);
+    await page.mouse.down();
+    await page.mouse.move(x + 60, y + 10, {steps: 6});
+    const whileMoving = await page.getAttribute('#stream', 'src');
+    await page.mouse.move(x + 140, y + 30, {steps: 8});
+    await page.mouse.up();
+    check(whileMoving.includes('quality=60'), `the stream while dragging is ${whileMoving}`);
+    picture = await changedFrom('the picture after the drag', picture);
+    const after = await until('the camera to change on the server', async () => {
+      const cam = (await api('GET', `/v1/sessions/${sessionId}/camera`, {token})).body;
+      return cam.eye.some((v, i) => Math.abs(v - before.eye[i]) > 1e-3) ? cam : null;
+    });
+    draggedEye = after.eye;
+    check(after.target.every((v, i) => Math.abs(v - before.target[i]) < 1e-4),
+          'an orbit drag keeps the target');
+  });
+
+  await step('F frames the model (POST camera/frame)', async () => {
+    await page.locator('#view').focus();
+    await page.keyboard.press('f');
+    await until('the camera to leave the dragged pose', async () => {
+      const cam = (await api('GET', `/v1/sessions/${sessionId}/camera`, {token})).body;
+      return cam.eye.some((v, i) => Math.abs(v - draggedEye[i]) > 1e-3);
+    });
+    picture = await changedFrom('the framed picture', picture);
+  });
+
+  await step('material sliders change the material and the picture', async () => {
+    const {materials} = (await api('GET', `/v1/sessions/${sessionId}/materials`, {token})).body;
+    check(materials.length > 0, 'the scene has no materials');
+    const target = materials[0];
+    await page.selectOption('#material', String(target.id));
+    await page.focus('#material-metallic');
+    await page.keyboard.press('End');        // metallic 1
+    await page.focus('#material-roughness');
+    await page.keyboard.press('Home');       // roughness 0
+    await until('GET materials to show metallic 1, roughness 0', async () => {
+      const now = (await api('GET', `/v1/sessions/${sessionId}/materials`, {token})).body.materials;
+      const m = now.find((x) => x.id === target.id);
+      return m.metallic === 1 && m.roughness === 0;
+    });
+    picture = await changedFrom('the picture after the material edit', picture);
+  });
+
+  let editedLight = null;
+  await step('lights: generate from the panel, edit one, the picture follows', async () => {
+    await page.fill('#gen-count', '8');
+    await page.fill('#gen-seed', '7');
+    await page.click('#gen-lights');
+    await until('8 lights listed', async () => (await page.locator('#light-list li').count()) === 8);
+    const listed = (await api('GET', `/v1/sessions/${sessionId}/lights?limit=100`, {token})).body;
+    check(listed.total === 8, `GET lights total ${listed.total}, expected 8`);
+    picture = await changedFrom('the picture with 8 new lights', picture);
+
+    const cam = (await api('GET', `/v1/sessions/${sessionId}/camera`, {token})).body;
+    const light = listed.lights[0];
+    await page.click(`#light-list li[data-id="${light.id}"]`);
+    check(await page.isVisible('#light-editor'), 'the light editor opens');
+    // The light moves to the camera's target, bright and wide: it lights the middle of the view.
+    const position = cam.target.map((v) => Number(v.toFixed(3)));
+    await page.fill('#light-x', String(position[0]));
+    await page.fill('#light-y', String(position[1] + 0.5));
+    await page.fill('#light-z', String(position[2]));
+    await page.fill('#light-radius', '6');
+    await page.fill('#light-intensity', '40');
+    await page.click('#light-apply');
+    editedLight = await until('GET lights/{id} to show the edit', async () => {
+      const l = (await api('GET', `/v1/sessions/${sessionId}/lights/${light.id}`, {token})).body;
+      return l.radius === 6 && l.intensity === 40 && Math.abs(l.position[1] - (position[1] + 0.5)) < 1e-4
+          ? l : null;
+    });
+    picture = await changedFrom('the picture after the light edit', picture);
+  });
+
+  await step('clicking a light in the view selects it', async () => {
+    check(editedLight, 'needs the edited light');
+    await page.click('#light-list li:not(.selected)');  // select another one first
+    const cam = (await api('GET', `/v1/sessions/${sessionId}/camera`, {token})).body;
+    // Where the light lands on screen, by the same projection the page uses.
+    const point = await page.evaluate(async ({cam, position}) => {
+      const {project} = await import('/web/vec.js');
+      const view = document.getElementById('view');
+      const p = project(cam, position, view.clientWidth, view.clientHeight);
+      const r = view.getBoundingClientRect();
+      return p && {x: r.left + p.x, y: r.top + p.y};
+    }, {cam, position: editedLight.position});
+    check(point, 'the edited light is behind the camera');
+    await page.mouse.click(point.x, point.y);
+    await until(`the editor to show light #${editedLight.id}`, async () =>
+        (await page.textContent('#light-editor-title')) === `Light #${editedLight.id}`, 5000);
+  });
+
+  await step('every target from /v1/info gives its own picture', async () => {
+    const {targets} = (await api('GET', '/v1/info')).body;
+    check(targets.length >= 2, 'fewer than two targets');
+    const seen = [];
+    for (const target of targets) {
+      await page.selectOption('#target', target);
+      const s = await until(`the ${target} stream`, async () => {
+        const now = await settled();
+        return now.src.includes(`target=${target}&`) ? now : null;
+      });
+      const shown = seen.length ? await changedFrom(`target ${target} to differ from the others`,
+                                                    seen.map((x) => x.sig))
+                                : s;
+      seen.push({target, sig: shown});
+    }
+    await page.selectOption('#target', 'final');
+    picture = await until('the final stream again', async () => {
+      const now = await settled();
+      return now.src.includes('target=final&') ? now : null;
+    });
+  });
+
+  await step('the screenshot button saves the PNG the API returns for the same view', async () => {
+    const [download] = await Promise.all([page.waitForEvent('download'), page.click('#screenshot')]);
+    const name = download.suggestedFilename();
+    const match = /^myriad-([a-z-]+)-(\d+)x(\d+)\.png$/.exec(name);
+    check(match, `download name "${name}"`);
+    const saved = readFileSync(await download.path());
+    const direct = await api('GET',
+        `/v1/sessions/${sessionId}/frame?target=${match[1]}&format=png&width=${match[2]}&height=${match[3]}`,
+        {token});
+    check(direct.status === 200, `GET frame: ${direct.status}`);
+    check(saved.subarray(1, 4).toString() === 'PNG', 'the download is not a PNG');
+    if (!saved.equals(direct.body)) {
+      // Not byte-equal (an encoder may differ in metadata): then every pixel must be.
+      const same = await page.evaluate(async ([a, b]) => {
+        const pixels = async (b64) => {
+          const bitmap = await createImageBitmap(await (await fetch(`data:image/png;base64,${b64}`)).blob());
+          const c = new OffscreenCanvas(bitmap.width, bitmap.height);
+          const g = c.getContext('2d');
+          g.drawImage(bitmap, 0, 0);
+          return g.getImageData(0, 0, c.width, c.height).data;
+        };
+        const [x, y] = [await pixels(a), await pixels(b)];
+        return x.length === y.length && x.every((v, i) => v === y[i]);
+      }, [saved.toString('base64'), direct.body.toString('base64')]);
+      check(same, 'the screenshot and the frame from the API differ');
+    }
+  });
+
+  await step('a rejected model upload shows the server\'s message', async () => {
+    expectedHttpErrors = /status of 422/;
+    await page.setInputFiles('#model-file', BROKEN_MODEL);
+    await until('the error message', async () => {
+      if (!(await page.isVisible('#message')) || (await page.getAttribute('#message', 'class')) === 'info') {
+        return false;
+      }
+      return (await page.textContent('#message-text')).includes('422');
+    });
+    const text = await page.textContent('#message-text');
+    check(text.includes('model-rejected'), `message "${text}" does not name the problem type`);
+    check(text.length > 40, `message "${text}" has no detail`);
+    await page.click('#message-close');
+    expectedHttpErrors = null;
+    const state = (await api('GET', `/v1/sessions/${sessionId}`, {token})).body;
+    check(state.model.source === 'builtin:default', `the model became ${state.model.source}`);
+  });
+
+  await step('a reload continues the same session', async () => {
+    await page.reload();
+    await settled();
+    check((await session()).id === sessionId, 'a new session after reload');
+    check((await page.textContent('#session-label')) === sessionId, 'the session label after reload');
+  });
+
+  await step('a deleted session offers a new one, which works', async () => {
+    expectedHttpErrors = /status of 404/;
+    const deleted = await api('DELETE', `/v1/sessions/${sessionId}`, {token});
+    check(deleted.status === 204, `DELETE session: ${deleted.status}`);
+    await page.waitForSelector('#new-session', {state: 'visible', timeout: WAIT_MS});
+    const text = await page.textContent('#message-text');
+    check(/gone/.test(text) && text.includes('404'), `message "${text}"`);
+    await page.click('#new-session');
+    await until('a new session', async () => (await session())?.id !== sessionId);
+    ({id: sessionId, token} = await session());
+    await settled();
+    check(await page.isHidden('#message'), 'the message stays after the new session started');
+    expectedHttpErrors = null;
+  });
+
+  await step('stats show per-pass GPU times', async () => {
+    await until('pass rows in the stats table', async () =>
+        (await page.locator('#stats-table tr[data-stat="GPU total"]').count()) === 1 &&
+        (await page.locator('#stats-table tr').count()) > 6);
+    const total = await page.textContent('#stats-table tr[data-stat="GPU total"] td:last-child');
+    check(/^\d+\.\d{3} ms$/.test(total), `GPU total "${total}"`);
+  });
+
+  await step('? opens the help, Escape closes it', async () => {
+    await page.locator('#view').focus();
+    await page.keyboard.press('?');
+    check(await page.isVisible('#help'), 'help not shown');
+    check((await page.textContent('#help')).includes('WASD') ||
+          (await page.textContent('#help')).includes('W A S D'), 'help lists no fly keys');
+    await page.keyboard.press('Escape');
+    check(await page.isHidden('#help'), 'help not closed');
+  });
+
+  await step('no console errors', async () => {
+    check(consoleErrors.length === 0, consoleErrors.join(' | '));
+  });
+
+  await step('no validation messages', async () => {
+    const info = (await api('GET', '/v1/info')).body;
+    check(info.validation.enabled, 'validation is off');
+    check(info.validation.messages === 0, `${info.validation.messages} validation messages`);
+  });
+} finally {
+  await browser.close();
+  const status = await server.stop();
+  if (status !== 0) failures.push(`myriad-server exited with ${status}`);
+  if (failures.length) console.log(`server log (tail):\n${server.log()}`);
+}
+
+console.log(failures.length ? `\n${failures.length} failed:\n  ${failures.join('\n  ')}`
+                            : `\nall passed (${timings.length} steps)`);
+process.exit(failures.length ? 1 : 0);
