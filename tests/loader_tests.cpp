@@ -111,15 +111,15 @@ TEST_CASE("loader: every invalid and glTF2 test file loads or is cleanly rejecte
     return;
   }
   std::sort(files.begin(), files.end());
-  std::map<std::string, int> outcomes;
+  // As uploads (only the file's own bytes), and model files also from disk as the library does
+  // (a .gltf may then read its .bin).
+  std::map<std::string, int> uploads, fromDisk;
   double slowest = 0.0;
   const auto start = Clock::now();
-  for (const fs::path& file : files) {
-    CAPTURE(file.string());
-    const std::string bytes = readFile(file);
+  auto attempt = [&](std::map<std::string, int>& outcomes, const fs::path& file, auto load) {
     const auto begin = Clock::now();
     try {
-      const scene::Scene scene = loader::loadModelBytes(bytes, file.filename().string());
+      const scene::Scene scene = load();
       CHECK(!scene.meshes.empty());
       CHECK(!scene.instances.empty());
       ++outcomes["loaded"];
@@ -130,13 +130,30 @@ TEST_CASE("loader: every invalid and glTF2 test file loads or is cleanly rejecte
       ++outcomes[e.reason];
     }
     slowest = std::max(slowest, secondsSince(begin));
+  };
+  for (const fs::path& file : files) {
+    CAPTURE(file.string());
+    const std::string bytes = readFile(file);
+    attempt(uploads, file, [&] { return loader::loadModelBytes(bytes, file.filename().string()); });
+    if (scene::isSupportedModelExtension(file.extension().string())) {
+      attempt(fromDisk, file, [&] { return loader::loadModelFile(file); });
+    }
   }
-  std::string summary;
-  for (const auto& [outcome, count] : outcomes) summary += " " + outcome + "=" + std::to_string(count);
-  std::printf("loader: %zu files in %.2f s (slowest %.3f s):%s\n", files.size(), secondsSince(start),
-              slowest, summary.c_str());
-  CHECK(outcomes["loaded"] > 10);
-  CHECK(outcomes["crash"] == 0);  // Assimp 5.2.5 survives these; a crash here is a new problem
+  auto summary = [](const std::map<std::string, int>& outcomes) {
+    std::string text;
+    for (const auto& [outcome, count] : outcomes) text += " " + outcome + "=" + std::to_string(count);
+    return text;
+  };
+  std::printf("loader: %zu files in %.2f s (slowest %.3f s)\n  as uploads:%s\n  from disk:%s\n",
+              files.size(), secondsSince(start), slowest, summary(uploads).c_str(),
+              summary(fromDisk).c_str());
+  // The .glb and embedded .gltf files load as uploads; from disk, those with a .bin beside them too.
+  CHECK(uploads["loaded"] >= 5);
+  CHECK(fromDisk["loaded"] >= 25);
+  // Assimp 5.2.5 survives all of these; a crash here is news worth a look, not a failure mode.
+  CHECK(uploads["crash"] + fromDisk["crash"] == 0);
+  // invalid/OutOfMemory.off asks for more than 2 GiB: the memory limit, not the machine, stops it.
+  CHECK(uploads["memory"] >= 1);
   CHECK(noChildren());
 }
 
@@ -199,8 +216,8 @@ TEST_CASE("loader: names and extensions are checked before a child starts") {
   // The extension decides, in any case; the rest of the name only appears in messages.
   CHECK(rejection(obj, "../../dir/SPIDER.OBJ") == "");
   try {
-    loader::loadModelBytes("v 0 0 0\n", std::string("bad\nname\x01.obj"));
-    FAIL("a single point loaded");
+    loader::loadModelBytes("v 0 0 0\nv 1 0 0\nv 0 1 0\nl 1 2\n", std::string("bad\nname\x01.obj"));
+    FAIL("a line loaded");
   } catch (const ModelRejected& e) {
     CHECK(e.reason == "empty");
     CHECK(std::string(e.what()).find('\n') == std::string::npos);
@@ -258,22 +275,25 @@ TEST_CASE("loader: injected faults give crash, timeout and memory within the lim
 #if !defined(__SANITIZE_ADDRESS__)
   SUBCASE("allocate: the memory limit") {
     limits.fault = InjectedFault::allocate;
-    limits.memoryBytes = 512ull << 20;
+    limits.memoryBytes = 256ull << 20;
     const auto start = Clock::now();
     try {
       loader::loadModelBytes(obj, "spider.obj", limits);
       FAIL("unbounded allocation returned");
     } catch (const ModelRejected& e) {
       CHECK(e.reason == "memory");
-      CHECK(std::string(e.what()).find("512 MiB") != std::string::npos);
+      CHECK(std::string(e.what()).find("256 MiB") != std::string::npos);
     }
-    std::printf("loader: injected allocation stopped after %.3f s (limit 512 MiB)\n",
+    std::printf("loader: injected allocation stopped after %.3f s (limit 256 MiB)\n",
                 secondsSince(start));
   }
-  SUBCASE("a real model under a tiny memory limit") {
-    limits.memoryBytes = 48ull << 20;
-    const std::string glb = readFile(kModels / "glTF2/2CylinderEngine-glTF-Binary/2CylinderEngine.glb");
-    CHECK(rejection(glb, "engine.glb", limits) == "memory");
+  SUBCASE("a file built to exhaust memory") {
+    limits.memoryBytes = 256ull << 20;
+    const auto start = Clock::now();
+    CHECK(rejection(readFile(kModels / "invalid/OutOfMemory.off"), "OutOfMemory.off", limits) ==
+          "memory");
+    std::printf("loader: OutOfMemory.off stopped after %.3f s (limit 256 MiB)\n",
+                secondsSince(start));
   }
 #endif
   SUBCASE("too large") {
@@ -372,7 +392,7 @@ TEST_CASE("loader: no descriptors leak and no zombies remain after 50 loads") {
     if (reason.empty()) ++loaded;
   }
   std::printf("loader: 50 loads (%d of spider.obj) in %.2f s\n", loaded, secondsSince(start));
-  CHECK(loaded == 29);
+  CHECK(loaded == 28);
   CHECK(openDescriptors() == before);
   CHECK(noChildren());
 }

@@ -342,6 +342,13 @@ scene::Scene load(Mode mode, const std::string& nameOrPath, const std::string& s
 
 }  // namespace
 
+// A binary that links the loader but forgets runChildIfRequested() in main() (a test runner, a
+// tool) would otherwise run its whole self as the child: with doctest, every test, in a loop. So
+// the child is also recognised here, before main(); glibc passes the arguments to constructors.
+__attribute__((constructor)) static void runChildBeforeMain(int argc, char** argv, char**) {
+  runChildIfRequested(argc, argv);
+}
+
 scene::Scene loadModelBytes(std::string_view bytes, std::string_view filename,
                             const LoadLimits& limits) {
   const std::string shown = shownName(filename);
