@@ -122,6 +122,45 @@ struct ChildRun {
   std::string output;
 };
 
+// A started child, killed and reaped on every way out of scope (an exception included), so no
+// path leaves a zombie or a runaway process behind.
+class ChildProcess {
+ public:
+  explicit ChildProcess(pid_t pid) : pid_(pid) {}
+  ChildProcess(const ChildProcess&) = delete;
+  ChildProcess& operator=(const ChildProcess&) = delete;
+  ~ChildProcess() {
+    if (!reaped_) reap(true);
+  }
+  pid_t pid() const { return pid_; }
+  bool reaped() const { return reaped_; }
+
+  // Non-blocking: whether it has exited (and is now reaped).
+  bool poll() {
+    if (!reaped_ && ::wait4(pid_, &status_, WNOHANG, &usage_) == pid_) reaped_ = true;
+    return reaped_;
+  }
+  // Blocking; with `kill`, SIGKILL first.
+  void reap(bool kill) {
+    if (reaped_) return;
+    if (kill) ::kill(pid_, SIGKILL);
+    while (::wait4(pid_, &status_, 0, &usage_) < 0 && errno == EINTR) {
+    }
+    reaped_ = true;
+  }
+  int status() const { return status_; }
+  double cpuSeconds() const {
+    return double(usage_.ru_utime.tv_sec + usage_.ru_stime.tv_sec) +
+           double(usage_.ru_utime.tv_usec + usage_.ru_stime.tv_usec) * 1e-6;
+  }
+
+ private:
+  pid_t pid_;
+  bool reaped_ = false;
+  int status_ = 0;
+  rusage usage_{};
+};
+
 pid_t spawnChild(int stdinFd, int stdoutFd) {
   posix_spawn_file_actions_t actions;
   posix_spawn_file_actions_init(&actions);
@@ -166,21 +205,20 @@ ChildRun runChild(const std::vector<std::string_view>& request, const LoadLimits
   ::fcntl(output.read.get(), F_SETFL, O_NONBLOCK);
 
   const SigpipeGuard sigpipe;
-  const pid_t pid = spawnChild(input.read.get(), output.write.get());
+  ChildProcess child(spawnChild(input.read.get(), output.write.get()));
   // The child has its own copies now; ours would keep the pipes open past its exit.
   input.read.reset();
   output.write.reset();
   // Tells when the child exits even if it closed stdout early; without it (old kernels) the loop
   // below wakes every few milliseconds to ask.
-  Fd exited(int(::syscall(SYS_pidfd_open, pid, 0)));
+  Fd exited(int(::syscall(SYS_pidfd_open, child.pid(), 0)));
 
   ChildRun run;
   const Clock::time_point deadline = Clock::now() + std::chrono::seconds(limits.wallSeconds);
   // Reply magic and status, then at most the scene the caller accepts.
   const uint64_t maxOutput = limits.maxOutputBytes + 5;
   size_t chunk = 0, offset = 0;
-  bool childExited = false, reaped = false;
-  rusage usage{};
+  bool childExited = false;
   char buffer[1 << 16];
 
   while (output.read.get() >= 0 || !childExited) {
@@ -209,9 +247,7 @@ ChildRun runChild(const std::vector<std::string_view>& request, const LoadLimits
     const int timeout = int(std::min<long long>(left, askEachTime ? 10 : 60'000));
     const int ready = ::poll(fds, count, timeout);
     if (ready < 0 && errno != EINTR) internal(std::string("poll: ") + std::strerror(errno));
-    if (askEachTime && ::wait4(pid, &run.status, WNOHANG, &usage) == pid) {
-      childExited = reaped = true;
-    }
+    if (askEachTime && child.poll()) childExited = true;
     if (ready <= 0) continue;
 
     if (inIndex >= 0 && fds[inIndex].revents != 0) {
@@ -248,13 +284,9 @@ ChildRun runChild(const std::vector<std::string_view>& request, const LoadLimits
     if (exitIndex >= 0 && fds[exitIndex].revents != 0) childExited = true;
   }
 
-  if (!reaped) {
-    if (!childExited) ::kill(pid, SIGKILL);
-    while (::wait4(pid, &run.status, 0, &usage) < 0 && errno == EINTR) {
-    }
-  }
-  run.cpuSeconds = double(usage.ru_utime.tv_sec + usage.ru_stime.tv_sec) +
-                   double(usage.ru_utime.tv_usec + usage.ru_stime.tv_usec) * 1e-6;
+  child.reap(!childExited);
+  run.status = child.status();
+  run.cpuSeconds = child.cpuSeconds();
   return run;
 }
 
