@@ -4,6 +4,7 @@
 #include <regex>
 #include <set>
 #include <stdexcept>
+#include <unordered_map>
 
 #include "protocol/schema_bundle.h"
 
@@ -22,7 +23,39 @@ const std::set<std::string, std::less<>> kAssertions = {
 const std::set<std::string, std::less<>> kAnnotations = {
     "$schema", "$id", "$defs", "$comment", "title", "description", "default", "examples"};
 
-void requireSupported(const json& node, const std::string& where) {
+// "defs.schema.json#/$defs/vec3" -> the defs schema's node; "#/..." stays in `doc`.
+std::pair<std::string_view, const json*> resolveRef(std::string_view doc, const std::string& ref) {
+  size_t hash = ref.find('#');
+  std::string file = ref.substr(0, hash);
+  std::string fragment = hash == std::string::npos ? "" : ref.substr(hash + 1);
+  std::string_view refDoc = doc;
+  if (!file.empty()) {
+    constexpr std::string_view kSuffix = ".schema.json";
+    std::string_view name = file;
+    if (name.size() <= kSuffix.size() || name.substr(name.size() - kSuffix.size()) != kSuffix) {
+      throw std::logic_error("protocol: $ref \"" + ref + "\" does not name a *.schema.json file");
+    }
+    name.remove_suffix(kSuffix.size());
+    refDoc = {};
+    for (std::string_view known : schemaNames()) {
+      if (known == name) refDoc = known;  // a view into the embedded bundle, which lives forever
+    }
+    if (refDoc.empty()) throw std::logic_error("protocol: $ref to unknown schema \"" + ref + "\"");
+  }
+  return {refDoc, &schema(refDoc).at(json::json_pointer(fragment))};
+}
+
+// What a $ref node points to: its schema's name (for the "#/..." refs inside it) and the node.
+struct RefTarget {
+  std::string_view doc;
+  const json* node;
+};
+using RefTable = std::unordered_map<const json*, RefTarget>;
+
+// Walks a schema: refuses keywords validate() does not understand (a mistake in the schema, or a
+// keyword this validator should learn, rather than a rule silently ignored), and resolves every
+// $ref once, so validation is a table look-up per reference.
+void compile(const json& node, std::string_view doc, const std::string& where, RefTable& refs) {
   if (!node.is_object()) throw std::logic_error("protocol: schema node " + where + " is not an object");
   for (const auto& [key, value] : node.items()) {
     if (!kAssertions.count(key) && !kAnnotations.count(key)) {
@@ -33,22 +66,27 @@ void requireSupported(const json& node, const std::string& where) {
   if (node.contains("additionalProperties") && node["additionalProperties"] != json(false)) {
     throw std::logic_error("protocol: only additionalProperties: false is supported (" + where + ")");
   }
+  if (auto it = node.find("$ref"); it != node.end()) {
+    auto [refDoc, target] = resolveRef(doc, it->get<std::string>());
+    refs[&node] = {refDoc, target};
+  }
   if (auto it = node.find("properties"); it != node.end()) {
-    for (const auto& [key, sub] : it->items()) requireSupported(sub, where + "/properties/" + key);
+    for (const auto& [key, sub] : it->items()) compile(sub, doc, where + "/properties/" + key, refs);
   }
   if (auto it = node.find("$defs"); it != node.end()) {
-    for (const auto& [key, sub] : it->items()) requireSupported(sub, where + "/$defs/" + key);
+    for (const auto& [key, sub] : it->items()) compile(sub, doc, where + "/$defs/" + key, refs);
   }
-  if (auto it = node.find("items"); it != node.end()) requireSupported(*it, where + "/items");
+  if (auto it = node.find("items"); it != node.end()) compile(*it, doc, where + "/items", refs);
 }
 
-// Checks every schema of the bundle once, on first use.
-void requireSupportedBundle() {
-  static const bool checked = [] {
-    for (std::string_view name : schemaNames()) requireSupported(schema(name), std::string(name));
-    return true;
+// Built on first use, read-only afterwards: safe to share between the server's threads.
+const RefTable& refTable() {
+  static const RefTable table = [] {
+    RefTable refs;
+    for (std::string_view name : schemaNames()) compile(schema(name), name, std::string(name), refs);
+    return refs;
   }();
-  (void)checked;
+  return table;
 }
 
 std::string escapePointerToken(std::string_view token) {
@@ -135,9 +173,9 @@ std::string joinKeys(const json& properties) {
 class Validator {
  public:
   std::optional<ValidationError> check(const json& node, std::string_view doc, const json& value) {
-    if (auto it = node.find("$ref"); it != node.end()) {
-      auto [refDoc, target] = resolve(doc, it->get<std::string>());
-      if (auto error = check(*target, refDoc, value)) return error;
+    if (node.contains("$ref")) {
+      const RefTarget& target = refs_.at(&node);
+      if (auto error = check(*target.node, target.doc, value)) return error;
     }
     if (auto it = node.find("type"); it != node.end()) {
       if (auto error = checkType(*it, value)) return error;
@@ -164,31 +202,11 @@ class Validator {
   }
 
  private:
+  const RefTable& refs_ = refTable();
   std::string pointer_;
 
   ValidationError failure(std::string message) const { return {pointer_, std::move(message)}; }
   std::optional<ValidationError> fail(std::string message) const { return failure(std::move(message)); }
-
-  // "defs.schema.json#/$defs/vec3" -> the defs schema's node; "#/..." stays in `doc`.
-  static std::pair<std::string_view, const json*> resolve(std::string_view doc, const std::string& ref) {
-    size_t hash = ref.find('#');
-    std::string file = ref.substr(0, hash);
-    std::string fragment = hash == std::string::npos ? "" : ref.substr(hash + 1);
-    std::string_view refDoc = doc;
-    if (!file.empty()) {
-      constexpr std::string_view kSuffix = ".schema.json";
-      if (file.size() <= kSuffix.size() || file.compare(file.size() - kSuffix.size(), kSuffix.size(), kSuffix) != 0) {
-        throw std::logic_error("protocol: $ref \"" + ref + "\" does not name a *.schema.json file");
-      }
-      std::string name = file.substr(0, file.size() - kSuffix.size());
-      for (std::string_view known : schemaNames()) {
-        if (known == name) refDoc = known;  // a view into the embedded bundle, which outlives us
-      }
-      if (refDoc != name) throw std::logic_error("protocol: $ref to unknown schema \"" + ref + "\"");
-    }
-    const json& root = schema(refDoc);
-    return {refDoc, &root.at(json::json_pointer(fragment))};
-  }
 
   std::optional<ValidationError> checkType(const json& type, const json& value) {
     if (type.is_string()) {
@@ -272,7 +290,7 @@ class Validator {
     auto propertiesIt = node.find("properties");
     const json& properties = propertiesIt != node.end() ? *propertiesIt : kNoProperties;
     size_t length = pointer_.size();
-    if (node.contains("additionalProperties")) {  // always false (requireSupported)
+    if (node.contains("additionalProperties")) {  // always false (see compile())
       for (const auto& [key, value] : object.items()) {
         (void)value;
         if (properties.contains(key)) continue;
@@ -317,7 +335,6 @@ Vec3 cross(const Vec3& a, const Vec3& b) {
 }  // namespace
 
 std::optional<ValidationError> validate(std::string_view schemaName, const nlohmann::json& body) {
-  requireSupportedBundle();
   const json& root = schema(schemaName);  // throws for an unknown name
   Validator validator;
   for (std::string_view name : schemaNames()) {

@@ -25,6 +25,7 @@ test_packages=(
   curl
   chromium                 # the browser test's headless browser (never a downloaded one)
   nodejs                   # runs the browser test (tests/browser, playwright-core)
+  python3-jsonschema       # protocol-differential: a second JSON Schema validator to agree with ours
 )
 # npm installs the browser test's playwright-core. Only where no npm exists: NodeSource's nodejs
 # bundles its own and conflicts with Debian's npm package.
