@@ -27,6 +27,22 @@ namespace {
 struct Gpu {
   std::unique_ptr<gpu::Context> context;
   std::unique_ptr<render::Renderer> renderer;
+  render::SceneId scene = 0;
+  render::FrameSettings lighting;  // the current scene's sun, ambient and background
+
+  // The suite's one scene, replaced by each test.
+  void setScene(const scene::Scene& s) {
+    if (scene == 0) scene = renderer->createScene(s);
+    else renderer->replaceScene(scene, s);
+    lighting.takeLightingFrom(s);
+  }
+  // Renders it lit by its own sun, ambient and background.
+  render::Frame render(render::FrameSettings f) {
+    f.sun = lighting.sun;
+    f.ambient = lighting.ambient;
+    f.background = lighting.background;
+    return renderer->render(scene, f);
+  }
 };
 
 // One device for the whole suite: creating instances per test would dominate the run time.
@@ -95,11 +111,11 @@ scene::Camera lookingDownAtFloor() {
 
 Comparison renderAndCompare(const scene::Scene& s, const render::FrameSettings& f, int tolerance) {
   Gpu& gpu = sharedGpu();
-  gpu.renderer->setScene(s);
-  render::Frame frame = gpu.renderer->render(f);
+  gpu.setScene(s);
+  render::Frame frame = gpu.render(f);
   REQUIRE(frame.width == f.width);
   REQUIRE(frame.height == f.height);
-  std::vector<uint8_t> reference = render::renderReference(s, f);
+  std::vector<uint8_t> reference = render::renderReference(s, render::FrameSettings(f).takeLightingFrom(s));
   Comparison c = compare(frame.rgba, reference, tolerance);
   MESSAGE("target " << render::targetName(f.target) << ": max difference " << c.maxDifference
                     << "/255, " << c.pixelsOver << " of " << c.pixels << " pixels over " << tolerance);
@@ -127,9 +143,9 @@ TEST_CASE("local lights on a floor match the reference on every pixel") {
   CHECK(c.pixelsOver == 0);
   // And the lights are really there: the GPU image differs from the sun-only one.
   Gpu& gpu = sharedGpu();
-  render::Frame lit = gpu.renderer->render(settingsFor(lookingDownAtFloor(), render::Target::Final));
-  gpu.renderer->setScene(floorScene());
-  render::Frame unlit = gpu.renderer->render(settingsFor(lookingDownAtFloor(), render::Target::Final));
+  render::Frame lit = gpu.render(settingsFor(lookingDownAtFloor(), render::Target::Final));
+  gpu.setScene(floorScene());
+  render::Frame unlit = gpu.render(settingsFor(lookingDownAtFloor(), render::Target::Final));
   CHECK(compare(lit.rgba, unlit.rgba, 8).pixelsOver > lit.rgba.size() / 4 / 10);
 }
 
@@ -179,8 +195,8 @@ TEST_CASE("spheres of every metallic and roughness match the reference") {
 TEST_CASE("normal target equals the analytic normal: floor (0,1,0) and a tilted plane") {
   scene::Scene s = floorScene();
   Gpu& gpu = sharedGpu();
-  gpu.renderer->setScene(s);
-  render::Frame frame = gpu.renderer->render(settingsFor(lookingDownAtFloor(), render::Target::Normal));
+  gpu.setScene(s);
+  render::Frame frame = gpu.render(settingsFor(lookingDownAtFloor(), render::Target::Normal));
   // (0,1,0) * 0.5 + 0.5 = (0.5, 1, 0.5) -> bytes (128, 255, 128); the sky (no geometry) is black.
   auto isBackground = [](const uint8_t* px) { return px[0] == 0 && px[1] == 0 && px[2] == 0; };
   size_t wrong = 0, floor = 0;
@@ -196,10 +212,10 @@ TEST_CASE("normal target equals the analytic normal: floor (0,1,0) and a tilted 
   scene::Scene tilted = s;
   tilted.instances[0].transform =
       glm::rotate(glm::mat4(1.0f), glm::radians(30.0f), glm::vec3(0, 0, 1)) * s.instances[0].transform;
-  gpu.renderer->setScene(tilted);
+  gpu.setScene(tilted);
   scene::Camera camera = lookingDownAtFloor();
   camera.eye = glm::vec3(0.0f, 6.0f, 6.0f);
-  frame = gpu.renderer->render(settingsFor(camera, render::Target::Normal));
+  frame = gpu.render(settingsFor(camera, render::Target::Normal));
   glm::vec3 expected = glm::vec3(-0.5f, std::sqrt(3.0f) / 2.0f, 0.0f) * 0.5f + 0.5f;
   wrong = 0;
   floor = 0;
@@ -220,8 +236,8 @@ TEST_CASE("depth target equals the analytic linear depth of the floor") {
   scene::Camera camera = lookingDownAtFloor();
   render::FrameSettings f = settingsFor(camera, render::Target::Depth);
   Gpu& gpu = sharedGpu();
-  gpu.renderer->setScene(s);
-  render::Frame frame = gpu.renderer->render(f);
+  gpu.setScene(s);
+  render::Frame frame = gpu.render(f);
   // Per pixel: intersect the view ray with y = 0 and take the distance along the view axis.
   glm::mat4 inverse = glm::inverse(scene::projectionMatrix(camera, float(f.width) / f.height) *
                                     scene::viewMatrix(camera));
@@ -269,11 +285,11 @@ TEST_CASE("light-volumes view tints exactly the pixels inside some light's spher
   scene::Scene s = floorScene();
   s.lights = {{glm::vec3(0.0f, 0.2f, 0.0f), 1.5f, glm::vec3(1.0f, 0.0f, 0.0f), 5.0f, 1.0f}};
   Gpu& gpu = sharedGpu();
-  gpu.renderer->setScene(s);
+  gpu.setScene(s);
   render::FrameSettings f = settingsFor(lookingDownAtFloor(), render::Target::LightVolumes);
-  render::Frame volumes = gpu.renderer->render(f);
+  render::Frame volumes = gpu.render(f);
   f.target = render::Target::Final;
-  render::Frame final = gpu.renderer->render(f);
+  render::Frame final = gpu.render(f);
   // Outside the sphere the view is the final image halved; inside, red is added on top.
   size_t tinted = 0;
   for (size_t p = 0; p < final.rgba.size(); p += 4) {

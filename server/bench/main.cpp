@@ -44,6 +44,7 @@ int run(const bench::Options& options, const std::string& commandLine) {
     return 1;
   }
   render::Renderer renderer(*context);
+  render::SceneId sceneId = 0;
   bench::RunInfo info;
   info.device = context->info;
   info.command = commandLine;
@@ -60,7 +61,9 @@ int run(const bench::Options& options, const std::string& commandLine) {
     scene::Scene scene = bench::makeBenchScene(
         {.kind = options.scene, .lightCount = lights, .seed = options.seed,
          .lightsPerPoint = options.lightsPerPoint});
-    renderer.setScene(scene);
+    // One scene at a time: the previous one's memory goes before the next is uploaded.
+    if (sceneId != 0) renderer.destroyScene(sceneId);
+    sceneId = renderer.createScene(scene);
     for (render::Technique technique : options.techniques) {
       bench::ConfigResult result;
       if (technique == render::Technique::Volumes && lights > options.volumesMaxLights) {
@@ -70,7 +73,8 @@ int run(const bench::Options& options, const std::string& commandLine) {
         result.technique = technique;
         result.skipped = "more than --volumes-max-lights " + std::to_string(options.volumesMaxLights);
       } else {
-        result = bench::measure(renderer, *context, scene.camera, technique, lights, options.plan);
+        result = bench::measure(renderer, *context, sceneId, scene, technique, lights,
+                                options.plan);
       }
       result.scene = info.scene;
       bench::printResult(stdout, result);

@@ -13,12 +13,13 @@ using Clock = std::chrono::steady_clock;
 
 // Frames of the benchmark always animate: light assignment then runs every frame, as it must
 // when lights move, rather than being skipped for a static scene.
-render::FrameSettings frameSettings(const scene::Camera& camera, render::Technique technique,
+render::FrameSettings frameSettings(const scene::Scene& scene, render::Technique technique,
                                     const Plan& plan, uint32_t frameIndex) {
   render::FrameSettings f;
   f.width = plan.width;
   f.height = plan.height;
-  f.camera = camera;
+  f.camera = scene.camera;
+  f.takeLightingFrom(scene);
   f.technique = technique;
   f.markers = plan.markers;
   f.animate = true;
@@ -47,8 +48,9 @@ Summary summarize(std::vector<double> values) {
   return s;
 }
 
-ConfigResult measure(render::Renderer& renderer, gpu::Context& context, const scene::Camera& camera,
-                     render::Technique technique, uint32_t lightCount, const Plan& plan) {
+ConfigResult measure(render::Renderer& renderer, gpu::Context& context, render::SceneId sceneId,
+                     const scene::Scene& scene, render::Technique technique, uint32_t lightCount,
+                     const Plan& plan) {
   ConfigResult r;
   r.width = plan.width;
   r.height = plan.height;
@@ -58,7 +60,7 @@ ConfigResult measure(render::Renderer& renderer, gpu::Context& context, const sc
 
   uint32_t frameIndex = 0;
   for (uint32_t i = 0; i < plan.warmupFrames; ++i) {
-    renderer.render(frameSettings(camera, technique, plan, frameIndex++));
+    renderer.render(sceneId, frameSettings(scene, technique, plan, frameIndex++));
   }
   r.warmupFrames = plan.warmupFrames;
 
@@ -74,7 +76,7 @@ ConfigResult measure(render::Renderer& renderer, gpu::Context& context, const sc
       break;
     }
     Clock::time_point before = Clock::now();
-    render::Frame frame = renderer.render(frameSettings(camera, technique, plan, frameIndex++));
+    render::Frame frame = renderer.render(sceneId, frameSettings(scene, technique, plan, frameIndex++));
     walls.push_back(std::chrono::duration<double, std::milli>(Clock::now() - before).count());
     double total = 0.0;
     for (const auto& pass : frame.passes) {
@@ -104,10 +106,10 @@ ConfigResult measure(render::Renderer& renderer, gpu::Context& context, const sc
 
   // The pairs the lighting shaded: every light that reaches a pixel is one BRDF evaluation, the
   // same count for every technique (they shade the same image).
-  render::FrameSettings countSettings = frameSettings(camera, technique, plan, firstTimed);
+  render::FrameSettings countSettings = frameSettings(scene, technique, plan, firstTimed);
   countSettings.target = render::Target::LightCount;
   countSettings.raw = true;
-  render::Frame counts = renderer.render(countSettings);
+  render::Frame counts = renderer.render(sceneId, countSettings);
   for (size_t i = 0; i < counts.data.size(); i += 4) {
     const auto lights = static_cast<uint32_t>(std::lround(counts.data[i]));
     r.pairs += lights;

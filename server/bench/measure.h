@@ -76,8 +76,10 @@ struct ConfigResult {
 // Median and 90th percentile (nearest rank) of `values`; zeros when empty.
 Summary summarize(std::vector<double> values);
 
-// Runs one configuration on the scene the renderer holds, viewed from `camera`.
-ConfigResult measure(render::Renderer& renderer, gpu::Context& context, const scene::Camera& camera,
-                     render::Technique technique, uint32_t lightCount, const Plan& plan);
+// Runs one configuration on `scene`, which the renderer holds as `sceneId`, viewed from its camera
+// and lit by its sun.
+ConfigResult measure(render::Renderer& renderer, gpu::Context& context, render::SceneId sceneId,
+                     const scene::Scene& scene, render::Technique technique, uint32_t lightCount,
+                     const Plan& plan);
 
 }  // namespace myriad::bench

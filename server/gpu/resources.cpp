@@ -8,10 +8,6 @@ namespace myriad::gpu {
 
 namespace {
 
-// Large enough that a frame's targets or a scene's buffers take one or two allocations; small
-// enough not to waste much on lavapipe, where "device memory" is host memory.
-constexpr VkDeviceSize kBlockSize = 64ull << 20;
-
 VkDeviceSize alignUp(VkDeviceSize value, VkDeviceSize alignment) {
   return (value + alignment - 1) / alignment * alignment;
 }
@@ -65,7 +61,7 @@ Arena::Placement Arena::place(const VkMemoryRequirements& requirements, MemoryUs
   }
   Block block;
   block.memoryType = type;
-  block.size = std::max(kBlockSize, alignUp(requirements.size, alignment));
+  block.size = std::max(minBlockSize_, alignUp(requirements.size, alignment));
   VkMemoryAllocateInfo info{VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO};
   info.allocationSize = block.size;
   info.memoryTypeIndex = type;

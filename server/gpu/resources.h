@@ -33,9 +33,16 @@ struct Image {
   VkImageAspectFlags aspect = VK_IMAGE_ASPECT_COLOR_BIT;
 };
 
+// Large enough that a frame's targets take one or two allocations; small enough not to waste much
+// on lavapipe, where "device memory" is host memory.
+inline constexpr VkDeviceSize kDefaultBlockSize = 64ull << 20;
+
 class Arena {
  public:
-  explicit Arena(Context& context) : context_(&context) {}
+  // Blocks are at least `minBlockSize` (more when one resource needs more). Many small arenas
+  // (one per session's scene) pass a small size so each costs about what it holds.
+  explicit Arena(Context& context, VkDeviceSize minBlockSize = kDefaultBlockSize)
+      : context_(&context), minBlockSize_(minBlockSize) {}
   ~Arena() { release(); }
   Arena(const Arena&) = delete;
   Arena& operator=(const Arena&) = delete;
@@ -64,6 +71,7 @@ class Arena {
   Placement place(const VkMemoryRequirements& requirements, MemoryUse use);
 
   Context* context_;
+  VkDeviceSize minBlockSize_;
   std::vector<Block> blocks_;
   std::vector<VkBuffer> buffers_;
   std::vector<VkImage> images_;

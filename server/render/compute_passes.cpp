@@ -1,6 +1,7 @@
 #include "render/compute_passes.h"
 
 #include "gpu/commands.h"
+#include "render/gpu_types.h"
 #include "shared_types.h"
 
 namespace myriad::render {
@@ -56,7 +57,7 @@ void recordRestoreLights(VkCommandBuffer cmd, const SceneBuffers& scene) {
   if (scene.lightCount == 0) return;
   gpu::memoryBarrier(cmd, VK_PIPELINE_STAGE_2_VERTEX_SHADER_BIT | VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT | kCompute,
                      VK_ACCESS_2_NONE, VK_PIPELINE_STAGE_2_COPY_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT);
-  VkBufferCopy region{0, 0, scene.lights.size};
+  VkBufferCopy region{0, 0, VkDeviceSize(scene.lightCount) * sizeof(GpuPointLight)};
   vkCmdCopyBuffer(cmd, scene.lightOrigins.buffer, scene.lights.buffer, 1, &region);
   gpu::memoryBarrier(cmd, VK_PIPELINE_STAGE_2_COPY_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT,
                      VK_PIPELINE_STAGE_2_VERTEX_SHADER_BIT | VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT | kCompute,

@@ -13,6 +13,30 @@
 
 namespace myriad::render {
 
+// A scene the renderer holds on the GPU (Renderer::createScene). Never 0; never reused.
+using SceneId = uint32_t;
+
+// Light edits (Renderer::updateLights). After the update the scene has `count` lights, and
+// light[w.index] = w.light for each write; every index in [old count, count) must be written, and
+// no index may be >= count. Only the written elements are uploaded, so an edit of one light costs
+// one light, whatever the scene holds; the GPU buffers grow by doubling when `count` outgrows them.
+// Removing light i of n: count = n - 1 and write the last light into i (if i < n - 1).
+struct LightWrite {
+  uint32_t index = 0;
+  scene::PointLight light;
+};
+
+struct LightUpdate {
+  uint32_t count = 0;
+  std::vector<LightWrite> writes;
+};
+
+// One material's new factors (Renderer::updateMaterials); index < the scene's material count.
+struct MaterialWrite {
+  uint32_t index = 0;
+  scene::Material material;
+};
+
 // What the tonemap pass writes into the output image. Values match MYRIAD_VIEW_* in
 // shaders/shared_types.h.
 enum class Target : uint32_t {
@@ -75,6 +99,19 @@ struct FrameSettings {
   double time = 0.0;          // animation time in seconds
   uint32_t heatMapMax = 0;    // light-count view: count shown as the hottest colour (0 = auto)
   bool raw = false;           // return the view's float values (Frame::data), not an image
+  // Scene-wide lighting comes with the frame, not the scene upload, so a settings change needs no
+  // upload. The defaults are scene::Scene's; takeLightingFrom() copies a scene's own.
+  scene::Sun sun;
+  glm::vec3 ambient = scene::Scene{}.ambient;
+  glm::vec3 background = scene::Scene{}.background;
+
+  // Sets sun, ambient and background to `scene`'s (what the scene was authored with).
+  FrameSettings& takeLightingFrom(const scene::Scene& scene) {
+    sun = scene.sun;
+    ambient = scene.ambient;
+    background = scene.background;
+    return *this;
+  }
 };
 
 // What light culling did this frame. Nothing is dropped silently: a list that overflowed its
@@ -88,6 +125,8 @@ struct CullingReport {
   uint32_t mostLightsInList = 0;      // tiled or clustered: the longest list
   uint64_t lightBytes = 0;            // GPU memory holding the lights (current + origins)
   uint64_t listBytes = 0;             // GPU memory holding the cluster grid and lists
+  uint32_t listCapacity = 0;          // clustered: light references the lists hold this frame
+  bool listsGrew = false;  // clustered: the lists overflowed, grew, and the frame was re-rendered
 
   bool overflowed() const { return tileLightsDropped > 0 || clusterLightsDropped > 0; }
 };
@@ -127,6 +166,7 @@ struct Frame {
   std::vector<PassTiming> passes;
   Technique technique = Technique::Clustered;
   uint32_t lightCount = 0;
+  uint64_t sceneBytes = 0;  // GPU memory of the rendered scene (geometry, materials, lights)
   CullingReport culling;
 };
 

@@ -116,8 +116,8 @@ std::vector<uint8_t> renderReference(const scene::Scene& scene, const FrameSetti
       scene::projectionMatrix(s.camera, aspect) * scene::viewMatrix(s.camera);
   const glm::mat4 inverse = glm::inverse(viewProjection);
   const scene::Bounds bounds = scene.bounds();
-  const glm::vec3 sunDirection = -glm::normalize(scene.sun.direction);
-  const glm::vec3 sunRadiance = scene.sun.color * scene.sun.intensity;
+  const glm::vec3 sunDirection = -glm::normalize(s.sun.direction);
+  const glm::vec3 sunRadiance = s.sun.color * s.sun.intensity;
   const float n = s.camera.nearPlane;
   const float f = s.camera.farPlane;
 
@@ -147,11 +147,11 @@ std::vector<uint8_t> renderReference(const scene::Scene& scene, const FrameSetti
       const float roughness = quantizeUnorm8(material.roughness);
       switch (s.target) {
         case Target::Final: {
-          glm::vec3 hdr = half3(scene.background);
+          glm::vec3 hdr = half3(s.background);
           if (found) {
             glm::vec3 V = glm::normalize(s.camera.eye - hit.position);
             hdr = half3(shading::shadeSunAndAmbient(normal, V, baseColor, metallic, roughness,
-                                                    sunDirection, sunRadiance, scene.ambient));
+                                                    sunDirection, sunRadiance, s.ambient));
             for (const scene::PointLight& l : scene.lights) {
               glm::vec3 c = shading::shadePointLight(hit.position, normal, V, baseColor, metallic,
                                                      roughness, l.position, l.radius,

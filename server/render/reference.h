@@ -14,7 +14,7 @@
 namespace myriad::render {
 
 // RGBA8 like Frame::rgba. Supports every target but light-volumes (a rasterisation artefact);
-// light markers are not drawn.
+// light markers are not drawn. Sun, ambient and background come from `settings`, as on the GPU.
 std::vector<uint8_t> renderReference(const scene::Scene& scene, const FrameSettings& settings);
 
 }  // namespace myriad::render

@@ -4,6 +4,8 @@
 #include <cmath>
 #include <cstring>
 #include <stdexcept>
+#include <string>
+#include <unordered_map>
 
 #include "gpu/commands.h"
 #include "gpu/vk_check.h"
@@ -25,11 +27,18 @@ constexpr uint32_t kMaxTimedPasses = 10;
 // The light-count view's hottest colour when the request leaves it to us.
 constexpr uint32_t kDefaultHeatMapMax = 64;
 
+// The frame uniforms are one small buffer; a default 64 MiB block would be almost all waste.
+constexpr VkDeviceSize kUniformBlockSize = 64ull << 10;
+
+// Overflowing cluster lists grow to this much more than the frame needed, so a view that moves a
+// little does not overflow again on the next frame.
+constexpr double kListGrowth = 1.25;
+
 }  // namespace
 
 struct Renderer::State {
   explicit State(gpu::Context& c)
-      : context(c), pipelines(c), uniformArena(c), timer(c, kMaxTimedPasses) {}
+      : context(c), pipelines(c), uniformArena(c, kUniformBlockSize), timer(c, kMaxTimedPasses) {}
 
   gpu::Context& context;
   Pipelines pipelines;
@@ -39,31 +48,51 @@ struct Renderer::State {
   gpu::PassTimer timer;
   VkSampler sampler = VK_NULL_HANDLE;
   VkDescriptorPool descriptorPool = VK_NULL_HANDLE;
+  // One set per kind, rewritten for whichever scene the frame draws: frames run one at a time.
   VkDescriptorSet sceneSet = VK_NULL_HANDLE;
   VkDescriptorSet targetSet = VK_NULL_HANDLE;
   VkDescriptorSet cullingSet = VK_NULL_HANDLE;
-  std::unique_ptr<SceneBuffers> sceneBuffers;
+  std::unordered_map<SceneId, std::unique_ptr<SceneBuffers>> scenes;
+  SceneId nextSceneId = 1;
+  // Shared by every scene: sized for the frame being drawn, rebuilt when that changes.
   std::unique_ptr<FrameTargets> targets;
   std::unique_ptr<LightGrid> grid;
-  bool lightsMoved = false;  // the lights buffer holds animated positions, not the origins
-  scene::Sun sun;
-  glm::vec3 ambient{0.0f};
-  glm::vec3 background{0.0f};
+  uint64_t listLimitBytes = 0;     // limitListMemory(); 0 = the device's limit
+  uint32_t grownListCapacity = 0;  // what overflowing lists grew to (kept for later frames)
 
-  void writeSceneSet();
+  SceneBuffers& scene(SceneId id);
+  const SceneBuffers& scene(SceneId id) const;
+  uint64_t maxListBytes() const;
+  void writeSceneSet(const SceneBuffers& scene);
   void writeTargetSet();
   void writeCullingSet();
-  void writeUniforms(const FrameSettings& settings);
-  void ensureTargets(VkExtent2D extent, bool raw);
+  void writeUniforms(const FrameSettings& settings, const SceneBuffers& scene);
+  void ensureTargets(VkExtent2D extent, bool raw, uint32_t lightCount);
+  Frame renderOnce(SceneBuffers& scene, const FrameSettings& settings);
 };
 
-void Renderer::State::writeSceneSet() {
+SceneBuffers& Renderer::State::scene(SceneId id) {
+  auto it = scenes.find(id);
+  if (it == scenes.end()) throw std::invalid_argument("no scene " + std::to_string(id) + " on the GPU");
+  return *it->second;
+}
+
+const SceneBuffers& Renderer::State::scene(SceneId id) const {
+  return const_cast<State*>(this)->scene(id);
+}
+
+uint64_t Renderer::State::maxListBytes() const {
+  uint64_t device = context.info.maxStorageBufferRange;
+  return listLimitBytes > 0 ? std::min(listLimitBytes, device) : device;
+}
+
+void Renderer::State::writeSceneSet(const SceneBuffers& scene) {
   VkDescriptorBufferInfo buffers[5] = {
       {uniforms.buffer, 0, sizeof(FrameUniforms)},
-      {sceneBuffers->lights.buffer, 0, VK_WHOLE_SIZE},
-      {sceneBuffers->instances.buffer, 0, VK_WHOLE_SIZE},
-      {sceneBuffers->materials.buffer, 0, VK_WHOLE_SIZE},
-      {sceneBuffers->lightOrigins.buffer, 0, VK_WHOLE_SIZE},
+      {scene.lights.buffer, 0, VK_WHOLE_SIZE},
+      {scene.instances.buffer, 0, VK_WHOLE_SIZE},
+      {scene.materials.buffer, 0, VK_WHOLE_SIZE},
+      {scene.lightOrigins.buffer, 0, VK_WHOLE_SIZE},
   };
   VkWriteDescriptorSet writes[5];
   for (uint32_t i = 0; i < 5; ++i) {
@@ -120,17 +149,20 @@ void Renderer::State::writeCullingSet() {
   vkUpdateDescriptorSets(context.device, 4, writes, 0, nullptr);
 }
 
-// Targets follow the output size; the light grid follows the size and the light count. Both are
-// rebuilt only when they change (every frame is waited for, so nothing is in flight here).
-void Renderer::State::ensureTargets(VkExtent2D extent, bool raw) {
+// Targets follow the output size; the light grid follows the size, the light count and what the
+// lists grew to. Both are rebuilt only when they change (every frame is waited for, so nothing is
+// in flight here).
+void Renderer::State::ensureTargets(VkExtent2D extent, bool raw, uint32_t lightCount) {
   if (!targets || targets->extent.width != extent.width ||
       targets->extent.height != extent.height || targets->raw != raw) {
     targets.reset();
     targets = std::make_unique<FrameTargets>(context, extent, raw);
     writeTargetSet();
   }
-  LightGridSize size = lightGridSize(extent, sceneBuffers->lightCount,
-                                     context.info.maxStorageBufferRange);
+  const uint64_t mostReferences = maxListBytes() / sizeof(uint32_t);
+  LightGridSize size = lightGridSize(extent, lightCount, maxListBytes());
+  size.listCapacity = static_cast<uint32_t>(
+      std::min<uint64_t>(std::max(size.listCapacity, grownListCapacity), mostReferences));
   if (!grid || !(grid->size == size)) {
     grid.reset();
     grid = std::make_unique<LightGrid>(context, size);
@@ -138,11 +170,11 @@ void Renderer::State::ensureTargets(VkExtent2D extent, bool raw) {
   }
 }
 
-void Renderer::State::writeUniforms(const FrameSettings& s) {
+void Renderer::State::writeUniforms(const FrameSettings& s, const SceneBuffers& scene) {
   float aspect = float(s.width) / float(s.height);
   glm::mat4 view = scene::viewMatrix(s.camera);
   glm::mat4 projection = scene::projectionMatrix(s.camera, aspect);
-  const scene::Bounds& bounds = sceneBuffers->bounds;
+  const scene::Bounds& bounds = scene.bounds;
   float diagonal = bounds.empty() ? 1.0f : glm::length(bounds.size());
 
   FrameUniforms u{};
@@ -151,17 +183,17 @@ void Renderer::State::writeUniforms(const FrameSettings& s) {
   u.viewProjection = projection * view;
   u.inverseViewProjection = glm::inverse(u.viewProjection);
   u.cameraPosition = glm::vec4(s.camera.eye, 1.0f);
-  u.sunDirection = glm::vec4(-glm::normalize(sun.direction), sun.intensity);
-  u.sunColor = glm::vec4(sun.color, 0.0f);
-  u.ambient = glm::vec4(ambient, 0.0f);
-  u.background = glm::vec4(background, 0.0f);
+  u.sunDirection = glm::vec4(-glm::normalize(s.sun.direction), s.sun.intensity);
+  u.sunColor = glm::vec4(s.sun.color, 0.0f);
+  u.ambient = glm::vec4(s.ambient, 0.0f);
+  u.background = glm::vec4(s.background, 0.0f);
   u.viewport = glm::vec4(s.width, s.height, 1.0f / s.width, 1.0f / s.height);
   // Markers are a fixed fraction of the scene's size: visible in a wide shot, never huge.
   u.camera = glm::vec4(s.exposure, s.camera.nearPlane, s.camera.farPlane, diagonal * 0.0025f);
   u.boundsMin = glm::vec4(bounds.empty() ? glm::vec3(0.0f) : bounds.min, 0.0f);
   u.boundsMax = glm::vec4(bounds.empty() ? glm::vec3(1.0f) : bounds.max, 0.0f);
   const LightGridSize& g = grid->size;
-  u.flags = glm::uvec4(static_cast<uint32_t>(s.target), sceneBuffers->lightCount, s.raw ? 1 : 0,
+  u.flags = glm::uvec4(static_cast<uint32_t>(s.target), scene.lightCount, s.raw ? 1 : 0,
                        g.listCapacity);
   u.grid = glm::uvec4(g.clustersX, g.clustersY, g.slices, static_cast<uint32_t>(s.technique));
   float slicesPerLog = float(g.slices) / std::log(s.camera.farPlane / s.camera.nearPlane);
@@ -203,8 +235,6 @@ Renderer::Renderer(gpu::Context& context) : state_(std::make_unique<State>(conte
   s.sceneSet = sets[0];
   s.targetSet = sets[1];
   s.cullingSet = sets[2];
-
-  setScene(scene::Scene{});
 }
 
 Renderer::~Renderer() {
@@ -212,40 +242,97 @@ Renderer::~Renderer() {
   vkDeviceWaitIdle(s.context.device);
   s.targets.reset();
   s.grid.reset();
-  s.sceneBuffers.reset();
+  s.scenes.clear();
   vkDestroyDescriptorPool(s.context.device, s.descriptorPool, nullptr);
   vkDestroySampler(s.context.device, s.sampler, nullptr);
   gpu::destroyCommandRecorder(s.context, s.recorder);
 }
 
-void Renderer::setScene(const scene::Scene& scene) {
+SceneId Renderer::createScene(const scene::Scene& scene) {
   State& s = *state_;
+  auto buffers = std::make_unique<SceneBuffers>(s.context, s.recorder, scene);
+  SceneId id = s.nextSceneId++;
+  s.scenes.emplace(id, std::move(buffers));
+  return id;
+}
+
+void Renderer::replaceScene(SceneId id, const scene::Scene& scene) {
+  State& s = *state_;
+  s.scene(id);  // throws for an unknown id
   // Build the new buffers before dropping the old, so a failure leaves the old scene in place.
   auto buffers = std::make_unique<SceneBuffers>(s.context, s.recorder, scene);
-  s.sceneBuffers = std::move(buffers);
-  s.lightsMoved = false;
-  s.sun = scene.sun;
-  s.ambient = scene.ambient;
-  s.background = scene.background;
-  s.writeSceneSet();
+  s.scenes[id] = std::move(buffers);
+}
+
+void Renderer::destroyScene(SceneId id) {
+  State& s = *state_;
+  s.scene(id);  // throws for an unknown id
+  s.scenes.erase(id);
+}
+
+void Renderer::updateLights(SceneId id, const LightUpdate& update) {
+  state_->scene(id).updateLights(state_->recorder, update);
+}
+
+void Renderer::updateMaterials(SceneId id, const std::vector<MaterialWrite>& writes) {
+  state_->scene(id).updateMaterials(state_->recorder, writes);
+}
+
+bool Renderer::hasScene(SceneId id) const { return state_->scenes.contains(id); }
+
+uint32_t Renderer::lightCount(SceneId id) const { return state_->scene(id).lightCount; }
+
+uint64_t Renderer::sceneBytes(SceneId id) const { return state_->scene(id).bytes(); }
+
+uint64_t Renderer::gpuMemoryBytes() const {
+  const State& s = *state_;
+  uint64_t total = s.uniformArena.bytesAllocated();
+  for (const auto& [id, scene] : s.scenes) total += scene->bytes();
+  if (s.targets) total += s.targets->arena.bytesAllocated();
+  if (s.grid) total += s.grid->arena.bytesAllocated();
+  return total;
+}
+
+void Renderer::limitListMemory(uint64_t bytes) {
+  state_->listLimitBytes = bytes;
+  state_->grownListCapacity = 0;
 }
 
 uint32_t Renderer::maxDimension() const { return state_->context.info.maxImageDimension2D; }
 
-// The frame, top to bottom. Every request (any view, any size) takes this one path.
-Frame Renderer::render(const FrameSettings& settings) {
+// Renders, and when the clustered lists overflowed but may still grow, grows them and renders the
+// frame once more: a frame with lights missing is never the answer while memory allows.
+Frame Renderer::render(SceneId id, const FrameSettings& settings) {
   State& s = *state_;
+  SceneBuffers& scene = s.scene(id);
   if (settings.width == 0 || settings.height == 0 || settings.width > maxDimension() ||
       settings.height > maxDimension()) {
     throw std::invalid_argument("frame size " + std::to_string(settings.width) + "x" +
                                 std::to_string(settings.height) + " is outside 1.." +
                                 std::to_string(maxDimension()));
   }
+  Frame frame = s.renderOnce(scene, settings);
+  const CullingReport& c = frame.culling;
+  const uint64_t mostReferences = s.maxListBytes() / sizeof(uint32_t);
+  if (settings.technique == Technique::Clustered && c.clusterLightsDropped > 0 &&
+      c.listCapacity < mostReferences) {
+    const uint64_t needed = uint64_t(c.listEntries) + c.clusterLightsDropped;
+    const auto grown = static_cast<uint64_t>(std::ceil(double(needed) * kListGrowth));
+    s.grownListCapacity = static_cast<uint32_t>(std::min(grown, mostReferences));
+    frame = s.renderOnce(scene, settings);
+    frame.culling.listsGrew = true;
+  }
+  return frame;
+}
+
+// The frame, top to bottom. Every request (any view, any size) takes this one path.
+Frame Renderer::State::renderOnce(SceneBuffers& scene, const FrameSettings& settings) {
+  State& s = *this;
   VkExtent2D extent{settings.width, settings.height};
-  s.ensureTargets(extent, settings.raw);
-  s.writeUniforms(settings);
+  s.ensureTargets(extent, settings.raw, scene.lightCount);
+  s.writeUniforms(settings, scene);
+  s.writeSceneSet(scene);
   const FrameTargets& t = *s.targets;
-  const SceneBuffers& scene = *s.sceneBuffers;
   const LightGrid& grid = *s.grid;
   const Pipelines& p = s.pipelines;
 
@@ -258,10 +345,10 @@ Frame Renderer::render(const FrameSettings& settings) {
   if (settings.animate) {
     s.timer.beginPass(cmd, "animate");
     recordAnimateLights(cmd, p, scene);
-    s.lightsMoved = true;
-  } else if (s.lightsMoved) {
+    scene.lightsMoved = true;
+  } else if (scene.lightsMoved) {
     recordRestoreLights(cmd, scene);
-    s.lightsMoved = false;
+    scene.lightsMoved = false;
   }
   s.timer.beginPass(cmd, "gbuffer");
   recordGBufferPass(cmd, p, t, scene);
@@ -319,6 +406,7 @@ Frame Renderer::render(const FrameSettings& settings) {
   for (auto& [name, ms] : s.timer.results()) frame.passes.push_back({name, ms});
   frame.technique = settings.technique;
   frame.lightCount = scene.lightCount;
+  frame.sceneBytes = scene.bytes();
   CullingReport& report = frame.culling;
   if (settings.technique != Technique::Volumes) {
     CullingStats stats;
@@ -332,6 +420,7 @@ Frame Renderer::render(const FrameSettings& settings) {
   }
   report.lightBytes = scene.lights.size + scene.lightOrigins.size;
   report.listBytes = grid.ranges.size + grid.cursors.size + grid.lists.size;
+  report.listCapacity = grid.size.listCapacity;
   return frame;
 }
 

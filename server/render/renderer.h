@@ -1,8 +1,12 @@
-// The deferred renderer: one frame function, passes top to bottom (see renderer.cpp).
-// Not thread-safe: exactly one thread (the render thread) calls it.
+// The deferred renderer: one frame function, passes top to bottom (see renderer.cpp), over any of
+// the scenes it holds on the GPU (one per session, plus the server's built-in one).
+// Not thread-safe: exactly one thread (the render thread) calls it. Every call is synchronous
+// (each waits for its GPU work), so nothing is in flight between calls.
 #pragma once
 
+#include <cstdint>
 #include <memory>
+#include <vector>
 
 #include "gpu/context.h"
 #include "render/frame.h"
@@ -17,14 +21,42 @@ class Renderer {
   Renderer(const Renderer&) = delete;
   Renderer& operator=(const Renderer&) = delete;
 
-  // Uploads the scene's meshes, materials and lights; later frames draw it.
-  void setScene(const scene::Scene& scene);
+  // Uploads the scene's meshes, instances, materials and lights; returns its new id. The scene's
+  // sun, ambient and background are not uploaded: they come with each frame (FrameSettings).
+  // Throws std::invalid_argument for an inconsistent scene (an instance naming a missing mesh or
+  // material) and gpu errors (out of device memory); nothing is created then.
+  SceneId createScene(const scene::Scene& scene);
+  // Replaces everything of `id` with `scene`. On failure the old scene stays as it was.
+  void replaceScene(SceneId id, const scene::Scene& scene);
+  // Frees the scene's GPU memory at once.
+  void destroyScene(SceneId id);
 
-  // Renders one frame of the current scene and reads it back.
-  Frame render(const FrameSettings& settings);
+  // Writes lights (both where they are and the animation's origins); see LightUpdate.
+  // Throws std::invalid_argument for a write at or past `count`, or an unwritten new index.
+  void updateLights(SceneId id, const LightUpdate& update);
+  // Writes materials' base colour, metallic and roughness (names are not kept on the GPU).
+  // Throws std::invalid_argument for an index past the scene's materials.
+  void updateMaterials(SceneId id, const std::vector<MaterialWrite>& writes);
+
+  // Renders one frame of scene `id` and reads it back. Throws std::invalid_argument for a size
+  // outside 1..maxDimension().
+  Frame render(SceneId id, const FrameSettings& settings);
+
+  // Every method taking a SceneId throws std::invalid_argument for an id that is not (or no
+  // longer) a scene of this renderer.
+  bool hasScene(SceneId id) const;
+  uint32_t lightCount(SceneId id) const;
+  uint64_t sceneBytes(SceneId id) const;  // GPU memory of that scene
+
+  // GPU memory the renderer holds: every scene, the frame targets, the light lists, uniforms.
+  uint64_t gpuMemoryBytes() const;
 
   // The largest width or height render() accepts on this device.
   uint32_t maxDimension() const;
+
+  // Caps the clustered light lists at `bytes` (0: the device's maxStorageBufferRange, the
+  // default). For tests: makes overflow and growth reachable at small sizes.
+  void limitListMemory(uint64_t bytes);
 
  private:
   struct State;

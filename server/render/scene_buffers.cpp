@@ -1,6 +1,8 @@
 #include "render/scene_buffers.h"
 
+#include <algorithm>
 #include <cstring>
+#include <string>
 #include <stdexcept>
 
 #include "render/gpu_types.h"
@@ -14,44 +16,105 @@ namespace {
 // outside the light's reach run the fragment shader.
 constexpr uint32_t kProxySubdivisions = 2;
 
+// Scenes are many and mostly small (one per session): small blocks keep an empty scene at a few
+// hundred KiB instead of the frame targets' 64 MiB blocks.
+constexpr VkDeviceSize kSceneBlockSize = 1ull << 20;
+constexpr VkDeviceSize kLightBlockSize = 256ull << 10;
+// Light buffers start exactly full; the first growth makes room for at least this many.
+constexpr uint32_t kFirstGrownLightCapacity = 64;
+
+// Host data copied into a GPU buffer at `offset`.
 struct Upload {
-  gpu::Buffer* destination;
+  const gpu::Buffer* destination;
+  VkDeviceSize offset;
   const void* data;
   VkDeviceSize size;
 };
 
-// Copies every upload through one staging buffer and one submission.
-void uploadAll(gpu::Context& context, gpu::CommandRecorder& recorder,
-               const std::vector<Upload>& uploads) {
+// A GPU-side copy from the start of one buffer to the start of another.
+struct DeviceCopy {
+  const gpu::Buffer* source;
+  const gpu::Buffer* destination;
+  VkDeviceSize size;
+};
+
+// Runs the device copies, then every upload through one staging buffer, in one submission.
+void transfer(gpu::Context& context, gpu::CommandRecorder& recorder,
+              const std::vector<DeviceCopy>& copies, const std::vector<Upload>& uploads) {
   VkDeviceSize total = 0;
   for (const Upload& u : uploads) total += u.size;
-  gpu::Arena staging(context);
+  size_t work = copies.size();
+  for (const Upload& u : uploads) work += u.size > 0 ? 1 : 0;
+  if (work == 0) return;
+  gpu::Arena staging(context, std::max<VkDeviceSize>(total, 16));
   gpu::Buffer buffer = staging.createBuffer(total, VK_BUFFER_USAGE_TRANSFER_SRC_BIT,
                                             gpu::MemoryUse::Upload);
   VkCommandBuffer cmd = gpu::beginCommands(context, recorder);
+  // Earlier frames read these buffers and animation wrote the lights: they finish first.
+  gpu::memoryBarrier(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, VK_ACCESS_2_MEMORY_WRITE_BIT,
+                     VK_PIPELINE_STAGE_2_COPY_BIT,
+                     VK_ACCESS_2_TRANSFER_READ_BIT | VK_ACCESS_2_TRANSFER_WRITE_BIT);
+  for (const DeviceCopy& c : copies) {
+    if (c.size == 0) continue;
+    VkBufferCopy region{0, 0, c.size};
+    vkCmdCopyBuffer(cmd, c.source->buffer, c.destination->buffer, 1, &region);
+  }
+  if (!copies.empty()) {
+    // Uploads may overwrite what the copies wrote.
+    gpu::memoryBarrier(cmd, VK_PIPELINE_STAGE_2_COPY_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT,
+                       VK_PIPELINE_STAGE_2_COPY_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT);
+  }
   VkDeviceSize offset = 0;
   for (const Upload& u : uploads) {
     if (u.size == 0) continue;
     std::memcpy(static_cast<char*>(buffer.mapped) + offset, u.data, u.size);
-    VkBufferCopy region{offset, 0, u.size};
+    VkBufferCopy region{offset, u.offset, u.size};
     vkCmdCopyBuffer(cmd, buffer.buffer, u.destination->buffer, 1, &region);
     offset += u.size;
   }
-  // Frames are later submissions on the same queue; this barrier makes the copies visible to
-  // their vertex fetches and shader reads.
-  VkMemoryBarrier2 barrier{VK_STRUCTURE_TYPE_MEMORY_BARRIER_2};
-  barrier.srcStageMask = VK_PIPELINE_STAGE_2_COPY_BIT;
-  barrier.srcAccessMask = VK_ACCESS_2_TRANSFER_WRITE_BIT;
-  barrier.dstStageMask = VK_PIPELINE_STAGE_2_VERTEX_INPUT_BIT | VK_PIPELINE_STAGE_2_VERTEX_SHADER_BIT |
-                         VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT |
-                         VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT;  // animation, culling, lighting
-  barrier.dstAccessMask = VK_ACCESS_2_VERTEX_ATTRIBUTE_READ_BIT | VK_ACCESS_2_INDEX_READ_BIT |
-                          VK_ACCESS_2_SHADER_STORAGE_READ_BIT;
-  VkDependencyInfo dependency{VK_STRUCTURE_TYPE_DEPENDENCY_INFO};
-  dependency.memoryBarrierCount = 1;
-  dependency.pMemoryBarriers = &barrier;
-  vkCmdPipelineBarrier2(cmd, &dependency);
+  // Frames are later submissions on the same queue: vertex fetches, shader reads, animation's
+  // writes and the restore copy all come after these writes.
+  gpu::memoryBarrier(cmd, VK_PIPELINE_STAGE_2_COPY_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT,
+                     VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT,
+                     VK_ACCESS_2_MEMORY_READ_BIT | VK_ACCESS_2_MEMORY_WRITE_BIT);
   gpu::submitAndWait(context, recorder);
+}
+
+GpuPointLight toGpu(const scene::PointLight& l) {
+  return {glm::vec4(l.position, l.radius), glm::vec4(l.color * l.intensity, l.falloff)};
+}
+
+GpuMaterial toGpu(const scene::Material& m) {
+  return {glm::vec4(m.baseColor, 1.0f), glm::vec4(m.metallic, m.roughness, 0, 0)};
+}
+
+// Element writes in index order, the last write of an index winning, merged into runs of
+// consecutive indices: one copy region per run ("generate 100,000 lights" is one region).
+template <typename Gpu, typename Write, typename Convert>
+std::vector<Upload> elementUploads(const std::vector<Write>& writes, const gpu::Buffer& destination,
+                                   std::vector<Gpu>& staged, Convert convert) {
+  std::vector<size_t> order(writes.size());
+  for (size_t i = 0; i < order.size(); ++i) order[i] = i;
+  std::stable_sort(order.begin(), order.end(),
+                   [&](size_t a, size_t b) { return writes[a].index < writes[b].index; });
+  std::vector<uint32_t> indices;
+  staged.clear();
+  staged.reserve(order.size());
+  for (size_t k = 0; k < order.size(); ++k) {
+    const Write& w = writes[order[k]];
+    if (k + 1 < order.size() && writes[order[k + 1]].index == w.index) continue;  // a later one wins
+    indices.push_back(w.index);
+    staged.push_back(convert(w));
+  }
+  std::vector<Upload> uploads;
+  for (size_t first = 0; first < indices.size();) {
+    size_t end = first + 1;
+    while (end < indices.size() && indices[end] == indices[end - 1] + 1) ++end;
+    uploads.push_back({&destination, VkDeviceSize(indices[first]) * sizeof(Gpu), &staged[first],
+                       VkDeviceSize(end - first) * sizeof(Gpu)});
+    first = end;
+  }
+  return uploads;
 }
 
 }  // namespace
@@ -70,7 +133,8 @@ float circumscribeScale(const scene::Mesh& mesh) {
 
 SceneBuffers::SceneBuffers(gpu::Context& context, gpu::CommandRecorder& recorder,
                            const scene::Scene& scene)
-    : arena(context) {
+    : context(context), arena(context, kSceneBlockSize),
+      lightArena(std::make_unique<gpu::Arena>(context, kLightBlockSize)) {
   std::vector<scene::Vertex> allVertices;
   std::vector<uint32_t> allIndices;
   std::vector<MeshRange> ranges;
@@ -104,14 +168,11 @@ SceneBuffers::SceneBuffers(gpu::Context& context, gpu::CommandRecorder& recorder
     if (ranges[instance.mesh].indexCount > 0) draws.push_back({ranges[instance.mesh], i});
   }
   std::vector<GpuMaterial> gpuMaterials;
-  for (const scene::Material& m : scene.materials) {
-    gpuMaterials.push_back({glm::vec4(m.baseColor, 1.0f), glm::vec4(m.metallic, m.roughness, 0, 0)});
-  }
+  for (const scene::Material& m : scene.materials) gpuMaterials.push_back(toGpu(m));
+  materialCount = static_cast<uint32_t>(gpuMaterials.size());
   std::vector<GpuPointLight> gpuLights;
   gpuLights.reserve(scene.lights.size());
-  for (const scene::PointLight& l : scene.lights) {
-    gpuLights.push_back({glm::vec4(l.position, l.radius), glm::vec4(l.color * l.intensity, l.falloff)});
-  }
+  for (const scene::PointLight& l : scene.lights) gpuLights.push_back(toGpu(l));
   lightCount = static_cast<uint32_t>(gpuLights.size());
   bounds = scene.bounds();
 
@@ -124,16 +185,111 @@ SceneBuffers::SceneBuffers(gpu::Context& context, gpu::CommandRecorder& recorder
   const VkBufferUsageFlags storage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | dst;
   instances = arena.createBuffer(bytes(gpuInstances), storage, gpu::MemoryUse::DeviceLocal);
   materials = arena.createBuffer(bytes(gpuMaterials), storage, gpu::MemoryUse::DeviceLocal);
-  lights = arena.createBuffer(bytes(gpuLights), storage, gpu::MemoryUse::DeviceLocal);
-  lightOrigins = arena.createBuffer(bytes(gpuLights), storage | VK_BUFFER_USAGE_TRANSFER_SRC_BIT,
-                                    gpu::MemoryUse::DeviceLocal);
-  uploadAll(context, recorder,
-            {{&vertices, allVertices.data(), bytes(allVertices)},
-             {&indices, allIndices.data(), bytes(allIndices)},
-             {&instances, gpuInstances.data(), bytes(gpuInstances)},
-             {&materials, gpuMaterials.data(), bytes(gpuMaterials)},
-             {&lights, gpuLights.data(), bytes(gpuLights)},
-             {&lightOrigins, gpuLights.data(), bytes(gpuLights)}});
+  allocateLights(lightCount);
+  transfer(context, recorder, {},
+           {{&vertices, 0, allVertices.data(), bytes(allVertices)},
+            {&indices, 0, allIndices.data(), bytes(allIndices)},
+            {&instances, 0, gpuInstances.data(), bytes(gpuInstances)},
+            {&materials, 0, gpuMaterials.data(), bytes(gpuMaterials)},
+            {&lights, 0, gpuLights.data(), bytes(gpuLights)},
+            {&lightOrigins, 0, gpuLights.data(), bytes(gpuLights)}});
+}
+
+void SceneBuffers::allocateLights(uint32_t capacity) {
+  auto next = std::make_unique<gpu::Arena>(context, kLightBlockSize);
+  const VkDeviceSize size = VkDeviceSize(capacity) * sizeof(GpuPointLight);
+  // Both are copy sources and destinations: growth copies them, restore copies origins to lights.
+  const VkBufferUsageFlags usage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT |
+                                   VK_BUFFER_USAGE_TRANSFER_DST_BIT | VK_BUFFER_USAGE_TRANSFER_SRC_BIT;
+  gpu::Buffer nextLights = next->createBuffer(size, usage, gpu::MemoryUse::DeviceLocal);
+  gpu::Buffer nextOrigins = next->createBuffer(size, usage, gpu::MemoryUse::DeviceLocal);
+  lightArena = std::move(next);
+  lights = nextLights;
+  lightOrigins = nextOrigins;
+  lightCapacity = capacity;
+}
+
+void SceneBuffers::updateLights(gpu::CommandRecorder& recorder, const LightUpdate& update) {
+  const uint32_t count = update.count;
+  const uint64_t deviceMost = context.info.maxStorageBufferRange / sizeof(GpuPointLight);
+  if (count > deviceMost) {
+    throw std::invalid_argument(std::to_string(count) + " lights are more than this device's " +
+                                std::to_string(deviceMost) + " (maxStorageBufferRange)");
+  }
+  // Every new slot must be written, or it would shade with whatever the buffer held.
+  std::vector<bool> newWritten(count > lightCount ? count - lightCount : 0, false);
+  for (const LightWrite& w : update.writes) {
+    if (w.index >= count) {
+      throw std::invalid_argument("light write at index " + std::to_string(w.index) +
+                                  " is past the new light count " + std::to_string(count));
+    }
+    if (w.index >= lightCount) newWritten[w.index - lightCount] = true;
+  }
+  for (size_t i = 0; i < newWritten.size(); ++i) {
+    if (!newWritten[i]) {
+      throw std::invalid_argument("new light " + std::to_string(lightCount + i) +
+                                  " (of " + std::to_string(count) + ") is not written");
+    }
+  }
+
+  std::vector<GpuPointLight> staged;
+  auto convert = [](const LightWrite& w) { return toGpu(w.light); };
+  if (count <= lightCapacity) {
+    std::vector<Upload> uploads = elementUploads<GpuPointLight>(update.writes, lights, staged, convert);
+    size_t n = uploads.size();
+    for (size_t i = 0; i < n; ++i) {
+      Upload origin = uploads[i];
+      origin.destination = &lightOrigins;
+      uploads.push_back(origin);
+    }
+    transfer(context, recorder, {}, uploads);
+    lightCount = count;
+    return;
+  }
+
+  // Grow by doubling: appending lights one request at a time costs O(n) copies in all.
+  uint64_t grown = std::max<uint64_t>({count, uint64_t(lightCapacity) * 2, kFirstGrownLightCapacity});
+  uint32_t capacity = static_cast<uint32_t>(std::min<uint64_t>(grown, deviceMost));
+  std::unique_ptr<gpu::Arena> oldArena = std::move(lightArena);
+  const gpu::Buffer oldLights = lights, oldOrigins = lightOrigins;
+  const uint32_t oldCapacity = lightCapacity;
+  auto restore = [&] {
+    lightArena = std::move(oldArena);
+    lights = oldLights;
+    lightOrigins = oldOrigins;
+    lightCapacity = oldCapacity;
+  };
+  try {
+    allocateLights(capacity);
+    const VkDeviceSize kept = VkDeviceSize(std::min(lightCount, count)) * sizeof(GpuPointLight);
+    std::vector<Upload> uploads = elementUploads<GpuPointLight>(update.writes, lights, staged, convert);
+    size_t n = uploads.size();
+    for (size_t i = 0; i < n; ++i) {
+      Upload origin = uploads[i];
+      origin.destination = &lightOrigins;
+      uploads.push_back(origin);
+    }
+    transfer(context, recorder, {{&oldLights, &lights, kept}, {&oldOrigins, &lightOrigins, kept}},
+             uploads);
+  } catch (...) {
+    restore();  // the old buffers were only read: the scene is as it was
+    throw;
+  }
+  lightCount = count;
+}
+
+void SceneBuffers::updateMaterials(gpu::CommandRecorder& recorder,
+                                   const std::vector<MaterialWrite>& writes) {
+  for (const MaterialWrite& w : writes) {
+    if (w.index >= materialCount) {
+      throw std::invalid_argument("material " + std::to_string(w.index) + " is past the scene's " +
+                                  std::to_string(materialCount) + " materials");
+    }
+  }
+  std::vector<GpuMaterial> staged;
+  std::vector<Upload> uploads = elementUploads<GpuMaterial>(
+      writes, materials, staged, [](const MaterialWrite& w) { return toGpu(w.material); });
+  transfer(context, recorder, {}, uploads);
 }
 
 }  // namespace myriad::render

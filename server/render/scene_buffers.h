@@ -1,14 +1,17 @@
-// The scene on the GPU: one vertex and one index buffer for every mesh (plus the light proxy
+// One scene on the GPU: one vertex and one index buffer for every mesh (plus the light proxy
 // sphere), and storage buffers for instances, materials and lights. Built from a scene::Scene in
-// one upload; rebuilt when the scene changes.
+// one upload; lights and materials are then edited in place, uploading only what changed.
+// Each scene has its own small arenas, so destroying it frees its memory at once.
 #pragma once
 
 #include <cstdint>
+#include <memory>
 #include <vector>
 
 #include "gpu/commands.h"
 #include "gpu/context.h"
 #include "gpu/resources.h"
+#include "render/frame.h"
 #include "scene/scene.h"
 
 namespace myriad::render {
@@ -25,9 +28,21 @@ struct DrawItem {
 };
 
 struct SceneBuffers {
+  // Throws std::invalid_argument when an instance names a missing mesh or material.
   SceneBuffers(gpu::Context& context, gpu::CommandRecorder& recorder, const scene::Scene& scene);
 
-  gpu::Arena arena;
+  // See LightUpdate (render/frame.h). Validates before touching anything: on
+  // std::invalid_argument the scene is unchanged.
+  void updateLights(gpu::CommandRecorder& recorder, const LightUpdate& update);
+  // Throws std::invalid_argument (and changes nothing) for an index past the materials.
+  void updateMaterials(gpu::CommandRecorder& recorder, const std::vector<MaterialWrite>& writes);
+
+  // GPU memory this scene holds.
+  uint64_t bytes() const { return arena.bytesAllocated() + lightArena->bytesAllocated(); }
+
+  gpu::Context& context;
+  gpu::Arena arena;                        // geometry, instances, materials
+  std::unique_ptr<gpu::Arena> lightArena;  // the two light buffers; replaced when they grow
   gpu::Buffer vertices;
   gpu::Buffer indices;
   gpu::Buffer instances;
@@ -37,7 +52,13 @@ struct SceneBuffers {
   std::vector<DrawItem> draws;
   MeshRange lightProxy;  // icosphere circumscribing the unit sphere (volumes, markers)
   uint32_t lightCount = 0;
+  uint32_t lightCapacity = 0;  // lights the two light buffers hold
+  uint32_t materialCount = 0;
   scene::Bounds bounds;
+  bool lightsMoved = false;  // `lights` holds animated positions, not the origins
+
+ private:
+  void allocateLights(uint32_t capacity);
 };
 
 // Scale that makes a mesh with vertices on the unit sphere contain the unit sphere: 1 / the

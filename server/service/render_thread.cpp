@@ -1,8 +1,7 @@
 #include "service/render_thread.h"
 
 #include <memory>
-
-#include "render/renderer.h"
+#include <utility>
 
 namespace myriad::service {
 
@@ -29,23 +28,81 @@ uint32_t RenderThread::validationMessages() const {
   return validationCounter_ != nullptr ? validationCounter_->load() : 0;
 }
 
-std::future<render::Frame> RenderThread::submit(const render::FrameSettings& settings) {
-  std::future<render::Frame> frame;
+void RenderThread::enqueue(Task task) {
   {
     std::lock_guard lock(mutex_);
     if (stopping_) throw RenderQueueFullError("the server is shutting down");
-    // The frame being rendered is not waiting; while none is, a new job starts at once.
-    size_t ahead = jobs_.size() + (rendering_ ? 1 : 0);
-    if (ahead > maxQueuedFrames_) {
-      throw RenderQueueFullError(std::to_string(jobs_.size()) +
-                                 " frames are already waiting for the renderer (the limit is " +
-                                 std::to_string(maxQueuedFrames_) + ")");
+    if (task.frame) {
+      // The frame being rendered is not waiting; while none is, a new frame starts at once.
+      size_t ahead = framesWaiting_ + (renderingFrame_ ? 1 : 0);
+      if (ahead > maxQueuedFrames_) {
+        throw RenderQueueFullError(std::to_string(framesWaiting_) +
+                                   " frames are already waiting for the renderer (the limit is " +
+                                   std::to_string(maxQueuedFrames_) + ")");
+      }
+      ++framesWaiting_;
     }
-    Job& job = jobs_.emplace_back(Job{settings, {}});
-    frame = job.result.get_future();
+    tasks_.push_back(std::move(task));
   }
   wake_.notify_one();
-  return frame;
+}
+
+// Wraps `work(renderer) -> T` in a task whose promise gets the result or the exception.
+// std::function needs a copyable callable, hence the shared promise.
+template <typename T, typename Work>
+std::future<T> RenderThread::enqueueWork(bool frame, Work work) {
+  auto promise = std::make_shared<std::promise<T>>();
+  std::future<T> result = promise->get_future();
+  enqueue(Task{frame, [promise, work = std::move(work)](render::Renderer& renderer) mutable {
+                 try {
+                   if constexpr (std::is_void_v<T>) {
+                     work(renderer);
+                     promise->set_value();
+                   } else {
+                     promise->set_value(work(renderer));
+                   }
+                 } catch (...) {
+                   promise->set_exception(std::current_exception());
+                 }
+               }});
+  return result;
+}
+
+std::future<render::SceneId> RenderThread::createScene(std::shared_ptr<const scene::Scene> scene) {
+  return enqueueWork<render::SceneId>(false, [scene = std::move(scene)](render::Renderer& r) {
+    return r.createScene(*scene);
+  });
+}
+
+std::future<void> RenderThread::replaceScene(render::SceneId id,
+                                             std::shared_ptr<const scene::Scene> scene) {
+  return enqueueWork<void>(false, [id, scene = std::move(scene)](render::Renderer& r) {
+    r.replaceScene(id, *scene);
+  });
+}
+
+std::future<void> RenderThread::destroyScene(render::SceneId id) {
+  return enqueueWork<void>(false, [id](render::Renderer& r) { r.destroyScene(id); });
+}
+
+std::future<void> RenderThread::updateLights(render::SceneId id, render::LightUpdate update) {
+  return enqueueWork<void>(false, [id, update = std::move(update)](render::Renderer& r) {
+    r.updateLights(id, update);
+  });
+}
+
+std::future<void> RenderThread::updateMaterials(render::SceneId id,
+                                                std::vector<render::MaterialWrite> writes) {
+  return enqueueWork<void>(false, [id, writes = std::move(writes)](render::Renderer& r) {
+    r.updateMaterials(id, writes);
+  });
+}
+
+std::future<render::Frame> RenderThread::submit(render::SceneId id,
+                                                const render::FrameSettings& settings) {
+  return enqueueWork<render::Frame>(true, [id, settings](render::Renderer& r) {
+    return r.render(id, settings);
+  });
 }
 
 void RenderThread::stop() {
@@ -65,10 +122,11 @@ void RenderThread::run(const gpu::ContextOptions& options, const scene::Scene& s
   try {
     context = gpu::createContext(options);
     renderer = std::make_unique<render::Renderer>(*context);
-    renderer->setScene(scene);
+    defaultScene_ = renderer->createScene(scene);
     device_ = context->info;
     maxDimension_ = renderer->maxDimension();
     validationCounter_ = &context->validationMessages;
+    gpuMemoryBytes_ = renderer->gpuMemoryBytes();
   } catch (...) {
     // Destroy in dependency order here, on this thread, before the constructor rethrows.
     renderer.reset();
@@ -80,23 +138,23 @@ void RenderThread::run(const gpu::ContextOptions& options, const scene::Scene& s
   ready.set_value();
 
   for (;;) {
-    Job job;
+    Task task;
     {
       std::unique_lock lock(mutex_);
-      wake_.wait(lock, [this] { return stopping_ || !jobs_.empty(); });
-      // Stopping still renders what was queued: those requests are in flight and get answers.
-      if (jobs_.empty()) break;
-      job = std::move(jobs_.front());
-      jobs_.pop_front();
-      rendering_ = true;
+      wake_.wait(lock, [this] { return stopping_ || !tasks_.empty(); });
+      // Stopping still runs what was queued: those requests are in flight and get answers.
+      if (tasks_.empty()) break;
+      task = std::move(tasks_.front());
+      tasks_.pop_front();
+      if (task.frame) {
+        --framesWaiting_;
+        renderingFrame_ = true;
+      }
     }
-    try {
-      job.result.set_value(renderer->render(job.settings));
-    } catch (...) {
-      job.result.set_exception(std::current_exception());
-    }
+    task.run(*renderer);  // fulfils its promise, exception or not
+    gpuMemoryBytes_ = renderer->gpuMemoryBytes();
     std::lock_guard lock(mutex_);
-    rendering_ = false;
+    renderingFrame_ = false;
   }
 
   renderer.reset();
