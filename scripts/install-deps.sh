@@ -18,6 +18,7 @@ build_packages=(
   libcpp-httplib-dev
   nlohmann-json3-dev
   libpng-dev
+  libturbojpeg0-dev        # JPEG frames and streams (TurboJPEG API)
   doctest-dev
 )
 test_packages=(
