@@ -92,8 +92,20 @@ TEST_CASE("options: defaults") {
   CHECK(o.lights == 256);
   CHECK(o.seed == 1);
   CHECK(o.maxResolution == 4096);
-  CHECK(o.threads == 8);
+  CHECK(o.threads == 32);
   CHECK(o.maxQueuedFrames == 4);
+  CHECK(o.maxSessions == 16);
+  CHECK(o.maxLightsPerSession == 1000000);
+  CHECK(o.maxUploadBytes == 64ull << 20);
+  CHECK(o.maxBodyBytes == 1ull << 20);
+  CHECK(o.maxStreams == 8);
+  CHECK(o.maxRequestsInFlight == 64);
+  CHECK(o.sessionIdleSeconds == 600);
+  CHECK_FALSE(o.modelsDir.has_value());
+  CHECK_FALSE(o.apiKey.has_value());
+  CHECK(o.corsOrigins.empty());
+  // Every stream and waiting frame holds a worker; the rest must stay free for other requests.
+  CHECK(o.threads > o.maxStreams + o.maxQueuedFrames + 8);
   CHECK_FALSE(o.help);
 }
 
@@ -120,6 +132,28 @@ TEST_CASE("options: every flag, in both spellings") {
   CHECK(parse({"-h"}).help);
   CHECK(parse({"--port", "1", "--port", "2"}).port == 2);  // last one wins
   CHECK(parse({"--device", "llvmpipe"}).device == "llvmpipe");
+}
+
+TEST_CASE("options: session limits, library, key and CORS") {
+  Options o = parse({"--max-sessions", "3", "--max-lights=10", "--max-upload-bytes", "4096",
+                     "--max-body-bytes", "2048", "--max-streams", "2", "--max-requests", "5",
+                     "--session-idle-seconds", "1", "--models", "/srv/models", "--api-key",
+                     "secret-key", "--cors-origin", "http://a.test", "--cors-origin", "*"});
+  CHECK(o.maxSessions == 3);
+  CHECK(o.maxLightsPerSession == 10);
+  CHECK(o.maxUploadBytes == 4096);
+  CHECK(o.maxBodyBytes == 2048);
+  CHECK(o.maxStreams == 2);
+  CHECK(o.maxRequestsInFlight == 5);
+  CHECK(o.sessionIdleSeconds == 1);
+  CHECK(o.modelsDir == std::optional<std::string>("/srv/models"));
+  CHECK(o.apiKey == std::optional<std::string>("secret-key"));
+  CHECK(o.corsOrigins == std::vector<std::string>{"http://a.test", "*"});
+  CHECK(usageErrorOf({"--max-sessions", "0"}).find("--max-sessions") != std::string::npos);
+  CHECK(usageErrorOf({"--session-idle-seconds", "0"}).find("--session-idle-seconds") !=
+        std::string::npos);
+  CHECK(usageErrorOf({"--api-key", "short"}).find("--api-key") != std::string::npos);
+  CHECK(usageErrorOf({"--models="}).find("--models") != std::string::npos);
 }
 
 TEST_CASE("options: bad flags and values are one sentence naming the flag") {
@@ -165,7 +199,9 @@ TEST_CASE("options: usage lists every flag") {
   std::string text = service::usage();
   for (const char* flag :
        {"--host", "--port", "--device", "--validate", "--model", "--lights", "--seed",
-        "--max-resolution", "--threads", "--max-queued-frames", "--help"}) {
+        "--max-resolution", "--threads", "--max-queued-frames", "--max-sessions", "--max-lights",
+        "--max-upload-bytes", "--max-body-bytes", "--max-streams", "--max-requests",
+        "--session-idle-seconds", "--models", "--api-key", "--cors-origin", "--help"}) {
     CHECK(text.find(flag) != std::string::npos);
   }
 }

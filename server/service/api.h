@@ -9,6 +9,7 @@
 #include <atomic>
 #include <cstdint>
 #include <functional>
+#include <initializer_list>
 #include <optional>
 #include <regex>
 #include <string>
@@ -50,6 +51,10 @@ struct ApiConfig {
   std::vector<std::string> corsOrigins;  // "*" allowed; empty = no CORS headers
   render::Technique defaultTechnique = render::Technique::Clustered;
   bool validation = false;
+  // "builtin:default": the built-in scene with this many generated lights from this seed
+  // (--lights, --seed).
+  uint32_t builtinLights = 256;
+  uint64_t builtinSeed = 1;
 };
 
 struct ApiContext {
@@ -57,8 +62,8 @@ struct ApiContext {
   RenderThread& renderThread;
   SessionManager& sessions;
   loader::ModelLibrary* models = nullptr;  // null without --models
-  // Called once per answered request with the route's pattern ("unmatched" for 404s before
-  // routing) and the status; the metrics routes count these. Optional.
+  // Called once per answered request with the route's template ("unmatched" for paths no route
+  // serves) and the status; the metrics routes count these. Optional.
   std::function<void(const std::string& route, int status)> countRequest;
 };
 
@@ -83,10 +88,12 @@ class Routes {
 
   Routes(httplib::Server& server, ApiContext& context);
 
-  // Registers `handler` for `method` ("GET", "POST", "PUT", "PATCH", "DELETE") on `pattern`, an
-  // httplib regex matched against the whole path (groups land in req.matches). GET also answers
-  // HEAD. The handler may throw ProblemError.
-  void add(std::string_view method, const std::string& pattern, Handler handler,
+  // Registers `handler` for `method` ("GET", "POST", "PUT", "PATCH", "DELETE") on
+  // `routeTemplate`, a path whose segments are literal or "{name}" (one non-empty segment without
+  // '/'): "/v1/sessions/{id}/lights/{lid}". The {name} segments land in req.matches[1..] in order.
+  // GET also answers HEAD. The handler may throw ProblemError. The template is the route's label
+  // in metrics.
+  void add(std::string_view method, const std::string& routeTemplate, Handler handler,
            RouteOptions options = {});
 
   // For the pre-routing handler: answers 404 (no route has this path), 405 with Allow, OPTIONS
@@ -97,19 +104,19 @@ class Routes {
   // Sets Access-Control-Allow-Origin when the request's Origin is allowed.
   void addCorsHeaders(const httplib::Request& req, httplib::Response& res) const;
 
-  // The pattern of the route `req` matched, for metrics ("unmatched" when none).
-  std::string routeOf(const httplib::Request& req) const;
+  // The template of the route `path` belongs to, for metrics ("unmatched" when none).
+  std::string routeOf(const std::string& path, const std::string& method = "GET") const;
 
   uint32_t requestsInFlight() const { return inFlight_.load(); }
 
  private:
   struct Entry {
-    std::string pattern;
+    std::string routeTemplate;
     std::regex regex;
     std::vector<std::string> methods;
     RouteOptions options;
   };
-  const Entry* match(const std::string& path) const;
+  const Entry* match(const std::string& path, const std::string& method) const;
   static std::string allowHeader(const Entry& entry);
 
   httplib::Server& server_;
@@ -118,14 +125,38 @@ class Routes {
   mutable std::atomic<uint32_t> inFlight_{0};
 };
 
-// The session routes (POST/GET/DELETE sessions, model, camera, settings, materials, lights) and
-// GET /v1/models. FRAMES registers frame, stream and stats routes next to them.
+// POST/GET/DELETE sessions, PUT model, GET /v1/models (api_sessions.cpp).
 void addSessionRoutes(Routes& routes, ApiContext& context);
+// Camera, settings and materials of a session (api_scene.cpp).
+void addSceneRoutes(Routes& routes, ApiContext& context);
+// A session's lights (api_lights.cpp).
+void addLightRoutes(Routes& routes, ApiContext& context);
+// All three; FRAMES registers frame, stream and stats routes next to them.
+inline void addSessionApi(Routes& routes, ApiContext& context) {
+  addSessionRoutes(routes, context);
+  addSceneRoutes(routes, context);
+  addLightRoutes(routes, context);
+}
 
 // Credentials of a request: the Authorization header and, for routes that allow it, ?token=.
 Credentials credentialsOf(const httplib::Request& req);
 
-// The authorized session named by the first regex group of the route (…/sessions/([^/]+)…).
+// The request's body as JSON that conforms to protocol/schemas/<schemaName>.schema.json. Throws
+// ProblemError: 415 when Content-Type is not application/json, 400 invalid-body (with the pointer)
+// when it is not JSON or breaks the schema. A request without a body is read as `emptyBody` when
+// given (POST /v1/sessions takes "{}"), else refused.
+nlohmann::json jsonBody(const httplib::Request& req, std::string_view schemaName,
+                        std::optional<std::string_view> emptyBody = std::nullopt);
+
+// Throws ProblemError 400 unknown-parameter for a query parameter not in `allowed`, and 400
+// invalid-parameter for one given twice.
+void checkQuery(const httplib::Request& req, std::initializer_list<std::string_view> allowed);
+
+// Locks an open session; throws ProblemError 404 when it was closed (deleted or expired) since it
+// was authorized. Every handler that reads or edits session state takes this lock.
+std::unique_lock<std::mutex> lockOpen(Session& session);
+
+// The authorized session named by the route's first {id} segment (req.matches[1]).
 // Throws ProblemError (401/403/404).
 SessionPtr authorizeSession(const ApiContext& context, const httplib::Request& req,
                             bool allowQueryToken = false);

@@ -15,6 +15,11 @@ constexpr uint32_t kMaxLights = 1u << 20;
 constexpr uint32_t kMaxResolutionLimit = 65536;
 constexpr uint32_t kMaxThreads = 256;
 constexpr uint32_t kMaxQueuedFramesLimit = 1024;
+// The light buffers of a session stay under lavapipe's 128 MiB storage-buffer range up to here.
+constexpr uint32_t kMaxLightsPerSessionLimit = 1u << 22;
+constexpr uint64_t kMaxBytesLimit = 1ull << 32;  // 4 GiB: far past any sane upload
+constexpr uint32_t kMaxCountLimit = 1u << 16;    // sessions, streams, requests in flight
+constexpr uint32_t kMaxIdleSeconds = 7 * 24 * 3600;
 
 template <typename T>
 T parseUnsigned(std::string_view flag, std::string_view text, T min, T max) {
@@ -86,6 +91,53 @@ const std::vector<Flag>& flags() {
          o.maxQueuedFrames =
              parseUnsigned<uint32_t>("--max-queued-frames", v, 0, kMaxQueuedFramesLimit);
        }},
+      {"--max-sessions", true,
+       [](Options& o, std::string_view v) {
+         o.maxSessions = parseUnsigned<uint32_t>("--max-sessions", v, 1, kMaxCountLimit);
+       }},
+      {"--max-lights", true,
+       [](Options& o, std::string_view v) {
+         o.maxLightsPerSession =
+             parseUnsigned<uint32_t>("--max-lights", v, 1, kMaxLightsPerSessionLimit);
+       }},
+      {"--max-upload-bytes", true,
+       [](Options& o, std::string_view v) {
+         o.maxUploadBytes = parseUnsigned<uint64_t>("--max-upload-bytes", v, 1, kMaxBytesLimit);
+       }},
+      {"--max-body-bytes", true,
+       [](Options& o, std::string_view v) {
+         o.maxBodyBytes = parseUnsigned<uint64_t>("--max-body-bytes", v, 64, kMaxBytesLimit);
+       }},
+      {"--max-streams", true,
+       [](Options& o, std::string_view v) {
+         o.maxStreams = parseUnsigned<uint32_t>("--max-streams", v, 0, kMaxCountLimit);
+       }},
+      {"--max-requests", true,
+       [](Options& o, std::string_view v) {
+         o.maxRequestsInFlight = parseUnsigned<uint32_t>("--max-requests", v, 1, kMaxCountLimit);
+       }},
+      {"--session-idle-seconds", true,
+       [](Options& o, std::string_view v) {
+         o.sessionIdleSeconds =
+             parseUnsigned<uint32_t>("--session-idle-seconds", v, 1, kMaxIdleSeconds);
+       }},
+      {"--models", true,
+       [](Options& o, std::string_view v) {
+         if (v.empty()) throw UsageError("--models expects a directory.");
+         o.modelsDir = std::string(v);
+       }},
+      {"--api-key", true,
+       [](Options& o, std::string_view v) {
+         if (v.size() < 8) throw UsageError("--api-key expects a key of at least 8 characters.");
+         o.apiKey = std::string(v);
+       }},
+      {"--cors-origin", true,
+       [](Options& o, std::string_view v) {
+         if (v.empty()) {
+           throw UsageError("--cors-origin expects an origin (https://host:port) or *.");
+         }
+         o.corsOrigins.emplace_back(v);
+       }},
       {"--help", false, [](Options& o, std::string_view) { o.help = true; }},
       {"-h", false, [](Options& o, std::string_view) { o.help = true; }},
   };
@@ -140,7 +192,8 @@ Options parseOptions(std::span<const std::string_view> args) {
 std::string usage() {
   return R"(Usage: myriad-server [flags]
 
-Serves frames of a Vulkan deferred renderer over HTTP (GET /v1/health, /v1/info, /v1/frame).
+Serves frames of a Vulkan deferred renderer over HTTP: sessions with their own model, camera,
+materials and lights (protocol/reference.md), and the stateless GET /v1/frame.
 
   --host ADDR              address to listen on (default 127.0.0.1)
   --port N                 TCP port; 0 picks a free one (default 8080). The URL is printed on
@@ -156,9 +209,21 @@ Serves frames of a Vulkan deferred renderer over HTTP (GET /v1/health, /v1/info,
                            clustered (compute culling; default clustered)
   --max-resolution N       largest frame width or height served (default 4096; also capped by
                            the device)
-  --threads N              HTTP worker threads (default 8)
+  --threads N              HTTP worker threads (default 32; keep well above --max-streams plus
+                           --max-queued-frames: each stream and waiting frame holds one)
   --max-queued-frames N    frame requests that may wait for the renderer; more get
                            503 + Retry-After (default 4)
+  --max-sessions N         sessions open at once; more get 429 (default 16)
+  --max-lights N           local lights per session; more get 413 (default 1000000)
+  --max-upload-bytes N     largest model upload (default 67108864, 64 MiB)
+  --max-body-bytes N       largest JSON request body (default 1048576, 1 MiB)
+  --max-streams N          open frame streams, server-wide; more get 429 (default 8)
+  --max-requests N         requests handled at once; more get 429 (default 64)
+  --session-idle-seconds S a session unused for S seconds is deleted (default 600)
+  --models DIR             model files sessions may load by name (library:NAME)
+  --api-key KEY            creating a session needs Authorization: Bearer KEY (also from the
+                           environment variable MYRIAD_API_KEY)
+  --cors-origin ORIGIN     allow browser pages from ORIGIN (repeatable; * for any)
   --help                   this text
 
 Exit status: 0 after SIGINT/SIGTERM, 1 when the server cannot start (no device, model not

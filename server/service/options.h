@@ -7,6 +7,7 @@
 #include <stdexcept>
 #include <string>
 #include <string_view>
+#include <vector>
 
 #include "render/frame.h"
 
@@ -25,12 +26,24 @@ struct Options {
   render::Technique technique = render::Technique::Clustered;
   // Upper bound on frame width and height; the effective bound is also capped by the device.
   uint32_t maxResolution = 4096;
-  // HTTP worker threads. A worker waits while its frame renders, so this must exceed
-  // maxQueuedFrames + 1 for health and info requests to stay answerable under a full queue.
-  uint32_t threads = 8;
+  // HTTP worker threads. A worker waits while its frame renders and a stream holds one for as
+  // long as it runs, so this must stay well above maxStreams + maxQueuedFrames + 1 for other
+  // requests to stay answerable with every stream open and the render queue full.
+  uint32_t threads = 32;
   // Frame requests allowed to wait for the render thread (besides the one rendering); more get
   // 503 + Retry-After. Each waiting frame holds a worker thread and, later, its pixels in memory.
   uint32_t maxQueuedFrames = 4;
+  // Sessions (protocol/CONTRACT.md). Each holds a GPU scene, so the count is bounded.
+  uint32_t maxSessions = 16;
+  uint32_t maxLightsPerSession = 1000000;
+  uint64_t maxUploadBytes = 64ull << 20;  // PUT .../model file uploads
+  uint64_t maxBodyBytes = 1ull << 20;     // every JSON body
+  uint32_t maxStreams = 8;                // open GET .../stream connections, server-wide
+  uint32_t maxRequestsInFlight = 64;      // requests being handled at once (429 beyond)
+  uint32_t sessionIdleSeconds = 600;      // a session unused this long is deleted
+  std::optional<std::string> modelsDir;   // --models: the library of loadable model files
+  std::optional<std::string> apiKey;      // --api-key (or env MYRIAD_API_KEY, read by main)
+  std::vector<std::string> corsOrigins;   // --cors-origin, repeatable
   bool help = false;
 };
 

@@ -21,12 +21,25 @@ scene::Scene buildScene(const Options& options) {
   const scene::Bounds bounds = scene.bounds();
   if (options.lights == 0 || bounds.empty()) return scene;
 
+  scene::LightGeneration lights = lightGenerationAround(bounds, options.lights, options.seed);
+  std::vector<scene::PointLight> generated = scene::generateLights(lights);
+  scene.lights.insert(scene.lights.end(), generated.begin(), generated.end());
+  return scene;
+}
+
+scene::LightGeneration lightGenerationAround(const scene::Bounds& bounds, uint32_t count,
+                                             uint64_t seed) {
+  scene::LightGeneration lights;
+  lights.count = count;
+  lights.seed = seed;
+  if (bounds.empty()) {
+    lights.bounds.min = glm::vec3(-1.0f);
+    lights.bounds.max = glm::vec3(1.0f);
+    return lights;
+  }
   // Radii as fractions of the model's diagonal: large enough that a light's pool covers a visible
   // patch, small enough that many lights stay distinguishable instead of summing to a wash.
   const float diagonal = glm::length(bounds.size());
-  scene::LightGeneration lights;
-  lights.count = options.lights;
-  lights.seed = options.seed;
   // A margin around the model: lights strictly inside a closed mesh light nothing a camera sees.
   const glm::vec3 margin(kLightMargin * diagonal);
   lights.bounds.min = bounds.min - margin;
@@ -36,9 +49,7 @@ scene::Scene buildScene(const Options& options) {
   lights.minIntensity = 2.0f;
   lights.maxIntensity = 6.0f;
   lights.falloff = 4.0f;
-  std::vector<scene::PointLight> generated = scene::generateLights(lights);
-  scene.lights.insert(scene.lights.end(), generated.begin(), generated.end());
-  return scene;
+  return lights;
 }
 
 std::string describeDevice(const gpu::DeviceInfo& device) {

@@ -5,6 +5,7 @@
 #include <string>
 
 #include "gpu/device_info.h"
+#include "scene/light_generator.h"
 #include "scene/scene.h"
 #include "service/options.h"
 
@@ -14,6 +15,12 @@ namespace myriad::service {
 // (sized to the model, so a 10 cm object and a 100 m hall both get visible pools). Throws
 // scene::ModelLoadError.
 scene::Scene buildScene(const Options& options);
+
+// `count` lights from `seed` spread through and around `bounds` (grown by a tenth of the diagonal
+// on every side), with radii and intensities sized to it: what --model and POST .../lights/generate
+// use unless told otherwise.
+scene::LightGeneration lightGenerationAround(const scene::Bounds& bounds, uint32_t count,
+                                             uint64_t seed);
 
 // "llvmpipe (LLVM 15.0.6, 256 bits) [device 0, cpu], driver llvmpipe (Mesa 22.3.6), Vulkan 1.3.230"
 std::string describeDevice(const gpu::DeviceInfo& device);

@@ -1,0 +1,308 @@
+#include "service/api.h"
+
+#include <algorithm>
+#include <cctype>
+#include <set>
+
+#include "protocol/validate.h"
+
+namespace myriad::service {
+namespace {
+
+// What a browser may send and read across origins: the token, JSON bodies, and the headers that
+// carry timings and frame metadata.
+constexpr const char* kCorsAllowHeaders = "Authorization, Content-Type";
+constexpr const char* kCorsExposeHeaders =
+    "Server-Timing, Retry-After, X-Myriad-Technique, X-Myriad-Channels, X-Myriad-Width, "
+    "X-Myriad-Height, X-Myriad-Target, X-Myriad-Frame";
+constexpr const char* kCorsMaxAgeSeconds = "600";
+
+std::string lowercase(std::string_view text) {
+  std::string out(text);
+  std::transform(out.begin(), out.end(), out.begin(),
+                 [](unsigned char c) { return char(std::tolower(c)); });
+  return out;
+}
+
+// "application/json; charset=utf-8" -> "application/json".
+std::string mediaType(std::string_view contentType) {
+  std::string_view type = contentType.substr(0, contentType.find(';'));
+  while (!type.empty() && type.back() == ' ') type.remove_suffix(1);
+  while (!type.empty() && type.front() == ' ') type.remove_prefix(1);
+  return lowercase(type);
+}
+
+// "/v1/sessions/{id}/lights/{lid}" -> "/v1/sessions/([^/]+)/lights/([^/]+)".
+std::string templateToRegex(std::string_view routeTemplate) {
+  std::string regex;
+  for (size_t i = 0; i < routeTemplate.size(); ++i) {
+    char c = routeTemplate[i];
+    if (c == '{') {
+      size_t close = routeTemplate.find('}', i);
+      regex += "([^/]+)";
+      i = close;
+      continue;
+    }
+    if (std::isalnum(static_cast<unsigned char>(c)) || c == '/' || c == '-' || c == '_') {
+      regex.push_back(c);
+    } else {
+      regex.push_back('\\');
+      regex.push_back(c);
+    }
+  }
+  return regex;
+}
+
+std::string joinMethods(const std::vector<std::string>& methods) {
+  std::string text;
+  for (const std::string& m : methods) {
+    if (!text.empty()) text += ", ";
+    text += m;
+  }
+  return text;
+}
+
+}  // namespace
+
+nlohmann::json ApiLimits::toJson() const {
+  return {
+      {"maxResolution", maxResolution},
+      {"maxQueuedFrames", maxQueuedFrames},
+      {"maxSessions", maxSessions},
+      {"maxLightsPerSession", maxLightsPerSession},
+      {"maxUploadBytes", maxUploadBytes},
+      {"maxBodyBytes", maxBodyBytes},
+      {"maxStreams", maxStreams},
+      {"maxRequestsInFlight", maxRequestsInFlight},
+      {"sessionIdleSeconds", sessionIdleSeconds},
+  };
+}
+
+void sendProblem(httplib::Response& res, const Problem& problem) {
+  res.status = problem.status;
+  if (problem.retryAfterSeconds) {
+    res.set_header("Retry-After", std::to_string(*problem.retryAfterSeconds));
+  }
+  res.set_content(toBody(problem), std::string(kProblemContentType));
+}
+
+void sendJson(httplib::Response& res, const nlohmann::json& body, int status) {
+  res.status = status;
+  res.set_content(body.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace),
+                  "application/json");
+}
+
+Routes::Routes(httplib::Server& server, ApiContext& context)
+    : server_(server), context_(context) {}
+
+void Routes::add(std::string_view method, const std::string& routeTemplate, Handler handler,
+                 RouteOptions options) {
+  if (options.maxBodyBytes == 0) options.maxBodyBytes = context_.config.limits.maxBodyBytes;
+  auto existing = std::find_if(entries_.begin(), entries_.end(), [&](const Entry& e) {
+    return e.routeTemplate == routeTemplate;
+  });
+  if (existing == entries_.end()) {
+    entries_.push_back(Entry{routeTemplate, std::regex(templateToRegex(routeTemplate)), {},
+                             options});
+    existing = entries_.end() - 1;
+  }
+  existing->methods.emplace_back(method);
+  if (method == "GET") existing->methods.emplace_back("HEAD");
+  // The body limit is per template; a method with a larger one (PUT model) raises it.
+  existing->options.maxBodyBytes = std::max(existing->options.maxBodyBytes, options.maxBodyBytes);
+
+  httplib::Server::Handler wrapped = [this, handler = std::move(handler), options](
+                                         const httplib::Request& req, httplib::Response& res) {
+    struct InFlight {
+      std::atomic<uint32_t>* counter = nullptr;
+      ~InFlight() {
+        if (counter != nullptr) counter->fetch_sub(1);
+      }
+    } inFlight;
+    if (options.countsInFlight) {
+      inFlight.counter = &inFlight_;
+      const uint32_t limit = context_.config.limits.maxRequestsInFlight;
+      if (inFlight_.fetch_add(1) + 1 > limit) {
+        sendProblem(res, limitExceeded(429, "maxRequestsInFlight",
+                                       "The server is already handling " + std::to_string(limit) +
+                                           " requests, its limit; retry shortly."));
+        return;
+      }
+    }
+    try {
+      // Bodies sent without Content-Length (chunked) are only measured once read.
+      if (req.body.size() > options.maxBodyBytes) {
+        throw ProblemError(limitExceeded(
+            413, options.bodyLimitName,
+            "The request body has " + std::to_string(req.body.size()) + " bytes; the limit is " +
+                std::to_string(options.maxBodyBytes) + "."));
+      }
+      handler(req, res);
+    } catch (const ProblemError& e) {
+      sendProblem(res, e.problem());
+    }
+  };
+
+  const std::string regex = templateToRegex(routeTemplate);
+  if (method == "GET") {
+    server_.Get(regex, wrapped);
+  } else if (method == "POST") {
+    server_.Post(regex, wrapped);
+  } else if (method == "PUT") {
+    server_.Put(regex, wrapped);
+  } else if (method == "PATCH") {
+    server_.Patch(regex, wrapped);
+  } else if (method == "DELETE") {
+    server_.Delete(regex, wrapped);
+  } else {
+    throw std::invalid_argument("Routes::add: unsupported method " + std::string(method));
+  }
+}
+
+const Routes::Entry* Routes::match(const std::string& path, const std::string& method) const {
+  // "/lights/generate" also matches "/lights/{lid}": prefer the entry that serves the method.
+  const Entry* first = nullptr;
+  for (const Entry& entry : entries_) {
+    if (!std::regex_match(path, entry.regex)) continue;
+    if (std::find(entry.methods.begin(), entry.methods.end(), method) != entry.methods.end()) {
+      return &entry;
+    }
+    if (first == nullptr) first = &entry;
+  }
+  return first;
+}
+
+std::string Routes::allowHeader(const Entry& entry) {
+  std::vector<std::string> methods = entry.methods;
+  methods.emplace_back("OPTIONS");
+  return joinMethods(methods);
+}
+
+std::string Routes::routeOf(const std::string& path, const std::string& method) const {
+  const Entry* entry = match(path, method);
+  return entry != nullptr ? entry->routeTemplate : "unmatched";
+}
+
+void Routes::addCorsHeaders(const httplib::Request& req, httplib::Response& res) const {
+  const std::vector<std::string>& origins = context_.config.corsOrigins;
+  if (origins.empty()) return;
+  const std::string origin = req.get_header_value("Origin");
+  const bool any = std::find(origins.begin(), origins.end(), "*") != origins.end();
+  if (any) {
+    res.set_header("Access-Control-Allow-Origin", "*");
+  } else if (!origin.empty() && std::find(origins.begin(), origins.end(), origin) != origins.end()) {
+    res.set_header("Access-Control-Allow-Origin", origin);
+    res.set_header("Vary", "Origin");
+  } else {
+    return;
+  }
+  res.set_header("Access-Control-Expose-Headers", kCorsExposeHeaders);
+}
+
+bool Routes::answerBeforeRouting(const httplib::Request& req, httplib::Response& res) const {
+  addCorsHeaders(req, res);
+  const Entry* entry = match(req.path, req.method);
+  if (entry == nullptr) {
+    sendProblem(res, notFound(req.path));
+    return true;
+  }
+  if (req.method == "OPTIONS") {
+    // A CORS preflight (or a client asking what the route supports).
+    const std::string allow = allowHeader(*entry);
+    res.status = 204;
+    res.set_header("Allow", allow);
+    if (res.has_header("Access-Control-Allow-Origin")) {
+      res.set_header("Access-Control-Allow-Methods", allow);
+      res.set_header("Access-Control-Allow-Headers", kCorsAllowHeaders);
+      res.set_header("Access-Control-Max-Age", kCorsMaxAgeSeconds);
+    }
+    return true;
+  }
+  if (std::find(entry->methods.begin(), entry->methods.end(), req.method) ==
+      entry->methods.end()) {
+    const std::string allow = allowHeader(*entry);
+    res.set_header("Allow", allow);
+    sendProblem(res, methodNotAllowed(req.method, req.path, allow));
+    return true;
+  }
+  // Refused before the body is read, so an oversized upload costs no memory.
+  if (req.has_header("Content-Length")) {
+    const std::string length = req.get_header_value("Content-Length");
+    uint64_t bytes = 0;
+    try {
+      bytes = std::stoull(length);
+    } catch (...) {
+      bytes = UINT64_MAX;
+    }
+    if (bytes > entry->options.maxBodyBytes) {
+      const std::string& limitName = entry->options.bodyLimitName;
+      const uint64_t limit = entry->options.maxBodyBytes;
+      res.set_header("Connection", "close");
+      sendProblem(res, limitExceeded(413, limitName,
+                                     "The request body has " + length +
+                                         " bytes; the limit for this route is " +
+                                         std::to_string(limit) + "."));
+      return true;
+    }
+  }
+  return false;
+}
+
+nlohmann::json jsonBody(const httplib::Request& req, std::string_view schemaName,
+                        std::optional<std::string_view> emptyBody) {
+  std::string_view text = req.body;
+  if (text.empty() && emptyBody) {
+    text = *emptyBody;
+  } else {
+    const std::string type = mediaType(req.get_header_value("Content-Type"));
+    if (type != "application/json") {
+      throw ProblemError(unsupportedMediaType(
+          "This route takes Content-Type: application/json, not " +
+          quoteClientText(type.empty() ? std::string("none") : type) + "."));
+    }
+  }
+  protocol::ParsedBody parsed = protocol::parseBody(schemaName, text);
+  if (!parsed.ok()) throw ProblemError(invalidBody(parsed.error->pointer, parsed.error->message));
+  return std::move(parsed.json);
+}
+
+void checkQuery(const httplib::Request& req, std::initializer_list<std::string_view> allowed) {
+  std::set<std::string> seen;
+  for (const auto& [name, value] : req.params) {
+    if (std::find(allowed.begin(), allowed.end(), name) == allowed.end()) {
+      std::string known;
+      for (std::string_view a : allowed) known += (known.empty() ? "" : ", ") + std::string(a);
+      throw ProblemError(unknownParameter(
+          name, "This route takes no query parameter " + quoteClientText(name) +
+                    (known.empty() ? std::string(" (it takes none).")
+                                   : "; it takes: " + known + ".")));
+    }
+    if (!seen.insert(name).second) {
+      throw ProblemError(
+          invalidParameter(name, "The parameter " + quoteClientText(name) + " is given twice."));
+    }
+  }
+}
+
+Credentials credentialsOf(const httplib::Request& req) {
+  Credentials credentials;
+  if (req.has_header("Authorization")) credentials.authorization = req.get_header_value("Authorization");
+  if (req.has_param("token")) credentials.queryToken = req.get_param_value("token");
+  return credentials;
+}
+
+std::unique_lock<std::mutex> lockOpen(Session& session) {
+  std::unique_lock lock(session.mutex);
+  if (session.closed) {
+    throw ProblemError(notFoundDetail("The session " + quoteClientText(session.id) +
+                                      " was deleted or expired during this request."));
+  }
+  return lock;
+}
+
+SessionPtr authorizeSession(const ApiContext& context, const httplib::Request& req,
+                            bool allowQueryToken) {
+  return context.sessions.authorize(req.matches[1].str(), credentialsOf(req), allowQueryToken);
+}
+
+}  // namespace myriad::service

@@ -1,0 +1,262 @@
+// POST /v1/sessions, GET/DELETE /v1/sessions/{id}, PUT /v1/sessions/{id}/model, GET /v1/models.
+#include <memory>
+
+#include "loader/library.h"
+#include "loader/loader.h"
+#include "protocol/constants.h"
+#include "protocol/types.h"
+#include "scene/builtin_scene.h"
+#include "service/api.h"
+#include "service/render_thread.h"
+#include "service/session_json.h"
+
+namespace myriad::service {
+namespace {
+
+constexpr std::string_view kBuiltinSource = "builtin:default";
+constexpr std::string_view kLibraryPrefix = "library:";
+
+using ScenePtr = std::shared_ptr<scene::Scene>;
+
+// The scene a "builtin:default" or "library:NAME" source names. Throws ProblemError 404 for a
+// name outside the library, 422 when the loader rejects the file.
+ScenePtr loadSource(const ApiContext& context, std::string_view source) {
+  if (source == kBuiltinSource) {
+    return std::make_shared<scene::Scene>(
+        scene::makeBuiltinScene(context.config.builtinLights, context.config.builtinSeed));
+  }
+  // The schema admits only builtin:default and library:NAME.
+  std::string_view name = source.substr(kLibraryPrefix.size());
+  std::optional<std::filesystem::path> path;
+  if (context.models != nullptr) path = context.models->resolve(name);
+  if (!path) {
+    throw ProblemError(notFoundDetail(
+        "There is no model " + quoteClientText(name) +
+        " in the server's library (GET /v1/models lists them" +
+        (context.models == nullptr ? std::string("; this server has no --models directory).")
+                                   : std::string(")."))));
+  }
+  try {
+    return std::make_shared<scene::Scene>(loader::loadModelFile(*path));
+  } catch (const loader::ModelRejected& e) {
+    throw ProblemError(modelRejected(std::string(e.what()) + " (" + e.reason + ")"));
+  }
+}
+
+// The uploaded file of PUT .../model (application/octet-stream).
+ScenePtr loadUpload(const httplib::Request& req) {
+  if (!req.has_param("filename") || req.get_param_value("filename").empty()) {
+    throw ProblemError(invalidParameter(
+        "filename", "An upload needs ?filename=NAME.EXT: its extension tells the loader the "
+                    "format (.glb, .gltf, .obj, ...)."));
+  }
+  const std::string filename = req.get_param_value("filename");
+  if (filename.size() > 255 || filename.find('/') != std::string::npos ||
+      filename.find('\\') != std::string::npos) {
+    throw ProblemError(invalidParameter(
+        "filename", "\"filename\" must be a file name of at most 255 bytes without slashes."));
+  }
+  try {
+    return std::make_shared<scene::Scene>(loader::loadModelBytes(req.body, filename));
+  } catch (const loader::ModelRejected& e) {
+    throw ProblemError(modelRejected(std::string(e.what()) + " (" + e.reason + ")"));
+  }
+}
+
+ModelSummary summarize(const scene::Scene& scene, std::string source) {
+  ModelSummary summary;
+  summary.source = std::move(source);
+  summary.meshes = scene.meshes.size();
+  summary.instances = scene.instances.size();
+  summary.materials = scene.materials.size();
+  summary.bounds = scene.bounds();
+  return summary;
+}
+
+// Replaces the session's lights by `lights` with fresh ids (with the session locked).
+void adoptLights(Session& session, const std::vector<scene::PointLight>& lights) {
+  session.lights = lights;
+  session.lightIds.resize(lights.size());
+  session.lightIndex.clear();
+  session.lightIndex.reserve(lights.size());
+  for (uint32_t i = 0; i < lights.size(); ++i) {
+    session.lightIds[i] = session.nextLightId++;
+    session.lightIndex.emplace(session.lightIds[i], i);
+  }
+}
+
+void checkLightCount(const ApiContext& context, size_t count) {
+  const uint32_t limit = context.config.limits.maxLightsPerSession;
+  if (count > limit) {
+    throw ProblemError(limitExceeded(413, "maxLightsPerSession",
+                                     "The model brings " + std::to_string(count) +
+                                         " lights; a session holds at most " +
+                                         std::to_string(limit) + "."));
+  }
+}
+
+void sendState(const ApiContext& context, httplib::Response& res, const Session& session,
+               int status = 200) {
+  sendJson(res, stateOf(session, context.sessions.expiresInSeconds(session)), status);
+}
+
+void createSession(ApiContext& context, const httplib::Request& req, httplib::Response& res) {
+  checkQuery(req, {});
+  if (context.config.apiKey) {
+    std::optional<std::string> key;
+    if (req.has_header("Authorization")) key = bearerToken(req.get_header_value("Authorization"));
+    if (!key || !constantTimeEquals(*key, *context.config.apiKey)) {
+      throw ProblemError(unauthorized(
+          "This server needs its API key to create a session: Authorization: Bearer <key>."));
+    }
+  }
+  const protocol::SessionCreate body =
+      jsonBody(req, protocol::schema_names::kSessionCreate, "{}").get<protocol::SessionCreate>();
+  const std::string source = body.model.value_or(std::string(kBuiltinSource));
+
+  SessionPtr session = context.sessions.create();
+  try {
+    ScenePtr scene = loadSource(context, source);
+    checkLightCount(context, scene->lights.size());
+    const render::SceneId sceneId = context.renderThread.createScene(scene).get();
+    std::lock_guard lock(session->mutex);
+    session->sceneId = sceneId;
+    session->model = summarize(*scene, source);
+    session->camera = scene->camera;
+    session->settings.sun = scene->sun;
+    session->settings.ambient = scene->ambient;
+    session->settings.background = scene->background;
+    session->settings.technique = context.config.defaultTechnique;
+    session->materials = scene->materials;
+    adoptLights(*session, scene->lights);
+    session->lastUsed = Clock::now();
+    session->animationStart = Clock::now();
+    session->bump();
+  } catch (...) {
+    context.sessions.remove(session->id);
+    throw;
+  }
+
+  std::lock_guard lock(session->mutex);
+  protocol::SessionCreated created;
+  created.id = session->id;
+  created.token = session->token;
+  created.expiresInSeconds = uint64_t(context.sessions.expiresInSeconds(*session));
+  created.session = stateOf(*session, int64_t(created.expiresInSeconds));
+  res.set_header("Location", "/v1/sessions/" + session->id);
+  sendJson(res, created, 201);
+  std::fprintf(stderr, "myriad-server: session %s created (%s, %zu lights)\n", session->id.c_str(),
+               source.c_str(), session->lights.size());
+}
+
+void putModel(ApiContext& context, const httplib::Request& req, httplib::Response& res) {
+  SessionPtr session = authorizeSession(context, req);
+  checkQuery(req, {"filename", "lights"});
+  bool modelLights = false;
+  if (req.has_param("lights")) {
+    const std::string value = req.get_param_value("lights");
+    if (value != "model" && value != "keep") {
+      throw ProblemError(invalidParameter(
+          "lights", "\"lights\" is model (take the model's lights) or keep (the default)."));
+    }
+    modelLights = value == "model";
+  }
+
+  // Loading takes from milliseconds to the loader's time limit; the session stays usable.
+  const std::string type = req.get_header_value("Content-Type");
+  ScenePtr scene;
+  std::string source;
+  if (type.starts_with("application/octet-stream")) {
+    scene = loadUpload(req);
+    source = "upload:" + req.get_param_value("filename");
+  } else if (type.starts_with("application/json")) {
+    if (req.has_param("filename")) {
+      throw ProblemError(invalidParameter(
+          "filename", "\"filename\" goes with an application/octet-stream upload, not JSON."));
+    }
+    if (req.body.size() > context.config.limits.maxBodyBytes) {
+      throw ProblemError(limitExceeded(
+          413, "maxBodyBytes",
+          "A JSON body may have at most " + std::to_string(context.config.limits.maxBodyBytes) +
+              " bytes."));
+    }
+    source = jsonBody(req, protocol::schema_names::kModelSource)
+                 .get<protocol::ModelSource>()
+                 .source;
+    scene = loadSource(context, source);
+  } else {
+    throw ProblemError(unsupportedMediaType(
+        "PUT .../model takes application/json {\"source\": ...} or the file itself as "
+        "application/octet-stream with ?filename=, not " +
+        quoteClientText(type.empty() ? std::string("no Content-Type") : type) + "."));
+  }
+
+  std::future<void> replaced;
+  {
+    auto lock = lockOpen(*session);
+    if (modelLights) {
+      checkLightCount(context, scene->lights.size());
+      adoptLights(*session, scene->lights);
+    } else {
+      scene->lights = session->lights;
+    }
+    // Enqueued under the lock, so light edits after this one reach the new scene.
+    replaced = context.renderThread.replaceScene(session->sceneId, scene);
+    session->model = summarize(*scene, source);
+    session->materials = scene->materials;
+    session->camera = scene->camera;
+    session->bump();
+  }
+  replaced.get();
+  std::lock_guard lock(session->mutex);
+  sendState(context, res, *session);
+}
+
+}  // namespace
+
+void addSessionRoutes(Routes& routes, ApiContext& context) {
+  routes.add("POST", "/v1/sessions", [&context](const httplib::Request& req,
+                                               httplib::Response& res) {
+    createSession(context, req, res);
+  });
+  routes.add("GET", "/v1/sessions/{id}",
+             [&context](const httplib::Request& req, httplib::Response& res) {
+               SessionPtr session = authorizeSession(context, req);
+               checkQuery(req, {});
+               auto lock = lockOpen(*session);
+               sendState(context, res, *session);
+             });
+  routes.add("DELETE", "/v1/sessions/{id}",
+             [&context](const httplib::Request& req, httplib::Response& res) {
+               SessionPtr session = authorizeSession(context, req);
+               checkQuery(req, {});
+               // Returns after the render thread has destroyed the GPU scene.
+               if (!context.sessions.remove(session->id)) {
+                 throw ProblemError(notFoundDetail("The session " + quoteClientText(session->id) +
+                                                   " was already deleted."));
+               }
+               res.status = 204;
+             });
+  RouteOptions upload;
+  upload.maxBodyBytes = context.config.limits.maxUploadBytes;
+  upload.bodyLimitName = "maxUploadBytes";
+  routes.add(
+      "PUT", "/v1/sessions/{id}/model",
+      [&context](const httplib::Request& req, httplib::Response& res) {
+        putModel(context, req, res);
+      },
+      upload);
+  routes.add("GET", "/v1/models", [&context](const httplib::Request& req,
+                                            httplib::Response& res) {
+    checkQuery(req, {});
+    protocol::ModelsList list;
+    if (context.models != nullptr) {
+      for (const loader::LibraryEntry& entry : context.models->list()) {
+        list.models.push_back(protocol::LibraryModel{entry.name, entry.bytes});
+      }
+    }
+    sendJson(res, list);
+  });
+}
+
+}  // namespace myriad::service

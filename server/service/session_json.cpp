@@ -1,0 +1,151 @@
+#include "service/session_json.h"
+
+#include <charconv>
+#include <cstdlib>
+
+namespace myriad::service {
+namespace {
+
+// The double whose shortest decimal form is the float's: 0.1f goes out as 0.1, not as
+// 0.10000000149011612 (what the float holds exactly), so values read back as they were sent.
+double wire(float value) {
+  char text[32];
+  auto [end, ec] = std::to_chars(text, text + sizeof text - 1, value);
+  if (ec != std::errc()) return value;
+  *end = '\0';
+  return std::strtod(text, nullptr);
+}
+
+}  // namespace
+
+protocol::Vec3 toWire(const glm::vec3& v) { return {wire(v.x), wire(v.y), wire(v.z)}; }
+
+glm::vec3 fromWire(const protocol::Vec3& v) {
+  return glm::vec3(float(v[0]), float(v[1]), float(v[2]));
+}
+
+protocol::Camera toWire(const scene::Camera& c) {
+  protocol::Camera out;
+  out.eye = toWire(c.eye);
+  out.target = toWire(c.target);
+  out.up = toWire(c.up);
+  out.fovY = wire(c.fovYDegrees);
+  out.near = wire(c.nearPlane);
+  out.far = wire(c.farPlane);
+  return out;
+}
+
+scene::Camera fromWire(const protocol::Camera& c) {
+  scene::Camera out;
+  out.eye = fromWire(c.eye);
+  out.target = fromWire(c.target);
+  out.up = fromWire(c.up);
+  out.fovYDegrees = float(c.fovY);
+  out.nearPlane = float(c.near);
+  out.farPlane = float(c.far);
+  return out;
+}
+
+protocol::Settings toWire(const SessionSettings& s) {
+  protocol::Settings out;
+  out.sun.direction = toWire(s.sun.direction);
+  out.sun.color = toWire(s.sun.color);
+  out.sun.intensity = wire(s.sun.intensity);
+  out.ambient = toWire(s.ambient);
+  out.exposure = wire(s.exposure);
+  out.markers = s.markers;
+  out.technique = std::string(render::techniqueName(s.technique));
+  out.animate = s.animate;
+  out.background = toWire(s.background);
+  return out;
+}
+
+SessionSettings fromWire(const protocol::Settings& s) {
+  SessionSettings out;
+  // The renderer wants a unit direction; the schema and checkSunDirection rule out zero.
+  out.sun.direction = glm::normalize(fromWire(s.sun.direction));
+  out.sun.color = fromWire(s.sun.color);
+  out.sun.intensity = float(s.sun.intensity);
+  out.ambient = fromWire(s.ambient);
+  out.exposure = float(s.exposure);
+  out.markers = s.markers;
+  std::optional<render::Technique> technique = render::parseTechnique(s.technique);
+  if (!technique) {
+    throw ProblemError(invalidBody("/technique", "\"technique\" must be volumes, tiled or clustered."));
+  }
+  out.technique = *technique;
+  out.animate = s.animate;
+  out.background = fromWire(s.background);
+  return out;
+}
+
+protocol::Material toWire(uint32_t id, const scene::Material& m) {
+  protocol::Material out;
+  out.id = id;
+  out.name = m.name;
+  out.baseColor = toWire(m.baseColor);
+  out.metallic = wire(m.metallic);
+  out.roughness = wire(m.roughness);
+  return out;
+}
+
+protocol::Light toWire(uint64_t id, const scene::PointLight& l) {
+  protocol::Light out;
+  out.id = id;
+  out.position = toWire(l.position);
+  out.radius = wire(l.radius);
+  out.color = toWire(l.color);
+  out.intensity = wire(l.intensity);
+  out.falloff = wire(l.falloff);
+  return out;
+}
+
+scene::PointLight fromWire(const protocol::LightNew& l) {
+  scene::PointLight out;
+  out.position = fromWire(l.position);
+  out.radius = float(l.radius);
+  out.color = fromWire(l.color);
+  out.intensity = float(l.intensity);
+  out.falloff = float(l.falloff);
+  return out;
+}
+
+scene::PointLight fromWire(const protocol::Light& l) {
+  scene::PointLight out;
+  out.position = fromWire(l.position);
+  out.radius = float(l.radius);
+  out.color = fromWire(l.color);
+  out.intensity = float(l.intensity);
+  out.falloff = float(l.falloff);
+  return out;
+}
+
+protocol::Bounds toWire(const scene::Bounds& b) {
+  // An empty model has no bounds; report a point at the origin rather than +-FLT_MAX.
+  if (b.empty()) return protocol::Bounds{};
+  return protocol::Bounds{toWire(b.min), toWire(b.max)};
+}
+
+scene::Bounds fromWire(const protocol::Bounds& b) {
+  scene::Bounds out;
+  out.min = fromWire(b.min);
+  out.max = fromWire(b.max);
+  return out;
+}
+
+protocol::SessionState stateOf(const Session& session, int64_t expiresInSeconds) {
+  protocol::SessionState state;
+  state.id = session.id;
+  state.model.source = session.model.source;
+  state.model.meshes = session.model.meshes;
+  state.model.instances = session.model.instances;
+  state.model.materials = session.model.materials;
+  state.model.bounds = toWire(session.model.bounds);
+  state.camera = toWire(session.camera);
+  state.settings = toWire(session.settings);
+  state.lightCount = session.lights.size();
+  state.expiresInSeconds = uint64_t(std::max<int64_t>(0, expiresInSeconds));
+  return state;
+}
+
+}  // namespace myriad::service

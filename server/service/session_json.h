@@ -1,0 +1,34 @@
+// Between a session's state (scene units, glm) and the protocol's wire types (protocol/types.h).
+// Callers hold the session's mutex while reading it.
+#pragma once
+
+#include <cstdint>
+
+#include "protocol/types.h"
+#include "scene/scene.h"
+#include "service/session.h"
+
+namespace myriad::service {
+
+protocol::Vec3 toWire(const glm::vec3& v);
+glm::vec3 fromWire(const protocol::Vec3& v);
+
+protocol::Camera toWire(const scene::Camera& camera);
+scene::Camera fromWire(const protocol::Camera& camera);
+
+protocol::Settings toWire(const SessionSettings& settings);
+// Throws ProblemError 400 for an unknown technique (the schema already limits it).
+SessionSettings fromWire(const protocol::Settings& settings);
+
+protocol::Material toWire(uint32_t id, const scene::Material& material);
+protocol::Light toWire(uint64_t id, const scene::PointLight& light);
+scene::PointLight fromWire(const protocol::LightNew& light);
+scene::PointLight fromWire(const protocol::Light& light);
+
+protocol::Bounds toWire(const scene::Bounds& bounds);
+scene::Bounds fromWire(const protocol::Bounds& bounds);
+
+// SessionState of `session` (whose mutex the caller holds).
+protocol::SessionState stateOf(const Session& session, int64_t expiresInSeconds);
+
+}  // namespace myriad::service
