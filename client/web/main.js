@@ -197,6 +197,10 @@ function toggleHelp(show = $('help').hidden) {
 }
 
 $('new-session').addEventListener('click', newSession);
+$('api-key-label').addEventListener('submit', (e) => {
+  e.preventDefault();
+  newSession();
+});
 $('message-close').addEventListener('click', hideMessage);
 $('target').addEventListener('change', (e) => view.setTarget(e.target.value));
 $('camera-mode').addEventListener('change', (e) => setCameraMode(e.target.value));

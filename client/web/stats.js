@@ -2,6 +2,7 @@
 // graph, frame time, readback and encode, light counts, the light lists' overflow counters.
 
 const POLL_MS = 500;
+const MAX_POLL_MS = 10000;
 const HISTORY = 120;  // samples in the graph: a minute at two a second
 const PALETTE = ['#5fa8ff', '#ffb454', '#7fd962', '#ff7a6b', '#c792ea', '#4dd0e1', '#f07178',
                  '#ffd866', '#a6accd', '#89ddff'];
@@ -18,6 +19,7 @@ export class StatsPanel {
     this.timer = 0;
     this.running = false;
     this.latest = null;
+    this.failures = 0;
   }
 
   start() {
@@ -33,15 +35,22 @@ export class StatsPanel {
 
   async poll() {
     if (!this.running) return;
+    let delay = POLL_MS;
     if (!document.hidden) {
       try {
         this.show(await this.api.get(this.api.sessionPath('/stats')));
+        this.failures = 0;
       } catch (e) {
-        this.onProblem(e);
-        if (e.name === 'SessionLostError') return this.stop();
+        if (e.name === 'SessionLostError') {
+          this.onProblem(e);
+          return this.stop();
+        }
+        // Said once; then asked again less and less often until the server answers.
+        if (this.failures++ === 0) this.onProblem(e);
+        delay = Math.min(POLL_MS * 2 ** this.failures, MAX_POLL_MS);
       }
     }
-    if (this.running) this.timer = setTimeout(() => this.poll(), POLL_MS);
+    if (this.running) this.timer = setTimeout(() => this.poll(), delay);
   }
 
   colorOf(name) {
