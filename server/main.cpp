@@ -3,6 +3,7 @@
 // statuses (2 bad flag, 1 cannot start, 0 clean shutdown).
 #include <atomic>
 #include <csignal>
+#include <cstdlib>
 #include <cstdio>
 #include <string>
 #include <string_view>
@@ -12,6 +13,7 @@
 #include <pthread.h>
 
 #include "gpu/context.h"
+#include "loader/library.h"
 #include "loader/loader.h"
 #include "scene/model_loader.h"
 #include "service/http_server.h"
@@ -26,6 +28,31 @@ using namespace myriad;
 int fail(const std::string& sentence) {
   std::fprintf(stderr, "myriad-server: %s\n", sentence.c_str());
   return 1;
+}
+
+// The session API's configuration: limits as /v1/info lists them, the key, CORS.
+service::ApiConfig apiConfig(const service::Options& options, uint32_t maxResolution,
+                             const service::RenderThread& renderThread) {
+  service::ApiConfig api;
+  service::ApiLimits& limits = api.limits;
+  limits.maxResolution = maxResolution;
+  limits.maxQueuedFrames = renderThread.maxQueuedFrames();
+  limits.maxSessions = options.maxSessions;
+  limits.maxLightsPerSession = options.maxLightsPerSession;
+  limits.maxUploadBytes = options.maxUploadBytes;
+  limits.maxBodyBytes = options.maxBodyBytes;
+  limits.maxStreams = options.maxStreams;
+  limits.maxRequestsInFlight = options.maxRequestsInFlight;
+  limits.sessionIdleSeconds = options.sessionIdleSeconds;
+  api.apiKey = options.apiKey;
+  // The environment keeps the key out of `ps` output; the flag wins when both are given.
+  if (const char* key = std::getenv("MYRIAD_API_KEY"); !api.apiKey && key && *key) api.apiKey = key;
+  api.corsOrigins = options.corsOrigins;
+  api.defaultTechnique = options.technique;
+  api.validation = options.validate;
+  api.builtinLights = options.lights;
+  api.builtinSeed = options.seed;
+  return api;
 }
 
 int run(const service::Options& options, const sigset_t& shutdownSignals) {
@@ -57,9 +84,23 @@ int run(const service::Options& options, const sigset_t& shutdownSignals) {
                options.model ? options.model->c_str() : "built-in", scene.instances.size(),
                scene.lights.size(), options.validate ? "; validation layers on" : "");
 
-  service::HttpConfig config{options.host, options.port, options.threads,
-                             std::min(options.maxResolution, renderThread->maxDimension()),
-                             options.validate, options.technique};
+  service::HttpConfig config;
+  config.host = options.host;
+  config.port = options.port;
+  config.threads = options.threads;
+  config.maxResolution = std::min(options.maxResolution, renderThread->maxDimension());
+  config.validation = options.validate;
+  config.technique = options.technique;
+  std::unique_ptr<loader::ModelLibrary> models;
+  if (options.modelsDir) {
+    try {
+      models = std::make_unique<loader::ModelLibrary>(*options.modelsDir);
+    } catch (const std::exception& e) {
+      return fail(e.what());
+    }
+  }
+  config.models = models.get();
+  config.api = apiConfig(options, config.maxResolution, *renderThread);
   service::HttpServer server(config, *renderThread, scene);
   uint16_t port = 0;
   try {

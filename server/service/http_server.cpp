@@ -22,13 +22,6 @@
 namespace myriad::service {
 namespace {
 
-// Every route answers GET (and HEAD, which httplib serves from the GET handler without a body).
-constexpr std::array<std::string_view, 3> kRoutes = {"/v1/health", "/v1/info", "/v1/frame"};
-constexpr std::string_view kAllowedMethods = "GET, HEAD";
-
-// No route takes a body; anything larger than a small form is a mistake or an attack.
-constexpr size_t kMaxRequestBody = 64 * 1024;
-
 // An idle keep-alive connection holds a worker until this expires, and shutdown waits for it, so
 // it is short: reconnecting on loopback or a LAN costs far less than a stalled shutdown.
 constexpr time_t kKeepAliveSeconds = 2;
@@ -39,19 +32,17 @@ constexpr time_t kWriteTimeoutSeconds = 30;
 // What a 503 suggests; a frame on lavapipe takes from tens of milliseconds to a few seconds.
 constexpr const char* kRetryAfterSeconds = "1";
 
-void sendProblem(httplib::Response& res, const Problem& problem) {
-  res.status = problem.status;
-  res.set_content(toBody(problem), std::string(kProblemContentType));
-}
-
 // Problems for the statuses httplib produces itself, before any handler runs.
-Problem problemForStatus(int status, const httplib::Request& req) {
+Problem problemForStatus(int status, const httplib::Request& req, const ApiLimits& limits) {
   switch (status) {
     case 404:
       return notFound(req.path);
     case 413:
-      return badRequest(413, "The request body is larger than " + std::to_string(kMaxRequestBody) +
-                                 " bytes; no route takes one.");
+      // Only bodies without Content-Length get here (the route table refuses the others): they
+      // are read up to the largest limit, the upload's.
+      return limitExceeded(413, "maxUploadBytes",
+                           "The request body is larger than " +
+                               std::to_string(limits.maxUploadBytes) + " bytes.");
     case 414:
       return badRequest(414, "The request URI is too long.");
     default:
@@ -93,15 +84,37 @@ struct HttpServer::State {
   HttpConfig config;
   RenderThread& renderThread;
   FrameDefaults frameDefaults;
+  render::FrameSettings sceneLighting;  // the built-in scene's sun, ambient and background
   SceneSummary scene;
   httplib::Server server;
+  SessionManager sessions;
+  ApiContext api;
+  Routes routes;
 
   // The hand-shake between stop() and serve(); see stop().
   std::atomic<bool> stopRequested{false};
   std::atomic<bool> serveEntered{false};
   std::atomic<bool> serveFinished{false};
 
-  State(const HttpConfig& c, RenderThread& r) : config(c), renderThread(r) {}
+  State(const HttpConfig& c, RenderThread& r)
+      : config(c),
+        renderThread(r),
+        sessions(c.api.limits.maxSessions, std::chrono::seconds(c.api.limits.sessionIdleSeconds),
+                 [&r](Session& session) { releaseScene(r, session); }),
+        api{c.api, r, sessions, c.models, {}},
+        routes(server, api) {}
+
+  // A closed session's GPU scene, destroyed before the DELETE (or expiry) finishes.
+  static void releaseScene(RenderThread& renderThread, Session& session) {
+    if (session.sceneId == 0) return;  // failed while being created: no scene yet
+    try {
+      renderThread.destroyScene(session.sceneId).get();
+    } catch (const std::exception& e) {
+      // Only at shutdown (the render thread has stopped and frees everything itself).
+      std::fprintf(stderr, "myriad-server: session %s: scene not released: %s\n",
+                   session.id.c_str(), e.what());
+    }
+  }
 
   void handleInfo(httplib::Response& res) const;
   void handleFrame(const httplib::Request& req, httplib::Response& res) const;
@@ -115,9 +128,11 @@ void HttpServer::State::handleInfo(httplib::Response& res) const {
   nlohmann::json info = {
       {"server", {{"name", "myriad-server"}, {"version", MYRIAD_VERSION}}},
       {"device", deviceJson(renderThread.device())},
-      {"limits",
-       {{"maxResolution", config.maxResolution},
-        {"maxQueuedFrames", renderThread.maxQueuedFrames()}}},
+      {"limits", api.config.limits.toJson()},
+      {"apiKeyRequired", api.config.apiKey.has_value()},
+      {"formats", {"png", "jpeg", "raw"}},
+      {"sessions", {{"open", sessions.count()}}},
+      {"gpuMemoryBytes", renderThread.gpuMemoryBytes()},
       {"validation",
        {{"enabled", config.validation}, {"messages", renderThread.validationMessages()}}},
       {"scene",
@@ -137,6 +152,9 @@ void HttpServer::State::handleFrame(const httplib::Request& req, httplib::Respon
   render::FrameSettings settings;
   try {
     settings = parseFrameQuery(req.params, frameDefaults);
+    settings.sun = sceneLighting.sun;
+    settings.ambient = sceneLighting.ambient;
+    settings.background = sceneLighting.background;
   } catch (const FrameQueryError& e) {
     sendProblem(res, e.unknownParameter() ? unknownParameter(e.parameter(), e.what())
                                           : invalidParameter(e.parameter(), e.what()));
@@ -184,6 +202,7 @@ HttpServer::HttpServer(const HttpConfig& config, RenderThread& renderThread,
                        const scene::Scene& scene)
     : state_(std::make_unique<State>(config, renderThread)) {
   State& s = *state_;
+  s.sceneLighting.takeLightingFrom(scene);
   s.frameDefaults = FrameDefaults{scene.camera, scene.bounds(), config.maxResolution,
                                  config.technique};
   s.scene = SceneSummary{scene.lights.size(), scene.instances.size(), scene.materials.size(),
@@ -192,7 +211,10 @@ HttpServer::HttpServer(const HttpConfig& config, RenderThread& renderThread,
   httplib::Server& server = s.server;
   const uint32_t threads = config.threads;
   server.new_task_queue = [threads] { return new httplib::ThreadPool(threads); };
-  server.set_payload_max_length(kMaxRequestBody);
+  // The route table refuses bodies over each route's own limit from Content-Length; this bounds
+  // what httplib reads of a body sent without one.
+  server.set_payload_max_length(
+      std::max(config.api.limits.maxUploadBytes, config.api.limits.maxBodyBytes));
   server.set_keep_alive_timeout(kKeepAliveSeconds);
   server.set_write_timeout(kWriteTimeoutSeconds, 0);
   // httplib's default sets SO_REUSEPORT, which lets a second server bind the same port and take
@@ -203,29 +225,22 @@ HttpServer::HttpServer(const HttpConfig& config, RenderThread& renderThread,
     setsockopt(sock, SOL_SOCKET, SO_REUSEADDR, &yes, sizeof yes);
   });
 
-  // Unknown paths and methods are answered before routing, so that a known path with the wrong
-  // method is a 405 with Allow rather than httplib's 404.
-  server.set_pre_routing_handler([](const httplib::Request& req, httplib::Response& res) {
-    bool known = false;
-    for (std::string_view route : kRoutes) known = known || req.path == route;
-    if (!known) {
-      sendProblem(res, notFound(req.path));
-      return httplib::Server::HandlerResponse::Handled;
-    }
-    if (req.method != "GET" && req.method != "HEAD") {
-      res.set_header("Allow", std::string(kAllowedMethods));
-      sendProblem(res, methodNotAllowed(req.method, req.path, kAllowedMethods));
-      return httplib::Server::HandlerResponse::Handled;
-    }
-    return httplib::Server::HandlerResponse::Unhandled;
+  // Unknown paths, wrong methods (405 with Allow), preflights and oversized bodies are answered
+  // before routing and before the body is read.
+  server.set_pre_routing_handler([&s](const httplib::Request& req, httplib::Response& res) {
+    return s.routes.answerBeforeRouting(req, res) ? httplib::Server::HandlerResponse::Handled
+                                                  : httplib::Server::HandlerResponse::Unhandled;
   });
 
   // httplib calls this for every status >= 400, including our own problem responses; only
   // statuses httplib produced itself (malformed requests, oversize bodies) arrive without a body.
   server.set_error_handler(
-      httplib::Server::HandlerWithResponse([](const httplib::Request& req, httplib::Response& res) {
-        if (!res.body.empty()) return httplib::Server::HandlerResponse::Unhandled;
-        sendProblem(res, problemForStatus(res.status, req));
+      httplib::Server::HandlerWithResponse([&s](const httplib::Request& req,
+                                                httplib::Response& res) {
+        if (!res.body.empty() || res.status == 204) {
+          return httplib::Server::HandlerResponse::Unhandled;
+        }
+        sendProblem(res, problemForStatus(res.status, req, s.api.config.limits));
         return httplib::Server::HandlerResponse::Handled;
       }));
 
@@ -246,14 +261,20 @@ HttpServer::HttpServer(const HttpConfig& config, RenderThread& renderThread,
 
   server.set_logger(logRequest);
 
-  server.Get("/v1/health", [](const httplib::Request&, httplib::Response& res) {
-    res.set_content(R"({"status":"ok"})", "application/json");
-  });
-  server.Get("/v1/info",
-             [&s](const httplib::Request&, httplib::Response& res) { s.handleInfo(res); });
-  server.Get("/v1/frame", [&s](const httplib::Request& req, httplib::Response& res) {
+  RouteOptions health;
+  health.countsInFlight = false;  // a load balancer's probe must not get 429 under load
+  s.routes.add(
+      "GET", "/v1/health",
+      [](const httplib::Request&, httplib::Response& res) {
+        res.set_content(R"({"status":"ok"})", "application/json");
+      },
+      health);
+  s.routes.add("GET", "/v1/info",
+               [&s](const httplib::Request&, httplib::Response& res) { s.handleInfo(res); });
+  s.routes.add("GET", "/v1/frame", [&s](const httplib::Request& req, httplib::Response& res) {
     s.handleFrame(req, res);
   });
+  addSessionApi(s.routes, s.api);
 }
 
 HttpServer::~HttpServer() = default;
@@ -288,6 +309,9 @@ void HttpServer::stop() {
   s.stopRequested = true;
   // serve() checks stopRequested after announcing itself, and this checks serveEntered after
   // setting stopRequested (both sequentially consistent), so at least one side sees the other.
+  // Streams wait on their session; closing every session ends them, so shutdown does not wait
+  // on a client that never disconnects.
+  s.sessions.closeAll();
   if (!s.serveEntered) return;
   // httplib's stop() does nothing until listen has marked itself running; wait for that (or for
   // serve() to have given up) so a signal that arrives just after start-up is not lost.

@@ -6,6 +6,7 @@
 #include <memory>
 #include <string>
 
+#include "service/api.h"
 #include "service/render_thread.h"
 
 namespace myriad::service {
@@ -17,6 +18,8 @@ struct HttpConfig {
   uint32_t maxResolution = 4096;  // already capped by the renderer's maximum
   bool validation = false;
   render::Technique technique = render::Technique::Clustered;  // unless a request names one
+  ApiConfig api;                                   // sessions: limits, key, CORS
+  loader::ModelLibrary* models = nullptr;          // --models; must outlive the server
 };
 
 // What GET /v1/info reports about the scene; counted once at start-up.
