@@ -42,7 +42,7 @@ export class ModelPanel {
       const items = models.map((m) => ({value: m.name,
                                          label: `${m.name} (${(m.bytes / 1024).toFixed(0)} KiB)`}));
       fillSelect($('model-library'), items.length ? items
-                                                  : [{value: '', label: 'none (server has no --models)'}]);
+                                                  : [{value: '', label: 'none (no --models)'}]);
       $('model-library-load').disabled = items.length === 0;
     } catch (e) {
       this.onProblem(e);

@@ -30,12 +30,16 @@ export class LiveView {
     this.frames = 0;
 
     this.img.addEventListener('load', () => {
+      this.img.classList.remove('failed');
       this.frames += 1;
       this.retryDelayMs = 1000;
       this.status.textContent = `${this.img.naturalWidth}\u00d7${this.img.naturalHeight}` +
                                 (this.interactive ? ' (moving)' : '');
     });
-    this.img.addEventListener('error', () => this.streamFailed());
+    this.img.addEventListener('error', () => {
+      this.img.classList.add('failed');  // no broken-image icon over the view
+      this.streamFailed();
+    });
 
     let resizeTimer = 0;
     new ResizeObserver(() => {

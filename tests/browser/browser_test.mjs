@@ -11,6 +11,7 @@ import {existsSync, readFileSync} from 'node:fs';
 import {startServer} from './server_process.mjs';
 
 const CHROMIUM = '/usr/bin/chromium';
+const MODELS = '/usr/share/assimp/models/OBJ';  // the library: GET /v1/models
 const BROKEN_MODEL = '/usr/share/assimp/models/invalid/empty.obj';
 // The view is the window less the 340 px panel: a 400x300 stream keeps lavapipe quick.
 const VIEWPORT = {width: 740, height: 300};
@@ -101,7 +102,8 @@ function difference(a, b) {
   return sum / a.sig.length;
 }
 
-const server = await startServer(serverPath, ['--validate', '--port', '0', '--lights', '64']);
+const server = await startServer(serverPath, ['--validate', '--port', '0', '--lights', '64',
+                                                '--models', MODELS]);
 console.log(`server at ${server.url}`);
 const base = server.url;
 
@@ -337,6 +339,22 @@ try {
     expectedHttpErrors = null;
     const state = (await api('GET', `/v1/sessions/${sessionId}`, {token})).body;
     check(state.model.source === 'builtin:default', `the model became ${state.model.source}`);
+  });
+
+  await step('a library model loads from the panel, the built-in scene comes back', async () => {
+    await until('spider.obj in the library list', async () =>
+        (await page.locator('#model-library option[value="spider.obj"]').count()) === 1);
+    await page.selectOption('#model-library', 'spider.obj');
+    await page.click('#model-library-load');
+    await until('the library model in the summary', async () =>
+        (await page.textContent('#model-summary')).startsWith('library:spider.obj'));
+    const state = (await api('GET', `/v1/sessions/${sessionId}`, {token})).body;
+    check(state.model.source === 'library:spider.obj', `model source ${state.model.source}`);
+    picture = await changedFrom('the spider', picture);
+    await page.click('#model-builtin');
+    await until('the built-in scene in the summary', async () =>
+        (await page.textContent('#model-summary')).startsWith('builtin:default'));
+    picture = await changedFrom('the built-in scene again', picture);
   });
 
   await step('a reload continues the same session', async () => {
