@@ -1,0 +1,26 @@
+// JPEG encoding of rendered frames (streams and format=jpeg). Plain CPU code: runs on the HTTP
+// worker threads, never on the render thread.
+#pragma once
+
+#include <cstdint>
+#include <span>
+#include <stdexcept>
+#include <vector>
+
+namespace myriad::encode {
+
+// libturbojpeg reported an error (out of memory, an internal failure).
+class JpegError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+// Encodes tightly packed RGBA8 rows, top row first (alpha ignored), as a baseline JPEG at
+// `quality` 1..100. Chroma is subsampled 4:2:0 below quality 90 and kept whole (4:4:4) from 90 up,
+// where the asker wants fidelity more than size.
+// Throws std::invalid_argument when rgba.size() != width * height * 4, a size is 0 or above
+// JPEG's 65,535, or quality is outside 1..100; JpegError when libturbojpeg fails.
+std::vector<uint8_t> encodeJpeg(std::span<const uint8_t> rgba, uint32_t width, uint32_t height,
+                                int quality);
+
+}  // namespace myriad::encode

@@ -1,0 +1,169 @@
+// JPEG and raw encoding of frames: JPEGs decode (with libturbojpeg itself) to the same size and
+// close to the source; raw packing is exact, byte for byte.
+#include <doctest/doctest.h>
+
+#include <cmath>
+#include <cstring>
+#include <memory>
+
+#include <turbojpeg.h>
+
+#include "encode/jpeg.h"
+#include "encode/raw.h"
+
+using namespace myriad;
+
+namespace {
+
+// Smooth gradients with a soft disc: the kind of content JPEG keeps well at high quality.
+std::vector<uint8_t> testImage(uint32_t w, uint32_t h) {
+  std::vector<uint8_t> rgba(size_t(w) * h * 4);
+  for (uint32_t y = 0; y < h; ++y) {
+    for (uint32_t x = 0; x < w; ++x) {
+      uint8_t* p = &rgba[(size_t(y) * w + x) * 4];
+      float dx = x - w * 0.5f, dy = y - h * 0.5f;
+      float disc = std::exp(-(dx * dx + dy * dy) / (0.08f * w * h));
+      p[0] = uint8_t(255.0f * x / (w - 1));
+      p[1] = uint8_t(255.0f * y / (h - 1));
+      p[2] = uint8_t(60.0f + 180.0f * disc);
+      p[3] = 255;
+    }
+  }
+  return rgba;
+}
+
+struct Decoded {
+  int width = 0, height = 0;
+  std::vector<uint8_t> rgba;
+};
+
+Decoded decodeJpeg(const std::vector<uint8_t>& jpeg) {
+  std::unique_ptr<void, int (*)(void*)> handle(tjInitDecompress(), tjDestroy);
+  REQUIRE(handle);
+  Decoded d;
+  int subsampling = 0, colorspace = 0;
+  REQUIRE(tjDecompressHeader3(handle.get(), jpeg.data(), jpeg.size(), &d.width, &d.height,
+                              &subsampling, &colorspace) == 0);
+  d.rgba.resize(size_t(d.width) * d.height * 4);
+  REQUIRE(tjDecompress2(handle.get(), jpeg.data(), jpeg.size(), d.rgba.data(), d.width, 0, d.height,
+                        TJPF_RGBA, 0) == 0);
+  return d;
+}
+
+struct Error {
+  double mean = 0;
+  int max = 0;
+};
+
+Error difference(const std::vector<uint8_t>& a, const std::vector<uint8_t>& b) {
+  REQUIRE(a.size() == b.size());
+  Error e;
+  size_t n = 0;
+  for (size_t i = 0; i < a.size(); i += 4) {
+    for (int c = 0; c < 3; ++c) {
+      int d = std::abs(int(a[i + c]) - int(b[i + c]));
+      e.mean += d;
+      e.max = std::max(e.max, d);
+      ++n;
+    }
+  }
+  e.mean /= double(n);
+  return e;
+}
+
+}  // namespace
+
+TEST_CASE("JPEG decodes to the same size and close to the source, tighter at higher quality") {
+  const uint32_t w = 96, h = 64;  // not a multiple of the 16-pixel MCU in both directions
+  std::vector<uint8_t> source = testImage(w, 70);
+  source.resize(size_t(w) * h * 4);  // keeps rows 0..63 of the 70-row image: an uneven edge
+  Error previous{1e9, 0};
+  size_t previousBytes = 0;
+  for (int quality : {50, 85, 95, 100}) {
+    std::vector<uint8_t> jpeg = encode::encodeJpeg(source, w, h, quality);
+    REQUIRE(jpeg.size() > 4);
+    CHECK(jpeg[0] == 0xFF);  // SOI marker
+    CHECK(jpeg[1] == 0xD8);
+    Decoded d = decodeJpeg(jpeg);
+    CHECK(d.width == int(w));
+    CHECK(d.height == int(h));
+    Error e = difference(source, d.rgba);
+    MESSAGE("quality " << quality << ": " << jpeg.size() << " bytes, mean error " << e.mean
+                       << ", max " << e.max);
+    CHECK(e.mean < (quality >= 85 ? 1.5 : 3.0));
+    CHECK(e.max < (quality >= 95 ? 8 : 24));
+    CHECK(e.mean <= previous.mean + 0.05);
+    CHECK(jpeg.size() > previousBytes);
+    previous = e;
+    previousBytes = jpeg.size();
+  }
+}
+
+TEST_CASE("JPEG of a 1x1 image and quality 1 still decode") {
+  std::vector<uint8_t> red = {200, 30, 40, 255};
+  Decoded d = decodeJpeg(encode::encodeJpeg(red, 1, 1, 100));
+  REQUIRE(d.width == 1);
+  CHECK(std::abs(int(d.rgba[0]) - 200) <= 3);
+  CHECK(std::abs(int(d.rgba[1]) - 30) <= 3);
+  CHECK(std::abs(int(d.rgba[2]) - 40) <= 3);
+  std::vector<uint8_t> image = testImage(32, 32);
+  Decoded low = decodeJpeg(encode::encodeJpeg(image, 32, 32, 1));
+  CHECK(low.width == 32);
+  CHECK(low.height == 32);
+}
+
+TEST_CASE("JPEG rejects bad sizes and qualities by name") {
+  std::vector<uint8_t> image = testImage(8, 8);
+  CHECK_THROWS_WITH_AS(encode::encodeJpeg(image, 8, 8, 0), "JPEG quality 0 is outside 1..100",
+                       std::invalid_argument);
+  CHECK_THROWS_WITH_AS(encode::encodeJpeg(image, 8, 8, 101), "JPEG quality 101 is outside 1..100",
+                       std::invalid_argument);
+  CHECK_THROWS_AS(encode::encodeJpeg(image, 8, 7, 80), std::invalid_argument);
+  CHECK_THROWS_AS(encode::encodeJpeg(image, 0, 8, 80), std::invalid_argument);
+  CHECK_THROWS_AS(encode::encodeJpeg({}, 70000, 1, 80), std::invalid_argument);
+}
+
+TEST_CASE("raw packing keeps exactly the target's channels, little-endian, rows top first") {
+  render::Frame frame;
+  frame.width = 3;
+  frame.height = 2;
+  for (uint32_t i = 0; i < frame.width * frame.height * 4; ++i) {
+    frame.data.push_back(i % 4 == 3 ? 1.0f : -1.5f + 0.25f * float(i) + (i == 5 ? 1e-30f : 0.0f));
+  }
+  frame.data[9] = std::nanf("");  // values pass through untouched, whatever they are
+  for (render::Target target : {render::Target::Final, render::Target::Uv, render::Target::Depth,
+                                render::Target::Clusters, render::Target::LightCount}) {
+    const size_t channels = render::rawChannels(target).size();
+    std::vector<uint8_t> bytes = encode::packRaw(frame, target);
+    CAPTURE(render::targetName(target));
+    REQUIRE(bytes.size() == 6 * channels * 4);
+    size_t mismatches = 0;
+    for (size_t p = 0; p < 6; ++p) {
+      for (size_t c = 0; c < channels; ++c) {
+        const uint8_t* b = &bytes[(p * channels + c) * 4];
+        uint32_t bits = uint32_t(b[0]) | uint32_t(b[1]) << 8 | uint32_t(b[2]) << 16 | uint32_t(b[3]) << 24;
+        uint32_t expected;
+        std::memcpy(&expected, &frame.data[p * 4 + c], 4);
+        if (bits != expected) ++mismatches;
+      }
+    }
+    CHECK(mismatches == 0);
+  }
+  CHECK(render::rawChannels(render::Target::Depth).size() == 1);
+  CHECK(encode::packRaw(frame, render::Target::Depth).size() == 6 * 4);
+  // Pixel (0,0) depth, then (1,0): -1.5 and -0.5 as little-endian floats.
+  std::vector<uint8_t> depth = encode::packRaw(frame, render::Target::Depth);
+  float first, second;
+  std::memcpy(&first, &depth[0], 4);
+  std::memcpy(&second, &depth[4], 4);
+  CHECK(first == -1.5f);
+  CHECK(second == -0.5f);
+}
+
+TEST_CASE("raw packing refuses a frame without float data") {
+  render::Frame frame;
+  frame.width = 4;
+  frame.height = 4;
+  frame.rgba.resize(64);
+  CHECK_THROWS_AS(encode::packRaw(frame, render::Target::Final), std::invalid_argument);
+}
