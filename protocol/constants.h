@@ -101,7 +101,7 @@ inline constexpr std::string_view kMaxLightsPerSession = "maxLightsPerSession"; 
 inline constexpr std::string_view kMaxUploadBytes = "maxUploadBytes";            // --max-upload-bytes
 inline constexpr std::string_view kMaxBodyBytes = "maxBodyBytes";                // --max-body-bytes
 inline constexpr std::string_view kMaxStreams = "maxStreams";                    // --max-streams
-inline constexpr std::string_view kMaxRequestsInFlight = "maxRequestsInFlight";  // --max-requests-in-flight
+inline constexpr std::string_view kMaxRequestsInFlight = "maxRequestsInFlight";  // --max-requests
 inline constexpr std::string_view kSessionIdleSeconds = "sessionIdleSeconds";    // --session-idle-seconds
 }  // namespace limits
 
