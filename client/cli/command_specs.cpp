@@ -1,0 +1,246 @@
+// The table of subcommands and their options. The bounds mirror protocol/CONTRACT.md so that a
+// mistake is caught before a request is sent; the server checks everything again.
+#include <limits>
+
+#include "args.h"
+
+namespace myriad::cli {
+namespace {
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+const Bounds kLinearColour{0.0, 64.0};  // sun, ambient, background
+const Bounds kUnitInterval{0.0, 1.0};   // base colour, metallic, roughness, light colour
+const Bounds kFov{1.0, 179.0, false, false, "degrees"};
+const Bounds kPositive{0.0, kInf, true};
+const Bounds kSunIntensity{0.0, 1000.0};
+const Bounds kExposure{0.0, 1000.0, true};
+const Bounds kLightRadius{0.0, 1e4, true};
+const Bounds kLightAmount{0.0, 1e4};  // intensity, falloff
+const Bounds kAtLeastOne{1.0, kInf};
+const Bounds kQuality{1.0, 100.0};
+const Bounds kFps{1.0, 60.0, false, false, "frames per second"};
+const Bounds kLightPage{1.0, 1000.0};
+const Bounds kSeed{0.0, 4294967295.0};
+
+OptionSpec option(std::string name, Kind kind, std::string help,
+                  std::optional<Bounds> bounds = std::nullopt, std::string metavar = {}) {
+  OptionSpec o;
+  o.name = std::move(name);
+  o.kind = kind;
+  o.help = std::move(help);
+  o.bounds = std::move(bounds);
+  o.metavar = std::move(metavar);
+  return o;
+}
+
+OptionSpec choice(std::string name, std::vector<std::string> choices, std::string help) {
+  OptionSpec o = option(std::move(name), Kind::Choice, std::move(help));
+  o.choices = std::move(choices);
+  return o;
+}
+
+OptionSpec flag(std::string name, std::string help) {
+  return option(std::move(name), Kind::Flag, std::move(help));
+}
+
+OptionSpec output(std::string help) {
+  OptionSpec o = option("output", Kind::Text, std::move(help), std::nullopt, "PATH");
+  o.shortName = 'o';
+  o.required = true;
+  return o;
+}
+
+PositionalSpec positional(std::string name, Kind kind, std::string help, bool optional = false) {
+  PositionalSpec p;
+  p.name = std::move(name);
+  p.kind = kind;
+  p.help = std::move(help);
+  p.optional = optional;
+  return p;
+}
+
+// The light members shared by `lights add` and `lights set`.
+std::vector<OptionSpec> lightOptions(bool forAdd) {
+  OptionSpec position = option("position", Kind::Vector, "centre, scene units");
+  OptionSpec radius = option("radius", Kind::Number, "reach, scene units", kLightRadius);
+  position.required = forAdd;
+  radius.required = forAdd;
+  return {position, radius,
+          option("color", Kind::Vector, "linear RGB" + std::string(forAdd ? ", default 1,1,1" : ""),
+                 kUnitInterval, "r,g,b"),
+          option("intensity", Kind::Number, forAdd ? "default 1" : "brightness", kLightAmount),
+          option("falloff", Kind::Number, "C in (r^2-d^2)/(C d^2 + r^2)", kLightAmount)};
+}
+
+void requireSomeOption(const Invocation& inv, const std::string& what) {
+  if (inv.options.empty()) throw UsageError(inv.command->name, what);
+}
+
+std::vector<CommandSpec> buildSpecs() {
+  std::vector<CommandSpec> specs;
+
+  // Sessions.
+  specs.push_back({"session new", "start a session and remember its id:token", {},
+                   {option("api-key", Kind::Text, "the server's --api-key (env MYRIAD_API_KEY)",
+                           std::nullopt, "KEY"),
+                    flag("print-env", "print `export MYRIAD_SESSION=id:token` instead of saving")},
+                   "Saves id:token to the session file (mode 0600) unless --print-env is given.",
+                   {}});
+  specs.push_back({"session show", "the session's model, camera, settings and light count", {}, {},
+                   {}, {}});
+  specs.push_back({"session delete", "end the session and free its GPU memory", {}, {},
+                   "Removes the session file when the session came from it.", {}});
+
+  // Server-wide.
+  specs.push_back({"health", "whether the server answers", {}, {}, {}, {}});
+  specs.push_back({"info", "the server, its GPU, limits, techniques and targets", {}, {}, {}, {}});
+  specs.push_back({"models", "the models in the server's library (--models DIR)", {}, {}, {}, {}});
+
+  // Model.
+  CommandSpec load{"load", "load a model into the session (replaces meshes and materials)",
+                   {positional("FILE", Kind::Text, "a model file to upload (glTF, OBJ, ...)", true)},
+                   {option("library", Kind::Text, "a model from `myriad models`", std::nullopt,
+                           "NAME"),
+                    flag("builtin", "the built-in scene"),
+                    flag("model-lights", "also replace the lights with the model's own")},
+                   "Give exactly one of FILE, --library NAME, --builtin. The camera is reset to "
+                   "frame the model.",
+                   {}};
+  load.check = [](const Invocation& inv) {
+    int sources = int(!inv.positionals.empty()) + int(inv.has("library")) + int(inv.has("builtin"));
+    if (sources != 1) {
+      throw UsageError(sources == 0 ? "load" : "--library",
+                       sources == 0 ? "\"load\" needs FILE, --library NAME or --builtin"
+                                    : "\"load\" takes only one of FILE, --library NAME, --builtin");
+    }
+  };
+  specs.push_back(load);
+
+  // Camera.
+  CommandSpec camera{"camera", "show the camera, or change the members given", {},
+                     {option("eye", Kind::Vector, "camera position"),
+                      option("target", Kind::Vector, "the point looked at"),
+                      option("up", Kind::Vector, "up direction"),
+                      option("fov", Kind::Number, "vertical field of view", kFov, "DEG"),
+                      option("near", Kind::Number, "near plane distance", kPositive),
+                      option("far", Kind::Number, "far plane distance", kPositive)},
+                     "Without options, prints the camera.",
+                     {}};
+  camera.check = [](const Invocation& inv) {
+    auto nearPlane = inv.find<double>("near");
+    auto farPlane = inv.find<double>("far");
+    if (nearPlane && farPlane && *farPlane <= *nearPlane) {
+      throw UsageError("--far", "--far must be greater than --near");
+    }
+  };
+  specs.push_back(camera);
+  specs.push_back({"camera frame", "point the camera at the whole model", {}, {}, {}, {}});
+
+  // Settings.
+  CommandSpec settings{
+      "settings", "show the lighting settings, or change the members given", {},
+      {option("sun-dir", Kind::Vector, "direction the sunlight travels (normalized by the server)"),
+       option("sun-color", Kind::Vector, "linear RGB", kLinearColour, "r,g,b"),
+       option("sun-intensity", Kind::Number, "sun brightness", kSunIntensity),
+       option("ambient", Kind::Vector, "ambient light, linear RGB", kLinearColour, "r,g,b"),
+       option("background", Kind::Vector, "background, linear RGB", kLinearColour, "r,g,b"),
+       option("exposure", Kind::Number, "exposure before tonemapping", kExposure),
+       option("markers", Kind::OnOff, "draw a marker at each light"),
+       choice("technique", {"volumes", "tiled", "clustered"}, "how local lights are assigned"),
+       option("animate", Kind::OnOff, "move the lights on the GPU")},
+      "Without options, prints the settings.",
+      {}};
+  settings.check = [](const Invocation& inv) {
+    if (auto d = inv.find<Vec3>("sun-dir"); d && (*d)[0] == 0 && (*d)[1] == 0 && (*d)[2] == 0) {
+      throw UsageError("--sun-dir", "--sun-dir must not be 0,0,0");
+    }
+  };
+  specs.push_back(settings);
+
+  // Materials.
+  specs.push_back({"materials", "list the model's materials", {}, {}, {}, {}});
+  specs.push_back({"material", "show one material, or change the members given",
+                   {positional("ID", Kind::Unsigned, "the material id from `myriad materials`")},
+                   {option("base-color", Kind::Vector, "linear RGB", kUnitInterval, "r,g,b"),
+                    option("metallic", Kind::Number, "metalness", kUnitInterval),
+                    option("roughness", Kind::Number, "roughness", kUnitInterval)},
+                   {},
+                   {}});
+
+  // Lights.
+  specs.push_back({"lights list", "list lights, a page at a time", {},
+                   {option("offset", Kind::Unsigned, "first light to list (default 0)"),
+                    option("limit", Kind::Unsigned, "how many (default 100)", kLightPage)},
+                   {},
+                   {}});
+  specs.push_back({"lights show", "one light", {positional("ID", Kind::Unsigned, "the light id")},
+                   {}, {}, {}});
+  specs.push_back({"lights add", "add one point light", {}, lightOptions(true),
+                   "Prints the new light's id.", {}});
+  CommandSpec lightsSet{"lights set", "change the members given of one light",
+                        {positional("ID", Kind::Unsigned, "the light id")}, lightOptions(false), {},
+                        {}};
+  lightsSet.check = [](const Invocation& inv) {
+    requireSomeOption(inv, "\"lights set\" needs at least one of --position, --radius, --color, "
+                           "--intensity, --falloff");
+  };
+  specs.push_back(lightsSet);
+  specs.push_back({"lights rm", "remove one light", {positional("ID", Kind::Unsigned, "the light id")},
+                   {}, {}, {}});
+  specs.push_back({"lights clear", "remove every light", {}, {}, {}, {}});
+  PositionalSpec count = positional("N", Kind::Unsigned, "how many lights");
+  count.bounds = kAtLeastOne;
+  specs.push_back({"lights generate", "scatter N random lights over the model", {count},
+                   {option("seed", Kind::Unsigned, "random seed (the same seed, the same lights)",
+                           kSeed),
+                    option("radius", Kind::Range, "radius range", kLightRadius),
+                    option("intensity", Kind::Range, "intensity range", kLightAmount),
+                    option("falloff", Kind::Number, "falloff of every light", kLightAmount),
+                    flag("keep", "add to the existing lights instead of replacing them")},
+                   "Lights fill the model's bounds, grown a little.",
+                   {}});
+
+  // Frames.
+  std::vector<OptionSpec> frameSize = {
+      option("width", Kind::Unsigned, "pixels (at most the server's maxResolution)", kAtLeastOne),
+      option("height", Kind::Unsigned, "pixels", kAtLeastOne)};
+  CommandSpec frame{"frame", "render one frame of the session to a file",
+                    {},
+                    {option("target", Kind::Text, "final (default) or a G-buffer or debug view; see "
+                                                  "`myriad info`",
+                            std::nullopt, "T"),
+                     choice("format", {"png", "jpeg", "raw"}, "image format (default png)"),
+                     frameSize[0], frameSize[1],
+                     option("quality", Kind::Unsigned, "JPEG quality", kQuality),
+                     option("time", Kind::Number, "animation time, seconds"),
+                     output("file to write; - for standard output")},
+                    "raw is little-endian float32; its channel names and size are printed.",
+                    {}};
+  specs.push_back(frame);
+  specs.push_back({"stream", "save frames of the session's live JPEG stream",
+                   {},
+                   {option("target", Kind::Text, "final (default) or another view", std::nullopt,
+                           "T"),
+                    option("fps", Kind::Unsigned, "at most this many frames a second", kFps),
+                    option("frames", Kind::Unsigned, "stop after N frames (default: until ^C)",
+                           kAtLeastOne),
+                    frameSize[0], frameSize[1],
+                    option("quality", Kind::Unsigned, "JPEG quality", kQuality),
+                    output("directory for frame-0000.jpg, frame-0001.jpg, ...")},
+                   "The server sends a frame when the scene changes or while lights animate, and "
+                   "again every 2 s.",
+                   {}});
+  specs.push_back({"stats", "timings of the last frame, light and GPU memory figures", {}, {}, {},
+                   {}});
+  return specs;
+}
+
+}  // namespace
+
+const std::vector<CommandSpec>& commandSpecs() {
+  static const std::vector<CommandSpec> specs = buildSpecs();
+  return specs;
+}
+
+}  // namespace myriad::cli

@@ -1,0 +1,125 @@
+// lights list | show | add | set | rm | clear | generate.
+#include "commands.h"
+#include "output.h"
+#include "protocol/constants.h"
+#include "protocol/types.h"
+
+namespace myriad::cli {
+namespace {
+
+namespace protocol = myriad::protocol;
+
+const std::vector<std::string> kHeader = {"ID",        "POSITION", "RADIUS",
+                                          "COLOR",     "INTENSITY", "FALLOFF"};
+
+std::vector<std::string> lightRow(const protocol::Light& l) {
+  return {std::to_string(l.id),  formatVec(l.position),      formatNumber(l.radius),
+          formatVec(l.color),    formatNumber(l.intensity),  formatNumber(l.falloff)};
+}
+
+std::string lightRoute(Context& ctx, uint64_t id) {
+  return protocol::expandRoute(ctx.sessionRoute(protocol::routes::kSessionLight), "lid",
+                               std::to_string(id));
+}
+
+int list(Context& ctx) {
+  Query query;
+  if (auto offset = ctx.inv.find<uint64_t>("offset")) {
+    query.emplace_back("offset", std::to_string(*offset));
+  }
+  if (auto limit = ctx.inv.find<uint64_t>("limit")) {
+    query.emplace_back("limit", std::to_string(*limit));
+  }
+  nlohmann::json page =
+      ctx.call("GET", ctx.sessionRoute(protocol::routes::kSessionLights), nullptr, query);
+  if (ctx.json()) return 0;
+  auto lights = page.get<protocol::LightsPage>();
+  std::vector<std::vector<std::string>> rows;
+  for (const auto& l : lights.lights) rows.push_back(lightRow(l));
+  if (!rows.empty()) printTable(ctx.out, kHeader, rows);
+  ctx.out << lights.lights.size() << " of " << lights.total << " lights";
+  if (!lights.lights.empty()) {
+    ctx.out << " (" << lights.offset << " to " << lights.offset + lights.lights.size() - 1 << ")";
+  }
+  ctx.out << "\n";
+  return 0;
+}
+
+int add(Context& ctx) {
+  const Invocation& inv = ctx.inv;
+  protocol::LightNew light;
+  light.position = inv.get<Vec3>("position");
+  light.radius = inv.get<double>("radius");
+  light.color = inv.find<Vec3>("color").value_or(Vec3{1, 1, 1});
+  light.intensity = inv.find<double>("intensity").value_or(1.0);
+  light.falloff = inv.find<double>("falloff").value_or(0.0);
+  protocol::LightsAdd body;
+  body.lights.push_back(light);
+  nlohmann::json added =
+      ctx.call("POST", ctx.sessionRoute(protocol::routes::kSessionLights), body);
+  if (!ctx.json()) {
+    auto result = added.get<protocol::LightsAdded>();
+    if (result.ids.size() != 1) throw ApiError("the server did not return the new light's id");
+    ctx.out << "added light " << result.ids[0] << " (" << result.total << " lights)\n";
+  }
+  return 0;
+}
+
+int set(Context& ctx) {
+  const Invocation& inv = ctx.inv;
+  protocol::LightPatch patch;
+  patch.position = inv.find<Vec3>("position");
+  patch.radius = inv.find<double>("radius");
+  patch.color = inv.find<Vec3>("color");
+  patch.intensity = inv.find<double>("intensity");
+  patch.falloff = inv.find<double>("falloff");
+  nlohmann::json light =
+      ctx.call("PATCH", lightRoute(ctx, std::get<uint64_t>(inv.positionals[0])), patch);
+  if (!ctx.json()) printTable(ctx.out, kHeader, {lightRow(light.get<protocol::Light>())});
+  return 0;
+}
+
+int generate(Context& ctx) {
+  const Invocation& inv = ctx.inv;
+  protocol::LightsGenerate request;
+  request.count = std::get<uint64_t>(inv.positionals[0]);
+  request.seed = inv.find<uint64_t>("seed").value_or(0);
+  if (inv.has("keep")) request.replace = false;
+  if (auto r = inv.find<Interval>("radius")) request.radius = protocol::Range{r->min, r->max};
+  if (auto r = inv.find<Interval>("intensity")) request.intensity = protocol::Range{r->min, r->max};
+  request.falloff = inv.find<double>("falloff");
+  nlohmann::json generated =
+      ctx.call("POST", ctx.sessionRoute(protocol::routes::kSessionLightsGenerate), request);
+  if (!ctx.json()) {
+    ctx.out << "generated " << request.count << " lights (seed " << request.seed << "); "
+            << generated.get<protocol::LightsGenerated>().total << " lights in the session\n";
+  }
+  return 0;
+}
+
+}  // namespace
+
+int runLightsCommand(Context& ctx) {
+  const std::string& name = ctx.inv.command->name;
+  if (name == "lights list") return list(ctx);
+  if (name == "lights add") return add(ctx);
+  if (name == "lights set") return set(ctx);
+  if (name == "lights generate") return generate(ctx);
+  if (name == "lights show") {
+    nlohmann::json light =
+        ctx.call("GET", lightRoute(ctx, std::get<uint64_t>(ctx.inv.positionals[0])));
+    if (!ctx.json()) printTable(ctx.out, kHeader, {lightRow(light.get<protocol::Light>())});
+    return 0;
+  }
+  if (name == "lights rm") {
+    uint64_t id = std::get<uint64_t>(ctx.inv.positionals[0]);
+    ctx.call("DELETE", lightRoute(ctx, id));
+    if (!ctx.json()) ctx.out << "removed light " << id << "\n";
+    return 0;
+  }
+  ctx.call("DELETE", ctx.sessionRoute(protocol::routes::kSessionLights));  // lights clear
+  if (!ctx.json()) ctx.out << "removed every light\n";
+  return 0;
+}
+
+}  // namespace myriad::cli

@@ -1,0 +1,71 @@
+// load FILE | --library NAME | --builtin: PUT .../model.
+#include <fstream>
+#include <sstream>
+
+#include "commands.h"
+#include "output.h"
+#include "protocol/constants.h"
+#include "protocol/types.h"
+
+namespace myriad::cli {
+namespace {
+
+namespace protocol = myriad::protocol;
+
+std::string readFile(const std::string& path) {
+  std::ifstream file(path, std::ios::binary);
+  if (!file) throw std::runtime_error("cannot read " + path);
+  std::ostringstream bytes;
+  bytes << file.rdbuf();
+  if (file.bad()) throw std::runtime_error("cannot read " + path);
+  return bytes.str();
+}
+
+std::string baseName(const std::string& path) {
+  size_t slash = path.find_last_of('/');
+  return slash == std::string::npos ? path : path.substr(slash + 1);
+}
+
+}  // namespace
+
+int runModelCommand(Context& ctx) {
+  const Invocation& inv = ctx.inv;
+  const std::string route = ctx.sessionRoute(protocol::routes::kSessionModel);
+  Query query;
+  if (inv.has("model-lights")) query.emplace_back("lights", "model");
+
+  std::string raw;
+  if (!inv.positionals.empty()) {
+    // The file itself; its extension tells the server's loader the format.
+    const std::string& path = std::get<std::string>(inv.positionals[0]);
+    std::string name = baseName(path);
+    if (name.empty()) throw std::runtime_error(path + " is not a file");
+    std::string bytes = readFile(path);
+    query.insert(query.begin(), {"filename", name});
+    HttpResponse res = ctx.http.sendOk("PUT", route, query, bytes,
+                                       std::string(protocol::kUploadContentType));
+    raw = res.body;
+  } else {
+    protocol::ModelSource source;
+    source.source = inv.has("builtin") ? std::string(protocol::kBuiltinModel)
+                                       : std::string(protocol::kLibraryPrefix) +
+                                             inv.get<std::string>("library");
+    HttpResponse res = ctx.http.sendOk("PUT", route, query, nlohmann::json(source).dump(),
+                                       std::string(protocol::kJsonContentType));
+    raw = res.body;
+  }
+  if (ctx.json()) {
+    printRaw(ctx.out, raw);
+    return 0;
+  }
+  nlohmann::json parsed = nlohmann::json::parse(raw, nullptr, false);
+  if (parsed.is_discarded()) throw ApiError("the server's answer to the model upload is not JSON");
+  auto state = parsed.get<protocol::SessionState>();
+  const protocol::ModelSummary& m = state.model;
+  ctx.out << "loaded " << m.source << ": " << m.meshes << " meshes, " << m.instances
+          << " instances, " << m.materials << " materials; bounds " << formatVec(m.bounds.min)
+          << " to " << formatVec(m.bounds.max) << "; " << state.lightCount << " lights\n";
+  return 0;
+}
+
+}  // namespace myriad::cli

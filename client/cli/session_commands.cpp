@@ -1,0 +1,102 @@
+// session new | show | delete.
+#include <cstdlib>
+
+#include "commands.h"
+#include "output.h"
+#include "protocol/constants.h"
+#include "protocol/types.h"
+
+namespace myriad::cli {
+namespace {
+
+namespace protocol = myriad::protocol;
+
+void printSessionState(std::ostream& out, const protocol::SessionState& s) {
+  const protocol::ModelSummary& m = s.model;
+  const protocol::Camera& c = s.camera;
+  const protocol::Settings& st = s.settings;
+  printFields(out, {
+      {"session", s.id},
+      {"model", m.source + " (" + std::to_string(m.meshes) + " meshes, " +
+                    std::to_string(m.instances) + " instances, " + std::to_string(m.materials) +
+                    " materials)"},
+      {"bounds", "min " + formatVec(m.bounds.min) + "  max " + formatVec(m.bounds.max)},
+      {"camera", "eye " + formatVec(c.eye) + "  target " + formatVec(c.target) + "  fov " +
+                     formatNumber(c.fovY)},
+      {"technique", st.technique},
+      {"lights", std::to_string(s.lightCount) + (st.animate ? " (animated)" : "")},
+      {"expires", "after " + std::to_string(s.expiresInSeconds) + " s without requests"},
+  });
+}
+
+int sessionNew(Context& ctx) {
+  const Invocation& inv = ctx.inv;
+  std::optional<std::string> apiKey = inv.find<std::string>("api-key");
+  if (!apiKey) {
+    if (const char* env = std::getenv("MYRIAD_API_KEY"); env != nullptr && env[0] != '\0') {
+      apiKey = env;
+    }
+  }
+  if (apiKey) ctx.http.setBearer(*apiKey);
+
+  std::string raw;
+  nlohmann::json answer = ctx.http.sendJson("POST", std::string(protocol::routes::kSessions),
+                                            protocol::SessionCreate{}, {}, &raw);
+  auto created = answer.get<protocol::SessionCreated>();
+  if (inv.has("print-env")) {
+    ctx.out << "export MYRIAD_SESSION=" << created.id << ":" << created.token << "\n";
+    return 0;
+  }
+  std::string path = sessionFilePath(inv.global);
+  saveSession(path, created.id, created.token);
+  if (ctx.json()) {
+    printRaw(ctx.out, raw);
+  } else {
+    ctx.out << "session " << created.id << " created (ends after " << created.expiresInSeconds
+            << " s without requests); id:token saved to " << path << "\n";
+  }
+  if (const char* env = std::getenv("MYRIAD_SESSION"); env != nullptr && env[0] != '\0') {
+    ctx.err << "myriad: note: MYRIAD_SESSION is set and wins over " << path
+            << "; unset it to use the new session\n";
+  }
+  return 0;
+}
+
+int sessionShow(Context& ctx) {
+  nlohmann::json state = ctx.call("GET", ctx.sessionRoute(protocol::routes::kSession));
+  if (!ctx.json()) printSessionState(ctx.out, state.get<protocol::SessionState>());
+  return 0;
+}
+
+int sessionDelete(Context& ctx) {
+  const SessionRef session = ctx.session();
+  auto forget = [&] {
+    if (session.fromFile) removeSessionFile(session.origin);
+  };
+  try {
+    ctx.call("DELETE", ctx.sessionRoute(protocol::routes::kSession));
+  } catch (const ApiError& e) {
+    // An expired session is gone on the server already; the file pointing at it is useless.
+    if (e.status() == 404) forget();
+    throw;
+  }
+  forget();
+  if (!ctx.json()) {
+    ctx.out << "session " << session.id << " deleted";
+    if (session.fromFile) ctx.out << "; removed " << session.origin;
+    ctx.out << "\n";
+  }
+  if (!session.fromFile) ctx.err << "myriad: note: unset MYRIAD_SESSION too\n";
+  return 0;
+}
+
+}  // namespace
+
+int runSessionCommand(Context& ctx) {
+  const std::string& name = ctx.inv.command->name;
+  if (name == "session new") return sessionNew(ctx);
+  if (name == "session show") return sessionShow(ctx);
+  return sessionDelete(ctx);
+}
+
+}  // namespace myriad::cli

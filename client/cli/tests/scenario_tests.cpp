@@ -1,0 +1,306 @@
+// The `myriad` binary against the real myriad-server (validation layers on), driven as a user
+// would drive it: a session in a temporary session file, a model upload, camera, 1000 lights,
+// settings, a material, frames in three formats, a stream, errors, and the session's end. The
+// server must report no validation message at the end.
+#include <doctest/doctest.h>
+#include <netinet/in.h>
+#include <sys/socket.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <regex>
+#include <set>
+#include <sstream>
+
+#include <nlohmann/json.hpp>
+
+#include "cli_process.h"
+#include "encode/png.h"
+#include "server_process.h"
+
+using myriad::test::CliResult;
+using myriad::test::runCli;
+using myriad::test::ServerProcess;
+using nlohmann::json;
+namespace fs = std::filesystem;
+
+namespace {
+
+const std::string kModel = std::string(MYRIAD_TEST_MODELS) + "/OBJ/spider.obj";
+
+std::string readFile(const fs::path& path) {
+  std::ifstream file(path, std::ios::binary);
+  std::stringstream bytes;
+  bytes << file.rdbuf();
+  return bytes.str();
+}
+
+// Width and height from a JPEG's frame header, after checking the markers from SOI through
+// SOS and the EOI at the end; nullopt when it is not a well-formed baseline/progressive JPEG.
+std::optional<std::pair<int, int>> jpegSize(const std::string& b) {
+  auto at = [&](size_t i) { return static_cast<unsigned char>(b[i]); };
+  if (b.size() < 4 || at(0) != 0xFF || at(1) != 0xD8) return std::nullopt;
+  if (at(b.size() - 2) != 0xFF || at(b.size() - 1) != 0xD9) return std::nullopt;
+  std::optional<std::pair<int, int>> size;
+  size_t i = 2;
+  while (i + 4 <= b.size()) {
+    if (at(i) != 0xFF) return std::nullopt;
+    unsigned marker = at(i + 1);
+    if (marker == 0xFF) {
+      ++i;
+      continue;
+    }
+    size_t length = size_t(at(i + 2)) << 8 | at(i + 3);
+    if (length < 2 || i + 2 + length > b.size()) return std::nullopt;
+    bool frameHeader = marker >= 0xC0 && marker <= 0xCF && marker != 0xC4 && marker != 0xC8 &&
+                       marker != 0xCC;
+    if (frameHeader && length >= 7) {
+      size = std::make_pair(int(at(i + 7)) << 8 | at(i + 8), int(at(i + 5)) << 8 | at(i + 6));
+    }
+    if (marker == 0xDA) return size;  // entropy-coded data follows
+    i += 2 + length;
+  }
+  return std::nullopt;
+}
+
+// The error output is exactly one line: "myriad: ... (<status> <type>)".
+void checkOneLineError(const CliResult& r, const std::string& ending) {
+  INFO("stderr: ", r.err);
+  CHECK(r.exitCode == 1);
+  CHECK(r.err.starts_with("myriad: "));
+  CHECK(std::count(r.err.begin(), r.err.end(), '\n') == 1);
+  CHECK(r.err.ends_with(ending + "\n"));
+}
+
+// A loopback port nothing listens on (bound, then closed).
+int closedPort() {
+  int fd = socket(AF_INET, SOCK_STREAM, 0);
+  sockaddr_in addr{};
+  addr.sin_family = AF_INET;
+  addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  bind(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr);
+  socklen_t length = sizeof addr;
+  getsockname(fd, reinterpret_cast<sockaddr*>(&addr), &length);
+  close(fd);
+  return ntohs(addr.sin_port);
+}
+
+}  // namespace
+
+TEST_CASE("myriad drives a real server from session new to session delete") {
+  REQUIRE(fs::exists(kModel));
+  ServerProcess server({});
+  REQUIRE(server.start() == ServerProcess::Start::Listening);
+
+  char pattern[] = "/tmp/myriad-cli-scenario-XXXXXX";
+  REQUIRE(mkdtemp(pattern) != nullptr);
+  const fs::path dir = pattern;
+  const std::string sessionFile = (dir / "state" / "session").string();
+  const std::map<std::string, std::string> env = {
+      {"MYRIAD_SERVER", server.url()}, {"MYRIAD_SESSION", ""}, {"MYRIAD_API_KEY", ""}};
+  auto myriad = [&](std::vector<std::string> args) {
+    args.insert(args.begin(), {"--session-file", sessionFile});
+    CliResult r = runCli(args, env);
+    MESSAGE("myriad ", args[2], " ", args.size() > 3 ? args[3] : "", " -> exit ", r.exitCode,
+            r.err.empty() ? "" : ", stderr: " + r.err);
+    return r;
+  };
+  auto jsonOf = [](const CliResult& r) {
+    INFO("stdout: ", r.out, " stderr: ", r.err);
+    REQUIRE(r.exitCode == 0);
+    return json::parse(r.out);
+  };
+
+  CliResult health = myriad({"health"});
+  CHECK(health.exitCode == 0);
+  CHECK(health.out == "ok\n");
+  json info = jsonOf(myriad({"info", "--json"}));
+  CHECK(info["validation"]["enabled"] == true);
+
+  // A command that needs a session, before there is one.
+  CliResult noSession = myriad({"camera"});
+  checkOneLineError(noSession, "or set MYRIAD_SESSION");
+  CHECK(noSession.err.find("run `myriad session new` first") != std::string::npos);
+
+  // session new: id:token saved, mode 0600.
+  CliResult created = myriad({"session", "new"});
+  REQUIRE(created.exitCode == 0);
+  CHECK(created.out.find("saved to " + sessionFile) != std::string::npos);
+  struct stat st{};
+  REQUIRE(stat(sessionFile.c_str(), &st) == 0);
+  CHECK((st.st_mode & 0777) == 0600);
+  const std::string saved = readFile(sessionFile);
+  std::smatch match;
+  REQUIRE(std::regex_match(saved, match, std::regex("(s-[0-9a-f]{16}):([0-9a-f]{64})\n")));
+  const std::string sessionId = match[1];
+  CHECK(created.out.find(sessionId) != std::string::npos);
+
+  // --print-env prints a second session's variable and leaves the file alone.
+  CliResult printed = myriad({"session", "new", "--print-env"});
+  REQUIRE(printed.exitCode == 0);
+  CHECK(std::regex_match(printed.out,
+                         std::regex("export MYRIAD_SESSION=s-[0-9a-f]{16}:[0-9a-f]{64}\n")));
+  CHECK(readFile(sessionFile) == saved);
+
+  json state = jsonOf(myriad({"session", "show", "--json"}));
+  CHECK(state["id"] == sessionId);
+  CHECK(state["model"]["source"] == "builtin:default");
+
+  // Upload a model.
+  CliResult loaded = myriad({"load", kModel});
+  REQUIRE(loaded.exitCode == 0);
+  CHECK(loaded.out.starts_with("loaded upload:spider.obj: "));
+  json afterLoad = jsonOf(myriad({"session", "show", "--json"}));
+  CHECK(afterLoad["model"]["source"] == "upload:spider.obj");
+  CHECK(afterLoad["model"]["meshes"].get<int>() > 0);
+
+  // Camera: patch some members, read them back.
+  CliResult camera = myriad({"camera", "frame"});
+  CHECK(camera.exitCode == 0);
+  json framed = jsonOf(myriad({"camera", "--json"}));
+  CliResult patched = myriad({"camera", "--fov", "50", "--near", "0.05"});
+  CHECK(patched.exitCode == 0);
+  CHECK(patched.out.find("fov     50 degrees") != std::string::npos);
+  json cameraNow = jsonOf(myriad({"camera", "--json"}));
+  CHECK(cameraNow["fovY"] == 50.0);
+  CHECK(cameraNow["near"] == 0.05);
+  CHECK(cameraNow["eye"] == framed["eye"]);  // untouched members kept
+
+  // 1000 lights from seed 7, twice: the same lights.
+  CliResult generated = myriad({"lights", "generate", "1000", "--seed", "7"});
+  CHECK(generated.exitCode == 0);
+  CHECK(generated.out.find("1000 lights in the session") != std::string::npos);
+  json page = jsonOf(myriad({"lights", "list", "--limit", "5", "--json"}));
+  CHECK(page["total"] == 1000);
+  CHECK(page["lights"].size() == 5);
+  CHECK(myriad({"lights", "generate", "1000", "--seed", "7"}).exitCode == 0);
+  json again = jsonOf(myriad({"lights", "list", "--limit", "5", "--json"}));
+  for (size_t i = 0; i < 5; ++i) CHECK(again["lights"][i]["position"] == page["lights"][i]["position"]);
+  CliResult added = myriad({"lights", "add", "--position", "0,1,0", "--radius", "2"});
+  CHECK(added.exitCode == 0);
+  CHECK(added.out.find("(1001 lights)") != std::string::npos);
+
+  // Settings.
+  CliResult tiled = myriad({"settings", "--technique", "tiled", "--exposure", "1.2"});
+  CHECK(tiled.exitCode == 0);
+  json settings = jsonOf(myriad({"settings", "--json"}));
+  CHECK(settings["technique"] == "tiled");
+  CHECK(settings["exposure"] == 1.2);
+
+  // A material.
+  json materials = jsonOf(myriad({"materials", "--json"}));
+  REQUIRE(materials["materials"].size() > 0);
+  const std::string mid = std::to_string(materials["materials"][0]["id"].get<uint64_t>());
+  json material = jsonOf(myriad({"material", mid, "--base-color", "0.8,0.2,0.1", "--roughness",
+                                 "0.4", "--json"}));
+  CHECK(material["baseColor"] == json::array({0.8, 0.2, 0.1}));
+  CHECK(material["roughness"] == 0.4);
+  CliResult shown = myriad({"material", mid});
+  CHECK(shown.exitCode == 0);
+  CHECK(shown.out.find("0.8, 0.2, 0.1") != std::string::npos);
+
+  // A PNG of the normals: signature, size, and not one flat colour.
+  const fs::path png = dir / "n.png";
+  CliResult normal = myriad({"frame", "--target", "normal", "--width", "160", "--height", "120",
+                             "-o", png.string()});
+  REQUIRE(normal.exitCode == 0);
+  std::string pngBytes = readFile(png);
+  REQUIRE(pngBytes.size() > 8);
+  CHECK(pngBytes.compare(0, 8, "\x89PNG\r\n\x1a\n") == 0);
+  auto image = myriad::encode::decodePng(
+      {reinterpret_cast<const uint8_t*>(pngBytes.data()), pngBytes.size()});
+  CHECK(image.width == 160);
+  CHECK(image.height == 120);
+  std::set<uint32_t> colours;
+  for (size_t i = 0; i < image.rgba.size(); i += 4) {
+    colours.insert(uint32_t(image.rgba[i]) | uint32_t(image.rgba[i + 1]) << 8 |
+                   uint32_t(image.rgba[i + 2]) << 16);
+  }
+  CHECK(colours.size() > 20);
+
+  // The same frame on standard output.
+  CliResult toStdout = myriad({"frame", "--width", "64", "--height", "48", "-o", "-"});
+  REQUIRE(toStdout.exitCode == 0);
+  CHECK(toStdout.out.compare(0, 8, "\x89PNG\r\n\x1a\n") == 0);
+
+  // Raw floats: the size follows from the channel list the CLI reports.
+  const fs::path raw = dir / "f.raw";
+  CliResult rawFrame = myriad({"frame", "--format", "raw", "--width", "32", "--height", "24",
+                               "-o", raw.string()});
+  REQUIRE(rawFrame.exitCode == 0);
+  std::smatch channels;
+  REQUIRE(std::regex_search(rawFrame.out, channels, std::regex("32x24 \\(channels ([a-z,]+)\\)")));
+  const size_t channelCount = size_t(std::count(channels[1].first, channels[1].second, ',') + 1);
+  std::string floats = readFile(raw);
+  REQUIRE(floats.size() == 32 * 24 * channelCount * sizeof(float));
+  size_t finite = 0;
+  for (size_t i = 0; i < floats.size(); i += 4) {
+    float v;
+    std::memcpy(&v, floats.data() + i, 4);
+    finite += std::isfinite(v) ? 1 : 0;
+  }
+  CHECK(finite == floats.size() / 4);
+
+  // A JPEG frame and three from the stream.
+  const fs::path jpeg = dir / "f.jpg";
+  REQUIRE(myriad({"frame", "--format", "jpeg", "--quality", "80", "--width", "80", "--height",
+                  "60", "-o", jpeg.string()}).exitCode == 0);
+  CHECK(jpegSize(readFile(jpeg)) == std::make_pair(80, 60));
+  const fs::path frames = dir / "frames";
+  CliResult streamed = myriad({"stream", "--frames", "3", "--fps", "30", "--width", "96",
+                               "--height", "64", "-o", frames.string()});
+  REQUIRE(streamed.exitCode == 0);
+  CHECK(streamed.out.find("wrote 3 frames to") != std::string::npos);
+  for (const char* name : {"frame-0000.jpg", "frame-0001.jpg", "frame-0002.jpg"}) {
+    INFO(name);
+    CHECK(jpegSize(readFile(frames / name)) == std::make_pair(96, 64));
+  }
+  CHECK_FALSE(fs::exists(frames / "frame-0003.jpg"));
+
+  json stats = jsonOf(myriad({"stats", "--json"}));
+  CHECK(stats["frames"].get<int>() >= 4);
+  CliResult humanStats = myriad({"stats"});
+  CHECK(humanStats.out.find("last frame") != std::string::npos);
+  CHECK(humanStats.out.find("gpu memory") != std::string::npos);
+
+  // Errors: one line and exit 1 from the server; exit 2 with the argument named for usage.
+  checkOneLineError(myriad({"material", "9999", "--roughness", "0.5"}), "(404 not-found)");
+  checkOneLineError(myriad({"lights", "rm", "999999"}), "(404 not-found)");
+  checkOneLineError(myriad({"camera", "--eye", "0,0,0", "--target", "0,0,0"}),
+                    "(400 invalid-body)");
+  checkOneLineError(myriad({"frame", "--target", "nonsense", "-o", (dir / "x.png").string()}),
+                    "(400 invalid-parameter)");
+  CHECK_FALSE(fs::exists(dir / "x.png"));
+  CliResult usage = myriad({"camera", "--fov", "180"});
+  CHECK(usage.exitCode == 2);
+  CHECK(usage.err.starts_with("myriad: --fov: 180 is out of range"));
+  CHECK(std::count(usage.err.begin(), usage.err.end(), '\n') == 1);
+
+  // An unreachable server: one sentence, exit 1.
+  CliResult refused = runCli({"health"}, {{"MYRIAD_SERVER", "http://127.0.0.1:" +
+                                                                std::to_string(closedPort())}});
+  CHECK(refused.exitCode == 1);
+  CHECK(refused.err.find("cannot connect to a Myriad server at http://127.0.0.1:") !=
+        std::string::npos);
+  CHECK(std::count(refused.err.begin(), refused.err.end(), '\n') == 1);
+
+  // session delete: gone on the server and from the file; the environment's copy now 404s.
+  CliResult deleted = myriad({"session", "delete"});
+  CHECK(deleted.exitCode == 0);
+  CHECK_FALSE(fs::exists(sessionFile));
+  auto stale = env;
+  stale["MYRIAD_SESSION"] = saved.substr(0, saved.size() - 1);
+  checkOneLineError(runCli({"session", "show"}, stale), "(404 not-found)");
+
+  json infoAfter = jsonOf(myriad({"info", "--json"}));
+  CHECK(infoAfter["validation"]["messages"] == 0);
+  auto exit = server.stop();
+  REQUIRE(exit.has_value());
+  CHECK(exit->cleanExit());
+  INFO("server stderr: ", server.stderrText().substr(0, 2000));
+  fs::remove_all(dir);
+}
