@@ -12,6 +12,8 @@
 #include <set>
 #include <sstream>
 #include <string>
+#include <thread>
+#include <vector>
 
 #include <nlohmann/json.hpp>
 
@@ -345,4 +347,49 @@ TEST_CASE("the largest lights-add body validates quickly") {
   REQUIRE(error);
   CHECK(error->pointer == "/lights");
   CHECK(error->message == "\"lights\" must have at most 100000 items, got 100001.");
+}
+
+TEST_CASE("hostile bodies: deep nesting, a full 1 MiB body, many threads") {
+  // The parser and the validator do not recurse into what the schema does not describe, so depth
+  // cannot exhaust the stack.
+  auto unclosed = protocol::parseBody("camera", std::string(1000000, '['));
+  REQUIRE(!unclosed.ok());
+  CHECK(unclosed.error->pointer == "");
+  auto deep = protocol::parseBody("camera-patch",
+                                  "{\"eye\":" + std::string(200000, '[') + std::string(200000, ']') + "}");
+  REQUIRE(!deep.ok());
+  CHECK(deep.error->pointer == "/eye");
+  CHECK(deep.error->message == "\"eye\" must have exactly 3 items, got 1.");
+
+  // About the most lights a 1 MiB body (maxBodyBytes' default) holds.
+  std::string body = "{\"lights\":[";
+  size_t count = 0;
+  while (body.size() < (1u << 20) - 200) {
+    if (count++ > 0) body += ",";
+    body += example("light-new").dump();
+  }
+  body += "]}";
+  auto start = std::chrono::steady_clock::now();
+  auto parsed = protocol::parseBody("lights-add", body);
+  double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  MESSAGE("parsed and validated a " << body.size() << "-byte body of " << count << " lights in "
+                                    << seconds << " s");
+  CHECK(parsed.ok());
+  CHECK(parsed.json["lights"].size() == count);
+
+  // The server validates on many HTTP threads at once; the bundle is built once, then read-only.
+  std::vector<std::thread> threads;
+  std::vector<int> failures(8, 0);
+  for (int t = 0; t < 8; ++t) {
+    threads.emplace_back([t, &failures] {
+      for (int i = 0; i < 200; ++i) {
+        json camera = {{"eye", {t, i, 1}}, {"target", {0, 0, 0}}, {"up", {0, 1, 0}},
+                       {"fovY", 1 + (i % 200)}, {"near", 0.1}, {"far", 10}};
+        bool valid = !protocol::validate("camera", camera);
+        if (valid != (1 + (i % 200) <= 179)) ++failures[t];
+      }
+    });
+  }
+  for (std::thread& thread : threads) thread.join();
+  for (int f : failures) CHECK(f == 0);
 }
