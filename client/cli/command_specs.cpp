@@ -12,7 +12,6 @@ constexpr double kInf = std::numeric_limits<double>::infinity();
 const Bounds kLinearColour{0.0, 64.0};  // sun, ambient, background
 const Bounds kUnitInterval{0.0, 1.0};   // base colour, metallic, roughness, light colour
 const Bounds kFov{1.0, 179.0, false, false, "degrees"};
-const Bounds kPositive{0.0, kInf, true};
 const Bounds kSunIntensity{0.0, 1000.0};
 const Bounds kExposure{0.0, 1000.0, true};
 const Bounds kLightRadius{0.0, 1e4, true};
@@ -22,6 +21,9 @@ const Bounds kQuality{1.0, 100.0};
 const Bounds kFps{1.0, 60.0, false, false, "frames per second"};
 const Bounds kLightPage{1.0, 1000.0};
 const Bounds kSeed{0.0, 4294967295.0};
+const Bounds kCoordinate{-1e6, 1e6};  // every vector component, in scene units
+const Bounds kDistance{0.0, 1e6, true};
+const Bounds kTime{0.0, 1e6, false, false, "seconds"};
 
 OptionSpec option(std::string name, Kind kind, std::string help,
                   std::optional<Bounds> bounds = std::nullopt, std::string metavar = {}) {
@@ -62,7 +64,7 @@ PositionalSpec positional(std::string name, Kind kind, std::string help, bool op
 
 // The light members shared by `lights add` and `lights set`.
 std::vector<OptionSpec> lightOptions(bool forAdd) {
-  OptionSpec position = option("position", Kind::Vector, "centre, scene units");
+  OptionSpec position = option("position", Kind::Vector, "centre, scene units", kCoordinate);
   OptionSpec radius = option("radius", Kind::Number, "reach, scene units", kLightRadius);
   position.required = forAdd;
   radius.required = forAdd;
@@ -119,12 +121,12 @@ std::vector<CommandSpec> buildSpecs() {
 
   // Camera.
   CommandSpec camera{"camera", "show the camera, or change the members given", {},
-                     {option("eye", Kind::Vector, "camera position"),
-                      option("target", Kind::Vector, "the point looked at"),
-                      option("up", Kind::Vector, "up direction"),
+                     {option("eye", Kind::Vector, "camera position", kCoordinate),
+                      option("target", Kind::Vector, "the point looked at", kCoordinate),
+                      option("up", Kind::Vector, "up direction", kCoordinate),
                       option("fov", Kind::Number, "vertical field of view", kFov, "DEG"),
-                      option("near", Kind::Number, "near plane distance", kPositive),
-                      option("far", Kind::Number, "far plane distance", kPositive)},
+                      option("near", Kind::Number, "near plane distance", kDistance),
+                      option("far", Kind::Number, "far plane distance", kDistance)},
                      "Without options, prints the camera.",
                      {}};
   camera.check = [](const Invocation& inv) {
@@ -140,7 +142,8 @@ std::vector<CommandSpec> buildSpecs() {
   // Settings.
   CommandSpec settings{
       "settings", "show the lighting settings, or change the members given", {},
-      {option("sun-dir", Kind::Vector, "direction the sunlight travels (normalized by the server)"),
+      {option("sun-dir", Kind::Vector, "direction the sunlight travels (normalized by the server)",
+              kCoordinate),
        option("sun-color", Kind::Vector, "linear RGB", kLinearColour, "r,g,b"),
        option("sun-intensity", Kind::Number, "sun brightness", kSunIntensity),
        option("ambient", Kind::Vector, "ambient light, linear RGB", kLinearColour, "r,g,b"),
@@ -213,7 +216,7 @@ std::vector<CommandSpec> buildSpecs() {
                      choice("format", {"png", "jpeg", "raw"}, "image format (default png)"),
                      frameSize[0], frameSize[1],
                      option("quality", Kind::Unsigned, "JPEG quality", kQuality),
-                     option("time", Kind::Number, "animation time, seconds"),
+                     option("time", Kind::Number, "animation time (with --animate on)", kTime),
                      output("file to write; - for standard output")},
                     "raw is little-endian float32; its channel names and size are printed.",
                     {}};
@@ -222,6 +225,7 @@ std::vector<CommandSpec> buildSpecs() {
                    {},
                    {option("target", Kind::Text, "final (default) or another view", std::nullopt,
                            "T"),
+                    choice("format", {"jpeg", "png"}, "image format (default jpeg)"),
                     option("fps", Kind::Unsigned, "at most this many frames a second", kFps),
                     option("frames", Kind::Unsigned, "stop after N frames (default: until ^C)",
                            kAtLeastOne),

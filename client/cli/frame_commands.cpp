@@ -82,10 +82,10 @@ int stream(Context& ctx) {
   const Invocation& inv = ctx.inv;
   const std::string dir = inv.get<std::string>("output");
   const std::optional<uint64_t> wanted = inv.find<uint64_t>("frames");
-  makeDirectory(dir);
 
   std::optional<MultipartReader> reader;
   uint64_t written = 0;
+  std::string lastSequence;
   auto onHead = [&](const HttpResponse& head) {
     std::string type = head.header("Content-Type");
     std::optional<std::string> boundary = multipartBoundary(type);
@@ -93,6 +93,7 @@ int stream(Context& ctx) {
       throw ApiError("the stream is not multipart (Content-Type \"" + type + "\")", head.status);
     }
     reader.emplace(*boundary);
+    makeDirectory(dir);  // only once the server has accepted the stream
     return true;
   };
   auto onData = [&](const char* data, size_t size) {
@@ -106,7 +107,9 @@ int stream(Context& ctx) {
       if (!ctx.json()) {
         ctx.out << path << "  " << formatBytes(part.body.size());
         if (auto seq = part.headers.find("x-myriad-frame"); seq != part.headers.end()) {
-          ctx.out << "  frame " << seq->second;
+          // Without scene changes the server re-sends the last image every 2 s, same number.
+          ctx.out << "  frame " << seq->second << (seq->second == lastSequence ? " (re-sent)" : "");
+          lastSequence = seq->second;
         }
         ctx.out << std::endl;  // one line per frame as it arrives
       }

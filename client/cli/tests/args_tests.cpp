@@ -80,6 +80,9 @@ TEST_CASE("camera near/far: positive, far beyond near") {
   CHECK(parse({"camera", "--near", "0.01", "--far", "100"}).get<double>("far") == 100.0);
   CHECK(usageError({"camera", "--near", "0"}).argument() == "--near");
   CHECK(usageError({"camera", "--far", "-1"}).argument() == "--far");
+  CHECK(usageError({"camera", "--far", "2e6"}).argument() == "--far");
+  CHECK(usageError({"camera", "--eye", "0,1e7,0"}).argument() == "--eye");
+  CHECK(parse({"camera", "--eye", "-1e6,0,1e6"}).get<Vec3>("eye")[0] == -1e6);
   UsageError e = usageError({"camera", "--near", "5", "--far", "5"});
   CHECK(e.argument() == "--far");
   CHECK(contains(e.what(), "greater than --near"));
@@ -254,7 +257,8 @@ TEST_CASE("frame and stream: output required, formats, sizes, quality, fps") {
   CHECK(usageError({"stream", "--fps", "61", "-o", "d"}).argument() == "--fps");
   CHECK(usageError({"stream", "--fps", "0", "-o", "d"}).argument() == "--fps");
   CHECK(usageError({"stream", "--frames", "0", "-o", "d"}).argument() == "--frames");
-  CHECK(usageError({"stream", "--format", "png", "-o", "d"}).argument() == "--format");
+  CHECK(parse({"stream", "--format", "png", "-o", "d"}).get<std::string>("format") == "png");
+  CHECK(usageError({"stream", "--format", "raw", "-o", "d"}).argument() == "--format");
 }
 
 TEST_CASE("value parsers on their own") {
