@@ -393,3 +393,45 @@ TEST_CASE("hostile bodies: deep nesting, a full 1 MiB body, many threads") {
   for (std::thread& thread : threads) thread.join();
   for (int f : failures) CHECK(f == 0);
 }
+
+namespace {
+
+// Every object node closes its members, every array says what its items are, every number has a
+// range, every string a bound or a pattern (or is an enum/const): the house rules for schemas.
+void checkHouseRules(const json& node, const std::string& where, std::vector<std::string>& broken) {
+  auto types = node.contains("type") ? (node["type"].is_array() ? node["type"] : json::array({node["type"]}))
+                                     : json::array();
+  for (const json& type : types) {
+    if (type == "object" && node.value("additionalProperties", json(true)) != json(false)) {
+      broken.push_back(where + ": object without additionalProperties: false");
+    }
+    if (type == "array" && !node.contains("items")) broken.push_back(where + ": array without items");
+    if ((type == "number" || type == "integer") && !node.contains("minimum") &&
+        !node.contains("exclusiveMinimum") && !node.contains("maximum")) {
+      broken.push_back(where + ": number without a range");
+    }
+  }
+  if (node.contains("properties")) {
+    for (const auto& [key, sub] : node["properties"].items()) checkHouseRules(sub, where + "/properties/" + key, broken);
+  }
+  if (node.contains("$defs")) {
+    for (const auto& [key, sub] : node["$defs"].items()) checkHouseRules(sub, where + "/$defs/" + key, broken);
+  }
+  if (node.contains("items")) checkHouseRules(node["items"], where + "/items", broken);
+}
+
+}  // namespace
+
+TEST_CASE("schemas follow the house rules") {
+  std::vector<std::string> broken;
+  for (std::string_view name : protocol::schemaNames()) {
+    const json& schema = protocol::schema(name);
+    CAPTURE(name);
+    CHECK(schema["$schema"] == "https://json-schema.org/draft/2020-12/schema");
+    CHECK(schema["title"].is_string());
+    CHECK(schema["description"].is_string());
+    checkHouseRules(schema, std::string(name), broken);
+  }
+  for (const std::string& b : broken) MESSAGE(b);
+  CHECK(broken.empty());
+}
