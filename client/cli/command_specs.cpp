@@ -19,8 +19,8 @@ const Bounds kLightAmount{0.0, 1e4};  // intensity, falloff
 const Bounds kAtLeastOne{1.0, kInf};
 const Bounds kQuality{1.0, 100.0};
 const Bounds kFps{1.0, 60.0, false, false, "frames per second"};
-const Bounds kLightPage{1.0, 1000.0};
-const Bounds kSeed{0.0, 4294967295.0};
+const Bounds kLightPage{0.0, 1000.0};  // 0: only the total
+const Bounds kSeed{0.0, 9007199254740991.0};  // 2^53-1: exact in a JSON number
 const Bounds kCoordinate{-1e6, 1e6};  // every vector component, in scene units
 const Bounds kDistance{0.0, 1e6, true};
 const Bounds kTime{0.0, 1e6, false, false, "seconds"};
