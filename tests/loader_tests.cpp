@@ -516,9 +516,10 @@ TEST_CASE("library: lists models and resolves only names inside the root") {
   CHECK(library.resolve("a.obj") == fs::canonical(root / "a.obj"));
   CHECK(library.resolve("sub/deeper/c.obj").has_value());
   CHECK(library.resolve("sub/alias.obj") == fs::canonical(root / "a.obj"));
-  for (const char* bad :
+  const std::string absoluteOutside = (base / "outside" / "secret.obj").string();
+  for (const std::string bad :
        {"", "../outside/secret.obj", "sub/../a.obj", "./a.obj", "/etc/passwd",
-        (base / "outside" / "secret.obj").c_str(), "escape.obj", "escape-dir/secret.obj",
+        absoluteOutside.c_str(), "escape.obj", "escape-dir/secret.obj",
         ".hidden.obj", ".git/d.obj", "notes.txt", "missing.obj", "dir.obj", "sub//b.OBJ",
         "sub\\b.OBJ", "a.obj/", "sub"}) {
     CAPTURE(bad);
