@@ -1,0 +1,112 @@
+#include "api_client.h"
+
+#include <doctest/doctest.h>
+
+namespace myriad::test {
+namespace {
+
+// Model loads and frames on lavapipe with validation can take many seconds.
+constexpr time_t kReadTimeoutSeconds = 300;
+
+Reply toReply(const httplib::Result& result) {
+  Reply reply;
+  if (!result) return reply;
+  reply.status = result->status;
+  reply.body = result->body;
+  reply.headers = result->headers;
+  const std::string type = result->get_header_value("Content-Type");
+  if (type.find("json") != std::string::npos) {
+    reply.json = nlohmann::json::parse(reply.body, nullptr, false);
+  }
+  return reply;
+}
+
+httplib::Headers authorization(const std::string& token) {
+  if (token.empty()) return {};
+  return {{"Authorization", "Bearer " + token}};
+}
+
+}  // namespace
+
+std::string Reply::header(const std::string& name) const {
+  auto it = headers.find(name);
+  return it == headers.end() ? std::string() : it->second;
+}
+
+ApiClient::ApiClient(const ServerProcess& server)
+    : client_(std::make_unique<httplib::Client>(server.host(), server.port())) {
+  client_->set_read_timeout(kReadTimeoutSeconds, 0);
+  client_->set_write_timeout(60, 0);
+  client_->set_connection_timeout(10, 0);
+}
+
+Reply ApiClient::get(const std::string& path, const std::string& token) {
+  return toReply(client_->Get(path, authorization(token)));
+}
+
+Reply ApiClient::del(const std::string& path, const std::string& token) {
+  return toReply(client_->Delete(path, authorization(token)));
+}
+
+Reply ApiClient::post(const std::string& path, const std::string& body, const std::string& token,
+                      const std::string& contentType) {
+  return toReply(client_->Post(path, authorization(token), body, contentType));
+}
+
+Reply ApiClient::put(const std::string& path, const std::string& body, const std::string& token,
+                     const std::string& contentType) {
+  return toReply(client_->Put(path, authorization(token), body, contentType));
+}
+
+Reply ApiClient::patch(const std::string& path, const std::string& body, const std::string& token,
+                       const std::string& contentType) {
+  return toReply(client_->Patch(path, authorization(token), body, contentType));
+}
+
+Reply ApiClient::send(const std::string& method, const std::string& path, const std::string& body,
+                      const httplib::Headers& headers, const std::string& contentType) {
+  httplib::Request req;
+  req.method = method;
+  req.path = path;
+  req.headers = headers;
+  req.body = body;
+  if (!contentType.empty()) req.set_header("Content-Type", contentType);
+  return toReply(client_->send(req));
+}
+
+TestSession createSession(ApiClient& api, const std::string& body, const std::string& apiKey) {
+  Reply reply = api.post("/v1/sessions", body, apiKey);
+  INFO("POST /v1/sessions: ", reply.body.substr(0, 400));
+  REQUIRE(reply.status == 201);
+  REQUIRE(reply.json.is_object());
+  TestSession session;
+  session.id = reply.json.at("id").get<std::string>();
+  session.token = reply.json.at("token").get<std::string>();
+  session.created = reply.json;
+  return session;
+}
+
+void checkProblem(const Reply& reply, int status, const std::string& typeName,
+                  const std::string& context, std::optional<std::string> pointer,
+                  std::optional<std::string> limit, std::optional<std::string> parameter) {
+  INFO(context, " -> ", reply.status, " ", reply.body.substr(0, 400));
+  REQUIRE(reply.status == status);
+  CHECK(reply.header("Content-Type") == "application/problem+json");
+  REQUIRE(reply.json.is_object());
+  CHECK(reply.json.value("type", "") == "https://myriad.dev/problems/" + typeName);
+  CHECK(reply.json.value("status", 0) == status);
+  CHECK(!reply.json.value("title", "").empty());
+  CHECK(!reply.json.value("detail", "").empty());
+  if (pointer) CHECK(reply.json.value("pointer", "<none>") == *pointer);
+  if (limit) CHECK(reply.json.value("limit", "<none>") == *limit);
+  if (parameter) CHECK(reply.json.value("parameter", "<none>") == *parameter);
+  if (status == 429) CHECK(!reply.header("Retry-After").empty());
+}
+
+uint64_t validationMessages(ApiClient& api) {
+  Reply info = api.get("/v1/info");
+  REQUIRE(info.status == 200);
+  return info.json.at("validation").at("messages").get<uint64_t>();
+}
+
+}  // namespace myriad::test

@@ -1,0 +1,749 @@
+// The session API (protocol/CONTRACT.md) against the real myriad-server on loopback, validation
+// layers on: every session, model, camera, settings, material and light route with its status and
+// body; isolation between sessions; limits (413, 429); schema rejections with their pointers;
+// every Assimp test file uploaded; the model library; idle expiry; GPU memory freed on DELETE.
+#include <doctest/doctest.h>
+#include <stdlib.h>
+
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <future>
+#include <regex>
+#include <set>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "api_client.h"
+#include "server_process.h"
+
+using myriad::test::ApiClient;
+using myriad::test::checkProblem;
+using myriad::test::createSession;
+using myriad::test::Reply;
+using myriad::test::ServerProcess;
+using myriad::test::TestSession;
+using nlohmann::json;
+
+namespace {
+
+namespace fs = std::filesystem;
+
+const fs::path kAssimpModels = "/usr/share/assimp/models";
+constexpr const char* kBox = "/usr/share/assimp/models/glTF2/BoxTextured-glTF-Binary/BoxTextured.glb";
+
+std::string readFile(const fs::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  return std::string(std::istreambuf_iterator<char>(in), {});
+}
+
+// A temporary --models directory with one model at the top and one in a subfolder.
+struct ModelDir {
+  fs::path root;
+  ModelDir() {
+    std::string pattern = "/tmp/myriad-api-models-XXXXXX";
+    REQUIRE(mkdtemp(pattern.data()) != nullptr);
+    root = pattern;
+    fs::create_directories(root / "sub");
+    fs::copy_file(kBox, root / "box.glb");
+    fs::copy_file(kBox, root / "sub" / "box2.glb");
+  }
+  ~ModelDir() { fs::remove_all(root); }
+};
+
+void requireListening(const ServerProcess& server) {
+  INFO(server.stderrText());
+  REQUIRE(server.start() == ServerProcess::Start::Listening);
+}
+
+void checkStopsCleanly(ServerProcess& server) {
+  std::optional<myriad::test::ExitStatus> status = server.stop();
+  REQUIRE(status.has_value());
+  INFO(server.stderrText().substr(0, 4000));
+  CHECK(status->cleanExit());
+}
+
+bool near(double a, double b, double tolerance = 1e-5) { return std::abs(a - b) <= tolerance; }
+
+bool vecNear(const json& v, std::initializer_list<double> expected, double tolerance = 1e-5) {
+  if (!v.is_array() || v.size() != expected.size()) return false;
+  size_t i = 0;
+  for (double e : expected) {
+    if (!near(v[i++].get<double>(), e, tolerance)) return false;
+  }
+  return true;
+}
+
+json lightJson(double x, double radius = 1.5) {
+  return {{"position", {x, 1.0, 0.0}},
+          {"radius", radius},
+          {"color", {1.0, 0.5, 0.25}},
+          {"intensity", 2.0},
+          {"falloff", 1.0}};
+}
+
+uint64_t gpuMemory(ApiClient& api) {
+  Reply info = api.get("/v1/info");
+  REQUIRE(info.status == 200);
+  return info.json.at("gpuMemoryBytes").get<uint64_t>();
+}
+
+}  // namespace
+
+TEST_CASE("api: a session's whole life through every route it owns") {
+  ModelDir models;
+  ServerProcess server({"--lights", "8", "--models", models.root.string()});
+  requireListening(server);
+  ApiClient api(server);
+
+  // GET /v1/info lists every limit.
+  Reply info = api.get("/v1/info");
+  REQUIRE(info.status == 200);
+  const json& limits = info.json.at("limits");
+  for (const char* name : {"maxResolution", "maxQueuedFrames", "maxSessions", "maxLightsPerSession",
+                           "maxUploadBytes", "maxBodyBytes", "maxStreams", "maxRequestsInFlight",
+                           "sessionIdleSeconds"}) {
+    CHECK_MESSAGE(limits.contains(name), name);
+  }
+  CHECK(limits.at("maxLightsPerSession") == 1000000);
+  CHECK(limits.at("maxUploadBytes") == 64 << 20);
+  CHECK(limits.at("maxBodyBytes") == 1 << 20);
+  CHECK(limits.at("sessionIdleSeconds") == 600);
+  CHECK(info.json.at("apiKeyRequired") == false);
+
+  // GET /v1/models: the library, recursively, names relative to it.
+  Reply modelList = api.get("/v1/models");
+  REQUIRE(modelList.status == 200);
+  const uint64_t boxBytes = fs::file_size(kBox);
+  CHECK(modelList.json == json{{"models",
+                                {{{"name", "box.glb"}, {"bytes", boxBytes}},
+                                 {{"name", "sub/box2.glb"}, {"bytes", boxBytes}}}}});
+
+  // POST /v1/sessions.
+  Reply created = api.post("/v1/sessions", "");
+  REQUIRE(created.status == 201);
+  const std::string id = created.json.at("id");
+  const std::string token = created.json.at("token");
+  CHECK(std::regex_match(id, std::regex("s-[0-9a-f]{16}")));
+  CHECK(std::regex_match(token, std::regex("[0-9a-f]{64}")));
+  CHECK(created.json.at("expiresInSeconds") == 600);
+  CHECK(created.header("Location") == "/v1/sessions/" + id);
+  const json& state = created.json.at("session");
+  CHECK(state.at("id") == id);
+  CHECK(state.at("model").at("source") == "builtin:default");
+  CHECK(state.at("model").at("meshes").get<int>() > 0);
+  CHECK(state.at("model").at("materials").get<int>() > 0);
+  CHECK(state.at("lights").at("count") == 8);
+  CHECK(state.at("settings").at("technique") == "clustered");
+  const std::string path = "/v1/sessions/" + id;
+
+  // GET /v1/sessions/{id}.
+  Reply got = api.get(path, token);
+  REQUIRE(got.status == 200);
+  CHECK(got.json.at("model") == state.at("model"));
+  CHECK(got.json.at("camera") == state.at("camera"));
+
+  // Camera: GET, PUT (whole), PATCH (subset), POST frame.
+  Reply camera = api.get(path + "/camera", token);
+  REQUIRE(camera.status == 200);
+  CHECK(camera.json == state.at("camera"));
+  const json newCamera = {{"eye", {0, 3, 9}}, {"target", {0, 1, 0}}, {"up", {0, 1, 0}},
+                          {"fovY", 40},       {"near", 0.1},         {"far", 100}};
+  Reply put = api.put(path + "/camera", newCamera.dump(), token);
+  REQUIRE(put.status == 200);
+  CHECK(put.json == newCamera);
+  Reply patched = api.patch(path + "/camera", R"({"fovY": 70, "eye": [1, 2, 3]})", token);
+  REQUIRE(patched.status == 200);
+  CHECK(patched.json.at("fovY") == 70);
+  CHECK(patched.json.at("eye") == json{1, 2, 3});
+  CHECK(patched.json.at("target") == json{0, 1, 0});
+  CHECK(api.get(path + "/camera", token).json == patched.json);
+  Reply framed = api.post(path + "/camera/frame", "", token);
+  REQUIRE(framed.status == 200);
+  CHECK(framed.json.at("fovY") == 70);  // kept
+  CHECK(framed.json.at("eye") != json{1, 2, 3});
+  {
+    // The framed camera looks at the model's centre from the direction it looked from before.
+    const json& bounds = state.at("model").at("bounds");
+    for (int axis = 0; axis < 3; ++axis) {
+      double centre = 0.5 * (bounds["min"][axis].get<double>() + bounds["max"][axis].get<double>());
+      CHECK(near(framed.json["target"][axis].get<double>(), centre, 1e-3));
+    }
+  }
+
+  // Settings: GET, PATCH (sun members individually, direction normalized).
+  Reply settings = api.get(path + "/settings", token);
+  REQUIRE(settings.status == 200);
+  CHECK(settings.json == state.at("settings"));
+  const json sunColor = settings.json.at("sun").at("color");
+  Reply newSettings = api.patch(
+      path + "/settings",
+      R"({"sun": {"direction": [0, -2, 0], "intensity": 3}, "exposure": 1.5, "technique": "tiled",
+          "markers": false, "animate": true, "ambient": [0.1, 0.2, 0.3], "background": [0, 0, 0.5]})",
+      token);
+  REQUIRE(newSettings.status == 200);
+  CHECK(vecNear(newSettings.json["sun"]["direction"], {0, -1, 0}));
+  CHECK(newSettings.json["sun"]["intensity"] == 3);
+  CHECK(newSettings.json["sun"]["color"] == sunColor);  // untouched member kept
+  CHECK(newSettings.json["exposure"] == 1.5);
+  CHECK(newSettings.json["technique"] == "tiled");
+  CHECK(newSettings.json["markers"] == false);
+  CHECK(newSettings.json["animate"] == true);
+  CHECK(newSettings.json["ambient"] == json{0.1, 0.2, 0.3});
+  CHECK(newSettings.json["background"] == json{0, 0, 0.5});
+  CHECK(api.get(path + "/settings", token).json == newSettings.json);
+
+  // Materials: GET, PATCH one.
+  Reply materials = api.get(path + "/materials", token);
+  REQUIRE(materials.status == 200);
+  const json& list = materials.json.at("materials");
+  REQUIRE(list.size() == state.at("model").at("materials").get<size_t>());
+  for (size_t i = 0; i < list.size(); ++i) CHECK(list[i].at("id") == i);
+  Reply material =
+      api.patch(path + "/materials/1", R"({"baseColor": [0.25, 0.5, 1], "metallic": 1})", token);
+  REQUIRE(material.status == 200);
+  CHECK(material.json.at("id") == 1);
+  CHECK(material.json.at("name") == list[1].at("name"));
+  CHECK(material.json.at("baseColor") == json{0.25, 0.5, 1});
+  CHECK(material.json.at("metallic") == 1);
+  CHECK(material.json.at("roughness") == list[1].at("roughness"));
+  CHECK(api.get(path + "/materials", token).json["materials"][1] == material.json);
+  checkProblem(api.patch(path + "/materials/" + std::to_string(list.size()), "{}", token), 404,
+               "not-found", "PATCH a material past the last");
+  checkProblem(api.patch(path + "/materials/x", "{}", token), 404, "not-found",
+               "PATCH material x");
+
+  // Lights: page, add, get, patch, delete (the last light moves into the hole), clear, generate.
+  Reply page = api.get(path + "/lights", token);
+  REQUIRE(page.status == 200);
+  CHECK(page.json.at("total") == 8);
+  CHECK(page.json.at("offset") == 0);
+  REQUIRE(page.json.at("lights").size() == 8);
+  std::set<uint64_t> ids;
+  for (const json& light : page.json["lights"]) ids.insert(light.at("id").get<uint64_t>());
+  CHECK(ids.size() == 8);
+  Reply page2 = api.get(path + "/lights?offset=6&limit=5", token);
+  REQUIRE(page2.status == 200);
+  CHECK(page2.json.at("offset") == 6);
+  REQUIRE(page2.json.at("lights").size() == 2);
+  CHECK(page2.json["lights"][0] == page.json["lights"][6]);
+
+  Reply added = api.post(path + "/lights",
+                         json{{"lights", {lightJson(1.0), lightJson(2.0), lightJson(3.0)}}}.dump(),
+                         token);
+  REQUIRE(added.status == 201);
+  CHECK(added.json.at("total") == 11);
+  REQUIRE(added.json.at("ids").size() == 3);
+  std::vector<uint64_t> newIds = added.json.at("ids").get<std::vector<uint64_t>>();
+  for (uint64_t newId : newIds) CHECK(!ids.contains(newId));
+  CHECK(newIds[1] == newIds[0] + 1);
+  CHECK(newIds[2] == newIds[1] + 1);
+
+  const std::string first = path + "/lights/" + std::to_string(newIds[0]);
+  Reply light = api.get(first, token);
+  REQUIRE(light.status == 200);
+  json expected = lightJson(1.0);
+  expected["id"] = newIds[0];
+  CHECK(light.json == expected);
+  Reply lightPatched = api.patch(first, R"({"radius": 4, "color": [0, 1, 0]})", token);
+  REQUIRE(lightPatched.status == 200);
+  expected["radius"] = 4;
+  expected["color"] = {0, 1, 0};
+  CHECK(lightPatched.json == expected);
+  CHECK(api.get(first, token).json == expected);
+
+  // Delete the first added light: the last one (id newIds[2]) takes its place in the list.
+  Reply deleted = api.del(first, token);
+  CHECK(deleted.status == 204);
+  CHECK(deleted.body.empty());
+  checkProblem(api.get(first, token), 404, "not-found", "GET a deleted light");
+  checkProblem(api.del(first, token), 404, "not-found", "DELETE a deleted light");
+  Reply afterDelete = api.get(path + "/lights?offset=8&limit=10", token);
+  REQUIRE(afterDelete.status == 200);
+  CHECK(afterDelete.json.at("total") == 10);
+  REQUIRE(afterDelete.json.at("lights").size() == 2);
+  CHECK(afterDelete.json["lights"][0]["id"] == newIds[2]);
+  CHECK(afterDelete.json["lights"][1]["id"] == newIds[1]);
+  // Ids are never reused, even after a delete.
+  Reply addedAgain = api.post(path + "/lights", json{{"lights", {lightJson(4.0)}}}.dump(), token);
+  REQUIRE(addedAgain.status == 201);
+  CHECK(addedAgain.json["ids"][0] == newIds[2] + 1);
+
+  Reply cleared = api.del(path + "/lights", token);
+  CHECK(cleared.status == 204);
+  CHECK(api.get(path + "/lights", token).json == json{{"total", 0}, {"offset", 0}, {"lights", json::array()}});
+
+  Reply generated = api.post(path + "/lights/generate", R"({"count": 500, "seed": 7})", token);
+  REQUIRE(generated.status == 200);
+  CHECK(generated.json == json{{"total", 500}});
+  Reply firstGenerated = api.get(path + "/lights?limit=3", token);
+  Reply appended = api.post(
+      path + "/lights/generate",
+      R"({"count": 20, "seed": 8, "replace": false, "bounds": {"min": [-1, 0, -1], "max": [1, 2, 1]},
+          "radius": [0.5, 0.75], "intensity": [1, 2], "falloff": 3})",
+      token);
+  REQUIRE(appended.status == 200);
+  CHECK(appended.json == json{{"total", 520}});
+  Reply tail = api.get(path + "/lights?offset=500&limit=1000", token);
+  REQUIRE(tail.json.at("lights").size() == 20);
+  for (const json& l : tail.json["lights"]) {
+    for (int axis = 0; axis < 3; ++axis) {
+      double p = l["position"][axis].get<double>();
+      CHECK(p >= (axis == 1 ? 0.0 : -1.0) - 1e-6);
+      CHECK(p <= (axis == 1 ? 2.0 : 1.0) + 1e-6);
+    }
+    CHECK(l["radius"].get<double>() >= 0.5 - 1e-6);
+    CHECK(l["radius"].get<double>() <= 0.75 + 1e-6);
+    CHECK(l["falloff"] == 3);
+  }
+  // The same seed gives the same lights.
+  Reply regenerated = api.post(path + "/lights/generate", R"({"count": 500, "seed": 7})", token);
+  REQUIRE(regenerated.status == 200);
+  Reply again = api.get(path + "/lights?limit=3", token);
+  CHECK(again.json["total"] == 500);
+  for (int i = 0; i < 3; ++i) {
+    json a = again.json["lights"][i], b = firstGenerated.json["lights"][i];
+    CHECK(a["id"] != b["id"]);  // new lights, new ids
+    a.erase("id");
+    b.erase("id");
+    CHECK(a == b);
+  }
+
+  // PUT model: library, builtin, upload; lights kept unless ?lights=model.
+  Reply library = api.put(path + "/model", R"({"source": "library:sub/box2.glb"})", token);
+  REQUIRE(library.status == 200);
+  CHECK(library.json.at("model").at("source") == "library:sub/box2.glb");
+  CHECK(library.json.at("lights").at("count") == 500);
+  CHECK(library.json.at("model").at("materials") == 1);
+  Reply boxMaterials = api.get(path + "/materials", token);
+  REQUIRE(boxMaterials.json.at("materials").size() == 1);
+  // The camera was reset to frame the new model.
+  const json& boxBounds = library.json.at("model").at("bounds");
+  for (int axis = 0; axis < 3; ++axis) {
+    double centre =
+        0.5 * (boxBounds["min"][axis].get<double>() + boxBounds["max"][axis].get<double>());
+    CHECK(near(library.json["camera"]["target"][axis].get<double>(), centre, 1e-3));
+  }
+  Reply upload = api.put(path + "/model?filename=box.glb&lights=model", readFile(kBox), token,
+                         "application/octet-stream");
+  REQUIRE(upload.status == 200);
+  CHECK(upload.json.at("model").at("source") == "upload:box.glb");
+  CHECK(upload.json.at("lights").at("count") == 0);  // the box has no punctual lights
+  Reply builtin = api.put(path + "/model", R"({"source": "builtin:default"})", token);
+  REQUIRE(builtin.status == 200);
+  CHECK(builtin.json.at("model") == state.at("model"));
+
+  // DELETE: 204, then the session is gone.
+  Reply gone = api.del(path, token);
+  CHECK(gone.status == 204);
+  checkProblem(api.get(path, token), 404, "not-found", "GET a deleted session");
+  checkProblem(api.get(path + "/lights", token), 404, "not-found", "GET lights of a deleted session");
+  checkProblem(api.del(path, token), 404, "not-found", "DELETE a deleted session");
+
+  CHECK(myriad::test::validationMessages(api) == 0);
+  checkStopsCleanly(server);
+}
+
+TEST_CASE("api: two sessions cannot see or change each other") {
+  ServerProcess server({"--lights", "4"});
+  requireListening(server);
+  ApiClient api(server);
+  TestSession a = createSession(api);
+  TestSession b = createSession(api);
+  CHECK(a.id != b.id);
+  CHECK(a.token != b.token);
+
+  const std::vector<std::pair<std::string, std::string>> routes = {
+      {"GET", ""},           {"GET", "/camera"},    {"GET", "/settings"},
+      {"GET", "/materials"}, {"GET", "/lights"},    {"DELETE", "/lights"},
+      {"DELETE", ""},        {"POST", "/camera/frame"}};
+  for (const auto& [method, suffix] : routes) {
+    const std::string what = method + " " + suffix;
+    // No token, a malformed one, a well-formed token of no session: 401.
+    checkProblem(api.send(method, a.path() + suffix, "", {}), 401, "unauthorized", what);
+    checkProblem(api.send(method, a.path() + suffix, "", {{"Authorization", "Basic abc"}}), 401,
+                 "unauthorized", what + " (Basic)");
+    checkProblem(api.send(method, a.path() + suffix, "", {{"Authorization", "Bearer"}}), 401,
+                 "unauthorized", what + " (empty bearer)");
+    checkProblem(api.send(method, a.path() + suffix, "",
+                          {{"Authorization", "Bearer " + std::string(64, '0')}}),
+                 401, "unauthorized", what + " (unknown token)");
+    // B's token on A: 403. An unknown session id: 404.
+    checkProblem(api.send(method, a.path() + suffix, "", {{"Authorization", "Bearer " + b.token}}),
+                 403, "forbidden", what + " (other session's token)");
+    checkProblem(api.send(method, "/v1/sessions/s-0000000000000000" + suffix, "",
+                          {{"Authorization", "Bearer " + a.token}}),
+                 404, "not-found", what + " (unknown session)");
+  }
+  // ?token= is for frames and streams only.
+  checkProblem(api.get(a.path() + "?token=" + a.token), 401, "unauthorized", "?token= on GET session");
+
+  // A's edits do not reach B.
+  REQUIRE(api.patch(a.path() + "/settings", R"({"exposure": 7})", a.token).status == 200);
+  REQUIRE(api.post(a.path() + "/lights/generate", R"({"count": 50, "seed": 1})", a.token).status ==
+          200);
+  CHECK(api.get(b.path() + "/settings", b.token).json.at("exposure") == 1);
+  CHECK(api.get(b.path() + "/lights", b.token).json.at("total") == 4);
+  CHECK(api.get(a.path() + "/lights", a.token).json.at("total") == 50);
+  // Nothing was changed by the refused requests above.
+  CHECK(api.get(b.path(), b.token).status == 200);
+
+  // A deleted session: its token is no longer any session's.
+  REQUIRE(api.del(a.path(), a.token).status == 204);
+  checkProblem(api.get(a.path(), a.token), 404, "not-found", "deleted session, own token");
+  checkProblem(api.get(b.path(), a.token), 401, "unauthorized", "deleted session's token on B");
+  CHECK(api.get(b.path(), b.token).status == 200);
+  CHECK(myriad::test::validationMessages(api) == 0);
+  checkStopsCleanly(server);
+}
+
+TEST_CASE("api: request bodies are checked against the schemas, naming the member") {
+  ServerProcess server({"--lights", "2"});
+  requireListening(server);
+  ApiClient api(server);
+  TestSession s = createSession(api);
+  const std::string light = s.path() + "/lights/" +
+                            std::to_string(api.get(s.path() + "/lights", s.token)
+                                               .json["lights"][0]["id"]
+                                               .get<uint64_t>());
+  struct Case {
+    std::string method, suffix, body, pointer;
+  };
+  const std::vector<Case> cases = {
+      // Not JSON, wrong top-level type.
+      {"PATCH", "/settings", "{", ""},
+      {"PATCH", "/settings", "[]", ""},
+      // Camera: missing, wrong type, out of range, unknown member, cross-member rules.
+      {"PUT", "/camera", R"({"eye":[0,1,2],"target":[0,0,0],"up":[0,1,0],"fovY":50,"near":0.1})", ""},
+      {"PUT", "/camera", R"({"eye":[0,1,"x"],"target":[0,0,0],"up":[0,1,0],"fovY":50,"near":0.1,"far":9})", "/eye/2"},
+      {"PATCH", "/camera", R"({"fovY": 180})", "/fovY"},
+      {"PATCH", "/camera", R"({"fovY": 0.5})", "/fovY"},
+      {"PATCH", "/camera", R"({"near": 0})", "/near"},
+      {"PATCH", "/camera", R"({"eye": [1, 2]})", "/eye"},
+      {"PATCH", "/camera", R"({"zoom": 2})", "/zoom"},
+      {"PATCH", "/camera", R"({"near": 5, "far": 4})", "/far"},
+      {"PATCH", "/camera", R"({"eye": [0, 0, 0], "target": [0, 0, 0]})", "/target"},
+      {"PATCH", "/camera", R"({"eye": [0, 5, 0], "target": [0, 0, 0], "up": [0, 1, 0]})", "/up"},
+      // Settings.
+      {"PATCH", "/settings", R"({"exposure": 0})", "/exposure"},
+      {"PATCH", "/settings", R"({"exposure": 1001})", "/exposure"},
+      {"PATCH", "/settings", R"({"technique": "forward"})", "/technique"},
+      {"PATCH", "/settings", R"({"markers": 1})", "/markers"},
+      {"PATCH", "/settings", R"({"sun": {"intensity": -1}})", "/sun/intensity"},
+      {"PATCH", "/settings", R"({"sun": {"direction": [0, 0, 0]}})", "/sun/direction"},
+      {"PATCH", "/settings", R"({"sun": {"spin": 1}})", "/sun/spin"},
+      {"PATCH", "/settings", R"({"ambient": [0, 0, 65]})", "/ambient/2"},
+      {"PATCH", "/settings", R"({"fog": true})", "/fog"},
+      // Materials.
+      {"PATCH", "/materials/0", R"({"metallic": 2})", "/metallic"},
+      {"PATCH", "/materials/0", R"({"baseColor": [0.5, 0.5, 1.5]})", "/baseColor/2"},
+      {"PATCH", "/materials/0", R"({"name": "x"})", "/name"},
+      // Lights.
+      {"POST", "/lights", R"({"lights": []})", "/lights"},
+      {"POST", "/lights", R"({})", ""},
+      {"POST", "/lights", R"({"lights": [{"position": [0,0,0], "radius": 0, "color": [1,1,1], "intensity": 1, "falloff": 1}]})", "/lights/0/radius"},
+      {"POST", "/lights", R"({"lights": [{"position": [0,0,0], "radius": 1, "color": [1,1,1], "intensity": 1}]})", "/lights/0"},
+      {"POST", "/lights", R"({"lights": [{"id": 3, "position": [0,0,0], "radius": 1, "color": [1,1,1], "intensity": 1, "falloff": 1}]})", "/lights/0/id"},
+      {"PATCH", light, R"({"intensity": 10001})", "/intensity"},
+      {"PATCH", light, R"({"color": [2, 0, 0]})", "/color/0"},
+      {"PATCH", light, R"({"id": 9})", "/id"},
+      {"POST", "/lights/generate", R"({"seed": 1})", ""},
+      {"POST", "/lights/generate", R"({"count": 0, "seed": 1})", "/count"},
+      {"POST", "/lights/generate", R"({"count": 1, "seed": -1})", "/seed"},
+      {"POST", "/lights/generate", R"({"count": 1, "seed": 1, "radius": [2, 1]})", "/radius/1"},
+      {"POST", "/lights/generate", R"({"count": 1, "seed": 1, "bounds": {"min": [0, 0, 0], "max": [1, -1, 1]}})", "/bounds/max/1"},
+      {"POST", "/lights/generate", R"({"count": 1, "seed": 1, "replace": "yes"})", "/replace"},
+      // Model and session creation.
+      {"PUT", "/model", R"({"source": "http://example.com/a.glb"})", "/source"},
+      {"PUT", "/model", R"({})", ""},
+  };
+  for (const Case& c : cases) {
+    const std::string path = c.suffix.starts_with("/v1/") ? c.suffix : s.path() + c.suffix;
+    Reply reply = api.send(c.method, path, c.body, {{"Authorization", "Bearer " + s.token}},
+                           "application/json");
+    checkProblem(reply, 400, "invalid-body", c.method + " " + c.suffix + " " + c.body, c.pointer);
+  }
+  checkProblem(api.post("/v1/sessions", R"({"model": 3})"), 400, "invalid-body",
+               "POST /v1/sessions model 3", "/model");
+  checkProblem(api.post("/v1/sessions", R"({"lights": 3})"), 400, "invalid-body",
+               "POST /v1/sessions unknown member", "/lights");
+  checkProblem(api.post(s.path() + "/camera/frame", R"({"x": 1})", s.token), 400, "invalid-body",
+               "POST camera/frame with a body", "");
+
+  // Content types and query parameters.
+  checkProblem(api.patch(s.path() + "/settings", R"({"exposure": 2})", s.token, "text/plain"), 415,
+               "unsupported-media-type", "PATCH settings as text/plain");
+  checkProblem(api.put(s.path() + "/model", "abc", s.token, "text/plain"), 415,
+               "unsupported-media-type", "PUT model as text/plain");
+  checkProblem(api.put(s.path() + "/model", "abc", s.token, "application/octet-stream"), 400,
+               "invalid-parameter", "upload without filename", std::nullopt, std::nullopt,
+               "filename");
+  checkProblem(api.get(s.path() + "/settings?verbose=1", s.token), 400, "unknown-parameter",
+               "GET settings?verbose", std::nullopt, std::nullopt, "verbose");
+  checkProblem(api.get(s.path() + "/lights?limit=1001", s.token), 400, "invalid-parameter",
+               "lights?limit=1001", std::nullopt, std::nullopt, "limit");
+  checkProblem(api.get(s.path() + "/lights?offset=-1", s.token), 400, "invalid-parameter",
+               "lights?offset=-1", std::nullopt, std::nullopt, "offset");
+  checkProblem(api.put(s.path() + "/model?lights=all", R"({"source":"builtin:default"})", s.token),
+               400, "invalid-parameter", "model?lights=all", std::nullopt, std::nullopt, "lights");
+
+  // Methods and paths.
+  Reply wrongMethod = api.put(s.path() + "/settings", "{}", s.token);
+  checkProblem(wrongMethod, 405, "method-not-allowed", "PUT settings");
+  CHECK(wrongMethod.header("Allow") == "GET, HEAD, PATCH, OPTIONS");
+  checkProblem(api.get(s.path() + "/nothing", s.token), 404, "not-found", "GET unknown route");
+  checkProblem(api.get(s.path() + "/lights/999999", s.token), 404, "not-found", "GET light 999999");
+  checkProblem(api.get(s.path() + "/lights/abc", s.token), 404, "not-found", "GET light abc");
+
+  // Nothing above changed the session.
+  CHECK(api.get(s.path() + "/settings", s.token).json == s.created["session"]["settings"]);
+  CHECK(api.get(s.path() + "/camera", s.token).json == s.created["session"]["camera"]);
+  CHECK(api.get(s.path() + "/lights", s.token).json["total"] == 2);
+  CHECK(myriad::test::validationMessages(api) == 0);
+  checkStopsCleanly(server);
+}
+
+TEST_CASE("api: limits answer 413 and 429 with the limit's name") {
+  ServerProcess server({"--lights", "2", "--max-sessions", "2", "--max-lights", "1000",
+                        "--max-upload-bytes", "100000", "--max-body-bytes", "4096"});
+  requireListening(server);
+  ApiClient api(server);
+  Reply info = api.get("/v1/info");
+  CHECK(info.json["limits"]["maxSessions"] == 2);
+  CHECK(info.json["limits"]["maxLightsPerSession"] == 1000);
+  CHECK(info.json["limits"]["maxUploadBytes"] == 100000);
+  CHECK(info.json["limits"]["maxBodyBytes"] == 4096);
+
+  TestSession s = createSession(api);
+  TestSession t = createSession(api);
+  checkProblem(api.post("/v1/sessions", "{}"), 429, "limit-exceeded", "third session", std::nullopt,
+               "maxSessions");
+  REQUIRE(api.del(t.path(), t.token).status == 204);
+  TestSession u = createSession(api);  // the freed place can be taken again
+
+  // Lights past maxLightsPerSession: generate, add, and keep-adding.
+  checkProblem(api.post(s.path() + "/lights/generate", R"({"count": 1001, "seed": 1})", s.token),
+               413, "limit-exceeded", "generate 1001", std::nullopt, "maxLightsPerSession");
+  REQUIRE(api.post(s.path() + "/lights/generate", R"({"count": 999, "seed": 1})", s.token).status ==
+          200);
+  checkProblem(api.post(s.path() + "/lights/generate",
+                        R"({"count": 2, "seed": 1, "replace": false})", s.token),
+               413, "limit-exceeded", "generate 2 more", std::nullopt, "maxLightsPerSession");
+  json two = {{"lights", {lightJson(0), lightJson(1)}}};
+  checkProblem(api.post(s.path() + "/lights", two.dump(), s.token), 413, "limit-exceeded",
+               "add 2 to 999", std::nullopt, "maxLightsPerSession");
+  json one = {{"lights", {lightJson(0)}}};
+  REQUIRE(api.post(s.path() + "/lights", one.dump(), s.token).status == 201);
+  CHECK(api.get(s.path() + "/lights", s.token).json["total"] == 1000);
+
+  // Bodies: an upload over maxUploadBytes, JSON over maxBodyBytes (also on the model route).
+  checkProblem(api.put(s.path() + "/model?filename=big.glb", std::string(150000, 'x'), s.token,
+                       "application/octet-stream"),
+               413, "limit-exceeded", "upload 150000", std::nullopt, "maxUploadBytes");
+  std::string bigJson = R"({"exposure": 1)" + std::string(5000, ' ') + "}";
+  checkProblem(api.patch(s.path() + "/settings", bigJson, s.token), 413, "limit-exceeded",
+               "5000-byte JSON", std::nullopt, "maxBodyBytes");
+  std::string bigSource = R"({"source": "builtin:default")" + std::string(5000, ' ') + "}";
+  checkProblem(api.put(s.path() + "/model", bigSource, s.token), 413, "limit-exceeded",
+               "5000-byte model JSON", std::nullopt, "maxBodyBytes");
+  // Under the upload limit, a file that is not a model is the loader's to reject.
+  checkProblem(api.put(s.path() + "/model?filename=junk.glb", std::string(50000, 'x'), s.token,
+                       "application/octet-stream"),
+               422, "model-rejected", "50000 bytes of junk");
+  CHECK(api.get("/v1/health").status == 200);
+  CHECK(api.get(u.path(), u.token).status == 200);
+  CHECK(myriad::test::validationMessages(api) == 0);
+  checkStopsCleanly(server);
+}
+
+TEST_CASE("api: requests in flight past --max-requests get 429") {
+  ServerProcess server({"--lights", "2", "--max-requests", "1"});
+  requireListening(server);
+  ApiClient api(server);
+  TestSession s = createSession(api);
+  // A large frame keeps one request in flight for a while on any device; meanwhile every other
+  // counted request is refused. The health probe is never counted.
+  std::atomic<bool> frameDone{false};
+  auto frame = std::async(std::launch::async, [&] {
+    ApiClient other(server);
+    Reply reply = other.get("/v1/frame?width=2048&height=2048");
+    frameDone = true;
+    return reply.status;
+  });
+  bool refused = false;
+  while (!frameDone && !refused) {
+    Reply reply = api.get(s.path() + "/settings", s.token);
+    if (reply.status == 429) {
+      checkProblem(reply, 429, "limit-exceeded", "second request in flight", std::nullopt,
+                   "maxRequestsInFlight");
+      refused = true;
+      CHECK(api.get("/v1/health").status == 200);
+    } else {
+      CHECK(reply.status == 200);
+    }
+  }
+  CHECK(frame.get() == 200);
+  CHECK(refused);
+  CHECK(api.get(s.path() + "/settings", s.token).status == 200);
+  CHECK(myriad::test::validationMessages(api) == 0);
+  checkStopsCleanly(server);
+}
+
+TEST_CASE("api: every invalid and glTF2 test file uploaded in turn: 200 or 422, never a dead server") {
+  ServerProcess server({"--lights", "4"});
+  requireListening(server);
+  ApiClient api(server);
+  TestSession s = createSession(api);
+  std::vector<fs::path> files;
+  for (const char* dir : {"invalid", "glTF2"}) {
+    for (const auto& entry : fs::recursive_directory_iterator(kAssimpModels / dir)) {
+      if (entry.is_regular_file()) files.push_back(entry.path());
+    }
+  }
+  std::sort(files.begin(), files.end());
+  REQUIRE(files.size() > 50);
+  size_t accepted = 0, rejected = 0;
+  const auto start = std::chrono::steady_clock::now();
+  for (const fs::path& file : files) {
+    const std::string name = file.filename().string();
+    Reply reply = api.put(s.path() + "/model?filename=" + name,
+                          readFile(file), s.token, "application/octet-stream");
+    INFO(file.string(), " -> ", reply.status, " ", reply.body.substr(0, 300));
+    CHECK((reply.status == 200 || reply.status == 422));
+    if (reply.status == 200) {
+      ++accepted;
+      CHECK(reply.json.at("model").at("source") == "upload:" + name);
+      CHECK(reply.json.at("lights").at("count") == 4);  // kept
+    } else if (reply.status == 422) {
+      ++rejected;
+      checkProblem(reply, 422, "model-rejected", file.string());
+    }
+    REQUIRE(api.get("/v1/health").status == 200);
+  }
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  MESSAGE(files.size(), " files: ", accepted, " loaded, ", rejected, " rejected, in ", seconds,
+          " s");
+  CHECK(accepted > 10);
+  CHECK(rejected > 10);
+  // The session still works and the GPU saw no invalid use.
+  CHECK(api.put(s.path() + "/model", R"({"source":"builtin:default"})", s.token).status == 200);
+  CHECK(myriad::test::validationMessages(api) == 0);
+  checkStopsCleanly(server);
+}
+
+TEST_CASE("api: library names outside --models are 404") {
+  ModelDir models;
+  ServerProcess server({"--lights", "2", "--models", models.root.string()});
+  requireListening(server);
+  ApiClient api(server);
+  TestSession s = createSession(api, R"({"model": "library:box.glb"})");
+  CHECK(s.created["session"]["model"]["source"] == "library:box.glb");
+  for (const std::string name :
+       {"../box.glb", "/etc/passwd", "sub/../../etc/passwd", "missing.glb", ".hidden.glb",
+        "sub", "box.glb/x", "sub\\box2.glb"}) {
+    checkProblem(api.put(s.path() + "/model", json{{"source", "library:" + name}}.dump(), s.token),
+                 404, "not-found", "library:" + name);
+    checkProblem(api.post("/v1/sessions", json{{"model", "library:" + name}}.dump()), 404,
+                 "not-found", "POST session library:" + name);
+  }
+  // A failed create leaves no session behind.
+  CHECK(api.get("/v1/info").json["sessions"]["open"] == 1);
+  checkStopsCleanly(server);
+}
+
+TEST_CASE("api: without --models the library is empty") {
+  ServerProcess server({"--lights", "2"});
+  requireListening(server);
+  ApiClient api(server);
+  CHECK(api.get("/v1/models").json == json{{"models", json::array()}});
+  checkProblem(api.post("/v1/sessions", R"({"model": "library:box.glb"})"), 404, "not-found",
+               "library without --models");
+  checkStopsCleanly(server);
+}
+
+TEST_CASE("api: idle sessions expire; requests keep them alive") {
+  ServerProcess server({"--lights", "2", "--session-idle-seconds", "1"});
+  requireListening(server);
+  ApiClient api(server);
+  TestSession idle = createSession(api);
+  TestSession busy = createSession(api);
+  CHECK(idle.created["expiresInSeconds"] == 1);
+  const auto start = std::chrono::steady_clock::now();
+  while (std::chrono::steady_clock::now() - start < std::chrono::milliseconds(2500)) {
+    REQUIRE(api.get(busy.path() + "/camera", busy.token).status == 200);
+    std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  }
+  checkProblem(api.get(idle.path(), idle.token), 404, "not-found", "expired session");
+  CHECK(api.get(busy.path(), busy.token).status == 200);
+  CHECK(api.get("/v1/info").json["sessions"]["open"] == 1);
+  std::this_thread::sleep_for(std::chrono::milliseconds(2500));
+  checkProblem(api.get(busy.path(), busy.token), 404, "not-found", "expired after idling");
+  CHECK(api.get("/v1/info").json["sessions"]["open"] == 0);
+  CHECK(server.stderrText().find("expired") != std::string::npos);
+  checkStopsCleanly(server);
+}
+
+TEST_CASE("api: DELETE frees the session's GPU memory before it answers") {
+  ServerProcess server({"--lights", "2"});
+  requireListening(server);
+  ApiClient api(server);
+  const uint64_t before = gpuMemory(api);
+  TestSession s = createSession(api);
+  REQUIRE(api.post(s.path() + "/lights/generate", R"({"count": 100000, "seed": 3})", s.token)
+              .status == 200);
+  const uint64_t during = gpuMemory(api);
+  MESSAGE("GPU memory: ", before, " bytes before, ", during, " with a session of 100000 lights");
+  CHECK(during > before + 100000 * 32);  // at least the lights themselves
+  REQUIRE(api.del(s.path(), s.token).status == 204);
+  CHECK(gpuMemory(api) == before);
+  CHECK(myriad::test::validationMessages(api) == 0);
+  checkStopsCleanly(server);
+}
+
+TEST_CASE("api: --api-key / MYRIAD_API_KEY guard session creation; CORS preflights") {
+  setenv("MYRIAD_API_KEY", "env-key-12345", 1);
+  ServerProcess fromEnv({"--lights", "2"});
+  unsetenv("MYRIAD_API_KEY");
+  requireListening(fromEnv);
+  {
+    ApiClient api(fromEnv);
+    CHECK(api.get("/v1/info").json["apiKeyRequired"] == true);
+    checkProblem(api.post("/v1/sessions", "{}"), 401, "unauthorized", "no key");
+    checkProblem(api.post("/v1/sessions", "{}", "wrong-key-123"), 401, "unauthorized", "wrong key");
+    createSession(api, "{}", "env-key-12345");
+  }
+  checkStopsCleanly(fromEnv);
+
+  ServerProcess server({"--lights", "2", "--api-key", "flag-key-12345", "--cors-origin",
+                        "http://app.test"});
+  requireListening(server);
+  ApiClient api(server);
+  checkProblem(api.post("/v1/sessions", "{}", "env-key-12345"), 401, "unauthorized", "env key");
+  TestSession s = createSession(api, "{}", "flag-key-12345");
+  // The key is not a session token.
+  checkProblem(api.get(s.path(), "flag-key-12345"), 401, "unauthorized", "key as a token");
+
+  Reply preflight = api.send("OPTIONS", s.path() + "/lights",
+                             "", {{"Origin", "http://app.test"},
+                                  {"Access-Control-Request-Method", "POST"}});
+  CHECK(preflight.status == 204);
+  CHECK(preflight.header("Access-Control-Allow-Origin") == "http://app.test");
+  CHECK(preflight.header("Access-Control-Allow-Methods").find("POST") != std::string::npos);
+  CHECK(preflight.header("Access-Control-Allow-Headers").find("Authorization") !=
+        std::string::npos);
+  Reply allowed = api.send("GET", s.path(), "",
+                           {{"Origin", "http://app.test"}, {"Authorization", "Bearer " + s.token}});
+  CHECK(allowed.status == 200);
+  CHECK(allowed.header("Access-Control-Allow-Origin") == "http://app.test");
+  Reply other = api.send("GET", s.path(), "",
+                         {{"Origin", "http://evil.test"}, {"Authorization", "Bearer " + s.token}});
+  CHECK(other.status == 200);
+  CHECK(other.header("Access-Control-Allow-Origin").empty());
+  checkStopsCleanly(server);
+}
