@@ -6,13 +6,6 @@
 namespace myriad::service {
 namespace {
 
-std::string placeholderAfter(std::string_view segment) {
-  if (segment == "sessions") return "{id}";
-  if (segment == "lights") return "{lid}";
-  if (segment == "materials") return "{mid}";
-  return "{param}";
-}
-
 // Label values are quoted; the format requires backslash, quote and newline escaped.
 std::string labelValue(std::string_view text) {
   std::string out;
@@ -40,41 +33,6 @@ void family(std::string& out, std::string_view name, std::string_view type,
 }
 
 }  // namespace
-
-std::string routeTemplateOf(std::string_view pattern) {
-  std::string out;
-  size_t i = 0;
-  while (i < pattern.size()) {
-    if (pattern[i] == '\\' && i + 1 < pattern.size()) {  // an escaped literal: "\\." is "."
-      out += pattern[i + 1];
-      i += 2;
-      continue;
-    }
-    if (pattern[i] != '(') {
-      out += pattern[i++];
-      continue;
-    }
-    // Skip the group, nested groups and escapes included.
-    int depth = 0;
-    for (; i < pattern.size(); ++i) {
-      if (pattern[i] == '\\') {
-        ++i;
-      } else if (pattern[i] == '(') {
-        ++depth;
-      } else if (pattern[i] == ')' && --depth == 0) {
-        ++i;
-        break;
-      }
-    }
-    // The group follows "/name/": name the placeholder after that segment.
-    std::string_view previous = out;
-    if (!previous.empty() && previous.back() == '/') previous.remove_suffix(1);
-    size_t slash = previous.find_last_of('/');
-    previous = slash == std::string_view::npos ? previous : previous.substr(slash + 1);
-    out += placeholderAfter(previous);
-  }
-  return out;
-}
 
 void Metrics::countRequest(std::string_view routeTemplate, int status) {
   std::lock_guard lock(mutex_);

@@ -13,14 +13,6 @@
 
 namespace myriad::service {
 
-// The label a route is counted under: its path template, "/v1/sessions/{id}/frame" for the
-// route pattern "/v1/sessions/([^/]+)/frame". Requests are counted per route, never per raw path:
-// a label per session id or per mistyped URL would grow the exposition without bound. A regex
-// group becomes a placeholder named after the segment before it, with the names protocol/
-// CONTRACT.md uses ({id} after sessions, {lid} after lights, {mid} after materials); other groups
-// become {param}. Patterns without groups come back unchanged.
-std::string routeTemplateOf(std::string_view pattern);
-
 // Values the exposition reads from elsewhere at scrape time.
 struct MetricGauges {
   uint64_t sessions = 0;
@@ -36,6 +28,8 @@ class Metrics {
   static constexpr std::array<double, 12> kFrameBuckets = {0.005, 0.01, 0.025, 0.05, 0.1, 0.25,
                                                            0.5,   1.0,  2.5,   5.0,  10.0, 30.0};
 
+  // `routeTemplate` is the route's path template ("/v1/sessions/{id}/frame"), never the raw path:
+  // a label per session id or per mistyped URL would grow the exposition without bound.
   void countRequest(std::string_view routeTemplate, int status);
 
   // One frame delivered: from submission to the renderer to encoded bytes.

@@ -1,0 +1,197 @@
+// GET /v1/frame, GET /v1/sessions/{id}/frame, .../stream, .../stats, GET /metrics and the web
+// client. Workers parse, wait for the render thread and encode; they never touch Vulkan.
+#include "service/api_frames.h"
+
+#include <chrono>
+#include <cstdio>
+#include <string>
+
+#include <nlohmann/json.hpp>
+
+#include "service/render_thread.h"
+#include "web_assets.h"
+
+namespace myriad::service {
+namespace {
+
+// What a 503 suggests; a frame on lavapipe takes from tens of milliseconds to a few seconds.
+constexpr int kRetryAfterSeconds = 1;
+
+Problem problemOf(const FrameQueryError& e) {
+  return e.unknownParameter() ? unknownParameter(e.parameter(), e.what())
+                              : invalidParameter(e.parameter(), e.what());
+}
+
+template <typename Parse>
+FrameRequest parsedQuery(Parse parse) {
+  try {
+    return parse();
+  } catch (const FrameQueryError& e) {
+    throw ProblemError(problemOf(e));
+  }
+}
+
+Problem busy(const RenderQueueFullError& e) {
+  Problem problem = serverBusy(std::string("The renderer is busy: ") + e.what() + ".");
+  problem.retryAfterSeconds = kRetryAfterSeconds;
+  return problem;
+}
+
+void sendFrame(httplib::Response& res, EncodedFrame&& encoded) {
+  for (auto& [name, value] : encoded.headers) res.set_header(name, value);
+  // Frames depend on server state that can change between identical URLs.
+  res.set_header("Cache-Control", "no-store");
+  const std::string contentType = encoded.contentType;
+  res.body = std::move(encoded.body);
+  res.set_header("Content-Type", contentType);
+}
+
+// GET /v1/frame: the built-in scene, everything from the query.
+void handleBuiltinFrame(const ApiContext& context, FrameServices& frames,
+                        const httplib::Request& req, httplib::Response& res) {
+  FrameRequest request =
+      parsedQuery([&] { return parseFrameRequest(req.params, frames.builtinDefaults); });
+  render::FrameSettings& settings = request.settings;
+  settings.sun = frames.builtinLighting.sun;
+  settings.ambient = frames.builtinLighting.ambient;
+  settings.background = frames.builtinLighting.background;
+
+  const auto start = std::chrono::steady_clock::now();
+  std::future<render::Frame> pending;
+  try {
+    pending = context.renderThread.submit(settings);
+  } catch (const RenderQueueFullError& e) {
+    throw ProblemError(busy(e));
+  }
+  render::Frame frame;
+  try {
+    frame = pending.get();
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "myriad-server: frame failed: %s\n", e.what());
+    throw ProblemError(renderFailed(std::string("The renderer failed: ") + e.what()));
+  }
+  EncodedFrame encoded = encodeFrame(frame, request);
+  frames.metrics.observeFrame(
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
+  sendFrame(res, std::move(encoded));
+}
+
+void handleSessionFrame(const ApiContext& context, FrameServices& frames,
+                        const httplib::Request& req, httplib::Response& res) {
+  SessionPtr session = authorizeSession(context, req, /*allowQueryToken=*/true);
+  FrameRequest request = parsedQuery(
+      [&] { return parseSessionFrameQuery(req.params, context.config.limits.maxResolution); });
+  SessionFrame frame;
+  try {
+    frame = renderSessionFrame({context.renderThread, frames.stats, frames.metrics}, session,
+                               request);
+  } catch (const RenderQueueFullError& e) {
+    throw ProblemError(busy(e));
+  } catch (const ProblemError&) {
+    throw;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "myriad-server: frame of %s failed: %s\n", session->id.c_str(), e.what());
+    throw ProblemError(renderFailed(std::string("The renderer failed: ") + e.what()));
+  }
+  sendFrame(res, std::move(frame.encoded));
+}
+
+void handleStream(ApiContext& context, FrameServices& frames, const httplib::Request& req,
+                  httplib::Response& res) {
+  SessionPtr session = authorizeSession(context, req, /*allowQueryToken=*/true);
+  FrameRequest request = parsedQuery(
+      [&] { return parseStreamQuery(req.params, context.config.limits.maxResolution); });
+  std::unique_ptr<StreamRegistry::Slot> slot = frames.streams.open(session);
+  if (!slot) {
+    if (frames.streams.stopping()) {
+      throw ProblemError(serverBusy("The server is shutting down."));
+    }
+    throw ProblemError(limitExceeded(
+        429, "maxStreams",
+        "This server already serves " + std::to_string(frames.streams.maxStreams()) +
+            " streams, its limit (--max-streams); close one or retry later."));
+  }
+  res.set_header("Cache-Control", "no-store");
+  res.set_chunked_content_provider(
+      std::string(kStreamContentType),
+      makeStreamProvider({context.renderThread, frames.stats, frames.metrics}, frames.streams,
+                         std::move(slot), std::move(session), std::move(request)));
+}
+
+void handleStats(const ApiContext& context, FrameServices& frames, const httplib::Request& req,
+                 httplib::Response& res) {
+  SessionPtr session = authorizeSession(context, req);
+  checkQuery(req, {});
+  uint64_t lightCount = 0;
+  bool animated = false;
+  {
+    std::unique_lock lock = lockOpen(*session);
+    lightCount = session->lights.size();
+    animated = session->settings.animate;
+  }
+  sendJson(res, nlohmann::json(frames.stats.statsOf(*session, lightCount, animated)));
+}
+
+void handleMetrics(const ApiContext& context, FrameServices& frames, const httplib::Request& req,
+                   httplib::Response& res) {
+  checkQuery(req, {});
+  MetricGauges gauges;
+  gauges.sessions = context.sessions.count();
+  gauges.streams = frames.streams.count();
+  gauges.gpuMemoryBytes = context.renderThread.gpuMemoryBytes();
+  gauges.validationMessages = context.renderThread.validationMessages();
+  res.set_content(frames.metrics.exposition(gauges), std::string(kMetricsContentType));
+}
+
+// GET / and GET /web/{file}: the embedded web client.
+void handleWebAsset(const httplib::Request& req, httplib::Response& res) {
+  checkQuery(req, {});
+  const web::Asset* asset = web::findAsset(req.path);
+  if (asset == nullptr) {
+    throw ProblemError(notFoundDetail("The web client has no file " + quoteClientText(req.path) +
+                                      "."));
+  }
+  // The assets change only with the binary; a short cache still lets a restart show new ones.
+  res.set_header("Cache-Control", "max-age=60");
+  res.set_content(asset->body.data(), asset->body.size(), std::string(asset->contentType));
+}
+
+}  // namespace
+
+void addFrameRoutes(Routes& routes, ApiContext& context, FrameServices& frames) {
+  routes.add("GET", "/v1/frame", [&](const httplib::Request& req, httplib::Response& res) {
+    handleBuiltinFrame(context, frames, req, res);
+  });
+  routes.add("GET", "/v1/sessions/{id}/frame",
+             [&](const httplib::Request& req, httplib::Response& res) {
+               handleSessionFrame(context, frames, req, res);
+             });
+  // A stream holds its worker for as long as it runs; maxStreams bounds those, so they do not
+  // also take places meant for short requests.
+  RouteOptions streamOptions;
+  streamOptions.countsInFlight = false;
+  routes.add(
+      "GET", "/v1/sessions/{id}/stream",
+      [&](const httplib::Request& req, httplib::Response& res) {
+        handleStream(context, frames, req, res);
+      },
+      streamOptions);
+  routes.add("GET", "/v1/sessions/{id}/stats",
+             [&](const httplib::Request& req, httplib::Response& res) {
+               handleStats(context, frames, req, res);
+             });
+  RouteOptions metricsOptions;
+  metricsOptions.countsInFlight = false;  // a scrape must work when the server is saturated
+  routes.add(
+      "GET", "/metrics",
+      [&](const httplib::Request& req, httplib::Response& res) {
+        handleMetrics(context, frames, req, res);
+      },
+      metricsOptions);
+  RouteOptions webOptions;
+  webOptions.countsInFlight = false;  // a static file costs nothing
+  routes.add("GET", "/", handleWebAsset, webOptions);
+  routes.add("GET", "/web/{file}", handleWebAsset, webOptions);
+}
+
+}  // namespace myriad::service

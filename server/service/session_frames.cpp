@@ -1,0 +1,159 @@
+#include "service/session_frames.h"
+
+#include <chrono>
+#include <cstdio>
+#include <stdexcept>
+
+#include "encode/jpeg.h"
+#include "encode/png.h"
+#include "encode/raw.h"
+
+namespace myriad::service {
+namespace {
+
+using Milliseconds = std::chrono::duration<double, std::milli>;
+
+std::string joined(const std::vector<std::string_view>& names) {
+  std::string text;
+  for (std::string_view name : names) text += (text.empty() ? "" : ",") + std::string(name);
+  return text;
+}
+
+}  // namespace
+
+EncodedFrame encodeFrame(const render::Frame& frame, const FrameRequest& request) {
+  EncodedFrame out;
+  const auto start = std::chrono::steady_clock::now();
+  switch (request.format) {
+    case ImageFormat::Png: {
+      std::vector<uint8_t> png = encode::encodePng(frame.width, frame.height, frame.rgba);
+      out.body.assign(reinterpret_cast<const char*>(png.data()), png.size());
+      out.contentType = "image/png";
+      break;
+    }
+    case ImageFormat::Jpeg: {
+      std::vector<uint8_t> jpeg =
+          encode::encodeJpeg(frame.rgba, frame.width, frame.height, request.quality);
+      out.body.assign(reinterpret_cast<const char*>(jpeg.data()), jpeg.size());
+      out.contentType = "image/jpeg";
+      break;
+    }
+    case ImageFormat::Raw: {
+      const render::Target target = request.settings.target;
+      std::vector<uint8_t> raw = encode::packRaw(frame, target);
+      out.body.assign(reinterpret_cast<const char*>(raw.data()), raw.size());
+      out.contentType = "application/octet-stream";
+      out.headers.emplace_back("X-Myriad-Width", std::to_string(frame.width));
+      out.headers.emplace_back("X-Myriad-Height", std::to_string(frame.height));
+      out.headers.emplace_back("X-Myriad-Channels", joined(render::rawChannels(target)));
+      out.headers.emplace_back("X-Myriad-Target", std::string(render::targetName(target)));
+      break;
+    }
+  }
+  out.encodeMs = Milliseconds(std::chrono::steady_clock::now() - start).count();
+
+  const bool culled = frame.technique != render::Technique::Volumes;
+  out.headers.emplace_back(
+      "Server-Timing", formatServerTiming(frame.passes, out.encodeMs, culled ? &frame.culling : nullptr));
+  out.headers.emplace_back("X-Myriad-Technique", std::string(render::techniqueName(frame.technique)));
+  if (frame.culling.overflowed()) {
+    std::fprintf(stderr, "myriad-server: WARNING: light lists overflowed, lights are missing from "
+                         "this frame: %s\n", describeCulling(frame.culling).c_str());
+  }
+  return out;
+}
+
+void FrameStatsBook::record(const SessionPtr& session, const render::Frame& frame,
+                            render::Target target, double encodeMs) {
+  protocol::FrameStats stats;
+  for (const render::PassTiming& pass : frame.passes) {
+    stats.passes.push_back({pass.name, pass.milliseconds});
+    stats.totalGpuMs += pass.milliseconds;
+    if (pass.name == "readback") stats.readbackMs += pass.milliseconds;
+  }
+  stats.encodeMs = encodeMs;
+  stats.width = frame.width;
+  stats.height = frame.height;
+  stats.technique = std::string(render::techniqueName(frame.technique));
+  stats.target = std::string(render::targetName(target));
+
+  const render::CullingReport& c = frame.culling;
+  protocol::CullingStats culling{c.tilesOverflowed, c.tileLightsDropped, c.clusterLightsDropped,
+                                 c.listEntries,     c.activeClusters,    c.mostLightsInList};
+  protocol::GpuMemory memory{c.lightBytes, c.listBytes, frame.sceneBytes};
+
+  std::lock_guard lock(mutex_);
+  for (auto it = entries_.begin(); it != entries_.end();) {
+    it = it->second.session.expired() ? entries_.erase(it) : std::next(it);
+  }
+  Entry& entry = entries_[session->id];
+  entry.session = session;
+  entry.frame = std::move(stats);
+  entry.culling = culling;
+  entry.gpuMemory = memory;
+  ++entry.frames;
+}
+
+protocol::Stats FrameStatsBook::statsOf(const Session& session, uint64_t lightCount,
+                                        bool animated) const {
+  protocol::Stats stats;
+  stats.lightCount = lightCount;
+  stats.lightsAnimated = animated;
+  std::lock_guard lock(mutex_);
+  auto it = entries_.find(session.id);
+  // A session id is never reused, so an entry under this id belongs to this session.
+  if (it != entries_.end()) {
+    stats.frame = it->second.frame;
+    stats.culling = it->second.culling;
+    stats.gpuMemory = it->second.gpuMemory;
+    stats.frames = it->second.frames;
+  }
+  return stats;
+}
+
+SessionFrame renderSessionFrame(const SessionFrameContext& context, const SessionPtr& session,
+                                const FrameRequest& request) {
+  render::FrameSettings settings = request.settings;
+  render::SceneId sceneId = 0;
+  SessionFrame result;
+  {
+    std::lock_guard lock(session->mutex);
+    if (session->closed) throw ProblemError(notFoundDetail("Session " + session->id + " is gone."));
+    const SessionSettings& s = session->settings;
+    settings.camera = session->camera;
+    settings.sun = s.sun;
+    settings.ambient = s.ambient;
+    settings.background = s.background;
+    settings.exposure = s.exposure;
+    settings.markers = s.markers;
+    settings.technique = s.technique;
+    // An explicit time shows the lights where the animation has them then, animating or not.
+    settings.animate = s.animate || request.time.has_value();
+    settings.time = request.time.value_or(s.animate ? session->animationSeconds() : 0.0);
+    sceneId = static_cast<render::SceneId>(session->sceneId);
+    result.version = session->version;
+    result.animated = s.animate;
+  }
+
+  const auto start = std::chrono::steady_clock::now();
+  std::future<render::Frame> pending = context.renderThread.submit(sceneId, settings);
+  render::Frame frame;
+  try {
+    frame = pending.get();
+  } catch (const std::exception&) {
+    // A session deleted while its frame waited takes its scene with it: that is a 404, not a
+    // renderer failure.
+    std::lock_guard lock(session->mutex);
+    if (session->closed) throw ProblemError(notFoundDetail("Session " + session->id + " is gone."));
+    throw;
+  }
+  FrameRequest encoded = request;
+  encoded.settings = settings;
+  result.encoded = encodeFrame(frame, encoded);
+  context.metrics.observeFrame(
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
+  context.stats.record(session, frame, settings.target, result.encoded.encodeMs);
+  return result;
+}
+
+}  // namespace myriad::service

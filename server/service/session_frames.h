@@ -1,0 +1,78 @@
+// One frame of a session, rendered from the session's state at the moment of the call and encoded
+// as the request asks: the path GET .../frame and every part of GET .../stream share. Also the
+// per-session record behind GET .../stats. Workers call this; it never touches Vulkan.
+#pragma once
+
+#include <cstdint>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "protocol/types.h"
+#include "render/frame.h"
+#include "service/frame_query.h"
+#include "service/metrics.h"
+#include "service/render_thread.h"
+#include "service/session.h"
+
+namespace myriad::service {
+
+// A frame's bytes as they go on the wire, with the headers that describe them.
+struct EncodedFrame {
+  std::string body;
+  std::string contentType;
+  double encodeMs = 0.0;
+  // Server-Timing, X-Myriad-Technique, and for raw frames X-Myriad-Width/Height/Channels/Target.
+  std::vector<std::pair<std::string, std::string>> headers;
+};
+
+// Encodes `frame` (rendered with request.settings) as request.format. Throws
+// std::invalid_argument or an encoder's error when the frame does not match its settings.
+EncodedFrame encodeFrame(const render::Frame& frame, const FrameRequest& request);
+
+// The last frame of every open session, for GET .../stats. Thread-safe.
+class FrameStatsBook {
+ public:
+  void record(const SessionPtr& session, const render::Frame& frame, render::Target target,
+              double encodeMs);
+
+  // The stats body; the light count and animation flag come from the session's current state.
+  protocol::Stats statsOf(const Session& session, uint64_t lightCount, bool animated) const;
+
+ private:
+  struct Entry {
+    std::weak_ptr<Session> session;  // entries of sessions gone are dropped on the next record
+    protocol::FrameStats frame;
+    protocol::CullingStats culling;
+    protocol::GpuMemory gpuMemory;
+    uint64_t frames = 0;
+  };
+  mutable std::mutex mutex_;
+  std::map<std::string, Entry, std::less<>> entries_;
+};
+
+// A session frame as delivered: the encoded bytes and what it showed.
+struct SessionFrame {
+  EncodedFrame encoded;
+  uint64_t version = 0;  // the session version the frame shows
+  bool animated = false;  // the lights were animated (the next frame will differ)
+};
+
+// What SessionFrames needs from the rest of the server.
+struct SessionFrameContext {
+  RenderThread& renderThread;
+  FrameStatsBook& stats;
+  Metrics& metrics;
+};
+
+// Takes the session's camera, settings and scene (under its mutex), renders on the render thread,
+// waits, encodes, and records the frame in stats and metrics. `request.time` overrides the
+// session's animation clock. Throws RenderQueueFullError (queue full), ProblemError 404 when the
+// session closed meanwhile, and whatever the renderer or encoder threw.
+SessionFrame renderSessionFrame(const SessionFrameContext& context, const SessionPtr& session,
+                                const FrameRequest& request);
+
+}  // namespace myriad::service

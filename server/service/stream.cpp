@@ -1,0 +1,162 @@
+#include "service/stream.h"
+
+#include <algorithm>
+#include <cstdio>
+#include <utility>
+
+namespace myriad::service {
+namespace {
+
+// How long a stream waits before retrying when the render queue is full: short enough to keep
+// the picture live, long enough not to hammer the queue while other requests drain it.
+constexpr std::chrono::milliseconds kQueueFullRetry{50};
+
+// Everything one stream carries from part to part. Used only by the worker serving the stream.
+struct StreamState {
+  SessionFrameContext context;
+  StreamRegistry& registry;
+  std::unique_ptr<StreamRegistry::Slot> slot;
+  SessionPtr session;
+  FrameRequest request;
+  Clock::duration interval;  // 1 / fps
+
+  bool hasFrame = false;
+  uint64_t shownVersion = 0;  // the session version of the last frame
+  uint64_t sequence = 0;      // X-Myriad-Frame of the last frame (re-sends keep it)
+  std::string image;          // the last frame, for idle re-sends
+  std::string contentType;
+  bool wroteAny = false;
+  Clock::time_point nextFrameAt{};   // the fps limit: no new frame before this
+  Clock::time_point lastWriteAt{};
+
+  bool writePart(httplib::DataSink& sink) {
+    std::string part = multipartPart(contentType, image, sequence, !wroteAny);
+    wroteAny = true;
+    lastWriteAt = Clock::now();
+    {
+      // Someone watching a stream is using the session, even without other requests: it must
+      // not expire under them.
+      std::lock_guard lock(session->mutex);
+      session->lastUsed = lastWriteAt;
+    }
+    return sink.write(part.data(), part.size());
+  }
+
+  // One provider call: waits for something to send, sends one part, returns. False ends the
+  // response (after done() when it ends cleanly) and closes the connection.
+  bool next(httplib::DataSink& sink);
+};
+
+bool StreamState::next(httplib::DataSink& sink) {
+  for (;;) {
+    bool closed = false;
+    bool animate = false;
+    uint64_t version = 0;
+    {
+      std::lock_guard lock(session->mutex);
+      closed = session->closed;
+      animate = session->settings.animate;
+      version = session->version;
+    }
+    if (closed || registry.stopping()) {
+      // The terminating chunk, then close: the client sees a complete body and end of file.
+      sink.done();
+      return false;
+    }
+
+    const Clock::time_point now = Clock::now();
+    const bool wantFrame = !hasFrame || version != shownVersion || animate;
+    if (wantFrame && now >= nextFrameAt) {
+      SessionFrame frame;
+      try {
+        frame = renderSessionFrame(context, session, request);
+      } catch (const RenderQueueFullError&) {
+        nextFrameAt = now + kQueueFullRetry;
+        continue;
+      } catch (const ProblemError&) {
+        sink.done();  // the session closed while the frame rendered
+        return false;
+      } catch (const std::exception& e) {
+        std::fprintf(stderr, "myriad-server: stream of %s ended: frame failed: %s\n",
+                     session->id.c_str(), e.what());
+        sink.done();
+        return false;
+      }
+      nextFrameAt = now + interval;
+      hasFrame = true;
+      shownVersion = frame.version;
+      ++sequence;
+      image = std::move(frame.encoded.body);
+      contentType = std::move(frame.encoded.contentType);
+      return writePart(sink);
+    }
+    if (hasFrame && now - lastWriteAt >= kIdleResend) return writePart(sink);
+
+    // Nothing to send yet: sleep until the fps limit allows the wanted frame, the re-send is due,
+    // or the session changes or closes (or shutdown notifies), whichever comes first.
+    Clock::time_point deadline = hasFrame ? lastWriteAt + kIdleResend : now + kIdleResend;
+    if (wantFrame) deadline = std::min(deadline, nextFrameAt);
+    std::unique_lock lock(session->mutex);
+    session->changed.wait_until(lock, deadline, [&] {
+      return session->closed || registry.stopping() || session->version != version;
+    });
+  }
+}
+
+}  // namespace
+
+StreamRegistry::Slot::Slot(StreamRegistry& registry, SessionPtr session)
+    : registry_(registry), session_(std::move(session)) {}
+
+StreamRegistry::Slot::~Slot() {
+  std::lock_guard lock(registry_.mutex_);
+  registry_.open_.erase(registry_.open_.find(session_));
+}
+
+std::unique_ptr<StreamRegistry::Slot> StreamRegistry::open(SessionPtr session) {
+  std::lock_guard lock(mutex_);
+  if (stopping_ || open_.size() >= maxStreams_) return nullptr;
+  open_.insert(session);
+  return std::make_unique<Slot>(*this, std::move(session));
+}
+
+uint32_t StreamRegistry::count() const {
+  std::lock_guard lock(mutex_);
+  return static_cast<uint32_t>(open_.size());
+}
+
+void StreamRegistry::shutdown() {
+  std::lock_guard lock(mutex_);
+  stopping_ = true;
+  // Taking each session's mutex after setting the flag means a stream is either before its
+  // predicate check (and sees the flag) or already waiting (and gets the notification).
+  for (const SessionPtr& session : open_) {
+    { std::lock_guard sessionLock(session->mutex); }
+    session->changed.notify_all();
+  }
+}
+
+std::string multipartPart(std::string_view contentType, std::string_view image, uint64_t sequence,
+                          bool first) {
+  std::string part;
+  part.reserve(image.size() + 160);
+  if (first) part.append("--").append(kStreamBoundary).append("\r\n");
+  part.append("Content-Type: ").append(contentType).append("\r\n");
+  part.append("Content-Length: ").append(std::to_string(image.size())).append("\r\n");
+  part.append("X-Myriad-Frame: ").append(std::to_string(sequence)).append("\r\n\r\n");
+  part.append(image);
+  part.append("\r\n--").append(kStreamBoundary).append("\r\n");
+  return part;
+}
+
+httplib::ContentProviderWithoutLength makeStreamProvider(const SessionFrameContext& context,
+                                                         StreamRegistry& registry,
+                                                         std::unique_ptr<StreamRegistry::Slot> slot,
+                                                         SessionPtr session, FrameRequest request) {
+  auto state = std::make_shared<StreamState>(StreamState{
+      context, registry, std::move(slot), std::move(session), request,
+      std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(1.0 / request.fps))});
+  return [state](size_t /*offset*/, httplib::DataSink& sink) { return state->next(sink); };
+}
+
+}  // namespace myriad::service

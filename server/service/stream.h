@@ -1,0 +1,81 @@
+// GET /v1/sessions/{id}/stream: a multipart/x-mixed-replace response that carries a new frame
+// whenever the session changes (or continuously while its lights animate), at most `fps` a second.
+//
+// One frame at a time per stream: the next frame is rendered from the session's newest state only
+// after the previous part was written, so a slow client sees fewer, newer frames and nothing
+// queues. While nothing changes the last part is re-sent every kIdleResend, which keeps proxies
+// from timing the connection out and tells a client that just connected what the scene looks like.
+// A stream ends when the client goes away (a write fails), the session closes (deleted or
+// expired), or the server shuts down (StreamRegistry::shutdown wakes every waiting stream).
+#pragma once
+
+#include <httplib.h>
+
+#include <atomic>
+#include <chrono>
+#include <cstdint>
+#include <memory>
+#include <mutex>
+#include <set>
+#include <string>
+#include <string_view>
+
+#include "service/frame_query.h"
+#include "service/session.h"
+#include "service/session_frames.h"
+
+namespace myriad::service {
+
+inline constexpr std::string_view kStreamBoundary = "myriad-frame";
+inline constexpr std::string_view kStreamContentType =
+    "multipart/x-mixed-replace; boundary=myriad-frame";
+inline constexpr std::chrono::seconds kIdleResend{2};
+
+// The open streams: the maxStreams limit, the myriad_streams gauge, and shutdown.
+class StreamRegistry {
+ public:
+  explicit StreamRegistry(uint32_t maxStreams) : maxStreams_(maxStreams) {}
+
+  // Held by an open stream; releases its place when destroyed.
+  class Slot {
+   public:
+    Slot(StreamRegistry& registry, SessionPtr session);
+    ~Slot();
+    Slot(const Slot&) = delete;
+    Slot& operator=(const Slot&) = delete;
+
+   private:
+    StreamRegistry& registry_;
+    SessionPtr session_;
+  };
+
+  // A place for a stream of `session`, or null when maxStreams streams are open or the server is
+  // shutting down.
+  std::unique_ptr<Slot> open(SessionPtr session);
+
+  uint32_t maxStreams() const { return maxStreams_; }
+  uint32_t count() const;
+  bool stopping() const { return stopping_.load(); }
+
+  // Every stream ends after the part it is writing; new ones are refused. Idempotent.
+  void shutdown();
+
+ private:
+  const uint32_t maxStreams_;
+  mutable std::mutex mutex_;
+  std::multiset<SessionPtr> open_;  // one entry per open stream, so shutdown can wake them
+  std::atomic<bool> stopping_{false};
+};
+
+// The chunked content provider of one stream. `slot` is held until the response is destroyed.
+httplib::ContentProviderWithoutLength makeStreamProvider(const SessionFrameContext& context,
+                                                         StreamRegistry& registry,
+                                                         std::unique_ptr<StreamRegistry::Slot> slot,
+                                                         SessionPtr session, FrameRequest request);
+
+// One part's bytes: headers, image, CRLF and the next boundary line (browsers show a part once the
+// boundary after it arrives). The first part of a stream also carries the opening boundary line.
+std::string multipartPart(std::string_view contentType, std::string_view image, uint64_t sequence,
+                          bool first);
+
+}  // namespace myriad::service
