@@ -2,8 +2,14 @@
 
 namespace myriad::render {
 
+namespace {
+// Blocks sized to small frames: a 64 MiB default block per memory type would make a 320x180
+// frame hold 128 MiB. An image larger than a block gets a block of its own size.
+constexpr VkDeviceSize kTargetBlockSize = 4ull << 20;
+}  // namespace
+
 FrameTargets::FrameTargets(gpu::Context& context, VkExtent2D size, bool rawOutput)
-    : extent(size), raw(rawOutput), arena(context) {
+    : extent(size), raw(rawOutput), arena(context, kTargetBlockSize) {
   const VkImageUsageFlags gbufferUsage =
       VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_SAMPLED_BIT;
   depth = arena.createImage2D(extent, kDepthFormat,

@@ -21,6 +21,9 @@ constexpr uint32_t kMinimumListCapacity = 1u << 18;
 // views, so 32 per grid cluster leaves 650-800 per active one: 2 MiB at 1080p, 8 MiB at 4K.
 constexpr uint32_t kReferencesPerCluster = 32;
 
+// The grid's buffers are a few MiB at most sizes; the 64 MiB default block would be mostly waste.
+constexpr VkDeviceSize kGridBlockSize = 4ull << 20;
+
 }  // namespace
 
 LightGridSize lightGridSize(VkExtent2D extent, uint32_t lightCount, uint64_t maxStorageBytes) {
@@ -35,7 +38,8 @@ LightGridSize lightGridSize(VkExtent2D extent, uint32_t lightCount, uint64_t max
   return size;
 }
 
-LightGrid::LightGrid(gpu::Context& context, const LightGridSize& s) : size(s), arena(context) {
+LightGrid::LightGrid(gpu::Context& context, const LightGridSize& s)
+    : size(s), arena(context, kGridBlockSize) {
   const VkBufferUsageFlags storage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT;
   ranges = arena.createBuffer(VkDeviceSize(size.clusterCount()) * 8, storage, gpu::MemoryUse::DeviceLocal);
   cursors = arena.createBuffer(VkDeviceSize(size.clusterCount()) * 4,

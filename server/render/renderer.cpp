@@ -58,6 +58,7 @@ struct Renderer::State {
   std::unique_ptr<FrameTargets> targets;
   std::unique_ptr<LightGrid> grid;
   uint64_t listLimitBytes = 0;     // limitListMemory(); 0 = the device's limit
+  uint32_t listStartCapacity = 0;  // limitListMemory(); 0 = lightGridSize()'s
   uint32_t grownListCapacity = 0;  // what overflowing lists grew to (kept for later frames)
 
   SceneBuffers& scene(SceneId id);
@@ -161,6 +162,7 @@ void Renderer::State::ensureTargets(VkExtent2D extent, bool raw, uint32_t lightC
   }
   const uint64_t mostReferences = maxListBytes() / sizeof(uint32_t);
   LightGridSize size = lightGridSize(extent, lightCount, maxListBytes());
+  if (listStartCapacity > 0) size.listCapacity = listStartCapacity;
   size.listCapacity = static_cast<uint32_t>(
       std::min<uint64_t>(std::max(size.listCapacity, grownListCapacity), mostReferences));
   if (!grid || !(grid->size == size)) {
@@ -293,8 +295,10 @@ uint64_t Renderer::gpuMemoryBytes() const {
   return total;
 }
 
-void Renderer::limitListMemory(uint64_t bytes) {
+void Renderer::limitListMemory(uint64_t bytes, uint64_t startBytes) {
   state_->listLimitBytes = bytes;
+  state_->listStartCapacity = static_cast<uint32_t>(
+      std::min<uint64_t>(startBytes / sizeof(uint32_t), UINT32_MAX));
   state_->grownListCapacity = 0;
 }
 

@@ -54,9 +54,11 @@ class Renderer {
   // The largest width or height render() accepts on this device.
   uint32_t maxDimension() const;
 
-  // Caps the clustered light lists at `bytes` (0: the device's maxStorageBufferRange, the
-  // default). For tests: makes overflow and growth reachable at small sizes.
-  void limitListMemory(uint64_t bytes);
+  // For tests: caps the clustered light lists at `bytes` (0: the device's maxStorageBufferRange,
+  // the default), and starts them at `startBytes` (0: sized from the output and the light count,
+  // at least 2^18 references) so that overflow and growth are reachable at small sizes. Forgets
+  // what the lists grew to.
+  void limitListMemory(uint64_t bytes, uint64_t startBytes = 0);
 
  private:
   struct State;

@@ -1,6 +1,7 @@
 #include "service/render_thread.h"
 
 #include <memory>
+#include <type_traits>
 #include <utility>
 
 namespace myriad::service {
@@ -53,15 +54,21 @@ template <typename T, typename Work>
 std::future<T> RenderThread::enqueueWork(bool frame, Work work) {
   auto promise = std::make_shared<std::promise<T>>();
   std::future<T> result = promise->get_future();
-  enqueue(Task{frame, [promise, work = std::move(work)](render::Renderer& renderer) mutable {
+  // gpuMemoryBytes() is refreshed before the promise is kept, so a caller whose future is ready
+  // (a session deleted, say) already reads the memory it freed.
+  enqueue(Task{frame, [this, promise, work = std::move(work)](render::Renderer& renderer) mutable {
                  try {
                    if constexpr (std::is_void_v<T>) {
                      work(renderer);
+                     gpuMemoryBytes_ = renderer.gpuMemoryBytes();
                      promise->set_value();
                    } else {
-                     promise->set_value(work(renderer));
+                     T value = work(renderer);
+                     gpuMemoryBytes_ = renderer.gpuMemoryBytes();
+                     promise->set_value(std::move(value));
                    }
                  } catch (...) {
+                   gpuMemoryBytes_ = renderer.gpuMemoryBytes();
                    promise->set_exception(std::current_exception());
                  }
                }});
@@ -152,7 +159,6 @@ void RenderThread::run(const gpu::ContextOptions& options, const scene::Scene& s
       }
     }
     task.run(*renderer);  // fulfils its promise, exception or not
-    gpuMemoryBytes_ = renderer->gpuMemoryBytes();
     std::lock_guard lock(mutex_);
     renderingFrame_ = false;
   }

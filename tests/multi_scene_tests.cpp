@@ -1,0 +1,447 @@
+// Several scenes on one renderer (one per session): each renders its own content; edits of lights
+// and materials upload in place and change the image as the C++ reference predicts; destroying a
+// scene frees its memory; sun, ambient and background come with the frame; overflowing cluster
+// lists grow. On lavapipe with validation on; any validation message fails.
+#include <doctest/doctest.h>
+
+#include <cmath>
+#include <memory>
+
+#include <glm/gtc/matrix_transform.hpp>
+
+#include "gpu/context.h"
+#include "render/reference.h"
+#include "render/renderer.h"
+#include "scene/light_generator.h"
+#include "scene/primitives.h"
+
+using namespace myriad;
+
+namespace {
+
+struct Gpu {
+  std::unique_ptr<gpu::Context> context;
+  std::unique_ptr<render::Renderer> renderer;
+};
+
+Gpu& sharedGpu() {
+  static Gpu gpu = [] {
+    Gpu g;
+    g.context = gpu::createContext({.validation = true, .device = ""});
+    g.renderer = std::make_unique<render::Renderer>(*g.context);
+    return g;
+  }();
+  return gpu;
+}
+
+int maxDifference(const std::vector<uint8_t>& a, const std::vector<uint8_t>& b) {
+  REQUIRE(a.size() == b.size());
+  int worst = 0;
+  for (size_t i = 0; i < a.size(); ++i) worst = std::max(worst, std::abs(int(a[i]) - int(b[i])));
+  return worst;
+}
+
+// Pixels whose colour differs by more than `tolerance` in some channel.
+size_t pixelsOver(const std::vector<uint8_t>& a, const std::vector<uint8_t>& b, int tolerance) {
+  REQUIRE(a.size() == b.size());
+  size_t over = 0;
+  for (size_t p = 0; p < a.size(); p += 4) {
+    for (int c = 0; c < 3; ++c) {
+      if (std::abs(int(a[p + c]) - int(b[p + c])) > tolerance) {
+        ++over;
+        break;
+      }
+    }
+  }
+  return over;
+}
+
+scene::Scene floorScene(glm::vec3 colour) {
+  scene::Scene s;
+  s.meshes.push_back(scene::makePlane(4.0f));
+  s.materials.push_back({"floor", colour, 0.0f, 0.6f});
+  s.instances.push_back({0, 0, glm::scale(glm::mat4(1.0f), glm::vec3(40.0f, 1.0f, 40.0f))});
+  s.sun.direction = glm::normalize(glm::vec3(-0.3f, -1.0f, -0.2f));
+  s.sun.intensity = 0.4f;
+  s.ambient = glm::vec3(0.02f);
+  return s;
+}
+
+// A warm floor lit by two lights.
+scene::Scene sceneA() {
+  scene::Scene s = floorScene(glm::vec3(0.6f, 0.4f, 0.3f));
+  s.lights = {{glm::vec3(-1.0f, 0.5f, 0.0f), 2.5f, glm::vec3(1.0f, 0.3f, 0.1f), 6.0f, 1.0f},
+              {glm::vec3(1.5f, 0.3f, -1.0f), 1.5f, glm::vec3(0.2f, 0.5f, 1.0f), 8.0f, 4.0f}};
+  return s;
+}
+
+// A cool floor with a block on it, three other lights and a brighter, lower sun: nothing in
+// common with A but the floor mesh.
+scene::Scene sceneB() {
+  scene::Scene s = floorScene(glm::vec3(0.3f, 0.45f, 0.6f));
+  s.meshes.push_back(scene::makeCube());
+  s.materials.push_back({"block", glm::vec3(0.9f, 0.8f, 0.2f), 0.7f, 0.3f});
+  s.instances.push_back({1, 1, glm::translate(glm::mat4(1.0f), glm::vec3(0.5f, 0.5f, -0.5f))});
+  s.lights = {{glm::vec3(0.0f, 0.4f, 1.0f), 2.0f, glm::vec3(0.2f, 1.0f, 0.3f), 5.0f, 1.0f},
+              {glm::vec3(-2.0f, 1.0f, -2.0f), 3.0f, glm::vec3(1.0f, 1.0f, 1.0f), 3.0f, 0.5f},
+              {glm::vec3(2.0f, 0.2f, 1.5f), 1.2f, glm::vec3(1.0f, 0.0f, 1.0f), 9.0f, 2.0f}};
+  s.sun.direction = glm::normalize(glm::vec3(0.6f, -0.5f, 0.1f));
+  s.sun.intensity = 1.2f;
+  s.sun.color = glm::vec3(1.0f, 0.7f, 0.5f);
+  s.ambient = glm::vec3(0.05f, 0.04f, 0.03f);
+  s.background = glm::vec3(0.1f, 0.2f, 0.4f);
+  return s;
+}
+
+render::FrameSettings settingsFor(const scene::Scene& s, render::Technique technique =
+                                                             render::Technique::Clustered) {
+  render::FrameSettings f;
+  f.width = 64;
+  f.height = 48;
+  f.camera.eye = glm::vec3(0.0f, 3.0f, 5.0f);
+  f.camera.target = glm::vec3(0.0f, 0.0f, -1.0f);
+  f.camera.fovYDegrees = 60.0f;
+  f.camera.nearPlane = 0.1f;
+  f.camera.farPlane = 100.0f;
+  f.markers = false;
+  f.technique = technique;
+  f.takeLightingFrom(s);
+  return f;
+}
+
+// Scene B's block has silhouettes: pixel centres on an edge may fall either way (see
+// gpu_image_tests.cpp), so up to 0.5% of pixels may differ more than 2/255.
+void checkMatchesReference(const render::Frame& frame, const scene::Scene& s,
+                           const render::FrameSettings& f) {
+  std::vector<uint8_t> reference = render::renderReference(s, f);
+  size_t over = pixelsOver(frame.rgba, reference, 2);
+  MESSAGE("vs reference: max difference " << maxDifference(frame.rgba, reference) << "/255, "
+                                          << over << " pixels over 2");
+  CHECK(over <= frame.rgba.size() / 4 / 200);
+}
+
+scene::PointLight light(glm::vec3 position, float radius, glm::vec3 colour, float intensity) {
+  return {position, radius, colour, intensity, 1.0f};
+}
+
+}  // namespace
+
+TEST_CASE("two scenes render their own content side by side") {
+  Gpu& gpu = sharedGpu();
+  render::Renderer& r = *gpu.renderer;
+  const scene::Scene a = sceneA(), b = sceneB();
+  render::SceneId idA = r.createScene(a);
+  render::Frame aAlone = r.render(idA, settingsFor(a));  // before B exists
+
+  render::SceneId idB = r.createScene(b);
+  CHECK(idB != idA);
+  CHECK(r.lightCount(idA) == 2);
+  CHECK(r.lightCount(idB) == 3);
+  // Interleaved, as sessions' frames arrive.
+  for (int round = 0; round < 2; ++round) {
+    render::Frame fa = r.render(idA, settingsFor(a));
+    render::Frame fb = r.render(idB, settingsFor(b));
+    CAPTURE(round);
+    CHECK(fa.rgba == aAlone.rgba);  // B's presence changes nothing of A
+    CHECK(fa.lightCount == 2);
+    CHECK(fb.lightCount == 3);
+    CHECK(fa.sceneBytes == r.sceneBytes(idA));
+    CHECK(fb.sceneBytes == r.sceneBytes(idB));
+    checkMatchesReference(fa, a, settingsFor(a));
+    checkMatchesReference(fb, b, settingsFor(b));
+    // The two images have little in common: most pixels differ clearly.
+    CHECK(pixelsOver(fa.rgba, fb.rgba, 10) > fa.rgba.size() / 4 * 3 / 4);
+  }
+  // Every technique draws the scene asked for.
+  for (render::Technique t : {render::Technique::Volumes, render::Technique::Tiled}) {
+    checkMatchesReference(r.render(idB, settingsFor(b, t)), b, settingsFor(b, t));
+  }
+  r.destroyScene(idA);
+  r.destroyScene(idB);
+  CHECK(gpu.context->validationMessages.load() == 0);
+}
+
+TEST_CASE("destroyScene frees the scene's memory at once and leaves the others rendering") {
+  Gpu& gpu = sharedGpu();
+  render::Renderer& r = *gpu.renderer;
+  const scene::Scene a = sceneA();
+  render::SceneId idA = r.createScene(a);
+  render::Frame before = r.render(idA, settingsFor(a));
+
+  scene::Scene big = sceneB();
+  scene::LightGeneration g;
+  g.count = 200000;
+  g.bounds.min = glm::vec3(-10.0f, 0.1f, -10.0f);
+  g.bounds.max = glm::vec3(10.0f, 1.0f, 10.0f);
+  big.lights = scene::generateLights(g);
+  const uint64_t withoutBig = r.gpuMemoryBytes();
+  render::SceneId idBig = r.createScene(big);
+  const uint64_t withBig = r.gpuMemoryBytes();
+  const uint64_t bigBytes = r.sceneBytes(idBig);
+  MESSAGE("renderer " << withoutBig / 1024 << " KiB, + a 200,000-light scene of " << bigBytes / 1024
+                      << " KiB");
+  CHECK(bigBytes >= 2 * 200000 * 32);  // current positions and origins
+  CHECK(withBig - withoutBig == bigBytes);
+
+  r.destroyScene(idBig);
+  CHECK(r.gpuMemoryBytes() == withoutBig);
+  CHECK_FALSE(r.hasScene(idBig));
+  CHECK_THROWS_AS(r.render(idBig, settingsFor(big)), std::invalid_argument);
+  CHECK_THROWS_AS(r.destroyScene(idBig), std::invalid_argument);
+  CHECK_THROWS_AS(r.updateLights(idBig, {}), std::invalid_argument);
+  CHECK_THROWS_AS(r.replaceScene(idBig, a), std::invalid_argument);
+  CHECK(r.render(idA, settingsFor(a)).rgba == before.rgba);
+
+  // A new scene never gets a destroyed scene's id.
+  render::SceneId next = r.createScene(a);
+  CHECK(next != idBig);
+  CHECK(next != idA);
+  r.destroyScene(next);
+  r.destroyScene(idA);
+  CHECK(gpu.context->validationMessages.load() == 0);
+}
+
+TEST_CASE("updating one light changes the image as the reference predicts") {
+  Gpu& gpu = sharedGpu();
+  render::Renderer& r = *gpu.renderer;
+  scene::Scene s = sceneA();
+  s.lights.push_back(light(glm::vec3(0.0f, 0.3f, 2.0f), 1.0f, glm::vec3(1.0f), 4.0f));
+  render::SceneId id = r.createScene(s);
+  render::Frame before = r.render(id, settingsFor(s));
+  checkMatchesReference(before, s, settingsFor(s));
+
+  // Light 1 moves next to the camera's view centre, turns green and brighter.
+  s.lights[1] = light(glm::vec3(0.3f, 0.4f, -0.5f), 2.0f, glm::vec3(0.1f, 1.0f, 0.2f), 10.0f);
+  r.updateLights(id, {3, {{1, s.lights[1]}}});
+  CHECK(r.lightCount(id) == 3);
+  render::Frame after = r.render(id, settingsFor(s));
+  checkMatchesReference(after, s, settingsFor(s));
+  CHECK(pixelsOver(before.rgba, after.rgba, 8) > 50);
+
+  // Removing light 0 of 3: the last moves into its slot and the count drops.
+  s.lights[0] = s.lights[2];
+  s.lights.pop_back();
+  r.updateLights(id, {2, {{0, s.lights[0]}}});
+  checkMatchesReference(r.render(id, settingsFor(s)), s, settingsFor(s));
+
+  // Several writes of one index: the last wins.
+  s.lights[0].color = glm::vec3(1.0f, 0.0f, 0.0f);
+  scene::PointLight overwritten = s.lights[0];
+  overwritten.color = glm::vec3(0.0f, 0.0f, 1.0f);
+  r.updateLights(id, {2, {{0, overwritten}, {0, s.lights[0]}}});
+  checkMatchesReference(r.render(id, settingsFor(s)), s, settingsFor(s));
+  r.destroyScene(id);
+  CHECK(gpu.context->validationMessages.load() == 0);
+}
+
+TEST_CASE("an edit after animated frames applies to the lights' origins too") {
+  Gpu& gpu = sharedGpu();
+  render::Renderer& r = *gpu.renderer;
+  scene::Scene s = sceneA();
+  render::SceneId id = r.createScene(s);
+  render::FrameSettings animated = settingsFor(s);
+  animated.animate = true;
+  animated.time = 1.3;
+  render::Frame moving = r.render(id, animated);
+  CHECK(moving.lightCount == 2);
+  s.lights[0] = light(glm::vec3(0.5f, 0.3f, 0.5f), 3.0f, glm::vec3(0.9f, 0.9f, 0.1f), 7.0f);
+  r.updateLights(id, {2, {{0, s.lights[0]}}});
+  // A still frame puts every light back at its origin: light 0's new one, light 1's old one.
+  checkMatchesReference(r.render(id, settingsFor(s)), s, settingsFor(s));
+  r.destroyScene(id);
+  CHECK(gpu.context->validationMessages.load() == 0);
+}
+
+TEST_CASE("lights grow past the buffers' capacity, shrink, and bad updates change nothing") {
+  Gpu& gpu = sharedGpu();
+  render::Renderer& r = *gpu.renderer;
+  scene::Scene s = sceneA();  // the buffers start exactly full: 2 lights
+  render::SceneId id = r.createScene(s);
+  const uint64_t startBytes = r.sceneBytes(id);
+
+  scene::LightGeneration g;
+  g.count = 400;
+  g.seed = 5;
+  g.bounds.min = glm::vec3(-6.0f, 0.05f, -8.0f);
+  g.bounds.max = glm::vec3(6.0f, 0.8f, 3.0f);
+  g.minRadius = 0.3f;
+  g.maxRadius = 1.2f;
+  const std::vector<scene::PointLight> extra = scene::generateLights(g);
+  // Appended in uneven batches, as POST .../lights requests would: 2 -> 3 -> 70 -> 402.
+  size_t added = 0;
+  for (size_t batch : {size_t(1), size_t(67), size_t(332)}) {
+    render::LightUpdate update;
+    update.count = uint32_t(s.lights.size() + batch);
+    for (size_t i = 0; i < batch; ++i) {
+      update.writes.push_back({uint32_t(s.lights.size() + i), extra[added + i]});
+    }
+    for (size_t i = 0; i < batch; ++i) s.lights.push_back(extra[added + i]);
+    added += batch;
+    r.updateLights(id, update);
+    CHECK(r.lightCount(id) == s.lights.size());
+  }
+  MESSAGE("scene bytes: " << startBytes << " with 2 lights, " << r.sceneBytes(id) << " with 402");
+  CHECK(r.sceneBytes(id) >= startBytes);
+  for (render::Technique t : {render::Technique::Clustered, render::Technique::Volumes}) {
+    render::Frame frame = r.render(id, settingsFor(s, t));
+    CHECK(frame.lightCount == 402);
+    checkMatchesReference(frame, s, settingsFor(s, t));
+  }
+
+  // Shrinking needs no writes: the first 10 stay.
+  s.lights.resize(10);
+  r.updateLights(id, {10, {}});
+  render::Frame ten = r.render(id, settingsFor(s));
+  checkMatchesReference(ten, s, settingsFor(s));
+
+  // A new slot left unwritten, or a write past the count: refused, nothing changes.
+  CHECK_THROWS_WITH_AS(r.updateLights(id, {12, {{10, extra[0]}}}),
+                       "new light 11 (of 12) is not written", std::invalid_argument);
+  CHECK_THROWS_WITH_AS(r.updateLights(id, {10, {{10, extra[0]}}}),
+                       "light write at index 10 is past the new light count 10",
+                       std::invalid_argument);
+  CHECK(r.lightCount(id) == 10);
+  CHECK(r.render(id, settingsFor(s)).rgba == ten.rgba);
+
+  // Growing from an empty scene.
+  scene::Scene empty = sceneB();
+  empty.lights.clear();
+  render::SceneId emptyId = r.createScene(empty);
+  CHECK(r.lightCount(emptyId) == 0);
+  empty.lights = {extra[3]};
+  r.updateLights(emptyId, {1, {{0, extra[3]}}});
+  checkMatchesReference(r.render(emptyId, settingsFor(empty)), empty, settingsFor(empty));
+  r.destroyScene(emptyId);
+  r.destroyScene(id);
+  CHECK(gpu.context->validationMessages.load() == 0);
+}
+
+TEST_CASE("updateMaterials changes exactly the material's pixels") {
+  Gpu& gpu = sharedGpu();
+  render::Renderer& r = *gpu.renderer;
+  scene::Scene s = sceneB();
+  render::SceneId id = r.createScene(s);
+  render::Frame before = r.render(id, settingsFor(s));
+
+  // The block turns red and rough; the floor is untouched.
+  s.materials[1].baseColor = glm::vec3(0.9f, 0.05f, 0.05f);
+  s.materials[1].metallic = 0.0f;
+  s.materials[1].roughness = 0.9f;
+  r.updateMaterials(id, {{1, s.materials[1]}});
+  render::Frame after = r.render(id, settingsFor(s));
+  checkMatchesReference(after, s, settingsFor(s));
+  size_t changed = pixelsOver(before.rgba, after.rgba, 8);
+  MESSAGE(changed << " of " << after.rgba.size() / 4 << " pixels changed");
+  CHECK(changed > 30);                            // the block's pixels
+  CHECK(changed < after.rgba.size() / 4 / 2);     // not the floor's
+
+  CHECK_THROWS_WITH_AS(r.updateMaterials(id, {{2, s.materials[0]}}),
+                       "material 2 is past the scene's 2 materials", std::invalid_argument);
+  CHECK(r.render(id, settingsFor(s)).rgba == after.rgba);
+  r.destroyScene(id);
+  CHECK(gpu.context->validationMessages.load() == 0);
+}
+
+TEST_CASE("sun, ambient and background come from the frame settings, not the scene") {
+  Gpu& gpu = sharedGpu();
+  render::Renderer& r = *gpu.renderer;
+  const scene::Scene s = sceneB();
+  render::SceneId id = r.createScene(s);
+  render::FrameSettings authored = settingsFor(s);
+  render::FrameSettings changed = authored;
+  changed.sun.direction = glm::vec3(-0.5f, -0.4f, -0.2f);  // not normalized: the renderer does it
+  changed.sun.intensity = 3.0f;
+  changed.sun.color = glm::vec3(0.6f, 0.8f, 1.0f);
+  changed.ambient = glm::vec3(0.1f, 0.0f, 0.0f);
+  changed.background = glm::vec3(0.0f, 0.5f, 0.0f);
+  render::Frame one = r.render(id, authored);
+  render::Frame two = r.render(id, changed);
+  checkMatchesReference(one, s, authored);
+  checkMatchesReference(two, s, changed);
+  CHECK(pixelsOver(one.rgba, two.rgba, 10) > one.rgba.size() / 4 * 3 / 4);
+  // Back again: nothing of the other settings stayed behind.
+  CHECK(r.render(id, authored).rgba == one.rgba);
+  r.destroyScene(id);
+  CHECK(gpu.context->validationMessages.load() == 0);
+}
+
+TEST_CASE("replaceScene swaps the content under the same id") {
+  Gpu& gpu = sharedGpu();
+  render::Renderer& r = *gpu.renderer;
+  const scene::Scene a = sceneA(), b = sceneB();
+  render::SceneId id = r.createScene(a);
+  render::Frame first = r.render(id, settingsFor(a));
+  r.replaceScene(id, b);
+  CHECK(r.lightCount(id) == 3);
+  checkMatchesReference(r.render(id, settingsFor(b)), b, settingsFor(b));
+  // A broken scene is refused and the old one stays.
+  scene::Scene broken = a;
+  broken.instances[0].material = 7;
+  CHECK_THROWS_AS(r.replaceScene(id, broken), std::invalid_argument);
+  CHECK_THROWS_AS(r.createScene(broken), std::invalid_argument);
+  checkMatchesReference(r.render(id, settingsFor(b)), b, settingsFor(b));
+  r.replaceScene(id, a);
+  CHECK(r.render(id, settingsFor(a)).rgba == first.rgba);
+  r.destroyScene(id);
+  CHECK(gpu.context->validationMessages.load() == 0);
+}
+
+TEST_CASE("overflowing cluster lists are reported at the limit and grow below it") {
+  Gpu& gpu = sharedGpu();
+  render::Renderer& r = *gpu.renderer;
+  // 600 faint lights of radius 60 reach every cluster with geometry: 600 references per active
+  // cluster, far more than 4,096 in all.
+  constexpr uint32_t kLights = 600;
+  scene::Scene s = floorScene(glm::vec3(0.6f));
+  for (uint32_t i = 0; i < kLights; ++i) {
+    s.lights.push_back(light(glm::vec3(0.01f * i - 3.0f, 2.0f, 0.0f), 60.0f, glm::vec3(0.006f), 1.0f));
+  }
+  render::SceneId id = r.createScene(s);
+  render::FrameSettings f = settingsFor(s);
+  f.width = 128;
+  f.height = 80;
+  constexpr uint64_t kSmall = 4096 * sizeof(uint32_t);
+
+  // Lists capped at 4,096 references cannot hold them, nor grow: the overflow is reported.
+  r.limitListMemory(kSmall);
+  render::Frame limited = r.render(id, f);
+  const render::CullingReport& c = limited.culling;
+  const uint64_t needed = uint64_t(c.activeClusters) * kLights;
+  MESSAGE("limited: " << c.activeClusters << " active clusters, " << c.listEntries << " kept, "
+                      << c.clusterLightsDropped << " dropped, capacity " << c.listCapacity);
+  CHECK(c.listCapacity == 4096);
+  CHECK(c.listEntries <= 4096);
+  CHECK(c.clusterLightsDropped == needed - c.listEntries);
+  CHECK(c.overflowed());
+  CHECK_FALSE(c.listsGrew);
+
+  // Starting at 4,096 below the device's limit: the frame overflows, the lists grow to 1.25x what
+  // it needed, and the frame is rendered again, complete.
+  r.limitListMemory(0, kSmall);
+  render::Frame grown = r.render(id, f);
+  const render::CullingReport& g = grown.culling;
+  MESSAGE("grown: " << g.listEntries << " references, capacity " << g.listCapacity << ", "
+                    << g.listBytes << " list bytes");
+  CHECK(g.listsGrew);
+  CHECK_FALSE(g.overflowed());
+  CHECK(g.listEntries == needed);
+  CHECK(g.listCapacity == uint32_t(std::ceil(double(needed) * 1.25)));
+  // Every light is there: the tiled technique (its tile lists hold these 600) agrees.
+  render::FrameSettings tiled = f;
+  tiled.technique = render::Technique::Tiled;
+  render::Frame tiledFrame = r.render(id, tiled);
+  REQUIRE_FALSE(tiledFrame.culling.overflowed());
+  CHECK(maxDifference(grown.rgba, tiledFrame.rgba) <= 1);
+  CHECK(pixelsOver(limited.rgba, grown.rgba, 2) > 0);  // the limited frame really missed lights
+
+  // The next frame keeps the capacity: no overflow, no second render, the same pixels (up to the
+  // order in which a list's lights were summed, which follows the GPU's atomics).
+  render::Frame next = r.render(id, f);
+  CHECK_FALSE(next.culling.overflowed());
+  CHECK_FALSE(next.culling.listsGrew);
+  CHECK(next.culling.listCapacity == g.listCapacity);
+  CHECK(maxDifference(next.rgba, grown.rgba) <= 1);
+  r.limitListMemory(0);
+  r.destroyScene(id);
+  CHECK(gpu.context->validationMessages.load() == 0);
+}
