@@ -489,6 +489,8 @@ void to_json(json& j, const Info& v) {
   j = {{"server", {{"name", v.serverName}, {"version", v.serverVersion}}},
        {"device", v.device},
        {"limits", v.limits},
+       {"sessions", {{"open", v.openSessions}}},
+       {"gpuMemoryBytes", v.gpuMemoryBytes},
        {"validation", {{"enabled", v.validationEnabled}, {"messages", v.validationMessages}}},
        {"scene", v.scene},
        {"targets", v.targets},
@@ -502,6 +504,8 @@ void from_json(const json& j, Info& v) {
   get(j.at("server"), "version", v.serverVersion);
   get(j, "device", v.device);
   get(j, "limits", v.limits);
+  get(j.at("sessions"), "open", v.openSessions);
+  get(j, "gpuMemoryBytes", v.gpuMemoryBytes);
   get(j.at("validation"), "enabled", v.validationEnabled);
   get(j.at("validation"), "messages", v.validationMessages);
   get(j, "scene", v.scene);

@@ -269,6 +269,8 @@ struct Info {
   std::string serverVersion;
   DeviceSummary device;
   Limits limits;
+  uint64_t openSessions = 0;  // "sessions": {"open": N}
+  uint64_t gpuMemoryBytes = 0;
   bool validationEnabled = false;
   uint64_t validationMessages = 0;
   SceneCounts scene;  // the built-in scene of GET /v1/frame
