@@ -15,7 +15,7 @@
 
 #include <nlohmann/json.hpp>
 
-#include "encode/png.h"
+#include "service/api_frames.h"
 #include "service/frame_query.h"
 #include "service/problem.h"
 
@@ -28,9 +28,6 @@ constexpr time_t kKeepAliveSeconds = 2;
 
 // A 4096x4096 frame is tens of MiB of PNG; a slow client must still be able to take it.
 constexpr time_t kWriteTimeoutSeconds = 30;
-
-// What a 503 suggests; a frame on lavapipe takes from tens of milliseconds to a few seconds.
-constexpr const char* kRetryAfterSeconds = "1";
 
 // Problems for the statuses httplib produces itself, before any handler runs.
 Problem problemForStatus(int status, const httplib::Request& req, const ApiLimits& limits) {
@@ -83,13 +80,12 @@ nlohmann::json deviceJson(const gpu::DeviceInfo& d) {
 struct HttpServer::State {
   HttpConfig config;
   RenderThread& renderThread;
-  FrameDefaults frameDefaults;
-  render::FrameSettings sceneLighting;  // the built-in scene's sun, ambient and background
   SceneSummary scene;
   httplib::Server server;
   SessionManager sessions;
   ApiContext api;
   Routes routes;
+  FrameServices frames;  // frames, streams, stats, metrics
 
   // The hand-shake between stop() and serve(); see stop().
   std::atomic<bool> stopRequested{false};
@@ -102,7 +98,8 @@ struct HttpServer::State {
         sessions(c.api.limits.maxSessions, std::chrono::seconds(c.api.limits.sessionIdleSeconds),
                  [&r](Session& session) { releaseScene(r, session); }),
         api{c.api, r, sessions, c.models, {}},
-        routes(server, api) {}
+        routes(server, api),
+        frames(c.api.limits.maxStreams) {}
 
   // A closed session's GPU scene, destroyed before the DELETE (or expiry) finishes.
   static void releaseScene(RenderThread& renderThread, Session& session) {
@@ -117,7 +114,6 @@ struct HttpServer::State {
   }
 
   void handleInfo(httplib::Response& res) const;
-  void handleFrame(const httplib::Request& req, httplib::Response& res) const;
 };
 
 void HttpServer::State::handleInfo(httplib::Response& res) const {
@@ -148,63 +144,13 @@ void HttpServer::State::handleInfo(httplib::Response& res) const {
                   "application/json");
 }
 
-void HttpServer::State::handleFrame(const httplib::Request& req, httplib::Response& res) const {
-  render::FrameSettings settings;
-  try {
-    settings = parseFrameQuery(req.params, frameDefaults);
-    settings.sun = sceneLighting.sun;
-    settings.ambient = sceneLighting.ambient;
-    settings.background = sceneLighting.background;
-  } catch (const FrameQueryError& e) {
-    sendProblem(res, e.unknownParameter() ? unknownParameter(e.parameter(), e.what())
-                                          : invalidParameter(e.parameter(), e.what()));
-    return;
-  }
-
-  std::future<render::Frame> pending;
-  try {
-    pending = renderThread.submit(settings);
-  } catch (const RenderQueueFullError& e) {
-    res.set_header("Retry-After", kRetryAfterSeconds);
-    sendProblem(res, serverBusy(std::string("The renderer is busy: ") + e.what() + "."));
-    return;
-  }
-
-  render::Frame frame;
-  try {
-    frame = pending.get();
-  } catch (const std::exception& e) {
-    std::fprintf(stderr, "myriad-server: frame failed: %s\n", e.what());
-    sendProblem(res, renderFailed(std::string("The renderer failed: ") + e.what()));
-    return;
-  }
-
-  // Encoding here, on the worker, keeps the render thread free for the next frame.
-  auto start = std::chrono::steady_clock::now();
-  std::vector<uint8_t> png = encode::encodePng(frame.width, frame.height, frame.rgba);
-  double encodeMs =
-      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
-
-  const bool culled = frame.technique != render::Technique::Volumes;
-  res.set_header("Server-Timing",
-                 formatServerTiming(frame.passes, encodeMs, culled ? &frame.culling : nullptr));
-  res.set_header("X-Myriad-Technique", std::string(render::techniqueName(frame.technique)));
-  if (frame.culling.overflowed()) {
-    std::fprintf(stderr, "myriad-server: WARNING: light lists overflowed, lights are missing from "
-                         "this frame: %s\n", describeCulling(frame.culling).c_str());
-  }
-  // Frames depend on server state that can change between identical URLs.
-  res.set_header("Cache-Control", "no-store");
-  res.set_content(reinterpret_cast<const char*>(png.data()), png.size(), "image/png");
-}
-
 HttpServer::HttpServer(const HttpConfig& config, RenderThread& renderThread,
                        const scene::Scene& scene)
     : state_(std::make_unique<State>(config, renderThread)) {
   State& s = *state_;
-  s.sceneLighting.takeLightingFrom(scene);
-  s.frameDefaults = FrameDefaults{scene.camera, scene.bounds(), config.maxResolution,
-                                 config.technique};
+  s.frames.builtinLighting.takeLightingFrom(scene);
+  s.frames.builtinDefaults = FrameDefaults{scene.camera, scene.bounds(), config.maxResolution,
+                                          config.technique};
   s.scene = SceneSummary{scene.lights.size(), scene.instances.size(), scene.materials.size(),
                          scene.meshes.size()};
 
@@ -259,6 +205,11 @@ HttpServer::HttpServer(const HttpConfig& config, RenderThread& renderThread,
                                        quoteClientText(req.path) + ": " + what));
       });
 
+  // Every response passes here before it is written, whether a handler, the route table or
+  // httplib itself produced it: counted under its route's template.
+  server.set_post_routing_handler([&s](const httplib::Request& req, httplib::Response& res) {
+    s.frames.metrics.countRequest(s.routes.routeOf(req.path, req.method), res.status);
+  });
   server.set_logger(logRequest);
 
   RouteOptions health;
@@ -271,10 +222,8 @@ HttpServer::HttpServer(const HttpConfig& config, RenderThread& renderThread,
       health);
   s.routes.add("GET", "/v1/info",
                [&s](const httplib::Request&, httplib::Response& res) { s.handleInfo(res); });
-  s.routes.add("GET", "/v1/frame", [&s](const httplib::Request& req, httplib::Response& res) {
-    s.handleFrame(req, res);
-  });
   addSessionApi(s.routes, s.api);
+  addFrameRoutes(s.routes, s.api, s.frames);
 }
 
 HttpServer::~HttpServer() = default;
@@ -310,7 +259,8 @@ void HttpServer::stop() {
   // serve() checks stopRequested after announcing itself, and this checks serveEntered after
   // setting stopRequested (both sequentially consistent), so at least one side sees the other.
   // Streams wait on their session; closing every session ends them, so shutdown does not wait
-  // on a client that never disconnects.
+  // on a client that never disconnects. The registry refuses streams that arrive after this.
+  s.frames.streams.shutdown();
   s.sessions.closeAll();
   if (!s.serveEntered) return;
   // httplib's stop() does nothing until listen has marked itself running; wait for that (or for
