@@ -419,7 +419,7 @@ TEST_CASE("api: request bodies are checked against the schemas, naming the membe
       {"PATCH", "/settings", "{", ""},
       {"PATCH", "/settings", "[]", ""},
       // Camera: missing, wrong type, out of range, unknown member, cross-member rules.
-      {"PUT", "/camera", R"({"eye":[0,1,2],"target":[0,0,0],"up":[0,1,0],"fovY":50,"near":0.1})", ""},
+      {"PUT", "/camera", R"({"eye":[0,1,2],"target":[0,0,0],"up":[0,1,0],"fovY":50,"near":0.1})", "/far"},
       {"PUT", "/camera", R"({"eye":[0,1,"x"],"target":[0,0,0],"up":[0,1,0],"fovY":50,"near":0.1,"far":9})", "/eye/2"},
       {"PATCH", "/camera", R"({"fovY": 180})", "/fovY"},
       {"PATCH", "/camera", R"({"fovY": 0.5})", "/fovY"},
@@ -445,14 +445,14 @@ TEST_CASE("api: request bodies are checked against the schemas, naming the membe
       {"PATCH", "/materials/0", R"({"name": "x"})", "/name"},
       // Lights.
       {"POST", "/lights", R"({"lights": []})", "/lights"},
-      {"POST", "/lights", R"({})", ""},
+      {"POST", "/lights", R"({})", "/lights"},
       {"POST", "/lights", R"({"lights": [{"position": [0,0,0], "radius": 0, "color": [1,1,1], "intensity": 1, "falloff": 1}]})", "/lights/0/radius"},
-      {"POST", "/lights", R"({"lights": [{"position": [0,0,0], "radius": 1, "color": [1,1,1], "intensity": 1}]})", "/lights/0"},
+      {"POST", "/lights", R"({"lights": [{"position": [0,0,0], "radius": 1, "color": [1,1,1], "intensity": 1}]})", "/lights/0/falloff"},
       {"POST", "/lights", R"({"lights": [{"id": 3, "position": [0,0,0], "radius": 1, "color": [1,1,1], "intensity": 1, "falloff": 1}]})", "/lights/0/id"},
       {"PATCH", light, R"({"intensity": 10001})", "/intensity"},
       {"PATCH", light, R"({"color": [2, 0, 0]})", "/color/0"},
       {"PATCH", light, R"({"id": 9})", "/id"},
-      {"POST", "/lights/generate", R"({"seed": 1})", ""},
+      {"POST", "/lights/generate", R"({"seed": 1})", "/count"},
       {"POST", "/lights/generate", R"({"count": 0, "seed": 1})", "/count"},
       {"POST", "/lights/generate", R"({"count": 1, "seed": -1})", "/seed"},
       {"POST", "/lights/generate", R"({"count": 1, "seed": 1, "radius": [2, 1]})", "/radius/1"},
@@ -460,7 +460,7 @@ TEST_CASE("api: request bodies are checked against the schemas, naming the membe
       {"POST", "/lights/generate", R"({"count": 1, "seed": 1, "replace": "yes"})", "/replace"},
       // Model and session creation.
       {"PUT", "/model", R"({"source": "http://example.com/a.glb"})", "/source"},
-      {"PUT", "/model", R"({})", ""},
+      {"PUT", "/model", R"({})", "/source"},
   };
   for (const Case& c : cases) {
     const std::string path = c.suffix.starts_with("/v1/") ? c.suffix : s.path() + c.suffix;
@@ -629,8 +629,10 @@ TEST_CASE("api: every invalid and glTF2 test file uploaded in turn: 200 or 422, 
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   MESSAGE(files.size(), " files: ", accepted, " loaded, ", rejected, " rejected, in ", seconds,
           " s");
-  CHECK(accepted > 10);
-  CHECK(rejected > 10);
+  // Most glTF2 samples are .gltf files naming a .bin beside them (an upload is one file: rejected),
+  // or the images and buffers themselves; the self-contained .glb files load.
+  CHECK(accepted >= 5);
+  CHECK(rejected >= 50);
   // The session still works and the GPU saw no invalid use.
   CHECK(api.put(s.path() + "/model", R"({"source":"builtin:default"})", s.token).status == 200);
   CHECK(myriad::test::validationMessages(api) == 0);
