@@ -158,6 +158,13 @@ TEST_CASE("myriad drives a real server from session new to session delete") {
   CHECK(afterLoad["model"]["source"] == "upload:spider.obj");
   CHECK(afterLoad["model"]["meshes"].get<int>() > 0);
 
+  // A file that is no model: the loader process refuses it, the session keeps its model.
+  const fs::path garbage = dir / "garbage.glb";
+  std::ofstream(garbage) << "glTF but not really";
+  checkOneLineError(myriad({"load", garbage.string()}), "(422 model-rejected)");
+  CHECK(jsonOf(myriad({"session", "show", "--json"}))["model"]["source"] == "upload:spider.obj");
+  checkOneLineError(myriad({"load", (dir / "missing.obj").string()}), "missing.obj");
+
   // Camera: patch some members, read them back.
   CliResult camera = myriad({"camera", "frame"});
   CHECK(camera.exitCode == 0);
@@ -260,6 +267,10 @@ TEST_CASE("myriad drives a real server from session new to session delete") {
     CHECK(jpegSize(readFile(frames / name)) == std::make_pair(96, 64));
   }
   CHECK_FALSE(fs::exists(frames / "frame-0003.jpg"));
+  checkOneLineError(myriad({"stream", "--target", "nonsense", "--frames", "1", "-o",
+                            (dir / "no-frames").string()}),
+                    "(400 invalid-parameter)");
+  CHECK_FALSE(fs::exists(dir / "no-frames"));
 
   json stats = jsonOf(myriad({"stats", "--json"}));
   CHECK(stats["frames"].get<int>() >= 4);
@@ -302,5 +313,42 @@ TEST_CASE("myriad drives a real server from session new to session delete") {
   REQUIRE(exit.has_value());
   CHECK(exit->cleanExit());
   INFO("server stderr: ", server.stderrText().substr(0, 2000));
+  fs::remove_all(dir);
+}
+
+TEST_CASE("session new with the server's API key: flag, environment, and the 401 without") {
+  ServerProcess server({"--api-key", "sesame-0123"});
+  REQUIRE(server.start() == ServerProcess::Start::Listening);
+  char pattern[] = "/tmp/myriad-cli-key-XXXXXX";
+  REQUIRE(mkdtemp(pattern) != nullptr);
+  const fs::path dir = pattern;
+  const std::string sessionFile = (dir / "session").string();
+  std::map<std::string, std::string> env = {
+      {"MYRIAD_SERVER", server.url()}, {"MYRIAD_SESSION", ""}, {"MYRIAD_API_KEY", ""}};
+
+  CliResult refused = runCli({"--session-file", sessionFile, "session", "new"}, env);
+  checkOneLineError(refused, "(401 unauthorized)");
+  CHECK_FALSE(fs::exists(sessionFile));
+  checkOneLineError(
+      runCli({"--session-file", sessionFile, "session", "new", "--api-key", "wrong"}, env),
+      "(401 unauthorized)");
+
+  CliResult withFlag =
+      runCli({"--session-file", sessionFile, "session", "new", "--api-key", "sesame-0123"}, env);
+  CHECK(withFlag.exitCode == 0);
+  CHECK(fs::exists(sessionFile));
+  // The key only creates sessions; the session's own token does the rest.
+  CHECK(runCli({"--session-file", sessionFile, "session", "show"}, env).exitCode == 0);
+  CHECK(runCli({"--session-file", sessionFile, "session", "delete"}, env).exitCode == 0);
+
+  env["MYRIAD_API_KEY"] = "sesame-0123";
+  CliResult fromEnv = runCli({"session", "new", "--print-env"}, env);
+  CHECK(fromEnv.exitCode == 0);
+  CHECK(fromEnv.out.starts_with("export MYRIAD_SESSION=s-"));
+
+  CHECK(json::parse(runCli({"info", "--json"}, env).out)["apiKeyRequired"] == true);
+  auto exit = server.stop();
+  REQUIRE(exit.has_value());
+  CHECK(exit->cleanExit());
   fs::remove_all(dir);
 }
