@@ -99,8 +99,9 @@ void requireSameScene(const scene::Scene& a, const scene::Scene& b) {
   CHECK(a.camera.target == b.camera.target);
 }
 
-const std::set<std::string> kReasons = {"parse",     "crash",      "timeout",    "memory",
-                                        "empty",     "too-large",  "unsupported"};
+// What a file can be refused for ("busy" and "internal" are about the server, never expected here).
+const std::set<std::string> kReasons = {"parse", "crash",     "timeout",    "memory",
+                                        "empty", "too-large", "unsupported"};
 
 }  // namespace
 
@@ -567,4 +568,34 @@ TEST_CASE("loader: what the process costs (median of 5, printed)") {
                 name.c_str(), child * 1e3, here * 1e3);
     CHECK(child > 0.0);
   }
+}
+
+TEST_CASE("loader: loads beyond maxConcurrentLoads wait for a turn, then are busy") {
+  const std::string obj = readFile(kModels / "OBJ/spider.obj");
+  const unsigned capacity = loader::maxConcurrentLoads();
+  CHECK(capacity >= 2);
+  LoadLimits hang;
+  hang.fault = InjectedFault::hang;
+  hang.wallSeconds = 4;
+  std::atomic<unsigned> timeouts{0};
+  std::vector<std::thread> threads;
+  for (unsigned i = 0; i < capacity; ++i) {
+    threads.emplace_back([&] {
+      if (rejection(obj, "spider.obj", hang) == "timeout") ++timeouts;
+    });
+  }
+  std::this_thread::sleep_for(std::chrono::milliseconds(800));  // every slot is taken by now
+  LoadLimits impatient;
+  impatient.wallSeconds = 1;
+  auto start = Clock::now();
+  CHECK(rejection(obj, "spider.obj", impatient) == "busy");
+  CHECK(secondsSince(start) >= 0.9);
+  // One that may wait longer gets the first slot freed and loads.
+  start = Clock::now();
+  CHECK(rejection(obj, "spider.obj") == "");
+  std::printf("loader: with %u hung children, a load waited %.2f s for a turn\n", capacity,
+              secondsSince(start));
+  for (std::thread& thread : threads) thread.join();
+  CHECK(timeouts == capacity);
+  CHECK(noChildren());
 }

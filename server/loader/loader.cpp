@@ -11,9 +11,13 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <chrono>
+#include <condition_variable>
 #include <cstring>
+#include <mutex>
+#include <thread>
 #include <vector>
 
 #include "loader/child_protocol.h"
@@ -338,7 +342,9 @@ scene::Scene interpret(const ChildRun& run, const std::string& name, const LoadL
     const std::string reason = kind == Kind::empty         ? "empty"
                                : kind == Kind::unsupported ? "unsupported"
                                                            : "parse";
-    throw ModelRejected(reason, std::string(body.substr(5)));
+    // Assimp's messages may quote the file (any bytes, line breaks included); the sentence goes
+    // into JSON and logs.
+    throw ModelRejected(reason, cleanText(body.substr(5)));
   }
   if (uint8_t(reply[4]) != kReplyScene) throw ModelRejected("crash", garbled + " (bad status).");
   scene::Scene scene;
@@ -353,6 +359,38 @@ scene::Scene interpret(const ChildRun& run, const std::string& name, const LoadL
   return scene;
 }
 
+// Turns to run a child, shared by every thread of the process.
+class ChildSlots {
+ public:
+  explicit ChildSlots(unsigned capacity) : capacity_(capacity) {}
+
+  bool acquire(Clock::time_point deadline) {
+    std::unique_lock lock(mutex_);
+    if (!freed_.wait_until(lock, deadline, [&] { return used_ < capacity_; })) return false;
+    ++used_;
+    return true;
+  }
+  void release() {
+    {
+      const std::lock_guard lock(mutex_);
+      --used_;
+    }
+    freed_.notify_one();
+  }
+  unsigned capacity() const { return capacity_; }
+
+ private:
+  const unsigned capacity_;
+  std::mutex mutex_;
+  std::condition_variable freed_;
+  unsigned used_ = 0;
+};
+
+ChildSlots& childSlots() {
+  static ChildSlots slots(std::clamp(std::thread::hardware_concurrency(), 2u, 8u));
+  return slots;
+}
+
 scene::Scene load(Mode mode, const std::string& nameOrPath, const std::string& shown,
                   std::string_view data, const LoadLimits& limits) {
   RequestHeader header{};
@@ -364,12 +402,28 @@ scene::Scene load(Mode mode, const std::string& nameOrPath, const std::string& s
   header.memoryBytes = limits.memoryBytes;
   header.nameBytes = uint32_t(nameOrPath.size());
   const uint64_t dataBytes = data.size();
+
   const std::vector<std::string_view> request = {
       {reinterpret_cast<const char*>(&header), sizeof header},
       nameOrPath,
       {reinterpret_cast<const char*>(&dataBytes), sizeof dataBytes},
       data};
-  return interpret(runChild(request, limits), shown, limits);
+
+  ChildSlots& slots = childSlots();
+  if (!slots.acquire(Clock::now() + std::chrono::seconds(limits.wallSeconds))) {
+    throw ModelRejected("busy", "The model loader is busy with " +
+                                    std::to_string(slots.capacity()) +
+                                    " other models; try again shortly.");
+  }
+  ChildRun run;
+  try {
+    run = runChild(request, limits);
+  } catch (...) {
+    slots.release();
+    throw;
+  }
+  slots.release();  // before decoding: the slot bounds children, not parents
+  return interpret(run, shown, limits);
 }
 
 }  // namespace
@@ -380,6 +434,8 @@ scene::Scene load(Mode mode, const std::string& nameOrPath, const std::string& s
 __attribute__((constructor)) static void runChildBeforeMain(int argc, char** argv, char**) {
   runChildIfRequested(argc, argv);
 }
+
+unsigned maxConcurrentLoads() { return childSlots().capacity(); }
 
 scene::Scene loadModelBytes(std::string_view bytes, std::string_view filename,
                             const LoadLimits& limits) {

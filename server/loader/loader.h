@@ -34,8 +34,9 @@ struct LoadLimits {
 
 // Why a model was not loaded. what() is one sentence for a 422 problem's `detail`.
 struct ModelRejected : std::runtime_error {
-  // "parse", "crash", "timeout", "memory", "empty", "too-large", "unsupported", "internal"
-  // ("internal": the loader itself could not run, e.g. no processes left; not the file's fault).
+  // About the file: "parse", "crash", "timeout", "memory", "empty", "too-large", "unsupported".
+  // About the server, not the file (a 503 rather than a 422): "busy" (maxConcurrentLoads()
+  // children were running for the whole wall-clock limit), "internal" (no child could be started).
   std::string reason;
 
   ModelRejected(std::string reasonName, const std::string& sentence)
@@ -50,6 +51,11 @@ scene::Scene loadModelBytes(std::string_view bytes, std::string_view filename,
 // Parses a file on disk (a library model). The child opens it, so a .gltf may use the .bin and
 // images beside it (but nothing outside the file's directory).
 scene::Scene loadModelFile(const std::filesystem::path& path, const LoadLimits& limits = {});
+
+// How many loader children run at once, process-wide; more loads wait (up to their wallSeconds)
+// for a turn. Each child may use LoadLimits::memoryBytes, so a burst of uploads must not multiply
+// that by the number of HTTP workers. Between 2 and 8, by the number of CPUs.
+unsigned maxConcurrentLoads();
 
 // Call first thing in main(). In the loader child it does the work and never returns (exits the
 // process); otherwise it returns false at once.

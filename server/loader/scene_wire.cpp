@@ -51,8 +51,9 @@ class Writer {
 
 [[noreturn]] void reject(const std::string& what) { throw SceneWireError(what); }
 
-// Replaces what JSON could not carry: bytes that are not UTF-8, and control characters.
-std::string cleanName(std::string_view raw) {
+}  // namespace
+
+std::string cleanText(std::string_view raw) {
   std::string out;
   out.reserve(raw.size());
   size_t i = 0;
@@ -83,6 +84,8 @@ std::string cleanName(std::string_view raw) {
   }
   return out;
 }
+
+namespace {
 
 class Reader {
  public:
@@ -123,7 +126,7 @@ class Reader {
     const uint32_t length = get<uint32_t>();
     if (length > kMaxWireNameBytes) reject("a name longer than the limit");
     need(length);
-    std::string text = cleanName(bytes_.substr(at_, length));
+    std::string text = cleanText(bytes_.substr(at_, length));
     at_ += length;
     return text;
   }

@@ -34,4 +34,8 @@ scene::Scene decodeScene(std::string_view bytes);
 
 inline constexpr uint32_t kMaxWireNameBytes = 256;
 
+// `text` with every byte sequence that is not UTF-8 replaced by '?' and control characters by
+// spaces: what names and messages from the child become before they reach JSON or a log line.
+std::string cleanText(std::string_view text);
+
 }  // namespace myriad::loader
