@@ -1,0 +1,762 @@
+// Session frames, streams, stats, /metrics and the web client over loopback, against the real
+// myriad-server with validation layers on (every server must end with zero validation messages).
+#include <doctest/doctest.h>
+#include <httplib.h>
+#include <signal.h>
+#include <turbojpeg.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <condition_variable>
+#include <cstring>
+#include <map>
+#include <mutex>
+#include <optional>
+#include <span>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "encode/png.h"
+#include "server_process.h"
+
+using myriad::test::ServerProcess;
+using nlohmann::json;
+using Clock = std::chrono::steady_clock;
+
+namespace {
+
+constexpr time_t kFrameTimeoutSeconds = 300;
+// Small frames: lavapipe with validation renders these in well under a second.
+constexpr int kWidth = 96;
+constexpr int kHeight = 64;
+const std::vector<std::string> kTargets = {"final", "albedo",        "normal",      "position",
+                                           "uv",    "metallic",      "roughness",   "depth",
+                                           "light-volumes", "light-count", "clusters"};
+
+std::unique_ptr<httplib::Client> clientFor(const ServerProcess& server) {
+  auto client = std::make_unique<httplib::Client>(server.host(), server.port());
+  client->set_read_timeout(kFrameTimeoutSeconds, 0);
+  client->set_connection_timeout(10, 0);
+  return client;
+}
+
+std::span<const uint8_t> bytesOf(const std::string& body) {
+  return {reinterpret_cast<const uint8_t*>(body.data()), body.size()};
+}
+
+struct TestSession {
+  std::string id;
+  std::string token;
+  httplib::Headers auth() const { return {{"Authorization", "Bearer " + token}}; }
+};
+
+TestSession createSession(httplib::Client& client) {
+  httplib::Result res = client.Post("/v1/sessions", "{}", "application/json");
+  REQUIRE(res);
+  INFO("body: ", res->body.substr(0, 400));
+  REQUIRE(res->status == 201);
+  json body = json::parse(res->body);
+  return {body["id"].get<std::string>(), body["token"].get<std::string>()};
+}
+
+json getJson(httplib::Client& client, const std::string& path, const httplib::Headers& headers) {
+  httplib::Result res = client.Get(path, headers);
+  REQUIRE(res);
+  INFO(path, " -> ", res->body.substr(0, 400));
+  REQUIRE(res->status == 200);
+  return json::parse(res->body);
+}
+
+void patchJson(httplib::Client& client, const std::string& path, const TestSession& session,
+               const json& body) {
+  httplib::Result res = client.Patch(path, session.auth(), body.dump(), "application/json");
+  REQUIRE(res);
+  INFO(path, " -> ", res->body.substr(0, 400));
+  REQUIRE(res->status == 200);
+}
+
+struct DecodedJpeg {
+  int width = 0;
+  int height = 0;
+  std::vector<uint8_t> rgb;
+};
+
+std::optional<DecodedJpeg> decodeJpeg(std::string_view jpeg) {
+  tjhandle handle = tjInitDecompress();
+  REQUIRE(handle != nullptr);
+  DecodedJpeg out;
+  int subsampling = 0, colorspace = 0;
+  auto* data = reinterpret_cast<const unsigned char*>(jpeg.data());
+  bool ok = tjDecompressHeader3(handle, data, static_cast<unsigned long>(jpeg.size()), &out.width,
+                                &out.height, &subsampling, &colorspace) == 0;
+  if (ok) {
+    out.rgb.resize(size_t(out.width) * out.height * 3);
+    ok = tjDecompress2(handle, data, static_cast<unsigned long>(jpeg.size()), out.rgb.data(),
+                       out.width, 0, out.height, TJPF_RGB, 0) == 0;
+  }
+  tjDestroy(handle);
+  if (!ok) return std::nullopt;
+  return out;
+}
+
+bool hasJpegMarkers(std::string_view jpeg) {
+  return jpeg.size() > 4 && uint8_t(jpeg[0]) == 0xFF && uint8_t(jpeg[1]) == 0xD8 &&
+         uint8_t(jpeg[jpeg.size() - 2]) == 0xFF && uint8_t(jpeg[jpeg.size() - 1]) == 0xD9;
+}
+
+httplib::Params frameParams(const std::string& target, const std::string& format) {
+  return {{"target", target},
+          {"format", format},
+          {"width", std::to_string(kWidth)},
+          {"height", std::to_string(kHeight)}};
+}
+
+httplib::Result sessionFrame(httplib::Client& client, const TestSession& session,
+                             const httplib::Params& params) {
+  return client.Get("/v1/sessions/" + session.id + "/frame", params, session.auth());
+}
+
+// The raw frame's floats, checked against its headers.
+std::vector<float> rawFloats(const httplib::Result& res, size_t channels) {
+  const std::string& body = res->body;
+  REQUIRE(body.size() == size_t(kWidth) * kHeight * channels * sizeof(float));
+  std::vector<float> values(body.size() / sizeof(float));
+  std::memcpy(values.data(), body.data(), body.size());  // little-endian host, as the wire
+  return values;
+}
+
+void checkProblem(const httplib::Result& res, int status, const std::string& type,
+                  const std::string& parameter = "") {
+  REQUIRE(res);
+  INFO("body: ", res->body.substr(0, 400));
+  CHECK(res->status == status);
+  CHECK(res->get_header_value("Content-Type") == "application/problem+json");
+  json body = json::parse(res->body, nullptr, false);
+  REQUIRE_FALSE(body.is_discarded());
+  CHECK(body["type"] == "https://myriad.dev/problems/" + type);
+  CHECK(body["status"] == status);
+  CHECK_FALSE(body["detail"].get<std::string>().empty());
+  if (!parameter.empty()) CHECK(body["parameter"] == parameter);
+}
+
+uint64_t validationMessages(httplib::Client& client) {
+  json info = getJson(client, "/v1/info", {});
+  REQUIRE(info["validation"]["enabled"] == true);
+  return info["validation"]["messages"].get<uint64_t>();
+}
+
+// --- a stream reader -----------------------------------------------------------------------------
+
+struct StreamPart {
+  std::map<std::string, std::string> headers;
+  std::string body;
+  Clock::time_point arrived;
+};
+
+// Reads GET .../stream on its own thread and splits the body into parts, insisting on the exact
+// framing of protocol/CONTRACT.md: "--myriad-frame\r\n" once, then per part the headers, the
+// Content-Length bytes, "\r\n--myriad-frame\r\n".
+class StreamReader {
+ public:
+  StreamReader(const ServerProcess& server, std::string path, httplib::Headers headers)
+      : client_(clientFor(server)) {
+    thread_ = std::thread([this, path = std::move(path), headers = std::move(headers)] {
+      httplib::Result res = client_->Get(
+          path, headers,
+          [this](const httplib::Response& response) {
+            std::lock_guard lock(mutex_);
+            status_ = response.status;
+            contentType_ = response.get_header_value("Content-Type");
+            changed_.notify_all();
+            return true;
+          },
+          [this](const char* data, size_t size) {
+            std::lock_guard lock(mutex_);
+            buffer_.append(data, size);
+            parse();
+            changed_.notify_all();
+            return !stop_;
+          });
+      std::lock_guard lock(mutex_);
+      if (res && status_ == 0) status_ = res->status;
+      if (res && status_ >= 400) errorBody_ = res->body;
+      ended_ = true;
+      changed_.notify_all();
+    });
+  }
+
+  ~StreamReader() {
+    {
+      std::lock_guard lock(mutex_);
+      stop_ = true;
+    }
+    client_->stop();
+    thread_.join();
+  }
+
+  // The parts so far once there are `count` (or the stream ended, or the timeout passed).
+  std::vector<StreamPart> waitForParts(size_t count, std::chrono::seconds timeout) {
+    std::unique_lock lock(mutex_);
+    changed_.wait_for(lock, timeout, [&] { return parts_.size() >= count || ended_; });
+    return parts_;
+  }
+
+  bool waitForEnd(std::chrono::seconds timeout) {
+    std::unique_lock lock(mutex_);
+    return changed_.wait_for(lock, timeout, [&] { return ended_; });
+  }
+
+  int status() {
+    std::unique_lock lock(mutex_);
+    changed_.wait_for(lock, std::chrono::seconds(kFrameTimeoutSeconds),
+                      [&] { return status_ != 0 || ended_; });
+    return status_;
+  }
+  std::string contentType() {
+    std::lock_guard lock(mutex_);
+    return contentType_;
+  }
+  std::string framingError() {
+    std::lock_guard lock(mutex_);
+    return framingError_;
+  }
+  std::string errorBody() {
+    std::lock_guard lock(mutex_);
+    return errorBody_;
+  }
+  // Bytes after the last whole part (a stream that ends cleanly leaves none).
+  size_t leftover() {
+    std::lock_guard lock(mutex_);
+    return buffer_.size() - consumed_;
+  }
+
+ private:
+  static constexpr std::string_view kOpening = "--myriad-frame\r\n";
+  static constexpr std::string_view kClosing = "\r\n--myriad-frame\r\n";
+
+  void parse() {
+    if (!framingError_.empty()) return;
+    if (!opened_) {
+      if (buffer_.size() < kOpening.size()) return;
+      if (buffer_.compare(0, kOpening.size(), kOpening) != 0) {
+        framingError_ = "the body does not start with the boundary line";
+        return;
+      }
+      opened_ = true;
+      consumed_ = kOpening.size();
+    }
+    for (;;) {
+      size_t headerEnd = buffer_.find("\r\n\r\n", consumed_);
+      if (headerEnd == std::string::npos) return;
+      StreamPart part;
+      size_t line = consumed_;
+      while (line < headerEnd) {
+        size_t end = buffer_.find("\r\n", line);
+        std::string text = buffer_.substr(line, end - line);
+        size_t colon = text.find(": ");
+        if (colon == std::string::npos) {
+          framingError_ = "malformed part header line: " + text;
+          return;
+        }
+        part.headers[text.substr(0, colon)] = text.substr(colon + 2);
+        line = end + 2;
+      }
+      if (!part.headers.count("Content-Length")) {
+        framingError_ = "a part without Content-Length";
+        return;
+      }
+      size_t length = std::stoul(part.headers["Content-Length"]);
+      size_t bodyStart = headerEnd + 4;
+      if (buffer_.size() < bodyStart + length + kClosing.size()) return;
+      if (buffer_.compare(bodyStart + length, kClosing.size(), kClosing) != 0) {
+        framingError_ = "Content-Length does not end where the boundary starts";
+        return;
+      }
+      part.body = buffer_.substr(bodyStart, length);
+      part.arrived = Clock::now();
+      parts_.push_back(std::move(part));
+      consumed_ = bodyStart + length + kClosing.size();
+    }
+  }
+
+  std::unique_ptr<httplib::Client> client_;
+  std::thread thread_;
+  std::mutex mutex_;
+  std::condition_variable changed_;
+  std::string buffer_;
+  size_t consumed_ = 0;
+  bool opened_ = false;
+  std::vector<StreamPart> parts_;
+  std::string framingError_;
+  std::string contentType_;
+  std::string errorBody_;
+  int status_ = 0;
+  bool ended_ = false;
+  bool stop_ = false;
+};
+
+std::string streamPath(const TestSession& session, const std::string& query) {
+  return "/v1/sessions/" + session.id + "/stream?" + query;
+}
+
+// Fraction of pixels whose RGB differs by more than JPEG noise.
+double fractionDifferent(const DecodedJpeg& a, const DecodedJpeg& b) {
+  REQUIRE(a.rgb.size() == b.rgb.size());
+  size_t different = 0;
+  for (size_t i = 0; i < a.rgb.size(); i += 3) {
+    for (int c = 0; c < 3; ++c) {
+      if (std::abs(int(a.rgb[i + c]) - int(b.rgb[i + c])) > 8) {
+        ++different;
+        break;
+      }
+    }
+  }
+  return double(different) / double(a.rgb.size() / 3);
+}
+
+// "name;dur=1.5, other;dur=2" -> names present.
+std::map<std::string, double> serverTimings(const std::string& header) {
+  std::map<std::string, double> metrics;
+  size_t start = 0;
+  while (start < header.size()) {
+    size_t end = header.find(", ", start);
+    if (end == std::string::npos) end = header.size();
+    std::string entry = header.substr(start, end - start);
+    size_t dur = entry.find(";dur=");
+    if (dur != std::string::npos) metrics[entry.substr(0, dur)] = std::stod(entry.substr(dur + 5));
+    start = end + 2;
+  }
+  return metrics;
+}
+
+}  // namespace
+
+TEST_CASE("session frames: every target in png, jpeg and raw; depth and normals as promised") {
+  ServerProcess server({"--lights", "64"});
+  REQUIRE(server.start() == ServerProcess::Start::Listening);
+  auto client = clientFor(server);
+  TestSession session = createSession(*client);
+
+  SUBCASE("every target in every format, with the headers of the contract") {
+    const auto started = Clock::now();
+    for (const std::string& target : kTargets) {
+      INFO("target ", target);
+      httplib::Result png = sessionFrame(*client, session, frameParams(target, "png"));
+      REQUIRE(png);
+      INFO("body: ", png->body.substr(0, 300));
+      REQUIRE(png->status == 200);
+      CHECK(png->get_header_value("Content-Type") == "image/png");
+      CHECK(png->get_header_value("Cache-Control") == "no-store");
+      CHECK(png->get_header_value("X-Myriad-Technique") == "clustered");
+      std::map<std::string, double> timings = serverTimings(png->get_header_value("Server-Timing"));
+      CHECK(timings.count("gbuffer") == 1);
+      CHECK(timings.count("readback") == 1);
+      CHECK(timings.count("encode") == 1);
+      CHECK(png->get_header_value("Server-Timing").find("culling;desc=\"dropped 0 light") !=
+            std::string::npos);
+      myriad::encode::DecodedImage image = myriad::encode::decodePng(bytesOf(png->body));
+      CHECK(image.width == kWidth);
+      CHECK(image.height == kHeight);
+
+      httplib::Result jpeg = sessionFrame(*client, session, frameParams(target, "jpeg"));
+      REQUIRE(jpeg);
+      REQUIRE(jpeg->status == 200);
+      CHECK(jpeg->get_header_value("Content-Type") == "image/jpeg");
+      CHECK(hasJpegMarkers(jpeg->body));
+      std::optional<DecodedJpeg> decoded = decodeJpeg(jpeg->body);
+      REQUIRE(decoded);
+      CHECK(decoded->width == kWidth);
+      CHECK(decoded->height == kHeight);
+
+      httplib::Result raw = sessionFrame(*client, session, frameParams(target, "raw"));
+      REQUIRE(raw);
+      REQUIRE(raw->status == 200);
+      CHECK(raw->get_header_value("Content-Type") == "application/octet-stream");
+      CHECK(raw->get_header_value("X-Myriad-Width") == std::to_string(kWidth));
+      CHECK(raw->get_header_value("X-Myriad-Height") == std::to_string(kHeight));
+      CHECK(raw->get_header_value("X-Myriad-Target") == target);
+      const std::string channels = raw->get_header_value("X-Myriad-Channels");
+      REQUIRE_FALSE(channels.empty());
+      const size_t channelCount = size_t(std::count(channels.begin(), channels.end(), ',')) + 1;
+      CHECK(raw->body.size() == size_t(kWidth) * kHeight * channelCount * sizeof(float));
+      for (float v : rawFloats(raw, channelCount)) REQUIRE(std::isfinite(v));
+    }
+    MESSAGE("33 session frames (11 targets x png/jpeg/raw) at ", kWidth, "x", kHeight, " took ",
+            std::chrono::duration<double>(Clock::now() - started).count(), " s");
+  }
+
+  SUBCASE("raw depth is what the PNG depth view shows, in scene units") {
+    json camera = getJson(*client, "/v1/sessions/" + session.id + "/camera", session.auth());
+    const double nearPlane = camera["near"].get<double>();
+    const double farPlane = camera["far"].get<double>();
+    httplib::Result raw = sessionFrame(*client, session, frameParams("depth", "raw"));
+    REQUIRE(raw);
+    REQUIRE(raw->status == 200);
+    CHECK(raw->get_header_value("X-Myriad-Channels") == "depth");
+    std::vector<float> depth = rawFloats(raw, 1);
+    httplib::Result png = sessionFrame(*client, session, frameParams("depth", "png"));
+    REQUIRE(png);
+    REQUIRE(png->status == 200);
+    myriad::encode::DecodedImage gray = myriad::encode::decodePng(bytesOf(png->body));
+
+    // The depth view writes clamp((z - near) / (far - near)) into an 8-bit UNORM channel.
+    size_t surfaces = 0;
+    double worst = 0.0;
+    for (int y = 0; y < kHeight; ++y) {
+      for (int x = 0; x < kWidth; ++x) {
+        const float z = depth[size_t(y) * kWidth + x];
+        REQUIRE(z >= nearPlane * 0.999);
+        REQUIRE(z <= farPlane * 1.001);
+        if (z < farPlane * 0.999) ++surfaces;
+        const double expected =
+            255.0 * std::clamp((z - nearPlane) / (farPlane - nearPlane), 0.0, 1.0);
+        const uint8_t* p = gray.pixel(uint32_t(x), uint32_t(y));
+        worst = std::max(worst, std::abs(double(p[0]) - expected));
+        CHECK(p[0] == p[1]);
+      }
+    }
+    MESSAGE("depth: ", surfaces, " of ", kWidth * kHeight,
+            " pixels hit a surface; largest gray difference ", worst);
+    CHECK(surfaces > size_t(kWidth * kHeight / 4));
+    CHECK(worst <= 1.0);
+  }
+
+  SUBCASE("raw normals are unit vectors wherever there is a surface") {
+    httplib::Result raw = sessionFrame(*client, session, frameParams("normal", "raw"));
+    REQUIRE(raw);
+    REQUIRE(raw->status == 200);
+    CHECK(raw->get_header_value("X-Myriad-Channels") == "x,y,z");
+    std::vector<float> normals = rawFloats(raw, 3);
+    size_t surfaces = 0;
+    double worst = 0.0;
+    for (size_t i = 0; i < normals.size(); i += 3) {
+      double length = std::sqrt(double(normals[i]) * normals[i] +
+                                double(normals[i + 1]) * normals[i + 1] +
+                                double(normals[i + 2]) * normals[i + 2]);
+      if (length == 0.0) continue;  // background
+      ++surfaces;
+      worst = std::max(worst, std::abs(length - 1.0));
+    }
+    MESSAGE("normals: ", surfaces, " surface pixels; largest |length - 1| ", worst);
+    CHECK(surfaces > size_t(kWidth * kHeight / 4));
+    CHECK(worst < 2e-3);
+  }
+
+  SUBCASE("time= moves animated lights; the same time gives the same picture") {
+    auto at = [&](const std::string& time) {
+      httplib::Params params = frameParams("final", "png");
+      params.emplace("time", time);
+      httplib::Result res = sessionFrame(*client, session, params);
+      REQUIRE(res);
+      REQUIRE(res->status == 200);
+      return res->body;
+    };
+    const std::string a = at("1.5");
+    CHECK(at("1.5") == a);
+    CHECK(at("4.25") != a);
+  }
+
+  SUBCASE("bad queries are problems naming the parameter") {
+    auto frame = [&](httplib::Params params) { return sessionFrame(*client, session, params); };
+    checkProblem(frame({{"format", "gif"}}), 400, "invalid-parameter", "format");
+    checkProblem(frame({{"quality", "0"}}), 400, "invalid-parameter", "quality");
+    checkProblem(frame({{"quality", "101"}}), 400, "invalid-parameter", "quality");
+    checkProblem(frame({{"time", "-1"}}), 400, "invalid-parameter", "time");
+    checkProblem(frame({{"width", "0"}}), 400, "invalid-parameter", "width");
+    checkProblem(frame({{"target", "bogus"}}), 400, "invalid-parameter", "target");
+    checkProblem(frame({{"eye", "1,2,3"}}), 400, "unknown-parameter", "eye");
+    checkProblem(frame({{"format", "png"}, {"format", "jpeg"}}), 400, "invalid-parameter",
+                 "format");
+    checkProblem(client->Get("/v1/sessions/" + session.id + "/frame"), 401, "unauthorized");
+    checkProblem(client->Get("/v1/sessions/s-0000000000000000/frame", session.auth()), 404,
+                 "not-found");
+  }
+
+  SUBCASE("the token may come in the query (for <img>)") {
+    httplib::Result res = client->Get("/v1/sessions/" + session.id + "/frame?width=32&height=16" +
+                                      "&format=jpeg&token=" + session.token);
+    REQUIRE(res);
+    CHECK(res->status == 200);
+    CHECK(hasJpegMarkers(res->body));
+  }
+
+  CHECK(validationMessages(*client) == 0);
+}
+
+TEST_CASE("GET /v1/frame: format and quality") {
+  ServerProcess server({"--lights", "16"});
+  REQUIRE(server.start() == ServerProcess::Start::Listening);
+  auto client = clientFor(server);
+  auto get = [&](httplib::Params params) {
+    return client->Get("/v1/frame", params, httplib::Headers{});
+  };
+
+  httplib::Result low = get({{"width", "80"}, {"height", "60"}, {"format", "jpeg"}, {"quality", "10"}});
+  httplib::Result high = get({{"width", "80"}, {"height", "60"}, {"format", "jpeg"}, {"quality", "95"}});
+  REQUIRE(low);
+  REQUIRE(high);
+  REQUIRE(low->status == 200);
+  REQUIRE(high->status == 200);
+  CHECK(low->get_header_value("Content-Type") == "image/jpeg");
+  CHECK(low->body.size() < high->body.size());
+  std::optional<DecodedJpeg> decoded = decodeJpeg(high->body);
+  REQUIRE(decoded);
+  CHECK(decoded->width == 80);
+  CHECK(decoded->height == 60);
+
+  httplib::Result raw = get({{"width", "40"}, {"height", "30"}, {"format", "raw"}, {"target", "uv"}});
+  REQUIRE(raw);
+  REQUIRE(raw->status == 200);
+  CHECK(raw->get_header_value("X-Myriad-Channels") == "u,v");
+  CHECK(raw->body.size() == 40u * 30u * 2u * sizeof(float));
+
+  httplib::Result png = get({{"width", "40"}, {"height", "30"}});
+  REQUIRE(png);
+  CHECK(png->get_header_value("Content-Type") == "image/png");
+
+  checkProblem(get({{"format", "webp"}}), 400, "invalid-parameter", "format");
+  checkProblem(get({{"quality", "x"}}), 400, "invalid-parameter", "quality");
+  CHECK(validationMessages(*client) == 0);
+}
+
+TEST_CASE("streams: animated parts, idle re-sends, the end on DELETE, limits, stats, metrics") {
+  ServerProcess server({"--lights", "64", "--max-streams", "2"});
+  REQUIRE(server.start() == ServerProcess::Start::Listening);
+  auto client = clientFor(server);
+  TestSession session = createSession(*client);
+  const std::string sessionPath = "/v1/sessions/" + session.id;
+
+  // Before any frame: no frame, no culling, the session's lights.
+  json before = getJson(*client, sessionPath + "/stats", session.auth());
+  CHECK(before["frame"].is_null());
+  CHECK(before["culling"].is_null());
+  CHECK(before["frames"] == 0);
+  CHECK(before["lights"]["count"] == 64);
+  CHECK(before["lights"]["animated"] == false);
+
+  const std::string query = "format=jpeg&fps=8&width=" + std::to_string(kWidth) +
+                            "&height=" + std::to_string(kHeight);
+
+  SUBCASE("idle: the last part again every 2 s, a new one at once after a change") {
+    StreamReader reader(server, streamPath(session, query), session.auth());
+    REQUIRE(reader.status() == 200);
+    CHECK(reader.contentType() == "multipart/x-mixed-replace; boundary=myriad-frame");
+    std::vector<StreamPart> parts = reader.waitForParts(3, std::chrono::seconds(60));
+    INFO("framing: ", reader.framingError());
+    REQUIRE(parts.size() == 3);
+    for (const StreamPart& part : parts) {
+      CHECK(part.headers.at("Content-Type") == "image/jpeg");
+      CHECK(part.body == parts[0].body);  // nothing changed: the same frame re-sent
+      CHECK(part.headers.at("X-Myriad-Frame") == "1");
+    }
+    const double gap = std::chrono::duration<double>(parts[2].arrived - parts[1].arrived).count();
+    MESSAGE("idle re-send gap ", gap, " s");
+    CHECK(gap > 1.5);
+    CHECK(gap < 3.5);
+
+    const auto changed = Clock::now();
+    patchJson(*client, sessionPath + "/camera", session, {{"fovY", 30.0}});
+    parts = reader.waitForParts(4, std::chrono::seconds(60));
+    REQUIRE(parts.size() == 4);
+    CHECK(parts[3].headers.at("X-Myriad-Frame") == "2");
+    CHECK(parts[3].body != parts[0].body);
+    const double latency = std::chrono::duration<double>(parts[3].arrived - changed).count();
+    MESSAGE("change to new part: ", latency, " s");
+    CHECK(latency < 1.9);  // not the idle re-send
+  }
+
+  SUBCASE("animated lights: parts differ, stats and metrics follow, DELETE ends the stream") {
+    patchJson(*client, sessionPath + "/settings", session, {{"animate", true}});
+    StreamReader reader(server, streamPath(session, query + "&token=" + session.token), {});
+    REQUIRE(reader.status() == 200);
+    std::vector<StreamPart> parts = reader.waitForParts(4, std::chrono::seconds(120));
+    INFO("framing: ", reader.framingError());
+    REQUIRE(parts.size() >= 4);
+    std::vector<DecodedJpeg> images;
+    for (size_t i = 0; i < parts.size(); ++i) {
+      const StreamPart& part = parts[i];
+      CHECK(part.headers.at("Content-Type") == "image/jpeg");
+      CHECK(std::stoul(part.headers.at("Content-Length")) == part.body.size());
+      CHECK(part.headers.at("X-Myriad-Frame") == std::to_string(i + 1));
+      CHECK(hasJpegMarkers(part.body));
+      std::optional<DecodedJpeg> image = decodeJpeg(part.body);
+      REQUIRE(image);
+      CHECK(image->width == kWidth);
+      CHECK(image->height == kHeight);
+      images.push_back(std::move(*image));
+    }
+    double largest = 0.0;
+    for (size_t i = 1; i < images.size(); ++i) {
+      largest = std::max(largest, fractionDifferent(images[i - 1], images[i]));
+    }
+    MESSAGE("animated stream: largest change between consecutive parts ", largest * 100.0, "%");
+    CHECK(largest > 0.001);
+    // At most fps: 8 per second.
+    const double span =
+        std::chrono::duration<double>(parts.back().arrived - parts.front().arrived).count();
+    CHECK(span >= double(parts.size() - 1) / 8.0 * 0.8);
+
+    json stats = getJson(*client, sessionPath + "/stats", session.auth());
+    CHECK(stats["frames"].get<uint64_t>() >= parts.size());
+    CHECK(stats["lights"]["animated"] == true);
+    REQUIRE(stats["frame"].is_object());
+    CHECK(stats["frame"]["width"] == kWidth);
+    CHECK(stats["frame"]["height"] == kHeight);
+    CHECK(stats["frame"]["target"] == "final");
+    CHECK(stats["frame"]["technique"] == "clustered");
+    CHECK(stats["frame"]["passes"].size() >= 4);
+    CHECK(stats["frame"]["totalGpuMs"].get<double>() > 0.0);
+    CHECK(stats["culling"]["clusterLightsDropped"] == 0);
+    CHECK(stats["gpuMemory"]["sceneBytes"].get<uint64_t>() > 0);
+    CHECK(stats["gpuMemory"]["lightBytes"].get<uint64_t>() >= 64u * 16u);
+
+    httplib::Result metrics = client->Get("/metrics");
+    REQUIRE(metrics);
+    REQUIRE(metrics->status == 200);
+    CHECK(metrics->get_header_value("Content-Type").starts_with("text/plain; version=0.0.4"));
+    CHECK(metrics->body.find("myriad_streams 1\n") != std::string::npos);
+    CHECK(metrics->body.find("myriad_sessions 1\n") != std::string::npos);
+
+    const auto deleted = Clock::now();
+    httplib::Result gone = client->Delete(sessionPath, session.auth());
+    REQUIRE(gone);
+    CHECK(gone->status == 204);
+    REQUIRE(reader.waitForEnd(std::chrono::seconds(30)));
+    MESSAGE("stream ended ", std::chrono::duration<double>(Clock::now() - deleted).count(),
+            " s after DELETE");
+    CHECK(reader.framingError().empty());
+    CHECK(reader.leftover() == 0);
+  }
+
+  SUBCASE("over --max-streams: 429 with limit maxStreams") {
+    StreamReader first(server, streamPath(session, query), session.auth());
+    StreamReader second(server, streamPath(session, query), session.auth());
+    REQUIRE(first.status() == 200);
+    REQUIRE(second.status() == 200);
+    httplib::Result third = client->Get(streamPath(session, query), session.auth());
+    checkProblem(third, 429, "limit-exceeded");
+    CHECK(json::parse(third->body)["limit"] == "maxStreams");
+    CHECK(third->has_header("Retry-After"));
+  }
+
+  SUBCASE("bad stream queries") {
+    checkProblem(client->Get(streamPath(session, "format=raw"), session.auth()), 400,
+                 "invalid-parameter", "format");
+    checkProblem(client->Get(streamPath(session, "fps=0"), session.auth()), 400,
+                 "invalid-parameter", "fps");
+    checkProblem(client->Get(streamPath(session, "fps=61"), session.auth()), 400,
+                 "invalid-parameter", "fps");
+    checkProblem(client->Get(streamPath(session, "time=1"), session.auth()), 400,
+                 "unknown-parameter", "time");
+  }
+
+  CHECK(validationMessages(*client) == 0);
+}
+
+TEST_CASE("/metrics counts responses by route template") {
+  ServerProcess server({"--lights", "16"});
+  REQUIRE(server.start() == ServerProcess::Start::Listening);
+  auto client = clientFor(server);
+  TestSession session = createSession(*client);
+  for (int i = 0; i < 3; ++i) {
+    httplib::Result res = sessionFrame(*client, session, frameParams("final", "jpeg"));
+    REQUIRE(res);
+    REQUIRE(res->status == 200);
+  }
+  checkProblem(sessionFrame(*client, session, {{"format", "tiff"}}), 400, "invalid-parameter");
+  checkProblem(client->Get("/no/such/path"), 404, "not-found");
+
+  httplib::Result res = client->Get("/metrics");
+  REQUIRE(res);
+  REQUIRE(res->status == 200);
+  const std::string& text = res->body;
+  INFO(text);
+  CHECK(text.find("# TYPE myriad_http_requests_total counter") != std::string::npos);
+  CHECK(text.find("myriad_http_requests_total{route=\"/v1/sessions/{id}/frame\",status=\"200\"} "
+                  "3\n") != std::string::npos);
+  CHECK(text.find("myriad_http_requests_total{route=\"/v1/sessions/{id}/frame\",status=\"400\"} "
+                  "1\n") != std::string::npos);
+  CHECK(text.find("myriad_http_requests_total{route=\"/v1/sessions\",status=\"201\"} 1\n") !=
+        std::string::npos);
+  CHECK(text.find("myriad_http_requests_total{route=\"unmatched\",status=\"404\"} 1\n") !=
+        std::string::npos);
+  CHECK(text.find(session.id) == std::string::npos);  // templates, never raw paths
+  CHECK(text.find("# TYPE myriad_frame_seconds histogram") != std::string::npos);
+  CHECK(text.find("myriad_frame_seconds_bucket{le=\"+Inf\"} 3\n") != std::string::npos);
+  CHECK(text.find("myriad_frame_seconds_count 3\n") != std::string::npos);
+  CHECK(text.find("myriad_sessions 1\n") != std::string::npos);
+  CHECK(text.find("myriad_streams 0\n") != std::string::npos);
+  CHECK(text.find("myriad_validation_messages_total 0\n") != std::string::npos);
+  size_t gpu = text.find("\nmyriad_gpu_memory_bytes ");
+  REQUIRE(gpu != std::string::npos);
+  CHECK(std::stoull(text.substr(gpu + 25)) > 0);
+
+  // Every sample line is "name{labels} value" or "name value" with a number.
+  size_t start = 0;
+  while (start < text.size()) {
+    size_t end = text.find('\n', start);
+    REQUIRE(end != std::string::npos);  // the exposition ends with a newline
+    std::string line = text.substr(start, end - start);
+    start = end + 1;
+    if (line.starts_with("#")) continue;
+    size_t space = line.rfind(' ');
+    REQUIRE(space != std::string::npos);
+    CHECK(line.starts_with("myriad_"));
+    char* parsedEnd = nullptr;
+    std::string value = line.substr(space + 1);
+    std::strtod(value.c_str(), &parsedEnd);
+    CHECK(parsedEnd == value.c_str() + value.size());
+  }
+
+  // The scrape itself was counted for the next one.
+  httplib::Result again = client->Get("/metrics");
+  REQUIRE(again);
+  CHECK(again->body.find("myriad_http_requests_total{route=\"/metrics\",status=\"200\"} 1\n") !=
+        std::string::npos);
+}
+
+TEST_CASE("the web client is served from the binary") {
+  ServerProcess server({"--lights", "4"});
+  REQUIRE(server.start() == ServerProcess::Start::Listening);
+  auto client = clientFor(server);
+  httplib::Result index = client->Get("/");
+  REQUIRE(index);
+  CHECK(index->status == 200);
+  CHECK(index->get_header_value("Content-Type").starts_with("text/html"));
+  CHECK(index->body.find("<html") != std::string::npos);
+  httplib::Result script = client->Get("/web/main.js");
+  REQUIRE(script);
+  CHECK(script->status == 200);
+  CHECK(script->get_header_value("Content-Type").find("javascript") != std::string::npos);
+  httplib::Result css = client->Get("/web/style.css");
+  REQUIRE(css);
+  CHECK(css->status == 200);
+  CHECK(css->get_header_value("Content-Type").starts_with("text/css"));
+  checkProblem(client->Get("/web/nothing.js"), 404, "not-found");
+  checkProblem(client->Get("/web/..%2Fhttp_server.cpp"), 404, "not-found");
+}
+
+TEST_CASE("shutdown ends open streams promptly") {
+  ServerProcess server({"--lights", "16"});
+  REQUIRE(server.start() == ServerProcess::Start::Listening);
+  auto client = clientFor(server);
+  TestSession session = createSession(*client);
+  StreamReader reader(server, streamPath(session, "width=32&height=32"), session.auth());
+  REQUIRE(reader.status() == 200);
+  REQUIRE(reader.waitForParts(1, std::chrono::seconds(60)).size() == 1);
+  CHECK(validationMessages(*client) == 0);
+
+  const auto signalled = Clock::now();
+  std::optional<myriad::test::ExitStatus> exit = server.stop(std::chrono::seconds(30));
+  const double seconds = std::chrono::duration<double>(Clock::now() - signalled).count();
+  REQUIRE(exit);
+  MESSAGE("SIGTERM to exit with an idle stream open: ", seconds, " s");
+  CHECK(exit->cleanExit());
+  CHECK(seconds < 5.0);
+  CHECK(reader.waitForEnd(std::chrono::seconds(10)));
+  CHECK(reader.framingError().empty());
+}
