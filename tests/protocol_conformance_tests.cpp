@@ -10,6 +10,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iterator>
+#include <optional>
 #include <string>
 
 #include <nlohmann/json.hpp>
@@ -138,6 +139,51 @@ TEST_CASE("protocol conformance: every route's JSON answer matches its schema") 
                            readFile(kBox), token, "application/octet-stream");
   json uploadedState = conforming(uploaded, 200, "session-state", "PUT model (upload)");
   CHECK(uploadedState["model"]["source"] == "upload:box.glb");
+
+  // The raw format as reference.md describes it: N float32 per pixel, the names in a header.
+  Reply raw = api.get(route(protocol::routes::kSessionFrame) + "?target=normal&format=raw&width=40&height=30", token);
+  CHECK(raw.status == 200);
+  CHECK(raw.header("Content-Type") == std::string(protocol::kRawContentType));
+  CHECK(raw.header(std::string(protocol::headers::kChannels)) == "x,y,z");
+  CHECK(raw.header(std::string(protocol::headers::kWidth)) == "40");
+  CHECK(raw.header(std::string(protocol::headers::kHeight)) == "30");
+  CHECK(raw.header(std::string(protocol::headers::kTarget)) == "normal");
+  CHECK(raw.body.size() == 40u * 30u * 3u * 4u);
+
+  // The stream format byte for byte: the first part opens with the boundary, and each part ends
+  // with the next boundary line (browsers show a part only once it arrives).
+  const std::string head = "--myriad-frame\r\nContent-Type: image/jpeg\r\nContent-Length: ";
+  const std::string sequence = "\r\nX-Myriad-Frame: ";
+  const std::string tail = "\r\n--myriad-frame\r\n";
+  std::string stream;
+  // How many bytes the first part and the boundary after it take, once the headers are in.
+  auto firstPartBytes = [&]() -> std::optional<size_t> {
+    size_t headersEnd = stream.find("\r\n\r\n");
+    if (stream.rfind(head, 0) != 0 || headersEnd == std::string::npos) return std::nullopt;
+    size_t imageBytes = std::stoul(stream.substr(head.size()));
+    return headersEnd + 4 + imageBytes + tail.size();
+  };
+  std::string contentType;
+  httplib::Headers auth = {{std::string(protocol::headers::kAuthorization), "Bearer " + token}};
+  api.raw().Get(
+      route(protocol::routes::kSessionStream) + "?fps=10&width=32&height=24", auth,
+      [&](const httplib::Response& response) {
+        contentType = response.get_header_value("Content-Type");
+        return true;
+      },
+      [&](const char* data, size_t length) {
+        stream.append(data, length);
+        auto needed = firstPartBytes();
+        return stream.size() < (1u << 20) && (!needed || stream.size() < *needed);  // false: stop
+      });
+  CHECK(contentType == std::string(protocol::kStreamContentType));
+  REQUIRE(firstPartBytes());
+  REQUIRE(stream.size() >= *firstPartBytes());
+  size_t lengthEnd = stream.find("\r\n", head.size());
+  CHECK(stream.compare(lengthEnd, sequence.size(), sequence) == 0);
+  size_t imageStart = stream.find("\r\n\r\n") + 4;
+  CHECK(stream.substr(imageStart, 2) == "\xff\xd8");  // a JPEG
+  CHECK(stream.substr(*firstPartBytes() - tail.size(), tail.size()) == tail);
 
   // Errors, one of each kind a client can provoke cheaply.
   conformingProblem(api.get("/v1/nothing"), 404, protocol::problems::kNotFound, "unknown route");
