@@ -165,7 +165,15 @@ void Renderer::State::ensureTargets(VkExtent2D extent, bool raw, uint32_t lightC
   if (listStartCapacity > 0) size.listCapacity = listStartCapacity;
   size.listCapacity = static_cast<uint32_t>(
       std::min<uint64_t>(std::max(size.listCapacity, grownListCapacity), mostReferences));
-  if (!grid || !(grid->size == size)) {
+  // Sessions' scenes take turns: a grid whose lists hold what this frame wants, without more
+  // than twice the waste, stays, so frames of a 1,000-light and a 100,000-light scene in turn do
+  // not reallocate the lists every frame.
+  const bool keep = grid && grid->size.clustersX == size.clustersX &&
+                    grid->size.clustersY == size.clustersY && grid->size.slices == size.slices &&
+                    grid->size.listCapacity >= size.listCapacity &&
+                    grid->size.listCapacity <= 2 * uint64_t(size.listCapacity) &&
+                    grid->size.listCapacity <= mostReferences;
+  if (!keep) {
     grid.reset();
     grid = std::make_unique<LightGrid>(context, size);
     writeCullingSet();

@@ -317,7 +317,8 @@ std::string describeCulling(const render::CullingReport& c) {
          " light references (tiles overflowed " + std::to_string(c.tilesOverflowed) +
          ") / list entries " + std::to_string(c.listEntries) + " / active clusters " +
          std::to_string(c.activeClusters) + " / longest list " +
-         std::to_string(c.mostLightsInList);
+         std::to_string(c.mostLightsInList) + " / list capacity " + std::to_string(c.listCapacity) +
+         (c.listsGrew ? " / lists grew and the frame was rendered again" : "");
 }
 
 }  // namespace myriad::service
