@@ -599,3 +599,19 @@ TEST_CASE("loader: loads beyond maxConcurrentLoads wait for a turn, then are bus
   CHECK(timeouts == capacity);
   CHECK(noChildren());
 }
+
+TEST_CASE("loader: bytes of the file quoted in Assimp's message arrive as clean text") {
+  // Assimp's STL reader names the mesh after the bytes following "solid", and its validator quotes
+  // that name: here a byte that is not UTF-8 (JSON cannot carry it) and an escape character.
+  try {
+    loader::loadModelBytes("solid \xff\x1b\nfacet nor\xffmal 0 0 0\n", "quote.stl");
+    FAIL("a broken STL loaded");
+  } catch (const ModelRejected& e) {
+    CAPTURE(e.what());
+    CHECK(e.reason == "parse");
+    const std::string what = e.what();
+    CHECK(what.find("The mesh ?  contains") != std::string::npos);
+    CHECK(std::none_of(what.begin(), what.end(),
+                       [](char c) { return static_cast<unsigned char>(c) >= 0x80 || c < 0x20; }));
+  }
+}
