@@ -10,6 +10,10 @@ namespace myriad::cli {
 namespace {
 
 std::string formatNumber(double value) {
+  // Whole numbers in full (1000000, not 1e+06): they are limits people type back.
+  if (std::floor(value) == value && std::fabs(value) < 1e16) {
+    return std::to_string(static_cast<long long>(value));
+  }
   std::ostringstream out;
   out << value;
   return out.str();
@@ -278,9 +282,11 @@ Invocation parseArguments(const std::vector<std::string>& args) {
           if (args[j] == "-h" || args[j] == "--help") inv.help = true;
         }
         if (inv.help) return inv;
-        std::string what = i + 1 < args.size() ? first + " " + args[i + 1] : first;
-        throw UsageError(i + 1 < args.size() ? args[i + 1] : first,
-                         "\"" + what + "\": " + first + " needs one of: " + subs);
+        if (i + 1 < args.size() && !isOption(args[i + 1])) {
+          throw UsageError(args[i + 1], "unknown subcommand \"" + first + " " + args[i + 1] +
+                                            "\"; " + first + " takes: " + subs);
+        }
+        throw UsageError(first, "\"" + first + "\" needs a subcommand: " + subs);
       }
       throw UsageError(first, "unknown subcommand \"" + first + "\"");
     }
@@ -417,7 +423,7 @@ std::string commandHelp(const CommandSpec& command) {
     std::string left = flag.empty() ? optionDisplayName(o) : flag;
     if (!meta.empty()) left += " " + meta;
     std::string help = o.help;
-    if (o.bounds && o.kind != Kind::Unsigned) help += " (" + describeBounds(*o.bounds) + ")";
+    if (o.bounds) help += " (" + describeBounds(*o.bounds) + ")";
     line(left, help);
   }
   if (!command.notes.empty()) out << "\n" << command.notes << "\n";

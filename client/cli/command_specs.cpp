@@ -18,7 +18,7 @@ const Bounds kLightRadius{0.0, 1e4, true};
 const Bounds kLightAmount{0.0, 1e4};  // intensity, falloff
 const Bounds kAtLeastOne{1.0, kInf};
 const Bounds kQuality{1.0, 100.0};
-const Bounds kFps{1.0, 60.0, false, false, "frames per second"};
+const Bounds kFps{1.0, 60.0};
 const Bounds kLightPage{0.0, 1000.0};  // 0: only the total
 const Bounds kSeed{0.0, 9007199254740991.0};  // 2^53-1: exact in a JSON number
 const Bounds kCoordinate{-1e6, 1e6};  // every vector component, in scene units
@@ -206,7 +206,7 @@ std::vector<CommandSpec> buildSpecs() {
 
   // Frames.
   std::vector<OptionSpec> frameSize = {
-      option("width", Kind::Unsigned, "pixels (at most the server's maxResolution)", kAtLeastOne),
+      option("width", Kind::Unsigned, "pixels, at most the server's maxResolution", kAtLeastOne),
       option("height", Kind::Unsigned, "pixels", kAtLeastOne)};
   CommandSpec frame{"frame", "render one frame of the session to a file",
                     {},
@@ -216,7 +216,7 @@ std::vector<CommandSpec> buildSpecs() {
                      choice("format", {"png", "jpeg", "raw"}, "image format (default png)"),
                      frameSize[0], frameSize[1],
                      option("quality", Kind::Unsigned, "JPEG quality", kQuality),
-                     option("time", Kind::Number, "animation time (with --animate on)", kTime),
+                     option("time", Kind::Number, "animation time with --animate on", kTime),
                      output("file to write; - for standard output")},
                     "raw is little-endian float32; its channel names and size are printed.",
                     {}};
@@ -226,8 +226,8 @@ std::vector<CommandSpec> buildSpecs() {
                    {option("target", Kind::Text, "final (default) or another view", std::nullopt,
                            "T"),
                     choice("format", {"jpeg", "png"}, "image format (default jpeg)"),
-                    option("fps", Kind::Unsigned, "at most this many frames a second", kFps),
-                    option("frames", Kind::Unsigned, "stop after N frames (default: until ^C)",
+                    option("fps", Kind::Unsigned, "most frames a second", kFps),
+                    option("frames", Kind::Unsigned, "stop after N frames; default: until interrupted",
                            kAtLeastOne),
                     frameSize[0], frameSize[1],
                     option("quality", Kind::Unsigned, "JPEG quality", kQuality),

@@ -109,9 +109,12 @@ TEST_CASE("unknown flags and subcommands are named") {
   CHECK(contains(sub.what(), "unknown subcommand"));
   UsageError group = usageError({"lights"});
   CHECK(group.argument() == "lights");
-  CHECK(contains(group.what(), "list, show, add, set, rm, clear, generate"));
+  CHECK(group.what() == std::string("\"lights\" needs a subcommand: list, show, add, set, rm, "
+                                    "clear, generate"));
   UsageError groupBad = usageError({"lights", "explode"});
   CHECK(groupBad.argument() == "explode");
+  CHECK(contains(groupBad.what(), "unknown subcommand \"lights explode\"; lights takes: list"));
+  CHECK(usageError({"session", "--fov", "3"}).argument() == "session");
   CHECK(usageError({}).what() == std::string("no subcommand given"));
 }
 
@@ -153,6 +156,8 @@ TEST_CASE("help: overview, per command, and help wins over missing arguments") {
   CHECK(lightsAdd.command->name == "lights add");  // no --position needed for help
   CHECK(parse({"lights", "--help"}).help);
   CHECK(contains(commandHelp(*findCommand("camera")), "(from 1 to 179 degrees)"));
+  CHECK(contains(commandHelp(*findCommand("frame")), "JPEG quality (from 1 to 100)"));
+  CHECK(contains(commandHelp(*findCommand("frame")), "(from 0 to 1000000 seconds)"));
 }
 
 TEST_CASE("settings: colours, switches, choices, ranges") {
