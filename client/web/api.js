@@ -87,7 +87,8 @@ export class Api {
       headers['Content-Type'] = contentType;
     }
     const sessionRoute = path.startsWith('/v1/sessions/');
-    if (auth && sessionRoute && this.session) headers.Authorization = `Bearer ${this.session.token}`;
+    const session = this.session;  // a new session may start while this request is out
+    if (auth && sessionRoute && session) headers.Authorization = `Bearer ${session.token}`;
     const url = query ? `${path}?${new URLSearchParams(query)}` : path;
 
     let response;
@@ -97,11 +98,13 @@ export class Api {
       throw new ApiError(0, null, `The server cannot be reached (${e.message}).`);
     }
     if (!response.ok) {
-      const error = await errorFromResponse(response);
-      if (sessionRoute && await this.isSessionLost(error)) {
-        throw new SessionLostError(error.status, error.problem,
-                                   `The session is gone: ${error.message}`);
+      let error = await errorFromResponse(response);
+      if (sessionRoute && await this.isSessionLost(error, session)) {
+        error = new SessionLostError(error.status, error.problem,
+                                     `The session is gone: ${error.message}`);
       }
+      // About a session that is no longer the page's: nobody needs to hear of it.
+      error.stale = session !== this.session;
       throw error;
     }
     if (raw) return response;
@@ -111,12 +114,12 @@ export class Api {
 
   // 401/403: the token no longer fits. 404: either the session or something inside it (a light
   // id) is missing; asking for the session itself tells which.
-  async isSessionLost(error) {
+  async isSessionLost(error, session) {
     if (error.status === 401 || error.status === 403) return true;
-    if (error.status !== 404 || !this.session) return false;
+    if (error.status !== 404 || !session) return false;
     try {
-      const r = await fetch(this.sessionPath(), {
-        headers: {Authorization: `Bearer ${this.session.token}`}, cache: 'no-store'});
+      const r = await fetch(`/v1/sessions/${encodeURIComponent(session.id)}`, {
+        headers: {Authorization: `Bearer ${session.token}`}, cache: 'no-store'});
       return r.status === 404 || r.status === 401 || r.status === 403;
     } catch {
       return false;

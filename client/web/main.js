@@ -35,6 +35,7 @@ function showInfo(text) {
 }
 
 function showProblem(error) {
+  if (error.stale) return;  // an answer about the previous session
   if (error instanceof SessionLostError) {
     sessionLost(error.message);
     return;

@@ -1,6 +1,8 @@
 // Stats: GET stats about twice a second; per-pass GPU times as numbers and as a rolling stacked
 // graph, frame time, readback and encode, light counts, the light lists' overflow counters.
 
+import {SessionLostError} from './api.js';
+
 const POLL_MS = 500;
 const MAX_POLL_MS = 10000;
 const HISTORY = 120;  // samples in the graph: a minute at two a second
@@ -17,40 +19,43 @@ export class StatsPanel {
     this.colors = new Map();    // pass name -> colour, stable for the page's life
     this.lastFrames = -1;
     this.timer = 0;
-    this.running = false;
+    this.generation = 0;
     this.latest = null;
     this.failures = 0;
   }
 
   start() {
-    if (this.running) return;
-    this.running = true;
-    this.poll();
+    // A new loop each start; one still waiting on an answer for the previous session ends.
+    this.generation += 1;
+    clearTimeout(this.timer);
+    this.poll(this.generation);
   }
 
   stop() {
-    this.running = false;
+    this.generation += 1;
     clearTimeout(this.timer);
   }
 
-  async poll() {
-    if (!this.running) return;
+  async poll(generation) {
     let delay = POLL_MS;
     if (!document.hidden) {
       try {
-        this.show(await this.api.get(this.api.sessionPath('/stats')));
+        const stats = await this.api.get(this.api.sessionPath('/stats'));
+        if (generation !== this.generation) return;
+        this.show(stats);
         this.failures = 0;
       } catch (e) {
-        if (e.name === 'SessionLostError') {
+        if (generation !== this.generation) return;
+        if (e instanceof SessionLostError) {
           this.onProblem(e);
-          return this.stop();
+          return;
         }
         // Said once; then asked again less and less often until the server answers.
         if (this.failures++ === 0) this.onProblem(e);
         delay = Math.min(POLL_MS * 2 ** this.failures, MAX_POLL_MS);
       }
     }
-    if (this.running) this.timer = setTimeout(() => this.poll(), delay);
+    if (generation === this.generation) this.timer = setTimeout(() => this.poll(generation), delay);
   }
 
   colorOf(name) {

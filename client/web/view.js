@@ -117,6 +117,7 @@ export class LiveView {
       await this.api.request('GET', url, {raw: true, signal: abort.signal});
       this.status.textContent = 'The stream stopped; reconnecting.';
     } catch (e) {
+      if (this.img.getAttribute('src') !== url) return;  // replaced meanwhile: not ours to fix
       if (e instanceof SessionLostError) {
         this.onProblem(e);
         return;  // only a new session helps; no retry

@@ -8,6 +8,8 @@
 // Chromium at /usr/bin/chromium).
 
 import {existsSync, readFileSync} from 'node:fs';
+import {tmpdir} from 'node:os';
+import {join} from 'node:path';
 import {startServer} from './server_process.mjs';
 
 const CHROMIUM = '/usr/bin/chromium';
@@ -50,6 +52,12 @@ async function step(name, fn) {
   } catch (e) {
     failures.push(`${name}: ${e.message}`);
     console.log(`FAIL ${name}: ${e.message}`);
+    // What the page showed, for whoever reads the log.
+    const shot = join(tmpdir(), `myriad-browser-${failures.length}.png`);
+    await page.screenshot({path: shot}).then(() => console.log(`     page: ${shot}`), () => {});
+    const src = await page.getAttribute('#stream', 'src').catch(() => '?');
+    const message = await page.textContent('#message-text').catch(() => '?');
+    console.log(`     stream: ${src}\n     message: ${message}`);
   }
 }
 
@@ -133,7 +141,7 @@ page.on('console', (msg) => {
   if (msg.type() !== 'error') return;
   const text = msg.text();
   if (expectedHttpErrors && /Failed to load resource/.test(text) && expectedHttpErrors.test(text)) return;
-  consoleErrors.push(text);
+  consoleErrors.push(`${text} (${msg.location().url})`);
 });
 page.on('pageerror', (e) => consoleErrors.push(`uncaught: ${e.message}`));
 
@@ -239,17 +247,18 @@ try {
     const light = listed.lights[0];
     await page.click(`#light-list li[data-id="${light.id}"]`);
     check(await page.isVisible('#light-editor'), 'the light editor opens');
-    // The light moves to the camera's target, bright and wide: it lights the middle of the view.
+    // The light moves to the camera's target, bright and wide: it lights the middle of the view
+    // even when the camera frames the whole 24 m floor from afar.
     const position = cam.target.map((v) => Number(v.toFixed(3)));
     await page.fill('#light-x', String(position[0]));
     await page.fill('#light-y', String(position[1] + 0.5));
     await page.fill('#light-z', String(position[2]));
-    await page.fill('#light-radius', '6');
-    await page.fill('#light-intensity', '40');
+    await page.fill('#light-radius', '10');
+    await page.fill('#light-intensity', '200');
     await page.click('#light-apply');
     editedLight = await until('GET lights/{id} to show the edit', async () => {
       const l = (await api('GET', `/v1/sessions/${sessionId}/lights/${light.id}`, {token})).body;
-      return l.radius === 6 && l.intensity === 40 && Math.abs(l.position[1] - (position[1] + 0.5)) < 1e-4
+      return l.radius === 10 && l.intensity === 200 && Math.abs(l.position[1] - (position[1] + 0.5)) < 1e-4
           ? l : null;
     });
     picture = await changedFrom('the picture after the light edit', picture);
@@ -372,7 +381,10 @@ try {
     const text = await page.textContent('#message-text');
     check(/gone/.test(text) && text.includes('404'), `message "${text}"`);
     await page.click('#new-session');
-    await until('a new session', async () => (await session())?.id !== sessionId);
+    await until('a new session', async () => {
+      const now = await session();
+      return now && now.id !== sessionId;
+    });
     ({id: sessionId, token} = await session());
     await settled();
     check(await page.isHidden('#message'), 'the message stays after the new session started');
