@@ -10,6 +10,7 @@
 #include <string>
 #include <string_view>
 
+#include "scene/model_loader.h"
 #include "scene/scene.h"
 
 namespace myriad::loader {
@@ -32,15 +33,22 @@ struct LoadLimits {
   InjectedFault fault = InjectedFault::none; // tests only
 };
 
-// Why a model was not loaded. what() is one sentence for a 422 problem's `detail`.
-struct ModelRejected : std::runtime_error {
+// Why a model was not loaded. what() is one sentence for a 422 problem's `detail`. A kind of
+// scene::ModelLoadError (itself a std::runtime_error), so code written against the in-process
+// loader catches it unchanged.
+struct ModelRejected : scene::ModelLoadError {
   // About the file: "parse", "crash", "timeout", "memory", "empty", "too-large", "unsupported".
   // About the server, not the file (a 503 rather than a 422): "busy" (maxConcurrentLoads()
   // children were running for the whole wall-clock limit), "internal" (no child could be started).
   std::string reason;
 
   ModelRejected(std::string reasonName, const std::string& sentence)
-      : std::runtime_error(sentence), reason(std::move(reasonName)) {}
+      : scene::ModelLoadError(sentence, kindOf(reasonName)), reason(std::move(reasonName)) {}
+
+ private:
+  static Kind kindOf(const std::string& reason) {
+    return reason == "empty" ? Kind::empty : reason == "unsupported" ? Kind::unsupported : Kind::parse;
+  }
 };
 
 // Parses an uploaded file. `filename`'s extension is the format hint (".glb", ".obj", ...); only

@@ -2,6 +2,7 @@
 
 #include <glm/glm.hpp>
 
+#include "loader/loader.h"
 #include "scene/builtin_scene.h"
 #include "scene/light_generator.h"
 #include "scene/model_loader.h"
@@ -17,7 +18,9 @@ constexpr float kLightMargin = 0.1f;
 scene::Scene buildScene(const Options& options) {
   if (!options.model) return scene::makeBuiltinScene(options.lights, options.seed);
 
-  scene::Scene scene = scene::loadModel(*options.model);
+  // In the loader child, like an upload: a file that crashes or exhausts Assimp is one line on
+  // stderr and exit status 1, not a dead process.
+  scene::Scene scene = loader::loadModelFile(*options.model);
   const scene::Bounds bounds = scene.bounds();
   if (options.lights == 0 || bounds.empty()) return scene;
 

@@ -12,7 +12,8 @@
 namespace myriad::service {
 
 // The built-in scene, or options.model with options.lights generated lights spread through and around it
-// (sized to the model, so a 10 cm object and a 100 m hall both get visible pools). Throws
+// (sized to the model, so a 10 cm object and a 100 m hall both get visible pools). The model is
+// parsed in the loader child (loader/loader.h); throws loader::ModelRejected, a
 // scene::ModelLoadError.
 scene::Scene buildScene(const Options& options);
 
