@@ -99,7 +99,7 @@ std::string escapePointerToken(std::string_view token) {
   return out;
 }
 
-// How a message names the member at `pointer`: "eye/1" in quotes, or "the body".
+// How a message names the member at `pointer`: "eye/1" in quotes, or "The body" (it starts the sentence).
 std::string memberName(const std::string& pointer) {
   if (pointer.empty()) return "The body";
   // Appended piece by piece: GCC 12 warns falsely (-Wrestrict) about "literal" + std::string.
@@ -113,8 +113,10 @@ std::string memberName(const std::string& pointer) {
 std::string quoted(const json& value) {
   std::string text = value.dump(-1, ' ', false, json::error_handler_t::replace);
   constexpr size_t kMax = 60;
-  if (text.size() > kMax) text = text.substr(0, kMax) + "...";
-  return text;
+  if (text.size() <= kMax) return text;
+  size_t cut = kMax;
+  while (cut > 0 && (static_cast<unsigned char>(text[cut]) & 0xC0) == 0x80) --cut;  // whole UTF-8 characters
+  return text.substr(0, cut) + "...";
 }
 
 bool isWholeNumber(const json& v) {

@@ -210,6 +210,14 @@ TEST_CASE("messages: whole sentences that name the member, escaped pointers, sho
   REQUIRE(error);
   CHECK(error->message.size() < 200);  // the 5000 characters are not echoed back
 
+  // Shortened on a character boundary (byte 60 of the quote falls inside a character here): the
+  // message stays valid UTF-8.
+  std::string accents;
+  for (int i = 0; i < 100; ++i) accents += "\xc3\xa9";  // U+00E9, two bytes each
+  error = protocol::validate("model-source", json{{"source", "xy" + accents}});
+  REQUIRE(error);
+  CHECK_NOTHROW((void)json(error->message).dump());  // dump() throws on invalid UTF-8
+
   error = protocol::validate("settings-patch", json::parse(R"({"technique": "fast"})"));
   REQUIRE(error);
   CHECK(error->message ==
