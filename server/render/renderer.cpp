@@ -60,6 +60,7 @@ struct Renderer::State {
   uint64_t listLimitBytes = 0;     // limitListMemory(); 0 = the device's limit
   uint32_t listStartCapacity = 0;  // limitListMemory(); 0 = lightGridSize()'s
   uint32_t grownListCapacity = 0;  // what overflowing lists grew to (kept for later frames)
+  uint32_t failedListCapacity = UINT32_MAX;  // lists this large could not be allocated
 
   SceneBuffers& scene(SceneId id);
   const SceneBuffers& scene(SceneId id) const;
@@ -308,6 +309,7 @@ void Renderer::limitListMemory(uint64_t bytes, uint64_t startBytes) {
   state_->listStartCapacity = static_cast<uint32_t>(
       std::min<uint64_t>(startBytes / sizeof(uint32_t), UINT32_MAX));
   state_->grownListCapacity = 0;
+  state_->failedListCapacity = UINT32_MAX;
 }
 
 uint32_t Renderer::maxDimension() const { return state_->context.info.maxImageDimension2D; }
@@ -327,12 +329,22 @@ Frame Renderer::render(SceneId id, const FrameSettings& settings) {
   const CullingReport& c = frame.culling;
   const uint64_t mostReferences = s.maxListBytes() / sizeof(uint32_t);
   if (settings.technique == Technique::Clustered && c.clusterLightsDropped > 0 &&
-      c.listCapacity < mostReferences) {
+      c.listCapacity < mostReferences && c.listCapacity < s.failedListCapacity) {
     const uint64_t needed = uint64_t(c.listEntries) + c.clusterLightsDropped;
     const auto grown = static_cast<uint64_t>(std::ceil(double(needed) * kListGrowth));
-    s.grownListCapacity = static_cast<uint32_t>(std::min(grown, mostReferences));
-    frame = s.renderOnce(scene, settings);
-    frame.culling.listsGrew = true;
+    const uint32_t previous = s.grownListCapacity;
+    s.grownListCapacity = static_cast<uint32_t>(
+        std::min({grown, mostReferences, uint64_t(s.failedListCapacity) - 1}));
+    try {
+      Frame regrown = s.renderOnce(scene, settings);
+      regrown.culling.listsGrew = true;
+      return regrown;
+    } catch (const gpu::VulkanError&) {
+      // Out of device memory for the larger lists: answer with the frame we have (its overflow
+      // is reported) and do not try that size again.
+      s.failedListCapacity = s.grownListCapacity;
+      s.grownListCapacity = previous;
+    }
   }
   return frame;
 }
