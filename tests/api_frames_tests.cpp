@@ -3,6 +3,7 @@
 #include <doctest/doctest.h>
 #include <httplib.h>
 #include <signal.h>
+#include <unistd.h>
 #include <turbojpeg.h>
 
 #include <algorithm>
@@ -10,6 +11,9 @@
 #include <cmath>
 #include <condition_variable>
 #include <cstring>
+#include <fstream>
+#include <iterator>
+#include <sstream>
 #include <map>
 #include <mutex>
 #include <optional>
@@ -299,6 +303,21 @@ class StreamReader {
   bool stop_ = false;
 };
 
+// User plus system CPU time of a process so far, from /proc/PID/stat.
+double cpuSeconds(pid_t pid) {
+  std::ifstream file("/proc/" + std::to_string(pid) + "/stat");
+  std::string text((std::istreambuf_iterator<char>(file)), std::istreambuf_iterator<char>());
+  // Fields after the command name (which may hold spaces) start after the last ')'.
+  std::istringstream fields(text.substr(text.rfind(')') + 2));
+  std::string field;
+  unsigned long long utime = 0, stime = 0;
+  for (int i = 3; i <= 15 && fields >> field; ++i) {
+    if (i == 14) utime = std::stoull(field);
+    if (i == 15) stime = std::stoull(field);
+  }
+  return double(utime + stime) / double(sysconf(_SC_CLK_TCK));
+}
+
 std::string streamPath(const TestSession& session, const std::string& query) {
   return "/v1/sessions/" + session.id + "/stream?" + query;
 }
@@ -545,7 +564,14 @@ TEST_CASE("streams: animated parts, idle re-sends, the end on DELETE, limits, st
     StreamReader reader(server, streamPath(session, query), session.auth());
     REQUIRE(reader.status() == 200);
     CHECK(reader.contentType() == "multipart/x-mixed-replace; boundary=myriad-frame");
+    REQUIRE(reader.waitForParts(1, std::chrono::seconds(60)).size() == 1);
+    // An idle stream sleeps on the session's condition variable: the whole server uses a small
+    // fraction of one core while it waits and re-sends.
+    const double cpuBefore = cpuSeconds(server.pid());
     std::vector<StreamPart> parts = reader.waitForParts(3, std::chrono::seconds(60));
+    const double idleCpu = cpuSeconds(server.pid()) - cpuBefore;
+    MESSAGE("server CPU time over ~4 s of idle stream: ", idleCpu, " s");
+    CHECK(idleCpu < 0.5);
     INFO("framing: ", reader.framingError());
     REQUIRE(parts.size() == 3);
     for (const StreamPart& part : parts) {
