@@ -21,5 +21,5 @@ if [[ ! -f $browser_dir/node_modules/.package-lock.json ||
   (cd "$browser_dir" && PLAYWRIGHT_SKIP_BROWSER_DOWNLOAD=1 npm ci --no-audit --no-fund)
 fi
 flags=("$@")
-if [[ ${#flags[@]} -eq 0 ]]; then flags=(--lights 2000); fi
+if [[ ${#flags[@]} -eq 0 ]]; then flags=(--lights 500); fi
 node "$browser_dir/web_screenshot.mjs" "$server" docs/web-client.png "${flags[@]}"

@@ -83,7 +83,7 @@ export class StatsPanel {
     if (f) {
       for (const pass of f.passes) row(pass.name, ms(pass.ms), this.colorOf(pass.name));
       row('GPU total', ms(f.totalGpuMs));
-      row('readback', ms(f.readbackMs));
+      if (!f.passes.some((p) => p.name === 'readback')) row('readback', ms(f.readbackMs));
       row('encode', ms(f.encodeMs));
       row('frame', `${f.width}\u00d7${f.height} ${f.technique} ${f.target}`);
     } else {
@@ -122,7 +122,7 @@ export class StatsPanel {
     }));
   }
 
-  // Stacked areas, newest on the right, scaled to the window's largest frame.
+  // One stacked bar per frame, newest on the right, scaled to the window's slowest frame.
   renderGraph() {
     const c = this.canvas;
     const ratio = window.devicePixelRatio || 1;
@@ -135,21 +135,18 @@ export class StatsPanel {
     if (!this.history.length) return;
     const totals = this.history.map((m) => [...m.values()].reduce((a, b) => a + b, 0));
     const top = Math.max(...totals, 1e-3) * 1.1;
-    const names = [...new Set(this.history.flatMap((m) => [...m.keys()]))];
-    const step = width / (HISTORY - 1);
-    const x0 = width - (this.history.length - 1) * step;
-    const y = (v) => height - (v / top) * height;
-    const base = new Array(this.history.length).fill(0);
-    for (const name of names) {
-      const upper = this.history.map((m, i) => base[i] + (m.get(name) || 0));
-      g.beginPath();
-      upper.forEach((v, i) => g.lineTo(x0 + i * step, y(v)));
-      for (let i = base.length - 1; i >= 0; --i) g.lineTo(x0 + i * step, y(base[i]));
-      g.closePath();
-      g.fillStyle = this.colorOf(name);
-      g.fill();
-      upper.forEach((v, i) => { base[i] = v; });
-    }
+    const bar = width / HISTORY;
+    const scaleY = height / top;
+    this.history.forEach((passes, i) => {
+      const x = width - (this.history.length - i) * bar;
+      let y = height;
+      for (const [name, ms] of passes) {
+        const h = ms * scaleY;
+        g.fillStyle = this.colorOf(name);
+        g.fillRect(x, y - h, Math.max(1, bar - ratio), h);
+        y -= h;
+      }
+    });
     g.fillStyle = '#d8dde5';
     g.font = `${11 * ratio}px ui-monospace, monospace`;
     g.fillText(`${(top / 1.1).toFixed(2)} ms`, 4 * ratio, 12 * ratio);
