@@ -195,6 +195,9 @@ size_t SessionManager::sweepExpired() {
     std::lock_guard lock(mutex_);
     for (const auto& [id, session] : sessions_) {
       std::lock_guard sessionLock(session->mutex);
+      // A session without a scene is still being created (its creator holds it; loading a
+      // library model may take longer than a short timeout).
+      if (session->sceneId == 0) continue;
       if (now - session->lastUsed > idleTimeout_) expired.push_back(id);
     }
   }
