@@ -615,3 +615,27 @@ TEST_CASE("loader: bytes of the file quoted in Assimp's message arrive as clean 
                        [](char c) { return static_cast<unsigned char>(c) >= 0x80 || c < 0x20; }));
   }
 }
+
+TEST_CASE("loader: the child opens nothing outside the model's directory (Landlock)") {
+  if (!loader::childrenSandboxed()) {
+    MESSAGE("this kernel has no Landlock; the child relies on rlimits and confined Assimp I/O");
+    return;
+  }
+  LoadLimits probe;
+  probe.fault = InjectedFault::probeFiles;
+  auto outcome = [&](auto load) {
+    try {
+      load();
+      return std::string("loaded");
+    } catch (const ModelRejected& e) {
+      return std::string(e.what());
+    }
+  };
+  const fs::path model = kModels / "OBJ/spider.obj";
+  CHECK(outcome([&] { return loader::loadModelBytes(readFile(model), "spider.obj", probe); }) ==
+        "own file: none; /etc/passwd: Permission denied");
+  CHECK(outcome([&] { return loader::loadModelFile(model, probe); }) ==
+        "own file: opened; /etc/passwd: Permission denied");
+  // And without the probe, a library model still loads inside the sandbox.
+  CHECK(loader::loadModelFile(model).meshes.size() > 0);
+}

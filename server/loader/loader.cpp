@@ -21,6 +21,7 @@
 #include <vector>
 
 #include "loader/child_protocol.h"
+#include "loader/sandbox.h"
 #include "loader/scene_wire.h"
 #include "scene/model_loader.h"
 
@@ -436,6 +437,8 @@ __attribute__((constructor)) static void runChildBeforeMain(int argc, char** arg
 }
 
 unsigned maxConcurrentLoads() { return childSlots().capacity(); }
+
+bool childrenSandboxed() { return landlockAbi() > 0; }
 
 scene::Scene loadModelBytes(std::string_view bytes, std::string_view filename,
                             const LoadLimits& limits) {

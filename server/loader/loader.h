@@ -23,6 +23,9 @@ enum class InjectedFault : uint8_t {
   hang,      // sleeps forever, using no CPU: only the wall-clock limit stops it
   spin,      // busy loop: the CPU limit stops it
   allocate,  // allocates and touches memory without bound: the memory limit stops it
+  probeFiles,  // in the sandbox, tries to open the model's own file and /etc/passwd, and reports
+               // the outcomes as a "parse" rejection: "own file: opened; /etc/passwd: Permission
+               // denied" (own file: "none" for an upload)
 };
 
 struct LoadLimits {
@@ -64,6 +67,10 @@ scene::Scene loadModelFile(const std::filesystem::path& path, const LoadLimits& 
 // for a turn. Each child may use LoadLimits::memoryBytes, so a burst of uploads must not multiply
 // that by the number of HTTP workers. Between 2 and 8, by the number of CPUs.
 unsigned maxConcurrentLoads();
+
+// Whether loader children run inside a Landlock sandbox (see sandbox.h) on this kernel: they can
+// then open no file but a library model's own directory, and make no TCP connection.
+bool childrenSandboxed();
 
 // Call first thing in main(). In the loader child it does the work and never returns (exits the
 // process); otherwise it returns false at once.
