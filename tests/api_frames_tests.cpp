@@ -766,23 +766,32 @@ TEST_CASE("the web client is served from the binary") {
   checkProblem(client->Get("/web/..%2Fhttp_server.cpp"), 404, "not-found");
 }
 
-TEST_CASE("shutdown ends open streams promptly") {
+TEST_CASE("shutdown ends open streams promptly, idle or animated") {
   ServerProcess server({"--lights", "16"});
   REQUIRE(server.start() == ServerProcess::Start::Listening);
   auto client = clientFor(server);
-  TestSession session = createSession(*client);
-  StreamReader reader(server, streamPath(session, "width=32&height=32"), session.auth());
-  REQUIRE(reader.status() == 200);
-  REQUIRE(reader.waitForParts(1, std::chrono::seconds(60)).size() == 1);
+  TestSession idle = createSession(*client);
+  TestSession animated = createSession(*client);
+  patchJson(*client, "/v1/sessions/" + animated.id + "/settings", animated, {{"animate", true}});
+  StreamReader idleReader(server, streamPath(idle, "width=32&height=32"), idle.auth());
+  StreamReader animatedReader(server, streamPath(animated, "width=32&height=32&fps=30"),
+                              animated.auth());
+  REQUIRE(idleReader.status() == 200);
+  REQUIRE(animatedReader.status() == 200);
+  REQUIRE(idleReader.waitForParts(1, std::chrono::seconds(60)).size() == 1);
+  REQUIRE(animatedReader.waitForParts(3, std::chrono::seconds(60)).size() == 3);
   CHECK(validationMessages(*client) == 0);
 
   const auto signalled = Clock::now();
   std::optional<myriad::test::ExitStatus> exit = server.stop(std::chrono::seconds(30));
   const double seconds = std::chrono::duration<double>(Clock::now() - signalled).count();
   REQUIRE(exit);
-  MESSAGE("SIGTERM to exit with an idle stream open: ", seconds, " s");
+  MESSAGE("SIGTERM to exit with an idle and an animated stream open: ", seconds, " s");
   CHECK(exit->cleanExit());
   CHECK(seconds < 5.0);
-  CHECK(reader.waitForEnd(std::chrono::seconds(10)));
-  CHECK(reader.framingError().empty());
+  for (StreamReader* reader : {&idleReader, &animatedReader}) {
+    CHECK(reader->waitForEnd(std::chrono::seconds(10)));
+    CHECK(reader->framingError().empty());
+    CHECK(reader->leftover() == 0);
+  }
 }
