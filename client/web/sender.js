@@ -44,14 +44,18 @@ export class PatchSender {
     this.patch = null;
     this.inFlight = true;
     this.last = performance.now();
+    let answer;
+    let failure = null;
     try {
-      const answer = await this.sendFn(patch);
-      if (!this.patch) this.onAnswer(answer);
+      answer = await this.sendFn(patch);
     } catch (e) {
-      this.onProblem(e);
-    } finally {
-      this.inFlight = false;
-      this.schedule();
+      failure = e;
     }
+    // No longer busy before the answer is shown: the controls take the server's values now,
+    // unless a newer patch is already waiting (then its answer will).
+    this.inFlight = false;
+    if (failure) this.onProblem(failure);
+    else if (!this.patch) this.onAnswer(answer);
+    this.schedule();
   }
 }

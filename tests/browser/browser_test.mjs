@@ -7,6 +7,7 @@
 // Usage: node browser_test.mjs <path to myriad-server>. Exit 0 pass, 1 fail, 77 skip (no
 // Chromium at /usr/bin/chromium).
 
+import {execFileSync} from 'node:child_process';
 import {existsSync, readFileSync} from 'node:fs';
 import {tmpdir} from 'node:os';
 import {join} from 'node:path';
@@ -56,7 +57,8 @@ async function step(name, fn) {
     const shot = join(tmpdir(), `myriad-browser-${failures.length}.png`);
     await page.screenshot({path: shot}).then(() => console.log(`     page: ${shot}`), () => {});
     const src = await page.getAttribute('#stream', 'src').catch(() => '?');
-    const message = await page.textContent('#message-text').catch(() => '?');
+    const message = await page.isVisible('#message')
+        ? await page.textContent('#message-text').catch(() => '?') : '(none shown)';
     console.log(`     stream: ${src}\n     message: ${message}`);
   }
 }
@@ -165,6 +167,17 @@ async function changedFrom(what, before) {
     const s = await settled();
     return list.every((b) => difference(s, b) > CHANGED) ? s : null;
   });
+}
+
+// The camera once the PATCHes of a movement have all landed: two reads 300 ms apart agree.
+async function stableCamera() {
+  let last = null;
+  return until('the camera to stop moving', async () => {
+    const c = (await api('GET', `/v1/sessions/${sessionId}/camera`, {token})).body;
+    const same = last && JSON.stringify(c) === JSON.stringify(last);
+    last = c;
+    return same ? c : null;
+  }, WAIT_MS, 300);
 }
 
 let token = '';
@@ -280,6 +293,86 @@ try {
     await page.mouse.click(point.x, point.y);
     await until(`the editor to show light #${editedLight.id}`, async () =>
         (await page.textContent('#light-editor-title')) === `Light #${editedLight.id}`, 5000);
+  });
+
+  await step('orbit: the wheel zooms, a right drag pans', async () => {
+    const cam = async () => (await api('GET', `/v1/sessions/${sessionId}/camera`, {token})).body;
+    const distance = (c) => Math.hypot(...c.eye.map((v, i) => v - c.target[i]));
+    const before = await cam();
+    const box = await page.locator('#view').boundingBox();
+    await page.mouse.move(box.x + box.width / 2, box.y + box.height / 2);
+    await page.mouse.wheel(0, 300);   // away: exp(300 * 0.0015) = 1.57 times the distance
+    const zoomed = await until('the camera to move away', async () => {
+      const c = await cam();
+      return distance(c) > distance(before) * 1.3 ? c : null;
+    });
+    check(zoomed.target.every((v, i) => Math.abs(v - before.target[i]) < 1e-4), 'zoom moved the target');
+    await page.mouse.down({button: 'right'});
+    await page.mouse.move(box.x + box.width / 2 + 80, box.y + box.height / 2, {steps: 6});
+    await page.mouse.up({button: 'right'});
+    const panned = await until('the target to move', async () => {
+      const c = await cam();
+      return c.target.some((v, i) => Math.abs(v - zoomed.target[i]) > 1e-3) ? c : null;
+    });
+    // A pan moves eye and target together: the distance between them stays.
+    check(Math.abs(distance(panned) - distance(zoomed)) < 1e-3 * distance(zoomed), 'pan changed the distance');
+    picture = await changedFrom('the zoomed and panned picture', picture);
+  });
+
+  await step('fly: C switches mode, W moves forward, E moves up, right drag looks', async () => {
+    const cam = async () => (await api('GET', `/v1/sessions/${sessionId}/camera`, {token})).body;
+    await page.locator('#view').focus();
+    await page.keyboard.press('c');
+    check((await page.inputValue('#camera-mode')) === 'fly', 'C did not switch to fly');
+    const before = await cam();
+    const forward = before.target.map((v, i) => v - before.eye[i]);
+    await page.keyboard.down('w');
+    await page.waitForTimeout(400);
+    await page.keyboard.up('w');
+    const moved = await until('the eye to move forward', async () => {
+      const c = await cam();
+      const step = c.eye.map((v, i) => v - before.eye[i]);
+      return step.reduce((a, v, i) => a + v * forward[i], 0) > 0 ? c : null;
+    });
+    await page.keyboard.down('e');
+    await page.waitForTimeout(300);
+    await page.keyboard.up('e');
+    await until('the eye to rise', async () => (await cam()).eye[1] > moved.eye[1] + 1e-3);
+    const raised = await stableCamera();
+    const box = await page.locator('#view').boundingBox();
+    await page.mouse.move(box.x + box.width / 2, box.y + box.height / 2);
+    await page.mouse.down({button: 'right'});
+    await page.mouse.move(box.x + box.width / 2 + 60, box.y + box.height / 2, {steps: 6});
+    await page.mouse.up({button: 'right'});
+    await until('the view direction to turn around a fixed eye', async () => {
+      const c = await cam();
+      return c.eye.every((v, i) => Math.abs(v - raised.eye[i]) < 1e-4) &&
+             c.target.some((v, i) => Math.abs(v - raised.target[i]) > 1e-3);
+    });
+    await page.keyboard.press('c');
+    check((await page.inputValue('#camera-mode')) === 'orbit', 'C did not switch back to orbit');
+    picture = await changedFrom('the picture after flying', picture);
+  });
+
+  await step('copy camera: the JSON is the server\'s camera, the curl command sets it', async () => {
+    await context.grantPermissions(['clipboard-read', 'clipboard-write'], {origin: base});
+    await page.click('#copy-camera-json');
+    const copied = JSON.parse(await until('the clipboard', () =>
+        page.evaluate(() => navigator.clipboard.readText())));
+    const server = (await api('GET', `/v1/sessions/${sessionId}/camera`, {token})).body;
+    for (const key of ['eye', 'target', 'up', 'fovY', 'near', 'far']) {
+      check(JSON.stringify(copied[key]) === JSON.stringify(server[key]), `copied ${key} differs`);
+    }
+    await page.evaluate(() => navigator.clipboard.writeText(''));
+    await page.click('#copy-camera-curl');
+    const curl = await until('the curl command', () => page.evaluate(() => navigator.clipboard.readText()));
+    check(curl.startsWith('curl -X PUT') && curl.includes(`/v1/sessions/${sessionId}/camera`), curl);
+    // The command as a user would paste it, after the camera moved elsewhere: it puts it back.
+    await api('POST', `/v1/sessions/${sessionId}/camera/frame`, {token, json: {}});
+    const out = execFileSync('bash', ['-c', `${curl} -s -o /dev/null -w '%{http_code}'`]).toString();
+    check(out === '200', `the copied curl command answered ${out}`);
+    const restored = (await api('GET', `/v1/sessions/${sessionId}/camera`, {token})).body;
+    check(JSON.stringify(restored.eye) === JSON.stringify(server.eye), 'curl did not restore the eye');
   });
 
   await step('every target from /v1/info gives its own picture', async () => {
@@ -407,6 +500,22 @@ try {
           (await page.textContent('#help')).includes('W A S D'), 'help lists no fly keys');
     await page.keyboard.press('Escape');
     check(await page.isHidden('#help'), 'help not closed');
+  });
+
+  await step('settings: exposure slider, technique, M toggles markers', async () => {
+    const settings = async () => (await api('GET', `/v1/sessions/${sessionId}/settings`, {token})).body;
+    const before = await settings();
+    await page.focus('#exposure');
+    await page.keyboard.press('End');   // log2 exposure 6
+    await until('exposure 64 on the server', async () => (await settings()).exposure === 64);
+    picture = await changedFrom('the brighter picture', picture);
+    await page.selectOption('#technique', 'tiled');
+    await until('technique tiled on the server', async () => (await settings()).technique === 'tiled');
+    await page.locator('#view').focus();
+    await page.keyboard.press('m');
+    await until('markers toggled on the server', async () => (await settings()).markers === !before.markers);
+    await until('the markers box to follow', async () =>
+        (await page.isChecked('#markers')) === !before.markers, 5000);
   });
 
   await step('no console errors', async () => {
