@@ -1,12 +1,15 @@
 // CPU-only tests of the frame routes' pieces: session frame and stream queries, the metrics
-// exposition, and the multipart framing of streams.
+// exposition, the multipart framing and slots of streams, frame encoding and per-session stats.
 #include <doctest/doctest.h>
 
+#include <cstring>
 #include <map>
+#include <memory>
 #include <string>
 
 #include "service/frame_query.h"
 #include "service/metrics.h"
+#include "service/session_frames.h"
 #include "service/stream.h"
 
 using namespace myriad;
@@ -161,4 +164,114 @@ TEST_CASE("stream parts: the contract's framing") {
   CHECK(service::multipartPart("image/png", std::string(3, '\0'), 8, false) ==
         std::string("Content-Type: image/png\r\nContent-Length: 3\r\nX-Myriad-Frame: 8\r\n\r\n") +
             std::string(3, '\0') + "\r\n--myriad-frame\r\n");
+}
+
+TEST_CASE("stream registry: maxStreams places, released with the slot, none after shutdown") {
+  service::StreamRegistry registry(2);
+  auto session = std::make_shared<service::Session>("s-0123456789abcdef", std::string(64, 'a'));
+  auto first = registry.open(session);
+  auto second = registry.open(session);
+  REQUIRE(first);
+  REQUIRE(second);
+  CHECK(registry.count() == 2);
+  CHECK_FALSE(registry.open(session));
+  first.reset();
+  CHECK(registry.count() == 1);
+  auto third = registry.open(session);
+  CHECK(third);
+  registry.shutdown();
+  CHECK(registry.stopping());
+  third.reset();
+  CHECK_FALSE(registry.open(session));
+  second.reset();
+  CHECK(registry.count() == 0);
+}
+
+TEST_CASE("encodeFrame: raw frames carry their size, channels and target; images their type") {
+  render::Frame frame;
+  frame.width = 2;
+  frame.height = 1;
+  frame.technique = render::Technique::Tiled;
+  frame.passes = {{"gbuffer", 1.5}, {"readback", 0.25}};
+  frame.data = {1.5f, 0.0f, 0.0f, 0.0f, 7.25f, 0.0f, 0.0f, 0.0f};  // two depths, 4 floats each
+
+  FrameRequest request;
+  request.format = ImageFormat::Raw;
+  request.settings.target = render::Target::Depth;
+  request.settings.raw = true;
+  service::EncodedFrame raw = service::encodeFrame(frame, request);
+  CHECK(raw.contentType == "application/octet-stream");
+  REQUIRE(raw.body.size() == 2 * sizeof(float));
+  float depths[2];
+  std::memcpy(depths, raw.body.data(), sizeof depths);
+  CHECK(depths[0] == 1.5f);
+  CHECK(depths[1] == 7.25f);
+  std::map<std::string, std::string> headers(raw.headers.begin(), raw.headers.end());
+  CHECK(headers["X-Myriad-Width"] == "2");
+  CHECK(headers["X-Myriad-Height"] == "1");
+  CHECK(headers["X-Myriad-Channels"] == "depth");
+  CHECK(headers["X-Myriad-Target"] == "depth");
+  CHECK(headers["X-Myriad-Technique"] == "tiled");
+  CHECK(headers["Server-Timing"].starts_with("gbuffer;dur=1.500, readback;dur=0.250, encode;dur="));
+  CHECK(headers["Server-Timing"].find("culling;desc=") != std::string::npos);
+
+  frame.rgba.assign(2 * 1 * 4, 200);
+  request.format = ImageFormat::Jpeg;
+  request.settings.raw = false;
+  service::EncodedFrame jpeg = service::encodeFrame(frame, request);
+  CHECK(jpeg.contentType == "image/jpeg");
+  REQUIRE(jpeg.body.size() > 4);
+  CHECK(uint8_t(jpeg.body[0]) == 0xFF);
+  CHECK(uint8_t(jpeg.body[1]) == 0xD8);
+  request.format = ImageFormat::Png;
+  CHECK(service::encodeFrame(frame, request).contentType == "image/png");
+  frame.technique = render::Technique::Volumes;  // no light lists: no culling report
+  std::map<std::string, std::string> volumes;
+  for (auto& [name, value] : service::encodeFrame(frame, request).headers) volumes[name] = value;
+  CHECK(volumes["Server-Timing"].find("culling") == std::string::npos);
+}
+
+TEST_CASE("frame stats: the last frame per session, counted; entries of sessions gone dropped") {
+  service::FrameStatsBook book;
+  auto session = std::make_shared<service::Session>("s-00000000000000aa", std::string(64, 'b'));
+  protocol::Stats none = book.statsOf(*session, 5, true);
+  CHECK_FALSE(none.frame.has_value());
+  CHECK_FALSE(none.culling.has_value());
+  CHECK(none.frames == 0);
+  CHECK(none.lightCount == 5);
+  CHECK(none.lightsAnimated);
+
+  render::Frame frame;
+  frame.width = 64;
+  frame.height = 32;
+  frame.passes = {{"gbuffer", 2.0}, {"lighting", 1.0}, {"readback", 0.5}};
+  frame.sceneBytes = 4096;
+  frame.culling.lightBytes = 512;
+  frame.culling.listBytes = 1024;
+  frame.culling.listEntries = 77;
+  book.record(session, frame, render::Target::Normal, 3.0);
+  book.record(session, frame, render::Target::Normal, 3.0);
+  protocol::Stats stats = book.statsOf(*session, 5, false);
+  REQUIRE(stats.frame.has_value());
+  CHECK(stats.frames == 2);
+  CHECK(stats.frame->passes.size() == 3);
+  CHECK(stats.frame->totalGpuMs == doctest::Approx(3.5));
+  CHECK(stats.frame->readbackMs == doctest::Approx(0.5));
+  CHECK(stats.frame->encodeMs == doctest::Approx(3.0));
+  CHECK(stats.frame->target == "normal");
+  CHECK(stats.frame->technique == "clustered");
+  REQUIRE(stats.culling.has_value());
+  CHECK(stats.culling->listEntries == 77);
+  CHECK(stats.gpuMemory.sceneBytes == 4096);
+  CHECK(stats.gpuMemory.lightBytes == 512);
+  CHECK(stats.gpuMemory.listBytes == 1024);
+
+  // A new session under another id starts from nothing; the old one's entry goes once it is gone.
+  auto other = std::make_shared<service::Session>("s-00000000000000bb", std::string(64, 'c'));
+  CHECK(book.statsOf(*other, 0, false).frames == 0);
+  const std::string oldId = session->id;
+  session.reset();
+  book.record(other, frame, render::Target::Final, 1.0);
+  service::Session again(oldId, std::string(64, 'b'));
+  CHECK(book.statsOf(again, 0, false).frames == 0);
 }
