@@ -445,3 +445,74 @@ TEST_CASE("overflowing cluster lists are reported at the limit and grow below it
   r.destroyScene(id);
   CHECK(gpu.context->validationMessages.load() == 0);
 }
+
+TEST_CASE("a random run of light edits leaves the GPU matching the scene the edits describe") {
+  Gpu& gpu = sharedGpu();
+  render::Renderer& r = *gpu.renderer;
+  scene::Scene s = sceneA();
+  render::SceneId id = r.createScene(s);
+  uint64_t state = 12345;  // xorshift: the same run every time
+  auto next = [&state](uint32_t below) {
+    state ^= state << 13;
+    state ^= state >> 7;
+    state ^= state << 17;
+    return uint32_t(state % below);
+  };
+  auto randomLight = [&] {
+    glm::vec3 p(float(next(1000)) / 100.0f - 5.0f, 0.05f + float(next(100)) / 100.0f,
+                float(next(1000)) / 100.0f - 7.0f);
+    glm::vec3 c(float(next(100)) / 100.0f, float(next(100)) / 100.0f, float(next(100)) / 100.0f);
+    return light(p, 0.3f + float(next(150)) / 100.0f, c, 1.0f + float(next(500)) / 100.0f);
+  };
+  size_t checks = 0;
+  for (int step = 1; step <= 120; ++step) {
+    render::LightUpdate update;
+    const auto n = uint32_t(s.lights.size());
+    switch (next(5)) {
+      case 0: {  // append 1..80
+        uint32_t k = 1 + next(80);
+        for (uint32_t i = 0; i < k; ++i) {
+          s.lights.push_back(randomLight());
+          update.writes.push_back({n + i, s.lights.back()});
+        }
+        break;
+      }
+      case 1:  // remove one: the last moves into its slot
+        if (n > 0) {
+          uint32_t i = next(n);
+          s.lights[i] = s.lights.back();
+          s.lights.pop_back();
+          if (i < n - 1) update.writes.push_back({i, s.lights[i]});
+        }
+        break;
+      case 2:  // change a few
+        for (uint32_t k = 0; n > 0 && k < 1 + next(6); ++k) {
+          uint32_t i = next(n);
+          s.lights[i] = randomLight();
+          update.writes.push_back({i, s.lights[i]});
+        }
+        break;
+      case 3:  // truncate, sometimes to nothing
+        s.lights.resize(next(5) == 0 ? 0 : n / 2);
+        break;
+      case 4: {  // an animated frame in between: the edits must reach the origins too
+        render::FrameSettings f = settingsFor(s);
+        f.animate = true;
+        f.time = step * 0.1;
+        r.render(id, f);
+        break;
+      }
+    }
+    update.count = uint32_t(s.lights.size());
+    r.updateLights(id, update);
+    REQUIRE(r.lightCount(id) == s.lights.size());
+    if (step % 30 == 0) {
+      CAPTURE(step);
+      checkMatchesReference(r.render(id, settingsFor(s)), s, settingsFor(s));
+      ++checks;
+    }
+  }
+  CHECK(checks == 4);
+  r.destroyScene(id);
+  CHECK(gpu.context->validationMessages.load() == 0);
+}
