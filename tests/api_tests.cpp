@@ -755,3 +755,119 @@ TEST_CASE("api: --api-key / MYRIAD_API_KEY guard session creation; CORS prefligh
   CHECK(other.header("Access-Control-Allow-Origin").empty());
   checkStopsCleanly(server);
 }
+
+TEST_CASE("api: light edits reach the GPU exactly (a session edited piecemeal renders like one built whole)") {
+  ServerProcess server({"--lights", "2"});
+  requireListening(server);
+  ApiClient api(server);
+  TestSession edited = createSession(api);
+  TestSession whole = createSession(api);
+  const std::string lights = edited.path() + "/lights";
+  REQUIRE(api.post(lights + "/generate", R"({"count": 60, "seed": 11})", edited.token).status ==
+          200);
+  std::vector<uint64_t> ids;
+  const Reply generatedPage = api.get(lights + "?limit=1000", edited.token);
+  for (const json& l : generatedPage.json["lights"]) {
+    ids.push_back(l["id"].get<uint64_t>());
+  }
+  REQUIRE(ids.size() == 60);
+  // Deletes from the front, middle and back (each moves the last light), patches, appends.
+  for (size_t i : {0, 59, 30, 7, 45, 1, 22}) {
+    REQUIRE(api.del(lights + "/" + std::to_string(ids[i]), edited.token).status == 204);
+  }
+  for (size_t i : {2, 3, 40, 58}) {
+    REQUIRE(api.patch(lights + "/" + std::to_string(ids[i]),
+                      R"({"radius": 3, "color": [0, 0.5, 1], "position": [0.5, 0.5, 0.5]})",
+                      edited.token)
+                .status == 200);
+  }
+  REQUIRE(api.post(lights, json{{"lights", {lightJson(-2.0, 2.5), lightJson(2.0, 2.5)}}}.dump(),
+                   edited.token)
+              .status == 201);
+  Reply page = api.get(lights + "?limit=1000", edited.token);
+  REQUIRE(page.json["total"] == 55);
+
+  // The same lights, in the same order, added in one request to a fresh session.
+  json all = json::array();
+  for (json l : page.json["lights"]) {
+    l.erase("id");
+    all.push_back(l);
+  }
+  REQUIRE(api.del(whole.path() + "/lights", whole.token).status == 204);
+  REQUIRE(api.post(whole.path() + "/lights", json{{"lights", all}}.dump(), whole.token).status ==
+          201);
+  for (const char* technique : {"clustered", "volumes"}) {
+    const std::string patch = json{{"technique", technique}}.dump();
+    REQUIRE(api.patch(edited.path() + "/settings", patch, edited.token).status == 200);
+    REQUIRE(api.patch(whole.path() + "/settings", patch, whole.token).status == 200);
+    const std::string query = "/frame?width=96&height=64&format=png";
+    Reply a = api.get(edited.path() + query, edited.token);
+    Reply b = api.get(whole.path() + query, whole.token);
+    INFO(technique, ": ", a.body.substr(0, 200), " / ", b.body.substr(0, 200));
+    REQUIRE(a.status == 200);
+    REQUIRE(b.status == 200);
+    CHECK(a.body == b.body);
+  }
+  // The comparison can fail: one light less shows.
+  const uint64_t appended = page.json["lights"][53]["id"].get<uint64_t>();
+  REQUIRE(api.del(lights + "/" + std::to_string(appended), edited.token).status == 204);
+  const std::string query = "/frame?width=96&height=64&format=png";
+  CHECK(api.get(edited.path() + query, edited.token).body !=
+        api.get(whole.path() + query, whole.token).body);
+  CHECK(myriad::test::validationMessages(api) == 0);
+  checkStopsCleanly(server);
+}
+
+TEST_CASE("api: concurrent edits of one session stay consistent; deleting it mid-edit is clean") {
+  ServerProcess server({"--lights", "2"});
+  requireListening(server);
+  ApiClient setup(server);
+  TestSession s = createSession(setup);
+  REQUIRE(setup.del(s.path() + "/lights", s.token).status == 204);
+  constexpr int kThreads = 4, kRounds = 25;
+  std::vector<std::future<int>> workers;
+  for (int t = 0; t < kThreads; ++t) {
+    workers.push_back(std::async(std::launch::async, [&, t] {
+      ApiClient api(server);
+      int kept = 0;
+      for (int round = 0; round < kRounds; ++round) {
+        Reply added = api.post(s.path() + "/lights",
+                               json{{"lights", {lightJson(t), lightJson(-t)}}}.dump(), s.token);
+        if (added.status != 201) return -1;
+        const std::string first = s.path() + "/lights/" + std::to_string(added.json["ids"][0].get<uint64_t>());
+        if (api.patch(first, R"({"intensity": 5})", s.token).status != 200) return -1;
+        if (api.del(first, s.token).status != 204) return -1;
+        ++kept;
+      }
+      return kept;
+    }));
+  }
+  int kept = 0;
+  for (auto& w : workers) {
+    int n = w.get();
+    CHECK(n == kRounds);
+    kept += n;
+  }
+  Reply page = setup.get(s.path() + "/lights?limit=1000", s.token);
+  CHECK(page.json["total"] == kept);
+  std::set<uint64_t> ids;
+  for (const json& l : page.json["lights"]) ids.insert(l["id"].get<uint64_t>());
+  CHECK(ids.size() == size_t(kept));
+  CHECK(setup.get(s.path() + "/frame?width=64&height=48", s.token).status == 200);
+
+  // A model replacement racing a DELETE: either finishes first; the other gets 404 or its answer.
+  auto replace = std::async(std::launch::async, [&] {
+    ApiClient api(server);
+    return api.put(s.path() + "/model?filename=box.glb", readFile(kBox), s.token,
+                   "application/octet-stream")
+        .status;
+  });
+  std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  CHECK(setup.del(s.path(), s.token).status == 204);
+  const int replaced = replace.get();
+  CHECK((replaced == 200 || replaced == 404));
+  checkProblem(setup.get(s.path(), s.token), 404, "not-found", "deleted during a model load");
+  CHECK(setup.get("/v1/info").json["sessions"]["open"] == 0);
+  CHECK(myriad::test::validationMessages(setup) == 0);
+  checkStopsCleanly(server);
+}

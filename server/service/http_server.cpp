@@ -44,6 +44,14 @@ Problem problemForStatus(int status, const httplib::Request& req, const ApiLimit
       return badRequest(414, "The request URI is too long.");
     default:
       if (status >= 500) return internalError("The server failed to handle the request.");
+      // httplib refuses a POST/PUT/PATCH that says nothing of its body's length (curl -X POST
+      // without -d does that); say so rather than blame the HTTP.
+      if ((req.method == "POST" || req.method == "PUT" || req.method == "PATCH") &&
+          !req.has_header("Content-Length") && !req.has_header("Transfer-Encoding")) {
+        return badRequest(status, req.method +
+                                      " needs a Content-Length header; an empty body is "
+                                      "Content-Length: 0 (curl: -d '').");
+      }
       return badRequest(status, "The request is not valid HTTP/1.1 for this server.");
   }
 }
