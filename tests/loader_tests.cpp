@@ -1,9 +1,7 @@
 // The isolated model loader: every test model through the child process, each failure reason
-// proven with an injected fault, the wire format against corruption, no leaked descriptors or
-// zombies, and the model library's path checks.
+// proven with an injected fault, no leaked descriptors or zombies, concurrency, the sandbox.
 #include <doctest/doctest.h>
 
-#include <sys/wait.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -11,23 +9,23 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
-#include <cstdlib>
-#include <cstring>
 #include <filesystem>
-#include <fstream>
 #include <map>
 #include <set>
 #include <string>
 #include <thread>
 #include <vector>
 
-#include "loader/library.h"
 #include "loader/loader.h"
-#include "loader/scene_wire.h"
+#include "loader_support.h"
 #include "scene/model_loader.h"
 
 namespace fs = std::filesystem;
 using namespace myriad;
+using test::noChildren;
+using test::readFile;
+using test::requireSameScene;
+using test::secondsSince;
 using loader::InjectedFault;
 using loader::LoadLimits;
 using loader::ModelRejected;
@@ -35,21 +33,7 @@ using Clock = std::chrono::steady_clock;
 
 namespace {
 
-// Assimp's test models (Debian's assimp-testmodels); MYRIAD_ASSIMP_MODELS points elsewhere, e.g.
-// at a copy on a machine without the package.
-const fs::path kModels = [] {
-  const char* override = std::getenv("MYRIAD_ASSIMP_MODELS");
-  return fs::path(override != nullptr ? override : "/usr/share/assimp/models");
-}();
-
-std::string readFile(const fs::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
-}
-
-double secondsSince(Clock::time_point start) {
-  return std::chrono::duration<double>(Clock::now() - start).count();
-}
+const fs::path kModels = test::assimpModels();
 
 // The reason a load was refused, or "" when it loaded.
 std::string rejection(std::string_view bytes, std::string_view name, const LoadLimits& limits = {}) {
@@ -65,38 +49,6 @@ int openDescriptors() {
   int count = 0;
   for ([[maybe_unused]] const auto& entry : fs::directory_iterator("/proc/self/fd")) ++count;
   return count;
-}
-
-// True when this process has no child left, running or unreaped.
-bool noChildren() {
-  return ::waitpid(-1, nullptr, WNOHANG) < 0 && errno == ECHILD;
-}
-
-void requireSameScene(const scene::Scene& a, const scene::Scene& b) {
-  REQUIRE(a.meshes.size() == b.meshes.size());
-  REQUIRE(a.materials.size() == b.materials.size());
-  REQUIRE(a.instances.size() == b.instances.size());
-  REQUIRE(a.lights.size() == b.lights.size());
-  for (size_t m = 0; m < a.meshes.size(); ++m) {
-    REQUIRE(a.meshes[m].vertices.size() == b.meshes[m].vertices.size());
-    REQUIRE(a.meshes[m].indices == b.meshes[m].indices);
-    CHECK(a.meshes[m].name == b.meshes[m].name);
-    CHECK(std::memcmp(a.meshes[m].vertices.data(), b.meshes[m].vertices.data(),
-                      a.meshes[m].vertices.size() * sizeof(scene::Vertex)) == 0);
-  }
-  for (size_t i = 0; i < a.instances.size(); ++i) {
-    CHECK(a.instances[i].mesh == b.instances[i].mesh);
-    CHECK(a.instances[i].material == b.instances[i].material);
-    CHECK(a.instances[i].transform == b.instances[i].transform);
-  }
-  for (size_t i = 0; i < a.materials.size(); ++i) {
-    CHECK(a.materials[i].name == b.materials[i].name);
-    CHECK(a.materials[i].baseColor == b.materials[i].baseColor);
-    CHECK(a.materials[i].metallic == b.materials[i].metallic);
-    CHECK(a.materials[i].roughness == b.materials[i].roughness);
-  }
-  CHECK(a.camera.eye == b.camera.eye);
-  CHECK(a.camera.target == b.camera.target);
 }
 
 // What a file can be refused for ("busy" and "internal" are about the server, never expected here).
@@ -316,115 +268,6 @@ TEST_CASE("loader: injected faults give crash, timeout and memory within the lim
   CHECK(noChildren());
 }
 
-TEST_CASE("loader: corrupted wire data is rejected") {
-  const scene::Scene original = scene::loadModel(kModels / "OBJ/spider.obj");
-  const std::string wire = loader::encodeScene(original);
-  requireSameScene(loader::decodeScene(wire), original);
-
-  auto rejects = [](const std::string& bytes) {
-    try {
-      loader::decodeScene(bytes);
-      return false;
-    } catch (const loader::SceneWireError&) {
-      return true;
-    }
-  };
-  // Every truncation (sampled), and one byte too many.
-  int truncations = 0;
-  for (size_t length = 0; length < wire.size(); length += 1 + length / 64) {
-    CAPTURE(length);
-    CHECK(rejects(wire.substr(0, length)));
-    ++truncations;
-  }
-  CHECK(rejects(wire + '\0'));
-
-  auto patched = [&](size_t offset, uint32_t value) {
-    std::string bytes = wire;
-    std::memcpy(bytes.data() + offset, &value, 4);
-    return bytes;
-  };
-  CHECK(rejects(patched(0, 0x12345678)));  // magic
-  CHECK(rejects(patched(4, 2)));           // version
-  // Counts of meshes, materials, instances, lights: one more, one fewer, and absurd.
-  for (size_t offset : {8, 12, 16, 20}) {
-    uint32_t count;
-    std::memcpy(&count, wire.data() + offset, 4);
-    CAPTURE(offset);
-    CHECK(rejects(patched(offset, count + 1)));
-    if (count > 0) CHECK(rejects(patched(offset, count - 1)));
-    CHECK(rejects(patched(offset, 0xFFFFFFFFu)));
-  }
-
-  // Inside the body: the first mesh's vertex count, an index, a NaN position.
-  scene::Scene broken = original;
-  broken.meshes[0].indices[5] = uint32_t(broken.meshes[0].vertices.size());
-  CHECK(rejects(loader::encodeScene(broken)));
-  broken = original;
-  broken.meshes[0].vertices[3].position.y = std::nanf("");
-  CHECK(rejects(loader::encodeScene(broken)));
-  broken = original;
-  broken.instances[0].mesh = uint32_t(broken.meshes.size());
-  CHECK(rejects(loader::encodeScene(broken)));
-  broken = original;
-  broken.instances[0].transform[3][1] = INFINITY;
-  CHECK(rejects(loader::encodeScene(broken)));
-  broken = original;
-  broken.materials[0].roughness = 2.0f;
-  CHECK(rejects(loader::encodeScene(broken)));
-  broken = original;
-  broken.meshes[0].indices.pop_back();  // not a whole number of triangles
-  CHECK(rejects(loader::encodeScene(broken)));
-
-  // Names: not UTF-8 and control characters are replaced, never passed on.
-  broken = original;
-  broken.materials[0].name = "a\xff\xc0\x80z\n\x1b";
-  const scene::Scene cleaned = loader::decodeScene(loader::encodeScene(broken));
-  CHECK(cleaned.materials[0].name == "a???z  ");
-  broken.materials[0].name = "Ünïcödé ✓";
-  CHECK(loader::decodeScene(loader::encodeScene(broken)).materials[0].name == "Ünïcödé ✓");
-  MESSAGE(truncations, " truncations rejected");
-}
-
-TEST_CASE("loader: randomly corrupted wire data is rejected or still consistent") {
-  const std::string wire = loader::encodeScene(scene::loadModel(kModels / "OBJ/spider.obj"));
-  uint64_t state = 0x9E3779B97F4A7C15ull;  // fixed seed: a failure reproduces
-  auto next = [&state] {
-    state ^= state << 13, state ^= state >> 7, state ^= state << 17;
-    return state;
-  };
-  int rejected = 0, accepted = 0, violations = 0;
-  for (int round = 0; round < 3000; ++round) {
-    std::string bytes = wire;
-    const int flips = 1 + int(next() % 4);
-    for (int f = 0; f < flips; ++f) {
-      // Mostly the header and the first records, where counts and sizes live.
-      const size_t at = next() % (round % 2 ? bytes.size() : std::min<size_t>(bytes.size(), 256));
-      bytes[at] = char(next());
-    }
-    try {
-      const scene::Scene scene = loader::decodeScene(bytes);
-      ++accepted;
-      // What is accepted must be safe to render: every reference in range, every number finite.
-      for (const scene::Instance& instance : scene.instances) {
-        violations += instance.mesh >= scene.meshes.size();
-        violations += instance.material >= scene.materials.size();
-      }
-      for (const scene::Mesh& mesh : scene.meshes) {
-        violations += mesh.indices.size() % 3 != 0;
-        for (uint32_t index : mesh.indices) violations += index >= mesh.vertices.size();
-        for (const scene::Vertex& v : mesh.vertices) {
-          violations += !std::isfinite(v.position.x + v.position.y + v.position.z);
-        }
-      }
-    } catch (const loader::SceneWireError&) {
-      ++rejected;
-    }
-  }
-  MESSAGE(rejected, " corruptions rejected, ", accepted, " decoded to a consistent scene");
-  CHECK(violations == 0);
-  CHECK(rejected > 1000);
-}
-
 TEST_CASE("loader: a library file that is missing or unreadable is a parse rejection") {
   try {
     loader::loadModelFile("/nonexistent/model.glb");
@@ -491,58 +334,6 @@ TEST_CASE("loader: loads from several threads at once") {
   CHECK(refused == 10);
   CHECK(openDescriptors() == before);
   CHECK(noChildren());
-}
-
-TEST_CASE("library: lists models and resolves only names inside the root") {
-  const fs::path base = fs::temp_directory_path() / ("myriad-library-" + std::to_string(::getpid()));
-  fs::remove_all(base);
-  const fs::path root = base / "models";
-  fs::create_directories(root / "sub" / "deeper");
-  fs::create_directories(root / ".git");
-  fs::create_directories(base / "outside");
-  auto write = [](const fs::path& path, const std::string& text) { std::ofstream(path) << text; };
-  const std::string triangle = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
-  write(root / "a.obj", triangle);
-  write(root / "sub" / "b.OBJ", triangle);
-  write(root / "sub" / "deeper" / "c.obj", triangle);
-  write(root / ".hidden.obj", triangle);
-  write(root / ".git" / "d.obj", triangle);
-  write(root / "notes.txt", "not a model");
-  write(base / "outside" / "secret.obj", triangle);
-  fs::create_symlink(base / "outside" / "secret.obj", root / "escape.obj");
-  fs::create_directory_symlink(base / "outside", root / "escape-dir");
-  fs::create_symlink(root / "a.obj", root / "sub" / "alias.obj");  // inside: allowed
-  fs::create_directories(root / "dir.obj");                        // not a regular file
-
-  const loader::ModelLibrary library(root);
-  std::vector<std::string> names;
-  for (const auto& entry : library.list()) names.push_back(entry.name);
-  CHECK(names == std::vector<std::string>{"a.obj", "sub/alias.obj", "sub/b.OBJ", "sub/deeper/c.obj"});
-  CHECK(library.list()[0].bytes == triangle.size());
-
-  CHECK(library.resolve("a.obj") == fs::canonical(root / "a.obj"));
-  CHECK(library.resolve("sub/deeper/c.obj").has_value());
-  CHECK(library.resolve("sub/alias.obj") == fs::canonical(root / "a.obj"));
-  const std::string absoluteOutside = (base / "outside" / "secret.obj").string();
-  for (const std::string bad :
-       {"", "../outside/secret.obj", "sub/../a.obj", "./a.obj", "/etc/passwd",
-        absoluteOutside.c_str(), "escape.obj", "escape-dir/secret.obj",
-        ".hidden.obj", ".git/d.obj", "notes.txt", "missing.obj", "dir.obj", "sub//b.OBJ",
-        "sub\\b.OBJ", "a.obj/", "sub"}) {
-    CAPTURE(bad);
-    CHECK(!library.resolve(bad).has_value());
-  }
-  CHECK(!library.resolve(std::string_view("a.obj\0x", 7)).has_value());
-
-  // What it resolves loads through the child.
-  const scene::Scene scene = loader::loadModelFile(*library.resolve("sub/b.OBJ"));
-  CHECK(scene.meshes.size() == 1);
-
-  CHECK(loader::ModelLibrary({}).list().empty());
-  CHECK(!loader::ModelLibrary({}).resolve("a.obj").has_value());
-  CHECK_THROWS_AS(loader::ModelLibrary(base / "nope"), std::runtime_error);
-  CHECK_THROWS_AS(loader::ModelLibrary(root / "a.obj"), std::runtime_error);
-  fs::remove_all(base);
 }
 
 TEST_CASE("loader: what the process costs (median of 5, printed)") {

@@ -1,0 +1,67 @@
+// Helpers shared by the loader, scene wire and model library tests.
+#pragma once
+
+#include <sys/wait.h>
+
+#include <cerrno>
+#include <chrono>
+#include <cstdlib>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <string>
+
+#include <doctest/doctest.h>
+
+#include "scene/scene.h"
+
+namespace myriad::test {
+
+// Assimp's test models (Debian's assimp-testmodels); MYRIAD_ASSIMP_MODELS points elsewhere, e.g.
+// at a copy on a machine without the package.
+inline std::filesystem::path assimpModels() {
+  const char* override = std::getenv("MYRIAD_ASSIMP_MODELS");
+  return override != nullptr ? override : "/usr/share/assimp/models";
+}
+
+inline std::string readFile(const std::filesystem::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+}
+
+inline double secondsSince(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+// True when this process has no child left, running or unreaped.
+inline bool noChildren() { return ::waitpid(-1, nullptr, WNOHANG) < 0 && errno == ECHILD; }
+
+inline void requireSameScene(const scene::Scene& a, const scene::Scene& b) {
+  REQUIRE(a.meshes.size() == b.meshes.size());
+  REQUIRE(a.materials.size() == b.materials.size());
+  REQUIRE(a.instances.size() == b.instances.size());
+  REQUIRE(a.lights.size() == b.lights.size());
+  for (size_t m = 0; m < a.meshes.size(); ++m) {
+    REQUIRE(a.meshes[m].vertices.size() == b.meshes[m].vertices.size());
+    REQUIRE(a.meshes[m].indices == b.meshes[m].indices);
+    CHECK(a.meshes[m].name == b.meshes[m].name);
+    CHECK(std::memcmp(a.meshes[m].vertices.data(), b.meshes[m].vertices.data(),
+                      a.meshes[m].vertices.size() * sizeof(scene::Vertex)) == 0);
+  }
+  for (size_t i = 0; i < a.instances.size(); ++i) {
+    CHECK(a.instances[i].mesh == b.instances[i].mesh);
+    CHECK(a.instances[i].material == b.instances[i].material);
+    CHECK(a.instances[i].transform == b.instances[i].transform);
+  }
+  for (size_t i = 0; i < a.materials.size(); ++i) {
+    CHECK(a.materials[i].name == b.materials[i].name);
+    CHECK(a.materials[i].baseColor == b.materials[i].baseColor);
+    CHECK(a.materials[i].metallic == b.materials[i].metallic);
+    CHECK(a.materials[i].roughness == b.materials[i].roughness);
+  }
+  CHECK(a.camera.eye == b.camera.eye);
+  CHECK(a.camera.target == b.camera.target);
+}
+
+}  // namespace myriad::test

@@ -1,0 +1,129 @@
+// The loader's wire format: what the parent accepts from a child it does not trust.
+#include <doctest/doctest.h>
+
+#include <cmath>
+#include <cstring>
+#include <string>
+
+#include "loader/scene_wire.h"
+#include "loader_support.h"
+#include "scene/model_loader.h"
+
+using namespace myriad;
+using test::requireSameScene;
+
+namespace {
+
+const std::filesystem::path kModels = test::assimpModels();
+
+}  // namespace
+
+TEST_CASE("wire: corrupted wire data is rejected") {
+  const scene::Scene original = scene::loadModel(kModels / "OBJ/spider.obj");
+  const std::string wire = loader::encodeScene(original);
+  requireSameScene(loader::decodeScene(wire), original);
+
+  auto rejects = [](const std::string& bytes) {
+    try {
+      loader::decodeScene(bytes);
+      return false;
+    } catch (const loader::SceneWireError&) {
+      return true;
+    }
+  };
+  // Every truncation (sampled), and one byte too many.
+  int truncations = 0;
+  for (size_t length = 0; length < wire.size(); length += 1 + length / 64) {
+    CAPTURE(length);
+    CHECK(rejects(wire.substr(0, length)));
+    ++truncations;
+  }
+  CHECK(rejects(wire + '\0'));
+
+  auto patched = [&](size_t offset, uint32_t value) {
+    std::string bytes = wire;
+    std::memcpy(bytes.data() + offset, &value, 4);
+    return bytes;
+  };
+  CHECK(rejects(patched(0, 0x12345678)));  // magic
+  CHECK(rejects(patched(4, 2)));           // version
+  // Counts of meshes, materials, instances, lights: one more, one fewer, and absurd.
+  for (size_t offset : {8, 12, 16, 20}) {
+    uint32_t count;
+    std::memcpy(&count, wire.data() + offset, 4);
+    CAPTURE(offset);
+    CHECK(rejects(patched(offset, count + 1)));
+    if (count > 0) CHECK(rejects(patched(offset, count - 1)));
+    CHECK(rejects(patched(offset, 0xFFFFFFFFu)));
+  }
+
+  // Inside the body: the first mesh's vertex count, an index, a NaN position.
+  scene::Scene broken = original;
+  broken.meshes[0].indices[5] = uint32_t(broken.meshes[0].vertices.size());
+  CHECK(rejects(loader::encodeScene(broken)));
+  broken = original;
+  broken.meshes[0].vertices[3].position.y = std::nanf("");
+  CHECK(rejects(loader::encodeScene(broken)));
+  broken = original;
+  broken.instances[0].mesh = uint32_t(broken.meshes.size());
+  CHECK(rejects(loader::encodeScene(broken)));
+  broken = original;
+  broken.instances[0].transform[3][1] = INFINITY;
+  CHECK(rejects(loader::encodeScene(broken)));
+  broken = original;
+  broken.materials[0].roughness = 2.0f;
+  CHECK(rejects(loader::encodeScene(broken)));
+  broken = original;
+  broken.meshes[0].indices.pop_back();  // not a whole number of triangles
+  CHECK(rejects(loader::encodeScene(broken)));
+
+  // Names: not UTF-8 and control characters are replaced, never passed on.
+  broken = original;
+  broken.materials[0].name = "a\xff\xc0\x80z\n\x1b";
+  const scene::Scene cleaned = loader::decodeScene(loader::encodeScene(broken));
+  CHECK(cleaned.materials[0].name == "a???z  ");
+  broken.materials[0].name = "Ünïcödé ✓";
+  CHECK(loader::decodeScene(loader::encodeScene(broken)).materials[0].name == "Ünïcödé ✓");
+  MESSAGE(truncations, " truncations rejected");
+}
+
+TEST_CASE("wire: randomly corrupted wire data is rejected or still consistent") {
+  const std::string wire = loader::encodeScene(scene::loadModel(kModels / "OBJ/spider.obj"));
+  uint64_t state = 0x9E3779B97F4A7C15ull;  // fixed seed: a failure reproduces
+  auto next = [&state] {
+    state ^= state << 13, state ^= state >> 7, state ^= state << 17;
+    return state;
+  };
+  int rejected = 0, accepted = 0, violations = 0;
+  for (int round = 0; round < 3000; ++round) {
+    std::string bytes = wire;
+    const int flips = 1 + int(next() % 4);
+    for (int f = 0; f < flips; ++f) {
+      // Mostly the header and the first records, where counts and sizes live.
+      const size_t at = next() % (round % 2 ? bytes.size() : std::min<size_t>(bytes.size(), 256));
+      bytes[at] = char(next());
+    }
+    try {
+      const scene::Scene scene = loader::decodeScene(bytes);
+      ++accepted;
+      // What is accepted must be safe to render: every reference in range, every number finite.
+      for (const scene::Instance& instance : scene.instances) {
+        violations += instance.mesh >= scene.meshes.size();
+        violations += instance.material >= scene.materials.size();
+      }
+      for (const scene::Mesh& mesh : scene.meshes) {
+        violations += mesh.indices.size() % 3 != 0;
+        for (uint32_t index : mesh.indices) violations += index >= mesh.vertices.size();
+        for (const scene::Vertex& v : mesh.vertices) {
+          violations += !std::isfinite(v.position.x + v.position.y + v.position.z);
+        }
+      }
+    } catch (const loader::SceneWireError&) {
+      ++rejected;
+    }
+  }
+  MESSAGE(rejected, " corruptions rejected, ", accepted, " decoded to a consistent scene");
+  CHECK(violations == 0);
+  CHECK(rejected > 1000);
+}
+
