@@ -459,6 +459,27 @@ try {
     picture = await changedFrom('the built-in scene again', picture);
   });
 
+  await step('a model file uploads from the panel', async () => {
+    await page.setInputFiles('#model-file', `${MODELS}/box.obj`);
+    await until('the uploaded model in the summary', async () =>
+        (await page.textContent('#model-summary')).startsWith('upload:box.obj'));
+    picture = await changedFrom('the box', picture);
+    await page.click('#model-builtin');
+    await until('the built-in scene in the summary', async () =>
+        (await page.textContent('#model-summary')).startsWith('builtin:default'));
+    picture = await changedFrom('the built-in scene again', picture);
+  });
+
+  await step('animate: the stream keeps sending new frames without input', async () => {
+    await page.check('#animate');
+    const settings = async () => (await api('GET', `/v1/sessions/${sessionId}/settings`, {token})).body;
+    await until('animate on the server', async () => (await settings()).animate === true);
+    // Three pictures in a row, each different from the one before: frames keep coming.
+    for (let i = 0; i < 3; ++i) picture = await changedFrom(`animated frame ${i + 1}`, picture);
+    await page.uncheck('#animate');
+    await until('animate off on the server', async () => (await settings()).animate === false);
+  });
+
   await step('a reload continues the same session', async () => {
     await page.reload();
     await settled();
