@@ -703,11 +703,32 @@ TEST_CASE("api: DELETE frees the session's GPU memory before it answers") {
   ApiClient api(server);
   const uint64_t before = gpuMemory(api);
   TestSession s = createSession(api);
-  REQUIRE(api.post(s.path() + "/lights/generate", R"({"count": 100000, "seed": 3})", s.token)
+  // A million lights: the default maxLightsPerSession, exactly.
+  const auto start = std::chrono::steady_clock::now();
+  REQUIRE(api.post(s.path() + "/lights/generate", R"({"count": 1000000, "seed": 3})", s.token)
               .status == 200);
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   const uint64_t during = gpuMemory(api);
-  MESSAGE("GPU memory: ", before, " bytes before, ", during, " with a session of 100000 lights");
-  CHECK(during > before + 100000 * 32);  // at least the lights themselves
+  MESSAGE("GPU memory: ", before, " bytes before, ", during,
+          " with a session of 1000000 lights (generated and uploaded in ", seconds, " s)");
+  CHECK(during > before + 1000000ull * 32);  // at least the lights themselves
+  checkProblem(api.post(s.path() + "/lights/generate", R"({"count": 1, "seed": 3, "replace": false})",
+                        s.token),
+               413, "limit-exceeded", "the millionth-and-first light", std::nullopt,
+               "maxLightsPerSession");
+  Reply last = api.get(s.path() + "/lights?offset=999999", s.token);
+  REQUIRE(last.status == 200);
+  CHECK(last.json["total"] == 1000000);
+  REQUIRE(last.json["lights"].size() == 1);
+  const std::string lastLight =
+      s.path() + "/lights/" + std::to_string(last.json["lights"][0]["id"].get<uint64_t>());
+  const uint64_t firstId =
+      api.get(s.path() + "/lights?limit=1", s.token).json["lights"][0]["id"].get<uint64_t>();
+  CHECK(api.del(s.path() + "/lights/" + std::to_string(firstId), s.token).status == 204);
+  CHECK(api.get(lastLight, s.token).status == 200);  // moved into the hole, same id
+  CHECK(api.get(s.path() + "/lights?offset=0&limit=1", s.token).json["lights"][0] ==
+        api.get(lastLight, s.token).json);
   REQUIRE(api.del(s.path(), s.token).status == 204);
   CHECK(gpuMemory(api) == before);
   CHECK(myriad::test::validationMessages(api) == 0);
