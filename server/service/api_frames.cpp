@@ -56,24 +56,17 @@ void handleBuiltinFrame(const ApiContext& context, FrameServices& frames,
   settings.ambient = frames.builtinLighting.ambient;
   settings.background = frames.builtinLighting.background;
 
-  const auto start = std::chrono::steady_clock::now();
-  std::future<render::Frame> pending;
+  DeliveredFrame delivered;
   try {
-    pending = context.renderThread.submit(settings);
+    delivered = deliverFrame(context.renderThread, frames.metrics,
+                             context.renderThread.defaultScene(), request);
   } catch (const RenderQueueFullError& e) {
     throw ProblemError(busy(e));
-  }
-  render::Frame frame;
-  try {
-    frame = pending.get();
   } catch (const std::exception& e) {
     std::fprintf(stderr, "myriad-server: frame failed: %s\n", e.what());
     throw ProblemError(renderFailed(std::string("The renderer failed: ") + e.what()));
   }
-  EncodedFrame encoded = encodeFrame(frame, request);
-  frames.metrics.observeFrame(
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
-  sendFrame(res, std::move(encoded));
+  sendFrame(res, std::move(delivered.encoded));
 }
 
 void handleSessionFrame(const ApiContext& context, FrameServices& frames,

@@ -15,7 +15,10 @@ using Milliseconds = std::chrono::duration<double, std::milli>;
 
 std::string joined(const std::vector<std::string_view>& names) {
   std::string text;
-  for (std::string_view name : names) text += (text.empty() ? "" : ",") + std::string(name);
+  for (std::string_view name : names) {
+    if (!text.empty()) text += ',';
+    text += name;
+  }
   return text;
 }
 
@@ -111,6 +114,18 @@ protocol::Stats FrameStatsBook::statsOf(const Session& session, uint64_t lightCo
   return stats;
 }
 
+DeliveredFrame deliverFrame(RenderThread& renderThread, Metrics& metrics, render::SceneId id,
+                            const FrameRequest& request) {
+  const auto start = std::chrono::steady_clock::now();
+  std::future<render::Frame> pending = renderThread.submit(id, request.settings);
+  DeliveredFrame delivered;
+  delivered.frame = pending.get();
+  delivered.encoded = encodeFrame(delivered.frame, request);
+  metrics.observeFrame(
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
+  return delivered;
+}
+
 SessionFrame renderSessionFrame(const SessionFrameContext& context, const SessionPtr& session,
                                 const FrameRequest& request) {
   render::FrameSettings settings = request.settings;
@@ -132,14 +147,15 @@ SessionFrame renderSessionFrame(const SessionFrameContext& context, const Sessio
     settings.time = request.time.value_or(s.animate ? session->animationSeconds() : 0.0);
     sceneId = static_cast<render::SceneId>(session->sceneId);
     result.version = session->version;
-    result.animated = s.animate;
   }
 
-  const auto start = std::chrono::steady_clock::now();
-  std::future<render::Frame> pending = context.renderThread.submit(sceneId, settings);
-  render::Frame frame;
+  FrameRequest rendered = request;
+  rendered.settings = settings;
+  DeliveredFrame delivered;
   try {
-    frame = pending.get();
+    delivered = deliverFrame(context.renderThread, context.metrics, sceneId, rendered);
+  } catch (const RenderQueueFullError&) {
+    throw;
   } catch (const std::exception&) {
     // A session deleted while its frame waited takes its scene with it: that is a 404, not a
     // renderer failure.
@@ -147,12 +163,8 @@ SessionFrame renderSessionFrame(const SessionFrameContext& context, const Sessio
     if (session->closed) throw ProblemError(notFoundDetail("Session " + session->id + " is gone."));
     throw;
   }
-  FrameRequest encoded = request;
-  encoded.settings = settings;
-  result.encoded = encodeFrame(frame, encoded);
-  context.metrics.observeFrame(
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
-  context.stats.record(session, frame, settings.target, result.encoded.encodeMs);
+  context.stats.record(session, delivered.frame, settings.target, delivered.encoded.encodeMs);
+  result.encoded = std::move(delivered.encoded);
   return result;
 }
 

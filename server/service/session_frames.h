@@ -54,11 +54,20 @@ class FrameStatsBook {
   std::map<std::string, Entry, std::less<>> entries_;
 };
 
+// Renders `request.settings` of scene `id` on the render thread, waits, encodes the frame as
+// `request` asks and adds the time taken to myriad_frame_seconds: the path every frame takes.
+// Throws RenderQueueFullError (queue full) and whatever the renderer or encoder threw.
+struct DeliveredFrame {
+  render::Frame frame;  // what the renderer returned (pixels included)
+  EncodedFrame encoded;
+};
+DeliveredFrame deliverFrame(RenderThread& renderThread, Metrics& metrics, render::SceneId id,
+                            const FrameRequest& request);
+
 // A session frame as delivered: the encoded bytes and what it showed.
 struct SessionFrame {
   EncodedFrame encoded;
   uint64_t version = 0;  // the session version the frame shows
-  bool animated = false;  // the lights were animated (the next frame will differ)
 };
 
 // What SessionFrames needs from the rest of the server.
