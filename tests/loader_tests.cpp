@@ -221,6 +221,14 @@ TEST_CASE("loader: injected faults give crash, timeout and memory within the lim
     CHECK(seconds >= 1.9);
     CHECK(seconds < 3.0);
   }
+  SUBCASE("hang without reading a large upload: the parent's writes do not block it") {
+    limits.fault = InjectedFault::hang;
+    limits.wallSeconds = 2;
+    const std::string large(64 << 20, 'v');  // far more than a pipe holds
+    const auto start = Clock::now();
+    CHECK(rejection(large, "large.obj", limits) == "timeout");
+    CHECK(secondsSince(start) < 3.0);
+  }
   SUBCASE("spin: the CPU limit") {
     limits.fault = InjectedFault::spin;
     limits.cpuSeconds = 1;
