@@ -11,6 +11,7 @@ import {execFileSync} from 'node:child_process';
 import {existsSync, readFileSync} from 'node:fs';
 import {tmpdir} from 'node:os';
 import {join} from 'node:path';
+import {WAIT_MS, check, difference, signatureInPage, until} from './helpers.mjs';
 import {startServer} from './server_process.mjs';
 
 const CHROMIUM = '/usr/bin/chromium';
@@ -19,7 +20,6 @@ const BROKEN_MODEL = '/usr/share/assimp/models/invalid/empty.obj';
 // The view is the window less the 340 px panel: a 400x300 stream keeps lavapipe quick.
 const VIEWPORT = {width: 740, height: 300};
 const CHANGED = 1.0;   // mean absolute difference (0..255) of the 32x32 signature that counts
-const WAIT_MS = 30000;
 
 if (!existsSync(CHROMIUM)) {
   console.log(`SKIP: ${CHROMIUM} is absent (scripts/install-deps.sh --with-test-tools installs it).`);
@@ -61,55 +61,6 @@ async function step(name, fn) {
         ? await page.textContent('#message-text').catch(() => '?') : '(none shown)';
     console.log(`     stream: ${src}\n     message: ${message}`);
   }
-}
-
-function check(condition, message) {
-  if (!condition) throw new Error(message);
-}
-
-async function until(what, probe, timeoutMs = WAIT_MS, intervalMs = 150) {
-  const end = Date.now() + timeoutMs;
-  let last;
-  for (;;) {
-    last = await probe();
-    if (last) return last;
-    if (Date.now() > end) throw new Error(`timed out after ${timeoutMs} ms waiting for ${what}`);
-    await new Promise((r) => setTimeout(r, intervalMs));
-  }
-}
-
-// The picture in the view as 32x32 mean colours, from the <img> itself (same origin, so the
-// canvas can read it): what the user sees, not a screenshot of the page around it.
-function signatureInPage() {
-  const img = document.getElementById('stream');
-  if (!img.complete || img.naturalWidth === 0) return null;
-  const n = 32;
-  const c = document.createElement('canvas');
-  c.width = img.naturalWidth;
-  c.height = img.naturalHeight;
-  const g = c.getContext('2d', {willReadFrequently: true});
-  g.drawImage(img, 0, 0);
-  const {data} = g.getImageData(0, 0, c.width, c.height);
-  const sums = new Float64Array(n * n * 3);
-  const counts = new Float64Array(n * n);
-  for (let y = 0; y < c.height; ++y) {
-    for (let x = 0; x < c.width; ++x) {
-      const cell = Math.floor((y * n) / c.height) * n + Math.floor((x * n) / c.width);
-      const i = (y * c.width + x) * 4;
-      sums[cell * 3] += data[i];
-      sums[cell * 3 + 1] += data[i + 1];
-      sums[cell * 3 + 2] += data[i + 2];
-      counts[cell] += 1;
-    }
-  }
-  const sig = Array.from(sums, (s, i) => s / Math.max(1, counts[Math.floor(i / 3)]));
-  return {width: img.naturalWidth, height: img.naturalHeight, src: img.getAttribute('src'), sig};
-}
-
-function difference(a, b) {
-  let sum = 0;
-  for (let i = 0; i < a.sig.length; ++i) sum += Math.abs(a.sig[i] - b.sig[i]);
-  return sum / a.sig.length;
 }
 
 const server = await startServer(serverPath, ['--validate', '--port', '0', '--lights', '64',
