@@ -62,9 +62,6 @@ struct ApiContext {
   RenderThread& renderThread;
   SessionManager& sessions;
   loader::ModelLibrary* models = nullptr;  // null without --models
-  // Called once per answered request with the route's template ("unmatched" for paths no route
-  // serves) and the status; the metrics routes count these. Optional.
-  std::function<void(const std::string& route, int status)> countRequest;
 };
 
 // Sends `problem` as application/problem+json, with Retry-After when it says so.

@@ -105,7 +105,7 @@ struct HttpServer::State {
         renderThread(r),
         sessions(c.api.limits.maxSessions, std::chrono::seconds(c.api.limits.sessionIdleSeconds),
                  [&r](Session& session) { releaseScene(r, session); }),
-        api{c.api, r, sessions, c.models, {}},
+        api{c.api, r, sessions, c.models},
         routes(server, api),
         frames(c.api.limits.maxStreams) {}
 
