@@ -478,6 +478,11 @@ TEST_CASE("api: request bodies are checked against the schemas, naming the membe
   // Content types and query parameters.
   checkProblem(api.patch(s.path() + "/settings", R"({"exposure": 2})", s.token, "text/plain"), 415,
                "unsupported-media-type", "PATCH settings as text/plain");
+  checkProblem(api.post("/v1/sessions", "{}", "", "application/x-www-form-urlencoded"), 415,
+               "unsupported-media-type", "POST /v1/sessions as a form (curl -d)");
+  checkProblem(api.patch(s.path() + "/settings", R"({"exposure": 2})", s.token,
+                         "application/x-www-form-urlencoded"),
+               415, "unsupported-media-type", "PATCH settings as a form");
   checkProblem(api.put(s.path() + "/model", "abc", s.token, "text/plain"), 415,
                "unsupported-media-type", "PUT model as text/plain");
   checkProblem(api.put(s.path() + "/model", "abc", s.token, "application/octet-stream"), 400,

@@ -137,6 +137,14 @@ void Routes::add(std::string_view method, const std::string& routeTemplate, Hand
             "The request body has " + std::to_string(req.body.size()) + " bytes; the limit is " +
                 std::to_string(options.maxBodyBytes) + "."));
       }
+      // httplib reads a form body into req.params, where it would pass for a query string; no
+      // route takes a form (curl -d sends one unless told the type).
+      if (!req.body.empty() &&
+          mediaType(req.get_header_value("Content-Type")) == "application/x-www-form-urlencoded") {
+        throw ProblemError(unsupportedMediaType(
+            "This route takes no form; send JSON with Content-Type: application/json (curl: "
+            "--json or -H 'Content-Type: application/json')."));
+      }
       handler(req, res);
     } catch (const ProblemError& e) {
       sendProblem(res, e.problem());
