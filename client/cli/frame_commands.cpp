@@ -49,6 +49,15 @@ void makeDirectory(const std::string& dir) {
   }
 }
 
+// A header holding a whole number, as JSON (null when absent or not a number).
+nlohmann::json wholeNumberHeader(const HttpResponse& res, std::string_view name) {
+  std::string text = res.header(std::string(name));
+  if (text.empty() || text.size() > 9 || text.find_first_not_of("0123456789") != std::string::npos) {
+    return nullptr;
+  }
+  return std::stoul(text);
+}
+
 int frame(Context& ctx) {
   const Invocation& inv = ctx.inv;
   const std::string output = inv.get<std::string>("output");
@@ -62,6 +71,23 @@ int frame(Context& ctx) {
   }
   writeFile(output, res.body);
   std::string format = inv.find<std::string>("format").value_or("png");
+  if (ctx.json()) {
+    // No JSON came from the server; scripts get what the response headers said instead.
+    nlohmann::json summary = {
+        {"file", output},
+        {"bytes", res.body.size()},
+        {"contentType", res.header("Content-Type")},
+        {"technique", res.header(std::string(protocol::headers::kTechnique))},
+        {"serverTiming", res.header(std::string(protocol::headers::kServerTiming))}};
+    if (format == "raw") {
+      summary["width"] = wholeNumberHeader(res, protocol::headers::kWidth);
+      summary["height"] = wholeNumberHeader(res, protocol::headers::kHeight);
+      summary["channels"] = res.header(std::string(protocol::headers::kChannels));
+      summary["target"] = res.header(std::string(protocol::headers::kTarget));
+    }
+    printRaw(ctx.out, summary.dump());
+    return 0;
+  }
   ctx.out << "wrote " << output << ": " << format;
   if (format == "raw") {
     ctx.out << " float32 " << res.header(std::string(protocol::headers::kWidth)) << "x"
@@ -104,7 +130,12 @@ int stream(Context& ctx) {
       std::string path = dir + "/" + name + extension;
       writeFile(path, part.body);
       ++written;
-      if (!ctx.json()) {
+      if (ctx.json()) {
+        nlohmann::json line = {{"file", path}, {"bytes", part.body.size()},
+                               {"contentType", part.headers["content-type"]},
+                               {"frame", part.headers["x-myriad-frame"]}};
+        ctx.out << line.dump() << std::endl;
+      } else {
         ctx.out << path << "  " << formatBytes(part.body.size());
         if (auto seq = part.headers.find("x-myriad-frame"); seq != part.headers.end()) {
           // Without scene changes the server re-sends the last image every 2 s, same number.

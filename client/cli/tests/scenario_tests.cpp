@@ -251,6 +251,14 @@ TEST_CASE("myriad drives a real server from session new to session delete") {
     finite += std::isfinite(v) ? 1 : 0;
   }
   CHECK(finite == floats.size() / 4);
+  json rawSummary = jsonOf(myriad({"frame", "--format", "raw", "--target", "depth", "--width",
+                                   "16", "--height", "8", "-o", raw.string(), "--json"}));
+  CHECK(rawSummary["width"] == 16);
+  CHECK(rawSummary["height"] == 8);
+  CHECK(rawSummary["channels"] == "depth");
+  CHECK(rawSummary["target"] == "depth");
+  CHECK(rawSummary["bytes"] == 16 * 8 * 4);
+  CHECK(fs::file_size(raw) == 16 * 8 * 4);
 
   // A JPEG frame and three from the stream.
   const fs::path jpeg = dir / "f.jpg";
