@@ -778,6 +778,10 @@ TEST_CASE("the web client is served from the binary") {
   REQUIRE(css);
   CHECK(css->status == 200);
   CHECK(css->get_header_value("Content-Type").starts_with("text/css"));
+  httplib::Result busted = client->Get("/web/main.js?v=3");  // a cache buster is ignored
+  REQUIRE(busted);
+  CHECK(busted->status == 200);
+  CHECK(busted->body == script->body);
   checkProblem(client->Get("/web/nothing.js"), 404, "not-found");
   checkProblem(client->Get("/web/..%2Fhttp_server.cpp"), 404, "not-found");
 }

@@ -37,6 +37,22 @@ Problem busy(const RenderQueueFullError& e) {
   return problem;
 }
 
+// Runs `deliver` (a frame's way through the renderer); a full render queue becomes 503 with
+// Retry-After, a renderer or encoder failure 500 render-failed (logged), a ProblemError passes.
+template <typename Deliver>
+auto withFrameProblems(const std::string& what, Deliver deliver) -> decltype(deliver()) {
+  try {
+    return deliver();
+  } catch (const RenderQueueFullError& e) {
+    throw ProblemError(busy(e));
+  } catch (const ProblemError&) {
+    throw;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "myriad-server: %s failed: %s\n", what.c_str(), e.what());
+    throw ProblemError(renderFailed(std::string("The renderer failed: ") + e.what()));
+  }
+}
+
 void sendFrame(httplib::Response& res, EncodedFrame&& encoded) {
   for (auto& [name, value] : encoded.headers) res.set_header(name, value);
   // Frames depend on server state that can change between identical URLs.
@@ -56,16 +72,10 @@ void handleBuiltinFrame(const ApiContext& context, FrameServices& frames,
   settings.ambient = frames.builtinLighting.ambient;
   settings.background = frames.builtinLighting.background;
 
-  DeliveredFrame delivered;
-  try {
-    delivered = deliverFrame(context.renderThread, frames.metrics,
-                             context.renderThread.defaultScene(), request);
-  } catch (const RenderQueueFullError& e) {
-    throw ProblemError(busy(e));
-  } catch (const std::exception& e) {
-    std::fprintf(stderr, "myriad-server: frame failed: %s\n", e.what());
-    throw ProblemError(renderFailed(std::string("The renderer failed: ") + e.what()));
-  }
+  DeliveredFrame delivered = withFrameProblems("frame", [&] {
+    return deliverFrame(context.renderThread, frames.metrics, context.renderThread.defaultScene(),
+                        request);
+  });
   sendFrame(res, std::move(delivered.encoded));
 }
 
@@ -74,18 +84,10 @@ void handleSessionFrame(const ApiContext& context, FrameServices& frames,
   SessionPtr session = authorizeSession(context, req, /*allowQueryToken=*/true);
   FrameRequest request = parsedQuery(
       [&] { return parseSessionFrameQuery(req.params, context.config.limits.maxResolution); });
-  SessionFrame frame;
-  try {
-    frame = renderSessionFrame({context.renderThread, frames.stats, frames.metrics}, session,
-                               request);
-  } catch (const RenderQueueFullError& e) {
-    throw ProblemError(busy(e));
-  } catch (const ProblemError&) {
-    throw;
-  } catch (const std::exception& e) {
-    std::fprintf(stderr, "myriad-server: frame of %s failed: %s\n", session->id.c_str(), e.what());
-    throw ProblemError(renderFailed(std::string("The renderer failed: ") + e.what()));
-  }
+  SessionFrame frame = withFrameProblems("frame of " + session->id, [&] {
+    return renderSessionFrame({context.renderThread, frames.stats, frames.metrics}, session,
+                              request);
+  });
   sendFrame(res, std::move(frame.encoded));
 }
 
@@ -136,9 +138,8 @@ void handleMetrics(const ApiContext& context, FrameServices& frames, const httpl
   res.set_content(frames.metrics.exposition(gauges), std::string(kMetricsContentType));
 }
 
-// GET / and GET /web/{file}: the embedded web client.
+// GET / and GET /web/{file}: the embedded web client. A query is ignored (cache busters).
 void handleWebAsset(const httplib::Request& req, httplib::Response& res) {
-  checkQuery(req, {});
   const web::Asset* asset = web::findAsset(req.path);
   if (asset == nullptr) {
     throw ProblemError(notFoundDetail("The web client has no file " + quoteClientText(req.path) +
