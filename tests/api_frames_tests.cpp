@@ -25,9 +25,14 @@
 #include <nlohmann/json.hpp>
 
 #include "encode/png.h"
+#include "api_client.h"
 #include "server_process.h"
 
+using myriad::test::ApiClient;
+using myriad::test::createSession;
 using myriad::test::ServerProcess;
+using myriad::test::TestSession;
+using myriad::test::validationMessages;
 using nlohmann::json;
 using Clock = std::chrono::steady_clock;
 
@@ -52,19 +57,8 @@ std::span<const uint8_t> bytesOf(const std::string& body) {
   return {reinterpret_cast<const uint8_t*>(body.data()), body.size()};
 }
 
-struct TestSession {
-  std::string id;
-  std::string token;
-  httplib::Headers auth() const { return {{"Authorization", "Bearer " + token}}; }
-};
-
-TestSession createSession(httplib::Client& client) {
-  httplib::Result res = client.Post("/v1/sessions", "{}", "application/json");
-  REQUIRE(res);
-  INFO("body: ", res->body.substr(0, 400));
-  REQUIRE(res->status == 201);
-  json body = json::parse(res->body);
-  return {body["id"].get<std::string>(), body["token"].get<std::string>()};
+httplib::Headers auth(const TestSession& session) {
+  return {{"Authorization", "Bearer " + session.token}};
 }
 
 json getJson(httplib::Client& client, const std::string& path, const httplib::Headers& headers) {
@@ -77,7 +71,7 @@ json getJson(httplib::Client& client, const std::string& path, const httplib::He
 
 void patchJson(httplib::Client& client, const std::string& path, const TestSession& session,
                const json& body) {
-  httplib::Result res = client.Patch(path, session.auth(), body.dump(), "application/json");
+  httplib::Result res = client.Patch(path, auth(session), body.dump(), "application/json");
   REQUIRE(res);
   INFO(path, " -> ", res->body.substr(0, 400));
   REQUIRE(res->status == 200);
@@ -121,7 +115,7 @@ httplib::Params frameParams(const std::string& target, const std::string& format
 
 httplib::Result sessionFrame(httplib::Client& client, const TestSession& session,
                              const httplib::Params& params) {
-  return client.Get("/v1/sessions/" + session.id + "/frame", params, session.auth());
+  return client.Get("/v1/sessions/" + session.id + "/frame", params, auth(session));
 }
 
 // The raw frame's floats, checked against its headers.
@@ -145,12 +139,6 @@ void checkProblem(const httplib::Result& res, int status, const std::string& typ
   CHECK(body["status"] == status);
   CHECK_FALSE(body["detail"].get<std::string>().empty());
   if (!parameter.empty()) CHECK(body["parameter"] == parameter);
-}
-
-uint64_t validationMessages(httplib::Client& client) {
-  json info = getJson(client, "/v1/info", {});
-  REQUIRE(info["validation"]["enabled"] == true);
-  return info["validation"]["messages"].get<uint64_t>();
 }
 
 // --- a stream reader -----------------------------------------------------------------------------
@@ -358,7 +346,8 @@ TEST_CASE("session frames: every target in png, jpeg and raw; depth and normals 
   ServerProcess server({"--lights", "64"});
   REQUIRE(server.start() == ServerProcess::Start::Listening);
   auto client = clientFor(server);
-  TestSession session = createSession(*client);
+  ApiClient api(server);
+  TestSession session = createSession(api);
 
   SUBCASE("every target in every format, with the headers of the contract") {
     const auto started = Clock::now();
@@ -409,7 +398,7 @@ TEST_CASE("session frames: every target in png, jpeg and raw; depth and normals 
   }
 
   SUBCASE("raw depth is what the PNG depth view shows, in scene units") {
-    json camera = getJson(*client, "/v1/sessions/" + session.id + "/camera", session.auth());
+    json camera = getJson(*client, "/v1/sessions/" + session.id + "/camera", auth(session));
     const double nearPlane = camera["near"].get<double>();
     const double farPlane = camera["far"].get<double>();
     httplib::Result raw = sessionFrame(*client, session, frameParams("depth", "raw"));
@@ -491,7 +480,7 @@ TEST_CASE("session frames: every target in png, jpeg and raw; depth and normals 
     checkProblem(frame({{"format", "png"}, {"format", "jpeg"}}), 400, "invalid-parameter",
                  "format");
     checkProblem(client->Get("/v1/sessions/" + session.id + "/frame"), 401, "unauthorized");
-    checkProblem(client->Get("/v1/sessions/s-0000000000000000/frame", session.auth()), 404,
+    checkProblem(client->Get("/v1/sessions/s-0000000000000000/frame", auth(session)), 404,
                  "not-found");
   }
 
@@ -503,13 +492,14 @@ TEST_CASE("session frames: every target in png, jpeg and raw; depth and normals 
     CHECK(hasJpegMarkers(res->body));
   }
 
-  CHECK(validationMessages(*client) == 0);
+  CHECK(validationMessages(api) == 0);
 }
 
 TEST_CASE("GET /v1/frame: format and quality") {
   ServerProcess server({"--lights", "16"});
   REQUIRE(server.start() == ServerProcess::Start::Listening);
   auto client = clientFor(server);
+  ApiClient api(server);
   auto get = [&](httplib::Params params) {
     return client->Get("/v1/frame", params, httplib::Headers{});
   };
@@ -539,18 +529,19 @@ TEST_CASE("GET /v1/frame: format and quality") {
 
   checkProblem(get({{"format", "webp"}}), 400, "invalid-parameter", "format");
   checkProblem(get({{"quality", "x"}}), 400, "invalid-parameter", "quality");
-  CHECK(validationMessages(*client) == 0);
+  CHECK(validationMessages(api) == 0);
 }
 
 TEST_CASE("streams: animated parts, idle re-sends, the end on DELETE, limits, stats, metrics") {
   ServerProcess server({"--lights", "64", "--max-streams", "2"});
   REQUIRE(server.start() == ServerProcess::Start::Listening);
   auto client = clientFor(server);
-  TestSession session = createSession(*client);
+  ApiClient api(server);
+  TestSession session = createSession(api);
   const std::string sessionPath = "/v1/sessions/" + session.id;
 
   // Before any frame: no frame, no culling, the session's lights.
-  json before = getJson(*client, sessionPath + "/stats", session.auth());
+  json before = getJson(*client, sessionPath + "/stats", auth(session));
   CHECK(before["frame"].is_null());
   CHECK(before["culling"].is_null());
   CHECK(before["frames"] == 0);
@@ -561,7 +552,7 @@ TEST_CASE("streams: animated parts, idle re-sends, the end on DELETE, limits, st
                             "&height=" + std::to_string(kHeight);
 
   SUBCASE("idle: the last part again every 2 s, a new one at once after a change") {
-    StreamReader reader(server, streamPath(session, query), session.auth());
+    StreamReader reader(server, streamPath(session, query), auth(session));
     REQUIRE(reader.status() == 200);
     CHECK(reader.contentType() == "multipart/x-mixed-replace; boundary=myriad-frame");
     REQUIRE(reader.waitForParts(1, std::chrono::seconds(60)).size() == 1);
@@ -642,7 +633,7 @@ TEST_CASE("streams: animated parts, idle re-sends, the end on DELETE, limits, st
     CHECK(inWindow <= size_t(kWindowSeconds * kFps) + 3);
     parts = reader.waitForParts(0, std::chrono::seconds(0));
 
-    json stats = getJson(*client, sessionPath + "/stats", session.auth());
+    json stats = getJson(*client, sessionPath + "/stats", auth(session));
     CHECK(stats["frames"].get<uint64_t>() >= parts.size());
     CHECK(stats["lights"]["animated"] == true);
     REQUIRE(stats["frame"].is_object());
@@ -664,7 +655,7 @@ TEST_CASE("streams: animated parts, idle re-sends, the end on DELETE, limits, st
     CHECK(metrics->body.find("myriad_sessions 1\n") != std::string::npos);
 
     const auto deleted = Clock::now();
-    httplib::Result gone = client->Delete(sessionPath, session.auth());
+    httplib::Result gone = client->Delete(sessionPath, auth(session));
     REQUIRE(gone);
     CHECK(gone->status == 204);
     REQUIRE(reader.waitForEnd(std::chrono::seconds(30)));
@@ -675,35 +666,36 @@ TEST_CASE("streams: animated parts, idle re-sends, the end on DELETE, limits, st
   }
 
   SUBCASE("over --max-streams: 429 with limit maxStreams") {
-    StreamReader first(server, streamPath(session, query), session.auth());
-    StreamReader second(server, streamPath(session, query), session.auth());
+    StreamReader first(server, streamPath(session, query), auth(session));
+    StreamReader second(server, streamPath(session, query), auth(session));
     REQUIRE(first.status() == 200);
     REQUIRE(second.status() == 200);
-    httplib::Result third = client->Get(streamPath(session, query), session.auth());
+    httplib::Result third = client->Get(streamPath(session, query), auth(session));
     checkProblem(third, 429, "limit-exceeded");
     CHECK(json::parse(third->body)["limit"] == "maxStreams");
     CHECK(third->has_header("Retry-After"));
   }
 
   SUBCASE("bad stream queries") {
-    checkProblem(client->Get(streamPath(session, "format=raw"), session.auth()), 400,
+    checkProblem(client->Get(streamPath(session, "format=raw"), auth(session)), 400,
                  "invalid-parameter", "format");
-    checkProblem(client->Get(streamPath(session, "fps=0"), session.auth()), 400,
+    checkProblem(client->Get(streamPath(session, "fps=0"), auth(session)), 400,
                  "invalid-parameter", "fps");
-    checkProblem(client->Get(streamPath(session, "fps=61"), session.auth()), 400,
+    checkProblem(client->Get(streamPath(session, "fps=61"), auth(session)), 400,
                  "invalid-parameter", "fps");
-    checkProblem(client->Get(streamPath(session, "time=1"), session.auth()), 400,
+    checkProblem(client->Get(streamPath(session, "time=1"), auth(session)), 400,
                  "unknown-parameter", "time");
   }
 
-  CHECK(validationMessages(*client) == 0);
+  CHECK(validationMessages(api) == 0);
 }
 
 TEST_CASE("/metrics counts responses by route template") {
   ServerProcess server({"--lights", "16"});
   REQUIRE(server.start() == ServerProcess::Start::Listening);
   auto client = clientFor(server);
-  TestSession session = createSession(*client);
+  ApiClient api(server);
+  TestSession session = createSession(api);
   for (int i = 0; i < 3; ++i) {
     httplib::Result res = sessionFrame(*client, session, frameParams("final", "jpeg"));
     REQUIRE(res);
@@ -790,17 +782,18 @@ TEST_CASE("shutdown ends open streams promptly, idle or animated") {
   ServerProcess server({"--lights", "16"});
   REQUIRE(server.start() == ServerProcess::Start::Listening);
   auto client = clientFor(server);
-  TestSession idle = createSession(*client);
-  TestSession animated = createSession(*client);
+  ApiClient api(server);
+  TestSession idle = createSession(api);
+  TestSession animated = createSession(api);
   patchJson(*client, "/v1/sessions/" + animated.id + "/settings", animated, {{"animate", true}});
-  StreamReader idleReader(server, streamPath(idle, "width=32&height=32"), idle.auth());
+  StreamReader idleReader(server, streamPath(idle, "width=32&height=32"), auth(idle));
   StreamReader animatedReader(server, streamPath(animated, "width=32&height=32&fps=30"),
-                              animated.auth());
+                              auth(animated));
   REQUIRE(idleReader.status() == 200);
   REQUIRE(animatedReader.status() == 200);
   REQUIRE(idleReader.waitForParts(1, std::chrono::seconds(60)).size() == 1);
   REQUIRE(animatedReader.waitForParts(3, std::chrono::seconds(60)).size() == 3);
-  CHECK(validationMessages(*client) == 0);
+  CHECK(validationMessages(api) == 0);
 
   const auto signalled = Clock::now();
   std::optional<myriad::test::ExitStatus> exit = server.stop(std::chrono::seconds(30));
