@@ -2,6 +2,7 @@
 #include <sys/stat.h>
 
 #include <cerrno>
+#include <csignal>
 #include <cstdio>
 #include <cstring>
 #include <fstream>
@@ -64,6 +65,8 @@ int frame(Context& ctx) {
   HttpResponse res =
       ctx.http.sendOk("GET", ctx.sessionRoute(protocol::routes::kSessionFrame), imageQuery(inv));
   if (output == "-") {
+    // Like any filter: a reader that goes away (`| head -c 8`) ends the program silently.
+    std::signal(SIGPIPE, SIG_DFL);
     std::cout.write(res.body.data(), std::streamsize(res.body.size()));
     std::cout.flush();
     if (!std::cout) throw std::runtime_error("cannot write the frame to standard output");

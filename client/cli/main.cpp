@@ -1,5 +1,6 @@
 // myriad: the command-line client of myriad-server. Exit status 0 done, 1 the server refused or
 // could not be reached (one line on stderr), 2 bad usage (the offending argument named).
+#include <csignal>
 #include <cstdlib>
 #include <iostream>
 
@@ -31,6 +32,9 @@ ServerUrl serverUrl(const GlobalOptions& global) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  // A server that refuses an upload closes the connection mid-body; the write must fail with
+  // EPIPE (reported as one line) rather than kill the process.
+  std::signal(SIGPIPE, SIG_IGN);
   std::vector<std::string> args(argv + 1, argv + argc);
   Invocation inv;
   ServerUrl url;

@@ -26,6 +26,16 @@ std::string baseName(const std::string& path) {
   return slash == std::string::npos ? path : path.substr(slash + 1);
 }
 
+// limits.maxUploadBytes from /v1/info, or 0 when it cannot be had.
+uint64_t uploadLimit(Context& ctx) {
+  try {
+    nlohmann::json info = ctx.http.sendJson("GET", std::string(protocol::routes::kInfo));
+    return info.at("limits").at(std::string(protocol::limits::kMaxUploadBytes)).get<uint64_t>();
+  } catch (const std::exception&) {
+    return 0;
+  }
+}
+
 }  // namespace
 
 int runModelCommand(Context& ctx) {
@@ -42,9 +52,22 @@ int runModelCommand(Context& ctx) {
     if (name.empty()) throw std::runtime_error(path + " is not a file");
     std::string bytes = readFile(path);
     query.insert(query.begin(), {"filename", name});
-    HttpResponse res = ctx.http.sendOk("PUT", route, query, bytes,
-                                       std::string(protocol::kUploadContentType));
-    raw = res.body;
+    try {
+      HttpResponse res = ctx.http.sendOk("PUT", route, query, bytes,
+                                         std::string(protocol::kUploadContentType));
+      raw = res.body;
+    } catch (const ApiError& e) {
+      if (e.status() != 0) throw;
+      // The server may close the connection before reading a body over its limit, so its 413
+      // never arrives; say so when that is the likely reason.
+      uint64_t limit = uploadLimit(ctx);
+      if (limit != 0 && bytes.size() > limit) {
+        throw ApiError(path + " has " + std::to_string(bytes.size()) +
+                       " bytes, more than this server accepts (maxUploadBytes " +
+                       std::to_string(limit) + ")");
+      }
+      throw;
+    }
   } else {
     protocol::ModelSource source;
     source.source = inv.has("builtin") ? std::string(protocol::kBuiltinModel)

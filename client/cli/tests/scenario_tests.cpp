@@ -325,7 +325,7 @@ TEST_CASE("myriad drives a real server from session new to session delete") {
 }
 
 TEST_CASE("session new with the server's API key: flag, environment, and the 401 without") {
-  ServerProcess server({"--api-key", "sesame-0123"});
+  ServerProcess server({"--api-key", "sesame-0123", "--max-upload-bytes", "100000"});
   REQUIRE(server.start() == ServerProcess::Start::Listening);
   char pattern[] = "/tmp/myriad-cli-key-XXXXXX";
   REQUIRE(mkdtemp(pattern) != nullptr);
@@ -347,6 +347,18 @@ TEST_CASE("session new with the server's API key: flag, environment, and the 401
   CHECK(fs::exists(sessionFile));
   // The key only creates sessions; the session's own token does the rest.
   CHECK(runCli({"--session-file", sessionFile, "session", "show"}, env).exitCode == 0);
+
+  // An upload over --max-upload-bytes: the server may close the connection before reading it
+  // all, so either its 413 or the CLI's own reading of the limit comes back, on one line.
+  const fs::path big = dir / "big.glb";
+  std::ofstream(big) << std::string(3 << 20, 'x');
+  CliResult tooBig = runCli({"--session-file", sessionFile, "load", big.string()}, env);
+  CHECK(tooBig.exitCode == 1);
+  CHECK(std::count(tooBig.err.begin(), tooBig.err.end(), '\n') == 1);
+  CHECK(tooBig.err.find("100000") != std::string::npos);
+  INFO(tooBig.err);
+  CHECK((tooBig.err.ends_with("(413 limit-exceeded)\n") ||
+         tooBig.err.ends_with("more than this server accepts (maxUploadBytes 100000)\n")));
   CHECK(runCli({"--session-file", sessionFile, "session", "delete"}, env).exitCode == 0);
 
   env["MYRIAD_API_KEY"] = "sesame-0123";
