@@ -15,6 +15,7 @@ import {WAIT_MS, check, difference, signatureInPage, until} from './helpers.mjs'
 import {startServer} from './server_process.mjs';
 
 const CHROMIUM = '/usr/bin/chromium';
+const API_KEY = 'browser-test-key';
 const MODELS = '/usr/share/assimp/models/OBJ';  // the library: GET /v1/models
 const BROKEN_MODEL = '/usr/share/assimp/models/invalid/empty.obj';
 // The view is the window less the 340 px panel: a 400x300 stream keeps lavapipe quick.
@@ -488,6 +489,32 @@ try {
     await until('markers toggled on the server', async () => (await settings()).markers === !before.markers);
     await until('the markers box to follow', async () =>
         (await page.isChecked('#markers')) === !before.markers, 5000);
+  });
+
+  await step('a server with --api-key asks for the key, then works', async () => {
+    const keyed = await startServer(serverPath, ['--validate', '--port', '0', '--lights', '8',
+                                              '--api-key', API_KEY]);
+    const other = await context.newPage();
+    try {
+      expectedHttpErrors = /status of 401/;
+      await other.goto(`${keyed.url}/`);
+      await other.waitForSelector('#api-key', {state: 'visible', timeout: WAIT_MS});
+      const text = await other.textContent('#message-text');
+      check(text.includes('401') && /API key/.test(text), `message "${text}"`);
+      await other.fill('#api-key', API_KEY);
+      await other.press('#api-key', 'Enter');
+      await other.waitForFunction(() => document.getElementById('stream').naturalWidth > 0, null,
+                                  {timeout: WAIT_MS});
+      check(await other.isHidden('#message'), 'the message stays once the key worked');
+      const info = await (await fetch(`${keyed.url}/v1/info`)).json();
+      check(info.validation.enabled && info.validation.messages === 0,
+            `${info.validation.messages} validation messages on the --api-key server`);
+    } finally {
+      expectedHttpErrors = null;
+      await other.close();
+      const status = await keyed.stop();
+      check(status === 0, `the --api-key server exited with ${status}`);
+    }
   });
 
   await step('no console errors', async () => {
