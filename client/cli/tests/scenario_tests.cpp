@@ -120,6 +120,12 @@ TEST_CASE("myriad drives a real server from session new to session delete") {
   CHECK(health.out == "ok\n");
   json info = jsonOf(myriad({"info", "--json"}));
   CHECK(info["validation"]["enabled"] == true);
+  CliResult humanInfo = myriad({"info"});
+  CHECK(humanInfo.out.starts_with("server "));
+  CHECK(humanInfo.out.find("validation      on, 0 messages\n") != std::string::npos);
+  CliResult models = myriad({"models"});
+  CHECK(models.exitCode == 0);
+  CHECK(models.out.starts_with("no models"));
 
   // A command that needs a session, before there is one.
   CliResult noSession = myriad({"camera"});
@@ -154,6 +160,9 @@ TEST_CASE("myriad drives a real server from session new to session delete") {
   CliResult loaded = myriad({"load", kModel});
   REQUIRE(loaded.exitCode == 0);
   CHECK(loaded.out.starts_with("loaded upload:spider.obj: "));
+  CliResult humanState = myriad({"session", "show"});
+  CHECK(humanState.exitCode == 0);
+  CHECK(humanState.out.find("model      upload:spider.obj (") != std::string::npos);
   json afterLoad = jsonOf(myriad({"session", "show", "--json"}));
   CHECK(afterLoad["model"]["source"] == "upload:spider.obj");
   CHECK(afterLoad["model"]["meshes"].get<int>() > 0);
@@ -191,9 +200,17 @@ TEST_CASE("myriad drives a real server from session new to session delete") {
   CHECK(added.exitCode == 0);
   CHECK(added.out.find("(1001 lights)") != std::string::npos);
 
+  CliResult listed = myriad({"lights", "list", "--limit", "2", "--offset", "1000"});
+  CHECK(listed.exitCode == 0);
+  CHECK(listed.out.starts_with("ID "));
+  CHECK(listed.out.find(" POSITION ") != std::string::npos);
+  CHECK(listed.out.ends_with("1 of 1001 lights (1000 to 1000)\n"));
+
   // Settings.
   CliResult tiled = myriad({"settings", "--technique", "tiled", "--exposure", "1.2"});
   CHECK(tiled.exitCode == 0);
+  CHECK(tiled.out.find("technique      tiled\n") != std::string::npos);
+  CHECK(tiled.out.find("exposure       1.2\n") != std::string::npos);
   json settings = jsonOf(myriad({"settings", "--json"}));
   CHECK(settings["technique"] == "tiled");
   CHECK(settings["exposure"] == 1.2);
