@@ -475,6 +475,21 @@ try {
     check(await page.isHidden('#help'), 'help not closed');
   });
 
+  await step('a resized window gets a stream of its new size', async () => {
+    await page.setViewportSize({width: VIEWPORT.width + 100, height: VIEWPORT.height + 40});
+    const view = await page.evaluate(() => {
+      const v = document.getElementById('view');
+      return {width: v.clientWidth, height: v.clientHeight};
+    });
+    const s = await until('a stream at the new size', async () => {
+      const now = await settled();
+      return now.width === view.width && now.height === view.height ? now : null;
+    });
+    check(s.width === 500 && s.height === 340, `stream ${s.width}x${s.height}`);
+    await page.setViewportSize(VIEWPORT);
+    picture = await settled();
+  });
+
   await step('settings: exposure slider, technique, M toggles markers', async () => {
     const settings = async () => (await api('GET', `/v1/sessions/${sessionId}/settings`, {token})).body;
     const before = await settings();
