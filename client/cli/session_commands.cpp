@@ -48,7 +48,18 @@ int sessionNew(Context& ctx) {
     return 0;
   }
   std::string path = sessionFilePath(inv.global);
+  std::optional<std::string> previous;
+  try {
+    if (auto old = readSessionFile(path)) previous = old->id;
+  } catch (const std::exception&) {
+    // No readable previous session: nothing to mention.
+  }
   saveSession(path, created.id, created.token);
+  if (previous) {
+    ctx.err << "myriad: note: " << path << " held session " << *previous
+            << ", which stays open on the server until it idles out (or `myriad session delete` "
+               "it with MYRIAD_SESSION)\n";
+  }
   if (ctx.json()) {
     printRaw(ctx.out, raw);
   } else {

@@ -80,15 +80,19 @@ SessionRef findSession(const GlobalOptions& global) {
     return {parsed->first, parsed->second, "MYRIAD_SESSION", false};
   }
   std::string path = sessionFilePath(global);
-  struct stat st{};
-  if (stat(path.c_str(), &st) != 0 && errno == ENOENT) {
+  std::optional<SessionRef> session = readSessionFile(path);
+  if (!session) {
     throw std::runtime_error("no session yet (no " + path +
                              "): run `myriad session new` first, or set MYRIAD_SESSION");
   }
+  return *session;
+}
+
+std::optional<SessionRef> readSessionFile(const std::string& path) {
+  struct stat st{};
+  if (stat(path.c_str(), &st) != 0 && errno == ENOENT) return std::nullopt;
   std::ifstream file(path);
-  if (!file) {
-    throw std::runtime_error(systemError("cannot read the session file", path));
-  }
+  if (!file) throw std::runtime_error(systemError("cannot read the session file", path));
   std::stringstream text;
   text << file.rdbuf();
   auto parsed = parseSessionText(text.str());
@@ -96,7 +100,7 @@ SessionRef findSession(const GlobalOptions& global) {
     throw std::runtime_error("the session file " + path +
                              " does not hold id:token; run `myriad session new` again");
   }
-  return {parsed->first, parsed->second, path, true};
+  return SessionRef{parsed->first, parsed->second, path, true};
 }
 
 void saveSession(const std::string& path, const std::string& id, const std::string& token) {

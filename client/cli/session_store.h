@@ -32,6 +32,10 @@ std::string sessionFilePath(const GlobalOptions& global);
 // malformed.
 SessionRef findSession(const GlobalOptions& global);
 
+// The session in the file at `path`; nullopt when there is no such file. Throws
+// std::runtime_error when it cannot be read or does not hold id:token.
+std::optional<SessionRef> readSessionFile(const std::string& path);
+
 // Writes "id:token\n" to `path` with mode 0600 (directories created 0700), replacing it
 // atomically. Throws std::runtime_error.
 void saveSession(const std::string& path, const std::string& id, const std::string& token);

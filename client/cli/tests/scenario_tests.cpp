@@ -362,6 +362,14 @@ TEST_CASE("session new with the server's API key: flag, environment, and the 401
       runCli({"--session-file", sessionFile, "session", "new", "--api-key", "sesame-0123"}, env);
   CHECK(withFlag.exitCode == 0);
   CHECK(fs::exists(sessionFile));
+  CHECK(withFlag.err.empty());
+  // A second session new replaces the file and says which session it no longer points at.
+  const std::string first = readFile(sessionFile).substr(0, 18);
+  CliResult second =
+      runCli({"--session-file", sessionFile, "session", "new", "--api-key", "sesame-0123"}, env);
+  CHECK(second.exitCode == 0);
+  CHECK(second.err.find("held session " + first + ", which stays open") != std::string::npos);
+  CHECK(readFile(sessionFile).substr(0, 18) != first);
   // The key only creates sessions; the session's own token does the rest.
   CHECK(runCli({"--session-file", sessionFile, "session", "show"}, env).exitCode == 0);
 
