@@ -26,12 +26,9 @@ export class LiveView {
     this.retryDelayMs = 1000;
     this.retryTimer = 0;
     this.onProblem = () => {};      // (ApiError) => void
-    this.onFrameSize = () => {};    // ({width, height}) => void, on every stream (re)start
-    this.frames = 0;
 
     this.img.addEventListener('load', () => {
       this.img.classList.remove('failed');
-      this.frames += 1;
       this.retryDelayMs = 1000;
       this.status.textContent = `${this.img.naturalWidth}\u00d7${this.img.naturalHeight}` +
                                 (this.interactive ? ' (moving)' : '');
@@ -81,7 +78,6 @@ export class LiveView {
     });
     if (this.img.getAttribute('src') === url) return;
     this.img.src = url;
-    this.onFrameSize({width: p.width, height: p.height});
   }
 
   stop() {
