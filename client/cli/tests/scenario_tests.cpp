@@ -324,6 +324,20 @@ TEST_CASE("myriad drives a real server from session new to session delete") {
         std::string::npos);
   CHECK(std::count(refused.err.begin(), refused.err.end(), '\n') == 1);
 
+  // One light edited, shown, removed; then all of them.
+  const std::string lid = std::to_string(again["lights"][0]["id"].get<uint64_t>());
+  json edited = jsonOf(myriad({"lights", "set", lid, "--intensity", "3.5", "--color", "1,0,0",
+                               "--json"}));
+  CHECK(edited["intensity"] == 3.5);
+  CHECK(edited["color"] == json::array({1.0, 0.0, 0.0}));
+  CHECK(jsonOf(myriad({"lights", "show", lid, "--json"})) == edited);
+  CliResult removed = myriad({"lights", "rm", lid});
+  CHECK(removed.out == "removed light " + lid + "\n");
+  checkOneLineError(myriad({"lights", "show", lid}), "(404 not-found)");
+  CHECK(jsonOf(myriad({"lights", "list", "--limit", "0", "--json"}))["total"] == 1000);
+  CHECK(myriad({"lights", "clear"}).out == "removed every light\n");
+  CHECK(jsonOf(myriad({"lights", "list", "--json"}))["total"] == 0);
+
   // session delete: gone on the server and from the file; the environment's copy now 404s.
   CliResult deleted = myriad({"session", "delete"});
   CHECK(deleted.exitCode == 0);
