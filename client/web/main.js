@@ -13,11 +13,14 @@ const $ = (id) => document.getElementById(id);
 const api = new Api();
 let targets = ['final'];
 let messageIsInfo = false;
+let messageIsUnreachable = false;  // "cannot be reached": goes away by itself once it answers
 
 // --- messages -----------------------------------------------------------------------------
 
-function showMessage(text, {info = false, newSession = false, apiKey = false} = {}) {
+function showMessage(text, {info = false, newSession = false, apiKey = false,
+                             unreachable = false} = {}) {
   messageIsInfo = info;
+  messageIsUnreachable = unreachable;
   $('message').hidden = false;
   $('message').classList.toggle('info', info);
   $('message-text').textContent = text;
@@ -40,7 +43,7 @@ function showProblem(error) {
     sessionLost(error.message);
     return;
   }
-  showMessage(error.message || String(error));
+  showMessage(error.message || String(error), {unreachable: error.status === 0});
 }
 
 function sessionLost(text) {
@@ -72,7 +75,10 @@ const settings = new SettingsPanel(api, {
   onProblem: showProblem,
   onChange: () => {},
 });
-const stats = new StatsPanel(api, $('stats-graph'), $('stats-table'), {onProblem: showProblem});
+const stats = new StatsPanel(api, $('stats-graph'), $('stats-table'), {
+  onProblem: showProblem,
+  onRecovered: () => { if (messageIsUnreachable) hideMessage(); },
+});
 
 const model = new ModelPanel(api, {
   onProblem: showProblem,

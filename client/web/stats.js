@@ -10,11 +10,12 @@ const PALETTE = ['#5fa8ff', '#ffb454', '#7fd962', '#ff7a6b', '#c792ea', '#4dd0e1
                  '#ffd866', '#a6accd', '#89ddff'];
 
 export class StatsPanel {
-  constructor(api, canvas, table, {onProblem}) {
+  constructor(api, canvas, table, {onProblem, onRecovered}) {
     this.api = api;
     this.canvas = canvas;
     this.table = table;
     this.onProblem = onProblem;
+    this.onRecovered = onRecovered;  // the server answers again after a failure
     this.history = [];          // [{passes: Map(name -> ms)}]
     this.colors = new Map();    // pass name -> colour, stable for the page's life
     this.lastFrames = -1;
@@ -43,6 +44,7 @@ export class StatsPanel {
         const stats = await this.api.get(this.api.sessionPath('/stats'));
         if (generation !== this.generation) return;
         this.show(stats);
+        if (this.failures) this.onRecovered();
         this.failures = 0;
       } catch (e) {
         if (generation !== this.generation) return;

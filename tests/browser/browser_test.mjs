@@ -465,6 +465,17 @@ try {
     check(/^\d+\.\d{3} ms$/.test(total), `GPU total "${total}"`);
   });
 
+  await step('an unreachable server is said, and the message goes when it answers again', async () => {
+    expectedHttpErrors = /ERR_FAILED/;
+    await page.route('**/stats', (route) => route.abort('failed'));
+    await until('the unreachable message', async () => (await page.isVisible('#message')) &&
+        (await page.textContent('#message-text')).includes('cannot be reached'));
+    await page.unroute('**/stats');
+    // Stats back off up to 10 s between tries after failures.
+    await page.waitForSelector('#message', {state: 'hidden', timeout: WAIT_MS});
+    expectedHttpErrors = null;
+  });
+
   await step('? opens the help, Escape closes it', async () => {
     await page.locator('#view').focus();
     await page.keyboard.press('?');
