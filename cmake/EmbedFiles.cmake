@@ -39,6 +39,7 @@ std::span<const EmbeddedFile> embeddedFiles();
   endforeach()
   # A list cannot pass through one -D argument as it is; '|' never occurs in our file names.
   string(REPLACE ";" "|" names_arg "${relative}")
+  list(JOIN relative ", " relative_text)
 
   add_custom_command(
     OUTPUT ${source}
@@ -46,7 +47,7 @@ std::span<const EmbeddedFile> embeddedFiles();
             -DNAMESPACE=${ARG_NAMESPACE} -DBASE_DIR=${ARG_BASE_DIR} "-DNAMES=${names_arg}"
             -P ${MYRIAD_EMBED_FILES_SCRIPT}
     DEPENDS ${absolute} ${MYRIAD_EMBED_FILES_SCRIPT}
-    COMMENT "Embedding ${target}: ${relative}"
+    COMMENT "Embedding ${target}: ${relative_text}"
     VERBATIM)
 
   add_library(${target} STATIC ${source} ${header})
