@@ -40,5 +40,6 @@ ${entries}};
 std::span<const EmbeddedFile> embeddedFiles() { return kFiles; }
 }  // namespace ${NAMESPACE}
 ")
-# Rewriting an unchanged file would rebuild the library for nothing.
-file(CONFIGURE OUTPUT ${OUTPUT} CONTENT "${content}" @ONLY)
+# Always written: this only runs when an input changed, and an output older than its inputs
+# would make Make run the command again on every build.
+file(WRITE ${OUTPUT} "${content}")
