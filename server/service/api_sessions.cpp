@@ -13,6 +13,19 @@
 namespace myriad::service {
 namespace {
 
+// How a failed load is answered. The file's own faults are 422; the loader being saturated
+// (`busy`: every child slot taken for the whole wall limit) is the server's state, so 503 with
+// Retry-After, and a failure of the loader machinery itself (`internal`) is a 500.
+Problem loadProblem(const loader::ModelRejected& e) {
+  if (e.reason == "busy") {
+    Problem p = serverBusy(std::string(e.what()) + " Retry in a few seconds.");
+    p.retryAfterSeconds = 5;
+    return p;
+  }
+  if (e.reason == "internal") return internalError(e.what());
+  return modelRejected(std::string(e.what()) + " (" + e.reason + ")");
+}
+
 constexpr std::string_view kBuiltinSource = "builtin:default";
 constexpr std::string_view kLibraryPrefix = "library:";
 
@@ -39,7 +52,7 @@ ScenePtr loadSource(const ApiContext& context, std::string_view source) {
   try {
     return std::make_shared<scene::Scene>(loader::loadModelFile(*path));
   } catch (const loader::ModelRejected& e) {
-    throw ProblemError(modelRejected(std::string(e.what()) + " (" + e.reason + ")"));
+    throw ProblemError(loadProblem(e));
   }
 }
 
@@ -59,7 +72,7 @@ ScenePtr loadUpload(const httplib::Request& req) {
   try {
     return std::make_shared<scene::Scene>(loader::loadModelBytes(req.body, filename));
   } catch (const loader::ModelRejected& e) {
-    throw ProblemError(modelRejected(std::string(e.what()) + " (" + e.reason + ")"));
+    throw ProblemError(loadProblem(e));
   }
 }
 
