@@ -3,7 +3,12 @@
 // body; isolation between sessions; limits (413, 429); schema rejections with their pointers;
 // every Assimp test file uploaded; the model library; idle expiry; GPU memory freed on DELETE.
 #include <doctest/doctest.h>
+#include <arpa/inet.h>
+#include <netinet/in.h>
 #include <stdlib.h>
+#include <sys/socket.h>
+#include <sys/time.h>
+#include <unistd.h>
 
 #include <atomic>
 #include <chrono>
@@ -348,6 +353,51 @@ TEST_CASE("api: a session's whole life through every route it owns") {
   CHECK(myriad::test::validationMessages(api) == 0);
   checkStopsCleanly(server);
 }
+
+namespace {
+
+// One HTTP/1.1 exchange over a plain socket, for requests httplib's client will not send (it
+// always adds Content-Length). Returns what the server wrote before closing (3 s at most).
+std::string exchangeRaw(int port, const std::string& request) {
+  int fd = socket(AF_INET, SOCK_STREAM, 0);
+  REQUIRE(fd >= 0);
+  timeval timeout{3, 0};
+  setsockopt(fd, SOL_SOCKET, SO_RCVTIMEO, &timeout, sizeof timeout);
+  sockaddr_in address{};
+  address.sin_family = AF_INET;
+  address.sin_port = htons(static_cast<uint16_t>(port));
+  address.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  REQUIRE(connect(fd, reinterpret_cast<sockaddr*>(&address), sizeof address) == 0);
+  REQUIRE(send(fd, request.data(), request.size(), 0) == static_cast<ssize_t>(request.size()));
+  std::string answer;
+  char buffer[4096];
+  for (ssize_t n; (n = recv(fd, buffer, sizeof buffer, 0)) > 0;) answer.append(buffer, size_t(n));
+  close(fd);
+  return answer;
+}
+
+}  // namespace
+
+TEST_CASE("api: a POST with neither Content-Length nor Transfer-Encoding has an empty body") {
+  // RFC 9112 section 6.3; `curl -X POST .../v1/sessions` sends exactly this. httplib alone would
+  // wait for a body until its read timeout.
+  ServerProcess server({"--lights", "4"});
+  requireListening(server);
+  const auto start = std::chrono::steady_clock::now();
+  const std::string answer = exchangeRaw(
+      server.port(), "POST /v1/sessions HTTP/1.1\r\nHost: 127.0.0.1\r\nConnection: close\r\n\r\n");
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  CHECK(answer.rfind("HTTP/1.1 201", 0) == 0);
+  CHECK(answer.find("\"token\"") != std::string::npos);
+  CHECK(seconds < 2.0);
+  ApiClient api(server);
+  Reply info = api.get("/v1/info");
+  CHECK(info.json["validation"]["messages"] == 0);
+}
+
+namespace {
+}  // namespace
 
 TEST_CASE("api: two sessions cannot see or change each other") {
   ServerProcess server({"--lights", "4"});

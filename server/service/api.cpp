@@ -233,6 +233,15 @@ bool Routes::answerBeforeRouting(const httplib::Request& req, httplib::Response&
     sendProblem(res, methodNotAllowed(req.method, req.path, allow));
     return true;
   }
+  // RFC 9112 section 6.3: a request with neither Content-Length nor Transfer-Encoding has an
+  // empty body. httplib 0.11 would instead read until the connection's read timeout (5 s) and then
+  // refuse the request, so `curl -X POST .../v1/sessions` with no body stalled. Saying so in the
+  // headers before httplib reads the body gives the standard behaviour. httplib hands the
+  // pre-routing handler a const view of its own, non-const Request, so the cast is sound.
+  if ((req.method == "POST" || req.method == "PUT" || req.method == "PATCH") &&
+      !req.has_header("Content-Length") && !req.has_header("Transfer-Encoding")) {
+    const_cast<httplib::Request&>(req).headers.emplace("Content-Length", "0");
+  }
   // Refused before the body is read, so an oversized upload costs no memory.
   if (req.has_header("Content-Length")) {
     const std::string length = req.get_header_value("Content-Length");
