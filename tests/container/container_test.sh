@@ -19,7 +19,8 @@
 # Checks: the image builds; its size (printed as "image size: N MB", and under a budget); no
 # compiler, build tool or -dev package in it; it runs as a non-root user; its config (port,
 # volume, stop signal, health check, entrypoint); the server started by the image's own
-# ENTRYPOINT answers /v1/health from outside and the image's HEALTHCHECK command passes; a
+# ENTRYPOINT answers /v1/health from outside and the image's HEALTHCHECK command passes; the
+# image's `myriad` CLI opens a session from inside; a
 # 320x180 frame is a PNG of that size and not one flat colour; a frame in flight when SIGTERM
 # arrives is still answered, and the server then exits 0 in time. Any failure: a line starting
 # "container test: FAIL", non-zero exit. Idempotent: re-runs reuse the base image and buildah's
@@ -208,6 +209,12 @@ mapfile -d '' -t health <"$work/inspect.json.health"
 health=("${health[@]//\/8080/\/$port}")
 buildah run --isolation chroot "$ctr" -- "${health[@]}" ||
   fail "the image's HEALTHCHECK command failed against a running server."
+
+step "cli"
+# The image's `myriad` CLI talks to the server from inside the container (docker exec ... myriad).
+session=$(buildah run --isolation chroot "$ctr" -- myriad --server "http://127.0.0.1:$port" \
+  --session-file /tmp/myriad-session session new 2>&1) || fail "myriad session new in the image failed: $session"
+echo "container test: cli: $session"
 
 step "frame"
 code=$(curl -sS --max-time 120 -o "$work/frame.png" -w '%{http_code} %{content_type}' \
