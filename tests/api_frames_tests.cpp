@@ -26,7 +26,9 @@
 
 #include "encode/png.h"
 #include "api_client.h"
+#include "image_compare.h"
 #include "server_process.h"
+#include "server_timing.h"
 
 using myriad::test::ApiClient;
 using myriad::test::createSession;
@@ -312,30 +314,15 @@ std::string streamPath(const TestSession& session, const std::string& query) {
 
 // Fraction of pixels whose RGB differs by more than JPEG noise.
 double fractionDifferent(const DecodedJpeg& a, const DecodedJpeg& b) {
-  REQUIRE(a.rgb.size() == b.rgb.size());
-  size_t different = 0;
-  for (size_t i = 0; i < a.rgb.size(); i += 3) {
-    for (int c = 0; c < 3; ++c) {
-      if (std::abs(int(a.rgb[i + c]) - int(b.rgb[i + c])) > 8) {
-        ++different;
-        break;
-      }
-    }
-  }
-  return double(different) / double(a.rgb.size() / 3);
+  return myriad::test::fractionDifferent(a.rgb, b.rgb, 8, 3);
 }
 
 // "name;dur=1.5, other;dur=2" -> names present.
 std::map<std::string, double> serverTimings(const std::string& header) {
   std::map<std::string, double> metrics;
-  size_t start = 0;
-  while (start < header.size()) {
-    size_t end = header.find(", ", start);
-    if (end == std::string::npos) end = header.size();
-    std::string entry = header.substr(start, end - start);
+  for (const std::string& entry : myriad::test::serverTimingEntries(header)) {
     size_t dur = entry.find(";dur=");
     if (dur != std::string::npos) metrics[entry.substr(0, dur)] = std::stod(entry.substr(dur + 5));
-    start = end + 2;
   }
   return metrics;
 }

@@ -14,7 +14,7 @@
 
 #include <glm/gtc/matrix_transform.hpp>
 
-#include "gpu/context.h"
+#include "gpu_test_support.h"
 #include "render/reference.h"
 #include "render/renderer.h"
 #include "scene/camera.h"
@@ -24,34 +24,13 @@ using namespace myriad;
 
 namespace {
 
-struct Gpu {
-  std::unique_ptr<gpu::Context> context;
-  std::unique_ptr<render::Renderer> renderer;
-  render::SceneId scene = 0;
-  render::FrameSettings lighting;  // the current scene's sun, ambient and background
-
-  // The suite's one scene, replaced by each test.
-  void setScene(const scene::Scene& s) {
-    if (scene == 0) scene = renderer->createScene(s);
-    else renderer->replaceScene(scene, s);
-    lighting.takeLightingFrom(s);
-  }
-  // Renders it lit by its own sun, ambient and background.
-  render::Frame render(render::FrameSettings f) {
-    f.sun = lighting.sun;
-    f.ambient = lighting.ambient;
-    f.background = lighting.background;
-    return renderer->render(scene, f);
-  }
-};
+using Gpu = test::GpuSuite;
 
 // One device for the whole suite: creating instances per test would dominate the run time.
 Gpu& sharedGpu() {
   static Gpu gpu = [] {
-    Gpu g;
-    g.context = gpu::createContext({.validation = true, .device = ""});
+    Gpu g = test::createGpuSuite();
     std::printf("GPU tests on %s (%s)\n", g.context->info.name.c_str(), g.context->info.type.c_str());
-    g.renderer = std::make_unique<render::Renderer>(*g.context);
     return g;
   }();
   return gpu;

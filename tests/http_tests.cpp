@@ -20,7 +20,9 @@
 #include <nlohmann/json.hpp>
 
 #include "encode/png.h"
+#include "image_compare.h"
 #include "server_process.h"
+#include "server_timing.h"
 
 using myriad::test::ExitStatus;
 using myriad::test::ServerProcess;
@@ -79,33 +81,17 @@ size_t distinctColours(const myriad::encode::DecodedImage& image) {
 // Fraction of pixels whose RGB differs by more than a rounding step.
 double fractionDifferent(const myriad::encode::DecodedImage& a,
                          const myriad::encode::DecodedImage& b) {
-  REQUIRE(a.rgba.size() == b.rgba.size());
-  size_t different = 0;
-  for (size_t i = 0; i < a.rgba.size(); i += 4) {
-    for (int c = 0; c < 3; ++c) {
-      if (std::abs(int(a.rgba[i + c]) - int(b.rgba[i + c])) > 2) {
-        ++different;
-        break;
-      }
-    }
-  }
-  return double(different) / double(a.rgba.size() / 4);
+  return myriad::test::fractionDifferent(a.rgba, b.rgba, 2);
 }
 
 // "gbuffer;dur=1.234, sun;dur=0.5" -> {gbuffer: 1.234, sun: 0.5}; a malformed entry fails.
 std::map<std::string, double> parseServerTiming(const std::string& header) {
   std::map<std::string, double> metrics;
-  size_t start = 0;
-  while (start < header.size()) {
-    size_t end = header.find(',', start);
-    if (end == std::string::npos) end = header.size();
-    std::string entry = header.substr(start, end - start);
-    while (!entry.empty() && entry.front() == ' ') entry.erase(0, 1);
+  for (const std::string& entry : myriad::test::serverTimingEntries(header)) {
     INFO("Server-Timing entry: ", entry);
     if (entry.starts_with("culling;desc=\"")) {  // the light lists' report, no duration
       CHECK(entry.find("dropped 0 light references") != std::string::npos);
       CHECK(entry.back() == '"');
-      start = end + 1;
       continue;
     }
     size_t semicolon = entry.find(";dur=");
@@ -117,7 +103,6 @@ std::map<std::string, double> parseServerTiming(const std::string& header) {
     CHECK(std::isfinite(value));
     CHECK(value >= 0.0);
     metrics[entry.substr(0, semicolon)] = value;
-    start = end + 1;
   }
   return metrics;
 }

@@ -9,7 +9,8 @@
 
 #include <glm/gtc/matrix_transform.hpp>
 
-#include "gpu/context.h"
+#include "gpu_test_support.h"
+#include "image_compare.h"
 #include "render/reference.h"
 #include "render/renderer.h"
 #include "scene/light_generator.h"
@@ -19,42 +20,15 @@ using namespace myriad;
 
 namespace {
 
-struct Gpu {
-  std::unique_ptr<gpu::Context> context;
-  std::unique_ptr<render::Renderer> renderer;
-};
+using Gpu = test::GpuSuite;
 
 Gpu& sharedGpu() {
-  static Gpu gpu = [] {
-    Gpu g;
-    g.context = gpu::createContext({.validation = true, .device = ""});
-    g.renderer = std::make_unique<render::Renderer>(*g.context);
-    return g;
-  }();
+  static Gpu gpu = test::createGpuSuite();
   return gpu;
 }
 
-int maxDifference(const std::vector<uint8_t>& a, const std::vector<uint8_t>& b) {
-  REQUIRE(a.size() == b.size());
-  int worst = 0;
-  for (size_t i = 0; i < a.size(); ++i) worst = std::max(worst, std::abs(int(a[i]) - int(b[i])));
-  return worst;
-}
-
-// Pixels whose colour differs by more than `tolerance` in some channel.
-size_t pixelsOver(const std::vector<uint8_t>& a, const std::vector<uint8_t>& b, int tolerance) {
-  REQUIRE(a.size() == b.size());
-  size_t over = 0;
-  for (size_t p = 0; p < a.size(); p += 4) {
-    for (int c = 0; c < 3; ++c) {
-      if (std::abs(int(a[p + c]) - int(b[p + c])) > tolerance) {
-        ++over;
-        break;
-      }
-    }
-  }
-  return over;
-}
+using test::maxDifference;
+using test::pixelsOver;
 
 scene::Scene floorScene(glm::vec3 colour) {
   scene::Scene s;

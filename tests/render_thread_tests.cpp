@@ -5,6 +5,7 @@
 
 #include <glm/gtc/matrix_transform.hpp>
 
+#include "image_compare.h"
 #include "render/reference.h"
 #include "scene/light_generator.h"
 #include "scene/primitives.h"
@@ -37,19 +38,7 @@ render::FrameSettings settingsFor(const scene::Scene& s) {
   return f;
 }
 
-size_t pixelsOver(const std::vector<uint8_t>& a, const std::vector<uint8_t>& b, int tolerance) {
-  REQUIRE(a.size() == b.size());
-  size_t over = 0;
-  for (size_t p = 0; p < a.size(); p += 4) {
-    for (int c = 0; c < 3; ++c) {
-      if (std::abs(int(a[p + c]) - int(b[p + c])) > tolerance) {
-        ++over;
-        break;
-      }
-    }
-  }
-  return over;
-}
+using test::pixelsOver;
 
 }  // namespace
 

@@ -9,7 +9,8 @@
 
 #include <glm/gtc/matrix_transform.hpp>
 
-#include "gpu/context.h"
+#include "gpu_test_support.h"
+#include "image_compare.h"
 #include "render/reference.h"
 #include "shared_types.h"
 #include "render/renderer.h"
@@ -24,43 +25,14 @@ namespace {
 
 constexpr Technique kTechniques[] = {Technique::Volumes, Technique::Tiled, Technique::Clustered};
 
-struct Gpu {
-  std::unique_ptr<gpu::Context> context;
-  std::unique_ptr<render::Renderer> renderer;
-  render::SceneId scene = 0;
-  render::FrameSettings lighting;  // the current scene's sun, ambient and background
-
-  // The suite's one scene, replaced by each test.
-  void setScene(const scene::Scene& s) {
-    if (scene == 0) scene = renderer->createScene(s);
-    else renderer->replaceScene(scene, s);
-    lighting.takeLightingFrom(s);
-  }
-  // Renders it lit by its own sun, ambient and background.
-  render::Frame render(render::FrameSettings f) {
-    f.sun = lighting.sun;
-    f.ambient = lighting.ambient;
-    f.background = lighting.background;
-    return renderer->render(scene, f);
-  }
-};
+using Gpu = test::GpuSuite;
 
 Gpu& sharedGpu() {
-  static Gpu gpu = [] {
-    Gpu g;
-    g.context = gpu::createContext({.validation = true, .device = ""});
-    g.renderer = std::make_unique<render::Renderer>(*g.context);
-    return g;
-  }();
+  static Gpu gpu = test::createGpuSuite();
   return gpu;
 }
 
-int maxDifference(const std::vector<uint8_t>& a, const std::vector<uint8_t>& b) {
-  REQUIRE(a.size() == b.size());
-  int worst = 0;
-  for (size_t i = 0; i < a.size(); ++i) worst = std::max(worst, std::abs(int(a[i]) - int(b[i])));
-  return worst;
-}
+using test::maxDifference;
 
 // A floor with a few boxes, lit by `count` lights just above it; lights' reach scales so about
 // the same number of them covers each point whatever the count.

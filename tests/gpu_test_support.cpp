@@ -1,0 +1,25 @@
+#include "gpu_test_support.h"
+
+namespace myriad::test {
+
+void GpuSuite::setScene(const scene::Scene& s) {
+  if (scene == 0) scene = renderer->createScene(s);
+  else renderer->replaceScene(scene, s);
+  lighting.takeLightingFrom(s);
+}
+
+render::Frame GpuSuite::render(render::FrameSettings f) {
+  f.sun = lighting.sun;
+  f.ambient = lighting.ambient;
+  f.background = lighting.background;
+  return renderer->render(scene, f);
+}
+
+GpuSuite createGpuSuite() {
+  GpuSuite g;
+  g.context = gpu::createContext({.validation = true, .device = ""});
+  g.renderer = std::make_unique<render::Renderer>(*g.context);
+  return g;
+}
+
+}  // namespace myriad::test
