@@ -100,7 +100,10 @@ protocol::Light toWire(uint64_t id, const scene::PointLight& l) {
   return out;
 }
 
-scene::PointLight fromWire(const protocol::LightNew& l) {
+namespace {
+// A new light and a stored one carry the same light members; only the id differs.
+template <class WireLight>
+scene::PointLight lightFromWire(const WireLight& l) {
   scene::PointLight out;
   out.position = fromWire(l.position);
   out.radius = float(l.radius);
@@ -109,16 +112,11 @@ scene::PointLight fromWire(const protocol::LightNew& l) {
   out.falloff = float(l.falloff);
   return out;
 }
+}  // namespace
 
-scene::PointLight fromWire(const protocol::Light& l) {
-  scene::PointLight out;
-  out.position = fromWire(l.position);
-  out.radius = float(l.radius);
-  out.color = fromWire(l.color);
-  out.intensity = float(l.intensity);
-  out.falloff = float(l.falloff);
-  return out;
-}
+scene::PointLight fromWire(const protocol::LightNew& l) { return lightFromWire(l); }
+
+scene::PointLight fromWire(const protocol::Light& l) { return lightFromWire(l); }
 
 protocol::Bounds toWire(const scene::Bounds& b) {
   // An empty model has no bounds; report a point at the origin rather than +-FLT_MAX.
