@@ -2,12 +2,15 @@
 
 #include <nlohmann/json.hpp>
 
+#include <type_traits>
+
 namespace myriad::protocol {
 namespace {
 
 using nlohmann::json;
 
 // Readers and writers for one member; `get` is only called on validated JSON (see types.h).
+// An optional member is left out when absent, in both directions.
 template <class T>
 void get(const json& j, const char* key, T& out) {
   j.at(key).get_to(out);
@@ -39,285 +42,370 @@ json orNull(const std::optional<T>& value) {
   return value ? json(*value) : json(nullptr);
 }
 
+// Each type names its members once, in a members() overload: f(JSON name, member pointer) for
+// each. A patch type names them in patchMembers(): f(JSON name, member of the whole type, the
+// patch's optional member), which gives its members() and applied() both.
 template <class T>
-void patch(T& target, const std::optional<T>& value) {
-  if (value) target = *value;
+struct Tag {};
+
+template <class F>
+void members(Tag<Bounds>, F f) {
+  f("min", &Bounds::min);
+  f("max", &Bounds::max);
+}
+
+template <class F>
+void patchMembers(Tag<CameraPatch>, F f) {
+  f("eye", &Camera::eye, &CameraPatch::eye);
+  f("target", &Camera::target, &CameraPatch::target);
+  f("up", &Camera::up, &CameraPatch::up);
+  f("fovY", &Camera::fovY, &CameraPatch::fovY);
+  f("near", &Camera::near, &CameraPatch::near);
+  f("far", &Camera::far, &CameraPatch::far);
+}
+
+template <class F>
+void patchMembers(Tag<SunPatch>, F f) {
+  f("direction", &Sun::direction, &SunPatch::direction);
+  f("color", &Sun::color, &SunPatch::color);
+  f("intensity", &Sun::intensity, &SunPatch::intensity);
+}
+
+template <class F>
+void patchMembers(Tag<SettingsPatch>, F f) {
+  f("sun", &Settings::sun, &SettingsPatch::sun);
+  f("ambient", &Settings::ambient, &SettingsPatch::ambient);
+  f("exposure", &Settings::exposure, &SettingsPatch::exposure);
+  f("markers", &Settings::markers, &SettingsPatch::markers);
+  f("technique", &Settings::technique, &SettingsPatch::technique);
+  f("animate", &Settings::animate, &SettingsPatch::animate);
+  f("background", &Settings::background, &SettingsPatch::background);
+}
+
+template <class F>
+void patchMembers(Tag<MaterialPatch>, F f) {
+  f("baseColor", &Material::baseColor, &MaterialPatch::baseColor);
+  f("metallic", &Material::metallic, &MaterialPatch::metallic);
+  f("roughness", &Material::roughness, &MaterialPatch::roughness);
+}
+
+template <class F>
+void patchMembers(Tag<LightPatch>, F f) {
+  f("position", &Light::position, &LightPatch::position);
+  f("radius", &Light::radius, &LightPatch::radius);
+  f("color", &Light::color, &LightPatch::color);
+  f("intensity", &Light::intensity, &LightPatch::intensity);
+  f("falloff", &Light::falloff, &LightPatch::falloff);
+}
+
+// The two halves of a patch list: the whole type's members, and the patch's.
+template <class P, class F>
+void wholeMembers(F& f) {
+  patchMembers(Tag<P>{}, [&](const char* name, auto whole, auto) { f(name, whole); });
+}
+
+template <class P, class F>
+void patchedMembers(F& f) {
+  patchMembers(Tag<P>{}, [&](const char* name, auto, auto patched) { f(name, patched); });
+}
+
+// Camera, Sun and Settings are exactly what their patches can change.
+template <class F> void members(Tag<Camera>, F f) { wholeMembers<CameraPatch>(f); }
+template <class F> void members(Tag<CameraPatch>, F f) { patchedMembers<CameraPatch>(f); }
+template <class F> void members(Tag<Sun>, F f) { wholeMembers<SunPatch>(f); }
+template <class F> void members(Tag<SunPatch>, F f) { patchedMembers<SunPatch>(f); }
+template <class F> void members(Tag<Settings>, F f) { wholeMembers<SettingsPatch>(f); }
+template <class F> void members(Tag<SettingsPatch>, F f) { patchedMembers<SettingsPatch>(f); }
+template <class F> void members(Tag<MaterialPatch>, F f) { patchedMembers<MaterialPatch>(f); }
+template <class F> void members(Tag<LightPatch>, F f) { patchedMembers<LightPatch>(f); }
+
+// A material and a light also have what no patch changes: the id (and a material's name).
+template <class F>
+void members(Tag<Material>, F f) {
+  f("id", &Material::id);
+  f("name", &Material::name);
+  wholeMembers<MaterialPatch>(f);
+}
+
+template <class F>
+void members(Tag<Light>, F f) {
+  f("id", &Light::id);
+  wholeMembers<LightPatch>(f);
+}
+
+template <class F>
+void members(Tag<LightNew>, F f) {
+  f("position", &LightNew::position);
+  f("radius", &LightNew::radius);
+  f("color", &LightNew::color);
+  f("intensity", &LightNew::intensity);
+  f("falloff", &LightNew::falloff);
+}
+
+template <class F>
+void members(Tag<MaterialsList>, F f) {
+  f("materials", &MaterialsList::materials);
+}
+
+template <class F>
+void members(Tag<LightsAdd>, F f) {
+  f("lights", &LightsAdd::lights);
+}
+
+template <class F>
+void members(Tag<LightsAdded>, F f) {
+  f("ids", &LightsAdded::ids);
+  f("total", &LightsAdded::total);
+}
+
+template <class F>
+void members(Tag<LightsGenerate>, F f) {
+  f("count", &LightsGenerate::count);
+  f("seed", &LightsGenerate::seed);
+  f("replace", &LightsGenerate::replace);
+  f("bounds", &LightsGenerate::bounds);
+  f("radius", &LightsGenerate::radius);
+  f("intensity", &LightsGenerate::intensity);
+  f("falloff", &LightsGenerate::falloff);
+}
+
+template <class F>
+void members(Tag<LightsGenerated>, F f) {
+  f("total", &LightsGenerated::total);
+}
+
+template <class F>
+void members(Tag<LightsPage>, F f) {
+  f("total", &LightsPage::total);
+  f("offset", &LightsPage::offset);
+  f("lights", &LightsPage::lights);
+}
+
+template <class F>
+void members(Tag<ModelSource>, F f) {
+  f("source", &ModelSource::source);
+}
+
+template <class F>
+void members(Tag<SessionCreate>, F f) {
+  f("model", &SessionCreate::model);
+}
+
+template <class F>
+void members(Tag<ModelSummary>, F f) {
+  f("source", &ModelSummary::source);
+  f("meshes", &ModelSummary::meshes);
+  f("instances", &ModelSummary::instances);
+  f("materials", &ModelSummary::materials);
+  f("bounds", &ModelSummary::bounds);
+}
+
+template <class F>
+void members(Tag<SessionCreated>, F f) {
+  f("id", &SessionCreated::id);
+  f("token", &SessionCreated::token);
+  f("expiresInSeconds", &SessionCreated::expiresInSeconds);
+  f("session", &SessionCreated::session);
+}
+
+template <class F>
+void members(Tag<PassTiming>, F f) {
+  f("name", &PassTiming::name);
+  f("ms", &PassTiming::ms);
+}
+
+template <class F>
+void members(Tag<FrameStats>, F f) {
+  f("passes", &FrameStats::passes);
+  f("totalGpuMs", &FrameStats::totalGpuMs);
+  f("readbackMs", &FrameStats::readbackMs);
+  f("encodeMs", &FrameStats::encodeMs);
+  f("width", &FrameStats::width);
+  f("height", &FrameStats::height);
+  f("technique", &FrameStats::technique);
+  f("target", &FrameStats::target);
+}
+
+template <class F>
+void members(Tag<CullingStats>, F f) {
+  f("tilesOverflowed", &CullingStats::tilesOverflowed);
+  f("tileLightsDropped", &CullingStats::tileLightsDropped);
+  f("clusterLightsDropped", &CullingStats::clusterLightsDropped);
+  f("listEntries", &CullingStats::listEntries);
+  f("activeClusters", &CullingStats::activeClusters);
+  f("mostLightsInList", &CullingStats::mostLightsInList);
+}
+
+template <class F>
+void members(Tag<GpuMemory>, F f) {
+  f("lightBytes", &GpuMemory::lightBytes);
+  f("listBytes", &GpuMemory::listBytes);
+  f("sceneBytes", &GpuMemory::sceneBytes);
+}
+
+template <class F>
+void members(Tag<Limits>, F f) {
+  f("maxResolution", &Limits::maxResolution);
+  f("maxQueuedFrames", &Limits::maxQueuedFrames);
+  f("maxSessions", &Limits::maxSessions);
+  f("maxLightsPerSession", &Limits::maxLightsPerSession);
+  f("maxUploadBytes", &Limits::maxUploadBytes);
+  f("maxBodyBytes", &Limits::maxBodyBytes);
+  f("maxStreams", &Limits::maxStreams);
+  f("maxRequestsInFlight", &Limits::maxRequestsInFlight);
+  f("sessionIdleSeconds", &Limits::sessionIdleSeconds);
+}
+
+template <class F>
+void members(Tag<DeviceSummary>, F f) {
+  f("name", &DeviceSummary::name);
+  f("type", &DeviceSummary::type);
+  f("driverName", &DeviceSummary::driverName);
+  f("driverInfo", &DeviceSummary::driverInfo);
+  f("apiVersion", &DeviceSummary::apiVersion);
+  f("vendorId", &DeviceSummary::vendorId);
+  f("deviceId", &DeviceSummary::deviceId);
+  f("index", &DeviceSummary::index);
+  f("isCpu", &DeviceSummary::isCpu);
+  f("maxImageDimension2D", &DeviceSummary::maxImageDimension2D);
+  f("maxStorageBufferRange", &DeviceSummary::maxStorageBufferRange);
+  f("maxComputeSharedMemorySize", &DeviceSummary::maxComputeSharedMemorySize);
+  f("subgroupSize", &DeviceSummary::subgroupSize);
+  f("timestampPeriodNs", &DeviceSummary::timestampPeriodNs);
+  f("timestampsSupported", &DeviceSummary::timestampsSupported);
+}
+
+template <class F>
+void members(Tag<SceneCounts>, F f) {
+  f("lights", &SceneCounts::lights);
+  f("instances", &SceneCounts::instances);
+  f("materials", &SceneCounts::materials);
+  f("meshes", &SceneCounts::meshes);
+}
+
+template <class F>
+void members(Tag<LibraryModel>, F f) {
+  f("name", &LibraryModel::name);
+  f("bytes", &LibraryModel::bytes);
+}
+
+template <class F>
+void members(Tag<ModelsList>, F f) {
+  f("models", &ModelsList::models);
+}
+
+template <class F>
+void members(Tag<Health>, F f) {
+  f("status", &Health::status);
+}
+
+template <class F>
+void members(Tag<Problem>, F f) {
+  f("type", &Problem::type);
+  f("title", &Problem::title);
+  f("status", &Problem::status);
+  f("detail", &Problem::detail);
+  f("parameter", &Problem::parameter);
+  f("pointer", &Problem::pointer);
+  f("limit", &Problem::limit);
+}
+
+// JSON <-> struct through the member list.
+template <class T>
+void write(json& j, const T& v) {
+  j = json::object();
+  members(Tag<T>{}, [&](const char* name, auto member) { put(j, name, v.*member); });
+}
+
+template <class T>
+void read(const json& j, T& v) {
+  members(Tag<T>{}, [&](const char* name, auto member) { get(j, name, v.*member); });
+}
+
+// A patch applied to the whole: each present member replaces the whole's, and a nested patch
+// (settings' sun) is applied member by member in turn.
+template <class T, class P>
+T applyPatch(T whole, const P& p);
+
+template <class T, class U>
+void patch(T& target, const std::optional<U>& value) {
+  if (!value) return;
+  if constexpr (std::is_same_v<T, U>) {
+    target = *value;
+  } else {
+    target = applyPatch(std::move(target), *value);
+  }
+}
+
+template <class T, class P>
+T applyPatch(T whole, const P& p) {
+  patchMembers(Tag<P>{}, [&](const char*, auto wholeMember, auto patchMember) {
+    patch(whole.*wholeMember, p.*patchMember);
+  });
+  return whole;
 }
 
 }  // namespace
 
-Camera applied(Camera camera, const CameraPatch& p) {
-  patch(camera.eye, p.eye);
-  patch(camera.target, p.target);
-  patch(camera.up, p.up);
-  patch(camera.fovY, p.fovY);
-  patch(camera.near, p.near);
-  patch(camera.far, p.far);
-  return camera;
-}
-
+Camera applied(Camera camera, const CameraPatch& p) { return applyPatch(std::move(camera), p); }
 Settings applied(Settings settings, const SettingsPatch& p) {
-  if (p.sun) {
-    patch(settings.sun.direction, p.sun->direction);
-    patch(settings.sun.color, p.sun->color);
-    patch(settings.sun.intensity, p.sun->intensity);
-  }
-  patch(settings.ambient, p.ambient);
-  patch(settings.exposure, p.exposure);
-  patch(settings.markers, p.markers);
-  patch(settings.technique, p.technique);
-  patch(settings.animate, p.animate);
-  patch(settings.background, p.background);
-  return settings;
+  return applyPatch(std::move(settings), p);
 }
-
 Material applied(Material material, const MaterialPatch& p) {
-  patch(material.baseColor, p.baseColor);
-  patch(material.metallic, p.metallic);
-  patch(material.roughness, p.roughness);
-  return material;
+  return applyPatch(std::move(material), p);
 }
+Light applied(Light light, const LightPatch& p) { return applyPatch(std::move(light), p); }
 
 Light withId(const LightNew& l, uint64_t id) {
   return Light{id, l.position, l.radius, l.color, l.intensity, l.falloff};
 }
 
-Light applied(Light light, const LightPatch& p) {
-  patch(light.position, p.position);
-  patch(light.radius, p.radius);
-  patch(light.color, p.color);
-  patch(light.intensity, p.intensity);
-  patch(light.falloff, p.falloff);
-  return light;
-}
+#define MYRIAD_MEMBERWISE_JSON(Type)                                  \
+  void to_json(json& j, const Type& v) { write(j, v); }               \
+  void from_json(const json& j, Type& v) { read(j, v); }
 
-// Each type lists its members once per direction; the JSON names are the contract's.
+MYRIAD_MEMBERWISE_JSON(Bounds)
+MYRIAD_MEMBERWISE_JSON(Camera)
+MYRIAD_MEMBERWISE_JSON(CameraPatch)
+MYRIAD_MEMBERWISE_JSON(Sun)
+MYRIAD_MEMBERWISE_JSON(SunPatch)
+MYRIAD_MEMBERWISE_JSON(Settings)
+MYRIAD_MEMBERWISE_JSON(SettingsPatch)
+MYRIAD_MEMBERWISE_JSON(Material)
+MYRIAD_MEMBERWISE_JSON(MaterialPatch)
+MYRIAD_MEMBERWISE_JSON(MaterialsList)
+MYRIAD_MEMBERWISE_JSON(LightNew)
+MYRIAD_MEMBERWISE_JSON(Light)
+MYRIAD_MEMBERWISE_JSON(LightPatch)
+MYRIAD_MEMBERWISE_JSON(LightsAdd)
+MYRIAD_MEMBERWISE_JSON(LightsAdded)
+MYRIAD_MEMBERWISE_JSON(LightsGenerate)
+MYRIAD_MEMBERWISE_JSON(LightsGenerated)
+MYRIAD_MEMBERWISE_JSON(LightsPage)
+MYRIAD_MEMBERWISE_JSON(ModelSource)
+MYRIAD_MEMBERWISE_JSON(SessionCreate)
+MYRIAD_MEMBERWISE_JSON(ModelSummary)
+MYRIAD_MEMBERWISE_JSON(SessionCreated)
+MYRIAD_MEMBERWISE_JSON(PassTiming)
+MYRIAD_MEMBERWISE_JSON(FrameStats)
+MYRIAD_MEMBERWISE_JSON(CullingStats)
+MYRIAD_MEMBERWISE_JSON(GpuMemory)
+MYRIAD_MEMBERWISE_JSON(Limits)
+MYRIAD_MEMBERWISE_JSON(DeviceSummary)
+MYRIAD_MEMBERWISE_JSON(SceneCounts)
+MYRIAD_MEMBERWISE_JSON(LibraryModel)
+MYRIAD_MEMBERWISE_JSON(ModelsList)
+MYRIAD_MEMBERWISE_JSON(Health)
+MYRIAD_MEMBERWISE_JSON(Problem)
 
-void to_json(json& j, const Bounds& v) { j = {{"min", v.min}, {"max", v.max}}; }
-void from_json(const json& j, Bounds& v) {
-  get(j, "min", v.min);
-  get(j, "max", v.max);
-}
+#undef MYRIAD_MEMBERWISE_JSON
 
-void to_json(json& j, const Camera& v) {
-  j = {{"eye", v.eye}, {"target", v.target}, {"up", v.up},
-       {"fovY", v.fovY}, {"near", v.near}, {"far", v.far}};
-}
-void from_json(const json& j, Camera& v) {
-  get(j, "eye", v.eye);
-  get(j, "target", v.target);
-  get(j, "up", v.up);
-  get(j, "fovY", v.fovY);
-  get(j, "near", v.near);
-  get(j, "far", v.far);
-}
-
-void to_json(json& j, const CameraPatch& v) {
-  j = json::object();
-  put(j, "eye", v.eye);
-  put(j, "target", v.target);
-  put(j, "up", v.up);
-  put(j, "fovY", v.fovY);
-  put(j, "near", v.near);
-  put(j, "far", v.far);
-}
-void from_json(const json& j, CameraPatch& v) {
-  get(j, "eye", v.eye);
-  get(j, "target", v.target);
-  get(j, "up", v.up);
-  get(j, "fovY", v.fovY);
-  get(j, "near", v.near);
-  get(j, "far", v.far);
-}
-
-void to_json(json& j, const Sun& v) {
-  j = {{"direction", v.direction}, {"color", v.color}, {"intensity", v.intensity}};
-}
-void from_json(const json& j, Sun& v) {
-  get(j, "direction", v.direction);
-  get(j, "color", v.color);
-  get(j, "intensity", v.intensity);
-}
-
-void to_json(json& j, const SunPatch& v) {
-  j = json::object();
-  put(j, "direction", v.direction);
-  put(j, "color", v.color);
-  put(j, "intensity", v.intensity);
-}
-void from_json(const json& j, SunPatch& v) {
-  get(j, "direction", v.direction);
-  get(j, "color", v.color);
-  get(j, "intensity", v.intensity);
-}
-
-void to_json(json& j, const Settings& v) {
-  j = {{"sun", v.sun},         {"ambient", v.ambient},     {"exposure", v.exposure},
-       {"markers", v.markers}, {"technique", v.technique}, {"animate", v.animate},
-       {"background", v.background}};
-}
-void from_json(const json& j, Settings& v) {
-  get(j, "sun", v.sun);
-  get(j, "ambient", v.ambient);
-  get(j, "exposure", v.exposure);
-  get(j, "markers", v.markers);
-  get(j, "technique", v.technique);
-  get(j, "animate", v.animate);
-  get(j, "background", v.background);
-}
-
-void to_json(json& j, const SettingsPatch& v) {
-  j = json::object();
-  put(j, "sun", v.sun);
-  put(j, "ambient", v.ambient);
-  put(j, "exposure", v.exposure);
-  put(j, "markers", v.markers);
-  put(j, "technique", v.technique);
-  put(j, "animate", v.animate);
-  put(j, "background", v.background);
-}
-void from_json(const json& j, SettingsPatch& v) {
-  get(j, "sun", v.sun);
-  get(j, "ambient", v.ambient);
-  get(j, "exposure", v.exposure);
-  get(j, "markers", v.markers);
-  get(j, "technique", v.technique);
-  get(j, "animate", v.animate);
-  get(j, "background", v.background);
-}
-
-void to_json(json& j, const Material& v) {
-  j = {{"id", v.id}, {"name", v.name}, {"baseColor", v.baseColor},
-       {"metallic", v.metallic}, {"roughness", v.roughness}};
-}
-void from_json(const json& j, Material& v) {
-  get(j, "id", v.id);
-  get(j, "name", v.name);
-  get(j, "baseColor", v.baseColor);
-  get(j, "metallic", v.metallic);
-  get(j, "roughness", v.roughness);
-}
-
-void to_json(json& j, const MaterialPatch& v) {
-  j = json::object();
-  put(j, "baseColor", v.baseColor);
-  put(j, "metallic", v.metallic);
-  put(j, "roughness", v.roughness);
-}
-void from_json(const json& j, MaterialPatch& v) {
-  get(j, "baseColor", v.baseColor);
-  get(j, "metallic", v.metallic);
-  get(j, "roughness", v.roughness);
-}
-
-void to_json(json& j, const MaterialsList& v) { j = {{"materials", v.materials}}; }
-void from_json(const json& j, MaterialsList& v) { get(j, "materials", v.materials); }
-
-void to_json(json& j, const LightNew& v) {
-  j = {{"position", v.position}, {"radius", v.radius}, {"color", v.color},
-       {"intensity", v.intensity}, {"falloff", v.falloff}};
-}
-void from_json(const json& j, LightNew& v) {
-  get(j, "position", v.position);
-  get(j, "radius", v.radius);
-  get(j, "color", v.color);
-  get(j, "intensity", v.intensity);
-  get(j, "falloff", v.falloff);
-}
-
-void to_json(json& j, const Light& v) {
-  j = {{"id", v.id}, {"position", v.position}, {"radius", v.radius},
-       {"color", v.color}, {"intensity", v.intensity}, {"falloff", v.falloff}};
-}
-void from_json(const json& j, Light& v) {
-  get(j, "id", v.id);
-  get(j, "position", v.position);
-  get(j, "radius", v.radius);
-  get(j, "color", v.color);
-  get(j, "intensity", v.intensity);
-  get(j, "falloff", v.falloff);
-}
-
-void to_json(json& j, const LightPatch& v) {
-  j = json::object();
-  put(j, "position", v.position);
-  put(j, "radius", v.radius);
-  put(j, "color", v.color);
-  put(j, "intensity", v.intensity);
-  put(j, "falloff", v.falloff);
-}
-void from_json(const json& j, LightPatch& v) {
-  get(j, "position", v.position);
-  get(j, "radius", v.radius);
-  get(j, "color", v.color);
-  get(j, "intensity", v.intensity);
-  get(j, "falloff", v.falloff);
-}
-
-void to_json(json& j, const LightsAdd& v) { j = {{"lights", v.lights}}; }
-void from_json(const json& j, LightsAdd& v) { get(j, "lights", v.lights); }
-
-void to_json(json& j, const LightsAdded& v) { j = {{"ids", v.ids}, {"total", v.total}}; }
-void from_json(const json& j, LightsAdded& v) {
-  get(j, "ids", v.ids);
-  get(j, "total", v.total);
-}
+// The types whose JSON nests members in objects of their own, or is an array.
 
 void to_json(json& j, const Range& v) { j = json::array({v.min, v.max}); }
 void from_json(const json& j, Range& v) {
   j.at(0).get_to(v.min);
   j.at(1).get_to(v.max);
-}
-
-void to_json(json& j, const LightsGenerate& v) {
-  j = {{"count", v.count}, {"seed", v.seed}};
-  put(j, "replace", v.replace);
-  put(j, "bounds", v.bounds);
-  put(j, "radius", v.radius);
-  put(j, "intensity", v.intensity);
-  put(j, "falloff", v.falloff);
-}
-void from_json(const json& j, LightsGenerate& v) {
-  get(j, "count", v.count);
-  get(j, "seed", v.seed);
-  get(j, "replace", v.replace);
-  get(j, "bounds", v.bounds);
-  get(j, "radius", v.radius);
-  get(j, "intensity", v.intensity);
-  get(j, "falloff", v.falloff);
-}
-
-void to_json(json& j, const LightsGenerated& v) { j = {{"total", v.total}}; }
-void from_json(const json& j, LightsGenerated& v) { get(j, "total", v.total); }
-
-void to_json(json& j, const LightsPage& v) {
-  j = {{"total", v.total}, {"offset", v.offset}, {"lights", v.lights}};
-}
-void from_json(const json& j, LightsPage& v) {
-  get(j, "total", v.total);
-  get(j, "offset", v.offset);
-  get(j, "lights", v.lights);
-}
-
-void to_json(json& j, const ModelSource& v) { j = {{"source", v.source}}; }
-void from_json(const json& j, ModelSource& v) { get(j, "source", v.source); }
-
-void to_json(json& j, const SessionCreate& v) {
-  j = json::object();
-  put(j, "model", v.model);
-}
-void from_json(const json& j, SessionCreate& v) { get(j, "model", v.model); }
-
-void to_json(json& j, const ModelSummary& v) {
-  j = {{"source", v.source},       {"meshes", v.meshes}, {"instances", v.instances},
-       {"materials", v.materials}, {"bounds", v.bounds}};
-}
-void from_json(const json& j, ModelSummary& v) {
-  get(j, "source", v.source);
-  get(j, "meshes", v.meshes);
-  get(j, "instances", v.instances);
-  get(j, "materials", v.materials);
-  get(j, "bounds", v.bounds);
 }
 
 void to_json(json& j, const SessionState& v) {
@@ -337,67 +425,6 @@ void from_json(const json& j, SessionState& v) {
   get(j, "expiresInSeconds", v.expiresInSeconds);
 }
 
-void to_json(json& j, const SessionCreated& v) {
-  j = {{"id", v.id},
-       {"token", v.token},
-       {"expiresInSeconds", v.expiresInSeconds},
-       {"session", v.session}};
-}
-void from_json(const json& j, SessionCreated& v) {
-  get(j, "id", v.id);
-  get(j, "token", v.token);
-  get(j, "expiresInSeconds", v.expiresInSeconds);
-  get(j, "session", v.session);
-}
-
-void to_json(json& j, const PassTiming& v) { j = {{"name", v.name}, {"ms", v.ms}}; }
-void from_json(const json& j, PassTiming& v) {
-  get(j, "name", v.name);
-  get(j, "ms", v.ms);
-}
-
-void to_json(json& j, const FrameStats& v) {
-  j = {{"passes", v.passes},         {"totalGpuMs", v.totalGpuMs}, {"readbackMs", v.readbackMs},
-       {"encodeMs", v.encodeMs},     {"width", v.width},           {"height", v.height},
-       {"technique", v.technique},   {"target", v.target}};
-}
-void from_json(const json& j, FrameStats& v) {
-  get(j, "passes", v.passes);
-  get(j, "totalGpuMs", v.totalGpuMs);
-  get(j, "readbackMs", v.readbackMs);
-  get(j, "encodeMs", v.encodeMs);
-  get(j, "width", v.width);
-  get(j, "height", v.height);
-  get(j, "technique", v.technique);
-  get(j, "target", v.target);
-}
-
-void to_json(json& j, const CullingStats& v) {
-  j = {{"tilesOverflowed", v.tilesOverflowed},
-       {"tileLightsDropped", v.tileLightsDropped},
-       {"clusterLightsDropped", v.clusterLightsDropped},
-       {"listEntries", v.listEntries},
-       {"activeClusters", v.activeClusters},
-       {"mostLightsInList", v.mostLightsInList}};
-}
-void from_json(const json& j, CullingStats& v) {
-  get(j, "tilesOverflowed", v.tilesOverflowed);
-  get(j, "tileLightsDropped", v.tileLightsDropped);
-  get(j, "clusterLightsDropped", v.clusterLightsDropped);
-  get(j, "listEntries", v.listEntries);
-  get(j, "activeClusters", v.activeClusters);
-  get(j, "mostLightsInList", v.mostLightsInList);
-}
-
-void to_json(json& j, const GpuMemory& v) {
-  j = {{"lightBytes", v.lightBytes}, {"listBytes", v.listBytes}, {"sceneBytes", v.sceneBytes}};
-}
-void from_json(const json& j, GpuMemory& v) {
-  get(j, "lightBytes", v.lightBytes);
-  get(j, "listBytes", v.listBytes);
-  get(j, "sceneBytes", v.sceneBytes);
-}
-
 void to_json(json& j, const Stats& v) {
   j = {{"frame", orNull(v.frame)},
        {"lights", {{"count", v.lightCount}, {"animated", v.lightsAnimated}}},
@@ -414,75 +441,6 @@ void from_json(const json& j, Stats& v) {
   v.culling = culling.is_null() ? std::nullopt : std::optional(culling.get<CullingStats>());
   get(j, "gpuMemory", v.gpuMemory);
   get(j, "frames", v.frames);
-}
-
-void to_json(json& j, const Limits& v) {
-  j = {{"maxResolution", v.maxResolution},
-       {"maxQueuedFrames", v.maxQueuedFrames},
-       {"maxSessions", v.maxSessions},
-       {"maxLightsPerSession", v.maxLightsPerSession},
-       {"maxUploadBytes", v.maxUploadBytes},
-       {"maxBodyBytes", v.maxBodyBytes},
-       {"maxStreams", v.maxStreams},
-       {"maxRequestsInFlight", v.maxRequestsInFlight},
-       {"sessionIdleSeconds", v.sessionIdleSeconds}};
-}
-void from_json(const json& j, Limits& v) {
-  get(j, "maxResolution", v.maxResolution);
-  get(j, "maxQueuedFrames", v.maxQueuedFrames);
-  get(j, "maxSessions", v.maxSessions);
-  get(j, "maxLightsPerSession", v.maxLightsPerSession);
-  get(j, "maxUploadBytes", v.maxUploadBytes);
-  get(j, "maxBodyBytes", v.maxBodyBytes);
-  get(j, "maxStreams", v.maxStreams);
-  get(j, "maxRequestsInFlight", v.maxRequestsInFlight);
-  get(j, "sessionIdleSeconds", v.sessionIdleSeconds);
-}
-
-void to_json(json& j, const DeviceSummary& v) {
-  j = {{"name", v.name},
-       {"type", v.type},
-       {"driverName", v.driverName},
-       {"driverInfo", v.driverInfo},
-       {"apiVersion", v.apiVersion},
-       {"vendorId", v.vendorId},
-       {"deviceId", v.deviceId},
-       {"index", v.index},
-       {"isCpu", v.isCpu},
-       {"maxImageDimension2D", v.maxImageDimension2D},
-       {"maxStorageBufferRange", v.maxStorageBufferRange},
-       {"maxComputeSharedMemorySize", v.maxComputeSharedMemorySize},
-       {"subgroupSize", v.subgroupSize},
-       {"timestampPeriodNs", v.timestampPeriodNs},
-       {"timestampsSupported", v.timestampsSupported}};
-}
-void from_json(const json& j, DeviceSummary& v) {
-  get(j, "name", v.name);
-  get(j, "type", v.type);
-  get(j, "driverName", v.driverName);
-  get(j, "driverInfo", v.driverInfo);
-  get(j, "apiVersion", v.apiVersion);
-  get(j, "vendorId", v.vendorId);
-  get(j, "deviceId", v.deviceId);
-  get(j, "index", v.index);
-  get(j, "isCpu", v.isCpu);
-  get(j, "maxImageDimension2D", v.maxImageDimension2D);
-  get(j, "maxStorageBufferRange", v.maxStorageBufferRange);
-  get(j, "maxComputeSharedMemorySize", v.maxComputeSharedMemorySize);
-  get(j, "subgroupSize", v.subgroupSize);
-  get(j, "timestampPeriodNs", v.timestampPeriodNs);
-  get(j, "timestampsSupported", v.timestampsSupported);
-}
-
-void to_json(json& j, const SceneCounts& v) {
-  j = {{"lights", v.lights}, {"instances", v.instances},
-       {"materials", v.materials}, {"meshes", v.meshes}};
-}
-void from_json(const json& j, SceneCounts& v) {
-  get(j, "lights", v.lights);
-  get(j, "instances", v.instances);
-  get(j, "materials", v.materials);
-  get(j, "meshes", v.meshes);
 }
 
 void to_json(json& j, const Info& v) {
@@ -514,34 +472,6 @@ void from_json(const json& j, Info& v) {
   get(j, "defaultTechnique", v.defaultTechnique);
   get(j, "formats", v.formats);
   get(j, "apiKeyRequired", v.apiKeyRequired);
-}
-
-void to_json(json& j, const LibraryModel& v) { j = {{"name", v.name}, {"bytes", v.bytes}}; }
-void from_json(const json& j, LibraryModel& v) {
-  get(j, "name", v.name);
-  get(j, "bytes", v.bytes);
-}
-
-void to_json(json& j, const ModelsList& v) { j = {{"models", v.models}}; }
-void from_json(const json& j, ModelsList& v) { get(j, "models", v.models); }
-
-void to_json(json& j, const Health& v) { j = {{"status", v.status}}; }
-void from_json(const json& j, Health& v) { get(j, "status", v.status); }
-
-void to_json(json& j, const Problem& v) {
-  j = {{"type", v.type}, {"title", v.title}, {"status", v.status}, {"detail", v.detail}};
-  put(j, "parameter", v.parameter);
-  put(j, "pointer", v.pointer);
-  put(j, "limit", v.limit);
-}
-void from_json(const json& j, Problem& v) {
-  get(j, "type", v.type);
-  get(j, "title", v.title);
-  get(j, "status", v.status);
-  get(j, "detail", v.detail);
-  get(j, "parameter", v.parameter);
-  get(j, "pointer", v.pointer);
-  get(j, "limit", v.limit);
 }
 
 }  // namespace myriad::protocol

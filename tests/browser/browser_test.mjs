@@ -61,6 +61,14 @@ async function step(name, fn) {
     const message = await page.isVisible('#message')
         ? await page.textContent('#message-text').catch(() => '?') : '(none shown)';
     console.log(`     stream: ${src}\n     message: ${message}`);
+    // The server's side of it: open streams, frames rendered for the session, stream requests.
+    const metrics = await fetch(`${base}/metrics`).then((r) => r.text(), (e) => e.message);
+    console.log(`     server: ${metrics.split('\n').filter((l) =>
+        /^myriad_streams |^myriad_frame_seconds_count|stream.*status/.test(l)).join(' | ')}`);
+    if (sessionId) {
+      const stats = await api('GET', `/v1/sessions/${sessionId}/stats`, {token}).catch(() => null);
+      console.log(`     session frames: ${stats?.body?.frames}`);
+    }
   }
 }
 
