@@ -652,15 +652,39 @@ TEST_CASE("streams: animated parts, idle re-sends, the end on DELETE, limits, st
     CHECK(reader.leftover() == 0);
   }
 
-  SUBCASE("over --max-streams: 429 with limit maxStreams") {
+  SUBCASE("over --max-streams: another session gets 429, the same session replaces its oldest") {
     StreamReader first(server, streamPath(session, query), auth(session));
     StreamReader second(server, streamPath(session, query), auth(session));
     REQUIRE(first.status() == 200);
     REQUIRE(second.status() == 200);
-    httplib::Result third = client->Get(streamPath(session, query), auth(session));
-    checkProblem(third, 429, "limit-exceeded");
-    CHECK(json::parse(third->body)["limit"] == "maxStreams");
-    CHECK(third->has_header("Retry-After"));
+    REQUIRE(first.waitForParts(1, std::chrono::seconds(60)).size() == 1);
+    TestSession other = createSession(api);
+    httplib::Result refused = client->Get(streamPath(other, query), auth(other));
+    checkProblem(refused, 429, "limit-exceeded");
+    CHECK(json::parse(refused->body)["limit"] == "maxStreams");
+    CHECK(refused->has_header("Retry-After"));
+
+    // What a page does when it switches target: a new stream, the old one dropped. The server
+    // ends the session's oldest stream instead of answering 429. `first` still reads, so no
+    // failed write can end it: only being replaced does.
+    // (The two readers connect concurrently: either may be the one the server opened first.)
+    const auto opened = Clock::now();
+    StreamReader third(server, streamPath(session, query), auth(session));
+    REQUIRE(third.status() == 200);
+    bool firstEnded = false;
+    bool secondEnded = false;
+    while (!firstEnded && !secondEnded && Clock::now() - opened < std::chrono::seconds(30)) {
+      firstEnded = first.waitForEnd(std::chrono::seconds(0));
+      secondEnded = second.waitForEnd(std::chrono::seconds(1));
+    }
+    MESSAGE("the replaced stream ended ",
+            std::chrono::duration<double>(Clock::now() - opened).count(),
+            " s after the new one opened");
+    CHECK(firstEnded != secondEnded);  // exactly one: the oldest
+    CHECK(first.framingError().empty());
+    CHECK(second.framingError().empty());
+    CHECK(third.waitForParts(1, std::chrono::seconds(60)).size() == 1);
+    CHECK_FALSE(third.waitForEnd(std::chrono::seconds(0)));
   }
 
   SUBCASE("bad stream queries") {

@@ -166,24 +166,35 @@ TEST_CASE("stream parts: the contract's framing") {
             std::string(3, '\0') + "\r\n--myriad-frame\r\n");
 }
 
-TEST_CASE("stream registry: maxStreams places, released with the slot, none after shutdown") {
+TEST_CASE("stream registry: maxStreams places, a session's newest replaces its oldest, none after shutdown") {
   service::StreamRegistry registry(2);
   auto session = std::make_shared<service::Session>("s-0123456789abcdef", std::string(64, 'a'));
+  auto other = std::make_shared<service::Session>("s-fedcba9876543210", std::string(64, 'b'));
   auto first = registry.open(session);
   auto second = registry.open(session);
   REQUIRE(first);
   REQUIRE(second);
   CHECK(registry.count() == 2);
-  CHECK_FALSE(registry.open(session));
-  first.reset();
-  CHECK(registry.count() == 1);
+  // Full: another session is refused; the same session's third stream replaces its first.
+  CHECK_FALSE(registry.open(other));
   auto third = registry.open(session);
-  CHECK(third);
+  REQUIRE(third);
+  CHECK(first->replaced());
+  CHECK_FALSE(second->replaced());
+  CHECK_FALSE(third->replaced());
+  CHECK(registry.count() == 2);
+  first.reset();  // the replaced stream ends and gives its entry back
+  CHECK(registry.count() == 2);
+  CHECK_FALSE(registry.open(other));
+  second.reset();
+  CHECK(registry.count() == 1);
+  auto fromOther = registry.open(other);
+  CHECK(fromOther);
   registry.shutdown();
   CHECK(registry.stopping());
   third.reset();
   CHECK_FALSE(registry.open(session));
-  second.reset();
+  fromOther.reset();
   CHECK(registry.count() == 0);
 }
 

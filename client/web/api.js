@@ -153,10 +153,4 @@ export class Api {
     this.session = null;
     localStorage.removeItem(STORAGE_KEY);
   }
-
-  // A URL an <img> can load: it cannot send headers, so the token goes in the query.
-  sessionImageUrl(route, params) {
-    const query = new URLSearchParams({...params, token: this.session.token});
-    return `${this.sessionPath(route)}?${query}`;
-  }
 }

@@ -1,9 +1,17 @@
-// The live view: an <img> showing the session's multipart JPEG stream. The stream is asked for at
-// the view's size in device pixels; while the camera moves it is asked for smaller and at lower
-// quality (a CPU renderer answers much sooner), and ~300 ms after the input stops at full size
-// and quality 90 again, so what stays on screen is a full-quality still.
+// The live view: the session's multipart JPEG stream, read with fetch and shown part by part in
+// an <img>. The stream is asked for at the view's size in device pixels; while the camera moves it
+// is asked for smaller and at lower quality (a CPU renderer answers much sooner), and ~300 ms after
+// the input stops at full size and quality 90 again, so what stays on screen is a full-quality
+// still.
+//
+// Why fetch and not <img src=stream>: an <img> shows a part only once the next part's headers
+// arrive (so a still stayed one part, up to the server's 2 s re-send, behind), gives no event
+// when a stream ends or stalls after its first part (the view froze without a word), and needs
+// the token in the URL. Here each part is shown as soon as its last byte is in, a stream that
+// ends or goes silent is reopened, and the token travels in the Authorization header.
 
 import {ApiError, SessionLostError} from './api.js';
+import {MultipartReader, multipartBoundary} from './multipart.js';
 
 const FULL_QUALITY = 90;
 const INTERACTIVE_QUALITY = 60;
@@ -12,6 +20,12 @@ const SETTLE_MS = 300;          // input pause after which the full-quality view
 const RESIZE_DEBOUNCE_MS = 200;
 const STREAM_FPS = 30;
 const MIN_SIDE = 16;
+// The server writes at least every 2 s (it re-sends the last image while nothing changes), but
+// a CPU renderer may need many seconds for one frame of a huge scene: only a stream silent this
+// long is taken for dead and reopened.
+const SILENT_STREAM_MS = 30000;
+const FIRST_RETRY_MS = 1000;
+const LAST_RETRY_MS = 10000;
 
 export class LiveView {
   constructor(api, element, img, status) {
@@ -23,19 +37,19 @@ export class LiveView {
     this.maxResolution = 4096;
     this.interactive = false;
     this.settleTimer = 0;
-    this.retryDelayMs = 1000;
+    this.retryDelayMs = FIRST_RETRY_MS;
     this.retryTimer = 0;
+    this.stream = null;        // {key, abort} of the open stream
+    this.urls = [];            // object URLs of parts given to the <img>, oldest first
     this.onProblem = () => {};      // (ApiError) => void
 
     this.img.addEventListener('load', () => {
-      this.img.classList.remove('failed');
-      this.retryDelayMs = 1000;
+      // The newest part shows: the parts before it are no longer needed.
+      const shown = this.img.src;
+      for (const url of this.urls.filter((u) => u !== shown)) URL.revokeObjectURL(url);
+      this.urls = this.urls.filter((u) => u === shown);
       this.status.textContent = `${this.img.naturalWidth}\u00d7${this.img.naturalHeight}` +
                                 (this.interactive ? ' (moving)' : '');
-    });
-    this.img.addEventListener('error', () => {
-      this.img.classList.add('failed');  // no broken-image icon over the view
-      this.streamFailed();
     });
 
     let resizeTimer = 0;
@@ -67,22 +81,37 @@ export class LiveView {
     };
   }
 
-  // (Re)starts the stream when its URL changed; a new src closes the old connection.
+  // (Re)opens the stream when what it should show changed; the old one is closed first.
   restart() {
     if (!this.api.hasSession) return;
     clearTimeout(this.retryTimer);
     const p = this.streamParams();
-    const url = this.api.sessionImageUrl('/stream', {
-      target: this.target, format: 'jpeg', fps: STREAM_FPS,
-      width: p.width, height: p.height, quality: p.quality,
-    });
-    if (this.img.getAttribute('src') === url) return;
-    this.img.src = url;
+    const query = {target: this.target, format: 'jpeg', fps: STREAM_FPS,
+                   width: p.width, height: p.height, quality: p.quality};
+    // The stream's address without the token (data-stream: what the view asks for now).
+    const key = `${this.api.sessionPath('/stream')}?${new URLSearchParams(query)}`;
+    if (this.stream && this.stream.key === key) return;
+    this.close();
+    const stream = {key, abort: new AbortController()};
+    this.stream = stream;
+    this.img.dataset.stream = key;
+    this.read(stream, query);
   }
 
   stop() {
     clearTimeout(this.retryTimer);
+    this.close();
     this.img.removeAttribute('src');
+    delete this.img.dataset.stream;
+    delete this.img.dataset.shown;
+    delete this.img.dataset.frame;
+    for (const url of this.urls) URL.revokeObjectURL(url);
+    this.urls = [];
+  }
+
+  close() {
+    if (this.stream) this.stream.abort.abort();
+    this.stream = null;
   }
 
   setTarget(target) {
@@ -103,30 +132,77 @@ export class LiveView {
     }, SETTLE_MS);
   }
 
-  // An <img> does not say why it failed; the same request through fetch does (its problem
-  // body), and is dropped as soon as the status is known.
-  async streamFailed() {
-    const url = this.img.getAttribute('src');
-    if (!url) return;
-    const abort = new AbortController();
+  // Reads one stream until it ends, stalls, fails or is replaced.
+  async read(stream, query) {
+    const current = () => this.stream === stream;
+    let response;
     try {
-      await this.api.request('GET', url, {raw: true, signal: abort.signal});
-      this.status.textContent = 'The stream stopped; reconnecting.';
+      response = await this.api.request('GET', this.api.sessionPath('/stream'),
+                                        {raw: true, query, signal: stream.abort.signal});
     } catch (e) {
-      if (this.img.getAttribute('src') !== url) return;  // replaced meanwhile: not ours to fix
+      if (!current() || e.stale) return;
       if (e instanceof SessionLostError) {
+        this.close();
         this.onProblem(e);
         return;  // only a new session helps; no retry
       }
       if (e instanceof ApiError) this.onProblem(e);
-    } finally {
-      abort.abort();
+      this.retryLater(stream);
+      return;
     }
-    // Retry with a growing delay: a 429 (too many streams) or a restarting server passes.
+
+    const reader = response.body.getReader();
+    const parts = new MultipartReader(multipartBoundary(response.headers.get('content-type')) ||
+                                      'myriad-frame');
+    let silence = 0;
+    const listen = () => {
+      clearTimeout(silence);
+      silence = setTimeout(() => stream.abort.abort(), SILENT_STREAM_MS);
+    };
+    listen();
+    try {
+      for (;;) {
+        const {done, value} = await reader.read();
+        if (done || !current()) break;
+        listen();
+        const got = parts.feed(value);
+        if (got.length) this.show(stream, got[got.length - 1]);  // only the newest part matters
+      }
+    } catch (e) {
+      // Aborted (replaced, stopped, or silent too long), the connection broke, or a bad part.
+      if (current() && !stream.abort.signal.aborted) console.warn(`stream: ${e.message}`);
+    } finally {
+      clearTimeout(silence);
+      reader.cancel().catch(() => {});
+    }
+    // Ended by the server (session deleted, server stopping) or gone silent: open it again; the
+    // new request says why if it cannot be (a lost session, an unreachable server).
+    if (current()) {
+      this.status.textContent = 'The stream stopped; reconnecting.';
+      this.retryLater(stream);
+    }
+  }
+
+  // Gives one part to the <img>. data-shown names the stream it came from and data-frame its
+  // X-Myriad-Frame number, for whoever inspects the page (the browser test does).
+  show(stream, part) {
+    const url = URL.createObjectURL(new Blob([part.body], {type: part.headers['content-type']}));
+    this.urls.push(url);
+    this.img.src = url;
+    this.img.dataset.shown = stream.key;
+    this.img.dataset.frame = part.headers['x-myriad-frame'] || '';
+    this.retryDelayMs = FIRST_RETRY_MS;
+  }
+
+  // Opens the stream again after a growing delay: a 429 (too many streams), a restarting server
+  // or a busy renderer passes.
+  retryLater(stream) {
+    clearTimeout(this.retryTimer);
     this.retryTimer = setTimeout(() => {
-      this.img.removeAttribute('src');
+      if (this.stream !== stream) return;  // replaced meanwhile
+      this.stream = null;
       this.restart();
     }, this.retryDelayMs);
-    this.retryDelayMs = Math.min(this.retryDelayMs * 2, 10000);
+    this.retryDelayMs = Math.min(this.retryDelayMs * 2, LAST_RETRY_MS);
   }
 }

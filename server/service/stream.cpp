@@ -58,7 +58,7 @@ bool StreamState::next(httplib::DataSink& sink) {
       animate = session->settings.animate;
       version = session->version;
     }
-    if (closed || registry.stopping()) {
+    if (closed || registry.stopping() || slot->replaced()) {
       // The terminating chunk, then close: the client sees a complete body and end of file.
       sink.done();
       return false;
@@ -98,7 +98,8 @@ bool StreamState::next(httplib::DataSink& sink) {
     if (wantFrame) deadline = std::min(deadline, nextFrameAt);
     std::unique_lock lock(session->mutex);
     session->changed.wait_until(lock, deadline, [&] {
-      return session->closed || registry.stopping() || session->version != version;
+      return session->closed || registry.stopping() || slot->replaced() ||
+             session->version != version;
     });
   }
 }
@@ -110,19 +111,32 @@ StreamRegistry::Slot::Slot(StreamRegistry& registry, SessionPtr session)
 
 StreamRegistry::Slot::~Slot() {
   std::lock_guard lock(registry_.mutex_);
-  registry_.open_.erase(registry_.open_.find(session_));
+  registry_.open_.remove(this);
 }
 
 std::unique_ptr<StreamRegistry::Slot> StreamRegistry::open(SessionPtr session) {
   std::lock_guard lock(mutex_);
-  if (stopping_ || open_.size() >= maxStreams_) return nullptr;
-  open_.insert(session);
-  return std::make_unique<Slot>(*this, std::move(session));
+  if (stopping_) return nullptr;
+  const auto live = [](const Slot* slot) { return !slot->replaced(); };
+  if (std::count_if(open_.begin(), open_.end(), live) >= maxStreams_) {
+    auto oldest = std::find_if(open_.begin(), open_.end(), [&](const Slot* slot) {
+      return live(slot) && slot->session_ == session;
+    });
+    if (oldest == open_.end()) return nullptr;
+    (*oldest)->replaced_ = true;
+    // As in shutdown: the stream is either before its check (and sees the flag) or waiting.
+    { std::lock_guard sessionLock(session->mutex); }
+    session->changed.notify_all();
+  }
+  auto slot = std::make_unique<Slot>(*this, std::move(session));
+  open_.push_back(slot.get());
+  return slot;
 }
 
 uint32_t StreamRegistry::count() const {
   std::lock_guard lock(mutex_);
-  return static_cast<uint32_t>(open_.size());
+  return static_cast<uint32_t>(
+      std::count_if(open_.begin(), open_.end(), [](const Slot* slot) { return !slot->replaced(); }));
 }
 
 void StreamRegistry::shutdown() {
@@ -130,9 +144,9 @@ void StreamRegistry::shutdown() {
   stopping_ = true;
   // Taking each session's mutex after setting the flag means a stream is either before its
   // predicate check (and sees the flag) or already waiting (and gets the notification).
-  for (const SessionPtr& session : open_) {
-    { std::lock_guard sessionLock(session->mutex); }
-    session->changed.notify_all();
+  for (const Slot* slot : open_) {
+    { std::lock_guard sessionLock(slot->session_->mutex); }
+    slot->session_->changed.notify_all();
   }
 }
 

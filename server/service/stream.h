@@ -16,7 +16,7 @@
 #include <cstdint>
 #include <memory>
 #include <mutex>
-#include <set>
+#include <list>
 #include <string>
 #include <string_view>
 
@@ -32,6 +32,12 @@ inline constexpr std::string_view kStreamContentType =
 inline constexpr std::chrono::seconds kIdleResend{2};
 
 // The open streams: the maxStreams limit, the myriad_streams gauge, and shutdown.
+//
+// At the limit, a new stream of a session replaces that session's oldest stream instead of being
+// refused: a page that switches target or size opens a new stream and drops the old one, but the
+// server learns that the old one's client is gone only at its next write (up to kIdleResend
+// later), so a quick succession of switches would otherwise meet 429. Only a session's own
+// stream is ever replaced; other sessions still get 429 at the limit.
 class StreamRegistry {
  public:
   explicit StreamRegistry(uint32_t maxStreams) : maxStreams_(maxStreams) {}
@@ -44,17 +50,22 @@ class StreamRegistry {
     Slot(const Slot&) = delete;
     Slot& operator=(const Slot&) = delete;
 
+    // A newer stream of the same session took this one's place: end after the current part.
+    bool replaced() const { return replaced_.load(); }
+
    private:
+    friend class StreamRegistry;
     StreamRegistry& registry_;
     SessionPtr session_;
+    std::atomic<bool> replaced_{false};
   };
 
-  // A place for a stream of `session`, or null when maxStreams streams are open or the server is
-  // shutting down.
+  // A place for a stream of `session`, or null when maxStreams streams of other sessions are
+  // open or the server is shutting down.
   std::unique_ptr<Slot> open(SessionPtr session);
 
   uint32_t maxStreams() const { return maxStreams_; }
-  uint32_t count() const;
+  uint32_t count() const;  // streams open and not replaced
   bool stopping() const { return stopping_.load(); }
 
   // Every stream ends after the part it is writing; new ones are refused. Idempotent.
@@ -63,7 +74,7 @@ class StreamRegistry {
  private:
   const uint32_t maxStreams_;
   mutable std::mutex mutex_;
-  std::multiset<SessionPtr> open_;  // one entry per open stream, so shutdown can wake them
+  std::list<Slot*> open_;  // oldest first, so shutdown can wake them and a session's oldest is found
   std::atomic<bool> stopping_{false};
 };
 

@@ -43,7 +43,18 @@ export function signatureInPage() {
     }
   }
   const sig = Array.from(sums, (s, i) => s / Math.max(1, counts[Math.floor(i / 3)]));
-  return {width: img.naturalWidth, height: img.naturalHeight, src: img.getAttribute('src'), sig};
+  // src: the stream the shown part came from (the view keeps it in data-shown); frame: its
+  // X-Myriad-Frame number.
+  return {width: img.naturalWidth, height: img.naturalHeight, src: img.dataset.shown || '',
+          frame: Number(img.dataset.frame), sig};
+}
+
+// The largest change of one cell (of 32x32, 0..255): what a local change (a light on one corner of
+// the scene) moves, where the mean over the whole picture hardly moves.
+export function largestCellDifference(a, b) {
+  let most = 0;
+  for (let i = 0; i < a.sig.length; ++i) most = Math.max(most, Math.abs(a.sig[i] - b.sig[i]));
+  return most;
 }
 
 export function difference(a, b) {

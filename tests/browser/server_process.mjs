@@ -1,6 +1,7 @@
 // Starts the real myriad-server on a free loopback port and stops it with SIGTERM.
 
 import {spawn} from 'node:child_process';
+import net from 'node:net';
 
 const START_TIMEOUT_MS = 120000;  // lavapipe with validation layers starts in seconds; be patient
 const LOG_TAIL = 8000;
@@ -46,6 +47,40 @@ export async function startServer(path, args) {
       const status = await exited;
       clearTimeout(timer);
       return status;
+    },
+  };
+}
+
+// A TCP proxy on a free loopback port in front of `target` (http://host:port) that can break
+// every connection it carries at once, as a dropped network or a proxy's timeout would.
+export async function startCuttingProxy(target) {
+  const {hostname, port} = new URL(target);
+  const sockets = new Set();
+  let connections = 0;
+  const server = net.createServer((client) => {
+    ++connections;
+    const upstream = net.connect(Number(port), hostname);
+    for (const [a, b] of [[client, upstream], [upstream, client]]) {
+      sockets.add(a);
+      a.on('close', () => {
+        sockets.delete(a);
+        b.destroy();
+      });
+      a.on('error', () => b.destroy());
+    }
+    client.pipe(upstream);
+    upstream.pipe(client);
+  });
+  await new Promise((resolve) => server.listen(0, '127.0.0.1', resolve));
+  return {
+    url: `http://127.0.0.1:${server.address().port}`,
+    get connections() { return connections; },
+    cutAll() {
+      for (const socket of sockets) socket.destroy();
+    },
+    close() {
+      this.cutAll();
+      server.close();
     },
   };
 }

@@ -14,7 +14,7 @@ if (!serverPath || !output) {
 // In the page: the full-quality stream shows, at the size it asked for.
 function fullQualityShown() {
   const img = document.getElementById('stream');
-  const src = img.getAttribute('src') || '';
+  const src = img.dataset.shown || '';  // the stream the shown part came from
   const q = new URLSearchParams(src.split('?')[1] || '');
   return src.includes('quality=90') && img.complete &&
          img.naturalWidth === Number(q.get('width')) && img.naturalHeight === Number(q.get('height'));
