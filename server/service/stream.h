@@ -84,8 +84,8 @@ httplib::ContentProviderWithoutLength makeStreamProvider(const SessionFrameConte
                                                          std::unique_ptr<StreamRegistry::Slot> slot,
                                                          SessionPtr session, FrameRequest request);
 
-// One part's bytes: headers, image, CRLF and the next boundary line (browsers show a part once the
-// boundary after it arrives). The first part of a stream also carries the opening boundary line.
+// One part's bytes: headers, image, CRLF and the next boundary line (so a reader that splits on
+// boundaries has the part at once). The first part of a stream also carries the opening boundary.
 std::string multipartPart(std::string_view contentType, std::string_view image, uint64_t sequence,
                           bool first);
 
