@@ -66,15 +66,23 @@ export class MultipartReader {
         at = lineEnd + 1;
         this.state = 'headers';
       } else if (this.state === 'headers') {
-        const end = indexOf(this.buffer, CRLF_CRLF, at);
-        if (end < 0) break;
-        this.headers = parseHeaders(new TextDecoder().decode(this.buffer.subarray(at, end)));
+        if (this.buffer.length - at < 2) break;
+        let bodyStart;
+        if (this.buffer[at] === 13 && this.buffer[at + 1] === 10) {
+          this.headers = {};  // a part without headers starts with the blank line
+          bodyStart = at + 2;
+        } else {
+          const end = indexOf(this.buffer, CRLF_CRLF, at);
+          if (end < 0) break;
+          this.headers = parseHeaders(new TextDecoder().decode(this.buffer.subarray(at, end)));
+          bodyStart = end + CRLF_CRLF.length;
+        }
         const length = this.headers['content-length'];
         if (length !== undefined && !/^\d+$/.test(length)) {
           throw new Error(`a stream part has Content-Length "${length}"`);
         }
         this.length = length === undefined ? -1 : Number(length);
-        at = end + CRLF_CRLF.length;
+        at = bodyStart;
         this.state = 'body';
       } else if (this.state === 'body') {
         let bodyEnd;

@@ -21,9 +21,11 @@ const RESIZE_DEBOUNCE_MS = 200;
 const STREAM_FPS = 30;
 const MIN_SIDE = 16;
 // The server writes at least every 2 s (it re-sends the last image while nothing changes), but
-// a CPU renderer may need many seconds for one frame of a huge scene: only a stream silent this
-// long is taken for dead and reopened.
+// a CPU renderer may need many seconds for one frame of a huge scene. So a stream is taken for
+// dead and reopened only once it has shown a part and then stays silent for 30 s or four times
+// the longest gap between its parts so far, whichever is longer.
 const SILENT_STREAM_MS = 30000;
+const SILENT_GAPS = 4;
 const FIRST_RETRY_MS = 1000;
 const LAST_RETRY_MS = 10000;
 
@@ -155,18 +157,21 @@ export class LiveView {
     const parts = new MultipartReader(multipartBoundary(response.headers.get('content-type')) ||
                                       'myriad-frame');
     let silence = 0;
-    const listen = () => {
-      clearTimeout(silence);
-      silence = setTimeout(() => stream.abort.abort(), SILENT_STREAM_MS);
-    };
-    listen();
+    let lastPart = 0;
+    let longestGap = 0;
     try {
       for (;;) {
         const {done, value} = await reader.read();
         if (done || !current()) break;
-        listen();
         const got = parts.feed(value);
-        if (got.length) this.show(stream, got[got.length - 1]);  // only the newest part matters
+        if (!got.length) continue;
+        this.show(stream, got[got.length - 1]);  // only the newest part matters
+        const now = performance.now();
+        if (lastPart) longestGap = Math.max(longestGap, now - lastPart);
+        lastPart = now;
+        clearTimeout(silence);
+        silence = setTimeout(() => stream.abort.abort(),
+                             Math.max(SILENT_STREAM_MS, SILENT_GAPS * longestGap));
       }
     } catch (e) {
       // Aborted (replaced, stopped, or silent too long), the connection broke, or a bad part.
