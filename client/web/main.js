@@ -14,6 +14,7 @@ const api = new Api();
 let targets = ['final'];
 let messageIsInfo = false;
 let messageIsUnreachable = false;  // "cannot be reached": goes away by itself once it answers
+let messageIsStream = false;       // the stream's problem (429, 503): goes once it shows again
 
 // --- messages -----------------------------------------------------------------------------
 
@@ -21,6 +22,7 @@ function showMessage(text, {info = false, newSession = false, apiKey = false,
                              unreachable = false} = {}) {
   messageIsInfo = info;
   messageIsUnreachable = unreachable;
+  messageIsStream = false;
   $('message').hidden = false;
   $('message').classList.toggle('info', info);
   $('message-text').textContent = text;
@@ -56,7 +58,11 @@ function sessionLost(text) {
 // --- parts ----------------------------------------------------------------------------------
 
 const view = new LiveView(api, $('view'), $('stream'), $('view-status'));
-view.onProblem = showProblem;
+view.onProblem = (error) => {
+  showProblem(error);
+  messageIsStream = !(error instanceof SessionLostError) && !$('message').hidden;
+};
+view.onRecovered = () => { if (messageIsStream) hideMessage(); };
 
 const camera = new CameraControl(api, $('view'), view);
 camera.onProblem = showProblem;

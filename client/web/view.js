@@ -44,6 +44,8 @@ export class LiveView {
     this.stream = null;        // {key, abort} of the open stream
     this.urls = [];            // object URLs of parts given to the <img>, oldest first
     this.onProblem = () => {};      // (ApiError) => void
+    this.onRecovered = () => {};    // a part shows again after onProblem
+    this.troubled = false;          // onProblem was called and no part has shown since
 
     this.img.addEventListener('load', () => {
       // The newest part shows: the parts before it are no longer needed.
@@ -86,13 +88,14 @@ export class LiveView {
   // (Re)opens the stream when what it should show changed; the old one is closed first.
   restart() {
     if (!this.api.hasSession) return;
-    clearTimeout(this.retryTimer);
     const p = this.streamParams();
     const query = {target: this.target, format: 'jpeg', fps: STREAM_FPS,
                    width: p.width, height: p.height, quality: p.quality};
     // The stream's address without the token (data-stream: what the view asks for now).
     const key = `${this.api.sessionPath('/stream')}?${new URLSearchParams(query)}`;
+    // The same stream, open or waiting for its retry: nothing to do (and the retry stays due).
     if (this.stream && this.stream.key === key) return;
+    clearTimeout(this.retryTimer);
     this.close();
     const stream = {key, abort: new AbortController()};
     this.stream = stream;
@@ -148,7 +151,10 @@ export class LiveView {
         this.onProblem(e);
         return;  // only a new session helps; no retry
       }
-      if (e instanceof ApiError) this.onProblem(e);
+      if (e instanceof ApiError) {
+        this.troubled = true;
+        this.onProblem(e);
+      }
       this.retryLater(stream);
       return;
     }
@@ -197,6 +203,10 @@ export class LiveView {
     this.img.dataset.shown = stream.key;
     this.img.dataset.frame = part.headers['x-myriad-frame'] || '';
     this.retryDelayMs = FIRST_RETRY_MS;
+    if (this.troubled) {
+      this.troubled = false;
+      this.onRecovered();
+    }
   }
 
   // Opens the stream again after a growing delay: a 429 (too many streams), a restarting server

@@ -484,6 +484,41 @@ try {
     }
   });
 
+  await step('a full server is said (429), and the message goes once the stream shows', async () => {
+    const metric = async (name) => Number(new RegExp(`^${name} (\\d+)$`, 'm')
+        .exec(await (await fetch(`${base}/metrics`)).text())[1]);
+    const {limits} = (await api('GET', '/v1/info')).body;
+    await page.goto('about:blank');  // the page's own stream goes
+    await until('no stream open', async () => (await metric('myriad_streams')) === 0);
+    // Another client takes every stream place, reading its tiny streams as they come.
+    const created = await api('POST', '/v1/sessions', {json: {}});
+    const other = created.body;
+    const hogs = [];
+    for (let i = 0; i < limits.maxStreams; ++i) {
+      const abort = new AbortController();
+      const response = await fetch(
+          `${base}/v1/sessions/${other.id}/stream?width=16&height=16&fps=1`,
+          {headers: {Authorization: `Bearer ${other.token}`}, signal: abort.signal});
+      check(response.status === 200, `stream ${i + 1} of the other session: ${response.status}`);
+      response.body.pipeTo(new WritableStream()).catch(() => {});
+      hogs.push(abort);
+    }
+    expectedHttpErrors = /status of 429/;
+    try {
+      await page.goto(`${base}/`);
+      await page.waitForSelector('#message', {state: 'visible', timeout: WAIT_MS});
+      const text = await page.textContent('#message-text');
+      check(text.includes('429') && text.includes('maxStreams'), `message "${text}"`);
+      hogs.pop().abort();  // one place comes free; the page's retry takes it
+      await page.waitForSelector('#message', {state: 'hidden', timeout: WAIT_MS});
+      picture = await settled();
+    } finally {
+      expectedHttpErrors = null;
+      for (const abort of hogs) abort.abort();
+      await api('DELETE', `/v1/sessions/${other.id}`, {token: other.token});
+    }
+  });
+
   await step('a reload continues the same session', async () => {
     await page.reload();
     await settled();
