@@ -117,10 +117,9 @@ StreamRegistry::Slot::~Slot() {
 std::unique_ptr<StreamRegistry::Slot> StreamRegistry::open(SessionPtr session) {
   std::lock_guard lock(mutex_);
   if (stopping_) return nullptr;
-  const auto live = [](const Slot* slot) { return !slot->replaced(); };
-  if (std::count_if(open_.begin(), open_.end(), live) >= maxStreams_) {
+  if (liveCount() >= maxStreams_) {
     auto oldest = std::find_if(open_.begin(), open_.end(), [&](const Slot* slot) {
-      return live(slot) && slot->session_ == session;
+      return !slot->replaced() && slot->session_ == session;
     });
     if (oldest == open_.end()) return nullptr;
     (*oldest)->replaced_ = true;
@@ -135,6 +134,10 @@ std::unique_ptr<StreamRegistry::Slot> StreamRegistry::open(SessionPtr session) {
 
 uint32_t StreamRegistry::count() const {
   std::lock_guard lock(mutex_);
+  return liveCount();
+}
+
+uint32_t StreamRegistry::liveCount() const {
   return static_cast<uint32_t>(
       std::count_if(open_.begin(), open_.end(), [](const Slot* slot) { return !slot->replaced(); }));
 }

@@ -72,6 +72,8 @@ class StreamRegistry {
   void shutdown();
 
  private:
+  uint32_t liveCount() const;  // streams not replaced; mutex_ held
+
   const uint32_t maxStreams_;
   mutable std::mutex mutex_;
   std::list<Slot*> open_;  // oldest first, so shutdown can wake them and a session's oldest is found
