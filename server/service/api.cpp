@@ -95,15 +95,15 @@ void sendJson(httplib::Response& res, const nlohmann::json& body, int status) {
 Routes::Routes(httplib::Server& server, ApiContext& context)
     : server_(server), context_(context) {}
 
-void Routes::add(std::string_view method, const std::string& routeTemplate, Handler handler,
+void Routes::add(std::string_view method, std::string_view routeTemplate, Handler handler,
                  RouteOptions options) {
   if (options.maxBodyBytes == 0) options.maxBodyBytes = context_.config.limits.maxBodyBytes;
   auto existing = std::find_if(entries_.begin(), entries_.end(), [&](const Entry& e) {
     return e.routeTemplate == routeTemplate;
   });
   if (existing == entries_.end()) {
-    entries_.push_back(Entry{routeTemplate, std::regex(templateToRegex(routeTemplate)), {},
-                             options});
+    entries_.push_back(Entry{std::string(routeTemplate),
+                             std::regex(templateToRegex(routeTemplate)), {}, options});
     existing = entries_.end() - 1;
   }
   existing->methods.emplace_back(method);

@@ -89,8 +89,8 @@ class Routes {
   // `routeTemplate`, a path whose segments are literal or "{name}" (one non-empty segment without
   // '/'): "/v1/sessions/{id}/lights/{lid}". The {name} segments land in req.matches[1..] in order.
   // GET also answers HEAD. The handler may throw ProblemError. The template is the route's label
-  // in metrics.
-  void add(std::string_view method, const std::string& routeTemplate, Handler handler,
+  // in metrics; pass a protocol::routes constant.
+  void add(std::string_view method, std::string_view routeTemplate, Handler handler,
            RouteOptions options = {});
 
   // For the pre-routing handler: answers 404 (no route has this path), 405 with Allow, OPTIONS
