@@ -87,29 +87,40 @@ inline std::optional<Technique> parseTechnique(std::string_view name) {
   return std::nullopt;
 }
 
-struct FrameSettings {
+// What a scene is shown with, kept between frames: a session's settings (GET/PATCH .../settings)
+// are exactly this, and every frame starts from it. Scene-wide lighting comes with the frame, not
+// the scene upload, so a settings change needs no upload. The lighting defaults are
+// scene::Scene's; takeLightingFrom() copies a scene's own.
+struct SceneSettings {
+  scene::Sun sun;
+  glm::vec3 ambient = scene::Scene{}.ambient;
+  glm::vec3 background = scene::Scene{}.background;
+  float exposure = 1.0f;
+  bool markers = true;
+  Technique technique = Technique::Clustered;
+  bool animate = false;  // lights move (on the GPU) with the animation clock
+
+  // Sets sun, ambient and background to `scene`'s (what the scene was authored with).
+  SceneSettings& takeLightingFrom(const scene::Scene& scene) {
+    sun = scene.sun;
+    ambient = scene.ambient;
+    background = scene.background;
+    return *this;
+  }
+};
+
+// One frame: the scene's settings (the base) plus what this frame alone asks for.
+struct FrameSettings : SceneSettings {
   uint32_t width = 1280;
   uint32_t height = 720;
   scene::Camera camera;
   Target target = Target::Final;
-  bool markers = true;
-  float exposure = 1.0f;
-  Technique technique = Technique::Clustered;
-  bool animate = false;       // move the lights on the GPU to where they are at `time`
-  double time = 0.0;          // animation time in seconds
-  uint32_t heatMapMax = 0;    // light-count view: count shown as the hottest colour (0 = auto)
-  bool raw = false;           // return the view's float values (Frame::data), not an image
-  // Scene-wide lighting comes with the frame, not the scene upload, so a settings change needs no
-  // upload. The defaults are scene::Scene's; takeLightingFrom() copies a scene's own.
-  scene::Sun sun;
-  glm::vec3 ambient = scene::Scene{}.ambient;
-  glm::vec3 background = scene::Scene{}.background;
+  double time = 0.0;        // animation time in seconds (lights move only with `animate`)
+  uint32_t heatMapMax = 0;  // light-count view: count shown as the hottest colour (0 = auto)
+  bool raw = false;         // return the view's float values (Frame::data), not an image
 
-  // Sets sun, ambient and background to `scene`'s (what the scene was authored with).
   FrameSettings& takeLightingFrom(const scene::Scene& scene) {
-    sun = scene.sun;
-    ambient = scene.ambient;
-    background = scene.background;
+    SceneSettings::takeLightingFrom(scene);
     return *this;
   }
 };

@@ -121,8 +121,8 @@ void handleStats(const ApiContext& context, FrameServices& frames, const httplib
   bool animated = false;
   {
     std::unique_lock lock = lockOpen(*session);
-    lightCount = session->lights.size();
-    animated = session->settings.animate;
+    lightCount = session->scene.lightCount();
+    animated = session->scene.settings().animate;
   }
   sendJson(res, nlohmann::json(frames.stats.statsOf(*session, lightCount, animated)));
 }

@@ -1,6 +1,5 @@
-// A session's local lights. The CPU copy (Session::lights, ids, index) changes first, under the
-// session's lock, and the same lock covers handing the render thread only what changed: appended
-// lights, one patched light, a swap-remove (the last light moves into the hole), or a new count.
+// A session's local lights: parse, authorize, one SessionScene edit, queue its GPU change (under
+// the session's lock, so the render thread sees edits in the order the CPU copy took them), answer.
 #include <charconv>
 
 #include "protocol/constants.h"
@@ -34,53 +33,11 @@ uint64_t unsignedParameter(const httplib::Request& req, const std::string& name,
   return value;
 }
 
-// The index of light `text` (a route segment) in the session, 404 when there is none.
-uint32_t lightIndex(const Session& session, const std::string& text) {
-  uint64_t id = 0;
-  auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), id);
-  auto it = session.lightIndex.end();
-  if (ec == std::errc() && end == text.data() + text.size()) it = session.lightIndex.find(id);
-  if (it == session.lightIndex.end()) {
-    throw ProblemError(notFoundDetail("The session has no light " + quoteClientText(text) +
-                                      " (deleted, or never created)."));
-  }
-  return it->second;
-}
-
-void checkTotal(const ApiContext& context, uint64_t total) {
-  const uint32_t limit = context.config.limits.maxLightsPerSession;
-  if (total > limit) {
-    throw ProblemError(limitExceeded(
-        413, "maxLightsPerSession",
-        "This would leave the session with " + std::to_string(total) +
-            " lights; a session holds at most " + std::to_string(limit) + "."));
-  }
-}
-
-// Appends `lights` with fresh ids (session locked); returns the update that uploads them.
-render::LightUpdate append(Session& session, const std::vector<scene::PointLight>& lights,
-                           std::vector<uint64_t>* ids) {
-  render::LightUpdate update;
-  const uint32_t first = uint32_t(session.lights.size());
-  update.count = first + uint32_t(lights.size());
-  update.writes.reserve(lights.size());
-  session.lights.reserve(update.count);
-  session.lightIds.reserve(update.count);
-  for (uint32_t i = 0; i < lights.size(); ++i) {
-    const uint64_t id = session.nextLightId++;
-    session.lights.push_back(lights[i]);
-    session.lightIds.push_back(id);
-    session.lightIndex.emplace(id, first + i);
-    update.writes.push_back(render::LightWrite{first + i, lights[i]});
-    if (ids != nullptr) ids->push_back(id);
-  }
-  return update;
-}
-
-void clear(Session& session) {
-  session.lights.clear();
-  session.lightIds.clear();
-  session.lightIndex.clear();
+// Queues `update` on the session's GPU scene and records the change (session locked).
+std::future<void> queue(ApiContext& context, Session& session, render::LightUpdate update) {
+  std::future<void> uploaded = context.renderThread.updateLights(session.sceneId, std::move(update));
+  session.bump();
+  return uploaded;
 }
 
 void getPage(ApiContext& context, const httplib::Request& req, httplib::Response& res) {
@@ -89,11 +46,12 @@ void getPage(ApiContext& context, const httplib::Request& req, httplib::Response
   const uint64_t offset = unsignedParameter(req, "offset", 0, 0, UINT32_MAX);
   const uint64_t limit = unsignedParameter(req, "limit", kDefaultPageSize, 0, kMaxPageSize);
   auto lock = lockOpen(*session);
+  const SessionScene& scene = session->scene;
   protocol::LightsPage page;
-  page.total = session->lights.size();
+  page.total = scene.lightCount();
   page.offset = offset;
-  for (uint64_t i = offset; i < session->lights.size() && i < offset + limit; ++i) {
-    page.lights.push_back(toWire(session->lightIds[i], session->lights[i]));
+  for (uint64_t i = offset; i < scene.lightCount() && i < offset + limit; ++i) {
+    page.lights.push_back(toWire(scene.idAt(uint32_t(i)), scene.lightAt(uint32_t(i))));
   }
   sendJson(res, page);
 }
@@ -110,11 +68,8 @@ void addLights(ApiContext& context, const httplib::Request& req, httplib::Respon
   std::future<void> uploaded;
   {
     auto lock = lockOpen(*session);
-    checkTotal(context, session->lights.size() + lights.size());
-    render::LightUpdate update = append(*session, lights, &added.ids);
-    added.total = session->lights.size();
-    uploaded = context.renderThread.updateLights(session->sceneId, std::move(update));
-    session->bump();
+    uploaded = queue(context, *session, session->scene.addLights(lights, &added.ids));
+    added.total = session->scene.lightCount();
   }
   uploaded.get();
   sendJson(res, added, 201);
@@ -126,9 +81,7 @@ void clearLights(ApiContext& context, const httplib::Request& req, httplib::Resp
   std::future<void> uploaded;
   {
     auto lock = lockOpen(*session);
-    clear(*session);
-    uploaded = context.renderThread.updateLights(session->sceneId, render::LightUpdate{});
-    session->bump();
+    uploaded = queue(context, *session, session->scene.clearLights());
   }
   uploaded.get();
   res.status = 204;
@@ -138,8 +91,8 @@ void getLight(ApiContext& context, const httplib::Request& req, httplib::Respons
   SessionPtr session = authorizeSession(context, req);
   checkQuery(req, {});
   auto lock = lockOpen(*session);
-  const uint32_t index = lightIndex(*session, req.matches[2].str());
-  sendJson(res, toWire(session->lightIds[index], session->lights[index]));
+  const uint32_t slot = session->scene.slotOf(req.matches[2].str());
+  sendJson(res, toWire(session->scene.idAt(slot), session->scene.lightAt(slot)));
 }
 
 void patchLight(ApiContext& context, const httplib::Request& req, httplib::Response& res) {
@@ -150,14 +103,10 @@ void patchLight(ApiContext& context, const httplib::Request& req, httplib::Respo
   std::future<void> uploaded;
   {
     auto lock = lockOpen(*session);
-    const uint32_t index = lightIndex(*session, req.matches[2].str());
-    result = protocol::applied(toWire(session->lightIds[index], session->lights[index]), patch);
-    session->lights[index] = fromWire(result);
-    render::LightUpdate update;
-    update.count = uint32_t(session->lights.size());
-    update.writes.push_back(render::LightWrite{index, session->lights[index]});
-    uploaded = context.renderThread.updateLights(session->sceneId, std::move(update));
-    session->bump();
+    SessionScene& scene = session->scene;
+    const uint32_t slot = scene.slotOf(req.matches[2].str());
+    uploaded = queue(context, *session, scene.patchLight(slot, patch));
+    result = toWire(scene.idAt(slot), scene.lightAt(slot));
   }
   uploaded.get();
   sendJson(res, result);
@@ -169,21 +118,8 @@ void deleteLight(ApiContext& context, const httplib::Request& req, httplib::Resp
   std::future<void> uploaded;
   {
     auto lock = lockOpen(*session);
-    const uint32_t index = lightIndex(*session, req.matches[2].str());
-    const uint32_t last = uint32_t(session->lights.size() - 1);
-    render::LightUpdate update;
-    update.count = last;
-    session->lightIndex.erase(session->lightIds[index]);
-    if (index != last) {
-      session->lights[index] = session->lights[last];
-      session->lightIds[index] = session->lightIds[last];
-      session->lightIndex[session->lightIds[index]] = index;
-      update.writes.push_back(render::LightWrite{index, session->lights[index]});
-    }
-    session->lights.pop_back();
-    session->lightIds.pop_back();
-    uploaded = context.renderThread.updateLights(session->sceneId, std::move(update));
-    session->bump();
+    const uint32_t slot = session->scene.slotOf(req.matches[2].str());
+    uploaded = queue(context, *session, session->scene.removeLight(slot));
   }
   uploaded.get();
   res.status = 204;
@@ -197,13 +133,13 @@ void generate(ApiContext& context, const httplib::Request& req, httplib::Respons
   if (auto error = protocol::checkLightsGenerate(request)) {
     throw ProblemError(invalidBody(error->pointer, error->message));
   }
-  // Checked before generating, so an absurd count costs nothing.
-  checkTotal(context, request.count);
-
   scene::Bounds modelBounds;
   {
     auto lock = lockOpen(*session);
-    modelBounds = session->model.bounds;
+    // Checked before generating, so an absurd count costs nothing.
+    session->scene.checkLightTotal(request.count, "This would leave the session with " +
+                                                      std::to_string(request.count) + " lights");
+    modelBounds = session->scene.model().bounds;
   }
   scene::LightGeneration generation =
       lightGenerationAround(modelBounds, uint32_t(request.count), request.seed);
@@ -224,15 +160,10 @@ void generate(ApiContext& context, const httplib::Request& req, httplib::Respons
   std::future<void> uploaded;
   {
     auto lock = lockOpen(*session);
-    if (request.replaces()) {
-      clear(*session);
-    } else {
-      checkTotal(context, session->lights.size() + lights.size());
-    }
-    render::LightUpdate update = append(*session, lights, nullptr);
-    generated.total = session->lights.size();
-    uploaded = context.renderThread.updateLights(session->sceneId, std::move(update));
-    session->bump();
+    SessionScene& scene = session->scene;
+    uploaded = queue(context, *session,
+                     request.replaces() ? scene.replaceLights(lights) : scene.addLights(lights));
+    generated.total = scene.lightCount();
   }
   uploaded.get();
   sendJson(res, generated);
@@ -247,14 +178,14 @@ void addLightRoutes(Routes& routes, ApiContext& context) {
       handler(context, req, res);
     };
   };
-  routes.add("GET", "/v1/sessions/{id}/lights", bind(getPage));
-  routes.add("POST", "/v1/sessions/{id}/lights", bind(addLights));
-  routes.add("DELETE", "/v1/sessions/{id}/lights", bind(clearLights));
+  routes.add("GET", protocol::routes::kSessionLights, bind(getPage));
+  routes.add("POST", protocol::routes::kSessionLights, bind(addLights));
+  routes.add("DELETE", protocol::routes::kSessionLights, bind(clearLights));
   // Before {lid}, which would otherwise take "generate" for a light id.
-  routes.add("POST", "/v1/sessions/{id}/lights/generate", bind(generate));
-  routes.add("GET", "/v1/sessions/{id}/lights/{lid}", bind(getLight));
-  routes.add("PATCH", "/v1/sessions/{id}/lights/{lid}", bind(patchLight));
-  routes.add("DELETE", "/v1/sessions/{id}/lights/{lid}", bind(deleteLight));
+  routes.add("POST", protocol::routes::kSessionLightsGenerate, bind(generate));
+  routes.add("GET", protocol::routes::kSessionLight, bind(getLight));
+  routes.add("PATCH", protocol::routes::kSessionLight, bind(patchLight));
+  routes.add("DELETE", protocol::routes::kSessionLight, bind(deleteLight));
 }
 
 }  // namespace myriad::service

@@ -1,11 +1,8 @@
-// A session's camera, settings and materials. Camera and settings live only on the CPU (each
-// frame carries them to the renderer); a material edit is uploaded to the session's GPU scene.
-#include <charconv>
-
+// A session's camera, settings and materials: parse, authorize, one SessionScene edit, answer.
+// Camera and settings live only on the CPU (each frame carries them to the renderer); a material
+// edit is queued on the session's GPU scene under the session's lock.
 #include "protocol/constants.h"
 #include "protocol/types.h"
-#include "protocol/validate.h"
-#include "scene/camera.h"
 #include "service/api.h"
 #include "service/render_thread.h"
 #include "service/session_json.h"
@@ -16,10 +13,6 @@ namespace {
 // The aspect ratio a framed camera assumes: the web client's and most frames' 16:9.
 constexpr float kFramingAspect = 16.0f / 9.0f;
 
-void throwIfInvalid(const std::optional<protocol::ValidationError>& error) {
-  if (error) throw ProblemError(invalidBody(error->pointer, error->message));
-}
-
 // A request that takes no body may still arrive with "{}" (some clients always send one).
 void requireNoBody(const httplib::Request& req) {
   if (req.body.empty()) return;
@@ -29,23 +22,11 @@ void requireNoBody(const httplib::Request& req) {
   }
 }
 
-// "/v1/sessions/{id}/materials/{mid}": the material index, 404 when there is none.
-uint32_t materialIndex(const Session& session, const std::string& text) {
-  uint32_t index = 0;
-  auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), index);
-  if (ec != std::errc() || end != text.data() + text.size() || index >= session.materials.size()) {
-    throw ProblemError(notFoundDetail("The session's model has no material " +
-                                      quoteClientText(text) + " (it has " +
-                                      std::to_string(session.materials.size()) + ", ids from 0)."));
-  }
-  return index;
-}
-
 void getCamera(ApiContext& context, const httplib::Request& req, httplib::Response& res) {
   SessionPtr session = authorizeSession(context, req);
   checkQuery(req, {});
   auto lock = lockOpen(*session);
-  sendJson(res, toWire(session->camera));
+  sendJson(res, toWire(session->scene.camera()));
 }
 
 // PUT (whole camera) and PATCH (any subset): both must leave a valid camera.
@@ -56,13 +37,13 @@ void setCamera(ApiContext& context, const httplib::Request& req, httplib::Respon
   nlohmann::json body =
       jsonBody(req, patch ? protocol::schema_names::kCameraPatch : protocol::schema_names::kCamera);
   auto lock = lockOpen(*session);
-  protocol::Camera camera = patch ? protocol::applied(toWire(session->camera),
-                                                      body.get<protocol::CameraPatch>())
-                                  : body.get<protocol::Camera>();
-  throwIfInvalid(protocol::checkCamera(camera));
-  session->camera = fromWire(camera);
+  if (patch) {
+    session->scene.patchCamera(body.get<protocol::CameraPatch>());
+  } else {
+    session->scene.setCamera(fromWire(body.get<protocol::Camera>()));
+  }
   session->bump();
-  sendJson(res, toWire(session->camera));
+  sendJson(res, toWire(session->scene.camera()));
 }
 
 void frameCamera(ApiContext& context, const httplib::Request& req, httplib::Response& res) {
@@ -70,20 +51,16 @@ void frameCamera(ApiContext& context, const httplib::Request& req, httplib::Resp
   checkQuery(req, {});
   requireNoBody(req);
   auto lock = lockOpen(*session);
-  // Keeps the direction the user looks from and the field of view; moves the eye so the whole
-  // model fits.
-  const scene::Camera& current = session->camera;
-  session->camera = scene::frameBounds(session->model.bounds, current.eye - current.target,
-                                       current.fovYDegrees, kFramingAspect);
+  session->scene.frameModel(kFramingAspect);
   session->bump();
-  sendJson(res, toWire(session->camera));
+  sendJson(res, toWire(session->scene.camera()));
 }
 
 void getSettings(ApiContext& context, const httplib::Request& req, httplib::Response& res) {
   SessionPtr session = authorizeSession(context, req);
   checkQuery(req, {});
   auto lock = lockOpen(*session);
-  sendJson(res, toWire(session->settings));
+  sendJson(res, toWire(session->scene.settings()));
 }
 
 void patchSettings(ApiContext& context, const httplib::Request& req, httplib::Response& res) {
@@ -91,25 +68,20 @@ void patchSettings(ApiContext& context, const httplib::Request& req, httplib::Re
   checkQuery(req, {});
   const auto patch =
       jsonBody(req, protocol::schema_names::kSettingsPatch).get<protocol::SettingsPatch>();
-  if (patch.sun && patch.sun->direction) throwIfInvalid(protocol::checkSunDirection(*patch.sun->direction));
   auto lock = lockOpen(*session);
-  const bool wasAnimating = session->settings.animate;
-  session->settings = fromWire(protocol::applied(toWire(session->settings), patch));
-  // Animation time restarts when animation is switched on, so lights start from where they are.
-  if (session->settings.animate && !wasAnimating) session->animationStart = Clock::now();
+  session->scene.patchSettings(patch, Clock::now());
   session->bump();
-  sendJson(res, toWire(session->settings));
+  sendJson(res, toWire(session->scene.settings()));
 }
 
 void getMaterials(ApiContext& context, const httplib::Request& req, httplib::Response& res) {
   SessionPtr session = authorizeSession(context, req);
   checkQuery(req, {});
   auto lock = lockOpen(*session);
+  const std::vector<scene::Material>& materials = session->scene.materials();
   protocol::MaterialsList list;
-  list.materials.reserve(session->materials.size());
-  for (uint32_t i = 0; i < session->materials.size(); ++i) {
-    list.materials.push_back(toWire(i, session->materials[i]));
-  }
+  list.materials.reserve(materials.size());
+  for (uint32_t i = 0; i < materials.size(); ++i) list.materials.push_back(toWire(i, materials[i]));
   sendJson(res, list);
 }
 
@@ -122,15 +94,12 @@ void patchMaterial(ApiContext& context, const httplib::Request& req, httplib::Re
   protocol::Material result;
   {
     auto lock = lockOpen(*session);
-    const uint32_t index = materialIndex(*session, req.matches[2].str());
-    result = protocol::applied(toWire(index, session->materials[index]), patch);
-    scene::Material& material = session->materials[index];
-    material.baseColor = fromWire(result.baseColor);
-    material.metallic = float(result.metallic);
-    material.roughness = float(result.roughness);
-    uploaded = context.renderThread.updateMaterials(
-        session->sceneId, {render::MaterialWrite{index, material}});
+    SessionScene& scene = session->scene;
+    const uint32_t id = scene.materialId(req.matches[2].str());
+    uploaded = context.renderThread.updateMaterials(session->sceneId,
+                                                    {scene.patchMaterial(id, patch)});
     session->bump();
+    result = toWire(id, scene.materials()[id]);
   }
   uploaded.get();
   sendJson(res, result);
@@ -145,20 +114,20 @@ void addSceneRoutes(Routes& routes, ApiContext& context) {
       handler(context, req, res);
     };
   };
-  routes.add("GET", "/v1/sessions/{id}/camera", bind(getCamera));
-  routes.add("PUT", "/v1/sessions/{id}/camera",
+  routes.add("GET", protocol::routes::kSessionCamera, bind(getCamera));
+  routes.add("PUT", protocol::routes::kSessionCamera,
              [&context](const httplib::Request& req, httplib::Response& res) {
                setCamera(context, req, res, false);
              });
-  routes.add("PATCH", "/v1/sessions/{id}/camera",
+  routes.add("PATCH", protocol::routes::kSessionCamera,
              [&context](const httplib::Request& req, httplib::Response& res) {
                setCamera(context, req, res, true);
              });
-  routes.add("POST", "/v1/sessions/{id}/camera/frame", bind(frameCamera));
-  routes.add("GET", "/v1/sessions/{id}/settings", bind(getSettings));
-  routes.add("PATCH", "/v1/sessions/{id}/settings", bind(patchSettings));
-  routes.add("GET", "/v1/sessions/{id}/materials", bind(getMaterials));
-  routes.add("PATCH", "/v1/sessions/{id}/materials/{mid}", bind(patchMaterial));
+  routes.add("POST", protocol::routes::kSessionCameraFrame, bind(frameCamera));
+  routes.add("GET", protocol::routes::kSessionSettings, bind(getSettings));
+  routes.add("PATCH", protocol::routes::kSessionSettings, bind(patchSettings));
+  routes.add("GET", protocol::routes::kSessionMaterials, bind(getMaterials));
+  routes.add("PATCH", protocol::routes::kSessionMaterial, bind(patchMaterial));
 }
 
 }  // namespace myriad::service

@@ -26,20 +26,18 @@ Problem loadProblem(const loader::ModelRejected& e) {
   return modelRejected(std::string(e.what()) + " (" + e.reason + ")");
 }
 
-constexpr std::string_view kBuiltinSource = "builtin:default";
-constexpr std::string_view kLibraryPrefix = "library:";
 
 using ScenePtr = std::shared_ptr<scene::Scene>;
 
 // The scene a "builtin:default" or "library:NAME" source names. Throws ProblemError 404 for a
 // name outside the library, 422 when the loader rejects the file.
 ScenePtr loadSource(const ApiContext& context, std::string_view source) {
-  if (source == kBuiltinSource) {
+  if (source == protocol::kBuiltinModel) {
     return std::make_shared<scene::Scene>(
         scene::makeBuiltinScene(context.config.builtinLights, context.config.builtinSeed));
   }
   // The schema admits only builtin:default and library:NAME.
-  std::string_view name = source.substr(kLibraryPrefix.size());
+  std::string_view name = source.substr(protocol::kLibraryPrefix.size());
   std::optional<std::filesystem::path> path;
   if (context.models != nullptr) path = context.models->resolve(name);
   if (!path) {
@@ -76,38 +74,6 @@ ScenePtr loadUpload(const httplib::Request& req) {
   }
 }
 
-ModelSummary summarize(const scene::Scene& scene, std::string source) {
-  ModelSummary summary;
-  summary.source = std::move(source);
-  summary.meshes = scene.meshes.size();
-  summary.instances = scene.instances.size();
-  summary.materials = scene.materials.size();
-  summary.bounds = scene.bounds();
-  return summary;
-}
-
-// Replaces the session's lights by `lights` with fresh ids (with the session locked).
-void adoptLights(Session& session, const std::vector<scene::PointLight>& lights) {
-  session.lights = lights;
-  session.lightIds.resize(lights.size());
-  session.lightIndex.clear();
-  session.lightIndex.reserve(lights.size());
-  for (uint32_t i = 0; i < lights.size(); ++i) {
-    session.lightIds[i] = session.nextLightId++;
-    session.lightIndex.emplace(session.lightIds[i], i);
-  }
-}
-
-void checkLightCount(const ApiContext& context, size_t count) {
-  const uint32_t limit = context.config.limits.maxLightsPerSession;
-  if (count > limit) {
-    throw ProblemError(limitExceeded(413, "maxLightsPerSession",
-                                     "The model brings " + std::to_string(count) +
-                                         " lights; a session holds at most " +
-                                         std::to_string(limit) + "."));
-  }
-}
-
 void sendState(const ApiContext& context, httplib::Response& res, const Session& session,
                int status = 200) {
   sendJson(res, stateOf(session, context.sessions.expiresInSeconds(session)), status);
@@ -125,25 +91,24 @@ void createSession(ApiContext& context, const httplib::Request& req, httplib::Re
   }
   const protocol::SessionCreate body =
       jsonBody(req, protocol::schema_names::kSessionCreate, "{}").get<protocol::SessionCreate>();
-  const std::string source = body.model.value_or(std::string(kBuiltinSource));
+  const std::string source = body.model.value_or(std::string(protocol::kBuiltinModel));
 
-  SessionPtr session = context.sessions.create();
+  render::SceneSettings settings;
+  settings.technique = context.config.defaultTechnique;
+  SessionPtr session =
+      context.sessions.create(SessionScene(context.config.limits.maxLightsPerSession, settings));
   try {
-    ScenePtr scene = loadSource(context, source);
-    checkLightCount(context, scene->lights.size());
+    std::shared_ptr<const scene::Scene> scene;
+    {
+      // Nobody else holds the session yet (its id is not out), but the scene is the session's.
+      std::lock_guard lock(session->mutex);
+      scene = session->scene.adopt(loadSource(context, source), source,
+                                   Adoption{.lightsFromModel = true, .lightingFromModel = true});
+    }
     const render::SceneId sceneId = context.renderThread.createScene(scene).get();
     std::lock_guard lock(session->mutex);
     session->sceneId = sceneId;
-    session->model = summarize(*scene, source);
-    session->camera = scene->camera;
-    session->settings.sun = scene->sun;
-    session->settings.ambient = scene->ambient;
-    session->settings.background = scene->background;
-    session->settings.technique = context.config.defaultTechnique;
-    session->materials = scene->materials;
-    adoptLights(*session, scene->lights);
     session->lastUsed = Clock::now();
-    session->animationStart = Clock::now();
     session->bump();
   } catch (...) {
     context.sessions.remove(session->id);
@@ -156,10 +121,10 @@ void createSession(ApiContext& context, const httplib::Request& req, httplib::Re
   created.token = session->token;
   created.expiresInSeconds = uint64_t(context.sessions.expiresInSeconds(*session));
   created.session = stateOf(*session, int64_t(created.expiresInSeconds));
-  res.set_header("Location", "/v1/sessions/" + session->id);
+  res.set_header("Location", protocol::expandRoute(protocol::routes::kSession, "id", session->id));
   sendJson(res, created, 201);
   std::fprintf(stderr, "myriad-server: session %s created (%s, %zu lights)\n", session->id.c_str(),
-               source.c_str(), session->lights.size());
+               source.c_str(), session->scene.lightCount());
 }
 
 void putModel(ApiContext& context, const httplib::Request& req, httplib::Response& res) {
@@ -181,7 +146,7 @@ void putModel(ApiContext& context, const httplib::Request& req, httplib::Respons
   std::string source;
   if (type.starts_with("application/octet-stream")) {
     scene = loadUpload(req);
-    source = "upload:" + req.get_param_value("filename");
+    source = std::string(protocol::kUploadPrefix) + req.get_param_value("filename");
   } else if (type.starts_with("application/json")) {
     if (req.has_param("filename")) {
       throw ProblemError(invalidParameter(
@@ -207,17 +172,10 @@ void putModel(ApiContext& context, const httplib::Request& req, httplib::Respons
   std::future<void> replaced;
   {
     auto lock = lockOpen(*session);
-    if (modelLights) {
-      checkLightCount(context, scene->lights.size());
-      adoptLights(*session, scene->lights);
-    } else {
-      scene->lights = session->lights;
-    }
+    std::shared_ptr<const scene::Scene> adopted = session->scene.adopt(
+        std::move(scene), source, Adoption{.lightsFromModel = modelLights});
     // Enqueued under the lock, so light edits after this one reach the new scene.
-    replaced = context.renderThread.replaceScene(session->sceneId, scene);
-    session->model = summarize(*scene, source);
-    session->materials = scene->materials;
-    session->camera = scene->camera;
+    replaced = context.renderThread.replaceScene(session->sceneId, std::move(adopted));
     session->bump();
   }
   replaced.get();
@@ -228,18 +186,18 @@ void putModel(ApiContext& context, const httplib::Request& req, httplib::Respons
 }  // namespace
 
 void addSessionRoutes(Routes& routes, ApiContext& context) {
-  routes.add("POST", "/v1/sessions", [&context](const httplib::Request& req,
+  routes.add("POST", protocol::routes::kSessions, [&context](const httplib::Request& req,
                                                httplib::Response& res) {
     createSession(context, req, res);
   });
-  routes.add("GET", "/v1/sessions/{id}",
+  routes.add("GET", protocol::routes::kSession,
              [&context](const httplib::Request& req, httplib::Response& res) {
                SessionPtr session = authorizeSession(context, req);
                checkQuery(req, {});
                auto lock = lockOpen(*session);
                sendState(context, res, *session);
              });
-  routes.add("DELETE", "/v1/sessions/{id}",
+  routes.add("DELETE", protocol::routes::kSession,
              [&context](const httplib::Request& req, httplib::Response& res) {
                SessionPtr session = authorizeSession(context, req);
                checkQuery(req, {});
@@ -254,12 +212,12 @@ void addSessionRoutes(Routes& routes, ApiContext& context) {
   upload.maxBodyBytes = context.config.limits.maxUploadBytes;
   upload.bodyLimitName = "maxUploadBytes";
   routes.add(
-      "PUT", "/v1/sessions/{id}/model",
+      "PUT", protocol::routes::kSessionModel,
       [&context](const httplib::Request& req, httplib::Response& res) {
         putModel(context, req, res);
       },
       upload);
-  routes.add("GET", "/v1/models", [&context](const httplib::Request& req,
+  routes.add("GET", protocol::routes::kModels, [&context](const httplib::Request& req,
                                             httplib::Response& res) {
     checkQuery(req, {});
     protocol::ModelsList list;

@@ -75,7 +75,7 @@ SessionManager::~SessionManager() {
   closeAll();
 }
 
-SessionPtr SessionManager::create() {
+SessionPtr SessionManager::create(SessionScene scene) {
   std::lock_guard lock(mutex_);
   if (sessions_.size() >= maxSessions_) {
     throw ProblemError(limitExceeded(
@@ -87,7 +87,7 @@ SessionPtr SessionManager::create() {
   do {
     id = "s-" + randomHex(kIdBytes);
   } while (sessions_.contains(id));
-  auto session = std::make_shared<Session>(id, randomHex(kTokenBytes));
+  auto session = std::make_shared<Session>(id, randomHex(kTokenBytes), std::move(scene));
   sessions_.emplace(id, session);
   return session;
 }

@@ -1,5 +1,5 @@
-// Sessions: one client's scene (model, camera, settings, materials, lights) held on the CPU, with
-// a GPU scene of its own on the render thread. HTTP workers read and edit a session under its
+// Sessions: one client's scene (SessionScene: model, camera, settings, materials, lights) held on
+// the CPU, with a GPU scene of its own on the render thread. HTTP workers read and edit a session under its
 // mutex; every edit bumps `version` and notifies `changed`, which is what streams wait on.
 //
 // Locking order: SessionManager's mutex, then a Session's mutex, never the reverse. A worker that
@@ -24,36 +24,15 @@
 
 #include <glm/glm.hpp>
 
-#include "render/frame.h"
-#include "scene/scene.h"
 #include "service/problem.h"
+#include "service/session_scene.h"
 
 namespace myriad::service {
 
-using Clock = std::chrono::steady_clock;
-
-// What GET /v1/sessions/{id} reports about the loaded model.
-struct ModelSummary {
-  std::string source = "builtin:default";  // "builtin:default" | "library:NAME" | "upload:FILE"
-  size_t meshes = 0;
-  size_t instances = 0;
-  size_t materials = 0;
-  scene::Bounds bounds;
-};
-
-// The Settings object of the protocol, in scene units.
-struct SessionSettings {
-  scene::Sun sun;
-  glm::vec3 ambient{0.03f, 0.035f, 0.045f};
-  glm::vec3 background{0.02f, 0.025f, 0.035f};
-  float exposure = 1.0f;
-  bool markers = true;
-  render::Technique technique = render::Technique::Clustered;
-  bool animate = false;
-};
-
 struct Session {
-  Session(std::string id, std::string token) : id(std::move(id)), token(std::move(token)) {}
+  // Without `scene`: an empty scene that may hold no lights (tests of what does not need one).
+  Session(std::string id, std::string token, SessionScene scene = SessionScene(0, {}))
+      : id(std::move(id)), token(std::move(token)), scene(std::move(scene)) {}
   Session(const Session&) = delete;
   Session& operator=(const Session&) = delete;
 
@@ -65,18 +44,10 @@ struct Session {
   // Notified (notify_all) on every version bump and on close.
   std::condition_variable changed;
 
-  uint64_t sceneId = 0;  // the render thread's scene of this session
-  ModelSummary model;
-  scene::Camera camera;
-  SessionSettings settings;
-  std::vector<scene::Material> materials;  // material id = index
-
-  // The lights in render-thread order. lightIds[i] is the stable id of lights[i]; lightIndex maps
-  // an id back to its index. Deleting swaps the last light into the hole, on both sides.
-  std::vector<scene::PointLight> lights;
-  std::vector<uint64_t> lightIds;
-  std::unordered_map<uint64_t, uint32_t> lightIndex;
-  uint64_t nextLightId = 1;  // ids are never reused within a session
+  uint64_t sceneId = 0;  // the render thread's scene of this session; 0 until it has one
+  // The CPU scene: model, materials, camera, settings, lights. Only its methods change it; each
+  // returns the GPU change to queue, which the caller queues before unlocking `mutex`.
+  SessionScene scene;
 
   // Bumped (under `mutex`) on every change that can alter a frame; streams compare it.
   uint64_t version = 0;
@@ -84,18 +55,12 @@ struct Session {
   bool closed = false;
 
   Clock::time_point created = Clock::now();
-  Clock::time_point animationStart = Clock::now();  // time 0 of the light animation
-  Clock::time_point lastUsed = Clock::now();         // refreshed by every authorized request
+  Clock::time_point lastUsed = Clock::now();  // refreshed by every authorized request
 
   // With `mutex` held: records a change and wakes whoever waits on `changed`.
   void bump() {
     ++version;
     changed.notify_all();
-  }
-
-  // Seconds since animationStart, what a frame of an animated session passes as its time.
-  double animationSeconds(Clock::time_point now = Clock::now()) const {
-    return std::chrono::duration<double>(now - animationStart).count();
   }
 
   // Blocks until version differs from `seen`, the session closes, or `deadline`. Returns the
@@ -127,10 +92,10 @@ class SessionManager {
   SessionManager(const SessionManager&) = delete;
   SessionManager& operator=(const SessionManager&) = delete;
 
-  // A new session with a fresh id and token, not yet holding a scene (the caller creates one and
-  // fills in the state before returning it). Throws ProblemError 429 limit maxSessions when
-  // `maxSessions` are open.
-  SessionPtr create();
+  // A new session with a fresh id and token, holding `scene` but no GPU scene yet (the caller
+  // creates one, adopts the model into `scene` and sets sceneId before returning it). Throws
+  // ProblemError 429 limit maxSessions when `maxSessions` are open.
+  SessionPtr create(SessionScene scene = SessionScene(0, {}));
 
   // The open session with this id, or null.
   SessionPtr find(std::string_view id) const;

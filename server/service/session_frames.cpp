@@ -128,29 +128,17 @@ DeliveredFrame deliverFrame(RenderThread& renderThread, Metrics& metrics, render
 
 SessionFrame renderSessionFrame(const SessionFrameContext& context, const SessionPtr& session,
                                 const FrameRequest& request) {
-  render::FrameSettings settings = request.settings;
+  FrameRequest rendered = request;
   render::SceneId sceneId = 0;
   SessionFrame result;
   {
     std::lock_guard lock(session->mutex);
     if (session->closed) throw ProblemError(notFoundDetail("Session " + session->id + " is gone."));
-    const SessionSettings& s = session->settings;
-    settings.camera = session->camera;
-    settings.sun = s.sun;
-    settings.ambient = s.ambient;
-    settings.background = s.background;
-    settings.exposure = s.exposure;
-    settings.markers = s.markers;
-    settings.technique = s.technique;
-    // An explicit time shows the lights where the animation has them then, animating or not.
-    settings.animate = s.animate || request.time.has_value();
-    settings.time = request.time.value_or(s.animate ? session->animationSeconds() : 0.0);
+    rendered.settings = session->scene.frameSettings(request.settings, request.time, Clock::now());
     sceneId = static_cast<render::SceneId>(session->sceneId);
     result.version = session->version;
   }
 
-  FrameRequest rendered = request;
-  rendered.settings = settings;
   DeliveredFrame delivered;
   try {
     delivered = deliverFrame(context.renderThread, context.metrics, sceneId, rendered);
@@ -163,7 +151,8 @@ SessionFrame renderSessionFrame(const SessionFrameContext& context, const Sessio
     if (session->closed) throw ProblemError(notFoundDetail("Session " + session->id + " is gone."));
     throw;
   }
-  context.stats.record(session, delivered.frame, settings.target, delivered.encoded.encodeMs);
+  context.stats.record(session, delivered.frame, rendered.settings.target,
+                       delivered.encoded.encodeMs);
   result.encoded = std::move(delivered.encoded);
   return result;
 }

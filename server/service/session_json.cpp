@@ -46,7 +46,7 @@ scene::Camera fromWire(const protocol::Camera& c) {
   return out;
 }
 
-protocol::Settings toWire(const SessionSettings& s) {
+protocol::Settings toWire(const render::SceneSettings& s) {
   protocol::Settings out;
   out.sun.direction = toWire(s.sun.direction);
   out.sun.color = toWire(s.sun.color);
@@ -60,23 +60,12 @@ protocol::Settings toWire(const SessionSettings& s) {
   return out;
 }
 
-SessionSettings fromWire(const protocol::Settings& s) {
-  SessionSettings out;
-  // The renderer wants a unit direction; the schema and checkSunDirection rule out zero.
-  out.sun.direction = glm::normalize(fromWire(s.sun.direction));
-  out.sun.color = fromWire(s.sun.color);
-  out.sun.intensity = float(s.sun.intensity);
-  out.ambient = fromWire(s.ambient);
-  out.exposure = float(s.exposure);
-  out.markers = s.markers;
-  std::optional<render::Technique> technique = render::parseTechnique(s.technique);
+render::Technique techniqueFromWire(std::string_view name) {
+  std::optional<render::Technique> technique = render::parseTechnique(name);
   if (!technique) {
     throw ProblemError(invalidBody("/technique", "\"technique\" must be volumes, tiled or clustered."));
   }
-  out.technique = *technique;
-  out.animate = s.animate;
-  out.background = fromWire(s.background);
-  return out;
+  return *technique;
 }
 
 protocol::Material toWire(uint32_t id, const scene::Material& m) {
@@ -100,10 +89,7 @@ protocol::Light toWire(uint64_t id, const scene::PointLight& l) {
   return out;
 }
 
-namespace {
-// A new light and a stored one carry the same light members; only the id differs.
-template <class WireLight>
-scene::PointLight lightFromWire(const WireLight& l) {
+scene::PointLight fromWire(const protocol::LightNew& l) {
   scene::PointLight out;
   out.position = fromWire(l.position);
   out.radius = float(l.radius);
@@ -112,11 +98,6 @@ scene::PointLight lightFromWire(const WireLight& l) {
   out.falloff = float(l.falloff);
   return out;
 }
-}  // namespace
-
-scene::PointLight fromWire(const protocol::LightNew& l) { return lightFromWire(l); }
-
-scene::PointLight fromWire(const protocol::Light& l) { return lightFromWire(l); }
 
 protocol::Bounds toWire(const scene::Bounds& b) {
   // An empty model has no bounds; report a point at the origin rather than +-FLT_MAX.
@@ -132,16 +113,17 @@ scene::Bounds fromWire(const protocol::Bounds& b) {
 }
 
 protocol::SessionState stateOf(const Session& session, int64_t expiresInSeconds) {
+  const SessionScene& scene = session.scene;
   protocol::SessionState state;
   state.id = session.id;
-  state.model.source = session.model.source;
-  state.model.meshes = session.model.meshes;
-  state.model.instances = session.model.instances;
-  state.model.materials = session.model.materials;
-  state.model.bounds = toWire(session.model.bounds);
-  state.camera = toWire(session.camera);
-  state.settings = toWire(session.settings);
-  state.lightCount = session.lights.size();
+  state.model.source = scene.model().source;
+  state.model.meshes = scene.model().meshes;
+  state.model.instances = scene.model().instances;
+  state.model.materials = scene.model().materials;
+  state.model.bounds = toWire(scene.model().bounds);
+  state.camera = toWire(scene.camera());
+  state.settings = toWire(scene.settings());
+  state.lightCount = scene.lightCount();
   state.expiresInSeconds = uint64_t(std::max<int64_t>(0, expiresInSeconds));
   return state;
 }

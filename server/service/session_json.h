@@ -3,8 +3,10 @@
 #pragma once
 
 #include <cstdint>
+#include <string_view>
 
 #include "protocol/types.h"
+#include "render/frame.h"
 #include "scene/scene.h"
 #include "service/session.h"
 
@@ -16,14 +18,13 @@ glm::vec3 fromWire(const protocol::Vec3& v);
 protocol::Camera toWire(const scene::Camera& camera);
 scene::Camera fromWire(const protocol::Camera& camera);
 
-protocol::Settings toWire(const SessionSettings& settings);
-// Throws ProblemError 400 for an unknown technique (the schema already limits it).
-SessionSettings fromWire(const protocol::Settings& settings);
+protocol::Settings toWire(const render::SceneSettings& settings);
+// Throws ProblemError 400 (/technique) for an unknown technique (the schema already limits it).
+render::Technique techniqueFromWire(std::string_view name);
 
 protocol::Material toWire(uint32_t id, const scene::Material& material);
 protocol::Light toWire(uint64_t id, const scene::PointLight& light);
 scene::PointLight fromWire(const protocol::LightNew& light);
-scene::PointLight fromWire(const protocol::Light& light);
 
 protocol::Bounds toWire(const scene::Bounds& bounds);
 scene::Bounds fromWire(const protocol::Bounds& bounds);

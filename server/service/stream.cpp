@@ -55,7 +55,7 @@ bool StreamState::next(httplib::DataSink& sink) {
     {
       std::lock_guard lock(session->mutex);
       closed = session->closed;
-      animate = session->settings.animate;
+      animate = session->scene.settings().animate;
       version = session->version;
     }
     if (closed || registry.stopping() || slot->replaced()) {

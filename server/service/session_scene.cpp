@@ -1,0 +1,228 @@
+#include "service/session_scene.h"
+
+#include <charconv>
+
+#include "protocol/validate.h"
+#include "scene/camera.h"
+#include "service/problem.h"
+#include "service/session_json.h"
+
+namespace myriad::service {
+namespace {
+
+void throwIfInvalid(const std::optional<protocol::ValidationError>& error) {
+  if (error) throw ProblemError(invalidBody(error->pointer, error->message));
+}
+
+// A route segment's decimal id; nullopt when it is not one.
+template <typename Id>
+std::optional<Id> parseId(std::string_view text) {
+  Id id = 0;
+  auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), id);
+  if (text.empty() || ec != std::errc() || end != text.data() + text.size()) return std::nullopt;
+  return id;
+}
+
+ModelSummary summarize(const scene::Scene& scene, std::string source) {
+  ModelSummary summary;
+  summary.source = std::move(source);
+  summary.meshes = scene.meshes.size();
+  summary.instances = scene.instances.size();
+  summary.materials = scene.materials.size();
+  summary.bounds = scene.bounds();
+  return summary;
+}
+
+}  // namespace
+
+SessionScene::SessionScene(uint32_t maxLights, render::SceneSettings settings)
+    : maxLights_(maxLights), settings_(std::move(settings)) {}
+
+// ---- The model.
+
+std::shared_ptr<const scene::Scene> SessionScene::adopt(std::shared_ptr<scene::Scene> loaded,
+                                                        std::string source, Adoption adoption) {
+  if (adoption.lightsFromModel) {
+    checkLightTotal(loaded->lights.size(),
+                    "The model brings " + std::to_string(loaded->lights.size()) + " lights");
+  }
+  model_ = summarize(*loaded, std::move(source));
+  materials_ = loaded->materials;
+  camera_ = loaded->camera;
+  if (adoption.lightingFromModel) settings_.takeLightingFrom(*loaded);
+  if (adoption.lightsFromModel) {
+    lights_ = loaded->lights;
+    assignIds(0);
+  } else {
+    loaded->lights = lights_;
+  }
+  return loaded;
+}
+
+// ---- Camera and settings.
+
+const scene::Camera& SessionScene::setCamera(const scene::Camera& camera) {
+  throwIfInvalid(protocol::checkCamera(toWire(camera)));
+  camera_ = camera;
+  return camera_;
+}
+
+const scene::Camera& SessionScene::patchCamera(const protocol::CameraPatch& patch) {
+  scene::Camera camera = camera_;
+  if (patch.eye) camera.eye = fromWire(*patch.eye);
+  if (patch.target) camera.target = fromWire(*patch.target);
+  if (patch.up) camera.up = fromWire(*patch.up);
+  if (patch.fovY) camera.fovYDegrees = float(*patch.fovY);
+  if (patch.near) camera.nearPlane = float(*patch.near);
+  if (patch.far) camera.farPlane = float(*patch.far);
+  return setCamera(camera);
+}
+
+const scene::Camera& SessionScene::frameModel(float aspect) {
+  camera_ = scene::frameBounds(model_.bounds, camera_.eye - camera_.target, camera_.fovYDegrees,
+                               aspect);
+  return camera_;
+}
+
+const render::SceneSettings& SessionScene::patchSettings(const protocol::SettingsPatch& patch,
+                                                         Clock::time_point now) {
+  render::SceneSettings s = settings_;
+  if (patch.sun) {
+    if (patch.sun->direction) {
+      throwIfInvalid(protocol::checkSunDirection(*patch.sun->direction));
+      // The renderer wants a unit direction; checkSunDirection ruled out zero.
+      s.sun.direction = glm::normalize(fromWire(*patch.sun->direction));
+    }
+    if (patch.sun->color) s.sun.color = fromWire(*patch.sun->color);
+    if (patch.sun->intensity) s.sun.intensity = float(*patch.sun->intensity);
+  }
+  if (patch.ambient) s.ambient = fromWire(*patch.ambient);
+  if (patch.background) s.background = fromWire(*patch.background);
+  if (patch.exposure) s.exposure = float(*patch.exposure);
+  if (patch.markers) s.markers = *patch.markers;
+  if (patch.technique) s.technique = techniqueFromWire(*patch.technique);
+  if (patch.animate) s.animate = *patch.animate;
+  if (s.animate && !settings_.animate) animationStart_ = now;
+  settings_ = s;
+  return settings_;
+}
+
+double SessionScene::animationSeconds(Clock::time_point now) const {
+  if (!settings_.animate) return 0.0;
+  return std::chrono::duration<double>(now - animationStart_).count();
+}
+
+render::FrameSettings SessionScene::frameSettings(const render::FrameSettings& request,
+                                                  std::optional<double> time,
+                                                  Clock::time_point now) const {
+  render::FrameSettings frame = request;
+  static_cast<render::SceneSettings&>(frame) = settings_;
+  frame.camera = camera_;
+  frame.animate = settings_.animate || time.has_value();
+  frame.time = time.value_or(animationSeconds(now));
+  return frame;
+}
+
+// ---- Materials.
+
+uint32_t SessionScene::materialId(std::string_view text) const {
+  std::optional<uint32_t> id = parseId<uint32_t>(text);
+  if (!id || *id >= materials_.size()) {
+    throw ProblemError(notFoundDetail("The session's model has no material " +
+                                      quoteClientText(text) + " (it has " +
+                                      std::to_string(materials_.size()) + ", ids from 0)."));
+  }
+  return *id;
+}
+
+render::MaterialWrite SessionScene::patchMaterial(uint32_t id,
+                                                  const protocol::MaterialPatch& patch) {
+  scene::Material& material = materials_.at(id);
+  if (patch.baseColor) material.baseColor = fromWire(*patch.baseColor);
+  if (patch.metallic) material.metallic = float(*patch.metallic);
+  if (patch.roughness) material.roughness = float(*patch.roughness);
+  return render::MaterialWrite{id, material};
+}
+
+// ---- Lights.
+
+uint32_t SessionScene::slotOf(std::string_view text) const {
+  std::optional<uint64_t> id = parseId<uint64_t>(text);
+  auto it = id ? slotOfId_.find(*id) : slotOfId_.end();
+  if (it == slotOfId_.end()) {
+    throw ProblemError(notFoundDetail("The session has no light " + quoteClientText(text) +
+                                      " (deleted, or never created)."));
+  }
+  return it->second;
+}
+
+void SessionScene::checkLightTotal(uint64_t total, std::string_view what) const {
+  if (total > maxLights_) {
+    throw ProblemError(limitExceeded(413, "maxLightsPerSession",
+                                     std::string(what) + "; a session holds at most " +
+                                         std::to_string(maxLights_) + "."));
+  }
+}
+
+render::LightUpdate SessionScene::assignIds(uint32_t first) {
+  render::LightUpdate update;
+  update.count = uint32_t(lights_.size());
+  update.writes.reserve(lights_.size() - first);
+  ids_.resize(first);
+  ids_.reserve(lights_.size());
+  if (first == 0) slotOfId_.clear();
+  slotOfId_.reserve(lights_.size());
+  for (uint32_t slot = first; slot < lights_.size(); ++slot) {
+    const uint64_t id = nextId_++;
+    ids_.push_back(id);
+    slotOfId_.emplace(id, slot);
+    update.writes.push_back(render::LightWrite{slot, lights_[slot]});
+  }
+  return update;
+}
+
+render::LightUpdate SessionScene::addLights(std::span<const scene::PointLight> lights,
+                                            std::vector<uint64_t>* ids) {
+  const uint64_t total = uint64_t(lights_.size()) + lights.size();
+  checkLightTotal(total, "This would leave the session with " + std::to_string(total) + " lights");
+  const auto first = uint32_t(lights_.size());
+  lights_.insert(lights_.end(), lights.begin(), lights.end());
+  render::LightUpdate update = assignIds(first);
+  if (ids != nullptr) ids->insert(ids->end(), ids_.begin() + first, ids_.end());
+  return update;
+}
+
+render::LightUpdate SessionScene::replaceLights(std::span<const scene::PointLight> lights) {
+  checkLightTotal(lights.size(),
+                  "This would leave the session with " + std::to_string(lights.size()) + " lights");
+  lights_.assign(lights.begin(), lights.end());
+  return assignIds(0);
+}
+
+render::LightUpdate SessionScene::patchLight(uint32_t slot, const protocol::LightPatch& patch) {
+  scene::PointLight& light = lights_.at(slot);
+  if (patch.position) light.position = fromWire(*patch.position);
+  if (patch.radius) light.radius = float(*patch.radius);
+  if (patch.color) light.color = fromWire(*patch.color);
+  if (patch.intensity) light.intensity = float(*patch.intensity);
+  if (patch.falloff) light.falloff = float(*patch.falloff);
+  return render::LightUpdate{uint32_t(lights_.size()), {render::LightWrite{slot, light}}};
+}
+
+render::LightUpdate SessionScene::removeLight(uint32_t slot) {
+  const auto last = uint32_t(lights_.size() - 1);
+  render::LightUpdate update;
+  update.count = last;
+  slotOfId_.erase(ids_.at(slot));
+  if (slot != last) {
+    lights_[slot] = lights_[last];
+    ids_[slot] = ids_[last];
+    slotOfId_[ids_[slot]] = slot;
+    update.writes.push_back(render::LightWrite{slot, lights_[slot]});
+  }
+  lights_.pop_back();
+  ids_.pop_back();
+  return update;
+}
+
+}  // namespace myriad::service

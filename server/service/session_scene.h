@@ -1,0 +1,147 @@
+// A session's scene on the CPU, and the only code that changes it: the model it shows (a summary),
+// its materials, camera, settings and lights. Each edit is one method that checks what the edit
+// must respect, changes the CPU copy, and returns the change the session's GPU scene needs (a
+// render::LightUpdate, a render::MaterialWrite, a scene to upload), which the caller queues on the
+// render queue in the same order, under the session's lock. Camera and settings go with every
+// frame (frameSettings()), so their edits return nothing.
+//
+// Plain data and rules: no HTTP, no Vulkan, no locking (the Session's mutex guards it). Client
+// mistakes are thrown as ProblemError (404 for a missing light or material, 413 for too many
+// lights, 400 naming the member for an invalid value); an edit that throws changes nothing.
+#pragma once
+
+#include <chrono>
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <span>
+#include <string>
+#include <string_view>
+#include <unordered_map>
+#include <vector>
+
+#include "protocol/constants.h"
+#include "protocol/types.h"
+#include "render/frame.h"
+#include "scene/scene.h"
+
+namespace myriad::service {
+
+using Clock = std::chrono::steady_clock;
+
+// What GET /v1/sessions/{id} reports about the loaded model.
+struct ModelSummary {
+  std::string source{protocol::kBuiltinModel};  // or protocol::kLibraryPrefix + NAME, kUploadPrefix + FILE
+  size_t meshes = 0;
+  size_t instances = 0;
+  size_t materials = 0;
+  scene::Bounds bounds;
+};
+
+// How adopt() treats what the session already has.
+struct Adoption {
+  // Take the model's lights (new ids); otherwise the session keeps its lights and the scene to
+  // upload gets them.
+  bool lightsFromModel = false;
+  // Take the model's sun, ambient and background (a new session); otherwise keep the session's.
+  bool lightingFromModel = false;
+};
+
+class SessionScene {
+ public:
+  // An empty scene (no model, no lights) that holds at most `maxLights` lights and starts from
+  // `settings` (the server's default technique among them).
+  SessionScene(uint32_t maxLights, render::SceneSettings settings);
+
+  // ---- The model. Creating a session and loading a model both come through here.
+
+  // Makes `loaded` the session's model: summary (from `source`), materials and camera, and, as
+  // `adoption` says, its lights and its lighting. Returns the scene to upload to the GPU (with
+  // the session's lights in it when it keeps them). Throws ProblemError 413 maxLightsPerSession
+  // when the model brings more lights than the session may hold (nothing changes then).
+  std::shared_ptr<const scene::Scene> adopt(std::shared_ptr<scene::Scene> loaded,
+                                            std::string source, Adoption adoption);
+
+  const ModelSummary& model() const { return model_; }
+
+  // ---- Camera and settings (carried by each frame; nothing to upload).
+
+  const scene::Camera& camera() const { return camera_; }
+  // Throws ProblemError 400 (pointer /far, /target or /up) for a camera no frame can use.
+  const scene::Camera& setCamera(const scene::Camera& camera);
+  const scene::Camera& patchCamera(const protocol::CameraPatch& patch);
+  // Moves the eye along the current viewing direction until the whole model fits a view of
+  // `aspect`, keeping the field of view.
+  const scene::Camera& frameModel(float aspect);
+
+  const render::SceneSettings& settings() const { return settings_; }
+  // Throws ProblemError 400 (/sun/direction, /technique) for a value no frame can use. Switching
+  // animation on restarts the animation clock at `now`, so lights start from where they are.
+  const render::SceneSettings& patchSettings(const protocol::SettingsPatch& patch,
+                                             Clock::time_point now);
+
+  // Seconds of animation at `now` (0 when not animating).
+  double animationSeconds(Clock::time_point now) const;
+
+  // The frame the session shows at `now`: `request`'s own choices (size, target, raw...) with the
+  // session's camera and settings. `time` (a request's ?time=) shows the lights where the
+  // animation has them then, animating or not; without it, where the session's clock has them.
+  render::FrameSettings frameSettings(const render::FrameSettings& request,
+                                      std::optional<double> time, Clock::time_point now) const;
+
+  // ---- Materials (material id = index in the model's list).
+
+  const std::vector<scene::Material>& materials() const { return materials_; }
+  // The material `id` names (a route segment: decimal digits); throws ProblemError 404 when the
+  // model has no such material.
+  uint32_t materialId(std::string_view id) const;
+  // Changes the members `patch` names of material `id` (from materialId).
+  render::MaterialWrite patchMaterial(uint32_t id, const protocol::MaterialPatch& patch);
+
+  // ---- Lights. Each light has a stable id (never reused within the session) and a slot, its
+  // index in the GPU's light array. Slots are dense: removing a light moves the last light into
+  // its slot, on the CPU and (by the returned update) on the GPU alike.
+
+  uint32_t maxLights() const { return maxLights_; }
+  size_t lightCount() const { return lights_.size(); }
+  const scene::PointLight& lightAt(uint32_t slot) const { return lights_[slot]; }
+  uint64_t idAt(uint32_t slot) const { return ids_[slot]; }
+  // The slot of the light `id` names (a route segment: decimal digits); throws ProblemError 404
+  // when the session has no such light (deleted, never created, or not a number).
+  uint32_t slotOf(std::string_view id) const;
+
+  // Appends `lights` with fresh ids, written to `ids` when given. Throws ProblemError 413
+  // maxLightsPerSession when the total would pass maxLights().
+  render::LightUpdate addLights(std::span<const scene::PointLight> lights,
+                                std::vector<uint64_t>* ids = nullptr);
+  // Replaces every light by `lights` (fresh ids). Throws 413 like addLights.
+  render::LightUpdate replaceLights(std::span<const scene::PointLight> lights);
+  render::LightUpdate clearLights() { return replaceLights({}); }
+  // Changes the members `patch` names of the light in `slot` (from slotOf).
+  render::LightUpdate patchLight(uint32_t slot, const protocol::LightPatch& patch);
+  // Removes the light in `slot`; the last light takes its place.
+  render::LightUpdate removeLight(uint32_t slot);
+
+  // Throws ProblemError 413 maxLightsPerSession when the session may not hold `total` lights;
+  // `what` starts the detail ("This would leave the session with N lights").
+  void checkLightTotal(uint64_t total, std::string_view what) const;
+
+ private:
+  // Gives lights_[first..] fresh ids; returns the update that writes them.
+  render::LightUpdate assignIds(uint32_t first);
+
+  uint32_t maxLights_;
+  ModelSummary model_;
+  std::vector<scene::Material> materials_;
+  scene::Camera camera_;
+  render::SceneSettings settings_;
+  Clock::time_point animationStart_ = Clock::now();
+
+  // lights_[slot] has id ids_[slot]; slotOfId_ maps back. Kept together by the light methods.
+  std::vector<scene::PointLight> lights_;
+  std::vector<uint64_t> ids_;
+  std::unordered_map<uint64_t, uint32_t> slotOfId_;
+  uint64_t nextId_ = 1;
+};
+
+}  // namespace myriad::service

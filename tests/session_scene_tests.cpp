@@ -1,0 +1,403 @@
+// SessionScene without HTTP or Vulkan: the light ids/slots invariant (checked against a mirror
+// that applies each returned LightUpdate the way the renderer does), scene adoption, settings,
+// camera and materials, and that an edit that throws changes nothing.
+#include <doctest/doctest.h>
+
+#include <algorithm>
+#include <memory>
+#include <random>
+#include <set>
+#include <string>
+#include <vector>
+
+#include "service/problem.h"
+#include "service/session_scene.h"
+
+namespace myriad {
+namespace {
+
+using service::Adoption;
+using service::Clock;
+using service::ProblemError;
+using service::SessionScene;
+
+scene::PointLight light(float x, float intensity = 1.0f) {
+  scene::PointLight l;
+  l.position = glm::vec3(x, 1.0f, 0.0f);
+  l.radius = 2.0f;
+  l.color = glm::vec3(1.0f, 0.5f, 0.25f);
+  l.intensity = intensity;
+  l.falloff = 1.0f;
+  return l;
+}
+
+bool same(const scene::PointLight& a, const scene::PointLight& b) {
+  return a.position == b.position && a.radius == b.radius && a.color == b.color &&
+         a.intensity == b.intensity && a.falloff == b.falloff;
+}
+
+// The GPU side as render::Renderer::updateLights defines it: after an update the array has
+// `count` lights, each write lands at its index, every new index must be written and no write
+// may be at or past `count`.
+struct GpuMirror {
+  std::vector<scene::PointLight> lights;
+
+  void apply(const render::LightUpdate& update) {
+    const size_t before = lights.size();
+    std::set<uint32_t> written;
+    for (const render::LightWrite& w : update.writes) {
+      REQUIRE(w.index < update.count);
+      written.insert(w.index);
+    }
+    for (size_t i = before; i < update.count; ++i) REQUIRE(written.contains(uint32_t(i)));
+    lights.resize(update.count);
+    for (const render::LightWrite& w : update.writes) lights[w.index] = w.light;
+  }
+};
+
+// Every slot's light equals the mirror's, every id maps back to its slot, ids are unique.
+void checkConsistent(const SessionScene& scene, const GpuMirror& gpu) {
+  REQUIRE(gpu.lights.size() == scene.lightCount());
+  std::set<uint64_t> ids;
+  for (uint32_t slot = 0; slot < scene.lightCount(); ++slot) {
+    CHECK(same(scene.lightAt(slot), gpu.lights[slot]));
+    const uint64_t id = scene.idAt(slot);
+    CHECK(ids.insert(id).second);
+    CHECK(scene.slotOf(std::to_string(id)) == slot);
+  }
+}
+
+ProblemError problemOf(auto&& edit) {
+  try {
+    edit();
+  } catch (const ProblemError& e) {
+    return e;
+  }
+  FAIL("expected a ProblemError");
+  return ProblemError(service::Problem{});
+}
+
+std::shared_ptr<scene::Scene> model(size_t lights, size_t materials) {
+  auto s = std::make_shared<scene::Scene>();
+  for (size_t i = 0; i < lights; ++i) s->lights.push_back(light(float(i), 5.0f));
+  for (size_t i = 0; i < materials; ++i) {
+    scene::Material m;
+    m.name = std::to_string(i);
+    m.baseColor = glm::vec3(0.5f);
+    s->materials.push_back(m);
+  }
+  s->camera.eye = glm::vec3(3.0f, 2.0f, 1.0f);
+  s->camera.target = glm::vec3(0.0f);
+  s->sun.intensity = 7.0f;
+  s->ambient = glm::vec3(0.25f);
+  return s;
+}
+
+}  // namespace
+
+TEST_CASE("session scene: added lights get fresh ids in dense slots, and the update writes them") {
+  SessionScene scene(100, {});
+  GpuMirror gpu;
+  std::vector<uint64_t> ids;
+  const std::vector<scene::PointLight> three = {light(0), light(1), light(2)};
+  render::LightUpdate update = scene.addLights(three, &ids);
+  CHECK(update.count == 3);
+  CHECK(update.writes.size() == 3);
+  CHECK(ids == std::vector<uint64_t>{1, 2, 3});
+  gpu.apply(update);
+  checkConsistent(scene, gpu);
+
+  // A second batch writes only the new slots.
+  ids.clear();
+  update = scene.addLights(std::vector<scene::PointLight>{light(3)}, &ids);
+  CHECK(update.count == 4);
+  REQUIRE(update.writes.size() == 1);
+  CHECK(update.writes[0].index == 3);
+  CHECK(ids == std::vector<uint64_t>{4});
+  gpu.apply(update);
+  checkConsistent(scene, gpu);
+}
+
+TEST_CASE("session scene: removing a light moves the last one into its slot; ids are never reused") {
+  SessionScene scene(100, {});
+  GpuMirror gpu;
+  gpu.apply(scene.addLights(std::vector<scene::PointLight>{light(0), light(1), light(2), light(3)}));
+
+  // Remove id 2 (slot 1): id 4 (slot 3) takes slot 1; one write, count 3.
+  render::LightUpdate update = scene.removeLight(scene.slotOf("2"));
+  CHECK(update.count == 3);
+  REQUIRE(update.writes.size() == 1);
+  CHECK(update.writes[0].index == 1);
+  CHECK(same(update.writes[0].light, light(3)));
+  gpu.apply(update);
+  checkConsistent(scene, gpu);
+  CHECK(scene.idAt(1) == 4);
+  ProblemError gone = problemOf([&] { (void)scene.slotOf("2"); });
+  CHECK(gone.problem().status == 404);
+  CHECK(gone.problem().detail == "The session has no light \"2\" (deleted, or never created).");
+
+  // Removing the last slot writes nothing.
+  update = scene.removeLight(scene.slotOf("3"));
+  CHECK(update.count == 2);
+  CHECK(update.writes.empty());
+  gpu.apply(update);
+  checkConsistent(scene, gpu);
+
+  // New lights continue after the highest id ever given.
+  std::vector<uint64_t> ids;
+  gpu.apply(scene.addLights(std::vector<scene::PointLight>{light(9)}, &ids));
+  CHECK(ids == std::vector<uint64_t>{5});
+  checkConsistent(scene, gpu);
+}
+
+TEST_CASE("session scene: light ids that are not numbers, or not lights, are 404") {
+  SessionScene scene(10, {});
+  scene.addLights(std::vector<scene::PointLight>{light(0)});
+  for (std::string text : {"", "abc", "1x", "-1", "0", "2", "99999999999999999999999"}) {
+    CAPTURE(text);
+    CHECK(problemOf([&] { (void)scene.slotOf(text); }).problem().status == 404);
+  }
+  CHECK(scene.slotOf("1") == 0);
+}
+
+TEST_CASE("session scene: a patch changes only the members it names, in one write") {
+  SessionScene scene(10, {});
+  GpuMirror gpu;
+  gpu.apply(scene.addLights(std::vector<scene::PointLight>{light(0), light(1)}));
+  protocol::LightPatch patch;
+  patch.intensity = 42.0;
+  patch.position = protocol::Vec3{5, 6, 7};
+  render::LightUpdate update = scene.patchLight(1, patch);
+  CHECK(update.count == 2);
+  REQUIRE(update.writes.size() == 1);
+  CHECK(update.writes[0].index == 1);
+  gpu.apply(update);
+  checkConsistent(scene, gpu);
+  const scene::PointLight& patched = scene.lightAt(1);
+  CHECK(patched.intensity == 42.0f);
+  CHECK(patched.position == glm::vec3(5, 6, 7));
+  CHECK(patched.radius == light(1).radius);
+  CHECK(patched.color == light(1).color);
+  CHECK(same(scene.lightAt(0), light(0)));
+}
+
+TEST_CASE("session scene: the light limit is 413 maxLightsPerSession and leaves the lights as they were") {
+  SessionScene scene(3, {});
+  scene.addLights(std::vector<scene::PointLight>{light(0), light(1)});
+  ProblemError tooMany =
+      problemOf([&] { scene.addLights(std::vector<scene::PointLight>{light(2), light(3)}); });
+  CHECK(tooMany.problem().status == 413);
+  CHECK(tooMany.problem().limit == "maxLightsPerSession");
+  CHECK(tooMany.problem().detail ==
+        "This would leave the session with 4 lights; a session holds at most 3.");
+  CHECK(scene.lightCount() == 2);
+  CHECK(problemOf([&] { scene.replaceLights(std::vector<scene::PointLight>(4, light(0))); })
+            .problem()
+            .status == 413);
+  CHECK(scene.lightCount() == 2);
+  CHECK(scene.slotOf("2") == 1);
+
+  // Replacing gives every light a fresh id; clearing empties.
+  std::vector<scene::PointLight> replacement = {light(7), light(8), light(9)};
+  render::LightUpdate update = scene.replaceLights(replacement);
+  CHECK(update.count == 3);
+  CHECK(update.writes.size() == 3);
+  CHECK(scene.idAt(0) == 3);
+  CHECK(problemOf([&] { (void)scene.slotOf("1"); }).problem().status == 404);
+  update = scene.clearLights();
+  CHECK(update.count == 0);
+  CHECK(update.writes.empty());
+  CHECK(scene.lightCount() == 0);
+}
+
+TEST_CASE("session scene: random edits keep CPU lights, ids, slots and the GPU mirror in step") {
+  SessionScene scene(64, {});
+  GpuMirror gpu;
+  std::mt19937 random(12345);
+  std::vector<uint64_t> live;  // ids the scene should have
+  uint64_t highest = 0;
+  for (int step = 0; step < 2000; ++step) {
+    const int op = std::uniform_int_distribution<int>(0, 9)(random);
+    if (op < 4 && scene.lightCount() < 60) {
+      const size_t n = std::uniform_int_distribution<size_t>(1, 4)(random);
+      std::vector<scene::PointLight> batch;
+      for (size_t i = 0; i < n; ++i) batch.push_back(light(float(step), float(i)));
+      std::vector<uint64_t> ids;
+      gpu.apply(scene.addLights(batch, &ids));
+      for (uint64_t id : ids) {
+        CHECK(id > highest);
+        highest = id;
+        live.push_back(id);
+      }
+    } else if (op < 7 && !live.empty()) {
+      const size_t pick = std::uniform_int_distribution<size_t>(0, live.size() - 1)(random);
+      gpu.apply(scene.removeLight(scene.slotOf(std::to_string(live[pick]))));
+      live.erase(live.begin() + long(pick));
+    } else if (op < 9 && !live.empty()) {
+      const size_t pick = std::uniform_int_distribution<size_t>(0, live.size() - 1)(random);
+      protocol::LightPatch patch;
+      patch.radius = 1.0 + step % 7;
+      gpu.apply(scene.patchLight(scene.slotOf(std::to_string(live[pick])), patch));
+    } else if (op == 9 && step % 50 == 0) {
+      gpu.apply(scene.clearLights());
+      live.clear();
+    }
+    REQUIRE(scene.lightCount() == live.size());
+    checkConsistent(scene, gpu);
+  }
+}
+
+TEST_CASE("session scene: adopting a model, with its lights and lighting or keeping the session's") {
+  render::SceneSettings defaults;
+  defaults.technique = render::Technique::Tiled;
+  SessionScene scene(5, defaults);
+
+  // A new session: everything from the model.
+  std::shared_ptr<const scene::Scene> upload = scene.adopt(
+      model(2, 3), "library:a.glb", Adoption{.lightsFromModel = true, .lightingFromModel = true});
+  CHECK(upload->lights.size() == 2);
+  CHECK(scene.lightCount() == 2);
+  CHECK(scene.idAt(0) == 1);
+  CHECK(scene.model().source == "library:a.glb");
+  CHECK(scene.model().materials == 3);
+  CHECK(scene.materials().size() == 3);
+  CHECK(scene.camera().eye == glm::vec3(3.0f, 2.0f, 1.0f));
+  CHECK(scene.settings().sun.intensity == 7.0f);
+  CHECK(scene.settings().ambient == glm::vec3(0.25f));
+  CHECK(scene.settings().technique == render::Technique::Tiled);
+
+  // Another model, keeping the session's lights and lighting: the upload carries them.
+  scene.addLights(std::vector<scene::PointLight>{light(9)});
+  auto second = model(4, 1);
+  second->sun.intensity = 1.0f;
+  upload = scene.adopt(second, "upload:b.obj", Adoption{});
+  REQUIRE(upload->lights.size() == 3);
+  CHECK(same(upload->lights[2], light(9)));
+  CHECK(scene.lightCount() == 3);
+  CHECK(scene.slotOf("3") == 2);
+  CHECK(scene.materials().size() == 1);
+  CHECK(scene.model().source == "upload:b.obj");
+  CHECK(scene.settings().sun.intensity == 7.0f);
+
+  // Taking the model's lights renumbers them after the highest id given.
+  upload = scene.adopt(model(4, 1), "upload:c.obj", Adoption{.lightsFromModel = true});
+  CHECK(scene.lightCount() == 4);
+  CHECK(scene.idAt(0) == 4);
+  CHECK(problemOf([&] { (void)scene.slotOf("1"); }).problem().status == 404);
+
+  // A model with more lights than the session may hold: 413, and nothing changes.
+  ProblemError tooMany = problemOf(
+      [&] { scene.adopt(model(6, 9), "upload:d.obj", Adoption{.lightsFromModel = true}); });
+  CHECK(tooMany.problem().status == 413);
+  CHECK(tooMany.problem().detail == "The model brings 6 lights; a session holds at most 5.");
+  CHECK(scene.model().source == "upload:c.obj");
+  CHECK(scene.materials().size() == 1);
+  CHECK(scene.lightCount() == 4);
+}
+
+TEST_CASE("session scene: settings patches, checked; animation clock; the frame a session shows") {
+  SessionScene scene(5, {});
+  scene.adopt(model(0, 1), "builtin:default", Adoption{.lightsFromModel = true, .lightingFromModel = true});
+  const Clock::time_point t0 = Clock::now();
+
+  protocol::SettingsPatch bad;
+  bad.exposure = 3.0;
+  bad.sun = protocol::SunPatch{protocol::Vec3{0, 0, 0}, std::nullopt, std::nullopt};
+  ProblemError zero = problemOf([&] { scene.patchSettings(bad, t0); });
+  CHECK(zero.problem().status == 400);
+  CHECK(zero.problem().pointer == "/sun/direction");
+  CHECK(scene.settings().exposure == 1.0f);  // nothing of the failed patch applied
+
+  protocol::SettingsPatch unknown;
+  unknown.technique = "raytraced";
+  CHECK(problemOf([&] { scene.patchSettings(unknown, t0); }).problem().pointer == "/technique");
+
+  protocol::SettingsPatch patch;
+  patch.sun = protocol::SunPatch{protocol::Vec3{0, -2, 0}, std::nullopt, std::nullopt};
+  patch.exposure = 2.0;
+  patch.technique = "volumes";
+  patch.markers = false;
+  scene.patchSettings(patch, t0);
+  CHECK(scene.settings().sun.direction == glm::vec3(0, -1, 0));  // normalized
+  CHECK(scene.settings().exposure == 2.0f);
+  CHECK(scene.settings().technique == render::Technique::Volumes);
+  CHECK_FALSE(scene.settings().markers);
+  CHECK(scene.animationSeconds(t0 + std::chrono::seconds(5)) == 0.0);
+
+  // Animation on at t0: the clock starts there; a patch that keeps it on does not restart it.
+  protocol::SettingsPatch animate;
+  animate.animate = true;
+  scene.patchSettings(animate, t0);
+  scene.patchSettings(animate, t0 + std::chrono::seconds(1));
+  CHECK(scene.animationSeconds(t0 + std::chrono::seconds(3)) == doctest::Approx(3.0));
+
+  // A frame: the request's own choices, the session's camera and settings, the clock's time.
+  render::FrameSettings request;
+  request.width = 320;
+  request.height = 200;
+  request.target = render::Target::Depth;
+  request.exposure = 9.0f;  // not the request's to choose: the session's wins
+  render::FrameSettings frame = scene.frameSettings(request, std::nullopt, t0 + std::chrono::seconds(2));
+  CHECK(frame.width == 320);
+  CHECK(frame.target == render::Target::Depth);
+  CHECK(frame.exposure == 2.0f);
+  CHECK(frame.technique == render::Technique::Volumes);
+  CHECK(frame.camera.eye == scene.camera().eye);
+  CHECK(frame.animate);
+  CHECK(frame.time == doctest::Approx(2.0));
+  // An explicit time wins over the clock.
+  CHECK(scene.frameSettings(request, 0.5, t0).time == 0.5);
+
+  // Not animating: time 0, unless the request names one (then the lights are shown there).
+  animate.animate = false;
+  scene.patchSettings(animate, t0);
+  frame = scene.frameSettings(request, std::nullopt, t0 + std::chrono::seconds(2));
+  CHECK_FALSE(frame.animate);
+  CHECK(frame.time == 0.0);
+  frame = scene.frameSettings(request, 1.5, t0);
+  CHECK(frame.animate);
+  CHECK(frame.time == 1.5);
+}
+
+TEST_CASE("session scene: camera edits are checked and a failed one changes nothing") {
+  SessionScene scene(5, {});
+  scene.adopt(model(0, 1), "builtin:default", Adoption{});
+  const scene::Camera before = scene.camera();
+  protocol::CameraPatch farBehind;
+  farBehind.near = 10.0;
+  farBehind.far = 1.0;
+  ProblemError far = problemOf([&] { scene.patchCamera(farBehind); });
+  CHECK(far.problem().status == 400);
+  CHECK(far.problem().pointer == "/far");
+  CHECK(scene.camera().nearPlane == before.nearPlane);
+
+  protocol::CameraPatch onEye;
+  onEye.target = protocol::Vec3{3, 2, 1};  // the model's eye
+  CHECK(problemOf([&] { scene.patchCamera(onEye); }).problem().pointer == "/target");
+
+  protocol::CameraPatch fov;
+  fov.fovY = 35.0;
+  CHECK(scene.patchCamera(fov).fovYDegrees == 35.0f);
+  CHECK(scene.camera().eye == before.eye);
+}
+
+TEST_CASE("session scene: materials by id, 404 past the model's, patches in one write") {
+  SessionScene scene(5, {});
+  scene.adopt(model(0, 2), "builtin:default", Adoption{});
+  for (std::string text : {"2", "x", "", "-1", "4294967296"}) {
+    CAPTURE(text);
+    CHECK(problemOf([&] { (void)scene.materialId(text); }).problem().status == 404);
+  }
+  CHECK(problemOf([&] { (void)scene.materialId("2"); }).problem().detail ==
+        "The session's model has no material \"2\" (it has 2, ids from 0).");
+  protocol::MaterialPatch patch;
+  patch.roughness = 0.25;
+  render::MaterialWrite write = scene.patchMaterial(scene.materialId("1"), patch);
+  CHECK(write.index == 1);
+  CHECK(write.material.roughness == 0.25f);
+  CHECK(write.material.baseColor == glm::vec3(0.5f));
+  CHECK(scene.materials()[1].roughness == 0.25f);
+  CHECK(scene.materials()[0].roughness == scene::Material{}.roughness);
+}
+
+}  // namespace myriad
