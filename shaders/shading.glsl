@@ -3,7 +3,9 @@
 // The shaders #include this file; server/render/shading.h includes it inside a C++ namespace with
 // `using namespace glm`, and that copy is the reference the tests judge GPU images with. Rules for
 // editing: no swizzles, no in/out/inout parameters, float literals with an f suffix, and only
-// functions GLM also provides (dot, max, min, clamp, mix, sqrt, pow, abs, normalize).
+// functions GLM also provides (dot, max, min, clamp, mix, sqrt, pow, abs, normalize). Keep every
+// argument inside its function's domain (pow's base >= 0, sqrt's >= 0, normalize's non-zero):
+// GLSL leaves the rest undefined, and the C++ twin's pow gives NaN there so tests catch it.
 
 #ifndef MYRIAD_SHADING_GLSL
 #define MYRIAD_SHADING_GLSL
@@ -29,9 +31,14 @@ vec3 brdfCosine(vec3 N, vec3 V, vec3 L, vec3 baseColor, float metallic, float ro
   if (NdotL <= 0.0f) {
     return vec3(0.0f);
   }
-  vec3 H = normalize(V + L);
-  float NdotH = max(dot(N, H), 0.0f);
-  float VdotH = max(dot(V, H), 0.0f);
+  // With L along V (a light at the eye or on the view ray) H is V and V.H rounds to just over 1;
+  // 1 - V.H < 0 would make pow() below undefined (NaN on GPUs). Cosines are clamped to [0, 1].
+  // V + L is zero only for a light exactly behind a grazing view; N stands in for H there.
+  vec3 halfway = V + L;
+  float halfwayLength2 = dot(halfway, halfway);
+  vec3 H = halfwayLength2 > 1e-12f ? halfway * (1.0f / sqrt(halfwayLength2)) : N;
+  float NdotH = clamp(dot(N, H), 0.0f, 1.0f);
+  float VdotH = clamp(dot(V, H), 0.0f, 1.0f);
 
   float perceptual = clamp(roughness, kMinRoughness, 1.0f);
   float alpha = perceptual * perceptual;

@@ -94,6 +94,17 @@ Comparison renderAndCompare(const scene::Scene& s, const render::FrameSettings& 
   render::Frame frame = gpu.render(f);
   REQUIRE(frame.width == f.width);
   REQUIRE(frame.height == f.height);
+  if (f.target == render::Target::Final) {
+    // The raw HDR values behind the image: a NaN or Inf would be clamped away by the 8-bit output.
+    render::FrameSettings raw = f;
+    raw.raw = true;
+    render::Frame values = gpu.render(raw);
+    REQUIRE(values.data.size() == size_t(f.width) * f.height * 4);
+    size_t nonFinite = 0;
+    for (float v : values.data) nonFinite += std::isfinite(v) ? 0 : 1;
+    CHECK_MESSAGE(nonFinite == 0, nonFinite << " non-finite values in raw final ("
+                                            << render::techniqueName(f.technique) << ")");
+  }
   std::vector<uint8_t> reference = render::renderReference(s, render::FrameSettings(f).takeLightingFrom(s));
   Comparison c = compare(frame.rgba, reference, tolerance);
   MESSAGE("target " << render::targetName(f.target) << ": max difference " << c.maxDifference
@@ -278,4 +289,29 @@ TEST_CASE("light-volumes view tints exactly the pixels inside some light's spher
   CHECK(tinted > 20);
   CHECK(tinted < final.rgba.size() / 4 / 2);
   CHECK(gpu.context->validationMessages.load() == 0);
+}
+
+// A light at the eye or on a view ray puts L along V, where H = normalize(V + L) is V itself and
+// V.H may round past 1: GLSL's pow(1 - V.H, 5) of a negative base is undefined (NaN on GPUs).
+// Checked on raw HDR output in every technique, and the reference (whose pow gives NaN where GLSL's
+// is undefined) must agree without throwing.
+TEST_CASE("a light at the eye and lights on view rays: no NaN or Inf in any technique") {
+  scene::Scene s = floorScene();
+  s.meshes.push_back(scene::makeCube());
+  s.materials.push_back({"metal", glm::vec3(0.9f, 0.8f, 0.5f), 1.0f, 0.2f});
+  s.instances.push_back({1, 1, glm::translate(glm::mat4(1.0f), glm::vec3(0.5f, 0.5f, 0.0f))});
+  const scene::Camera camera = lookingDownAtFloor();
+  const glm::vec3 view = camera.target - camera.eye;
+  s.lights = {{camera.eye, 12.0f, glm::vec3(1.0f), 4.0f, 1.0f}};  // a headlight
+  for (float t : {0.25f, 0.5f, 0.8f}) {
+    s.lights.push_back({camera.eye + t * view, 6.0f, glm::vec3(1.0f, 0.9f, 0.7f), 3.0f, 1.0f});
+  }
+  for (render::Technique technique :
+       {render::Technique::Volumes, render::Technique::Tiled, render::Technique::Clustered}) {
+    CAPTURE(render::techniqueName(technique));
+    render::FrameSettings f = settingsFor(camera, render::Target::Final);
+    f.technique = technique;
+    Comparison c = renderAndCompare(s, f, 2);  // also checks the raw final output is finite
+    CHECK(c.pixelsOver <= c.pixels / 200);
+  }
 }

@@ -3,6 +3,7 @@
 #include <cmath>
 #include <limits>
 #include <stdexcept>
+#include <string>
 
 #include <glm/gtc/packing.hpp>
 
@@ -158,6 +159,12 @@ std::vector<uint8_t> renderReference(const scene::Scene& scene, const FrameSetti
                                                      l.color * l.intensity, l.falloff);
               if (c != glm::vec3(0.0f)) hdr = half3(hdr + half3(c));
             }
+          }
+          // The GPU keeps NaN and Inf in its HDR target; a reference that clamped them to a byte
+          // would agree with a broken image. Refuse instead.
+          if (glm::any(glm::isnan(hdr)) || glm::any(glm::isinf(hdr))) {
+            throw std::domain_error("reference: non-finite radiance at pixel (" +
+                                    std::to_string(x) + ", " + std::to_string(y) + ")");
           }
           color = shading::srgbEncode3(shading::tonemapPbrNeutral(hdr * s.exposure));
           break;

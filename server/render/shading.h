@@ -4,7 +4,20 @@
 
 #include <glm/glm.hpp>
 
+#include <cmath>
+#include <limits>
+
 namespace myriad::shading {
 using namespace glm;
+
+// GLSL's pow(x, y) is undefined for x < 0, and for x == 0 with y <= 0 (GLSL 4.50, 8.2): GPUs give
+// NaN there, while std::pow of a negative base and a whole exponent is a number. The twin gives
+// NaN too, so the reference fails where a GPU would rather than hiding the fault. Declared here,
+// it hides glm::pow inside shading.glsl.
+inline float pow(float x, float y) {
+  if (x < 0.0f || (x == 0.0f && y <= 0.0f)) return std::numeric_limits<float>::quiet_NaN();
+  return std::pow(x, y);
+}
+
 #include "shading.glsl"
 }  // namespace myriad::shading
