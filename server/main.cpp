@@ -15,10 +15,10 @@
 #include "gpu/context.h"
 #include "loader/library.h"
 #include "loader/loader.h"
+#include "render/render_thread.h"
 #include "scene/model_loader.h"
 #include "service/http_server.h"
 #include "service/options.h"
-#include "service/render_thread.h"
 #include "service/startup.h"
 
 namespace {
@@ -32,7 +32,7 @@ int fail(const std::string& sentence) {
 
 // The session API's configuration: limits as /v1/info lists them, the key, CORS.
 service::ApiConfig apiConfig(const service::Options& options, uint32_t maxResolution,
-                             const service::RenderThread& renderThread) {
+                             const render::RenderQueue& renderThread) {
   service::ApiConfig api;
   service::ApiLimits& limits = api.limits;
   limits.maxResolution = maxResolution;
@@ -63,16 +63,16 @@ int run(const service::Options& options, const sigset_t& shutdownSignals) {
     return fail(e.what());
   }
 
-  std::unique_ptr<service::RenderThread> renderThread;
+  std::unique_ptr<render::RenderThread> renderThread;
   try {
-    renderThread = std::make_unique<service::RenderThread>(
+    renderThread = std::make_unique<render::RenderThread>(
         gpu::ContextOptions{options.validate, options.device}, scene, options.maxQueuedFrames);
   } catch (const gpu::NoDeviceError& e) {
     return fail(e.what());
   } catch (const std::exception& e) {
     return fail(std::string("cannot start the renderer: ") + e.what());
   }
-  const gpu::DeviceInfo& device = renderThread->device();
+  const render::DeviceSummary& device = renderThread->device();
   std::fprintf(stderr, "myriad-server: rendering on %s\n", service::describeDevice(device).c_str());
   if (device.isCpu) {
     std::fprintf(stderr,

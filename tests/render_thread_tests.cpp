@@ -9,7 +9,7 @@
 #include "render/reference.h"
 #include "scene/light_generator.h"
 #include "scene/primitives.h"
-#include "service/render_thread.h"
+#include "render/render_thread.h"
 
 using namespace myriad;
 
@@ -44,7 +44,7 @@ using test::pixelsOver;
 
 TEST_CASE("render thread: edits and frames in order, errors to the future, frames alone limited") {
   const scene::Scene builtin = floorWithBlock(glm::vec3(0.2f, 0.8f, 0.2f));
-  service::RenderThread thread({.validation = true, .device = ""}, builtin, 1);
+  render::RenderThread thread({.validation = true, .device = ""}, builtin, 1);
   const render::SceneId defaultScene = thread.defaultScene();
   const uint64_t startBytes = thread.gpuMemoryBytes();
   CHECK(startBytes > 0);
@@ -85,7 +85,7 @@ TEST_CASE("render thread: edits and frames in order, errors to the future, frame
   for (int i = 0; i < 4; ++i) created.push_back(thread.createScene(heavyShared));
   std::future<render::Frame> first = thread.submit(settingsFor(builtin));
   std::future<render::Frame> second = thread.submit(settingsFor(builtin));
-  CHECK_THROWS_AS(thread.submit(settingsFor(builtin)), service::RenderQueueFullError);
+  CHECK_THROWS_AS(thread.submit(settingsFor(builtin)), render::RenderQueueFullError);
   std::future<void> stillAccepted = thread.updateLights(id, {1, {{0, session->lights[0]}}});
   CHECK(first.get().rgba == builtinFrame.rgba);
   CHECK(second.get().rgba == builtinFrame.rgba);
@@ -102,6 +102,6 @@ TEST_CASE("render thread: edits and frames in order, errors to the future, frame
   CHECK(thread.validationMessages() == 0);
 
   thread.stop();
-  CHECK_THROWS_AS(thread.createScene(session), service::RenderQueueFullError);
-  CHECK_THROWS_AS(thread.submit(settingsFor(builtin)), service::RenderQueueFullError);
+  CHECK_THROWS_AS(thread.createScene(session), render::RenderQueueFullError);
+  CHECK_THROWS_AS(thread.submit(settingsFor(builtin)), render::RenderQueueFullError);
 }

@@ -422,7 +422,7 @@ TEST_CASE("png: bad input is rejected, not encoded or crashed on") {
 TEST_CASE("startup: URLs and device lines") {
   CHECK(service::serverUrl("127.0.0.1", 8080) == "http://127.0.0.1:8080");
   CHECK(service::serverUrl("::1", 80) == "http://[::1]:80");
-  gpu::DeviceInfo d;
+  render::DeviceSummary d;
   d.name = "llvmpipe";
   d.type = "cpu";
   d.driverName = "llvmpipe";

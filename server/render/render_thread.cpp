@@ -1,10 +1,36 @@
-#include "service/render_thread.h"
+#include "render/render_thread.h"
 
 #include <memory>
 #include <type_traits>
 #include <utility>
 
-namespace myriad::service {
+namespace myriad::render {
+
+namespace {
+
+// What the service may know about the device: gpu::DeviceInfo without the limits only the
+// renderer uses.
+DeviceSummary summarize(const gpu::DeviceInfo& d) {
+  DeviceSummary s;
+  s.name = d.name;
+  s.type = d.type;
+  s.driverName = d.driverName;
+  s.driverInfo = d.driverInfo;
+  s.apiVersion = d.apiVersion;
+  s.vendorId = d.vendorId;
+  s.deviceId = d.deviceId;
+  s.index = d.index;
+  s.isCpu = d.isCpu;
+  s.maxImageDimension2D = d.maxImageDimension2D;
+  s.maxStorageBufferRange = d.maxStorageBufferRange;
+  s.maxComputeSharedMemorySize = d.maxComputeSharedMemorySize;
+  s.subgroupSize = d.subgroupSize;
+  s.timestampPeriodNs = d.timestampPeriodNs;
+  s.timestampsSupported = d.timestampsSupported;
+  return s;
+}
+
+}  // namespace
 
 RenderThread::RenderThread(const gpu::ContextOptions& options, const scene::Scene& scene,
                            uint32_t maxQueuedFrames)
@@ -56,7 +82,7 @@ std::future<T> RenderThread::enqueueWork(bool frame, Work work) {
   std::future<T> result = promise->get_future();
   // gpuMemoryBytes() is refreshed before the promise is kept, so a caller whose future is ready
   // (a session deleted, say) already reads the memory it freed.
-  enqueue(Task{frame, [this, promise, work = std::move(work)](render::Renderer& renderer) mutable {
+  enqueue(Task{frame, [this, promise, work = std::move(work)](Renderer& renderer) mutable {
                  try {
                    if constexpr (std::is_void_v<T>) {
                      work(renderer);
@@ -75,39 +101,39 @@ std::future<T> RenderThread::enqueueWork(bool frame, Work work) {
   return result;
 }
 
-std::future<render::SceneId> RenderThread::createScene(std::shared_ptr<const scene::Scene> scene) {
-  return enqueueWork<render::SceneId>(false, [scene = std::move(scene)](render::Renderer& r) {
+std::future<SceneId> RenderThread::createScene(std::shared_ptr<const scene::Scene> scene) {
+  return enqueueWork<SceneId>(false, [scene = std::move(scene)](Renderer& r) {
     return r.createScene(*scene);
   });
 }
 
-std::future<void> RenderThread::replaceScene(render::SceneId id,
+std::future<void> RenderThread::replaceScene(SceneId id,
                                              std::shared_ptr<const scene::Scene> scene) {
-  return enqueueWork<void>(false, [id, scene = std::move(scene)](render::Renderer& r) {
+  return enqueueWork<void>(false, [id, scene = std::move(scene)](Renderer& r) {
     r.replaceScene(id, *scene);
   });
 }
 
-std::future<void> RenderThread::destroyScene(render::SceneId id) {
-  return enqueueWork<void>(false, [id](render::Renderer& r) { r.destroyScene(id); });
+std::future<void> RenderThread::destroyScene(SceneId id) {
+  return enqueueWork<void>(false, [id](Renderer& r) { r.destroyScene(id); });
 }
 
-std::future<void> RenderThread::updateLights(render::SceneId id, render::LightUpdate update) {
-  return enqueueWork<void>(false, [id, update = std::move(update)](render::Renderer& r) {
+std::future<void> RenderThread::updateLights(SceneId id, LightUpdate update) {
+  return enqueueWork<void>(false, [id, update = std::move(update)](Renderer& r) {
     r.updateLights(id, update);
   });
 }
 
-std::future<void> RenderThread::updateMaterials(render::SceneId id,
-                                                std::vector<render::MaterialWrite> writes) {
-  return enqueueWork<void>(false, [id, writes = std::move(writes)](render::Renderer& r) {
+std::future<void> RenderThread::updateMaterials(SceneId id,
+                                                std::vector<MaterialWrite> writes) {
+  return enqueueWork<void>(false, [id, writes = std::move(writes)](Renderer& r) {
     r.updateMaterials(id, writes);
   });
 }
 
-std::future<render::Frame> RenderThread::submit(render::SceneId id,
-                                                const render::FrameSettings& settings) {
-  return enqueueWork<render::Frame>(true, [id, settings](render::Renderer& r) {
+std::future<Frame> RenderThread::submit(SceneId id,
+                                                const FrameSettings& settings) {
+  return enqueueWork<Frame>(true, [id, settings](Renderer& r) {
     return r.render(id, settings);
   });
 }
@@ -125,12 +151,12 @@ void RenderThread::stop() {
 void RenderThread::run(const gpu::ContextOptions& options, const scene::Scene& scene,
                        std::promise<void>& ready) {
   std::unique_ptr<gpu::Context> context;
-  std::unique_ptr<render::Renderer> renderer;
+  std::unique_ptr<Renderer> renderer;
   try {
     context = gpu::createContext(options);
-    renderer = std::make_unique<render::Renderer>(*context);
+    renderer = std::make_unique<Renderer>(*context);
     defaultScene_ = renderer->createScene(scene);
-    device_ = context->info;
+    device_ = summarize(context->info);
     maxDimension_ = renderer->maxDimension();
     validationCounter_ = &context->validationMessages;
     gpuMemoryBytes_ = renderer->gpuMemoryBytes();
@@ -167,4 +193,4 @@ void RenderThread::run(const gpu::ContextOptions& options, const scene::Scene& s
   context.reset();
 }
 
-}  // namespace myriad::service
+}  // namespace myriad::render

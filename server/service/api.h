@@ -25,10 +25,11 @@
 namespace myriad::loader {
 class ModelLibrary;
 }
+namespace myriad::render {
+class RenderQueue;
+}
 
 namespace myriad::service {
-
-class RenderThread;
 
 // Every limit /v1/info lists under "limits", with the same names.
 struct ApiLimits {
@@ -59,7 +60,7 @@ struct ApiConfig {
 
 struct ApiContext {
   ApiConfig config;
-  RenderThread& renderThread;
+  render::RenderQueue& renderThread;  // the render thread, seen through its queue
   SessionManager& sessions;
   loader::ModelLibrary* models = nullptr;  // null without --models
 };

@@ -8,7 +8,7 @@
 
 #include <nlohmann/json.hpp>
 
-#include "service/render_thread.h"
+#include "render/render_queue.h"
 #include "web_assets.h"
 
 namespace myriad::service {
@@ -31,7 +31,7 @@ FrameRequest parsedQuery(Parse parse) {
   }
 }
 
-Problem busy(const RenderQueueFullError& e) {
+Problem busy(const render::RenderQueueFullError& e) {
   Problem problem = serverBusy(std::string("The renderer is busy: ") + e.what() + ".");
   problem.retryAfterSeconds = kRetryAfterSeconds;
   return problem;
@@ -43,7 +43,7 @@ template <typename Deliver>
 auto withFrameProblems(const std::string& what, Deliver deliver) -> decltype(deliver()) {
   try {
     return deliver();
-  } catch (const RenderQueueFullError& e) {
+  } catch (const render::RenderQueueFullError& e) {
     throw ProblemError(busy(e));
   } catch (const ProblemError&) {
     throw;

@@ -63,7 +63,7 @@ void logRequest(const httplib::Request& req, const httplib::Response& res) {
   std::fwrite(line.data(), 1, line.size(), stderr);
 }
 
-nlohmann::json deviceJson(const gpu::DeviceInfo& d) {
+nlohmann::json deviceJson(const render::DeviceSummary& d) {
   return {
       {"name", d.name},
       {"type", d.type},
@@ -87,7 +87,7 @@ nlohmann::json deviceJson(const gpu::DeviceInfo& d) {
 
 struct HttpServer::State {
   HttpConfig config;
-  RenderThread& renderThread;
+  render::RenderQueue& renderThread;
   SceneSummary scene;
   httplib::Server server;
   SessionManager sessions;
@@ -100,7 +100,7 @@ struct HttpServer::State {
   std::atomic<bool> serveEntered{false};
   std::atomic<bool> serveFinished{false};
 
-  State(const HttpConfig& c, RenderThread& r)
+  State(const HttpConfig& c, render::RenderQueue& r)
       : config(c),
         renderThread(r),
         sessions(c.api.limits.maxSessions, std::chrono::seconds(c.api.limits.sessionIdleSeconds),
@@ -110,7 +110,7 @@ struct HttpServer::State {
         frames(c.api.limits.maxStreams) {}
 
   // A closed session's GPU scene, destroyed before the DELETE (or expiry) finishes.
-  static void releaseScene(RenderThread& renderThread, Session& session) {
+  static void releaseScene(render::RenderQueue& renderThread, Session& session) {
     if (session.sceneId == 0) return;  // failed while being created: no scene yet
     try {
       renderThread.destroyScene(session.sceneId).get();
@@ -152,7 +152,7 @@ void HttpServer::State::handleInfo(httplib::Response& res) const {
                   "application/json");
 }
 
-HttpServer::HttpServer(const HttpConfig& config, RenderThread& renderThread,
+HttpServer::HttpServer(const HttpConfig& config, render::RenderQueue& renderThread,
                        const scene::Scene& scene)
     : state_(std::make_unique<State>(config, renderThread)) {
   State& s = *state_;

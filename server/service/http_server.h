@@ -7,7 +7,7 @@
 #include <string>
 
 #include "service/api.h"
-#include "service/render_thread.h"
+#include "render/render_queue.h"
 
 namespace myriad::service {
 
@@ -33,7 +33,8 @@ struct SceneSummary {
 class HttpServer {
  public:
   // `renderThread` must outlive the server. `scene` supplies the default camera and bounds.
-  HttpServer(const HttpConfig& config, RenderThread& renderThread, const scene::Scene& scene);
+  HttpServer(const HttpConfig& config, render::RenderQueue& renderThread,
+             const scene::Scene& scene);
   ~HttpServer();
   HttpServer(const HttpServer&) = delete;
   HttpServer& operator=(const HttpServer&) = delete;

@@ -55,7 +55,7 @@ scene::LightGeneration lightGenerationAround(const scene::Bounds& bounds, uint32
   return lights;
 }
 
-std::string describeDevice(const gpu::DeviceInfo& device) {
+std::string describeDevice(const render::DeviceSummary& device) {
   std::string text = device.name + " [device " + std::to_string(device.index) + ", " + device.type +
                      "], driver " + device.driverName;
   if (!device.driverInfo.empty()) text += " (" + device.driverInfo + ")";

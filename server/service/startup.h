@@ -4,7 +4,7 @@
 
 #include <string>
 
-#include "gpu/device_info.h"
+#include "render/device_summary.h"
 #include "scene/light_generator.h"
 #include "scene/scene.h"
 #include "service/options.h"
@@ -24,7 +24,7 @@ scene::LightGeneration lightGenerationAround(const scene::Bounds& bounds, uint32
                                              uint64_t seed);
 
 // "llvmpipe (LLVM 15.0.6, 256 bits) [device 0, cpu], driver llvmpipe (Mesa 22.3.6), Vulkan 1.3.230"
-std::string describeDevice(const gpu::DeviceInfo& device);
+std::string describeDevice(const render::DeviceSummary& device);
 
 // "http://127.0.0.1:8080" ("http://[::1]:8080" for IPv6 hosts).
 std::string serverUrl(const std::string& host, uint16_t port);

@@ -1,0 +1,68 @@
+// The renderer as the service sees it: a queue of scene edits and frames, answered through
+// futures. No Vulkan and no gpu/ header here, so HTTP code cannot reach the device by accident;
+// render::RenderThread (render/render_thread.h) is the implementation main() starts.
+#pragma once
+
+#include <cstdint>
+#include <future>
+#include <memory>
+#include <stdexcept>
+#include <vector>
+
+#include "render/device_summary.h"
+#include "render/frame.h"
+#include "scene/scene.h"
+
+namespace myriad::render {
+
+// submit() found the queue full (or the queue stopping); the client should retry later.
+class RenderQueueFullError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+// Every task (scene edits and frames) runs in the order submitted, so a frame submitted after an
+// edit sees the edit. Exceptions a task throws (an unknown scene: std::invalid_argument; out of
+// device memory: a gpu error) reach its future; the queue keeps serving. Every method is safe
+// from any thread.
+class RenderQueue {
+ public:
+  virtual ~RenderQueue() = default;
+
+  // Fixed at start-up.
+  virtual const DeviceSummary& device() const = 0;
+  virtual uint32_t maxDimension() const = 0;
+  virtual uint32_t maxQueuedFrames() const = 0;
+
+  // Validation messages so far (0 without validation); valid until stop().
+  virtual uint32_t validationMessages() const = 0;
+
+  // The scene the queue started with (GET /v1/frame's built-in scene). Never destroyed.
+  virtual SceneId defaultScene() const = 0;
+
+  // Scene edits: queued like frames (never refused for a full queue), run in order. Each throws
+  // RenderQueueFullError only after stop(). See render::Renderer for what each does and throws.
+  virtual std::future<SceneId> createScene(std::shared_ptr<const scene::Scene> scene) = 0;
+  virtual std::future<void> replaceScene(SceneId id, std::shared_ptr<const scene::Scene> scene) = 0;
+  virtual std::future<void> destroyScene(SceneId id) = 0;
+  virtual std::future<void> updateLights(SceneId id, LightUpdate update) = 0;
+  virtual std::future<void> updateMaterials(SceneId id, std::vector<MaterialWrite> writes) = 0;
+
+  // Queues a frame of scene `id`; the future holds the frame or what the renderer threw. The
+  // settings carry the sun, ambient and background (FrameSettings::takeLightingFrom). Throws
+  // RenderQueueFullError when maxQueuedFrames() frames already wait behind the one rendering, or
+  // after stop(). Only frames count against maxQueuedFrames().
+  virtual std::future<Frame> submit(SceneId id, const FrameSettings& settings) = 0;
+  // The same for the default scene.
+  std::future<Frame> submit(const FrameSettings& settings) {
+    return submit(defaultScene(), settings);
+  }
+
+  // GPU memory the renderer holds (every scene, targets, lists), as of the last task finished.
+  virtual uint64_t gpuMemoryBytes() const = 0;
+
+  // Runs what is already queued, then releases the renderer and the device. Idempotent.
+  virtual void stop() = 0;
+};
+
+}  // namespace myriad::render
