@@ -30,6 +30,9 @@ inline constexpr std::string_view kSessionLightsGenerate = "/v1/sessions/{id}/li
 inline constexpr std::string_view kSessionFrame = "/v1/sessions/{id}/frame";
 inline constexpr std::string_view kSessionStream = "/v1/sessions/{id}/stream";
 inline constexpr std::string_view kSessionStats = "/v1/sessions/{id}/stats";
+inline constexpr std::string_view kOpenApi = "/v1/openapi.json";  // this API as OpenAPI 3.1
+inline constexpr std::string_view kWebRoot = "/";                 // the web client's page
+inline constexpr std::string_view kWebFile = "/web/{file}";       // and its other files
 }  // namespace routes
 
 // A route template with {name} replaced by `value` (every occurrence), e.g.
@@ -118,6 +121,7 @@ inline constexpr std::string_view kFrameSequence = "X-Myriad-Frame";  // each st
 inline constexpr std::string_view kServerTiming = "Server-Timing";
 inline constexpr std::string_view kRetryAfter = "Retry-After";
 inline constexpr std::string_view kAllow = "Allow";
+inline constexpr std::string_view kLocation = "Location";  // 201: the new session's URL
 }  // namespace headers
 
 // Query parameters with meaning on both sides.
@@ -138,6 +142,10 @@ inline constexpr std::string_view kJsonContentType = "application/json";
 inline constexpr std::string_view kProblemContentType = "application/problem+json";
 inline constexpr std::string_view kUploadContentType = "application/octet-stream";
 inline constexpr std::string_view kRawContentType = "application/octet-stream";
+inline constexpr std::string_view kPngContentType = "image/png";
+inline constexpr std::string_view kJpegContentType = "image/jpeg";
+// GET /metrics: the Prometheus text exposition format, version 0.0.4.
+inline constexpr std::string_view kMetricsContentType = "text/plain; version=0.0.4; charset=utf-8";
 inline constexpr std::string_view kBuiltinModel = "builtin:default";
 inline constexpr std::string_view kLibraryPrefix = "library:";
 inline constexpr std::string_view kUploadPrefix = "upload:";

@@ -1,0 +1,428 @@
+#include "protocol/operations.h"
+
+#include <string>
+
+#include "protocol/constants.h"
+
+namespace myriad::protocol {
+namespace {
+
+using nlohmann::json;
+namespace n = schema_names;
+
+// A component schema of the OpenAPI document (openapi.cpp adds "target" and "format" beside the
+// schemas of protocol/schemas).
+json component(std::string_view name) {
+  return {{"$ref", "#/components/schemas/" + std::string(name)}};
+}
+
+json integerFrom(uint64_t minimum) {
+  return {{"type", "integer"}, {"minimum", minimum}};
+}
+
+json integerIn(uint64_t minimum, uint64_t maximum) {
+  return {{"type", "integer"}, {"minimum", minimum}, {"maximum", maximum}};
+}
+
+// Query parameters several routes share.
+QueryParameter target() {
+  return {"target", component("target"),
+          "What to render: final (tonemapped, sRGB) or a G-buffer or debug view; GET /v1/info "
+          "lists them. Default final."};
+}
+QueryParameter width() {
+  return {"width", integerFrom(1),
+          "Image width in pixels, at most limits.maxResolution. Default 1280 (shrunk to fit)."};
+}
+QueryParameter height() {
+  return {"height", integerFrom(1),
+          "Image height in pixels, at most limits.maxResolution. Default 720 (shrunk to fit)."};
+}
+QueryParameter frameFormat() {
+  return {"format", component("format"),
+          "png (8-bit RGBA), jpeg, or raw (little-endian float32, see the X-Myriad-* headers). "
+          "Default png."};
+}
+QueryParameter quality() {
+  return {"quality", integerIn(query::kMinQuality, query::kMaxQuality),
+          "JPEG quality; accepted and checked for every format. Default 85."};
+}
+
+// What a frame answers, and the headers that describe it.
+Response frameResponse() {
+  return {200,
+          "The frame. raw: width x height x N little-endian float32 values, rows top first, "
+          "channels interleaved as X-Myriad-Channels names them.",
+          {{kPngContentType, ""}, {kJpegContentType, ""}, {kRawContentType, ""}},
+          {headers::kServerTiming, headers::kTechnique, headers::kWidth, headers::kHeight,
+           headers::kChannels, headers::kTarget}};
+}
+
+Response json200(std::string_view schema, std::string_view description) {
+  return {200, description, {{kJsonContentType, schema}}, {}};
+}
+
+Response noContent(std::string_view description) {
+  return {204, description, {}, {}};
+}
+
+// Statuses of every session route: a bad query (unknown parameter), no or a malformed token, the
+// token of another session, an unknown or closed session.
+const std::vector<int> kSessionProblems = {400, 401, 403, 404};
+// ... and those with a JSON body: its schema, its size, its media type.
+const std::vector<int> kSessionBodyProblems = {400, 401, 403, 404, 413, 415};
+
+std::vector<Operation> buildOperations() {
+  std::vector<Operation> ops;
+
+  // Server-wide routes.
+  ops.push_back({.method = "GET",
+                 .route = routes::kHealth,
+                 .id = "getHealth",
+                 .tag = "Server",
+                 .summary = "Liveness",
+                 .responses = {json200(n::kHealth, "The server accepts requests.")}});
+  ops.push_back({.method = "GET",
+                 .route = routes::kInfo,
+                 .id = "getInfo",
+                 .tag = "Server",
+                 .summary = "The device, limits, targets, techniques and formats",
+                 .responses = {json200(n::kInfo, "What the server runs on and what it serves.")}});
+  ops.push_back(
+      {.method = "GET",
+       .route = routes::kOpenApi,
+       .id = "getOpenApi",
+       .tag = "Server",
+       .summary = "This API as an OpenAPI 3.1 document",
+       .responses = {{200, "The OpenAPI 3.1 document (this one).", {{kJsonContentType, ""}}, {}}}});
+  ops.push_back(
+      {.method = "GET",
+       .route = routes::kFrame,
+       .id = "getFrame",
+       .tag = "Frames",
+       .summary = "One frame of the built-in scene, without a session",
+       .query = {target(),
+                 width(),
+                 height(),
+                 frameFormat(),
+                 quality(),
+                 {"eye",
+                  {{"type", "string"}},
+                  "Camera position x,y,z: three finite numbers, each within +-1e6. Default: the "
+                  "scene's camera."},
+                 {"look_at",
+                  {{"type", "string"}},
+                  "The point looked at, x,y,z, different from eye. Default: the scene's camera."},
+                 {"fov",
+                  {{"type", "number"}, {"exclusiveMinimum", 0}, {"exclusiveMaximum", 180}},
+                  "Vertical field of view in degrees. Default: the scene's camera."},
+                 {"markers",
+                  {{"type", "boolean"}},
+                  "Draw a small marker at each local light (true, false, 1 or 0). Default true."},
+                 {"exposure",
+                  {{"type", "number"}, {"exclusiveMinimum", 0}},
+                  "Multiplier before tonemapping. Default 1."},
+                 {"technique", component("technique"),
+                  "How local lights are shaded. Default: GET /v1/info defaultTechnique."}},
+       .responses = {frameResponse()},
+       .problems = {400, 500, 503}});
+  ops.push_back({.method = "GET",
+                 .route = routes::kModels,
+                 .id = "listModels",
+                 .tag = "Server",
+                 .summary = "The model files of the --models directory",
+                 .responses = {json200(n::kModelsList,
+                                       "Every model file, by its name relative to the directory.")},
+                 .problems = {400}});
+  ops.push_back(
+      {.method = "GET",
+       .route = routes::kMetrics,
+       .id = "getMetrics",
+       .tag = "Server",
+       .summary = "Prometheus metrics",
+       .responses =
+           {{200, "Prometheus text exposition format 0.0.4.", {{kMetricsContentType, ""}}, {}}},
+       .problems = {400}});
+  ops.push_back({.method = "GET",
+                 .route = routes::kWebRoot,
+                 .id = "getWebClient",
+                 .tag = "Web client",
+                 .summary = "The web client's page",
+                 .responses = {{200, "The page (HTML).", {{"text/html", ""}}, {}}}});
+  ops.push_back({.method = "GET",
+                 .route = routes::kWebFile,
+                 .id = "getWebClientFile",
+                 .tag = "Web client",
+                 .summary = "A file of the web client (scripts, styles)",
+                 .responses = {{200, "The file, with its media type.", {{"*/*", ""}}, {}}},
+                 .problems = {404}});
+
+  // Sessions.
+  ops.push_back({.method = "POST",
+                 .route = routes::kSessions,
+                 .id = "createSession",
+                 .tag = "Sessions",
+                 .summary = "Open a session",
+                 .access = Access::ApiKeyWhenSet,
+                 .body = {{kJsonContentType, n::kSessionCreate}},
+                 .bodyRequired = false,
+                 .responses = {{201,
+                                "The session: its id, its token, and its state.",
+                                {{kJsonContentType, n::kSessionCreated}},
+                                {headers::kLocation}}},
+                 .problems = {400, 401, 404, 413, 415, 422, 429, 503}});
+  ops.push_back({.method = "GET",
+                 .route = routes::kSession,
+                 .id = "getSession",
+                 .tag = "Sessions",
+                 .summary = "A session's state",
+                 .access = Access::Session,
+                 .responses = {json200(n::kSessionState, "The session state.")},
+                 .problems = kSessionProblems});
+  ops.push_back({.method = "DELETE",
+                 .route = routes::kSession,
+                 .id = "deleteSession",
+                 .tag = "Sessions",
+                 .summary = "Delete a session (its GPU memory is freed before the answer)",
+                 .access = Access::Session,
+                 .responses = {noContent("Deleted; its streams end.")},
+                 .problems = kSessionProblems});
+
+  // Model.
+  ops.push_back(
+      {.method = "PUT",
+       .route = routes::kSessionModel,
+       .id = "putSessionModel",
+       .tag = "Model",
+       .summary =
+           "Replace the session's model: a library model, the built-in one, or an uploaded file",
+       .access = Access::Session,
+       .query =
+           {{"filename",
+             {{"type", "string"}, {"minLength", 1}, {"maxLength", 255}, {"pattern", "^[^/]+$"}},
+             "An upload's file name, NAME.EXT: the extension names the format. Required "
+             "with application/octet-stream, refused with JSON."},
+            {"lights",
+             {{"type", "string"}, {"enum", {"keep", "model"}}},
+             "keep the session's lights (the default), or replace them with the model's "
+             "glTF punctual lights."}},
+       .body = {{kJsonContentType, n::kModelSource}, {kUploadContentType, ""}},
+       .responses = {json200(n::kSessionState, "The new session state.")},
+       .problems = {400, 401, 403, 404, 413, 415, 422, 503}});
+
+  // Camera.
+  ops.push_back({.method = "GET",
+                 .route = routes::kSessionCamera,
+                 .id = "getCamera",
+                 .tag = "Camera",
+                 .summary = "The camera",
+                 .access = Access::Session,
+                 .responses = {json200(n::kCamera, "The camera.")},
+                 .problems = kSessionProblems});
+  ops.push_back({.method = "PUT",
+                 .route = routes::kSessionCamera,
+                 .id = "putCamera",
+                 .tag = "Camera",
+                 .summary = "Set the whole camera",
+                 .access = Access::Session,
+                 .body = {{kJsonContentType, n::kCamera}},
+                 .responses = {json200(n::kCamera, "The camera.")},
+                 .problems = kSessionBodyProblems});
+  ops.push_back({.method = "PATCH",
+                 .route = routes::kSessionCamera,
+                 .id = "patchCamera",
+                 .tag = "Camera",
+                 .summary = "Change some members of the camera",
+                 .access = Access::Session,
+                 .body = {{kJsonContentType, n::kCameraPatch}},
+                 .responses = {json200(n::kCamera, "The whole camera.")},
+                 .problems = kSessionBodyProblems});
+  ops.push_back({.method = "POST",
+                 .route = routes::kSessionCameraFrame,
+                 .id = "frameCamera",
+                 .tag = "Camera",
+                 .summary = "Move the camera so that the model fills the view",
+                 .access = Access::Session,
+                 .responses = {json200(n::kCamera, "The camera.")},
+                 .problems = kSessionProblems});
+
+  // Settings.
+  ops.push_back({.method = "GET",
+                 .route = routes::kSessionSettings,
+                 .id = "getSettings",
+                 .tag = "Settings",
+                 .summary = "Sun, ambient, exposure, markers, technique, animation, background",
+                 .access = Access::Session,
+                 .responses = {json200(n::kSettings, "The settings.")},
+                 .problems = kSessionProblems});
+  ops.push_back({.method = "PATCH",
+                 .route = routes::kSessionSettings,
+                 .id = "patchSettings",
+                 .tag = "Settings",
+                 .summary = "Change some settings (the members of sun individually)",
+                 .access = Access::Session,
+                 .body = {{kJsonContentType, n::kSettingsPatch}},
+                 .responses = {json200(n::kSettings, "The whole settings.")},
+                 .problems = kSessionBodyProblems});
+
+  // Materials.
+  ops.push_back({.method = "GET",
+                 .route = routes::kSessionMaterials,
+                 .id = "listMaterials",
+                 .tag = "Materials",
+                 .summary = "The model's materials, in id order",
+                 .access = Access::Session,
+                 .responses = {json200(n::kMaterialsList, "Every material.")},
+                 .problems = kSessionProblems});
+  ops.push_back({.method = "PATCH",
+                 .route = routes::kSessionMaterial,
+                 .id = "patchMaterial",
+                 .tag = "Materials",
+                 .summary = "Change a material's base colour, metallic or roughness",
+                 .access = Access::Session,
+                 .body = {{kJsonContentType, n::kMaterialPatch}},
+                 .responses = {json200(n::kMaterial, "The material.")},
+                 .problems = kSessionBodyProblems});
+
+  // Lights.
+  ops.push_back({.method = "GET",
+                 .route = routes::kSessionLights,
+                 .id = "listLights",
+                 .tag = "Lights",
+                 .summary = "A page of lights, in id order",
+                 .access = Access::Session,
+                 .query = {{"offset", integerFrom(0), "Lights to skip. Default 0."},
+                           {"limit", integerIn(0, query::kMaxLightsPageLimit),
+                            "Most lights to return. Default " +
+                                std::to_string(query::kDefaultLightsPageLimit) + "."}},
+                 .responses = {json200(n::kLightsPage, "The page and the session's light count.")},
+                 .problems = kSessionProblems});
+  ops.push_back({.method = "POST",
+                 .route = routes::kSessionLights,
+                 .id = "addLights",
+                 .tag = "Lights",
+                 .summary = "Add lights (ids are assigned by the server)",
+                 .access = Access::Session,
+                 .body = {{kJsonContentType, n::kLightsAdd}},
+                 .responses = {{201,
+                                "The new ids in request order, and the light count now.",
+                                {{kJsonContentType, n::kLightsAdded}},
+                                {}}},
+                 .problems = kSessionBodyProblems});
+  ops.push_back({.method = "DELETE",
+                 .route = routes::kSessionLights,
+                 .id = "clearLights",
+                 .tag = "Lights",
+                 .summary = "Remove every light",
+                 .access = Access::Session,
+                 .responses = {noContent("Every light removed.")},
+                 .problems = kSessionProblems});
+  ops.push_back({.method = "POST",
+                 .route = routes::kSessionLightsGenerate,
+                 .id = "generateLights",
+                 .tag = "Lights",
+                 .summary = "Random lights from a seed (the same request gives the same lights)",
+                 .access = Access::Session,
+                 .body = {{kJsonContentType, n::kLightsGenerate}},
+                 .responses = {json200(n::kLightsGenerated, "The session's light count now.")},
+                 .problems = kSessionBodyProblems});
+  ops.push_back({.method = "GET",
+                 .route = routes::kSessionLight,
+                 .id = "getLight",
+                 .tag = "Lights",
+                 .summary = "One light",
+                 .access = Access::Session,
+                 .responses = {json200(n::kLight, "The light.")},
+                 .problems = kSessionProblems});
+  ops.push_back({.method = "PATCH",
+                 .route = routes::kSessionLight,
+                 .id = "patchLight",
+                 .tag = "Lights",
+                 .summary = "Change some members of a light",
+                 .access = Access::Session,
+                 .body = {{kJsonContentType, n::kLightPatch}},
+                 .responses = {json200(n::kLight, "The light.")},
+                 .problems = kSessionBodyProblems});
+  ops.push_back({.method = "DELETE",
+                 .route = routes::kSessionLight,
+                 .id = "deleteLight",
+                 .tag = "Lights",
+                 .summary = "Remove one light",
+                 .access = Access::Session,
+                 .responses = {noContent("Removed.")},
+                 .problems = kSessionProblems});
+
+  // Frames, streams, stats.
+  ops.push_back(
+      {.method = "GET",
+       .route = routes::kSessionFrame,
+       .id = "getSessionFrame",
+       .tag = "Frames",
+       .summary = "One frame of the session's scene, with its camera and settings",
+       .access = Access::SessionOrQueryToken,
+       .query = {target(),
+                 frameFormat(),
+                 width(),
+                 height(),
+                 quality(),
+                 {"time",
+                  {{"type", "number"}, {"minimum", 0}, {"maximum", 1e6}},
+                  "Animation time in seconds (with animate on). Default: the session's clock."}},
+       .responses = {frameResponse()},
+       .problems = {400, 401, 403, 404, 500, 503}});
+  ops.push_back(
+      {.method = "GET",
+       .route = routes::kSessionStream,
+       .id = "getSessionStream",
+       .tag = "Streams",
+       .summary = "A live view: a new image whenever the scene changes, at most fps a second",
+       .access = Access::SessionOrQueryToken,
+       .query = {target(),
+                 {"format",
+                  {{"type", "string"}, {"enum", {"jpeg", "png"}}},
+                  "jpeg or png. Default jpeg."},
+                 {"fps", integerIn(query::kMinFps, query::kMaxFps),
+                  "Most frames per second. Default " + std::to_string(query::kDefaultFps) + "."},
+                 width(),
+                 height(),
+                 quality()},
+       .responses = {{200,
+                      "multipart/x-mixed-replace: each part an image with Content-Type, "
+                      "Content-Length and X-Myriad-Frame (its sequence number; a re-send keeps "
+                      "it).",
+                      {{kStreamContentType, ""}},
+                      {}}},
+       .problems = {400, 401, 403, 404, 429, 503}});
+  ops.push_back({.method = "GET",
+                 .route = routes::kSessionStats,
+                 .id = "getSessionStats",
+                 .tag = "Stats",
+                 .summary = "The last frame's GPU times, light culling and memory",
+                 .access = Access::Session,
+                 .responses = {json200(n::kStats, "The session's stats.")},
+                 .problems = kSessionProblems});
+  return ops;
+}
+
+}  // namespace
+
+const std::vector<Operation>& operations() {
+  static const std::vector<Operation> table = buildOperations();
+  return table;
+}
+
+const Operation* findOperation(std::string_view method, std::string_view route) {
+  for (const Operation& op : operations()) {
+    if (op.method == method && op.route == route) return &op;
+  }
+  return nullptr;
+}
+
+std::vector<std::string_view> queryParameterNames(const Operation& operation) {
+  std::vector<std::string_view> names;
+  for (const QueryParameter& p : operation.query) names.push_back(p.name);
+  if (operation.access == Access::SessionOrQueryToken) names.push_back(query::kToken);
+  return names;
+}
+
+}  // namespace myriad::protocol
