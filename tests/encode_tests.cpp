@@ -10,6 +10,7 @@
 
 #include "encode/jpeg.h"
 #include "encode/raw.h"
+#include "render/frame.h"
 
 using namespace myriad;
 
@@ -134,7 +135,7 @@ TEST_CASE("raw packing keeps exactly the target's channels, little-endian, rows 
   for (render::Target target : {render::Target::Final, render::Target::Uv, render::Target::Depth,
                                 render::Target::Clusters, render::Target::LightCount}) {
     const size_t channels = render::rawChannels(target).size();
-    std::vector<uint8_t> bytes = encode::packRaw(frame, target);
+    std::vector<uint8_t> bytes = encode::packRaw(frame.width, frame.height, frame.data, channels);
     CAPTURE(render::targetName(target));
     REQUIRE(bytes.size() == 6 * channels * 4);
     size_t mismatches = 0;
@@ -150,9 +151,10 @@ TEST_CASE("raw packing keeps exactly the target's channels, little-endian, rows 
     CHECK(mismatches == 0);
   }
   CHECK(render::rawChannels(render::Target::Depth).size() == 1);
-  CHECK(encode::packRaw(frame, render::Target::Depth).size() == 6 * 4);
+  const size_t depthChannels = render::rawChannels(render::Target::Depth).size();
+  CHECK(encode::packRaw(frame.width, frame.height, frame.data, depthChannels).size() == 6 * 4);
   // Pixel (0,0) depth, then (1,0): -1.5 and -0.5 as little-endian floats.
-  std::vector<uint8_t> depth = encode::packRaw(frame, render::Target::Depth);
+  std::vector<uint8_t> depth = encode::packRaw(frame.width, frame.height, frame.data, depthChannels);
   float first, second;
   std::memcpy(&first, &depth[0], 4);
   std::memcpy(&second, &depth[4], 4);
@@ -165,5 +167,7 @@ TEST_CASE("raw packing refuses a frame without float data") {
   frame.width = 4;
   frame.height = 4;
   frame.rgba.resize(64);
-  CHECK_THROWS_AS(encode::packRaw(frame, render::Target::Final), std::invalid_argument);
+  CHECK_THROWS_AS(encode::packRaw(frame.width, frame.height, frame.data,
+                                  render::rawChannels(render::Target::Final).size()),
+                  std::invalid_argument);
 }

@@ -1,17 +1,28 @@
-// format=raw: a frame's float values as bytes. Plain CPU code, like the image encoders.
+// format=raw: a frame's float values as bytes. Plain CPU code, like the image encoders; it knows
+// pixels and channel counts, not the renderer's types.
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
+#include <span>
 #include <vector>
-
-#include "render/frame.h"
 
 namespace myriad::encode {
 
-// N little-endian float32 channels per pixel, rows top first, where N and the channels' meaning
-// are render::rawChannels(target) (the rest of the renderer's 4 floats are dropped). `frame` must
-// be a raw frame (FrameSettings::raw): throws std::invalid_argument when frame.data does not hold
-// width * height * 4 floats.
-std::vector<uint8_t> packRaw(const render::Frame& frame, render::Target target);
+// The first `channels` (1..4) of each pixel of `pixels` (4 floats per pixel, rows top first, as
+// the renderer reads a raw frame back) as little-endian float32, rows top first; the rest of each
+// pixel's 4 floats are dropped. Which channels mean what is the caller's business
+// (render::rawChannels(target)). Throws std::invalid_argument when `pixels` does not hold
+// width * height * 4 floats or `channels` is outside 1..4.
+std::vector<uint8_t> packRaw(uint32_t width, uint32_t height, std::span<const float> pixels,
+                             size_t channels);
+
+// TEMPORARY: the old call shape, packRaw(frame, target), for callers not yet passing pixels and a
+// channel count. Found through the arguments' own namespace (rawChannels(target) is the
+// renderer's), so this header includes nothing of render/. Delete once nothing calls it.
+template <typename Frame, typename Target>
+std::vector<uint8_t> packRaw(const Frame& frame, Target target) {
+  return packRaw(frame.width, frame.height, frame.data, rawChannels(target).size());
+}
 
 }  // namespace myriad::encode
