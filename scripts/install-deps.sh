@@ -19,6 +19,7 @@ build_packages=(
   nlohmann-json3-dev
   libpng-dev
   libturbojpeg0-dev        # JPEG frames and streams (TurboJPEG API)
+  libzip-dev               # zip uploads of a model with its files, read in the loader child
   doctest-dev
 )
 test_packages=(

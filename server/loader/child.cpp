@@ -15,6 +15,7 @@
 #include <new>
 #include <string>
 
+#include "loader/archive.h"
 #include "loader/child_protocol.h"
 #include "loader/loader.h"
 #include "loader/sandbox.h"
@@ -139,7 +140,7 @@ int serve() {
   RequestHeader header;
   if (!readAll(STDIN_FILENO, &header, sizeof header) ||
       std::memcmp(header.magic, kRequestMagic, 4) != 0 || header.version != kProtocolVersion ||
-      header.nameBytes > kMaxNameBytes) {
+      header.nameBytes > kMaxNameBytes || header.entryBytes > kMaxNameBytes) {
     return kExitBadRequest;
   }
   const rlim_t cpu = header.cpuSeconds;
@@ -153,8 +154,10 @@ int serve() {
   std::set_new_handler(outOfMemory);
 
   std::string name(header.nameBytes, '\0');
+  std::string entry(header.entryBytes, '\0');
   uint64_t dataBytes = 0;
   if (!readAll(STDIN_FILENO, name.data(), name.size()) ||
+      !readAll(STDIN_FILENO, entry.data(), entry.size()) ||
       !readAll(STDIN_FILENO, &dataBytes, sizeof dataBytes)) {
     return kExitBadRequest;
   }
@@ -173,9 +176,23 @@ int serve() {
   try {
     std::string data(dataBytes, '\0');
     if (!readAll(STDIN_FILENO, data.data(), data.size())) return kExitBadRequest;
-    const scene::Scene scene = header.mode == Mode::file
-                                   ? scene::loadModel(name)
-                                   : scene::loadModelFromMemory(data, name);
+    const ArchiveLimits archiveLimits{header.maxArchiveEntries, header.maxArchiveBytes,
+                                      header.maxCompressionRatio};
+    scene::Scene scene;
+    switch (header.mode) {
+      case Mode::file: scene = scene::loadModel(name); break;
+      case Mode::bytes: scene = scene::loadModelFromMemory(data, name); break;
+      case Mode::archive:
+      case Mode::files: {
+        const scene::MemoryFiles files = header.mode == Mode::archive
+                                             ? readZipArchive(data, name, archiveLimits)
+                                             : decodeFileSet(data, name, archiveLimits);
+        data = std::string();  // the archive's bytes are no longer needed
+        scene = scene::loadModelFromFiles(files, scene::modelEntryOf(files, entry, name));
+        break;
+      }
+      default: return kExitBadRequest;
+    }
     return reply(kReplyScene, encodeScene(scene));
   } catch (const scene::ModelLoadError& e) {
     return rejected(e.kind(), e.what());

@@ -3,8 +3,11 @@
 // checks every byte it reads back (decodeScene).
 //
 // Request (stdin):  "MYLQ" u32 version u8 mode u8 fault u16 0 u32 cpuSeconds u64 memoryBytes
-//                   u32 nameBytes, name (a file name for messages and the format hint, or the
-//                   path to open), u64 dataBytes, data (the upload; none for a file)
+//                   u32 maxArchiveEntries u32 maxCompressionRatio u64 maxArchiveBytes
+//                   u32 nameBytes u32 entryBytes, name (a file name for messages and the format
+//                   hint, or the path to open), entry (archive and files: the model's member path,
+//                   empty = find the one model file), u64 dataBytes, data (the upload: the file,
+//                   the zip archive, or the file set of archive.h; none for a file)
 // Reply (stdout):   "MYLR" u8 status, then for kReplyScene the scene (scene_wire.h), for
 //                   kReplyRejected u8 ModelLoadError::Kind, u32 sentenceBytes, sentence.
 #pragma once
@@ -15,9 +18,14 @@ namespace myriad::loader::child {
 
 inline constexpr char kRequestMagic[4] = {'M', 'Y', 'L', 'Q'};
 inline constexpr char kReplyMagic[4] = {'M', 'Y', 'L', 'R'};
-inline constexpr uint32_t kProtocolVersion = 1;
+inline constexpr uint32_t kProtocolVersion = 2;
 
-enum class Mode : uint8_t { bytes = 0, file = 1 };
+enum class Mode : uint8_t {
+  bytes = 0,    // one uploaded file
+  file = 1,     // a library file, opened by path
+  archive = 2,  // a zip archive (application/zip upload)
+  files = 3,    // several uploaded files (multipart/form-data), as archive.h's file set
+};
 
 #pragma pack(push, 1)
 struct RequestHeader {
@@ -28,7 +36,11 @@ struct RequestHeader {
   uint16_t reserved;
   uint32_t cpuSeconds;
   uint64_t memoryBytes;
+  uint32_t maxArchiveEntries;
+  uint32_t maxCompressionRatio;
+  uint64_t maxArchiveBytes;
   uint32_t nameBytes;
+  uint32_t entryBytes;
 };
 #pragma pack(pop)
 

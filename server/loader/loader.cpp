@@ -342,6 +342,7 @@ scene::Scene interpret(const ChildRun& run, const std::string& name, const LoadL
     const auto kind = Kind(uint8_t(body[0]));
     const std::string reason = kind == Kind::empty         ? "empty"
                                : kind == Kind::unsupported ? "unsupported"
+                               : kind == Kind::tooLarge    ? "too-large"
                                                            : "parse";
     // Assimp's messages may quote the file (any bytes, line breaks included); the sentence goes
     // into JSON and logs.
@@ -393,7 +394,7 @@ ChildSlots& childSlots() {
 }
 
 scene::Scene load(Mode mode, const std::string& nameOrPath, const std::string& shown,
-                  std::string_view data, const LoadLimits& limits) {
+                  std::string_view data, const LoadLimits& limits, std::string_view entry = {}) {
   RequestHeader header{};
   std::memcpy(header.magic, kRequestMagic, 4);
   header.version = kProtocolVersion;
@@ -401,12 +402,17 @@ scene::Scene load(Mode mode, const std::string& nameOrPath, const std::string& s
   header.fault = uint8_t(limits.fault);
   header.cpuSeconds = limits.cpuSeconds;
   header.memoryBytes = limits.memoryBytes;
+  header.maxArchiveEntries = limits.archive.maxEntries;
+  header.maxCompressionRatio = limits.archive.maxCompressionRatio;
+  header.maxArchiveBytes = limits.archive.maxBytes;
   header.nameBytes = uint32_t(nameOrPath.size());
+  header.entryBytes = uint32_t(entry.size());
   const uint64_t dataBytes = data.size();
 
   const std::vector<std::string_view> request = {
       {reinterpret_cast<const char*>(&header), sizeof header},
       nameOrPath,
+      entry,
       {reinterpret_cast<const char*>(&dataBytes), sizeof dataBytes},
       data};
 
@@ -454,6 +460,27 @@ scene::Scene loadModelBytes(std::string_view bytes, std::string_view filename,
   }
   if (bytes.empty()) throw ModelRejected("empty", "Cannot load model '" + shown + "': the file is empty.");
   return load(Mode::bytes, shown, shown, bytes, limits);
+}
+
+scene::Scene loadModelArchive(std::string_view zipBytes, std::string_view filename,
+                              std::string_view entry, const LoadLimits& limits) {
+  const std::string shown = shownName(filename);
+  if (entry.size() > kMaxNameBytes) {
+    throw ModelRejected("unsupported", "Cannot load model '" + shown + "': the entry is too long.");
+  }
+  if (zipBytes.empty()) throw ModelRejected("empty", "Cannot load model '" + shown + "': the archive is empty.");
+  return load(Mode::archive, shown, shown, zipBytes, limits, entry);
+}
+
+scene::Scene loadModelFiles(const scene::MemoryFiles& files, std::string_view entry,
+                            const LoadLimits& limits) {
+  const std::string shown =
+      shownName(entry.empty() ? std::string_view("upload") : std::string_view(entry));
+  if (entry.size() > kMaxNameBytes) {
+    throw ModelRejected("unsupported", "Cannot load model '" + shown + "': the entry is too long.");
+  }
+  if (files.empty()) throw ModelRejected("empty", "Cannot load model '" + shown + "': no files were sent.");
+  return load(Mode::files, shown, shown, encodeFileSet(files), limits, entry);
 }
 
 scene::Scene loadModelFile(const std::filesystem::path& path, const LoadLimits& limits) {

@@ -10,6 +10,7 @@
 #include <string>
 #include <string_view>
 
+#include "loader/archive.h"
 #include "scene/model_loader.h"
 #include "scene/scene.h"
 
@@ -33,6 +34,7 @@ struct LoadLimits {
   uint32_t wallSeconds = 30;                 // the parent kills the child after this
   uint64_t memoryBytes = 2ull << 30;         // RLIMIT_AS of the child
   uint64_t maxOutputBytes = 512ull << 20;    // the serialized scene the child may send back
+  ArchiveLimits archive;                     // uploads of several files (zip or multipart)
   InjectedFault fault = InjectedFault::none; // tests only
 };
 
@@ -57,6 +59,17 @@ struct ModelRejected : scene::ModelLoadError {
 // Parses an uploaded file. `filename`'s extension is the format hint (".glb", ".obj", ...); only
 // the bytes given are read, so a .gltf naming external files is rejected ("unsupported").
 scene::Scene loadModelBytes(std::string_view bytes, std::string_view filename,
+                            const LoadLimits& limits = {});
+
+// Parses a zip archive holding a model and the files it refers to (a .gltf with its .bin and
+// images, an .obj with its .mtl). `entry` is the model's path inside (empty: the archive's one
+// model file). The archive is read in the child, under `limits.archive` (archive.h); a refusal
+// there is "too-large" (a limit, named) or "unsupported"/"parse" (the archive's fault).
+scene::Scene loadModelArchive(std::string_view zipBytes, std::string_view filename,
+                              std::string_view entry, const LoadLimits& limits = {});
+
+// The same for several uploaded files (a multipart/form-data upload) by member path.
+scene::Scene loadModelFiles(const scene::MemoryFiles& files, std::string_view entry,
                             const LoadLimits& limits = {});
 
 // Parses a file on disk (a library model). The child opens it, so a .gltf may use the .bin and

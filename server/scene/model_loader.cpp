@@ -9,12 +9,14 @@
 #include <vector>
 
 #include <assimp/DefaultIOSystem.h>
+#include <assimp/MemoryIOWrapper.h>
 #include <assimp/material.h>
 #include <assimp/postprocess.h>
 #include <assimp/scene.h>
 #include <assimp/Importer.hpp>
 
 #include "scene/camera.h"
+#include "scene/memory_files.h"
 
 namespace myriad::scene {
 
@@ -88,6 +90,36 @@ class ConfinedIOSystem : public Assimp::DefaultIOSystem {
 
   std::filesystem::path root_;
   mutable std::vector<std::string> refused_;
+};
+
+// The file system as Assimp sees it while importing an upload of several files: the members of
+// the set and nothing else (no absolute path, nothing above the set's root, no real file). Paths
+// are taken relative to the set's root, as Assimp builds them from the model's own path.
+class MemberIOSystem : public Assimp::IOSystem {
+ public:
+  explicit MemberIOSystem(const MemoryFiles& files) : files_(files) {}
+
+  bool Exists(const char* file) const override {
+    return file != nullptr && findMember(files_, file) != nullptr;
+  }
+  char getOsSeparator() const override { return '/'; }
+
+  Assimp::IOStream* Open(const char* file, const char* mode) override {
+    const std::string* bytes = file != nullptr ? findMember(files_, file) : nullptr;
+    if (bytes == nullptr || std::string_view(mode).find_first_of("wa+") != std::string_view::npos) {
+      if (refused_.size() < 4 && file != nullptr) refused_.emplace_back(file);
+      return nullptr;
+    }
+    return new Assimp::MemoryIOStream(reinterpret_cast<const uint8_t*>(bytes->data()),
+                                      bytes->size());
+  }
+  void Close(Assimp::IOStream* stream) override { delete stream; }
+
+  const std::vector<std::string>& refused() const { return refused_; }
+
+ private:
+  const MemoryFiles& files_;
+  std::vector<std::string> refused_;
 };
 
 void configure(Assimp::Importer& importer) {
@@ -492,6 +524,30 @@ Scene loadModelFromMemory(std::string_view bytes, std::string_view filename) {
                "', which an upload cannot carry (send a .glb or a .gltf with embedded data, or "
                "put the files in the model library)",
            Kind::unsupported);
+    }
+    fail(name, importer.GetErrorString());
+  }
+  return convertImport(importer, raw, name);
+}
+
+Scene loadModelFromFiles(const MemoryFiles& files, std::string_view entry) {
+  const std::string name = std::filesystem::path(entry).filename().string();
+  const std::string* bytes = findMember(files, entry);
+  if (bytes == nullptr) fail(name, "the upload holds no such file", Kind::unsupported);
+  if (!isSupportedModelExtension(std::filesystem::path(entry).extension().string())) {
+    fail(name, "it is not in a model format this server reads", Kind::unsupported);
+  }
+  if (bytes->empty()) fail(name, "the file is empty", Kind::empty);
+
+  Assimp::Importer importer;
+  configure(importer);
+  auto* io = new MemberIOSystem(files);
+  importer.SetIOHandler(io);  // the importer owns it
+  const aiScene* raw = importer.ReadFile(std::string(entry), aiProcess_ValidateDataStructure);
+  if (raw == nullptr) {
+    if (!io->refused().empty()) {
+      fail(name, "it refers to the file '" + io->refused().front() +
+                     "', which the upload does not hold (" + importer.GetErrorString() + ")");
     }
     fail(name, importer.GetErrorString());
   }

@@ -54,6 +54,64 @@ ScenePtr loadSource(const ApiContext& context, std::string_view source) {
   }
 }
 
+// ?filename= of an upload: a file name without slashes. Throws 400 naming it.
+std::string uploadFilename(const httplib::Request& req) {
+  const std::string filename = req.get_param_value("filename");
+  if (filename.size() > 255 || filename.find('/') != std::string::npos ||
+      filename.find('\\') != std::string::npos) {
+    throw ProblemError(invalidParameter(
+        "filename", "\"filename\" must be a file name of at most 255 bytes without slashes."));
+  }
+  return filename;
+}
+
+// A model with the files it refers to, as a zip archive (application/zip, ?filename= optional,
+// ?entry= the model inside when there are several). Read in the loader child.
+ScenePtr loadArchiveUpload(const httplib::Request& req, std::string& source) {
+  const std::string filename = req.has_param("filename") ? uploadFilename(req) : "upload.zip";
+  source = std::string(protocol::kUploadPrefix) + filename;
+  try {
+    return std::make_shared<scene::Scene>(
+        loader::loadModelArchive(req.body, filename, req.get_param_value("entry")));
+  } catch (const loader::ModelRejected& e) {
+    throw ProblemError(loadProblem(e));
+  }
+}
+
+// Several files as multipart/form-data, each part a file (its filename the path the model uses
+// for it, folders allowed); ?entry= names the model when there are several.
+ScenePtr loadFilesUpload(const httplib::Request& req, std::string& source) {
+  scene::MemoryFiles files;
+  for (const auto& [field, part] : req.files) {
+    if (part.filename.empty()) {
+      throw ProblemError(invalidBody(
+          "", "Every part of a multipart model upload must be a file (with a filename); the part " +
+                  quoteClientText(field) + " has none."));
+    }
+    const std::optional<std::string> path = scene::normalizeMemberPath(part.filename);
+    if (!path) {
+      throw ProblemError(modelRejected("The uploaded file name " + quoteClientText(part.filename) +
+                                       " is an absolute path or leaves the upload (..)."));
+    }
+    if (!files.emplace(*path, part.content).second) {
+      throw ProblemError(
+          modelRejected("The upload holds the file " + quoteClientText(*path) + " twice."));
+    }
+  }
+  if (files.empty()) {
+    throw ProblemError(invalidBody("", "A multipart model upload needs at least one file part."));
+  }
+  const std::string entry = req.get_param_value("entry");
+  try {
+    scene::Scene scene = loader::loadModelFiles(files, entry);
+    source = std::string(protocol::kUploadPrefix) +
+             (entry.empty() ? scene::modelEntryOf(files, {}, "upload") : entry);
+    return std::make_shared<scene::Scene>(std::move(scene));
+  } catch (const loader::ModelRejected& e) {
+    throw ProblemError(loadProblem(e));
+  }
+}
+
 // The uploaded file of PUT .../model (application/octet-stream).
 ScenePtr loadUpload(const httplib::Request& req) {
   if (!req.has_param("filename") || req.get_param_value("filename").empty()) {
@@ -61,12 +119,7 @@ ScenePtr loadUpload(const httplib::Request& req) {
         "filename", "An upload needs ?filename=NAME.EXT: its extension tells the loader the "
                     "format (.glb, .gltf, .obj, ...)."));
   }
-  const std::string filename = req.get_param_value("filename");
-  if (filename.size() > 255 || filename.find('/') != std::string::npos ||
-      filename.find('\\') != std::string::npos) {
-    throw ProblemError(invalidParameter(
-        "filename", "\"filename\" must be a file name of at most 255 bytes without slashes."));
-  }
+  const std::string filename = uploadFilename(req);
   try {
     return std::make_shared<scene::Scene>(loader::loadModelBytes(req.body, filename));
   } catch (const loader::ModelRejected& e) {
@@ -129,7 +182,7 @@ void createSession(ApiContext& context, const httplib::Request& req, httplib::Re
 
 void putModel(ApiContext& context, const httplib::Request& req, httplib::Response& res) {
   SessionPtr session = authorizeSession(context, req);
-  checkQuery(req, {"filename", "lights"});
+  checkQuery(req, {"filename", "lights", "entry"});
   bool modelLights = false;
   if (req.has_param("lights")) {
     const std::string value = req.get_param_value("lights");
@@ -144,7 +197,23 @@ void putModel(ApiContext& context, const httplib::Request& req, httplib::Respons
   const std::string type = req.get_header_value("Content-Type");
   ScenePtr scene;
   std::string source;
-  if (type.starts_with("application/octet-stream")) {
+  const bool severalFiles = type.starts_with("application/zip") ||
+                           type.starts_with("application/x-zip-compressed") ||
+                           type.starts_with("multipart/form-data");
+  if (req.has_param("entry") && !severalFiles) {
+    throw ProblemError(invalidParameter(
+        "entry", "\"entry\" names the model inside a zip or multipart upload of several files."));
+  }
+  if (type.starts_with("multipart/form-data")) {
+    if (req.has_param("filename")) {
+      throw ProblemError(invalidParameter(
+          "filename", "A multipart upload names its files in its parts, not with ?filename=."));
+    }
+    scene = loadFilesUpload(req, source);
+  } else if (type.starts_with("application/zip") ||
+             type.starts_with("application/x-zip-compressed")) {
+    scene = loadArchiveUpload(req, source);
+  } else if (type.starts_with("application/octet-stream")) {
     scene = loadUpload(req);
     source = std::string(protocol::kUploadPrefix) + req.get_param_value("filename");
   } else if (type.starts_with("application/json")) {
@@ -165,7 +234,8 @@ void putModel(ApiContext& context, const httplib::Request& req, httplib::Respons
   } else {
     throw ProblemError(unsupportedMediaType(
         "PUT .../model takes application/json {\"source\": ...} or the file itself as "
-        "application/octet-stream with ?filename=, not " +
+        "application/octet-stream with ?filename=, a zip archive (application/zip) or several "
+        "files (multipart/form-data), not " +
         quoteClientText(type.empty() ? std::string("no Content-Type") : type) + "."));
   }
 
