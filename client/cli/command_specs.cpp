@@ -1,8 +1,11 @@
 // The table of subcommands and their options. The bounds mirror protocol/CONTRACT.md so that a
 // mistake is caught before a request is sent; the server checks everything again.
+#include <array>
 #include <limits>
+#include <string_view>
 
 #include "args.h"
+#include "protocol/constants.h"
 
 namespace myriad::cli {
 namespace {
@@ -40,6 +43,13 @@ OptionSpec choice(std::string name, std::vector<std::string> choices, std::strin
   OptionSpec o = option(std::move(name), Kind::Choice, std::move(help));
   o.choices = std::move(choices);
   return o;
+}
+
+// A choice among the protocol's own names (protocol::kTechniques, kFormats).
+template <size_t N>
+OptionSpec choice(std::string name, const std::array<std::string_view, N>& names, std::string help) {
+  return choice(std::move(name), std::vector<std::string>(names.begin(), names.end()),
+                std::move(help));
 }
 
 OptionSpec flag(std::string name, std::string help) {
@@ -150,7 +160,7 @@ std::vector<CommandSpec> buildSpecs() {
        option("background", Kind::Vector, "background, linear RGB", kLinearColour, "r,g,b"),
        option("exposure", Kind::Number, "exposure before tonemapping", kExposure),
        option("markers", Kind::OnOff, "draw a marker at each light"),
-       choice("technique", {"volumes", "tiled", "clustered"}, "how local lights are assigned"),
+       choice("technique", protocol::kTechniques, "how local lights are assigned"),
        option("animate", Kind::OnOff, "move the lights on the GPU")},
       "Without options, prints the settings.",
       {}};
@@ -213,7 +223,7 @@ std::vector<CommandSpec> buildSpecs() {
                     {option("target", Kind::Text, "final (default) or a G-buffer or debug view; see "
                                                   "`myriad info`",
                             std::nullopt, "T"),
-                     choice("format", {"png", "jpeg", "raw"}, "image format (default png)"),
+                     choice("format", protocol::kFormats, "image format (default png)"),
                      frameSize[0], frameSize[1],
                      option("quality", Kind::Unsigned, "JPEG quality", kQuality),
                      option("time", Kind::Number, "animation time with --animate on", kTime),

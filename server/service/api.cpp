@@ -4,6 +4,8 @@
 #include <cctype>
 #include <set>
 
+#include "protocol/constants.h"
+#include "protocol/operations.h"
 #include "protocol/validate.h"
 
 namespace myriad::service {
@@ -11,10 +13,17 @@ namespace {
 
 // What a browser may send and read across origins: the token, JSON bodies, and the headers that
 // carry timings and frame metadata.
-constexpr const char* kCorsAllowHeaders = "Authorization, Content-Type";
-constexpr const char* kCorsExposeHeaders =
-    "Server-Timing, Retry-After, X-Myriad-Technique, X-Myriad-Channels, X-Myriad-Width, "
-    "X-Myriad-Height, X-Myriad-Target, X-Myriad-Frame";
+const std::string kCorsAllowHeaders =
+    std::string(protocol::headers::kAuthorization) + ", Content-Type";
+const std::string kCorsExposeHeaders = [] {
+  namespace h = protocol::headers;
+  std::string list;
+  for (std::string_view name : {h::kServerTiming, h::kRetryAfter, h::kTechnique, h::kChannels,
+                                h::kWidth, h::kHeight, h::kTarget, h::kFrameSequence}) {
+    list += (list.empty() ? "" : ", ") + std::string(name);
+  }
+  return list;
+}();
 constexpr const char* kCorsMaxAgeSeconds = "600";
 
 std::string lowercase(std::string_view text) {
@@ -81,15 +90,16 @@ nlohmann::json ApiLimits::toJson() const {
 void sendProblem(httplib::Response& res, const Problem& problem) {
   res.status = problem.status;
   if (problem.retryAfterSeconds) {
-    res.set_header("Retry-After", std::to_string(*problem.retryAfterSeconds));
+    res.set_header(std::string(protocol::headers::kRetryAfter),
+                   std::to_string(*problem.retryAfterSeconds));
   }
-  res.set_content(toBody(problem), std::string(kProblemContentType));
+  res.set_content(toBody(problem), std::string(protocol::kProblemContentType));
 }
 
 void sendJson(httplib::Response& res, const nlohmann::json& body, int status) {
   res.status = status;
   res.set_content(body.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace),
-                  "application/json");
+                  std::string(protocol::kJsonContentType));
 }
 
 Routes::Routes(httplib::Server& server, ApiContext& context)
@@ -191,6 +201,52 @@ std::string Routes::routeOf(const std::string& path, const std::string& method) 
   return entry != nullptr ? entry->routeTemplate : "unmatched";
 }
 
+std::vector<RouteKey> Routes::registered() const {
+  std::vector<RouteKey> keys;
+  for (const Entry& entry : entries_) {
+    for (const std::string& method : entry.methods) {
+      if (method != "HEAD") keys.push_back({method, entry.routeTemplate});
+    }
+  }
+  return keys;
+}
+
+std::string routeTableMismatch(const std::vector<RouteKey>& registered) {
+  std::set<std::pair<std::string, std::string>> server;
+  std::string twice;
+  for (const RouteKey& key : registered) {
+    if (!server.emplace(key.method, key.routeTemplate).second) {
+      twice += (twice.empty() ? "" : ", ") + key.method + " " + key.routeTemplate;
+    }
+  }
+  std::set<std::pair<std::string, std::string>> table;
+  for (const protocol::Operation& op : protocol::operations()) {
+    table.emplace(std::string(op.method), std::string(op.route));
+  }
+  auto listOf = [](const auto& from, const auto& without) {
+    std::string text;
+    for (const auto& [method, route] : from) {
+      if (without.count({method, route}) != 0) continue;
+      text += (text.empty() ? "" : ", ") + method + " " + route;
+    }
+    return text;
+  };
+  const std::string missing = listOf(table, server);
+  const std::string extra = listOf(server, table);
+  std::string sentence;
+  if (!missing.empty()) {
+    sentence += "the server has no route for " + missing + " of protocol/operations.cpp";
+  }
+  if (!extra.empty()) {
+    sentence += (sentence.empty() ? "" : "; ") + std::string("the server answers ") + extra +
+                ", which protocol/operations.cpp does not list";
+  }
+  if (!twice.empty()) {
+    sentence += (sentence.empty() ? "" : "; ") + std::string("registered twice: ") + twice;
+  }
+  return sentence;
+}
+
 void Routes::addCorsHeaders(const httplib::Request& req, httplib::Response& res) const {
   const std::vector<std::string>& origins = context_.config.corsOrigins;
   if (origins.empty()) return;
@@ -218,7 +274,7 @@ bool Routes::answerBeforeRouting(const httplib::Request& req, httplib::Response&
     // A CORS preflight (or a client asking what the route supports).
     const std::string allow = allowHeader(*entry);
     res.status = 204;
-    res.set_header("Allow", allow);
+    res.set_header(std::string(protocol::headers::kAllow), allow);
     if (res.has_header("Access-Control-Allow-Origin")) {
       res.set_header("Access-Control-Allow-Methods", allow);
       res.set_header("Access-Control-Allow-Headers", kCorsAllowHeaders);
@@ -229,7 +285,7 @@ bool Routes::answerBeforeRouting(const httplib::Request& req, httplib::Response&
   if (std::find(entry->methods.begin(), entry->methods.end(), req.method) ==
       entry->methods.end()) {
     const std::string allow = allowHeader(*entry);
-    res.set_header("Allow", allow);
+    res.set_header(std::string(protocol::headers::kAllow), allow);
     sendProblem(res, methodNotAllowed(req.method, req.path, allow));
     return true;
   }
@@ -272,7 +328,7 @@ nlohmann::json jsonBody(const httplib::Request& req, std::string_view schemaName
     text = *emptyBody;
   } else {
     const std::string type = mediaType(req.get_header_value("Content-Type"));
-    if (type != "application/json") {
+    if (type != protocol::kJsonContentType) {
       throw ProblemError(unsupportedMediaType(
           "This route takes Content-Type: application/json, not " +
           quoteClientText(type.empty() ? std::string("none") : type) + "."));
@@ -303,8 +359,10 @@ void checkQuery(const httplib::Request& req, std::initializer_list<std::string_v
 
 Credentials credentialsOf(const httplib::Request& req) {
   Credentials credentials;
-  if (req.has_header("Authorization")) credentials.authorization = req.get_header_value("Authorization");
-  if (req.has_param("token")) credentials.queryToken = req.get_param_value("token");
+  const std::string authorization(protocol::headers::kAuthorization);
+  const std::string token(protocol::query::kToken);
+  if (req.has_header(authorization)) credentials.authorization = req.get_header_value(authorization);
+  if (req.has_param(token)) credentials.queryToken = req.get_param_value(token);
   return credentials;
 }
 

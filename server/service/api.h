@@ -80,6 +80,17 @@ struct RouteOptions {
   std::string bodyLimitName = "maxBodyBytes";
 };
 
+struct RouteKey {
+  std::string method;
+  std::string routeTemplate;
+};
+
+// "" when `registered` is exactly the operations of protocol/operations.cpp (each method and
+// template once), else a sentence naming what is missing from the server and what it has beyond
+// the protocol. GET /v1/openapi.json is built from that table, so the server refuses to start on
+// a difference (HttpServer::bind).
+std::string routeTableMismatch(const std::vector<RouteKey>& registered);
+
 class Routes {
  public:
   using Handler = std::function<void(const httplib::Request&, httplib::Response&)>;
@@ -104,6 +115,9 @@ class Routes {
 
   // The template of the route `path` belongs to, for metrics ("unmatched" when none).
   std::string routeOf(const std::string& path, const std::string& method = "GET") const;
+
+  // Every (method, template) added, in order; the HEAD that comes with each GET is not listed.
+  std::vector<RouteKey> registered() const;
 
   uint32_t requestsInFlight() const { return inFlight_.load(); }
 

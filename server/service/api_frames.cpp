@@ -8,6 +8,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "protocol/constants.h"
 #include "render/render_queue.h"
 #include "web_assets.h"
 
@@ -108,7 +109,7 @@ void handleStream(ApiContext& context, FrameServices& frames, const httplib::Req
   }
   res.set_header("Cache-Control", "no-store");
   res.set_chunked_content_provider(
-      std::string(kStreamContentType),
+      std::string(protocol::kStreamContentType),
       makeStreamProvider({context.renderThread, frames.stats, frames.metrics}, frames.streams,
                          std::move(slot), std::move(session), std::move(request)));
 }
@@ -135,7 +136,7 @@ void handleMetrics(const ApiContext& context, FrameServices& frames, const httpl
   gauges.streams = frames.streams.count();
   gauges.gpuMemoryBytes = context.renderThread.gpuMemoryBytes();
   gauges.validationMessages = context.renderThread.validationMessages();
-  res.set_content(frames.metrics.exposition(gauges), std::string(kMetricsContentType));
+  res.set_content(frames.metrics.exposition(gauges), std::string(protocol::kMetricsContentType));
 }
 
 // GET / and GET /web/{file}: the embedded web client. A query is ignored (cache busters).
@@ -153,10 +154,11 @@ void handleWebAsset(const httplib::Request& req, httplib::Response& res) {
 }  // namespace
 
 void addFrameRoutes(Routes& routes, ApiContext& context, FrameServices& frames) {
-  routes.add("GET", "/v1/frame", [&](const httplib::Request& req, httplib::Response& res) {
+  namespace r = protocol::routes;
+  routes.add("GET", r::kFrame, [&](const httplib::Request& req, httplib::Response& res) {
     handleBuiltinFrame(context, frames, req, res);
   });
-  routes.add("GET", "/v1/sessions/{id}/frame",
+  routes.add("GET", r::kSessionFrame,
              [&](const httplib::Request& req, httplib::Response& res) {
                handleSessionFrame(context, frames, req, res);
              });
@@ -165,27 +167,27 @@ void addFrameRoutes(Routes& routes, ApiContext& context, FrameServices& frames) 
   RouteOptions streamOptions;
   streamOptions.countsInFlight = false;
   routes.add(
-      "GET", "/v1/sessions/{id}/stream",
+      "GET", r::kSessionStream,
       [&](const httplib::Request& req, httplib::Response& res) {
         handleStream(context, frames, req, res);
       },
       streamOptions);
-  routes.add("GET", "/v1/sessions/{id}/stats",
+  routes.add("GET", r::kSessionStats,
              [&](const httplib::Request& req, httplib::Response& res) {
                handleStats(context, frames, req, res);
              });
   RouteOptions metricsOptions;
   metricsOptions.countsInFlight = false;  // a scrape must work when the server is saturated
   routes.add(
-      "GET", "/metrics",
+      "GET", r::kMetrics,
       [&](const httplib::Request& req, httplib::Response& res) {
         handleMetrics(context, frames, req, res);
       },
       metricsOptions);
   RouteOptions webOptions;
   webOptions.countsInFlight = false;  // a static file costs nothing
-  routes.add("GET", "/", handleWebAsset, webOptions);
-  routes.add("GET", "/web/{file}", handleWebAsset, webOptions);
+  routes.add("GET", r::kWebRoot, handleWebAsset, webOptions);
+  routes.add("GET", r::kWebFile, handleWebAsset, webOptions);
 }
 
 }  // namespace myriad::service

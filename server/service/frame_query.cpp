@@ -174,7 +174,9 @@ void parseOutput(const QueryParams& params, uint32_t maxRes,
   settings.raw = request.format == ImageFormat::Raw;
 
   if (const std::string* text = single(params, "quality")) {
-    request.quality = static_cast<int>(parseBoundedInteger("quality", *text, 1, 100, "the JPEG quality"));
+    request.quality = static_cast<int>(parseBoundedInteger(
+        "quality", *text, protocol::query::kMinQuality, protocol::query::kMaxQuality,
+        "the JPEG quality"));
   }
 }
 
@@ -185,7 +187,7 @@ render::FrameSettings parseFrameQuery(const QueryParams& params, const FrameDefa
 }
 
 FrameRequest parseSessionFrameQuery(const QueryParams& params, uint32_t maxResolution) {
-  checkNames(params, kSessionFrameParameters, "/v1/sessions/{id}/frame");
+  checkNames(params, kSessionFrameParameters, protocol::routes::kSessionFrame);
   FrameRequest request;
   parseOutput(params, maxResolution,
               std::array{ImageFormat::Png, ImageFormat::Jpeg, ImageFormat::Raw}, request);
@@ -201,18 +203,19 @@ FrameRequest parseSessionFrameQuery(const QueryParams& params, uint32_t maxResol
 }
 
 FrameRequest parseStreamQuery(const QueryParams& params, uint32_t maxResolution) {
-  checkNames(params, kStreamParameters, "/v1/sessions/{id}/stream");
+  checkNames(params, kStreamParameters, protocol::routes::kSessionStream);
   FrameRequest request;
   request.format = ImageFormat::Jpeg;
   parseOutput(params, maxResolution, std::array{ImageFormat::Jpeg, ImageFormat::Png}, request);
   if (const std::string* text = single(params, "fps")) {
-    request.fps = parseBoundedInteger("fps", *text, 1, kMaxStreamFps, "frames per second");
+    request.fps = parseBoundedInteger("fps", *text, protocol::query::kMinFps, kMaxStreamFps,
+                                      "frames per second");
   }
   return request;
 }
 
 FrameRequest parseFrameRequest(const QueryParams& params, const FrameDefaults& defaults) {
-  checkNames(params, kFrameParameters, "/v1/frame");
+  checkNames(params, kFrameParameters, protocol::routes::kFrame);
 
   FrameRequest request;
   render::FrameSettings& settings = request.settings;

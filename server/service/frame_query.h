@@ -11,6 +11,7 @@
 #include <string_view>
 #include <vector>
 
+#include "protocol/constants.h"
 #include "render/frame.h"
 #include "scene/scene.h"
 
@@ -27,16 +28,18 @@ inline constexpr std::array<std::string_view, 7> kSessionFrameParameters = {
 inline constexpr std::array<std::string_view, 7> kStreamParameters = {
     "target", "format", "fps", "width", "height", "quality", "token"};
 
-// How a frame's pixels are sent.
+// How a frame's pixels are sent; in the order of protocol::kFormats, which names them.
 enum class ImageFormat { Png, Jpeg, Raw };
-inline constexpr std::array<std::string_view, 3> kFormatNames = {"png", "jpeg", "raw"};
-inline std::string_view formatName(ImageFormat f) { return kFormatNames[static_cast<size_t>(f)]; }
+static_assert(protocol::kFormats.size() == 3);
+inline std::string_view formatName(ImageFormat f) {
+  return protocol::kFormats[static_cast<size_t>(f)];
+}
 
 // JPEG quality when a request names none: small files with artefacts hard to see in a live view.
 inline constexpr int kDefaultJpegQuality = 85;
-// Stream frame rate bounds and default (frames per second).
-inline constexpr uint32_t kMaxStreamFps = 60;
-inline constexpr uint32_t kDefaultStreamFps = 15;
+// Stream frame rate bounds and default (frames per second), as the protocol states them.
+inline constexpr uint32_t kMaxStreamFps = protocol::query::kMaxFps;
+inline constexpr uint32_t kDefaultStreamFps = protocol::query::kDefaultFps;
 
 // What a frame request asks for: the render settings and how to encode the result.
 struct FrameRequest {

@@ -15,6 +15,8 @@
 
 #include <nlohmann/json.hpp>
 
+#include "protocol/constants.h"
+#include "protocol/openapi.h"
 #include "service/api_frames.h"
 #include "service/frame_query.h"
 #include "service/problem.h"
@@ -122,6 +124,13 @@ struct HttpServer::State {
   }
 
   void handleInfo(httplib::Response& res) const;
+
+  // GET /v1/openapi.json: built once, from protocol/ and the renderer's targets.
+  const std::string openApi = protocol::openApiDocument({MYRIAD_VERSION, targetNames()}).dump(2);
+
+  static std::vector<std::string_view> targetNames() {
+    return {render::kTargetNames.begin(), render::kTargetNames.end()};
+  }
 };
 
 void HttpServer::State::handleInfo(httplib::Response& res) const {
@@ -134,7 +143,7 @@ void HttpServer::State::handleInfo(httplib::Response& res) const {
       {"device", deviceJson(renderThread.device())},
       {"limits", api.config.limits.toJson()},
       {"apiKeyRequired", api.config.apiKey.has_value()},
-      {"formats", {"png", "jpeg", "raw"}},
+      {"formats", protocol::kFormats},
       {"sessions", {{"open", sessions.count()}}},
       {"gpuMemoryBytes", renderThread.gpuMemoryBytes()},
       {"validation",
@@ -149,7 +158,7 @@ void HttpServer::State::handleInfo(httplib::Response& res) const {
       {"defaultTechnique", render::techniqueName(config.technique)},
   };
   res.set_content(info.dump(2, ' ', false, nlohmann::json::error_handler_t::replace),
-                  "application/json");
+                  std::string(protocol::kJsonContentType));
 }
 
 HttpServer::HttpServer(const HttpConfig& config, render::RenderQueue& renderThread,
@@ -220,16 +229,20 @@ HttpServer::HttpServer(const HttpConfig& config, render::RenderQueue& renderThre
   });
   server.set_logger(logRequest);
 
+  namespace r = protocol::routes;
   RouteOptions health;
   health.countsInFlight = false;  // a load balancer's probe must not get 429 under load
   s.routes.add(
-      "GET", "/v1/health",
+      "GET", r::kHealth,
       [](const httplib::Request&, httplib::Response& res) {
-        res.set_content(R"({"status":"ok"})", "application/json");
+        res.set_content(R"({"status":"ok"})", std::string(protocol::kJsonContentType));
       },
       health);
-  s.routes.add("GET", "/v1/info",
+  s.routes.add("GET", r::kInfo,
                [&s](const httplib::Request&, httplib::Response& res) { s.handleInfo(res); });
+  s.routes.add("GET", r::kOpenApi, [&s](const httplib::Request&, httplib::Response& res) {
+    res.set_content(s.openApi, std::string(protocol::kJsonContentType));
+  });
   addSessionApi(s.routes, s.api);
   addFrameRoutes(s.routes, s.api, s.frames);
 }
@@ -237,6 +250,12 @@ HttpServer::HttpServer(const HttpConfig& config, render::RenderQueue& renderThre
 HttpServer::~HttpServer() = default;
 
 uint16_t HttpServer::bind() {
+  // GET /v1/openapi.json is the protocol's table of operations; a server that answers other
+  // routes than it lists would publish a wrong document. Reported here, with the other reasons
+  // not to start.
+  if (std::string mismatch = routeTableMismatch(state_->routes.registered()); !mismatch.empty()) {
+    throw std::runtime_error("the route table disagrees with the protocol: " + mismatch + ".");
+  }
   const HttpConfig& config = state_->config;
   errno = 0;
   int port = -1;

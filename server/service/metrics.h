@@ -48,6 +48,6 @@ class Metrics {
   double frameSecondsSum_ = 0.0;
 };
 
-inline constexpr std::string_view kMetricsContentType = "text/plain; version=0.0.4; charset=utf-8";
+// Served as protocol::kMetricsContentType.
 
 }  // namespace myriad::service

@@ -1,16 +1,19 @@
 #include "service/problem.h"
 
+#include "protocol/constants.h"
+
 namespace myriad::service {
 namespace {
 
 // Enough to recognise a value in an error message; longer values are cut.
 constexpr size_t kMaxQuotedLength = 64;
 
+// `type` is a problem's NAME (protocol::problems); the body carries its URI.
 Problem make(int status, std::string_view type, std::string title, std::string detail,
              std::optional<std::string> parameter = std::nullopt) {
   Problem problem;
   problem.status = status;
-  problem.type = std::string(type);
+  problem.type = protocol::problemTypeUri(type);
   problem.title = std::move(title);
   problem.detail = std::move(detail);
   problem.parameter = std::move(parameter);
@@ -37,64 +40,65 @@ std::string toBody(const Problem& problem) {
 }
 
 Problem invalidParameter(std::string parameter, std::string detail) {
-  return make(400, problem_type::kInvalidParameter, "Invalid query parameter", std::move(detail),
-              std::move(parameter));
+  return make(400, protocol::problems::kInvalidParameter, "Invalid query parameter",
+              std::move(detail), std::move(parameter));
 }
 
 Problem unknownParameter(std::string parameter, std::string detail) {
-  return make(400, problem_type::kUnknownParameter, "Unknown query parameter", std::move(detail),
-              std::move(parameter));
+  return make(400, protocol::problems::kUnknownParameter, "Unknown query parameter",
+              std::move(detail), std::move(parameter));
 }
 
 Problem notFound(std::string_view path) {
   return make(
-      404, problem_type::kNotFound, "Not found",
+      404, protocol::problems::kNotFound, "Not found",
       "There is no resource at " + quoteClientText(path) + "; see GET /v1/info for the API.");
 }
 
 Problem methodNotAllowed(std::string_view method, std::string_view path, std::string_view allow) {
-  return make(405, problem_type::kMethodNotAllowed, "Method not allowed",
+  return make(405, protocol::problems::kMethodNotAllowed, "Method not allowed",
               quoteClientText(path) + " does not support " + quoteClientText(method) +
                   "; allowed: " + std::string(allow) + ".");
 }
 
 Problem badRequest(int status, std::string detail) {
-  return make(status, problem_type::kBadRequest, "Bad request", std::move(detail));
+  return make(status, protocol::problems::kBadRequest, "Bad request", std::move(detail));
 }
 
 Problem serverBusy(std::string detail) {
-  return make(503, problem_type::kServerBusy, "Server busy", std::move(detail));
+  return make(503, protocol::problems::kServerBusy, "Server busy", std::move(detail));
 }
 
 Problem renderFailed(std::string detail) {
-  return make(500, problem_type::kRenderFailed, "Rendering failed", std::move(detail));
+  return make(500, protocol::problems::kRenderFailed, "Rendering failed", std::move(detail));
 }
 
 Problem internalError(std::string detail) {
-  return make(500, problem_type::kInternalError, "Internal server error", std::move(detail));
+  return make(500, protocol::problems::kInternalError, "Internal server error", std::move(detail));
 }
 
 Problem invalidBody(std::string pointer, std::string detail) {
-  Problem p = make(400, problem_type::kInvalidBody, "Invalid request body", std::move(detail));
+  Problem p =
+      make(400, protocol::problems::kInvalidBody, "Invalid request body", std::move(detail));
   p.pointer = std::move(pointer);
   return p;
 }
 
 Problem unauthorized(std::string detail) {
-  return make(401, problem_type::kUnauthorized, "Unauthorized", std::move(detail));
+  return make(401, protocol::problems::kUnauthorized, "Unauthorized", std::move(detail));
 }
 
 Problem forbidden(std::string detail) {
-  return make(403, problem_type::kForbidden, "Forbidden", std::move(detail));
+  return make(403, protocol::problems::kForbidden, "Forbidden", std::move(detail));
 }
 
 Problem unsupportedMediaType(std::string detail) {
-  return make(415, problem_type::kUnsupportedMediaType, "Unsupported media type",
+  return make(415, protocol::problems::kUnsupportedMediaType, "Unsupported media type",
               std::move(detail));
 }
 
 Problem limitExceeded(int status, std::string limit, std::string detail) {
-  Problem p = make(status, problem_type::kLimitExceeded, "Limit exceeded", std::move(detail));
+  Problem p = make(status, protocol::problems::kLimitExceeded, "Limit exceeded", std::move(detail));
   p.limit = std::move(limit);
   // Sessions expire and requests finish within seconds; a client retrying sooner only adds load.
   if (status == 429) p.retryAfterSeconds = 1;
@@ -102,16 +106,20 @@ Problem limitExceeded(int status, std::string limit, std::string detail) {
 }
 
 Problem modelRejected(std::string detail) {
-  return make(422, problem_type::kModelRejected, "Model rejected", std::move(detail));
+  return make(422, protocol::problems::kModelRejected, "Model rejected", std::move(detail));
 }
 
 Problem notFoundDetail(std::string detail) {
-  return make(404, problem_type::kNotFound, "Not found", std::move(detail));
+  return make(404, protocol::problems::kNotFound, "Not found", std::move(detail));
 }
 
 std::string quoteClientText(std::string_view text) {
-  if (text.size() <= kMaxQuotedLength) return "\"" + std::string(text) + "\"";
-  return "\"" + std::string(text.substr(0, kMaxQuotedLength)) + "...\"";
+  // Appended piece by piece: GCC 12 warns falsely (-Wrestrict) on "\"" + std::string(...).
+  std::string quoted(1, '"');
+  quoted.append(text.substr(0, kMaxQuotedLength));
+  if (text.size() > kMaxQuotedLength) quoted += "...";
+  quoted += '"';
+  return quoted;
 }
 
 }  // namespace myriad::service

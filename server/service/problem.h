@@ -1,6 +1,7 @@
-// RFC 9457 problem details: the body of every error response. Each kind of problem has a type URI
-// under https://myriad.dev/problems/ (listed in protocol/reference.md) so clients can branch on the
-// type rather than on the English title or detail.
+// RFC 9457 problem details: the body of every error response. Each kind of problem has a type URI,
+// https://myriad.dev/problems/NAME with NAME from protocol::problems (listed in
+// protocol/reference.md), so clients can branch on the type rather than on the English title or
+// detail.
 #pragma once
 
 #include <optional>
@@ -11,32 +12,9 @@
 
 namespace myriad::service {
 
-inline constexpr std::string_view kProblemContentType = "application/problem+json";
-
-namespace problem_type {
-inline constexpr std::string_view kInvalidParameter =
-    "https://myriad.dev/problems/invalid-parameter";
-inline constexpr std::string_view kUnknownParameter =
-    "https://myriad.dev/problems/unknown-parameter";
-inline constexpr std::string_view kNotFound = "https://myriad.dev/problems/not-found";
-inline constexpr std::string_view kMethodNotAllowed =
-    "https://myriad.dev/problems/method-not-allowed";
-inline constexpr std::string_view kBadRequest = "https://myriad.dev/problems/bad-request";
-inline constexpr std::string_view kServerBusy = "https://myriad.dev/problems/server-busy";
-inline constexpr std::string_view kRenderFailed = "https://myriad.dev/problems/render-failed";
-inline constexpr std::string_view kInternalError = "https://myriad.dev/problems/internal-error";
-inline constexpr std::string_view kInvalidBody = "https://myriad.dev/problems/invalid-body";
-inline constexpr std::string_view kUnauthorized = "https://myriad.dev/problems/unauthorized";
-inline constexpr std::string_view kForbidden = "https://myriad.dev/problems/forbidden";
-inline constexpr std::string_view kUnsupportedMediaType =
-    "https://myriad.dev/problems/unsupported-media-type";
-inline constexpr std::string_view kLimitExceeded = "https://myriad.dev/problems/limit-exceeded";
-inline constexpr std::string_view kModelRejected = "https://myriad.dev/problems/model-rejected";
-}  // namespace problem_type
-
 struct Problem {
   int status = 500;
-  std::string type;
+  std::string type;                      // protocol::problemTypeUri(protocol::problems::k...)
   std::string title;                     // the same for every problem of this type
   std::string detail;                    // this occurrence, naming what was wrong
   std::optional<std::string> parameter;  // the offending query parameter, when there is one

@@ -157,12 +157,13 @@ std::string multipartPart(std::string_view contentType, std::string_view image, 
                           bool first) {
   std::string part;
   part.reserve(image.size() + 160);
-  if (first) part.append("--").append(kStreamBoundary).append("\r\n");
+  if (first) part.append("--").append(protocol::kStreamBoundary).append("\r\n");
   part.append("Content-Type: ").append(contentType).append("\r\n");
   part.append("Content-Length: ").append(std::to_string(image.size())).append("\r\n");
-  part.append("X-Myriad-Frame: ").append(std::to_string(sequence)).append("\r\n\r\n");
+  part.append(protocol::headers::kFrameSequence).append(": ");
+  part.append(std::to_string(sequence)).append("\r\n\r\n");
   part.append(image);
-  part.append("\r\n--").append(kStreamBoundary).append("\r\n");
+  part.append("\r\n--").append(protocol::kStreamBoundary).append("\r\n");
   return part;
 }
 

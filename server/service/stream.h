@@ -20,15 +20,14 @@
 #include <string>
 #include <string_view>
 
+#include "protocol/constants.h"
 #include "service/frame_query.h"
 #include "service/session.h"
 #include "service/session_frames.h"
 
 namespace myriad::service {
 
-inline constexpr std::string_view kStreamBoundary = "myriad-frame";
-inline constexpr std::string_view kStreamContentType =
-    "multipart/x-mixed-replace; boundary=myriad-frame";
+// The boundary and Content-Type are protocol::kStreamBoundary and protocol::kStreamContentType.
 inline constexpr std::chrono::seconds kIdleResend{2};
 
 // The open streams: the maxStreams limit, the myriad_streams gauge, and shutdown.
