@@ -6,10 +6,11 @@ problem type, technique and target name is defined once and used through its con
 The names come from the code itself:
   - route templates and problem types: the string constants of namespaces `routes` and `problems`
     in protocol/constants.h;
-  - techniques: the enum of defs.schema.json's "technique", plus every std::array of names whose
-    identifier says Technique;
-  - targets: every std::array of names whose identifier says Target (wherever it is defined;
-    the script fails when it finds none).
+  - techniques: the enum of defs.schema.json's "technique", the constants of a namespace
+    `techniques` in protocol/constants.h, and every std::array of names whose identifier says
+    Technique;
+  - targets: every std::array of names whose identifier says Target, wherever it is defined (the
+    script fails when it finds none), and the constants of a namespace `targets`.
 The definition is one of the places, so a name defined twice (two arrays) fails too.
 
 Not checked, and said so in the output: "/" (the web client's route, also the path separator),
@@ -113,8 +114,8 @@ def namespace_constants(text, namespace):
 
 def name_arrays(text):
     """(identifier, [names]) of every `std::array<std::string_view, N> kName = {"a", ...}`."""
-    pattern = re.compile(r"std::array<\s*std::string_view\s*,\s*\w+\s*>\s+(k\w+)\s*=\s*\{([^}]*)\}",
-                         re.S)
+    pattern = re.compile(
+        r"std::array(?:<\s*std::string_view\s*,\s*\w+\s*>)?\s+(k\w+)\s*=\s*\{([^}]*)\}", re.S)
     for m in pattern.finditer(text):
         yield m.group(1), re.findall(r'"([^"]*)"', m.group(2))
 
@@ -171,6 +172,11 @@ def main():
         names[value] = "problem type prefix" if ident == "kTypePrefix" else "problem type"
     for value in schema_techniques:
         names[value] = "technique"
+    # Where protocol/constants.h names them one by one (namespace techniques { kTiled = ... }).
+    for namespace, kind in (("techniques", "technique"), ("targets", "target")):
+        if re.search(r"namespace %s \{" % namespace, constants):
+            for _, value in namespace_constants(constants, namespace):
+                names[value] = kind
     found_targets = []
     for path, (_, code, _) in files.items():
         for ident, values in name_arrays(code):
