@@ -205,8 +205,15 @@ std::vector<Operation> buildOperations() {
             {"lights",
              {{"type", "string"}, {"enum", {"keep", "model"}}},
              "keep the session's lights (the default), or replace them with the model's "
-             "glTF punctual lights."}},
-       .body = {{kJsonContentType, n::kModelSource}, {kUploadContentType, ""}},
+             "glTF punctual lights."},
+            {"entry",
+             {{"type", "string"}, {"minLength", 1}, {"maxLength", 4096}},
+             "The model file inside a zip or multipart upload of several files (its path "
+             "there); without it, the upload's one model file. Refused with other forms."}},
+       .body = {{kJsonContentType, n::kModelSource},
+                {kUploadContentType, ""},
+                {kZipContentType, ""},
+                {kMultipartContentType, ""}},
        .responses = {json200(n::kSessionState, "The new session state.")},
        .problems = {400, 401, 403, 404, 413, 415, 422, 503}});
 

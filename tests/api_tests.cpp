@@ -26,6 +26,7 @@
 
 #include "api_client.h"
 #include "server_process.h"
+#include "zip_builder.h"
 
 using myriad::test::ApiClient;
 using myriad::test::checkProblem;
@@ -945,5 +946,86 @@ TEST_CASE("api: concurrent edits of one session stay consistent; deleting it mid
   checkProblem(setup.get(s.path(), s.token), 404, "not-found", "deleted during a model load");
   CHECK(setup.get("/v1/info").json["sessions"]["open"] == 0);
   CHECK(myriad::test::validationMessages(setup) == 0);
+  checkStopsCleanly(server);
+}
+
+TEST_CASE("api: a model with its files, as a zip or as several files; hostile archives are 422") {
+  ServerProcess server({"--lights", "4"});
+  requireListening(server);
+  ApiClient api(server);
+  TestSession s = createSession(api);
+  const fs::path box = kAssimpModels / "glTF2/BoxTextured-glTF";
+  REQUIRE(fs::exists(box / "BoxTextured.gltf"));
+  const std::string gltf = readFile(box / "BoxTextured.gltf");
+  const std::string bin = readFile(box / "BoxTextured0.bin");
+  const std::string png = readFile(box / "CesiumLogoFlat.png");
+
+  // A zip of the .gltf, its .bin and its image, in a folder.
+  Reply zip = api.put(s.path() + "/model?filename=box.zip",
+                      myriad::test::makeZip({{"box/BoxTextured.gltf", gltf},
+                                     {"box/BoxTextured0.bin", bin},
+                                     {"box/CesiumLogoFlat.png", png}}),
+                      s.token, "application/zip");
+  INFO(zip.body.substr(0, 300));
+  REQUIRE(zip.status == 200);
+  CHECK(zip.json.at("model").at("source") == "upload:box.zip");
+  CHECK(zip.json.at("model").at("meshes") == 1);
+  CHECK(zip.json.at("lights").at("count") == 4);
+
+  // The same three files as multipart/form-data, as a browser sends a multi-file pick.
+  httplib::Client client(server.host(), server.port());
+  client.set_bearer_token_auth(s.token.c_str());
+  client.set_read_timeout(120, 0);
+  auto parts = client.Put((s.path() + "/model").c_str(),
+                          httplib::MultipartFormDataItems{
+                              {"files", gltf, "BoxTextured.gltf", "model/gltf+json"},
+                              {"files", bin, "BoxTextured0.bin", "application/octet-stream"},
+                              {"files", png, "CesiumLogoFlat.png", "image/png"}});
+  REQUIRE(parts);
+  INFO(parts->body.substr(0, 300));
+  CHECK(parts->status == 200);
+  CHECK(json::parse(parts->body).at("model").at("source") == "upload:BoxTextured.gltf");
+
+  // Each hostile or broken upload: 422 model-rejected whose detail names the problem.
+  struct Bad {
+    std::string what;
+    std::string zip;
+    std::string entry;
+    std::string named;
+  };
+  const std::vector<Bad> bad = {
+      {"missing .bin", myriad::test::makeZip({{"BoxTextured.gltf", gltf}}), "", "BoxTextured0.bin"},
+      {"..", myriad::test::makeZip({{"../BoxTextured.gltf", gltf}}), "", "leaves the archive"},
+      {"absolute", myriad::test::makeZip({{"/tmp/BoxTextured.gltf", gltf}}), "", "absolute path"},
+      {"symlink", myriad::test::makeZip({{"BoxTextured.gltf", gltf}, {"BoxTextured0.bin", "/etc/passwd", true}}),
+       "", "symbolic link"},
+      {"bomb", myriad::test::makeZip({{"BoxTextured.gltf", gltf}, {"BoxTextured0.bin", std::string(64u << 20, '\0')}}),
+       "", "maxCompressionRatio"},
+      {"two models", myriad::test::makeZip({{"a.gltf", gltf}, {"b.gltf", gltf}, {"BoxTextured0.bin", bin}}), "",
+       "entry parameter"},
+      {"no such entry", myriad::test::makeZip({{"a.gltf", gltf}}), "c.gltf", "'c.gltf'"},
+      {"not a zip", "PK but nothing more", "", "not a zip archive"},
+  };
+  for (const Bad& b : bad) {
+    CAPTURE(b.what);
+    Reply reply = api.put(s.path() + "/model?filename=bad.zip" + (b.entry.empty() ? "" : "&entry=" + b.entry),
+                          b.zip, s.token, "application/zip");
+    checkProblem(reply, 422, "model-rejected", b.what);
+    CHECK_MESSAGE(reply.json.value("detail", "").find(b.named) != std::string::npos,
+                  reply.json.value("detail", ""));
+    REQUIRE(api.get("/v1/health").status == 200);
+  }
+  // ?entry= picks one of several models; it belongs to uploads of several files only.
+  Reply picked = api.put(s.path() + "/model?filename=two.zip&entry=b.gltf",
+                         myriad::test::makeZip({{"a.gltf", gltf}, {"b.gltf", gltf}, {"BoxTextured0.bin", bin}}),
+                         s.token, "application/zip");
+  CHECK(picked.status == 200);
+  checkProblem(api.put(s.path() + "/model?filename=a.glb&entry=x", "abc", s.token,
+                       "application/octet-stream"),
+               400, "invalid-parameter", "entry", std::nullopt, std::nullopt, "entry");
+  // The failed uploads changed nothing: the session shows the last model it loaded.
+  Reply state = api.get(s.path(), s.token);
+  CHECK(state.json.at("model").at("source") == "upload:two.zip");
+  CHECK(myriad::test::validationMessages(api) == 0);
   checkStopsCleanly(server);
 }

@@ -197,21 +197,22 @@ void putModel(ApiContext& context, const httplib::Request& req, httplib::Respons
   const std::string type = req.get_header_value("Content-Type");
   ScenePtr scene;
   std::string source;
-  const bool severalFiles = type.starts_with("application/zip") ||
-                           type.starts_with("application/x-zip-compressed") ||
-                           type.starts_with("multipart/form-data");
+  // Windows browsers label a zip application/x-zip-compressed.
+  const bool zip = type.starts_with(protocol::kZipContentType) ||
+                   type.starts_with("application/x-zip-compressed");
+  const bool multipart = type.starts_with(protocol::kMultipartContentType);
+  const bool severalFiles = zip || multipart;
   if (req.has_param("entry") && !severalFiles) {
     throw ProblemError(invalidParameter(
         "entry", "\"entry\" names the model inside a zip or multipart upload of several files."));
   }
-  if (type.starts_with("multipart/form-data")) {
+  if (multipart) {
     if (req.has_param("filename")) {
       throw ProblemError(invalidParameter(
           "filename", "A multipart upload names its files in its parts, not with ?filename=."));
     }
     scene = loadFilesUpload(req, source);
-  } else if (type.starts_with("application/zip") ||
-             type.starts_with("application/x-zip-compressed")) {
+  } else if (zip) {
     scene = loadArchiveUpload(req, source);
   } else if (type.starts_with("application/octet-stream")) {
     scene = loadUpload(req);

@@ -17,6 +17,7 @@ import time
 
 BOX_GLB = "/usr/share/assimp/models/glTF2/BoxTextured-glTF-Binary/BoxTextured.glb"
 BOX_GLTF = "/usr/share/assimp/models/glTF2/BoxTextured-glTF-Embedded/BoxTextured.gltf"
+BOX_TEXTURED_GLTF = "/usr/share/assimp/models/glTF2/BoxTextured-glTF/BoxTextured.gltf"
 
 # Prepended to every block: a curl that fails on HTTP errors, and ends streams after 3 s (a stream
 # that was cut off by --max-time but delivered bytes is a success).
@@ -66,6 +67,8 @@ def main():
     shutil.copy(BOX_GLB, os.path.join(models, "DamagedHelmet.glb"))
     shutil.copy(BOX_GLTF, os.path.join(models, "sponza", "Sponza.gltf"))
     shutil.copy(BOX_GLB, os.path.join(work, "DamagedHelmet.glb"))
+    # The multi-file upload examples: a .gltf with its .bin and image in box/.
+    shutil.copytree(os.path.dirname(BOX_TEXTURED_GLTF), os.path.join(work, "box"))
     server, url = start_server(binary, models)
     failures = 0
     try:
