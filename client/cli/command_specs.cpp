@@ -111,13 +111,19 @@ std::vector<CommandSpec> buildSpecs() {
 
   // Model.
   CommandSpec load{"load", "load a model into the session (replaces meshes and materials)",
-                   {positional("FILE", Kind::Text, "a model file to upload (glTF, OBJ, ...)", true)},
+                   {positional("FILE", Kind::Text,
+                               "a model file to upload (glTF, OBJ, ...), or a .zip of a model with "
+                               "the files it refers to",
+                               true)},
                    {option("library", Kind::Text, "a model from `myriad models`", std::nullopt,
                            "NAME"),
+                    option("entry", Kind::Text, "the model file inside FILE.zip, when it holds several",
+                           std::nullopt, "PATH"),
                     flag("builtin", "the built-in scene"),
                     flag("model-lights", "also replace the lights with the model's own")},
-                   "Give exactly one of FILE, --library NAME, --builtin. The camera is reset to "
-                   "frame the model.",
+                   "Give exactly one of FILE, --library NAME, --builtin. A FILE ending in .zip is "
+                   "sent as an archive (a .gltf with its .bin and images, an .obj with its .mtl). "
+                   "The camera is reset to frame the model.",
                    {}};
   load.check = [](const Invocation& inv) {
     int sources = int(!inv.positionals.empty()) + int(inv.has("library")) + int(inv.has("builtin"));
@@ -125,6 +131,10 @@ std::vector<CommandSpec> buildSpecs() {
       throw UsageError(sources == 0 ? "load" : "--library",
                        sources == 0 ? "\"load\" needs FILE, --library NAME or --builtin"
                                     : "\"load\" takes only one of FILE, --library NAME, --builtin");
+    }
+    if (inv.has("entry") && (inv.positionals.empty() ||
+                             !std::get<std::string>(inv.positionals[0]).ends_with(".zip"))) {
+      throw UsageError("--entry", "--entry names the model inside a FILE.zip");
     }
   };
   specs.push_back(load);

@@ -1,4 +1,4 @@
-// load FILE | --library NAME | --builtin: PUT .../model.
+// load FILE [--entry PATH] | --library NAME | --builtin: PUT .../model.
 #include <fstream>
 #include <sstream>
 
@@ -52,9 +52,13 @@ int runModelCommand(Context& ctx) {
     if (name.empty()) throw std::runtime_error(path + " is not a file");
     std::string bytes = readFile(path);
     query.insert(query.begin(), {"filename", name});
+    // A .zip carries the model with the files it refers to; the server finds the model inside.
+    const bool zip = name.ends_with(".zip");
+    if (inv.has("entry")) query.emplace_back("entry", inv.get<std::string>("entry"));
     try {
-      HttpResponse res = ctx.http.sendOk("PUT", route, query, bytes,
-                                         std::string(protocol::kUploadContentType));
+      HttpResponse res = ctx.http.sendOk(
+          "PUT", route, query, bytes,
+          std::string(zip ? protocol::kZipContentType : protocol::kUploadContentType));
       raw = res.body;
     } catch (const ApiError& e) {
       if (e.status() != 0) throw;

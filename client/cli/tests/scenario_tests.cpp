@@ -19,6 +19,7 @@
 #include <nlohmann/json.hpp>
 
 #include "cli_process.h"
+#include "zip_builder.h"
 #include "encode/png.h"
 #include "server_process.h"
 
@@ -173,6 +174,24 @@ TEST_CASE("myriad drives a real server from session new to session delete") {
   checkOneLineError(myriad({"load", garbage.string()}), "(422 model-rejected)");
   CHECK(jsonOf(myriad({"session", "show", "--json"}))["model"]["source"] == "upload:spider.obj");
   checkOneLineError(myriad({"load", (dir / "missing.obj").string()}), "missing.obj");
+
+  // A .zip of the model with its .mtl and textures goes as an archive; --entry picks the model.
+  const fs::path objDir = fs::path(kModel).parent_path();
+  std::vector<myriad::test::ZipEntry> entries;
+  for (const char* name : {"spider.obj", "spider.mtl", "SpiderTex.jpg", "drkwood2.jpg"}) {
+    entries.push_back({std::string("spider/") + name, readFile(objDir / name)});
+  }
+  entries.push_back({"other/box.obj", readFile(objDir / "box.obj")});
+  const fs::path zip = dir / "spider.zip";
+  std::ofstream(zip, std::ios::binary) << myriad::test::makeZip(entries);
+  CliResult ambiguous = myriad({"load", zip.string()});
+  checkOneLineError(ambiguous, "(422 model-rejected)");
+  CHECK(ambiguous.err.find("name one with the entry parameter") != std::string::npos);
+  CliResult zipped = myriad({"load", zip.string(), "--entry", "spider/spider.obj"});
+  REQUIRE(zipped.exitCode == 0);
+  CHECK(zipped.out.starts_with("loaded upload:spider.zip: "));
+  CHECK(myriad({"load", kModel, "--entry", "x.obj"}).exitCode == 2);
+  REQUIRE(myriad({"load", kModel}).exitCode == 0);
 
   // Camera: patch some members, read them back.
   CliResult camera = myriad({"camera", "frame"});
