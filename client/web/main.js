@@ -99,6 +99,8 @@ const model = new ModelPanel(api, {
     lights.changed(state.lights.count);
   },
 });
+// A model file, a .zip, several files or a folder dropped on the view loads like a pick.
+model.acceptDrops($('view'));
 
 // --- the session ----------------------------------------------------------------------------
 

@@ -25,7 +25,13 @@ export class ModelPanel {
     this.onLoaded = onLoaded;    // (SessionState) after a model replaced the scene
     this.onProblem = onProblem;
     this.onInfo = onInfo;        // (text) progress shown to the user
-    $('model-file').addEventListener('change', () => this.upload());
+    for (const id of ['model-file', 'model-folder']) {
+      const input = $(id);
+      input.addEventListener('change', async () => {
+        await this.upload([...input.files]);
+        input.value = '';  // choosing the same files again loads them again
+      });
+    }
     $('model-library-load').addEventListener('click', () => this.loadLibrary());
     $('model-builtin').addEventListener('click', () => this.load({source: 'builtin:default'}));
   }
@@ -70,23 +76,70 @@ export class ModelPanel {
     if (name) this.load({source: `library:${name}`});
   }
 
-  async upload() {
-    const input = $('model-file');
-    const file = input.files[0];
-    if (!file) return;
-    this.onInfo(`Uploading ${file.name} (${(file.size / 1024).toFixed(0)} KiB)...`);
+  // One file goes as itself (a .zip as an archive); several (a multi-file pick, a folder, a drop)
+  // as multipart/form-data, each under the path the model uses for it, so the server finds the
+  // model among them and resolves its .bin, .mtl and images. Every path is relative to the
+  // folder picked or dropped (its own name dropped), as the model's own references are.
+  async upload(files, paths = files.map(relativePath)) {
+    if (!files.length) return;
+    const total = files.reduce((sum, f) => sum + f.size, 0);
+    const shown = files.length === 1 ? files[0].name : `${files.length} files`;
+    this.onInfo(`Uploading ${shown} (${(total / 1024).toFixed(0)} KiB)...`);
     try {
-      const state = await this.api.request('PUT', this.api.sessionPath('/model'), {
-        body: file, contentType: 'application/octet-stream',
-        query: {filename: file.name, ...(this.lightsQuery() || {})},
-      });
+      const lights = this.lightsQuery() || {};
+      let options;
+      if (files.length === 1) {
+        const zip = files[0].name.toLowerCase().endsWith('.zip');
+        options = {body: files[0], query: {filename: files[0].name, ...lights},
+                   contentType: zip ? 'application/zip' : 'application/octet-stream'};
+      } else {
+        const form = new FormData();
+        files.forEach((file, i) => form.append('files', file, paths[i]));
+        options = {body: form, query: lights};  // fetch sets the multipart boundary
+      }
+      const state = await this.api.request('PUT', this.api.sessionPath('/model'), options);
       this.onInfo(null);
       this.onLoaded(state);
     } catch (e) {
       this.onProblem(e);
-    } finally {
-      input.value = '';  // choosing the same file again loads it again
     }
+  }
+
+  // Files dropped on `element` upload like a pick; dropped folders are walked.
+  acceptDrops(element) {
+    element.addEventListener('dragover', (event) => event.preventDefault());
+    element.addEventListener('drop', async (event) => {
+      event.preventDefault();
+      const entries = [...event.dataTransfer.items]
+          .map((item) => item.webkitGetAsEntry && item.webkitGetAsEntry()).filter(Boolean);
+      const found = [];
+      for (const entry of entries) await collectFiles(entry, '', found);
+      // A single dropped folder: paths inside it, as its model refers to them.
+      const folder = entries.length === 1 && entries[0].isDirectory ? `${entries[0].name}/` : '';
+      await this.upload(found.map((f) => f.file),
+                        found.map((f) => f.path.startsWith(folder) ? f.path.slice(folder.length) : f.path));
+    });
+  }
+}
+
+// A picked file's path inside the picked folder (without the folder's own name), else its name.
+function relativePath(file) {
+  const path = file.webkitRelativePath || '';
+  const slash = path.indexOf('/');
+  return slash >= 0 ? path.slice(slash + 1) : file.name;
+}
+
+// Every file under a dropped FileSystemEntry, with its path from the drop.
+async function collectFiles(entry, prefix, out) {
+  if (entry.isFile) {
+    out.push({file: await new Promise((ok, fail) => entry.file(ok, fail)), path: prefix + entry.name});
+    return;
+  }
+  const reader = entry.createReader();
+  for (;;) {
+    const batch = await new Promise((ok, fail) => reader.readEntries(ok, fail));
+    if (!batch.length) return;
+    for (const child of batch) await collectFiles(child, `${prefix}${entry.name}/`, out);
   }
 }
 

@@ -445,6 +445,29 @@ try {
     picture = await changedFrom('the built-in scene again', picture);
   });
 
+  await step('a model with its files uploads as several files, and as a folder', async () => {
+    // A .gltf with its .bin and image: the server finds the model and resolves its references.
+    const box = '/usr/share/assimp/models/glTF2/BoxTextured-glTF';
+    await page.setInputFiles('#model-file', [`${box}/BoxTextured.gltf`, `${box}/BoxTextured0.bin`,
+                                             `${box}/CesiumLogoFlat.png`]);
+    await until('the multi-file model in the summary', async () =>
+        (await page.textContent('#model-summary')).startsWith('upload:BoxTextured.gltf: 1 meshes'));
+    picture = await changedFrom('the textured box', picture);
+    await page.click('#model-builtin');
+    await until('the built-in scene in the summary', async () =>
+        (await page.textContent('#model-summary')).startsWith('builtin:default'));
+    picture = await changedFrom('the built-in scene again', picture);
+    // The same folder picked whole (webkitdirectory): paths relative to it.
+    await page.setInputFiles('#model-folder', box);
+    await until('the folder\'s model in the summary', async () =>
+        (await page.textContent('#model-summary')).startsWith('upload:BoxTextured.gltf: 1 meshes'));
+    picture = await changedFrom('the folder\'s textured box', picture);
+    await page.click('#model-builtin');
+    await until('the built-in scene in the summary', async () =>
+        (await page.textContent('#model-summary')).startsWith('builtin:default'));
+    picture = await changedFrom('the built-in scene again', picture);
+  });
+
   await step('animate: the stream keeps sending new frames without input', async () => {
     await page.check('#animate');
     const settings = async () => (await api('GET', `/v1/sessions/${sessionId}/settings`, {token})).body;
