@@ -4,6 +4,7 @@
 #include <doctest/doctest.h>
 
 #include <filesystem>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -229,4 +230,23 @@ TEST_CASE("archive: member paths are normalized within the upload; lookups fall 
   CHECK(scene::findMember(files, "A.BIN") == nullptr);     // two case-insensitive matches: none
   CHECK(scene::findMember(files, "../model.obj") == nullptr);
   CHECK(scene::modelEntryOf(files, "", "upload") == "model.obj");
+}
+
+// fuzz_upload_files (tests/fuzz) found: "./::::" normalized to "::::", which a second
+// normalization refused as a drive path; so the server accepted a multipart filename such as
+// "./C:/model.obj" that the loader child then refused. The input replayed, then the rule.
+TEST_CASE("archive: fuzz regression: a normalized member path normalizes to itself") {
+  const std::string input = std::string(".\\./") + std::string(49, ':') + "./\xd8)";
+  CHECK_FALSE(scene::normalizeMemberPath(input).has_value());  // it was "::::.../\xd8)"
+  const std::optional<std::string> kept = scene::normalizeMemberPath("./a/./b:/../c.obj");
+  REQUIRE(kept == "a/c.obj");
+  CHECK(scene::normalizeMemberPath(*kept) == kept);
+  for (const char* drive : {"./C:/a.obj", "x/../C:/a.obj", ".\\c:\\a.obj"}) {
+    CAPTURE(drive);
+    CHECK_FALSE(scene::normalizeMemberPath(drive).has_value());
+  }
+  CHECK(scene::normalizeMemberPath("a/C:/b.obj") == "a/C:/b.obj");  // a ':' further in is a name
+  CHECK_THROWS_AS(loader::decodeFileSet(loader::encodeFileSet({{"C:/a.obj", kTriangleObj}}), "set",
+                                        loader::ArchiveLimits{}),
+                  scene::ModelLoadError);
 }

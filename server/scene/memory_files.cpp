@@ -54,6 +54,8 @@ std::optional<std::string> normalizeMemberPath(std::string_view path) {
     if (!normalized.empty()) normalized += '/';
     normalized += segment;
   }
+  // Again on the result: "./C:/x" must not become the drive path "C:/x" (found by fuzz_upload_files).
+  if (normalized.size() >= 2 && normalized[1] == ':') return std::nullopt;
   return normalized;
 }
 
