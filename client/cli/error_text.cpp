@@ -2,6 +2,8 @@
 
 #include <nlohmann/json.hpp>
 
+#include "protocol/constants.h"
+
 namespace myriad::cli {
 namespace {
 
@@ -52,8 +54,8 @@ std::string oneLine(const std::string& text, size_t maxLength) {
 std::string describeErrorResponse(int status, const std::string& contentType,
                                   const std::string& body) {
   const std::string statusText = std::to_string(status);
-  if (contentType.starts_with("application/problem+json") ||
-      contentType.starts_with("application/json")) {
+  if (contentType.starts_with(protocol::kProblemContentType) ||
+      contentType.starts_with(protocol::kJsonContentType)) {
     nlohmann::json problem = nlohmann::json::parse(body, nullptr, false);
     if (problem.is_object()) {
       std::string detail, type;

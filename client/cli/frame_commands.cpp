@@ -127,7 +127,8 @@ int stream(Context& ctx) {
   };
   auto onData = [&](const char* data, size_t size) {
     for (MultipartPart& part : reader->feed(std::string_view(data, size))) {
-      std::string extension = part.headers["content-type"] == "image/png" ? "png" : "jpg";
+      std::string extension =
+          part.headers["content-type"] == protocol::kPngContentType ? "png" : "jpg";
       char name[32];
       std::snprintf(name, sizeof name, "frame-%04llu.", static_cast<unsigned long long>(written));
       std::string path = dir + "/" + name + extension;

@@ -6,6 +6,7 @@
 #include <exception>
 
 #include "error_text.h"
+#include "protocol/constants.h"
 
 namespace myriad::cli {
 namespace {
@@ -75,14 +76,21 @@ void HttpClient::failTransport(int error) const {
   }
 }
 
+void HttpClient::addBearer(httplib::Request& req) const {
+  if (!bearer_) return;
+  req.headers.emplace(std::string(protocol::headers::kAuthorization),
+                      std::string(protocol::headers::kBearerPrefix) + *bearer_);
+}
+
 HttpResponse HttpClient::send(const std::string& method, const std::string& path,
                               const Query& query, const std::string& body,
                               const std::string& contentType) {
   httplib::Request req;
   req.method = method;
   req.path = target(path, query);
-  if (bearer_) req.headers.emplace("Authorization", "Bearer " + *bearer_);
-  req.headers.emplace("Accept", "application/json, application/problem+json, */*");
+  addBearer(req);
+  req.headers.emplace("Accept", std::string(protocol::kJsonContentType) + ", " +
+                                    std::string(protocol::kProblemContentType) + ", */*");
   if (!contentType.empty()) {
     req.headers.emplace("Content-Type", contentType);
     req.body = body;
@@ -107,7 +115,8 @@ nlohmann::json HttpClient::sendJson(const std::string& method, const std::string
                                     const nlohmann::json& body, const Query& query,
                                     std::string* raw) {
   HttpResponse res = body.is_null() ? sendOk(method, path, query)
-                                    : sendOk(method, path, query, body.dump(), "application/json");
+                                    : sendOk(method, path, query, body.dump(),
+                                             std::string(protocol::kJsonContentType));
   if (raw != nullptr) *raw = res.body;
   if (res.status == 204 || res.body.empty()) return nullptr;
   nlohmann::json parsed = nlohmann::json::parse(res.body, nullptr, false);
@@ -124,7 +133,7 @@ void HttpClient::stream(const std::string& path, const Query& query,
   httplib::Request req;
   req.method = "GET";
   req.path = target(path, query);
-  if (bearer_) req.headers.emplace("Authorization", "Bearer " + *bearer_);
+  addBearer(req);
 
   HttpResponse head;
   std::string errorBody;

@@ -18,6 +18,7 @@
 
 namespace httplib {
 class Client;
+struct Request;
 }
 
 namespace myriad::cli {
@@ -79,6 +80,8 @@ class HttpClient {
 
  private:
   std::string target(const std::string& path, const Query& query) const;
+  // Authorization: Bearer <token>, when a session token is set.
+  void addBearer(httplib::Request& req) const;
   [[noreturn]] void failTransport(int error) const;
 
   ServerUrl url_;
