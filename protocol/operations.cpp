@@ -203,9 +203,12 @@ std::vector<Operation> buildOperations() {
              "An upload's file name, NAME.EXT: the extension names the format. Required "
              "with application/octet-stream, refused with JSON."},
             {"lights",
-             {{"type", "string"}, {"enum", {"keep", "model"}}},
-             "keep the session's lights (the default), or replace them with the model's "
-             "glTF punctual lights."},
+             {{"type", "string"}, {"enum", {"keep", "model", "fit"}}},
+             "keep the session's lights as they are, replace them with the model's glTF "
+             "punctual lights (model), or generate them again around the new model (fit: the "
+             "same count and seed). Without it: fit while the lights are still generated with "
+             "the defaults (the built-in scene's, lights/generate without bounds, radius, "
+             "intensity or falloff), keep once any light was edited."},
             {"entry",
              {{"type", "string"}, {"minLength", 1}, {"maxLength", 4096}},
              "The model file inside a zip or multipart upload of several files (its path "

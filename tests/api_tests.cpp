@@ -320,7 +320,8 @@ TEST_CASE("api: a session's whole life through every route it owns") {
     CHECK(a == b);
   }
 
-  // PUT model: library, builtin, upload; lights kept unless ?lights=model.
+  // PUT model: library, builtin, upload; the generated lights' count kept (they are fitted to
+  // each model) unless ?lights=model.
   Reply library = api.put(path + "/model", R"({"source": "library:sub/box2.glb"})", token);
   REQUIRE(library.status == 200);
   CHECK(library.json.at("model").at("source") == "library:sub/box2.glb");
@@ -1027,5 +1028,54 @@ TEST_CASE("api: a model with its files, as a zip or as several files; hostile ar
   Reply state = api.get(s.path(), s.token);
   CHECK(state.json.at("model").at("source") == "upload:two.zip");
   CHECK(myriad::test::validationMessages(api) == 0);
+  checkStopsCleanly(server);
+}
+
+TEST_CASE("api: generated lights follow a new model; edited lights stay; ?lights= decides") {
+  ServerProcess server({"--lights", "6"});
+  requireListening(server);
+  ApiClient api(server);
+  TestSession s = createSession(api);
+  const auto lightsOf = [&] { return api.get(s.path() + "/lights?limit=1000", s.token).json.at("lights"); };
+  const json builtinLights = lightsOf();
+  REQUIRE(builtinLights.size() == 6);
+
+  // The spider (hundreds of units across): the built-in scene's lights are made again around it.
+  Reply spider = api.put(s.path() + "/model?filename=spider.obj", readFile(kAssimpModels / "OBJ/spider.obj"),
+                         s.token, "application/octet-stream");
+  REQUIRE(spider.status == 200);
+  CHECK(spider.json.at("lights").at("count") == 6);
+  const json& bounds = spider.json.at("model").at("bounds");
+  double diagonal = 0;
+  for (int axis = 0; axis < 3; ++axis) {
+    const double extent = bounds["max"][axis].get<double>() - bounds["min"][axis].get<double>();
+    diagonal += extent * extent;
+  }
+  diagonal = std::sqrt(diagonal);
+  const json fitted = lightsOf();
+  REQUIRE(fitted.size() == 6);
+  for (const json& l : fitted) {
+    for (int axis = 0; axis < 3; ++axis) {
+      const double p = l["position"][axis].get<double>();
+      CHECK(p >= bounds["min"][axis].get<double>() - 0.2 * diagonal);
+      CHECK(p <= bounds["max"][axis].get<double>() + 0.2 * diagonal);
+    }
+    CHECK(l["radius"].get<double>() >= 0.04 * diagonal - 1e-3);  // sized to the spider
+  }
+  CHECK(fitted[0]["id"] != builtinLights[0]["id"]);
+
+  // An edit makes them the user's: the next model keeps them as they are.
+  const std::string firstLight = s.path() + "/lights/" + to_string(fitted[0]["id"]);
+  REQUIRE(api.patch(firstLight, R"({"intensity": 9})", s.token).status == 200);
+  const json edited = lightsOf();
+  Reply box = api.put(s.path() + "/model", R"({"source": "builtin:default"})", s.token);
+  REQUIRE(box.status == 200);
+  CHECK(lightsOf() == edited);
+  // ?lights=fit makes them again anyway; a bad value names the parameter.
+  REQUIRE(api.put(s.path() + "/model?lights=fit", R"({"source": "builtin:default"})", s.token).status == 200);
+  CHECK(lightsOf() != edited);
+  CHECK(lightsOf().size() == 6);
+  checkProblem(api.put(s.path() + "/model?lights=all", R"({"source": "builtin:default"})", s.token), 400,
+               "invalid-parameter", "lights=all", std::nullopt, std::nullopt, "lights");
   checkStopsCleanly(server);
 }

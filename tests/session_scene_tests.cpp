@@ -254,7 +254,7 @@ TEST_CASE("session scene: adopting a model, with its lights and lighting or keep
 
   // A new session: everything from the model.
   std::shared_ptr<const scene::Scene> upload = scene.adopt(
-      model(2, 3), "library:a.glb", Adoption{.lightsFromModel = true, .lightingFromModel = true});
+      model(2, 3), "library:a.glb", Adoption{.lights = Adoption::Lights::model, .lightingFromModel = true});
   CHECK(upload->lights.size() == 2);
   CHECK(scene.lightCount() == 2);
   CHECK(scene.idAt(0) == 1);
@@ -280,14 +280,14 @@ TEST_CASE("session scene: adopting a model, with its lights and lighting or keep
   CHECK(scene.settings().sun.intensity == 7.0f);
 
   // Taking the model's lights renumbers them after the highest id given.
-  upload = scene.adopt(model(4, 1), "upload:c.obj", Adoption{.lightsFromModel = true});
+  upload = scene.adopt(model(4, 1), "upload:c.obj", Adoption{.lights = Adoption::Lights::model});
   CHECK(scene.lightCount() == 4);
   CHECK(scene.idAt(0) == 4);
   CHECK(problemOf([&] { (void)scene.slotOf("1"); }).problem().status == 404);
 
   // A model with more lights than the session may hold: 413, and nothing changes.
   ProblemError tooMany = problemOf(
-      [&] { scene.adopt(model(6, 9), "upload:d.obj", Adoption{.lightsFromModel = true}); });
+      [&] { scene.adopt(model(6, 9), "upload:d.obj", Adoption{.lights = Adoption::Lights::model}); });
   CHECK(tooMany.problem().status == 413);
   CHECK(tooMany.problem().detail == "The model brings 6 lights; a session holds at most 5.");
   CHECK(scene.model().source == "upload:c.obj");
@@ -297,7 +297,7 @@ TEST_CASE("session scene: adopting a model, with its lights and lighting or keep
 
 TEST_CASE("session scene: settings patches, checked; animation clock; the frame a session shows") {
   SessionScene scene(5, {});
-  scene.adopt(model(0, 1), "builtin:default", Adoption{.lightsFromModel = true, .lightingFromModel = true});
+  scene.adopt(model(0, 1), "builtin:default", Adoption{.lights = Adoption::Lights::model, .lightingFromModel = true});
   const Clock::time_point t0 = Clock::now();
 
   protocol::SettingsPatch bad;
@@ -398,6 +398,67 @@ TEST_CASE("session scene: materials by id, 404 past the model's, patches in one 
   CHECK(write.material.baseColor == glm::vec3(0.5f));
   CHECK(scene.materials()[1].roughness == 0.25f);
   CHECK(scene.materials()[0].roughness == scene::Material{}.roughness);
+}
+
+
+TEST_CASE("session scene: generated lights are fitted to a new model until an edit; ?lights= overrides") {
+  SessionScene scene(1000, {});
+  // A new session on a scene whose 40 lights were generated (the built-in scene's).
+  auto first = model(40, 1);
+  scene.adopt(first, "builtin:default",
+              Adoption{.lights = Adoption::Lights::model, .recipe = service::LightRecipe{40, 9}});
+  REQUIRE(scene.lightRecipe().has_value());
+
+  // A model 100 m away and 50 m wide: the lights are made again around it, same count and seed.
+  auto far = model(0, 1);
+  scene::Mesh mesh;
+  mesh.vertices = {{glm::vec3(100.0f, 0.0f, 0.0f)}, {glm::vec3(150.0f, 50.0f, 50.0f)}, {glm::vec3(150.0f, 0.0f, 0.0f)}};
+  mesh.indices = {0, 1, 2};
+  far->meshes.push_back(mesh);
+  far->instances.push_back({0, 0, glm::mat4(1.0f)});
+  std::shared_ptr<const scene::Scene> upload = scene.adopt(far, "upload:far.obj", Adoption{.lights = Adoption::Lights::automatic});
+  REQUIRE(scene.lightCount() == 40);
+  REQUIRE(upload->lights.size() == 40);
+  const scene::Bounds bounds = scene.model().bounds;
+  const float margin = glm::length(bounds.size());
+  for (uint32_t slot = 0; slot < scene.lightCount(); ++slot) {
+    const glm::vec3 p = scene.lightAt(slot).position;
+    CHECK(glm::all(glm::greaterThanEqual(p, bounds.min - margin)));
+    CHECK(glm::all(glm::lessThanEqual(p, bounds.max + margin)));
+    CHECK(same(upload->lights[slot], scene.lightAt(slot)));
+    CHECK(scene.lightAt(slot).radius > 1.0f);  // sized to a 50 m model, not to the first one
+  }
+  CHECK(scene.idAt(0) == 41);  // new lights, new ids
+  const std::vector<scene::PointLight> fitted(upload->lights.begin(), upload->lights.end());
+
+  // The same seed again: the same lights (fit is deterministic).
+  scene.adopt(model(0, 1), "upload:other.obj", Adoption{.lights = Adoption::Lights::automatic});
+  scene.adopt(far, "upload:far.obj", Adoption{.lights = Adoption::Lights::automatic});
+  for (uint32_t slot = 0; slot < 40; ++slot) CHECK(same(scene.lightAt(slot), fitted[slot]));
+
+  // After an edit the lights are the user's: kept as they are.
+  protocol::LightPatch patch;
+  patch.intensity = 3.0;
+  scene.patchLight(0, patch);
+  CHECK_FALSE(scene.lightRecipe().has_value());
+  const scene::PointLight edited = scene.lightAt(0);
+  upload = scene.adopt(model(0, 1), "upload:third.obj", Adoption{.lights = Adoption::Lights::automatic});
+  CHECK(same(scene.lightAt(0), edited));
+  CHECK(same(upload->lights[0], edited));
+
+  // ?lights=fit regenerates anyway (the current count, seed 1); keep keeps generated ones too.
+  scene.adopt(far, "upload:far.obj", Adoption{.lights = Adoption::Lights::fit});
+  CHECK(scene.lightCount() == 40);
+  CHECK(scene.lightRecipe().has_value());
+  const scene::PointLight kept = scene.lightAt(5);
+  scene.adopt(model(0, 1), "upload:x.obj", Adoption{.lights = Adoption::Lights::keep});
+  CHECK(same(scene.lightAt(5), kept));
+
+  // Lights generated with the generator's defaults carry a recipe; added ones end it.
+  scene.replaceLights(std::vector<scene::PointLight>{light(1)}, service::LightRecipe{1, 3});
+  CHECK(scene.lightRecipe()->seed == 3);
+  scene.addLights(std::vector<scene::PointLight>{light(2)});
+  CHECK_FALSE(scene.lightRecipe().has_value());
 }
 
 }  // namespace myriad

@@ -161,8 +161,12 @@ void generate(ApiContext& context, const httplib::Request& req, httplib::Respons
   {
     auto lock = lockOpen(*session);
     SessionScene& scene = session->scene;
+    // Generated with the defaults (around the model), they are refitted when a model is loaded.
+    const bool defaults = !request.bounds && !request.radius && !request.intensity && !request.falloff;
+    std::optional<LightRecipe> recipe;
+    if (defaults) recipe = LightRecipe{uint32_t(request.count), request.seed};
     uploaded = queue(context, *session,
-                     request.replaces() ? scene.replaceLights(lights) : scene.addLights(lights));
+                     request.replaces() ? scene.replaceLights(lights, recipe) : scene.addLights(lights));
     generated.total = scene.lightCount();
   }
   uploaded.get();

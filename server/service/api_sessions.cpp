@@ -155,8 +155,15 @@ void createSession(ApiContext& context, const httplib::Request& req, httplib::Re
     {
       // Nobody else holds the session yet (its id is not out), but the scene is the session's.
       std::lock_guard lock(session->mutex);
+      // The built-in scene's lights are generated: loading a model later fits them to it.
+      std::optional<LightRecipe> recipe;
+      if (source == protocol::kBuiltinModel) {
+        recipe = LightRecipe{context.config.builtinLights, context.config.builtinSeed};
+      }
       scene = session->scene.adopt(loadSource(context, source), source,
-                                   Adoption{.lightsFromModel = true, .lightingFromModel = true});
+                                   Adoption{.lights = Adoption::Lights::model,
+                                            .recipe = recipe,
+                                            .lightingFromModel = true});
     }
     const render::SceneId sceneId = context.renderThread.createScene(scene).get();
     std::lock_guard lock(session->mutex);
@@ -183,14 +190,22 @@ void createSession(ApiContext& context, const httplib::Request& req, httplib::Re
 void putModel(ApiContext& context, const httplib::Request& req, httplib::Response& res) {
   SessionPtr session = authorizeSession(context, req);
   checkQuery(req, {"filename", "lights", "entry"});
-  bool modelLights = false;
+  // Without ?lights=: generated lights are fitted to the new model, edited ones kept.
+  Adoption::Lights lights = Adoption::Lights::automatic;
   if (req.has_param("lights")) {
     const std::string value = req.get_param_value("lights");
-    if (value != "model" && value != "keep") {
+    if (value == "keep") {
+      lights = Adoption::Lights::keep;
+    } else if (value == "model") {
+      lights = Adoption::Lights::model;
+    } else if (value == "fit") {
+      lights = Adoption::Lights::fit;
+    } else {
       throw ProblemError(invalidParameter(
-          "lights", "\"lights\" is model (take the model's lights) or keep (the default)."));
+          "lights", "\"lights\" is keep (the session's lights as they are), model (the model's "
+                    "own) or fit (generated again around the model); without it, generated "
+                    "lights are fitted and edited ones kept."));
     }
-    modelLights = value == "model";
   }
 
   // Loading takes from milliseconds to the loader's time limit; the session stays usable.
@@ -243,8 +258,8 @@ void putModel(ApiContext& context, const httplib::Request& req, httplib::Respons
   std::future<void> replaced;
   {
     auto lock = lockOpen(*session);
-    std::shared_ptr<const scene::Scene> adopted = session->scene.adopt(
-        std::move(scene), source, Adoption{.lightsFromModel = modelLights});
+    std::shared_ptr<const scene::Scene> adopted =
+        session->scene.adopt(std::move(scene), source, Adoption{.lights = lights});
     // Enqueued under the lock, so light edits after this one reach the new scene.
     replaced = context.renderThread.replaceScene(session->sceneId, std::move(adopted));
     session->bump();

@@ -4,8 +4,10 @@
 
 #include "protocol/validate.h"
 #include "scene/camera.h"
+#include "scene/light_generator.h"
 #include "service/problem.h"
 #include "service/session_json.h"
+#include "service/startup.h"
 
 namespace myriad::service {
 namespace {
@@ -42,7 +44,10 @@ SessionScene::SessionScene(uint32_t maxLights, render::SceneSettings settings)
 
 std::shared_ptr<const scene::Scene> SessionScene::adopt(std::shared_ptr<scene::Scene> loaded,
                                                         std::string source, Adoption adoption) {
-  if (adoption.lightsFromModel) {
+  using Lights = Adoption::Lights;
+  Lights lights = adoption.lights;
+  if (lights == Lights::automatic) lights = recipe_ ? Lights::fit : Lights::keep;
+  if (lights == Lights::model) {
     checkLightTotal(loaded->lights.size(),
                     "The model brings " + std::to_string(loaded->lights.size()) + " lights");
   }
@@ -50,11 +55,24 @@ std::shared_ptr<const scene::Scene> SessionScene::adopt(std::shared_ptr<scene::S
   materials_ = loaded->materials;
   camera_ = loaded->camera;
   if (adoption.lightingFromModel) settings_.takeLightingFrom(*loaded);
-  if (adoption.lightsFromModel) {
-    lights_ = loaded->lights;
-    assignIds(0);
-  } else {
-    loaded->lights = lights_;
+  switch (lights) {
+    case Lights::model:
+      lights_ = loaded->lights;
+      assignIds(0);
+      recipe_ = adoption.recipe;
+      break;
+    case Lights::fit: {
+      const LightRecipe recipe = recipe_.value_or(LightRecipe{uint32_t(lights_.size()), 1});
+      lights_ = scene::generateLights(lightGenerationAround(model_.bounds, recipe.count, recipe.seed));
+      assignIds(0);
+      recipe_ = recipe;
+      loaded->lights = lights_;
+      break;
+    }
+    case Lights::automatic:
+    case Lights::keep:
+      loaded->lights = lights_;
+      break;
   }
   return loaded;
 }
@@ -185,6 +203,7 @@ render::LightUpdate SessionScene::addLights(std::span<const scene::PointLight> l
                                             std::vector<uint64_t>* ids) {
   const uint64_t total = uint64_t(lights_.size()) + lights.size();
   checkLightTotal(total, "This would leave the session with " + std::to_string(total) + " lights");
+  recipe_.reset();
   const auto first = uint32_t(lights_.size());
   lights_.insert(lights_.end(), lights.begin(), lights.end());
   render::LightUpdate update = assignIds(first);
@@ -192,15 +211,18 @@ render::LightUpdate SessionScene::addLights(std::span<const scene::PointLight> l
   return update;
 }
 
-render::LightUpdate SessionScene::replaceLights(std::span<const scene::PointLight> lights) {
+render::LightUpdate SessionScene::replaceLights(std::span<const scene::PointLight> lights,
+                                                std::optional<LightRecipe> recipe) {
   checkLightTotal(lights.size(),
                   "This would leave the session with " + std::to_string(lights.size()) + " lights");
   lights_.assign(lights.begin(), lights.end());
+  recipe_ = recipe;
   return assignIds(0);
 }
 
 render::LightUpdate SessionScene::patchLight(uint32_t slot, const protocol::LightPatch& patch) {
   scene::PointLight& light = lights_.at(slot);
+  recipe_.reset();
   if (patch.position) light.position = fromWire(*patch.position);
   if (patch.radius) light.radius = float(*patch.radius);
   if (patch.color) light.color = fromWire(*patch.color);
@@ -211,6 +233,7 @@ render::LightUpdate SessionScene::patchLight(uint32_t slot, const protocol::Ligh
 
 render::LightUpdate SessionScene::removeLight(uint32_t slot) {
   const auto last = uint32_t(lights_.size() - 1);
+  recipe_.reset();
   render::LightUpdate update;
   update.count = last;
   slotOfId_.erase(ids_.at(slot));

@@ -38,11 +38,26 @@ struct ModelSummary {
   scene::Bounds bounds;
 };
 
+// How a session's lights were made, while they are still exactly what a generator made (the
+// built-in scene's, or POST .../lights/generate with its defaults): loading another model can make
+// them again around it. Any other light edit forgets it.
+struct LightRecipe {
+  uint32_t count = 0;
+  uint64_t seed = 0;
+};
+
 // How adopt() treats what the session already has.
 struct Adoption {
-  // Take the model's lights (new ids); otherwise the session keeps its lights and the scene to
-  // upload gets them.
-  bool lightsFromModel = false;
+  enum class Lights {
+    automatic,  // fit while the lights are still generated (a recipe is known), else keep
+    keep,       // the session keeps its lights; the scene to upload gets them
+    model,      // the model's own lights (new ids)
+    fit,        // generated again around the new model: the recipe's count and seed, else the
+                // current count with seed 1 (new ids)
+  };
+  Lights lights = Lights::keep;
+  // With Lights::model: how the model's lights were generated (the built-in scene's), if they were.
+  std::optional<LightRecipe> recipe;
   // Take the model's sun, ambient and background (a new session); otherwise keep the session's.
   bool lightingFromModel = false;
 };
@@ -56,8 +71,8 @@ class SessionScene {
   // ---- The model. Creating a session and loading a model both come through here.
 
   // Makes `loaded` the session's model: summary (from `source`), materials and camera, and, as
-  // `adoption` says, its lights and its lighting. Returns the scene to upload to the GPU (with
-  // the session's lights in it when it keeps them). Throws ProblemError 413 maxLightsPerSession
+  // `adoption` says, its lights and its lighting. Returns the scene to upload to the GPU, holding
+  // the session's lights as they are after the call. Throws ProblemError 413 maxLightsPerSession
   // when the model brings more lights than the session may hold (nothing changes then).
   std::shared_ptr<const scene::Scene> adopt(std::shared_ptr<scene::Scene> loaded,
                                             std::string source, Adoption adoption);
@@ -114,13 +129,18 @@ class SessionScene {
   // maxLightsPerSession when the total would pass maxLights().
   render::LightUpdate addLights(std::span<const scene::PointLight> lights,
                                 std::vector<uint64_t>* ids = nullptr);
-  // Replaces every light by `lights` (fresh ids). Throws 413 like addLights.
-  render::LightUpdate replaceLights(std::span<const scene::PointLight> lights);
+  // Replaces every light by `lights` (fresh ids); `recipe` says how they were generated, when
+  // they were with the generator's defaults. Throws 413 like addLights.
+  render::LightUpdate replaceLights(std::span<const scene::PointLight> lights,
+                                    std::optional<LightRecipe> recipe = std::nullopt);
   render::LightUpdate clearLights() { return replaceLights({}); }
   // Changes the members `patch` names of the light in `slot` (from slotOf).
   render::LightUpdate patchLight(uint32_t slot, const protocol::LightPatch& patch);
   // Removes the light in `slot`; the last light takes its place.
   render::LightUpdate removeLight(uint32_t slot);
+
+  // How the lights were generated, while no edit has changed them since.
+  const std::optional<LightRecipe>& lightRecipe() const { return recipe_; }
 
   // Throws ProblemError 413 maxLightsPerSession when the session may not hold `total` lights;
   // `what` starts the detail ("This would leave the session with N lights").
@@ -142,6 +162,7 @@ class SessionScene {
   std::vector<uint64_t> ids_;
   std::unordered_map<uint64_t, uint32_t> slotOfId_;
   uint64_t nextId_ = 1;
+  std::optional<LightRecipe> recipe_;
 };
 
 }  // namespace myriad::service
