@@ -28,6 +28,8 @@ test_packages=(
   chromium                 # the browser test's headless browser (never a downloaded one)
   nodejs                   # runs the browser test (tests/browser, playwright-core)
   python3-jsonschema       # protocol-differential: a second JSON Schema validator to agree with ours
+  clang                    # the fuzz preset's clang++ (tests/fuzz: libFuzzer harnesses)
+  libclang-rt-14-dev       # libFuzzer and the ASan/UBSan runtimes clang links into the harnesses
 )
 # npm installs the browser test's playwright-core. Only where no npm exists: NodeSource's nodejs
 # bundles its own and conflicts with Debian's npm package.

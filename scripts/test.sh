@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Install what the tests need (Debian 12), build everything, and run every test through CTest:
 # unit, GPU image (validation layers on), HTTP and model tests against the real server, the web
-# client in headless Chromium (tests/browser), the served OpenAPI document (tests/openapi), and the
+# client in headless Chromium (tests/browser), the served OpenAPI document (tests/openapi), the
+# libFuzzer harnesses for 30 s each (tests/fuzz: the fuzz preset, built here when clang is), and the
 # container test (tests/container: needs root; it builds docker/Dockerfile with buildah, which takes
 # minutes cold). Extra arguments go to ctest, e.g. scripts/test.sh -R gpu, or -LE container to
 # leave the container test out.
@@ -20,4 +21,10 @@ done
 preset=${MYRIAD_PRESET:-release}
 cmake --preset "$preset" >/dev/null
 cmake --build --preset "$preset" -j"$(nproc)"
+# The libFuzzer harnesses (tests/fuzz, clang), which the CTest `fuzz` runs for a bounded time each;
+# without clang that test skips.
+if command -v clang++ >/dev/null 2>&1; then
+  cmake --preset fuzz >/dev/null
+  cmake --build --preset fuzz -j"$(nproc)"
+fi
 ctest --preset "$preset" "$@"
