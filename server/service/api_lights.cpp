@@ -7,7 +7,7 @@
 #include "protocol/validate.h"
 #include "scene/light_generator.h"
 #include "service/api.h"
-#include "service/render_thread.h"
+#include "render/render_queue.h"
 #include "service/session_json.h"
 #include "service/startup.h"
 

@@ -4,7 +4,7 @@
 #include "protocol/constants.h"
 #include "protocol/types.h"
 #include "service/api.h"
-#include "service/render_thread.h"
+#include "render/render_queue.h"
 #include "service/session_json.h"
 
 namespace myriad::service {

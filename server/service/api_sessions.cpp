@@ -7,7 +7,7 @@
 #include "protocol/types.h"
 #include "scene/builtin_scene.h"
 #include "service/api.h"
-#include "service/render_thread.h"
+#include "render/render_queue.h"
 #include "service/session_json.h"
 
 namespace myriad::service {
@@ -136,7 +136,8 @@ void createSession(ApiContext& context, const httplib::Request& req, httplib::Re
   checkQuery(req, {});
   if (context.config.apiKey) {
     std::optional<std::string> key;
-    if (req.has_header("Authorization")) key = bearerToken(req.get_header_value("Authorization"));
+    const std::string authorization(protocol::headers::kAuthorization);
+    if (req.has_header(authorization)) key = bearerToken(req.get_header_value(authorization));
     if (!key || !constantTimeEquals(*key, *context.config.apiKey)) {
       throw ProblemError(unauthorized(
           "This server needs its API key to create a session: Authorization: Bearer <key>."));
@@ -181,7 +182,7 @@ void createSession(ApiContext& context, const httplib::Request& req, httplib::Re
   created.token = session->token;
   created.expiresInSeconds = uint64_t(context.sessions.expiresInSeconds(*session));
   created.session = stateOf(*session, int64_t(created.expiresInSeconds));
-  res.set_header("Location", protocol::expandRoute(protocol::routes::kSession, "id", session->id));
+  res.set_header(std::string(protocol::headers::kLocation), protocol::expandRoute(protocol::routes::kSession, "id", session->id));
   sendJson(res, created, 201);
   std::fprintf(stderr, "myriad-server: session %s created (%s, %zu lights)\n", session->id.c_str(),
                source.c_str(), session->scene.lightCount());
@@ -229,10 +230,10 @@ void putModel(ApiContext& context, const httplib::Request& req, httplib::Respons
     scene = loadFilesUpload(req, source);
   } else if (zip) {
     scene = loadArchiveUpload(req, source);
-  } else if (type.starts_with("application/octet-stream")) {
+  } else if (type.starts_with(protocol::kUploadContentType)) {
     scene = loadUpload(req);
     source = std::string(protocol::kUploadPrefix) + req.get_param_value("filename");
-  } else if (type.starts_with("application/json")) {
+  } else if (type.starts_with(protocol::kJsonContentType)) {
     if (req.has_param("filename")) {
       throw ProblemError(invalidParameter(
           "filename", "\"filename\" goes with an application/octet-stream upload, not JSON."));

@@ -4,6 +4,8 @@
 #include <cstdio>
 #include <stdexcept>
 
+#include "protocol/constants.h"
+
 #include "encode/jpeg.h"
 #include "encode/png.h"
 #include "encode/raw.h"
@@ -31,25 +33,25 @@ EncodedFrame encodeFrame(const render::Frame& frame, const FrameRequest& request
     case ImageFormat::Png: {
       std::vector<uint8_t> png = encode::encodePng(frame.width, frame.height, frame.rgba);
       out.body.assign(reinterpret_cast<const char*>(png.data()), png.size());
-      out.contentType = "image/png";
+      out.contentType = protocol::kPngContentType;
       break;
     }
     case ImageFormat::Jpeg: {
       std::vector<uint8_t> jpeg =
           encode::encodeJpeg(frame.rgba, frame.width, frame.height, request.quality);
       out.body.assign(reinterpret_cast<const char*>(jpeg.data()), jpeg.size());
-      out.contentType = "image/jpeg";
+      out.contentType = protocol::kJpegContentType;
       break;
     }
     case ImageFormat::Raw: {
       const render::Target target = request.settings.target;
       std::vector<uint8_t> raw = encode::packRaw(frame, target);
       out.body.assign(reinterpret_cast<const char*>(raw.data()), raw.size());
-      out.contentType = "application/octet-stream";
-      out.headers.emplace_back("X-Myriad-Width", std::to_string(frame.width));
-      out.headers.emplace_back("X-Myriad-Height", std::to_string(frame.height));
-      out.headers.emplace_back("X-Myriad-Channels", joined(render::rawChannels(target)));
-      out.headers.emplace_back("X-Myriad-Target", std::string(render::targetName(target)));
+      out.contentType = protocol::kRawContentType;
+      out.headers.emplace_back(protocol::headers::kWidth, std::to_string(frame.width));
+      out.headers.emplace_back(protocol::headers::kHeight, std::to_string(frame.height));
+      out.headers.emplace_back(protocol::headers::kChannels, joined(render::rawChannels(target)));
+      out.headers.emplace_back(protocol::headers::kTarget, std::string(render::targetName(target)));
       break;
     }
   }
@@ -57,8 +59,8 @@ EncodedFrame encodeFrame(const render::Frame& frame, const FrameRequest& request
 
   const bool culled = frame.technique != render::Technique::Volumes;
   out.headers.emplace_back(
-      "Server-Timing", formatServerTiming(frame.passes, out.encodeMs, culled ? &frame.culling : nullptr));
-  out.headers.emplace_back("X-Myriad-Technique", std::string(render::techniqueName(frame.technique)));
+      protocol::headers::kServerTiming, formatServerTiming(frame.passes, out.encodeMs, culled ? &frame.culling : nullptr));
+  out.headers.emplace_back(protocol::headers::kTechnique, std::string(render::techniqueName(frame.technique)));
   if (frame.culling.overflowed()) {
     std::fprintf(stderr, "myriad-server: WARNING: light lists overflowed, lights are missing from "
                          "this frame: %s\n", describeCulling(frame.culling).c_str());
@@ -114,7 +116,7 @@ protocol::Stats FrameStatsBook::statsOf(const Session& session, uint64_t lightCo
   return stats;
 }
 
-DeliveredFrame deliverFrame(RenderThread& renderThread, Metrics& metrics, render::SceneId id,
+DeliveredFrame deliverFrame(render::RenderQueue& renderThread, Metrics& metrics, render::SceneId id,
                             const FrameRequest& request) {
   const auto start = std::chrono::steady_clock::now();
   std::future<render::Frame> pending = renderThread.submit(id, request.settings);
@@ -142,7 +144,7 @@ SessionFrame renderSessionFrame(const SessionFrameContext& context, const Sessio
   DeliveredFrame delivered;
   try {
     delivered = deliverFrame(context.renderThread, context.metrics, sceneId, rendered);
-  } catch (const RenderQueueFullError&) {
+  } catch (const render::RenderQueueFullError&) {
     throw;
   } catch (const std::exception&) {
     // A session deleted while its frame waited takes its scene with it: that is a 404, not a

@@ -15,7 +15,7 @@
 #include "render/frame.h"
 #include "service/frame_query.h"
 #include "service/metrics.h"
-#include "service/render_thread.h"
+#include "render/render_queue.h"
 #include "service/session.h"
 
 namespace myriad::service {
@@ -56,12 +56,12 @@ class FrameStatsBook {
 
 // Renders `request.settings` of scene `id` on the render thread, waits, encodes the frame as
 // `request` asks and adds the time taken to myriad_frame_seconds: the path every frame takes.
-// Throws RenderQueueFullError (queue full) and whatever the renderer or encoder threw.
+// Throws render::RenderQueueFullError (queue full) and whatever the renderer or encoder threw.
 struct DeliveredFrame {
   render::Frame frame;  // what the renderer returned (pixels included)
   EncodedFrame encoded;
 };
-DeliveredFrame deliverFrame(RenderThread& renderThread, Metrics& metrics, render::SceneId id,
+DeliveredFrame deliverFrame(render::RenderQueue& renderThread, Metrics& metrics, render::SceneId id,
                             const FrameRequest& request);
 
 // A session frame as delivered: the encoded bytes and what it showed.
@@ -72,14 +72,14 @@ struct SessionFrame {
 
 // What SessionFrames needs from the rest of the server.
 struct SessionFrameContext {
-  RenderThread& renderThread;
+  render::RenderQueue& renderThread;
   FrameStatsBook& stats;
   Metrics& metrics;
 };
 
 // Takes the session's camera, settings and scene (under its mutex), renders on the render thread,
 // waits, encodes, and records the frame in stats and metrics. `request.time` overrides the
-// session's animation clock. Throws RenderQueueFullError (queue full), ProblemError 404 when the
+// session's animation clock. Throws render::RenderQueueFullError (queue full), ProblemError 404 when the
 // session closed meanwhile, and whatever the renderer or encoder threw.
 SessionFrame renderSessionFrame(const SessionFrameContext& context, const SessionPtr& session,
                                 const FrameRequest& request);

@@ -70,7 +70,7 @@ bool StreamState::next(httplib::DataSink& sink) {
       SessionFrame frame;
       try {
         frame = renderSessionFrame(context, session, request);
-      } catch (const RenderQueueFullError&) {
+      } catch (const render::RenderQueueFullError&) {
         nextFrameAt = now + kQueueFullRetry;
         continue;
       } catch (const ProblemError&) {
