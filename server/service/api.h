@@ -137,6 +137,14 @@ class Routes {
   mutable std::atomic<uint32_t> inFlight_{0};
 };
 
+// A handler written as a function of the context, bound to `context` for Routes::add.
+using ContextHandler = void (*)(ApiContext&, const httplib::Request&, httplib::Response&);
+inline Routes::Handler bindContext(ApiContext& context, ContextHandler handler) {
+  return [&context, handler](const httplib::Request& req, httplib::Response& res) {
+    handler(context, req, res);
+  };
+}
+
 // POST/GET/DELETE sessions, PUT model, GET /v1/models (api_sessions.cpp).
 void addSessionRoutes(Routes& routes, ApiContext& context);
 // Camera, settings and materials of a session (api_scene.cpp).

@@ -176,12 +176,7 @@ void generate(ApiContext& context, const httplib::Request& req, httplib::Respons
 }  // namespace
 
 void addLightRoutes(Routes& routes, ApiContext& context) {
-  auto bind = [&context](void (*handler)(ApiContext&, const httplib::Request&,
-                                         httplib::Response&)) {
-    return [&context, handler](const httplib::Request& req, httplib::Response& res) {
-      handler(context, req, res);
-    };
-  };
+  auto bind = [&context](ContextHandler handler) { return bindContext(context, handler); };
   routes.add("GET", protocol::routes::kSessionLights, bind(getPage));
   routes.add("POST", protocol::routes::kSessionLights, bind(addLights));
   routes.add("DELETE", protocol::routes::kSessionLights, bind(clearLights));

@@ -108,12 +108,7 @@ void patchMaterial(ApiContext& context, const httplib::Request& req, httplib::Re
 }  // namespace
 
 void addSceneRoutes(Routes& routes, ApiContext& context) {
-  auto bind = [&context](void (*handler)(ApiContext&, const httplib::Request&,
-                                         httplib::Response&)) {
-    return [&context, handler](const httplib::Request& req, httplib::Response& res) {
-      handler(context, req, res);
-    };
-  };
+  auto bind = [&context](ContextHandler handler) { return bindContext(context, handler); };
   routes.add("GET", protocol::routes::kSessionCamera, bind(getCamera));
   routes.add("PUT", protocol::routes::kSessionCamera,
              [&context](const httplib::Request& req, httplib::Response& res) {
