@@ -153,7 +153,22 @@ inline constexpr std::string_view kLibraryPrefix = "library:";
 inline constexpr std::string_view kUploadPrefix = "upload:";
 inline constexpr size_t kMaxLightsPerAdd = 100000;  // POST .../lights, per request
 inline constexpr size_t kTokenBytes = 32;           // 64 hex digits
-inline constexpr std::array<std::string_view, 3> kTechniques = {"volumes", "tiled", "clustered"};
+// Lighting techniques: settings' "technique", GET /v1/info "techniques". The list and its order are
+// the renderer's too: render::Technique is an index into kTechniques, and
+// server/render/techniques/registry.cpp has one entry per name, in this order (checked when it
+// compiles). defs.schema.json's "technique" enum mirrors it (tests/protocol_tests.cpp).
+namespace techniques {
+inline constexpr std::string_view kVolumes = "volumes";      // rasterised light volumes
+inline constexpr std::string_view kTiled = "tiled";          // compute, per-tile lists
+inline constexpr std::string_view kClustered = "clustered";  // compute, per-cluster lists
+}  // namespace techniques
+inline constexpr std::array kTechniques = {techniques::kVolumes, techniques::kTiled,
+                                           techniques::kClustered};
+// What a frame shows: ?target=, GET /v1/info "targets", X-Myriad-Target. In render::Target's order
+// (which the shaders' MYRIAD_VIEW_* values follow): the final image, then G-buffer and debug views.
+inline constexpr std::array<std::string_view, 11> kTargets = {
+    "final", "albedo",        "normal",      "position", "uv", "metallic", "roughness",
+    "depth", "light-volumes", "light-count", "clusters"};
 inline constexpr std::array<std::string_view, 3> kFormats = {"png", "jpeg", "raw"};
 
 }  // namespace myriad::protocol

@@ -38,17 +38,13 @@ using mat4 = glm::mat4;
 #define MYRIAD_BINDING_HDR_STORAGE 7          // storage image: compute lighting writes HDR here
 #define MYRIAD_BINDING_LIGHT_COUNT_STORAGE 8  // storage image: compute lighting writes counts here
 
-// Descriptor set 2: light culling (tiled and clustered techniques).
+// Descriptor set 2: light culling. Each compute technique binds its own set of this layout
+// (server/render/techniques/) and writes the bindings its shaders use.
 #define MYRIAD_SET_CULLING 2
 #define MYRIAD_BINDING_CLUSTER_RANGES 0    // uvec2 per cluster: first index, light count
 #define MYRIAD_BINDING_CLUSTER_LIGHTS 1    // uint light indices, every cluster's list back to back
 #define MYRIAD_BINDING_CULLING_STATS 2     // CullingStats, read back after the frame
 #define MYRIAD_BINDING_CLUSTER_CURSORS 3   // uint per cluster: count, then fill cursor
-
-// Techniques (FrameUniforms.grid.w).
-#define MYRIAD_TECHNIQUE_VOLUMES 0
-#define MYRIAD_TECHNIQUE_TILED 1
-#define MYRIAD_TECHNIQUE_CLUSTERED 2
 
 // Tiled: 16x16-pixel tiles, one workgroup each; a tile's list lives in shared memory.
 #define MYRIAD_TILE_SIZE 16
@@ -66,7 +62,8 @@ using mat4 = glm::mat4;
 #define MYRIAD_PIXEL_GROUP 8
 #define MYRIAD_SCAN_GROUP 1024
 
-// The view the tonemap pass writes (FrameUniforms.flags.x). Order matches render::Target.
+// The view the tonemap pass writes (FrameUniforms.flags.x). render::Target's values
+// (render/gpu_types.h checks them).
 #define MYRIAD_VIEW_FINAL 0
 #define MYRIAD_VIEW_ALBEDO 1
 #define MYRIAD_VIEW_NORMAL 2
@@ -94,7 +91,7 @@ MYRIAD_STRUCT(FrameUniforms) {
   vec4 boundsMin;        // scene bounds, for the position view; w unused
   vec4 boundsMax;
   uvec4 flags;           // x view (MYRIAD_VIEW_*), y light count, z raw output (0/1), w list capacity
-  uvec4 grid;            // x,y clusters across/down, z depth slices, w technique
+  uvec4 grid;            // x,y clusters across/down, z depth slices, w technique (render::Technique)
   vec4 slicing;          // x slices / ln(far/near), y ln(near) * x, z heat-map max, w time (s)
 };
 

@@ -5,6 +5,7 @@
 // protocol-differential test also runs through python3-jsonschema), and the rules across members.
 #include <doctest/doctest.h>
 
+#include <algorithm>
 #include <chrono>
 #include <fstream>
 #include <functional>
@@ -337,6 +338,24 @@ TEST_CASE("constants agree with the schemas") {
   CHECK(protocol::schema("lights-add")["properties"]["lights"]["maxItems"] == protocol::kMaxLightsPerAdd);
   CHECK(protocol::schema("lights-page")["properties"]["lights"]["maxItems"] ==
         protocol::query::kMaxLightsPageLimit);
+}
+
+TEST_CASE("the technique and target names are the constants, in order, wherever they are listed") {
+  // GET /v1/info lists them from the constants; its example shows every one, in order.
+  const json info = example("info");
+  REQUIRE(info["techniques"].size() == protocol::kTechniques.size());
+  for (size_t i = 0; i < protocol::kTechniques.size(); ++i) {
+    CHECK(info["techniques"][i] == protocol::kTechniques[i]);
+  }
+  REQUIRE(info["targets"].size() == protocol::kTargets.size());
+  for (size_t i = 0; i < protocol::kTargets.size(); ++i) CHECK(info["targets"][i] == protocol::kTargets[i]);
+  CHECK(std::find(protocol::kTechniques.begin(), protocol::kTechniques.end(),
+                  info["defaultTechnique"].get<std::string>()) != protocol::kTechniques.end());
+  // Each name once.
+  CHECK(std::set<std::string_view>(protocol::kTechniques.begin(), protocol::kTechniques.end()).size() ==
+        protocol::kTechniques.size());
+  CHECK(std::set<std::string_view>(protocol::kTargets.begin(), protocol::kTargets.end()).size() ==
+        protocol::kTargets.size());
 }
 
 TEST_CASE("the largest lights-add body validates quickly") {

@@ -56,7 +56,7 @@ const char* const kUsage =
     "                    [--json PATH] [--validate] [--device INDEX|NAME]\n"
     "Renders animated frames for every light count x technique, timing each pass with GPU\n"
     "timestamp queries after warm-up, and prints medians and 90th percentiles.\n"
-    "defaults: 1920x1080, lights 1000,10000,100000,1000000, techniques volumes,tiled,clustered,\n"
+    "defaults: 1920x1080, lights 1000,10000,100000,1000000, every technique,\n"
     "          50 frames after 10 warm-up, scene floor with 64 lights per point, volumes only up to\n"
     "          100000 lights, at most 30 s of timed frames per configuration, markers off.\n"
     "--validate enables VK_LAYER_KHRONOS_validation; any message makes the exit status 1.\n";
@@ -83,7 +83,8 @@ Options parseOptions(const std::vector<std::string>& args) {
       for (auto item : splitList(flag, value())) {
         auto technique = render::parseTechnique(item);
         if (!technique) {
-          throw UsageError("--techniques expects volumes, tiled or clustered, not \"" + std::string(item) + "\".");
+          throw UsageError("--techniques expects " + render::techniqueChoices() + ", not \"" +
+                           std::string(item) + "\".");
         }
         o.techniques.push_back(*technique);
       }

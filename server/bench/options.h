@@ -22,8 +22,7 @@ struct Options {
   Plan plan;
   BenchScene scene = BenchScene::Floor;
   std::vector<uint32_t> lightCounts{1000, 10000, 100000, 1000000};
-  std::vector<render::Technique> techniques{render::Technique::Volumes, render::Technique::Tiled,
-                                            render::Technique::Clustered};
+  std::vector<render::Technique> techniques = render::allTechniques();
   // Light volumes rasterise a proxy per light; past this many they take seconds a frame on GPUs
   // with few graphics units, so larger counts are skipped (and say so) unless asked for.
   uint32_t volumesMaxLights = 100000;

@@ -9,6 +9,7 @@
 #include <string_view>
 #include <vector>
 
+#include "protocol/constants.h"
 #include "scene/scene.h"
 
 namespace myriad::render {
@@ -37,8 +38,8 @@ struct MaterialWrite {
   scene::Material material;
 };
 
-// What the tonemap pass writes into the output image. Values match MYRIAD_VIEW_* in
-// shaders/shared_types.h.
+// What the tonemap pass writes into the output image. Values index protocol::kTargets (the names)
+// and equal MYRIAD_VIEW_* in shaders/shared_types.h (render/gpu_types.h checks both).
 enum class Target : uint32_t {
   Final = 0,
   Albedo,
@@ -53,9 +54,9 @@ enum class Target : uint32_t {
   Clusters,    // the clustered technique's depth slices, one colour each
 };
 
-inline constexpr std::array<std::string_view, 11> kTargetNames = {
-    "final", "albedo",        "normal",      "position", "uv", "metallic", "roughness",
-    "depth", "light-volumes", "light-count", "clusters"};
+// The names are the protocol's, defined once there.
+inline constexpr const auto& kTargetNames = protocol::kTargets;
+static_assert(kTargetNames.size() == static_cast<size_t>(Target::Clusters) + 1);
 
 inline std::string_view targetName(Target t) { return kTargetNames[static_cast<uint32_t>(t)]; }
 
@@ -66,15 +67,38 @@ inline std::optional<Target> parseTarget(std::string_view name) {
   return std::nullopt;
 }
 
-// How local lights are shaded. The same image either way (tests hold them to 1/255 of each other);
-// they differ in cost. Values match MYRIAD_TECHNIQUE_* in shaders/shared_types.h.
+// How local lights are shaded. The same image whichever (tests hold them to 1/255 of each other);
+// they differ in cost. A technique is an index into protocol::kTechniques, its name, and into
+// render/techniques/registry.cpp, its implementation; there is no other list of them. The named
+// values are the ones code refers to by name (defaults, tests); a new technique needs none.
 enum class Technique : uint32_t {
   Volumes = 0,  // the seed's: one instanced draw of sphere proxies, additive blending
   Tiled,        // compute: 16x16-pixel tiles, lists in shared memory (Andersson 2011)
   Clustered,    // compute: tiles x depth slices, lists assigned on the GPU (Olsson et al. 2012)
 };
 
-inline constexpr std::array<std::string_view, 3> kTechniqueNames = {"volumes", "tiled", "clustered"};
+inline constexpr const auto& kTechniqueNames = protocol::kTechniques;
+static_assert(kTechniqueNames[static_cast<size_t>(Technique::Volumes)] == protocol::techniques::kVolumes);
+static_assert(kTechniqueNames[static_cast<size_t>(Technique::Tiled)] == protocol::techniques::kTiled);
+static_assert(kTechniqueNames[static_cast<size_t>(Technique::Clustered)] ==
+              protocol::techniques::kClustered);
+
+// Every technique, in order.
+inline std::vector<Technique> allTechniques() {
+  std::vector<Technique> all;
+  for (uint32_t i = 0; i < kTechniqueNames.size(); ++i) all.push_back(static_cast<Technique>(i));
+  return all;
+}
+
+// "volumes, tiled or clustered": the names as a sentence lists them (usage, error messages).
+inline std::string techniqueChoices() {
+  std::string text;
+  for (size_t i = 0; i < kTechniqueNames.size(); ++i) {
+    if (i > 0) text += i + 1 == kTechniqueNames.size() ? " or " : ", ";
+    text += kTechniqueNames[i];
+  }
+  return text;
+}
 
 inline std::string_view techniqueName(Technique t) {
   return kTechniqueNames[static_cast<uint32_t>(t)];

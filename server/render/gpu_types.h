@@ -4,6 +4,7 @@
 
 #include <cstddef>
 
+#include "render/frame.h"
 #include "shared_types.h"
 
 namespace myriad::render {
@@ -25,5 +26,18 @@ static_assert(sizeof(CullingStats) == 32);
 static_assert(sizeof(GpuPointLight) == 32 && offsetof(GpuPointLight, radianceFalloff) == 16);
 static_assert(sizeof(GpuInstance) == 144 && offsetof(GpuInstance, material) == 128);
 static_assert(sizeof(GpuMaterial) == 32 && offsetof(GpuMaterial, metallicRoughness) == 16);
+
+// The tonemap view numbers are render::Target's values.
+static_assert(uint32_t(Target::Final) == MYRIAD_VIEW_FINAL);
+static_assert(uint32_t(Target::Albedo) == MYRIAD_VIEW_ALBEDO);
+static_assert(uint32_t(Target::Normal) == MYRIAD_VIEW_NORMAL);
+static_assert(uint32_t(Target::Position) == MYRIAD_VIEW_POSITION);
+static_assert(uint32_t(Target::Uv) == MYRIAD_VIEW_UV);
+static_assert(uint32_t(Target::Metallic) == MYRIAD_VIEW_METALLIC);
+static_assert(uint32_t(Target::Roughness) == MYRIAD_VIEW_ROUGHNESS);
+static_assert(uint32_t(Target::Depth) == MYRIAD_VIEW_DEPTH);
+static_assert(uint32_t(Target::LightVolumes) == MYRIAD_VIEW_LIGHT_VOLUMES);
+static_assert(uint32_t(Target::LightCount) == MYRIAD_VIEW_LIGHT_COUNT);
+static_assert(uint32_t(Target::Clusters) == MYRIAD_VIEW_CLUSTERS);
 
 }  // namespace myriad::render

@@ -10,8 +10,9 @@
 
 namespace myriad::render {
 
-// Every pipeline of the frame, sharing one layout: set 0 = scene, set 1 = targets,
-// set 2 = light culling.
+// The frame's pipeline layout (set 0 = scene, set 1 = targets, set 2 = light culling) and the
+// pipelines of the passes every technique shares. Each lighting technique makes its own
+// pipelines with this layout (render/techniques/).
 struct Pipelines {
   explicit Pipelines(gpu::Context& context);
   ~Pipelines();
@@ -24,32 +25,18 @@ struct Pipelines {
   VkDescriptorSetLayout cullingSetLayout = VK_NULL_HANDLE;
   VkPipelineLayout layout = VK_NULL_HANDLE;
   VkPipeline gbuffer = VK_NULL_HANDLE;
-  VkPipeline sun = VK_NULL_HANDLE;
-  VkPipeline lightVolumes = VK_NULL_HANDLE;
   VkPipeline lightVolumeOverlay = VK_NULL_HANDLE;
   VkPipeline markers = VK_NULL_HANDLE;
   VkPipeline tonemap = VK_NULL_HANDLE;
   VkPipeline tonemapRaw = VK_NULL_HANDLE;  // same shader, float output
   // Compute (render/compute_passes.h).
   VkPipeline animateLights = VK_NULL_HANDLE;
-  VkPipeline tiledLighting = VK_NULL_HANDLE;
-  VkPipeline clusterMark = VK_NULL_HANDLE;
-  VkPipeline clusterCount = VK_NULL_HANDLE;
-  VkPipeline clusterScan = VK_NULL_HANDLE;
-  VkPipeline clusterAssign = VK_NULL_HANDLE;
-  VkPipeline clusteredLighting = VK_NULL_HANDLE;
 };
 
 // 1. Writes depth, normal, base colour, material, uv; leaves them readable by later passes.
 void recordGBufferPass(VkCommandBuffer cmd, const Pipelines& p, const FrameTargets& t,
                        const SceneBuffers& scene);
-// 2. (volumes) Reads the G-buffer; writes sun + ambient (or the background) into every HDR
-//    pixel and zero light counts.
-void recordSunPass(VkCommandBuffer cmd, const Pipelines& p, const FrameTargets& t);
-// 3. (volumes) Reads the G-buffer and lights; adds each light's contribution to HDR inside its
-//    sphere, and 1 to the light count there.
-void recordLightVolumePass(VkCommandBuffer cmd, const Pipelines& p, const FrameTargets& t,
-                           const SceneBuffers& scene);
+// 2-3. The lighting technique's passes (render/techniques/technique.h).
 // 4. Reads depth (test only, kept from pass 1); draws light markers into HDR. `hdrLayout` is
 //    where the lighting pass left HDR (GENERAL after compute, COLOR_ATTACHMENT after volumes).
 void recordMarkerPass(VkCommandBuffer cmd, const Pipelines& p, const FrameTargets& t,

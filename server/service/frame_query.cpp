@@ -281,8 +281,8 @@ FrameRequest parseFrameRequest(const QueryParams& params, const FrameDefaults& d
   if (const std::string* text = single(params, "technique")) {
     std::optional<render::Technique> technique = render::parseTechnique(*text);
     if (!technique) {
-      throw FrameQueryError("technique", "technique must be volumes, tiled or clustered, got " +
-                                             quoteClientText(*text) + ".");
+      throw FrameQueryError("technique", "technique must be " + render::techniqueChoices() +
+                                             ", got " + quoteClientText(*text) + ".");
     }
     settings.technique = *technique;
   }

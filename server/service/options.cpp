@@ -73,7 +73,7 @@ const std::vector<Flag>& flags() {
        [](Options& o, std::string_view v) {
          std::optional<render::Technique> t = render::parseTechnique(v);
          if (!t) {
-           throw UsageError("--technique expects volumes, tiled or clustered, got \"" +
+           throw UsageError("--technique expects " + render::techniqueChoices() + ", got \"" +
                             std::string(v) + "\".");
          }
          o.technique = *t;
@@ -205,8 +205,8 @@ materials and lights (protocol/reference.md), and the stateless GET /v1/frame.
                            of the built-in scene
   --lights N               local lights to generate (default 256, at most 1048576)
   --seed S                 seed for the generated lights (default 1)
-  --technique T            local-light shading: volumes (the seed's light volumes), tiled or
-                           clustered (compute culling; default clustered)
+  --technique T            local-light shading: )" + render::techniqueChoices() + R"(
+                           (default )" + std::string(render::techniqueName(Options{}.technique)) + R"()
   --max-resolution N       largest frame width or height served (default 4096; also capped by
                            the device)
   --threads N              HTTP worker threads (default 32; keep well above --max-streams plus

@@ -1,0 +1,237 @@
+// Clustered (Olsson, Billeter, Assarsson 2012): the cluster grid (render/cluster_grid.h) gets
+// compact per-cluster light lists built on the GPU each frame, and each pixel walks its
+// cluster's list. Five dispatches: mark the clusters holding visible geometry, count each active
+// cluster's lights, prefix-sum the counts into list offsets (cut at the capacity, overflow
+// counted), fill the lists, shade (shaders/cluster_*.comp, light_clustered.comp).
+//
+// The lists are sized from the output and the light count; when a frame overflows them and they
+// may still grow, growLists() makes them 1.25 x what the frame needed and the renderer renders
+// that frame again; the grown size is kept for later frames.
+#include <algorithm>
+#include <cmath>
+#include <memory>
+
+#include "embedded_shaders.h"
+#include "gpu/commands.h"
+#include "gpu/pipelines.h"
+#include "render/cluster_grid.h"
+#include "render/techniques/compute_lighting.h"
+#include "render/techniques/technique.h"
+#include "shared_types.h"
+
+namespace myriad::render {
+
+namespace {
+
+using gpu::groupCount;
+
+// Light references per light the lists are sized for. A light small next to a 64-pixel tile
+// touches 1-4 tiles and 1-2 slices; lights near the camera touch many more but are few. Eight per
+// light covered the built-in scenes at every tested size with room to spare (the culling report
+// says when it does not); the floor keeps small scenes from being starved by a few huge lights.
+constexpr uint32_t kReferencesPerLight = 8;
+constexpr uint32_t kMinimumListCapacity = 1u << 18;
+// References per cluster of the whole grid. Per light alone is not enough when the lights are
+// dense or the output large: on the H200 the lists overflowed at 3840x2160 with 10,000 and
+// 100,000 floor lights and at 1920x1080 in the built-in scene with 10,000 (docs/performance.md),
+// needing 400-450 references per active cluster. About 4-5% of clusters hold geometry in those
+// views, so 32 per grid cluster leaves 650-800 per active one: 2 MiB at 1080p, 8 MiB at 4K.
+constexpr uint32_t kReferencesPerCluster = 32;
+
+// Overflowing lists grow to this much more than the frame needed, so a view that moves a little
+// does not overflow again on the next frame.
+constexpr double kListGrowth = 1.25;
+
+// The lists are a few MiB at most sizes; the 64 MiB default block would be mostly waste.
+constexpr VkDeviceSize kListBlockSize = 4ull << 20;
+
+// The capacity a grid of `grid` with `lightCount` lights starts with, at most `mostReferences`.
+uint32_t initialCapacity(const ClusterGrid& grid, uint32_t lightCount, uint64_t mostReferences) {
+  uint64_t wanted = std::max({uint64_t(kMinimumListCapacity), uint64_t(lightCount) * kReferencesPerLight,
+                              uint64_t(grid.count()) * kReferencesPerCluster});
+  // lavapipe caps a storage buffer at 128 MiB: 32M references. Overflow beyond is reported.
+  return static_cast<uint32_t>(std::min(wanted, mostReferences));
+}
+
+// The grid's buffers, recreated together when the grid or the capacity changes.
+struct ClusterLists {
+  ClusterLists(gpu::Context& context, const ClusterGrid& g, uint32_t references)
+      : grid(g), capacity(references), arena(context, kListBlockSize) {
+    const VkBufferUsageFlags storage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT;
+    ranges = arena.createBuffer(VkDeviceSize(grid.count()) * 8, storage, gpu::MemoryUse::DeviceLocal);
+    cursors = arena.createBuffer(VkDeviceSize(grid.count()) * 4,
+                                 storage | VK_BUFFER_USAGE_TRANSFER_DST_BIT, gpu::MemoryUse::DeviceLocal);
+    lists = arena.createBuffer(VkDeviceSize(capacity) * 4, storage, gpu::MemoryUse::DeviceLocal);
+  }
+
+  uint64_t bytes() const { return ranges.size + cursors.size + lists.size; }
+
+  ClusterGrid grid;
+  uint32_t capacity;  // light references all lists together can hold
+  gpu::Arena arena;
+  gpu::Buffer ranges;   // uvec2 per cluster: first index, count
+  gpu::Buffer cursors;  // uint per cluster: count, then fill cursor
+  gpu::Buffer lists;    // uint per light reference
+};
+
+class Clustered final : public LightingTechnique {
+ public:
+  explicit Clustered(const TechniqueSetup& setup)
+      : context_(setup.context), pipelines_(setup.context.device),
+        set_(setup.context, setup.pipelines), counters_(setup.context) {
+    requireWorkgroup(setup.context, MYRIAD_SCAN_GROUP, MYRIAD_SCAN_GROUP);
+    VkDevice device = setup.context.device;
+    VkPipelineLayout layout = setup.pipelines.layout;
+    mark_ = pipelines_.add(gpu::createComputePipeline(device, layout, spirv::cluster_mark_comp));
+    scan_ = pipelines_.add(gpu::createComputePipeline(device, layout, spirv::cluster_scan_comp));
+    shade_ = pipelines_.add(gpu::createComputePipeline(device, layout, spirv::light_clustered_comp));
+    // cluster_assign.comp counts (kAssign = false) or fills the lists (true): one source, so both
+    // passes run the identical overlap test.
+    VkSpecializationMapEntry entry{0, 0, sizeof(VkBool32)};
+    for (VkBool32 assign : {VK_FALSE, VK_TRUE}) {
+      VkSpecializationInfo spec{1, &entry, sizeof(VkBool32), &assign};
+      VkPipeline& target = assign ? assign_ : count_;
+      target = pipelines_.add(
+          gpu::createComputePipeline(device, layout, spirv::cluster_assign_comp, &spec));
+    }
+  }
+
+  // The lists follow the output size, the light count and what they grew to; they are rebuilt
+  // only when those change. Sessions' scenes take turns: lists that hold what this frame wants,
+  // without more than twice the waste, stay, so frames of a 1,000-light and a 100,000-light scene
+  // in turn do not reallocate them every frame.
+  void prepare(VkExtent2D extent, uint32_t lightCount) override {
+    const uint64_t mostReferences = maxListBytes() / sizeof(uint32_t);
+    const ClusterGrid grid = clusterGrid(extent);
+    uint32_t capacity = initialCapacity(grid, lightCount, mostReferences);
+    if (listStartCapacity_ > 0) capacity = listStartCapacity_;
+    capacity = static_cast<uint32_t>(
+        std::min<uint64_t>(std::max(capacity, grownListCapacity_), mostReferences));
+    const bool keep = lists_ && lists_->grid == grid && lists_->capacity >= capacity &&
+                      lists_->capacity <= 2 * uint64_t(capacity) &&
+                      lists_->capacity <= mostReferences;
+    if (keep) return;
+    lists_.reset();
+    lists_ = std::make_unique<ClusterLists>(context_, grid, capacity);
+    const CullingSet::Binding bindings[] = {
+        {MYRIAD_BINDING_CLUSTER_RANGES, &lists_->ranges},
+        {MYRIAD_BINDING_CLUSTER_LIGHTS, &lists_->lists},
+        {MYRIAD_BINDING_CULLING_STATS, &counters_.stats},
+        {MYRIAD_BINDING_CLUSTER_CURSORS, &lists_->cursors},
+    };
+    set_.write(bindings);
+  }
+
+  void writeUniforms(FrameUniforms& u) const override { u.flags.w = lists_->capacity; }
+
+  // Reads the G-buffer and lights; builds the cluster lists (mark, count, scan, assign), then
+  // writes HDR and light counts (GENERAL layout) and the counters.
+  VkImageLayout record(const LightingPass& pass) override {
+    VkCommandBuffer cmd = pass.cmd;
+    const FrameTargets& t = pass.targets;
+    pass.timer.beginPass(cmd, "lighting");
+    set_.bind(cmd);
+    // Every cluster starts inactive; the counters start at zero.
+    vkCmdFillBuffer(cmd, lists_->cursors.buffer, 0, VK_WHOLE_SIZE, MYRIAD_CLUSTER_INACTIVE);
+    counters_.reset(cmd);
+    gpu::memoryBarrier(cmd, kFillStage, VK_ACCESS_2_TRANSFER_WRITE_BIT, kComputeStage,
+                       kStorageReadWrite);
+
+    // 1. Mark clusters holding visible geometry.
+    dispatchPixels(cmd, mark_, t.extent, MYRIAD_PIXEL_GROUP);
+    gpu::memoryBarrier(cmd, kComputeStage, kStorageWrite, kComputeStage, kStorageReadWrite);
+    uint32_t lightGroups = groupCount(pass.scene.lightCount, MYRIAD_LIGHTS_PER_GROUP);
+    if (lightGroups > 0) {
+      // 2. Count each active cluster's lights.
+      vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, count_);
+      vkCmdDispatch(cmd, lightGroups, 1, 1);
+      gpu::memoryBarrier(cmd, kComputeStage, kStorageWrite, kComputeStage, kStorageReadWrite);
+    }
+    // 3. Prefix sum: list offsets, capacity cuts, counters.
+    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, scan_);
+    vkCmdDispatch(cmd, 1, 1, 1);
+    gpu::memoryBarrier(cmd, kComputeStage, kStorageWrite, kComputeStage, kStorageReadWrite);
+    if (lightGroups > 0) {
+      // 4. Fill the lists.
+      vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, assign_);
+      vkCmdDispatch(cmd, lightGroups, 1, 1);
+      gpu::memoryBarrier(cmd, kComputeStage, kStorageWrite, kComputeStage,
+                         VK_ACCESS_2_SHADER_STORAGE_READ_BIT);
+    }
+    // 5. Shade every pixel from its cluster's list.
+    prepareLightingTargets(cmd, t);
+    dispatchPixels(cmd, shade_, t.extent, MYRIAD_PIXEL_GROUP);
+    counters_.makeHostVisible(cmd);
+    return VK_IMAGE_LAYOUT_GENERAL;
+  }
+
+  void report(CullingReport& report) const override {
+    counters_.read(report);
+    report.listBytes = lists_->bytes();
+    report.listCapacity = lists_->capacity;
+  }
+
+  // A frame with lights missing is never the answer while memory allows.
+  bool growLists(const CullingReport& c) override {
+    const uint64_t mostReferences = maxListBytes() / sizeof(uint32_t);
+    if (c.clusterLightsDropped == 0 || c.listCapacity >= mostReferences ||
+        c.listCapacity >= failedListCapacity_) {
+      return false;
+    }
+    const uint64_t needed = uint64_t(c.listEntries) + c.clusterLightsDropped;
+    const auto grown = static_cast<uint64_t>(std::ceil(double(needed) * kListGrowth));
+    previousListCapacity_ = grownListCapacity_;
+    grownListCapacity_ = static_cast<uint32_t>(
+        std::min({grown, mostReferences, uint64_t(failedListCapacity_) - 1}));
+    return true;
+  }
+
+  // Out of device memory for the larger lists: the frame we had is the answer (its overflow is
+  // reported) and that size is not tried again.
+  void growthFailed() override {
+    failedListCapacity_ = grownListCapacity_;
+    grownListCapacity_ = previousListCapacity_;
+  }
+
+  void limitListMemory(uint64_t bytes, uint64_t startBytes) override {
+    listLimitBytes_ = bytes;
+    listStartCapacity_ =
+        static_cast<uint32_t>(std::min<uint64_t>(startBytes / sizeof(uint32_t), UINT32_MAX));
+    grownListCapacity_ = 0;
+    failedListCapacity_ = UINT32_MAX;
+  }
+
+  uint64_t gpuMemoryBytes() const override {
+    return counters_.arena.bytesAllocated() + (lists_ ? lists_->arena.bytesAllocated() : 0);
+  }
+
+ private:
+  uint64_t maxListBytes() const {
+    uint64_t device = context_.info.maxStorageBufferRange;
+    return listLimitBytes_ > 0 ? std::min(listLimitBytes_, device) : device;
+  }
+
+  gpu::Context& context_;
+  PipelineList pipelines_;
+  VkPipeline mark_ = VK_NULL_HANDLE;
+  VkPipeline count_ = VK_NULL_HANDLE;
+  VkPipeline scan_ = VK_NULL_HANDLE;
+  VkPipeline assign_ = VK_NULL_HANDLE;
+  VkPipeline shade_ = VK_NULL_HANDLE;
+  CullingSet set_;
+  CullingCounters counters_;
+  std::unique_ptr<ClusterLists> lists_;
+  uint64_t listLimitBytes_ = 0;              // limitListMemory(); 0 = the device's limit
+  uint32_t listStartCapacity_ = 0;           // limitListMemory(); 0 = initialCapacity()'s
+  uint32_t grownListCapacity_ = 0;           // what overflowing lists grew to (kept)
+  uint32_t previousListCapacity_ = 0;        // before the last growLists()
+  uint32_t failedListCapacity_ = UINT32_MAX;  // lists this large could not be allocated
+};
+
+}  // namespace
+
+std::unique_ptr<LightingTechnique> createClustered(const TechniqueSetup& setup) {
+  return std::make_unique<Clustered>(setup);
+}
+
+}  // namespace myriad::render

@@ -1,0 +1,100 @@
+// A lighting technique: how one frame's local lights get into the HDR and light-count targets.
+// Each technique is one file in this directory holding its pipelines, its buffers, its commands
+// and its culling report; the frame function (renderer.cpp) calls it through this interface and
+// knows none of them by name. registry.cpp lists them.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include <vulkan/vulkan.h>
+
+#include "gpu/commands.h"
+#include "gpu/context.h"
+#include "render/frame.h"
+#include "render/frame_targets.h"
+#include "render/gpu_types.h"
+#include "render/passes.h"
+#include "render/scene_buffers.h"
+
+namespace myriad::render {
+
+// What a technique is built from: the device, and the frame's shared pipeline layout (sets 0-2;
+// set 2, light culling, is the technique's to fill: see compute_lighting.h).
+struct TechniqueSetup {
+  gpu::Context& context;
+  const Pipelines& pipelines;
+};
+
+// One frame's lighting: where to record, the timer for its passes, what it reads and writes.
+struct LightingPass {
+  VkCommandBuffer cmd;
+  gpu::PassTimer& timer;
+  const FrameTargets& targets;
+  const SceneBuffers& scene;
+};
+
+class LightingTechnique {
+ public:
+  virtual ~LightingTechnique() = default;
+
+  // Before the frame is recorded (nothing is in flight): fit the technique's buffers to an output
+  // of `extent` with `lightCount` lights. May throw gpu::VulkanError (out of memory).
+  virtual void prepare(VkExtent2D extent, uint32_t lightCount) {
+    (void)extent;
+    (void)lightCount;
+  }
+  // Its part of the frame's uniforms (the renderer fills the rest before calling this).
+  virtual void writeUniforms(FrameUniforms& uniforms) const { (void)uniforms; }
+
+  // Records the lighting, each pass after a timer.beginPass with its name. Reads the G-buffer
+  // (READ_ONLY_OPTIMAL, as the gbuffer pass leaves it) and the lights (sets 0 and 1 are bound for
+  // graphics and compute); writes every pixel of hdr and lightCount, whose previous contents are
+  // discarded, and leaves both in the returned layout: GENERAL after compute storage writes,
+  // COLOR_ATTACHMENT_OPTIMAL after raster writes. Anything the host reads afterwards (report())
+  // gets its barrier here.
+  virtual VkImageLayout record(const LightingPass& pass) = 0;
+
+  // After the frame's GPU work finished: the culling counters, list memory and capacity.
+  virtual void report(CullingReport& report) const { (void)report; }
+
+  // After a frame whose report says lights were dropped: makes the lists larger if memory allows,
+  // and returns true when the frame should be rendered again with them.
+  virtual bool growLists(const CullingReport& report) {
+    (void)report;
+    return false;
+  }
+  // Rendering again after growLists() failed for memory: back to the previous size, and never
+  // try the failed one again.
+  virtual void growthFailed() {}
+  // For tests: see Renderer::limitListMemory.
+  virtual void limitListMemory(uint64_t bytes, uint64_t startBytes) {
+    (void)bytes;
+    (void)startBytes;
+  }
+
+  // GPU memory the technique holds.
+  virtual uint64_t gpuMemoryBytes() const { return 0; }
+};
+
+// The pipelines a technique created, destroyed together with it.
+class PipelineList {
+ public:
+  explicit PipelineList(VkDevice device) : device_(device) {}
+  ~PipelineList() {
+    for (VkPipeline p : pipelines_) vkDestroyPipeline(device_, p, nullptr);
+  }
+  PipelineList(const PipelineList&) = delete;
+  PipelineList& operator=(const PipelineList&) = delete;
+
+  VkPipeline add(VkPipeline pipeline) {
+    pipelines_.push_back(pipeline);
+    return pipeline;
+  }
+
+ private:
+  VkDevice device_;
+  std::vector<VkPipeline> pipelines_;
+};
+
+}  // namespace myriad::render

@@ -1,0 +1,61 @@
+// Tiled (Andersson 2011; Lauritzen 2010): one 16x16 workgroup per 16x16-pixel tile culls every
+// light against its tile's frustum into shared memory, then shades its pixels from that list, in
+// one dispatch (shaders/light_tiled.comp). Its lists live in shared memory; on the GPU it holds
+// only the culling counters.
+#include <memory>
+
+#include "embedded_shaders.h"
+#include "gpu/commands.h"
+#include "gpu/pipelines.h"
+#include "render/techniques/compute_lighting.h"
+#include "render/techniques/technique.h"
+#include "shared_types.h"
+
+namespace myriad::render {
+
+namespace {
+
+class Tiled final : public LightingTechnique {
+ public:
+  explicit Tiled(const TechniqueSetup& setup)
+      : pipelines_(setup.context.device), set_(setup.context, setup.pipelines),
+        counters_(setup.context) {
+    requireWorkgroup(setup.context, MYRIAD_TILE_SIZE * MYRIAD_TILE_SIZE, MYRIAD_TILE_SIZE);
+    shade_ = pipelines_.add(gpu::createComputePipeline(setup.context.device, setup.pipelines.layout,
+                                                       spirv::light_tiled_comp));
+    const CullingSet::Binding bindings[] = {{MYRIAD_BINDING_CULLING_STATS, &counters_.stats}};
+    set_.write(bindings);
+  }
+
+  // Reads the G-buffer and lights; writes HDR and light counts (GENERAL layout) and the counters.
+  VkImageLayout record(const LightingPass& pass) override {
+    VkCommandBuffer cmd = pass.cmd;
+    pass.timer.beginPass(cmd, "lighting");
+    set_.bind(cmd);
+    counters_.reset(cmd);
+    gpu::memoryBarrier(cmd, kFillStage, VK_ACCESS_2_TRANSFER_WRITE_BIT, kComputeStage,
+                       kStorageReadWrite);
+    prepareLightingTargets(cmd, pass.targets);
+    dispatchPixels(cmd, shade_, pass.targets.extent, MYRIAD_TILE_SIZE);
+    counters_.makeHostVisible(cmd);
+    return VK_IMAGE_LAYOUT_GENERAL;
+  }
+
+  void report(CullingReport& report) const override { counters_.read(report); }
+
+  uint64_t gpuMemoryBytes() const override { return counters_.arena.bytesAllocated(); }
+
+ private:
+  PipelineList pipelines_;
+  VkPipeline shade_ = VK_NULL_HANDLE;
+  CullingSet set_;
+  CullingCounters counters_;
+};
+
+}  // namespace
+
+std::unique_ptr<LightingTechnique> createTiled(const TechniqueSetup& setup) {
+  return std::make_unique<Tiled>(setup);
+}
+
+}  // namespace myriad::render

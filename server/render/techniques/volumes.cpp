@@ -1,0 +1,86 @@
+// Light volumes (the seed's technique): a full-screen sun pass writes sun + ambient (or the
+// background) into every pixel, then one instanced draw of proxy spheres adds each light inside
+// its sphere with additive blending (shaders/sun.frag, light_volume.vert/.frag). No culling and
+// nothing on the GPU besides its two pipelines; cost grows with the pixels the spheres cover.
+#include <array>
+#include <memory>
+
+#include "embedded_shaders.h"
+#include "gpu/commands.h"
+#include "gpu/pipelines.h"
+#include "render/raster.h"
+#include "render/techniques/technique.h"
+
+namespace myriad::render {
+
+namespace {
+
+class Volumes final : public LightingTechnique {
+ public:
+  explicit Volumes(const TechniqueSetup& setup) : pipelines_(setup.context.device) {
+    VkDevice device = setup.context.device;
+    gpu::GraphicsPipelineDesc d;
+    d.vertexShader = spirv::fullscreen_vert;
+    d.fragmentShader = spirv::sun_frag;
+    d.colorFormats = {kHdrFormat, kLightCountFormat};
+    sun_ = pipelines_.add(gpu::createGraphicsPipeline(device, setup.pipelines.layout, d));
+
+    d = lightVolumeDesc(setup.context);
+    d.fragmentShader = spirv::light_volume_frag;
+    d.colorFormats = {kHdrFormat, kLightCountFormat};
+    volumes_ = pipelines_.add(gpu::createGraphicsPipeline(device, setup.pipelines.layout, d));
+  }
+
+  VkImageLayout record(const LightingPass& pass) override {
+    pass.timer.beginPass(pass.cmd, "sun");
+    recordSun(pass.cmd, pass.targets);
+    pass.timer.beginPass(pass.cmd, "lights");
+    recordLights(pass.cmd, pass.targets, pass.scene);
+    return VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL;
+  }
+
+ private:
+  // Reads the G-buffer; writes sun + ambient (or the background) into every HDR pixel and zero
+  // light counts.
+  void recordSun(VkCommandBuffer cmd, const FrameTargets& t) const {
+    const gpu::ImageTransition before[] = {
+        discardForColorWrite(t.hdr, VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT),
+        discardForColorWrite(t.lightCount, VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT)};
+    gpu::barrier(cmd, before);
+    // Every pixel is written (background included), so nothing is loaded or cleared.
+    std::array<VkRenderingAttachmentInfo, 2> colors = {
+        colorAttachment(t.hdr, VK_ATTACHMENT_LOAD_OP_DONT_CARE),
+        colorAttachment(t.lightCount, VK_ATTACHMENT_LOAD_OP_DONT_CARE)};
+    beginRendering(cmd, t.extent, colors, nullptr);
+    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, sun_);
+    vkCmdDraw(cmd, 3, 1, 0, 0);
+    vkCmdEndRendering(cmd);
+  }
+
+  // Reads the G-buffer and lights; adds each light's contribution to HDR inside its sphere, and
+  // 1 to the light count there.
+  void recordLights(VkCommandBuffer cmd, const FrameTargets& t, const SceneBuffers& scene) const {
+    const gpu::ImageTransition before[] = {colorWriteToBlend(t.hdr), colorWriteToBlend(t.lightCount)};
+    gpu::barrier(cmd, before);
+    std::array<VkRenderingAttachmentInfo, 2> colors = {
+        colorAttachment(t.hdr, VK_ATTACHMENT_LOAD_OP_LOAD),
+        colorAttachment(t.lightCount, VK_ATTACHMENT_LOAD_OP_LOAD)};
+    VkRenderingAttachmentInfo depth = readOnlyDepth(t.depth);
+    beginRendering(cmd, t.extent, colors, &depth);
+    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, volumes_);
+    drawLightProxies(cmd, scene);
+    vkCmdEndRendering(cmd);
+  }
+
+  PipelineList pipelines_;
+  VkPipeline sun_ = VK_NULL_HANDLE;
+  VkPipeline volumes_ = VK_NULL_HANDLE;
+};
+
+}  // namespace
+
+std::unique_ptr<LightingTechnique> createVolumes(const TechniqueSetup& setup) {
+  return std::make_unique<Volumes>(setup);
+}
+
+}  // namespace myriad::render
