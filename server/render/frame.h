@@ -177,7 +177,7 @@ inline std::vector<std::string_view> rawChannels(Target target) {
     case Target::Uv: return {"u", "v"};
     case Target::Metallic: return {"metallic"};
     case Target::Roughness: return {"roughness"};
-    case Target::Depth: return {"depth"};               // view depth in scene units (far if none)
+    case Target::Depth: return {"depth"};  // names-once: a channel; view depth, far if none
     case Target::LightCount: return {"count"};
     case Target::Clusters: return {"slice", "tile_x", "tile_y"};
   }
