@@ -17,12 +17,4 @@ namespace myriad::encode {
 std::vector<uint8_t> packRaw(uint32_t width, uint32_t height, std::span<const float> pixels,
                              size_t channels);
 
-// TEMPORARY: the old call shape, packRaw(frame, target), for callers not yet passing pixels and a
-// channel count. Found through the arguments' own namespace (rawChannels(target) is the
-// renderer's), so this header includes nothing of render/. Delete once nothing calls it.
-template <typename Frame, typename Target>
-std::vector<uint8_t> packRaw(const Frame& frame, Target target) {
-  return packRaw(frame.width, frame.height, frame.data, rawChannels(target).size());
-}
-
 }  // namespace myriad::encode

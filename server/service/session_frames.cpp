@@ -45,7 +45,8 @@ EncodedFrame encodeFrame(const render::Frame& frame, const FrameRequest& request
     }
     case ImageFormat::Raw: {
       const render::Target target = request.settings.target;
-      std::vector<uint8_t> raw = encode::packRaw(frame, target);
+      std::vector<uint8_t> raw = encode::packRaw(frame.width, frame.height, frame.data,
+                                                 render::rawChannels(target).size());
       out.body.assign(reinterpret_cast<const char*>(raw.data()), raw.size());
       out.contentType = protocol::kRawContentType;
       out.headers.emplace_back(protocol::headers::kWidth, std::to_string(frame.width));

@@ -63,7 +63,8 @@ protocol::Settings toWire(const render::SceneSettings& s) {
 render::Technique techniqueFromWire(std::string_view name) {
   std::optional<render::Technique> technique = render::parseTechnique(name);
   if (!technique) {
-    throw ProblemError(invalidBody("/technique", "\"technique\" must be volumes, tiled or clustered."));
+    throw ProblemError(
+        invalidBody("/technique", "\"technique\" must be " + render::techniqueChoices() + "."));
   }
   return *technique;
 }
