@@ -84,7 +84,8 @@ fuzz_triage_model() {
       continue
     fi
     frame=$(grep -E '^ +#[0-9]+ ' <<<"$replay" |
-            grep -vE ' in (__asan|__interceptor|__sanitizer|__ubsan|fuzzer::|abort|raise|__pthread_kill|gsignal|__GI_|operator new|operator delete|malloc|calloc|realloc|free|mem(cpy|move|set|cmp)|str[a-z]*)\b|/libc\.so|sanitizer_common|compiler-rt' |
+            grep -vE ' in (__asan|__interceptor|__sanitizer|__ubsan|fuzzer::|__GI_|__pthread_kill)' |
+            grep -vE ' in (abort|raise|gsignal|operator new|operator delete|malloc|calloc|realloc|free|mem(cpy|move|set|cmp)|str[a-z]*)\b|/libc\.so|sanitizer_common|compiler-rt' |
             head -1)
     if [[ $frame == *libassimp.so* ]]; then
       mv "$input" "$artifacts/assimp/"
