@@ -30,6 +30,7 @@ inline constexpr std::string_view kSessionLightsGenerate = "/v1/sessions/{id}/li
 inline constexpr std::string_view kSessionFrame = "/v1/sessions/{id}/frame";
 inline constexpr std::string_view kSessionStream = "/v1/sessions/{id}/stream";
 inline constexpr std::string_view kSessionStats = "/v1/sessions/{id}/stats";
+inline constexpr std::string_view kSessionSnapshot = "/v1/sessions/{id}/snapshot";
 inline constexpr std::string_view kOpenApi = "/v1/openapi.json";  // this API as OpenAPI 3.1
 inline constexpr std::string_view kWebRoot = "/";                 // the web client's page
 inline constexpr std::string_view kWebFile = "/web/{file}";       // and its other files
@@ -42,6 +43,7 @@ std::string expandRoute(std::string_view route, std::string_view name, std::stri
 // Schema names for validate() (protocol/schemas/NAME.schema.json).
 namespace schema_names {
 inline constexpr std::string_view kSessionCreate = "session-create";
+inline constexpr std::string_view kSnapshot = "snapshot";
 inline constexpr std::string_view kSessionCreated = "session-created";
 inline constexpr std::string_view kSessionState = "session-state";
 inline constexpr std::string_view kModelSource = "model-source";

@@ -188,6 +188,25 @@ std::vector<Operation> buildOperations() {
                  .responses = {noContent("Deleted; its streams end.")},
                  .problems = kSessionProblems});
 
+  ops.push_back({.method = "GET",
+                 .route = routes::kSessionSnapshot,
+                 .id = "getSnapshot",
+                 .tag = "Sessions",
+                 .summary = "The session's whole state but the model's bytes, as one document",
+                 .access = Access::Session,
+                 .responses = {json200(n::kSnapshot, "The snapshot.")},
+                 .problems = kSessionProblems});
+  ops.push_back({.method = "PUT",
+                 .route = routes::kSessionSnapshot,
+                 .id = "putSnapshot",
+                 .tag = "Sessions",
+                 .summary = "Restore a snapshot's camera, settings, materials and lights into "
+                            "the session (its model stays)",
+                 .access = Access::Session,
+                 .body = {{kJsonContentType, n::kSnapshot}},
+                 .responses = {json200(n::kSessionState, "The session state.")},
+                 .problems = {400, 401, 403, 404, 413, 415, 429}});
+
   // Model.
   ops.push_back(
       {.method = "PUT",

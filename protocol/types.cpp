@@ -187,8 +187,31 @@ void members(Tag<ModelSource>, F f) {
 }
 
 template <class F>
+void members(Tag<LightsRecipe>, F f) {
+  f("count", &LightsRecipe::count);
+  f("seed", &LightsRecipe::seed);
+}
+
+template <class F>
+void members(Tag<SnapshotLights>, F f) {
+  f("generated", &SnapshotLights::generated);
+  f("list", &SnapshotLights::list);
+}
+
+template <class F>
+void members(Tag<Snapshot>, F f) {
+  f("version", &Snapshot::version);
+  f("model", &Snapshot::model);
+  f("camera", &Snapshot::camera);
+  f("settings", &Snapshot::settings);
+  f("materials", &Snapshot::materials);
+  f("lights", &Snapshot::lights);
+}
+
+template <class F>
 void members(Tag<SessionCreate>, F f) {
   f("model", &SessionCreate::model);
+  f("snapshot", &SessionCreate::snapshot);
 }
 
 template <class F>
@@ -383,6 +406,9 @@ MYRIAD_MEMBERWISE_JSON(LightsGenerate)
 MYRIAD_MEMBERWISE_JSON(LightsGenerated)
 MYRIAD_MEMBERWISE_JSON(LightsPage)
 MYRIAD_MEMBERWISE_JSON(ModelSource)
+MYRIAD_MEMBERWISE_JSON(LightsRecipe)
+MYRIAD_MEMBERWISE_JSON(SnapshotLights)
+MYRIAD_MEMBERWISE_JSON(Snapshot)
 MYRIAD_MEMBERWISE_JSON(SessionCreate)
 MYRIAD_MEMBERWISE_JSON(ModelSummary)
 MYRIAD_MEMBERWISE_JSON(SessionCreated)

@@ -158,9 +158,34 @@ struct ModelSource {
   std::string source;  // "builtin:default" | "library:NAME"
 };
 
+// How a session's lights were generated (POST .../lights/generate with its defaults, or the
+// built-in scene's): a snapshot names them by this instead of listing them.
+struct LightsRecipe {
+  uint64_t count = 0;
+  uint64_t seed = 0;
+};
+
+// A snapshot's lights: exactly one of the two (checkSnapshot).
+struct SnapshotLights {
+  std::optional<LightsRecipe> generated;
+  std::optional<std::vector<LightNew>> list;  // in the session's order
+};
+
+// GET .../snapshot: everything a session holds but the model's bytes, as one document that
+// POST /v1/sessions and PUT .../snapshot restore.
+struct Snapshot {
+  uint64_t version = 1;
+  ModelSource model;
+  Camera camera;
+  Settings settings;
+  std::vector<Material> materials;  // by id; names as the model has them
+  SnapshotLights lights;
+};
+
 // POST /v1/sessions.
 struct SessionCreate {
   std::optional<std::string> model;  // absent = "builtin:default"
+  std::optional<Snapshot> snapshot;  // a session restored from a snapshot (instead of model)
 };
 
 struct ModelSummary {
@@ -329,6 +354,9 @@ MYRIAD_PROTOCOL_JSON(LightsGenerate);
 MYRIAD_PROTOCOL_JSON(LightsGenerated);
 MYRIAD_PROTOCOL_JSON(LightsPage);
 MYRIAD_PROTOCOL_JSON(ModelSource);
+MYRIAD_PROTOCOL_JSON(LightsRecipe);
+MYRIAD_PROTOCOL_JSON(SnapshotLights);
+MYRIAD_PROTOCOL_JSON(Snapshot);
 MYRIAD_PROTOCOL_JSON(SessionCreate);
 MYRIAD_PROTOCOL_JSON(ModelSummary);
 MYRIAD_PROTOCOL_JSON(SessionState);

@@ -1079,3 +1079,56 @@ TEST_CASE("api: generated lights follow a new model; edited lights stay; ?lights
                "invalid-parameter", "lights=all", std::nullopt, std::nullopt, "lights");
   checkStopsCleanly(server);
 }
+
+TEST_CASE("api: a snapshot restores a session in a new one (the same frame) or onto another") {
+  ServerProcess server({"--lights", "8"});
+  requireListening(server);
+  ApiClient api(server);
+  TestSession a = createSession(api);
+  // Edit everything a snapshot holds.
+  REQUIRE(api.patch(a.path() + "/camera", R"({"fovY": 35, "eye": [4, 3, 5]})", a.token).status == 200);
+  REQUIRE(api.patch(a.path() + "/settings", R"({"exposure": 1.4, "technique": "tiled", "markers": false})",
+                    a.token).status == 200);
+  REQUIRE(api.patch(a.path() + "/materials/0", R"({"roughness": 0.2, "baseColor": [0.9, 0.2, 0.1]})",
+                    a.token).status == 200);
+  REQUIRE(api.post(a.path() + "/lights", "{\"lights\": [" + lightJson(0.5, 2.0).dump() + "]}", a.token)
+              .status == 201);
+  Reply snapshot = api.get(a.path() + "/snapshot", a.token);
+  REQUIRE(snapshot.status == 200);
+  CHECK(snapshot.json.at("lights").at("list").size() == 9);  // 8 generated + 1 added: listed
+
+  // A new session from it: the same state and, pixel for pixel, the same frame.
+  Reply created = api.post("/v1/sessions", json{{"snapshot", snapshot.json}}.dump());
+  REQUIRE(created.status == 201);
+  TestSession b{created.json.at("id"), created.json.at("token"), created.json};
+  CHECK(api.get(b.path() + "/snapshot", b.token).json == snapshot.json);
+  const std::string frame = "/frame?format=png&width=160&height=90";
+  Reply frameA = api.get(a.path() + frame, a.token);
+  Reply frameB = api.get(b.path() + frame, b.token);
+  REQUIRE(frameA.status == 200);
+  REQUIRE(frameB.status == 200);
+  CHECK(frameA.body == frameB.body);
+
+  // Onto a third session with the same model: PUT .../snapshot.
+  TestSession c = createSession(api);
+  Reply put = api.put(c.path() + "/snapshot", snapshot.body, c.token);
+  REQUIRE(put.status == 200);
+  CHECK(put.json.at("lights").at("count") == 9);
+  CHECK(api.get(c.path() + "/snapshot", c.token).json == snapshot.json);
+
+  // Refusals name the member; nothing changes.
+  json bad = snapshot.json;
+  bad["camera"]["far"] = 0.01;
+  bad["camera"]["near"] = 0.02;
+  checkProblem(api.put(c.path() + "/snapshot", bad.dump(), c.token), 400, "invalid-body", "far < near",
+               "/camera/far");
+  bad = snapshot.json;
+  bad["model"]["source"] = "upload:mine.glb";
+  checkProblem(api.post("/v1/sessions", json{{"snapshot", bad}}.dump()), 400, "invalid-body",
+               "uploaded model", "/snapshot/model/source");
+  checkProblem(api.post("/v1/sessions", json{{"snapshot", snapshot.json}, {"model", "builtin:default"}}.dump()),
+               400, "invalid-body", "both", "/snapshot");
+  CHECK(api.get(c.path() + "/snapshot", c.token).json == snapshot.json);
+  CHECK(myriad::test::validationMessages(api) == 0);
+  checkStopsCleanly(server);
+}

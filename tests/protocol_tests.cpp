@@ -48,6 +48,7 @@ json throughType(const json& j) {
 
 const std::map<std::string, std::function<json(const json&)>, std::less<>> kRoundTrips = {
     {"session-create", throughType<protocol::SessionCreate>},
+    {"snapshot", throughType<protocol::Snapshot>},
     {"session-created", throughType<protocol::SessionCreated>},
     {"session-state", throughType<protocol::SessionState>},
     {"model-source", throughType<protocol::ModelSource>},
@@ -75,7 +76,7 @@ const std::map<std::string, std::function<json(const json&)>, std::less<>> kRoun
 
 // The bodies clients send; each must reject every kind of mistake (cases.json "kind").
 const std::set<std::string> kRequestSchemas = {
-    "session-create", "model-source", "camera",      "camera-patch", "settings-patch",
+    "session-create", "snapshot", "model-source", "camera",      "camera-patch", "settings-patch",
     "material-patch", "light-new",    "light-patch", "lights-add",   "lights-generate"};
 
 std::vector<std::string_view> bodySchemas() {
@@ -89,7 +90,7 @@ std::vector<std::string_view> bodySchemas() {
 }  // namespace
 
 TEST_CASE("every schema is embedded as it is on disk and accepts its example") {
-  CHECK(bodySchemas().size() == 24);
+  CHECK(bodySchemas().size() == 25);
   for (std::string_view name : protocol::schemaNames()) {
     CAPTURE(name);
     std::string path = std::string(MYRIAD_PROTOCOL_DIR) + "/schemas/" + std::string(name) + ".schema.json";

@@ -10,6 +10,8 @@
 #include <string>
 #include <vector>
 
+#include <nlohmann/json.hpp>
+
 #include "service/problem.h"
 #include "service/session_scene.h"
 
@@ -20,6 +22,7 @@ using service::Adoption;
 using service::Clock;
 using service::ProblemError;
 using service::SessionScene;
+using nlohmann::json;
 
 scene::PointLight light(float x, float intensity = 1.0f) {
   scene::PointLight l;
@@ -459,6 +462,74 @@ TEST_CASE("session scene: generated lights are fitted to a new model until an ed
   CHECK(scene.lightRecipe()->seed == 3);
   scene.addLights(std::vector<scene::PointLight>{light(2)});
   CHECK_FALSE(scene.lightRecipe().has_value());
+}
+
+
+TEST_CASE("session scene: a snapshot restores camera, settings, materials and lights; a bad one changes nothing") {
+  SessionScene original(100, {});
+  original.adopt(model(0, 3), "library:a.glb", Adoption{.lights = Adoption::Lights::model});
+  original.addLights(std::vector<scene::PointLight>{light(1, 2.0f), light(2, 3.0f), light(3, 4.0f)});
+  original.removeLight(original.slotOf("1"));
+  protocol::CameraPatch fov;
+  fov.fovY = 33.0;
+  original.patchCamera(fov);
+  protocol::SettingsPatch settings;
+  settings.exposure = 1.7;
+  settings.technique = "tiled";
+  original.patchSettings(settings, Clock::now());
+  protocol::MaterialPatch rough;
+  rough.roughness = 0.125;
+  original.patchMaterial(2, rough);
+  const protocol::Snapshot snapshot = original.snapshot();
+  REQUIRE(snapshot.lights.list.has_value());
+  CHECK_FALSE(snapshot.lights.generated.has_value());
+  CHECK(snapshot.lights.list->size() == 2);
+
+  // Onto another session holding the same model: the same state, in one GPU update each.
+  SessionScene copy(100, {});
+  copy.adopt(model(5, 3), "library:a.glb", Adoption{.lights = Adoption::Lights::model});
+  GpuMirror gpu;  // the session's GPU lights before the restore: the model's 5
+  for (uint32_t slot = 0; slot < copy.lightCount(); ++slot) gpu.lights.push_back(copy.lightAt(slot));
+  SessionScene::Restored restored = copy.restore(snapshot, "", Clock::now());
+  CHECK(restored.materials.size() == 3);
+  gpu.apply(restored.lights);
+  checkConsistent(copy, gpu);
+  CHECK(json(copy.snapshot()) == json(snapshot));
+  CHECK(copy.camera().fovYDegrees == 33.0f);
+  CHECK(copy.settings().technique == render::Technique::Tiled);
+  CHECK(copy.materials()[2].roughness == 0.125f);
+
+  // Generated lights travel as their recipe and come back the same.
+  SessionScene generated(1000, {});
+  generated.adopt(model(0, 1), "builtin:default", Adoption{.lights = Adoption::Lights::model});
+  const std::vector<scene::PointLight> made = {light(0), light(1)};
+  generated.replaceLights(made, service::LightRecipe{50, 3});
+  generated.adopt(model(0, 1), "builtin:default", Adoption{.lights = Adoption::Lights::fit});
+  const protocol::Snapshot recipe = generated.snapshot();
+  REQUIRE(recipe.lights.generated.has_value());
+  CHECK(recipe.lights.generated->count == 50);
+  SessionScene again(1000, {});
+  again.adopt(model(0, 1), "builtin:default", Adoption{});
+  again.restore(recipe, "", Clock::now());
+  REQUIRE(again.lightCount() == 50);
+  for (uint32_t slot = 0; slot < 50; ++slot) CHECK(same(again.lightAt(slot), generated.lightAt(slot)));
+
+  // Refusals name the member under the pointer given, and change nothing.
+  const protocol::Snapshot good = copy.snapshot();
+  protocol::Snapshot bad = good;
+  bad.camera.far = bad.camera.near / 2;
+  ProblemError far = problemOf([&] { copy.restore(bad, "/snapshot", Clock::now()); });
+  CHECK(far.problem().pointer == "/snapshot/camera/far");
+  bad = good;
+  bad.materials.push_back({7, "x", {1, 1, 1}, 0, 1});
+  CHECK(problemOf([&] { copy.restore(bad, "", Clock::now()); }).problem().pointer == "/materials/3/id");
+  bad = good;
+  bad.lights.generated = protocol::LightsRecipe{1, 1};
+  CHECK(problemOf([&] { copy.restore(bad, "", Clock::now()); }).problem().pointer == "/lights");
+  bad = good;
+  bad.lights.list->resize(101);
+  CHECK(problemOf([&] { copy.restore(bad, "", Clock::now()); }).problem().status == 413);
+  CHECK(json(copy.snapshot()) == json(good));
 }
 
 }  // namespace myriad

@@ -127,6 +127,19 @@ ScenePtr loadUpload(const httplib::Request& req) {
   }
 }
 
+// Restores `snapshot` into the session (locked) and queues what the GPU scene needs.
+std::vector<std::future<void>> queueRestore(ApiContext& context, Session& session,
+                                            const protocol::Snapshot& snapshot,
+                                            std::string_view pointer) {
+  SessionScene::Restored restored = session.scene.restore(snapshot, pointer, Clock::now());
+  std::vector<std::future<void>> done;
+  done.push_back(context.renderThread.updateLights(session.sceneId, std::move(restored.lights)));
+  if (!restored.materials.empty()) {
+    done.push_back(context.renderThread.updateMaterials(session.sceneId, std::move(restored.materials)));
+  }
+  return done;
+}
+
 void sendState(const ApiContext& context, httplib::Response& res, const Session& session,
                int status = 200) {
   sendJson(res, stateOf(session, context.sessions.expiresInSeconds(session)), status);
@@ -145,7 +158,20 @@ void createSession(ApiContext& context, const httplib::Request& req, httplib::Re
   }
   const protocol::SessionCreate body =
       jsonBody(req, protocol::schema_names::kSessionCreate, "{}").get<protocol::SessionCreate>();
-  const std::string source = body.model.value_or(std::string(protocol::kBuiltinModel));
+  const std::optional<protocol::Snapshot>& snapshot = body.snapshot;
+  if (snapshot && body.model) {
+    throw ProblemError(invalidBody(
+        "/snapshot", "Give \"model\" or \"snapshot\", not both: a snapshot names its own model."));
+  }
+  if (snapshot && snapshot->model.source.starts_with(protocol::kUploadPrefix)) {
+    throw ProblemError(invalidBody(
+        "/snapshot/model/source",
+        "The snapshot's model " + quoteClientText(snapshot->model.source) +
+            " was uploaded, and a snapshot holds no model bytes: create a session, upload the "
+            "model (PUT .../model), then PUT the snapshot to .../snapshot."));
+  }
+  const std::string source = snapshot ? snapshot->model.source
+                                      : body.model.value_or(std::string(protocol::kBuiltinModel));
 
   render::SceneSettings settings;
   settings.technique = context.config.defaultTechnique;
@@ -167,10 +193,15 @@ void createSession(ApiContext& context, const httplib::Request& req, httplib::Re
                                             .lightingFromModel = true});
     }
     const render::SceneId sceneId = context.renderThread.createScene(scene).get();
-    std::lock_guard lock(session->mutex);
-    session->sceneId = sceneId;
-    session->lastUsed = Clock::now();
-    session->bump();
+    std::vector<std::future<void>> restored;
+    {
+      std::lock_guard lock(session->mutex);
+      session->sceneId = sceneId;
+      if (snapshot) restored = queueRestore(context, *session, *snapshot, "/snapshot");
+      session->lastUsed = Clock::now();
+      session->bump();
+    }
+    for (std::future<void>& done : restored) done.get();
   } catch (...) {
     context.sessions.remove(session->id);
     throw;
@@ -298,6 +329,32 @@ void addSessionRoutes(Routes& routes, ApiContext& context) {
   RouteOptions upload;
   upload.maxBodyBytes = context.config.limits.maxUploadBytes;
   upload.bodyLimitName = "maxUploadBytes";
+  routes.add("GET", protocol::routes::kSessionSnapshot,
+             [&context](const httplib::Request& req, httplib::Response& res) {
+               SessionPtr session = authorizeSession(context, req);
+               checkQuery(req, {});
+               auto lock = lockOpen(*session);
+               sendJson(res, session->scene.snapshot());
+             });
+  // A snapshot may list many lights: the upload limit, not the JSON body limit, bounds it.
+  routes.add(
+      "PUT", protocol::routes::kSessionSnapshot,
+      [&context](const httplib::Request& req, httplib::Response& res) {
+        SessionPtr session = authorizeSession(context, req);
+        checkQuery(req, {});
+        const auto snapshot =
+            jsonBody(req, protocol::schema_names::kSnapshot).get<protocol::Snapshot>();
+        std::vector<std::future<void>> restored;
+        {
+          auto lock = lockOpen(*session);
+          restored = queueRestore(context, *session, snapshot, "");
+          session->bump();
+        }
+        for (std::future<void>& done : restored) done.get();
+        std::lock_guard lock(session->mutex);
+        sendState(context, res, *session);
+      },
+      upload);
   routes.add(
       "PUT", protocol::routes::kSessionModel,
       [&context](const httplib::Request& req, httplib::Response& res) {

@@ -79,15 +79,18 @@ protocol::Material toWire(uint32_t id, const scene::Material& m) {
   return out;
 }
 
-protocol::Light toWire(uint64_t id, const scene::PointLight& l) {
-  protocol::Light out;
-  out.id = id;
+protocol::LightNew toWireNew(const scene::PointLight& l) {
+  protocol::LightNew out;
   out.position = toWire(l.position);
   out.radius = wire(l.radius);
   out.color = toWire(l.color);
   out.intensity = wire(l.intensity);
   out.falloff = wire(l.falloff);
   return out;
+}
+
+protocol::Light toWire(uint64_t id, const scene::PointLight& l) {
+  return protocol::withId(toWireNew(l), id);
 }
 
 scene::PointLight fromWire(const protocol::LightNew& l) {

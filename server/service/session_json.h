@@ -25,6 +25,7 @@ render::Technique techniqueFromWire(std::string_view name);
 protocol::Material toWire(uint32_t id, const scene::Material& material);
 protocol::Light toWire(uint64_t id, const scene::PointLight& light);
 scene::PointLight fromWire(const protocol::LightNew& light);
+protocol::LightNew toWireNew(const scene::PointLight& light);
 
 protocol::Bounds toWire(const scene::Bounds& bounds);
 scene::Bounds fromWire(const protocol::Bounds& bounds);

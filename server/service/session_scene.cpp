@@ -1,6 +1,7 @@
 #include "service/session_scene.h"
 
 #include <charconv>
+#include <cmath>
 
 #include "protocol/validate.h"
 #include "scene/camera.h"
@@ -108,8 +109,11 @@ const render::SceneSettings& SessionScene::patchSettings(const protocol::Setting
   if (patch.sun) {
     if (patch.sun->direction) {
       throwIfInvalid(protocol::checkSunDirection(*patch.sun->direction));
-      // The renderer wants a unit direction; checkSunDirection ruled out zero.
-      s.sun.direction = glm::normalize(fromWire(*patch.sun->direction));
+      // The renderer wants a unit direction; checkSunDirection ruled out zero. One that is unit
+      // already (as GET settings and snapshots give it) is kept as sent, so it reads back as it was.
+      const glm::vec3 direction = fromWire(*patch.sun->direction);
+      const float length = glm::length(direction);
+      s.sun.direction = std::abs(length - 1.0f) <= 1e-6f ? direction : direction / length;
     }
     if (patch.sun->color) s.sun.color = fromWire(*patch.sun->color);
     if (patch.sun->intensity) s.sun.intensity = float(*patch.sun->intensity);
@@ -139,6 +143,84 @@ render::FrameSettings SessionScene::frameSettings(const render::FrameSettings& r
   frame.animate = settings_.animate || time.has_value();
   frame.time = time.value_or(animationSeconds(now));
   return frame;
+}
+
+// ---- Snapshots.
+
+protocol::Snapshot SessionScene::snapshot() const {
+  protocol::Snapshot out;
+  out.model.source = model_.source;
+  out.camera = toWire(camera_);
+  out.settings = toWire(settings_);
+  out.materials.reserve(materials_.size());
+  for (uint32_t id = 0; id < materials_.size(); ++id) out.materials.push_back(toWire(id, materials_[id]));
+  if (recipe_) {
+    out.lights.generated = protocol::LightsRecipe{recipe_->count, recipe_->seed};
+  } else {
+    std::vector<protocol::LightNew>& list = out.lights.list.emplace();
+    list.reserve(lights_.size());
+    for (const scene::PointLight& light : lights_) list.push_back(toWireNew(light));
+  }
+  return out;
+}
+
+SessionScene::Restored SessionScene::restore(const protocol::Snapshot& snapshot,
+                                             std::string_view pointer, Clock::time_point now) {
+  const std::string at(pointer);
+  // Checks and changes a copy, so that a refusal anywhere leaves this scene as it was.
+  SessionScene next = *this;
+  Restored restored;
+  try {
+    next.setCamera(fromWire(snapshot.camera));
+  } catch (const ProblemError& e) {
+    throw ProblemError(invalidBody(at + "/camera" + e.problem().pointer.value_or(""), e.problem().detail));
+  }
+  protocol::SettingsPatch settings;
+  settings.sun = protocol::SunPatch{snapshot.settings.sun.direction, snapshot.settings.sun.color,
+                                    snapshot.settings.sun.intensity};
+  settings.ambient = snapshot.settings.ambient;
+  settings.background = snapshot.settings.background;
+  settings.exposure = snapshot.settings.exposure;
+  settings.markers = snapshot.settings.markers;
+  settings.technique = snapshot.settings.technique;
+  settings.animate = snapshot.settings.animate;
+  try {
+    next.patchSettings(settings, now);
+  } catch (const ProblemError& e) {
+    throw ProblemError(invalidBody(at + "/settings" + e.problem().pointer.value_or(""), e.problem().detail));
+  }
+  for (size_t i = 0; i < snapshot.materials.size(); ++i) {
+    const protocol::Material& m = snapshot.materials[i];
+    if (m.id >= next.materials_.size()) {
+      throw ProblemError(invalidBody(
+          at + "/materials/" + std::to_string(i) + "/id",
+          "The session's model has no material " + std::to_string(m.id) + " (it has " +
+              std::to_string(next.materials_.size()) + "): a snapshot restores onto its own model."));
+    }
+    protocol::MaterialPatch patch{m.baseColor, m.metallic, m.roughness};
+    restored.materials.push_back(next.patchMaterial(m.id, patch));
+  }
+  const protocol::SnapshotLights& lights = snapshot.lights;
+  if (lights.generated.has_value() == lights.list.has_value()) {
+    throw ProblemError(invalidBody(at + "/lights",
+                                   "\"lights\" holds exactly one of \"generated\" and \"list\"."));
+  }
+  if (lights.generated) {
+    next.checkLightTotal(lights.generated->count, "This would leave the session with " +
+                                                      std::to_string(lights.generated->count) +
+                                                      " lights");
+    const LightRecipe recipe{uint32_t(lights.generated->count), lights.generated->seed};
+    const std::vector<scene::PointLight> generated = scene::generateLights(
+        lightGenerationAround(next.model_.bounds, recipe.count, recipe.seed));
+    restored.lights = next.replaceLights(generated, recipe);
+  } else {
+    std::vector<scene::PointLight> list;
+    list.reserve(lights.list->size());
+    for (const protocol::LightNew& light : *lights.list) list.push_back(fromWire(light));
+    restored.lights = next.replaceLights(list);
+  }
+  *this = std::move(next);
+  return restored;
 }
 
 // ---- Materials.

@@ -113,6 +113,23 @@ class SessionScene {
   // Changes the members `patch` names of material `id` (from materialId).
   render::MaterialWrite patchMaterial(uint32_t id, const protocol::MaterialPatch& patch);
 
+  // ---- Snapshots: the whole state but the model's bytes, as one document.
+
+  protocol::Snapshot snapshot() const;
+
+  // What restore() asks of the GPU scene.
+  struct Restored {
+    render::LightUpdate lights;
+    std::vector<render::MaterialWrite> materials;
+  };
+  // Takes `snapshot`'s camera, settings, material factors (by id) and lights; the model stays
+  // (the caller loads the snapshot's model first, when it is to change). Everything is checked
+  // before anything changes: ProblemError 400 with a JSON Pointer under `pointer` ("/snapshot"
+  // in POST /v1/sessions, "" for PUT .../snapshot) for a camera, sun, technique, material id or
+  // lights member no frame can use, 413 maxLightsPerSession for too many lights.
+  Restored restore(const protocol::Snapshot& snapshot, std::string_view pointer,
+                   Clock::time_point now);
+
   // ---- Lights. Each light has a stable id (never reused within the session) and a slot, its
   // index in the GPU's light array. Slots are dense: removing a light moves the last light into
   // its slot, on the CPU and (by the returned update) on the GPU alike.
