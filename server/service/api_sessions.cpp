@@ -179,6 +179,9 @@ void createSession(ApiContext& context, const httplib::Request& req, httplib::Re
       context.sessions.create(SessionScene(context.config.limits.maxLightsPerSession, settings));
   try {
     std::shared_ptr<const scene::Scene> scene;
+    // Loaded without the session's lock: a library model may take the loader's whole time limit,
+    // and the idle sweeper takes every session's lock in turn.
+    ScenePtr loaded = loadSource(context, source);
     {
       // Nobody else holds the session yet (its id is not out), but the scene is the session's.
       std::lock_guard lock(session->mutex);
@@ -187,7 +190,7 @@ void createSession(ApiContext& context, const httplib::Request& req, httplib::Re
       if (source == protocol::kBuiltinModel) {
         recipe = LightRecipe{context.config.builtinLights, context.config.builtinSeed};
       }
-      scene = session->scene.adopt(loadSource(context, source), source,
+      scene = session->scene.adopt(std::move(loaded), source,
                                    Adoption{.lights = Adoption::Lights::model,
                                             .recipe = recipe,
                                             .lightingFromModel = true});
