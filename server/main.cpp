@@ -2,9 +2,12 @@
 // SIGINT/SIGTERM. The work lives in service/; this file only orders it and maps failures to exit
 // statuses (2 bad flag, 1 cannot start, 0 clean shutdown).
 #include <atomic>
+#include <chrono>
+#include <condition_variable>
 #include <csignal>
-#include <cstdlib>
 #include <cstdio>
+#include <cstdlib>
+#include <mutex>
 #include <string>
 #include <string_view>
 #include <thread>
@@ -114,17 +117,37 @@ int run(const service::Options& options, const sigset_t& shutdownSignals) {
   // The signals are blocked in every thread (see main), so this thread alone receives them.
   std::atomic<bool> serving{true};
   std::atomic<bool> signalled{false};
+  std::mutex servedMutex;
+  std::condition_variable served;  // notified when serve() has returned
   std::thread signalWaiter([&] {
     int signal = 0;
     sigwait(&shutdownSignals, &signal);
     if (!serving) return;  // woken by main below, not by a user
     signalled = true;
-    std::fprintf(stderr, "myriad-server: %s received, shutting down\n",
-                 signal == SIGINT ? "SIGINT" : "SIGTERM");
+    std::fprintf(stderr, "myriad-server: %s received, shutting down (grace %u s)\n",
+                 signal == SIGINT ? "SIGINT" : "SIGTERM", options.shutdownGraceSeconds);
     server.stop();
+    // A client that keeps its request open (a header line every few seconds, a stalled upload)
+    // would hold the shutdown for as long as it likes; past the grace the process ends anyway,
+    // as an orchestrator's SIGKILL would, but with status 0 and a line in the log.
+    std::unique_lock lock(servedMutex);
+    if (!served.wait_for(lock, std::chrono::seconds(options.shutdownGraceSeconds),
+                         [&] { return !serving; })) {
+      std::fprintf(stderr,
+                   "myriad-server: requests still open after the %u s shutdown grace; exiting "
+                   "without them\n",
+                   options.shutdownGraceSeconds);
+      std::fflush(stdout);
+      std::fflush(stderr);
+      std::_Exit(0);
+    }
   });
   const bool stoppedCleanly = server.serve();
-  serving = false;
+  {
+    std::lock_guard lock(servedMutex);
+    serving = false;
+  }
+  served.notify_all();
   // serve() also returns when listening fails; then the waiter is still waiting.
   if (!signalled) pthread_kill(signalWaiter.native_handle(), SIGTERM);
   signalWaiter.join();

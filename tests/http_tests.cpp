@@ -3,7 +3,11 @@
 // end with zero validation messages.
 #include <doctest/doctest.h>
 #include <httplib.h>
+#include <arpa/inet.h>
+#include <netinet/in.h>
 #include <signal.h>
+#include <sys/socket.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <atomic>
@@ -394,7 +398,8 @@ TEST_CASE("http: a full render queue answers 503 with Retry-After, then recovers
 }
 
 TEST_CASE("http: SIGTERM during a frame finishes the frame, then exits 0") {
-  ServerProcess server({"--lights", "256"});
+  // A grace far past the frames' time: this is about answering what is in flight.
+  ServerProcess server({"--lights", "256", "--shutdown-grace", "300"});
   requireListening(server);
 
   // Two large frames: one rendering and one queued behind it when the signal arrives, so the
@@ -476,4 +481,42 @@ TEST_CASE("start-up failures are one sentence and a non-zero exit") {
   CHECK(second.waitForExit(std::chrono::seconds(1))->describe() == "exit 1");
   CHECK(second.stderrText().find(std::to_string(first.port())) != std::string::npos);
   requireCleanStop(first);
+}
+
+TEST_CASE("http: a client that never finishes its request holds a shutdown no longer than --shutdown-grace") {
+  ServerProcess server({"--lights", "8", "--shutdown-grace", "2"});
+  requireListening(server);
+  // A request whose headers never end: one header line a second (slowloris), on its own thread.
+  const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
+  REQUIRE(fd >= 0);
+  sockaddr_in address{};
+  address.sin_family = AF_INET;
+  address.sin_port = htons(uint16_t(server.port()));
+  ::inet_pton(AF_INET, "127.0.0.1", &address.sin_addr);
+  REQUIRE(::connect(fd, reinterpret_cast<sockaddr*>(&address), sizeof address) == 0);
+  std::atomic<bool> done{false};
+  std::thread slow([&] {
+    std::string line = "GET /v1/health HTTP/1.1\r\nHost: x\r\n";
+    for (int i = 0; !done && i < 120; ++i) {
+      if (::send(fd, line.data(), line.size(), MSG_NOSIGNAL) < 0) break;
+      line = "X-Slow-" + std::to_string(i) + ": 1\r\n";
+      std::this_thread::sleep_for(std::chrono::seconds(1));
+    }
+  });
+  std::this_thread::sleep_for(std::chrono::milliseconds(1500));
+  const auto signalled = std::chrono::steady_clock::now();
+  server.signal(SIGTERM);
+  std::optional<ExitStatus> status = server.waitForExit(std::chrono::seconds(20));
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - signalled).count();
+  done = true;
+  slow.join();
+  ::close(fd);
+  INFO("server stderr:\n", server.stderrText());
+  REQUIRE(status.has_value());
+  CHECK(status->describe() == "exit 0");
+  MESSAGE("exited ", seconds, " s after SIGTERM with a slow client connected (grace 2 s)");
+  CHECK(seconds >= 1.5);  // it did wait for the open request
+  CHECK(seconds <= 3.0);  // grace + 1 s
+  CHECK(server.stderrText().find("after the 2 s shutdown grace") != std::string::npos);
 }

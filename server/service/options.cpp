@@ -121,6 +121,10 @@ const std::vector<Flag>& flags() {
          o.sessionIdleSeconds =
              parseUnsigned<uint32_t>("--session-idle-seconds", v, 1, kMaxIdleSeconds);
        }},
+      {"--shutdown-grace", true,
+       [](Options& o, std::string_view v) {
+         o.shutdownGraceSeconds = parseUnsigned<uint32_t>("--shutdown-grace", v, 0, 3600);
+       }},
       {"--models", true,
        [](Options& o, std::string_view v) {
          if (v.empty()) throw UsageError("--models expects a directory.");
@@ -220,6 +224,8 @@ materials and lights (protocol/reference.md), and the stateless GET /v1/frame.
   --max-streams N          open frame streams, server-wide; more get 429 (default 8)
   --max-requests N         requests handled at once; more get 429 (default 64)
   --session-idle-seconds S a session unused for S seconds is deleted (default 600)
+  --shutdown-grace S       after SIGTERM/SIGINT, answer what finishes within S seconds, then exit
+                           0 with the rest cut off (default 10)
   --models DIR             model files sessions may load by name (library:NAME)
   --api-key KEY            creating a session needs Authorization: Bearer KEY (also from the
                            environment variable MYRIAD_API_KEY)

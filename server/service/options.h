@@ -41,6 +41,10 @@ struct Options {
   uint32_t maxStreams = 8;                // open GET .../stream connections, server-wide
   uint32_t maxRequestsInFlight = 64;      // requests being handled at once (429 beyond)
   uint32_t sessionIdleSeconds = 600;      // a session unused this long is deleted
+  // After SIGINT/SIGTERM: requests that finish within this many seconds are answered; then the
+  // process exits 0 with whatever is still open (a slow client must not hold a shutdown past
+  // the orchestrator's own grace: Docker and Kubernetes SIGKILL after 10 and 30 s).
+  uint32_t shutdownGraceSeconds = 10;
   std::optional<std::string> modelsDir;   // --models: the library of loadable model files
   std::optional<std::string> apiKey;      // --api-key (or env MYRIAD_API_KEY, read by main)
   std::vector<std::string> corsOrigins;   // --cors-origin, repeatable
