@@ -1007,6 +1007,17 @@ TEST_CASE("api: a model with its files, as a zip or as several files; hostile ar
       {"no such entry", myriad::test::makeZip({{"a.gltf", gltf}}), "c.gltf", "'c.gltf'"},
       {"not a zip", "PK but nothing more", "", "not a zip archive"},
   };
+  // The server's own memory (the archive is inflated, if at all, in the loader child).
+  const auto residentBytes = [&server] {
+    std::ifstream status("/proc/" + std::to_string(server.pid()) + "/status");
+    std::string line;
+    while (std::getline(status, line)) {
+      if (line.starts_with("VmRSS:")) return std::stoull(line.substr(6)) * 1024;
+    }
+    return 0ull;
+  };
+  const unsigned long long residentBefore = residentBytes();
+  REQUIRE(residentBefore > 0);
   for (const Bad& b : bad) {
     CAPTURE(b.what);
     Reply reply = api.put(s.path() + "/model?filename=bad.zip" + (b.entry.empty() ? "" : "&entry=" + b.entry),
@@ -1016,6 +1027,10 @@ TEST_CASE("api: a model with its files, as a zip or as several files; hostile ar
                   reply.json.value("detail", ""));
     REQUIRE(api.get("/v1/health").status == 200);
   }
+  const unsigned long long residentAfter = residentBytes();
+  MESSAGE("server RSS ", residentBefore >> 20, " MiB before the hostile archives, ",
+          residentAfter >> 20, " MiB after");
+  CHECK(residentAfter <= residentBefore + (64ull << 20));
   // ?entry= picks one of several models; it belongs to uploads of several files only.
   Reply picked = api.put(s.path() + "/model?filename=two.zip&entry=b.gltf",
                          myriad::test::makeZip({{"a.gltf", gltf}, {"b.gltf", gltf}, {"BoxTextured0.bin", bin}}),
