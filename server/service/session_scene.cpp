@@ -59,13 +59,13 @@ std::shared_ptr<const scene::Scene> SessionScene::adopt(std::shared_ptr<scene::S
   switch (lights) {
     case Lights::model:
       lights_ = loaded->lights;
-      assignIds(0);
+      relink(0);
       recipe_ = adoption.recipe;
       break;
     case Lights::fit: {
       const LightRecipe recipe = recipe_.value_or(LightRecipe{uint32_t(lights_.size()), 1});
       lights_ = scene::generateLights(lightGenerationAround(model_.bounds, recipe.count, recipe.seed));
-      assignIds(0);
+      relink(0);
       recipe_ = recipe;
       loaded->lights = lights_;
       break;
@@ -264,20 +264,37 @@ void SessionScene::checkLightTotal(uint64_t total, std::string_view what) const 
   }
 }
 
-render::LightUpdate SessionScene::assignIds(uint32_t first) {
+render::LightUpdate SessionScene::relink(uint32_t fresh, std::optional<uint32_t> vacated) {
   render::LightUpdate update;
-  update.count = uint32_t(lights_.size());
-  update.writes.reserve(lights_.size() - first);
-  ids_.resize(first);
+  if (vacated) {
+    // A swap-remove: the last light (and its id) moves into the vacated slot.
+    const uint32_t slot = *vacated;
+    const auto last = uint32_t(lights_.size() - 1);
+    slotOfId_.erase(ids_.at(slot));
+    if (slot != last) {
+      lights_[slot] = lights_[last];
+      ids_[slot] = ids_[last];
+      slotOfId_[ids_[slot]] = slot;
+      update.writes.push_back(render::LightWrite{slot, lights_[slot]});
+    }
+    lights_.pop_back();
+    ids_.pop_back();
+    fresh = uint32_t(lights_.size());
+  }
+  // Lights from slot `fresh` on are new: fresh ids (never reused), each written.
+  if (fresh == 0) slotOfId_.clear();
+  for (uint32_t slot = fresh; slot < ids_.size(); ++slot) slotOfId_.erase(ids_[slot]);
+  ids_.resize(fresh);
   ids_.reserve(lights_.size());
-  if (first == 0) slotOfId_.clear();
   slotOfId_.reserve(lights_.size());
-  for (uint32_t slot = first; slot < lights_.size(); ++slot) {
+  update.writes.reserve(update.writes.size() + (lights_.size() - fresh));
+  for (uint32_t slot = fresh; slot < lights_.size(); ++slot) {
     const uint64_t id = nextId_++;
     ids_.push_back(id);
     slotOfId_.emplace(id, slot);
     update.writes.push_back(render::LightWrite{slot, lights_[slot]});
   }
+  update.count = uint32_t(lights_.size());
   return update;
 }
 
@@ -288,7 +305,7 @@ render::LightUpdate SessionScene::addLights(std::span<const scene::PointLight> l
   recipe_.reset();
   const auto first = uint32_t(lights_.size());
   lights_.insert(lights_.end(), lights.begin(), lights.end());
-  render::LightUpdate update = assignIds(first);
+  render::LightUpdate update = relink(first);
   if (ids != nullptr) ids->insert(ids->end(), ids_.begin() + first, ids_.end());
   return update;
 }
@@ -299,7 +316,7 @@ render::LightUpdate SessionScene::replaceLights(std::span<const scene::PointLigh
                   "This would leave the session with " + std::to_string(lights.size()) + " lights");
   lights_.assign(lights.begin(), lights.end());
   recipe_ = recipe;
-  return assignIds(0);
+  return relink(0);
 }
 
 render::LightUpdate SessionScene::patchLight(uint32_t slot, const protocol::LightPatch& patch) {
@@ -314,20 +331,8 @@ render::LightUpdate SessionScene::patchLight(uint32_t slot, const protocol::Ligh
 }
 
 render::LightUpdate SessionScene::removeLight(uint32_t slot) {
-  const auto last = uint32_t(lights_.size() - 1);
   recipe_.reset();
-  render::LightUpdate update;
-  update.count = last;
-  slotOfId_.erase(ids_.at(slot));
-  if (slot != last) {
-    lights_[slot] = lights_[last];
-    ids_[slot] = ids_[last];
-    slotOfId_[ids_[slot]] = slot;
-    update.writes.push_back(render::LightWrite{slot, lights_[slot]});
-  }
-  lights_.pop_back();
-  ids_.pop_back();
-  return update;
+  return relink(0, slot);
 }
 
 }  // namespace myriad::service

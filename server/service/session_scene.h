@@ -164,8 +164,11 @@ class SessionScene {
   void checkLightTotal(uint64_t total, std::string_view what) const;
 
  private:
-  // Gives lights_[first..] fresh ids; returns the update that writes them.
-  render::LightUpdate assignIds(uint32_t first);
+  // The ids/slots invariant, kept here and nowhere else: after lights_ changed, brings ids_ and
+  // slotOfId_ in step and returns the GPU update. `vacated`: the light in that slot was removed
+  // (the last light moves into it, keeping its id). Otherwise the lights from slot `fresh` on are
+  // new and get fresh ids (0: every light is new).
+  render::LightUpdate relink(uint32_t fresh, std::optional<uint32_t> vacated = std::nullopt);
 
   uint32_t maxLights_;
   ModelSummary model_;
