@@ -407,13 +407,15 @@ TEST_CASE("http: SIGTERM during a frame finishes the frame, then exits 0") {
   std::atomic<bool> signalSent{false};
   auto request = [&server, &signalSent](int width) {
     httplib::Result res =
-        clientFor(server)->Get("/v1/frame?width=" + std::to_string(width) + "&height=1024");
+        clientFor(server)->Get("/v1/frame?width=" + std::to_string(width) + "&height=2048");
     bool afterSignal = signalSent.load();
     return std::make_pair(std::move(res), afterSignal);
   };
-  auto first = std::async(std::launch::async, request, 1536);
+  // Sized to take over a second each on lavapipe (1536x1024 had become quicker than the 400 ms
+  // before the signal: 0.3 s on the 2-core machine).
+  auto first = std::async(std::launch::async, request, 4096);
   std::this_thread::sleep_for(std::chrono::milliseconds(100));
-  auto second = std::async(std::launch::async, request, 1280);
+  auto second = std::async(std::launch::async, request, 3840);
   std::this_thread::sleep_for(std::chrono::milliseconds(300));
   server.signal(SIGTERM);
   signalSent = true;
@@ -424,7 +426,7 @@ TEST_CASE("http: SIGTERM during a frame finishes the frame, then exits 0") {
     CHECK(res->status == 200);
     CHECK(afterSignal);  // else the frame was too quick to test anything
     auto image = myriad::encode::decodePng(bytesOf(res->body));
-    CHECK(image.height == 1024);
+    CHECK(image.height == 2048);
   }
   std::optional<ExitStatus> status = server.waitForExit(std::chrono::seconds(60));
   INFO("server stderr:\n", server.stderrText());

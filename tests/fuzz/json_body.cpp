@@ -83,6 +83,13 @@ void convertLightsGenerate(const json& body) {
   if (request.bounds) checkRule(protocol::checkBounds(*request.bounds, "/bounds"));
 }
 
+// A snapshot holds a camera and settings: the same rules hold for them as for their own bodies.
+void convertSnapshot(const json& body) {
+  const auto snapshot = roundTrip<protocol::Snapshot>(body);
+  checkRule(protocol::checkCamera(snapshot.camera));
+  checkRule(protocol::checkSunDirection(snapshot.settings.sun.direction));
+}
+
 struct Body {
   std::string_view schema;
   void (*convert)(const json&);
@@ -93,6 +100,7 @@ struct Body {
 constexpr Body kBodies[] = {
     {names::kSessionCreate, convert<protocol::SessionCreate>},
     {names::kSessionCreated, convert<protocol::SessionCreated>},
+    {names::kSnapshot, convertSnapshot},
     {names::kSessionState, convert<protocol::SessionState>},
     {names::kModelSource, convert<protocol::ModelSource>},
     {names::kCamera, convertCamera},
