@@ -86,6 +86,8 @@ fuzz_triage_model() {
     frame=$(grep -E '^ +#[0-9]+ ' <<<"$replay" |
             grep -vE ' in (__asan|__interceptor|__sanitizer|__ubsan|fuzzer::|__GI_|__pthread_kill)' |
             grep -vE ' in (abort|raise|gsignal|operator new|operator delete|malloc|calloc|realloc|free|mem(cpy|move|set|cmp)|str[a-z]*)\b|/libc\.so|sanitizer_common|compiler-rt' |
+            # glibc's own optimized routines (__memset_avx512_unaligned_erms in sysdeps/...)
+            grep -vE ' in __(mem|str|wmem)[a-z0-9_]*|/sysdeps/|sysdeps/x86_64' |
             head -1)
     if [[ $frame == *libassimp.so* ]]; then
       mv "$input" "$artifacts/assimp/"

@@ -28,7 +28,9 @@ python3 "$fuzz_dir/make_corpus.py" "$build" "$work/corpus" || exit 1
 failed=()
 for h in "${fuzz_harnesses[@]}"; do
   log=$work/$h.log
-  if fuzz_run "$bin/$h" "$work/corpus/$h" "$work/artifacts/$h" "$log" -max_total_time="$seconds"; then
+  # A fixed seed: the same mutations on every CI run (MYRIAD_FUZZ_SEED to vary them).
+  if fuzz_run "$bin/$h" "$work/corpus/$h" "$work/artifacts/$h" "$log" -max_total_time="$seconds" \
+       -seed="${MYRIAD_FUZZ_SEED:-1}"; then
     fuzz_summary "$h" "$log"
   else
     failed+=("$h")
