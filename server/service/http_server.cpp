@@ -65,26 +65,6 @@ void logRequest(const httplib::Request& req, const httplib::Response& res) {
   std::fwrite(line.data(), 1, line.size(), stderr);
 }
 
-nlohmann::json deviceJson(const render::DeviceSummary& d) {
-  return {
-      {"name", d.name},
-      {"type", d.type},
-      {"driverName", d.driverName},
-      {"driverInfo", d.driverInfo},
-      {"apiVersion", d.apiVersion},
-      {"vendorId", d.vendorId},
-      {"deviceId", d.deviceId},
-      {"index", d.index},
-      {"isCpu", d.isCpu},
-      {"maxImageDimension2D", d.maxImageDimension2D},
-      {"maxStorageBufferRange", d.maxStorageBufferRange},
-      {"maxComputeSharedMemorySize", d.maxComputeSharedMemorySize},
-      {"subgroupSize", d.subgroupSize},
-      {"timestampPeriodNs", d.timestampPeriodNs},
-      {"timestampsSupported", d.timestampsSupported},
-  };
-}
-
 }  // namespace
 
 struct HttpServer::State {
@@ -140,7 +120,7 @@ void HttpServer::State::handleInfo(httplib::Response& res) const {
   for (std::string_view name : render::kTechniqueNames) techniques.push_back(name);
   nlohmann::json info = {
       {"server", {{"name", "myriad-server"}, {"version", MYRIAD_VERSION}}},
-      {"device", deviceJson(renderThread.device())},
+      {"device", nlohmann::json(renderThread.device())},
       {"limits", api.config.limits.toJson()},
       {"apiKeyRequired", api.config.apiKey.has_value()},
       {"formats", protocol::kFormats},
