@@ -29,6 +29,16 @@ Problem loadProblem(const loader::ModelRejected& e) {
 
 using ScenePtr = std::shared_ptr<scene::Scene>;
 
+// Runs one loader call; a refusal becomes the problem it answers as (loadProblem).
+template <typename Load>
+ScenePtr loadOrProblem(Load load) {
+  try {
+    return std::make_shared<scene::Scene>(load());
+  } catch (const loader::ModelRejected& e) {
+    throw ProblemError(loadProblem(e));
+  }
+}
+
 // The scene a "builtin:default" or "library:NAME" source names. Throws ProblemError 404 for a
 // name outside the library, 422 when the loader rejects the file.
 ScenePtr loadSource(const ApiContext& context, std::string_view source) {
@@ -47,11 +57,7 @@ ScenePtr loadSource(const ApiContext& context, std::string_view source) {
         (context.models == nullptr ? std::string("; this server has no --models directory).")
                                    : std::string(")."))));
   }
-  try {
-    return std::make_shared<scene::Scene>(loader::loadModelFile(*path));
-  } catch (const loader::ModelRejected& e) {
-    throw ProblemError(loadProblem(e));
-  }
+  return loadOrProblem([&] { return loader::loadModelFile(*path); });
 }
 
 // ?filename= of an upload: a file name without slashes. Throws 400 naming it.
@@ -70,12 +76,8 @@ std::string uploadFilename(const httplib::Request& req) {
 ScenePtr loadArchiveUpload(const httplib::Request& req, std::string& source) {
   const std::string filename = req.has_param("filename") ? uploadFilename(req) : "upload.zip";
   source = std::string(protocol::kUploadPrefix) + filename;
-  try {
-    return std::make_shared<scene::Scene>(
-        loader::loadModelArchive(req.body, filename, req.get_param_value("entry")));
-  } catch (const loader::ModelRejected& e) {
-    throw ProblemError(loadProblem(e));
-  }
+  return loadOrProblem(
+      [&] { return loader::loadModelArchive(req.body, filename, req.get_param_value("entry")); });
 }
 
 // Several files as multipart/form-data, each part a file (its filename the path the model uses
@@ -102,14 +104,10 @@ ScenePtr loadFilesUpload(const httplib::Request& req, std::string& source) {
     throw ProblemError(invalidBody("", "A multipart model upload needs at least one file part."));
   }
   const std::string entry = req.get_param_value("entry");
-  try {
-    scene::Scene scene = loader::loadModelFiles(files, entry);
-    source = std::string(protocol::kUploadPrefix) +
-             (entry.empty() ? scene::modelEntryOf(files, {}, "upload") : entry);
-    return std::make_shared<scene::Scene>(std::move(scene));
-  } catch (const loader::ModelRejected& e) {
-    throw ProblemError(loadProblem(e));
-  }
+  ScenePtr scene = loadOrProblem([&] { return loader::loadModelFiles(files, entry); });
+  source = std::string(protocol::kUploadPrefix) +
+           (entry.empty() ? scene::modelEntryOf(files, {}, "upload") : entry);
+  return scene;
 }
 
 // The uploaded file of PUT .../model (application/octet-stream).
@@ -120,11 +118,7 @@ ScenePtr loadUpload(const httplib::Request& req) {
                     "format (.glb, .gltf, .obj, ...)."));
   }
   const std::string filename = uploadFilename(req);
-  try {
-    return std::make_shared<scene::Scene>(loader::loadModelBytes(req.body, filename));
-  } catch (const loader::ModelRejected& e) {
-    throw ProblemError(loadProblem(e));
-  }
+  return loadOrProblem([&] { return loader::loadModelBytes(req.body, filename); });
 }
 
 // Restores `snapshot` into the session (locked) and queues what the GPU scene needs.
