@@ -60,8 +60,9 @@ fuzz_run() {
 }
 
 # fuzz_triage_model BINARY ARTIFACT_DIR: replays every crash and timeout input of fuzz_model and
-# succeeds only if each one faults or spins inside libassimp (the first stack frame that is not
-# the sanitizer runtime's, its allocator's and string interceptors', or libc's is Assimp's): what
+# succeeds only if each one faults or spins inside libassimp (a crash: the first stack frame that
+# is not the sanitizer runtime's, its allocator's and string interceptors', or libc's is Assimp's;
+# a timeout: Assimp is on the stack): what
 # the loader child contains as a "crash" or "timeout" rejection, and no bug of ours (Debian's
 # Assimp cannot be fixed here). Such inputs move to ARTIFACT_DIR/assimp/. Any other artifact (a
 # crash or timeout in our code, a leak) fails.
@@ -89,7 +90,12 @@ fuzz_triage_model() {
             # glibc's own optimized routines (__memset_avx512_unaligned_erms in sysdeps/...)
             grep -vE ' in __(mem|str|wmem)[a-z0-9_]*|/sysdeps/|sysdeps/x86_64' |
             head -1)
-    if [[ $frame == *libassimp.so* ]]; then
+    # A timeout's stack is wherever the alarm found the loop (a std::string or glibc routine Assimp
+    # called, as often as not): it is Assimp's when Assimp is anywhere on the stack, i.e. the time
+    # went inside an Assimp call. A crash must fault in Assimp itself.
+    if [[ $input == */timeout-* ]] && grep -E '^ +#[0-9]+ ' <<<"$replay" | grep -q 'libassimp\.so'; then
+      mv "$input" "$artifacts/assimp/"
+    elif [[ $frame == *libassimp.so* ]]; then
       mv "$input" "$artifacts/assimp/"
     else
       echo "fuzz_model: $input crashes outside Assimp: $frame"
