@@ -131,10 +131,10 @@ const started = performance.now();
 try {
   browser = await chromium.launch({
     executablePath: CHROMIUM,
-    // WebGL 2 on the CPU: ANGLE over SwiftShader (Chromium refuses SwiftShader for WebGL unless
-    // told it is fine).
-    args: ['--headless', '--no-sandbox', '--use-angle=swiftshader', '--enable-unsafe-swiftshader',
-           '--ignore-gpu-blocklist'],
+    // WebGL 2 on the CPU, ANGLE over SwiftShader, whatever GPU the machine has: the flags pin it
+    // (Debian's Chromium 156 headless also falls back to it by itself where there is no GPU; newer
+    // ones need --enable-unsafe-swiftshader for WebGL on SwiftShader).
+    args: ['--headless', '--no-sandbox', '--use-angle=swiftshader', '--enable-unsafe-swiftshader'],
   });
   const TYPES = {'.js': 'text/javascript', '.mjs': 'text/javascript', '.html': 'text/html',
                  '.glb': 'model/gltf-binary'};
