@@ -522,3 +522,39 @@ TEST_CASE("http: a client that never finishes its request holds a shutdown no lo
   CHECK(seconds <= 3.0);  // grace + 1 s
   CHECK(server.stderrText().find("after the 2 s shutdown grace") != std::string::npos);
 }
+
+TEST_CASE("http: three requests on one kept-alive connection take about as long as one") {
+  ServerProcess server({"--lights", "8"});
+  requireListening(server);
+  httplib::Client client(server.host(), server.port());
+  client.set_keep_alive(true);
+  client.set_read_timeout(30, 0);
+  // GET /v1/info answers with headers and a body (two writes on the server's side): with Nagle's
+  // algorithm on, the body of every response after a connection's first waited for the client's
+  // delayed ACK, 40 ms each.
+  auto request = [&] {
+    httplib::Result res = client.Get("/v1/info");
+    REQUIRE(res);
+    REQUIRE(res->status == 200);
+    CHECK(res->body.size() > 100);
+  };
+  request();  // connect
+  auto timeRequests = [&](int count) {
+    const auto start = std::chrono::steady_clock::now();
+    for (int i = 0; i < count; ++i) request();
+    return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
+        .count();
+  };
+  std::vector<double> one, three;
+  for (int round = 0; round < 7; ++round) {
+    one.push_back(timeRequests(1));
+    three.push_back(timeRequests(3));
+  }
+  std::sort(one.begin(), one.end());
+  std::sort(three.begin(), three.end());
+  const double oneMs = one[one.size() / 2];
+  const double threeMs = three[three.size() / 2];
+  MESSAGE("one request on a kept-alive connection: ", oneMs, " ms (median of 7); three: ",
+          threeMs, " ms");
+  CHECK(threeMs - oneMs < 5.0);
+}
