@@ -107,8 +107,8 @@ async function renderMyriad(c) {
     }
     const camera = (await api('PUT', `${s}/camera`, {token, json: c.camera})).json();
     const settings = {sun: c.sun, ambient: [0, 0, 0], background: [0, 0, 0], exposure: 1, markers: false};
-    // Once settings have an environment (issue 12), it is off for the judge.
-    if ('environment' in (await api('GET', `${s}/settings`, {token})).json()) settings.environment = 'none';
+    // The environment light (issue 12) is off for the judge: a loaded model starts under the sky.
+    settings.environment = {mode: 'none'};
     await api('PATCH', `${s}/settings`, {token, json: settings});
     const lights = (await api('GET', `${s}/lights`, {token})).json();
     const frame = async (target) => {
