@@ -57,7 +57,19 @@ protocol::Settings toWire(const render::SceneSettings& s) {
   out.technique = std::string(render::techniqueName(s.technique));
   out.animate = s.animate;
   out.background = toWire(s.background);
+  out.environment.mode = std::string(render::environmentModeName(s.environment.mode));
+  out.environment.intensity = wire(s.environment.intensity);
+  out.environment.rotation = wire(s.environment.rotation);
+  out.environment.background = s.environment.background;
   return out;
+}
+
+render::EnvironmentMode environmentModeFromWire(std::string_view name) {
+  std::optional<render::EnvironmentMode> mode = render::parseEnvironmentMode(name);
+  if (!mode) {
+    throw ProblemError(invalidBody("/environment/mode", "\"mode\" must be none, sky or hdr."));
+  }
+  return *mode;
 }
 
 render::Technique techniqueFromWire(std::string_view name) {

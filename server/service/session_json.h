@@ -21,6 +21,8 @@ scene::Camera fromWire(const protocol::Camera& camera);
 protocol::Settings toWire(const render::SceneSettings& settings);
 // Throws ProblemError 400 (/technique) for an unknown technique (the schema already limits it).
 render::Technique techniqueFromWire(std::string_view name);
+// Throws ProblemError 400 (/environment/mode) for a name that is no environment mode.
+render::EnvironmentMode environmentModeFromWire(std::string_view name);
 
 protocol::Material toWire(uint32_t id, const scene::Material& material);
 protocol::Light toWire(uint64_t id, const scene::PointLight& light);

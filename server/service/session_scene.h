@@ -23,6 +23,7 @@
 #include "protocol/constants.h"
 #include "protocol/types.h"
 #include "render/frame.h"
+#include "scene/environment_map.h"
 #include "scene/scene.h"
 
 namespace myriad::service {
@@ -90,6 +91,15 @@ class SessionScene {
   const scene::Camera& frameModel(float aspect);
 
   const render::SceneSettings& settings() const { return settings_; }
+
+  // ---- The environment's image (mode hdr): an equirectangular .hdr, resampled by the loader.
+  // Setting one selects mode hdr (and counts as choosing the environment). `source` is what
+  // GET .../environment reports ("upload:NAME" or "library:NAME").
+  void setEnvironmentImage(std::shared_ptr<const scene::EnvironmentImage> image, std::string source);
+  const std::shared_ptr<const scene::EnvironmentImage>& environmentImage() const {
+    return environmentImage_;
+  }
+  const std::string& environmentSource() const { return environmentSource_; }
   // Throws ProblemError 400 (/sun/direction, /technique) for a value no frame can use. Switching
   // animation on restarts the animation clock at `now`, so lights start from where they are.
   const render::SceneSettings& patchSettings(const protocol::SettingsPatch& patch,
@@ -175,6 +185,9 @@ class SessionScene {
   std::vector<scene::Material> materials_;
   scene::Camera camera_;
   render::SceneSettings settings_;
+  bool environmentChosen_ = false;  // the client chose the environment (see adopt)
+  std::shared_ptr<const scene::EnvironmentImage> environmentImage_;
+  std::string environmentSource_;
   Clock::time_point animationStart_ = Clock::now();
 
   // lights_[slot] has id ids_[slot]; slotOfId_ maps back. Kept together by the light methods.

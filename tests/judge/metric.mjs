@@ -1,9 +1,9 @@
 // How the judge compares Myriad's linear radiance with three.js's (docs/ARCHITECTURE.md, section 9,
 // "The independent judge", says why each rule is what it is).
 //
-// Pixels compared: covered by geometry in both images, and at least 2 pixels away from a
-// silhouette of either image and from a depth discontinuity or crease of Myriad's depth (where
-// the two rasterisers may pick different triangles). Per compared pixel, the relative colour
+// Pixels compared: covered by geometry in both images, and more than 2 pixels away from a
+// silhouette of either image and from a depth jump in Myriad's depth (where the two rasterisers
+// may pick different triangles). Per compared pixel, the relative colour
 // error
 //     e = max_c |M_c - T_c| / (max_c T_c + tau),   tau = 0.02 * W,
 // W = the 99th percentile of max_c T_c over the compared pixels (the scene's white), so dark
@@ -36,10 +36,13 @@ export function compare(width, height, M, depth, far, T, stride = 3) {
     covT[i] = T[i * 4 + 3] > 0 ? 1 : 0;
     inverseDepth[i] = covM[i] ? 1 / depth[i] : 0;
   }
-  // Edges: a neighbour (4-connected) with other coverage in either image, or, both covered, a
-  // second difference of 1/depth (0 on a plane, affine in screen space) above 0.5% of its value.
+  // Edges: neighbours (4-connected) with other coverage in either image, or, both covered, a
+  // depth jump: 1/depth (affine in screen space on a plane) changes between them by more than 0.2%
+  // and by more than 3 times its change on either side (so the slope of a grazing plane and the
+  // crease between two facets of one surface are not edges; one surface behind another is).
   const edge = new Uint8Array(n);
   const at = (x, y) => y * width + x;
+  const step = (a, b) => (covM[a] && covM[b] ? Math.abs(inverseDepth[a] - inverseDepth[b]) : 0);
   for (let y = 0; y < height; ++y) {
     for (let x = 0; x < width; ++x) {
       const i = at(x, y);
@@ -48,14 +51,15 @@ export function compare(width, height, M, depth, far, T, stride = 3) {
         const y1 = y + dy;
         if (x1 >= width || y1 >= height) continue;
         const j = at(x1, y1);
-        if (covM[i] !== covM[j] || covT[i] !== covT[j]) edge[i] = edge[j] = 1;
-      }
-      if (!covM[i] || x === 0 || y === 0 || x === width - 1 || y === height - 1) continue;
-      for (const [a, b] of [[at(x - 1, y), at(x + 1, y)], [at(x, y - 1), at(x, y + 1)]]) {
-        if (!covM[a] || !covM[b]) continue;
-        if (Math.abs(inverseDepth[a] + inverseDepth[b] - 2 * inverseDepth[i]) > 0.005 * inverseDepth[i]) {
-          edge[i] = 1;
+        if (covM[i] !== covM[j] || covT[i] !== covT[j]) {
+          edge[i] = edge[j] = 1;
+          continue;
         }
+        if (!covM[i]) continue;
+        const jump = step(i, j);
+        const before = x - dx >= 0 && y - dy >= 0 ? step(at(x - dx, y - dy), i) : 0;
+        const after = x1 + dx < width && y1 + dy < height ? step(j, at(x1 + dx, y1 + dy)) : 0;
+        if (jump > 0.002 * inverseDepth[i] && jump > 3 * Math.max(before, after)) edge[i] = edge[j] = 1;
       }
     }
   }
