@@ -9,6 +9,8 @@ that no corpus binaries live in the repository. One directory per harness under 
                       (written by the fuzz build's fuzz_wire_seeds: the real encoder)
   fuzz_cli_multipart  frame streams as the server sends them
   fuzz_upload_files   zip archives and file sets of real models with the files they refer to
+  fuzz_image          Radiance .hdr files written here: flat and run-length scanlines, both
+                      header orders, an XYZE one, and a few broken ones
   fuzz_model          small models of /usr/share/assimp/models per format, zips of multi-file
                       models, and with --large also bigger ones and DamagedHelmet (geometry)
 
@@ -191,6 +193,63 @@ def models(out, large):
     return count
 
 
+def rgbe(r, g, b):
+    """One RGBE pixel of a linear colour (the Radiance shared-exponent format)."""
+    import math
+    v = max(r, g, b)
+    if v < 1e-32:
+        return bytes(4)
+    m, e = math.frexp(v)
+    scale = m * 256.0 / v
+    return bytes([int(r * scale), int(g * scale), int(b * scale), e + 128])
+
+
+def hdr_file(width, height, rle, fmt="32-bit_rle_rgbe", orientation=None):
+    header = ("#?RADIANCE\nFORMAT=%s\nEXPOSURE=1.0\n\n" % fmt).encode()
+    header += (orientation or "-Y %d +X %d" % (height, width)).encode() + b"\n"
+    data = bytearray()
+    for y in range(height):
+        row = [rgbe(0.1 + x / width * 4.0, 0.2 + y / height, 0.5 if x % 3 else 30.0)
+               for x in range(width)]
+        if not rle:
+            data += b"".join(row)
+            continue
+        data += bytes([2, 2, width >> 8, width & 255])
+        for c in range(4):
+            channel = [p[c] for p in row]
+            i = 0
+            while i < width:
+                run = 1
+                while i + run < width and run < 127 and channel[i + run] == channel[i]:
+                    run += 1
+                if run > 2:
+                    data += bytes([128 + run, channel[i]])
+                    i += run
+                else:
+                    literal = channel[i:i + min(128, width - i)]
+                    data += bytes([len(literal)]) + bytes(literal)
+                    i += len(literal)
+    return header + bytes(data)
+
+
+def images(out):
+    d = out / "fuzz_image"
+    seeds = {
+        "flat-4x2.hdr": hdr_file(4, 2, rle=False),
+        "rle-16x8.hdr": hdr_file(16, 8, rle=True),
+        "rle-64x32.hdr": hdr_file(64, 32, rle=True),
+        "flat-3x5.hdr": hdr_file(3, 5, rle=False),
+        "xyze-8x4.hdr": hdr_file(8, 4, rle=True, fmt="32-bit_rle_xyze"),
+        "plus-y.hdr": hdr_file(8, 4, rle=False, orientation="+Y 4 +X 8"),
+        "truncated.hdr": hdr_file(32, 16, rle=True)[:-100],
+        "huge-header.hdr": b"#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y 100000 +X 100000\n",
+        "no-magic.hdr": b"P6\n4 4\n255\n" + bytes(48),
+    }
+    for name, data in seeds.items():
+        write(d, name, data)
+    return len(seeds)
+
+
 def main():
     if len(sys.argv) < 3:
         sys.exit(__doc__)
@@ -202,6 +261,7 @@ def main():
         "fuzz_scene_wire": wire_scenes(build, out),
         "fuzz_cli_multipart": multipart_streams(out),
         "fuzz_upload_files": upload_files(out, large),
+        "fuzz_image": images(out),
         "fuzz_model": models(out, large),
     }
     print("make_corpus: " + ", ".join("%s %d" % kv for kv in counts.items()))
