@@ -6,6 +6,8 @@
 
 #include <httplib.h>
 
+#include <memory>
+
 #include <atomic>
 #include <cstdint>
 #include <functional>
@@ -130,6 +132,13 @@ class Routes {
   };
   const Entry* match(const std::string& path, const std::string& method) const;
   static std::string allowHeader(const Entry& entry);
+  // The request with its body read through `reader`, counted as it arrives: a ProblemError (413
+  // naming the route's limit, Connection: close) as soon as it exceeds options.maxBodyBytes,
+  // without reading on; 400 for a body that cannot be read (bad chunking, early end).
+  static std::shared_ptr<httplib::Request> readBounded(const httplib::Request& req,
+                                                       httplib::Response& res,
+                                                       const httplib::ContentReader& reader,
+                                                       const RouteOptions& options);
 
   httplib::Server& server_;
   ApiContext& context_;

@@ -81,6 +81,16 @@ async function renderCase(spec) {
   scene.traverse((o) => {
     if (o.material && perturb.roughness !== 1) o.material.roughness = Math.min(1, o.material.roughness * perturb.roughness);
   });
+  // Texture filtering as Myriad samples (the glTF leaves anisotropy to the renderer): 16x
+  // anisotropic where the sampler is linear and mipmapped (three.js's default is 1x).
+  const anisotropy = Math.min(16, renderer.capabilities.getMaxAnisotropy());
+  scene.traverse((o) => {
+    for (const key of ['map', 'normalMap', 'roughnessMap', 'metalnessMap', 'emissiveMap', 'aoMap']) {
+      const t = o.material?.[key];
+      const mipmappedLinear = [THREE.LinearMipmapLinearFilter, THREE.LinearMipmapNearestFilter];
+      if (t && mipmappedLinear.includes(t.minFilter)) t.anisotropy = anisotropy;
+    }
+  });
 
   if (spec.sun && spec.sun.intensity > 0) {
     const sun = new THREE.DirectionalLight(new THREE.Color(...spec.sun.color), spec.sun.intensity);
