@@ -148,6 +148,10 @@ TEST_CASE("api: the environment light: sky for a loaded model, .hdr upload, brok
        "over the limit"},
       {"not a Radiance file", "P6\n16 8\n255\n" + std::string(384, '\x7f'), "not a Radiance .hdr"},
       {"empty", "", "empty"},
+      // A run-length scanline whose first run has length 0 (stb_image alone would loop forever).
+      {"zero-length run", "#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y 2 +X 16\n" +
+                              std::string("\x02\x02\x00\x10\x00", 5) + std::string(200, '\x01'),
+       "run of length 0"},
   };
   for (const Broken& b : broken) {
     Reply reply = api.put(s.path() + "/environment", b.bytes, s.token, "image/vnd.radiance");

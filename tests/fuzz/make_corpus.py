@@ -9,8 +9,7 @@ that no corpus binaries live in the repository. One directory per harness under 
                       (written by the fuzz build's fuzz_wire_seeds: the real encoder)
   fuzz_cli_multipart  frame streams as the server sends them
   fuzz_upload_files   zip archives and file sets of real models with the files they refer to
-  fuzz_image          Radiance .hdr files written here: flat and run-length scanlines, both
-                      header orders, an XYZE one, and a few broken ones
+  fuzz_hdr            Radiance .hdr files: flat and run-length encoded scanlines, XYZE, tiny, cut short
   fuzz_model          small models of /usr/share/assimp/models per format, zips of multi-file
                       models, and with --large also bigger ones and DamagedHelmet (geometry)
 
@@ -18,6 +17,7 @@ Usage: make_corpus.py FUZZ_BUILD_DIR OUT [--large]
 """
 import io
 import json
+import math
 import pathlib
 import re
 import struct
@@ -194,60 +194,60 @@ def models(out, large):
 
 
 def rgbe(r, g, b):
-    """One RGBE pixel of a linear colour (the Radiance shared-exponent format)."""
-    import math
-    v = max(r, g, b)
-    if v < 1e-32:
+    top = max(r, g, b)
+    if top < 1e-32:
         return bytes(4)
-    m, e = math.frexp(v)
-    scale = m * 256.0 / v
-    return bytes([int(r * scale), int(g * scale), int(b * scale), e + 128])
+    mantissa, exponent = math.frexp(top)
+    scale = mantissa * 256.0 / top
+    return bytes((int(r * scale), int(g * scale), int(b * scale), exponent + 128))
 
 
-def hdr_file(width, height, rle, fmt="32-bit_rle_rgbe", orientation=None):
-    header = ("#?RADIANCE\nFORMAT=%s\nEXPOSURE=1.0\n\n" % fmt).encode()
-    header += (orientation or "-Y %d +X %d" % (height, width)).encode() + b"\n"
-    data = bytearray()
-    for y in range(height):
-        row = [rgbe(0.1 + x / width * 4.0, 0.2 + y / height, 0.5 if x % 3 else 30.0)
-               for x in range(width)]
-        if not rle:
-            data += b"".join(row)
-            continue
-        data += bytes([2, 2, width >> 8, width & 255])
-        for c in range(4):
-            channel = [p[c] for p in row]
-            i = 0
-            while i < width:
-                run = 1
-                while i + run < width and run < 127 and channel[i + run] == channel[i]:
-                    run += 1
-                if run > 2:
-                    data += bytes([128 + run, channel[i]])
-                    i += run
-                else:
-                    literal = channel[i:i + min(128, width - i)]
-                    data += bytes([len(literal)]) + bytes(literal)
-                    i += len(literal)
-    return header + bytes(data)
+def hdr_files(out):
+    """Radiance files: flat scanlines, run-length encoded ones (the new form: 2 2 w, per channel
+    runs), XYZE, a tiny image, and one cut short."""
+    d = out / "fuzz_hdr"
+    count = 0
 
+    def header(w, h, fmt="32-bit_rle_rgbe"):
+        return ("#?RADIANCE\nFORMAT=%s\n\n-Y %d +X %d\n" % (fmt, h, w)).encode("ascii")
 
-def images(out):
-    d = out / "fuzz_image"
+    def flat(w, h):
+        return b"".join(rgbe(1.0 + x / w, 0.5, 0.2 if y < h // 2 else 0.9)
+                        for y in range(h) for x in range(w))
+
+    def rle(w, h):
+        out = bytearray()
+        for y in range(h):
+            out += bytes((2, 2, w >> 8, w & 255))
+            pixels = [rgbe(1.0 + x / w, 0.5, 0.2 if y < h // 2 else 0.9) for x in range(w)]
+            for channel in range(4):
+                values = [p[channel] for p in pixels]
+                i = 0
+                while i < w:  # a run of the first value, then literals, alternately
+                    run = 1
+                    while i + run < w and run < 127 and values[i + run] == values[i]:
+                        run += 1
+                    if run > 2:
+                        out += bytes((128 + run, values[i]))
+                        i += run
+                    else:
+                        n = min(128, w - i)
+                        out += bytes((n,)) + bytes(values[i:i + n])
+                        i += n
+        return bytes(out)
+
     seeds = {
-        "flat-4x2.hdr": hdr_file(4, 2, rle=False),
-        "rle-16x8.hdr": hdr_file(16, 8, rle=True),
-        "rle-64x32.hdr": hdr_file(64, 32, rle=True),
-        "flat-3x5.hdr": hdr_file(3, 5, rle=False),
-        "xyze-8x4.hdr": hdr_file(8, 4, rle=True, fmt="32-bit_rle_xyze"),
-        "plus-y.hdr": hdr_file(8, 4, rle=False, orientation="+Y 4 +X 8"),
-        "truncated.hdr": hdr_file(32, 16, rle=True)[:-100],
-        "huge-header.hdr": b"#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y 100000 +X 100000\n",
-        "no-magic.hdr": b"P6\n4 4\n255\n" + bytes(48),
+        "flat-16x8.hdr": header(16, 8) + flat(16, 8),
+        "flat-3x2.hdr": header(3, 2) + flat(3, 2),
+        "rle-64x32.hdr": header(64, 32) + rle(64, 32),
+        "xyze.hdr": header(16, 8, "32-bit_rle_xyze") + flat(16, 8),
+        "truncated.hdr": (header(16, 8) + flat(16, 8))[:-50],
+        "rgbe-magic.hdr": b"#?RGBE\n" + header(8, 4)[len(b"#?RADIANCE\n"):] + flat(8, 4),
     }
     for name, data in seeds.items():
         write(d, name, data)
-    return len(seeds)
+        count += 1
+    return count
 
 
 def main():
@@ -261,7 +261,7 @@ def main():
         "fuzz_scene_wire": wire_scenes(build, out),
         "fuzz_cli_multipart": multipart_streams(out),
         "fuzz_upload_files": upload_files(out, large),
-        "fuzz_image": images(out),
+        "fuzz_hdr": hdr_files(out),
         "fuzz_model": models(out, large),
     }
     print("make_corpus: " + ", ".join("%s %d" % kv for kv in counts.items()))
