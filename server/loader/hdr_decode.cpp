@@ -8,6 +8,14 @@
 #include <string>
 #include <vector>
 
+// stb_image's implementation compiled here, from Debian's header, with internal linkage
+// (STB_IMAGE_STATIC) and the HDR reader alone: libdraco, which Assimp loads, exports its own older
+// copy of every stbi_ function, and the dynamic linker bound our calls to that one (seen in the
+// fuzz harness's stacks). Static functions cannot be interposed.
+#define STB_IMAGE_STATIC
+#define STB_IMAGE_IMPLEMENTATION
+#define STBI_ONLY_HDR
+#define STBI_NO_STDIO
 #include <stb_image.h>
 
 #include "scene/model_loader.h"
@@ -30,12 +38,21 @@ struct Reader {
   bool readPastEnd = false;
 };
 
+// The byte handed out past the end of the data: an RLE run of one. stb_image 2.27's run-length
+// scanline loop never advances on a zero count, and zeros are what it reads past the end by
+// itself, so a truncated run-length .hdr looped forever (the fuzz harness found it). checkPixelData
+// below refuses such files before stb_image sees them; this is the second line, should the walk
+// and stb_image ever disagree: with runs of one every scanline ends, and the file is refused as
+// truncated.
+constexpr char kPastEndFill = char(0x81);
+
 int readBytes(void* user, char* out, int size) {
   auto* r = static_cast<Reader*>(user);
   const size_t left = r->bytes.size() - r->at;
   if (left == 0) {
     r->readPastEnd = true;
-    return 0;
+    std::memset(out, kPastEndFill, size_t(size));
+    return size;
   }
   const size_t n = std::min(left, size_t(size));
   std::memcpy(out, r->bytes.data() + r->at, n);
