@@ -130,7 +130,10 @@ template <class F> void members(Tag<Camera>, F f) { wholeMembers<CameraPatch>(f)
 template <class F> void members(Tag<CameraPatch>, F f) { patchedMembers<CameraPatch>(f); }
 template <class F> void members(Tag<Sun>, F f) { wholeMembers<SunPatch>(f); }
 template <class F> void members(Tag<SunPatch>, F f) { patchedMembers<SunPatch>(f); }
-template <class F> void members(Tag<Environment>, F f) { wholeMembers<EnvironmentPatch>(f); }
+template <class F> void members(Tag<Environment>, F f) {
+  wholeMembers<EnvironmentPatch>(f);
+  f("source", &Environment::source);
+}
 template <class F> void members(Tag<EnvironmentPatch>, F f) { patchedMembers<EnvironmentPatch>(f); }
 template <class F> void members(Tag<Settings>, F f) { wholeMembers<SettingsPatch>(f); }
 template <class F> void members(Tag<SettingsPatch>, F f) { patchedMembers<SettingsPatch>(f); }

@@ -58,6 +58,9 @@ struct Environment {
   double intensity = 1;
   double rotation = 0;        // radians about +Y (hdr)
   bool background = false;    // shown where no geometry is
+  // Where the hdr image came from ("upload:NAME", "library:NAME"), sent by the server while the
+  // session has one; a snapshot restores a library image by it. Not patchable.
+  std::optional<std::string> source;
 };
 
 struct EnvironmentPatch {

@@ -7,6 +7,9 @@
 
 #include <cmath>
 #include <cstdint>
+#include <stdlib.h>
+
+#include <filesystem>
 #include <fstream>
 #include <iterator>
 #include <string>
@@ -73,7 +76,16 @@ int differingBytes(const std::string& a, const std::string& b) {
 }  // namespace
 
 TEST_CASE("api: the environment light: sky for a loaded model, .hdr upload, broken .hdr is 422") {
-  ServerProcess server({"--lights", "0"});
+  // A library with one .hdr (PUT .../environment {"source": "library:sky.hdr"}).
+  std::string pattern = "/tmp/myriad-env-models-XXXXXX";
+  REQUIRE(mkdtemp(pattern.data()) != nullptr);
+  const std::filesystem::path models = pattern;
+  std::ofstream(models / "sky.hdr", std::ios::binary) << makeHdr(32, 16);
+  struct Cleanup {
+    std::filesystem::path dir;
+    ~Cleanup() { std::filesystem::remove_all(dir); }
+  } cleanup{models};
+  ServerProcess server({"--lights", "0", "--models", models.string()});
   requireListening(server);
   ApiClient api(server);
 
@@ -148,6 +160,10 @@ TEST_CASE("api: the environment light: sky for a loaded model, .hdr upload, brok
        "over the limit"},
       {"not a Radiance file", "P6\n16 8\n255\n" + std::string(384, '\x7f'), "not a Radiance .hdr"},
       {"empty", "", "empty"},
+      // A run-length scanline whose first run has length 0 (stb_image alone would loop forever).
+      {"zero-length run", "#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y 2 +X 16\n" +
+                              std::string("\x02\x02\x00\x10\x00", 5) + std::string(200, '\x01'),
+       "run of length 0"},
   };
   for (const Broken& b : broken) {
     Reply reply = api.put(s.path() + "/environment", b.bytes, s.token, "image/vnd.radiance");
@@ -158,8 +174,11 @@ TEST_CASE("api: the environment light: sky for a loaded model, .hdr upload, brok
   }
   checkProblem(api.put(s.path() + "/environment", valid, s.token, "text/plain"), 415,
                "unsupported-media-type", "text/plain");
-  checkProblem(api.put(s.path() + "/environment", R"({"source": "library:sky.hdr"})", s.token), 404,
-               "not-found", "no library");
+  for (const char* name : {"library:../sky.hdr", "library:missing.hdr", "library:sky.glb",
+                           "builtin:default"}) {
+    checkProblem(api.put(s.path() + "/environment", json{{"source", name}}.dump(), s.token), 404,
+                 "not-found", name);
+  }
   Reply after = api.get(s.path() + "/settings", s.token);
   CHECK(after.json["environment"]["mode"] == "hdr");
   CHECK(api.get(frame, s.token).status == 200);
@@ -172,5 +191,24 @@ TEST_CASE("api: the environment light: sky for a loaded model, .hdr upload, brok
   TestSession other = createSession(api);
   checkProblem(api.put(other.path() + "/snapshot", snapshot.json.dump(), other.token), 400,
                "invalid-body", "snapshot with hdr", "/settings/environment/mode");
+
+  // A library image travels with a snapshot by its source: a new session gets it back.
+  TestSession library = createSession(api);
+  Reply fromLibrary =
+      api.put(library.path() + "/environment", R"({"source": "library:sky.hdr"})", library.token);
+  REQUIRE(fromLibrary.status == 200);
+  CHECK(fromLibrary.json["environment"]["mode"] == "hdr");
+  CHECK(fromLibrary.json["environment"]["source"] == "library:sky.hdr");
+  const std::string libraryFrame = api.get(library.path() + "/frame?width=96&height=64&format=png", library.token).body;
+  Reply librarySnapshot = api.get(library.path() + "/snapshot", library.token);
+  REQUIRE(librarySnapshot.status == 200);
+  Reply restored = api.post("/v1/sessions", json{{"snapshot", librarySnapshot.json}}.dump());
+  INFO(restored.body);
+  REQUIRE(restored.status == 201);
+  CHECK(restored.json["session"]["settings"]["environment"]["source"] == "library:sky.hdr");
+  const std::string restoredPath = "/v1/sessions/" + restored.json["id"].get<std::string>();
+  const std::string restoredToken = restored.json["token"].get<std::string>();
+  CHECK(differingBytes(api.get(restoredPath + "/frame?width=96&height=64&format=png", restoredToken).body,
+                       libraryFrame) == 0);
   CHECK(myriad::test::validationMessages(api) == 0);
 }

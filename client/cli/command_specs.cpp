@@ -203,7 +203,8 @@ std::vector<CommandSpec> buildSpecs() {
 
   // Lights.
   specs.push_back({"lights list", "list lights, a page at a time", {},
-                   {option("offset", Kind::Unsigned, "first light to list (default 0)"),
+                   {option("offset", Kind::Unsigned,
+                           "skip this many lights of the list (a count, not an id; default 0)"),
                     option("limit", Kind::Unsigned, "how many (default 100)", kLightPage)},
                    {},
                    {}});

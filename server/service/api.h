@@ -158,6 +158,10 @@ inline Routes::Handler bindContext(ApiContext& context, ContextHandler handler) 
 void addSessionRoutes(Routes& routes, ApiContext& context);
 // Camera, settings and materials of a session (api_scene.cpp).
 void addSceneRoutes(Routes& routes, ApiContext& context);
+// The environment image "library:NAME.hdr" names, decoded in the loader child (api_scene.cpp).
+// Throws ProblemError 404 (not in the library), 422 environment-rejected, 503 (loader busy).
+std::shared_ptr<const scene::EnvironmentImage> loadLibraryEnvironment(const ApiContext& context,
+                                                                      const std::string& source);
 // A session's lights (api_lights.cpp).
 void addLightRoutes(Routes& routes, ApiContext& context);
 // All three; FRAMES registers frame, stream and stats routes next to them.

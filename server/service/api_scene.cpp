@@ -62,7 +62,7 @@ void getSettings(ApiContext& context, const httplib::Request& req, httplib::Resp
   SessionPtr session = authorizeSession(context, req);
   checkQuery(req, {});
   auto lock = lockOpen(*session);
-  sendJson(res, toWire(session->scene.settings()));
+  sendJson(res, toWire(session->scene));
 }
 
 void patchSettings(ApiContext& context, const httplib::Request& req, httplib::Response& res) {
@@ -73,7 +73,18 @@ void patchSettings(ApiContext& context, const httplib::Request& req, httplib::Re
   auto lock = lockOpen(*session);
   session->scene.patchSettings(patch, Clock::now());
   session->bump();
-  sendJson(res, toWire(session->scene.settings()));
+  sendJson(res, toWire(session->scene));
+}
+
+// A loader refusal of an environment image as its problem.
+Problem environmentProblem(const loader::ModelRejected& e) {
+  if (e.reason == "busy") {
+    Problem p = serverBusy(std::string(e.what()) + " Retry in a few seconds.");
+    p.retryAfterSeconds = 5;
+    return p;
+  }
+  if (e.reason == "internal") return internalError(e.what());
+  return environmentRejected(std::string(e.what()) + " (" + e.reason + ")");
 }
 
 // The environment image of PUT .../environment: an .hdr upload (image/vnd.radiance or
@@ -105,29 +116,10 @@ std::shared_ptr<const scene::EnvironmentImage> loadEnvironment(const ApiContext&
             "filename", "\"filename\" goes with an .hdr upload, not JSON."));
       }
       source = jsonBody(req, protocol::schema_names::kModelSource).get<protocol::ModelSource>().source;
-      const std::string_view name =
-          source.starts_with(protocol::kLibraryPrefix)
-              ? std::string_view(source).substr(protocol::kLibraryPrefix.size())
-              : std::string_view();
-      std::optional<std::filesystem::path> path;
-      if (context.models != nullptr && !name.empty()) path = context.models->resolveEnvironment(name);
-      if (!path) {
-        throw ProblemError(notFoundDetail(
-            "There is no environment image " + quoteClientText(source) +
-            " in the server's library: give \"library:NAME.hdr\", a Radiance .hdr under the "
-            "--models directory" +
-            (context.models == nullptr ? std::string(" (this server has none).") : ".")));
-      }
-      return std::make_shared<const scene::EnvironmentImage>(loader::loadEnvironmentFile(*path));
+      return loadLibraryEnvironment(context, source);
     }
   } catch (const loader::ModelRejected& e) {
-    if (e.reason == "busy") {
-      Problem p = serverBusy(std::string(e.what()) + " Retry in a few seconds.");
-      p.retryAfterSeconds = 5;
-      throw ProblemError(p);
-    }
-    if (e.reason == "internal") throw ProblemError(internalError(e.what()));
-    throw ProblemError(environmentRejected(std::string(e.what()) + " (" + e.reason + ")"));
+    throw ProblemError(environmentProblem(e));
   }
   throw ProblemError(unsupportedMediaType(
       "PUT .../environment takes the .hdr itself (image/vnd.radiance or "
@@ -151,7 +143,7 @@ void putEnvironment(ApiContext& context, const httplib::Request& req, httplib::R
   }
   uploaded.get();
   std::lock_guard lock(session->mutex);
-  sendJson(res, toWire(session->scene.settings()));
+  sendJson(res, toWire(session->scene));
 }
 
 void getMaterials(ApiContext& context, const httplib::Request& req, httplib::Response& res) {
@@ -186,6 +178,27 @@ void patchMaterial(ApiContext& context, const httplib::Request& req, httplib::Re
 }
 
 }  // namespace
+
+std::shared_ptr<const scene::EnvironmentImage> loadLibraryEnvironment(const ApiContext& context,
+                                                                      const std::string& source) {
+  const std::string_view name = source.starts_with(protocol::kLibraryPrefix)
+                                    ? std::string_view(source).substr(protocol::kLibraryPrefix.size())
+                                    : std::string_view();
+  std::optional<std::filesystem::path> path;
+  if (context.models != nullptr && !name.empty()) path = context.models->resolveEnvironment(name);
+  if (!path) {
+    throw ProblemError(notFoundDetail(
+        "There is no environment image " + quoteClientText(source) +
+        " in the server's library: give \"library:NAME.hdr\", a Radiance .hdr under the "
+        "--models directory" +
+        (context.models == nullptr ? std::string(" (this server has none).") : ".")));
+  }
+  try {
+    return std::make_shared<const scene::EnvironmentImage>(loader::loadEnvironmentFile(*path));
+  } catch (const loader::ModelRejected& e) {
+    throw ProblemError(environmentProblem(e));
+  }
+}
 
 void addSceneRoutes(Routes& routes, ApiContext& context) {
   auto bind = [&context](ContextHandler handler) { return bindContext(context, handler); };

@@ -64,6 +64,12 @@ protocol::Settings toWire(const render::SceneSettings& s) {
   return out;
 }
 
+protocol::Settings toWire(const SessionScene& scene) {
+  protocol::Settings out = toWire(scene.settings());
+  if (scene.environmentImage()) out.environment.source = scene.environmentSource();
+  return out;
+}
+
 render::EnvironmentMode environmentModeFromWire(std::string_view name) {
   std::optional<render::EnvironmentMode> mode = render::parseEnvironmentMode(name);
   if (!mode) {
@@ -138,7 +144,7 @@ protocol::SessionState stateOf(const Session& session, int64_t expiresInSeconds)
   state.model.materials = scene.model().materials;
   state.model.bounds = toWire(scene.model().bounds);
   state.camera = toWire(scene.camera());
-  state.settings = toWire(scene.settings());
+  state.settings = toWire(scene);
   state.lightCount = scene.lightCount();
   state.expiresInSeconds = uint64_t(std::max<int64_t>(0, expiresInSeconds));
   return state;

@@ -183,6 +183,7 @@ protocol::Snapshot SessionScene::snapshot() const {
   out.model.source = model_.source;
   out.camera = toWire(camera_);
   out.settings = toWire(settings_);
+  if (environmentImage_) out.settings.environment.source = environmentSource_;
   out.materials.reserve(materials_.size());
   for (uint32_t id = 0; id < materials_.size(); ++id) out.materials.push_back(toWire(id, materials_[id]));
   if (recipe_) {
@@ -196,7 +197,8 @@ protocol::Snapshot SessionScene::snapshot() const {
 }
 
 SessionScene::Restored SessionScene::restore(const protocol::Snapshot& snapshot,
-                                             std::string_view pointer, Clock::time_point now) {
+                                             std::string_view pointer, Clock::time_point now,
+                                             const EnvironmentImageSource& image) {
   const std::string at(pointer);
   // Checks and changes a copy, so that a refusal anywhere leaves this scene as it was.
   SessionScene next = *this;
@@ -216,6 +218,7 @@ SessionScene::Restored SessionScene::restore(const protocol::Snapshot& snapshot,
   settings.technique = snapshot.settings.technique;
   settings.animate = snapshot.settings.animate;
   const protocol::Environment& environment = snapshot.settings.environment;
+  if (image.image) next.setEnvironmentImage(image.image, image.source);
   settings.environment = protocol::EnvironmentPatch{environment.mode, environment.intensity,
                                                     environment.rotation, environment.background};
   try {

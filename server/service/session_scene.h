@@ -137,8 +137,14 @@ class SessionScene {
   // before anything changes: ProblemError 400 with a JSON Pointer under `pointer` ("/snapshot"
   // in POST /v1/sessions, "" for PUT .../snapshot) for a camera, sun, technique, material id or
   // lights member no frame can use, 413 maxLightsPerSession for too many lights.
+  // `image`: the snapshot's library environment image (settings.environment.source), loaded by
+  // the caller, taken with the rest (the caller then gives it to the GPU scene).
+  struct EnvironmentImageSource {
+    std::shared_ptr<const scene::EnvironmentImage> image;
+    std::string source;
+  };
   Restored restore(const protocol::Snapshot& snapshot, std::string_view pointer,
-                   Clock::time_point now);
+                   Clock::time_point now, const EnvironmentImageSource& image = {});
 
   // ---- Lights. Each light has a stable id (never reused within the session) and a slot, its
   // index in the GPU's light array. Slots are dense: removing a light moves the last light into
