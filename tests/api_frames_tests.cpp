@@ -351,6 +351,7 @@ TEST_CASE("session frames: every target in png, jpeg and raw; depth and normals 
       CHECK(timings.count("gbuffer") == 1);
       CHECK(timings.count("readback") == 1);
       CHECK(timings.count("encode") == 1);
+      CHECK(timings.count("queue") == 1);  // the wait before rendering began
       CHECK(png->get_header_value("Server-Timing").find("culling;desc=\"dropped 0 light") !=
             std::string::npos);
       myriad::encode::DecodedImage image = myriad::encode::decodePng(bytesOf(png->body));
@@ -692,7 +693,7 @@ TEST_CASE("streams: animated parts, idle re-sends, the end on DELETE, limits, st
                  "invalid-parameter", "format");
     checkProblem(client->Get(streamPath(session, "fps=0"), auth(session)), 400,
                  "invalid-parameter", "fps");
-    checkProblem(client->Get(streamPath(session, "fps=61"), auth(session)), 400,
+    checkProblem(client->Get(streamPath(session, "fps=241"), auth(session)), 400,
                  "invalid-parameter", "fps");
     checkProblem(client->Get(streamPath(session, "time=1"), auth(session)), 400,
                  "unknown-parameter", "time");

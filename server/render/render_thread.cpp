@@ -1,5 +1,6 @@
 #include "render/render_thread.h"
 
+#include <chrono>
 #include <memory>
 #include <type_traits>
 #include <utility>
@@ -140,8 +141,13 @@ std::future<void> RenderThread::setEnvironmentImage(
 
 std::future<Frame> RenderThread::submit(SceneId id,
                                                 const FrameSettings& settings) {
-  return enqueueWork<Frame>(true, [id, settings](Renderer& r) {
-    return r.render(id, settings);
+  const auto queued = std::chrono::steady_clock::now();
+  return enqueueWork<Frame>(true, [id, settings, queued](Renderer& r) {
+    const double waited =
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - queued).count();
+    Frame frame = r.render(id, settings);
+    frame.queueMs = waited;
+    return frame;
   });
 }
 
