@@ -68,23 +68,38 @@ float viewDepthFromDepth(float depth) {
 }
 
 vec3 sunAndAmbient(Surface s) {
-  return shadeSunAndAmbient(s.normal, normalize(frame.cameraPosition.xyz - s.position), s.baseColor,
-                            s.metallic, s.roughness, frame.sunDirection.xyz,
-                            frame.sunColor.rgb * frame.sunDirection.w, frame.ambient.rgb);
+  vec3 V = normalize(frame.cameraPosition.xyz - s.position);
+  vec3 color = shadeSunAndAmbient(s.normal, V, s.baseColor, s.metallic, s.roughness,
+                                  frame.sunDirection.xyz, frame.sunColor.rgb * frame.sunDirection.w,
+                                  frame.ambient.rgb);
+  // A model's directional lights besides the sun (intensity 0: none).
+  for (int i = 0; i < MYRIAD_MAX_EXTRA_SUNS; ++i) {
+    if (frame.extraSunDirection[i].w > 0.0) {
+      color += brdfCosine(s.normal, V, frame.extraSunDirection[i].xyz, s.baseColor, s.metallic,
+                          s.roughness) * (frame.extraSunColor[i].rgb * frame.extraSunDirection[i].w);
+    }
+  }
+  return color;
+}
+
+vec3 spotDirectionOf(GpuPointLight light) {
+  return octahedralDecode(light.cone.xy);
 }
 
 vec3 shadeLight(Surface s, uint index) {
   GpuPointLight light = lights[index];
-  return shadePointLight(s.position, s.normal, normalize(frame.cameraPosition.xyz - s.position),
+  return shadeLocalLight(s.position, s.normal, normalize(frame.cameraPosition.xyz - s.position),
                          s.baseColor, s.metallic, s.roughness, light.positionRadius.xyz,
-                         light.positionRadius.w, light.radianceFalloff.rgb, light.radianceFalloff.w);
+                         light.positionRadius.w, light.radianceFalloff.rgb, light.radianceFalloff.w,
+                         spotDirectionOf(light), light.cone.z, light.cone.w);
 }
 
-// Whether the light reaches the surface point at all (what the light-count view counts).
+// Whether the light reaches the surface point at all: inside its radius and its outer cone (what
+// the light-count view counts; shadeLight is exactly 0 wherever this is false).
 bool lightReaches(Surface s, uint index) {
-  vec3 d = lights[index].positionRadius.xyz - s.position;
-  float r = lights[index].positionRadius.w;
-  return dot(d, d) < r * r;
+  GpuPointLight light = lights[index];
+  return localLightReaches(s.position, light.positionRadius.xyz, light.positionRadius.w,
+                           spotDirectionOf(light), light.cone.z);
 }
 
 // Exponential depth slices (Olsson et al. 2012): slice k spans near * (far/near)^(k/S) onwards, so
