@@ -19,6 +19,17 @@ layout(std430, set = MYRIAD_SET_SCENE, binding = MYRIAD_BINDING_MATERIALS) reado
   GpuMaterial materials[];
 };
 
+// The environment light (shaders/environment.glsl; render/environment.cpp builds it).
+layout(std430, set = MYRIAD_SET_SCENE, binding = MYRIAD_BINDING_ENVIRONMENT) readonly buffer EnvironmentBlock {
+  vec4 environmentTexels[];
+};
+layout(std430, set = MYRIAD_SET_SCENE, binding = MYRIAD_BINDING_BRDF_LUT) readonly buffer BrdfLutBlock {
+  vec4 brdfLutTexels[];
+};
+#define MYRIAD_ENV_LIGHTING(i) environmentTexels[i]
+#define MYRIAD_BRDF_LUT(i) brdfLutTexels[i]
+#include "environment.glsl"
+
 layout(set = MYRIAD_SET_TARGETS, binding = MYRIAD_BINDING_GBUFFER_DEPTH) uniform sampler2D gbufferDepth;
 layout(set = MYRIAD_SET_TARGETS, binding = MYRIAD_BINDING_GBUFFER_NORMAL) uniform sampler2D gbufferNormal;
 layout(set = MYRIAD_SET_TARGETS, binding = MYRIAD_BINDING_GBUFFER_BASE_COLOR) uniform sampler2D gbufferBaseColor;
@@ -67,11 +78,27 @@ float viewDepthFromDepth(float depth) {
   return n * f / (f - depth * (f - n));
 }
 
+bool environmentOn() {
+  return frame.environment.x != float(MYRIAD_ENV_NONE);
+}
+
+// The sun plus either the constant ambient term (environment "none") or the environment light.
+// Every technique calls this, so they agree exactly; the C++ reference makes the same calls.
 vec3 sunAndAmbient(Surface s) {
   vec3 V = normalize(frame.cameraPosition.xyz - s.position);
-  vec3 color = shadeSunAndAmbient(s.normal, V, s.baseColor, s.metallic, s.roughness,
-                                  frame.sunDirection.xyz, frame.sunColor.rgb * frame.sunDirection.w,
-                                  frame.ambient.rgb);
+  vec3 color;
+  if (!environmentOn()) {
+    color = shadeSunAndAmbient(s.normal, V, s.baseColor, s.metallic, s.roughness,
+                               frame.sunDirection.xyz, frame.sunColor.rgb * frame.sunDirection.w,
+                               frame.ambient.rgb);
+  } else {
+    color = shadeSunAndAmbient(s.normal, V, s.baseColor, s.metallic, s.roughness,
+                               frame.sunDirection.xyz, frame.sunColor.rgb * frame.sunDirection.w,
+                               vec3(0.0)) +
+            shadeEnvironment(s.normal, V, s.baseColor, s.metallic, s.roughness, 1.0,
+                             frame.environmentRotation.x, frame.environmentRotation.y,
+                             frame.environment.y);
+  }
   // A model's directional lights besides the sun (intensity 0: none).
   for (int i = 0; i < MYRIAD_MAX_EXTRA_SUNS; ++i) {
     if (frame.extraSunDirection[i].w > 0.0) {
@@ -80,6 +107,17 @@ vec3 sunAndAmbient(Surface s) {
     }
   }
   return color;
+}
+
+// What a pixel with no geometry shows: the environment seen through it when the environment is
+// on and shown as the background, else the background colour.
+vec3 backgroundRadiance(ivec2 pixel) {
+  if (!environmentOn() || frame.environment.z == 0.0) {
+    return frame.background.rgb;
+  }
+  vec3 d = normalize(worldFromDepth(pixel, 1.0) - frame.cameraPosition.xyz);
+  return environmentBackground(d, frame.environmentRotation.x, frame.environmentRotation.y,
+                               frame.environment.y);
 }
 
 vec3 spotDirectionOf(GpuPointLight light) {

@@ -16,9 +16,11 @@ using gpu_types::GpuPointLight;
 using gpu_types::CullingStats;
 
 static_assert(sizeof(gpu_types::vec4) == 16 && sizeof(gpu_types::mat4) == 64);
-static_assert(sizeof(FrameUniforms) == 4 * 64 + 12 * 16 + 2 * MYRIAD_MAX_EXTRA_SUNS * 16);
-static_assert(offsetof(FrameUniforms, extraSunDirection) == 256 + 12 * 16);
+static_assert(sizeof(FrameUniforms) == 4 * 64 + 14 * 16 + 2 * MYRIAD_MAX_EXTRA_SUNS * 16);
+static_assert(offsetof(FrameUniforms, environment) == 256 + 12 * 16);
+static_assert(offsetof(FrameUniforms, extraSunDirection) == 256 + 14 * 16);
 static_assert(MYRIAD_MAX_EXTRA_SUNS == scene::kMaxExtraSuns);
+static_assert(sizeof(gpu_types::EnvironmentParams) == 48);
 static_assert(offsetof(FrameUniforms, inverseViewProjection) == 192);
 static_assert(offsetof(FrameUniforms, cameraPosition) == 256);
 static_assert(offsetof(FrameUniforms, viewport) == 256 + 5 * 16);
@@ -29,6 +31,11 @@ static_assert(sizeof(GpuPointLight) == 48 && offsetof(GpuPointLight, radianceFal
               offsetof(GpuPointLight, cone) == 32);
 static_assert(sizeof(GpuInstance) == 144 && offsetof(GpuInstance, material) == 128);
 static_assert(sizeof(GpuMaterial) == 32 && offsetof(GpuMaterial, metallicRoughness) == 16);
+
+static_assert(uint32_t(EnvironmentMode::None) == MYRIAD_ENV_NONE);
+static_assert(uint32_t(EnvironmentMode::Sky) == MYRIAD_ENV_SKY);
+static_assert(uint32_t(EnvironmentMode::Hdr) == MYRIAD_ENV_HDR);
+static_assert(protocol::kEnvironmentModes.size() == 3);
 
 // The tonemap view numbers are render::Target's values.
 static_assert(uint32_t(Target::Final) == MYRIAD_VIEW_FINAL);
