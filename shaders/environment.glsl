@@ -324,21 +324,31 @@ vec2 brdfLut(float nDotV, float roughness) {
 #endif
 
 #if defined(MYRIAD_ENV_LIGHTING) && defined(MYRIAD_BRDF_LUT)
-// The environment's light leaving a surface towards V (world space; unit N and V): Lambertian
-// diffuse from the SH irradiance plus the split-sum specular, prefiltered radiance times
-// F0 * scale + bias. (c, s) rotate world directions into the environment; `intensity` scales it.
-// `occlusion` (1 = none) darkens both, as glTF's occlusion applies to indirect light only.
+// The environment's light leaving a surface towards V (world space; unit N and V), split-sum
+// with Fdez-Aguera's (JCGT 2019) roughness-dependent Fresnel and multiple-scattering terms:
+//   kS = F0 + (max(1 - roughness, F0) - F0) (1 - N.V)^5     FssEss = kS A + B   (A, B: the table)
+//   Ems = 1 - (A + B)     Favg = F0 + (1 - F0) / 21     FmsEms = Ems FssEss Favg / (1 - Favg Ems)
+//   light = prefiltered(R) FssEss + (FmsEms + diffuseColor (1 - FssEss - FmsEms)) irradiance(N)
+// so rough metals keep the energy single scattering loses, and diffuse gets what the specular
+// lobe leaves. (c, s) rotate world directions into the environment; `intensity` scales it;
+// `occlusion` (1 = none) darkens it all, as glTF's occlusion applies to indirect light only.
 vec3 shadeEnvironment(vec3 N, vec3 V, vec3 baseColor, float metallic, float roughness,
                       float occlusion, float c, float s, float intensity) {
   vec3 diffuseColor = mix(baseColor, vec3(0.0f), metallic);
   vec3 F0 = mix(vec3(0.04f), baseColor, metallic);
   float nDotV = clamp(dot(N, V), 0.0f, 1.0f);
+  float rough = clamp(roughness, 0.0f, 1.0f);
   vec3 R = N * (2.0f * dot(N, V)) - V;
   vec3 irradiance = environmentIrradiance(rotateAboutY(N, c, -s));
-  vec3 prefiltered = environmentSpecular(rotateAboutY(R, c, -s), roughness);
-  vec2 ab = brdfLut(nDotV, roughness);
-  return (diffuseColor * irradiance + prefiltered * (F0 * ab.x + vec3(ab.y))) *
-         (intensity * occlusion);
+  vec3 prefiltered = environmentSpecular(rotateAboutY(R, c, -s), rough);
+  vec2 ab = brdfLut(nDotV, rough);
+  vec3 kS = F0 + (max(vec3(1.0f - rough), F0) - F0) * pow(1.0f - nDotV, 5.0f);
+  vec3 FssEss = kS * ab.x + vec3(ab.y);
+  float Ems = clamp(1.0f - (ab.x + ab.y), 0.0f, 1.0f);
+  vec3 Favg = F0 + (vec3(1.0f) - F0) * (1.0f / 21.0f);
+  vec3 FmsEms = FssEss * Favg * Ems / max(vec3(1.0f) - Favg * Ems, vec3(1e-4f));
+  vec3 kD = diffuseColor * max(vec3(1.0f) - FssEss - FmsEms, vec3(0.0f));
+  return (prefiltered * FssEss + (FmsEms + kD) * irradiance) * (intensity * occlusion);
 }
 #endif
 

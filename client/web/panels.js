@@ -312,7 +312,7 @@ export class SettingsPanel {
     $('env-background').checked = env.background;
     $('env-summary').textContent =
         `${env.mode} \u00d7${round(env.intensity, 3)}, rotation ${round(env.rotation, 3)} rad` +
-        `${env.background ? ', shown as background' : ''}`;
+        `${env.background ? ', shown as background' : ''}${env.source ? `; ${env.source}` : ''}`;
     $('settings-summary').textContent =
         `sun ${fmt(s.sun.direction)} \u00d7${round(s.sun.intensity, 3)}, ` +
         `ambient ${fmt(s.ambient)}, exposure ${round(s.exposure, 3)}`;

@@ -228,6 +228,7 @@ struct Frame {
   // channels hold per target is rawChannels(target).
   std::vector<float> data;
   std::vector<PassTiming> passes;
+  double queueMs = 0.0;  // how long the frame waited in the render queue before rendering began
   Technique technique = Technique::Clustered;
   uint32_t lightCount = 0;
   uint64_t sceneBytes = 0;  // GPU memory of the rendered scene (geometry, materials, lights)

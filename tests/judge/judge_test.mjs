@@ -27,6 +27,7 @@ import {compare, pictures, verdict} from './metric.mjs';
 const HERE = dirname(fileURLToPath(import.meta.url));
 const CHROMIUM = '/usr/bin/chromium';
 const ORIGIN = 'http://judge.test';
+const REQUEST_MS = 60000;  // one Myriad request (a model load, a frame) on lavapipe with validation
 
 // Measured on lavapipe vs SwiftShader (docs/ARCHITECTURE.md section 9 has the numbers); `coverage`
 // is the share of covered pixels that may be geometry in one image only, away from silhouettes.
@@ -78,8 +79,10 @@ async function api(method, path, {token, json, body, contentType} = {}) {
   if (token) headers.Authorization = `Bearer ${token}`;
   if (json !== undefined) headers['Content-Type'] = 'application/json';
   if (contentType) headers['Content-Type'] = contentType;
-  const response = await fetch(server.url + path, {method, headers,
-    body: json !== undefined ? JSON.stringify(json) : body});
+  // Bounded: a request that hangs fails its case instead of the whole CTest timing out.
+  const response = await fetch(server.url + path, {method, headers, signal: AbortSignal.timeout(REQUEST_MS),
+    body: json !== undefined ? JSON.stringify(json) : body})
+      .catch((e) => { throw new Error(`${method} ${path}: ${e.name === 'TimeoutError' ? `no answer within ${REQUEST_MS} ms` : e.message}`); });
   const bytes = Buffer.from(await response.arrayBuffer());
   if (!response.ok) {
     throw new Error(`${method} ${path}: ${response.status} ${bytes.toString('utf8').slice(0, 400)}`);
