@@ -298,6 +298,12 @@ uint64_t Renderer::sceneBytes(SceneId id) const {
   return state_->scene(id).bytes() + (it == state_->environments.end() ? 0 : it->second->bytes());
 }
 
+void Renderer::releaseFrameMemory() {
+  // Every frame is waited for, so nothing in flight uses the targets; the target descriptor set
+  // points at freed views until ensureTargets() makes new ones and writes it again.
+  state_->targets.reset();
+}
+
 uint64_t Renderer::gpuMemoryBytes() const {
   const State& s = *state_;
   uint64_t total = s.uniformArena.bytesAllocated();
