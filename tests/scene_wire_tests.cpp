@@ -46,7 +46,7 @@ TEST_CASE("wire: corrupted wire data is rejected") {
     return bytes;
   };
   CHECK(rejects(patched(0, 0x12345678)));  // magic
-  CHECK(rejects(patched(4, 2)));           // version
+  CHECK(rejects(patched(4, loader::kSceneWireVersion + 1)));  // version
   // Counts of meshes, materials, instances, lights: one more, one fewer, and absurd.
   for (size_t offset : {8, 12, 16, 20}) {
     uint32_t count;

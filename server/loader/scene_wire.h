@@ -17,7 +17,7 @@
 
 namespace myriad::loader {
 
-inline constexpr uint32_t kSceneWireVersion = 1;
+inline constexpr uint32_t kSceneWireVersion = 2;  // 2: lights' type, attenuation, cone
 
 // The bytes were not a scene this version of the server wrote: what() says what was wrong.
 struct SceneWireError : std::runtime_error {

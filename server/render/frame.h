@@ -143,6 +143,7 @@ struct EnvironmentSettings {
 // scene::Scene's; takeLightingFrom() copies a scene's own.
 struct SceneSettings {
   scene::Sun sun;
+  std::vector<scene::Sun> extraSuns;  // at most scene::kMaxExtraSuns (a model's directional lights)
   glm::vec3 ambient = scene::Scene{}.ambient;
   glm::vec3 background = scene::Scene{}.background;
   float exposure = 1.0f;
@@ -154,6 +155,7 @@ struct SceneSettings {
   // Sets sun, ambient and background to `scene`'s (what the scene was authored with).
   SceneSettings& takeLightingFrom(const scene::Scene& scene) {
     sun = scene.sun;
+    extraSuns = scene.extraSuns;
     ambient = scene.ambient;
     background = scene.background;
     return *this;

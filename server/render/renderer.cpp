@@ -176,6 +176,10 @@ void Renderer::State::writeUniforms(const FrameSettings& s, const SceneBuffers& 
   u.cameraPosition = glm::vec4(s.camera.eye, 1.0f);
   u.sunDirection = glm::vec4(-glm::normalize(s.sun.direction), s.sun.intensity);
   u.sunColor = glm::vec4(s.sun.color, 0.0f);
+  for (size_t i = 0; i < s.extraSuns.size() && i < MYRIAD_MAX_EXTRA_SUNS; ++i) {
+    u.extraSunDirection[i] = glm::vec4(-glm::normalize(s.extraSuns[i].direction), s.extraSuns[i].intensity);
+    u.extraSunColor[i] = glm::vec4(s.extraSuns[i].color, 0.0f);
+  }
   u.ambient = glm::vec4(s.ambient, 0.0f);
   u.background = glm::vec4(s.background, 0.0f);
   u.viewport = glm::vec4(s.width, s.height, 1.0f / s.width, 1.0f / s.height);
