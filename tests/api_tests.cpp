@@ -1248,6 +1248,7 @@ TEST_CASE("api: --state-dir: a session survives a restart, token and upload incl
     checkStopsCleanly(third);
   }
   fs::remove_all(stateDir);
+}
 
 TEST_CASE("api: a glTF file's point, spot and directional lights and its cameras; a camera selected") {
   // A triangle lit by a point light, a spot light and two directional lights; two cameras.
