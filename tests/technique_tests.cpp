@@ -275,6 +275,9 @@ scene::Scene spotScene(bool withOthers) {
   if (withOthers) {
     s.sun.intensity = 0.3f;
     s.ambient = glm::vec3(0.02f);
+    // Two more directional lights (a model's glTF directional lights join the sun like this).
+    s.extraSuns = {scene::Sun{glm::normalize(glm::vec3(0.6f, -1.0f, 0.2f)), glm::vec3(0.4f, 0.5f, 1.0f), 0.4f},
+                   scene::Sun{glm::normalize(glm::vec3(-0.8f, -0.5f, -0.3f)), glm::vec3(1.0f, 0.6f, 0.3f), 0.25f}};
     s.lights.push_back(spotLight(glm::vec3(2.5f, 1.5f, 0.5f), glm::vec3(-0.5f, -1.0f, -0.6f), 0.0f,
                                  0.7f, 4.0f, 3.0f, scene::Attenuation::Window));
     scene::PointLight point;
@@ -293,7 +296,7 @@ scene::Scene spotScene(bool withOthers) {
 
 }  // namespace
 
-TEST_CASE("spot and inverse-square lights: every technique the same within 1/255, matching the reference") {
+TEST_CASE("spot, inverse-square and extra directional lights: every technique the same within 1/255, matching the reference") {
   scene::Scene s = spotScene(true);
   Gpu& gpu = sharedGpu();
   gpu.setScene(s);
@@ -317,7 +320,13 @@ TEST_CASE("spot and inverse-square lights: every technique the same within 1/255
       CHECK(maxDifference(images[a], images[b]) <= 1);
     }
   }
-  // The lights do show: the image differs from the one lit by the sun and ambient alone.
+  // The lights do show: the image differs from the one lit by the sun and ambient alone, and the
+  // extra suns from the one without them.
+  scene::Scene oneSun = s;
+  oneSun.extraSuns.clear();
+  CHECK(maxDifference(render::renderReference(oneSun, frameSettings(Technique::Clustered, 192, 128)
+                                                          .takeLightingFrom(oneSun)),
+                      reference) > 20);
   scene::Scene unlit = s;
   unlit.lights.clear();
   CHECK(maxDifference(render::renderReference(unlit, frameSettings(Technique::Clustered, 192, 128)
