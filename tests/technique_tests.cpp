@@ -287,6 +287,10 @@ scene::Scene spotScene(bool withOthers) {
     point.intensity = 2.0f;
     point.attenuation = scene::Attenuation::InverseSquare;
     s.lights.push_back(point);
+    // A headlight: an inverse-square spot at the eye, pointing where the camera looks (every
+    // pixel is on one of its rays; the distance bound keeps it finite).
+    s.lights.push_back(spotLight(glm::vec3(0.0f, 4.0f, 8.0f), glm::vec3(0.0f, -4.0f, -10.0f), 0.05f,
+                                 0.15f, 30.0f, 20.0f, scene::Attenuation::InverseSquare));
     // A spot whose cone spans pi/2 (a half space), seen from above.
     s.lights.push_back(spotLight(glm::vec3(0.5f, 0.4f, -3.5f), glm::vec3(1.0f, 0.0f, 0.2f), 1.2f,
                                  1.5707963f, 3.0f, 1.5f, scene::Attenuation::InverseSquare));
@@ -312,6 +316,12 @@ TEST_CASE("spot, inverse-square and extra directional lights: every technique th
                            << vsReference << "/255");
     CHECK(vsReference <= 2);
     images.push_back(std::move(frame.rgba));
+    render::FrameSettings raw = frameSettings(t, 192, 128);
+    raw.raw = true;
+    const render::Frame values = gpu.render(raw);
+    size_t nonFinite = 0;
+    for (float v : values.data) nonFinite += std::isfinite(v) ? 0 : 1;
+    CHECK(nonFinite == 0);
   }
   for (size_t a = 0; a < images.size(); ++a) {
     for (size_t b = a + 1; b < images.size(); ++b) {
