@@ -31,8 +31,7 @@ export const CASES = [
    lights: [{type: 'point', position: [-2.2, 1.6, 2.2], color: [1, 0.85, 0.7], intensity: 12, range: 9},
             {type: 'spot', position: [3, 3, 3], direction: [-0.45, -0.55, -0.7], color: [0.7, 0.8, 1],
              intensity: 30, range: 12, innerConeAngle: 0.15, outerConeAngle: 0.4},
-            {type: 'point', position: [0, 1.5, 9], color: [1, 1, 1], intensity: 25, range: 30}],
-   pending: 'Myriad lacks API lights of type spot with attenuation inverse-square (issue 12, branch lights)'},
+            {type: 'point', position: [0, 1.5, 9], color: [1, 1, 1], intensity: 25, range: 30}]},
   {name: 'box-textured', file: 'BoxTextured.glb', bytes: () => readFileSync(BOX_TEXTURED),
    what: 'assimp-testmodels glTF2/BoxTextured (base colour texture) under the sun and a spot light',
    // Close: the file's sampler minifies with NEAREST_MIPMAP_LINEAR, and two GPUs legitimately pick
@@ -63,5 +62,5 @@ export const CASES = [
   {name: 'spot-light', file: 'spot.glb', bytes: () => spotGlb(),
    what: 'a floor and a ball lit only by the file\'s spot light and point light (inverse-square, range)',
    width: 224, height: 160, camera: camera([0, 3.5, 6.5], [0, 0.3, 0], 45, 0.5, 30),
-   sun: sun([0, -1, 0], 0), pending: 'Myriad lacks spot lights and inverse-square falloff from KHR_lights_punctual (issue 12, branch lights)'},
+   sun: sun([0, -1, 0], 0)},
 ];
