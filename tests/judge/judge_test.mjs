@@ -217,7 +217,7 @@ try {
       if (!c) continue;
       const m = myriad.get(c.name);
       const r = await renderThree(page, c, perturb);
-      const stats = compare(c.width, c.height, m.final, m.depth, m.camera.far, r.rgba).stats;
+      const stats = compare(c.width, c.height, m.final, m.depth, m.camera.far, r.rgba, 3, c.block ?? 1).stats;
       const broken = verdict(stats, TOLERANCE);
       console.log(`${broken.length ? 'ok  ' : 'FAIL'} sensitivity ${c.name}, three.js with ${what}: ` +
                   `${broken.length ? 'rejected' : 'NOT rejected'} (mean ${stats.mean.toFixed(4)} ` +
@@ -250,7 +250,8 @@ try {
     const m = myriad.get(c.name);
     const spec = three.spec.get(c.name);
     const stock = three.stock.get(c.name);
-    const compareTo = (T, M = m.final, stride = 3) => compare(c.width, c.height, M, m.depth, m.camera.far, T, stride);
+    const compareTo = (T, M = m.final, stride = 3) => compare(c.width, c.height, M, m.depth, m.camera.far, T, stride,
+                                                             c.block ?? 1);
     // The verdict: Myriad against three.js with the spec's BRDF.
     const judged = compareTo(spec.rgba);
     const broken = verdict(judged.stats, TOLERANCE);
