@@ -26,6 +26,7 @@ layout(set = MYRIAD_SET_TARGETS, binding = MYRIAD_BINDING_GBUFFER_MATERIAL) unif
 layout(set = MYRIAD_SET_TARGETS, binding = MYRIAD_BINDING_GBUFFER_UV) uniform sampler2D gbufferUv;
 layout(set = MYRIAD_SET_TARGETS, binding = MYRIAD_BINDING_HDR) uniform sampler2D hdrColor;
 layout(set = MYRIAD_SET_TARGETS, binding = MYRIAD_BINDING_LIGHT_COUNT) uniform sampler2D lightCount;
+layout(set = MYRIAD_SET_TARGETS, binding = MYRIAD_BINDING_GBUFFER_EMISSIVE) uniform sampler2D gbufferEmissive;
 
 struct Surface {
   vec3 position;
@@ -33,6 +34,8 @@ struct Surface {
   vec3 baseColor;
   float metallic;
   float roughness;
+  float occlusion;  // the material's ambient occlusion: scales ambient and environment light only
+  vec3 emissive;    // emitted radiance, added once (sunAndAmbient)
 };
 
 // World position of the pixel centre at `pixel` with G-buffer depth `depth`.
@@ -50,9 +53,11 @@ bool loadSurfaceWithDepth(ivec2 pixel, float depth, out Surface s) {
   s.position = worldFromDepth(pixel, depth);
   s.normal = octahedralDecode(texelFetch(gbufferNormal, pixel, 0).rg);
   s.baseColor = texelFetch(gbufferBaseColor, pixel, 0).rgb;  // sRGB format: sampled as linear
-  vec2 material = texelFetch(gbufferMaterial, pixel, 0).rg;
+  vec3 material = texelFetch(gbufferMaterial, pixel, 0).rgb;
   s.metallic = material.x;
   s.roughness = material.y;
+  s.occlusion = material.z;
+  s.emissive = texelFetch(gbufferEmissive, pixel, 0).rgb;
   return true;
 }
 
@@ -67,10 +72,14 @@ float viewDepthFromDepth(float depth) {
   return n * f / (f - depth * (f - n));
 }
 
+// What every technique adds once per pixel besides its local lights: the sun, the ambient light
+// (scaled by the material's occlusion) and the surface's own emission.
 vec3 sunAndAmbient(Surface s) {
   return shadeSunAndAmbient(s.normal, normalize(frame.cameraPosition.xyz - s.position), s.baseColor,
                             s.metallic, s.roughness, frame.sunDirection.xyz,
-                            frame.sunColor.rgb * frame.sunDirection.w, frame.ambient.rgb);
+                            frame.sunColor.rgb * frame.sunDirection.w,
+                            frame.ambient.rgb * s.occlusion) +
+         s.emissive;
 }
 
 vec3 shadeLight(Surface s, uint index) {

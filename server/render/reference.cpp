@@ -146,13 +146,17 @@ std::vector<uint8_t> renderReference(const scene::Scene& scene, const FrameSetti
       const glm::vec3 baseColor = storeBaseColor(material.baseColor);
       const float metallic = quantizeUnorm8(material.metallic);
       const float roughness = quantizeUnorm8(material.roughness);
+      // Textures are not sampled here (the reference is for the shading and the culling): a
+      // material's own factors, with occlusion 1 as for a material without an occlusion map.
+      const glm::vec3 emissive = half3(material.emissive * material.emissiveStrength);
       switch (s.target) {
         case Target::Final: {
           glm::vec3 hdr = half3(s.background);
           if (found) {
             glm::vec3 V = glm::normalize(s.camera.eye - hit.position);
             hdr = half3(shading::shadeSunAndAmbient(normal, V, baseColor, metallic, roughness,
-                                                    sunDirection, sunRadiance, s.ambient));
+                                                    sunDirection, sunRadiance, s.ambient) +
+                        emissive);
             for (const scene::PointLight& l : scene.lights) {
               glm::vec3 c = shading::shadePointLight(hit.position, normal, V, baseColor, metallic,
                                                      roughness, l.position, l.radius,
@@ -184,6 +188,11 @@ std::vector<uint8_t> renderReference(const scene::Scene& scene, const FrameSetti
           color = glm::vec3(found ? glm::clamp((linear - n) / (f - n), 0.0f, 1.0f) : 1.0f);
           break;
         }
+        case Target::Emissive:
+          color = found ? shading::srgbEncode3(shading::tonemapPbrNeutral(emissive * s.exposure))
+                        : glm::vec3(0.0f);
+          break;
+        case Target::Occlusion: color = glm::vec3(found ? 1.0f : 0.0f); break;
         case Target::LightVolumes:
         case Target::LightCount:
         case Target::Clusters: break;

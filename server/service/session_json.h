@@ -22,7 +22,11 @@ protocol::Settings toWire(const render::SceneSettings& settings);
 // Throws ProblemError 400 (/technique) for an unknown technique (the schema already limits it).
 render::Technique techniqueFromWire(std::string_view name);
 
-protocol::Material toWire(uint32_t id, const scene::Material& material);
+// `images`: the model's (ModelSummary::images), which the material's textures index.
+protocol::Material toWire(uint32_t id, const scene::Material& material,
+                          const std::vector<ModelSummary::Image>& images);
+// Throws ProblemError 400 (/alphaMode) for a name not in protocol::kAlphaModes.
+scene::AlphaMode alphaModeFromWire(std::string_view name);
 protocol::Light toWire(uint64_t id, const scene::PointLight& light);
 scene::PointLight fromWire(const protocol::LightNew& light);
 protocol::LightNew toWireNew(const scene::PointLight& light);

@@ -36,6 +36,12 @@ struct ModelSummary {
   size_t instances = 0;
   size_t materials = 0;
   scene::Bounds bounds;
+  // The model's texture images (their pixels stay on the GPU): what a material's textures list.
+  struct Image {
+    std::string name;
+    uint32_t width = 0, height = 0;
+  };
+  std::vector<Image> images;
 };
 
 // How a session's lights were made, while they are still exactly what a generator made (the
