@@ -22,6 +22,7 @@ inline constexpr std::string_view kSessionModel = "/v1/sessions/{id}/model";
 inline constexpr std::string_view kSessionCamera = "/v1/sessions/{id}/camera";
 inline constexpr std::string_view kSessionCameraFrame = "/v1/sessions/{id}/camera/frame";
 inline constexpr std::string_view kSessionSettings = "/v1/sessions/{id}/settings";
+inline constexpr std::string_view kSessionEnvironment = "/v1/sessions/{id}/environment";
 inline constexpr std::string_view kSessionMaterials = "/v1/sessions/{id}/materials";
 inline constexpr std::string_view kSessionMaterial = "/v1/sessions/{id}/materials/{mid}";
 inline constexpr std::string_view kSessionLights = "/v1/sessions/{id}/lights";
@@ -82,14 +83,16 @@ inline constexpr std::string_view kNotFound = "not-found";                    //
 inline constexpr std::string_view kMethodNotAllowed = "method-not-allowed";   // 405, Allow
 inline constexpr std::string_view kUnsupportedMediaType = "unsupported-media-type";  // 415
 inline constexpr std::string_view kModelRejected = "model-rejected";          // 422
+inline constexpr std::string_view kEnvironmentRejected = "environment-rejected";  // 422
 inline constexpr std::string_view kLimitExceeded = "limit-exceeded";          // 413/429, limit
 inline constexpr std::string_view kServerBusy = "server-busy";                // 503, Retry-After
 inline constexpr std::string_view kRenderFailed = "render-failed";            // 500
 inline constexpr std::string_view kInternalError = "internal-error";          // 500
-inline constexpr std::array<std::string_view, 14> kAll = {
+inline constexpr std::array<std::string_view, 15> kAll = {
     kInvalidParameter, kUnknownParameter, kInvalidBody,     kBadRequest,     kUnauthorized,
     kForbidden,        kNotFound,         kMethodNotAllowed, kUnsupportedMediaType,
-    kModelRejected,    kLimitExceeded,    kServerBusy,       kRenderFailed,   kInternalError};
+    kModelRejected,    kEnvironmentRejected, kLimitExceeded, kServerBusy,    kRenderFailed,
+    kInternalError};
 }  // namespace problems
 
 // "invalid-body" -> "https://myriad.dev/problems/invalid-body".
@@ -145,6 +148,7 @@ inline constexpr std::string_view kProblemContentType = "application/problem+jso
 inline constexpr std::string_view kUploadContentType = "application/octet-stream";
 inline constexpr std::string_view kZipContentType = "application/zip";  // a model with its files
 inline constexpr std::string_view kMultipartContentType = "multipart/form-data";  // several files
+inline constexpr std::string_view kRadianceContentType = "image/vnd.radiance";  // an .hdr
 inline constexpr std::string_view kRawContentType = "application/octet-stream";
 inline constexpr std::string_view kPngContentType = "image/png";
 inline constexpr std::string_view kJpegContentType = "image/jpeg";
@@ -166,6 +170,15 @@ inline constexpr std::string_view kClustered = "clustered";  // compute, per-clu
 }  // namespace techniques
 inline constexpr std::array kTechniques = {techniques::kVolumes, techniques::kTiled,
                                            techniques::kClustered};
+// The environment light's modes (settings "environment.mode"): render::EnvironmentMode is an
+// index into kEnvironmentModes; the settings schemas' enum mirrors it (tests/protocol_tests.cpp).
+namespace environment_modes {
+inline constexpr std::string_view kNone = "none";  // the constant ambient term
+inline constexpr std::string_view kSky = "sky";    // the procedural sky, following the sun
+inline constexpr std::string_view kHdr = "hdr";    // the session's equirectangular .hdr
+}  // namespace environment_modes
+inline constexpr std::array kEnvironmentModes = {environment_modes::kNone, environment_modes::kSky,
+                                                 environment_modes::kHdr};
 // What a frame shows: ?target=, GET /v1/info "targets", X-Myriad-Target. In render::Target's order
 // (which the shaders' MYRIAD_VIEW_* values follow): the final image, then G-buffer and debug views.
 inline constexpr std::array<std::string_view, 13> kTargets = {

@@ -165,7 +165,9 @@ json problemResponse(int status) {
        "limit-exceeded: the body, the upload or the light count is over its limit "
        "(`limit` names it)."},
       {415, "unsupported-media-type: a body with a Content-Type this route does not take."},
-      {422, "model-rejected: the model loader failed (parse error, crash, time or memory limit)."},
+      {422,
+       "model-rejected (or environment-rejected for an .hdr): the loader failed (parse error, "
+       "crash, time or memory limit, an image over its size limit)."},
       {429, "limit-exceeded: too many sessions, streams or requests in flight (`limit` names it)."},
       {500, "render-failed or internal-error; the server keeps serving."},
       {503, "server-busy: the render queue (or every loader slot) is full."},

@@ -294,6 +294,23 @@ std::vector<Operation> buildOperations() {
                  .responses = {json200(n::kSettings, "The whole settings.")},
                  .problems = kSessionBodyProblems});
 
+  ops.push_back(
+      {.method = "PUT",
+       .route = routes::kSessionEnvironment,
+       .id = "putEnvironment",
+       .tag = "Settings",
+       .summary = "Give the session an equirectangular Radiance .hdr as its environment light "
+                  "(selects environment mode hdr)",
+       .access = Access::Session,
+       .query = {{"filename",
+                  {{"type", "string"}, {"minLength", 1}, {"maxLength", 255}, {"pattern", "^[^/]+$"}},
+                  "An upload's file name, for messages (default upload.hdr). Refused with JSON."}},
+       .body = {{kRadianceContentType, ""},
+                {kUploadContentType, ""},
+                {kJsonContentType, n::kModelSource}},
+       .responses = {json200(n::kSettings, "The whole settings (environment mode hdr).")},
+       .problems = {400, 401, 403, 404, 413, 415, 422, 503}});
+
   // Materials.
   ops.push_back({.method = "GET",
                  .route = routes::kSessionMaterials,

@@ -26,6 +26,13 @@ void get(const json& j, const char* key, std::optional<T>& out) {
   }
 }
 
+// Settings' environment may be absent from a body (a snapshot saved before environments
+// existed): it then reads as the default, mode none, which is how that snapshot looked.
+void get(const json& j, const char* key, Environment& out) {
+  auto it = j.find(key);
+  out = it == j.end() ? Environment{} : it->get<Environment>();
+}
+
 template <class T>
 void put(json& j, const char* key, const T& value) {
   j[key] = value;
@@ -72,6 +79,14 @@ void patchMembers(Tag<SunPatch>, F f) {
 }
 
 template <class F>
+void patchMembers(Tag<EnvironmentPatch>, F f) {
+  f("mode", &Environment::mode, &EnvironmentPatch::mode);
+  f("intensity", &Environment::intensity, &EnvironmentPatch::intensity);
+  f("rotation", &Environment::rotation, &EnvironmentPatch::rotation);
+  f("background", &Environment::background, &EnvironmentPatch::background);
+}
+
+template <class F>
 void patchMembers(Tag<SettingsPatch>, F f) {
   f("sun", &Settings::sun, &SettingsPatch::sun);
   f("ambient", &Settings::ambient, &SettingsPatch::ambient);
@@ -80,6 +95,7 @@ void patchMembers(Tag<SettingsPatch>, F f) {
   f("technique", &Settings::technique, &SettingsPatch::technique);
   f("animate", &Settings::animate, &SettingsPatch::animate);
   f("background", &Settings::background, &SettingsPatch::background);
+  f("environment", &Settings::environment, &SettingsPatch::environment);
 }
 
 template <class F>
@@ -122,6 +138,11 @@ template <class F> void members(Tag<Camera>, F f) { wholeMembers<CameraPatch>(f)
 template <class F> void members(Tag<CameraPatch>, F f) { patchedMembers<CameraPatch>(f); }
 template <class F> void members(Tag<Sun>, F f) { wholeMembers<SunPatch>(f); }
 template <class F> void members(Tag<SunPatch>, F f) { patchedMembers<SunPatch>(f); }
+template <class F> void members(Tag<Environment>, F f) {
+  wholeMembers<EnvironmentPatch>(f);
+  f("source", &Environment::source);
+}
+template <class F> void members(Tag<EnvironmentPatch>, F f) { patchedMembers<EnvironmentPatch>(f); }
 template <class F> void members(Tag<Settings>, F f) { wholeMembers<SettingsPatch>(f); }
 template <class F> void members(Tag<SettingsPatch>, F f) { patchedMembers<SettingsPatch>(f); }
 template <class F> void members(Tag<MaterialPatch>, F f) { patchedMembers<MaterialPatch>(f); }
@@ -414,6 +435,8 @@ MYRIAD_MEMBERWISE_JSON(Camera)
 MYRIAD_MEMBERWISE_JSON(CameraPatch)
 MYRIAD_MEMBERWISE_JSON(Sun)
 MYRIAD_MEMBERWISE_JSON(SunPatch)
+MYRIAD_MEMBERWISE_JSON(Environment)
+MYRIAD_MEMBERWISE_JSON(EnvironmentPatch)
 MYRIAD_MEMBERWISE_JSON(Settings)
 MYRIAD_MEMBERWISE_JSON(SettingsPatch)
 MYRIAD_MEMBERWISE_JSON(MaterialTexture)

@@ -52,6 +52,23 @@ struct SunPatch {
   std::optional<double> intensity;
 };
 
+// The environment light (image-based lighting).
+struct Environment {
+  std::string mode = "none";  // "none" | "sky" | "hdr" (constants.h environment_modes::)
+  double intensity = 1;
+  double rotation = 0;        // radians about +Y (hdr)
+  bool background = false;    // shown where no geometry is
+  // Where the hdr image came from ("upload:NAME", "library:NAME"), sent by the server while the
+  // session has one; a snapshot restores a library image by it. Not patchable.
+  std::optional<std::string> source;
+};
+
+struct EnvironmentPatch {
+  std::optional<std::string> mode;
+  std::optional<double> intensity, rotation;
+  std::optional<bool> background;
+};
+
 struct Settings {
   Sun sun;
   Color ambient{};
@@ -60,6 +77,7 @@ struct Settings {
   std::string technique;  // "volumes" | "tiled" | "clustered" (constants.h technique_names::)
   bool animate = false;
   Color background{};
+  Environment environment;
 };
 
 struct SettingsPatch {
@@ -70,6 +88,7 @@ struct SettingsPatch {
   std::optional<std::string> technique;
   std::optional<bool> animate;
   std::optional<Color> background;
+  std::optional<EnvironmentPatch> environment;
 };
 Settings applied(Settings settings, const SettingsPatch& patch);
 
@@ -363,6 +382,8 @@ MYRIAD_PROTOCOL_JSON(Camera);
 MYRIAD_PROTOCOL_JSON(CameraPatch);
 MYRIAD_PROTOCOL_JSON(Sun);
 MYRIAD_PROTOCOL_JSON(SunPatch);
+MYRIAD_PROTOCOL_JSON(Environment);
+MYRIAD_PROTOCOL_JSON(EnvironmentPatch);
 MYRIAD_PROTOCOL_JSON(Settings);
 MYRIAD_PROTOCOL_JSON(SettingsPatch);
 MYRIAD_PROTOCOL_JSON(MaterialTexture);

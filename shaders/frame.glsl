@@ -19,6 +19,17 @@ layout(std430, set = MYRIAD_SET_SCENE, binding = MYRIAD_BINDING_MATERIALS) reado
   GpuMaterial materials[];
 };
 
+// The environment light (shaders/environment.glsl; render/environment.cpp builds it).
+layout(std430, set = MYRIAD_SET_SCENE, binding = MYRIAD_BINDING_ENVIRONMENT) readonly buffer EnvironmentBlock {
+  vec4 environmentTexels[];
+};
+layout(std430, set = MYRIAD_SET_SCENE, binding = MYRIAD_BINDING_BRDF_LUT) readonly buffer BrdfLutBlock {
+  vec4 brdfLutTexels[];
+};
+#define MYRIAD_ENV_LIGHTING(i) environmentTexels[i]
+#define MYRIAD_BRDF_LUT(i) brdfLutTexels[i]
+#include "environment.glsl"
+
 layout(set = MYRIAD_SET_TARGETS, binding = MYRIAD_BINDING_GBUFFER_DEPTH) uniform sampler2D gbufferDepth;
 layout(set = MYRIAD_SET_TARGETS, binding = MYRIAD_BINDING_GBUFFER_NORMAL) uniform sampler2D gbufferNormal;
 layout(set = MYRIAD_SET_TARGETS, binding = MYRIAD_BINDING_GBUFFER_BASE_COLOR) uniform sampler2D gbufferBaseColor;
@@ -72,14 +83,40 @@ float viewDepthFromDepth(float depth) {
   return n * f / (f - depth * (f - n));
 }
 
-// What every technique adds once per pixel besides its local lights: the sun, the ambient light
-// (scaled by the material's occlusion) and the surface's own emission.
+bool environmentOn() {
+  return frame.environment.x != float(MYRIAD_ENV_NONE);
+}
+
+// What every technique adds once per pixel besides its local lights: the sun, either the constant
+// ambient term (environment "none") or the environment light, both scaled by the material's
+// occlusion, and the surface's own emission. Every technique calls this, so they agree exactly;
+// the C++ reference makes the same calls.
 vec3 sunAndAmbient(Surface s) {
-  return shadeSunAndAmbient(s.normal, normalize(frame.cameraPosition.xyz - s.position), s.baseColor,
-                            s.metallic, s.roughness, frame.sunDirection.xyz,
-                            frame.sunColor.rgb * frame.sunDirection.w,
-                            frame.ambient.rgb * s.occlusion) +
+  vec3 V = normalize(frame.cameraPosition.xyz - s.position);
+  if (!environmentOn()) {
+    return shadeSunAndAmbient(s.normal, V, s.baseColor, s.metallic, s.roughness,
+                              frame.sunDirection.xyz, frame.sunColor.rgb * frame.sunDirection.w,
+                              frame.ambient.rgb * s.occlusion) +
+           s.emissive;
+  }
+  return shadeSunAndAmbient(s.normal, V, s.baseColor, s.metallic, s.roughness,
+                            frame.sunDirection.xyz, frame.sunColor.rgb * frame.sunDirection.w,
+                            vec3(0.0)) +
+         shadeEnvironment(s.normal, V, s.baseColor, s.metallic, s.roughness, s.occlusion,
+                          frame.environmentRotation.x, frame.environmentRotation.y,
+                          frame.environment.y) +
          s.emissive;
+}
+
+// What a pixel with no geometry shows: the environment seen through it when the environment is
+// on and shown as the background, else the background colour.
+vec3 backgroundRadiance(ivec2 pixel) {
+  if (!environmentOn() || frame.environment.z == 0.0) {
+    return frame.background.rgb;
+  }
+  vec3 d = normalize(worldFromDepth(pixel, 1.0) - frame.cameraPosition.xyz);
+  return environmentBackground(d, frame.environmentRotation.x, frame.environmentRotation.y,
+                               frame.environment.y);
 }
 
 vec3 shadeLight(Surface s, uint index) {

@@ -11,7 +11,7 @@ void main() {
   if (pixel.x >= int(frame.viewport.x) || pixel.y >= int(frame.viewport.y)) return;
   float depth = texelFetch(gbufferDepth, pixel, 0).r;
   Surface s;
-  vec3 color = frame.background.rgb;
+  vec3 color = backgroundRadiance(pixel);
   uint reached = 0u;
   if (loadSurfaceWithDepth(pixel, depth, s)) {
     color = sunAndAmbient(s);

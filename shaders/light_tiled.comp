@@ -83,7 +83,7 @@ void main() {
     }
   }
   if (!onScreen) return;
-  vec3 color = frame.background.rgb;
+  vec3 color = backgroundRadiance(pixel);
   uint reached = 0u;
   if (hasSurface) {
     color = sunAndAmbient(s);

@@ -25,6 +25,32 @@ using mat4 = glm::mat4;
 #define MYRIAD_BINDING_INSTANCES 2  // storage GpuInstance[]
 #define MYRIAD_BINDING_MATERIALS 3  // storage GpuMaterial[]
 #define MYRIAD_BINDING_LIGHT_ORIGINS 4  // storage GpuPointLight[]: where animation starts from
+#define MYRIAD_BINDING_ENVIRONMENT 5    // storage vec4[]: the environment's SH9 irradiance + specular
+#define MYRIAD_BINDING_BRDF_LUT 6       // storage vec4[]: the split-sum BRDF table (x scale, y bias)
+
+// The environment light (shaders/environment.glsl, render/environment.cpp). Sizes are modest so
+// lavapipe prefilters in well under a second; all maps are equirectangular (u = longitude,
+// v = polar angle from +Y) and live in storage buffers of vec4 (no images, no samplers: every
+// lookup is a manual bilinear fetch, which the C++ reference repeats exactly).
+#define MYRIAD_ENV_NONE 0  // the constant ambient term (the seed's)
+#define MYRIAD_ENV_SKY 1   // the procedural sky, from the sun's direction and colour
+#define MYRIAD_ENV_HDR 2   // an uploaded equirectangular Radiance .hdr
+#define MYRIAD_ENV_SOURCE_WIDTH 256   // the source radiance map and its box-filtered pyramid
+#define MYRIAD_ENV_SOURCE_HEIGHT 128
+#define MYRIAD_ENV_SOURCE_LEVELS 6    // 256x128 down to 8x4
+#define MYRIAD_ENV_SOURCE_TEXELS 43680  // sum of the pyramid's levels
+#define MYRIAD_ENV_SPECULAR_WIDTH 128   // each prefiltered level (perceptual roughness i / 5)
+#define MYRIAD_ENV_SPECULAR_HEIGHT 64
+#define MYRIAD_ENV_SPECULAR_LEVELS 6
+#define MYRIAD_ENV_SPECULAR_SAMPLES 64  // GGX importance samples per specular texel
+#define MYRIAD_ENV_HEADER 16            // vec4s before the specular levels: 9 SH coefficients
+#define MYRIAD_ENV_SH_LEVEL 2           // the SH projection sums this source level (64x32)
+#define MYRIAD_BRDF_LUT_SIZE 32         // N.V across, perceptual roughness down
+#define MYRIAD_BRDF_LUT_SAMPLES 256
+#define MYRIAD_ENV_GROUP 64             // workgroup size of the environment's compute passes
+#define MYRIAD_ENV_BINDING_SOURCE 0     // the environment passes' own set 0 (environment_pass.glsl)
+#define MYRIAD_ENV_BINDING_LIGHTING 1
+#define MYRIAD_ENV_BINDING_LUT 2
 
 // Descriptor set 1: the frame's render targets, read by later passes (changes with the size).
 #define MYRIAD_SET_TARGETS 1
@@ -112,6 +138,15 @@ MYRIAD_STRUCT(FrameUniforms) {
   uvec4 flags;           // x view (MYRIAD_VIEW_*), y light count, z raw output (0/1), w list capacity
   uvec4 grid;            // x,y clusters across/down, z depth slices, w technique (render::Technique)
   vec4 slicing;          // x slices / ln(far/near), y ln(near) * x, z heat-map max, w time (s)
+  vec4 environment;      // x mode (MYRIAD_ENV_*), y intensity, z background shown (0/1), w unused
+  vec4 environmentRotation;  // x cos, y sin of the environment's rotation about +Y
+};
+
+// Push constants of the environment's compute passes (render/environment.cpp).
+MYRIAD_STRUCT(EnvironmentParams) {
+  vec4 sunDirection;  // xyz towards the sun (unit), w unused
+  vec4 sunColor;      // rgb linear, w unused
+  uvec4 step;         // x pyramid level written (downsample), y mode; zw unused
 };
 
 // Counters the culling passes write and the host reads back: nothing is dropped silently.

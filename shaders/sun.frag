@@ -9,7 +9,7 @@ void main() {
   outLightCount = 0.0;
   Surface s;
   if (!loadSurface(ivec2(gl_FragCoord.xy), s)) {
-    outColor = vec4(frame.background.rgb, 1.0);
+    outColor = vec4(backgroundRadiance(ivec2(gl_FragCoord.xy)), 1.0);
     return;
   }
   outColor = vec4(sunAndAmbient(s), 1.0);

@@ -820,3 +820,58 @@ TEST_CASE("shutdown ends open streams promptly, idle or animated") {
     CHECK(reader->leftover() == 0);
   }
 }
+
+TEST_CASE("streams: a stream closed by its client renders at most the frame already rendering") {
+  ServerProcess server({"--lights", "64"});
+  REQUIRE(server.start() == ServerProcess::Start::Listening);
+  auto client = clientFor(server);
+  ApiClient api(server);
+  TestSession session = createSession(api);
+  const std::string sessionPath = "/v1/sessions/" + session.id;
+  const auto framesRendered = [&] {
+    return getJson(*client, sessionPath + "/stats", auth(session))["frames"].get<uint64_t>();
+  };
+  const std::string query = "format=jpeg&fps=30&width=" + std::to_string(kWidth) +
+                            "&height=" + std::to_string(kHeight);
+
+  SUBCASE("an idle stream whose page went away renders nothing for the next edits") {
+    // What a page does on every drag or resize: it drops its stream and opens another; the old
+    // one sleeps until the session changes, and then must not render for nobody.
+    {
+      StreamReader reader(server, streamPath(session, query), auth(session));
+      REQUIRE(reader.status() == 200);
+      REQUIRE(reader.waitForParts(1, std::chrono::seconds(120)).size() == 1);
+      std::this_thread::sleep_for(std::chrono::milliseconds(200));  // the stream is idle now
+    }  // the reader's destructor closes the connection
+    const uint64_t atClose = framesRendered();
+    for (int edit = 0; edit < 3; ++edit) {
+      patchJson(*client, sessionPath + "/camera", session, {{"fovY", 30.0 + edit}});
+      std::this_thread::sleep_for(std::chrono::milliseconds(300));
+    }
+    const uint64_t after = framesRendered();
+    MESSAGE("frames rendered for 3 edits after the client closed its idle stream: ",
+            after - atClose);
+    CHECK(after == atClose);
+  }
+  SUBCASE("an animated stream stops after the frame it is rendering") {
+    patchJson(*client, sessionPath + "/settings", session, {{"animate", true}});
+    const std::string slow = "format=jpeg&fps=4&width=" + std::to_string(kWidth) +
+                             "&height=" + std::to_string(kHeight);
+    for (int round = 0; round < 3; ++round) {
+      CAPTURE(round);
+      {
+        StreamReader reader(server, streamPath(session, slow), auth(session));
+        REQUIRE(reader.status() == 200);
+        REQUIRE(reader.waitForParts(2, std::chrono::seconds(120)).size() >= 2u);
+      }
+      const uint64_t atClose = framesRendered();
+      std::this_thread::sleep_for(std::chrono::milliseconds(1500));  // 6 frames at 4 fps
+      const uint64_t after = framesRendered();
+      MESSAGE("frames rendered after the client closed its animated stream: ", after - atClose);
+      CHECK(after - atClose <= 1);
+    }
+  }
+  std::optional<myriad::test::ExitStatus> status = server.stop();
+  REQUIRE(status.has_value());
+  CHECK(status->cleanExit());
+}

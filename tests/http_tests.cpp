@@ -4,6 +4,7 @@
 #include <doctest/doctest.h>
 #include <httplib.h>
 #include <arpa/inet.h>
+#include <poll.h>
 #include <netinet/in.h>
 #include <signal.h>
 #include <sys/socket.h>
@@ -13,6 +14,8 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
+#include <fstream>
 #include <future>
 #include <map>
 #include <set>
@@ -521,4 +524,185 @@ TEST_CASE("http: a client that never finishes its request holds a shutdown no lo
   CHECK(seconds >= 1.5);  // it did wait for the open request
   CHECK(seconds <= 3.0);  // grace + 1 s
   CHECK(server.stderrText().find("after the 2 s shutdown grace") != std::string::npos);
+}
+
+TEST_CASE("http: three requests on one kept-alive connection take about as long as one") {
+  ServerProcess server({"--lights", "8"});
+  requireListening(server);
+  httplib::Client client(server.host(), server.port());
+  client.set_keep_alive(true);
+  client.set_read_timeout(30, 0);
+  // GET /v1/info answers with headers and a body (two writes on the server's side): with Nagle's
+  // algorithm on, the body of every response after a connection's first waited for the client's
+  // delayed ACK, 40 ms each.
+  auto request = [&] {
+    httplib::Result res = client.Get("/v1/info");
+    REQUIRE(res);
+    REQUIRE(res->status == 200);
+    CHECK(res->body.size() > 100);
+  };
+  request();  // connect
+  auto timeRequests = [&](int count) {
+    const auto start = std::chrono::steady_clock::now();
+    for (int i = 0; i < count; ++i) request();
+    return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
+        .count();
+  };
+  std::vector<double> one, three;
+  for (int round = 0; round < 7; ++round) {
+    one.push_back(timeRequests(1));
+    three.push_back(timeRequests(3));
+  }
+  std::sort(one.begin(), one.end());
+  std::sort(three.begin(), three.end());
+  const double oneMs = one[one.size() / 2];
+  const double threeMs = three[three.size() / 2];
+  MESSAGE("one request on a kept-alive connection: ", oneMs, " ms (median of 7); three: ",
+          threeMs, " ms");
+  CHECK(threeMs - oneMs < 5.0);
+}
+
+namespace {
+
+int connectLoopback(int port) {
+  const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
+  REQUIRE(fd >= 0);
+  sockaddr_in address{};
+  address.sin_family = AF_INET;
+  address.sin_port = htons(uint16_t(port));
+  ::inet_pton(AF_INET, "127.0.0.1", &address.sin_addr);
+  REQUIRE(::connect(fd, reinterpret_cast<sockaddr*>(&address), sizeof address) == 0);
+  return fd;
+}
+
+uint64_t residentBytesOf(pid_t pid) {
+  std::ifstream status("/proc/" + std::to_string(pid) + "/status");
+  std::string line;
+  while (std::getline(status, line)) {
+    if (line.starts_with("VmRSS:")) return std::stoull(line.substr(6)) * 1024;
+  }
+  return 0;
+}
+
+struct ChunkedUpload {
+  uint64_t sentBytes = 0;    // body bytes the server took before it answered or closed
+  std::string response;      // what came back
+  uint64_t peakResident = 0; // the server's largest RSS seen while sending
+};
+
+// Sends `head` (request line and headers, ending in a blank line), then up to `bodyBytes` of
+// chunked body in 1 MiB chunks of `fill`, sampling the server's RSS, until the server answers or
+// closes the connection; then reads the answer.
+ChunkedUpload sendChunked(const ServerProcess& server, const std::string& head, uint64_t bodyBytes,
+                          char fill) {
+  ChunkedUpload upload;
+  const int fd = connectLoopback(server.port());
+  REQUIRE(::send(fd, head.data(), head.size(), MSG_NOSIGNAL) == ssize_t(head.size()));
+  const std::string chunk = "100000\r\n" + std::string(1u << 20, fill) + "\r\n";
+  std::atomic<bool> sending{true};
+  std::thread sampler([&] {
+    while (sending) {
+      upload.peakResident = std::max(upload.peakResident, residentBytesOf(server.pid()));
+      std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    }
+  });
+  timeval timeout{10, 0};
+  ::setsockopt(fd, SOL_SOCKET, SO_SNDTIMEO, &timeout, sizeof timeout);
+  ::setsockopt(fd, SOL_SOCKET, SO_RCVTIMEO, &timeout, sizeof timeout);
+  while (upload.sentBytes < bodyBytes) {
+    // Stop as soon as the server has answered.
+    pollfd readable{fd, POLLIN, 0};
+    if (::poll(&readable, 1, 0) > 0) break;
+    const ssize_t n = ::send(fd, chunk.data(), chunk.size(), MSG_NOSIGNAL);
+    if (n <= 0) break;
+    upload.sentBytes += uint64_t(n);
+  }
+  if (upload.sentBytes >= bodyBytes) ::send(fd, "0\r\n\r\n", 5, MSG_NOSIGNAL);
+  char buffer[4096];
+  for (;;) {
+    const ssize_t n = ::recv(fd, buffer, sizeof buffer, 0);
+    if (n <= 0) break;
+    upload.response.append(buffer, size_t(n));
+    if (upload.response.find("}") != std::string::npos) break;  // the JSON problem has ended
+  }
+  sending = false;
+  sampler.join();
+  ::close(fd);
+  return upload;
+}
+
+}  // namespace
+
+TEST_CASE("http: chunked bodies are counted as they arrive and cut at the route's limit") {
+  ServerProcess server({"--lights", "8"});
+  requireListening(server);
+  const uint64_t residentBefore = residentBytesOf(server.pid());
+  REQUIRE(residentBefore > 0);
+
+  SUBCASE("600 MB of chunked JSON to POST /v1/sessions (no token needed): 413 early") {
+    ChunkedUpload upload = sendChunked(
+        server,
+        "POST /v1/sessions HTTP/1.1\r\nHost: x\r\nContent-Type: application/json\r\n"
+        "Transfer-Encoding: chunked\r\n\r\n",
+        600ull << 20, ' ');
+    INFO("response: ", upload.response.substr(0, 600));
+    MESSAGE("server RSS ", residentBefore >> 20, " MiB before, at most ",
+            upload.peakResident >> 20, " MiB while ", upload.sentBytes >> 20,
+            " MiB of chunked body were sent");
+    CHECK(upload.response.starts_with("HTTP/1.1 413"));
+    CHECK(upload.response.find("maxBodyBytes") != std::string::npos);
+    CHECK(upload.sentBytes < (64ull << 20));  // refused long before 600 MB
+    CHECK(upload.peakResident <= residentBefore + (64ull << 20));
+  }
+  SUBCASE("600 MB of chunked multipart to PUT .../model: 413 naming maxUploadBytes") {
+    httplib::Client client(server.host(), server.port());
+    httplib::Result created = client.Post("/v1/sessions", "{}", "application/json");
+    REQUIRE(created);
+    REQUIRE(created->status == 201);
+    const json session = json::parse(created->body);
+    const std::string preamble =
+        "--XyZ\r\nContent-Disposition: form-data; name=\"f\"; filename=\"big.obj\"\r\n"
+        "Content-Type: application/octet-stream\r\n\r\n";
+    char size[16];
+    std::snprintf(size, sizeof size, "%zx\r\n", preamble.size());
+    const std::string head =
+        "PUT /v1/sessions/" + session.at("id").get<std::string>() +
+        "/model HTTP/1.1\r\nHost: x\r\nAuthorization: Bearer " +
+        session.at("token").get<std::string>() +
+        "\r\nContent-Type: multipart/form-data; boundary=XyZ\r\nTransfer-Encoding: chunked\r\n\r\n" +
+        size + preamble + "\r\n";
+    ChunkedUpload upload = sendChunked(server, head, 600ull << 20, '#');
+    INFO("response: ", upload.response.substr(0, 600));
+    MESSAGE("server RSS ", residentBefore >> 20, " MiB before, at most ",
+            upload.peakResident >> 20, " MiB while ", upload.sentBytes >> 20,
+            " MiB of chunked multipart were sent");
+    CHECK(upload.response.starts_with("HTTP/1.1 413"));
+    CHECK(upload.response.find("maxUploadBytes") != std::string::npos);
+    // Read up to the route's limit (64 MiB by default) and no further; a string grows by doubling.
+    CHECK(upload.sentBytes < (96ull << 20));
+    CHECK(upload.peakResident <= residentBefore + (160ull << 20));
+  }
+  SUBCASE("a chunked body within the limit is read and served") {
+    const std::string body = "{ }";
+    std::string request =
+        "POST /v1/sessions HTTP/1.1\r\nHost: x\r\nContent-Type: application/json\r\n"
+        "Transfer-Encoding: chunked\r\nConnection: close\r\n\r\n";
+    char size[16];
+    std::snprintf(size, sizeof size, "%zx\r\n", body.size());
+    request += size + body + "\r\n0\r\n\r\n";
+    const int fd = connectLoopback(server.port());
+    REQUIRE(::send(fd, request.data(), request.size(), MSG_NOSIGNAL) == ssize_t(request.size()));
+    std::string response;
+    char buffer[4096];
+    for (ssize_t n; (n = ::recv(fd, buffer, sizeof buffer, 0)) > 0;) response.append(buffer, size_t(n));
+    ::close(fd);
+    INFO("response: ", response.substr(0, 600));
+    CHECK(response.starts_with("HTTP/1.1 201"));
+    CHECK(response.find("\"token\"") != std::string::npos);
+  }
+  httplib::Client client(server.host(), server.port());
+  httplib::Result health = client.Get("/v1/health");
+  REQUIRE(health);
+  CHECK(health->status == 200);
+  requireCleanStop(server);
 }

@@ -201,7 +201,7 @@ TEST_CASE("messages: whole sentences that name the member, escaped pointers, sho
   CHECK(error->pointer == "/a~1b~0c");  // RFC 6901 escaping
   CHECK(error->message ==
         "\"a~1b~0c\" is not a member of the body; its members are ambient, animate, background, "
-        "exposure, markers, sun, technique.");
+        "environment, exposure, markers, sun, technique.");
 
   error = protocol::validate("camera", json::array());
   REQUIRE(error);
@@ -327,6 +327,9 @@ TEST_CASE("constants agree with the schemas") {
   const json& techniques = protocol::schema("defs")["$defs"]["technique"]["enum"];
   REQUIRE(techniques.size() == protocol::kTechniques.size());
   for (size_t i = 0; i < techniques.size(); ++i) CHECK(techniques[i] == protocol::kTechniques[i]);
+  const json& modes = protocol::schema("defs")["$defs"]["environmentMode"]["enum"];
+  REQUIRE(modes.size() == protocol::kEnvironmentModes.size());
+  for (size_t i = 0; i < modes.size(); ++i) CHECK(modes[i] == protocol::kEnvironmentModes[i]);
 
   for (std::string_view name : protocol::problems::kAll) {
     std::string uri = protocol::problemTypeUri(name);

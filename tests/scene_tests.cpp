@@ -19,6 +19,7 @@
 
 #include "scene/builtin_scene.h"
 #include "scene/camera.h"
+#include "scene/environment_map.h"
 #include "scene/light_generator.h"
 #include "scene/model_loader.h"
 #include "scene/primitives.h"
@@ -631,4 +632,35 @@ TEST_CASE("Loading: every OBJ and glTF test model loads or is rejected with a re
   std::printf("scene_tests: %zu test models, %d loaded, %d rejected with a ModelLoadError\n",
               files.size(), loaded, rejected);
   CHECK(loaded >= 35);  // guards against a loader that rejects everything
+}
+
+TEST_CASE("environment maps: resampling to 256x128 averages larger images and repeats smaller ones") {
+  using myriad::scene::kEnvironmentHeight;
+  using myriad::scene::kEnvironmentWidth;
+  // 512x256: each output texel is the mean of exactly its 2x2 input texels.
+  std::vector<float> big(512 * 256 * 3);
+  for (uint32_t y = 0; y < 256; ++y) {
+    for (uint32_t x = 0; x < 512; ++x) {
+      for (int c = 0; c < 3; ++c) big[(y * 512 + x) * 3 + c] = float(x % 2) + 10.0f * float(y % 2) + c;
+    }
+  }
+  myriad::scene::EnvironmentImage a = myriad::scene::resampleEquirect(big, 512, 256);
+  REQUIRE(a.rgb.size() == size_t(kEnvironmentWidth) * kEnvironmentHeight * 3);
+  for (size_t i = 0; i < a.rgb.size(); i += 3) {
+    CHECK(a.rgb[i] == doctest::Approx(5.5f));
+    CHECK(a.rgb[i + 2] == doctest::Approx(7.5f));
+  }
+  // 4x2: each output texel is the input texel under its centre.
+  std::vector<float> small(4 * 2 * 3);
+  for (uint32_t i = 0; i < 8; ++i) small[i * 3] = small[i * 3 + 1] = small[i * 3 + 2] = float(i);
+  myriad::scene::EnvironmentImage b = myriad::scene::resampleEquirect(small, 4, 2);
+  for (uint32_t y : {0u, 63u, 64u, 127u}) {
+    for (uint32_t x : {0u, 63u, 64u, 255u}) {
+      CAPTURE(x);
+      CAPTURE(y);
+      CHECK(b.rgb[(y * kEnvironmentWidth + x) * 3] == float((y / 64) * 4 + x / 64));
+    }
+  }
+  CHECK_THROWS_AS(myriad::scene::resampleEquirect(small, 5, 2), std::invalid_argument);
+  CHECK_THROWS_AS(myriad::scene::resampleEquirect({}, 0, 0), std::invalid_argument);
 }

@@ -186,9 +186,10 @@ TestSession helmetSession(ApiClient& api, const std::string& body, const std::st
   Reply loaded = api.put(s.path() + "/model?filename=" + filename, body, s.token, contentType);
   INFO(loaded.body.substr(0, 400));
   REQUIRE(loaded.status == 200);
-  // Only what the surface itself gives: no sun, no ambient, no local lights.
+  // Only what the surface itself gives: no sun, no ambient, no environment, no local lights.
   REQUIRE(api.patch(s.path() + "/settings",
-                    R"({"sun": {"intensity": 0}, "ambient": [0, 0, 0], "markers": false})",
+                    R"({"sun": {"intensity": 0}, "ambient": [0, 0, 0], "markers": false,
+                        "environment": {"mode": "none"}})",
                     s.token)
               .status == 200);
   REQUIRE(api.del(s.path() + "/lights", s.token).status == 204);

@@ -155,6 +155,11 @@ size_t takeGlobal(const std::vector<std::string>& args, size_t i, Invocation& in
     inv.help = true;
     return 1;
   }
+  if (name == "--version") {
+    if (inlineValue) throw UsageError("--version", "--version takes no value");
+    inv.version = true;
+    return 1;
+  }
   if (name == "--json") {
     if (inlineValue) throw UsageError("--json", "--json takes no value");
     inv.global.json = true;
@@ -260,7 +265,7 @@ Invocation parseArguments(const std::vector<std::string>& args) {
     i += used;
   }
   if (i == args.size()) {
-    if (inv.help) return inv;
+    if (inv.help || inv.version) return inv;
     throw UsageError("", "no subcommand given");
   }
 
@@ -450,6 +455,7 @@ std::string overviewHelp() {
          "                          env MYRIAD_SESSION=id:token wins over the file\n"
          "  --json                  print the server's JSON responses as they come\n"
          "  -h, --help              help (after a command: that command's help)\n"
+         "  --version               the client's version and the protocol it speaks\n"
          "\nExit status: 0 done, 1 the server refused or could not be reached, 2 bad usage.\n";
   return out.str();
 }

@@ -88,6 +88,7 @@ struct Invocation {
   GlobalOptions global;
   const CommandSpec* command = nullptr;  // null with `help`: the overview
   bool help = false;                     // -h/--help: print help, do nothing else
+  bool version = false;                  // --version: print the version, do nothing else
   std::map<std::string, Value> options;  // by OptionSpec::name; only those given
   std::vector<Value> positionals;
 

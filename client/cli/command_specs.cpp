@@ -16,6 +16,8 @@ const Bounds kLinearColour{0.0, 64.0};  // sun, ambient, background
 const Bounds kUnitInterval{0.0, 1.0};   // base colour, metallic, roughness, light colour
 const Bounds kFov{1.0, 179.0, false, false, "degrees"};
 const Bounds kSunIntensity{0.0, 1000.0};
+const Bounds kEnvironmentIntensity{0.0, 1000.0};
+const Bounds kEnvironmentRotation{-100.0, 100.0, false, false, "radians"};
 const Bounds kExposure{0.0, 1000.0, true};
 const Bounds kLightRadius{0.0, 1e4, true};
 const Bounds kLightAmount{0.0, 1e4};  // intensity, falloff
@@ -171,7 +173,15 @@ std::vector<CommandSpec> buildSpecs() {
        option("exposure", Kind::Number, "exposure before tonemapping", kExposure),
        option("markers", Kind::OnOff, "draw a marker at each light"),
        choice("technique", protocol::kTechniques, "how local lights are assigned"),
-       option("animate", Kind::OnOff, "move the lights on the GPU")},
+       option("animate", Kind::OnOff, "move the lights on the GPU"),
+       choice("environment", protocol::kEnvironmentModes,
+              "the environment light: none (ambient), sky (follows the sun), hdr"),
+       option("env-intensity", Kind::Number, "environment light scale", kEnvironmentIntensity),
+       option("env-rotation", Kind::Number, "turn the hdr environment about +Y",
+              kEnvironmentRotation, "RAD"),
+       option("env-background", Kind::OnOff, "show the environment where no geometry is"),
+       option("env-hdr", Kind::Text, "upload an equirectangular Radiance .hdr (selects hdr)",
+              std::nullopt, "FILE")},
       "Without options, prints the settings.",
       {}};
   settings.check = [](const Invocation& inv) {
@@ -193,7 +203,8 @@ std::vector<CommandSpec> buildSpecs() {
 
   // Lights.
   specs.push_back({"lights list", "list lights, a page at a time", {},
-                   {option("offset", Kind::Unsigned, "first light to list (default 0)"),
+                   {option("offset", Kind::Unsigned,
+                           "skip this many lights of the list (a count, not an id; default 0)"),
                     option("limit", Kind::Unsigned, "how many (default 100)", kLightPage)},
                    {},
                    {}});

@@ -37,10 +37,11 @@ int list(Context& ctx) {
   std::vector<std::vector<std::string>> rows;
   for (const auto& l : lights.lights) rows.push_back(lightRow(l));
   if (!rows.empty()) printTable(ctx.out, kHeader, rows);
+  // Lights are named by their ids only (the ID column); the page's place in the list is given as
+  // the --offset that continues it, never as numbers that could pass for ids.
   ctx.out << lights.lights.size() << " of " << lights.total << " lights";
-  if (!lights.lights.empty()) {
-    ctx.out << " (" << lights.offset << " to " << lights.offset + lights.lights.size() - 1 << ")";
-  }
+  const uint64_t next = lights.offset + lights.lights.size();
+  if (next < lights.total) ctx.out << "; more with --offset " << next;
   ctx.out << "\n";
   return 0;
 }

@@ -40,6 +40,10 @@ int main(int argc, char** argv) {
   ServerUrl url;
   try {
     inv = parseArguments(args);
+    if (inv.version) {
+      std::cout << "myriad " << MYRIAD_VERSION << " (protocol v1)\n";
+      return 0;
+    }
     if (inv.help) {
       std::cout << (inv.command != nullptr ? commandHelp(*inv.command) : overviewHelp());
       return 0;

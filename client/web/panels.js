@@ -246,7 +246,7 @@ export class MaterialPanel {
 }
 
 // Settings: sun (as azimuth and elevation of the direction towards the sun), its colour and
-// intensity, ambient, exposure, markers, technique, animation.
+// intensity, ambient, exposure, markers, technique, animation, and the environment light.
 export class SettingsPanel {
   constructor(api, {onProblem, onChange}) {
     this.api = api;
@@ -283,6 +283,26 @@ export class SettingsPanel {
     $('markers').addEventListener('change', (e) => this.edit({markers: e.target.checked}));
     $('animate').addEventListener('change', (e) => this.edit({animate: e.target.checked}));
     $('technique').addEventListener('change', (e) => this.edit({technique: e.target.value}));
+    // The environment light: mode, intensity, rotation (degrees here, radians on the wire),
+    // background, and an .hdr upload (PUT .../environment, which selects mode hdr).
+    $('env-mode').addEventListener('change', (e) => this.edit({environment: {mode: e.target.value}}));
+    $('env-intensity').addEventListener('input', (e) =>
+        this.edit({environment: {intensity: Number(e.target.value)}}));
+    $('env-rotation').addEventListener('input', (e) =>
+        this.edit({environment: {rotation: round((Number(e.target.value) * Math.PI) / 180, 5)}}));
+    $('env-background').addEventListener('change', (e) =>
+        this.edit({environment: {background: e.target.checked}}));
+    $('env-file').addEventListener('change', async () => {
+      const file = $('env-file').files[0];
+      if (!file) return;
+      try {
+        this.show(await this.api.request('PUT', this.api.sessionPath('/environment'), {
+          body: file, query: {filename: file.name}, contentType: 'image/vnd.radiance'}));
+      } catch (e) {
+        this.onProblem(e);
+      }
+      $('env-file').value = '';  // choosing the same file again uploads it again
+    });
   }
 
   setTechniques(techniques) {
@@ -326,6 +346,15 @@ export class SettingsPanel {
     $('markers').checked = s.markers;
     $('animate').checked = s.animate;
     $('technique').value = s.technique;
+    const env = s.environment;
+    $('env-mode').value = env.mode;
+    $('env-intensity').max = Math.max(4, env.intensity);
+    $('env-intensity').value = env.intensity;
+    $('env-rotation').value = (env.rotation * 180) / Math.PI;
+    $('env-background').checked = env.background;
+    $('env-summary').textContent =
+        `${env.mode} \u00d7${round(env.intensity, 3)}, rotation ${round(env.rotation, 3)} rad` +
+        `${env.background ? ', shown as background' : ''}${env.source ? `; ${env.source}` : ''}`;
     $('settings-summary').textContent =
         `sun ${fmt(s.sun.direction)} \u00d7${round(s.sun.intensity, 3)}, ` +
         `ambient ${fmt(s.ambient)}, exposure ${round(s.exposure, 3)}`;

@@ -25,6 +25,13 @@ step floor-1080p-density256 --techniques tiled,clustered --lights 1000,1000000 \
 # The built-in scene, whose light density grows with the count (about 0.026 per point per light).
 step builtin-1080p --scene builtin --lights 1000,10000,100000 --volumes-max-lights 10000 \
   --frames 30 --warmup 5 --max-seconds 20
+# The environment light (issue 12): shading under the sky against the constant ambient (the same
+# scene and counts), and its maps rebuilt every frame (the "environment" pass).
+step env-none-1080p --techniques tiled,clustered --lights 1000,100000 --frames 30 --warmup 5
+step env-sky-1080p --techniques tiled,clustered --lights 1000,100000 --frames 30 --warmup 5 \
+  --environment sky
+step env-rebuild-1080p --techniques clustered --lights 1000 --frames 30 --warmup 5 \
+  --environment sky --environment-every-frame
 # Validation on (core + synchronization): every technique once, and a million lights at both sizes.
 step validate-1080p --validate --lights 10000,1000000 --frames 5 --warmup 2
 step validate-2160p --validate --width 3840 --height 2160 --techniques clustered --lights 1000000 \

@@ -24,6 +24,8 @@ render::FrameSettings frameSettings(const scene::Scene& scene, render::Technique
   f.markers = plan.markers;
   f.animate = true;
   f.time = frameIndex * plan.frameSeconds;
+  f.environment.mode = plan.environment;
+  if (plan.environmentEveryFrame) f.sun.color *= 1.0f + 1e-4f * float(frameIndex % 2);
   return f;
 }
 

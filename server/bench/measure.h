@@ -26,6 +26,12 @@ struct Plan {
   double maxSecondsPerConfig = 30.0;  // timed frames stop early past this (at least 3 are kept)
   bool markers = false;
   double frameSeconds = 1.0 / 60.0;  // animation time between frames
+  // The environment light of every frame (none: the constant ambient, the seed's).
+  render::EnvironmentMode environment = render::EnvironmentMode::None;
+  // Rebuild the environment's maps every frame (the sun's colour changes by 1e-4 from one frame
+  // to the next), so the "environment" pass is timed; otherwise it runs in the first warm-up
+  // frame only and the timed frames measure shading alone.
+  bool environmentEveryFrame = false;
 };
 
 struct Summary {

@@ -54,12 +54,16 @@ const char* const kUsage =
     "                    [--frames N] [--warmup N] [--scene floor|builtin] [--lights-per-point F]\n"
     "                    [--seed N] [--max-seconds S] [--volumes-max-lights N] [--markers]\n"
     "                    [--json PATH] [--validate] [--device INDEX|NAME]\n"
+    "                    [--environment none|sky] [--environment-every-frame]\n"
     "Renders animated frames for every light count x technique, timing each pass with GPU\n"
     "timestamp queries after warm-up, and prints medians and 90th percentiles.\n"
     "defaults: 1920x1080, lights 1000,10000,100000,1000000, every technique,\n"
     "          50 frames after 10 warm-up, scene floor with 64 lights per point, volumes only up to\n"
     "          100000 lights, at most 30 s of timed frames per configuration, markers off.\n"
-    "--validate enables VK_LAYER_KHRONOS_validation; any message makes the exit status 1.\n";
+    "--validate enables VK_LAYER_KHRONOS_validation; any message makes the exit status 1.\n"
+    "--environment sky lights every frame with the procedural sky (default none: the constant\n"
+    "ambient); with --environment-every-frame its maps are rebuilt every frame, timed as the\n"
+    "\"environment\" pass.\n";
 
 Options parseOptions(const std::vector<std::string>& args) {
   Options o;
@@ -105,6 +109,15 @@ Options parseOptions(const std::vector<std::string>& args) {
       o.plan.maxSecondsPerConfig = parsePositive(flag, value());
     } else if (flag == "--volumes-max-lights") {
       o.volumesMaxLights = uint32_t(parseCount(flag, value(), 0, kMaxLights));
+    } else if (flag == "--environment") {
+      std::string_view name = value();
+      auto mode = render::parseEnvironmentMode(name);
+      if (!mode || *mode == render::EnvironmentMode::Hdr) {
+        throw UsageError("--environment expects none or sky, not \"" + std::string(name) + "\".");
+      }
+      o.plan.environment = *mode;
+    } else if (flag == "--environment-every-frame") {
+      o.plan.environmentEveryFrame = true;
     } else if (flag == "--markers") {
       o.plan.markers = true;
     } else if (flag == "--json") {

@@ -12,11 +12,14 @@
 #include <csignal>
 #include <cstring>
 #include <filesystem>
+#include <fstream>
+#include <iterator>
 #include <new>
 #include <string>
 
 #include "loader/archive.h"
 #include "loader/child_protocol.h"
+#include "loader/hdr_decode.h"
 #include "loader/loader.h"
 #include "loader/sandbox.h"
 #include "loader/scene_wire.h"
@@ -166,7 +169,8 @@ int serve() {
   // own file access to that directory.
   std::error_code error;
   const std::filesystem::path readable =
-      header.mode == Mode::file ? std::filesystem::weakly_canonical(name, error).parent_path()
+      header.mode == Mode::file || header.mode == Mode::environmentFile
+          ? std::filesystem::weakly_canonical(name, error).parent_path()
                                 : std::filesystem::path();
   enterSandbox(readable);
 
@@ -190,6 +194,22 @@ int serve() {
         data = std::string();  // the archive's bytes are no longer needed
         scene = scene::loadModelFromFiles(files, scene::modelEntryOf(files, entry, name));
         break;
+      }
+      case Mode::environmentBytes:
+      case Mode::environmentFile: {
+        if (header.mode == Mode::environmentFile) {
+          std::ifstream in(name, std::ios::binary);
+          if (!in) {
+            return rejected(scene::ModelLoadError::Kind::parse,
+                            "Cannot open the environment image: " + std::string(std::strerror(errno)));
+          }
+          data.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+        }
+        const std::string shown = std::filesystem::path(name).filename().string();
+        const scene::EnvironmentImage image = decodeHdr(data, shown, HdrLimits{});
+        return reply(kReplyEnvironment,
+                     std::string(reinterpret_cast<const char*>(image.rgb.data()),
+                                 image.rgb.size() * sizeof(float)));
       }
       default: return kExitBadRequest;
     }

@@ -9,7 +9,8 @@
 //                   empty = find the one model file), u64 dataBytes, data (the upload: the file,
 //                   the zip archive, or the file set of archive.h; none for a file)
 // Reply (stdout):   "MYLR" u8 status, then for kReplyScene the scene (scene_wire.h), for
-//                   kReplyRejected u8 ModelLoadError::Kind, u32 sentenceBytes, sentence.
+//                   kReplyRejected u8 ModelLoadError::Kind, u32 sentenceBytes, sentence, for
+//                   kReplyEnvironment 256 x 128 x 3 f32 (scene/environment_map.h).
 #pragma once
 
 #include <cstdint>
@@ -25,6 +26,8 @@ enum class Mode : uint8_t {
   file = 1,     // a library file, opened by path
   archive = 2,  // a zip archive (application/zip upload)
   files = 3,    // several uploaded files (multipart/form-data), as archive.h's file set
+  environmentBytes = 4,  // an uploaded Radiance .hdr (environment light)
+  environmentFile = 5,   // a library .hdr, opened by path
 };
 
 #pragma pack(push, 1)
@@ -48,6 +51,7 @@ inline constexpr uint32_t kMaxNameBytes = 4096;
 
 inline constexpr uint8_t kReplyScene = 0;
 inline constexpr uint8_t kReplyRejected = 1;
+inline constexpr uint8_t kReplyEnvironment = 2;  // scene::EnvironmentImage's floats, raw
 inline constexpr uint32_t kMaxSentenceBytes = 2048;
 
 // Exit statuses of the child beyond 0, so the parent can tell why it ended without a reply.

@@ -1,4 +1,5 @@
 #include "loader/library.h"
+#include "loader/loader.h"
 
 #include <algorithm>
 #include <stdexcept>
@@ -67,6 +68,14 @@ std::vector<LibraryEntry> ModelLibrary::list() const {
 }
 
 std::optional<fs::path> ModelLibrary::resolve(std::string_view name) const {
+  return resolveFile(name, false);
+}
+
+std::optional<fs::path> ModelLibrary::resolveEnvironment(std::string_view name) const {
+  return resolveFile(name, true);
+}
+
+std::optional<fs::path> ModelLibrary::resolveFile(std::string_view name, bool environment) const {
   if (root_.empty() || name.empty() || name.size() > kMaxNameBytes) return std::nullopt;
   if (name.front() == '/' || name.find('\\') != std::string_view::npos ||
       name.find('\0') != std::string_view::npos) {
@@ -82,7 +91,10 @@ std::optional<fs::path> ModelLibrary::resolve(std::string_view name) const {
     start = end + 1;
   }
   const fs::path relative(name);
-  if (!scene::isSupportedModelExtension(relative.extension().string())) return std::nullopt;
+  if (environment ? !isEnvironmentFileName(relative.filename().string())
+                  : !scene::isSupportedModelExtension(relative.extension().string())) {
+    return std::nullopt;
+  }
 
   // The checks above are lexical; symlinks are caught here, on the real path.
   std::error_code error;

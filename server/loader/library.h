@@ -31,11 +31,14 @@ class ModelLibrary {
   // ".." or "." or hidden component, a backslash or NUL, not a regular file, an extension Assimp
   // does not read, or a path (after following symlinks) outside the root.
   std::optional<std::filesystem::path> resolve(std::string_view name) const;
+  // The same for an environment image: a Radiance .hdr under the root (not listed by list()).
+  std::optional<std::filesystem::path> resolveEnvironment(std::string_view name) const;
 
   const std::filesystem::path& root() const { return root_; }
   bool empty() const { return root_.empty(); }
 
  private:
+  std::optional<std::filesystem::path> resolveFile(std::string_view name, bool environment) const;
   std::filesystem::path root_;  // canonical, or empty
 };
 

@@ -21,6 +21,7 @@
 #include <vector>
 
 #include "loader/child_protocol.h"
+#include "loader/hdr_decode.h"
 #include "loader/sandbox.h"
 #include "loader/scene_wire.h"
 #include "scene/model_loader.h"
@@ -295,22 +296,24 @@ ChildRun runChild(const std::vector<std::string_view>& request, const LoadLimits
   return run;
 }
 
-// Reads the child's reply, or explains why there is none.
-scene::Scene interpret(const ChildRun& run, const std::string& name, const LoadLimits& limits) {
+// Reads the child's reply, or explains why there is none: the body of a reply with status
+// `expected`. `noun` is what the messages call the file ("model", "environment image").
+std::string_view replyBody(const ChildRun& run, const std::string& name, const LoadLimits& limits,
+                           uint8_t expected, const std::string& noun) {
   const std::string model = "'" + name + "'";
   if (run.outputTooLarge) {
-    throw ModelRejected("too-large", "The model " + model + " is too large: its meshes exceed " +
+    throw ModelRejected("too-large", "The " + noun + " " + model + " is too large: its meshes exceed " +
                                          mebibytes(limits.maxOutputBytes) + ".");
   }
-  const std::string timeout = "Loading the model " + model + " took longer than " +
+  const std::string timeout = "Loading the " + noun + " " + model + " took longer than " +
                               std::to_string(limits.wallSeconds) + " s and was stopped.";
   if (run.killedByUs) throw ModelRejected("timeout", timeout);
-  const std::string memory = "Loading the model " + model + " needed more than " +
+  const std::string memory = "Loading the " + noun + " " + model + " needed more than " +
                              mebibytes(limits.memoryBytes) + " of memory and was stopped.";
   if (WIFSIGNALED(run.status)) {
     const int signal = WTERMSIG(run.status);
     if (signal == SIGXCPU || (signal == SIGKILL && run.cpuSeconds >= limits.cpuSeconds)) {
-      throw ModelRejected("timeout", "Loading the model " + model + " used more than " +
+      throw ModelRejected("timeout", "Loading the " + noun + " " + model + " used more than " +
                                          std::to_string(limits.cpuSeconds) +
                                          " s of CPU time and was stopped.");
     }
@@ -348,7 +351,14 @@ scene::Scene interpret(const ChildRun& run, const std::string& name, const LoadL
     // into JSON and logs.
     throw ModelRejected(reason, cleanText(body.substr(5)));
   }
-  if (uint8_t(reply[4]) != kReplyScene) throw ModelRejected("crash", garbled + " (bad status).");
+  if (uint8_t(reply[4]) != expected) throw ModelRejected("crash", garbled + " (bad status).");
+  return body;
+}
+
+scene::Scene interpret(const ChildRun& run, const std::string& name, const LoadLimits& limits) {
+  const std::string model = "'" + name + "'";
+  const std::string garbled = "The model loader returned inconsistent data for " + model;
+  const std::string_view body = replyBody(run, name, limits, kReplyScene, "model");
   scene::Scene scene;
   try {
     scene = decodeScene(body);
@@ -393,8 +403,8 @@ ChildSlots& childSlots() {
   return slots;
 }
 
-scene::Scene load(Mode mode, const std::string& nameOrPath, const std::string& shown,
-                  std::string_view data, const LoadLimits& limits, std::string_view entry = {}) {
+ChildRun runRequest(Mode mode, const std::string& nameOrPath, std::string_view data,
+                    const LoadLimits& limits, std::string_view entry = {}) {
   RequestHeader header{};
   std::memcpy(header.magic, kRequestMagic, 4);
   header.version = kProtocolVersion;
@@ -430,7 +440,32 @@ scene::Scene load(Mode mode, const std::string& nameOrPath, const std::string& s
     throw;
   }
   slots.release();  // before decoding: the slot bounds children, not parents
-  return interpret(run, shown, limits);
+  return run;
+}
+
+scene::Scene load(Mode mode, const std::string& nameOrPath, const std::string& shown,
+                  std::string_view data, const LoadLimits& limits, std::string_view entry = {}) {
+  return interpret(runRequest(mode, nameOrPath, data, limits, entry), shown, limits);
+}
+
+// The child's environment reply: exactly the image's floats, each finite and in range.
+scene::EnvironmentImage environmentFrom(const ChildRun& run, const std::string& shown,
+                                        const LoadLimits& limits) {
+  const std::string_view body =
+      replyBody(run, shown, limits, kReplyEnvironment, "environment image");
+  scene::EnvironmentImage image;
+  image.rgb.resize(size_t(scene::kEnvironmentWidth) * scene::kEnvironmentHeight * 3);
+  const std::string garbled = "The model loader returned inconsistent data for '" + shown + "'";
+  if (body.size() != image.rgb.size() * sizeof(float)) {
+    throw ModelRejected("crash", garbled + " (the image has the wrong size).");
+  }
+  std::memcpy(image.rgb.data(), body.data(), body.size());
+  for (const float v : image.rgb) {
+    if (!(v >= 0.0f && v <= kMaxEnvironmentRadiance)) {
+      throw ModelRejected("crash", garbled + " (a radiance out of range).");
+    }
+  }
+  return image;
 }
 
 }  // namespace
@@ -481,6 +516,34 @@ scene::Scene loadModelFiles(const scene::MemoryFiles& files, std::string_view en
   }
   if (files.empty()) throw ModelRejected("empty", "Cannot load model '" + shown + "': no files were sent.");
   return load(Mode::files, shown, shown, encodeFileSet(files), limits, entry);
+}
+
+bool isEnvironmentFileName(std::string_view filename) {
+  const std::string extension = std::filesystem::path(shownName(filename)).extension().string();
+  return extension.size() == 4 && (extension[1] | 0x20) == 'h' && (extension[2] | 0x20) == 'd' &&
+         (extension[3] | 0x20) == 'r';
+}
+
+scene::EnvironmentImage loadEnvironmentBytes(std::string_view bytes, std::string_view filename,
+                                             const LoadLimits& limits) {
+  const std::string shown = shownName(filename.empty() ? std::string_view("upload.hdr") : filename);
+  if (bytes.empty()) {
+    throw ModelRejected("empty", "The environment image '" + shown + "' is empty.");
+  }
+  return environmentFrom(runRequest(Mode::environmentBytes, shown, bytes, limits), shown, limits);
+}
+
+scene::EnvironmentImage loadEnvironmentFile(const std::filesystem::path& path,
+                                            const LoadLimits& limits) {
+  const std::string shown = shownName(path.filename().string());
+  std::error_code error;
+  std::filesystem::path absolute = std::filesystem::absolute(path, error);
+  if (error || absolute.native().size() > kMaxNameBytes) {
+    throw ModelRejected("unsupported", "Cannot load the environment image '" + shown +
+                                           "': its path is too long.");
+  }
+  return environmentFrom(runRequest(Mode::environmentFile, absolute.string(), {}, limits), shown,
+                         limits);
 }
 
 scene::Scene loadModelFile(const std::filesystem::path& path, const LoadLimits& limits) {

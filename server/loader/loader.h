@@ -11,6 +11,7 @@
 #include <string_view>
 
 #include "loader/archive.h"
+#include "scene/environment_map.h"
 #include "scene/model_loader.h"
 #include "scene/scene.h"
 
@@ -75,6 +76,19 @@ scene::Scene loadModelFiles(const scene::MemoryFiles& files, std::string_view en
 // Parses a file on disk (a library model). The child opens it, so a .gltf may use the .bin and
 // images beside it (but nothing outside the file's directory).
 scene::Scene loadModelFile(const std::filesystem::path& path, const LoadLimits& limits = {});
+
+// An equirectangular Radiance .hdr for the environment light, decoded and resampled to the
+// environment size (scene/environment_map.h) in the child, under the same limits as a model plus
+// loader/hdr_decode.h's (dimensions checked from the header before decoding). A refusal is a
+// ModelRejected naming the problem: "empty", "parse" (not a Radiance file, a bad header, a
+// truncated file), "too-large" (dimensions), or the child's crash/timeout/memory.
+scene::EnvironmentImage loadEnvironmentBytes(std::string_view bytes, std::string_view filename,
+                                             const LoadLimits& limits = {});
+// A library .hdr: the child opens it (nothing outside its directory).
+scene::EnvironmentImage loadEnvironmentFile(const std::filesystem::path& path,
+                                            const LoadLimits& limits = {});
+// Whether `filename` names a Radiance .hdr (by its extension, any case).
+bool isEnvironmentFileName(std::string_view filename);
 
 // How many loader children run at once, process-wide; more loads wait (up to their wallSeconds)
 // for a turn. Each child may use LoadLimits::memoryBytes, so a burst of uploads must not multiply

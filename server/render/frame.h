@@ -113,6 +113,32 @@ inline std::optional<Technique> parseTechnique(std::string_view name) {
   return std::nullopt;
 }
 
+// The environment light (image-based lighting; render/environment.cpp, shaders/environment.glsl).
+// Values index protocol::kEnvironmentModes and equal MYRIAD_ENV_* (render/gpu_types.h checks).
+enum class EnvironmentMode : uint32_t {
+  None = 0,  // the constant `ambient` term, exactly as before the environment existed
+  Sky,       // the procedural sky, from the sun's direction and colour
+  Hdr,       // the scene's equirectangular .hdr (Renderer::setEnvironmentImage)
+};
+
+inline std::string_view environmentModeName(EnvironmentMode m) {
+  return protocol::kEnvironmentModes[static_cast<uint32_t>(m)];
+}
+
+inline std::optional<EnvironmentMode> parseEnvironmentMode(std::string_view name) {
+  for (uint32_t i = 0; i < protocol::kEnvironmentModes.size(); ++i) {
+    if (protocol::kEnvironmentModes[i] == name) return static_cast<EnvironmentMode>(i);
+  }
+  return std::nullopt;
+}
+
+struct EnvironmentSettings {
+  EnvironmentMode mode = EnvironmentMode::None;
+  float intensity = 1.0f;   // scales the environment's light (and its background), >= 0
+  float rotation = 0.0f;    // radians about +Y (hdr only: the sky's orientation is the sun's)
+  bool background = false;  // show the environment where no geometry is (else `background`)
+};
+
 // What a scene is shown with, kept between frames: a session's settings (GET/PATCH .../settings)
 // are exactly this, and every frame starts from it. Scene-wide lighting comes with the frame, not
 // the scene upload, so a settings change needs no upload. The lighting defaults are
@@ -125,6 +151,7 @@ struct SceneSettings {
   bool markers = true;
   Technique technique = Technique::Clustered;
   bool animate = false;  // lights move (on the GPU) with the animation clock
+  EnvironmentSettings environment;  // with mode None, `ambient` lights the scene; else not
 
   // Sets sun, ambient and background to `scene`'s (what the scene was authored with).
   SceneSettings& takeLightingFrom(const scene::Scene& scene) {

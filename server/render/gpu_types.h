@@ -16,7 +16,9 @@ using gpu_types::GpuPointLight;
 using gpu_types::CullingStats;
 
 static_assert(sizeof(gpu_types::vec4) == 16 && sizeof(gpu_types::mat4) == 64);
-static_assert(sizeof(FrameUniforms) == 4 * 64 + 12 * 16);
+static_assert(sizeof(FrameUniforms) == 4 * 64 + 14 * 16);
+static_assert(offsetof(FrameUniforms, environment) == 256 + 12 * 16);
+static_assert(sizeof(gpu_types::EnvironmentParams) == 48);
 static_assert(offsetof(FrameUniforms, inverseViewProjection) == 192);
 static_assert(offsetof(FrameUniforms, cameraPosition) == 256);
 static_assert(offsetof(FrameUniforms, viewport) == 256 + 5 * 16);
@@ -28,6 +30,11 @@ static_assert(sizeof(GpuInstance) == 144 && offsetof(GpuInstance, material) == 1
 static_assert(sizeof(GpuMaterial) == 64 + 16 * 2 * MYRIAD_TEXTURE_SLOTS &&
               offsetof(GpuMaterial, metallicRoughness) == 16 && offsetof(GpuMaterial, flags) == 48 &&
               offsetof(GpuMaterial, uvTransform) == 64);
+
+static_assert(uint32_t(EnvironmentMode::None) == MYRIAD_ENV_NONE);
+static_assert(uint32_t(EnvironmentMode::Sky) == MYRIAD_ENV_SKY);
+static_assert(uint32_t(EnvironmentMode::Hdr) == MYRIAD_ENV_HDR);
+static_assert(protocol::kEnvironmentModes.size() == 3);
 
 // The tonemap view numbers are render::Target's values.
 static_assert(uint32_t(Target::Final) == MYRIAD_VIEW_FINAL);

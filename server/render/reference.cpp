@@ -105,7 +105,51 @@ uint8_t toByte(float x) { return static_cast<uint8_t>(std::round(glm::clamp(x, 0
 
 }  // namespace
 
-std::vector<uint8_t> renderReference(const scene::Scene& scene, const FrameSettings& s) {
+EnvironmentMaps buildEnvironmentMaps(const FrameSettings& s, const scene::EnvironmentImage* image) {
+  using namespace shading;
+  EnvironmentMaps maps;
+  maps.source.assign(MYRIAD_ENV_SOURCE_TEXELS, glm::vec4(0.0f));
+  const uint32_t specularSize = MYRIAD_ENV_SPECULAR_WIDTH * MYRIAD_ENV_SPECULAR_HEIGHT;
+  maps.lighting.assign(MYRIAD_ENV_HEADER + specularSize * MYRIAD_ENV_SPECULAR_LEVELS, glm::vec4(0.0f));
+  maps.lut.assign(MYRIAD_BRDF_LUT_SIZE * MYRIAD_BRDF_LUT_SIZE, glm::vec4(0.0f));
+  environmentArrays = {maps.source.data(), maps.lighting.data(), maps.lut.data()};
+  for (uint32_t i = 0; i < maps.lut.size(); ++i) {
+    maps.lut[i] = glm::vec4(brdfLutTexel(i % MYRIAD_BRDF_LUT_SIZE, i / MYRIAD_BRDF_LUT_SIZE), 0, 0);
+  }
+  const uint32_t w = MYRIAD_ENV_SOURCE_WIDTH;
+  const uint32_t h = MYRIAD_ENV_SOURCE_HEIGHT;
+  if (s.environment.mode == EnvironmentMode::Hdr) {
+    if (!image || image->rgb.size() != size_t(w) * h * 3) {
+      throw std::invalid_argument("reference: the \"hdr\" environment needs its 256x128 image");
+    }
+    for (uint32_t i = 0; i < w * h; ++i) {
+      maps.source[i] = glm::vec4(image->rgb[i * 3], image->rgb[i * 3 + 1], image->rgb[i * 3 + 2], 1.0f);
+    }
+  } else {
+    const glm::vec3 toSun = -glm::normalize(s.sun.direction);
+    for (uint32_t i = 0; i < w * h; ++i) maps.source[i] = glm::vec4(skyTexel(i % w, i / w, toSun, s.sun.color), 1.0f);
+  }
+  for (uint32_t level = 1; level < MYRIAD_ENV_SOURCE_LEVELS; ++level) {
+    const uint32_t lw = w >> level;
+    const uint32_t offset = envSourceOffset(level);
+    for (uint32_t i = 0; i < lw * (h >> level); ++i) {
+      maps.source[offset + i] = glm::vec4(downsampleTexel(level, i % lw, i / lw), 1.0f);
+    }
+  }
+  for (uint32_t k = 0; k < 9; ++k) maps.lighting[k] = glm::vec4(projectSH(k), 0.0f);
+  for (uint32_t i = 0; i < specularSize * MYRIAD_ENV_SPECULAR_LEVELS; ++i) {
+    const uint32_t texel = i % specularSize;
+    maps.lighting[MYRIAD_ENV_HEADER + i] =
+        glm::vec4(prefilterTexel(i / specularSize, texel % MYRIAD_ENV_SPECULAR_WIDTH,
+                                 texel / MYRIAD_ENV_SPECULAR_WIDTH),
+                  1.0f);
+  }
+  environmentArrays = {};
+  return maps;
+}
+
+std::vector<uint8_t> renderReference(const scene::Scene& scene, const FrameSettings& s,
+                                     const scene::EnvironmentImage* environmentImage) {
   if (s.target == Target::LightVolumes || s.target == Target::LightCount ||
       s.target == Target::Clusters) {
     throw std::invalid_argument("the reference renderer draws no light-volumes, light-count or "
@@ -121,6 +165,14 @@ std::vector<uint8_t> renderReference(const scene::Scene& scene, const FrameSetti
   const glm::vec3 sunRadiance = s.sun.color * s.sun.intensity;
   const float n = s.camera.nearPlane;
   const float f = s.camera.farPlane;
+  const bool environmentOn = s.environment.mode != EnvironmentMode::None;
+  EnvironmentMaps maps;
+  if (environmentOn) maps = buildEnvironmentMaps(s, environmentImage);
+  // As render/renderer.cpp writes them into the frame uniforms.
+  const float rotation = s.environment.mode == EnvironmentMode::Hdr ? s.environment.rotation : 0.0f;
+  const float rotationCos = std::cos(rotation);
+  const float rotationSin = std::sin(rotation);
+  shading::environmentArrays = {maps.source.data(), maps.lighting.data(), maps.lut.data()};
 
   std::vector<uint8_t> image(size_t(s.width) * s.height * 4);
   for (uint32_t y = 0; y < s.height; ++y) {
@@ -152,11 +204,26 @@ std::vector<uint8_t> renderReference(const scene::Scene& scene, const FrameSetti
       switch (s.target) {
         case Target::Final: {
           glm::vec3 hdr = half3(s.background);
+          if (!found && environmentOn && s.environment.background) {
+            glm::vec3 d = glm::normalize(glm::vec3(farPoint) / farPoint.w - s.camera.eye);
+            hdr = half3(shading::environmentBackground(d, rotationCos, rotationSin,
+                                                       s.environment.intensity));
+          }
           if (found) {
             glm::vec3 V = glm::normalize(s.camera.eye - hit.position);
-            hdr = half3(shading::shadeSunAndAmbient(normal, V, baseColor, metallic, roughness,
-                                                    sunDirection, sunRadiance, s.ambient) +
-                        emissive);
+            // Emission is added with the sun and ambient (or environment) term, as on the GPU.
+            if (!environmentOn) {
+              hdr = half3(shading::shadeSunAndAmbient(normal, V, baseColor, metallic, roughness,
+                                                      sunDirection, sunRadiance, s.ambient) +
+                          emissive);
+            } else {
+              hdr = half3(shading::shadeSunAndAmbient(normal, V, baseColor, metallic, roughness,
+                                                      sunDirection, sunRadiance, glm::vec3(0.0f)) +
+                          shading::shadeEnvironment(normal, V, baseColor, metallic, roughness,
+                                                    1.0f, rotationCos, rotationSin,
+                                                    s.environment.intensity) +
+                          emissive);
+            }
             for (const scene::PointLight& l : scene.lights) {
               glm::vec3 c = shading::shadePointLight(hit.position, normal, V, baseColor, metallic,
                                                      roughness, l.position, l.radius,
@@ -204,6 +271,7 @@ std::vector<uint8_t> renderReference(const scene::Scene& scene, const FrameSetti
       px[3] = 255;
     }
   }
+  shading::environmentArrays = {};
   return image;
 }
 

@@ -9,12 +9,28 @@
 #include <vector>
 
 #include "render/frame.h"
+#include "scene/environment_map.h"
 #include "scene/scene.h"
 
 namespace myriad::render {
 
 // RGBA8 like Frame::rgba. Supports every target but light-volumes (a rasterisation artefact);
 // light markers are not drawn. Sun, ambient and background come from `settings`, as on the GPU.
-std::vector<uint8_t> renderReference(const scene::Scene& scene, const FrameSettings& settings);
+// The environment (settings.environment) is built on the CPU by the very functions the GPU's
+// passes run (shaders/environment.glsl: same sizes, same sample pattern, same bilinear taps);
+// `hdr` takes `environmentImage` (the image given to Renderer::setEnvironmentImage) and throws
+// std::invalid_argument without one.
+std::vector<uint8_t> renderReference(const scene::Scene& scene, const FrameSettings& settings,
+                                     const scene::EnvironmentImage* environmentImage = nullptr);
+
+// The environment's maps as the GPU builds them (for tests): the source pyramid, the lighting maps
+// (SH9 header + specular levels) and the BRDF table, vec4 each, in the GPU buffers' layout.
+struct EnvironmentMaps {
+  std::vector<glm::vec4> source;
+  std::vector<glm::vec4> lighting;
+  std::vector<glm::vec4> lut;
+};
+EnvironmentMaps buildEnvironmentMaps(const FrameSettings& settings,
+                                     const scene::EnvironmentImage* environmentImage);
 
 }  // namespace myriad::render

@@ -11,6 +11,7 @@
 
 #include "render/device_summary.h"
 #include "render/frame.h"
+#include "scene/environment_map.h"
 #include "scene/scene.h"
 
 namespace myriad::render {
@@ -47,6 +48,8 @@ class RenderQueue {
   virtual std::future<void> destroyScene(SceneId id) = 0;
   virtual std::future<void> updateLights(SceneId id, LightUpdate update) = 0;
   virtual std::future<void> updateMaterials(SceneId id, std::vector<MaterialWrite> writes) = 0;
+  virtual std::future<void> setEnvironmentImage(
+      SceneId id, std::shared_ptr<const scene::EnvironmentImage> image) = 0;
 
   // Queues a frame of scene `id`; the future holds the frame or what the renderer threw. The
   // settings carry the sun, ambient and background (FrameSettings::takeLightingFrom). Throws

@@ -131,6 +131,13 @@ std::future<void> RenderThread::updateMaterials(SceneId id,
   });
 }
 
+std::future<void> RenderThread::setEnvironmentImage(
+    SceneId id, std::shared_ptr<const scene::EnvironmentImage> image) {
+  return enqueueWork<void>(false, [id, image = std::move(image)](Renderer& r) {
+    r.setEnvironmentImage(id, image);
+  });
+}
+
 std::future<Frame> RenderThread::submit(SceneId id,
                                                 const FrameSettings& settings) {
   return enqueueWork<Frame>(true, [id, settings](Renderer& r) {

@@ -47,6 +47,8 @@ class RenderThread final : public RenderQueue {
   std::future<void> destroyScene(SceneId id) override;
   std::future<void> updateLights(SceneId id, LightUpdate update) override;
   std::future<void> updateMaterials(SceneId id, std::vector<MaterialWrite> writes) override;
+  std::future<void> setEnvironmentImage(
+      SceneId id, std::shared_ptr<const scene::EnvironmentImage> image) override;
   std::future<Frame> submit(SceneId id, const FrameSettings& settings) override;
   using RenderQueue::submit;  // submit(settings): the default scene
   uint64_t gpuMemoryBytes() const override { return gpuMemoryBytes_.load(); }

@@ -10,6 +10,7 @@
 #include "gpu/vk_check.h"
 #include "render/cluster_grid.h"
 #include "render/compute_passes.h"
+#include "render/environment.h"
 #include "render/frame_targets.h"
 #include "render/gpu_types.h"
 #include "render/passes.h"
@@ -22,9 +23,9 @@ namespace myriad::render {
 
 namespace {
 
-// animate, gbuffer, the technique's (sun + lights, or lighting), markers, tonemap, overlay,
-// readback: room for a technique of four passes.
-constexpr uint32_t kMaxTimedPasses = 10;
+// environment (when rebuilt), animate, gbuffer, the technique's (sun + lights, or lighting),
+// markers, tonemap, overlay, readback: room for a technique of four passes.
+constexpr uint32_t kMaxTimedPasses = 11;
 
 // The light-count view's hottest colour when the request leaves it to us.
 constexpr uint32_t kDefaultHeatMapMax = 64;
@@ -53,6 +54,11 @@ struct Renderer::State {
   VkDescriptorSet sceneSet = VK_NULL_HANDLE;
   VkDescriptorSet targetSet = VK_NULL_HANDLE;  // set 2 (light culling) is each technique's own
   std::unordered_map<SceneId, std::unique_ptr<SceneBuffers>> scenes;
+  // The BRDF table and the passes that build environments (created after the recorder).
+  std::unique_ptr<EnvironmentPasses> environmentPasses;
+  // A scene's environment maps, from its first frame with the environment on or its first .hdr;
+  // kept when the scene is replaced (a new model keeps the session's environment).
+  std::unordered_map<SceneId, std::unique_ptr<SceneEnvironment>> environments;
   SceneId nextSceneId = 1;
   // Shared by every scene: sized for the frame being drawn, rebuilt when that changes.
   std::unique_ptr<FrameTargets> targets;
@@ -60,12 +66,14 @@ struct Renderer::State {
   SceneBuffers& scene(SceneId id);
   const SceneBuffers& scene(SceneId id) const;
   LightingTechnique& technique(Technique t);
-  void writeSceneSet(const SceneBuffers& scene);
+  void writeSceneSet(const SceneBuffers& scene, const gpu::Buffer& environment);
+  SceneEnvironment& environment(SceneId id);
   void writeTargetSet();
   void writeUniforms(const FrameSettings& settings, const SceneBuffers& scene,
                      const LightingTechnique& technique);
   void ensureTargets(VkExtent2D extent, bool raw);
-  Frame renderOnce(SceneBuffers& scene, const FrameSettings& settings);
+  Frame renderOnce(SceneBuffers& scene, SceneEnvironment* environment,
+                   const FrameSettings& settings);
 };
 
 SceneBuffers& Renderer::State::scene(SceneId id) {
@@ -86,16 +94,27 @@ LightingTechnique& Renderer::State::technique(Technique t) {
   return *techniques[index];
 }
 
-void Renderer::State::writeSceneSet(const SceneBuffers& scene) {
-  VkDescriptorBufferInfo buffers[5] = {
+SceneEnvironment& Renderer::State::environment(SceneId id) {
+  scene(id);  // throws for an unknown id
+  std::unique_ptr<SceneEnvironment>& env = environments[id];
+  if (!env) env = std::make_unique<SceneEnvironment>(context);
+  return *env;
+}
+
+// `environment` is the scene's lighting maps, or any storage buffer when the environment is off
+// (the shaders then never read it).
+void Renderer::State::writeSceneSet(const SceneBuffers& scene, const gpu::Buffer& environment) {
+  VkDescriptorBufferInfo buffers[7] = {
       {uniforms.buffer, 0, sizeof(FrameUniforms)},
       {scene.lights.buffer, 0, VK_WHOLE_SIZE},
       {scene.instances.buffer, 0, VK_WHOLE_SIZE},
       {scene.materials.buffer, 0, VK_WHOLE_SIZE},
       {scene.lightOrigins.buffer, 0, VK_WHOLE_SIZE},
+      {environment.buffer, 0, VK_WHOLE_SIZE},
+      {environmentPasses->brdfLut().buffer, 0, VK_WHOLE_SIZE},
   };
-  VkWriteDescriptorSet writes[5];
-  for (uint32_t i = 0; i < 5; ++i) {
+  VkWriteDescriptorSet writes[7];
+  for (uint32_t i = 0; i < 7; ++i) {
     writes[i] = {VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET};
     writes[i].dstSet = sceneSet;
     writes[i].dstBinding = i;
@@ -104,7 +123,7 @@ void Renderer::State::writeSceneSet(const SceneBuffers& scene) {
         i == MYRIAD_BINDING_FRAME ? VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER : VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
     writes[i].pBufferInfo = &buffers[i];
   }
-  vkUpdateDescriptorSets(context.device, 5, writes, 0, nullptr);
+  vkUpdateDescriptorSets(context.device, 7, writes, 0, nullptr);
 }
 
 void Renderer::State::writeTargetSet() {
@@ -172,6 +191,12 @@ void Renderer::State::writeUniforms(const FrameSettings& s, const SceneBuffers& 
   float slicesPerLog = float(g.slices) / std::log(s.camera.farPlane / s.camera.nearPlane);
   u.slicing = glm::vec4(slicesPerLog, std::log(s.camera.nearPlane) * slicesPerLog,
                         float(s.heatMapMax > 0 ? s.heatMapMax : kDefaultHeatMapMax), float(s.time));
+  // The sky ignores the rotation: its orientation is the sun's.
+  const float rotation =
+      s.environment.mode == EnvironmentMode::Hdr ? s.environment.rotation : 0.0f;
+  u.environment = glm::vec4(float(static_cast<uint32_t>(s.environment.mode)),
+                            s.environment.intensity, s.environment.background ? 1.0f : 0.0f, 0.0f);
+  u.environmentRotation = glm::vec4(std::cos(rotation), std::sin(rotation), 0.0f, 0.0f);
   technique.writeUniforms(u);
   std::memcpy(uniforms.mapped, &u, sizeof(u));
 }
@@ -182,6 +207,7 @@ Renderer::Renderer(gpu::Context& context) : state_(std::make_unique<State>(conte
   s.uniforms = s.uniformArena.createBuffer(sizeof(FrameUniforms), VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT,
                                            gpu::MemoryUse::Upload);
   s.recorder = gpu::createCommandRecorder(context);
+  s.environmentPasses = std::make_unique<EnvironmentPasses>(context, s.recorder);
 
   VkSamplerCreateInfo samplerInfo{VK_STRUCTURE_TYPE_SAMPLER_CREATE_INFO};
   samplerInfo.magFilter = samplerInfo.minFilter = VK_FILTER_NEAREST;
@@ -191,7 +217,7 @@ Renderer::Renderer(gpu::Context& context) : state_(std::make_unique<State>(conte
 
   // Sets 0 (scene) and 1 (targets); each technique allocates its own set 2.
   VkDescriptorPoolSize sizes[] = {{VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1},
-                                  {VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 4},
+                                  {VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 6},
                                   {VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 8},
                                   {VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, 2}};
   VkDescriptorPoolCreateInfo poolInfo{VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO};
@@ -216,6 +242,8 @@ Renderer::~Renderer() {
   s.targets.reset();
   s.techniques.clear();
   s.scenes.clear();
+  s.environments.clear();
+  s.environmentPasses.reset();
   vkDestroyDescriptorPool(s.context.device, s.descriptorPool, nullptr);
   vkDestroySampler(s.context.device, s.sampler, nullptr);
   gpu::destroyCommandRecorder(s.context, s.recorder);
@@ -243,6 +271,17 @@ void Renderer::destroyScene(SceneId id) {
   State& s = *state_;
   s.scene(id);  // throws for an unknown id
   s.scenes.erase(id);
+  s.environments.erase(id);
+}
+
+void Renderer::setEnvironmentImage(SceneId id, std::shared_ptr<const scene::EnvironmentImage> image) {
+  state_->environment(id).setImage(std::move(image));
+}
+
+uint64_t Renderer::environmentRebuilds(SceneId id) const {
+  state_->scene(id);
+  auto it = state_->environments.find(id);
+  return it == state_->environments.end() ? 0 : it->second->rebuilds;
 }
 
 void Renderer::updateLights(SceneId id, const LightUpdate& update) {
@@ -257,12 +296,17 @@ bool Renderer::hasScene(SceneId id) const { return state_->scenes.contains(id); 
 
 uint32_t Renderer::lightCount(SceneId id) const { return state_->scene(id).lightCount; }
 
-uint64_t Renderer::sceneBytes(SceneId id) const { return state_->scene(id).bytes(); }
+uint64_t Renderer::sceneBytes(SceneId id) const {
+  auto it = state_->environments.find(id);
+  return state_->scene(id).bytes() + (it == state_->environments.end() ? 0 : it->second->bytes());
+}
 
 uint64_t Renderer::gpuMemoryBytes() const {
   const State& s = *state_;
   uint64_t total = s.uniformArena.bytesAllocated();
   for (const auto& [id, scene] : s.scenes) total += scene->bytes();
+  for (const auto& [id, env] : s.environments) total += env->bytes();
+  total += s.environmentPasses->gpuMemoryBytes();
   if (s.targets) total += s.targets->arena.bytesAllocated();
   for (const auto& technique : s.techniques) total += technique->gpuMemoryBytes();
   return total;
@@ -286,10 +330,15 @@ Frame Renderer::render(SceneId id, const FrameSettings& settings) {
                                 std::to_string(maxDimension()));
   }
   LightingTechnique& technique = s.technique(settings.technique);
-  Frame frame = s.renderOnce(scene, settings);
+  SceneEnvironment* environment = nullptr;
+  if (settings.environment.mode != EnvironmentMode::None) {
+    environment = &s.environment(id);
+    EnvironmentPasses::inputsFor(settings, *environment);  // throws for hdr without an image
+  }
+  Frame frame = s.renderOnce(scene, environment, settings);
   if (technique.growLists(frame.culling)) {
     try {
-      Frame regrown = s.renderOnce(scene, settings);
+      Frame regrown = s.renderOnce(scene, environment, settings);
       regrown.culling.listsGrew = true;
       return regrown;
     } catch (const gpu::VulkanError&) {
@@ -302,14 +351,15 @@ Frame Renderer::render(SceneId id, const FrameSettings& settings) {
 }
 
 // The frame, top to bottom. Every request (any view, any size, any technique) takes this path.
-Frame Renderer::State::renderOnce(SceneBuffers& scene, const FrameSettings& settings) {
+Frame Renderer::State::renderOnce(SceneBuffers& scene, SceneEnvironment* environment,
+                                  const FrameSettings& settings) {
   State& s = *this;
   LightingTechnique& technique = s.technique(settings.technique);
   VkExtent2D extent{settings.width, settings.height};
   s.ensureTargets(extent, settings.raw);
   technique.prepare(extent, scene.lightCount);
   s.writeUniforms(settings, scene, technique);
-  s.writeSceneSet(scene);
+  s.writeSceneSet(scene, environment ? environment->lighting : environmentPasses->brdfLut());
   const FrameTargets& t = *s.targets;
   const Pipelines& p = s.pipelines;
 
@@ -318,6 +368,16 @@ Frame Renderer::State::renderOnce(SceneBuffers& scene, const FrameSettings& sett
   vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, p.layout, 0, 2, sets, 0, nullptr);
   vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, p.layout, 0, 2, sets, 0, nullptr);
   s.timer.reset(cmd);
+
+  if (environment) {
+    const SceneEnvironment::Inputs inputs = EnvironmentPasses::inputsFor(settings, *environment);
+    if (environment->built != inputs) {
+      s.timer.beginPass(cmd, "environment");
+      environmentPasses->record(cmd, *environment, inputs);
+      // The environment passes bound their own layout's set 0; the frame's sets go back.
+      vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, p.layout, 0, 2, sets, 0, nullptr);
+    }
+  }
 
   if (settings.animate) {
     s.timer.beginPass(cmd, "animate");
@@ -361,7 +421,7 @@ Frame Renderer::State::renderOnce(SceneBuffers& scene, const FrameSettings& sett
   for (auto& [name, ms] : s.timer.results()) frame.passes.push_back({name, ms});
   frame.technique = settings.technique;
   frame.lightCount = scene.lightCount;
-  frame.sceneBytes = scene.bytes();
+  frame.sceneBytes = scene.bytes() + (environment ? environment->bytes() : 0);
   frame.culling.lightBytes = scene.lights.size + scene.lightOrigins.size;
   technique.report(frame.culling);
   return frame;

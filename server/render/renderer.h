@@ -10,6 +10,7 @@
 
 #include "gpu/context.h"
 #include "render/frame.h"
+#include "scene/environment_map.h"
 #include "scene/scene.h"
 
 namespace myriad::render {
@@ -38,7 +39,16 @@ class Renderer {
   // Throws std::invalid_argument for an index past the scene's materials.
   void updateMaterials(SceneId id, const std::vector<MaterialWrite>& writes);
 
-  // Renders one frame of scene `id` and reads it back. Throws std::invalid_argument for a size
+  // The equirectangular image the scene's `hdr` environment shows (at the source size,
+  // scene::resampleEquirect). Kept across replaceScene; freed with the scene. The maps are
+  // rebuilt at the next frame that uses them.
+  void setEnvironmentImage(SceneId id, std::shared_ptr<const scene::EnvironmentImage> image);
+  // How many times the scene's environment maps were built (0 before the first frame with the
+  // environment on): they are rebuilt only when the mode, the image or (sky) the sun changes.
+  uint64_t environmentRebuilds(SceneId id) const;
+
+  // Renders one frame of scene `id` and reads it back. Throws std::invalid_argument for an
+  // `hdr` environment without an image (setEnvironmentImage). Throws std::invalid_argument for a size
   // outside 1..maxDimension().
   Frame render(SceneId id, const FrameSettings& settings);
 

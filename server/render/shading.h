@@ -4,6 +4,8 @@
 
 #include <glm/glm.hpp>
 
+#include "shared_types.h"
+
 #include <cmath>
 #include <limits>
 
@@ -20,4 +22,20 @@ inline float pow(float x, float y) {
 }
 
 #include "shading.glsl"
+
+// The environment light's arrays for environment.glsl's functions (see its header): whoever runs
+// them in C++ (the reference) points these at its own maps first, on its own thread.
+struct EnvironmentArrays {
+  const glm::vec4* source = nullptr;    // MYRIAD_ENV_SOURCE_TEXELS
+  const glm::vec4* lighting = nullptr;  // MYRIAD_ENV_HEADER + the specular levels
+  const glm::vec4* lut = nullptr;       // MYRIAD_BRDF_LUT_SIZE^2
+};
+inline thread_local EnvironmentArrays environmentArrays;
+#define MYRIAD_ENV_SOURCE(i) environmentArrays.source[i]
+#define MYRIAD_ENV_LIGHTING(i) environmentArrays.lighting[i]
+#define MYRIAD_BRDF_LUT(i) environmentArrays.lut[i]
+#include "environment.glsl"
+#undef MYRIAD_ENV_SOURCE
+#undef MYRIAD_ENV_LIGHTING
+#undef MYRIAD_BRDF_LUT
 }  // namespace myriad::shading

@@ -121,8 +121,11 @@ void Routes::add(std::string_view method, std::string_view routeTemplate, Handle
   // The body limit is per template; a method with a larger one (PUT model) raises it.
   existing->options.maxBodyBytes = std::max(existing->options.maxBodyBytes, options.maxBodyBytes);
 
-  httplib::Server::Handler wrapped = [this, handler = std::move(handler), options](
-                                         const httplib::Request& req, httplib::Response& res) {
+  // Everything but reading the body: the in-flight limit, the form refusal, problems. Called with
+  // the body already read (and bounded) by the caller.
+  auto serve = [this, handler = std::move(handler), options](const httplib::Request& req,
+                                                              httplib::Response& res,
+                                                              const auto& readBody) {
     struct InFlight {
       std::atomic<uint32_t>* counter = nullptr;
       ~InFlight() {
@@ -133,6 +136,8 @@ void Routes::add(std::string_view method, std::string_view routeTemplate, Handle
       inFlight.counter = &inFlight_;
       const uint32_t limit = context_.config.limits.maxRequestsInFlight;
       if (inFlight_.fetch_add(1) + 1 > limit) {
+        // Before the body is read: a refused request costs no memory for its body.
+        res.set_header("Connection", "close");
         sendProblem(res, limitExceeded(429, "maxRequestsInFlight",
                                        "The server is already handling " + std::to_string(limit) +
                                            " requests, its limit; retry shortly."));
@@ -140,41 +145,110 @@ void Routes::add(std::string_view method, std::string_view routeTemplate, Handle
       }
     }
     try {
-      // Bodies sent without Content-Length (chunked) are only measured once read.
-      if (req.body.size() > options.maxBodyBytes) {
-        throw ProblemError(limitExceeded(
-            413, options.bodyLimitName,
-            "The request body has " + std::to_string(req.body.size()) + " bytes; the limit is " +
-                std::to_string(options.maxBodyBytes) + "."));
-      }
+      const httplib::Request& withBody = readBody();
       // httplib reads a form body into req.params, where it would pass for a query string; no
       // route takes a form (curl -d sends one unless told the type).
-      if (!req.body.empty() &&
+      if (!withBody.body.empty() &&
           mediaType(req.get_header_value("Content-Type")) == "application/x-www-form-urlencoded") {
         throw ProblemError(unsupportedMediaType(
             "This route takes no form; send JSON with Content-Type: application/json (curl: "
             "--json or -H 'Content-Type: application/json')."));
       }
-      handler(req, res);
+      handler(withBody, res);
     } catch (const ProblemError& e) {
       sendProblem(res, e.problem());
     }
   };
 
   const std::string regex = templateToRegex(routeTemplate);
-  if (method == "GET") {
-    server_.Get(regex, wrapped);
-  } else if (method == "POST") {
-    server_.Post(regex, wrapped);
+  if (method == "GET" || method == "DELETE") {
+    httplib::Server::Handler bodiless = [serve](const httplib::Request& req,
+                                               httplib::Response& res) {
+      serve(req, res, [&]() -> const httplib::Request& { return req; });
+    };
+    if (method == "GET") {
+      server_.Get(regex, bodiless);
+    } else {
+      server_.Delete(regex, bodiless);
+    }
+    return;
+  }
+  // Bodies are read here, not by httplib, so that they are counted as they arrive and cut at the
+  // route's limit: httplib 0.11 reads a chunked body (no Content-Length; the route table refuses
+  // an oversized one before routing) whole into memory, however large.
+  httplib::Server::HandlerWithContentReader reading =
+      [serve, options](const httplib::Request& req, httplib::Response& res,
+                       const httplib::ContentReader& reader) {
+        std::shared_ptr<httplib::Request> withBody;
+        serve(req, res, [&]() -> const httplib::Request& {
+          withBody = readBounded(req, res, reader, options);
+          return *withBody;
+        });
+      };
+  if (method == "POST") {
+    server_.Post(regex, reading);
   } else if (method == "PUT") {
-    server_.Put(regex, wrapped);
+    server_.Put(regex, reading);
   } else if (method == "PATCH") {
-    server_.Patch(regex, wrapped);
-  } else if (method == "DELETE") {
-    server_.Delete(regex, wrapped);
+    server_.Patch(regex, reading);
   } else {
     throw std::invalid_argument("Routes::add: unsupported method " + std::string(method));
   }
+}
+
+std::shared_ptr<httplib::Request> Routes::readBounded(const httplib::Request& req,
+                                                      httplib::Response& res,
+                                                      const httplib::ContentReader& reader,
+                                                      const RouteOptions& options) {
+  // A copy of the request without its body (headers, query, path matches into req.path), to
+  // which the body is added as it is read.
+  auto withBody = std::make_shared<httplib::Request>(req);
+  uint64_t received = 0;
+  bool overLimit = false;
+  auto count = [&](size_t n) {
+    received += n;
+    if (received > options.maxBodyBytes) overLimit = true;
+    return !overLimit;
+  };
+  bool complete = false;
+  if (req.is_multipart_form_data()) {
+    // As httplib's own reader does: each part's headers, then its content appended to it.
+    httplib::MultipartFormDataMap::iterator current = withBody->files.end();
+    complete = reader(
+        [&](const httplib::MultipartFormData& part) {
+          current = withBody->files.emplace(part.name, part);
+          return true;
+        },
+        [&](const char* data, size_t n) {
+          if (!count(n) || current == withBody->files.end()) return false;
+          current->second.content.append(data, n);
+          return true;
+        });
+  } else {
+    complete = reader([&](const char* data, size_t n) {
+      if (!count(n)) return false;
+      withBody->body.append(data, n);
+      return true;
+    });
+  }
+  if (overLimit) {
+    // What is still on its way is never read: the connection closes after this answer.
+    res.set_header("Connection", "close");
+    throw ProblemError(limitExceeded(
+        413, options.bodyLimitName,
+        "The request body exceeded this route's limit of " +
+            std::to_string(options.maxBodyBytes) + " bytes after " + std::to_string(received) +
+            " bytes had arrived; the rest was not read."));
+  }
+  if (!complete) {
+    res.set_header("Connection", "close");
+    throw ProblemError(invalidBody(
+        "", req.is_multipart_form_data()
+                ? "The multipart body could not be read: malformed, or the connection ended early."
+                : "The request body could not be read: malformed chunked encoding, or the "
+                  "connection ended early."));
+  }
+  return withBody;
 }
 
 const Routes::Entry* Routes::match(const std::string& path, const std::string& method) const {

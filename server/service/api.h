@@ -6,6 +6,8 @@
 
 #include <httplib.h>
 
+#include <memory>
+
 #include <atomic>
 #include <cstdint>
 #include <functional>
@@ -130,6 +132,13 @@ class Routes {
   };
   const Entry* match(const std::string& path, const std::string& method) const;
   static std::string allowHeader(const Entry& entry);
+  // The request with its body read through `reader`, counted as it arrives: a ProblemError (413
+  // naming the route's limit, Connection: close) as soon as it exceeds options.maxBodyBytes,
+  // without reading on; 400 for a body that cannot be read (bad chunking, early end).
+  static std::shared_ptr<httplib::Request> readBounded(const httplib::Request& req,
+                                                       httplib::Response& res,
+                                                       const httplib::ContentReader& reader,
+                                                       const RouteOptions& options);
 
   httplib::Server& server_;
   ApiContext& context_;
@@ -149,6 +158,10 @@ inline Routes::Handler bindContext(ApiContext& context, ContextHandler handler) 
 void addSessionRoutes(Routes& routes, ApiContext& context);
 // Camera, settings and materials of a session (api_scene.cpp).
 void addSceneRoutes(Routes& routes, ApiContext& context);
+// The environment image "library:NAME.hdr" names, decoded in the loader child (api_scene.cpp).
+// Throws ProblemError 404 (not in the library), 422 environment-rejected, 503 (loader busy).
+std::shared_ptr<const scene::EnvironmentImage> loadLibraryEnvironment(const ApiContext& context,
+                                                                      const std::string& source);
 // A session's lights (api_lights.cpp).
 void addLightRoutes(Routes& routes, ApiContext& context);
 // All three; FRAMES registers frame, stream and stats routes next to them.

@@ -111,7 +111,8 @@ void handleStream(ApiContext& context, FrameServices& frames, const httplib::Req
   res.set_chunked_content_provider(
       std::string(protocol::kStreamContentType),
       makeStreamProvider({context.renderThread, frames.stats, frames.metrics}, frames.streams,
-                         std::move(slot), std::move(session), std::move(request)));
+                         std::move(slot), std::move(session), std::move(request),
+                         PeerWatch(req.local_addr, req.local_port, req.remote_addr, req.remote_port)));
 }
 
 void handleStats(const ApiContext& context, FrameServices& frames, const httplib::Request& req,

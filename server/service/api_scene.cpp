@@ -1,6 +1,8 @@
 // A session's camera, settings and materials: parse, authorize, one SessionScene edit, answer.
 // Camera and settings live only on the CPU (each frame carries them to the renderer); a material
 // edit is queued on the session's GPU scene under the session's lock.
+#include "loader/library.h"
+#include "loader/loader.h"
 #include "protocol/constants.h"
 #include "protocol/types.h"
 #include "service/api.h"
@@ -60,7 +62,7 @@ void getSettings(ApiContext& context, const httplib::Request& req, httplib::Resp
   SessionPtr session = authorizeSession(context, req);
   checkQuery(req, {});
   auto lock = lockOpen(*session);
-  sendJson(res, toWire(session->scene.settings()));
+  sendJson(res, toWire(session->scene));
 }
 
 void patchSettings(ApiContext& context, const httplib::Request& req, httplib::Response& res) {
@@ -71,7 +73,77 @@ void patchSettings(ApiContext& context, const httplib::Request& req, httplib::Re
   auto lock = lockOpen(*session);
   session->scene.patchSettings(patch, Clock::now());
   session->bump();
-  sendJson(res, toWire(session->scene.settings()));
+  sendJson(res, toWire(session->scene));
+}
+
+// A loader refusal of an environment image as its problem.
+Problem environmentProblem(const loader::ModelRejected& e) {
+  if (e.reason == "busy") {
+    Problem p = serverBusy(std::string(e.what()) + " Retry in a few seconds.");
+    p.retryAfterSeconds = 5;
+    return p;
+  }
+  if (e.reason == "internal") return internalError(e.what());
+  return environmentRejected(std::string(e.what()) + " (" + e.reason + ")");
+}
+
+// The environment image of PUT .../environment: an .hdr upload (image/vnd.radiance or
+// application/octet-stream, ?filename= for messages) or {"source": "library:NAME.hdr"}. Decoded in
+// the loader child; a refusal is 422 environment-rejected naming the problem.
+std::shared_ptr<const scene::EnvironmentImage> loadEnvironment(const ApiContext& context,
+                                                               const httplib::Request& req,
+                                                               std::string& source) {
+  const std::string type = req.get_header_value("Content-Type");
+  try {
+    if (type.starts_with(protocol::kRadianceContentType) ||
+        type.starts_with(protocol::kUploadContentType)) {
+      std::string filename = "upload.hdr";
+      if (req.has_param("filename")) {
+        filename = req.get_param_value("filename");
+        if (filename.empty() || filename.size() > 255 || filename.find('/') != std::string::npos ||
+            filename.find('\\') != std::string::npos) {
+          throw ProblemError(invalidParameter(
+              "filename", "\"filename\" must be a file name of at most 255 bytes without slashes."));
+        }
+      }
+      source = std::string(protocol::kUploadPrefix) + filename;
+      return std::make_shared<const scene::EnvironmentImage>(
+          loader::loadEnvironmentBytes(req.body, filename));
+    }
+    if (type.starts_with(protocol::kJsonContentType)) {
+      if (req.has_param("filename")) {
+        throw ProblemError(invalidParameter(
+            "filename", "\"filename\" goes with an .hdr upload, not JSON."));
+      }
+      source = jsonBody(req, protocol::schema_names::kModelSource).get<protocol::ModelSource>().source;
+      return loadLibraryEnvironment(context, source);
+    }
+  } catch (const loader::ModelRejected& e) {
+    throw ProblemError(environmentProblem(e));
+  }
+  throw ProblemError(unsupportedMediaType(
+      "PUT .../environment takes the .hdr itself (image/vnd.radiance or "
+      "application/octet-stream) or application/json {\"source\": \"library:NAME.hdr\"}, not " +
+      quoteClientText(type.empty() ? std::string("no Content-Type") : type) + "."));
+}
+
+void putEnvironment(ApiContext& context, const httplib::Request& req, httplib::Response& res) {
+  SessionPtr session = authorizeSession(context, req);
+  checkQuery(req, {"filename"});
+  std::string source;
+  // Decoding takes the loader's time; the session stays usable meanwhile.
+  std::shared_ptr<const scene::EnvironmentImage> image = loadEnvironment(context, req, source);
+  std::future<void> uploaded;
+  {
+    auto lock = lockOpen(*session);
+    // Queued under the lock, so a frame after this edit sees the image.
+    uploaded = context.renderThread.setEnvironmentImage(session->sceneId, image);
+    session->scene.setEnvironmentImage(std::move(image), source);
+    session->bump();
+  }
+  uploaded.get();
+  std::lock_guard lock(session->mutex);
+  sendJson(res, toWire(session->scene));
 }
 
 void getMaterials(ApiContext& context, const httplib::Request& req, httplib::Response& res) {
@@ -107,6 +179,27 @@ void patchMaterial(ApiContext& context, const httplib::Request& req, httplib::Re
 
 }  // namespace
 
+std::shared_ptr<const scene::EnvironmentImage> loadLibraryEnvironment(const ApiContext& context,
+                                                                      const std::string& source) {
+  const std::string_view name = source.starts_with(protocol::kLibraryPrefix)
+                                    ? std::string_view(source).substr(protocol::kLibraryPrefix.size())
+                                    : std::string_view();
+  std::optional<std::filesystem::path> path;
+  if (context.models != nullptr && !name.empty()) path = context.models->resolveEnvironment(name);
+  if (!path) {
+    throw ProblemError(notFoundDetail(
+        "There is no environment image " + quoteClientText(source) +
+        " in the server's library: give \"library:NAME.hdr\", a Radiance .hdr under the "
+        "--models directory" +
+        (context.models == nullptr ? std::string(" (this server has none).") : ".")));
+  }
+  try {
+    return std::make_shared<const scene::EnvironmentImage>(loader::loadEnvironmentFile(*path));
+  } catch (const loader::ModelRejected& e) {
+    throw ProblemError(environmentProblem(e));
+  }
+}
+
 void addSceneRoutes(Routes& routes, ApiContext& context) {
   auto bind = [&context](ContextHandler handler) { return bindContext(context, handler); };
   routes.add("GET", protocol::routes::kSessionCamera, bind(getCamera));
@@ -121,6 +214,10 @@ void addSceneRoutes(Routes& routes, ApiContext& context) {
   routes.add("POST", protocol::routes::kSessionCameraFrame, bind(frameCamera));
   routes.add("GET", protocol::routes::kSessionSettings, bind(getSettings));
   routes.add("PATCH", protocol::routes::kSessionSettings, bind(patchSettings));
+  RouteOptions upload;
+  upload.maxBodyBytes = context.config.limits.maxUploadBytes;
+  upload.bodyLimitName = "maxUploadBytes";
+  routes.add("PUT", protocol::routes::kSessionEnvironment, bind(putEnvironment), upload);
   routes.add("GET", protocol::routes::kSessionMaterials, bind(getMaterials));
   routes.add("PATCH", protocol::routes::kSessionMaterial, bind(patchMaterial));
 }

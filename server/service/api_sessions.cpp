@@ -122,11 +122,26 @@ ScenePtr loadUpload(const httplib::Request& req) {
 }
 
 // Restores `snapshot` into the session (locked) and queues what the GPU scene needs.
+// The library environment image a snapshot names (settings.environment.source "library:NAME"
+// with mode hdr), loaded without any lock, unless `session` holds that very image already.
+SessionScene::EnvironmentImageSource snapshotEnvironment(const ApiContext& context,
+                                                         const protocol::Snapshot& snapshot,
+                                                         const std::string& current) {
+  const protocol::Environment& e = snapshot.settings.environment;
+  if (e.mode != protocol::environment_modes::kHdr || !e.source ||
+      !e.source->starts_with(protocol::kLibraryPrefix) || *e.source == current) {
+    return {};
+  }
+  return {loadLibraryEnvironment(context, *e.source), *e.source};
+}
+
 std::vector<std::future<void>> queueRestore(ApiContext& context, Session& session,
                                             const protocol::Snapshot& snapshot,
-                                            std::string_view pointer) {
-  SessionScene::Restored restored = session.scene.restore(snapshot, pointer, Clock::now());
+                                            std::string_view pointer,
+                                            const SessionScene::EnvironmentImageSource& image = {}) {
+  SessionScene::Restored restored = session.scene.restore(snapshot, pointer, Clock::now(), image);
   std::vector<std::future<void>> done;
+  if (image.image) done.push_back(context.renderThread.setEnvironmentImage(session.sceneId, image.image));
   done.push_back(context.renderThread.updateLights(session.sceneId, std::move(restored.lights)));
   if (!restored.materials.empty()) {
     done.push_back(context.renderThread.updateMaterials(session.sceneId, std::move(restored.materials)));
@@ -176,6 +191,8 @@ void createSession(ApiContext& context, const httplib::Request& req, httplib::Re
     // Loaded without the session's lock: a library model may take the loader's whole time limit,
     // and the idle sweeper takes every session's lock in turn.
     ScenePtr loaded = loadSource(context, source);
+    const SessionScene::EnvironmentImageSource environment =
+        snapshot ? snapshotEnvironment(context, *snapshot, "") : SessionScene::EnvironmentImageSource{};
     {
       // Nobody else holds the session yet (its id is not out), but the scene is the session's.
       std::lock_guard lock(session->mutex);
@@ -194,7 +211,7 @@ void createSession(ApiContext& context, const httplib::Request& req, httplib::Re
     {
       std::lock_guard lock(session->mutex);
       session->sceneId = sceneId;
-      if (snapshot) restored = queueRestore(context, *session, *snapshot, "/snapshot");
+      if (snapshot) restored = queueRestore(context, *session, *snapshot, "/snapshot", environment);
       session->lastUsed = Clock::now();
       session->bump();
     }
@@ -341,10 +358,18 @@ void addSessionRoutes(Routes& routes, ApiContext& context) {
         checkQuery(req, {});
         const auto snapshot =
             jsonBody(req, protocol::schema_names::kSnapshot).get<protocol::Snapshot>();
+        std::string current;
+        {
+          auto lock = lockOpen(*session);
+          if (session->scene.environmentImage()) current = session->scene.environmentSource();
+        }
+        // Loaded without the lock (the loader may take seconds).
+        const SessionScene::EnvironmentImageSource environment =
+            snapshotEnvironment(context, snapshot, current);
         std::vector<std::future<void>> restored;
         {
           auto lock = lockOpen(*session);
-          restored = queueRestore(context, *session, snapshot, "");
+          restored = queueRestore(context, *session, snapshot, "", environment);
           session->bump();
         }
         for (std::future<void>& done : restored) done.get();

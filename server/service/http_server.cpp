@@ -160,6 +160,10 @@ HttpServer::HttpServer(const HttpConfig& config, render::RenderQueue& renderThre
       std::max(config.api.limits.maxUploadBytes, config.api.limits.maxBodyBytes));
   server.set_keep_alive_timeout(kKeepAliveSeconds);
   server.set_write_timeout(kWriteTimeoutSeconds, 0);
+  // httplib writes a response's headers and body as two writes. With Nagle's algorithm on, the
+  // body waits for the ACK of the headers, which a kept-alive client delays by up to 40 ms (its
+  // delayed ACK): every request after a connection's first took 40 ms longer.
+  server.set_tcp_nodelay(true);
   // httplib's default sets SO_REUSEPORT, which lets a second server bind the same port and take
   // a share of its connections. SO_REUSEADDR alone still allows a restart while old connections
   // sit in TIME_WAIT, but makes a port in use a start-up error.

@@ -109,6 +109,11 @@ Problem modelRejected(std::string detail) {
   return make(422, protocol::problems::kModelRejected, "Model rejected", std::move(detail));
 }
 
+Problem environmentRejected(std::string detail) {
+  return make(422, protocol::problems::kEnvironmentRejected, "Environment image rejected",
+              std::move(detail));
+}
+
 Problem notFoundDetail(std::string detail) {
   return make(404, protocol::problems::kNotFound, "Not found", std::move(detail));
 }

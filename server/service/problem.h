@@ -56,6 +56,8 @@ Problem unsupportedMediaType(std::string detail);
 // 413 (sizes, counts) or 429 (sessions, streams, requests; Retry-After set) limit-exceeded.
 Problem limitExceeded(int status, std::string limit, std::string detail);
 Problem modelRejected(std::string detail);
+// 422 environment-rejected: an .hdr the loader refused (`detail` names the problem).
+Problem environmentRejected(std::string detail);
 // 404 not-found for a thing that does not exist (a session, light, material or model).
 Problem notFoundDetail(std::string detail);
 

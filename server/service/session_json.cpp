@@ -57,7 +57,25 @@ protocol::Settings toWire(const render::SceneSettings& s) {
   out.technique = std::string(render::techniqueName(s.technique));
   out.animate = s.animate;
   out.background = toWire(s.background);
+  out.environment.mode = std::string(render::environmentModeName(s.environment.mode));
+  out.environment.intensity = wire(s.environment.intensity);
+  out.environment.rotation = wire(s.environment.rotation);
+  out.environment.background = s.environment.background;
   return out;
+}
+
+protocol::Settings toWire(const SessionScene& scene) {
+  protocol::Settings out = toWire(scene.settings());
+  if (scene.environmentImage()) out.environment.source = scene.environmentSource();
+  return out;
+}
+
+render::EnvironmentMode environmentModeFromWire(std::string_view name) {
+  std::optional<render::EnvironmentMode> mode = render::parseEnvironmentMode(name);
+  if (!mode) {
+    throw ProblemError(invalidBody("/environment/mode", "\"mode\" must be none, sky or hdr."));
+  }
+  return *mode;
 }
 
 render::Technique techniqueFromWire(std::string_view name) {
@@ -157,7 +175,7 @@ protocol::SessionState stateOf(const Session& session, int64_t expiresInSeconds)
   state.model.materials = scene.model().materials;
   state.model.bounds = toWire(scene.model().bounds);
   state.camera = toWire(scene.camera());
-  state.settings = toWire(scene.settings());
+  state.settings = toWire(scene);
   state.lightCount = scene.lightCount();
   state.expiresInSeconds = uint64_t(std::max<int64_t>(0, expiresInSeconds));
   return state;

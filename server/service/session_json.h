@@ -21,6 +21,10 @@ scene::Camera fromWire(const protocol::Camera& camera);
 protocol::Settings toWire(const render::SceneSettings& settings);
 // Throws ProblemError 400 (/technique) for an unknown technique (the schema already limits it).
 render::Technique techniqueFromWire(std::string_view name);
+// The session's settings as GET .../settings answers them (the environment's source included).
+protocol::Settings toWire(const SessionScene& scene);
+// Throws ProblemError 400 (/environment/mode) for a name that is no environment mode.
+render::EnvironmentMode environmentModeFromWire(std::string_view name);
 
 // `images`: the model's (ModelSummary::images), which the material's textures index.
 protocol::Material toWire(uint32_t id, const scene::Material& material,

@@ -59,6 +59,13 @@ std::shared_ptr<const scene::Scene> SessionScene::adopt(std::shared_ptr<scene::S
   materials_ = loaded->materials;
   camera_ = loaded->camera;
   if (adoption.lightingFromModel) settings_.takeLightingFrom(*loaded);
+  // Until the environment was chosen (PATCH settings with environment.mode, a snapshot, a .hdr),
+  // a loaded model is lit by the sky and the built-in scene keeps its constant ambient.
+  if (!environmentChosen_) {
+    settings_.environment.mode = model_.source == protocol::kBuiltinModel
+                                     ? render::EnvironmentMode::None
+                                     : render::EnvironmentMode::Sky;
+  }
   switch (lights) {
     case Lights::model:
       lights_ = loaded->lights;
@@ -127,9 +134,33 @@ const render::SceneSettings& SessionScene::patchSettings(const protocol::Setting
   if (patch.markers) s.markers = *patch.markers;
   if (patch.technique) s.technique = techniqueFromWire(*patch.technique);
   if (patch.animate) s.animate = *patch.animate;
+  if (patch.environment) {
+    const protocol::EnvironmentPatch& e = *patch.environment;
+    if (e.mode) {
+      s.environment.mode = environmentModeFromWire(*e.mode);
+      if (s.environment.mode == render::EnvironmentMode::Hdr && !environmentImage_) {
+        throw ProblemError(invalidBody(
+            "/environment/mode",
+            "The environment mode \"hdr\" needs an equirectangular .hdr: upload one first (PUT "
+            ".../environment), which also selects it."));
+      }
+    }
+    if (e.intensity) s.environment.intensity = float(*e.intensity);
+    if (e.rotation) s.environment.rotation = float(*e.rotation);
+    if (e.background) s.environment.background = *e.background;
+  }
   if (s.animate && !settings_.animate) animationStart_ = now;
+  if (patch.environment && patch.environment->mode) environmentChosen_ = true;
   settings_ = s;
   return settings_;
+}
+
+void SessionScene::setEnvironmentImage(std::shared_ptr<const scene::EnvironmentImage> image,
+                                       std::string source) {
+  environmentImage_ = std::move(image);
+  environmentSource_ = std::move(source);
+  settings_.environment.mode = render::EnvironmentMode::Hdr;
+  environmentChosen_ = true;
 }
 
 double SessionScene::animationSeconds(Clock::time_point now) const {
@@ -155,6 +186,7 @@ protocol::Snapshot SessionScene::snapshot() const {
   out.model.source = model_.source;
   out.camera = toWire(camera_);
   out.settings = toWire(settings_);
+  if (environmentImage_) out.settings.environment.source = environmentSource_;
   out.materials.reserve(materials_.size());
   for (uint32_t id = 0; id < materials_.size(); ++id) out.materials.push_back(toWire(id, materials_[id], model_.images));
   if (recipe_) {
@@ -168,7 +200,8 @@ protocol::Snapshot SessionScene::snapshot() const {
 }
 
 SessionScene::Restored SessionScene::restore(const protocol::Snapshot& snapshot,
-                                             std::string_view pointer, Clock::time_point now) {
+                                             std::string_view pointer, Clock::time_point now,
+                                             const EnvironmentImageSource& image) {
   const std::string at(pointer);
   // Checks and changes a copy, so that a refusal anywhere leaves this scene as it was.
   SessionScene next = *this;
@@ -187,6 +220,10 @@ SessionScene::Restored SessionScene::restore(const protocol::Snapshot& snapshot,
   settings.markers = snapshot.settings.markers;
   settings.technique = snapshot.settings.technique;
   settings.animate = snapshot.settings.animate;
+  const protocol::Environment& environment = snapshot.settings.environment;
+  if (image.image) next.setEnvironmentImage(image.image, image.source);
+  settings.environment = protocol::EnvironmentPatch{environment.mode, environment.intensity,
+                                                    environment.rotation, environment.background};
   try {
     next.patchSettings(settings, now);
   } catch (const ProblemError& e) {

@@ -23,6 +23,7 @@
 #include "protocol/constants.h"
 #include "protocol/types.h"
 #include "render/frame.h"
+#include "scene/environment_map.h"
 #include "scene/scene.h"
 
 namespace myriad::service {
@@ -96,6 +97,15 @@ class SessionScene {
   const scene::Camera& frameModel(float aspect);
 
   const render::SceneSettings& settings() const { return settings_; }
+
+  // ---- The environment's image (mode hdr): an equirectangular .hdr, resampled by the loader.
+  // Setting one selects mode hdr (and counts as choosing the environment). `source` is what
+  // GET .../environment reports ("upload:NAME" or "library:NAME").
+  void setEnvironmentImage(std::shared_ptr<const scene::EnvironmentImage> image, std::string source);
+  const std::shared_ptr<const scene::EnvironmentImage>& environmentImage() const {
+    return environmentImage_;
+  }
+  const std::string& environmentSource() const { return environmentSource_; }
   // Throws ProblemError 400 (/sun/direction, /technique) for a value no frame can use. Switching
   // animation on restarts the animation clock at `now`, so lights start from where they are.
   const render::SceneSettings& patchSettings(const protocol::SettingsPatch& patch,
@@ -133,8 +143,14 @@ class SessionScene {
   // before anything changes: ProblemError 400 with a JSON Pointer under `pointer` ("/snapshot"
   // in POST /v1/sessions, "" for PUT .../snapshot) for a camera, sun, technique, material id or
   // lights member no frame can use, 413 maxLightsPerSession for too many lights.
+  // `image`: the snapshot's library environment image (settings.environment.source), loaded by
+  // the caller, taken with the rest (the caller then gives it to the GPU scene).
+  struct EnvironmentImageSource {
+    std::shared_ptr<const scene::EnvironmentImage> image;
+    std::string source;
+  };
   Restored restore(const protocol::Snapshot& snapshot, std::string_view pointer,
-                   Clock::time_point now);
+                   Clock::time_point now, const EnvironmentImageSource& image = {});
 
   // ---- Lights. Each light has a stable id (never reused within the session) and a slot, its
   // index in the GPU's light array. Slots are dense: removing a light moves the last light into
@@ -181,6 +197,9 @@ class SessionScene {
   std::vector<scene::Material> materials_;
   scene::Camera camera_;
   render::SceneSettings settings_;
+  bool environmentChosen_ = false;  // the client chose the environment (see adopt)
+  std::shared_ptr<const scene::EnvironmentImage> environmentImage_;
+  std::string environmentSource_;
   Clock::time_point animationStart_ = Clock::now();
 
   // lights_[slot] has id ids_[slot]; slotOfId_ maps back. Kept together by the light methods.

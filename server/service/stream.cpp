@@ -19,6 +19,7 @@ struct StreamState {
   SessionPtr session;
   FrameRequest request;
   Clock::duration interval;  // 1 / fps
+  PeerWatch peer;            // the client's connection
 
   bool hasFrame = false;
   uint64_t shownVersion = 0;  // the session version of the last frame
@@ -63,6 +64,9 @@ bool StreamState::next(httplib::DataSink& sink) {
       sink.done();
       return false;
     }
+    // A client that hung up gets no more frames: without this check, the frame after the close
+    // (and often one more: the first write to a closed peer succeeds) was rendered for nobody.
+    if (peer.gone()) return false;
 
     const Clock::time_point now = Clock::now();
     const bool wantFrame = !hasFrame || version != shownVersion || animate;
@@ -170,10 +174,12 @@ std::string multipartPart(std::string_view contentType, std::string_view image, 
 httplib::ContentProviderWithoutLength makeStreamProvider(const SessionFrameContext& context,
                                                          StreamRegistry& registry,
                                                          std::unique_ptr<StreamRegistry::Slot> slot,
-                                                         SessionPtr session, FrameRequest request) {
+                                                         SessionPtr session, FrameRequest request,
+                                                         PeerWatch peer) {
   auto state = std::make_shared<StreamState>(StreamState{
       context, registry, std::move(slot), std::move(session), request,
-      std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(1.0 / request.fps))});
+      std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(1.0 / request.fps)),
+      peer});
   return [state](size_t /*offset*/, httplib::DataSink& sink) { return state->next(sink); };
 }
 

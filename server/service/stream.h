@@ -5,7 +5,8 @@
 // after the previous part was written, so a slow client sees fewer, newer frames and nothing
 // queues. While nothing changes the last part is re-sent every kIdleResend, which keeps proxies
 // from timing the connection out and tells a client that just connected what the scene looks like.
-// A stream ends when the client goes away (a write fails), the session closes (deleted or
+// A stream ends when the client goes away (seen before each frame is rendered, through PeerWatch,
+// or when a write fails), the session closes (deleted or
 // expired), or the server shuts down (StreamRegistry::shutdown wakes every waiting stream).
 #pragma once
 
@@ -22,6 +23,7 @@
 
 #include "protocol/constants.h"
 #include "service/frame_query.h"
+#include "service/peer_watch.h"
 #include "service/session.h"
 #include "service/session_frames.h"
 
@@ -83,7 +85,8 @@ class StreamRegistry {
 httplib::ContentProviderWithoutLength makeStreamProvider(const SessionFrameContext& context,
                                                          StreamRegistry& registry,
                                                          std::unique_ptr<StreamRegistry::Slot> slot,
-                                                         SessionPtr session, FrameRequest request);
+                                                         SessionPtr session, FrameRequest request,
+                                                         PeerWatch peer);
 
 // One part's bytes: headers, image, CRLF and the next boundary line (so a reader that splits on
 // boundaries has the part at once). The first part of a stream also carries the opening boundary.

@@ -8,7 +8,7 @@
 // Chromium at /usr/bin/chromium).
 
 import {execFileSync} from 'node:child_process';
-import {existsSync, readFileSync} from 'node:fs';
+import {existsSync, mkdtempSync, readFileSync, writeFileSync} from 'node:fs';
 import {tmpdir} from 'node:os';
 import {join} from 'node:path';
 import {WAIT_MS, check, difference, largestCellDifference, signatureInPage, until} from './helpers.mjs';
@@ -625,6 +625,33 @@ try {
     await until('markers toggled on the server', async () => (await settings()).markers === !before.markers);
     await until('the markers box to follow', async () =>
         (await page.isChecked('#markers')) === !before.markers, 5000);
+  });
+
+  await step('environment: sky, background and an uploaded .hdr change the picture', async () => {
+    const env = async () =>
+        (await api('GET', `/v1/sessions/${sessionId}/settings`, {token})).body.environment;
+    await page.selectOption('#env-mode', 'sky');
+    await until('environment sky on the server', async () => (await env()).mode === 'sky');
+    picture = await changedFrom('the picture under the sky', picture);
+    await page.check('#env-background');
+    await until('the environment as background on the server', async () => (await env()).background);
+    picture = await changedFrom('the sky behind the scene', picture);
+    // A small Radiance file (flat RGBE scanlines): orange above, dark blue below.
+    const width = 32, height = 16;
+    const pixels = Buffer.alloc(width * height * 4);
+    for (let i = 0; i < width * height; ++i) {
+      pixels.set(i < (width * height) / 2 ? [250, 120, 30, 130] : [10, 20, 90, 128], i * 4);
+    }
+    const hdr = join(mkdtempSync(join(tmpdir(), 'myriad-browser-')), 'orange.hdr');
+    writeFileSync(hdr, Buffer.concat([
+        Buffer.from(`#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y ${height} +X ${width}\n`), pixels]));
+    await page.setInputFiles('#env-file', hdr);
+    await until('environment hdr on the server', async () => (await env()).mode === 'hdr');
+    await until('the panel to show hdr', async () => (await page.inputValue('#env-mode')) === 'hdr');
+    picture = await changedFrom('the picture under the .hdr', picture);
+    await page.selectOption('#env-mode', 'none');
+    await until('environment none on the server', async () => (await env()).mode === 'none');
+    picture = await changedFrom('the constant ambient again', picture);
   });
 
   await step('a server with --api-key asks for the key, then works', async () => {

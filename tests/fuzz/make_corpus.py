@@ -9,6 +9,7 @@ that no corpus binaries live in the repository. One directory per harness under 
                       (written by the fuzz build's fuzz_wire_seeds: the real encoder)
   fuzz_cli_multipart  frame streams as the server sends them
   fuzz_upload_files   zip archives and file sets of real models with the files they refer to
+  fuzz_hdr            Radiance .hdr files: flat and run-length encoded scanlines, XYZE, tiny, cut short
   fuzz_model          small models of /usr/share/assimp/models per format, zips of multi-file
                       models, and with --large also bigger ones and DamagedHelmet (geometry)
 
@@ -16,6 +17,7 @@ Usage: make_corpus.py FUZZ_BUILD_DIR OUT [--large]
 """
 import io
 import json
+import math
 import pathlib
 import re
 import struct
@@ -191,6 +193,63 @@ def models(out, large):
     return count
 
 
+def rgbe(r, g, b):
+    top = max(r, g, b)
+    if top < 1e-32:
+        return bytes(4)
+    mantissa, exponent = math.frexp(top)
+    scale = mantissa * 256.0 / top
+    return bytes((int(r * scale), int(g * scale), int(b * scale), exponent + 128))
+
+
+def hdr_files(out):
+    """Radiance files: flat scanlines, run-length encoded ones (the new form: 2 2 w, per channel
+    runs), XYZE, a tiny image, and one cut short."""
+    d = out / "fuzz_hdr"
+    count = 0
+
+    def header(w, h, fmt="32-bit_rle_rgbe"):
+        return ("#?RADIANCE\nFORMAT=%s\n\n-Y %d +X %d\n" % (fmt, h, w)).encode("ascii")
+
+    def flat(w, h):
+        return b"".join(rgbe(1.0 + x / w, 0.5, 0.2 if y < h // 2 else 0.9)
+                        for y in range(h) for x in range(w))
+
+    def rle(w, h):
+        out = bytearray()
+        for y in range(h):
+            out += bytes((2, 2, w >> 8, w & 255))
+            pixels = [rgbe(1.0 + x / w, 0.5, 0.2 if y < h // 2 else 0.9) for x in range(w)]
+            for channel in range(4):
+                values = [p[channel] for p in pixels]
+                i = 0
+                while i < w:  # a run of the first value, then literals, alternately
+                    run = 1
+                    while i + run < w and run < 127 and values[i + run] == values[i]:
+                        run += 1
+                    if run > 2:
+                        out += bytes((128 + run, values[i]))
+                        i += run
+                    else:
+                        n = min(128, w - i)
+                        out += bytes((n,)) + bytes(values[i:i + n])
+                        i += n
+        return bytes(out)
+
+    seeds = {
+        "flat-16x8.hdr": header(16, 8) + flat(16, 8),
+        "flat-3x2.hdr": header(3, 2) + flat(3, 2),
+        "rle-64x32.hdr": header(64, 32) + rle(64, 32),
+        "xyze.hdr": header(16, 8, "32-bit_rle_xyze") + flat(16, 8),
+        "truncated.hdr": (header(16, 8) + flat(16, 8))[:-50],
+        "rgbe-magic.hdr": b"#?RGBE\n" + header(8, 4)[len(b"#?RADIANCE\n"):] + flat(8, 4),
+    }
+    for name, data in seeds.items():
+        write(d, name, data)
+        count += 1
+    return count
+
+
 def main():
     if len(sys.argv) < 3:
         sys.exit(__doc__)
@@ -202,6 +261,7 @@ def main():
         "fuzz_scene_wire": wire_scenes(build, out),
         "fuzz_cli_multipart": multipart_streams(out),
         "fuzz_upload_files": upload_files(out, large),
+        "fuzz_hdr": hdr_files(out),
         "fuzz_model": models(out, large),
     }
     print("make_corpus: " + ", ".join("%s %d" % kv for kv in counts.items()))

@@ -57,6 +57,17 @@ def start_server(binary, models):
     raise SystemExit("reference-examples: the server did not start")
 
 
+def write_hdr(path, width, height):
+    header = "#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y %d +X %d\n" % (height, width)
+    pixels = bytearray()
+    for y in range(height):
+        for x in range(width):
+            # mantissas with exponent 129 (values up to 2): a bright top half, a dark bottom
+            pixels += bytes((200, 180, 120, 129)) if y < height // 2 else bytes((20, 30, 90, 128))
+    with open(path, "wb") as f:
+        f.write(header.encode("ascii") + bytes(pixels))
+
+
 def main():
     binary, reference = sys.argv[1], sys.argv[2]
     with open(reference, encoding="utf-8") as f:
@@ -69,6 +80,10 @@ def main():
     shutil.copy(BOX_GLB, os.path.join(work, "DamagedHelmet.glb"))
     # The multi-file upload examples: a .gltf with its .bin and image in box/.
     shutil.copytree(os.path.dirname(BOX_TEXTURED_GLTF), os.path.join(work, "box"))
+    # The environment examples: a small Radiance .hdr (flat RGBE scanlines), uploaded and in the
+    # library.
+    for path in (os.path.join(work, "sky.hdr"), os.path.join(models, "sky.hdr")):
+        write_hdr(path, 32, 16)
     server, url = start_server(binary, models)
     failures = 0
     try:

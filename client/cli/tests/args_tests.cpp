@@ -158,6 +158,9 @@ TEST_CASE("help: overview, per command, and help wins over missing arguments") {
   CHECK(contains(commandHelp(*findCommand("camera")), "(from 1 to 179 degrees)"));
   CHECK(contains(commandHelp(*findCommand("frame")), "JPEG quality (from 1 to 100)"));
   CHECK(contains(commandHelp(*findCommand("frame")), "(from 0 to 1000000 seconds)"));
+  CHECK(parse({"--version"}).version);
+  CHECK(parse({"lights", "list", "--version"}).version);
+  CHECK(contains(overviewHelp(), "--version"));
 }
 
 TEST_CASE("settings: colours, switches, choices, ranges") {

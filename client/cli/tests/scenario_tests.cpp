@@ -223,7 +223,17 @@ TEST_CASE("myriad drives a real server from session new to session delete") {
   CHECK(listed.exitCode == 0);
   CHECK(listed.out.starts_with("ID "));
   CHECK(listed.out.find(" POSITION ") != std::string::npos);
-  CHECK(listed.out.ends_with("1 of 1001 lights (1000 to 1000)\n"));
+  // Ids only: the light's id in its row, the page described by counts.
+  const json listedJson = jsonOf(myriad({"lights", "list", "--offset", "1000", "--json"}));
+  const std::string lastId = std::to_string(listedJson["lights"][0]["id"].get<uint64_t>());
+  CHECK(listed.out.find("\n" + lastId + " ") != std::string::npos);
+  CHECK(listed.out.ends_with("1 of 1001 lights\n"));
+  CliResult firstPage = myriad({"lights", "list", "--limit", "2"});
+  CHECK(firstPage.out.ends_with("2 of 1001 lights; more with --offset 2\n"));
+  // `lights show` takes what `lights list` prints in its ID column (so do set and rm, below).
+  CliResult shownLight = myriad({"lights", "show", lastId});
+  CHECK(shownLight.exitCode == 0);
+  CHECK(shownLight.out.find(lastId) != std::string::npos);
 
   // Settings.
   CliResult tiled = myriad({"settings", "--technique", "tiled", "--exposure", "1.2"});

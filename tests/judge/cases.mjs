@@ -1,0 +1,60 @@
+// What the judge renders: each case is a glTF file, a camera, the sun (Myriad's settings.sun; a
+// three.js DirectionalLight) and the file's own KHR_lights_punctual lights (Myriad: ?lights=model;
+// three.js: GLTFLoader's), with ambient 0, environment none and a black background in Myriad.
+//
+// `lights` adds lights through the API (Myriad: POST .../lights with attenuation
+// "inverse-square"; three.js: a PointLight or SpotLight with decay 2 and distance = range):
+// {type: 'point' | 'spot', position, color (each in [0, 1]), intensity (candela), range, and for a
+// spot direction, innerConeAngle, outerConeAngle (radians)}.
+//
+// `pending` names what Myriad still lacks for a case (a feature of issue 12 not on main yet):
+// such a case is rendered and reported only with --pending, and never decides the verdict.
+
+import {readFileSync} from 'node:fs';
+import {maskGlb, normalMapGlb, spheresGlb, spotGlb} from './fixtures.mjs';
+
+const HELMET = '/work/shared/assets/DamagedHelmet/DamagedHelmet.glb';
+const BOX_TEXTURED = '/usr/share/assimp/models/glTF2/BoxTextured-glTF-Binary/BoxTextured.glb';
+
+const sun = (direction, intensity, color = [1, 0.97, 0.92]) => ({direction, color, intensity});
+const camera = (eye, target, fovY, near, far) => ({eye, target, up: [0, 1, 0], fovY, near, far});
+
+export const CASES = [
+  {name: 'spheres-sun', file: 'spheres.glb', bytes: () => spheresGlb(),
+   what: 'four spheres (rough red, gold metal, glossy white, half-metallic blue) under the sun',
+   width: 256, height: 128, camera: camera([0, 1.5, 9], [0, 0, 0], 30, 1, 30),
+   sun: sun([-0.5, -0.8, -0.6], 3)},
+  {name: 'spheres-lights', file: 'spheres.glb', bytes: () => spheresGlb(),
+   what: 'the four spheres lit only by lights added through the API (inverse-square): a point light, a spot light and a headlight at the eye',
+   width: 256, height: 128, camera: camera([0, 1.5, 9], [0, 0, 0], 30, 1, 30), sun: sun([0, -1, 0], 0),
+   lights: [{type: 'point', position: [-2.2, 1.6, 2.2], color: [1, 0.85, 0.7], intensity: 12, range: 9},
+            {type: 'spot', position: [3, 3, 3], direction: [-0.45, -0.55, -0.7], color: [0.7, 0.8, 1],
+             intensity: 30, range: 12, innerConeAngle: 0.15, outerConeAngle: 0.4},
+            {type: 'point', position: [0, 1.5, 9], color: [1, 1, 1], intensity: 25, range: 30}],
+   pending: 'API lights of type spot with attenuation inverse-square (issue 12, branch lights)'},
+  {name: 'box-textured', file: 'BoxTextured.glb', bytes: () => readFileSync(BOX_TEXTURED),
+   what: 'assimp-testmodels glTF2/BoxTextured (base colour texture) under the sun and a spot light',
+   width: 192, height: 144, camera: camera([1.7, 1.4, 2.3], [0, 0, 0], 40, 0.5, 20),
+   sun: sun([-0.4, -0.7, -0.55], 2),
+   lights: [{type: 'spot', position: [0.6, 2.4, 1.4], direction: [-0.25, -0.85, -0.5], color: [1, 0.9, 0.8],
+             intensity: 6, range: 8, innerConeAngle: 0.2, outerConeAngle: 0.45}],
+   pending: 'textures (issue 12, branch tex) and spot lights (branch lights)'},
+  {name: 'damaged-helmet', file: 'DamagedHelmet.glb', bytes: () => readFileSync(HELMET),
+   what: 'DamagedHelmet (every texture, emissive included) under the sun and a point light',
+   width: 192, height: 192, camera: camera([0.9, 0.5, 3.4], [0, 0, 0], 40, 0.5, 20),
+   sun: sun([-0.45, -0.6, -0.65], 3),
+   lights: [{type: 'point', position: [-1.3, 0.6, 1.8], color: [1, 0.8, 0.6], intensity: 4, range: 7}],
+   pending: 'textures (issue 12, branch tex) and inverse-square lights (branch lights)'},
+  {name: 'normal-map', file: 'normalmap.glb', bytes: () => normalMapGlb(),
+   what: 'a normal-mapped quad (tangents generated) and sphere (tangents from the file), low sun',
+   width: 256, height: 160, camera: camera([0, 0.5, 5], [0, 0, 0], 40, 0.5, 20),
+   sun: sun([1, -0.4, -0.5], 3), pending: 'normal maps (issue 12, branch tex)'},
+  {name: 'alpha-mask', file: 'mask.glb', bytes: () => maskGlb(),
+   what: 'an alphaMode MASK cut-out (texture alpha, cutoff 0.5) in front of a backdrop',
+   width: 192, height: 144, camera: camera([0.6, 0.4, 4], [0, 0, -0.3], 45, 0.5, 20),
+   sun: sun([-0.3, -0.5, -1], 3), pending: 'alpha MASK (issue 12, branch tex)'},
+  {name: 'spot-light', file: 'spot.glb', bytes: () => spotGlb(),
+   what: 'a floor and a ball lit only by the file\'s spot light and point light (inverse-square, range)',
+   width: 224, height: 160, camera: camera([0, 3.5, 6.5], [0, 0.3, 0], 45, 0.5, 30),
+   sun: sun([0, -1, 0], 0), pending: 'spot lights and inverse-square falloff from KHR_lights_punctual (issue 12, branch lights)'},
+];

@@ -1,0 +1,305 @@
+// The judge's own glTF test files, written here as GLB (nothing binary in the repository): spheres
+// of several materials, a normal-mapped quad and sphere, an alpha-MASK cut-out in front of a
+// backdrop, and a floor lit by a KHR_lights_punctual spot and point light. Images are PNGs written
+// by writePng (zlib from Node, CRC-32 below).
+
+import {deflateSync} from 'node:zlib';
+
+// ---- PNG ----
+
+const crcTable = (() => {
+  const table = new Uint32Array(256);
+  for (let n = 0; n < 256; ++n) {
+    let c = n;
+    for (let k = 0; k < 8; ++k) c = c & 1 ? 0xedb88320 ^ (c >>> 1) : c >>> 1;
+    table[n] = c >>> 0;
+  }
+  return table;
+})();
+
+function crc32(bytes) {
+  let c = 0xffffffff;
+  for (const b of bytes) c = crcTable[(c ^ b) & 0xff] ^ (c >>> 8);
+  return (c ^ 0xffffffff) >>> 0;
+}
+
+function pngChunk(type, data) {
+  const out = Buffer.alloc(12 + data.length);
+  out.writeUInt32BE(data.length, 0);
+  out.write(type, 4, 'latin1');
+  Buffer.from(data).copy(out, 8);
+  out.writeUInt32BE(crc32(out.subarray(4, 8 + data.length)), 8 + data.length);
+  return out;
+}
+
+// 8-bit RGBA (channels 4) or RGB (channels 3), rows top first.
+export function writePng(width, height, channels, pixels) {
+  const stride = width * channels;
+  const raw = Buffer.alloc((stride + 1) * height);
+  for (let y = 0; y < height; ++y) {
+    raw[y * (stride + 1)] = 0;  // filter: none
+    Buffer.from(pixels.buffer, pixels.byteOffset + y * stride, stride).copy(raw, y * (stride + 1) + 1);
+  }
+  const header = Buffer.alloc(13);
+  header.writeUInt32BE(width, 0);
+  header.writeUInt32BE(height, 4);
+  header[8] = 8;
+  header[9] = channels === 4 ? 6 : 2;
+  return Buffer.concat([Buffer.from([0x89, 0x50, 0x4e, 0x47, 0x0d, 0x0a, 0x1a, 0x0a]),
+                        pngChunk('IHDR', header), pngChunk('IDAT', deflateSync(raw)),
+                        pngChunk('IEND', Buffer.alloc(0))]);
+}
+
+// ---- GLB ----
+
+// Collects accessors, images and nodes into one glTF document with one binary buffer.
+class GltfBuilder {
+  constructor() {
+    this.json = {asset: {version: '2.0', generator: 'myriad tests/judge'}, scenes: [{nodes: []}],
+                 scene: 0, nodes: [], meshes: [], materials: [], accessors: [], bufferViews: [],
+                 buffers: []};
+    this.chunks = [];
+    this.length = 0;
+  }
+
+  view(bytes, target) {
+    const padding = (4 - (this.length % 4)) % 4;
+    if (padding) {
+      this.chunks.push(Buffer.alloc(padding));
+      this.length += padding;
+    }
+    const view = {buffer: 0, byteOffset: this.length, byteLength: bytes.byteLength};
+    if (target) view.target = target;
+    this.chunks.push(Buffer.from(bytes.buffer, bytes.byteOffset, bytes.byteLength));
+    this.length += bytes.byteLength;
+    this.json.bufferViews.push(view);
+    return this.json.bufferViews.length - 1;
+  }
+
+  accessor(array, type, target) {
+    const components = {SCALAR: 1, VEC2: 2, VEC3: 3, VEC4: 4}[type];
+    const accessor = {bufferView: this.view(array, target), count: array.length / components, type,
+                      componentType: array instanceof Uint32Array ? 5125 : 5126};
+    if (type === 'VEC3' && !(array instanceof Uint32Array)) {
+      accessor.min = [0, 1, 2].map((c) => Math.min(...array.filter((_, i) => i % 3 === c)));
+      accessor.max = [0, 1, 2].map((c) => Math.max(...array.filter((_, i) => i % 3 === c)));
+    }
+    this.json.accessors.push(accessor);
+    return this.json.accessors.length - 1;
+  }
+
+  image(png) {
+    this.json.images ??= [];
+    this.json.textures ??= [];
+    this.json.samplers ??= [{magFilter: 9729, minFilter: 9987, wrapS: 10497, wrapT: 10497}];
+    this.json.images.push({bufferView: this.view(png), mimeType: 'image/png'});
+    this.json.textures.push({source: this.json.images.length - 1, sampler: 0});
+    return this.json.textures.length - 1;
+  }
+
+  material(material) {
+    this.json.materials.push(material);
+    return this.json.materials.length - 1;
+  }
+
+  mesh(geometry, material) {
+    const attributes = {POSITION: this.accessor(geometry.positions, 'VEC3', 34962),
+                        NORMAL: this.accessor(geometry.normals, 'VEC3', 34962),
+                        TEXCOORD_0: this.accessor(geometry.uvs, 'VEC2', 34962)};
+    if (geometry.tangents) attributes.TANGENT = this.accessor(geometry.tangents, 'VEC4', 34962);
+    const indices = this.accessor(geometry.indices, 'SCALAR', 34963);
+    this.json.meshes.push({primitives: [{attributes, indices, material}]});
+    return this.json.meshes.length - 1;
+  }
+
+  node(node) {
+    this.json.nodes.push(node);
+    this.json.scenes[0].nodes.push(this.json.nodes.length - 1);
+    return this.json.nodes.length - 1;
+  }
+
+  glb() {
+    const bin = Buffer.concat(this.chunks);
+    const binPadded = Buffer.concat([bin, Buffer.alloc((4 - (bin.length % 4)) % 4)]);
+    this.json.buffers = [{byteLength: binPadded.length}];
+    let text = Buffer.from(JSON.stringify(this.json), 'utf8');
+    text = Buffer.concat([text, Buffer.alloc((4 - (text.length % 4)) % 4, 0x20)]);
+    const header = Buffer.alloc(12);
+    header.writeUInt32LE(0x46546c67, 0);  // glTF
+    header.writeUInt32LE(2, 4);
+    header.writeUInt32LE(12 + 8 + text.length + 8 + binPadded.length, 8);
+    const chunkHeader = (length, type) => {
+      const h = Buffer.alloc(8);
+      h.writeUInt32LE(length, 0);
+      h.writeUInt32LE(type, 4);
+      return h;
+    };
+    return Buffer.concat([header, chunkHeader(text.length, 0x4e4f534a), text,
+                          chunkHeader(binPadded.length, 0x004e4942), binPadded]);
+  }
+}
+
+// ---- geometry ----
+
+// A UV sphere of radius 1 at the origin; tangents (along +u, w = 1) when asked.
+function sphere(segments, rings, withTangents) {
+  const positions = [];
+  const normals = [];
+  const uvs = [];
+  const tangents = [];
+  for (let r = 0; r <= rings; ++r) {
+    const v = r / rings;
+    const theta = v * Math.PI;
+    for (let s = 0; s <= segments; ++s) {
+      const u = s / segments;
+      const phi = u * 2 * Math.PI;
+      const n = [Math.sin(theta) * Math.sin(phi), Math.cos(theta), Math.sin(theta) * Math.cos(phi)];
+      positions.push(...n);
+      normals.push(...n);
+      uvs.push(u, v);
+      tangents.push(Math.cos(phi), 0, -Math.sin(phi), 1);
+    }
+  }
+  const indices = [];
+  for (let r = 0; r < rings; ++r) {
+    for (let s = 0; s < segments; ++s) {
+      const a = r * (segments + 1) + s;
+      const b = a + segments + 1;
+      indices.push(a, b, a + 1, a + 1, b, b + 1);
+    }
+  }
+  return {positions: new Float32Array(positions), normals: new Float32Array(normals),
+          uvs: new Float32Array(uvs), indices: new Uint32Array(indices),
+          tangents: withTangents ? new Float32Array(tangents) : undefined};
+}
+
+// A unit quad in the XY plane facing +Z, uv (0,0) at its top-left corner as glTF has it.
+function quad() {
+  return {positions: new Float32Array([-0.5, -0.5, 0, 0.5, -0.5, 0, 0.5, 0.5, 0, -0.5, 0.5, 0]),
+          normals: new Float32Array([0, 0, 1, 0, 0, 1, 0, 0, 1, 0, 0, 1]),
+          uvs: new Float32Array([0, 1, 1, 1, 1, 0, 0, 0]),
+          indices: new Uint32Array([0, 1, 2, 0, 2, 3])};
+}
+
+// A node rotation (quaternion x, y, z, w) turning +Z (a quad's normal) or -Z (a light's
+// direction) by `degrees` about `axis`.
+function rotation(axis, degrees) {
+  const h = (degrees * Math.PI) / 360;
+  const l = Math.hypot(...axis);
+  return [...axis.map((a) => (a / l) * Math.sin(h)), Math.cos(h)];
+}
+
+// ---- images ----
+
+// A tangent-space normal map of hemispherical bumps on a 4x4 grid, encoded n * 0.5 + 0.5.
+function bumpNormalMap(size) {
+  const pixels = new Uint8Array(size * size * 3);
+  const cell = size / 4;
+  for (let y = 0; y < size; ++y) {
+    for (let x = 0; x < size; ++x) {
+      const cx = ((x + 0.5) % cell) / cell - 0.5;
+      // Image rows go down while +v of the tangent frame goes up in the image: bitangent = -y.
+      const cy = -(((y + 0.5) % cell) / cell - 0.5);
+      const r2 = (cx * cx + cy * cy) / 0.16;
+      let n = [0, 0, 1];
+      if (r2 < 1) {
+        const s = 0.8 * Math.sqrt(r2);  // slope grows towards the rim
+        n = [cx * s * 2.5, cy * s * 2.5, 1];
+        const l = Math.hypot(...n);
+        n = n.map((c) => c / l);
+      }
+      for (let c = 0; c < 3; ++c) pixels[(y * size + x) * 3 + c] = Math.round((n[c] * 0.5 + 0.5) * 255);
+    }
+  }
+  return writePng(size, size, 3, pixels);
+}
+
+// RGBA: a colour gradient, alpha a ring of discs fading from 1 inside to 0 outside so the cutoff
+// (0.5) draws the edge; the texture is magnified, so filtering is smooth around it.
+function maskTexture(size) {
+  const pixels = new Uint8Array(size * size * 4);
+  for (let y = 0; y < size; ++y) {
+    for (let x = 0; x < size; ++x) {
+      const u = (x + 0.5) / size;
+      const v = (y + 0.5) / size;
+      const i = (y * size + x) * 4;
+      pixels[i] = Math.round(255 * (0.2 + 0.8 * u));
+      pixels[i + 1] = Math.round(255 * (0.3 + 0.5 * v));
+      pixels[i + 2] = Math.round(255 * (0.9 - 0.7 * u));
+      const cu = (u * 3) % 1 - 0.5;
+      const cv = (v * 3) % 1 - 0.5;
+      const d = Math.hypot(cu, cv);
+      pixels[i + 3] = Math.round(255 * Math.min(1, Math.max(0, (0.42 - d) / 0.1)));
+    }
+  }
+  return writePng(size, size, 4, pixels);
+}
+
+// ---- the models ----
+
+// Four spheres in a row: a rough red dielectric, a gold metal, a glossy white dielectric and a
+// half-metallic blue; factors only, no textures.
+export function spheresGlb() {
+  const b = new GltfBuilder();
+  const materials = [
+    {name: 'red', pbrMetallicRoughness: {baseColorFactor: [0.8, 0.1, 0.08, 1], metallicFactor: 0, roughnessFactor: 0.6}},
+    {name: 'gold', pbrMetallicRoughness: {baseColorFactor: [1.0, 0.77, 0.33, 1], metallicFactor: 1, roughnessFactor: 0.35}},
+    {name: 'white', pbrMetallicRoughness: {baseColorFactor: [0.9, 0.9, 0.9, 1], metallicFactor: 0, roughnessFactor: 0.25}},
+    {name: 'blue', pbrMetallicRoughness: {baseColorFactor: [0.1, 0.3, 0.9, 1], metallicFactor: 0.5, roughnessFactor: 0.8}},
+  ];
+  const geometry = sphere(48, 32, false);
+  materials.forEach((m, i) => {
+    const mesh = b.mesh(geometry, b.material(m));
+    b.node({name: m.name, mesh, translation: [(i - 1.5) * 2.2, 0, 0]});
+  });
+  return b.glb();
+}
+
+// A normal-mapped quad (no tangents in the file: generated) and sphere (tangents from the file).
+export function normalMapGlb() {
+  const b = new GltfBuilder();
+  const normalTexture = b.image(bumpNormalMap(128));
+  const material = b.material({name: 'bumps', normalTexture: {index: normalTexture, scale: 1},
+                               pbrMetallicRoughness: {baseColorFactor: [0.7, 0.7, 0.65, 1],
+                                                      metallicFactor: 0, roughnessFactor: 0.45}});
+  b.node({name: 'quad', mesh: b.mesh(quad(), material), translation: [-1.2, 0, 0], scale: [2, 2, 1],
+          rotation: rotation([0, 1, 0], 25)});
+  b.node({name: 'sphere', mesh: b.mesh(sphere(48, 32, true), material), translation: [1.2, 0, 0]});
+  return b.glb();
+}
+
+// A grey backdrop and, in front of it, a textured quad with alphaMode MASK (cutoff 0.5).
+export function maskGlb() {
+  const b = new GltfBuilder();
+  const backdrop = b.material({name: 'backdrop', pbrMetallicRoughness: {baseColorFactor: [0.5, 0.5, 0.5, 1],
+                                                                        metallicFactor: 0, roughnessFactor: 0.9}});
+  const cutout = b.material({name: 'cutout', alphaMode: 'MASK', alphaCutoff: 0.5, doubleSided: true,
+                             pbrMetallicRoughness: {baseColorTexture: {index: b.image(maskTexture(64))},
+                                                    metallicFactor: 0, roughnessFactor: 0.5}});
+  b.node({name: 'backdrop', mesh: b.mesh(quad(), backdrop), translation: [0, 0, -1], scale: [5, 4, 1]});
+  b.node({name: 'cutout', mesh: b.mesh(quad(), cutout), scale: [2.4, 2.4, 1]});
+  return b.glb();
+}
+
+// A floor, a sphere and a box-like quad wall, lit by a KHR_lights_punctual spot light (soft
+// penumbra) and a point light, both with a range.
+export function spotGlb() {
+  const b = new GltfBuilder();
+  const floor = b.material({name: 'floor', pbrMetallicRoughness: {baseColorFactor: [0.7, 0.7, 0.7, 1],
+                                                                  metallicFactor: 0, roughnessFactor: 0.7}});
+  const ball = b.material({name: 'ball', pbrMetallicRoughness: {baseColorFactor: [0.9, 0.5, 0.2, 1],
+                                                                metallicFactor: 0.2, roughnessFactor: 0.4}});
+  b.json.extensionsUsed = ['KHR_lights_punctual'];
+  b.json.extensions = {KHR_lights_punctual: {lights: [
+    {name: 'spot', type: 'spot', color: [1, 0.95, 0.85], intensity: 40, range: 12,
+     spot: {innerConeAngle: 0.3, outerConeAngle: 0.55}},
+    {name: 'point', type: 'point', color: [0.4, 0.6, 1], intensity: 6, range: 5},
+  ]}};
+  b.node({name: 'floor', mesh: b.mesh(quad(), floor), scale: [8, 8, 1], rotation: rotation([1, 0, 0], -90)});
+  b.node({name: 'ball', mesh: b.mesh(sphere(48, 32, false), ball), translation: [0.6, 0.8, 0], scale: [0.8, 0.8, 0.8]});
+  // The spot above and in front, aimed down at the floor (a light shines along its node's -Z).
+  b.node({name: 'spot', translation: [-0.5, 3.5, 1.5], rotation: rotation([1, 0.1, 0], -70),
+          extensions: {KHR_lights_punctual: {light: 0}}});
+  b.node({name: 'point', translation: [-2, 0.6, -0.5], extensions: {KHR_lights_punctual: {light: 1}}});
+  return b.glb();
+}
