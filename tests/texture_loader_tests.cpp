@@ -12,6 +12,7 @@
 #include <filesystem>
 #include <fstream>
 #include <functional>
+#include <map>
 #include <set>
 #include <string>
 
@@ -359,4 +360,50 @@ TEST_CASE("textures: a 30,000 x 30,000 PNG and too many images are refused, nami
   CHECK(reason == "unsupported");
   CHECK_MESSAGE(single.find("'wood.png'") != std::string::npos, single);
   CHECK(test::noChildren());
+}
+
+TEST_CASE("textures: KHR_texture_transform and samplers arrive as the file gives them") {
+  const fs::path file = test::assimpModels() / "glTF2/textureTransform/TextureTransformTest.gltf";
+  if (!fs::exists(file)) {
+    MESSAGE("no glTF2/textureTransform under the assimp models: skipped");
+    return;
+  }
+  const scene::Scene scene = loader::loadModelFile(file);
+  struct Expected {
+    glm::vec2 offset{0.0f};
+    float rotation = 0.0f;
+    glm::vec2 scale{1.0f};
+  };
+  // The file's own values (TextureTransformTest.gltf, the materials' baseColorTexture extensions).
+  const std::map<std::string, Expected> expected = {
+      {"Offset U", {{0.5f, 0.0f}}},        {"Offset V", {{0.0f, 0.5f}}},
+      {"Offset UV", {{0.5f, 0.5f}}},       {"Rotation", {{0.0f, 0.0f}, 0.39269908f}},
+      {"Scale", {{0.0f, 0.0f}, 0.0f, {1.5f, 1.5f}}},
+      {"All", {{-0.2f, -0.1f}, 0.3f, {1.5f, 1.5f}}}, {"Correct", {}}};
+  int checked = 0;
+  for (const scene::Material& m : scene.materials) {
+    auto it = expected.find(m.name);
+    if (it == expected.end()) continue;
+    CAPTURE(m.name);
+    const scene::TextureRef& t = m.baseColorTexture;
+    REQUIRE(t.present());
+    CHECK(t.offset.x == doctest::Approx(it->second.offset.x).epsilon(1e-4));
+    CHECK(t.offset.y == doctest::Approx(it->second.offset.y).epsilon(1e-4));
+    CHECK(t.rotation == doctest::Approx(it->second.rotation).epsilon(1e-4));
+    CHECK(t.scale.x == doctest::Approx(it->second.scale.x).epsilon(1e-4));
+    CHECK(t.scale.y == doctest::Approx(it->second.scale.y).epsilon(1e-4));
+    ++checked;
+    // Textures 0 and 1 have the file's one sampler (clamp to edge both ways, linear without
+    // mipmaps); "Correct"'s texture has none: the defaults (repeat, linear, mipmapped).
+    if (m.name == "Correct") {
+      CHECK(t.sampler == scene::Sampler{});
+      continue;
+    }
+    CHECK(t.sampler.wrapS == scene::Sampler::Wrap::clampToEdge);
+    CHECK(t.sampler.wrapT == scene::Sampler::Wrap::clampToEdge);
+    CHECK(t.sampler.magFilter == scene::Sampler::Filter::linear);
+    CHECK(t.sampler.minFilter == scene::Sampler::Filter::linear);
+    CHECK(!t.sampler.mipmaps);
+  }
+  CHECK(checked == 7);
 }
