@@ -79,28 +79,35 @@ void main() {
     vec3 b;
     bool frame = true;
     if (inTangent.w != 0.0) {
-      // The file's tangents (glTF TANGENT): bitangent = w * cross(normal, tangent).
-      t = inTangent.xyz * side;
-      t = t - n * dot(n, t);
+      // The file's tangents (glTF TANGENT): bitangent = w * cross(normal, tangent), both taken
+      // from the geometric side; a back face flips the whole frame (as glTF viewers do).
+      vec3 ng = n * side;
+      t = inTangent.xyz - ng * dot(ng, inTangent.xyz);
       frame = dot(t, t) > 1e-20;
       t = normalize(t);
-      b = inTangent.w * cross(n, t);
+      b = inTangent.w * cross(ng, t) * side;
+      t *= side;
     } else {
       // None in the file: the tangent frame from screen-space derivatives of position and uv (as
-      // three.js does for meshes without tangents). t follows +u; glTF's bitangent follows -v
-      // (its uv origin is the image's top left, its normal maps' green points up the image).
-      mat2 j = slotJacobian(material, MYRIAD_BINDING_TEXTURE_NORMAL);
+      // three.js does for meshes without tangents): the surface gradients of u and v, solved from
+      // the position and uv differences to the next pixel right and down. t follows +u; glTF's
+      // bitangent follows -v (its uv origin is the image's top left, its normal maps' green points
+      // up the image). The solve's determinant, dot(n, cross(dp1, dp2)), is negative for a front
+      // face in Vulkan's y-down framebuffer: its sign is applied, or the map's relief inverts.
       vec3 dp1 = positionDx;
       vec3 dp2 = positionDy;
+      mat2 j = slotJacobian(material, MYRIAD_BINDING_TEXTURE_NORMAL);
       vec2 duv1 = j * uvDx;
       vec2 duv2 = j * uvDy;
       vec3 dp2perp = cross(dp2, n);
       vec3 dp1perp = cross(n, dp1);
-      t = dp2perp * duv1.x + dp1perp * duv2.x;
-      b = -(dp2perp * duv1.y + dp1perp * duv2.y);
+      float orientation = dot(n, cross(dp1, dp2)) < 0.0 ? -1.0 : 1.0;
+      t = (dp2perp * duv1.x + dp1perp * duv2.x) * orientation;
+      b = -(dp2perp * duv1.y + dp1perp * duv2.y) * orientation;
       frame = dot(t, t) > 1e-30 && dot(b, b) > 1e-30;
-      t = normalize(t);
-      b = normalize(b);
+      // Geometric so far; a back face flips the frame with its normal.
+      t = normalize(t) * side;
+      b = normalize(b) * side;
     }
     if (frame) {
       vec3 tangentNormal = sampleSlot(normalTexture, material, MYRIAD_BINDING_TEXTURE_NORMAL).xyz * 2.0 - 1.0;

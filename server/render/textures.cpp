@@ -20,10 +20,10 @@ constexpr VkFormat kDataFormat = VK_FORMAT_R8G8B8A8_UNORM;
 constexpr VkFormat kColorFormat = VK_FORMAT_R8G8B8A8_SRGB;
 constexpr float kMostAnisotropy = 16.0f;
 
-// Whether mips can be made by linear blits from level to level on this device.
-bool canBlitMips(const gpu::Context& context) {
+// Whether mips of `format` can be made by linear blits from level to level on this device.
+bool canBlitMips(const gpu::Context& context, VkFormat format) {
   VkFormatProperties properties;
-  vkGetPhysicalDeviceFormatProperties(context.physicalDevice, kDataFormat, &properties);
+  vkGetPhysicalDeviceFormatProperties(context.physicalDevice, format, &properties);
   const VkFormatFeatureFlags needed = VK_FORMAT_FEATURE_BLIT_SRC_BIT | VK_FORMAT_FEATURE_BLIT_DST_BIT |
                                       VK_FORMAT_FEATURE_SAMPLED_IMAGE_FILTER_LINEAR_BIT;
   return (properties.optimalTilingFeatures & needed) == needed;
@@ -133,29 +133,50 @@ MaterialTextures::MaterialTextures(gpu::Context& context, gpu::CommandRecorder& 
                                    VkDescriptorSetLayout layout, const scene::Scene& scene)
     : context_(context), arena_(context, kTextureBlockSize) {
   static_assert(scene::Material::kTextureSlots == MYRIAD_TEXTURE_SLOTS);
-  const bool mips = canBlitMips(context);
-  std::vector<scene::Image> defaults(1);
-  defaults[0].width = defaults[0].height = 1;
-  defaults[0].rgba = {255, 255, 255, 255};
-  auto add = [&](const scene::Image& source) {
+  // Which way each image is read: as colour (base colour, emissive: an sRGB image, whose blits
+  // average in linear light, so its mips keep the image's brightness) or as data (UNORM, averaged
+  // as stored). An image read both ways is uploaded twice, once each.
+  const size_t count = scene.images.size();
+  std::vector<uint8_t> asColor(count + 1, 0), asData(count + 1, 0);
+  for (const scene::Material& m : scene.materials) {
+    for (uint32_t slot = 0; slot < MYRIAD_TEXTURE_SLOTS; ++slot) {
+      const scene::TextureRef& ref = m.texture(slot);
+      if (!ref.present()) continue;
+      if (ref.image >= count) {
+        throw std::invalid_argument("a material uses image " + std::to_string(ref.image) +
+                                    ", which the scene lacks");
+      }
+      (isColorSlot(slot) ? asColor : asData)[ref.image] = 1;
+    }
+  }
+  asColor[count] = asData[count] = 1;  // the white default serves every slot
+  scene::Image white;
+  white.width = white.height = 1;
+  white.rgba = {255, 255, 255, 255};
+  colorViews_.assign(count + 1, VK_NULL_HANDLE);
+  dataViews_.assign(count + 1, VK_NULL_HANDLE);
+  auto add = [&](const scene::Image& source, VkFormat format) {
     if (source.width == 0 || source.height == 0 ||
         source.rgba.size() != size_t(source.width) * source.height * 4) {
       throw std::invalid_argument("image '" + source.name + "' does not hold its size in pixels");
     }
-    const uint32_t levels =
-        mips ? uint32_t(std::bit_width(std::max(source.width, source.height))) : 1;
+    const uint32_t levels = canBlitMips(context, format)
+                                ? uint32_t(std::bit_width(std::max(source.width, source.height)))
+                                : 1;
     gpu::Image image = arena_.createImage2D(
-        {source.width, source.height}, kDataFormat,
+        {source.width, source.height}, format,
         VK_IMAGE_USAGE_SAMPLED_BIT | VK_IMAGE_USAGE_TRANSFER_DST_BIT |
             (levels > 1 ? VK_IMAGE_USAGE_TRANSFER_SRC_BIT : 0),
-        levels, VK_IMAGE_CREATE_MUTABLE_FORMAT_BIT);
+        levels);
     upload(context, recorder, image, source.rgba.data(), source.rgba.size());
-    images_.push_back(image);
-    srgbViews_.push_back(arena_.createView(image, kColorFormat));
+    return image.view;
   };
-  for (const scene::Image& image : scene.images) add(image);
-  add(defaults[0]);
-  const uint32_t white = uint32_t(images_.size() - 1);
+  for (size_t i = 0; i <= count; ++i) {
+    const scene::Image& source = i < count ? scene.images[i] : white;
+    if (asColor[i]) colorViews_[i] = add(source, kColorFormat);
+    if (asData[i]) dataViews_[i] = add(source, kDataFormat);
+  }
+  const uint32_t whiteIndex = uint32_t(count);
 
   const uint32_t setCount = std::max<uint32_t>(1, uint32_t(scene.materials.size()));
   VkDescriptorPoolSize size{VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER,
@@ -180,13 +201,9 @@ MaterialTextures::MaterialTextures(gpu::Context& context, gpu::CommandRecorder& 
     VkWriteDescriptorSet writes[MYRIAD_TEXTURE_SLOTS];
     for (uint32_t slot = 0; slot < MYRIAD_TEXTURE_SLOTS; ++slot) {
       const scene::TextureRef& ref = material.texture(slot);
-      if (ref.present() && ref.image >= scene.images.size()) {
-        throw std::invalid_argument("material " + std::to_string(m) + " uses image " +
-                                    std::to_string(ref.image) + ", which the scene lacks");
-      }
-      const uint32_t image = ref.present() ? ref.image : white;
+      const uint32_t image = ref.present() ? ref.image : whiteIndex;
       infos[slot] = {samplerFor(ref.present() ? ref.sampler : scene::Sampler{}),
-                     isColorSlot(slot) ? srgbViews_[image] : images_[image].view,
+                     isColorSlot(slot) ? colorViews_[image] : dataViews_[image],
                      VK_IMAGE_LAYOUT_READ_ONLY_OPTIMAL};
       writes[slot] = {VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET};
       writes[slot].dstSet = sets_[m];

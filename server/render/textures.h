@@ -1,8 +1,8 @@
 // One scene's texture images on the GPU, and one descriptor set (set 3) per material binding them.
-// Each scene image is uploaded once, as an RGBA8 image with a mutable format viewed two ways:
-// sRGB where a material uses it as base colour or emissive, UNORM where it holds data
-// (metallic-roughness, normal, occlusion); its mip chain is generated on the GPU with blits where
-// the format allows (else it has one level). Samplers are made once per distinct scene::Sampler
+// Each scene image is uploaded once per way it is read: as R8G8B8A8_SRGB where a material uses it
+// as base colour or emissive (so filtering and the mip chain average linear light), as
+// R8G8B8A8_UNORM where it holds data (metallic-roughness, normal, occlusion); the mip chain is
+// generated on the GPU with blits where the format allows (else it has one level). Samplers are made once per distinct scene::Sampler
 // (anisotropic where the device offers samplerAnisotropy). A slot a material leaves empty binds a
 // 1x1 white image; the material's flags tell the shader which slots are real.
 #pragma once
@@ -39,8 +39,10 @@ class MaterialTextures {
 
   gpu::Context& context_;
   gpu::Arena arena_;
-  std::vector<gpu::Image> images_;  // scene images, then the white default last
-  std::vector<VkImageView> srgbViews_;
+  // Per scene image, then the white default last: its sRGB image's view where a colour slot reads
+  // it, its UNORM image's view where a data slot does (else null).
+  std::vector<VkImageView> colorViews_;
+  std::vector<VkImageView> dataViews_;
   std::vector<std::pair<scene::Sampler, VkSampler>> samplers_;
   VkDescriptorPool pool_ = VK_NULL_HANDLE;
   std::vector<VkDescriptorSet> sets_;
