@@ -21,6 +21,7 @@ inline constexpr std::string_view kSession = "/v1/sessions/{id}";
 inline constexpr std::string_view kSessionModel = "/v1/sessions/{id}/model";
 inline constexpr std::string_view kSessionCamera = "/v1/sessions/{id}/camera";
 inline constexpr std::string_view kSessionCameraFrame = "/v1/sessions/{id}/camera/frame";
+inline constexpr std::string_view kSessionCameraSelect = "/v1/sessions/{id}/camera/select";
 inline constexpr std::string_view kSessionSettings = "/v1/sessions/{id}/settings";
 inline constexpr std::string_view kSessionEnvironment = "/v1/sessions/{id}/environment";
 inline constexpr std::string_view kSessionMaterials = "/v1/sessions/{id}/materials";
@@ -50,6 +51,7 @@ inline constexpr std::string_view kSessionState = "session-state";
 inline constexpr std::string_view kModelSource = "model-source";
 inline constexpr std::string_view kCamera = "camera";
 inline constexpr std::string_view kCameraPatch = "camera-patch";
+inline constexpr std::string_view kCameraSelect = "camera-select";
 inline constexpr std::string_view kSettings = "settings";
 inline constexpr std::string_view kSettingsPatch = "settings-patch";
 inline constexpr std::string_view kMaterial = "material";
@@ -135,7 +137,7 @@ inline constexpr std::string_view kToken = "token";  // for <img>, which cannot 
 inline constexpr uint32_t kMaxLightsPageLimit = 1000;
 inline constexpr uint32_t kDefaultLightsPageLimit = 100;
 inline constexpr uint32_t kMinFps = 1;
-inline constexpr uint32_t kMaxFps = 60;
+inline constexpr uint32_t kMaxFps = 240;  // a 240 Hz display; the GPU machine renders 1080p faster
 inline constexpr uint32_t kDefaultFps = 15;
 inline constexpr uint32_t kMinQuality = 1;
 inline constexpr uint32_t kMaxQuality = 100;
@@ -170,6 +172,16 @@ inline constexpr std::string_view kClustered = "clustered";  // compute, per-clu
 }  // namespace techniques
 inline constexpr std::array kTechniques = {techniques::kVolumes, techniques::kTiled,
                                            techniques::kClustered};
+// A local light's "type" and "attenuation" (light*.schema.json, defs.schema.json lightType and
+// attenuation).
+namespace light_types {
+inline constexpr std::string_view kPoint = "point";  // every direction
+inline constexpr std::string_view kSpot = "spot";    // a cone (glTF KHR_lights_punctual's spot)
+}  // namespace light_types
+namespace attenuations {
+inline constexpr std::string_view kWindow = "window";                 // (r^2 - d^2) / (C d^2 + r^2)
+inline constexpr std::string_view kInverseSquare = "inverse-square";  // glTF's 1/d^2, windowed
+}  // namespace attenuations
 // The environment light's modes (settings "environment.mode"): render::EnvironmentMode is an
 // index into kEnvironmentModes; the settings schemas' enum mirrors it (tests/protocol_tests.cpp).
 namespace environment_modes {

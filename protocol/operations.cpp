@@ -274,6 +274,15 @@ std::vector<Operation> buildOperations() {
                  .access = Access::Session,
                  .responses = {json200(n::kCamera, "The camera.")},
                  .problems = kSessionProblems});
+  ops.push_back({.method = "POST",
+                 .route = routes::kSessionCameraSelect,
+                 .id = "selectModelCamera",
+                 .tag = "Camera",
+                 .summary = "Make one of the model file's cameras (model.cameras) the session's camera",
+                 .access = Access::Session,
+                 .body = {{kJsonContentType, n::kCameraSelect}},
+                 .responses = {json200(n::kCamera, "The camera.")},
+                 .problems = kSessionBodyProblems});
 
   // Settings.
   ops.push_back({.method = "GET",

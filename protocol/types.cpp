@@ -26,6 +26,17 @@ void get(const json& j, const char* key, std::optional<T>& out) {
   }
 }
 
+// A list the schema lets a client leave out (settings' suns): absent reads as empty.
+template <class T>
+void get(const json& j, const char* key, std::vector<T>& out) {
+  auto it = j.find(key);
+  if (it == j.end()) {
+    out.clear();
+  } else {
+    it->get_to(out);
+  }
+}
+
 // Settings' environment may be absent from a body (a snapshot saved before environments
 // existed): it then reads as the default, mode none, which is how that snapshot looked.
 void get(const json& j, const char* key, Environment& out) {
@@ -89,6 +100,7 @@ void patchMembers(Tag<EnvironmentPatch>, F f) {
 template <class F>
 void patchMembers(Tag<SettingsPatch>, F f) {
   f("sun", &Settings::sun, &SettingsPatch::sun);
+  f("suns", &Settings::suns, &SettingsPatch::suns);
   f("ambient", &Settings::ambient, &SettingsPatch::ambient);
   f("exposure", &Settings::exposure, &SettingsPatch::exposure);
   f("markers", &Settings::markers, &SettingsPatch::markers);
@@ -120,6 +132,11 @@ void patchMembers(Tag<LightPatch>, F f) {
   f("color", &Light::color, &LightPatch::color);
   f("intensity", &Light::intensity, &LightPatch::intensity);
   f("falloff", &Light::falloff, &LightPatch::falloff);
+  f("type", &Light::type, &LightPatch::type);
+  f("attenuation", &Light::attenuation, &LightPatch::attenuation);
+  f("direction", &Light::direction, &LightPatch::direction);
+  f("innerConeAngle", &Light::innerConeAngle, &LightPatch::innerConeAngle);
+  f("outerConeAngle", &Light::outerConeAngle, &LightPatch::outerConeAngle);
 }
 
 // The two halves of a patch list: the whole type's members, and the patch's.
@@ -183,6 +200,11 @@ void members(Tag<LightNew>, F f) {
   f("color", &LightNew::color);
   f("intensity", &LightNew::intensity);
   f("falloff", &LightNew::falloff);
+  f("type", &LightNew::type);
+  f("attenuation", &LightNew::attenuation);
+  f("direction", &LightNew::direction);
+  f("innerConeAngle", &LightNew::innerConeAngle);
+  f("outerConeAngle", &LightNew::outerConeAngle);
 }
 
 template <class F>
@@ -264,6 +286,35 @@ void members(Tag<ModelSummary>, F f) {
   f("instances", &ModelSummary::instances);
   f("materials", &ModelSummary::materials);
   f("bounds", &ModelSummary::bounds);
+  f("cameras", &ModelSummary::cameras);
+  f("lights", &ModelSummary::lights);
+}
+
+template <class F>
+void members(Tag<ModelCamera>, F f) {
+  f("index", &ModelCamera::index);
+  f("name", &ModelCamera::name);
+  f("type", &ModelCamera::type);
+  f("yfov", &ModelCamera::yfov);
+  f("aspectRatio", &ModelCamera::aspectRatio);
+  f("znear", &ModelCamera::znear);
+  f("zfar", &ModelCamera::zfar);
+  f("position", &ModelCamera::position);
+  f("direction", &ModelCamera::direction);
+  f("up", &ModelCamera::up);
+}
+
+template <class F>
+void members(Tag<ModelLights>, F f) {
+  f("point", &ModelLights::point);
+  f("spot", &ModelLights::spot);
+  f("directional", &ModelLights::directional);
+  f("directionalDropped", &ModelLights::directionalDropped);
+}
+
+template <class F>
+void members(Tag<CameraSelect>, F f) {
+  f("modelCamera", &CameraSelect::modelCamera);
 }
 
 template <class F>
@@ -423,7 +474,13 @@ Material applied(Material material, const MaterialPatch& p) {
 Light applied(Light light, const LightPatch& p) { return applyPatch(std::move(light), p); }
 
 Light withId(const LightNew& l, uint64_t id) {
-  return Light{id, l.position, l.radius, l.color, l.intensity, l.falloff};
+  Light out{id, l.position, l.radius, l.color, l.intensity, l.falloff};
+  if (l.type) out.type = *l.type;
+  if (l.attenuation) out.attenuation = *l.attenuation;
+  if (l.direction) out.direction = *l.direction;
+  if (l.innerConeAngle) out.innerConeAngle = *l.innerConeAngle;
+  if (l.outerConeAngle) out.outerConeAngle = *l.outerConeAngle;
+  return out;
 }
 
 #define MYRIAD_MEMBERWISE_JSON(Type)                                  \
@@ -457,6 +514,9 @@ MYRIAD_MEMBERWISE_JSON(SnapshotLights)
 MYRIAD_MEMBERWISE_JSON(Snapshot)
 MYRIAD_MEMBERWISE_JSON(SessionCreate)
 MYRIAD_MEMBERWISE_JSON(ModelSummary)
+MYRIAD_MEMBERWISE_JSON(ModelCamera)
+MYRIAD_MEMBERWISE_JSON(ModelLights)
+MYRIAD_MEMBERWISE_JSON(CameraSelect)
 MYRIAD_MEMBERWISE_JSON(SessionCreated)
 MYRIAD_MEMBERWISE_JSON(PassTiming)
 MYRIAD_MEMBERWISE_JSON(FrameStats)

@@ -15,6 +15,8 @@
 
 #include <nlohmann/json_fwd.hpp>
 
+#include "protocol/constants.h"
+
 namespace myriad::protocol {
 
 using Vec3 = std::array<double, 3>;   // [x, y, z] in scene units
@@ -71,6 +73,7 @@ struct EnvironmentPatch {
 
 struct Settings {
   Sun sun;
+  std::vector<Sun> suns;  // more directional lights (a model's), at most kMaxExtraSuns
   Color ambient{};
   double exposure = 1;
   bool markers = false;
@@ -80,8 +83,11 @@ struct Settings {
   Environment environment;
 };
 
+inline constexpr size_t kMaxExtraSuns = 3;
+
 struct SettingsPatch {
   std::optional<SunPatch> sun;
+  std::optional<std::vector<Sun>> suns;  // replaces them all
   std::optional<Color> ambient;
   std::optional<double> exposure;
   std::optional<bool> markers;
@@ -134,14 +140,22 @@ struct MaterialsList {
   std::vector<Material> materials;
 };
 
-// A light as sent to POST .../lights: without its id.
+// A light as sent to POST .../lights: without its id. The members after falloff may be left out
+// (a point light with the window falloff; a spot's defaults are glTF's).
 struct LightNew {
   Vec3 position{};
   double radius = 1;
   Color color{};
   double intensity = 0;
   double falloff = 0;  // C in (r^2 - d^2) / (C d^2 + r^2)
+  std::optional<std::string> type;         // light_types:: "point" (absent) | "spot"
+  std::optional<std::string> attenuation;  // attenuations:: "window" (absent) | "inverse-square"
+  std::optional<Vec3> direction;           // where a spot points; absent = [0, -1, 0]
+  std::optional<double> innerConeAngle;    // radians; absent = 0
+  std::optional<double> outerConeAngle;    // radians; absent = pi/4
 };
+
+inline constexpr double kDefaultOuterConeAngle = 0.78539816339744831;  // pi/4, glTF's default
 
 struct Light {
   uint64_t id = 0;
@@ -150,6 +164,11 @@ struct Light {
   Color color{};
   double intensity = 0;
   double falloff = 0;
+  std::string type{light_types::kPoint};
+  std::string attenuation{attenuations::kWindow};
+  Vec3 direction{0, -1, 0};
+  double innerConeAngle = 0;
+  double outerConeAngle = kDefaultOuterConeAngle;
 };
 Light withId(const LightNew& light, uint64_t id);
 
@@ -158,6 +177,9 @@ struct LightPatch {
   std::optional<double> radius;
   std::optional<Color> color;
   std::optional<double> intensity, falloff;
+  std::optional<std::string> type, attenuation;
+  std::optional<Vec3> direction;
+  std::optional<double> innerConeAngle, outerConeAngle;
 };
 Light applied(Light light, const LightPatch& patch);
 
@@ -231,12 +253,41 @@ struct SessionCreate {
   std::optional<Snapshot> snapshot;  // a session restored from a snapshot (instead of model)
 };
 
+// A camera the model file defines (model.cameras), placed by its node.
+struct ModelCamera {
+  uint64_t index = 0;  // what POST .../camera/select takes
+  std::string name;
+  std::string type;    // "perspective" | "orthographic"
+  double yfov = 0;     // radians (perspective)
+  std::optional<double> aspectRatio;
+  double znear = 0;
+  std::optional<double> zfar;  // absent: infinite
+  Vec3 position{};
+  Vec3 direction{};  // where it looks (the node's -Z)
+  Vec3 up{};         // the node's +Y
+};
+
+// The model file's lights (model.lights): what arrived, and what did not fit.
+struct ModelLights {
+  uint64_t point = 0;
+  uint64_t spot = 0;
+  uint64_t directional = 0;         // in the file
+  uint64_t directionalDropped = 0;  // beyond kMaxExtraSuns, the dimmest: not used
+};
+
 struct ModelSummary {
   std::string source;  // "builtin:default" | "library:NAME" | "upload:FILENAME"
   uint64_t meshes = 0;
   uint64_t instances = 0;
   uint64_t materials = 0;
   Bounds bounds;
+  std::vector<ModelCamera> cameras;
+  std::optional<ModelLights> lights;  // the server always sends it
+};
+
+// POST .../camera/select.
+struct CameraSelect {
+  uint64_t modelCamera = 0;
 };
 
 struct SessionState {
@@ -404,6 +455,9 @@ MYRIAD_PROTOCOL_JSON(LightsRecipe);
 MYRIAD_PROTOCOL_JSON(SnapshotLights);
 MYRIAD_PROTOCOL_JSON(Snapshot);
 MYRIAD_PROTOCOL_JSON(SessionCreate);
+MYRIAD_PROTOCOL_JSON(ModelCamera);
+MYRIAD_PROTOCOL_JSON(ModelLights);
+MYRIAD_PROTOCOL_JSON(CameraSelect);
 MYRIAD_PROTOCOL_JSON(ModelSummary);
 MYRIAD_PROTOCOL_JSON(SessionState);
 MYRIAD_PROTOCOL_JSON(SessionCreated);

@@ -403,6 +403,21 @@ std::optional<ValidationError> checkBounds(const Bounds& b, std::string_view poi
   return std::nullopt;
 }
 
+std::optional<ValidationError> checkLight(const Light& l, bool blameOuter) {
+  if (dot(l.direction, l.direction) == 0) {
+    return memberError("/direction", "\"direction\" must not be [0, 0, 0].");
+  }
+  if (!(l.innerConeAngle < l.outerConeAngle)) {
+    if (blameOuter) {
+      return memberError("/outerConeAngle", "\"outerConeAngle\" must be greater than \"innerConeAngle\" (" +
+                                                 std::to_string(l.innerConeAngle) + ").");
+    }
+    return memberError("/innerConeAngle", "\"innerConeAngle\" must be less than \"outerConeAngle\" (" +
+                                               std::to_string(l.outerConeAngle) + ").");
+  }
+  return std::nullopt;
+}
+
 std::optional<ValidationError> checkLightsGenerate(const LightsGenerate& r) {
   if (r.bounds) {
     if (auto error = checkBounds(*r.bounds, "/bounds")) return error;

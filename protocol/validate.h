@@ -46,6 +46,10 @@ ParsedBody parseBody(std::string_view schemaName, std::string_view text);
 std::optional<ValidationError> checkCamera(const Camera& camera);           // far > near, eye != target, up not along the view
 std::optional<ValidationError> checkSunDirection(const Vec3& direction);    // non-zero ("/sun/direction")
 std::optional<ValidationError> checkBounds(const Bounds& bounds, std::string_view pointer);  // min <= max
+// A light's members together: direction not [0, 0, 0], innerConeAngle < outerConeAngle. Pointers
+// are relative to the light; `blameOuter` names outerConeAngle for a broken cone (a patch that
+// changed only it) instead of innerConeAngle.
+std::optional<ValidationError> checkLight(const Light& light, bool blameOuter = false);
 std::optional<ValidationError> checkLightsGenerate(const LightsGenerate& request);  // ranges ordered, bounds
 
 }  // namespace myriad::protocol

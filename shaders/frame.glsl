@@ -93,19 +93,27 @@ bool environmentOn() {
 // the C++ reference makes the same calls.
 vec3 sunAndAmbient(Surface s) {
   vec3 V = normalize(frame.cameraPosition.xyz - s.position);
+  vec3 color;
   if (!environmentOn()) {
-    return shadeSunAndAmbient(s.normal, V, s.baseColor, s.metallic, s.roughness,
-                              frame.sunDirection.xyz, frame.sunColor.rgb * frame.sunDirection.w,
-                              frame.ambient.rgb * s.occlusion) +
-           s.emissive;
+    color = shadeSunAndAmbient(s.normal, V, s.baseColor, s.metallic, s.roughness,
+                               frame.sunDirection.xyz, frame.sunColor.rgb * frame.sunDirection.w,
+                               frame.ambient.rgb * s.occlusion);
+  } else {
+    color = shadeSunAndAmbient(s.normal, V, s.baseColor, s.metallic, s.roughness,
+                               frame.sunDirection.xyz, frame.sunColor.rgb * frame.sunDirection.w,
+                               vec3(0.0)) +
+            shadeEnvironment(s.normal, V, s.baseColor, s.metallic, s.roughness, s.occlusion,
+                             frame.environmentRotation.x, frame.environmentRotation.y,
+                             frame.environment.y);
   }
-  return shadeSunAndAmbient(s.normal, V, s.baseColor, s.metallic, s.roughness,
-                            frame.sunDirection.xyz, frame.sunColor.rgb * frame.sunDirection.w,
-                            vec3(0.0)) +
-         shadeEnvironment(s.normal, V, s.baseColor, s.metallic, s.roughness, s.occlusion,
-                          frame.environmentRotation.x, frame.environmentRotation.y,
-                          frame.environment.y) +
-         s.emissive;
+  // A model's directional lights besides the sun (intensity 0: none).
+  for (int i = 0; i < MYRIAD_MAX_EXTRA_SUNS; ++i) {
+    if (frame.extraSunDirection[i].w > 0.0) {
+      color += brdfCosine(s.normal, V, frame.extraSunDirection[i].xyz, s.baseColor, s.metallic,
+                          s.roughness) * (frame.extraSunColor[i].rgb * frame.extraSunDirection[i].w);
+    }
+  }
+  return color + s.emissive;
 }
 
 // What a pixel with no geometry shows: the environment seen through it when the environment is
@@ -119,18 +127,24 @@ vec3 backgroundRadiance(ivec2 pixel) {
                                frame.environment.y);
 }
 
-vec3 shadeLight(Surface s, uint index) {
-  GpuPointLight light = lights[index];
-  return shadePointLight(s.position, s.normal, normalize(frame.cameraPosition.xyz - s.position),
-                         s.baseColor, s.metallic, s.roughness, light.positionRadius.xyz,
-                         light.positionRadius.w, light.radianceFalloff.rgb, light.radianceFalloff.w);
+vec3 spotDirectionOf(GpuPointLight light) {
+  return octahedralDecode(light.cone.xy);
 }
 
-// Whether the light reaches the surface point at all (what the light-count view counts).
+vec3 shadeLight(Surface s, uint index) {
+  GpuPointLight light = lights[index];
+  return shadeLocalLight(s.position, s.normal, normalize(frame.cameraPosition.xyz - s.position),
+                         s.baseColor, s.metallic, s.roughness, light.positionRadius.xyz,
+                         light.positionRadius.w, light.radianceFalloff.rgb, light.radianceFalloff.w,
+                         spotDirectionOf(light), light.cone.z, light.cone.w);
+}
+
+// Whether the light reaches the surface point at all: inside its radius and its outer cone (what
+// the light-count view counts; shadeLight is exactly 0 wherever this is false).
 bool lightReaches(Surface s, uint index) {
-  vec3 d = lights[index].positionRadius.xyz - s.position;
-  float r = lights[index].positionRadius.w;
-  return dot(d, d) < r * r;
+  GpuPointLight light = lights[index];
+  return localLightReaches(s.position, light.positionRadius.xyz, light.positionRadius.w,
+                           spotDirectionOf(light), light.cone.z);
 }
 
 // Exponential depth slices (Olsson et al. 2012): slice k spans near * (far/near)^(k/S) onwards, so

@@ -23,6 +23,52 @@ float distanceAttenuation(float d, float radius, float C) {
   return clamp((r2 - d2) / (C * d2 + r2), 0.0f, 1.0f);
 }
 
+// A surface closer to an inverse-square light than sqrt(this) gets the radiance it would get at that
+// distance instead of a division by zero (three.js bounds d^2 the same way; glTF leaves it open).
+const float kMinLightDistance2 = 0.01f;
+
+// glTF KHR_lights_punctual's recommended falloff: the inverse-square law, 1/d^2, times a smooth
+// window reaching exactly 0 at `range`: clamp(1 - (d/range)^4, 0, 1)^2 (as three.js and Filament).
+// With intensity in candela, intensity * this is the illuminance (lux) at distance d.
+float inverseSquareAttenuation(float d, float range) {
+  float ratio = d / range;
+  float ratio2 = ratio * ratio;
+  float window = clamp(1.0f - ratio2 * ratio2, 0.0f, 1.0f);
+  return window * window / max(d * d, kMinLightDistance2);
+}
+
+// A light's falloff as GpuPointLight stores it: C >= 0 the window with that constant, C < 0
+// (MYRIAD_ATTENUATION_INVERSE_SQUARE) inverse-square.
+float lightAttenuation(float d, float radius, float C) {
+  return C < 0.0f ? inverseSquareAttenuation(d, radius) : distanceAttenuation(d, radius, C);
+}
+
+// Cosine of the angle between a spot light's direction and the way from the light to the point,
+// given toLight = light position - point and d = its length; 1 (on the axis) at the light itself.
+float spotCosine(vec3 toLight, float d, vec3 spotDirection) {
+  return d > 1e-6f ? -dot(spotDirection, toLight) / d : 1.0f;
+}
+
+// glTF KHR_lights_punctual's recommended spot falloff: linear in the cosine from 0 at the outer
+// cone to 1 at the inner one (the spread at least 0.001, as the spec's sample code), squared. It is
+// exactly 0 for cosAngle <= cosOuter. A point light passes cosOuter = -2, cosInner = -1: always 1.
+float spotAttenuation(float cosAngle, float cosOuter, float cosInner) {
+  float t = clamp((cosAngle - cosOuter) / max(cosInner - cosOuter, 0.001f), 0.0f, 1.0f);
+  return t * t;
+}
+
+// Whether a local light reaches P at all: closer than its radius and inside its outer cone (what
+// the light-count view counts; shadeLocalLight is exactly 0 wherever this is false).
+bool localLightReaches(vec3 P, vec3 lightPosition, float radius, vec3 spotDirection,
+                       float cosOuter) {
+  vec3 toLight = lightPosition - P;
+  float d2 = dot(toLight, toLight);
+  if (d2 >= radius * radius) {
+    return false;
+  }
+  return spotCosine(toLight, sqrt(d2), spotDirection) > cosOuter;
+}
+
 // glTF 2.0 metallic-roughness BRDF (specification, Appendix B), times the cosine term:
 // returns f(l, v) * max(N.L, 0). N, V, L are unit vectors; V and L point away from the surface.
 vec3 brdfCosine(vec3 N, vec3 V, vec3 L, vec3 baseColor, float metallic, float roughness) {
@@ -64,17 +110,31 @@ vec3 brdfCosine(vec3 N, vec3 V, vec3 L, vec3 baseColor, float metallic, float ro
   return (diffuse + specular) * NdotL;
 }
 
-// Outgoing radiance from a point light at lightPosition reaching surface point P.
-vec3 shadePointLight(vec3 P, vec3 N, vec3 V, vec3 baseColor, float metallic, float roughness,
-                     vec3 lightPosition, float radius, vec3 radiance, float C) {
+// Outgoing radiance from a local light (point or spot) at lightPosition reaching surface point P:
+// BRDF * cos * radiance * distance falloff (C as lightAttenuation) * cone falloff. Exactly 0 at and
+// beyond the radius and outside the outer cone.
+vec3 shadeLocalLight(vec3 P, vec3 N, vec3 V, vec3 baseColor, float metallic, float roughness,
+                     vec3 lightPosition, float radius, vec3 radiance, float C, vec3 spotDirection,
+                     float cosOuter, float cosInner) {
   vec3 toLight = lightPosition - P;
   float d = length(toLight);
   if (d >= radius) {
     return vec3(0.0f);
   }
+  float cosAngle = spotCosine(toLight, d, spotDirection);
+  if (cosAngle <= cosOuter) {
+    return vec3(0.0f);
+  }
   vec3 L = d > 1e-6f ? toLight * (1.0f / d) : N;
-  return brdfCosine(N, V, L, baseColor, metallic, roughness) * radiance *
-         distanceAttenuation(d, radius, C);
+  float falloff = lightAttenuation(d, radius, C) * spotAttenuation(cosAngle, cosOuter, cosInner);
+  return brdfCosine(N, V, L, baseColor, metallic, roughness) * radiance * falloff;
+}
+
+// A point light with the window falloff (C >= 0).
+vec3 shadePointLight(vec3 P, vec3 N, vec3 V, vec3 baseColor, float metallic, float roughness,
+                     vec3 lightPosition, float radius, vec3 radiance, float C) {
+  return shadeLocalLight(P, N, V, baseColor, metallic, roughness, lightPosition, radius, radiance,
+                         C, N, -2.0f, -1.0f);
 }
 
 // Sun (directional, towards-the-sun unit vector) plus a uniform ambient environment. The ambient

@@ -121,6 +121,9 @@ using mat4 = glm::mat4;
 #define MYRIAD_VIEW_EMISSIVE 11
 #define MYRIAD_VIEW_OCCLUSION 12
 
+// Directional lights besides the sun (scene::kMaxExtraSuns; render/gpu_types.h checks it).
+#define MYRIAD_MAX_EXTRA_SUNS 3
+
 MYRIAD_STRUCT(FrameUniforms) {
   mat4 view;
   mat4 projection;
@@ -140,6 +143,9 @@ MYRIAD_STRUCT(FrameUniforms) {
   vec4 slicing;          // x slices / ln(far/near), y ln(near) * x, z heat-map max, w time (s)
   vec4 environment;      // x mode (MYRIAD_ENV_*), y intensity, z background shown (0/1), w unused
   vec4 environmentRotation;  // x cos, y sin of the environment's rotation about +Y
+  // Directional lights besides the sun (a model's): xyz towards the light, w intensity (0: none).
+  vec4 extraSunDirection[MYRIAD_MAX_EXTRA_SUNS];
+  vec4 extraSunColor[MYRIAD_MAX_EXTRA_SUNS];  // rgb linear, w unused
 };
 
 // Push constants of the environment's compute passes (render/environment.cpp).
@@ -157,11 +163,19 @@ MYRIAD_STRUCT(CullingStats) {
                    // tile or cluster, w unused
 };
 
-// A local point light. radiance = color * intensity; attenuation slope C in radianceFalloff.w.
+// A local light, point or spot (48 bytes: a million fit in 48 MB). radiance = color * intensity.
+// The light reaches a point closer than the radius and inside the cone (cos of the angle from the
+// spot direction > cone.z); a point light has cone.z = -2, so every direction is inside.
 MYRIAD_STRUCT(GpuPointLight) {
-  vec4 positionRadius;   // xyz world position, w radius (attenuation is exactly 0 from here on)
-  vec4 radianceFalloff;  // rgb radiance, w attenuation constant C
+  vec4 positionRadius;   // xyz world position, w radius (the light is exactly 0 from here on)
+  vec4 radianceFalloff;  // rgb radiance, w attenuation: >= 0 the window's constant C,
+                         // MYRIAD_ATTENUATION_INVERSE_SQUARE (< 0) inverse-square
+  vec4 cone;             // xy spot direction (octahedral, shading.glsl), z cos(outer angle),
+                         // w cos(inner angle)
 };
+#define MYRIAD_ATTENUATION_INVERSE_SQUARE (-1.0f)
+#define MYRIAD_POINT_LIGHT_COS_OUTER (-2.0f)
+#define MYRIAD_POINT_LIGHT_COS_INNER (-1.0f)
 
 MYRIAD_STRUCT(GpuInstance) {
   mat4 model;

@@ -255,6 +255,13 @@ TEST_CASE("api: a session's whole life through every route it owns") {
   REQUIRE(light.status == 200);
   json expected = lightJson(1.0);
   expected["id"] = newIds[0];
+  // What was left out: a point light with the window falloff and glTF's default cone (pi/4 as a
+  // float, written as its shortest decimal).
+  expected["type"] = "point";
+  expected["attenuation"] = "window";
+  expected["direction"] = {0, -1, 0};
+  expected["innerConeAngle"] = 0;
+  expected["outerConeAngle"] = 0.7853982;
   CHECK(light.json == expected);
   Reply lightPatched = api.patch(first, R"({"radius": 4, "color": [0, 1, 0]})", token);
   REQUIRE(lightPatched.status == 200);
@@ -501,7 +508,29 @@ TEST_CASE("api: request bodies are checked against the schemas, naming the membe
       {"POST", "/lights", R"({"lights": [{"position": [0,0,0], "radius": 0, "color": [1,1,1], "intensity": 1, "falloff": 1}]})", "/lights/0/radius"},
       {"POST", "/lights", R"({"lights": [{"position": [0,0,0], "radius": 1, "color": [1,1,1], "intensity": 1}]})", "/lights/0/falloff"},
       {"POST", "/lights", R"({"lights": [{"id": 3, "position": [0,0,0], "radius": 1, "color": [1,1,1], "intensity": 1, "falloff": 1}]})", "/lights/0/id"},
-      {"PATCH", light, R"({"intensity": 10001})", "/intensity"},
+      {"PATCH", light, R"({"intensity": 1000001})", "/intensity"},
+      // Spot lights and falloff modes: the schema's ranges, then inner < outer across members.
+      {"POST", "/lights", R"({"lights": [{"position": [0,0,0], "radius": 1, "color": [1,1,1], "intensity": 1, "falloff": 1, "type": "spot", "innerConeAngle": 0.6, "outerConeAngle": 0.5}]})", "/lights/0/innerConeAngle"},
+      {"POST", "/lights", R"({"lights": [{"position": [0,0,0], "radius": 1, "color": [1,1,1], "intensity": 1, "falloff": 1, "type": "spot", "innerConeAngle": 0.5, "outerConeAngle": 0.5}]})", "/lights/0/innerConeAngle"},
+      {"POST", "/lights", R"({"lights": [{"position": [0,0,0], "radius": 1, "color": [1,1,1], "intensity": 1, "falloff": 1, "outerConeAngle": 1.6}]})", "/lights/0/outerConeAngle"},
+      {"POST", "/lights", R"({"lights": [{"position": [0,0,0], "radius": 1, "color": [1,1,1], "intensity": 1, "falloff": 1, "outerConeAngle": 0}]})", "/lights/0/outerConeAngle"},
+      {"POST", "/lights", R"({"lights": [{"position": [0,0,0], "radius": 1, "color": [1,1,1], "intensity": 1, "falloff": 1, "innerConeAngle": -0.1}]})", "/lights/0/innerConeAngle"},
+      {"POST", "/lights", R"({"lights": [{"position": [0,0,0], "radius": 1, "color": [1,1,1], "intensity": 1, "falloff": 1, "innerConeAngle": 1e999}]})", ""},  // refused while parsing
+      {"POST", "/lights", R"({"lights": [{"position": [0,0,0], "radius": 1, "color": [1,1,1], "intensity": 1, "falloff": 1, "innerConeAngle": NaN}]})", ""},  // not JSON
+      {"POST", "/lights", R"({"lights": [{"position": [0,0,0], "radius": 1, "color": [1,1,1], "intensity": 1, "falloff": 1, "type": "area"}]})", "/lights/0/type"},
+      {"POST", "/lights", R"({"lights": [{"position": [0,0,0], "radius": 1, "color": [1,1,1], "intensity": 1, "falloff": 1, "attenuation": "linear"}]})", "/lights/0/attenuation"},
+      {"POST", "/lights", R"({"lights": [{"position": [0,0,0], "radius": 1, "color": [1,1,1], "intensity": 1, "falloff": 1, "type": "spot", "direction": [0,0,0]}]})", "/lights/0/direction"},
+      {"POST", "/lights", R"({"lights": [{"position": [0,0,0], "radius": 1, "color": [1,1,1], "intensity": 1, "falloff": 1}, {"position": [0,0,0], "radius": 1, "color": [1,1,1], "intensity": 1, "falloff": 1, "type": "spot", "innerConeAngle": 0.9}]})", "/lights/1/innerConeAngle"},
+      {"PATCH", light, R"({"innerConeAngle": 1.0})", "/innerConeAngle"},
+      {"PATCH", light, R"({"innerConeAngle": 0.3, "outerConeAngle": 0.2})", "/innerConeAngle"},
+      {"PATCH", light, R"({"type": "spot", "direction": [0, 0, 0]})", "/direction"},
+      {"PATCH", light, R"({"outerConeAngle": "wide"})", "/outerConeAngle"},
+      {"PATCH", "/settings", R"({"suns": [{"direction": [0, 0, 0], "color": [1, 1, 1], "intensity": 1}]})", "/suns/0/direction"},
+      {"PATCH", "/settings", R"({"suns": [{"direction": [0, -1, 0], "color": [1, 1, 1], "intensity": 1001}]})", "/suns/0/intensity"},
+      {"PATCH", "/settings", R"({"suns": [{"direction": [0, -1, 0], "color": [1, 1, 1], "intensity": 1}, {"direction": [0, -1, 0], "color": [1, 1, 1], "intensity": 1}, {"direction": [0, -1, 0], "color": [1, 1, 1], "intensity": 1}, {"direction": [0, -1, 0], "color": [1, 1, 1], "intensity": 1}]})", "/suns"},
+      {"POST", "/camera/select", R"({"modelCamera": 0})", "/modelCamera"},  // the built-in scene has none
+      {"POST", "/camera/select", R"({"modelCamera": -1})", "/modelCamera"},
+      {"POST", "/camera/select", R"({})", "/modelCamera"},
       {"PATCH", light, R"({"color": [2, 0, 0]})", "/color/0"},
       {"PATCH", light, R"({"id": 9})", "/id"},
       {"POST", "/lights/generate", R"({"seed": 1})", "/count"},
@@ -1145,6 +1174,99 @@ TEST_CASE("api: a snapshot restores a session in a new one (the same frame) or o
   checkProblem(api.post("/v1/sessions", json{{"snapshot", snapshot.json}, {"model", "builtin:default"}}.dump()),
                400, "invalid-body", "both", "/snapshot");
   CHECK(api.get(c.path() + "/snapshot", c.token).json == snapshot.json);
+  CHECK(myriad::test::validationMessages(api) == 0);
+  checkStopsCleanly(server);
+}
+
+TEST_CASE("api: a glTF file's point, spot and directional lights and its cameras; a camera selected") {
+  // A triangle lit by a point light, a spot light and two directional lights; two cameras.
+  const std::string gltf = R"({
+    "asset": {"version": "2.0"},
+    "extensionsUsed": ["KHR_lights_punctual"],
+    "extensions": {"KHR_lights_punctual": {"lights": [
+      {"type": "point", "color": [1, 1, 1], "intensity": 20, "range": 5},
+      {"type": "spot", "color": [1, 1, 1], "intensity": 40, "spot": {"innerConeAngle": 0.1, "outerConeAngle": 0.4}},
+      {"type": "directional", "color": [1, 1, 1], "intensity": 2},
+      {"type": "directional", "color": [1, 0.5, 0.5], "intensity": 3}]}},
+    "cameras": [
+      {"type": "perspective", "perspective": {"aspectRatio": 1.5, "yfov": 0.7, "znear": 0.05, "zfar": 40}},
+      {"type": "orthographic", "orthographic": {"xmag": 2, "ymag": 1, "znear": 0.1, "zfar": 50}}],
+    "scene": 0,
+    "scenes": [{"nodes": [0, 1, 2, 3, 4, 5, 6]}],
+    "nodes": [
+      {"name": "triangle", "mesh": 0},
+      {"name": "point", "translation": [0, 2, 0], "extensions": {"KHR_lights_punctual": {"light": 0}}},
+      {"name": "spot", "translation": [0, 3, 0], "rotation": [-0.70710678, 0, 0, 0.70710678],
+       "extensions": {"KHR_lights_punctual": {"light": 1}}},
+      {"name": "sun0", "extensions": {"KHR_lights_punctual": {"light": 2}}},
+      {"name": "sun1", "rotation": [-0.70710678, 0, 0, 0.70710678], "extensions": {"KHR_lights_punctual": {"light": 3}}},
+      {"name": "front", "translation": [0.5, 0.5, 3], "camera": 0},
+      {"name": "flat", "translation": [0, 0, 5], "camera": 1}],
+    "meshes": [{"primitives": [{"attributes": {"POSITION": 0}}]}],
+    "buffers": [{"byteLength": 36, "uri":
+      "data:application/octet-stream;base64,AAAAAAAAAAAAAAAAAACAPwAAAAAAAAAAAAAAAAAAgD8AAAAA"}],
+    "bufferViews": [{"buffer": 0, "byteLength": 36}],
+    "accessors": [{"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3",
+                   "min": [0, 0, 0], "max": [1, 1, 0]}]
+  })";
+  ServerProcess server({"--lights", "4"});
+  requireListening(server);
+  ApiClient api(server);
+  TestSession s = createSession(api);
+  Reply loaded = api.put(s.path() + "/model?filename=lit.gltf&lights=model", gltf, s.token,
+                         "application/octet-stream");
+  REQUIRE(loaded.status == 200);
+  const json& model = loaded.json.at("model");
+  CHECK(model.at("lights") == json{{"point", 1}, {"spot", 1}, {"directional", 2}, {"directionalDropped", 0}});
+  CHECK(loaded.json.at("lights").at("count") == 2);
+
+  // The point and spot lights are the session's, glTF's falloff and cone; directional ones suns.
+  const json lights = api.get(s.path() + "/lights", s.token).json.at("lights");
+  REQUIRE(lights.size() == 2);
+  CHECK(lights[0].at("type") == "point");
+  CHECK(lights[0].at("attenuation") == "inverse-square");
+  CHECK(lights[0].at("radius") == 5);
+  CHECK(lights[1].at("type") == "spot");
+  CHECK(lights[1].at("attenuation") == "inverse-square");
+  CHECK(lights[1].at("intensity") == 40);
+  CHECK(lights[1].at("innerConeAngle").get<double>() == doctest::Approx(0.1));
+  CHECK(lights[1].at("outerConeAngle").get<double>() == doctest::Approx(0.4));
+  CHECK(lights[1].at("direction")[1].get<double>() == doctest::Approx(-1.0));
+  const json suns = loaded.json.at("settings").at("suns");
+  REQUIRE(suns.size() == 2);
+  CHECK(suns[0].at("intensity") == 3);  // brightest first
+  CHECK(suns[0].at("direction")[1].get<double>() == doctest::Approx(-1.0));
+  CHECK(suns[1].at("intensity") == 2);
+
+  // Cameras listed with their node's placement; the perspective one becomes the camera.
+  const json& cameras = model.at("cameras");
+  REQUIRE(cameras.size() == 2);
+  CHECK(cameras[0].at("index") == 0);
+  CHECK(cameras[0].at("name") == "front");
+  CHECK(cameras[0].at("type") == "perspective");
+  CHECK(cameras[0].at("yfov").get<double>() == doctest::Approx(0.7).epsilon(1e-5));
+  CHECK(cameras[0].at("aspectRatio").get<double>() == doctest::Approx(1.5));
+  CHECK(cameras[0].at("zfar") == 40);
+  CHECK(cameras[0].at("position") == json{0.5, 0.5, 3});
+  CHECK(cameras[1].at("type") == "orthographic");
+  Reply selected = api.post(s.path() + "/camera/select", R"({"modelCamera": 0})", s.token);
+  REQUIRE(selected.status == 200);
+  CHECK(selected.json.at("eye") == json{0.5, 0.5, 3});
+  CHECK(selected.json.at("target")[2].get<double>() < 3.0);  // looking down -Z
+  CHECK(selected.json.at("fovY").get<double>() == doctest::Approx(0.7 * 180.0 / 3.14159265358979).epsilon(1e-4));
+  CHECK(selected.json.at("near").get<double>() == doctest::Approx(0.05));
+  CHECK(selected.json.at("far") == 40);
+  CHECK(api.get(s.path() + "/camera", s.token).json == selected.json);
+  checkProblem(api.post(s.path() + "/camera/select", R"({"modelCamera": 1})", s.token), 400,
+               "invalid-body", "select the orthographic camera", "/modelCamera");
+  checkProblem(api.post(s.path() + "/camera/select", R"({"modelCamera": 2})", s.token), 400,
+               "invalid-body", "select a camera the model lacks", "/modelCamera");
+
+  // A frame from it renders (every light type on the GPU, validation on), and the snapshot keeps
+  // the suns.
+  Reply frame = api.get(s.path() + "/frame?width=64&height=48&format=raw", s.token);
+  REQUIRE(frame.status == 200);
+  CHECK(api.get(s.path() + "/snapshot", s.token).json.at("settings").at("suns") == suns);
   CHECK(myriad::test::validationMessages(api) == 0);
   checkStopsCleanly(server);
 }

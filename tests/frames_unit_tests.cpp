@@ -99,12 +99,12 @@ TEST_CASE("stream query: jpeg by default, png allowed, raw not, fps bounded") {
   FrameRequest bare = service::parseStreamQuery({}, 2048);
   CHECK(bare.format == ImageFormat::Jpeg);
   CHECK(bare.fps == service::kDefaultStreamFps);
-  CHECK(service::parseStreamQuery({{"format", "png"}, {"fps", "60"}}, 2048).fps == 60);
+  CHECK(service::parseStreamQuery({{"format", "png"}, {"fps", "240"}}, 2048).fps == 240);
   CHECK(service::parseStreamQuery({{"fps", "1"}}, 2048).fps == 1);
   CHECK(failureOf([] { service::parseStreamQuery({{"format", "raw"}}, 2048); }).parameter ==
         "format");
   CHECK(failureOf([] { service::parseStreamQuery({{"fps", "0"}}, 2048); }).parameter == "fps");
-  CHECK(failureOf([] { service::parseStreamQuery({{"fps", "61"}}, 2048); }).parameter == "fps");
+  CHECK(failureOf([] { service::parseStreamQuery({{"fps", "241"}}, 2048); }).parameter == "fps");
   Failure time = failureOf([] { service::parseStreamQuery({{"time", "1"}}, 2048); });
   CHECK(time.parameter == "time");
   CHECK(time.unknown);

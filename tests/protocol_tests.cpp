@@ -54,6 +54,7 @@ const std::map<std::string, std::function<json(const json&)>, std::less<>> kRoun
     {"model-source", throughType<protocol::ModelSource>},
     {"camera", throughType<protocol::Camera>},
     {"camera-patch", throughType<protocol::CameraPatch>},
+    {"camera-select", throughType<protocol::CameraSelect>},
     {"settings", throughType<protocol::Settings>},
     {"settings-patch", throughType<protocol::SettingsPatch>},
     {"material", throughType<protocol::Material>},
@@ -76,7 +77,7 @@ const std::map<std::string, std::function<json(const json&)>, std::less<>> kRoun
 
 // The bodies clients send; each must reject every kind of mistake (cases.json "kind").
 const std::set<std::string> kRequestSchemas = {
-    "session-create", "snapshot", "model-source", "camera",      "camera-patch", "settings-patch",
+    "session-create", "snapshot", "model-source", "camera",      "camera-patch", "camera-select", "settings-patch",
     "material-patch", "light-new",    "light-patch", "lights-add",   "lights-generate"};
 
 std::vector<std::string_view> bodySchemas() {
@@ -90,7 +91,7 @@ std::vector<std::string_view> bodySchemas() {
 }  // namespace
 
 TEST_CASE("every schema is embedded as it is on disk and accepts its example") {
-  CHECK(bodySchemas().size() == 25);
+  CHECK(bodySchemas().size() == 26);
   for (std::string_view name : protocol::schemaNames()) {
     CAPTURE(name);
     std::string path = std::string(MYRIAD_PROTOCOL_DIR) + "/schemas/" + std::string(name) + ".schema.json";
@@ -201,7 +202,7 @@ TEST_CASE("messages: whole sentences that name the member, escaped pointers, sho
   CHECK(error->pointer == "/a~1b~0c");  // RFC 6901 escaping
   CHECK(error->message ==
         "\"a~1b~0c\" is not a member of the body; its members are ambient, animate, background, "
-        "environment, exposure, markers, sun, technique.");
+        "environment, exposure, markers, sun, suns, technique.");
 
   error = protocol::validate("camera", json::array());
   REQUIRE(error);

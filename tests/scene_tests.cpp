@@ -541,16 +541,17 @@ TEST_CASE("Loading under a memory limit: an absurd header is a ModelLoadError") 
 #endif
 }
 
-TEST_CASE("Loading glTF 2: KHR_lights_punctual point lights") {
+TEST_CASE("Loading glTF 2: KHR_lights_punctual point and spot lights") {
   // One triangle (three float3 positions, base64) and three lights on translated nodes: a point
-  // light with a range, one without, and a spot light, which is not modelled and must be skipped.
+  // light with a range, one without, and a spot light on a node turned to point its -Z down.
   const char* gltf = R"({
   "asset": {"version": "2.0"},
   "extensionsUsed": ["KHR_lights_punctual"],
   "extensions": {"KHR_lights_punctual": {"lights": [
     {"type": "point", "color": [1.0, 0.5, 0.25], "intensity": 5.0, "range": 4.0},
     {"type": "point", "color": [0.2, 0.4, 0.8], "intensity": 0.5},
-    {"type": "spot", "color": [1, 1, 1], "intensity": 9.0, "spot": {}}]}},
+    {"type": "spot", "color": [1, 1, 1], "intensity": 9.0, "range": 3.0,
+     "spot": {"innerConeAngle": 0.2, "outerConeAngle": 0.6}}]}},
   "scene": 0,
   "scenes": [{"nodes": [0, 1]}],
   "nodes": [
@@ -558,7 +559,8 @@ TEST_CASE("Loading glTF 2: KHR_lights_punctual point lights") {
     {"name": "lamps", "translation": [10, 0, 0], "children": [2, 3, 4]},
     {"name": "ranged", "translation": [1, 2, 3], "extensions": {"KHR_lights_punctual": {"light": 0}}},
     {"name": "unranged", "translation": [0, 1, 0], "extensions": {"KHR_lights_punctual": {"light": 1}}},
-    {"name": "spot", "extensions": {"KHR_lights_punctual": {"light": 2}}}],
+    {"name": "spot", "rotation": [-0.70710678, 0, 0, 0.70710678],
+     "extensions": {"KHR_lights_punctual": {"light": 2}}}],
   "meshes": [{"primitives": [{"attributes": {"POSITION": 0}}]}],
   "buffers": [{"byteLength": 36, "uri":
     "data:application/octet-stream;base64,AAAAAAAAAAAAAAAAAACAPwAAAAAAAAAAAAAAAAAAgD8AAAAA"}],
@@ -575,9 +577,13 @@ TEST_CASE("Loading glTF 2: KHR_lights_punctual point lights") {
   fs::remove(file);
   checkLoadedScene(scene);
   CHECK(scene.meshes[0].indices.size() == 3);
-  REQUIRE(scene.lights.size() == 2);
+  REQUIRE(scene.lights.size() == 3);
+  for (const PointLight& light : scene.lights) {
+    CHECK(light.attenuation == Attenuation::InverseSquare);  // glTF's falloff, its candela
+  }
 
   const PointLight& ranged = scene.lights[0];
+  CHECK(ranged.type == LightType::Point);
   CHECK(ranged.position.x == doctest::Approx(11.0f));  // parent's translation applies
   CHECK(ranged.position.y == doctest::Approx(2.0f));
   CHECK(ranged.position.z == doctest::Approx(3.0f));
@@ -596,6 +602,136 @@ TEST_CASE("Loading glTF 2: KHR_lights_punctual point lights") {
   CHECK(unranged.intensity == doctest::Approx(0.4f));
   const float modelSize = glm::length(scene.bounds().size());
   CHECK(unranged.radius == doctest::Approx(std::min(16.0f * std::sqrt(0.4f), modelSize)));
+
+  // The spot: the node's -Z turned to -Y, the file's angles (radians from the axis) and range.
+  const PointLight& spot = scene.lights[2];
+  CHECK(spot.type == LightType::Spot);
+  CHECK(spot.position == glm::vec3(10.0f, 0.0f, 0.0f));
+  CHECK(spot.direction.x == doctest::Approx(0.0f));
+  CHECK(spot.direction.y == doctest::Approx(-1.0f));
+  CHECK(spot.direction.z == doctest::Approx(0.0f));
+  CHECK(spot.innerConeAngle == doctest::Approx(0.2f));
+  CHECK(spot.outerConeAngle == doctest::Approx(0.6f));
+  CHECK(spot.intensity == doctest::Approx(9.0f));
+  CHECK(spot.radius == doctest::Approx(3.0f));
+}
+
+namespace {
+
+// One triangle and, on nodes, a point light, a spot light, five directional lights of different
+// brightness (three are kept) and two cameras: a perspective one (aspect 1.5, no zfar) turned to
+// look down, and an orthographic one.
+const char* kLightsAndCamerasGltf = R"({
+  "asset": {"version": "2.0"},
+  "extensionsUsed": ["KHR_lights_punctual"],
+  "extensions": {"KHR_lights_punctual": {"lights": [
+    {"type": "point", "color": [1, 1, 1], "intensity": 20, "range": 5},
+    {"type": "spot", "color": [1, 0.5, 0.5], "intensity": 40, "spot": {"innerConeAngle": 0.1, "outerConeAngle": 0.4}},
+    {"type": "directional", "color": [1, 1, 1], "intensity": 1.0},
+    {"type": "directional", "color": [1, 1, 0.5], "intensity": 5.0},
+    {"type": "directional", "color": [0.5, 0.5, 1], "intensity": 3.0},
+    {"type": "directional", "color": [1, 1, 1], "intensity": 0.5},
+    {"type": "directional", "color": [1, 1, 1], "intensity": 4.0}]}},
+  "cameras": [
+    {"type": "perspective", "perspective": {"aspectRatio": 1.5, "yfov": 0.7, "znear": 0.05}},
+    {"type": "orthographic", "orthographic": {"xmag": 2, "ymag": 1, "znear": 0.1, "zfar": 50}}],
+  "scene": 0,
+  "scenes": [{"nodes": [0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10]}],
+  "nodes": [
+    {"name": "triangle", "mesh": 0},
+    {"name": "point", "translation": [0, 2, 0], "extensions": {"KHR_lights_punctual": {"light": 0}}},
+    {"name": "spot", "translation": [0, 3, 0], "rotation": [-0.70710678, 0, 0, 0.70710678],
+     "extensions": {"KHR_lights_punctual": {"light": 1}}},
+    {"name": "sun0", "extensions": {"KHR_lights_punctual": {"light": 2}}},
+    {"name": "sun1", "rotation": [-0.70710678, 0, 0, 0.70710678], "extensions": {"KHR_lights_punctual": {"light": 3}}},
+    {"name": "sun2", "extensions": {"KHR_lights_punctual": {"light": 4}}},
+    {"name": "sun3", "extensions": {"KHR_lights_punctual": {"light": 5}}},
+    {"name": "sun4", "rotation": [0, 0.70710678, 0, 0.70710678], "extensions": {"KHR_lights_punctual": {"light": 6}}},
+    {"name": "overhead", "translation": [0.5, 4, 0.25], "rotation": [-0.70710678, 0, 0, 0.70710678], "camera": 0},
+    {"name": "flat", "translation": [0, 0, 5], "camera": 1},
+    {"name": "empty"}],
+  "meshes": [{"primitives": [{"attributes": {"POSITION": 0}}]}],
+  "buffers": [{"byteLength": 36, "uri":
+    "data:application/octet-stream;base64,AAAAAAAAAAAAAAAAAACAPwAAAAAAAAAAAAAAAAAAgD8AAAAA"}],
+  "bufferViews": [{"buffer": 0, "byteLength": 36}],
+  "accessors": [{"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3",
+                 "min": [0, 0, 0], "max": [1, 1, 0]}]
+})";
+
+}  // namespace
+
+TEST_CASE("Loading glTF 2: point, spot and directional lights all arrive; the brightest 3 directional join the sun") {
+  const fs::path folder = fs::temp_directory_path() / "myriad_scene_tests";
+  fs::create_directories(folder);
+  const fs::path file = folder / "lights_and_cameras.gltf";
+  std::ofstream(file) << kLightsAndCamerasGltf;
+  const Scene scene = loadModel(file);
+  fs::remove(file);
+  checkLoadedScene(scene);
+
+  REQUIRE(scene.lights.size() == 2);
+  CHECK(scene.lights[0].type == LightType::Point);
+  CHECK(scene.lights[0].attenuation == Attenuation::InverseSquare);
+  CHECK(scene.lights[0].intensity == doctest::Approx(20.0f));
+  CHECK(scene.lights[0].radius == doctest::Approx(5.0f));
+  const PointLight& spot = scene.lights[1];
+  CHECK(spot.type == LightType::Spot);
+  CHECK(spot.attenuation == Attenuation::InverseSquare);
+  CHECK(spot.intensity == doctest::Approx(40.0f));
+  CHECK(spot.color.g == doctest::Approx(0.5f));
+  CHECK(spot.direction.y == doctest::Approx(-1.0f));
+  CHECK(spot.innerConeAngle == doctest::Approx(0.1f));
+  CHECK(spot.outerConeAngle == doctest::Approx(0.4f));
+
+  // Five directional lights: the three brightest (5, 4, 3 lux), brightest first; two dropped.
+  REQUIRE(scene.extraSuns.size() == 3);
+  CHECK(scene.droppedSuns == 2);
+  CHECK(scene.extraSuns[0].intensity == doctest::Approx(5.0f));
+  CHECK(scene.extraSuns[0].color.b == doctest::Approx(0.5f));
+  CHECK(scene.extraSuns[0].direction.y == doctest::Approx(-1.0f));  // -Z turned down
+  CHECK(scene.extraSuns[1].intensity == doctest::Approx(4.0f));
+  CHECK(scene.extraSuns[1].direction.x == doctest::Approx(-1.0f));  // -Z turned about +Y
+  CHECK(scene.extraSuns[2].intensity == doctest::Approx(3.0f));
+  CHECK(scene.extraSuns[2].direction.z == doctest::Approx(-1.0f));  // the node's own -Z
+
+  REQUIRE(scene.cameras.size() == 2);
+  const ModelCamera& overhead = scene.cameras[0];
+  CHECK(overhead.name == "overhead");
+  CHECK(overhead.perspective);
+  CHECK(overhead.yfov == doctest::Approx(0.7f).epsilon(1e-5));  // the file's yfov, recovered
+  CHECK(overhead.aspectRatio == doctest::Approx(1.5f));
+  CHECK(overhead.znear == doctest::Approx(0.05f));
+  // No zfar in the file: Assimp 5.2.5 reads glTF's optional zfar with a default of 100, so an
+  // infinite far plane cannot be told from 100.
+  CHECK(overhead.zfar == doctest::Approx(100.0f));
+  CHECK(overhead.position.x == doctest::Approx(0.5f));
+  CHECK(overhead.position.y == doctest::Approx(4.0f));
+  CHECK(overhead.position.z == doctest::Approx(0.25f));
+  CHECK(overhead.direction.y == doctest::Approx(-1.0f));
+  CHECK(overhead.up.z == doctest::Approx(-1.0f));  // +Y turned to -Z
+  const ModelCamera& flat = scene.cameras[1];
+  CHECK(flat.name == "flat");
+  CHECK_FALSE(flat.perspective);
+  CHECK(flat.zfar == doctest::Approx(50.0f));
+  CHECK(flat.direction.z == doctest::Approx(-1.0f));
+}
+
+TEST_CASE("Loading glTF 2: Assimp's cameras test file lists its cameras") {
+  const Scene scene = loadModel(kModels / "glTF2" / "cameras" / "Cameras.gltf");
+  checkLoadedScene(scene);
+  REQUIRE(scene.cameras.size() == 2);
+  const ModelCamera& perspective = scene.cameras[0];
+  CHECK(perspective.perspective);
+  CHECK(perspective.yfov == doctest::Approx(0.7f).epsilon(1e-5));
+  CHECK(perspective.aspectRatio == doctest::Approx(1.0f));
+  CHECK(perspective.znear == doctest::Approx(0.01f));
+  CHECK(perspective.zfar == doctest::Approx(100.0f));
+  CHECK(perspective.position.x == doctest::Approx(0.5f));
+  CHECK(perspective.position.y == doctest::Approx(0.5f));
+  CHECK(perspective.position.z == doctest::Approx(3.0f));
+  CHECK(perspective.direction.z == doctest::Approx(-1.0f));
+  CHECK(perspective.up.y == doctest::Approx(1.0f));
+  CHECK_FALSE(scene.cameras[1].perspective);
 }
 
 TEST_CASE("Loading: every OBJ and glTF test model loads or is rejected with a reason") {

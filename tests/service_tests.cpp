@@ -350,6 +350,8 @@ TEST_CASE("server timing: one metric per pass plus encode") {
         "gbuffer;dur=1.234, sun;dur=0.500, bad-name-x;dur=2.000, nan;dur=0.000, "
         "encode;dur=3.250");
   CHECK(service::formatServerTiming({}, 1.0) == "encode;dur=1.000");
+  CHECK(service::formatServerTiming({{"gbuffer", 1.0}}, 2.0, nullptr, 0.125) ==
+        "gbuffer;dur=1.000, encode;dur=2.000, queue;dur=0.125");
 }
 
 TEST_CASE("problem: RFC 9457 members, and the parameter only when there is one") {

@@ -2,6 +2,7 @@
 // the seed's attenuation window; Khronos PBR Neutral; IEC 61966-2-1 sRGB).
 #include <doctest/doctest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <initializer_list>
 
@@ -40,6 +41,93 @@ TEST_CASE("point light contributes nothing at or beyond its radius") {
   c = shadePointLight(P, N, V, vec3(1.0f), 0.0f, 0.5f, vec3(0, 1.999f, 0), 2.0f, vec3(10.0f), 1.0f);
   CHECK(c.x > 0.0f);
   CHECK(c.x < 1e-2f);
+}
+
+TEST_CASE("inverse-square falloff: 1/d^2 near the light, glTF's smooth window, exactly 0 at the range") {
+  // clamp(1 - (d/r)^4, 0, 1)^2 / max(d^2, 0.01)
+  CHECK(inverseSquareAttenuation(4.0f, 4.0f) == 0.0f);
+  CHECK(inverseSquareAttenuation(5.0f, 4.0f) == 0.0f);
+  CHECK(inverseSquareAttenuation(1000.0f, 4.0f) == 0.0f);
+  CHECK(inverseSquareAttenuation(std::nextafter(4.0f, 0.0f), 4.0f) > 0.0f);
+  // d = r/2: (1 - 1/16)^2 / 4
+  CHECK(inverseSquareAttenuation(2.0f, 4.0f) == Approx((15.0 / 16.0) * (15.0 / 16.0) / 4.0));
+  // Far inside a large range it is the inverse-square law.
+  CHECK(inverseSquareAttenuation(1.0f, 1000.0f) == Approx(1.0f).epsilon(1e-6));
+  CHECK(inverseSquareAttenuation(3.0f, 1000.0f) == Approx(1.0f / 9.0f).epsilon(1e-6));
+  // Closer than 0.1 it stops growing (no division by zero at the light).
+  CHECK(inverseSquareAttenuation(0.0f, 4.0f) == Approx(100.0f));
+  CHECK(inverseSquareAttenuation(0.05f, 4.0f) == Approx(100.0f));
+  CHECK(std::isfinite(inverseSquareAttenuation(0.0f, 1e-3f)));
+  // The GPU's encoding: C < 0 selects it, C >= 0 the window.
+  CHECK(lightAttenuation(2.0f, 4.0f, -1.0f) == inverseSquareAttenuation(2.0f, 4.0f));
+  CHECK(lightAttenuation(2.0f, 4.0f, 1.0f) == distanceAttenuation(2.0f, 4.0f, 1.0f));
+  float previous = inverseSquareAttenuation(0.1f, 4.0f);
+  for (int i = 1; i <= 100; ++i) {
+    float a = inverseSquareAttenuation(0.1f + 0.039f * i, 4.0f);
+    CHECK(a <= previous);
+    previous = a;
+  }
+}
+
+TEST_CASE("spot falloff: glTF's squared linear ramp in the cosine, 0 at the outer cone, 1 inside the inner") {
+  const float inner = 0.3f, outer = 0.5f;
+  const float cosInner = std::cos(inner), cosOuter = std::cos(outer);
+  CHECK(spotAttenuation(cosOuter, cosOuter, cosInner) == 0.0f);
+  CHECK(spotAttenuation(std::cos(0.6f), cosOuter, cosInner) == 0.0f);
+  CHECK(spotAttenuation(-1.0f, cosOuter, cosInner) == 0.0f);
+  CHECK(spotAttenuation(std::nextafter(cosOuter, 1.0f), cosOuter, cosInner) > 0.0f);
+  CHECK(spotAttenuation(cosInner, cosOuter, cosInner) == 1.0f);
+  CHECK(spotAttenuation(1.0f, cosOuter, cosInner) == 1.0f);
+  // Half way in the cosine: 0.5^2.
+  CHECK(spotAttenuation(0.5f * (cosInner + cosOuter), cosOuter, cosInner) == Approx(0.25f));
+  // As the spec's sample code: scale = 1 / max(0.001, cos(inner) - cos(outer)), offset.
+  const float scale = 1.0f / std::max(0.001f, cosInner - cosOuter);
+  const float offset = -cosOuter * scale;
+  for (float a = 0.0f; a < 0.6f; a += 0.01f) {
+    float t = std::clamp(std::cos(a) * scale + offset, 0.0f, 1.0f);
+    CHECK(spotAttenuation(std::cos(a), cosOuter, cosInner) == Approx(t * t).epsilon(1e-4));
+  }
+  // A point light's cone (-2, -1) is 1 in every direction; inner == outer still has a spread.
+  CHECK(spotAttenuation(-1.0f, -2.0f, -1.0f) == 1.0f);
+  CHECK(spotAttenuation(cosOuter, cosOuter, cosOuter) == 0.0f);
+  CHECK(spotAttenuation(cosOuter + 0.001f, cosOuter, cosOuter) == Approx(1.0f).epsilon(1e-3));
+}
+
+TEST_CASE("a spot light: nothing outside its outer cone or radius, its falloff inside") {
+  // A spot 2 above the origin pointing straight down, outer cone 30 degrees, inner 20.
+  const vec3 light(0, 2, 0), down(0, -1, 0), N(0, 1, 0), V(0, 1, 0);
+  const float outer = 30.0f * kPiF / 180.0f, inner = 20.0f * kPiF / 180.0f;
+  const float cosOuter = std::cos(outer), cosInner = std::cos(inner);
+  auto shade = [&](vec3 P, float C) {
+    return shadeLocalLight(P, N, V, vec3(1.0f), 0.0f, 0.5f, light, 10.0f, vec3(5.0f), C, down,
+                           cosOuter, cosInner);
+  };
+  auto reaches = [&](vec3 P) { return localLightReaches(P, light, 10.0f, down, cosOuter); };
+  const float edge = 2.0f * std::tan(outer);  // the outer cone meets the floor here
+  for (float C : {1.0f, -1.0f}) {
+    CAPTURE(C);
+    CHECK(shade(vec3(edge * 1.001f, 0, 0), C).x == 0.0f);
+    CHECK(shade(vec3(0, 0, edge * 1.01f), C).x == 0.0f);
+    CHECK(shade(vec3(edge * 0.999f, 0, 0), C).x > 0.0f);
+    CHECK(shade(vec3(0, 0, 0), C).x > 0.0f);
+    // Inside the inner cone the spot is the point light of the same falloff.
+    vec3 P(0.3f, 0, 0.2f);
+    vec3 point = shadeLocalLight(P, N, V, vec3(1.0f), 0.0f, 0.5f, light, 10.0f, vec3(5.0f), C, down,
+                                 -2.0f, -1.0f);
+    CHECK(shade(P, C).x == point.x);
+  }
+  CHECK_FALSE(reaches(vec3(edge * 1.001f, 0, 0)));
+  CHECK(reaches(vec3(edge * 0.999f, 0, 0)));
+  CHECK_FALSE(reaches(vec3(0, 2.0f - 10.0f, 0)));       // at the radius, on the axis
+  CHECK(reaches(vec3(0, 2.0f - 9.99f, 0)));
+  CHECK_FALSE(reaches(vec3(0, 3.0f, 0)));                // behind the light
+  CHECK(localLightReaches(vec3(0, 3.0f, 0), light, 10.0f, down, -2.0f));  // a point light
+  // Exactly where reach is false the light adds exactly nothing, on a sweep across the edge.
+  for (int i = 0; i <= 2000; ++i) {
+    vec3 P(edge * (0.99f + 0.00001f * i), 0, 0);
+    vec3 c = shade(P, -1.0f);
+    if (!reaches(P)) CHECK(c.x == 0.0f);
+  }
 }
 
 TEST_CASE("BRDF at normal incidence, rough dielectric: (0.96 + 0.04/4) / pi") {

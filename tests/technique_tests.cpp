@@ -244,3 +244,138 @@ TEST_CASE("a million animated lights render with the clustered technique, withou
   }
   CHECK(gpu.context->validationMessages.load() == 0);
 }
+
+namespace {
+
+// A spot light (inverse-square, the glTF default) aimed down and forward at the floor, a window
+// spot and an inverse-square point light; sun, ambient and background off unless asked.
+scene::PointLight spotLight(glm::vec3 position, glm::vec3 direction, float inner, float outer,
+                            float radius, float intensity, scene::Attenuation attenuation) {
+  scene::PointLight l;
+  l.position = position;
+  l.radius = radius;
+  l.color = glm::vec3(1.0f, 0.9f, 0.7f);
+  l.intensity = intensity;
+  l.falloff = 1.0f;
+  l.type = scene::LightType::Spot;
+  l.attenuation = attenuation;
+  l.direction = glm::normalize(direction);
+  l.innerConeAngle = inner;
+  l.outerConeAngle = outer;
+  return l;
+}
+
+scene::Scene spotScene(bool withOthers) {
+  scene::Scene s = litFloor(0, 1);
+  s.sun.intensity = 0.0f;
+  s.ambient = glm::vec3(0.0f);
+  s.background = glm::vec3(0.0f);
+  s.lights.push_back(spotLight(glm::vec3(-0.5f, 3.0f, -1.0f), glm::vec3(0.2f, -1.0f, -0.1f), 0.2f,
+                               0.45f, 9.0f, 12.0f, scene::Attenuation::InverseSquare));
+  if (withOthers) {
+    s.sun.intensity = 0.3f;
+    s.ambient = glm::vec3(0.02f);
+    s.lights.push_back(spotLight(glm::vec3(2.5f, 1.5f, 0.5f), glm::vec3(-0.5f, -1.0f, -0.6f), 0.0f,
+                                 0.7f, 4.0f, 3.0f, scene::Attenuation::Window));
+    scene::PointLight point;
+    point.position = glm::vec3(-3.5f, 0.8f, 0.5f);
+    point.radius = 5.0f;
+    point.color = glm::vec3(0.4f, 0.6f, 1.0f);
+    point.intensity = 2.0f;
+    point.attenuation = scene::Attenuation::InverseSquare;
+    s.lights.push_back(point);
+    // A spot whose cone spans pi/2 (a half space), seen from above.
+    s.lights.push_back(spotLight(glm::vec3(0.5f, 0.4f, -3.5f), glm::vec3(1.0f, 0.0f, 0.2f), 1.2f,
+                                 1.5707963f, 3.0f, 1.5f, scene::Attenuation::InverseSquare));
+  }
+  return s;
+}
+
+}  // namespace
+
+TEST_CASE("spot and inverse-square lights: every technique the same within 1/255, matching the reference") {
+  scene::Scene s = spotScene(true);
+  Gpu& gpu = sharedGpu();
+  gpu.setScene(s);
+  std::vector<uint8_t> reference =
+      render::renderReference(s, frameSettings(Technique::Clustered, 192, 128).takeLightingFrom(s));
+  std::vector<std::vector<uint8_t>> images;
+  for (Technique t : kTechniques) {
+    render::Frame frame = gpu.render(frameSettings(t, 192, 128));
+    CAPTURE(render::techniqueName(t));
+    CHECK_FALSE(frame.culling.overflowed());
+    int vsReference = maxDifference(frame.rgba, reference);
+    MESSAGE("spot scene, " << render::techniqueName(t) << ": max difference from the reference "
+                           << vsReference << "/255");
+    CHECK(vsReference <= 2);
+    images.push_back(std::move(frame.rgba));
+  }
+  for (size_t a = 0; a < images.size(); ++a) {
+    for (size_t b = a + 1; b < images.size(); ++b) {
+      CAPTURE(render::techniqueName(kTechniques[a]));
+      CAPTURE(render::techniqueName(kTechniques[b]));
+      CHECK(maxDifference(images[a], images[b]) <= 1);
+    }
+  }
+  // The lights do show: the image differs from the one lit by the sun and ambient alone.
+  scene::Scene unlit = s;
+  unlit.lights.clear();
+  CHECK(maxDifference(render::renderReference(unlit, frameSettings(Technique::Clustered, 192, 128)
+                                                         .takeLightingFrom(unlit)),
+                      reference) > 40);
+  CHECK(gpu.context->validationMessages.load() == 0);
+}
+
+TEST_CASE("a spot light's cone edge is exact: nothing outside the outer cone, light and a count inside") {
+  scene::Scene s = spotScene(false);
+  const scene::PointLight spot = s.lights[0];
+  const float cosOuter = std::cos(spot.outerConeAngle);
+  Gpu& gpu = sharedGpu();
+  gpu.setScene(s);
+  render::FrameSettings f = frameSettings(Technique::Clustered, 192, 128);
+  f.raw = true;
+  f.target = render::Target::Position;
+  const render::Frame positions = gpu.render(f);
+  f.target = render::Target::Normal;
+  const render::Frame normals = gpu.render(f);
+  for (Technique t : kTechniques) {
+    CAPTURE(render::techniqueName(t));
+    f.technique = t;
+    f.target = render::Target::Final;
+    const render::Frame finals = gpu.render(f);
+    f.target = render::Target::LightCount;
+    const render::Frame counts = gpu.render(f);
+    size_t outside = 0, nearOutside = 0, inside = 0, nearInside = 0, wrong = 0;
+    for (size_t p = 0; p < size_t(f.width) * f.height; ++p) {
+      const size_t i = p * 4;
+      glm::vec3 position(positions.data[i], positions.data[i + 1], positions.data[i + 2]);
+      glm::vec3 normal(normals.data[i], normals.data[i + 1], normals.data[i + 2]);
+      if (position == glm::vec3(0.0f)) continue;  // sky
+      glm::vec3 fromLight = position - spot.position;
+      float d = glm::length(fromLight);
+      float cd = glm::dot(spot.direction, fromLight / d);
+      bool lit = finals.data[i] != 0.0f || finals.data[i + 1] != 0.0f || finals.data[i + 2] != 0.0f;
+      float count = counts.data[i];
+      if (d < spot.radius * 0.999f && cd < cosOuter - 1e-5f) {
+        // Outside the outer cone (a hair of float rounding left either way): exactly nothing.
+        ++outside;
+        if (cd > cosOuter - 0.01f) ++nearOutside;
+        if (lit || count != 0.0f) ++wrong;
+      } else if (d < spot.radius * 0.999f && cd > cosOuter + 2e-3f &&
+                 glm::dot(normal, -fromLight / d) > 0.05f) {
+        // Inside (where half floats still hold the squared ramp) and facing the light.
+        ++inside;
+        if (cd < cosOuter + 0.01f) ++nearInside;
+        if (!lit || count != 1.0f) ++wrong;
+      }
+    }
+    MESSAGE(render::techniqueName(t) << ": " << outside << " pixels outside the cone (" << nearOutside
+                                     << " within 0.01 in cosine), " << inside << " inside ("
+                                     << nearInside << " within 0.01), " << wrong << " wrong");
+    CHECK(nearOutside >= 20);
+    CHECK(nearInside >= 20);
+    CHECK(wrong == 0);
+    for (float v : finals.data) REQUIRE(std::isfinite(v));
+  }
+  CHECK(gpu.context->validationMessages.load() == 0);
+}

@@ -1,5 +1,5 @@
 // Local lights: generate (count, seed, radius, intensity, falloff C), delete, a paged list, an
-// editor for one light, and picking a light by clicking its marker in the view: the listed
+// editor for one light (point or spot: direction and cone angles; window or inverse-square), and picking a light by clicking its marker in the view: the listed
 // lights are projected with the session's camera and the nearest one to the click is chosen.
 
 import {hexToLinear, linearToHex} from './color.js';
@@ -10,6 +10,8 @@ const $ = (id) => document.getElementById(id);
 const PAGE_SIZE = 50;
 const PICK_LIMIT = 1000;     // the API's page limit; picking considers the first this many
 const PICK_RADIUS_PX = 16;   // how far from a marker a click still selects it
+const DEGREES = 180 / Math.PI;  // the editor shows cone angles in degrees; the API takes radians
+const HALF_PI = Math.PI / 2;
 
 export class LightsPanel {
   constructor(api, {onProblem, onInfo, getCamera, getViewSize, overlay}) {
@@ -34,6 +36,7 @@ export class LightsPanel {
       this.applyEdit();
     });
     $('light-delete').addEventListener('click', () => this.deleteSelected());
+    $('light-type').addEventListener('change', () => this.showCone());
   }
 
   numberField(id) {
@@ -111,7 +114,7 @@ export class LightsPanel {
       swatch.className = 'swatch';
       swatch.style.background = linearToHex(light.color);
       const text = document.createElement('span');
-      text.textContent = `#${light.id} ${fmt(light.position)} r=${+light.radius.toFixed(3)}`;
+      text.textContent = `#${light.id} ${light.type === 'spot' ? 'spot ' : ''}${fmt(light.position)} r=${+light.radius.toFixed(3)}`;
       item.append(swatch, text);
       item.classList.toggle('selected', light.id === this.selected?.id);
       item.addEventListener('click', () => this.select(light));
@@ -132,6 +135,12 @@ export class LightsPanel {
       $('light-radius').value = light.radius;
       $('light-intensity').value = light.intensity;
       $('light-falloff').value = light.falloff;
+      $('light-attenuation').value = light.attenuation;
+      $('light-type').value = light.type;
+      [$('light-dx').value, $('light-dy').value, $('light-dz').value] = light.direction;
+      $('light-inner').value = +(light.innerConeAngle * DEGREES).toFixed(4);
+      $('light-outer').value = +(light.outerConeAngle * DEGREES).toFixed(4);
+      this.showCone();
     }
     this.drawOverlay();
   }
@@ -147,7 +156,15 @@ export class LightsPanel {
         radius: this.numberField('light-radius'),
         intensity: this.numberField('light-intensity'),
         falloff: this.numberField('light-falloff'),
+        attenuation: $('light-attenuation').value,
+        type: $('light-type').value,
       };
+      if (patch.type === 'spot') {
+        patch.direction = ['light-dx', 'light-dy', 'light-dz'].map((id) => this.numberField(id));
+        // Radians on the wire; the server refuses inner >= outer, naming the member.
+        patch.innerConeAngle = Math.min(this.numberField('light-inner') / DEGREES, HALF_PI);
+        patch.outerConeAngle = Math.min(this.numberField('light-outer') / DEGREES, HALF_PI);
+      }
     } catch (e) {
       this.onProblem(e);
       return;
@@ -158,6 +175,17 @@ export class LightsPanel {
       this.select(updated);
     } catch (e) {
       this.onProblem(e);
+    }
+  }
+
+  // Direction and cone angles only mean something for a spot light.
+  showCone() {
+    const spot = $('light-type').value === 'spot';
+    for (const id of ['light-dx', 'light-inner', 'light-outer']) {
+      const field = $(id);
+      (field.closest('.row') ?? field).hidden = !spot;
+      const label = document.querySelector(`label[for="${id}"]`);
+      if (label) label.hidden = !spot;
     }
   }
 

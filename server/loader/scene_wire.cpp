@@ -22,7 +22,9 @@ constexpr size_t kMinMeshBytes = 4 + 4 + 4;
 constexpr size_t kVertexBytes = 16 * 4;
 constexpr size_t kMinImageBytes = 4 + 4 + 4 + 4;
 constexpr size_t kInstanceBytes = 2 * 4 + 16 * 4;
-constexpr size_t kLightBytes = 9 * 4;
+constexpr size_t kLightBytes = 16 * 4;
+constexpr size_t kMinCameraBytes = 4 + 4 + 4 * 4 + 9 * 4;
+constexpr uint32_t kMaxWireCameras = 65536;
 
 static_assert(std::endian::native == std::endian::little, "the wire format is little-endian");
 
@@ -219,6 +221,20 @@ std::string encodeScene(const scene::Scene& scene) {
   }
   for (const scene::PointLight& l : scene.lights) {
     w.put(l.position), w.put(l.radius), w.put(l.color), w.put(l.intensity), w.put(l.falloff);
+    w.put(uint32_t(l.type)), w.put(uint32_t(l.attenuation));
+    w.put(l.direction), w.put(l.innerConeAngle), w.put(l.outerConeAngle);
+  }
+  w.put(uint32_t(scene.extraSuns.size()));
+  for (const scene::Sun& sun : scene.extraSuns) {
+    w.put(sun.direction), w.put(sun.color), w.put(sun.intensity);
+  }
+  w.put(scene.droppedSuns);
+  w.put(uint32_t(scene.cameras.size()));
+  for (const scene::ModelCamera& c : scene.cameras) {
+    w.putName(c.name);
+    w.put(uint32_t(c.perspective ? 1 : 0));
+    w.put(c.yfov), w.put(c.aspectRatio), w.put(c.znear), w.put(c.zfar);
+    w.put(c.position), w.put(c.direction), w.put(c.up);
   }
   for (const scene::Image& image : scene.images) {
     w.putName(image.name);
@@ -377,7 +393,57 @@ scene::Scene decodeScene(std::string_view bytes) {
     light.intensity = r.inRange("a light intensity", 0.0f, 3.0e38f);
     light.falloff = r.inRange("a light falloff", 0.0f, 3.0e38f);
     if (!(light.radius > 0.0f)) reject("a light radius of zero");
+    const uint32_t type = r.get<uint32_t>();
+    const uint32_t attenuation = r.get<uint32_t>();
+    if (type > uint32_t(scene::LightType::Spot)) reject("an unknown light type");
+    if (attenuation > uint32_t(scene::Attenuation::InverseSquare)) reject("an unknown light attenuation");
+    light.type = scene::LightType(type);
+    light.attenuation = scene::Attenuation(attenuation);
+    light.direction = r.vec3("a light direction");
+    if (std::abs(glm::length(light.direction) - 1.0f) > 1e-3f) reject("a light direction that is not a unit vector");
+    light.innerConeAngle = r.inRange("a spot's inner cone angle", 0.0f, scene::kMaxConeAngle);
+    light.outerConeAngle = r.inRange("a spot's outer cone angle", 0.0f, scene::kMaxConeAngle);
+    if (!(light.innerConeAngle < light.outerConeAngle)) reject("a spot cone with inner >= outer");
     scene.lights.push_back(light);
+  }
+  const uint32_t sunCount = r.get<uint32_t>();
+  if (sunCount > scene::kMaxExtraSuns) reject("more directional lights than the sun's companions");
+  for (uint32_t i = 0; i < sunCount; ++i) {
+    scene::Sun sun;
+    sun.direction = r.vec3("a directional light");
+    if (std::abs(glm::length(sun.direction) - 1.0f) > 1e-3f) reject("a directional light's direction that is not a unit vector");
+    sun.color = r.vec3("a directional light's colour");
+    if (glm::any(glm::lessThan(sun.color, glm::vec3(0.0f))) ||
+        glm::any(glm::greaterThan(sun.color, glm::vec3(1.0f)))) {
+      reject("a directional light's colour out of range");
+    }
+    sun.intensity = r.inRange("a directional light's intensity", 0.0f, 1000.0f);
+    scene.extraSuns.push_back(sun);
+  }
+  scene.droppedSuns = r.get<uint32_t>();
+  const uint32_t cameraCount = r.count(r.get<uint32_t>(), kMinCameraBytes, "cameras");
+  if (cameraCount > kMaxWireCameras) reject("more than " + std::to_string(kMaxWireCameras) + " cameras");
+  scene.cameras.reserve(cameraCount);
+  for (uint32_t i = 0; i < cameraCount; ++i) {
+    scene::ModelCamera c;
+    c.name = r.name();
+    const uint32_t perspective = r.get<uint32_t>();
+    if (perspective > 1) reject("an unknown camera type");
+    c.perspective = perspective == 1;
+    c.yfov = r.inRange("a camera's field of view", 0.0f, 3.2f);
+    c.aspectRatio = r.inRange("a camera's aspect ratio", 0.0f, 1e6f);
+    c.znear = r.inRange("a camera's near plane", 0.0f, 3.0e38f);
+    c.zfar = r.inRange("a camera's far plane", 0.0f, 3.0e38f);
+    if (c.perspective && !(c.yfov > 0.0f && c.znear > 0.0f)) reject("a perspective camera without a field of view or near plane");
+    if (c.zfar != 0.0f && !(c.zfar > c.znear)) reject("a camera's planes out of order");
+    c.position = r.vec3("a camera position");
+    c.direction = r.vec3("a camera direction");
+    c.up = r.vec3("a camera's up");
+    if (std::abs(glm::length(c.direction) - 1.0f) > 1e-3f || std::abs(glm::length(c.up) - 1.0f) > 1e-3f ||
+        std::abs(glm::dot(c.direction, c.up)) > 1e-2f) {
+      reject("a camera whose direction and up are not perpendicular unit vectors");
+    }
+    scene.cameras.push_back(std::move(c));
   }
 
   const scene::ImageLimits imageLimits;

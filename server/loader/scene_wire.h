@@ -12,7 +12,11 @@
 //         meshes:    u32 nameBytes, name, u32 vertices, u32 indices, vertices (16 f32 each:
 //                    position, normal, uv, tangent, color), indices
 //         instances: u32 mesh, u32 material, transform (16 f32, column-major)
-//         lights:    position (3 f32), radius, color (3), intensity, falloff
+//         lights:    position (3 f32), radius, color (3), intensity, falloff, u32 type,
+//                    u32 attenuation, direction (3 f32), innerConeAngle, outerConeAngle
+//         u32 extra suns, each direction (3 f32), color (3), intensity; u32 dropped suns
+//         u32 cameras, each u32 nameBytes, name, u32 perspective, yfov, aspectRatio, znear, zfar,
+//                    position (3 f32), direction (3), up (3)
 //         images:    u32 nameBytes, name, u32 width, u32 height, u32 bytes, RGBA8 pixels
 #pragma once
 
@@ -24,7 +28,7 @@
 
 namespace myriad::loader {
 
-inline constexpr uint32_t kSceneWireVersion = 2;
+inline constexpr uint32_t kSceneWireVersion = 3;  // 2: lights' type, attenuation, cone; 3: materials' textures, images
 
 // The bytes were not a scene this version of the server wrote: what() says what was wrong.
 struct SceneWireError : std::runtime_error {

@@ -145,6 +145,7 @@ struct EnvironmentSettings {
 // scene::Scene's; takeLightingFrom() copies a scene's own.
 struct SceneSettings {
   scene::Sun sun;
+  std::vector<scene::Sun> extraSuns;  // at most scene::kMaxExtraSuns (a model's directional lights)
   glm::vec3 ambient = scene::Scene{}.ambient;
   glm::vec3 background = scene::Scene{}.background;
   float exposure = 1.0f;
@@ -156,6 +157,7 @@ struct SceneSettings {
   // Sets sun, ambient and background to `scene`'s (what the scene was authored with).
   SceneSettings& takeLightingFrom(const scene::Scene& scene) {
     sun = scene.sun;
+    extraSuns = scene.extraSuns;
     ambient = scene.ambient;
     background = scene.background;
     return *this;
@@ -230,6 +232,7 @@ struct Frame {
   // channels hold per target is rawChannels(target).
   std::vector<float> data;
   std::vector<PassTiming> passes;
+  double queueMs = 0.0;  // how long the frame waited in the render queue before rendering began
   Technique technique = Technique::Clustered;
   uint32_t lightCount = 0;
   uint64_t sceneBytes = 0;  // GPU memory of the rendered scene (geometry, materials, lights)

@@ -7,6 +7,7 @@
 
 #include <glm/gtc/packing.hpp>
 
+#include "render/light_packing.h"
 #include "render/shading.h"
 #include "scene/camera.h"
 
@@ -105,6 +106,22 @@ uint8_t toByte(float x) { return static_cast<uint8_t>(std::round(glm::clamp(x, 0
 
 }  // namespace
 
+GpuPointLight packLight(const scene::PointLight& l) {
+  const bool inverseSquare = l.attenuation == scene::Attenuation::InverseSquare;
+  const float attenuation = inverseSquare ? MYRIAD_ATTENUATION_INVERSE_SQUARE : l.falloff;
+  glm::vec4 cone(0.0f, 0.0f, MYRIAD_POINT_LIGHT_COS_OUTER, MYRIAD_POINT_LIGHT_COS_INNER);
+  if (l.type == scene::LightType::Spot) {
+    const glm::vec2 direction = shading::octahedralEncode(glm::normalize(l.direction));
+    cone = glm::vec4(direction, float(std::cos(double(l.outerConeAngle))),
+                     float(std::cos(double(l.innerConeAngle))));
+  }
+  return {glm::vec4(l.position, l.radius), glm::vec4(l.color * l.intensity, attenuation), cone};
+}
+
+glm::vec3 spotDirectionOf(const GpuPointLight& g) {
+  return shading::octahedralDecode(glm::vec2(g.cone.x, g.cone.y));
+}
+
 EnvironmentMaps buildEnvironmentMaps(const FrameSettings& s, const scene::EnvironmentImage* image) {
   using namespace shading;
   EnvironmentMaps maps;
@@ -165,6 +182,9 @@ std::vector<uint8_t> renderReference(const scene::Scene& scene, const FrameSetti
   const glm::vec3 sunRadiance = s.sun.color * s.sun.intensity;
   const float n = s.camera.nearPlane;
   const float f = s.camera.farPlane;
+  std::vector<GpuPointLight> lights;
+  lights.reserve(scene.lights.size());
+  for (const scene::PointLight& l : scene.lights) lights.push_back(packLight(l));
   const bool environmentOn = s.environment.mode != EnvironmentMode::None;
   EnvironmentMaps maps;
   if (environmentOn) maps = buildEnvironmentMaps(s, environmentImage);
@@ -211,23 +231,31 @@ std::vector<uint8_t> renderReference(const scene::Scene& scene, const FrameSetti
           }
           if (found) {
             glm::vec3 V = glm::normalize(s.camera.eye - hit.position);
-            // Emission is added with the sun and ambient (or environment) term, as on the GPU.
+            glm::vec3 sunAndAmbient;
             if (!environmentOn) {
-              hdr = half3(shading::shadeSunAndAmbient(normal, V, baseColor, metallic, roughness,
-                                                      sunDirection, sunRadiance, s.ambient) +
-                          emissive);
+              sunAndAmbient = shading::shadeSunAndAmbient(normal, V, baseColor, metallic, roughness,
+                                                          sunDirection, sunRadiance, s.ambient);
             } else {
-              hdr = half3(shading::shadeSunAndAmbient(normal, V, baseColor, metallic, roughness,
-                                                      sunDirection, sunRadiance, glm::vec3(0.0f)) +
-                          shading::shadeEnvironment(normal, V, baseColor, metallic, roughness,
-                                                    1.0f, rotationCos, rotationSin,
-                                                    s.environment.intensity) +
-                          emissive);
+              sunAndAmbient = shading::shadeSunAndAmbient(normal, V, baseColor, metallic, roughness,
+                                                          sunDirection, sunRadiance, glm::vec3(0.0f)) +
+                              shading::shadeEnvironment(normal, V, baseColor, metallic, roughness,
+                                                        1.0f, rotationCos, rotationSin,
+                                                        s.environment.intensity);
             }
-            for (const scene::PointLight& l : scene.lights) {
-              glm::vec3 c = shading::shadePointLight(hit.position, normal, V, baseColor, metallic,
-                                                     roughness, l.position, l.radius,
-                                                     l.color * l.intensity, l.falloff);
+            for (const scene::Sun& extra : s.extraSuns) {
+              if (extra.intensity > 0.0f) {
+                sunAndAmbient += shading::brdfCosine(normal, V, -glm::normalize(extra.direction),
+                                                     baseColor, metallic, roughness) *
+                                 (extra.color * extra.intensity);
+              }
+            }
+            // Emission is added with the sun and ambient (or environment) term, as on the GPU.
+            hdr = half3(sunAndAmbient + emissive);
+            for (const GpuPointLight& l : lights) {
+              glm::vec3 c = shading::shadeLocalLight(
+                  hit.position, normal, V, baseColor, metallic, roughness, glm::vec3(l.positionRadius),
+                  l.positionRadius.w, glm::vec3(l.radianceFalloff), l.radianceFalloff.w,
+                  spotDirectionOf(l), l.cone.z, l.cone.w);
               if (c != glm::vec3(0.0f)) hdr = half3(hdr + half3(c));
             }
           }

@@ -1,5 +1,8 @@
 #include "render/render_thread.h"
 
+#include <malloc.h>
+
+#include <chrono>
 #include <memory>
 #include <type_traits>
 #include <utility>
@@ -140,8 +143,13 @@ std::future<void> RenderThread::setEnvironmentImage(
 
 std::future<Frame> RenderThread::submit(SceneId id,
                                                 const FrameSettings& settings) {
-  return enqueueWork<Frame>(true, [id, settings](Renderer& r) {
-    return r.render(id, settings);
+  const auto queued = std::chrono::steady_clock::now();
+  return enqueueWork<Frame>(true, [id, settings, queued](Renderer& r) {
+    const double waited =
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - queued).count();
+    Frame frame = r.render(id, settings);
+    frame.queueMs = waited;
+    return frame;
   });
 }
 
@@ -177,10 +185,23 @@ void RenderThread::run(const gpu::ContextOptions& options, const scene::Scene& s
   // After this the constructor returns and `options`, `scene` and `ready` are gone.
   ready.set_value();
 
+  bool trimmed = true;  // nothing rendered yet: nothing to give back
   for (;;) {
     Task task;
     {
       std::unique_lock lock(mutex_);
+      // Idle for kIdleTrim: the frame targets (sized to the last output: 1 GB at 4096 x 4096 on a
+      // CPU device, where device memory is host memory) go back, and so does the heap. A stream
+      // or a sequence of frames never leaves the queue idle that long, so it keeps its targets.
+      if (!trimmed && !wake_.wait_for(lock, kIdleTrim,
+                                      [this] { return stopping_ || !tasks_.empty(); })) {
+        lock.unlock();
+        renderer->releaseFrameMemory();
+        gpuMemoryBytes_ = renderer->gpuMemoryBytes();
+        malloc_trim(0);
+        trimmed = true;
+        continue;
+      }
       wake_.wait(lock, [this] { return stopping_ || !tasks_.empty(); });
       // Stopping still runs what was queued: those requests are in flight and get answers.
       if (tasks_.empty()) break;
@@ -192,6 +213,7 @@ void RenderThread::run(const gpu::ContextOptions& options, const scene::Scene& s
       }
     }
     task.run(*renderer);  // fulfils its promise, exception or not
+    trimmed = false;
     std::lock_guard lock(mutex_);
     renderingFrame_ = false;
   }

@@ -6,6 +6,7 @@
 #pragma once
 
 #include <atomic>
+#include <chrono>
 #include <condition_variable>
 #include <cstdint>
 #include <deque>
@@ -23,6 +24,10 @@
 #include "scene/scene.h"
 
 namespace myriad::render {
+
+// How long the render thread waits with nothing to do before it gives back the memory that only
+// frames use (Renderer::releaseFrameMemory, then the heap's free pages).
+inline constexpr std::chrono::seconds kIdleTrim{2};
 
 class RenderThread final : public RenderQueue {
  public:

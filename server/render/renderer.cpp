@@ -177,6 +177,10 @@ void Renderer::State::writeUniforms(const FrameSettings& s, const SceneBuffers& 
   u.cameraPosition = glm::vec4(s.camera.eye, 1.0f);
   u.sunDirection = glm::vec4(-glm::normalize(s.sun.direction), s.sun.intensity);
   u.sunColor = glm::vec4(s.sun.color, 0.0f);
+  for (size_t i = 0; i < s.extraSuns.size() && i < MYRIAD_MAX_EXTRA_SUNS; ++i) {
+    u.extraSunDirection[i] = glm::vec4(-glm::normalize(s.extraSuns[i].direction), s.extraSuns[i].intensity);
+    u.extraSunColor[i] = glm::vec4(s.extraSuns[i].color, 0.0f);
+  }
   u.ambient = glm::vec4(s.ambient, 0.0f);
   u.background = glm::vec4(s.background, 0.0f);
   u.viewport = glm::vec4(s.width, s.height, 1.0f / s.width, 1.0f / s.height);
@@ -299,6 +303,12 @@ uint32_t Renderer::lightCount(SceneId id) const { return state_->scene(id).light
 uint64_t Renderer::sceneBytes(SceneId id) const {
   auto it = state_->environments.find(id);
   return state_->scene(id).bytes() + (it == state_->environments.end() ? 0 : it->second->bytes());
+}
+
+void Renderer::releaseFrameMemory() {
+  // Every frame is waited for, so nothing in flight uses the targets; the target descriptor set
+  // points at freed views until ensureTargets() makes new ones and writes it again.
+  state_->targets.reset();
 }
 
 uint64_t Renderer::gpuMemoryBytes() const {

@@ -61,6 +61,10 @@ class Renderer {
   // GPU memory the renderer holds: every scene, the frame targets, the light lists, uniforms.
   uint64_t gpuMemoryBytes() const;
 
+  // Frees what only frames use, sized to the last output (the G-buffer, HDR and output images and
+  // the readback buffer); the next frame makes them again. Scenes are kept.
+  void releaseFrameMemory();
+
   // The largest width or height render() accepts on this device.
   uint32_t maxDimension() const;
 

@@ -7,6 +7,7 @@
 #include <stdexcept>
 
 #include "render/gpu_types.h"
+#include "render/light_packing.h"
 #include "scene/primitives.h"
 
 namespace myriad::render {
@@ -81,9 +82,7 @@ void transfer(gpu::Context& context, gpu::CommandRecorder& recorder,
   gpu::submitAndWait(context, recorder);
 }
 
-GpuPointLight toGpu(const scene::PointLight& l) {
-  return {glm::vec4(l.position, l.radius), glm::vec4(l.color * l.intensity, l.falloff)};
-}
+GpuPointLight toGpu(const scene::PointLight& l) { return packLight(l); }
 
 GpuMaterial toGpu(const scene::Material& m) {
   GpuMaterial g{};

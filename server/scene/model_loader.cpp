@@ -6,6 +6,7 @@
 #include <functional>
 #include <map>
 #include <memory>
+#include <optional>
 #include <string>
 #include <system_error>
 #include <unordered_map>
@@ -38,6 +39,11 @@ constexpr size_t kMaxInstances = size_t(1) << 18;
 // Where a light without a glTF `range` is cut: its inverse-square illuminance has fallen to 1/256
 // of what it is at unit distance, about one step of an 8-bit image at unit exposure.
 constexpr float kLightCutoff = 1.0f / 256.0f;
+// What the protocol accepts for a light (light.schema.json): what a file exceeds is clamped.
+constexpr float kMaxLightIntensity = 1e6f;
+constexpr float kMaxLightRadius = 1e4f;
+constexpr float kMaxLightFalloff = 1e4f;
+constexpr float kMaxSunIntensity = 1000.0f;  // settings.schema.json's sun intensity
 
 // Everything reaching the renderer comes from here, so each step is chosen for what it guarantees
 // on a broken file as much as for what it does on a good one:
@@ -580,6 +586,27 @@ class Flattener {
         lightsByNode_.emplace(std::string(light->mName.C_Str()), light);
       }
     }
+    const unsigned cameraCount = source.mCameras != nullptr ? std::min(source.mNumCameras, 65536u) : 0u;
+    placedCameras_.resize(cameraCount);
+    for (unsigned i = 0; i < cameraCount; ++i) {
+      const aiCamera* camera = source.mCameras[i];
+      if (camera != nullptr && camera->mName.length > 0) {
+        camerasByNode_.emplace(std::string(camera->mName.C_Str()), i);
+      }
+    }
+  }
+
+  // After visit(): the file's directional lights become the scene's extra suns (the brightest
+  // kMaxExtraSuns; the rest are counted), and its placed cameras the scene's, in file order.
+  void finish() {
+    std::stable_sort(suns_.begin(), suns_.end(),
+                     [](const Sun& a, const Sun& b) { return a.intensity > b.intensity; });
+    const size_t kept = std::min(suns_.size(), kMaxExtraSuns);
+    scene_.extraSuns.assign(suns_.begin(), suns_.begin() + kept);
+    scene_.droppedSuns = uint32_t(suns_.size() - kept);
+    for (std::optional<ModelCamera>& camera : placedCameras_) {
+      if (camera) scene_.cameras.push_back(std::move(*camera));
+    }
   }
 
   void visit(const aiNode& node, const glm::mat4& parent, int depth) {
@@ -613,6 +640,7 @@ class Flattener {
     }
 
     if (placeable) placeLight(node, transform);
+    if (placeable) placeCamera(node, transform);
 
     if (node.mChildren != nullptr) {
       for (unsigned c = 0; c < node.mNumChildren; ++c) {
@@ -661,7 +689,11 @@ class Flattener {
     const aiLight& source = *it->second;
     // Placed once: glTF names need not be unique, and a light belongs to the first node naming it.
     lightsByNode_.erase(it);
-    if (source.mType != aiLightSource_POINT) return;  // spot and directional: not modelled yet
+    if (source.mType == aiLightSource_DIRECTIONAL) {
+      placeSun(source, transform);
+      return;
+    }
+    if (source.mType != aiLightSource_POINT && source.mType != aiLightSource_SPOT) return;
 
     // Assimp hands over colour already multiplied by intensity; split it back so the colour is at
     // most 1 in its brightest channel and the intensity carries the rest.
@@ -670,11 +702,33 @@ class Flattener {
     if (!std::isfinite(intensity) || intensity <= 0.0f) return;
     PointLight light;
     light.color = glm::vec3(c.r, c.g, c.b) / intensity;
-    light.intensity = intensity;
+    light.intensity = std::min(intensity, kMaxLightIntensity);
+    // glTF's falloff: Assimp sets attenuation (0, 0, 1), i.e. 1/d^2, and keeps `range` aside.
+    light.attenuation = Attenuation::InverseSquare;
     const glm::vec4 position =
         transform * glm::vec4(source.mPosition.x, source.mPosition.y, source.mPosition.z, 1.0f);
     light.position = glm::vec3(position);
     if (!std::isfinite(light.position.x + light.position.y + light.position.z)) return;
+    if (source.mType == aiLightSource_SPOT) {
+      // glTF: a spot points along its node's -Z (Assimp's mDirection, (0, 0, -1)), and its cone
+      // angles are measured from that axis. Assimp's glTF 2 importer copies innerConeAngle and
+      // outerConeAngle into mAngleInnerCone/mAngleOuterCone unchanged (aiLight's comment speaks
+      // of the full cone angle; for glTF they are these half angles).
+      const glm::vec3 direction =
+          glm::mat3(transform) * glm::vec3(source.mDirection.x, source.mDirection.y, source.mDirection.z);
+      const float length = glm::length(direction);
+      if (!std::isfinite(length) || length < 1e-12f) return;
+      light.type = LightType::Spot;
+      light.direction = direction / length;
+      const float outer = source.mAngleOuterCone, inner = source.mAngleInnerCone;
+      // The spec's ranges (0 <= inner < outer <= pi/2), enforced on what a file may break.
+      light.outerConeAngle = std::isfinite(outer) ? std::clamp(outer, 1e-4f, kMaxConeAngle)
+                                                  : 0.78539816339744831f;
+      light.innerConeAngle = std::isfinite(inner) ? std::clamp(inner, 0.0f, light.outerConeAngle) : 0.0f;
+      if (!(light.innerConeAngle < light.outerConeAngle)) {
+        light.innerConeAngle = std::nextafter(light.outerConeAngle, 0.0f);
+      }
+    }
 
     // glTF's `range` arrives as node metadata (float or double, depending on the Assimp build).
     float range = 0.0f;
@@ -685,10 +739,76 @@ class Flattener {
         range = float(asDouble);
       }
     }
-    light.radius =
-        std::isfinite(range) && range > 0.0f ? range : std::sqrt(intensity / kLightCutoff);
+    light.radius = std::min(
+        std::isfinite(range) && range > 0.0f ? range : std::sqrt(intensity / kLightCutoff),
+        kMaxLightRadius);
     radiusFromFile_.push_back(std::isfinite(range) && range > 0.0f);
     scene_.lights.push_back(light);
+  }
+
+  // glTF: a directional light shines along its node's -Z (Assimp's mDirection), intensity in lux;
+  // colour and intensity are split as for point lights.
+  void placeSun(const aiLight& source, const glm::mat4& transform) {
+    const aiColor3D& c = source.mColorDiffuse;
+    const float intensity = std::max({c.r, c.g, c.b});
+    if (!std::isfinite(intensity) || intensity <= 0.0f) return;
+    const glm::vec3 direction =
+        glm::mat3(transform) * glm::vec3(source.mDirection.x, source.mDirection.y, source.mDirection.z);
+    const float length = glm::length(direction);
+    if (!std::isfinite(length) || length < 1e-12f) return;
+    Sun sun;
+    sun.direction = direction / length;
+    sun.color = glm::vec3(c.r, c.g, c.b) / intensity;
+    sun.intensity = std::min(intensity, kMaxSunIntensity);
+    suns_.push_back(sun);
+  }
+
+  // glTF: a camera looks along its node's -Z with +Y up (Assimp's mLookAt and mUp, in the node's
+  // space). Assimp 5.2.5 keeps glTF's znear and aspectRatio (0 when absent), zfar (100 when
+  // absent: an infinite far plane does not survive it) and stores yfov * aspectRatio (yfov alone
+  // without an aspect ratio) as mHorizontalFOV; yfov is recovered from that (the scene test
+  // checks it on a file with aspect 1.5).
+  void placeCamera(const aiNode& node, const glm::mat4& transform) {
+    auto it = camerasByNode_.find(std::string(node.mName.C_Str()));
+    if (it == camerasByNode_.end()) return;
+    const unsigned index = it->second;
+    camerasByNode_.erase(it);
+    const aiCamera& source = *source_.mCameras[index];
+    ModelCamera camera;
+    camera.name = source.mName.C_Str();
+    const glm::mat3 linear(transform);
+    // Assimp 5.2.5's glTF 2 importer also copies the node's translation into mPosition, which the
+    // node transform then applies a second time (the cameras test file would put its camera at
+    // twice its place): a position equal to the node's own translation is taken as that copy.
+    glm::vec3 local(source.mPosition.x, source.mPosition.y, source.mPosition.z);
+    const aiMatrix4x4& own = node.mTransformation;
+    if (local == glm::vec3(own.a4, own.b4, own.c4)) local = glm::vec3(0.0f);
+    camera.position = glm::vec3(transform * glm::vec4(local, 1.0f));
+    glm::vec3 direction = linear * glm::vec3(source.mLookAt.x, source.mLookAt.y, source.mLookAt.z);
+    glm::vec3 up = linear * glm::vec3(source.mUp.x, source.mUp.y, source.mUp.z);
+    // Up made perpendicular to the direction (a sheared node transform may tilt it).
+    up = up - direction * (glm::dot(up, direction) / std::max(glm::dot(direction, direction), 1e-30f));
+    const float directionLength = glm::length(direction), upLength = glm::length(up);
+    if (!(directionLength > 1e-12f && upLength > 1e-12f) || !std::isfinite(directionLength + upLength) ||
+        !std::isfinite(camera.position.x + camera.position.y + camera.position.z)) {
+      return;
+    }
+    camera.direction = direction / directionLength;
+    camera.up = up / upLength;
+    camera.perspective = source.mOrthographicWidth == 0.0f;
+    const float aspect = source.mAspect;
+    camera.aspectRatio = std::isfinite(aspect) && aspect > 0.0f && aspect <= 1e6f ? aspect : 0.0f;
+    const float horizontal = source.mHorizontalFOV;
+    float yfov = camera.aspectRatio > 0.0f ? horizontal / camera.aspectRatio : horizontal;
+    if (!camera.perspective) yfov = 0.0f;
+    if (!std::isfinite(yfov) || yfov < 0.0f || yfov > 3.2f) return;
+    if (camera.perspective && yfov <= 0.0f) return;
+    camera.yfov = yfov;
+    const float znear = source.mClipPlaneNear, zfar = source.mClipPlaneFar;
+    if (!std::isfinite(znear) || !(znear > 0.0f) || !std::isfinite(zfar) || zfar < 0.0f) return;
+    camera.znear = znear;
+    camera.zfar = zfar > znear ? zfar : 0.0f;
+    placedCameras_[index] = std::move(camera);
   }
 
   const aiScene& source_;
@@ -696,6 +816,9 @@ class Flattener {
   Scene& scene_;
   std::vector<uint32_t> meshIndex_;
   std::unordered_multimap<std::string, const aiLight*> lightsByNode_;
+  std::unordered_multimap<std::string, unsigned> camerasByNode_;
+  std::vector<std::optional<ModelCamera>> placedCameras_;
+  std::vector<Sun> suns_;
   uint32_t defaultMaterial_ = kUnconverted;
   size_t visits_ = 0;
   std::vector<bool> radiusFromFile_;
@@ -717,17 +840,17 @@ void dropUnusedMaterials(Scene& scene) {
   scene.materials = std::move(used);
 }
 
-// glTF point lights follow the inverse-square law, I / d^2. The renderer's window,
-// (r^2 - d^2) / (C d^2 + r^2), matches I / (1 + d^2) * (1 - d^2 / r^2) when C = r^2: inverse
-// square beyond a unit distance, bounded near the light instead of infinite, and exactly zero at
-// the radius. Radii guessed from intensity are capped at the model's size, so one bright light
-// does not make every tile of the picture shade it.
+// glTF lights follow the inverse-square law and arrive with Attenuation::InverseSquare, cut at the
+// file's `range` or, without one, where their illuminance falls to kLightCutoff. Radii guessed
+// from intensity are capped at the model's size, so one bright light does not make every tile of
+// the picture shade it. The window's C is set too, to r^2 (where (r^2 - d^2) / (C d^2 + r^2)
+// approximates 1 / (1 + d^2) * (1 - d^2 / r^2)), for a user who switches a light to "window".
 void fitLightFalloff(Scene& scene, const std::vector<bool>& radiusGiven, float sceneSize) {
   const float cap = std::max(sceneSize, 1e-3f);
   for (size_t i = 0; i < scene.lights.size(); ++i) {
     PointLight& light = scene.lights[i];
     if (!radiusGiven[i]) light.radius = std::clamp(light.radius, 1e-3f * cap, cap);
-    light.falloff = light.radius * light.radius;
+    light.falloff = std::min(light.radius * light.radius, kMaxLightFalloff);
   }
 }
 
@@ -771,6 +894,7 @@ Scene convertImport(Assimp::Importer& importer, const aiScene* raw, const std::s
   }
   Flattener flattener(*source, name, scene);
   if (source->mRootNode != nullptr) flattener.visit(*source->mRootNode, glm::mat4(1.0f), 0);
+  flattener.finish();
 
   if (scene.instances.empty()) {
     fail(name, anyNonFinite ? nonFinite : noTriangles, Kind::empty);

@@ -106,20 +106,60 @@ struct Instance {
   glm::mat4 transform{1.0f};
 };
 
-// A local light. Radiance = color * intensity * attenuation, with attenuation
-// clamp((r^2 - d^2) / (C*d^2 + r^2), 0, 1): exactly zero at and beyond `radius`.
+// How a local light's radiance falls off with distance d; both are exactly zero at and beyond the
+// light's radius (shaders/shading.glsl, distanceAttenuation and inverseSquareAttenuation).
+enum class Attenuation : uint8_t {
+  Window,         // clamp((r^2 - d^2) / (C*d^2 + r^2), 0, 1): 1 at the light (the seed's falloff)
+  InverseSquare,  // 1 / max(d^2, kMinLightDistance^2) * clamp(1 - (d/r)^4, 0, 1)^2 (glTF's)
+};
+
+enum class LightType : uint8_t {
+  Point,  // every direction
+  Spot,   // a cone around `direction` (glTF KHR_lights_punctual's spot)
+};
+
+// The largest float not above pi/2 (float(pi/2) is just above it): a spot's widest outer cone.
+inline constexpr float kMaxConeAngle = 1.570796251296997f;
+
+// A local light: radiance = color * intensity * attenuation(d) * cone(angle). The cone term is 1
+// for a point light; for a spot it is glTF's smooth falloff from 1 inside innerConeAngle to 0 at
+// and beyond outerConeAngle (both from `direction`, radians, 0 <= inner < outer <= pi/2).
+// Zero at and beyond `radius`.
 struct PointLight {
   glm::vec3 position{0.0f};
   float radius = 1.0f;
   glm::vec3 color{1.0f};
   float intensity = 1.0f;
-  float falloff = 1.0f;  // the attenuation constant C (>= 0)
+  float falloff = 1.0f;  // the attenuation constant C (>= 0) of Attenuation::Window
+  LightType type = LightType::Point;
+  Attenuation attenuation = Attenuation::Window;
+  glm::vec3 direction{0.0f, -1.0f, 0.0f};  // unit; the way a spot light points
+  float innerConeAngle = 0.0f;             // glTF's defaults
+  float outerConeAngle = 0.78539816339744831f;
 };
 
 struct Sun {
   glm::vec3 direction = glm::normalize(glm::vec3(-0.4f, -1.0f, -0.3f));  // the way light travels
   glm::vec3 color{1.0f, 0.96f, 0.9f};
   float intensity = 2.0f;
+};
+
+// Directional lights besides the sun: a model file's (glTF KHR_lights_punctual "directional"), at
+// most this many (the brightest; the rest are counted in Scene::droppedSuns). With the sun, four.
+inline constexpr size_t kMaxExtraSuns = 3;
+
+// A camera a model file defines (glTF 2.0 cameras), placed by its node: it looks along the node's
+// -Z with the node's +Y up.
+struct ModelCamera {
+  std::string name;
+  bool perspective = true;  // false: orthographic (listed, not usable as the session's camera)
+  float yfov = 0.8f;        // radians (perspective)
+  float aspectRatio = 0.0f; // 0 when the file gives none
+  float znear = 0.01f;
+  float zfar = 0.0f;        // 0 when the file gives none (infinite)
+  glm::vec3 position{0.0f};
+  glm::vec3 direction{0.0f, 0.0f, -1.0f};  // unit
+  glm::vec3 up{0.0f, 1.0f, 0.0f};          // unit, perpendicular to direction
 };
 
 struct Bounds {
@@ -151,6 +191,9 @@ struct Scene {
   std::vector<Image> images;  // what the materials' TextureRefs index
   std::vector<PointLight> lights;
   Sun sun;
+  std::vector<Sun> extraSuns;  // at most kMaxExtraSuns more directional lights (a model's)
+  uint32_t droppedSuns = 0;    // the model's directional lights past kMaxExtraSuns, not used
+  std::vector<ModelCamera> cameras;  // the model file's cameras, in the file's order
   glm::vec3 ambient{0.03f, 0.035f, 0.045f};
   glm::vec3 background{0.02f, 0.025f, 0.035f};
   Camera camera;  // the default view (frames the scene)

@@ -62,7 +62,9 @@ void addLights(ApiContext& context, const httplib::Request& req, httplib::Respon
   const auto body = jsonBody(req, protocol::schema_names::kLightsAdd).get<protocol::LightsAdd>();
   std::vector<scene::PointLight> lights;
   lights.reserve(body.lights.size());
-  for (const protocol::LightNew& light : body.lights) lights.push_back(fromWire(light));
+  for (size_t i = 0; i < body.lights.size(); ++i) {
+    lights.push_back(fromWire(body.lights[i], "/lights/" + std::to_string(i)));
+  }
 
   protocol::LightsAdded added;
   std::future<void> uploaded;

@@ -58,6 +58,17 @@ void frameCamera(ApiContext& context, const httplib::Request& req, httplib::Resp
   sendJson(res, toWire(session->scene.camera()));
 }
 
+void selectCamera(ApiContext& context, const httplib::Request& req, httplib::Response& res) {
+  SessionPtr session = authorizeSession(context, req);
+  checkQuery(req, {});
+  const auto body =
+      jsonBody(req, protocol::schema_names::kCameraSelect).get<protocol::CameraSelect>();
+  auto lock = lockOpen(*session);
+  session->scene.selectModelCamera(body.modelCamera);
+  session->bump();
+  sendJson(res, toWire(session->scene.camera()));
+}
+
 void getSettings(ApiContext& context, const httplib::Request& req, httplib::Response& res) {
   SessionPtr session = authorizeSession(context, req);
   checkQuery(req, {});
@@ -212,6 +223,7 @@ void addSceneRoutes(Routes& routes, ApiContext& context) {
                setCamera(context, req, res, true);
              });
   routes.add("POST", protocol::routes::kSessionCameraFrame, bind(frameCamera));
+  routes.add("POST", protocol::routes::kSessionCameraSelect, bind(selectCamera));
   routes.add("GET", protocol::routes::kSessionSettings, bind(getSettings));
   routes.add("PATCH", protocol::routes::kSessionSettings, bind(patchSettings));
   RouteOptions upload;

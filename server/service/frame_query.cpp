@@ -290,7 +290,8 @@ FrameRequest parseFrameRequest(const QueryParams& params, const FrameDefaults& d
 }
 
 std::string formatServerTiming(const std::vector<render::PassTiming>& passes, double encodeMs,
-                               const render::CullingReport* culling) {
+                               const render::CullingReport* culling,
+                               std::optional<double> queueMs) {
   std::string header;
   auto append = [&header](std::string_view name, double ms) {
     // Server-Timing metric names are HTTP tokens; pass names are ours, but a space or comma
@@ -309,6 +310,7 @@ std::string formatServerTiming(const std::vector<render::PassTiming>& passes, do
   };
   for (const render::PassTiming& pass : passes) append(pass.name, pass.milliseconds);
   append("encode", encodeMs);
+  if (queueMs) append("queue", *queueMs);
   if (culling != nullptr) header += ", culling;desc=\"" + describeCulling(*culling) + "\"";
   return header;
 }

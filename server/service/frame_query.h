@@ -91,13 +91,15 @@ FrameRequest parseSessionFrameQuery(const QueryParams& params, uint32_t maxResol
 // (default jpeg).
 FrameRequest parseStreamQuery(const QueryParams& params, uint32_t maxResolution);
 
-// The Server-Timing header value: one metric per GPU pass, then the CPU PNG encode, durations in
-// milliseconds ("gbuffer;dur=1.234, sun;dur=0.5, encode;dur=3.1").
+// The Server-Timing header value: one metric per GPU pass, then the CPU PNG encode, then (when
+// given) `queue`, the wait in the render queue before rendering began; durations in milliseconds
+// ("gbuffer;dur=1.234, sun;dur=0.5, encode;dur=3.1, queue;dur=0.02").
 // With `culling` (tiled and clustered frames), a last entry without a duration carries the light
 // lists' report, so that an overflow is visible in every browser's network panel:
 // culling;desc="dropped 0 light references (tiles overflowed 0), list entries 5123 / ...".
 std::string formatServerTiming(const std::vector<render::PassTiming>& passes, double encodeMs,
-                               const render::CullingReport* culling = nullptr);
+                               const render::CullingReport* culling = nullptr,
+                               std::optional<double> queueMs = std::nullopt);
 
 // One line for logs and headers: what light culling did this frame.
 std::string describeCulling(const render::CullingReport& culling);

@@ -60,7 +60,8 @@ EncodedFrame encodeFrame(const render::Frame& frame, const FrameRequest& request
 
   const bool culled = frame.technique != render::Technique::Volumes;
   out.headers.emplace_back(
-      protocol::headers::kServerTiming, formatServerTiming(frame.passes, out.encodeMs, culled ? &frame.culling : nullptr));
+      protocol::headers::kServerTiming, formatServerTiming(frame.passes, out.encodeMs, culled ? &frame.culling : nullptr,
+                                                          frame.queueMs));
   out.headers.emplace_back(protocol::headers::kTechnique, std::string(render::techniqueName(frame.technique)));
   if (frame.culling.overflowed()) {
     std::fprintf(stderr, "myriad-server: WARNING: light lists overflowed, lights are missing from "

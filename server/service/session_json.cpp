@@ -1,7 +1,12 @@
 #include "service/session_json.h"
 
+#include <algorithm>
 #include <charconv>
+#include <cmath>
 #include <cstdlib>
+
+#include "protocol/validate.h"
+#include "service/problem.h"
 
 namespace myriad::service {
 namespace {
@@ -51,6 +56,9 @@ protocol::Settings toWire(const render::SceneSettings& s) {
   out.sun.direction = toWire(s.sun.direction);
   out.sun.color = toWire(s.sun.color);
   out.sun.intensity = wire(s.sun.intensity);
+  for (const scene::Sun& sun : s.extraSuns) {
+    out.suns.push_back(protocol::Sun{toWire(sun.direction), toWire(sun.color), wire(sun.intensity)});
+  }
   out.ambient = toWire(s.ambient);
   out.exposure = wire(s.exposure);
   out.markers = s.markers;
@@ -135,6 +143,14 @@ protocol::LightNew toWireNew(const scene::PointLight& l) {
   out.color = toWire(l.color);
   out.intensity = wire(l.intensity);
   out.falloff = wire(l.falloff);
+  out.type = std::string(l.type == scene::LightType::Spot ? protocol::light_types::kSpot
+                                                          : protocol::light_types::kPoint);
+  out.attenuation = std::string(l.attenuation == scene::Attenuation::InverseSquare
+                                    ? protocol::attenuations::kInverseSquare
+                                    : protocol::attenuations::kWindow);
+  out.direction = toWire(l.direction);
+  out.innerConeAngle = wire(l.innerConeAngle);
+  out.outerConeAngle = wire(l.outerConeAngle);
   return out;
 }
 
@@ -142,14 +158,32 @@ protocol::Light toWire(uint64_t id, const scene::PointLight& l) {
   return protocol::withId(toWireNew(l), id);
 }
 
-scene::PointLight fromWire(const protocol::LightNew& l) {
+scene::PointLight fromWire(const protocol::Light& l, std::string_view pointer, bool blameOuter) {
+  if (auto error = protocol::checkLight(l, blameOuter)) {
+    throw ProblemError(invalidBody(std::string(pointer) + error->pointer, error->message));
+  }
   scene::PointLight out;
   out.position = fromWire(l.position);
   out.radius = float(l.radius);
   out.color = fromWire(l.color);
   out.intensity = float(l.intensity);
   out.falloff = float(l.falloff);
+  out.type = l.type == protocol::light_types::kSpot ? scene::LightType::Spot : scene::LightType::Point;
+  out.attenuation = l.attenuation == protocol::attenuations::kInverseSquare
+                        ? scene::Attenuation::InverseSquare
+                        : scene::Attenuation::Window;
+  // Checked non-zero (protocol::checkLight); stored as a unit vector.
+  out.direction = glm::normalize(glm::vec3(fromWire(l.direction)));
+  // As floats, pi/2 rounds up past the schema's maximum and inner may round onto outer: the
+  // cone stays within (0, pi/2] and inner < outer.
+  out.outerConeAngle =
+      std::clamp(float(l.outerConeAngle), std::nextafter(0.0f, 1.0f), scene::kMaxConeAngle);
+  out.innerConeAngle = std::min(float(l.innerConeAngle), std::nextafter(out.outerConeAngle, 0.0f));
   return out;
+}
+
+scene::PointLight fromWire(const protocol::LightNew& l, std::string_view pointer) {
+  return fromWire(protocol::withId(l, 0), pointer);
 }
 
 protocol::Bounds toWire(const scene::Bounds& b) {
@@ -174,6 +208,24 @@ protocol::SessionState stateOf(const Session& session, int64_t expiresInSeconds)
   state.model.instances = scene.model().instances;
   state.model.materials = scene.model().materials;
   state.model.bounds = toWire(scene.model().bounds);
+  const ModelSummary& model = scene.model();
+  for (size_t i = 0; i < model.cameras.size(); ++i) {
+    const scene::ModelCamera& c = model.cameras[i];
+    protocol::ModelCamera out;
+    out.index = i;
+    out.name = c.name;
+    out.type = c.perspective ? "perspective" : "orthographic";
+    out.yfov = wire(c.yfov);
+    if (c.aspectRatio > 0.0f) out.aspectRatio = wire(c.aspectRatio);
+    out.znear = wire(c.znear);
+    if (c.zfar > 0.0f) out.zfar = wire(c.zfar);
+    out.position = toWire(c.position);
+    out.direction = toWire(c.direction);
+    out.up = toWire(c.up);
+    state.model.cameras.push_back(std::move(out));
+  }
+  state.model.lights = protocol::ModelLights{model.pointLights, model.spotLights,
+                                             model.directionalLights, model.directionalDropped};
   state.camera = toWire(scene.camera());
   state.settings = toWire(scene);
   state.lightCount = scene.lightCount();

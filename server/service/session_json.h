@@ -32,7 +32,11 @@ protocol::Material toWire(uint32_t id, const scene::Material& material,
 // Throws ProblemError 400 (/alphaMode) for a name not in protocol::kAlphaModes.
 scene::AlphaMode alphaModeFromWire(std::string_view name);
 protocol::Light toWire(uint64_t id, const scene::PointLight& light);
-scene::PointLight fromWire(const protocol::LightNew& light);
+// Check the light's members together (protocol::checkLight) and convert it; a broken light throws
+// ProblemError 400 naming `pointer` + the member ("/lights/3/innerConeAngle").
+scene::PointLight fromWire(const protocol::LightNew& light, std::string_view pointer);
+scene::PointLight fromWire(const protocol::Light& light, std::string_view pointer,
+                           bool blameOuter = false);
 protocol::LightNew toWireNew(const scene::PointLight& light);
 
 protocol::Bounds toWire(const scene::Bounds& bounds);

@@ -1,5 +1,6 @@
 #include "service/session_scene.h"
 
+#include <algorithm>
 #include <charconv>
 #include <cmath>
 
@@ -36,6 +37,12 @@ ModelSummary summarize(const scene::Scene& scene, std::string source) {
   for (const scene::Image& image : scene.images) {
     summary.images.push_back({image.name, image.width, image.height});
   }
+  summary.cameras = scene.cameras;
+  for (const scene::PointLight& light : scene.lights) {
+    (light.type == scene::LightType::Spot ? summary.spotLights : summary.pointLights) += 1;
+  }
+  summary.directionalLights = scene.extraSuns.size() + scene.droppedSuns;
+  summary.directionalDropped = scene.droppedSuns;
   return summary;
 }
 
@@ -59,6 +66,8 @@ std::shared_ptr<const scene::Scene> SessionScene::adopt(std::shared_ptr<scene::S
   materials_ = loaded->materials;
   camera_ = loaded->camera;
   if (adoption.lightingFromModel) settings_.takeLightingFrom(*loaded);
+  // The model's directional lights join the sun unless the session keeps its lights as they are.
+  if (lights != Lights::keep) settings_.extraSuns = loaded->extraSuns;
   // Until the environment was chosen (PATCH settings with environment.mode, a snapshot, a .hdr),
   // a loaded model is lit by the sky and the built-in scene keeps its constant ambient.
   if (!environmentChosen_) {
@@ -113,6 +122,34 @@ const scene::Camera& SessionScene::frameModel(float aspect) {
   return camera_;
 }
 
+const scene::Camera& SessionScene::selectModelCamera(uint64_t index) {
+  if (index >= model_.cameras.size()) {
+    throw ProblemError(invalidBody(
+        "/modelCamera", "The session's model has no camera " + std::to_string(index) + " (it has " +
+                            std::to_string(model_.cameras.size()) + ", model.cameras)."));
+  }
+  const scene::ModelCamera& c = model_.cameras[index];
+  if (!c.perspective) {
+    throw ProblemError(invalidBody("/modelCamera", "Model camera " + std::to_string(index) +
+                                                       " is orthographic; Myriad renders "
+                                                       "perspective cameras only."));
+  }
+  scene::Camera camera;
+  camera.eye = c.position;
+  // The target one model-diagonal ahead (only its direction matters for the view).
+  const float reach = std::max(glm::length(model_.bounds.size()), 1.0f);
+  camera.target = c.position + c.direction * (model_.bounds.empty() ? 1.0f : reach);
+  camera.up = c.up;
+  camera.fovYDegrees = std::clamp(glm::degrees(c.yfov), 1.0f, 179.0f);
+  camera.nearPlane = c.znear;
+  // glTF's infinite far plane (no zfar): far enough to hold the whole model from the camera.
+  const float farthest = model_.bounds.empty()
+                             ? 1000.0f
+                             : glm::length(model_.bounds.center() - c.position) + 0.5f * reach;
+  camera.farPlane = c.zfar > c.znear ? c.zfar : std::max(farthest * 1.01f, c.znear * 2.0f);
+  return setCamera(camera);
+}
+
 const render::SceneSettings& SessionScene::patchSettings(const protocol::SettingsPatch& patch,
                                                          Clock::time_point now) {
   render::SceneSettings s = settings_;
@@ -127,6 +164,21 @@ const render::SceneSettings& SessionScene::patchSettings(const protocol::Setting
     }
     if (patch.sun->color) s.sun.color = fromWire(*patch.sun->color);
     if (patch.sun->intensity) s.sun.intensity = float(*patch.sun->intensity);
+  }
+  if (patch.suns) {
+    s.extraSuns.clear();
+    for (size_t i = 0; i < patch.suns->size() && i < scene::kMaxExtraSuns; ++i) {
+      const protocol::Sun& sun = (*patch.suns)[i];
+      if (auto error = protocol::checkSunDirection(sun.direction)) {
+        throw ProblemError(invalidBody("/suns/" + std::to_string(i) + "/direction",
+                                       "\"suns/" + std::to_string(i) + "/direction\" must not be [0, 0, 0]."));
+      }
+      scene::Sun extra;
+      extra.direction = glm::normalize(fromWire(sun.direction));
+      extra.color = fromWire(sun.color);
+      extra.intensity = float(sun.intensity);
+      s.extraSuns.push_back(extra);
+    }
   }
   if (patch.ambient) s.ambient = fromWire(*patch.ambient);
   if (patch.background) s.background = fromWire(*patch.background);
@@ -214,6 +266,7 @@ SessionScene::Restored SessionScene::restore(const protocol::Snapshot& snapshot,
   protocol::SettingsPatch settings;
   settings.sun = protocol::SunPatch{snapshot.settings.sun.direction, snapshot.settings.sun.color,
                                     snapshot.settings.sun.intensity};
+  settings.suns = snapshot.settings.suns;
   settings.ambient = snapshot.settings.ambient;
   settings.background = snapshot.settings.background;
   settings.exposure = snapshot.settings.exposure;
@@ -265,7 +318,9 @@ SessionScene::Restored SessionScene::restore(const protocol::Snapshot& snapshot,
   } else {
     std::vector<scene::PointLight> list;
     list.reserve(lights.list->size());
-    for (const protocol::LightNew& light : *lights.list) list.push_back(fromWire(light));
+    for (size_t i = 0; i < lights.list->size(); ++i) {
+      list.push_back(fromWire((*lights.list)[i], at + "/lights/list/" + std::to_string(i)));
+    }
     restored.lights = next.replaceLights(list);
   }
   *this = std::move(next);
@@ -377,14 +432,14 @@ render::LightUpdate SessionScene::replaceLights(std::span<const scene::PointLigh
 }
 
 render::LightUpdate SessionScene::patchLight(uint32_t slot, const protocol::LightPatch& patch) {
-  scene::PointLight& light = lights_.at(slot);
+  // The patched light is checked whole (a cone made inverted by either angle is refused) before
+  // anything changes.
+  const bool blameOuter = patch.outerConeAngle.has_value() && !patch.innerConeAngle.has_value();
+  const scene::PointLight patched =
+      fromWire(protocol::applied(toWire(0, lights_.at(slot)), patch), "", blameOuter);
   recipe_.reset();
-  if (patch.position) light.position = fromWire(*patch.position);
-  if (patch.radius) light.radius = float(*patch.radius);
-  if (patch.color) light.color = fromWire(*patch.color);
-  if (patch.intensity) light.intensity = float(*patch.intensity);
-  if (patch.falloff) light.falloff = float(*patch.falloff);
-  return render::LightUpdate{uint32_t(lights_.size()), {render::LightWrite{slot, light}}};
+  lights_[slot] = patched;
+  return render::LightUpdate{uint32_t(lights_.size()), {render::LightWrite{slot, patched}}};
 }
 
 render::LightUpdate SessionScene::removeLight(uint32_t slot) {

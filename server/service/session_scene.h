@@ -43,6 +43,10 @@ struct ModelSummary {
     uint32_t width = 0, height = 0;
   };
   std::vector<Image> images;
+  std::vector<scene::ModelCamera> cameras;  // the file's
+  size_t pointLights = 0, spotLights = 0;    // the file's
+  size_t directionalLights = 0;              // the file's, used or not
+  size_t directionalDropped = 0;             // beyond scene::kMaxExtraSuns: not used
 };
 
 // How a session's lights were made, while they are still exactly what a generator made (the
@@ -95,6 +99,10 @@ class SessionScene {
   // Moves the eye along the current viewing direction until the whole model fits a view of
   // `aspect`, keeping the field of view.
   const scene::Camera& frameModel(float aspect);
+  // Makes model camera `index` (ModelSummary::cameras) the session's camera, with its field of
+  // view and planes (an infinite far plane becomes one past the model). Throws ProblemError 400
+  // (pointer /modelCamera) for a camera the model does not have or an orthographic one.
+  const scene::Camera& selectModelCamera(uint64_t index);
 
   const render::SceneSettings& settings() const { return settings_; }
 

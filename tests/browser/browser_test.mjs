@@ -250,6 +250,33 @@ try {
           ? l : null;
     });
     picture = await changedFrom('the picture after the light edit', picture);
+
+    // The same light as a spot pointing down, its cone in degrees in the editor, radians on the wire.
+    check(!(await page.isVisible('#light-inner')), 'cone fields hidden for a point light');
+    await page.selectOption('#light-type', 'spot');
+    check(await page.isVisible('#light-inner'), 'cone fields shown for a spot light');
+    await page.fill('#light-dx', '0');
+    await page.fill('#light-dy', '-1');
+    await page.fill('#light-dz', '0');
+    await page.fill('#light-inner', '20');
+    await page.fill('#light-outer', '30');
+    await page.selectOption('#light-attenuation', 'inverse-square');
+    await page.click('#light-apply');
+    editedLight = await until('GET lights/{id} to show the spot', async () => {
+      const l = (await api('GET', `/v1/sessions/${sessionId}/lights/${light.id}`, {token})).body;
+      return l.type === 'spot' && l.attenuation === 'inverse-square' &&
+             Math.abs(l.innerConeAngle - Math.PI / 9) < 1e-5 && Math.abs(l.outerConeAngle - Math.PI / 6) < 1e-5 &&
+             l.direction[1] === -1 ? l : null;
+    });
+    // An inverted cone is refused by the server, and the page says so (the light is unchanged).
+    expectedHttpErrors = /status of 400/;
+    await page.fill('#light-inner', '40');
+    await page.click('#light-apply');
+    await until('the problem shown for inner >= outer', async () =>
+        ((await page.textContent('body')) || '').includes('innerConeAngle'), 5000);
+    expectedHttpErrors = null;
+    const unchanged = (await api('GET', `/v1/sessions/${sessionId}/lights/${light.id}`, {token})).body;
+    check(Math.abs(unchanged.innerConeAngle - Math.PI / 9) < 1e-5, 'a refused patch changed the light');
   });
 
   await step('clicking a light in the view selects it', async () => {

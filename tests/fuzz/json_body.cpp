@@ -74,7 +74,12 @@ void convertMaterialPatch(const json& body) {
 }
 
 void convertLightPatch(const json& body) {
-  protocol::applied(protocol::Light{}, roundTrip<protocol::LightPatch>(body));
+  // What PATCH .../lights/{lid} does: apply to the light, then check the whole light's rules.
+  checkRule(protocol::checkLight(protocol::applied(protocol::Light{}, roundTrip<protocol::LightPatch>(body))));
+}
+
+void convertLightNew(const json& body) {
+  checkRule(protocol::checkLight(protocol::withId(roundTrip<protocol::LightNew>(body), 0)));
 }
 
 void convertLightsGenerate(const json& body) {
@@ -111,7 +116,7 @@ constexpr Body kBodies[] = {
     {names::kMaterialPatch, convertMaterialPatch},
     {names::kMaterialsList, convert<protocol::MaterialsList>},
     {names::kLight, convert<protocol::Light>},
-    {names::kLightNew, convert<protocol::LightNew>},
+    {names::kLightNew, convertLightNew},
     {names::kLightPatch, convertLightPatch},
     {names::kLightsAdd, convert<protocol::LightsAdd>},
     {names::kLightsAdded, convert<protocol::LightsAdded>},
@@ -123,6 +128,7 @@ constexpr Body kBodies[] = {
     {names::kModelsList, convert<protocol::ModelsList>},
     {names::kProblem, convert<protocol::Problem>},
     {names::kHealth, convert<protocol::Health>},
+    {names::kCameraSelect, convert<protocol::CameraSelect>},
 };
 constexpr size_t kBodyCount = sizeof kBodies / sizeof kBodies[0];
 

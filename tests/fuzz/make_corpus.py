@@ -34,7 +34,7 @@ SCHEMAS = ["session-create", "session-created", "session-state", "model-source",
            "camera-patch", "settings", "settings-patch", "material", "material-patch",
            "materials-list", "light", "light-new", "light-patch", "lights-add", "lights-added",
            "lights-generate", "lights-generated", "lights-page", "stats", "info", "models-list",
-           "problem", "health"]
+           "problem", "health", "camera-select"]
 # model.cpp's kExtensions, in order, and where their seeds are.
 EXTENSIONS = ["obj", "gltf", "glb", "ply", "stl", "off", "dae", "fbx", "3ds", "x", "ac", "ase",
               "ms3d", "md2", "nff", "smd", "zip"]

@@ -235,6 +235,15 @@ function maskTexture(size) {
   return writePng(size, size, 4, pixels);
 }
 
+// RGB: a checkerboard of single black and white texels.
+function checkerTexture(size) {
+  const pixels = new Uint8Array(size * size * 3);
+  for (let y = 0; y < size; ++y) {
+    for (let x = 0; x < size; ++x) pixels.fill((x + y) % 2 ? 255 : 0, (y * size + x) * 3, (y * size + x) * 3 + 3);
+  }
+  return writePng(size, size, 3, pixels);
+}
+
 // ---- the models ----
 
 // Four spheres in a row: a rough red dielectric, a gold metal, a glossy white dielectric and a
@@ -301,5 +310,16 @@ export function spotGlb() {
   b.node({name: 'spot', translation: [-0.5, 3.5, 1.5], rotation: rotation([1, 0.1, 0], -70),
           extensions: {KHR_lights_punctual: {light: 0}}});
   b.node({name: 'point', translation: [-2, 0.6, -0.5], extensions: {KHR_lights_punctual: {light: 1}}});
+  return b.glb();
+}
+
+// A quad with a one-texel black-and-white checkerboard as base colour, to be seen minified: each
+// pixel then shows the mean of many texels, which is 0.5 in linear light only if the mip chain is
+// averaged in linear light (an average of the sRGB codes would be 0.5 sRGB, 0.214 linear).
+export function checkerGlb() {
+  const b = new GltfBuilder();
+  const material = b.material({name: 'checker', pbrMetallicRoughness: {baseColorTexture: {index: b.image(checkerTexture(256))},
+                                                                      metallicFactor: 0, roughnessFactor: 0.8}});
+  b.node({name: 'quad', mesh: b.mesh(quad(), material)});
   return b.glb();
 }

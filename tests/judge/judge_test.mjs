@@ -298,7 +298,7 @@ if (status !== 0) failures.push(`myriad-server exited with ${status}`);
 
 writeFileSync(join(outDir, 'judge-report.json'), JSON.stringify(report, null, 1));
 const waiting = CASES.filter((c) => c.pending && !selected.includes(c));
-for (const c of waiting) console.log(`not judged yet: ${c.name} (${c.what}): Myriad lacks ${c.pending}`);
+for (const c of waiting) console.log(`not judged (pending; --pending renders it): ${c.name} (${c.what}): ${c.pending}`);
 console.log(`Myriad on ${info.device.name} (${info.device.driverName}), ${threeVersion}; ${Math.round(performance.now() - started)} ms; ` +
             `report: ${join(outDir, 'judge-report.json')}`);
 if (failures.length) {
