@@ -20,7 +20,8 @@ build_packages=(
   libpng-dev
   libturbojpeg0-dev        # JPEG frames and streams (TurboJPEG API)
   libzip-dev               # zip uploads of a model with its files, read in the loader child
-  libstb-dev               # stb_image (static): .hdr environment images, decoded in the loader child
+  libstb-dev               # stb_image's header: .hdr environment images, decoded in the loader child
+  libssl-dev               # libcrypto: SHA-256 of session tokens in --state-dir
   doctest-dev
 )
 test_packages=(

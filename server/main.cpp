@@ -103,6 +103,16 @@ int run(const service::Options& options, const sigset_t& shutdownSignals) {
     }
   }
   config.models = models.get();
+  std::unique_ptr<service::StateStore> state;
+  if (options.stateDir) {
+    try {
+      state = std::make_unique<service::StateStore>(*options.stateDir);
+    } catch (const std::exception& e) {
+      return fail(e.what());
+    }
+    config.state = state.get();
+    config.stateRetention = std::chrono::hours(options.stateRetentionHours);
+  }
   config.api = apiConfig(options, config.maxResolution, *renderThread);
   service::HttpServer server(config, *renderThread, scene);
   uint16_t port = 0;

@@ -1178,6 +1178,79 @@ TEST_CASE("api: a snapshot restores a session in a new one (the same frame) or o
   checkStopsCleanly(server);
 }
 
+TEST_CASE("api: --state-dir: a session survives a restart, token and upload included") {
+  char dirTemplate[] = "/tmp/myriad-state-XXXXXX";
+  REQUIRE(mkdtemp(dirTemplate) != nullptr);
+  const fs::path stateDir = dirTemplate;
+  const std::vector<std::string> args = {"--lights", "6", "--state-dir", stateDir.string(),
+                                         "--session-idle-seconds", "2"};
+  const std::string frameQuery = "/frame?width=96&height=64&format=png";
+  TestSession s;
+  std::string before;
+  {
+    ServerProcess first(args);
+    requireListening(first);
+    ApiClient api(first);
+    s = createSession(api);
+    // An upload (the bytes must be kept), and edits of every kind the snapshot holds.
+    Reply upload = api.put(s.path() + "/model?filename=box.glb&lights=keep", readFile(kBox), s.token,
+                           "application/octet-stream");
+    REQUIRE(upload.status == 200);
+    REQUIRE(api.patch(s.path() + "/camera", R"({"fovY": 35, "eye": [2.5, 2, 3]})", s.token).status == 200);
+    REQUIRE(api.patch(s.path() + "/settings", R"({"exposure": 1.4})", s.token).status == 200);
+    REQUIRE(api.patch(s.path() + "/materials/0", R"({"baseColor": [0.9, 0.2, 0.1]})", s.token).status == 200);
+    REQUIRE(api.post(s.path() + "/lights",
+                     R"({"lights": [{"position": [0.5, 1.5, 0.5], "radius": 4, "color": [1, 1, 1], "intensity": 3, "falloff": 1}]})",
+                     s.token).status == 201);
+    Reply frame = api.get(s.path() + frameQuery, s.token);
+    REQUIRE(frame.status == 200);
+    before = frame.body;
+    std::this_thread::sleep_for(std::chrono::milliseconds(600));  // written within 250 ms
+    // The token itself is never written; its hash is.
+    const std::string stored = readFile(stateDir / "sessions" / (s.id + ".json"));
+    CHECK(stored.find(s.token) == std::string::npos);
+    CHECK(stored.find("tokenSha256") != std::string::npos);
+    CHECK(stored.find("upload:box.glb") != std::string::npos);
+    checkStopsCleanly(first);
+  }
+  {
+    ServerProcess second(args);
+    requireListening(second);
+    ApiClient api(second);
+    // Another session's token or a made-up one does not open it.
+    TestSession other = createSession(api);
+    checkProblem(api.get(s.path(), other.token), 403, "forbidden", "token");
+    // The right token restores it on its first request: the same scene, the same picture.
+    Reply state = api.get(s.path(), s.token);
+    INFO(second.stderrText().substr(0, 3000));
+    REQUIRE(state.status == 200);
+    CHECK(state.json.at("model").at("source") == "upload:box.glb");
+    CHECK(state.json.at("camera").at("fovY") == 35);
+    CHECK(state.json.at("settings").at("exposure") == 1.4);
+    CHECK(api.get(s.path() + "/lights", s.token).json.at("total") == 7);
+    Reply frame = api.get(s.path() + frameQuery, s.token);
+    REQUIRE(frame.status == 200);
+    CHECK(frame.body == before);
+    // Idle expiry frees memory only: after it, the next request restores the session again.
+    std::this_thread::sleep_for(std::chrono::seconds(4));
+    Reply again = api.get(s.path(), s.token);
+    CHECK(again.status == 200);
+    CHECK(second.stderrText().find("session " + s.id + " restored") != std::string::npos);
+    // Deleting ends it everywhere: the file goes, and a later server has nothing to restore.
+    CHECK(api.del(s.path(), s.token).status == 204);
+    CHECK_FALSE(fs::exists(stateDir / "sessions" / (s.id + ".json")));
+    checkStopsCleanly(second);
+  }
+  {
+    ServerProcess third(args);
+    requireListening(third);
+    ApiClient api(third);
+    checkProblem(api.get(s.path(), s.token), 404, "not-found", s.id);
+    checkStopsCleanly(third);
+  }
+  fs::remove_all(stateDir);
+}
+
 TEST_CASE("api: a glTF file's point, spot and directional lights and its cameras; a camera selected") {
   // A triangle lit by a point light, a spot light and two directional lights; two cameras.
   const std::string gltf = R"({

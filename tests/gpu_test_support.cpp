@@ -10,6 +10,7 @@ void GpuSuite::setScene(const scene::Scene& s) {
 
 render::Frame GpuSuite::render(render::FrameSettings f) {
   f.sun = lighting.sun;
+  f.extraSuns = lighting.extraSuns;
   f.ambient = lighting.ambient;
   f.background = lighting.background;
   return renderer->render(scene, f);

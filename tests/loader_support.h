@@ -86,6 +86,39 @@ inline void requireSameScene(const scene::Scene& a, const scene::Scene& b) {
     }
   }
   CHECK(a.images.size() == b.images.size());
+  for (size_t i = 0; i < a.lights.size(); ++i) {
+    const scene::PointLight& x = a.lights[i];
+    const scene::PointLight& y = b.lights[i];
+    CHECK(x.position == y.position);
+    CHECK(x.radius == y.radius);
+    CHECK(x.color == y.color);
+    CHECK(x.intensity == y.intensity);
+    CHECK(x.falloff == y.falloff);
+    CHECK(x.type == y.type);
+    CHECK(x.attenuation == y.attenuation);
+    CHECK(x.direction == y.direction);
+    CHECK(x.innerConeAngle == y.innerConeAngle);
+    CHECK(x.outerConeAngle == y.outerConeAngle);
+  }
+  REQUIRE(a.extraSuns.size() == b.extraSuns.size());
+  for (size_t i = 0; i < a.extraSuns.size(); ++i) {
+    CHECK(a.extraSuns[i].direction == b.extraSuns[i].direction);
+    CHECK(a.extraSuns[i].color == b.extraSuns[i].color);
+    CHECK(a.extraSuns[i].intensity == b.extraSuns[i].intensity);
+  }
+  CHECK(a.droppedSuns == b.droppedSuns);
+  REQUIRE(a.cameras.size() == b.cameras.size());
+  for (size_t i = 0; i < a.cameras.size(); ++i) {
+    CHECK(a.cameras[i].name == b.cameras[i].name);
+    CHECK(a.cameras[i].perspective == b.cameras[i].perspective);
+    CHECK(a.cameras[i].yfov == b.cameras[i].yfov);
+    CHECK(a.cameras[i].aspectRatio == b.cameras[i].aspectRatio);
+    CHECK(a.cameras[i].znear == b.cameras[i].znear);
+    CHECK(a.cameras[i].zfar == b.cameras[i].zfar);
+    CHECK(a.cameras[i].position == b.cameras[i].position);
+    CHECK(a.cameras[i].direction == b.cameras[i].direction);
+    CHECK(a.cameras[i].up == b.cameras[i].up);
+  }
   CHECK(a.camera.eye == b.camera.eye);
   CHECK(a.camera.target == b.camera.target);
 }

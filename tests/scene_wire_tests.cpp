@@ -155,3 +155,66 @@ TEST_CASE("wire: randomly corrupted wire data is rejected or still consistent") 
   CHECK(rejected > 1000);
 }
 
+
+TEST_CASE("wire: spot lights, extra suns and cameras cross intact; broken ones are rejected") {
+  scene::Scene original = scene::loadModel(kModels / "OBJ/spider.obj");
+  scene::PointLight spot;
+  spot.position = glm::vec3(1.0f, 2.0f, 3.0f);
+  spot.radius = 5.0f;
+  spot.intensity = 40.0f;
+  spot.type = scene::LightType::Spot;
+  spot.attenuation = scene::Attenuation::InverseSquare;
+  spot.direction = glm::normalize(glm::vec3(0.3f, -1.0f, 0.2f));
+  spot.innerConeAngle = 0.2f;
+  spot.outerConeAngle = 0.5f;
+  original.lights = {scene::PointLight{}, spot};
+  original.extraSuns = {scene::Sun{}, scene::Sun{glm::vec3(0.0f, -1.0f, 0.0f), glm::vec3(1.0f, 0.5f, 0.5f), 3.0f}};
+  original.droppedSuns = 2;
+  scene::ModelCamera camera;
+  camera.name = "overhead";
+  camera.yfov = 0.7f;
+  camera.aspectRatio = 1.5f;
+  camera.znear = 0.05f;
+  camera.zfar = 40.0f;
+  camera.position = glm::vec3(0.0f, 5.0f, 0.0f);
+  camera.direction = glm::vec3(0.0f, -1.0f, 0.0f);
+  camera.up = glm::vec3(0.0f, 0.0f, -1.0f);
+  original.cameras = {camera};
+  requireSameScene(loader::decodeScene(loader::encodeScene(original)), original);
+
+  auto rejected = [](const scene::Scene& s) -> std::string {
+    try {
+      loader::decodeScene(loader::encodeScene(s));
+      return "";
+    } catch (const loader::SceneWireError& e) {
+      return e.what();
+    }
+  };
+  auto withSpot = [&](auto change) {
+    scene::Scene s = original;
+    change(s.lights[1]);
+    return rejected(s);
+  };
+  CHECK(withSpot([](scene::PointLight& l) { l.innerConeAngle = 0.5f; }).find("inner >= outer") != std::string::npos);
+  CHECK(withSpot([](scene::PointLight& l) { l.outerConeAngle = 1.6f; }).find("outer cone") != std::string::npos);
+  CHECK(withSpot([](scene::PointLight& l) { l.innerConeAngle = -0.1f; }).find("inner cone") != std::string::npos);
+  CHECK(withSpot([](scene::PointLight& l) { l.direction = glm::vec3(0.0f, -2.0f, 0.0f); }).find("unit") != std::string::npos);
+  CHECK(withSpot([](scene::PointLight& l) { l.direction.x = std::nanf(""); }).find("non-finite") != std::string::npos);
+  CHECK(withSpot([](scene::PointLight& l) { l.type = scene::LightType(7); }).find("light type") != std::string::npos);
+  CHECK(withSpot([](scene::PointLight& l) { l.attenuation = scene::Attenuation(9); }).find("attenuation") != std::string::npos);
+  scene::Scene suns = original;
+  suns.extraSuns.assign(4, scene::Sun{});
+  CHECK(rejected(suns).find("directional") != std::string::npos);
+  suns = original;
+  suns.extraSuns[1].intensity = 5000.0f;
+  CHECK(rejected(suns).find("intensity") != std::string::npos);
+  scene::Scene cameras = original;
+  cameras.cameras[0].up = glm::vec3(0.0f, -1.0f, 0.0f);  // along the direction
+  CHECK(rejected(cameras).find("perpendicular") != std::string::npos);
+  cameras = original;
+  cameras.cameras[0].zfar = 0.01f;
+  CHECK(rejected(cameras).find("planes") != std::string::npos);
+  cameras = original;
+  cameras.cameras[0].yfov = 0.0f;
+  CHECK(rejected(cameras).find("field of view") != std::string::npos);
+}

@@ -532,4 +532,54 @@ TEST_CASE("session scene: a snapshot restores camera, settings, materials and li
   CHECK(json(copy.snapshot()) == json(good));
 }
 
+TEST_CASE("session scene: a model's directional lights join the sun unless its lights are kept; its cameras are selectable") {
+  SessionScene scene(8, render::SceneSettings{});
+  auto lit = model(1, 1);
+  lit->extraSuns = {scene::Sun{glm::vec3(0.0f, -1.0f, 0.0f), glm::vec3(1.0f), 3.0f}};
+  lit->droppedSuns = 1;
+  scene::ModelCamera perspective;
+  perspective.name = "front";
+  perspective.yfov = 0.5f;
+  perspective.znear = 0.1f;
+  perspective.zfar = 30.0f;
+  perspective.position = glm::vec3(0.0f, 1.0f, 5.0f);
+  scene::ModelCamera flat = perspective;
+  flat.perspective = false;
+  lit->cameras = {perspective, flat};
+  scene.adopt(lit, "upload:lit.gltf", Adoption{.lights = Adoption::Lights::model});
+  REQUIRE(scene.settings().extraSuns.size() == 1);
+  CHECK(scene.settings().extraSuns[0].intensity == 3.0f);
+  CHECK(scene.model().directionalLights == 2);
+  CHECK(scene.model().directionalDropped == 1);
+  CHECK(scene.model().pointLights == 1);
+  CHECK(scene.model().cameras.size() == 2);
+
+  // ?lights=keep keeps the session's suns as well as its lights; other choices take the model's.
+  scene.adopt(model(0, 1), "upload:plain.obj", Adoption{.lights = Adoption::Lights::keep});
+  CHECK(scene.settings().extraSuns.size() == 1);
+  scene.adopt(model(0, 1), "upload:plain.obj", Adoption{.lights = Adoption::Lights::fit});
+  CHECK(scene.settings().extraSuns.empty());
+
+  // Suns through a settings patch: normalized; a zero direction names its member.
+  protocol::SettingsPatch patch;
+  patch.suns = std::vector<protocol::Sun>{{{0, -2, 0}, {1, 1, 1}, 2}};
+  scene.patchSettings(patch, Clock::now());
+  REQUIRE(scene.settings().extraSuns.size() == 1);
+  CHECK(scene.settings().extraSuns[0].direction == glm::vec3(0.0f, -1.0f, 0.0f));
+  patch.suns = std::vector<protocol::Sun>{{{0, 0, 0}, {1, 1, 1}, 2}};
+  CHECK(problemOf([&] { scene.patchSettings(patch, Clock::now()); }).problem().pointer == "/suns/0/direction");
+  CHECK(scene.settings().extraSuns.size() == 1);
+
+  // Cameras: a perspective one becomes the camera; an orthographic or missing one is 400.
+  scene.adopt(lit, "upload:lit.gltf", Adoption{.lights = Adoption::Lights::model});
+  const scene::Camera& camera = scene.selectModelCamera(0);
+  CHECK(camera.eye == glm::vec3(0.0f, 1.0f, 5.0f));
+  CHECK(camera.target.z < 5.0f);
+  CHECK(camera.fovYDegrees == doctest::Approx(0.5f * 180.0f / 3.14159265f));
+  CHECK(camera.nearPlane == 0.1f);
+  CHECK(camera.farPlane == 30.0f);
+  CHECK(problemOf([&] { scene.selectModelCamera(1); }).problem().pointer == "/modelCamera");
+  CHECK(problemOf([&] { scene.selectModelCamera(2); }).problem().pointer == "/modelCamera");
+}
+
 }  // namespace myriad

@@ -275,6 +275,9 @@ scene::Scene spotScene(bool withOthers) {
   if (withOthers) {
     s.sun.intensity = 0.3f;
     s.ambient = glm::vec3(0.02f);
+    // Two more directional lights (a model's glTF directional lights join the sun like this).
+    s.extraSuns = {scene::Sun{glm::normalize(glm::vec3(0.6f, -1.0f, 0.2f)), glm::vec3(0.4f, 0.5f, 1.0f), 0.4f},
+                   scene::Sun{glm::normalize(glm::vec3(-0.8f, -0.5f, -0.3f)), glm::vec3(1.0f, 0.6f, 0.3f), 0.25f}};
     s.lights.push_back(spotLight(glm::vec3(2.5f, 1.5f, 0.5f), glm::vec3(-0.5f, -1.0f, -0.6f), 0.0f,
                                  0.7f, 4.0f, 3.0f, scene::Attenuation::Window));
     scene::PointLight point;
@@ -284,6 +287,10 @@ scene::Scene spotScene(bool withOthers) {
     point.intensity = 2.0f;
     point.attenuation = scene::Attenuation::InverseSquare;
     s.lights.push_back(point);
+    // A headlight: an inverse-square spot at the eye, pointing where the camera looks (every
+    // pixel is on one of its rays; the distance bound keeps it finite).
+    s.lights.push_back(spotLight(glm::vec3(0.0f, 4.0f, 8.0f), glm::vec3(0.0f, -4.0f, -10.0f), 0.05f,
+                                 0.15f, 30.0f, 20.0f, scene::Attenuation::InverseSquare));
     // A spot whose cone spans pi/2 (a half space), seen from above.
     s.lights.push_back(spotLight(glm::vec3(0.5f, 0.4f, -3.5f), glm::vec3(1.0f, 0.0f, 0.2f), 1.2f,
                                  1.5707963f, 3.0f, 1.5f, scene::Attenuation::InverseSquare));
@@ -293,7 +300,7 @@ scene::Scene spotScene(bool withOthers) {
 
 }  // namespace
 
-TEST_CASE("spot and inverse-square lights: every technique the same within 1/255, matching the reference") {
+TEST_CASE("spot, inverse-square and extra directional lights: every technique the same within 1/255, matching the reference") {
   scene::Scene s = spotScene(true);
   Gpu& gpu = sharedGpu();
   gpu.setScene(s);
@@ -309,6 +316,12 @@ TEST_CASE("spot and inverse-square lights: every technique the same within 1/255
                            << vsReference << "/255");
     CHECK(vsReference <= 2);
     images.push_back(std::move(frame.rgba));
+    render::FrameSettings raw = frameSettings(t, 192, 128);
+    raw.raw = true;
+    const render::Frame values = gpu.render(raw);
+    size_t nonFinite = 0;
+    for (float v : values.data) nonFinite += std::isfinite(v) ? 0 : 1;
+    CHECK(nonFinite == 0);
   }
   for (size_t a = 0; a < images.size(); ++a) {
     for (size_t b = a + 1; b < images.size(); ++b) {
@@ -317,7 +330,13 @@ TEST_CASE("spot and inverse-square lights: every technique the same within 1/255
       CHECK(maxDifference(images[a], images[b]) <= 1);
     }
   }
-  // The lights do show: the image differs from the one lit by the sun and ambient alone.
+  // The lights do show: the image differs from the one lit by the sun and ambient alone, and the
+  // extra suns from the one without them.
+  scene::Scene oneSun = s;
+  oneSun.extraSuns.clear();
+  CHECK(maxDifference(render::renderReference(oneSun, frameSettings(Technique::Clustered, 192, 128)
+                                                          .takeLightingFrom(oneSun)),
+                      reference) > 20);
   scene::Scene unlit = s;
   unlit.lights.clear();
   CHECK(maxDifference(render::renderReference(unlit, frameSettings(Technique::Clustered, 192, 128)

@@ -20,7 +20,9 @@ const Bounds kEnvironmentIntensity{0.0, 1000.0};
 const Bounds kEnvironmentRotation{-100.0, 100.0, false, false, "radians"};
 const Bounds kExposure{0.0, 1000.0, true};
 const Bounds kLightRadius{0.0, 1e4, true};
-const Bounds kLightAmount{0.0, 1e4};  // intensity, falloff
+const Bounds kLightAmount{0.0, 1e4};  // falloff; generated intensities
+const Bounds kLightIntensity{0.0, 1e6};
+const Bounds kConeAngle{0.0, 1.5707963267948966, false, false, "radians"};
 const Bounds kAtLeastOne{1.0, kInf};
 const Bounds kQuality{1.0, 100.0};
 const Bounds kFps{1.0, 60.0};
@@ -83,8 +85,17 @@ std::vector<OptionSpec> lightOptions(bool forAdd) {
   return {position, radius,
           option("color", Kind::Vector, "linear RGB" + std::string(forAdd ? ", default 1,1,1" : ""),
                  kUnitInterval, "r,g,b"),
-          option("intensity", Kind::Number, forAdd ? "default 1" : "brightness", kLightAmount),
-          option("falloff", Kind::Number, "C in (r^2-d^2)/(C d^2 + r^2)", kLightAmount)};
+          option("intensity", Kind::Number,
+                 std::string(forAdd ? "default 1; " : "") + "candela with --attenuation inverse-square",
+                 kLightIntensity),
+          option("falloff", Kind::Number, "C in (r^2-d^2)/(C d^2 + r^2)", kLightAmount),
+          option("attenuation", Kind::Text,
+                 "window (default) or inverse-square (glTF's 1/d^2, zero at the radius)",
+                 std::nullopt, "MODE"),
+          option("spot", Kind::Vector, "make it a spot light pointing this way", kCoordinate, "x,y,z"),
+          option("cone", Kind::Range, "a spot's inner,outer cone angles, radians (default 0,0.785)",
+                 kConeAngle, "inner,outer"),
+          flag("point", "make it a point light again")};
 }
 
 void requireSomeOption(const Invocation& inv, const std::string& what) {
@@ -210,14 +221,14 @@ std::vector<CommandSpec> buildSpecs() {
                    {}});
   specs.push_back({"lights show", "one light", {positional("ID", Kind::Unsigned, "the light id")},
                    {}, {}, {}});
-  specs.push_back({"lights add", "add one point light", {}, lightOptions(true),
+  specs.push_back({"lights add", "add one light (a point light, or a spot with --spot)", {}, lightOptions(true),
                    "Prints the new light's id.", {}});
   CommandSpec lightsSet{"lights set", "change the members given of one light",
                         {positional("ID", Kind::Unsigned, "the light id")}, lightOptions(false), {},
                         {}};
   lightsSet.check = [](const Invocation& inv) {
     requireSomeOption(inv, "\"lights set\" needs at least one of --position, --radius, --color, "
-                           "--intensity, --falloff");
+                           "--intensity, --falloff, --attenuation, --spot, --cone, --point");
   };
   specs.push_back(lightsSet);
   specs.push_back({"lights rm", "remove one light", {positional("ID", Kind::Unsigned, "the light id")},

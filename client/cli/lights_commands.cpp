@@ -17,6 +17,43 @@ std::vector<std::string> lightRow(const protocol::Light& l) {
           formatVec(l.color),    formatNumber(l.intensity),  formatNumber(l.falloff)};
 }
 
+// A spot's or an inverse-square light's members, said under the table (the columns stay as they
+// were for scripts that read them).
+void describeShape(std::ostream& out, const protocol::Light& l) {
+  if (l.type == protocol::light_types::kSpot) {
+    out << "light " << l.id << ": spot towards " << formatVec(l.direction) << ", cone "
+        << formatNumber(l.innerConeAngle) << " to " << formatNumber(l.outerConeAngle) << " rad";
+    if (l.attenuation != protocol::attenuations::kWindow) out << ", " << l.attenuation;
+    out << "\n";
+  } else if (l.attenuation != protocol::attenuations::kWindow) {
+    out << "light " << l.id << ": " << l.attenuation << "\n";
+  }
+}
+
+// --attenuation, --spot, --cone and --point onto a light or a patch (both have the optionals).
+template <class T>
+void applyShape(const Invocation& inv, T& light) {
+  if (auto mode = inv.find<std::string>("attenuation")) {
+    if (*mode != protocol::attenuations::kWindow && *mode != protocol::attenuations::kInverseSquare) {
+      throw UsageError("--attenuation", "--attenuation is window or inverse-square, not \"" + *mode + "\".",
+                       inv.command->name);
+    }
+    light.attenuation = *mode;
+  }
+  if (inv.has("point") && (inv.has("spot") || inv.has("cone"))) {
+    throw UsageError("--point", "--point goes with neither --spot nor --cone.", inv.command->name);
+  }
+  if (inv.has("point")) light.type = std::string(protocol::light_types::kPoint);
+  if (auto direction = inv.find<Vec3>("spot")) {
+    light.type = std::string(protocol::light_types::kSpot);
+    light.direction = *direction;
+  }
+  if (auto cone = inv.find<Interval>("cone")) {
+    light.innerConeAngle = cone->min;
+    light.outerConeAngle = cone->max;
+  }
+}
+
 std::string lightRoute(Context& ctx, uint64_t id) {
   return protocol::expandRoute(ctx.sessionRoute(protocol::routes::kSessionLight), "lid",
                                std::to_string(id));
@@ -37,6 +74,7 @@ int list(Context& ctx) {
   std::vector<std::vector<std::string>> rows;
   for (const auto& l : lights.lights) rows.push_back(lightRow(l));
   if (!rows.empty()) printTable(ctx.out, kHeader, rows);
+  for (const auto& l : lights.lights) describeShape(ctx.out, l);
   // Lights are named by their ids only (the ID column); the page's place in the list is given as
   // the --offset that continues it, never as numbers that could pass for ids.
   ctx.out << lights.lights.size() << " of " << lights.total << " lights";
@@ -54,6 +92,7 @@ int add(Context& ctx) {
   light.color = inv.find<Vec3>("color").value_or(Vec3{1, 1, 1});
   light.intensity = inv.find<double>("intensity").value_or(1.0);
   light.falloff = inv.find<double>("falloff").value_or(0.0);
+  applyShape(inv, light);
   protocol::LightsAdd body;
   body.lights.push_back(light);
   nlohmann::json added =
@@ -74,9 +113,14 @@ int set(Context& ctx) {
   patch.color = inv.find<Vec3>("color");
   patch.intensity = inv.find<double>("intensity");
   patch.falloff = inv.find<double>("falloff");
+  applyShape(inv, patch);
   nlohmann::json light =
       ctx.call("PATCH", lightRoute(ctx, std::get<uint64_t>(inv.positionals[0])), patch);
-  if (!ctx.json()) printTable(ctx.out, kHeader, {lightRow(light.get<protocol::Light>())});
+  if (!ctx.json()) {
+    const auto changed = light.get<protocol::Light>();
+    printTable(ctx.out, kHeader, {lightRow(changed)});
+    describeShape(ctx.out, changed);
+  }
   return 0;
 }
 
@@ -109,7 +153,11 @@ int runLightsCommand(Context& ctx) {
   if (name == "lights show") {
     nlohmann::json light =
         ctx.call("GET", lightRoute(ctx, std::get<uint64_t>(ctx.inv.positionals[0])));
-    if (!ctx.json()) printTable(ctx.out, kHeader, {lightRow(light.get<protocol::Light>())});
+    if (!ctx.json()) {
+      const auto shown = light.get<protocol::Light>();
+      printTable(ctx.out, kHeader, {lightRow(shown)});
+      describeShape(ctx.out, shown);
+    }
     return 0;
   }
   if (name == "lights rm") {

@@ -98,6 +98,10 @@ const model = new ModelPanel(api, {
     materials.refresh();
     lights.changed(state.lights.count);
   },
+  onCamera: (cam) => {
+    camera.pending = false;
+    camera.setFromServer(cam);
+  },
 });
 // A model file, a .zip, several files or a folder dropped on the view loads like a pick.
 model.acceptDrops($('view'));

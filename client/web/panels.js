@@ -20,9 +20,10 @@ function fillSelect(select, items, selected) {
 
 // Model: the source, upload, the --models library, the built-in scene.
 export class ModelPanel {
-  constructor(api, {onLoaded, onProblem, onInfo}) {
+  constructor(api, {onLoaded, onCamera, onProblem, onInfo}) {
     this.api = api;
     this.onLoaded = onLoaded;    // (SessionState) after a model replaced the scene
+    this.onCamera = onCamera;    // (Camera) after one of the model's cameras became the camera
     this.onProblem = onProblem;
     this.onInfo = onInfo;        // (text) progress shown to the user
     for (const id of ['model-file', 'model-folder']) {
@@ -34,12 +35,37 @@ export class ModelPanel {
     }
     $('model-library-load').addEventListener('click', () => this.loadLibrary());
     $('model-builtin').addEventListener('click', () => this.load({source: 'builtin:default'}));
+    $('model-camera-use').addEventListener('click', () => this.useCamera());
   }
 
   show(state) {
     const m = state.model;
+    const l = m.lights;
+    const lights = l && l.point + l.spot + l.directional > 0
+        ? `; file lights: ${l.point} point, ${l.spot} spot, ${l.directional} directional` +
+          (l.directionalDropped ? ` (${l.directionalDropped} directional not used: at most 3)` : '')
+        : '';
     $('model-summary').textContent =
-        `${m.source}: ${m.meshes} meshes, ${m.instances} instances, ${m.materials} materials`;
+        `${m.source}: ${m.meshes} meshes, ${m.instances} instances, ${m.materials} materials${lights}`;
+    // The file's cameras: the perspective ones can become the view (POST .../camera/select).
+    const cameras = (m.cameras || []).filter((c) => c.type === 'perspective');
+    fillSelect($('model-camera'), cameras.length
+        ? cameras.map((c) => ({value: String(c.index),
+                               label: `${c.name || 'camera ' + c.index} (${round(c.yfov * 180 / Math.PI, 1)}\u00b0)`}))
+        : [{value: '', label: 'none in the file'}]);
+    $('model-camera-use').disabled = cameras.length === 0;
+  }
+
+  async useCamera() {
+    const index = $('model-camera').value;
+    if (index === '') return;
+    try {
+      const camera = await this.api.request('POST', this.api.sessionPath('/camera/select'),
+                                            {json: {modelCamera: Number(index)}});
+      this.onCamera?.(camera);
+    } catch (e) {
+      this.onProblem(e);
+    }
   }
 
   async refreshLibrary() {

@@ -6,12 +6,11 @@
 
 #include <httplib.h>
 
-#include <memory>
-
 #include <atomic>
 #include <cstdint>
 #include <functional>
 #include <initializer_list>
+#include <memory>
 #include <optional>
 #include <regex>
 #include <string>
@@ -65,7 +64,13 @@ struct ApiContext {
   render::RenderQueue& renderThread;  // the render thread, seen through its queue
   SessionManager& sessions;
   loader::ModelLibrary* models = nullptr;  // null without --models
+  StateStore* state = nullptr;             // null without --state-dir
 };
+
+// With --state-dir: the session `id` from its state file, open again with `token` (checked
+// against the stored hash: 403 otherwise); null when there is no such file. Loads its model and
+// environment as an upload or creation would (422 when the model no longer loads).
+SessionPtr restoreStoredSession(ApiContext& context, std::string_view id, const std::string& token);
 
 // Sends `problem` as application/problem+json, with Retry-After when it says so.
 void sendProblem(httplib::Response& res, const Problem& problem);

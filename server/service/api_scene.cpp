@@ -144,9 +144,17 @@ void putEnvironment(ApiContext& context, const httplib::Request& req, httplib::R
   std::string source;
   // Decoding takes the loader's time; the session stays usable meanwhile.
   std::shared_ptr<const scene::EnvironmentImage> image = loadEnvironment(context, req, source);
+  // With --state-dir, an uploaded image is kept (decoded: 384 KiB) for a restore; a library one
+  // is named by the snapshot.
+  std::optional<std::string> stored;
+  if (context.state != nullptr && source.starts_with(protocol::kUploadPrefix)) {
+    stored = context.state->putBlob(std::string_view(
+        reinterpret_cast<const char*>(image->rgb.data()), image->rgb.size() * sizeof(float)));
+  }
   std::future<void> uploaded;
   {
     auto lock = lockOpen(*session);
+    session->persisted.environmentBlob = std::move(stored);
     // Queued under the lock, so a frame after this edit sees the image.
     uploaded = context.renderThread.setEnvironmentImage(session->sceneId, image);
     session->scene.setEnvironmentImage(std::move(image), source);

@@ -1,6 +1,7 @@
 // POST /v1/sessions, GET/DELETE /v1/sessions/{id}, PUT /v1/sessions/{id}/model, GET /v1/models.
 #include <memory>
 
+#include "loader/archive.h"
 #include "loader/library.h"
 #include "loader/loader.h"
 #include "protocol/constants.h"
@@ -82,8 +83,8 @@ ScenePtr loadArchiveUpload(const httplib::Request& req, std::string& source) {
 
 // Several files as multipart/form-data, each part a file (its filename the path the model uses
 // for it, folders allowed); ?entry= names the model when there are several.
-ScenePtr loadFilesUpload(const httplib::Request& req, std::string& source) {
-  scene::MemoryFiles files;
+ScenePtr loadFilesUpload(const httplib::Request& req, std::string& source,
+                         scene::MemoryFiles& files) {
   for (const auto& [field, part] : req.files) {
     if (part.filename.empty()) {
       throw ProblemError(invalidBody(
@@ -154,6 +155,64 @@ void sendState(const ApiContext& context, httplib::Response& res, const Session&
   sendJson(res, stateOf(session, context.sessions.expiresInSeconds(session)), status);
 }
 
+SessionScene newSessionScene(const ApiContext& context) {
+  render::SceneSettings settings;
+  settings.technique = context.config.defaultTechnique;
+  return SessionScene(context.config.limits.maxLightsPerSession, settings);
+}
+
+// Gives a new session (its id not yet out, or being restored) its scene: adopts `loaded`, made
+// from `source`, creates the GPU scene and, with a snapshot, restores the rest (problems point
+// under `pointer`).
+void populate(ApiContext& context, Session& session, ScenePtr loaded, const std::string& source,
+              const protocol::Snapshot* snapshot, std::string_view pointer,
+              const SessionScene::EnvironmentImageSource& environment) {
+  std::shared_ptr<const scene::Scene> scene;
+  {
+    std::lock_guard lock(session.mutex);
+    // The built-in scene's lights are generated: loading a model later fits them to it.
+    std::optional<LightRecipe> recipe;
+    if (source == protocol::kBuiltinModel) {
+      recipe = LightRecipe{context.config.builtinLights, context.config.builtinSeed};
+    }
+    scene = session.scene.adopt(std::move(loaded), source,
+                                Adoption{.lights = Adoption::Lights::model,
+                                         .recipe = recipe,
+                                         .lightingFromModel = true});
+  }
+  const render::SceneId sceneId = context.renderThread.createScene(scene).get();
+  std::vector<std::future<void>> restored;
+  {
+    std::lock_guard lock(session.mutex);
+    session.sceneId = sceneId;
+    if (snapshot) restored = queueRestore(context, session, *snapshot, pointer, environment);
+    session.lastUsed = Clock::now();
+    session.bump();
+  }
+  for (std::future<void>& done : restored) done.get();
+}
+
+// The model a stored upload was made from, loaded again (in the loader child, as at upload).
+ScenePtr loadStoredUpload(const ApiContext& context, const StoredUpload& upload) {
+  std::optional<std::string> bytes = context.state->blob(upload.blob);
+  if (!bytes) {
+    throw ProblemError(modelRejected("The session's uploaded model is missing from the state "
+                                     "directory; upload it again."));
+  }
+  switch (upload.kind) {
+    case StoredUpload::Kind::zip:
+      return loadOrProblem(
+          [&] { return loader::loadModelArchive(*bytes, upload.filename, upload.entry); });
+    case StoredUpload::Kind::files: {
+      const scene::MemoryFiles files = loader::decodeFileSet(*bytes, "stored upload", {});
+      return loadOrProblem([&] { return loader::loadModelFiles(files, upload.entry); });
+    }
+    case StoredUpload::Kind::file:
+      break;
+  }
+  return loadOrProblem([&] { return loader::loadModelBytes(*bytes, upload.filename); });
+}
+
 void createSession(ApiContext& context, const httplib::Request& req, httplib::Response& res) {
   checkQuery(req, {});
   if (context.config.apiKey) {
@@ -182,40 +241,15 @@ void createSession(ApiContext& context, const httplib::Request& req, httplib::Re
   const std::string source = snapshot ? snapshot->model.source
                                       : body.model.value_or(std::string(protocol::kBuiltinModel));
 
-  render::SceneSettings settings;
-  settings.technique = context.config.defaultTechnique;
-  SessionPtr session =
-      context.sessions.create(SessionScene(context.config.limits.maxLightsPerSession, settings));
+  SessionPtr session = context.sessions.create(newSessionScene(context));
   try {
-    std::shared_ptr<const scene::Scene> scene;
     // Loaded without the session's lock: a library model may take the loader's whole time limit,
     // and the idle sweeper takes every session's lock in turn.
     ScenePtr loaded = loadSource(context, source);
     const SessionScene::EnvironmentImageSource environment =
         snapshot ? snapshotEnvironment(context, *snapshot, "") : SessionScene::EnvironmentImageSource{};
-    {
-      // Nobody else holds the session yet (its id is not out), but the scene is the session's.
-      std::lock_guard lock(session->mutex);
-      // The built-in scene's lights are generated: loading a model later fits them to it.
-      std::optional<LightRecipe> recipe;
-      if (source == protocol::kBuiltinModel) {
-        recipe = LightRecipe{context.config.builtinLights, context.config.builtinSeed};
-      }
-      scene = session->scene.adopt(std::move(loaded), source,
-                                   Adoption{.lights = Adoption::Lights::model,
-                                            .recipe = recipe,
-                                            .lightingFromModel = true});
-    }
-    const render::SceneId sceneId = context.renderThread.createScene(scene).get();
-    std::vector<std::future<void>> restored;
-    {
-      std::lock_guard lock(session->mutex);
-      session->sceneId = sceneId;
-      if (snapshot) restored = queueRestore(context, *session, *snapshot, "/snapshot", environment);
-      session->lastUsed = Clock::now();
-      session->bump();
-    }
-    for (std::future<void>& done : restored) done.get();
+    populate(context, *session, std::move(loaded), source,
+             snapshot ? &*snapshot : nullptr, "/snapshot", environment);
   } catch (...) {
     context.sessions.remove(session->id);
     throw;
@@ -263,6 +297,7 @@ void putModel(ApiContext& context, const httplib::Request& req, httplib::Respons
                    type.starts_with("application/x-zip-compressed");
   const bool multipart = type.starts_with(protocol::kMultipartContentType);
   const bool severalFiles = zip || multipart;
+  scene::MemoryFiles uploadedFiles;  // a multipart upload's files
   if (req.has_param("entry") && !severalFiles) {
     throw ProblemError(invalidParameter(
         "entry", "\"entry\" names the model inside a zip or multipart upload of several files."));
@@ -272,7 +307,7 @@ void putModel(ApiContext& context, const httplib::Request& req, httplib::Respons
       throw ProblemError(invalidParameter(
           "filename", "A multipart upload names its files in its parts, not with ?filename=."));
     }
-    scene = loadFilesUpload(req, source);
+    scene = loadFilesUpload(req, source, uploadedFiles);
   } else if (zip) {
     scene = loadArchiveUpload(req, source);
   } else if (type.starts_with(protocol::kUploadContentType)) {
@@ -301,9 +336,27 @@ void putModel(ApiContext& context, const httplib::Request& req, httplib::Respons
         quoteClientText(type.empty() ? std::string("no Content-Type") : type) + "."));
   }
 
+  // With --state-dir, the bytes the model came from, so that a restore can load it again.
+  std::optional<StoredUpload> stored;
+  if (context.state != nullptr && source.starts_with(protocol::kUploadPrefix)) {
+    stored.emplace();
+    if (multipart) {
+      stored->kind = StoredUpload::Kind::files;
+      stored->entry = req.get_param_value("entry");
+      stored->blob = context.state->putBlob(loader::encodeFileSet(uploadedFiles));
+    } else {
+      stored->kind = zip ? StoredUpload::Kind::zip : StoredUpload::Kind::file;
+      stored->filename = zip ? (req.has_param("filename") ? uploadFilename(req) : "upload.zip")
+                             : uploadFilename(req);
+      stored->entry = req.get_param_value("entry");
+      stored->blob = context.state->putBlob(req.body);
+    }
+  }
+
   std::future<void> replaced;
   {
     auto lock = lockOpen(*session);
+    session->persisted.model = std::move(stored);
     std::shared_ptr<const scene::Scene> adopted =
         session->scene.adopt(std::move(scene), source, Adoption{.lights = lights});
     // Enqueued under the lock, so light edits after this one reach the new scene.
@@ -316,6 +369,57 @@ void putModel(ApiContext& context, const httplib::Request& req, httplib::Respons
 }
 
 }  // namespace
+
+SessionPtr restoreStoredSession(ApiContext& context, std::string_view id,
+                                const std::string& token) {
+  if (context.state == nullptr) return nullptr;
+  std::optional<StoredSession> stored = context.state->load(id);
+  if (!stored) return nullptr;
+  if (!constantTimeEquals(sha256Hex(token), stored->tokenHash)) {
+    throw ProblemError(forbidden("The token is not the token of the session " +
+                                 quoteClientText(id) + "."));
+  }
+  protocol::Snapshot snapshot;
+  try {
+    snapshot = stored->snapshot.get<protocol::Snapshot>();
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "myriad-server: state: session %s has an unreadable snapshot (%s)\n",
+                 stored->id.c_str(), e.what());
+    return nullptr;
+  }
+  const std::string& source = snapshot.model.source;
+  ScenePtr loaded = stored->model ? loadStoredUpload(context, *stored->model)
+                                  : loadSource(context, source);
+  SessionScene::EnvironmentImageSource environment;
+  if (stored->environmentBlob) {
+    std::optional<std::string> bytes = context.state->blob(*stored->environmentBlob);
+    auto image = std::make_shared<scene::EnvironmentImage>();
+    if (bytes && bytes->size() == size_t(scene::kEnvironmentWidth) * scene::kEnvironmentHeight *
+                                      3 * sizeof(float)) {
+      image->rgb.resize(bytes->size() / sizeof(float));
+      std::memcpy(image->rgb.data(), bytes->data(), bytes->size());
+      environment = {std::move(image), snapshot.settings.environment.source.value_or("")};
+    }
+  } else {
+    environment = snapshotEnvironment(context, snapshot, "");
+  }
+  SessionPtr session = context.sessions.createWithIdentity(std::string(id), token,
+                                                           newSessionScene(context));
+  try {
+    populate(context, *session, std::move(loaded), source, &snapshot, "", environment);
+  } catch (...) {
+    context.sessions.remove(session->id);
+    throw;
+  }
+  {
+    std::lock_guard lock(session->mutex);
+    session->persisted.model = stored->model;
+    session->persisted.environmentBlob = stored->environmentBlob;
+  }
+  std::fprintf(stderr, "myriad-server: session %s restored from the state directory (%s)\n",
+               session->id.c_str(), source.c_str());
+  return session;
+}
 
 void addSessionRoutes(Routes& routes, ApiContext& context) {
   routes.add("POST", protocol::routes::kSessions, [&context](const httplib::Request& req,
@@ -333,6 +437,8 @@ void addSessionRoutes(Routes& routes, ApiContext& context) {
              [&context](const httplib::Request& req, httplib::Response& res) {
                SessionPtr session = authorizeSession(context, req);
                checkQuery(req, {});
+               // Deleting ends the session everywhere: its state file goes too (expiry keeps it).
+               if (context.state != nullptr) context.state->forget(session->id);
                // Returns after the render thread has destroyed the GPU scene.
                if (!context.sessions.remove(session->id)) {
                  throw ProblemError(notFoundDetail("The session " + quoteClientText(session->id) +

@@ -87,7 +87,7 @@ struct HttpServer::State {
         renderThread(r),
         sessions(c.api.limits.maxSessions, std::chrono::seconds(c.api.limits.sessionIdleSeconds),
                  [&r](Session& session) { releaseScene(r, session); }),
-        api{c.api, r, sessions, c.models},
+        api{c.api, r, sessions, c.models, c.state},
         routes(server, api),
         frames(c.api.limits.maxStreams) {}
 
@@ -104,6 +104,28 @@ struct HttpServer::State {
   }
 
   void handleInfo(httplib::Response& res) const;
+
+  // With --state-dir: what changed since it was last written, one StoredSession per session.
+  std::vector<StoredSession> changedSessions() {
+    std::vector<StoredSession> changed;
+    for (const SessionPtr& session : sessions.all()) {
+      std::lock_guard lock(session->mutex);
+      // A session still being created has no GPU scene yet; a closed one is gone (or going).
+      if (session->closed || session->sceneId == 0) continue;
+      if (session->version == session->persisted.savedVersion) continue;
+      StoredSession stored;
+      stored.id = session->id;
+      stored.tokenHash = sha256Hex(session->token);
+      stored.snapshot = session->scene.snapshot();
+      stored.model = session->persisted.model;
+      stored.environmentBlob = session->persisted.environmentBlob;
+      session->persisted.savedVersion = session->version;
+      changed.push_back(std::move(stored));
+    }
+    return changed;
+  }
+  // Declared last: it is destroyed first (flushing), while the sessions are still open.
+  std::unique_ptr<StatePersister> persister;
 
   // GET /v1/openapi.json: built once, from protocol/ and the renderer's targets.
   const std::string openApi = protocol::openApiDocument({MYRIAD_VERSION, targetNames()}).dump(2);
@@ -150,6 +172,16 @@ HttpServer::HttpServer(const HttpConfig& config, render::RenderQueue& renderThre
                                           config.technique};
   s.scene = SceneSummary{scene.lights.size(), scene.instances.size(), scene.materials.size(),
                          scene.meshes.size()};
+  if (config.state != nullptr) {
+    // Edits are written at most every 250 ms per session; a session not open here is looked for
+    // in the state directory on its first request.
+    s.persister = std::make_unique<StatePersister>(
+        *config.state, [&s] { return s.changedSessions(); }, std::chrono::milliseconds(250),
+        config.stateRetention);
+    s.sessions.setRestorer([&s](std::string_view id, const std::string& token) {
+      return restoreStoredSession(s.api, id, token);
+    });
+  }
 
   httplib::Server& server = s.server;
   const uint32_t threads = config.threads;
@@ -272,6 +304,8 @@ void HttpServer::stop() {
   // Streams wait on their session; closing every session ends them, so shutdown does not wait
   // on a client that never disconnects. The registry refuses streams that arrive after this.
   s.frames.streams.shutdown();
+  // What changed since the last write goes to the state directory before the sessions close.
+  if (s.persister) s.persister->flush();
   s.sessions.closeAll();
   if (!s.serveEntered) return;
   // httplib's stop() does nothing until listen has marked itself running; wait for that (or for

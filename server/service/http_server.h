@@ -2,6 +2,7 @@
 // frame requests to the render thread. Workers parse, wait and encode; they never touch Vulkan.
 #pragma once
 
+#include <chrono>
 #include <cstdint>
 #include <memory>
 #include <string>
@@ -20,6 +21,11 @@ struct HttpConfig {
   render::Technique technique = render::Technique::Clustered;  // unless a request names one
   ApiConfig api;                                   // sessions: limits, key, CORS
   loader::ModelLibrary* models = nullptr;          // --models; must outlive the server
+  // --state-dir: sessions written there and restored from there (service/state_store.h); null
+  // = sessions live in memory only. Must outlive the server. Files not written for
+  // stateRetention are removed.
+  StateStore* state = nullptr;
+  std::chrono::seconds stateRetention{std::chrono::hours(24 * 7)};
 };
 
 // What GET /v1/info reports about the scene; counted once at start-up.

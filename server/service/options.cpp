@@ -130,6 +130,16 @@ const std::vector<Flag>& flags() {
          if (v.empty()) throw UsageError("--models expects a directory.");
          o.modelsDir = std::string(v);
        }},
+      {"--state-dir", true,
+       [](Options& o, std::string_view v) {
+         if (v.empty()) throw UsageError("--state-dir expects a directory.");
+         o.stateDir = std::string(v);
+       }},
+      {"--state-retention-hours", true,
+       [](Options& o, std::string_view v) {
+         o.stateRetentionHours =
+             parseUnsigned<uint32_t>("--state-retention-hours", v, 1, 24 * 3650);
+       }},
       {"--api-key", true,
        [](Options& o, std::string_view v) {
          if (v.size() < 8) throw UsageError("--api-key expects a key of at least 8 characters.");
@@ -227,6 +237,11 @@ materials and lights (protocol/reference.md), and the stateless GET /v1/frame.
   --shutdown-grace S       after SIGTERM/SIGINT, answer what finishes within S seconds, then exit
                            0 with the rest cut off (default 10)
   --models DIR             model files sessions may load by name (library:NAME)
+  --state-dir DIR          keep every session's state in DIR (written within 250 ms of a change,
+                           atomically; tokens as SHA-256 hashes) and restore a session from it on
+                           its first request after a restart, expiry, or on another server
+                           sharing DIR
+  --state-retention-hours H  remove state files unused for H hours (default 168)
   --api-key KEY            creating a session needs Authorization: Bearer KEY (also from the
                            environment variable MYRIAD_API_KEY)
   --cors-origin ORIGIN     allow browser pages from ORIGIN (repeatable; * for any)

@@ -46,6 +46,8 @@ struct Options {
   // the orchestrator's own grace: Docker and Kubernetes SIGKILL after 10 and 30 s).
   uint32_t shutdownGraceSeconds = 10;
   std::optional<std::string> modelsDir;   // --models: the library of loadable model files
+  std::optional<std::string> stateDir;    // --state-dir: sessions persisted there
+  uint32_t stateRetentionHours = 168;     // --state-retention-hours: files kept this long unused
   std::optional<std::string> apiKey;      // --api-key (or env MYRIAD_API_KEY, read by main)
   std::vector<std::string> corsOrigins;   // --cors-origin, repeatable
   bool help = false;

@@ -92,6 +92,28 @@ SessionPtr SessionManager::create(SessionScene scene) {
   return session;
 }
 
+SessionPtr SessionManager::createWithIdentity(std::string id, std::string token,
+                                             SessionScene scene) {
+  std::lock_guard lock(mutex_);
+  if (sessions_.size() >= maxSessions_) {
+    throw ProblemError(limitExceeded(
+        429, "maxSessions",
+        "The server already holds " + std::to_string(sessions_.size()) +
+            " sessions, its limit; the session cannot be restored until one is deleted or expires."));
+  }
+  auto session = std::make_shared<Session>(id, std::move(token), std::move(scene));
+  sessions_.emplace(std::move(id), session);
+  return session;
+}
+
+std::vector<SessionPtr> SessionManager::all() const {
+  std::lock_guard lock(mutex_);
+  std::vector<SessionPtr> open;
+  open.reserve(sessions_.size());
+  for (const auto& [id, session] : sessions_) open.push_back(session);
+  return open;
+}
+
 SessionPtr SessionManager::find(std::string_view id) const {
   std::lock_guard lock(mutex_);
   auto it = sessions_.find(id);
@@ -128,6 +150,12 @@ SessionPtr SessionManager::authorize(std::string_view id, const Credentials& cre
     for (const auto& [otherId, other] : sessions_) {
       if (constantTimeEquals(other->token, *token) && other != session) otherSession = true;
     }
+  }
+  if (!session && restorer_) {
+    // Not open here: perhaps in the state directory (a restart, another node, idle expiry).
+    std::lock_guard restoring(restoreMutex_);
+    session = find(id);
+    if (!session) session = restorer_(id, *token);
   }
   if (!session) {
     throw ProblemError(notFoundDetail("There is no session " + quoteClientText(id) +

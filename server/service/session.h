@@ -26,6 +26,7 @@
 
 #include "service/problem.h"
 #include "service/session_scene.h"
+#include "service/state_store.h"
 
 namespace myriad::service {
 
@@ -53,6 +54,15 @@ struct Session {
   uint64_t version = 0;
   // Set when the session is deleted, expired or the server stops; streams end when they see it.
   bool closed = false;
+
+  // With --state-dir: what the state file needs beyond the snapshot (the bytes behind an uploaded
+  // model or environment) and the version last written (StatePersister writes when it moved).
+  struct Persisted {
+    std::optional<StoredUpload> model;
+    std::optional<std::string> environmentBlob;
+    uint64_t savedVersion = UINT64_MAX;
+  };
+  Persisted persisted;
 
   Clock::time_point created = Clock::now();
   Clock::time_point lastUsed = Clock::now();  // refreshed by every authorized request
@@ -96,6 +106,19 @@ class SessionManager {
   // creates one, adopts the model into `scene` and sets sceneId before returning it). Throws
   // ProblemError 429 limit maxSessions when `maxSessions` are open.
   SessionPtr create(SessionScene scene = SessionScene(0, {}));
+  // A session with a given id and token (one restored from the state directory). Also 429 at
+  // maxSessions; 409-free: the caller checked that `id` is not open (under restoring()).
+  SessionPtr createWithIdentity(std::string id, std::string token, SessionScene scene);
+
+  // Every open session (the state persister walks them).
+  std::vector<SessionPtr> all() const;
+
+  // With --state-dir: how a session that is not open is looked for, given a token. Returns the
+  // restored session (now open), or null when there is nothing to restore; throws ProblemError
+  // (403 for a token that does not match the stored hash, 422 for a model that no longer loads).
+  // Called by authorize() with no lock held, one restore at a time.
+  using Restorer = std::function<SessionPtr(std::string_view id, const std::string& token)>;
+  void setRestorer(Restorer restorer) { restorer_ = std::move(restorer); }
 
   // The open session with this id, or null.
   SessionPtr find(std::string_view id) const;
@@ -131,6 +154,8 @@ class SessionManager {
   const uint32_t maxSessions_;
   const std::chrono::seconds idleTimeout_;
   const SceneReleaser release_;
+  Restorer restorer_;
+  mutable std::mutex restoreMutex_;  // one restore at a time (two requests may race for one id)
 
   mutable std::mutex mutex_;
   std::map<std::string, SessionPtr, std::less<>> sessions_;

@@ -495,6 +495,29 @@ try {
     picture = await changedFrom('the built-in scene again', picture);
   });
 
+  await step('a model\'s camera is listed and becomes the view', async () => {
+    const dir = '/usr/share/assimp/models/glTF2/cameras';
+    await page.setInputFiles('#model-file', [`${dir}/Cameras.gltf`, `${dir}/simpleSquare.bin`]);
+    await until('the cameras model in the summary', async () =>
+        (await page.textContent('#model-summary')).startsWith('upload:Cameras.gltf'));
+    // Its perspective camera is offered (the orthographic one is not: Myriad renders perspective).
+    const options = await page.locator('#model-camera option').allTextContents();
+    check(options.length === 1 && options[0].includes('40.1\u00b0'), `model cameras offered: ${options}`);
+    picture = await changedFrom('the cameras model', picture);
+    await page.click('#model-camera-use');
+    await until('GET camera to be the file\'s camera', async () => {
+      const c = (await api('GET', `/v1/sessions/${sessionId}/camera`, {token})).body;
+      return Math.abs(c.eye[0] - 0.5) < 1e-4 && Math.abs(c.eye[1] - 0.5) < 1e-4 && Math.abs(c.eye[2] - 3) < 1e-4 &&
+             Math.abs(c.fovY - 0.7 * 180 / Math.PI) < 1e-3;
+    });
+    picture = await changedFrom('the view from the file\'s camera', picture);
+    await page.click('#model-builtin');
+    await until('the built-in scene in the summary', async () =>
+        (await page.textContent('#model-summary')).startsWith('builtin:default'));
+    check(await page.isDisabled('#model-camera-use'), 'the built-in scene offers no model camera');
+    picture = await changedFrom('the built-in scene again', picture);
+  });
+
   await step('animate: the stream keeps sending new frames without input', async () => {
     await page.check('#animate');
     const settings = async () => (await api('GET', `/v1/sessions/${sessionId}/settings`, {token})).body;

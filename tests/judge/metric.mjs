@@ -21,7 +21,10 @@ function percentile(sorted, p) {
 // M: Float32Array, `stride` floats per pixel, r g b first (Myriad's raw final: 3), depth:
 // Float32Array (Myriad's raw depth, `far` off the geometry: it says where M has geometry),
 // T: Float32Array rgba from three.js (alpha 0 off the geometry).
-export function compare(width, height, M, depth, far, T, stride = 3) {
+// `block` > 1 judges block means instead of pixels: the blocks of block x block pixels that are
+// compared whole (for minified, high-frequency textures, where two GPUs' texture filtering
+// legitimately differs texel by texel; a systematic error survives the averaging).
+export function compare(width, height, M, depth, far, T, stride = 3, block = 1) {
   const n = width * height;
   const nonFinite = {myriad: 0, three: 0};
   const covM = new Uint8Array(n);
@@ -87,6 +90,45 @@ export function compare(width, height, M, depth, far, T, stride = 3) {
     if (covM[i] !== covT[i] && !band[i]) ++coverageMismatch;
     if (covM[i] && covT[i] && !band[i]) compared.push(i);
   }
+  let blockGeometry = null;
+  if (block > 1) {
+    // Block means of M and T over the blocks whose pixels are all compared; the same statistics
+    // follow, over blocks (M3, T4 and `compared` now index the block image).
+    const bw = Math.floor(width / block);
+    const bh = Math.floor(height / block);
+    const M3 = new Float32Array(bw * bh * 3);
+    const T4 = new Float32Array(bw * bh * 4);
+    const isCompared = new Uint8Array(n);
+    for (const i of compared) isCompared[i] = 1;
+    const blocks = [];
+    for (let by = 0; by < bh; ++by) {
+      for (let bx = 0; bx < bw; ++bx) {
+        let whole = true;
+        const b = by * bw + bx;
+        for (let y = by * block; y < (by + 1) * block && whole; ++y) {
+          for (let x = bx * block; x < (bx + 1) * block; ++x) {
+            const i = y * width + x;
+            if (!isCompared[i]) {
+              whole = false;
+              break;
+            }
+            for (let c = 0; c < 3; ++c) {
+              M3[b * 3 + c] += M[i * stride + c] / (block * block);
+              T4[b * 4 + c] += T[i * 4 + c] / (block * block);
+            }
+          }
+        }
+        if (whole) blocks.push(b);
+      }
+    }
+    M = M3;
+    T = T4;
+    stride = 3;
+    compared.length = 0;
+    compared.push(...blocks);
+    // Where each block's error goes in the full-size error map.
+    blockGeometry = {bw, bh};
+  }
   const peaks = compared.map((i) => Math.max(T[i * 4], T[i * 4 + 1], T[i * 4 + 2])).sort((a, b) => a - b);
   const white = percentile(peaks, 0.99);
   const tau = 0.02 * white;
@@ -106,11 +148,20 @@ export function compare(width, height, M, depth, far, T, stride = 3) {
     errors[i] = (M[i * stride] + M[i * stride + 1] + M[i * stride + 2] >= T[i * 4] + T[i * 4 + 1] + T[i * 4 + 2]) ? e : -e;
     list.push(e);
   }
+  if (blockGeometry) {
+    const blockErrors = errors.slice(0, blockGeometry.bw * blockGeometry.bh);
+    errors.fill(NaN);
+    for (let y = 0; y < blockGeometry.bh * block; ++y) {
+      for (let x = 0; x < blockGeometry.bw * block; ++x) {
+        errors[y * width + x] = blockErrors[Math.floor(y / block) * blockGeometry.bw + Math.floor(x / block)];
+      }
+    }
+  }
   list.sort((a, b) => a - b);
   const mean = list.reduce((s, e) => s + e, 0) / Math.max(1, list.length);
   return {
     stats: {
-      pixels: n, coveredMyriad: coveredM, coveredThree: coveredT, compared: compared.length,
+      pixels: blockGeometry ? blockGeometry.bw * blockGeometry.bh : n, block, coveredMyriad: coveredM, coveredThree: coveredT, compared: compared.length,
       coverageMismatch, nonFinite, white,
       bias: [0, 1, 2].map((c) => (sums.t[c] > 0 ? sums.m[c] / sums.t[c] - 1 : 0)),
       mean, p95: percentile(list, 0.95), p99: percentile(list, 0.99), max: list.at(-1) ?? NaN,

@@ -234,6 +234,18 @@ TEST_CASE("myriad drives a real server from session new to session delete") {
   CliResult shownLight = myriad({"lights", "show", lastId});
   CHECK(shownLight.exitCode == 0);
   CHECK(shownLight.out.find(lastId) != std::string::npos);
+  // The same light made an inverse-square spot, and back to a point light.
+  CliResult spot = myriad({"lights", "set", lastId, "--spot", "0,-1,0", "--cone", "0.2,0.4",
+                           "--attenuation", "inverse-square"});
+  CHECK(spot.exitCode == 0);
+  CHECK(spot.out.find("light " + lastId + ": spot towards 0, -1, 0, cone 0.2 to 0.4 rad, inverse-square\n") !=
+        std::string::npos);
+  const json spotJson = jsonOf(myriad({"lights", "show", lastId, "--json"}));
+  CHECK(spotJson["type"] == "spot");
+  CHECK(spotJson["outerConeAngle"] == 0.4);
+  CHECK(myriad({"lights", "set", lastId, "--cone", "0.5,0.4"}).exitCode == 2);  // min > max: usage
+  checkOneLineError(myriad({"lights", "set", lastId, "--cone", "0.4,0.4"}), "(400 invalid-body)");  // inner == outer: the server
+  CHECK(jsonOf(myriad({"lights", "set", lastId, "--point", "--json"}))["type"] == "point");
 
   // Settings.
   CliResult tiled = myriad({"settings", "--technique", "tiled", "--exposure", "1.2"});

@@ -76,8 +76,10 @@ async function renderCase(spec) {
   scene.add(gltf.scene);
   // A deliberate error (the judge's sensitivity check): {light: scale of every light's intensity,
   // sunDegrees: the sun turned about the vertical, roughness: scale of every roughness, fovY:
-  // degrees added}.
-  const perturb = {light: 1, sunDegrees: 0, roughness: 1, fovY: 0, ...(spec.perturb || {})};
+  // degrees added, range: scale of every light's range, coneRadians: added to every spot's outer
+  // cone (the inner one kept)}.
+  const perturb = {light: 1, sunDegrees: 0, roughness: 1, fovY: 0, range: 1, coneRadians: 0,
+                   ...(spec.perturb || {})};
   scene.traverse((o) => {
     if (o.material && perturb.roughness !== 1) o.material.roughness = Math.min(1, o.material.roughness * perturb.roughness);
   });
@@ -118,6 +120,12 @@ async function renderCase(spec) {
 
   scene.traverse((o) => {
     if (o.isLight) o.intensity *= perturb.light;
+    if (o.isLight && o.distance > 0) o.distance *= perturb.range;
+    if (o.isSpotLight && perturb.coneRadians) {
+      const inner = o.angle * (1 - o.penumbra);
+      o.angle += perturb.coneRadians;
+      o.penumbra = 1 - inner / o.angle;
+    }
   });
 
   const c = spec.camera;
