@@ -12,6 +12,7 @@ namespace myriad::protocol {
 // Route templates; {id}, {mid} and {lid} are path segments (session id, material id, light id).
 namespace routes {
 inline constexpr std::string_view kHealth = "/v1/health";
+inline constexpr std::string_view kReady = "/v1/ready";
 inline constexpr std::string_view kInfo = "/v1/info";
 inline constexpr std::string_view kFrame = "/v1/frame";
 inline constexpr std::string_view kModels = "/v1/models";

@@ -83,6 +83,15 @@ std::vector<Operation> buildOperations() {
                  .summary = "Liveness",
                  .responses = {json200(n::kHealth, "The server accepts requests.")}});
   ops.push_back({.method = "GET",
+                 .route = routes::kReady,
+                 .id = "getReady",
+                 .tag = "Server",
+                 .summary = "Readiness: whether the server takes new sessions",
+                 .responses = {json200(n::kHealth,
+                                       "The server takes new sessions (below --max-sessions, "
+                                       "not shutting down).")},
+                 .problems = {503}});
+  ops.push_back({.method = "GET",
                  .route = routes::kInfo,
                  .id = "getInfo",
                  .tag = "Server",

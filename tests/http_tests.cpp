@@ -706,3 +706,36 @@ TEST_CASE("http: chunked bodies are counted as they arrive and cut at the route'
   CHECK(health->status == 200);
   requireCleanStop(server);
 }
+
+TEST_CASE("http: GET /v1/ready is 200 while sessions can be created, 503 when full") {
+  ServerProcess server({"--lights", "8", "--max-sessions", "1"});
+  requireListening(server);
+  httplib::Client client(server.host(), server.port());
+  httplib::Result ready = client.Get("/v1/ready");
+  REQUIRE(ready);
+  CHECK(ready->status == 200);
+  CHECK(ready->body == R"({"status":"ok"})");
+  httplib::Result created = client.Post("/v1/sessions", "{}", "application/json");
+  REQUIRE(created);
+  REQUIRE(created->status == 201);
+  httplib::Result full = client.Get("/v1/ready");
+  REQUIRE(full);
+  CHECK(full->status == 503);
+  CHECK(full->get_header_value("Content-Type") == "application/problem+json");
+  CHECK(full->body.find("server-busy") != std::string::npos);
+  CHECK(full->body.find("full: 1 of 1 sessions") != std::string::npos);
+  // Liveness is unaffected: the server still serves its session.
+  httplib::Result health = client.Get("/v1/health");
+  REQUIRE(health);
+  CHECK(health->status == 200);
+  const json session = json::parse(created->body);
+  httplib::Result deleted = client.Delete(
+      "/v1/sessions/" + session.at("id").get<std::string>(),
+      httplib::Headers{{"Authorization", "Bearer " + session.at("token").get<std::string>()}});
+  REQUIRE(deleted);
+  CHECK(deleted->status == 204);
+  httplib::Result readyAgain = client.Get("/v1/ready");
+  REQUIRE(readyAgain);
+  CHECK(readyAgain->status == 200);
+  requireCleanStop(server);
+}

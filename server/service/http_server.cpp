@@ -78,7 +78,7 @@ struct HttpServer::State {
   FrameServices frames;  // frames, streams, stats, metrics
 
   // The hand-shake between stop() and serve(); see stop().
-  std::atomic<bool> stopRequested{false};
+  std::atomic<bool> stopRequested{false};  // also: GET /v1/ready says "draining"
   std::atomic<bool> serveEntered{false};
   std::atomic<bool> serveFinished{false};
 
@@ -251,6 +251,19 @@ HttpServer::HttpServer(const HttpConfig& config, render::RenderQueue& renderThre
   s.routes.add(
       "GET", r::kHealth,
       [](const httplib::Request&, httplib::Response& res) {
+        res.set_content(R"({"status":"ok"})", std::string(protocol::kJsonContentType));
+      },
+      health);
+  s.routes.add(
+      "GET", r::kReady,
+      [&s](const httplib::Request& req, httplib::Response& res) {
+        checkQuery(req, {});
+        if (s.stopRequested) throw ProblemError(serverBusy("draining: the server is shutting down."));
+        const size_t open = s.sessions.count();
+        if (open >= s.sessions.maxSessions()) {
+          throw ProblemError(serverBusy("full: " + std::to_string(open) + " of " +
+                                        std::to_string(s.sessions.maxSessions()) + " sessions."));
+        }
         res.set_content(R"({"status":"ok"})", std::string(protocol::kJsonContentType));
       },
       health);

@@ -32,6 +32,9 @@ export const CASES = [
             {type: 'spot', position: [3, 3, 3], direction: [-0.45, -0.55, -0.7], color: [0.7, 0.8, 1],
              intensity: 30, range: 12, innerConeAngle: 0.15, outerConeAngle: 0.4},
             {type: 'point', position: [0, 1.5, 9], color: [1, 1, 1], intensity: 25, range: 30}]},
+  {name: 'directional-file', file: 'spheres-directional.glb', bytes: () => spheresGlb(true),
+   what: 'the four spheres lit only by the file\'s KHR_lights_punctual directional light (lux)',
+   width: 256, height: 128, camera: camera([0, 1.5, 9], [0, 0, 0], 30, 1, 30), sun: sun([0, -1, 0], 0)},
   {name: 'box-textured', file: 'BoxTextured.glb', bytes: () => readFileSync(BOX_TEXTURED),
    what: 'assimp-testmodels glTF2/BoxTextured (base colour texture) under the sun and a spot light',
    // Close: the file's sampler minifies with NEAREST_MIPMAP_LINEAR, and two GPUs legitimately pick

@@ -248,8 +248,16 @@ function checkerTexture(size) {
 
 // Four spheres in a row: a rough red dielectric, a gold metal, a glossy white dielectric and a
 // half-metallic blue; factors only, no textures.
-export function spheresGlb() {
+// With `directional`, the file also carries a KHR_lights_punctual directional light (lux),
+// pointing down to the left and away.
+export function spheresGlb(directional = false) {
   const b = new GltfBuilder();
+  if (directional) {
+    b.json.extensionsUsed = ['KHR_lights_punctual'];
+    b.json.extensions = {KHR_lights_punctual: {lights: [{name: 'sunlight', type: 'directional',
+                                                         color: [1, 0.9, 0.8], intensity: 2.5}]}};
+    b.node({name: 'sunlight', rotation: rotation([1, -0.6, 0.2], -50), extensions: {KHR_lights_punctual: {light: 0}}});
+  }
   const materials = [
     {name: 'red', pbrMetallicRoughness: {baseColorFactor: [0.8, 0.1, 0.08, 1], metallicFactor: 0, roughnessFactor: 0.6}},
     {name: 'gold', pbrMetallicRoughness: {baseColorFactor: [1.0, 0.77, 0.33, 1], metallicFactor: 1, roughnessFactor: 0.35}},
