@@ -116,7 +116,7 @@ MYRIAD_STRUCT(FrameUniforms) {
   vec4 ambient;          // rgb ambient radiance, w unused
   vec4 background;       // rgb radiance where no geometry was drawn, w unused
   vec4 viewport;         // width, height, 1/width, 1/height
-  vec4 camera;           // x exposure, y near, z far, w light-marker radius (world units)
+  vec4 camera;           // x exposure, y near, z far, w unused
   vec4 boundsMin;        // scene bounds, for the position view; w unused
   vec4 boundsMax;
   uvec4 flags;           // x view (MYRIAD_VIEW_*), y light count, z raw output (0/1), w list capacity
