@@ -194,9 +194,19 @@ inline constexpr std::array kEnvironmentModes = {environment_modes::kNone, envir
                                                  environment_modes::kHdr};
 // What a frame shows: ?target=, GET /v1/info "targets", X-Myriad-Target. In render::Target's order
 // (which the shaders' MYRIAD_VIEW_* values follow): the final image, then G-buffer and debug views.
-inline constexpr std::array<std::string_view, 11> kTargets = {
-    "final", "albedo",        "normal",      "position", "uv", "metallic", "roughness",
-    "depth", "light-volumes", "light-count", "clusters"};
+inline constexpr std::array<std::string_view, 13> kTargets = {
+    "final", "albedo",        "normal",      "position", "uv",       "metallic", "roughness",
+    "depth", "light-volumes", "light-count", "clusters", "emissive", "occlusion"};
 inline constexpr std::array<std::string_view, 3> kFormats = {"png", "jpeg", "raw"};
+// A material's texture slots (GET .../materials/{mid} "textures"[].slot), in the order of
+// scene::Material::texture and of the shaders' MYRIAD_BINDING_TEXTURE_* bindings.
+inline constexpr std::array<std::string_view, 5> kTextureSlots = {
+    "baseColor", "metallicRoughness", "normal", "occlusion", "emissive"};  // names-once: slots, not targets
+// A material's alphaMode (glTF's OPAQUE, MASK, BLEND), in scene::AlphaMode order.
+inline constexpr std::array<std::string_view, 3> kAlphaModes = {"opaque", "mask", "blend"};
+// A texture's sampler, in scene::Sampler's enum orders.
+inline constexpr std::array<std::string_view, 3> kWrapModes = {"repeat", "clamp-to-edge",
+                                                               "mirrored-repeat"};
+inline constexpr std::array<std::string_view, 2> kFilters = {"linear", "nearest"};
 
 }  // namespace myriad::protocol

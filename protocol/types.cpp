@@ -115,6 +115,14 @@ void patchMembers(Tag<MaterialPatch>, F f) {
   f("baseColor", &Material::baseColor, &MaterialPatch::baseColor);
   f("metallic", &Material::metallic, &MaterialPatch::metallic);
   f("roughness", &Material::roughness, &MaterialPatch::roughness);
+  f("alpha", &Material::alpha, &MaterialPatch::alpha);
+  f("emissive", &Material::emissive, &MaterialPatch::emissive);
+  f("emissiveStrength", &Material::emissiveStrength, &MaterialPatch::emissiveStrength);
+  f("normalScale", &Material::normalScale, &MaterialPatch::normalScale);
+  f("occlusionStrength", &Material::occlusionStrength, &MaterialPatch::occlusionStrength);
+  f("alphaMode", &Material::alphaMode, &MaterialPatch::alphaMode);
+  f("alphaCutoff", &Material::alphaCutoff, &MaterialPatch::alphaCutoff);
+  f("doubleSided", &Material::doubleSided, &MaterialPatch::doubleSided);
 }
 
 template <class F>
@@ -163,6 +171,20 @@ void members(Tag<Material>, F f) {
   f("id", &Material::id);
   f("name", &Material::name);
   wholeMembers<MaterialPatch>(f);
+  f("textures", &Material::textures);
+}
+
+template <class F>
+void members(Tag<MaterialTexture>, F f) {
+  f("slot", &MaterialTexture::slot);
+  f("image", &MaterialTexture::image);
+  f("width", &MaterialTexture::width);
+  f("height", &MaterialTexture::height);
+  f("wrapS", &MaterialTexture::wrapS);
+  f("wrapT", &MaterialTexture::wrapT);
+  f("magFilter", &MaterialTexture::magFilter);
+  f("minFilter", &MaterialTexture::minFilter);
+  f("mipmaps", &MaterialTexture::mipmaps);
 }
 
 template <class F>
@@ -474,6 +496,7 @@ MYRIAD_MEMBERWISE_JSON(Environment)
 MYRIAD_MEMBERWISE_JSON(EnvironmentPatch)
 MYRIAD_MEMBERWISE_JSON(Settings)
 MYRIAD_MEMBERWISE_JSON(SettingsPatch)
+MYRIAD_MEMBERWISE_JSON(MaterialTexture)
 MYRIAD_MEMBERWISE_JSON(Material)
 MYRIAD_MEMBERWISE_JSON(MaterialPatch)
 MYRIAD_MEMBERWISE_JSON(MaterialsList)

@@ -98,17 +98,41 @@ struct SettingsPatch {
 };
 Settings applied(Settings settings, const SettingsPatch& patch);
 
+// One texture a material uses (read-only: textures stay as the model file gave them).
+struct MaterialTexture {
+  std::string slot;   // kTextureSlots
+  std::string image;  // the image's name in the model (a file name, or "*N" for embedded ones)
+  uint32_t width = 0, height = 0;
+  std::string wrapS, wrapT;          // kWrapModes
+  std::string magFilter, minFilter;  // kFilters
+  bool mipmaps = true;
+};
+
 struct Material {
   uint32_t id = 0;
   std::string name;
   Color baseColor{};
   double metallic = 0;
   double roughness = 1;
+  double alpha = 1;
+  Color emissive{};
+  double emissiveStrength = 1;
+  double normalScale = 1;
+  double occlusionStrength = 1;
+  std::string alphaMode = "opaque";  // kAlphaModes
+  double alphaCutoff = 0.5;
+  bool doubleSided = true;
+  std::vector<MaterialTexture> textures;  // read-only
 };
 
 struct MaterialPatch {
   std::optional<Color> baseColor;
-  std::optional<double> metallic, roughness;
+  std::optional<double> metallic, roughness, alpha;
+  std::optional<Color> emissive;
+  std::optional<double> emissiveStrength, normalScale, occlusionStrength;
+  std::optional<std::string> alphaMode;
+  std::optional<double> alphaCutoff;
+  std::optional<bool> doubleSided;
 };
 Material applied(Material material, const MaterialPatch& patch);
 
@@ -413,6 +437,7 @@ MYRIAD_PROTOCOL_JSON(Environment);
 MYRIAD_PROTOCOL_JSON(EnvironmentPatch);
 MYRIAD_PROTOCOL_JSON(Settings);
 MYRIAD_PROTOCOL_JSON(SettingsPatch);
+MYRIAD_PROTOCOL_JSON(MaterialTexture);
 MYRIAD_PROTOCOL_JSON(Material);
 MYRIAD_PROTOCOL_JSON(MaterialPatch);
 MYRIAD_PROTOCOL_JSON(MaterialsList);

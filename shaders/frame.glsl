@@ -37,6 +37,7 @@ layout(set = MYRIAD_SET_TARGETS, binding = MYRIAD_BINDING_GBUFFER_MATERIAL) unif
 layout(set = MYRIAD_SET_TARGETS, binding = MYRIAD_BINDING_GBUFFER_UV) uniform sampler2D gbufferUv;
 layout(set = MYRIAD_SET_TARGETS, binding = MYRIAD_BINDING_HDR) uniform sampler2D hdrColor;
 layout(set = MYRIAD_SET_TARGETS, binding = MYRIAD_BINDING_LIGHT_COUNT) uniform sampler2D lightCount;
+layout(set = MYRIAD_SET_TARGETS, binding = MYRIAD_BINDING_GBUFFER_EMISSIVE) uniform sampler2D gbufferEmissive;
 
 struct Surface {
   vec3 position;
@@ -44,6 +45,8 @@ struct Surface {
   vec3 baseColor;
   float metallic;
   float roughness;
+  float occlusion;  // the material's ambient occlusion: scales ambient and environment light only
+  vec3 emissive;    // emitted radiance, added once (sunAndAmbient)
 };
 
 // World position of the pixel centre at `pixel` with G-buffer depth `depth`.
@@ -61,9 +64,11 @@ bool loadSurfaceWithDepth(ivec2 pixel, float depth, out Surface s) {
   s.position = worldFromDepth(pixel, depth);
   s.normal = octahedralDecode(texelFetch(gbufferNormal, pixel, 0).rg);
   s.baseColor = texelFetch(gbufferBaseColor, pixel, 0).rgb;  // sRGB format: sampled as linear
-  vec2 material = texelFetch(gbufferMaterial, pixel, 0).rg;
+  vec3 material = texelFetch(gbufferMaterial, pixel, 0).rgb;
   s.metallic = material.x;
   s.roughness = material.y;
+  s.occlusion = material.z;
+  s.emissive = texelFetch(gbufferEmissive, pixel, 0).rgb;
   return true;
 }
 
@@ -82,20 +87,22 @@ bool environmentOn() {
   return frame.environment.x != float(MYRIAD_ENV_NONE);
 }
 
-// The sun plus either the constant ambient term (environment "none") or the environment light.
-// Every technique calls this, so they agree exactly; the C++ reference makes the same calls.
+// What every technique adds once per pixel besides its local lights: the sun, either the constant
+// ambient term (environment "none") or the environment light, both scaled by the material's
+// occlusion, and the surface's own emission. Every technique calls this, so they agree exactly;
+// the C++ reference makes the same calls.
 vec3 sunAndAmbient(Surface s) {
   vec3 V = normalize(frame.cameraPosition.xyz - s.position);
   vec3 color;
   if (!environmentOn()) {
     color = shadeSunAndAmbient(s.normal, V, s.baseColor, s.metallic, s.roughness,
                                frame.sunDirection.xyz, frame.sunColor.rgb * frame.sunDirection.w,
-                               frame.ambient.rgb);
+                               frame.ambient.rgb * s.occlusion);
   } else {
     color = shadeSunAndAmbient(s.normal, V, s.baseColor, s.metallic, s.roughness,
                                frame.sunDirection.xyz, frame.sunColor.rgb * frame.sunDirection.w,
                                vec3(0.0)) +
-            shadeEnvironment(s.normal, V, s.baseColor, s.metallic, s.roughness, 1.0,
+            shadeEnvironment(s.normal, V, s.baseColor, s.metallic, s.roughness, s.occlusion,
                              frame.environmentRotation.x, frame.environmentRotation.y,
                              frame.environment.y);
   }
@@ -106,7 +113,7 @@ vec3 sunAndAmbient(Surface s) {
                           s.roughness) * (frame.extraSunColor[i].rgb * frame.extraSunDirection[i].w);
     }
   }
-  return color;
+  return color + s.emissive;
 }
 
 // What a pixel with no geometry shows: the environment seen through it when the environment is

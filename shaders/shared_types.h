@@ -63,6 +63,8 @@ using mat4 = glm::mat4;
 #define MYRIAD_BINDING_LIGHT_COUNT 6          // sampled: lights that shaded each pixel (R32F)
 #define MYRIAD_BINDING_HDR_STORAGE 7          // storage image: compute lighting writes HDR here
 #define MYRIAD_BINDING_LIGHT_COUNT_STORAGE 8  // storage image: compute lighting writes counts here
+#define MYRIAD_BINDING_GBUFFER_EMISSIVE 9     // sampled: emitted radiance (RGBA16F, a unused)
+#define MYRIAD_BINDING_MARKER_KEYS 10         // storage image: light markers' keys (shaders/markers.h)
 
 // Descriptor set 2: light culling. Each compute technique binds its own set of this layout
 // (server/render/techniques/) and writes the bindings its shaders use.
@@ -71,6 +73,22 @@ using mat4 = glm::mat4;
 #define MYRIAD_BINDING_CLUSTER_LIGHTS 1    // uint light indices, every cluster's list back to back
 #define MYRIAD_BINDING_CULLING_STATS 2     // CullingStats, read back after the frame
 #define MYRIAD_BINDING_CLUSTER_CURSORS 3   // uint per cluster: count, then fill cursor
+
+// Descriptor set 3: one material's textures (the G-buffer pass binds one set per material; lavapipe
+// has no descriptor indexing). A slot the material lacks holds a 1x1 white image, and the
+// material's flags say which are real.
+#define MYRIAD_SET_MATERIAL 3
+#define MYRIAD_BINDING_TEXTURE_BASE_COLOR 0          // sRGB view
+#define MYRIAD_BINDING_TEXTURE_METALLIC_ROUGHNESS 1  // UNORM view: B metallic, G roughness
+#define MYRIAD_BINDING_TEXTURE_NORMAL 2              // UNORM view: tangent space
+#define MYRIAD_BINDING_TEXTURE_OCCLUSION 3           // UNORM view: R
+#define MYRIAD_BINDING_TEXTURE_EMISSIVE 4            // sRGB view
+#define MYRIAD_TEXTURE_SLOTS 5
+
+// GpuMaterial.flags.x bits: bit i (i < MYRIAD_TEXTURE_SLOTS) the material has texture slot i.
+#define MYRIAD_MATERIAL_ALPHA_MASK 0x100u    // alphaMode MASK: fragments below the cutoff dropped
+#define MYRIAD_MATERIAL_ALPHA_BLEND 0x200u   // alphaMode BLEND
+#define MYRIAD_MATERIAL_DOUBLE_SIDED 0x400u  // back faces drawn, their normal flipped
 
 // Tiled: 16x16-pixel tiles, one workgroup each; a tile's list lives in shared memory.
 #define MYRIAD_TILE_SIZE 16
@@ -101,6 +119,8 @@ using mat4 = glm::mat4;
 #define MYRIAD_VIEW_LIGHT_VOLUMES 8
 #define MYRIAD_VIEW_LIGHT_COUNT 9
 #define MYRIAD_VIEW_CLUSTERS 10
+#define MYRIAD_VIEW_EMISSIVE 11
+#define MYRIAD_VIEW_OCCLUSION 12
 
 // Directional lights besides the sun (scene::kMaxExtraSuns; render/gpu_types.h checks it).
 #define MYRIAD_MAX_EXTRA_SUNS 3
@@ -165,8 +185,12 @@ MYRIAD_STRUCT(GpuInstance) {
 };
 
 MYRIAD_STRUCT(GpuMaterial) {
-  vec4 baseColor;          // linear rgb, a unused
-  vec4 metallicRoughness;  // x metallic, y perceptual roughness
+  vec4 baseColor;          // linear rgb, a alpha factor
+  vec4 metallicRoughness;  // x metallic, y perceptual roughness, z normal scale, w occlusion strength
+  vec4 emissive;           // rgb emissive factor x emissive strength, w alpha cutoff
+  uvec4 flags;             // x MYRIAD_MATERIAL_* and texture-slot bits
+  // Per texture slot, two rows of the 2x3 KHR_texture_transform matrix: uv' = M * (uv, 1).
+  vec4 uvTransform[2 * MYRIAD_TEXTURE_SLOTS];
 };
 
 #ifdef __cplusplus

@@ -128,6 +128,11 @@ void main() {
     value.rgb = vec3(texelFetch(gbufferMaterial, pixel, 0).r);
   } else if (view == MYRIAD_VIEW_ROUGHNESS) {
     value.rgb = vec3(texelFetch(gbufferMaterial, pixel, 0).g);
+  } else if (view == MYRIAD_VIEW_OCCLUSION) {
+    value.rgb = vec3(texelFetch(gbufferMaterial, pixel, 0).b);
+  } else if (view == MYRIAD_VIEW_EMISSIVE) {
+    vec3 emitted = texelFetch(gbufferEmissive, pixel, 0).rgb;
+    value.rgb = raw ? emitted : srgbEncode3(tonemapPbrNeutral(emitted * frame.camera.x));
   } else if (view == MYRIAD_VIEW_CLUSTERS) {
     uint slice = sliceOfViewDepth(viewDepthFromDepth(depth));
     uvec2 tile = uvec2(pixel) / MYRIAD_CLUSTER_TILE_SIZE;

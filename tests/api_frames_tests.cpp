@@ -46,7 +46,8 @@ constexpr int kWidth = 96;
 constexpr int kHeight = 64;
 const std::vector<std::string> kTargets = {"final", "albedo",        "normal",      "position",
                                            "uv",    "metallic",      "roughness",   "depth",
-                                           "light-volumes", "light-count", "clusters"};
+                                           "light-volumes", "light-count", "clusters",
+                                           "emissive", "occlusion"};
 
 std::unique_ptr<httplib::Client> clientFor(const ServerProcess& server) {
   auto client = std::make_unique<httplib::Client>(server.host(), server.port());

@@ -1062,7 +1062,8 @@ TEST_CASE("api: a model with its files, as a zip or as several files; hostile ar
   CHECK(residentAfter <= residentBefore + (64ull << 20));
   // ?entry= picks one of several models; it belongs to uploads of several files only.
   Reply picked = api.put(s.path() + "/model?filename=two.zip&entry=b.gltf",
-                         myriad::test::makeZip({{"a.gltf", gltf}, {"b.gltf", gltf}, {"BoxTextured0.bin", bin}}),
+                         myriad::test::makeZip({{"a.gltf", gltf}, {"b.gltf", gltf}, {"BoxTextured0.bin", bin},
+                                                {"CesiumLogoFlat.png", png}}),
                          s.token, "application/zip");
   CHECK(picked.status == 200);
   checkProblem(api.put(s.path() + "/model?filename=a.glb&entry=x", "abc", s.token,

@@ -72,7 +72,8 @@ TEST_CASE("archive: a zip of a model and its files loads what the library loads 
     std::vector<std::string> files;  // the model first
   };
   const std::vector<Case> cases = {
-      {kModels / "OBJ", {"spider.obj", "spider.mtl", "SpiderTex.jpg", "drkwood2.jpg"}},
+      {kModels / "OBJ", {"spider.obj", "spider.mtl", "SpiderTex.jpg", "drkwood2.jpg", "engineflare1.jpg",
+                             "wal67ar_small.jpg", "wal69ar_small.jpg"}},
       {kModels / "glTF2/BoxTextured-glTF", {"BoxTextured.gltf", "BoxTextured0.bin", "CesiumLogoFlat.png"}},
   };
   for (const Case& c : cases) {
@@ -122,6 +123,7 @@ TEST_CASE("archive: a model that refers to a file the upload lacks is refused na
     return gltf;
   };
   const std::string bin = readFile(box / "BoxTextured0.bin");
+  const std::string png = readFile(box / "CesiumLogoFlat.png");
   // A buffer that reaches out of the archive with "..", or names an absolute path, finds nothing,
   // even where that file exists on the server. (Assimp then tries the bare file name beside the
   // model, which is inside the upload; the archive here has no such file.)
@@ -135,7 +137,7 @@ TEST_CASE("archive: a model that refers to a file the upload lacks is refused na
   // ".." that stays inside the upload is an ordinary relative path.
   const scene::Scene inside = loader::loadModelArchive(
       makeZip({{"inner/BoxTextured.gltf", withBufferUri("../data/BoxTextured0.bin")},
-               {"data/BoxTextured0.bin", bin}}),
+               {"data/BoxTextured0.bin", bin}, {"inner/CesiumLogoFlat.png", png}}),
       "box.zip", "");
   CHECK(inside.meshes.size() == 1);
 }

@@ -59,7 +59,33 @@ inline void requireSameScene(const scene::Scene& a, const scene::Scene& b) {
     CHECK(a.materials[i].baseColor == b.materials[i].baseColor);
     CHECK(a.materials[i].metallic == b.materials[i].metallic);
     CHECK(a.materials[i].roughness == b.materials[i].roughness);
+    CHECK(a.materials[i].alpha == b.materials[i].alpha);
+    CHECK(a.materials[i].emissive == b.materials[i].emissive);
+    CHECK(a.materials[i].emissiveStrength == b.materials[i].emissiveStrength);
+    CHECK(a.materials[i].normalScale == b.materials[i].normalScale);
+    CHECK(a.materials[i].occlusionStrength == b.materials[i].occlusionStrength);
+    CHECK(a.materials[i].alphaMode == b.materials[i].alphaMode);
+    CHECK(a.materials[i].alphaCutoff == b.materials[i].alphaCutoff);
+    CHECK(a.materials[i].doubleSided == b.materials[i].doubleSided);
+    // Textures by what they show, not by index or name (an image embedded in a .glb is "*N",
+    // the same image beside a .gltf has its file name, and they may be found in another order).
+    for (size_t slot = 0; slot < scene::Material::kTextureSlots; ++slot) {
+      const scene::TextureRef& x = a.materials[i].texture(slot);
+      const scene::TextureRef& y = b.materials[i].texture(slot);
+      REQUIRE(x.present() == y.present());
+      CHECK(x.sampler == y.sampler);
+      CHECK(x.offset == y.offset);
+      CHECK(x.scale == y.scale);
+      CHECK(x.rotation == y.rotation);
+      if (!x.present()) continue;
+      REQUIRE(x.image < a.images.size());
+      REQUIRE(y.image < b.images.size());
+      CHECK(a.images[x.image].width == b.images[y.image].width);
+      CHECK(a.images[x.image].height == b.images[y.image].height);
+      CHECK(a.images[x.image].rgba == b.images[y.image].rgba);
+    }
   }
+  CHECK(a.images.size() == b.images.size());
   for (size_t i = 0; i < a.lights.size(); ++i) {
     const scene::PointLight& x = a.lights[i];
     const scene::PointLight& y = b.lights[i];

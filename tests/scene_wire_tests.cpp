@@ -47,8 +47,8 @@ TEST_CASE("wire: corrupted wire data is rejected") {
   };
   CHECK(rejects(patched(0, 0x12345678)));  // magic
   CHECK(rejects(patched(4, loader::kSceneWireVersion + 1)));  // version
-  // Counts of meshes, materials, instances, lights: one more, one fewer, and absurd.
-  for (size_t offset : {8, 12, 16, 20}) {
+  // Counts of meshes, materials, instances, lights, images: one more, one fewer, and absurd.
+  for (size_t offset : {8, 12, 16, 20, 24}) {
     uint32_t count;
     std::memcpy(&count, wire.data() + offset, 4);
     CAPTURE(offset);
@@ -76,6 +76,27 @@ TEST_CASE("wire: corrupted wire data is rejected") {
   broken = original;
   broken.meshes[0].indices.pop_back();  // not a whole number of triangles
   CHECK(rejects(loader::encodeScene(broken)));
+  // Images: the spider's textures are on the wire; their sizes and indices are checked.
+  REQUIRE(!original.images.empty());
+  broken = original;
+  broken.images[0].rgba.pop_back();  // fewer bytes than width x height x 4
+  CHECK(rejects(loader::encodeScene(broken)));
+  broken = original;
+  broken.images[0].width = 9000;  // over the texture dimension limit
+  broken.images[0].rgba.resize(size_t(9000) * broken.images[0].height * 4);
+  CHECK(rejects(loader::encodeScene(broken)));
+  broken = original;
+  broken.materials[0].baseColorTexture.image = uint32_t(original.images.size());  // no such image
+  CHECK(rejects(loader::encodeScene(broken)));
+  broken = original;
+  broken.materials[0].baseColorTexture.sampler.wrapS = scene::Sampler::Wrap(7);
+  CHECK(rejects(loader::encodeScene(broken)));
+  broken = original;
+  broken.meshes[0].vertices[0].tangent = glm::vec4(2.0f, 0.0f, 0.0f, 1.0f);  // not a unit vector
+  CHECK(rejects(loader::encodeScene(broken)));
+  broken = original;
+  broken.meshes[0].vertices[0].color = glm::vec4(1.5f);  // out of range
+  CHECK(rejects(loader::encodeScene(broken)));
 
   // Names: not UTF-8 and control characters are replaced, never passed on.
   broken = original;
@@ -88,7 +109,14 @@ TEST_CASE("wire: corrupted wire data is rejected") {
 }
 
 TEST_CASE("wire: randomly corrupted wire data is rejected or still consistent") {
-  const std::string wire = loader::encodeScene(scene::loadModel(kModels / "OBJ/spider.obj"));
+  // Without its texture images: their pixels are most of the bytes and any value is a pixel, so
+  // corruption there proves nothing (the images' sizes and indices are checked in the case above).
+  scene::Scene spider = scene::loadModel(kModels / "OBJ/spider.obj");
+  spider.images.clear();
+  for (scene::Material& m : spider.materials) {
+    for (size_t slot = 0; slot < scene::Material::kTextureSlots; ++slot) m.texture(slot) = {};
+  }
+  const std::string wire = loader::encodeScene(spider);
   uint64_t state = 0x9E3779B97F4A7C15ull;  // fixed seed: a failure reproduces
   auto next = [&state] {
     state ^= state << 13, state ^= state >> 7, state ^= state << 17;

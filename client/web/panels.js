@@ -169,7 +169,13 @@ async function collectFiles(entry, prefix, out) {
   }
 }
 
-// Materials: pick one, edit base colour, metallic, roughness.
+// Materials: pick one, edit its glTF factors (base colour and alpha, metallic, roughness,
+// emission, normal scale, occlusion strength, alpha mode and cutoff, double-sided); its textures
+// are listed (read-only).
+const MATERIAL_INPUTS = ['material-color', 'material-metallic', 'material-roughness',
+                         'material-alpha', 'material-emissive', 'material-emissive-strength',
+                         'material-normal-scale', 'material-occlusion', 'material-alpha-mode',
+                         'material-alpha-cutoff', 'material-double-sided'];
 export class MaterialPanel {
   constructor(api, {onProblem}) {
     this.api = api;
@@ -187,6 +193,22 @@ export class MaterialPanel {
         this.edit({metallic: Number(e.target.value)}));
     $('material-roughness').addEventListener('input', (e) =>
         this.edit({roughness: Number(e.target.value)}));
+    $('material-alpha').addEventListener('input', (e) => this.edit({alpha: Number(e.target.value)}));
+    $('material-emissive').addEventListener('input', (e) =>
+        this.edit({emissive: hexToLinear(e.target.value)}));
+    $('material-emissive-strength').addEventListener('change', (e) => {
+      const value = Number(e.target.value);
+      if (Number.isFinite(value) && value >= 0 && value <= 10000) this.edit({emissiveStrength: value});
+    });
+    $('material-normal-scale').addEventListener('input', (e) =>
+        this.edit({normalScale: Number(e.target.value)}));
+    $('material-occlusion').addEventListener('input', (e) =>
+        this.edit({occlusionStrength: Number(e.target.value)}));
+    $('material-alpha-mode').addEventListener('change', (e) => this.edit({alphaMode: e.target.value}));
+    $('material-alpha-cutoff').addEventListener('input', (e) =>
+        this.edit({alphaCutoff: Number(e.target.value)}));
+    $('material-double-sided').addEventListener('change', (e) =>
+        this.edit({doubleSided: e.target.checked}));
   }
 
   current() {
@@ -209,13 +231,33 @@ export class MaterialPanel {
 
   showCurrent() {
     const m = this.current();
-    for (const id of ['material-color', 'material-metallic', 'material-roughness']) {
-      $(id).disabled = !m;
-    }
+    for (const id of MATERIAL_INPUTS) $(id).disabled = !m;
+    const list = $('material-textures');
+    list.replaceChildren();
     if (!m) return;
     $('material-color').value = linearToHex(m.baseColor);
     $('material-metallic').value = m.metallic;
     $('material-roughness').value = m.roughness;
+    $('material-alpha').value = m.alpha;
+    $('material-emissive').value = linearToHex(m.emissive);
+    $('material-emissive-strength').value = m.emissiveStrength;
+    $('material-normal-scale').value = m.normalScale;
+    $('material-occlusion').value = m.occlusionStrength;
+    $('material-alpha-mode').value = m.alphaMode;
+    $('material-alpha-cutoff').value = m.alphaCutoff;
+    $('material-double-sided').checked = m.doubleSided;
+    // Text nodes only: image names come from the uploaded file.
+    for (const t of m.textures) {
+      const item = document.createElement('li');
+      item.textContent = `${t.slot}: ${t.image} (${t.width} x ${t.height}, ` +
+          `${t.wrapS}/${t.wrapT}, ${t.magFilter}/${t.minFilter}${t.mipmaps ? ', mipmaps' : ''})`;
+      list.append(item);
+    }
+    if (!m.textures.length) {
+      const item = document.createElement('li');
+      item.textContent = 'no textures';
+      list.append(item);
+    }
   }
 
   edit(patch) {

@@ -282,6 +282,11 @@ std::unique_ptr<Context> createContext(const ContextOptions& options) {
   VkPhysicalDeviceFeatures supported{};
   vkGetPhysicalDeviceFeatures(context->physicalDevice, &supported);
   context->depthClamp = supported.depthClamp == VK_TRUE;
+  if (supported.samplerAnisotropy == VK_TRUE) {
+    VkPhysicalDeviceProperties properties;
+    vkGetPhysicalDeviceProperties(context->physicalDevice, &properties);
+    context->maxAnisotropy = properties.limits.maxSamplerAnisotropy;
+  }
 
   VkPhysicalDeviceVulkan13Features supported13{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_VULKAN_1_3_FEATURES};
   VkPhysicalDeviceFeatures2 query{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_FEATURES_2};
@@ -302,6 +307,7 @@ std::unique_ptr<Context> createContext(const ContextOptions& options) {
   VkPhysicalDeviceFeatures2 features{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_FEATURES_2};
   features.pNext = &features13;
   features.features.depthClamp = supported.depthClamp;
+  features.features.samplerAnisotropy = supported.samplerAnisotropy;
 
   float priority = 1.0f;
   VkDeviceQueueCreateInfo queueInfo{VK_STRUCTURE_TYPE_DEVICE_QUEUE_CREATE_INFO};

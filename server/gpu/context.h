@@ -35,6 +35,7 @@ struct Context {
   DeviceInfo info;
   VkPhysicalDeviceMemoryProperties memoryProperties{};
   bool depthClamp = false;
+  float maxAnisotropy = 0.0f;  // 0: samplerAnisotropy is not available (textures filter without it)
 
   // Validation-layer messages of warning or error severity seen so far (0 when validation is off).
   std::atomic<uint32_t> validationMessages{0};

@@ -28,6 +28,7 @@ struct GraphicsPipelineDesc {
   VkCompareOp depthCompare = VK_COMPARE_OP_LESS;
   bool depthClamp = false;  // requires the depthClamp feature
   VkCullModeFlags cullMode = VK_CULL_MODE_NONE;
+  bool dynamicCullMode = false;  // set per draw with vkCmdSetCullMode (core in Vulkan 1.3)
 };
 
 VkShaderModule createShaderModule(VkDevice device, std::span<const uint32_t> spirv);

@@ -95,14 +95,16 @@ Buffer Arena::createBuffer(VkDeviceSize size, VkBufferUsageFlags usage, MemoryUs
   return buffer;
 }
 
-Image Arena::createImage2D(VkExtent2D extent, VkFormat format, VkImageUsageFlags usage) {
+Image Arena::createImage2D(VkExtent2D extent, VkFormat format, VkImageUsageFlags usage,
+                           uint32_t mipLevels, VkImageCreateFlags flags) {
   bool depth = format == VK_FORMAT_D32_SFLOAT || format == VK_FORMAT_D16_UNORM ||
                format == VK_FORMAT_D24_UNORM_S8_UINT || format == VK_FORMAT_D32_SFLOAT_S8_UINT;
   VkImageCreateInfo info{VK_STRUCTURE_TYPE_IMAGE_CREATE_INFO};
   info.imageType = VK_IMAGE_TYPE_2D;
   info.format = format;
   info.extent = {extent.width, extent.height, 1};
-  info.mipLevels = 1;
+  info.flags = flags;
+  info.mipLevels = mipLevels;
   info.arrayLayers = 1;
   info.samples = VK_SAMPLE_COUNT_1_BIT;
   info.tiling = VK_IMAGE_TILING_OPTIMAL;
@@ -113,6 +115,7 @@ Image Arena::createImage2D(VkExtent2D extent, VkFormat format, VkImageUsageFlags
   image.format = format;
   image.extent = extent;
   image.aspect = depth ? VK_IMAGE_ASPECT_DEPTH_BIT : VK_IMAGE_ASPECT_COLOR_BIT;
+  image.mipLevels = mipLevels;
   VK_CHECK(vkCreateImage(context_->device, &info, nullptr, &image.image));
   images_.push_back(image.image);
   VkMemoryRequirements requirements;
@@ -124,10 +127,22 @@ Image Arena::createImage2D(VkExtent2D extent, VkFormat format, VkImageUsageFlags
   view.image = image.image;
   view.viewType = VK_IMAGE_VIEW_TYPE_2D;
   view.format = format;
-  view.subresourceRange = {image.aspect, 0, 1, 0, 1};
+  view.subresourceRange = {image.aspect, 0, mipLevels, 0, 1};
   VK_CHECK(vkCreateImageView(context_->device, &view, nullptr, &image.view));
   views_.push_back(image.view);
   return image;
+}
+
+VkImageView Arena::createView(const Image& image, VkFormat format) {
+  VkImageViewCreateInfo view{VK_STRUCTURE_TYPE_IMAGE_VIEW_CREATE_INFO};
+  view.image = image.image;
+  view.viewType = VK_IMAGE_VIEW_TYPE_2D;
+  view.format = format;
+  view.subresourceRange = {image.aspect, 0, image.mipLevels, 0, 1};
+  VkImageView handle = VK_NULL_HANDLE;
+  VK_CHECK(vkCreateImageView(context_->device, &view, nullptr, &handle));
+  views_.push_back(handle);
+  return handle;
 }
 
 void Arena::release() {

@@ -31,6 +31,7 @@ struct Image {
   VkFormat format = VK_FORMAT_UNDEFINED;
   VkExtent2D extent{0, 0};
   VkImageAspectFlags aspect = VK_IMAGE_ASPECT_COLOR_BIT;
+  uint32_t mipLevels = 1;
 };
 
 // Large enough that a frame's targets take one or two allocations; small enough not to waste much
@@ -48,7 +49,12 @@ class Arena {
   Arena& operator=(const Arena&) = delete;
 
   Buffer createBuffer(VkDeviceSize size, VkBufferUsageFlags usage, MemoryUse use);
-  Image createImage2D(VkExtent2D extent, VkFormat format, VkImageUsageFlags usage);
+  // `mipLevels` > 1: the view covers them all. `flags`: e.g. VK_IMAGE_CREATE_MUTABLE_FORMAT_BIT,
+  // for an image viewed in two compatible formats (createView).
+  Image createImage2D(VkExtent2D extent, VkFormat format, VkImageUsageFlags usage,
+                      uint32_t mipLevels = 1, VkImageCreateFlags flags = 0);
+  // Another view of `image` (every mip level) in `format`, destroyed with the arena.
+  VkImageView createView(const Image& image, VkFormat format);
 
   // Destroys every resource and frees every block. The caller ensures the GPU is done with them.
   void release();

@@ -6,17 +6,21 @@
 #include <cstring>
 #include <type_traits>
 
+#include "scene/image_decode.h"
+
 namespace myriad::loader {
 
 namespace {
 
 constexpr char kMagic[4] = {'M', 'Y', 'R', 'W'};
-constexpr size_t kHeaderBytes = 4 + 4 * 5 + 8;
+constexpr size_t kHeaderBytes = 4 + 4 * 6 + 8;
 // The smallest each element can be on the wire: what a count is checked against before any
 // allocation, so a forged count cannot make the parent reserve memory the bytes do not back.
-constexpr size_t kMinMaterialBytes = 4 + 5 * 4;
+constexpr size_t kTextureRefBytes = 4 + 6 + 5 * 4 + 4;
+constexpr size_t kMinMaterialBytes = 4 + 12 * 4 + 2 + 4 + scene::Material::kTextureSlots * kTextureRefBytes;
 constexpr size_t kMinMeshBytes = 4 + 4 + 4;
-constexpr size_t kVertexBytes = 8 * 4;
+constexpr size_t kVertexBytes = 16 * 4;
+constexpr size_t kMinImageBytes = 4 + 4 + 4 + 4;
 constexpr size_t kInstanceBytes = 2 * 4 + 16 * 4;
 constexpr size_t kLightBytes = 16 * 4;
 constexpr size_t kMinCameraBytes = 4 + 4 + 4 * 4 + 9 * 4;
@@ -35,6 +39,7 @@ class Writer {
   }
   void put(const glm::vec2& v) { put(v.x), put(v.y); }
   void put(const glm::vec3& v) { put(v.x), put(v.y), put(v.z); }
+  void put(const glm::vec4& v) { put(v.x), put(v.y), put(v.z), put(v.w); }
   void put(const glm::mat4& m) {
     for (int c = 0; c < 4; ++c) {
       for (int r = 0; r < 4; ++r) put(m[c][r]);
@@ -117,6 +122,22 @@ class Reader {
     const float x = finite(what), y = finite(what), z = finite(what);
     return {x, y, z};
   }
+  glm::vec4 vec4(const char* what) {
+    const float x = finite(what), y = finite(what), z = finite(what), w = finite(what);
+    return {x, y, z, w};
+  }
+  // One byte that must be below `limit` (an enum or a bool).
+  uint8_t small(const char* what, uint8_t limit) {
+    const auto value = get<uint8_t>();
+    if (value >= limit) reject(std::string(what) + " out of range");
+    return value;
+  }
+  std::string_view take(size_t n) {
+    need(n);
+    const std::string_view out = bytes_.substr(at_, n);
+    at_ += n;
+    return out;
+  }
   glm::mat4 mat4(const char* what) {
     glm::mat4 m;
     for (int c = 0; c < 4; ++c) {
@@ -160,6 +181,7 @@ std::string encodeScene(const scene::Scene& scene) {
   w.put(uint32_t(scene.materials.size()));
   w.put(uint32_t(scene.instances.size()));
   w.put(uint32_t(scene.lights.size()));
+  w.put(uint32_t(scene.images.size()));
   w.put(uint64_t(0));  // body size, filled in below
 
   w.put(scene.sun.direction), w.put(scene.sun.color), w.put(scene.sun.intensity);
@@ -171,13 +193,24 @@ std::string encodeScene(const scene::Scene& scene) {
   for (const scene::Material& m : scene.materials) {
     w.putName(m.name);
     w.put(m.baseColor), w.put(m.metallic), w.put(m.roughness);
+    w.put(m.alpha), w.put(m.emissive), w.put(m.emissiveStrength), w.put(m.normalScale);
+    w.put(m.occlusionStrength), w.put(uint8_t(m.alphaMode)), w.put(m.alphaCutoff);
+    w.put(uint8_t(m.doubleSided));
+    for (size_t slot = 0; slot < scene::Material::kTextureSlots; ++slot) {
+      const scene::TextureRef& t = m.texture(slot);
+      w.put(t.image);
+      w.put(uint8_t(t.sampler.wrapS)), w.put(uint8_t(t.sampler.wrapT));
+      w.put(uint8_t(t.sampler.magFilter)), w.put(uint8_t(t.sampler.minFilter));
+      w.put(uint8_t(t.sampler.mipmaps)), w.put(uint8_t(t.sampler.mipmapFilter));
+      w.put(t.offset), w.put(t.scale), w.put(t.rotation), w.put(t.texCoord);
+    }
   }
   for (const scene::Mesh& mesh : scene.meshes) {
     w.putName(mesh.name);
     w.put(uint32_t(mesh.vertices.size()));
     w.put(uint32_t(mesh.indices.size()));
     for (const scene::Vertex& v : mesh.vertices) {
-      w.put(v.position), w.put(v.normal), w.put(v.uv);
+      w.put(v.position), w.put(v.normal), w.put(v.uv), w.put(v.tangent), w.put(v.color);
     }
     const size_t at = w.bytes().size();
     w.bytes().resize(at + mesh.indices.size() * sizeof(uint32_t));
@@ -203,6 +236,12 @@ std::string encodeScene(const scene::Scene& scene) {
     w.put(c.yfov), w.put(c.aspectRatio), w.put(c.znear), w.put(c.zfar);
     w.put(c.position), w.put(c.direction), w.put(c.up);
   }
+  for (const scene::Image& image : scene.images) {
+    w.putName(image.name);
+    w.put(image.width), w.put(image.height);
+    w.put(uint32_t(image.rgba.size()));
+    w.bytes().append(reinterpret_cast<const char*>(image.rgba.data()), image.rgba.size());
+  }
   const uint64_t body = w.bytes().size() - kHeaderBytes;
   std::memcpy(w.bytes().data() + kHeaderBytes - 8, &body, 8);
   return std::move(w.bytes());
@@ -220,11 +259,14 @@ scene::Scene decodeScene(std::string_view bytes) {
   const uint32_t materialCount = r.get<uint32_t>();
   const uint32_t instanceCount = r.get<uint32_t>();
   const uint32_t lightCount = r.get<uint32_t>();
+  const uint32_t imageCount = r.get<uint32_t>();
   if (r.get<uint64_t>() != r.remaining()) reject("the body size does not match the bytes");
+  if (imageCount > scene::ImageLimits{}.maxImages) reject("more images than the limit");
   r.count(meshCount, kMinMeshBytes, "meshes");
   r.count(materialCount, kMinMaterialBytes, "materials");
   r.count(instanceCount, kInstanceBytes, "instances");
   r.count(lightCount, kLightBytes, "lights");
+  r.count(imageCount, kMinImageBytes, "images");
 
   scene::Scene scene;
   scene.sun.direction = r.vec3("the sun");
@@ -255,6 +297,41 @@ scene::Scene decodeScene(std::string_view bytes) {
     }
     m.metallic = r.inRange("a metallic factor", 0.0f, 1.0f);
     m.roughness = r.inRange("a roughness factor", 0.0f, 1.0f);
+    m.alpha = r.inRange("a base colour alpha", 0.0f, 1.0f);
+    m.emissive = r.vec3("an emissive factor");
+    if (glm::any(glm::lessThan(m.emissive, glm::vec3(0.0f))) ||
+        glm::any(glm::greaterThan(m.emissive, glm::vec3(1.0f)))) {
+      reject("an emissive factor out of range");
+    }
+    m.emissiveStrength = r.inRange("an emissive strength", 0.0f, 1e4f);
+    m.normalScale = r.inRange("a normal scale", -100.0f, 100.0f);
+    m.occlusionStrength = r.inRange("an occlusion strength", 0.0f, 1.0f);
+    m.alphaMode = scene::AlphaMode(r.small("an alpha mode", 3));
+    m.alphaCutoff = r.inRange("an alpha cutoff", 0.0f, 1.0f);
+    m.doubleSided = r.small("a double-sided flag", 2) != 0;
+    for (size_t slot = 0; slot < scene::Material::kTextureSlots; ++slot) {
+      scene::TextureRef& t = m.texture(slot);
+      t.image = r.get<uint32_t>();
+      if (t.image != scene::TextureRef::kNone && t.image >= imageCount) {
+        reject("a texture of an image that does not exist");
+      }
+      t.sampler.wrapS = scene::Sampler::Wrap(r.small("a wrap mode", 3));
+      t.sampler.wrapT = scene::Sampler::Wrap(r.small("a wrap mode", 3));
+      t.sampler.magFilter = scene::Sampler::Filter(r.small("a filter", 2));
+      t.sampler.minFilter = scene::Sampler::Filter(r.small("a filter", 2));
+      t.sampler.mipmaps = r.small("a mipmap flag", 2) != 0;
+      t.sampler.mipmapFilter = scene::Sampler::Filter(r.small("a filter", 2));
+      t.offset = r.vec2("a texture transform");
+      t.scale = r.vec2("a texture transform");
+      t.rotation = r.finite("a texture transform");
+      if (glm::any(glm::greaterThan(glm::abs(t.offset), glm::vec2(1e6f))) ||
+          glm::any(glm::greaterThan(glm::abs(t.scale), glm::vec2(1e6f))) ||
+          std::abs(t.rotation) > 1e6f) {
+        reject("a texture transform out of range");
+      }
+      t.texCoord = r.get<uint32_t>();
+      if (t.texCoord != 0) reject("a texture coordinate set other than 0");
+    }
     scene.materials.push_back(std::move(m));
   }
 
@@ -275,6 +352,18 @@ scene::Scene decodeScene(std::string_view bytes) {
       v.position = r.vec3("a vertex position");
       v.normal = r.vec3("a vertex normal");
       v.uv = r.vec2("a texture coordinate");
+      v.tangent = r.vec4("a vertex tangent");
+      // A tangent is a unit vector with a sign of -1 or 1, or all zero (none in the file).
+      const float tangentLength = glm::length(glm::vec3(v.tangent));
+      if (v.tangent.w == 0.0f ? tangentLength != 0.0f
+                              : (std::abs(v.tangent.w) != 1.0f || std::abs(tangentLength - 1.0f) > 1e-3f)) {
+        reject("a vertex tangent that is neither a unit vector with a sign of -1 or 1 nor zero");
+      }
+      v.color = r.vec4("a vertex colour");
+      if (glm::any(glm::lessThan(v.color, glm::vec4(0.0f))) ||
+          glm::any(glm::greaterThan(v.color, glm::vec4(1.0f)))) {
+        reject("a vertex colour out of range");
+      }
     }
     mesh.indices.resize(indexCount);
     for (uint32_t& index : mesh.indices) {
@@ -355,6 +444,29 @@ scene::Scene decodeScene(std::string_view bytes) {
       reject("a camera whose direction and up are not perpendicular unit vectors");
     }
     scene.cameras.push_back(std::move(c));
+  }
+
+  const scene::ImageLimits imageLimits;
+  uint64_t imageBytes = 0;
+  scene.images.reserve(imageCount);
+  for (uint32_t i = 0; i < imageCount; ++i) {
+    scene::Image image;
+    image.name = r.name();
+    image.width = r.get<uint32_t>();
+    image.height = r.get<uint32_t>();
+    const uint32_t size = r.get<uint32_t>();
+    if (image.width == 0 || image.height == 0 || image.width > imageLimits.maxDimension ||
+        image.height > imageLimits.maxDimension) {
+      reject("an image size out of range");
+    }
+    if (uint64_t(size) != uint64_t(image.width) * image.height * 4) {
+      reject("an image whose bytes do not match its size");
+    }
+    imageBytes += size;
+    if (imageBytes > imageLimits.maxDecodedBytes) reject("more image bytes than the limit");
+    const std::string_view pixels = r.take(size);
+    image.rgba.assign(pixels.begin(), pixels.end());
+    scene.images.push_back(std::move(image));
   }
   if (r.remaining() != 0) reject("bytes after the end of the scene");
   return scene;

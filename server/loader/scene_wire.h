@@ -1,12 +1,23 @@
 // The scene as bytes on the loader child's stdout. Versioned and little-endian (the child is this
 // same executable, so both ends agree on the layout, but the parent still trusts nothing in it):
 //
-//   "MYRW" u32 version u32 meshes u32 materials u32 instances u32 lights u64 bodyBytes
+//   "MYRW" u32 version u32 meshes u32 materials u32 instances u32 lights u32 images u64 bodyBytes
 //   body: sun (7 f32), ambient (3), background (3), camera (12)
-//         materials: u32 nameBytes, name, baseColor (3 f32), metallic, roughness
-//         meshes:    u32 nameBytes, name, u32 vertices, u32 indices, vertices (8 f32 each), indices
+//         materials: u32 nameBytes, name, baseColor (3 f32), metallic, roughness, alpha,
+//                    emissive (3), emissiveStrength, normalScale, occlusionStrength,
+//                    u8 alphaMode, f32 alphaCutoff, u8 doubleSided, then 5 textures (baseColor,
+//                    metallicRoughness, normal, occlusion, emissive): u32 image (~0 = none),
+//                    u8 wrapS, wrapT, magFilter, minFilter, mipmaps, mipmapFilter,
+//                    offset (2 f32), scale (2), rotation, u32 texCoord
+//         meshes:    u32 nameBytes, name, u32 vertices, u32 indices, vertices (16 f32 each:
+//                    position, normal, uv, tangent, color), indices
 //         instances: u32 mesh, u32 material, transform (16 f32, column-major)
-//         lights:    position (3 f32), radius, color (3), intensity, falloff
+//         lights:    position (3 f32), radius, color (3), intensity, falloff, u32 type,
+//                    u32 attenuation, direction (3 f32), innerConeAngle, outerConeAngle
+//         u32 extra suns, each direction (3 f32), color (3), intensity; u32 dropped suns
+//         u32 cameras, each u32 nameBytes, name, u32 perspective, yfov, aspectRatio, znear, zfar,
+//                    position (3 f32), direction (3), up (3)
+//         images:    u32 nameBytes, name, u32 width, u32 height, u32 bytes, RGBA8 pixels
 #pragma once
 
 #include <stdexcept>
@@ -17,7 +28,7 @@
 
 namespace myriad::loader {
 
-inline constexpr uint32_t kSceneWireVersion = 2;  // 2: lights' type, attenuation, cone
+inline constexpr uint32_t kSceneWireVersion = 3;  // 2: lights' type, attenuation, cone; 3: materials' textures, images
 
 // The bytes were not a scene this version of the server wrote: what() says what was wrong.
 struct SceneWireError : std::runtime_error {
@@ -28,7 +39,7 @@ std::string encodeScene(const scene::Scene& scene);
 
 // Checks everything before trusting it: counts against the bytes present (nothing is reserved
 // from a count alone), every index in range, every float finite, factors in their ranges, names
-// at most kMaxWireNameBytes (invalid UTF-8 and control characters in names are replaced, since
+// at most kMaxWireNameBytes, images within scene::ImageLimits and every texture's image index in range (invalid UTF-8 and control characters in names are replaced, since
 // names go into JSON), and nothing left over at the end. Throws SceneWireError.
 scene::Scene decodeScene(std::string_view bytes);
 

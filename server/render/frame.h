@@ -52,11 +52,13 @@ enum class Target : uint32_t {
   LightVolumes,
   LightCount,  // heat map of the lights that shade each pixel, with its scale drawn in
   Clusters,    // the clustered technique's depth slices, one colour each
+  Emissive,    // emitted radiance (emissive factor x strength x texture)
+  Occlusion,   // the material's ambient occlusion (1 where it has none)
 };
 
 // The names are the protocol's, defined once there.
 inline constexpr const auto& kTargetNames = protocol::kTargets;
-static_assert(kTargetNames.size() == static_cast<size_t>(Target::Clusters) + 1);
+static_assert(kTargetNames.size() == static_cast<size_t>(Target::Occlusion) + 1);
 
 inline std::string_view targetName(Target t) { return kTargetNames[static_cast<uint32_t>(t)]; }
 
@@ -209,6 +211,8 @@ inline std::vector<std::string_view> rawChannels(Target target) {
     case Target::Depth: return {"depth"};  // names-once: a channel; view depth, far if none
     case Target::LightCount: return {"count"};
     case Target::Clusters: return {"slice", "tile_x", "tile_y"};
+    case Target::Emissive: return {"r", "g", "b"};  // emitted radiance, before exposure
+    case Target::Occlusion: return {"occlusion"};  // names-once: a channel, named as its target
   }
   return {};
 }

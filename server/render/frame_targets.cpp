@@ -18,6 +18,7 @@ FrameTargets::FrameTargets(gpu::Context& context, VkExtent2D size, bool rawOutpu
   baseColor = arena.createImage2D(extent, kBaseColorFormat, gbufferUsage);
   material = arena.createImage2D(extent, kMaterialFormat, gbufferUsage);
   uv = arena.createImage2D(extent, kUvFormat, gbufferUsage);
+  emissive = arena.createImage2D(extent, kEmissiveFormat, gbufferUsage);
   // Compute lighting (tiled, clustered) stores into these; volumes blend into them.
   hdr = arena.createImage2D(extent, kHdrFormat, gbufferUsage | VK_IMAGE_USAGE_STORAGE_BIT);
   lightCount = arena.createImage2D(extent, kLightCountFormat, gbufferUsage | VK_IMAGE_USAGE_STORAGE_BIT);

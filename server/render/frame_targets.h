@@ -10,13 +10,16 @@
 namespace myriad::render {
 
 // G-buffer formats. Normals are octahedral in two 16-bit signed-normalised channels (about 0.002
-// degrees of error); base colour is sRGB so 8 bits hold dark shades well; metallic and roughness
-// are perceptual [0,1] values, fine in 8 bits; uvs may leave [0,1], so they are half floats.
+// degrees of error); base colour is sRGB so 8 bits hold dark shades well; metallic, roughness and
+// occlusion (R, G, B of the material target) are [0,1] values, fine in 8 bits; uvs may leave
+// [0,1], so they are half floats; emitted radiance is HDR (factor x strength x texture), so half
+// floats too (RGBA16F: B10G11R11 would do, but is not a guaranteed colour attachment).
 inline constexpr VkFormat kDepthFormat = VK_FORMAT_D32_SFLOAT;
 inline constexpr VkFormat kNormalFormat = VK_FORMAT_R16G16_SNORM;
 inline constexpr VkFormat kBaseColorFormat = VK_FORMAT_R8G8B8A8_SRGB;
-inline constexpr VkFormat kMaterialFormat = VK_FORMAT_R8G8_UNORM;
+inline constexpr VkFormat kMaterialFormat = VK_FORMAT_R8G8B8A8_UNORM;
 inline constexpr VkFormat kUvFormat = VK_FORMAT_R16G16_SFLOAT;
+inline constexpr VkFormat kEmissiveFormat = VK_FORMAT_R16G16B16A16_SFLOAT;
 inline constexpr VkFormat kHdrFormat = VK_FORMAT_R16G16B16A16_SFLOAT;
 inline constexpr VkFormat kOutputFormat = VK_FORMAT_R8G8B8A8_UNORM;
 inline constexpr VkFormat kRawOutputFormat = VK_FORMAT_R32G32B32A32_SFLOAT;
@@ -38,6 +41,7 @@ struct FrameTargets {
   gpu::Image baseColor;
   gpu::Image material;
   gpu::Image uv;
+  gpu::Image emissive;
   gpu::Image hdr;
   gpu::Image lightCount;
   gpu::Image markerKeys;

@@ -30,7 +30,9 @@ static_assert(sizeof(CullingStats) == 32);
 static_assert(sizeof(GpuPointLight) == 48 && offsetof(GpuPointLight, radianceFalloff) == 16 &&
               offsetof(GpuPointLight, cone) == 32);
 static_assert(sizeof(GpuInstance) == 144 && offsetof(GpuInstance, material) == 128);
-static_assert(sizeof(GpuMaterial) == 32 && offsetof(GpuMaterial, metallicRoughness) == 16);
+static_assert(sizeof(GpuMaterial) == 64 + 16 * 2 * MYRIAD_TEXTURE_SLOTS &&
+              offsetof(GpuMaterial, metallicRoughness) == 16 && offsetof(GpuMaterial, flags) == 48 &&
+              offsetof(GpuMaterial, uvTransform) == 64);
 
 static_assert(uint32_t(EnvironmentMode::None) == MYRIAD_ENV_NONE);
 static_assert(uint32_t(EnvironmentMode::Sky) == MYRIAD_ENV_SKY);
@@ -49,5 +51,7 @@ static_assert(uint32_t(Target::Depth) == MYRIAD_VIEW_DEPTH);
 static_assert(uint32_t(Target::LightVolumes) == MYRIAD_VIEW_LIGHT_VOLUMES);
 static_assert(uint32_t(Target::LightCount) == MYRIAD_VIEW_LIGHT_COUNT);
 static_assert(uint32_t(Target::Clusters) == MYRIAD_VIEW_CLUSTERS);
+static_assert(uint32_t(Target::Emissive) == MYRIAD_VIEW_EMISSIVE);
+static_assert(uint32_t(Target::Occlusion) == MYRIAD_VIEW_OCCLUSION);
 
 }  // namespace myriad::render

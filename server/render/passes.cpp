@@ -24,6 +24,14 @@ gpu::VertexLayout fullVertexLayout() {
            {2, 0, VK_FORMAT_R32G32_SFLOAT, offsetof(scene::Vertex, uv)}}};
 }
 
+// The G-buffer pass reads every vertex attribute.
+gpu::VertexLayout gbufferVertexLayout() {
+  gpu::VertexLayout layout = fullVertexLayout();
+  layout.attributes.push_back({3, 0, VK_FORMAT_R32G32B32A32_SFLOAT, offsetof(scene::Vertex, tangent)});
+  layout.attributes.push_back({4, 0, VK_FORMAT_R32G32B32A32_SFLOAT, offsetof(scene::Vertex, color)});
+  return layout;
+}
+
 // G-buffer images are read by fragment shaders (sun, light volumes, tonemap views) and by the
 // compute lighting of the tiled and clustered techniques.
 ImageTransition colorWriteToSampled(const gpu::Image& image) {
@@ -60,10 +68,13 @@ Pipelines::Pipelines(gpu::Context& context) : device(context.device) {
   }};
   sceneSetLayout = gpu::createDescriptorSetLayout(device, sceneBindings);
   const VkShaderStageFlags readers = VK_SHADER_STAGE_FRAGMENT_BIT | VK_SHADER_STAGE_COMPUTE_BIT;
-  std::array<VkDescriptorSetLayoutBinding, 10> targetBindings{};
+  std::array<VkDescriptorSetLayoutBinding, 11> targetBindings{};
   for (uint32_t i = 0; i <= MYRIAD_BINDING_LIGHT_COUNT; ++i) {
     targetBindings[i] = {i, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, readers, nullptr};
   }
+  targetBindings[MYRIAD_BINDING_GBUFFER_EMISSIVE] = {MYRIAD_BINDING_GBUFFER_EMISSIVE,
+                                                     VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1,
+                                                     readers, nullptr};
   targetBindings[MYRIAD_BINDING_HDR_STORAGE] = {MYRIAD_BINDING_HDR_STORAGE,
                                                 VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, 1,
                                                 VK_SHADER_STAGE_COMPUTE_BIT, nullptr};
@@ -79,20 +90,28 @@ Pipelines::Pipelines(gpu::Context& context) : device(context.device) {
     cullingBindings[i] = {i, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, VK_SHADER_STAGE_COMPUTE_BIT, nullptr};
   }
   cullingSetLayout = gpu::createDescriptorSetLayout(device, cullingBindings);
-  VkDescriptorSetLayout setLayouts[] = {sceneSetLayout, targetSetLayout, cullingSetLayout};
+  std::array<VkDescriptorSetLayoutBinding, MYRIAD_TEXTURE_SLOTS> materialBindings{};
+  for (uint32_t i = 0; i < materialBindings.size(); ++i) {
+    materialBindings[i] = {i, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1,
+                           VK_SHADER_STAGE_FRAGMENT_BIT, nullptr};
+  }
+  materialSetLayout = gpu::createDescriptorSetLayout(device, materialBindings);
+  VkDescriptorSetLayout setLayouts[] = {sceneSetLayout, targetSetLayout, cullingSetLayout,
+                                        materialSetLayout};
   VkPipelineLayoutCreateInfo layoutInfo{VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO};
-  layoutInfo.setLayoutCount = 3;
+  layoutInfo.setLayoutCount = 4;
   layoutInfo.pSetLayouts = setLayouts;
   VK_CHECK(vkCreatePipelineLayout(device, &layoutInfo, nullptr, &layout));
 
   gpu::GraphicsPipelineDesc d;
   d.vertexShader = spirv::gbuffer_vert;
   d.fragmentShader = spirv::gbuffer_frag;
-  d.vertexLayout = fullVertexLayout();
-  d.colorFormats = {kNormalFormat, kBaseColorFormat, kMaterialFormat, kUvFormat};
+  d.vertexLayout = gbufferVertexLayout();
+  d.colorFormats = {kNormalFormat, kBaseColorFormat, kMaterialFormat, kUvFormat, kEmissiveFormat};
   d.depthFormat = kDepthFormat;
   d.depthTest = d.depthWrite = true;
   d.depthCompare = VK_COMPARE_OP_LESS;
+  d.dynamicCullMode = true;  // per material: glTF's doubleSided
   gbuffer = gpu::createGraphicsPipeline(device, layout, d);
 
   // The light-volumes view: the volumes technique's proxies, drawn onto the 8-bit output.
@@ -123,6 +142,7 @@ Pipelines::~Pipelines() {
   if (sceneSetLayout) vkDestroyDescriptorSetLayout(device, sceneSetLayout, nullptr);
   if (targetSetLayout) vkDestroyDescriptorSetLayout(device, targetSetLayout, nullptr);
   if (cullingSetLayout) vkDestroyDescriptorSetLayout(device, cullingSetLayout, nullptr);
+  if (materialSetLayout) vkDestroyDescriptorSetLayout(device, materialSetLayout, nullptr);
 }
 
 void recordGBufferPass(VkCommandBuffer cmd, const Pipelines& p, const FrameTargets& t,
@@ -133,6 +153,7 @@ void recordGBufferPass(VkCommandBuffer cmd, const Pipelines& p, const FrameTarge
       discardForColorWrite(t.baseColor, reader),
       discardForColorWrite(t.material, reader),
       discardForColorWrite(t.uv, reader),
+      discardForColorWrite(t.emissive, reader),
       {&t.depth, reader | VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT, VK_ACCESS_2_NONE,
        VK_PIPELINE_STAGE_2_EARLY_FRAGMENT_TESTS_BIT | VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT,
        VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_READ_BIT | VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT,
@@ -140,11 +161,12 @@ void recordGBufferPass(VkCommandBuffer cmd, const Pipelines& p, const FrameTarge
   };
   gpu::barrier(cmd, before);
 
-  std::array<VkRenderingAttachmentInfo, 4> colors = {
+  std::array<VkRenderingAttachmentInfo, 5> colors = {
       colorAttachment(t.normal, VK_ATTACHMENT_LOAD_OP_CLEAR),
       colorAttachment(t.baseColor, VK_ATTACHMENT_LOAD_OP_CLEAR),
       colorAttachment(t.material, VK_ATTACHMENT_LOAD_OP_CLEAR),
-      colorAttachment(t.uv, VK_ATTACHMENT_LOAD_OP_CLEAR)};
+      colorAttachment(t.uv, VK_ATTACHMENT_LOAD_OP_CLEAR),
+      colorAttachment(t.emissive, VK_ATTACHMENT_LOAD_OP_CLEAR)};
   for (auto& c : colors) c.clearValue.color = {{0.0f, 0.0f, 0.0f, 0.0f}};
   VkRenderingAttachmentInfo depth{VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO};
   depth.imageView = t.depth.view;
@@ -155,7 +177,17 @@ void recordGBufferPass(VkCommandBuffer cmd, const Pipelines& p, const FrameTarge
   beginRendering(cmd, t.extent, colors, &depth);
   vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, p.gbuffer);
   bindGeometry(cmd, scene);
+  // Draws come grouped by material (SceneBuffers sorts them): one texture set and one cull mode
+  // per group.
+  uint32_t bound = UINT32_MAX;
   for (const DrawItem& draw : scene.draws) {
+    if (draw.material != bound) {
+      bound = draw.material;
+      VkDescriptorSet set = scene.textures->set(bound);
+      vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, p.layout, MYRIAD_SET_MATERIAL,
+                              1, &set, 0, nullptr);
+      vkCmdSetCullMode(cmd, scene.doubleSided[bound] ? VK_CULL_MODE_NONE : VK_CULL_MODE_BACK_BIT);
+    }
     vkCmdDrawIndexed(cmd, draw.mesh.indexCount, 1, draw.mesh.firstIndex, draw.mesh.vertexOffset,
                      draw.instance);
   }
@@ -166,6 +198,7 @@ void recordGBufferPass(VkCommandBuffer cmd, const Pipelines& p, const FrameTarge
       colorWriteToSampled(t.baseColor),
       colorWriteToSampled(t.material),
       colorWriteToSampled(t.uv),
+      colorWriteToSampled(t.emissive),
       {&t.depth, VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT,
        VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT,
        VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT | VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT |

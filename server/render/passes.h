@@ -10,7 +10,8 @@
 
 namespace myriad::render {
 
-// The frame's pipeline layout (set 0 = scene, set 1 = targets, set 2 = light culling) and the
+// The frame's pipeline layout (set 0 = scene, set 1 = targets, set 2 = light culling, set 3 = a
+// material's textures) and the
 // pipelines of the passes every technique shares. Each lighting technique makes its own
 // pipelines with this layout (render/techniques/).
 struct Pipelines {
@@ -23,6 +24,7 @@ struct Pipelines {
   VkDescriptorSetLayout sceneSetLayout = VK_NULL_HANDLE;
   VkDescriptorSetLayout targetSetLayout = VK_NULL_HANDLE;
   VkDescriptorSetLayout cullingSetLayout = VK_NULL_HANDLE;
+  VkDescriptorSetLayout materialSetLayout = VK_NULL_HANDLE;  // set 3: one material's textures
   VkPipelineLayout layout = VK_NULL_HANDLE;
   VkPipeline gbuffer = VK_NULL_HANDLE;
   VkPipeline lightVolumeOverlay = VK_NULL_HANDLE;
@@ -34,7 +36,7 @@ struct Pipelines {
   VkPipeline markerResolve = VK_NULL_HANDLE;  // markers: one thread per pixel
 };
 
-// 1. Writes depth, normal, base colour, material, uv; leaves them readable by later passes.
+// 1. Writes depth, normal, base colour, material, uv, emissive; leaves them readable by later passes.
 void recordGBufferPass(VkCommandBuffer cmd, const Pipelines& p, const FrameTargets& t,
                        const SceneBuffers& scene);
 // 2-3. The lighting technique's passes (render/techniques/technique.h).

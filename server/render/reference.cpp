@@ -218,6 +218,9 @@ std::vector<uint8_t> renderReference(const scene::Scene& scene, const FrameSetti
       const glm::vec3 baseColor = storeBaseColor(material.baseColor);
       const float metallic = quantizeUnorm8(material.metallic);
       const float roughness = quantizeUnorm8(material.roughness);
+      // Textures are not sampled here (the reference is for the shading and the culling): a
+      // material's own factors, with occlusion 1 as for a material without an occlusion map.
+      const glm::vec3 emissive = half3(material.emissive * material.emissiveStrength);
       switch (s.target) {
         case Target::Final: {
           glm::vec3 hdr = half3(s.background);
@@ -246,7 +249,8 @@ std::vector<uint8_t> renderReference(const scene::Scene& scene, const FrameSetti
                                  (extra.color * extra.intensity);
               }
             }
-            hdr = half3(sunAndAmbient);
+            // Emission is added with the sun and ambient (or environment) term, as on the GPU.
+            hdr = half3(sunAndAmbient + emissive);
             for (const GpuPointLight& l : lights) {
               glm::vec3 c = shading::shadeLocalLight(
                   hit.position, normal, V, baseColor, metallic, roughness, glm::vec3(l.positionRadius),
@@ -279,6 +283,11 @@ std::vector<uint8_t> renderReference(const scene::Scene& scene, const FrameSetti
           color = glm::vec3(found ? glm::clamp((linear - n) / (f - n), 0.0f, 1.0f) : 1.0f);
           break;
         }
+        case Target::Emissive:
+          color = found ? shading::srgbEncode3(shading::tonemapPbrNeutral(emissive * s.exposure))
+                        : glm::vec3(0.0f);
+          break;
+        case Target::Occlusion: color = glm::vec3(found ? 1.0f : 0.0f); break;
         case Target::LightVolumes:
         case Target::LightCount:
         case Target::Clusters: break;

@@ -127,16 +127,18 @@ void Renderer::State::writeSceneSet(const SceneBuffers& scene, const gpu::Buffer
 }
 
 void Renderer::State::writeTargetSet() {
-  // Bindings 0-6 are sampled (READ_ONLY_OPTIMAL); 7-8 are the same HDR and light-count images
-  // as storage images (GENERAL), written by compute lighting; 9 the markers' keys (GENERAL).
-  const gpu::Image* images[10] = {&targets->depth, &targets->normal,     &targets->baseColor,
-                                  &targets->material, &targets->uv,      &targets->hdr,
-                                  &targets->lightCount, &targets->hdr,   &targets->lightCount,
-                                  &targets->markerKeys};
-  VkDescriptorImageInfo infos[10];
-  VkWriteDescriptorSet writes[10];
-  for (uint32_t i = 0; i < 10; ++i) {
-    bool storage = i >= MYRIAD_BINDING_HDR_STORAGE;
+  // Bindings 0-6 and 9 are sampled (READ_ONLY_OPTIMAL); 7-8 are the same HDR and light-count
+  // images as storage images (GENERAL), written by compute lighting; 10 the markers' keys
+  // (storage, GENERAL).
+  const gpu::Image* images[11] = {&targets->depth,      &targets->normal, &targets->baseColor,
+                                  &targets->material,   &targets->uv,     &targets->hdr,
+                                  &targets->lightCount, &targets->hdr,    &targets->lightCount,
+                                  &targets->emissive,   &targets->markerKeys};
+  VkDescriptorImageInfo infos[11];
+  VkWriteDescriptorSet writes[11];
+  for (uint32_t i = 0; i < 11; ++i) {
+    bool storage = i == MYRIAD_BINDING_HDR_STORAGE || i == MYRIAD_BINDING_LIGHT_COUNT_STORAGE ||
+                   i == MYRIAD_BINDING_MARKER_KEYS;
     infos[i] = {storage ? VK_NULL_HANDLE : sampler, images[i]->view,
                 storage ? VK_IMAGE_LAYOUT_GENERAL : VK_IMAGE_LAYOUT_READ_ONLY_OPTIMAL};
     writes[i] = {VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET};
@@ -147,7 +149,7 @@ void Renderer::State::writeTargetSet() {
         storage ? VK_DESCRIPTOR_TYPE_STORAGE_IMAGE : VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER;
     writes[i].pImageInfo = &infos[i];
   }
-  vkUpdateDescriptorSets(context.device, 10, writes, 0, nullptr);
+  vkUpdateDescriptorSets(context.device, 11, writes, 0, nullptr);
 }
 
 // Targets follow the output size and are rebuilt only when it changes (every frame is waited
@@ -221,7 +223,7 @@ Renderer::Renderer(gpu::Context& context) : state_(std::make_unique<State>(conte
   // Sets 0 (scene) and 1 (targets); each technique allocates its own set 2.
   VkDescriptorPoolSize sizes[] = {{VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1},
                                   {VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 6},
-                                  {VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 7},
+                                  {VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 8},
                                   {VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, 3}};
   VkDescriptorPoolCreateInfo poolInfo{VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO};
   poolInfo.maxSets = 2;
@@ -254,7 +256,8 @@ Renderer::~Renderer() {
 
 SceneId Renderer::createScene(const scene::Scene& scene) {
   State& s = *state_;
-  auto buffers = std::make_unique<SceneBuffers>(s.context, s.recorder, scene);
+  auto buffers = std::make_unique<SceneBuffers>(s.context, s.recorder, scene,
+                                                s.pipelines.materialSetLayout);
   SceneId id = s.nextSceneId++;
   s.scenes.emplace(id, std::move(buffers));
   return id;
@@ -264,7 +267,8 @@ void Renderer::replaceScene(SceneId id, const scene::Scene& scene) {
   State& s = *state_;
   s.scene(id);  // throws for an unknown id
   // Build the new buffers before dropping the old, so a failure leaves the old scene in place.
-  auto buffers = std::make_unique<SceneBuffers>(s.context, s.recorder, scene);
+  auto buffers = std::make_unique<SceneBuffers>(s.context, s.recorder, scene,
+                                                s.pipelines.materialSetLayout);
   s.scenes[id] = std::move(buffers);
 }
 

@@ -1,6 +1,7 @@
 #include "render/scene_buffers.h"
 
 #include <algorithm>
+#include <cmath>
 #include <cstring>
 #include <string>
 #include <stdexcept>
@@ -84,7 +85,24 @@ void transfer(gpu::Context& context, gpu::CommandRecorder& recorder,
 GpuPointLight toGpu(const scene::PointLight& l) { return packLight(l); }
 
 GpuMaterial toGpu(const scene::Material& m) {
-  return {glm::vec4(m.baseColor, 1.0f), glm::vec4(m.metallic, m.roughness, 0, 0)};
+  GpuMaterial g{};
+  g.baseColor = glm::vec4(m.baseColor, m.alpha);
+  g.metallicRoughness = glm::vec4(m.metallic, m.roughness, m.normalScale, m.occlusionStrength);
+  g.emissive = glm::vec4(m.emissive * m.emissiveStrength, m.alphaCutoff);
+  uint32_t flags = 0;
+  for (size_t slot = 0; slot < scene::Material::kTextureSlots; ++slot) {
+    const scene::TextureRef& t = m.texture(slot);
+    if (t.present()) flags |= 1u << slot;
+    // KHR_texture_transform: translation * rotation * scale, rows of the 2x3 matrix.
+    const float c = std::cos(t.rotation), s = std::sin(t.rotation);
+    g.uvTransform[2 * slot] = glm::vec4(c * t.scale.x, s * t.scale.y, t.offset.x, 0.0f);
+    g.uvTransform[2 * slot + 1] = glm::vec4(-s * t.scale.x, c * t.scale.y, t.offset.y, 0.0f);
+  }
+  if (m.alphaMode == scene::AlphaMode::mask) flags |= MYRIAD_MATERIAL_ALPHA_MASK;
+  if (m.alphaMode == scene::AlphaMode::blend) flags |= MYRIAD_MATERIAL_ALPHA_BLEND;
+  if (m.doubleSided) flags |= MYRIAD_MATERIAL_DOUBLE_SIDED;
+  g.flags = glm::uvec4(flags, 0, 0, 0);
+  return g;
 }
 
 // Element writes in index order, the last write of an index winning, merged into runs of
@@ -131,7 +149,7 @@ float circumscribeScale(const scene::Mesh& mesh) {
 }
 
 SceneBuffers::SceneBuffers(gpu::Context& context, gpu::CommandRecorder& recorder,
-                           const scene::Scene& scene)
+                           const scene::Scene& scene, VkDescriptorSetLayout materialSetLayout)
     : context(context), arena(context, kSceneBlockSize),
       lightArena(std::make_unique<gpu::Arena>(context, kLightBlockSize)) {
   std::vector<scene::Vertex> allVertices;
@@ -164,8 +182,15 @@ SceneBuffers::SceneBuffers(gpu::Context& context, gpu::CommandRecorder& recorder
     g.normalMatrix = glm::transpose(glm::inverse(instance.transform));
     g.material = glm::uvec4(instance.material, 0, 0, 0);
     gpuInstances.push_back(g);
-    if (ranges[instance.mesh].indexCount > 0) draws.push_back({ranges[instance.mesh], i});
+    if (ranges[instance.mesh].indexCount > 0) {
+      draws.push_back({ranges[instance.mesh], i, instance.material});
+    }
   }
+  // One descriptor set bind per material in the G-buffer pass.
+  std::stable_sort(draws.begin(), draws.end(),
+                   [](const DrawItem& a, const DrawItem& b) { return a.material < b.material; });
+  for (const scene::Material& m : scene.materials) doubleSided.push_back(m.doubleSided ? 1 : 0);
+  textures = std::make_unique<MaterialTextures>(context, recorder, materialSetLayout, scene);
   std::vector<GpuMaterial> gpuMaterials;
   for (const scene::Material& m : scene.materials) gpuMaterials.push_back(toGpu(m));
   materialCount = static_cast<uint32_t>(gpuMaterials.size());
@@ -289,6 +314,7 @@ void SceneBuffers::updateMaterials(gpu::CommandRecorder& recorder,
   std::vector<Upload> uploads = elementUploads<GpuMaterial>(
       writes, materials, staged, [](const MaterialWrite& w) { return toGpu(w.material); });
   transfer(context, recorder, {}, uploads);
+  for (const MaterialWrite& w : writes) doubleSided[w.index] = w.material.doubleSided ? 1 : 0;
 }
 
 }  // namespace myriad::render

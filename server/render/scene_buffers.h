@@ -12,6 +12,7 @@
 #include "gpu/context.h"
 #include "gpu/resources.h"
 #include "render/frame.h"
+#include "render/textures.h"
 #include "scene/scene.h"
 
 namespace myriad::render {
@@ -25,11 +26,14 @@ struct MeshRange {
 struct DrawItem {
   MeshRange mesh;
   uint32_t instance = 0;  // index into the instance buffer, passed as firstInstance
+  uint32_t material = 0;  // the instance's material: draws are sorted by it
 };
 
 struct SceneBuffers {
-  // Throws std::invalid_argument when an instance names a missing mesh or material.
-  SceneBuffers(gpu::Context& context, gpu::CommandRecorder& recorder, const scene::Scene& scene);
+  // Throws std::invalid_argument when an instance names a missing mesh or material, or a material
+  // a missing image. `materialSetLayout`: the layout of set 3 (Pipelines::materialSetLayout).
+  SceneBuffers(gpu::Context& context, gpu::CommandRecorder& recorder, const scene::Scene& scene,
+               VkDescriptorSetLayout materialSetLayout);
 
   // See LightUpdate (render/frame.h). Validates before touching anything: on
   // std::invalid_argument the scene is unchanged.
@@ -38,7 +42,9 @@ struct SceneBuffers {
   void updateMaterials(gpu::CommandRecorder& recorder, const std::vector<MaterialWrite>& writes);
 
   // GPU memory this scene holds.
-  uint64_t bytes() const { return arena.bytesAllocated() + lightArena->bytesAllocated(); }
+  uint64_t bytes() const {
+    return arena.bytesAllocated() + lightArena->bytesAllocated() + textures->bytes();
+  }
 
   gpu::Context& context;
   gpu::Arena arena;                        // geometry, instances, materials
@@ -49,7 +55,9 @@ struct SceneBuffers {
   gpu::Buffer materials;
   gpu::Buffer lights;        // where the lights are this frame (animation writes here)
   gpu::Buffer lightOrigins;  // where the scene put them
-  std::vector<DrawItem> draws;
+  std::vector<DrawItem> draws;         // grouped by material
+  std::unique_ptr<MaterialTextures> textures;
+  std::vector<uint8_t> doubleSided;   // per material: whether back faces are drawn
   MeshRange lightProxy;  // icosphere circumscribing the unit sphere (volumes, markers)
   uint32_t lightCount = 0;
   uint32_t lightCapacity = 0;  // lights the two light buffers hold

@@ -3,6 +3,9 @@
 #include <algorithm>
 #include <cctype>
 #include <cmath>
+#include <functional>
+#include <map>
+#include <memory>
 #include <optional>
 #include <string>
 #include <system_error>
@@ -10,6 +13,7 @@
 #include <vector>
 
 #include <assimp/DefaultIOSystem.h>
+#include <assimp/GltfMaterial.h>
 #include <assimp/MemoryIOWrapper.h>
 #include <assimp/material.h>
 #include <assimp/postprocess.h>
@@ -17,6 +21,7 @@
 #include <assimp/Importer.hpp>
 
 #include "scene/camera.h"
+#include "scene/image_decode.h"
 #include "scene/memory_files.h"
 
 namespace myriad::scene {
@@ -200,6 +205,284 @@ Material convertMaterial(const aiMaterial& source, size_t index) {
   return material;
 }
 
+// Reads the images a model's materials use, once each, through the importer's IOSystem (so an
+// upload reads only its own members, a library model only its own directory), and decodes them
+// under ImageLimits. glTF says exactly which images it needs, so there a missing or unreadable
+// one refuses the model; the older formats often name files from their author's disk, so there a
+// missing texture leaves the material untextured. A corrupt image, or one over a limit, refuses
+// the model in every format.
+class ImageCollector {
+ public:
+  ImageCollector(const aiScene& source, Assimp::IOSystem* io, std::string directory, bool strict,
+                 const std::string& name, Scene& scene)
+      : source_(source), io_(io), directory_(std::move(directory)), strict_(strict), name_(name),
+        scene_(scene) {}
+
+  // The scene image for the material texture `path`, or TextureRef::kNone.
+  uint32_t imageFor(const aiString& path) {
+    const std::string key(path.C_Str());
+    if (key.empty()) return TextureRef::kNone;
+    if (auto it = byPath_.find(key); it != byPath_.end()) return it->second;
+    const uint32_t index = load(key);
+    byPath_.emplace(key, index);
+    return index;
+  }
+
+ private:
+  uint32_t add(Image image) {
+    if (scene_.images.size() >= limits_.maxImages) {
+      fail(name_,
+           "it uses more than " + std::to_string(limits_.maxImages) +
+               " images (the image count limit)",
+           Kind::tooLarge);
+    }
+    used_ += image.rgba.size();
+    scene_.images.push_back(std::move(image));
+    return uint32_t(scene_.images.size() - 1);
+  }
+
+  uint32_t decode(std::string_view bytes, const std::string& label) {
+    // Counted before decoding, so a model of a thousand tiny images is refused at the limit.
+    if (scene_.images.size() >= limits_.maxImages) {
+      fail(name_,
+           "it uses more than " + std::to_string(limits_.maxImages) +
+               " images (the image count limit)",
+           Kind::tooLarge);
+    }
+    Image image;
+    try {
+      image = decodeImage(bytes, label, limits_, limits_.maxDecodedBytes - used_);
+    } catch (const ModelLoadError& e) {
+      // Over a limit: refused in every format. A corrupt image, or one in a format this server
+      // does not decode (TGA, BMP, DDS are common in OBJ and FBX files): refused in glTF, whose
+      // images are PNG or JPEG by the spec; elsewhere the material stays untextured.
+      if (e.kind() != Kind::tooLarge && !strict_) return TextureRef::kNone;
+      fail(name_, e.what(), e.kind());
+    }
+    image.name = label;
+    return add(std::move(image));
+  }
+
+  uint32_t load(const std::string& key) {
+    // Embedded: "*N" (glTF buffer views and data URIs, GLB) or a file name FBX embeds.
+    if (const aiTexture* texture = source_.GetEmbeddedTexture(key.c_str())) {
+      const std::string label =
+          texture->mFilename.length > 0 ? std::string(texture->mFilename.C_Str()) : key;
+      if (texture->pcData == nullptr) fail(name_, "the embedded image '" + label + "' is empty");
+      if (texture->mHeight == 0) {
+        return decode(std::string_view(reinterpret_cast<const char*>(texture->pcData),
+                                       texture->mWidth),
+                      label);
+      }
+      return addTexels(*texture, label);
+    }
+    if (key.front() == '*') {
+      fail(name_, "it refers to the embedded image '" + key + "', which it does not hold");
+    }
+    if (io_ == nullptr) return missing(key);
+    // As written, percent-decoded (glTF URIs), and with '\\' as '/' (models made on Windows:
+    // "map_Kd .\\wood.jpg").
+    std::string slashed = key;
+    std::replace(slashed.begin(), slashed.end(), '\\', '/');
+    for (const std::string& candidate : {key, percentDecoded(key), slashed}) {
+      const std::string path = directory_.empty() ? candidate : directory_ + "/" + candidate;
+      if (!io_->Exists(path.c_str())) continue;
+      std::unique_ptr<Assimp::IOStream, std::function<void(Assimp::IOStream*)>> stream(
+          io_->Open(path.c_str(), "rb"), [this](Assimp::IOStream* s) { io_->Close(s); });
+      if (!stream) continue;
+      const size_t size = stream->FileSize();
+      // A compressed image larger than the decoded budget cannot be a valid one within it.
+      if (size > limits_.maxDecodedBytes) {
+        fail(name_, "the image '" + candidate + "' is larger than the " +
+                        std::to_string(limits_.maxDecodedBytes >> 20) +
+                        " MiB limit of decoded image bytes per model",
+             Kind::tooLarge);
+      }
+      std::string bytes(size, '\0');
+      if (size > 0 && stream->Read(bytes.data(), 1, size) != size) {
+        fail(name_, "the image '" + candidate + "' could not be read");
+      }
+      return decode(bytes, candidate);
+    }
+    return missing(key);
+  }
+
+  uint32_t missing(const std::string& key) {
+    if (strict_ && io_ == nullptr) {
+      fail(name_,
+           "it refers to the separate image '" + key +
+               "', which an upload of one file cannot carry (send a .glb, a .zip of the model "
+               "and its files, or several files)",
+           Kind::unsupported);
+    }
+    if (strict_) fail(name_, "it refers to the image '" + key + "', which is missing");
+    return TextureRef::kNone;
+  }
+
+  // Uncompressed embedded texels (aiTexel is B, G, R, A).
+  uint32_t addTexels(const aiTexture& texture, const std::string& label) {
+    if (texture.mWidth > limits_.maxDimension || texture.mHeight > limits_.maxDimension) {
+      fail(name_, "the image '" + label + "' is over the texture dimension limit of " +
+                      std::to_string(limits_.maxDimension), Kind::tooLarge);
+    }
+    Image image;
+    image.name = label;
+    image.width = texture.mWidth;
+    image.height = texture.mHeight;
+    const size_t count = size_t(image.width) * image.height;
+    if (count * 4 > limits_.maxDecodedBytes - used_) {
+      fail(name_, "its images decode to more than the limit of " +
+                      std::to_string(limits_.maxDecodedBytes >> 20) +
+                      " MiB of decoded image bytes per model", Kind::tooLarge);
+    }
+    image.rgba.resize(count * 4);
+    for (size_t i = 0; i < count; ++i) {
+      const aiTexel& t = texture.pcData[i];
+      image.rgba[4 * i + 0] = t.r;
+      image.rgba[4 * i + 1] = t.g;
+      image.rgba[4 * i + 2] = t.b;
+      image.rgba[4 * i + 3] = t.a;
+    }
+    return add(std::move(image));
+  }
+
+  static std::string percentDecoded(const std::string& uri) {
+    std::string out;
+    for (size_t i = 0; i < uri.size(); ++i) {
+      if (uri[i] == '%' && i + 2 < uri.size() && std::isxdigit((unsigned char)uri[i + 1]) &&
+          std::isxdigit((unsigned char)uri[i + 2])) {
+        out += char(std::stoi(uri.substr(i + 1, 2), nullptr, 16));
+        i += 2;
+      } else {
+        out += uri[i];
+      }
+    }
+    return out;
+  }
+
+  const aiScene& source_;
+  Assimp::IOSystem* io_;
+  std::string directory_;
+  bool strict_;
+  const std::string& name_;
+  Scene& scene_;
+  ImageLimits limits_;
+  uint64_t used_ = 0;
+  std::map<std::string, uint32_t> byPath_;
+};
+
+Sampler::Wrap wrapOf(int mode) {
+  return mode == aiTextureMapMode_Clamp    ? Sampler::Wrap::clampToEdge
+         : mode == aiTextureMapMode_Mirror ? Sampler::Wrap::mirroredRepeat
+                                           : Sampler::Wrap::repeat;
+}
+
+// KHR_texture_transform back from Assimp's aiUVTransform. Assimp 5.2.5's glTF importer turns
+// (offset o, rotation r, scale s) into a transform about its bottom-left uv origin:
+//   scaling = s, rotation = -r,
+//   translation.x = 0.5 s.x (-cos r + sin r + 1) + o.x,
+//   translation.y = 0.5 s.y (sin r + cos r - 1) + 1 - s.y - o.y,
+// and FlipUVs (back to glTF's top-left origin) negates translation.y and rotation. Inverting both
+// gives the file's values (glTF2/textureTransform/TextureTransformTest.gltf checks this).
+void readTextureTransform(const aiMaterial& source, aiTextureType type, TextureRef& ref) {
+  aiUVTransform t;
+  if (source.Get(AI_MATKEY_UVTRANSFORM(type, 0), t) != AI_SUCCESS) return;
+  const float r = t.mRotation;
+  const float c = std::cos(r), s = std::sin(r);
+  const glm::vec2 scale(t.mScaling.x, t.mScaling.y);
+  const glm::vec2 offset(t.mTranslation.x - 0.5f * scale.x * (-c + s + 1.0f),
+                         t.mTranslation.y + 0.5f * scale.y * (s + c - 1.0f) + 1.0f - scale.y);
+  if (!std::isfinite(r + scale.x + scale.y + offset.x + offset.y)) return;
+  ref.rotation = std::clamp(r, -1e6f, 1e6f);
+  ref.scale = glm::clamp(scale, glm::vec2(-1e6f), glm::vec2(1e6f));
+  ref.offset = glm::clamp(offset, glm::vec2(-1e6f), glm::vec2(1e6f));
+}
+
+// The texture of `type` (index 0) of `source`, with its sampler, into `ref`.
+bool readTexture(const aiMaterial& source, aiTextureType type, ImageCollector& images,
+                 TextureRef& ref) {
+  aiString path;
+  if (source.GetTextureCount(type) == 0 || source.GetTexture(type, 0, &path) != AI_SUCCESS) {
+    return false;
+  }
+  const uint32_t image = images.imageFor(path);
+  if (image == TextureRef::kNone) return false;
+  ref = TextureRef{};
+  ref.image = image;
+  readTextureTransform(source, type, ref);
+  int mode = 0;
+  if (source.Get(AI_MATKEY_MAPPINGMODE_U(type, 0), mode) == AI_SUCCESS) ref.sampler.wrapS = wrapOf(mode);
+  if (source.Get(AI_MATKEY_MAPPINGMODE_V(type, 0), mode) == AI_SUCCESS) ref.sampler.wrapT = wrapOf(mode);
+  // glTF's sampler filters (GL enums); absent means "the renderer's choice": linear, mipmapped.
+  int filter = 0;
+  if (source.Get(AI_MATKEY_GLTF_MAPPINGFILTER_MAG(type, 0), filter) == AI_SUCCESS) {
+    ref.sampler.magFilter = filter == 9728 ? Sampler::Filter::nearest : Sampler::Filter::linear;
+  }
+  if (source.Get(AI_MATKEY_GLTF_MAPPINGFILTER_MIN(type, 0), filter) == AI_SUCCESS) {
+    // 9728 NEAREST, 9729 LINEAR, 9984 NEAREST_MIPMAP_NEAREST, 9985 LINEAR_MIPMAP_NEAREST,
+    // 9986 NEAREST_MIPMAP_LINEAR, 9987 LINEAR_MIPMAP_LINEAR
+    const bool nearest = filter == 9728 || filter == 9984 || filter == 9986;
+    ref.sampler.minFilter = nearest ? Sampler::Filter::nearest : Sampler::Filter::linear;
+    ref.sampler.mipmaps = filter >= 9984 && filter <= 9987;
+    ref.sampler.mipmapFilter =
+        filter == 9984 || filter == 9985 ? Sampler::Filter::nearest : Sampler::Filter::linear;
+  }
+  return true;
+}
+
+
+// The glTF material beyond the factors convertMaterial reads, and the textures of every format.
+void readMaterialExtras(const aiMaterial& source, bool gltf, ImageCollector& images,
+                        Material& material) {
+  if (!readTexture(source, aiTextureType_BASE_COLOR, images, material.baseColorTexture)) {
+    readTexture(source, aiTextureType_DIFFUSE, images, material.baseColorTexture);
+  }
+  if (!gltf) return;  // the other formats' maps mean other things (bump, specular, ...)
+
+  aiColor4D color;
+  if (source.Get(AI_MATKEY_BASE_COLOR, color) == AI_SUCCESS) {
+    material.alpha = clampOr(color.a, 0.0f, 1.0f, 1.0f);
+  }
+  aiColor3D emissive;
+  if (source.Get(AI_MATKEY_COLOR_EMISSIVE, emissive) == AI_SUCCESS) {
+    material.emissive = {clampOr(emissive.r, 0.0f, 1.0f, 0.0f), clampOr(emissive.g, 0.0f, 1.0f, 0.0f),
+                         clampOr(emissive.b, 0.0f, 1.0f, 0.0f)};
+  }
+  float value = 0.0f;
+  if (source.Get(AI_MATKEY_EMISSIVE_INTENSITY, value) == AI_SUCCESS) {
+    material.emissiveStrength = clampOr(value, 0.0f, 1e4f, 1.0f);
+  }
+  aiString alphaMode;
+  if (source.Get(AI_MATKEY_GLTF_ALPHAMODE, alphaMode) == AI_SUCCESS) {
+    const std::string mode = alphaMode.C_Str();
+    material.alphaMode = mode == "MASK"    ? AlphaMode::mask
+                         : mode == "BLEND" ? AlphaMode::blend
+                                           : AlphaMode::opaque;
+  }
+  if (source.Get(AI_MATKEY_GLTF_ALPHACUTOFF, value) == AI_SUCCESS) {
+    material.alphaCutoff = clampOr(value, 0.0f, 1.0f, 0.5f);
+  }
+  int twoSided = 0;
+  material.doubleSided = source.Get(AI_MATKEY_TWOSIDED, twoSided) == AI_SUCCESS && twoSided != 0;
+
+  if (!readTexture(source, aiTextureType_UNKNOWN, images, material.metallicRoughnessTexture)) {
+    readTexture(source, aiTextureType_METALNESS, images, material.metallicRoughnessTexture);
+  }
+  if (readTexture(source, aiTextureType_NORMALS, images, material.normalTexture) &&
+      source.Get(AI_MATKEY_GLTF_TEXTURE_SCALE(aiTextureType_NORMALS, 0), value) == AI_SUCCESS) {
+    material.normalScale = clampOr(value, -100.0f, 100.0f, 1.0f);
+  }
+  if ((readTexture(source, aiTextureType_LIGHTMAP, images, material.occlusionTexture) &&
+       source.Get(AI_MATKEY_GLTF_TEXTURE_STRENGTH(aiTextureType_LIGHTMAP, 0), value) ==
+           AI_SUCCESS) ||
+      (readTexture(source, aiTextureType_AMBIENT_OCCLUSION, images, material.occlusionTexture) &&
+       source.Get(AI_MATKEY_GLTF_TEXTURE_STRENGTH(aiTextureType_AMBIENT_OCCLUSION, 0), value) ==
+           AI_SUCCESS)) {
+    material.occlusionStrength = clampOr(value, 0.0f, 1.0f, 1.0f);
+  }
+  readTexture(source, aiTextureType_EMISSIVE, images, material.emissiveTexture);
+}
+
 // Copies the triangles of `source` whose corners are all finite and in range, keeping only the
 // vertices they use: an unreferenced NaN vertex would otherwise still poison the bounds.
 Mesh convertMesh(const aiMesh& source, size_t index) {
@@ -241,6 +524,25 @@ Mesh convertMesh(const aiMesh& source, size_t index) {
         }
         if (uvs != nullptr && std::isfinite(uvs[i].x) && std::isfinite(uvs[i].y)) {
           vertex.uv = {uvs[i].x, uvs[i].y};
+        }
+        // glTF TANGENT arrives as Assimp's tangent and bitangent (w * cross(n, t)): w is recovered
+        // from their orientation. Unusable ones are left at w = 0 (derived per pixel instead).
+        if (normalOk && source.mTangents != nullptr && source.mBitangents != nullptr &&
+            isFinite(source.mTangents[i]) && isFinite(source.mBitangents[i])) {
+          const glm::vec3 t(source.mTangents[i].x, source.mTangents[i].y, source.mTangents[i].z);
+          const glm::vec3 b(source.mBitangents[i].x, source.mBitangents[i].y,
+                            source.mBitangents[i].z);
+          const float length = glm::length(t);
+          if (length > 1e-12f && std::isfinite(length)) {
+            const float w = glm::dot(glm::cross(vertex.normal, t), b) < 0.0f ? -1.0f : 1.0f;
+            vertex.tangent = glm::vec4(t / length, w);
+          }
+        }
+        if (source.mColors[0] != nullptr) {
+          const aiColor4D& c = source.mColors[0][i];
+          if (std::isfinite(c.r + c.g + c.b + c.a)) {
+            vertex.color = glm::clamp(glm::vec4(c.r, c.g, c.b, c.a), 0.0f, 1.0f);
+          }
         }
         mesh.vertices.push_back(vertex);
         needsNormal.push_back(!normalOk);
@@ -552,8 +854,15 @@ void fitLightFalloff(Scene& scene, const std::vector<bool>& radiusGiven, float s
   }
 }
 
-// Turns what Assimp read (`raw`: validated, not yet post-processed) into a Scene.
-Scene convertImport(Assimp::Importer& importer, const aiScene* raw, const std::string& name) {
+bool isGltf(const std::string& name) {
+  const std::string extension = lowerExtension(std::filesystem::path(name).extension().string());
+  return extension == "gltf" || extension == "glb";
+}
+
+// Turns what Assimp read (`raw`: validated, not yet post-processed) into a Scene. Images are read
+// through `io` (null: none can be), relative to `directory` (a path `io` understands).
+Scene convertImport(Assimp::Importer& importer, const aiScene* raw, const std::string& name,
+                    Assimp::IOSystem* io, const std::string& directory) {
   bool anyTriangles = false;
   bool anyNonFinite = false;
   for (unsigned m = 0; raw->mMeshes != nullptr && m < raw->mNumMeshes; ++m) {
@@ -590,6 +899,18 @@ Scene convertImport(Assimp::Importer& importer, const aiScene* raw, const std::s
   if (scene.instances.empty()) {
     fail(name, anyNonFinite ? nonFinite : noTriangles, Kind::empty);
   }
+  // Images only for the materials something is drawn with (after the walk, so unused materials'
+  // images are neither read nor counted against the limits).
+  {
+    std::vector<bool> used(scene.materials.size(), false);
+    for (const Instance& instance : scene.instances) used[instance.material] = true;
+    ImageCollector images(*source, io, directory, isGltf(name), name, scene);
+    for (unsigned i = 0; i < source->mNumMaterials && i < scene.materials.size(); ++i) {
+      if (used[i] && source->mMaterials[i] != nullptr) {
+        readMaterialExtras(*source->mMaterials[i], isGltf(name), images, scene.materials[i]);
+      }
+    }
+  }
   const Bounds bounds = scene.bounds();
   const glm::vec3 size = bounds.size();
   if (!std::isfinite(size.x + size.y + size.z) || !std::isfinite(glm::length(size))) {
@@ -618,7 +939,8 @@ Scene loadModel(const std::filesystem::path& path) {
   // validation first (indices in range, counts consistent), then the steps above.
   const aiScene* raw = importer.ReadFile(absolute.string(), aiProcess_ValidateDataStructure);
   if (raw == nullptr) fail(name, importer.GetErrorString());
-  return convertImport(importer, raw, name);
+  return convertImport(importer, raw, name, importer.GetIOHandler(),
+                       absolute.parent_path().string());
 }
 
 Scene loadModelFromMemory(std::string_view bytes, std::string_view filename) {
@@ -651,7 +973,7 @@ Scene loadModelFromMemory(std::string_view bytes, std::string_view filename) {
     }
     fail(name, importer.GetErrorString());
   }
-  return convertImport(importer, raw, name);
+  return convertImport(importer, raw, name, nullptr, "");
 }
 
 Scene loadModelFromFiles(const MemoryFiles& files, std::string_view entry) {
@@ -675,7 +997,8 @@ Scene loadModelFromFiles(const MemoryFiles& files, std::string_view entry) {
     }
     fail(name, importer.GetErrorString());
   }
-  return convertImport(importer, raw, name);
+  const std::string folder = std::filesystem::path(std::string(entry)).parent_path().generic_string();
+  return convertImport(importer, raw, name, importer.GetIOHandler(), folder);
 }
 
 bool isSupportedModelExtension(std::string_view extension) {

@@ -15,6 +15,11 @@ struct Vertex {
   glm::vec3 position{0.0f};
   glm::vec3 normal{0.0f, 1.0f, 0.0f};
   glm::vec2 uv{0.0f};
+  // xyz the tangent (along +u), w the bitangent's sign (bitangent = w * cross(normal, tangent)),
+  // as glTF's TANGENT. w = 0: the file gave none; the G-buffer pass then derives a tangent frame
+  // per pixel from screen-space derivatives of position and uv.
+  glm::vec4 tangent{0.0f};
+  glm::vec4 color{1.0f};  // COLOR_0, linear RGBA (white where the file has none)
 };
 
 struct Mesh {
@@ -23,13 +28,76 @@ struct Mesh {
   std::vector<uint32_t> indices;  // triangle list, counter-clockwise front faces
 };
 
-// glTF 2.0 metallic-roughness factors. Base colour is linear RGB.
+// A decoded texture image: RGBA8, rows top first, as the file stored it (base colour and emissive
+// images are sRGB-encoded, the data maps linear; the renderer views each as its use needs).
+struct Image {
+  std::string name;
+  uint32_t width = 0;
+  uint32_t height = 0;
+  std::vector<uint8_t> rgba;  // width * height * 4 bytes
+};
+
+// How a texture is sampled (glTF samplers; formats that do not say get the defaults).
+struct Sampler {
+  enum class Wrap : uint8_t { repeat, clampToEdge, mirroredRepeat };
+  enum class Filter : uint8_t { linear, nearest };
+  Wrap wrapS = Wrap::repeat;
+  Wrap wrapT = Wrap::repeat;
+  Filter magFilter = Filter::linear;
+  Filter minFilter = Filter::linear;
+  bool mipmaps = true;                  // the minification filter reads the mip chain
+  Filter mipmapFilter = Filter::linear;  // between mip levels
+
+  bool operator==(const Sampler&) const = default;
+};
+
+// A material's use of an image. KHR_texture_transform: uv' = T(offset) R(rotation) S(scale) uv.
+struct TextureRef {
+  static constexpr uint32_t kNone = UINT32_MAX;
+  uint32_t image = kNone;  // index into Scene::images
+  Sampler sampler;
+  glm::vec2 offset{0.0f};
+  glm::vec2 scale{1.0f};
+  float rotation = 0.0f;  // radians, counter-clockwise in uv space
+  uint32_t texCoord = 0;  // only set 0 is carried
+
+  bool present() const { return image != kNone; }
+};
+
+enum class AlphaMode : uint8_t { opaque, mask, blend };
+
+// The glTF 2.0 metallic-roughness material. Colours are linear RGB.
 struct Material {
   std::string name;
   glm::vec3 baseColor{0.8f};
   float metallic = 0.0f;
   float roughness = 0.5f;
+  float alpha = 1.0f;               // base colour alpha factor
+  glm::vec3 emissive{0.0f};         // emissiveFactor
+  float emissiveStrength = 1.0f;    // KHR_materials_emissive_strength
+  float normalScale = 1.0f;         // normalTexture.scale
+  float occlusionStrength = 1.0f;   // occlusionTexture.strength
+  AlphaMode alphaMode = AlphaMode::opaque;
+  float alphaCutoff = 0.5f;         // MASK: fragments with alpha below it are not drawn
+  bool doubleSided = true;          // false: back faces culled (formats that do not say: true)
+  TextureRef baseColorTexture;          // sRGB, RGBA: colour and alpha
+  TextureRef metallicRoughnessTexture;  // linear: B metallic, G roughness
+  TextureRef normalTexture;             // linear: tangent-space normal
+  TextureRef occlusionTexture;          // linear: R occlusion
+  TextureRef emissiveTexture;           // sRGB
+
+  // The five references in a fixed order (the order of the GPU descriptor bindings).
+  static constexpr size_t kTextureSlots = 5;
+  const TextureRef& texture(size_t slot) const {
+    const TextureRef* refs[] = {&baseColorTexture, &metallicRoughnessTexture, &normalTexture,
+                                &occlusionTexture, &emissiveTexture};
+    return *refs[slot];
+  }
+  TextureRef& texture(size_t slot) {
+    return const_cast<TextureRef&>(static_cast<const Material&>(*this).texture(slot));
+  }
 };
+
 
 // One placement of a mesh in the world.
 struct Instance {
@@ -120,6 +188,7 @@ struct Scene {
   std::vector<Mesh> meshes;
   std::vector<Material> materials;
   std::vector<Instance> instances;
+  std::vector<Image> images;  // what the materials' TextureRefs index
   std::vector<PointLight> lights;
   Sun sun;
   std::vector<Sun> extraSuns;  // at most kMaxExtraSuns more directional lights (a model's)

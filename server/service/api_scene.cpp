@@ -172,7 +172,7 @@ void getMaterials(ApiContext& context, const httplib::Request& req, httplib::Res
   const std::vector<scene::Material>& materials = session->scene.materials();
   protocol::MaterialsList list;
   list.materials.reserve(materials.size());
-  for (uint32_t i = 0; i < materials.size(); ++i) list.materials.push_back(toWire(i, materials[i]));
+  for (uint32_t i = 0; i < materials.size(); ++i) list.materials.push_back(toWire(i, materials[i], session->scene.model().images));
   sendJson(res, list);
 }
 
@@ -190,7 +190,7 @@ void patchMaterial(ApiContext& context, const httplib::Request& req, httplib::Re
     uploaded = context.renderThread.updateMaterials(session->sceneId,
                                                     {scene.patchMaterial(id, patch)});
     session->bump();
-    result = toWire(id, scene.materials()[id]);
+    result = toWire(id, scene.materials()[id], scene.model().images);
   }
   uploaded.get();
   sendJson(res, result);

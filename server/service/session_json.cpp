@@ -95,14 +95,45 @@ render::Technique techniqueFromWire(std::string_view name) {
   return *technique;
 }
 
-protocol::Material toWire(uint32_t id, const scene::Material& m) {
+protocol::Material toWire(uint32_t id, const scene::Material& m,
+                          const std::vector<ModelSummary::Image>& images) {
   protocol::Material out;
   out.id = id;
   out.name = m.name;
   out.baseColor = toWire(m.baseColor);
   out.metallic = wire(m.metallic);
   out.roughness = wire(m.roughness);
+  out.alpha = wire(m.alpha);
+  out.emissive = toWire(m.emissive);
+  out.emissiveStrength = wire(m.emissiveStrength);
+  out.normalScale = wire(m.normalScale);
+  out.occlusionStrength = wire(m.occlusionStrength);
+  out.alphaMode = std::string(protocol::kAlphaModes[size_t(m.alphaMode)]);
+  out.alphaCutoff = wire(m.alphaCutoff);
+  out.doubleSided = m.doubleSided;
+  for (size_t slot = 0; slot < scene::Material::kTextureSlots; ++slot) {
+    const scene::TextureRef& t = m.texture(slot);
+    if (!t.present() || t.image >= images.size()) continue;
+    protocol::MaterialTexture texture;
+    texture.slot = std::string(protocol::kTextureSlots[slot]);
+    texture.image = images[t.image].name;
+    texture.width = images[t.image].width;
+    texture.height = images[t.image].height;
+    texture.wrapS = std::string(protocol::kWrapModes[size_t(t.sampler.wrapS)]);
+    texture.wrapT = std::string(protocol::kWrapModes[size_t(t.sampler.wrapT)]);
+    texture.magFilter = std::string(protocol::kFilters[size_t(t.sampler.magFilter)]);
+    texture.minFilter = std::string(protocol::kFilters[size_t(t.sampler.minFilter)]);
+    texture.mipmaps = t.sampler.mipmaps;
+    out.textures.push_back(std::move(texture));
+  }
   return out;
+}
+
+scene::AlphaMode alphaModeFromWire(std::string_view name) {
+  for (size_t i = 0; i < protocol::kAlphaModes.size(); ++i) {
+    if (protocol::kAlphaModes[i] == name) return scene::AlphaMode(i);
+  }
+  throw ProblemError(invalidBody("/alphaMode", "\"alphaMode\" must be one of opaque, mask, blend."));
 }
 
 protocol::LightNew toWireNew(const scene::PointLight& l) {

@@ -26,7 +26,11 @@ protocol::Settings toWire(const SessionScene& scene);
 // Throws ProblemError 400 (/environment/mode) for a name that is no environment mode.
 render::EnvironmentMode environmentModeFromWire(std::string_view name);
 
-protocol::Material toWire(uint32_t id, const scene::Material& material);
+// `images`: the model's (ModelSummary::images), which the material's textures index.
+protocol::Material toWire(uint32_t id, const scene::Material& material,
+                          const std::vector<ModelSummary::Image>& images);
+// Throws ProblemError 400 (/alphaMode) for a name not in protocol::kAlphaModes.
+scene::AlphaMode alphaModeFromWire(std::string_view name);
 protocol::Light toWire(uint64_t id, const scene::PointLight& light);
 // Check the light's members together (protocol::checkLight) and convert it; a broken light throws
 // ProblemError 400 naming `pointer` + the member ("/lights/3/innerConeAngle").

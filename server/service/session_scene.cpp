@@ -34,6 +34,9 @@ ModelSummary summarize(const scene::Scene& scene, std::string source) {
   summary.instances = scene.instances.size();
   summary.materials = scene.materials.size();
   summary.bounds = scene.bounds();
+  for (const scene::Image& image : scene.images) {
+    summary.images.push_back({image.name, image.width, image.height});
+  }
   summary.cameras = scene.cameras;
   for (const scene::PointLight& light : scene.lights) {
     (light.type == scene::LightType::Spot ? summary.spotLights : summary.pointLights) += 1;
@@ -237,7 +240,7 @@ protocol::Snapshot SessionScene::snapshot() const {
   out.settings = toWire(settings_);
   if (environmentImage_) out.settings.environment.source = environmentSource_;
   out.materials.reserve(materials_.size());
-  for (uint32_t id = 0; id < materials_.size(); ++id) out.materials.push_back(toWire(id, materials_[id]));
+  for (uint32_t id = 0; id < materials_.size(); ++id) out.materials.push_back(toWire(id, materials_[id], model_.images));
   if (recipe_) {
     out.lights.generated = protocol::LightsRecipe{recipe_->count, recipe_->seed};
   } else {
@@ -287,8 +290,17 @@ SessionScene::Restored SessionScene::restore(const protocol::Snapshot& snapshot,
           "The session's model has no material " + std::to_string(m.id) + " (it has " +
               std::to_string(next.materials_.size()) + "): a snapshot restores onto its own model."));
     }
-    protocol::MaterialPatch patch{m.baseColor, m.metallic, m.roughness};
-    restored.materials.push_back(next.patchMaterial(m.id, patch));
+    const protocol::MaterialPatch patch{m.baseColor,        m.metallic,    m.roughness,
+                                        m.alpha,            m.emissive,    m.emissiveStrength,
+                                        m.normalScale,      m.occlusionStrength, m.alphaMode,
+                                        m.alphaCutoff,      m.doubleSided};
+    try {
+      restored.materials.push_back(next.patchMaterial(m.id, patch));
+    } catch (const ProblemError& e) {
+      throw ProblemError(invalidBody(at + "/materials/" + std::to_string(i) +
+                                         e.problem().pointer.value_or(""),
+                                     e.problem().detail));
+    }
   }
   const protocol::SnapshotLights& lights = snapshot.lights;
   if (lights.generated.has_value() == lights.list.has_value()) {
@@ -333,6 +345,14 @@ render::MaterialWrite SessionScene::patchMaterial(uint32_t id,
   if (patch.baseColor) material.baseColor = fromWire(*patch.baseColor);
   if (patch.metallic) material.metallic = float(*patch.metallic);
   if (patch.roughness) material.roughness = float(*patch.roughness);
+  if (patch.alpha) material.alpha = float(*patch.alpha);
+  if (patch.emissive) material.emissive = fromWire(*patch.emissive);
+  if (patch.emissiveStrength) material.emissiveStrength = float(*patch.emissiveStrength);
+  if (patch.normalScale) material.normalScale = float(*patch.normalScale);
+  if (patch.occlusionStrength) material.occlusionStrength = float(*patch.occlusionStrength);
+  if (patch.alphaMode) material.alphaMode = alphaModeFromWire(*patch.alphaMode);
+  if (patch.alphaCutoff) material.alphaCutoff = float(*patch.alphaCutoff);
+  if (patch.doubleSided) material.doubleSided = *patch.doubleSided;
   return render::MaterialWrite{id, material};
 }
 

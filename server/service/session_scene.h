@@ -37,6 +37,12 @@ struct ModelSummary {
   size_t instances = 0;
   size_t materials = 0;
   scene::Bounds bounds;
+  // The model's texture images (their pixels stay on the GPU): what a material's textures list.
+  struct Image {
+    std::string name;
+    uint32_t width = 0, height = 0;
+  };
+  std::vector<Image> images;
   std::vector<scene::ModelCamera> cameras;  // the file's
   size_t pointLights = 0, spotLights = 0;    // the file's
   size_t directionalLights = 0;              // the file's, used or not
