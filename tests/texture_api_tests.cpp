@@ -633,3 +633,87 @@ TEST_CASE("textures: bad images are 422 naming the problem; the server stays hea
   CHECK(validationMessages(api) == 0);
   checkStopsCleanly(server);
 }
+
+TEST_CASE("textures: the material API edits the glTF factors and the pictures follow") {
+  const fs::path box = kAssimpModels / "glTF2/BoxTextured-glTF-Binary/BoxTextured.glb";
+  if (!fs::exists(box)) {
+    MESSAGE("no BoxTextured under /usr/share/assimp/models (install assimp-testmodels): skipped");
+    return;
+  }
+  ServerProcess server({"--lights", "2"});
+  requireListening(server);
+  ApiClient api(server);
+  TestSession s = helmetSession(api, readBytes(box), "box.glb", "application/octet-stream");
+  Reply list = api.get(s.path() + "/materials", s.token);
+  REQUIRE(list.status == 200);
+  const json& material = list.json["materials"][0];
+  REQUIRE(material["textures"].size() == 1);
+  CHECK(material["textures"][0]["slot"] == "baseColor");
+  CHECK(material["textures"][0]["width"] == 211);
+  CHECK(material["textures"][0]["minFilter"] == "nearest");  // NEAREST_MIPMAP_LINEAR
+  CHECK(material["textures"][0]["mipmaps"] == true);
+  CHECK(material["doubleSided"] == false);
+  const std::string path = s.path() + "/materials/0";
+
+  const Raw depth = rawFrame(api, s, "depth", 64, 64);
+  const float far = api.get(s.path() + "/camera", s.token).json["far"].get<float>();
+  // The surface's radiance (the background colour elsewhere is not the box's).
+  auto sum = [&](const Raw& raw) {
+    double total = 0;
+    for (int y = 0; y < 64; ++y) {
+      for (int x = 0; x < 64; ++x) {
+        if (depth.at(x, y, 0) >= far) continue;
+        for (int c = 0; c < raw.channels; ++c) total += raw.at(x, y, c);
+      }
+    }
+    return total;
+  };
+  // With every light off the box is black; an emissive factor makes it glow, its strength scales
+  // the glow exactly (emission is factor x strength x texture, and the box has no emissive map).
+  CHECK(sum(rawFrame(api, s, "final", 64, 64)) == 0.0);
+  Reply glow = api.patch(path, R"({"emissive": [0.5, 0.25, 0.0], "emissiveStrength": 2})", s.token);
+  REQUIRE(glow.status == 200);
+  CHECK(glow.json["emissiveStrength"] == 2.0);
+  const Raw emitted = rawFrame(api, s, "emissive", 64, 64);
+  int surface = 0;
+  for (int y = 0; y < 64; ++y) {
+    for (int x = 0; x < 64; ++x) {
+      if (depth.at(x, y, 0) >= far) continue;
+      ++surface;
+      CHECK(emitted.at(x, y, 0) == doctest::Approx(1.0).epsilon(1e-3));
+      CHECK(emitted.at(x, y, 1) == doctest::Approx(0.5).epsilon(1e-3));
+      CHECK(emitted.at(x, y, 2) == 0.0f);
+    }
+  }
+  CHECK(surface > 500);
+  CHECK(sum(rawFrame(api, s, "final", 64, 64)) > 0.0);
+
+  // alphaMode mask with a cutoff above the alpha: every pixel of the box is cut away.
+  REQUIRE(api.patch(path, R"({"alphaMode": "mask", "alpha": 0.4, "alphaCutoff": 0.5})", s.token).status == 200);
+  const Raw cut = rawFrame(api, s, "depth", 64, 64);
+  int left = 0;
+  for (int y = 0; y < 64; ++y) {
+    for (int x = 0; x < 64; ++x) left += cut.at(x, y, 0) < far;
+  }
+  CHECK(left == 0);
+  REQUIRE(api.patch(path, R"({"alphaCutoff": 0.3})", s.token).status == 200);
+  const Raw kept = rawFrame(api, s, "depth", 64, 64);
+  int back = 0;
+  for (int y = 0; y < 64; ++y) {
+    for (int x = 0; x < 64; ++x) back += kept.at(x, y, 0) < far;
+  }
+  CHECK(back == surface);
+
+  // Textures stay as loaded; a bad alpha mode is a 400 naming the member.
+  checkProblem(api.patch(path, R"({"alphaMode": "OPAQUE"})", s.token), 400, "invalid-body",
+               "alphaMode", std::string("/alphaMode"));
+  checkProblem(api.patch(path, R"({"textures": []})", s.token), 400, "invalid-body", "textures",
+               std::string("/textures"));
+  // The snapshot carries the factors and a new session restores them.
+  Reply snapshot = api.get(s.path() + "/snapshot", s.token);
+  REQUIRE(snapshot.status == 200);
+  CHECK(snapshot.json["materials"][0]["emissiveStrength"] == 2.0);
+  CHECK(snapshot.json["materials"][0]["alphaMode"] == "mask");
+  CHECK(validationMessages(api) == 0);
+  checkStopsCleanly(server);
+}
