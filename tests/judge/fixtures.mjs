@@ -191,20 +191,23 @@ function rotation(axis, degrees) {
 
 // ---- images ----
 
-// A tangent-space normal map of hemispherical bumps on a 4x4 grid, encoded n * 0.5 + 0.5.
+// A tangent-space normal map of smooth bumps on a 4x4 grid (height (1 - r^2)^2 inside radius 0.4 of
+// a cell: the slope is continuous, so bilinear filtering has no crease to round differently),
+// encoded n * 0.5 + 0.5.
 function bumpNormalMap(size) {
   const pixels = new Uint8Array(size * size * 3);
   const cell = size / 4;
   for (let y = 0; y < size; ++y) {
     for (let x = 0; x < size; ++x) {
       const cx = ((x + 0.5) % cell) / cell - 0.5;
-      // Image rows go down while +v of the tangent frame goes up in the image: bitangent = -y.
+      // Image rows go down while +Y of the tangent frame is up in the image (glTF): bitangent = -y.
       const cy = -(((y + 0.5) % cell) / cell - 0.5);
       const r2 = (cx * cx + cy * cy) / 0.16;
       let n = [0, 0, 1];
       if (r2 < 1) {
-        const s = 0.8 * Math.sqrt(r2);  // slope grows towards the rim
-        n = [cx * s * 2.5, cy * s * 2.5, 1];
+        // n = (-dh/dx, -dh/dy, 1) scaled: tilted outwards, steepest (slope ~1.2) halfway out.
+        const k = 0.3 * 4 * (1 - r2) / 0.16;
+        n = [cx * k, cy * k, 1];
         const l = Math.hypot(...n);
         n = n.map((c) => c / l);
       }

@@ -41,6 +41,8 @@ const SENSITIVITY = [
   ['spheres-sun', 'the field of view 0.5 degrees wider', {fovY: 0.5}],
   ['spot-light', 'every light\'s range 10% longer', {range: 1.1}],
   ['spot-light', 'the spot\'s outer cone 0.03 radians wider', {coneRadians: 0.03}],
+  ['normal-map', 'the bumps as dents (a flipped tangent frame)', {normalScale: -1}],
+  ['normal-map', 'the bumps 20% flatter', {normalScale: 0.8}],
 ];
 
 const args = process.argv.slice(2);

@@ -77,11 +77,13 @@ async function renderCase(spec) {
   // A deliberate error (the judge's sensitivity check): {light: scale of every light's intensity,
   // sunDegrees: the sun turned about the vertical, roughness: scale of every roughness, fovY:
   // degrees added, range: scale of every light's range, coneRadians: added to every spot's outer
-  // cone (the inner one kept)}.
-  const perturb = {light: 1, sunDegrees: 0, roughness: 1, fovY: 0, range: 1, coneRadians: 0,
+  // cone (the inner one kept), normalScale: scale of every normal map's x and y (-1: bumps become
+  // dents, as a flipped tangent frame makes them)}.
+  const perturb = {light: 1, sunDegrees: 0, roughness: 1, fovY: 0, range: 1, coneRadians: 0, normalScale: 1,
                    ...(spec.perturb || {})};
   scene.traverse((o) => {
     if (o.material && perturb.roughness !== 1) o.material.roughness = Math.min(1, o.material.roughness * perturb.roughness);
+    if (o.material?.normalMap && perturb.normalScale !== 1) o.material.normalScale.multiplyScalar(perturb.normalScale);
   });
   // Texture filtering as Myriad samples (the glTF leaves anisotropy to the renderer): 16x
   // anisotropic where the sampler is linear and mipmapped (three.js's default is 1x).
