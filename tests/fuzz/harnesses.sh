@@ -5,7 +5,7 @@ fuzz_dir=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
 
 # Fast ones first; fuzz_model (Assimp on every input) last.
 fuzz_harnesses=(fuzz_json_body fuzz_frame_query fuzz_scene_wire fuzz_cli_multipart
-                fuzz_upload_files fuzz_hdr fuzz_model)
+                fuzz_upload_files fuzz_hdr fuzz_texture fuzz_model)
 
 # libFuzzer options of one harness beyond the common ones: its dictionary, and the largest input
 # it generates (bodies and queries are small; models and archives are not).
@@ -17,6 +17,7 @@ fuzz_options() {
     fuzz_cli_multipart) echo "-dict=$fuzz_dir/multipart.dict -max_len=8192" ;;
     fuzz_upload_files) echo "-dict=$fuzz_dir/upload_files.dict -max_len=262144" ;;
     fuzz_hdr) echo "-dict=$fuzz_dir/hdr.dict -max_len=65536" ;;
+    fuzz_texture) echo "-dict=$fuzz_dir/texture.dict -max_len=262144" ;;
     # Up to DamagedHelmet.glb (3.7 MB), the largest seed of the long run. Fork mode: what the
     # loader child exists to contain does not end the run but is recorded (artifacts) and judged
     # after it (fuzz_triage_model): an input for which Assimp asks for more than 2 GiB (the child's

@@ -10,6 +10,8 @@ that no corpus binaries live in the repository. One directory per harness under 
   fuzz_cli_multipart  frame streams as the server sends them
   fuzz_upload_files   zip archives and file sets of real models with the files they refer to
   fuzz_hdr            Radiance .hdr files: flat and run-length encoded scanlines, XYZE, tiny, cut short
+  fuzz_texture        the PNG and JPEG textures of /usr/share/assimp/models under 200 KB, and a
+                      few cut short or with a huge header size
   fuzz_model          small models of /usr/share/assimp/models per format, zips of multi-file
                       models, and with --large also bigger ones and DamagedHelmet (geometry)
 
@@ -250,6 +252,28 @@ def hdr_files(out):
     return count
 
 
+def textures(out):
+    d = out / "fuzz_texture"
+    count = 0
+    for pattern in ("*.png", "*.jpg", "*.jpeg", "*.JPG"):
+        for path in sorted(MODELS.rglob(pattern)):
+            data = path.read_bytes()
+            if len(data) > 200 * 1024:
+                continue
+            write(d, "%04d-%s" % (count, path.name), data)
+            count += 1
+            if len(data) > 64:
+                write(d, "%04d-cut-%s" % (count, path.name), data[: len(data) // 2])
+                count += 1
+    # A PNG whose header claims 30,000 x 30,000 pixels (the rest is never reached).
+    ihdr = b"IHDR" + struct.pack(">IIBBBBB", 30000, 30000, 8, 6, 0, 0, 0)
+    import zlib
+    png = (b"\x89PNG\r\n\x1a\n" + struct.pack(">I", 13) + ihdr +
+           struct.pack(">I", zlib.crc32(ihdr) & 0xFFFFFFFF))
+    write(d, "huge-header.png", png)
+    return count + 1
+
+
 def main():
     if len(sys.argv) < 3:
         sys.exit(__doc__)
@@ -261,6 +285,7 @@ def main():
         "fuzz_scene_wire": wire_scenes(build, out),
         "fuzz_cli_multipart": multipart_streams(out),
         "fuzz_upload_files": upload_files(out, large),
+        "fuzz_texture": textures(out),
         "fuzz_hdr": hdr_files(out),
         "fuzz_model": models(out, large),
     }
