@@ -64,6 +64,7 @@ using mat4 = glm::mat4;
 #define MYRIAD_BINDING_HDR_STORAGE 7          // storage image: compute lighting writes HDR here
 #define MYRIAD_BINDING_LIGHT_COUNT_STORAGE 8  // storage image: compute lighting writes counts here
 #define MYRIAD_BINDING_GBUFFER_EMISSIVE 9     // sampled: emitted radiance (RGBA16F, a unused)
+#define MYRIAD_BINDING_MARKER_KEYS 10         // storage image: light markers' keys (shaders/markers.h)
 
 // Descriptor set 2: light culling. Each compute technique binds its own set of this layout
 // (server/render/techniques/) and writes the bindings its shaders use.
@@ -135,7 +136,7 @@ MYRIAD_STRUCT(FrameUniforms) {
   vec4 ambient;          // rgb ambient radiance, w unused
   vec4 background;       // rgb radiance where no geometry was drawn, w unused
   vec4 viewport;         // width, height, 1/width, 1/height
-  vec4 camera;           // x exposure, y near, z far, w light-marker radius (world units)
+  vec4 camera;           // x exposure, y near, z far, w unused
   vec4 boundsMin;        // scene bounds, for the position view; w unused
   vec4 boundsMax;
   uvec4 flags;           // x view (MYRIAD_VIEW_*), y light count, z raw output (0/1), w list capacity

@@ -215,3 +215,30 @@ TEST_CASE("environment: an .hdr, rotated and shown as the background, matches th
   }
   CHECK(gpu.context->validationMessages.load() == 0);
 }
+
+TEST_CASE("environment: the material's occlusion scales the environment light, and not the sun") {
+  test::GpuSuite& gpu = environmentGpu();
+  scene::Scene scene = sphereScene();
+  // A 1x1 occlusion map of 64/255 (linear, R): occlusion = 1 + strength (0.251 - 1).
+  scene.images.push_back({"ao", 1, 1, {64, 64, 64, 255}});
+  scene.materials[0].occlusionTexture.image = 0;
+  gpu.setScene(scene);
+  const SphereStats occluded = sphereStats(gpu, frameOf(render::EnvironmentMode::Sky));
+  scene.materials[0].occlusionStrength = 0.0f;  // occlusion 1
+  gpu.setScene(scene);
+  const SphereStats open = sphereStats(gpu, frameOf(render::EnvironmentMode::Sky));
+  REQUIRE(open.meanLuminance > 0.1);
+  const double ratio = occluded.meanLuminance / open.meanLuminance;
+  MESSAGE("environment light with occlusion 64/255: " << ratio << " of it without");
+  CHECK(ratio == doctest::Approx(64.0 / 255.0).epsilon(0.02));
+
+  // The sun is direct light: the same picture with and without the occlusion map.
+  scene.sun.intensity = 3.0f;
+  gpu.setScene(scene);
+  const render::Frame sunOpen = gpu.render(frameOf(render::EnvironmentMode::None));
+  scene.materials[0].occlusionStrength = 1.0f;
+  gpu.setScene(scene);
+  const render::Frame sunOccluded = gpu.render(frameOf(render::EnvironmentMode::None));
+  CHECK(test::maxDifference(sunOpen.rgba, sunOccluded.rgba) <= 1);
+  CHECK(gpu.context->validationMessages.load() == 0);
+}

@@ -6,6 +6,7 @@
 
 #include "scene/builtin_scene.h"
 #include "scene/light_generator.h"
+#include "scene/model_loader.h"
 #include "scene/primitives.h"
 
 namespace myriad::bench {
@@ -77,7 +78,15 @@ scene::Scene makeFloor(const BenchSceneSpec& spec) {
 }  // namespace
 
 std::string_view benchSceneName(BenchScene scene) {
-  return scene == BenchScene::Floor ? "floor" : "builtin";
+  switch (scene) {
+    case BenchScene::Builtin:
+      return "builtin";
+    case BenchScene::Model:
+      return "model";
+    case BenchScene::Floor:
+      break;
+  }
+  return "floor";
 }
 
 std::optional<BenchScene> parseBenchScene(std::string_view name) {
@@ -86,8 +95,33 @@ std::optional<BenchScene> parseBenchScene(std::string_view name) {
   return std::nullopt;
 }
 
+scene::Scene makeModelScene(const BenchSceneSpec& spec) {
+  scene::Scene s = scene::loadModel(spec.modelPath);
+  if (!spec.textures) {
+    for (scene::Material& m : s.materials) {
+      for (scene::TextureRef* ref : {&m.baseColorTexture, &m.metallicRoughnessTexture,
+                                     &m.normalTexture, &m.occlusionTexture, &m.emissiveTexture}) {
+        *ref = scene::TextureRef{};
+      }
+    }
+    s.images.clear();
+  }
+  const scene::Bounds bounds = s.bounds();
+  const float diagonal = glm::length(bounds.size());
+  scene::LightGeneration lights;
+  lights.count = spec.lightCount;
+  lights.seed = spec.seed;
+  lights.bounds.extend(bounds.min - glm::vec3(0.25f * diagonal));
+  lights.bounds.extend(bounds.max + glm::vec3(0.25f * diagonal));
+  lights.minRadius = 0.1f * diagonal;
+  lights.maxRadius = 0.3f * diagonal;
+  s.lights = scene::generateLights(lights);
+  return s;
+}
+
 scene::Scene makeBenchScene(const BenchSceneSpec& spec) {
   if (spec.kind == BenchScene::Builtin) return scene::makeBuiltinScene(spec.lightCount, spec.seed);
+  if (spec.kind == BenchScene::Model) return makeModelScene(spec);
   return makeFloor(spec);
 }
 

@@ -3,6 +3,7 @@
 
 #include <cstdint>
 #include <optional>
+#include <string>
 #include <string_view>
 
 #include "scene/scene.h"
@@ -17,6 +18,11 @@ enum class BenchScene {
   // The server's built-in scene (server/scene/builtin_scene.h) with its own light radii: the
   // density of light grows with the count (about 0.026 lights per point per light).
   Builtin,
+  // A model file (--model PATH: glTF, OBJ, ... loaded in this process; the benchmark is a trusted
+  // tool) seen from its own framing camera, with lights scattered around it (radii 10-30% of its
+  // diagonal). --textures off strips every texture, so the same geometry is measured with its
+  // materials' factors alone: the difference is what texturing costs.
+  Model,
 };
 
 std::string_view benchSceneName(BenchScene scene);
@@ -27,6 +33,8 @@ struct BenchSceneSpec {
   uint32_t lightCount = 0;
   uint64_t seed = 1;
   float lightsPerPoint = 64.0f;  // Floor: the mean number of lights meant to reach a floor point
+  std::string modelPath;         // Model
+  bool textures = true;          // Model: false strips every texture (factors only)
 };
 
 // The scene, with scene.camera the view the benchmark renders.

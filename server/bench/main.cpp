@@ -3,6 +3,7 @@
 // medians), never from a timed test.
 #include <cstdio>
 #include <ctime>
+#include <filesystem>
 #include <fstream>
 #include <string>
 #include <vector>
@@ -52,6 +53,10 @@ int run(const bench::Options& options, const std::string& commandLine) {
   info.validation = options.validate;
   info.plan = options.plan;
   info.scene = std::string(bench::benchSceneName(options.scene));
+  if (options.scene == bench::BenchScene::Model) {
+    info.scene = std::filesystem::path(options.modelPath).filename().string() +
+                 (options.textures ? "" : "-untextured");
+  }
   info.lightsPerPoint = options.scene == bench::BenchScene::Floor ? options.lightsPerPoint : 0.0f;
   info.seed = options.seed;
   bench::printHeader(stdout, info);
@@ -60,7 +65,8 @@ int run(const bench::Options& options, const std::string& commandLine) {
   for (uint32_t lights : options.lightCounts) {
     scene::Scene scene = bench::makeBenchScene(
         {.kind = options.scene, .lightCount = lights, .seed = options.seed,
-         .lightsPerPoint = options.lightsPerPoint});
+         .lightsPerPoint = options.lightsPerPoint, .modelPath = options.modelPath,
+         .textures = options.textures});
     // One scene at a time: the previous one's memory goes before the next is uploaded.
     if (sceneId != 0) renderer.destroyScene(sceneId);
     sceneId = renderer.createScene(scene);

@@ -55,6 +55,7 @@ const char* const kUsage =
     "                    [--seed N] [--max-seconds S] [--volumes-max-lights N] [--markers]\n"
     "                    [--json PATH] [--validate] [--device INDEX|NAME]\n"
     "                    [--environment none|sky] [--environment-every-frame]\n"
+    "                    [--model PATH [--textures on|off]]\n"
     "Renders animated frames for every light count x technique, timing each pass with GPU\n"
     "timestamp queries after warm-up, and prints medians and 90th percentiles.\n"
     "defaults: 1920x1080, lights 1000,10000,100000,1000000, every technique,\n"
@@ -63,7 +64,9 @@ const char* const kUsage =
     "--validate enables VK_LAYER_KHRONOS_validation; any message makes the exit status 1.\n"
     "--environment sky lights every frame with the procedural sky (default none: the constant\n"
     "ambient); with --environment-every-frame its maps are rebuilt every frame, timed as the\n"
-    "\"environment\" pass.\n";
+    "\"environment\" pass.\n"
+    "--model PATH renders a model file (loaded in this process) from its framing camera, with\n"
+    "lights around it; --textures off strips its textures (the same geometry, factors only).\n";
 
 Options parseOptions(const std::vector<std::string>& args) {
   Options o;
@@ -101,6 +104,15 @@ Options parseOptions(const std::vector<std::string>& args) {
       auto scene = parseBenchScene(name);
       if (!scene) throw UsageError("--scene expects floor or builtin, not \"" + std::string(name) + "\".");
       o.scene = *scene;
+    } else if (flag == "--model") {
+      o.modelPath = std::string(value());
+      o.scene = BenchScene::Model;
+    } else if (flag == "--textures") {
+      std::string_view onOff = value();
+      if (onOff != "on" && onOff != "off") {
+        throw UsageError("--textures expects on or off, not \"" + std::string(onOff) + "\".");
+      }
+      o.textures = onOff == "on";
     } else if (flag == "--lights-per-point") {
       o.lightsPerPoint = float(parsePositive(flag, value()));
     } else if (flag == "--seed") {

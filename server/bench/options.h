@@ -27,6 +27,8 @@ struct Options {
   // with few graphics units, so larger counts are skipped (and say so) unless asked for.
   uint32_t volumesMaxLights = 100000;
   float lightsPerPoint = 64.0f;
+  std::string modelPath;  // --model: BenchScene::Model
+  bool textures = true;   // --textures on|off (Model)
   uint64_t seed = 1;
   std::string jsonPath;
   bool validate = false;

@@ -22,6 +22,8 @@ FrameTargets::FrameTargets(gpu::Context& context, VkExtent2D size, bool rawOutpu
   // Compute lighting (tiled, clustered) stores into these; volumes blend into them.
   hdr = arena.createImage2D(extent, kHdrFormat, gbufferUsage | VK_IMAGE_USAGE_STORAGE_BIT);
   lightCount = arena.createImage2D(extent, kLightCountFormat, gbufferUsage | VK_IMAGE_USAGE_STORAGE_BIT);
+  markerKeys = arena.createImage2D(extent, kMarkerKeyFormat,
+                                   VK_IMAGE_USAGE_STORAGE_BIT | VK_IMAGE_USAGE_TRANSFER_DST_BIT);
   output = arena.createImage2D(extent, raw ? kRawOutputFormat : kOutputFormat,
                                VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT);
   readback = arena.createBuffer(VkDeviceSize(extent.width) * extent.height * (raw ? 16 : 4),

@@ -25,6 +25,9 @@ inline constexpr VkFormat kOutputFormat = VK_FORMAT_R8G8B8A8_UNORM;
 inline constexpr VkFormat kRawOutputFormat = VK_FORMAT_R32G32B32A32_SFLOAT;
 // Lights that shaded each pixel: exact integers up to 2^24 in a float, and blendable (volumes add 1).
 inline constexpr VkFormat kLightCountFormat = VK_FORMAT_R32_SFLOAT;
+// The markers pass's per-pixel keys (shaders/markers.h): storage-image atomics on R32_UINT are
+// required of every Vulkan device, lavapipe included.
+inline constexpr VkFormat kMarkerKeyFormat = VK_FORMAT_R32_UINT;
 
 struct FrameTargets {
   // `raw`: the output holds float values (kRawOutputFormat) instead of an 8-bit image.
@@ -41,6 +44,7 @@ struct FrameTargets {
   gpu::Image emissive;
   gpu::Image hdr;
   gpu::Image lightCount;
+  gpu::Image markerKeys;
   gpu::Image output;
   gpu::Buffer readback;  // output pixels, rows top first
 };

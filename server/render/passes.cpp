@@ -8,6 +8,7 @@
 #include "gpu/pipelines.h"
 #include "gpu/vk_check.h"
 #include "render/raster.h"
+#include "markers.h"
 #include "shared_types.h"
 
 namespace myriad::render {
@@ -41,14 +42,6 @@ ImageTransition colorWriteToSampled(const gpu::Image& image) {
           VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL, VK_IMAGE_LAYOUT_READ_ONLY_OPTIMAL};
 }
 
-// After a compute pass stored into an image, before a raster pass writes it as an attachment.
-ImageTransition storageWriteToColorWrite(const gpu::Image& image) {
-  return {&image, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
-          VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT,
-          VK_ACCESS_2_COLOR_ATTACHMENT_READ_BIT | VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT,
-          VK_IMAGE_LAYOUT_GENERAL, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL};
-}
-
 // From whichever kind of write produced the image (attachment or storage) to sampling.
 ImageTransition writtenToSampled(const gpu::Image& image, VkImageLayout layout) {
   if (layout == VK_IMAGE_LAYOUT_GENERAL) {
@@ -75,7 +68,7 @@ Pipelines::Pipelines(gpu::Context& context) : device(context.device) {
   }};
   sceneSetLayout = gpu::createDescriptorSetLayout(device, sceneBindings);
   const VkShaderStageFlags readers = VK_SHADER_STAGE_FRAGMENT_BIT | VK_SHADER_STAGE_COMPUTE_BIT;
-  std::array<VkDescriptorSetLayoutBinding, 10> targetBindings{};
+  std::array<VkDescriptorSetLayoutBinding, 11> targetBindings{};
   for (uint32_t i = 0; i <= MYRIAD_BINDING_LIGHT_COUNT; ++i) {
     targetBindings[i] = {i, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, readers, nullptr};
   }
@@ -88,6 +81,9 @@ Pipelines::Pipelines(gpu::Context& context) : device(context.device) {
   targetBindings[MYRIAD_BINDING_LIGHT_COUNT_STORAGE] = {MYRIAD_BINDING_LIGHT_COUNT_STORAGE,
                                                         VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, 1,
                                                         VK_SHADER_STAGE_COMPUTE_BIT, nullptr};
+  targetBindings[MYRIAD_BINDING_MARKER_KEYS] = {MYRIAD_BINDING_MARKER_KEYS,
+                                                VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, 1,
+                                                VK_SHADER_STAGE_COMPUTE_BIT, nullptr};
   targetSetLayout = gpu::createDescriptorSetLayout(device, targetBindings);
   std::array<VkDescriptorSetLayoutBinding, 4> cullingBindings{};
   for (uint32_t i = 0; i < cullingBindings.size(); ++i) {
@@ -125,17 +121,6 @@ Pipelines::Pipelines(gpu::Context& context) : device(context.device) {
   lightVolumeOverlay = gpu::createGraphicsPipeline(device, layout, d);
 
   d = {};
-  d.vertexShader = spirv::marker_vert;
-  d.fragmentShader = spirv::marker_frag;
-  d.vertexLayout = fullVertexLayout();
-  d.colorFormats = {kHdrFormat};
-  d.depthFormat = kDepthFormat;
-  d.depthTest = true;
-  d.depthCompare = VK_COMPARE_OP_LESS_OR_EQUAL;
-  d.cullMode = VK_CULL_MODE_BACK_BIT;
-  markers = gpu::createGraphicsPipeline(device, layout, d);
-
-  d = {};
   d.vertexShader = spirv::fullscreen_vert;
   d.fragmentShader = spirv::tonemap_frag;
   d.colorFormats = {kOutputFormat};
@@ -144,10 +129,13 @@ Pipelines::Pipelines(gpu::Context& context) : device(context.device) {
   tonemapRaw = gpu::createGraphicsPipeline(device, layout, d);
 
   animateLights = gpu::createComputePipeline(device, layout, spirv::light_animate_comp);
+  markerSplat = gpu::createComputePipeline(device, layout, spirv::marker_splat_comp);
+  markerResolve = gpu::createComputePipeline(device, layout, spirv::marker_resolve_comp);
 }
 
 Pipelines::~Pipelines() {
-  for (VkPipeline p : {gbuffer, lightVolumeOverlay, markers, tonemap, tonemapRaw, animateLights}) {
+  for (VkPipeline p : {gbuffer, lightVolumeOverlay, tonemap, tonemapRaw, animateLights, markerSplat,
+                      markerResolve}) {
     if (p) vkDestroyPipeline(device, p, nullptr);
   }
   if (layout) vkDestroyPipelineLayout(device, layout, nullptr);
@@ -223,16 +211,38 @@ void recordGBufferPass(VkCommandBuffer cmd, const Pipelines& p, const FrameTarge
 
 void recordMarkerPass(VkCommandBuffer cmd, const Pipelines& p, const FrameTargets& t,
                       const SceneBuffers& scene, VkImageLayout hdrLayout) {
-  const ImageTransition before[] = {hdrLayout == VK_IMAGE_LAYOUT_GENERAL
-                                        ? storageWriteToColorWrite(t.hdr)
-                                        : colorWriteToBlend(t.hdr)};
-  gpu::barrier(cmd, before);
-  VkRenderingAttachmentInfo color = colorAttachment(t.hdr, VK_ATTACHMENT_LOAD_OP_LOAD);
-  VkRenderingAttachmentInfo depth = readOnlyDepth(t.depth);
-  beginRendering(cmd, t.extent, {&color, 1}, &depth);
-  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, p.markers);
-  drawLightProxies(cmd, scene);
-  vkCmdEndRendering(cmd);
+  constexpr VkPipelineStageFlags2 kCompute = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT;
+  constexpr VkAccessFlags2 kReadWrite =
+      VK_ACCESS_2_SHADER_STORAGE_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT;
+  // Keys: the previous frame's resolve read them; clear to 0 (no marker).
+  const ImageTransition clear[] = {{&t.markerKeys, kCompute, VK_ACCESS_2_NONE,
+                                    VK_PIPELINE_STAGE_2_ALL_TRANSFER_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT,
+                                    VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL}};
+  gpu::barrier(cmd, clear);
+  const VkClearColorValue zero{};
+  VkImageSubresourceRange range{VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, 1};
+  vkCmdClearColorImage(cmd, t.markerKeys.image, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, &zero, 1, &range);
+  const ImageTransition splat[] = {{&t.markerKeys, VK_PIPELINE_STAGE_2_ALL_TRANSFER_BIT,
+                                    VK_ACCESS_2_TRANSFER_WRITE_BIT, kCompute, kReadWrite,
+                                    VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, VK_IMAGE_LAYOUT_GENERAL}};
+  gpu::barrier(cmd, splat);
+  // Depth is already readable by compute (recordGBufferPass); lights by every stage.
+  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, p.markerSplat);
+  if (scene.lightCount > 0) {
+    vkCmdDispatch(cmd, gpu::groupCount(scene.lightCount, MYRIAD_LIGHTS_PER_GROUP), 1, 1);
+  }
+  // HDR from the lighting technique's writes (attachment or storage) to read-modify-write.
+  const bool storage = hdrLayout == VK_IMAGE_LAYOUT_GENERAL;
+  const ImageTransition resolve[] = {
+      {&t.markerKeys, kCompute, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT, kCompute,
+       VK_ACCESS_2_SHADER_STORAGE_READ_BIT, VK_IMAGE_LAYOUT_GENERAL, VK_IMAGE_LAYOUT_GENERAL},
+      {&t.hdr, storage ? kCompute : VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT,
+       storage ? VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT : VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT,
+       kCompute, kReadWrite, hdrLayout, VK_IMAGE_LAYOUT_GENERAL}};
+  gpu::barrier(cmd, resolve);
+  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, p.markerResolve);
+  vkCmdDispatch(cmd, gpu::groupCount(t.extent.width, MYRIAD_MARKER_GROUP),
+                gpu::groupCount(t.extent.height, MYRIAD_MARKER_GROUP), 1);
 }
 
 void recordTonemapPass(VkCommandBuffer cmd, const Pipelines& p, const FrameTargets& t,

@@ -28,19 +28,22 @@ struct Pipelines {
   VkPipelineLayout layout = VK_NULL_HANDLE;
   VkPipeline gbuffer = VK_NULL_HANDLE;
   VkPipeline lightVolumeOverlay = VK_NULL_HANDLE;
-  VkPipeline markers = VK_NULL_HANDLE;
   VkPipeline tonemap = VK_NULL_HANDLE;
   VkPipeline tonemapRaw = VK_NULL_HANDLE;  // same shader, float output
   // Compute (render/compute_passes.h).
   VkPipeline animateLights = VK_NULL_HANDLE;
+  VkPipeline markerSplat = VK_NULL_HANDLE;    // markers: one thread per light
+  VkPipeline markerResolve = VK_NULL_HANDLE;  // markers: one thread per pixel
 };
 
 // 1. Writes depth, normal, base colour, material, uv, emissive; leaves them readable by later passes.
 void recordGBufferPass(VkCommandBuffer cmd, const Pipelines& p, const FrameTargets& t,
                        const SceneBuffers& scene);
 // 2-3. The lighting technique's passes (render/techniques/technique.h).
-// 4. Reads depth (test only, kept from pass 1); draws light markers into HDR. `hdrLayout` is
-//    where the lighting pass left HDR (GENERAL after compute, COLOR_ATTACHMENT after volumes).
+// 4. Reads depth (test only, kept from pass 1) and lights; splats light markers (compute, a few
+//    pixels each) into the marker keys, then blends them into HDR. `hdrLayout` is where the
+//    lighting pass left HDR (GENERAL after compute, COLOR_ATTACHMENT after volumes); HDR leaves
+//    this pass in GENERAL, written by compute.
 void recordMarkerPass(VkCommandBuffer cmd, const Pipelines& p, const FrameTargets& t,
                       const SceneBuffers& scene, VkImageLayout hdrLayout);
 // 5. Reads HDR and the G-buffer; writes the chosen view into the output image.

@@ -128,15 +128,17 @@ void Renderer::State::writeSceneSet(const SceneBuffers& scene, const gpu::Buffer
 
 void Renderer::State::writeTargetSet() {
   // Bindings 0-6 and 9 are sampled (READ_ONLY_OPTIMAL); 7-8 are the same HDR and light-count
-  // images as storage images (GENERAL), written by compute lighting.
-  const gpu::Image* images[10] = {&targets->depth,      &targets->normal, &targets->baseColor,
+  // images as storage images (GENERAL), written by compute lighting; 10 the markers' keys
+  // (storage, GENERAL).
+  const gpu::Image* images[11] = {&targets->depth,      &targets->normal, &targets->baseColor,
                                   &targets->material,   &targets->uv,     &targets->hdr,
                                   &targets->lightCount, &targets->hdr,    &targets->lightCount,
-                                  &targets->emissive};
-  VkDescriptorImageInfo infos[10];
-  VkWriteDescriptorSet writes[10];
-  for (uint32_t i = 0; i < 10; ++i) {
-    bool storage = i == MYRIAD_BINDING_HDR_STORAGE || i == MYRIAD_BINDING_LIGHT_COUNT_STORAGE;
+                                  &targets->emissive,   &targets->markerKeys};
+  VkDescriptorImageInfo infos[11];
+  VkWriteDescriptorSet writes[11];
+  for (uint32_t i = 0; i < 11; ++i) {
+    bool storage = i == MYRIAD_BINDING_HDR_STORAGE || i == MYRIAD_BINDING_LIGHT_COUNT_STORAGE ||
+                   i == MYRIAD_BINDING_MARKER_KEYS;
     infos[i] = {storage ? VK_NULL_HANDLE : sampler, images[i]->view,
                 storage ? VK_IMAGE_LAYOUT_GENERAL : VK_IMAGE_LAYOUT_READ_ONLY_OPTIMAL};
     writes[i] = {VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET};
@@ -147,7 +149,7 @@ void Renderer::State::writeTargetSet() {
         storage ? VK_DESCRIPTOR_TYPE_STORAGE_IMAGE : VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER;
     writes[i].pImageInfo = &infos[i];
   }
-  vkUpdateDescriptorSets(context.device, 10, writes, 0, nullptr);
+  vkUpdateDescriptorSets(context.device, 11, writes, 0, nullptr);
 }
 
 // Targets follow the output size and are rebuilt only when it changes (every frame is waited
@@ -167,7 +169,6 @@ void Renderer::State::writeUniforms(const FrameSettings& s, const SceneBuffers& 
   glm::mat4 view = scene::viewMatrix(s.camera);
   glm::mat4 projection = scene::projectionMatrix(s.camera, aspect);
   const scene::Bounds& bounds = scene.bounds;
-  float diagonal = bounds.empty() ? 1.0f : glm::length(bounds.size());
 
   FrameUniforms u{};
   u.view = view;
@@ -184,8 +185,8 @@ void Renderer::State::writeUniforms(const FrameSettings& s, const SceneBuffers& 
   u.ambient = glm::vec4(s.ambient, 0.0f);
   u.background = glm::vec4(s.background, 0.0f);
   u.viewport = glm::vec4(s.width, s.height, 1.0f / s.width, 1.0f / s.height);
-  // Markers are a fixed fraction of the scene's size: visible in a wide shot, never huge.
-  u.camera = glm::vec4(s.exposure, s.camera.nearPlane, s.camera.farPlane, diagonal * 0.0025f);
+  // w is unused (markers are sized in pixels: shaders/markers.glsl).
+  u.camera = glm::vec4(s.exposure, s.camera.nearPlane, s.camera.farPlane, 0.0f);
   u.boundsMin = glm::vec4(bounds.empty() ? glm::vec3(0.0f) : bounds.min, 0.0f);
   u.boundsMax = glm::vec4(bounds.empty() ? glm::vec3(1.0f) : bounds.max, 0.0f);
   u.flags = glm::uvec4(static_cast<uint32_t>(s.target), scene.lightCount, s.raw ? 1 : 0, 0);
@@ -223,7 +224,7 @@ Renderer::Renderer(gpu::Context& context) : state_(std::make_unique<State>(conte
   VkDescriptorPoolSize sizes[] = {{VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1},
                                   {VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 6},
                                   {VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 8},
-                                  {VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, 2}};
+                                  {VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, 3}};
   VkDescriptorPoolCreateInfo poolInfo{VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO};
   poolInfo.maxSets = 2;
   poolInfo.poolSizeCount = 4;
@@ -405,7 +406,7 @@ Frame Renderer::State::renderOnce(SceneBuffers& scene, SceneEnvironment* environ
   if (settings.markers) {
     s.timer.beginPass(cmd, "markers");
     recordMarkerPass(cmd, p, t, scene, hdrLayout);
-    hdrLayout = VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL;
+    hdrLayout = VK_IMAGE_LAYOUT_GENERAL;
   }
   s.timer.beginPass(cmd, "tonemap");
   recordTonemapPass(cmd, p, t, hdrLayout, lightingLayout);

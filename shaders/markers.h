@@ -1,0 +1,13 @@
+// Light markers (shaders/marker_splat.comp, marker_resolve.comp; render/passes.cpp): shared by
+// GLSL and C++ like shared_types.h.
+#ifndef MYRIAD_MARKERS_H
+#define MYRIAD_MARKERS_H
+
+// The per-pixel marker keys, R32_UINT storage image (GENERAL) at set 1 MYRIAD_BINDING_MARKER_KEYS
+// (shared_types.h). A key is (weight << 24) | (light index + 1), weight the marker's falloff at the pixel in 1..255;
+// 0 = no marker. imageAtomicMax keeps the strongest marker at each pixel, ties to the higher
+// index, so the picture does not depend on the order the threads ran in.
+#define MYRIAD_MARKER_INDEX_BITS 24u
+#define MYRIAD_MARKER_GROUP 8  // resolve pass: 8x8 pixels per group
+
+#endif
