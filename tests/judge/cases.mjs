@@ -58,8 +58,10 @@ export const CASES = [
    pending: 'Myriad differs (4x4 blocks: mean 0.033, p95 0.079, bias -5.0% red on 2026-12-01, with three.js ' +
             'filtering 1x as Myriad on lavapipe; 16x gave mean 0.043, p95 0.097). The bias is two pixels: the ' +
             'point light\'s near-delta GGX peaks on glossy texels, point-sampled (Myriad 573 and 32, three.js 715 ' +
-            'and 267; the whole image sums to about 1300): without them +1.2%. Sun alone: p95 0.083; emissive ' +
-            'alone: p95 0.020, bias +1.3% red'},
+            'and 267; the whole image sums to about 1300): without them +1.2%. Supersampled, the differences ' +
+            'shrink like noise: 512 on 8x8 blocks mean 0.021, p95 0.055, bias +2.0%; 1024 on 16x16 0.011, 0.032, ' +
+            '+0.3%; 2048 on 32x32 0.0042, 0.0135, +1.1% red (+0.9% green, blue), the emissive map alone giving ' +
+            '+1.3% red'},
   {name: 'normal-map', file: 'normalmap.glb', bytes: () => normalMapGlb(),
    what: 'a normal-mapped quad (turned and scaled by its node; tangents generated) and sphere (tangents from the file)',
    width: 256, height: 160, camera: camera([0, 0.5, 5], [0, 0, 0], 40, 0.5, 20),
