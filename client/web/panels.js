@@ -241,6 +241,9 @@ export class MaterialPanel {
     $('material-alpha').value = m.alpha;
     $('material-emissive').value = linearToHex(m.emissive);
     $('material-emissive-strength').value = m.emissiveStrength;
+    // The slider spans 0..2, widened to show a file's value outside it (the API allows +-100).
+    $('material-normal-scale').min = Math.min(0, m.normalScale);
+    $('material-normal-scale').max = Math.max(2, m.normalScale);
     $('material-normal-scale').value = m.normalScale;
     $('material-occlusion').value = m.occlusionStrength;
     $('material-alpha-mode').value = m.alphaMode;
@@ -249,6 +252,7 @@ export class MaterialPanel {
     // Text nodes only: image names come from the uploaded file.
     for (const t of m.textures) {
       const item = document.createElement('li');
+      item.dataset.slot = t.slot;
       item.textContent = `${t.slot}: ${t.image} (${t.width} x ${t.height}, ` +
           `${t.wrapS}/${t.wrapT}, ${t.magFilter}/${t.minFilter}${t.mipmaps ? ', mipmaps' : ''})`;
       list.append(item);

@@ -55,9 +55,11 @@ export const CASES = [
    width: 256, height: 256, block: 4, camera: camera([0.9, 0.5, 3.4], [0, 0, 0], 40, 0.5, 20),
    sun: sun([-0.45, -0.6, -0.65], 3),
    lights: [{type: 'point', position: [-1.3, 0.6, 1.8], color: [1, 0.8, 0.6], intensity: 4, range: 7}],
-   pending: 'Myriad is darker and differs texel by texel beyond filtering (4x4 blocks: mean 0.043, p95 0.097, ' +
-            'bias -5% on 2026-12-01). Split: emissive alone +1.2%, p95 0.079; the point light alone (emissive ' +
-            'included) -7% red, -4% green and blue; the sun alone at 512x512 on 8x8 blocks -0.4%, p95 0.064'},
+   pending: 'Myriad differs (4x4 blocks: mean 0.033, p95 0.079, bias -5.0% red on 2026-12-01, with three.js ' +
+            'filtering 1x as Myriad on lavapipe; 16x gave mean 0.043, p95 0.097). The bias is two pixels: the ' +
+            'point light\'s near-delta GGX peaks on glossy texels, point-sampled (Myriad 573 and 32, three.js 715 ' +
+            'and 267; the whole image sums to about 1300): without them +1.2%. Sun alone: p95 0.083; emissive ' +
+            'alone: p95 0.020, bias +1.3% red'},
   {name: 'normal-map', file: 'normalmap.glb', bytes: () => normalMapGlb(),
    what: 'a normal-mapped quad (turned and scaled by its node; tangents generated) and sphere (tangents from the file)',
    width: 256, height: 160, camera: camera([0, 0.5, 5], [0, 0, 0], 40, 0.5, 20),

@@ -67,7 +67,7 @@ renderer.shadowMap.enabled = false;
 
 // spec: {model: URL, width, height, camera: {eye, target, up, fovY, near, far},
 //        sun: {direction, color, intensity} | null, lights: [{type: 'point'|'spot', position,
-//        direction, color, intensity, range, innerConeAngle, outerConeAngle}]}.
+//        direction, color, intensity, range, innerConeAngle, outerConeAngle}], anisotropy}.
 // Returns {rgba: base64 of Float32 RGBA rows top first, lights: what the file's lights became}.
 async function renderCase(spec) {
   const gltf = await new GLTFLoader().loadAsync(spec.model);
@@ -85,9 +85,10 @@ async function renderCase(spec) {
     if (o.material && perturb.roughness !== 1) o.material.roughness = Math.min(1, o.material.roughness * perturb.roughness);
     if (o.material?.normalMap && perturb.normalScale !== 1) o.material.normalScale.multiplyScalar(perturb.normalScale);
   });
-  // Texture filtering as Myriad samples (the glTF leaves anisotropy to the renderer): 16x
-  // anisotropic where the sampler is linear and mipmapped (three.js's default is 1x).
-  const anisotropy = Math.min(16, renderer.capabilities.getMaxAnisotropy());
+  // Texture filtering as Myriad samples (the glTF leaves anisotropy to the renderer): spec.anisotropy
+  // (Myriad's, from its device: 16x anisotropic on a GPU where the sampler is linear and mipmapped,
+  // none on a CPU implementation) instead of three.js's default 1x.
+  const anisotropy = Math.min(spec.anisotropy, renderer.capabilities.getMaxAnisotropy());
   scene.traverse((o) => {
     for (const key of ['map', 'normalMap', 'roughnessMap', 'metalnessMap', 'emissiveMap', 'aoMap']) {
       const t = o.material?.[key];
