@@ -18,7 +18,7 @@ void barrier(VkCommandBuffer cmd, std::span<const ImageTransition> transitions) 
     b.srcQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
     b.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
     b.image = t.image->image;
-    b.subresourceRange = {t.image->aspect, 0, 1, 0, 1};
+    b.subresourceRange = {t.image->aspect, t.firstLevel, t.levels, 0, 1};
     barriers.push_back(b);
   }
   VkDependencyInfo dependency{VK_STRUCTURE_TYPE_DEPENDENCY_INFO};

@@ -13,8 +13,9 @@
 
 namespace myriad::gpu {
 
-// One layout/access transition of a whole single-mip image. Stages and accesses are the exact
-// producer and consumer of the dependency; callers batch them with `barrier`.
+// One layout/access transition of an image's mip levels [firstLevel, firstLevel + levels) (by
+// default its only level). Stages and accesses are the exact producer and consumer of the
+// dependency; callers batch them with `barrier`.
 struct ImageTransition {
   const Image* image;
   VkPipelineStageFlags2 srcStage;
@@ -23,6 +24,8 @@ struct ImageTransition {
   VkAccessFlags2 dstAccess;
   VkImageLayout oldLayout;
   VkImageLayout newLayout;
+  uint32_t firstLevel = 0;
+  uint32_t levels = 1;
 };
 
 void barrier(VkCommandBuffer cmd, std::span<const ImageTransition> transitions);

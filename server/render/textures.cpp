@@ -1,6 +1,7 @@
 #include "render/textures.h"
 
 #include <algorithm>
+#include <array>
 #include <bit>
 #include <cstring>
 #include <stdexcept>
@@ -29,30 +30,6 @@ bool canBlitMips(const gpu::Context& context, VkFormat format) {
   return (properties.optimalTilingFeatures & needed) == needed;
 }
 
-VkImageMemoryBarrier2 levelBarrier(VkImage image, uint32_t firstLevel, uint32_t levels,
-                                   VkPipelineStageFlags2 srcStage, VkAccessFlags2 srcAccess,
-                                   VkPipelineStageFlags2 dstStage, VkAccessFlags2 dstAccess,
-                                   VkImageLayout oldLayout, VkImageLayout newLayout) {
-  VkImageMemoryBarrier2 b{VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER_2};
-  b.srcStageMask = srcStage;
-  b.srcAccessMask = srcAccess;
-  b.dstStageMask = dstStage;
-  b.dstAccessMask = dstAccess;
-  b.oldLayout = oldLayout;
-  b.newLayout = newLayout;
-  b.srcQueueFamilyIndex = b.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
-  b.image = image;
-  b.subresourceRange = {VK_IMAGE_ASPECT_COLOR_BIT, firstLevel, levels, 0, 1};
-  return b;
-}
-
-void barriers(VkCommandBuffer cmd, std::initializer_list<VkImageMemoryBarrier2> list) {
-  VkDependencyInfo dependency{VK_STRUCTURE_TYPE_DEPENDENCY_INFO};
-  dependency.imageMemoryBarrierCount = uint32_t(list.size());
-  dependency.pImageMemoryBarriers = list.begin();
-  vkCmdPipelineBarrier2(cmd, &dependency);
-}
-
 // Copies `rgba` into level 0 of `image`, blits each level from the one above, and leaves every
 // level READ_ONLY_OPTIMAL for fragment shaders. One submission, waited for.
 void upload(gpu::Context& context, gpu::CommandRecorder& recorder, const gpu::Image& image,
@@ -63,10 +40,11 @@ void upload(gpu::Context& context, gpu::CommandRecorder& recorder, const gpu::Im
   std::memcpy(buffer.mapped, rgba, size);
   VkCommandBuffer cmd = gpu::beginCommands(context, recorder);
   const uint32_t levels = image.mipLevels;
-  barriers(cmd, {levelBarrier(image.image, 0, levels, VK_PIPELINE_STAGE_2_NONE, VK_ACCESS_2_NONE,
-                              VK_PIPELINE_STAGE_2_COPY_BIT | VK_PIPELINE_STAGE_2_BLIT_BIT,
-                              VK_ACCESS_2_TRANSFER_WRITE_BIT,
-                              VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL)});
+  gpu::barrier(cmd, std::array{gpu::ImageTransition{
+                        &image, VK_PIPELINE_STAGE_2_NONE, VK_ACCESS_2_NONE,
+                        VK_PIPELINE_STAGE_2_COPY_BIT | VK_PIPELINE_STAGE_2_BLIT_BIT,
+                        VK_ACCESS_2_TRANSFER_WRITE_BIT, VK_IMAGE_LAYOUT_UNDEFINED,
+                        VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 0, levels}});
   VkBufferImageCopy region{};
   region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
   region.imageExtent = {image.extent.width, image.extent.height, 1};
@@ -74,10 +52,11 @@ void upload(gpu::Context& context, gpu::CommandRecorder& recorder, const gpu::Im
                          &region);
   int32_t width = int32_t(image.extent.width), height = int32_t(image.extent.height);
   for (uint32_t level = 1; level < levels; ++level) {
-    barriers(cmd, {levelBarrier(image.image, level - 1, 1, VK_PIPELINE_STAGE_2_ALL_TRANSFER_BIT,
-                                VK_ACCESS_2_TRANSFER_WRITE_BIT, VK_PIPELINE_STAGE_2_BLIT_BIT,
-                                VK_ACCESS_2_TRANSFER_READ_BIT, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL,
-                                VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL)});
+    gpu::barrier(cmd, std::array{gpu::ImageTransition{
+                          &image, VK_PIPELINE_STAGE_2_ALL_TRANSFER_BIT,
+                          VK_ACCESS_2_TRANSFER_WRITE_BIT, VK_PIPELINE_STAGE_2_BLIT_BIT,
+                          VK_ACCESS_2_TRANSFER_READ_BIT, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL,
+                          VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, level - 1, 1}});
     const int32_t nextWidth = std::max(width / 2, 1), nextHeight = std::max(height / 2, 1);
     VkImageBlit blit{};
     blit.srcSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, level - 1, 0, 1};
@@ -92,19 +71,20 @@ void upload(gpu::Context& context, gpu::CommandRecorder& recorder, const gpu::Im
   const VkPipelineStageFlags2 transfer = VK_PIPELINE_STAGE_2_ALL_TRANSFER_BIT;
   const VkPipelineStageFlags2 fragment = VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT;
   if (levels > 1) {
-    barriers(cmd, {levelBarrier(image.image, 0, levels - 1, transfer, VK_ACCESS_2_TRANSFER_READ_BIT,
-                                fragment, VK_ACCESS_2_SHADER_SAMPLED_READ_BIT,
-                                VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL,
-                                VK_IMAGE_LAYOUT_READ_ONLY_OPTIMAL),
-                   levelBarrier(image.image, levels - 1, 1, transfer, VK_ACCESS_2_TRANSFER_WRITE_BIT,
-                                fragment, VK_ACCESS_2_SHADER_SAMPLED_READ_BIT,
-                                VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL,
-                                VK_IMAGE_LAYOUT_READ_ONLY_OPTIMAL)});
+    gpu::barrier(cmd, std::array{
+                          gpu::ImageTransition{&image, transfer, VK_ACCESS_2_TRANSFER_READ_BIT,
+                                               fragment, VK_ACCESS_2_SHADER_SAMPLED_READ_BIT,
+                                               VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL,
+                                               VK_IMAGE_LAYOUT_READ_ONLY_OPTIMAL, 0, levels - 1},
+                          gpu::ImageTransition{&image, transfer, VK_ACCESS_2_TRANSFER_WRITE_BIT,
+                                               fragment, VK_ACCESS_2_SHADER_SAMPLED_READ_BIT,
+                                               VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL,
+                                               VK_IMAGE_LAYOUT_READ_ONLY_OPTIMAL, levels - 1, 1}});
   } else {
-    barriers(cmd, {levelBarrier(image.image, 0, 1, transfer, VK_ACCESS_2_TRANSFER_WRITE_BIT,
-                                fragment, VK_ACCESS_2_SHADER_SAMPLED_READ_BIT,
-                                VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL,
-                                VK_IMAGE_LAYOUT_READ_ONLY_OPTIMAL)});
+    gpu::barrier(cmd, std::array{gpu::ImageTransition{
+                          &image, transfer, VK_ACCESS_2_TRANSFER_WRITE_BIT, fragment,
+                          VK_ACCESS_2_SHADER_SAMPLED_READ_BIT, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL,
+                          VK_IMAGE_LAYOUT_READ_ONLY_OPTIMAL}});
   }
   gpu::submitAndWait(context, recorder);
 }
