@@ -877,19 +877,6 @@ TEST_CASE("streams: a stream closed by its client renders at most the frame alre
   CHECK(status->cleanExit());
 }
 
-namespace {
-
-uint64_t statusKilobytes(pid_t pid, std::string_view field) {
-  std::ifstream status("/proc/" + std::to_string(pid) + "/status");
-  std::string line;
-  while (std::getline(status, line)) {
-    if (line.starts_with(field)) return std::stoull(line.substr(field.size()));
-  }
-  return 0;
-}
-
-}  // namespace
-
 TEST_CASE("host memory: ten 4096x4096 raw frames stay within the per-frame bound and go back") {
   // docs/ARCHITECTURE.md ("Host memory"): a frame needs at most kBytesPerPixel of host memory
   // beyond the server's own (on a CPU device, device memory is host memory); the render thread
@@ -907,7 +894,7 @@ TEST_CASE("host memory: ten 4096x4096 raw frames stay within the per-frame bound
   REQUIRE(small);
   REQUIRE(small->status == 200);
   std::this_thread::sleep_for(std::chrono::seconds(3));
-  const uint64_t startKb = statusKilobytes(server.pid(), "VmRSS:");
+  const uint64_t startKb = server.residentBytes() / 1024;
   REQUIRE(startKb > 0);
   uint64_t peakKb = 0;
   for (int i = 0; i < 10; ++i) {
@@ -919,11 +906,11 @@ TEST_CASE("host memory: ten 4096x4096 raw frames stay within the per-frame bound
     REQUIRE(raw->status == 200);
     CHECK(raw->body.size() == size_t(kSize) * kSize * sizeof(float));
     // VmHWM is the process's peak RSS so far, including during the frame.
-    peakKb = statusKilobytes(server.pid(), "VmHWM:");
+    peakKb = server.peakResidentBytes() / 1024;
   }
   REQUIRE(client->Delete("/v1/sessions/" + session.id, auth(session))->status == 204);
   std::this_thread::sleep_for(std::chrono::seconds(4));  // kIdleTrim and a margin
-  const uint64_t endKb = statusKilobytes(server.pid(), "VmRSS:");
+  const uint64_t endKb = server.residentBytes() / 1024;
   const uint64_t boundKb = uint64_t(kSize) * kSize * kBytesPerPixel / 1024;
   MESSAGE("server RSS ", startKb / 1024, " MiB before, peak ", peakKb / 1024, " MiB (bound ",
           (startKb + boundKb) / 1024, " MiB), ", endKb / 1024,

@@ -1037,15 +1037,7 @@ TEST_CASE("api: a model with its files, as a zip or as several files; hostile ar
       {"not a zip", "PK but nothing more", "", "not a zip archive"},
   };
   // The server's own memory (the archive is inflated, if at all, in the loader child).
-  const auto residentBytes = [&server] {
-    std::ifstream status("/proc/" + std::to_string(server.pid()) + "/status");
-    std::string line;
-    while (std::getline(status, line)) {
-      if (line.starts_with("VmRSS:")) return std::stoull(line.substr(6)) * 1024;
-    }
-    return 0ull;
-  };
-  const unsigned long long residentBefore = residentBytes();
+  const unsigned long long residentBefore = server.residentBytes();
   REQUIRE(residentBefore > 0);
   for (const Bad& b : bad) {
     CAPTURE(b.what);
@@ -1056,7 +1048,7 @@ TEST_CASE("api: a model with its files, as a zip or as several files; hostile ar
                   reply.json.value("detail", ""));
     REQUIRE(api.get("/v1/health").status == 200);
   }
-  const unsigned long long residentAfter = residentBytes();
+  const unsigned long long residentAfter = server.residentBytes();
   MESSAGE("server RSS ", residentBefore >> 20, " MiB before the hostile archives, ",
           residentAfter >> 20, " MiB after");
   CHECK(residentAfter <= residentBefore + (64ull << 20));

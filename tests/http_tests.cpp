@@ -575,15 +575,6 @@ int connectLoopback(int port) {
   return fd;
 }
 
-uint64_t residentBytesOf(pid_t pid) {
-  std::ifstream status("/proc/" + std::to_string(pid) + "/status");
-  std::string line;
-  while (std::getline(status, line)) {
-    if (line.starts_with("VmRSS:")) return std::stoull(line.substr(6)) * 1024;
-  }
-  return 0;
-}
-
 struct ChunkedUpload {
   uint64_t sentBytes = 0;    // body bytes the server took before it answered or closed
   std::string response;      // what came back
@@ -602,7 +593,7 @@ ChunkedUpload sendChunked(const ServerProcess& server, const std::string& head, 
   std::atomic<bool> sending{true};
   std::thread sampler([&] {
     while (sending) {
-      upload.peakResident = std::max(upload.peakResident, residentBytesOf(server.pid()));
+      upload.peakResident = std::max(upload.peakResident, server.residentBytes());
       std::this_thread::sleep_for(std::chrono::milliseconds(5));
     }
   });
@@ -636,7 +627,7 @@ ChunkedUpload sendChunked(const ServerProcess& server, const std::string& head, 
 TEST_CASE("http: chunked bodies are counted as they arrive and cut at the route's limit") {
   ServerProcess server({"--lights", "8"});
   requireListening(server);
-  const uint64_t residentBefore = residentBytesOf(server.pid());
+  const uint64_t residentBefore = server.residentBytes();
   REQUIRE(residentBefore > 0);
 
   SUBCASE("600 MB of chunked JSON to POST /v1/sessions (no token needed): 413 early") {

@@ -160,6 +160,23 @@ std::optional<ExitStatus> ServerProcess::stop(std::chrono::milliseconds timeout)
   return std::nullopt;
 }
 
+namespace {
+
+// A "VmRSS:  1234 kB" line of /proc/PID/status, in bytes.
+uint64_t statusBytes(pid_t pid, std::string_view field) {
+  std::ifstream status("/proc/" + std::to_string(pid) + "/status");
+  std::string line;
+  while (std::getline(status, line)) {
+    if (line.starts_with(field)) return std::stoull(line.substr(field.size())) * 1024;
+  }
+  return 0;
+}
+
+}  // namespace
+
+uint64_t ServerProcess::residentBytes() const { return statusBytes(pid_, "VmRSS:"); }
+uint64_t ServerProcess::peakResidentBytes() const { return statusBytes(pid_, "VmHWM:"); }
+
 std::string ServerProcess::stderrText() const {
   std::ifstream file(stderrPath_);
   std::stringstream text;

@@ -5,6 +5,7 @@
 #include <sys/types.h>
 
 #include <chrono>
+#include <cstdint>
 #include <optional>
 #include <string>
 #include <vector>
@@ -53,6 +54,11 @@ class ServerProcess {
 
   // Everything the server wrote to stderr so far.
   std::string stderrText() const;
+
+  // The server's resident memory now, and the most it has had (VmRSS, VmHWM), in bytes; 0 once
+  // it has exited.
+  uint64_t residentBytes() const;
+  uint64_t peakResidentBytes() const;
 
  private:
   std::optional<ExitStatus> reap(bool block);

@@ -517,14 +517,6 @@ TEST_CASE("textures: bad images are 422 naming the problem; the server stays hea
   ApiClient api(server);
   TestSession s = createSession(api);
   const std::string gltf = readBytes(helmetDir() / "DamagedHelmet.gltf");
-  const auto residentBytes = [&server](const char* field) {
-    std::ifstream status("/proc/" + std::to_string(server.pid()) + "/status");
-    std::string line;
-    while (std::getline(status, line)) {
-      if (line.starts_with(field)) return std::stoull(line.substr(std::strlen(field))) * 1024;
-    }
-    return 0ull;
-  };
 
   std::vector<ZipEntry> missing, truncated, huge;
   for (const ZipEntry& e : helmetFiles(gltf)) {
@@ -611,7 +603,7 @@ TEST_CASE("textures: bad images are 422 naming the problem; the server stays hea
       {"30000 x 30000 PNG", makeZip(huge), "30000 x 30000 pixels, over the texture dimension limit of 8192"},
       {"257 images", makeZip(manyFiles), "more than 256 images (the image count limit)"},
   };
-  const unsigned long long before = residentBytes("VmRSS:");
+  const unsigned long long before = server.residentBytes();
   for (const Bad& b : bad) {
     CAPTURE(b.what);
     Reply reply = api.put(s.path() + "/model?filename=bad.zip", b.zip, s.token, "application/zip");
@@ -620,8 +612,8 @@ TEST_CASE("textures: bad images are 422 naming the problem; the server stays hea
                   reply.json.value("detail", ""));
     REQUIRE(api.get("/v1/health").status == 200);
   }
-  const unsigned long long after = residentBytes("VmRSS:");
-  const unsigned long long peak = residentBytes("VmHWM:");
+  const unsigned long long after = server.residentBytes();
+  const unsigned long long peak = server.peakResidentBytes();
   MESSAGE("server RSS ", before >> 20, " MiB before the bad images, ", after >> 20,
           " MiB after, peak ", peak >> 20, " MiB");
   // The images are decoded (or refused) in the loader child: the server's own memory hardly moves.
