@@ -126,6 +126,7 @@ inline constexpr std::string_view kHeight = "X-Myriad-Height";        // raw
 inline constexpr std::string_view kTarget = "X-Myriad-Target";        // raw
 inline constexpr std::string_view kTechnique = "X-Myriad-Technique";  // every frame
 inline constexpr std::string_view kFrameSequence = "X-Myriad-Frame";  // each stream part
+inline constexpr std::string_view kNode = "X-Myriad-Node";  // every response, with --node-id
 inline constexpr std::string_view kServerTiming = "Server-Timing";
 inline constexpr std::string_view kRetryAfter = "Retry-After";
 inline constexpr std::string_view kAllow = "Allow";

@@ -32,6 +32,10 @@ test_packages=(
   python3-jsonschema       # protocol-differential: a second JSON Schema validator to agree with ours
   clang                    # the fuzz preset's clang++ (tests/fuzz: libFuzzer harnesses)
   libclang-rt-14-dev       # libFuzzer and the ASan/UBSan runtimes clang links into the harnesses
+  nginx                    # the front CTest runs deploy/nginx/myriad.conf (as the test's user)
+  openssl                  # the front CTest makes its self-signed TLS certificate
+  kubernetes-client        # kubectl: the k8s CTest checks deploy/k8s with --dry-run=client
+  python3-yaml             # the k8s CTest parses the manifests
 )
 # npm installs the browser test's playwright-core. Only where no npm exists: NodeSource's nodejs
 # bundles its own and conflicts with Debian's npm package.

@@ -20,6 +20,7 @@
 #include "loader/loader.h"
 #include "render/render_thread.h"
 #include "scene/model_loader.h"
+#include "service/batch.h"
 #include "service/http_server.h"
 #include "service/options.h"
 #include "service/startup.h"
@@ -113,7 +114,41 @@ int run(const service::Options& options, const sigset_t& shutdownSignals) {
     config.state = state.get();
     config.stateRetention = std::chrono::hours(options.stateRetentionHours);
   }
+  config.nodeId = options.nodeId;
   config.api = apiConfig(options, config.maxResolution, *renderThread);
+  if (options.batchSpec) {
+    // No HTTP: the session code renders the job's frames, then the process exits.
+    service::SessionManager sessions(1, std::chrono::seconds(options.sessionIdleSeconds),
+                                     [&](service::Session& session) {
+                                       if (session.sceneId != 0) {
+                                         renderThread->destroyScene(session.sceneId).get();
+                                       }
+                                     });
+    service::ApiContext context{config.api, *renderThread, sessions, models.get(), nullptr};
+    service::BatchJob job{*options.batchSpec, 0, options.batchOut};
+    if (options.batchIndex) {
+      job.index = *options.batchIndex;
+    } else if (const char* index = std::getenv("JOB_COMPLETION_INDEX"); index && *index) {
+      job.index = uint32_t(std::strtoul(index, nullptr, 10));
+    }
+    int status = 0;
+    try {
+      const size_t frames = service::runBatch(context, job);
+      std::fprintf(stderr, "myriad-server: batch index %u: %zu frames in %s\n", job.index,
+                   frames, job.outDir.c_str());
+    } catch (const service::ProblemError& e) {
+      status = fail("batch: " + e.problem().detail);
+    } catch (const std::exception& e) {
+      status = fail(std::string("batch: ") + e.what());
+    }
+    sessions.closeAll();
+    if (status == 0 && options.validate && renderThread->validationMessages() > 0) {
+      status = fail("batch: " + std::to_string(renderThread->validationMessages()) +
+                    " Vulkan validation messages (above).");
+    }
+    renderThread->stop();
+    return status;
+  }
   service::HttpServer server(config, *renderThread, scene);
   uint16_t port = 0;
   try {

@@ -153,6 +153,24 @@ TEST_CASE("session scene: removing a light moves the last one into its slot; ids
   checkConsistent(scene, gpu);
 }
 
+TEST_CASE("session scene: a restored session's lights take back the ids they had") {
+  SessionScene scene(100, {});
+  scene.addLights(std::vector<scene::PointLight>{light(0), light(1), light(2)});
+  // What a state file holds for lights that were 7, 4 and 9, the next id 12.
+  CHECK_FALSE(scene.restoreLightIds({7, 4}, 12));     // another count
+  CHECK_FALSE(scene.restoreLightIds({7, 4, 7}, 12));  // an id twice
+  CHECK_FALSE(scene.restoreLightIds({7, 4, 12}, 12)); // not below next
+  CHECK(scene.idAt(0) == 1);                          // unchanged by the refusals
+  REQUIRE(scene.restoreLightIds({7, 4, 9}, 12));
+  CHECK(scene.slotOf("4") == 1);
+  CHECK(problemOf([&] { (void)scene.slotOf("1"); }).problem().status == 404);
+  std::vector<uint64_t> ids;
+  scene.addLights(std::vector<scene::PointLight>{light(3)}, &ids);
+  CHECK(ids == std::vector<uint64_t>{12});
+  scene.removeLight(scene.slotOf("7"));  // the last (12) moves into slot 0
+  CHECK(scene.idAt(0) == 12);
+}
+
 TEST_CASE("session scene: light ids that are not numbers, or not lights, are 404") {
   SessionScene scene(10, {});
   scene.addLights(std::vector<scene::PointLight>{light(0)});

@@ -2,13 +2,17 @@
 // limit, release on delete, expiry by the sweeper, and waiting for a change.
 #include <doctest/doctest.h>
 
+#include <stdlib.h>
+
 #include <atomic>
 #include <chrono>
+#include <filesystem>
 #include <regex>
 #include <set>
 #include <thread>
 
 #include "service/session.h"
+#include "service/state_store.h"
 
 using namespace myriad::service;
 using namespace std::chrono_literals;
@@ -151,4 +155,93 @@ TEST_CASE("sessions: a waiter wakes on a change and on close") {
   CHECK(s->waitForChange(seen + 1, Clock::now() + 10s) == seen + 1);
   CHECK(s->closed);
   closer.join();
+}
+
+TEST_CASE("sessions: --node-id puts the node's number at the start of every id") {
+  SessionManager sessions(8, std::chrono::seconds(60), nullptr);
+  sessions.setNode(0xa7);
+  for (int i = 0; i < 4; ++i) {
+    SessionPtr s = sessions.create();
+    CHECK(std::regex_match(s->id, std::regex("s-a7[0-9a-f]{14}")));
+  }
+}
+
+namespace {
+// A state directory of its own under the system's temporary folder, removed at the end.
+struct TemporaryDir {
+  std::filesystem::path path;
+  TemporaryDir() {
+    char name[] = "/tmp/myriad-state-test-XXXXXX";
+    path = ::mkdtemp(name);
+  }
+  ~TemporaryDir() {
+    std::error_code error;
+    std::filesystem::remove_all(path, error);
+  }
+};
+
+StoredSession storedSession(const std::string& id, int fov) {
+  StoredSession s;
+  s.id = id;
+  s.tokenHash = sha256Hex("token");
+  s.snapshot = {{"fov", fov}};
+  return s;
+}
+}  // namespace
+
+TEST_CASE("state store: two servers sharing a directory see each other's writes and deletes") {
+  TemporaryDir dir;
+  StateStore a(dir.path);  // as two processes would: each its own store and stamps
+  StateStore b(dir.path);
+  const std::string id = "s-01aaaaaaaaaaaaaa";
+
+  CHECK_FALSE(a.changedElsewhere(id));  // never written nor read here
+  a.save(storedSession(id, 40));
+  CHECK_FALSE(a.changedElsewhere(id));  // its own write
+  REQUIRE(b.load(id));
+  CHECK(b.load(id)->snapshot["fov"] == 40);
+  CHECK_FALSE(b.changedElsewhere(id));  // the version it read
+
+  b.save(storedSession(id, 41));        // the session moved to b, which edits it
+  CHECK(a.changedElsewhere(id));        // a's copy is stale now
+  CHECK_FALSE(b.changedElsewhere(id));
+  REQUIRE(a.load(id));
+  CHECK(a.load(id)->snapshot["fov"] == 41);
+  CHECK_FALSE(a.changedElsewhere(id));  // reloaded
+
+  // Rewriting the same bytes still counts as a change (a new file, a new inode).
+  b.save(storedSession(id, 41));
+  CHECK(a.changedElsewhere(id));
+  a.load(id);
+
+  // Light ids travel beside the snapshot, as runs of consecutive ids.
+  StoredSession withIds = storedSession(id, 42);
+  withIds.lightIds = {5, 6, 7, 9, 3};
+  withIds.nextLightId = 10;
+  b.save(withIds);
+  std::optional<StoredSession> loaded = a.load(id);
+  REQUIRE(loaded);
+  CHECK(loaded->lightIds == std::vector<uint64_t>{5, 6, 7, 9, 3});
+  CHECK(loaded->nextLightId == 10);
+
+  b.forget(id);                         // DELETE on b
+  CHECK(a.changedElsewhere(id));        // a sees the file gone
+  CHECK_FALSE(a.load(id));
+
+  // Concurrent writers of one session never leave a torn or temporary file behind.
+  const std::string other = "s-02bbbbbbbbbbbbbb";
+  std::thread t1([&] { for (int i = 0; i < 50; ++i) a.save(storedSession(other, i)); });
+  std::thread t2([&] { for (int i = 0; i < 50; ++i) b.save(storedSession(other, 100 + i)); });
+  t1.join();
+  t2.join();
+  std::optional<StoredSession> last = a.load(other);
+  REQUIRE(last);
+  const int fov = last->snapshot["fov"].get<int>();
+  CHECK((fov == 49 || fov == 149));
+  size_t files = 0;
+  for (const auto& entry : std::filesystem::directory_iterator(dir.path / "sessions")) {
+    (void)entry;
+    ++files;
+  }
+  CHECK(files == 1);
 }

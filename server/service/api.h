@@ -19,6 +19,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "protocol/types.h"
 #include "render/frame.h"
 #include "service/problem.h"
 #include "service/session.h"
@@ -71,6 +72,10 @@ struct ApiContext {
 // against the stored hash: 403 otherwise); null when there is no such file. Loads its model and
 // environment as an upload or creation would (422 when the model no longer loads).
 SessionPtr restoreStoredSession(ApiContext& context, std::string_view id, const std::string& token);
+
+// A new session holding `snapshot` (its model built-in or from the library), made as
+// POST /v1/sessions {"snapshot": ...} makes it (batch rendering uses it). Throws ProblemError.
+SessionPtr createSessionFromSnapshot(ApiContext& context, const protocol::Snapshot& snapshot);
 
 // Sends `problem` as application/problem+json, with Retry-After when it says so.
 void sendProblem(httplib::Response& res, const Problem& problem);

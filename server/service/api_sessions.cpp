@@ -213,6 +213,24 @@ ScenePtr loadStoredUpload(const ApiContext& context, const StoredUpload& upload)
   return loadOrProblem([&] { return loader::loadModelBytes(*bytes, upload.filename); });
 }
 
+// A new session of `source`, restoring `snapshot` when given (problems point under `pointer`).
+SessionPtr openSession(ApiContext& context, const std::string& source,
+                       const protocol::Snapshot* snapshot, std::string_view pointer) {
+  SessionPtr session = context.sessions.create(newSessionScene(context));
+  try {
+    // Loaded without the session's lock: a library model may take the loader's whole time limit,
+    // and the idle sweeper takes every session's lock in turn.
+    ScenePtr loaded = loadSource(context, source);
+    const SessionScene::EnvironmentImageSource environment =
+        snapshot ? snapshotEnvironment(context, *snapshot, "") : SessionScene::EnvironmentImageSource{};
+    populate(context, *session, std::move(loaded), source, snapshot, pointer, environment);
+  } catch (...) {
+    context.sessions.remove(session->id);
+    throw;
+  }
+  return session;
+}
+
 void createSession(ApiContext& context, const httplib::Request& req, httplib::Response& res) {
   checkQuery(req, {});
   if (context.config.apiKey) {
@@ -241,19 +259,7 @@ void createSession(ApiContext& context, const httplib::Request& req, httplib::Re
   const std::string source = snapshot ? snapshot->model.source
                                       : body.model.value_or(std::string(protocol::kBuiltinModel));
 
-  SessionPtr session = context.sessions.create(newSessionScene(context));
-  try {
-    // Loaded without the session's lock: a library model may take the loader's whole time limit,
-    // and the idle sweeper takes every session's lock in turn.
-    ScenePtr loaded = loadSource(context, source);
-    const SessionScene::EnvironmentImageSource environment =
-        snapshot ? snapshotEnvironment(context, *snapshot, "") : SessionScene::EnvironmentImageSource{};
-    populate(context, *session, std::move(loaded), source,
-             snapshot ? &*snapshot : nullptr, "/snapshot", environment);
-  } catch (...) {
-    context.sessions.remove(session->id);
-    throw;
-  }
+  SessionPtr session = openSession(context, source, snapshot ? &*snapshot : nullptr, "/snapshot");
 
   std::lock_guard lock(session->mutex);
   protocol::SessionCreated created;
@@ -370,6 +376,15 @@ void putModel(ApiContext& context, const httplib::Request& req, httplib::Respons
 
 }  // namespace
 
+SessionPtr createSessionFromSnapshot(ApiContext& context, const protocol::Snapshot& snapshot) {
+  if (snapshot.model.source.starts_with(protocol::kUploadPrefix)) {
+    throw ProblemError(invalidBody("/snapshot/model/source",
+                                   "The snapshot's model " + quoteClientText(snapshot.model.source) +
+                                       " was uploaded; a snapshot holds no model bytes."));
+  }
+  return openSession(context, snapshot.model.source, &snapshot, "/snapshot");
+}
+
 SessionPtr restoreStoredSession(ApiContext& context, std::string_view id,
                                 const std::string& token) {
   if (context.state == nullptr) return nullptr;
@@ -415,6 +430,14 @@ SessionPtr restoreStoredSession(ApiContext& context, std::string_view id,
     std::lock_guard lock(session->mutex);
     session->persisted.model = stored->model;
     session->persisted.environmentBlob = stored->environmentBlob;
+    // The ids the lights had: a client that added light 17 still finds it under 17.
+    if (!stored->lightIds.empty() &&
+        !session->scene.restoreLightIds(stored->lightIds, stored->nextLightId)) {
+      std::fprintf(stderr, "myriad-server: state: session %s: stored light ids do not fit; "
+                   "the lights have new ids\n", session->id.c_str());
+    }
+    // A write between populate() and here lacked these: the next one is complete.
+    session->persisted.savedVersion = UINT64_MAX;
   }
   std::fprintf(stderr, "myriad-server: session %s restored from the state directory (%s)\n",
                session->id.c_str(), source.c_str());

@@ -119,6 +119,8 @@ struct HttpServer::State {
       stored.snapshot = session->scene.snapshot();
       stored.model = session->persisted.model;
       stored.environmentBlob = session->persisted.environmentBlob;
+      stored.lightIds = session->scene.lightIds();
+      stored.nextLightId = session->scene.nextLightId();
       session->persisted.savedVersion = session->version;
       changed.push_back(std::move(stored));
     }
@@ -172,15 +174,20 @@ HttpServer::HttpServer(const HttpConfig& config, render::RenderQueue& renderThre
                                           config.technique};
   s.scene = SceneSummary{scene.lights.size(), scene.instances.size(), scene.materials.size(),
                          scene.meshes.size()};
+  if (config.nodeId) s.sessions.setNode(*config.nodeId);
   if (config.state != nullptr) {
-    // Edits are written at most every 250 ms per session; a session not open here is looked for
-    // in the state directory on its first request.
+    // Every successful edit is written before its response (the post-routing handler below);
+    // the persister's own pass every 250 ms catches changes no request made. A session not open
+    // here is looked for in the state directory on its first request, and one open here is
+    // reloaded from there when another server sharing the directory wrote it since.
     s.persister = std::make_unique<StatePersister>(
         *config.state, [&s] { return s.changedSessions(); }, std::chrono::milliseconds(250),
         config.stateRetention);
     s.sessions.setRestorer([&s](std::string_view id, const std::string& token) {
       return restoreStoredSession(s.api, id, token);
     });
+    s.sessions.setStaleCheck(
+        [store = config.state](std::string_view id) { return store->changedElsewhere(id); });
   }
 
   httplib::Server& server = s.server;
@@ -240,8 +247,19 @@ HttpServer::HttpServer(const HttpConfig& config, render::RenderQueue& renderThre
 
   // Every response passes here before it is written, whether a handler, the route table or
   // httplib itself produced it: counted under its route's template.
-  server.set_post_routing_handler([&s](const httplib::Request& req, httplib::Response& res) {
+  // With --state-dir, a successful edit (any method but GET, HEAD, OPTIONS) reaches the state
+  // directory here, before its response is written: a server killed after answering loses nothing
+  // it answered.
+  const std::string nodeName =
+      config.nodeId ? std::to_string(*config.nodeId) : std::string();
+  server.set_post_routing_handler([&s, nodeName](const httplib::Request& req,
+                                                 httplib::Response& res) {
     s.frames.metrics.countRequest(s.routes.routeOf(req.path, req.method), res.status);
+    if (s.persister && res.status >= 200 && res.status < 300 && req.method != "GET" &&
+        req.method != "HEAD" && req.method != "OPTIONS") {
+      s.persister->flush();
+    }
+    if (!nodeName.empty()) res.set_header(std::string(protocol::headers::kNode), nodeName);
   });
   server.set_logger(logRequest);
 

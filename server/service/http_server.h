@@ -3,6 +3,7 @@
 #pragma once
 
 #include <chrono>
+#include <optional>
 #include <cstdint>
 #include <memory>
 #include <string>
@@ -26,6 +27,8 @@ struct HttpConfig {
   // stateRetention are removed.
   StateStore* state = nullptr;
   std::chrono::seconds stateRetention{std::chrono::hours(24 * 7)};
+  // --node-id: session ids start with it and every response names it (X-Myriad-Node).
+  std::optional<uint32_t> nodeId;
 };
 
 // What GET /v1/info reports about the scene; counted once at start-up.

@@ -140,6 +140,24 @@ const std::vector<Flag>& flags() {
          o.stateRetentionHours =
              parseUnsigned<uint32_t>("--state-retention-hours", v, 1, 24 * 3650);
        }},
+      {"--node-id", true,
+       [](Options& o, std::string_view v) {
+         o.nodeId = parseUnsigned<uint32_t>("--node-id", v, 0, 255);
+       }},
+      {"--batch", true,
+       [](Options& o, std::string_view v) {
+         if (v.empty()) throw UsageError("--batch expects a job spec file.");
+         o.batchSpec = std::string(v);
+       }},
+      {"--index", true,
+       [](Options& o, std::string_view v) {
+         o.batchIndex = parseUnsigned<uint32_t>("--index", v, 0, 1000000);
+       }},
+      {"--out", true,
+       [](Options& o, std::string_view v) {
+         if (v.empty()) throw UsageError("--out expects a directory.");
+         o.batchOut = std::string(v);
+       }},
       {"--api-key", true,
        [](Options& o, std::string_view v) {
          if (v.size() < 8) throw UsageError("--api-key expects a key of at least 8 characters.");
@@ -237,11 +255,19 @@ materials and lights (protocol/reference.md), and the stateless GET /v1/frame.
   --shutdown-grace S       after SIGTERM/SIGINT, answer what finishes within S seconds, then exit
                            0 with the rest cut off (default 10)
   --models DIR             model files sessions may load by name (library:NAME)
-  --state-dir DIR          keep every session's state in DIR (written within 250 ms of a change,
-                           atomically; tokens as SHA-256 hashes) and restore a session from it on
-                           its first request after a restart, expiry, or on another server
-                           sharing DIR
+  --state-dir DIR          keep every session's state in DIR (written atomically before the
+                           response to each change; tokens as SHA-256 hashes) and restore a session
+                           from it on its first request after a restart, expiry, or on another
+                           server sharing DIR
   --state-retention-hours H  remove state files unused for H hours (default 168)
+  --node-id N              this server's number (0-255) among several behind one front
+                           (docs/deploy.md): session ids start with it, responses name it in
+                           X-Myriad-Node
+  --batch SPEC             render frames of a job spec (a snapshot and a camera path) without
+                           HTTP, then exit (docs/deploy.md "Batch rendering")
+  --index I                the batch index: frames I*K .. I*K+K-1 of the path (default: the
+                           environment's JOB_COMPLETION_INDEX, else 0)
+  --out DIR                where batch frames go (default .)
   --api-key KEY            creating a session needs Authorization: Bearer KEY (also from the
                            environment variable MYRIAD_API_KEY)
   --cors-origin ORIGIN     allow browser pages from ORIGIN (repeatable; * for any)

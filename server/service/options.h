@@ -48,6 +48,16 @@ struct Options {
   std::optional<std::string> modelsDir;   // --models: the library of loadable model files
   std::optional<std::string> stateDir;    // --state-dir: sessions persisted there
   uint32_t stateRetentionHours = 168;     // --state-retention-hours: files kept this long unused
+  // --node-id N (0-255): this server's number among several behind one front. Session ids then
+  // start with it ("s-" + 2 hex digits of N + 14 random ones) so the front routes a session's
+  // requests to the node that made it, and every response names the node (X-Myriad-Node).
+  std::optional<uint32_t> nodeId;
+  // --batch SPEC [--index I] [--out DIR]: render index I's frames of a job spec and exit
+  // (service/batch.h); no HTTP. Without --index, the environment's JOB_COMPLETION_INDEX (a
+  // Kubernetes Indexed Job's), else 0.
+  std::optional<std::string> batchSpec;
+  std::optional<uint32_t> batchIndex;
+  std::string batchOut = ".";
   std::optional<std::string> apiKey;      // --api-key (or env MYRIAD_API_KEY, read by main)
   std::vector<std::string> corsOrigins;   // --cors-origin, repeatable
   bool help = false;

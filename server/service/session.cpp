@@ -85,11 +85,16 @@ SessionPtr SessionManager::create(SessionScene scene) {
   }
   std::string id;
   do {
-    id = "s-" + randomHex(kIdBytes);
+    id = "s-" + nodeHex_ + randomHex(kIdBytes).substr(nodeHex_.size());
   } while (sessions_.contains(id));
   auto session = std::make_shared<Session>(id, randomHex(kTokenBytes), std::move(scene));
   sessions_.emplace(id, session);
   return session;
+}
+
+void SessionManager::setNode(uint32_t node) {
+  static constexpr char kDigits[] = "0123456789abcdef";
+  nodeHex_ = {kDigits[(node >> 4) & 15], kDigits[node & 15]};
 }
 
 SessionPtr SessionManager::createWithIdentity(std::string id, std::string token,
@@ -121,7 +126,7 @@ SessionPtr SessionManager::find(std::string_view id) const {
 }
 
 SessionPtr SessionManager::authorize(std::string_view id, const Credentials& credentials,
-                                     bool allowQueryToken) const {
+                                     bool allowQueryToken) {
   std::optional<std::string> token;
   if (credentials.authorization) {
     token = bearerToken(*credentials.authorization);
@@ -151,6 +156,13 @@ SessionPtr SessionManager::authorize(std::string_view id, const Credentials& cre
       if (constantTimeEquals(other->token, *token) && other != session) otherSession = true;
     }
   }
+  if (session && staleCheck_ && staleCheck_(id)) {
+    // Another server wrote (or deleted) this session since: the copy here is out of date.
+    std::fprintf(stderr, "myriad-server: session %s changed on another server; reloading it\n",
+                 session->id.c_str());
+    removeIf(id, session);
+    session = nullptr;
+  }
   if (!session && restorer_) {
     // Not open here: perhaps in the state directory (a restart, another node, idle expiry).
     std::lock_guard restoring(restoreMutex_);
@@ -177,12 +189,15 @@ SessionPtr SessionManager::authorize(std::string_view id, const Credentials& cre
   return session;
 }
 
-bool SessionManager::remove(std::string_view id) {
+bool SessionManager::remove(std::string_view id) { return removeIf(id, nullptr); }
+
+bool SessionManager::removeIf(std::string_view id, const SessionPtr& expected) {
   SessionPtr session;
   {
     std::lock_guard lock(mutex_);
     auto it = sessions_.find(id);
     if (it == sessions_.end()) return false;
+    if (expected && it->second != expected) return false;
     session = it->second;
     sessions_.erase(it);
   }

@@ -120,6 +120,16 @@ class SessionManager {
   using Restorer = std::function<SessionPtr(std::string_view id, const std::string& token)>;
   void setRestorer(Restorer restorer) { restorer_ = std::move(restorer); }
 
+  // With --state-dir shared by several servers: whether an open session's state file was written
+  // by another server since this one last wrote or read it. authorize() then closes the stale copy
+  // here and restores the session from the file (or answers 404 when the file is gone).
+  using StaleCheck = std::function<bool(std::string_view id)>;
+  void setStaleCheck(StaleCheck check) { staleCheck_ = std::move(check); }
+
+  // --node-id: new session ids start with the node's number as 2 hex digits ("s-" + 2 + 14 random
+  // hex digits), which the front routes by.
+  void setNode(uint32_t node);
+
   // The open session with this id, or null.
   SessionPtr find(std::string_view id) const;
 
@@ -128,11 +138,13 @@ class SessionManager {
   // expired), 403 (the token of another session). Tokens are compared in constant time. Refreshes
   // the session's idle timer. Throws ProblemError.
   SessionPtr authorize(std::string_view id, const Credentials& credentials,
-                       bool allowQueryToken = false) const;
+                       bool allowQueryToken = false);
 
   // Closes the session (streams wake and end), releases its GPU scene and forgets it. False when
   // there was no such session.
   bool remove(std::string_view id);
+  // remove(), only while `id` is still `expected` (not a copy restored since).
+  bool removeIf(std::string_view id, const SessionPtr& expected);
 
   // Closes every session (server shutdown): streams end; GPU scenes are released.
   void closeAll();
@@ -155,6 +167,8 @@ class SessionManager {
   const std::chrono::seconds idleTimeout_;
   const SceneReleaser release_;
   Restorer restorer_;
+  StaleCheck staleCheck_;
+  std::string nodeHex_;  // "" without --node-id
   mutable std::mutex restoreMutex_;  // one restore at a time (two requests may race for one id)
 
   mutable std::mutex mutex_;

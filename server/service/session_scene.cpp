@@ -376,6 +376,19 @@ void SessionScene::checkLightTotal(uint64_t total, std::string_view what) const 
   }
 }
 
+bool SessionScene::restoreLightIds(const std::vector<uint64_t>& ids, uint64_t next) {
+  if (ids.size() != lights_.size()) return false;
+  std::unordered_map<uint64_t, uint32_t> slots;
+  slots.reserve(ids.size());
+  for (uint32_t slot = 0; slot < ids.size(); ++slot) {
+    if (ids[slot] == 0 || ids[slot] >= next || !slots.emplace(ids[slot], slot).second) return false;
+  }
+  ids_ = ids;
+  slotOfId_ = std::move(slots);
+  nextId_ = next;
+  return true;
+}
+
 render::LightUpdate SessionScene::relink(uint32_t fresh, std::optional<uint32_t> vacated) {
   render::LightUpdate update;
   if (vacated) {

@@ -186,6 +186,14 @@ class SessionScene {
   // Removes the light in `slot`; the last light takes its place.
   render::LightUpdate removeLight(uint32_t slot);
 
+  // The lights' ids in slot order and the next id to give: what a state file keeps so that a
+  // session restored on another server answers to the same light ids.
+  const std::vector<uint64_t>& lightIds() const { return ids_; }
+  uint64_t nextLightId() const { return nextId_; }
+  // Gives the lights the ids they had (CPU only: the GPU knows slots). False, changing nothing,
+  // when `ids` does not fit: another count, an id twice, or one not below `next`.
+  bool restoreLightIds(const std::vector<uint64_t>& ids, uint64_t next);
+
   // How the lights were generated, while no edit has changed them since.
   const std::optional<LightRecipe>& lightRecipe() const { return recipe_; }
 

@@ -5,6 +5,7 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <atomic>
 #include <cstdio>
 #include <fstream>
 #include <set>
@@ -33,10 +34,19 @@ bool isSessionId(std::string_view id) {
   return true;
 }
 
+StateFileStamp stampOf(const struct stat& st) {
+  return {uint64_t(st.st_ino), int64_t(st.st_mtim.tv_sec) * 1000000000 + st.st_mtim.tv_nsec,
+          int64_t(st.st_size)};
+}
+
 // Writes `bytes` to `path` so that a reader sees the old file or the whole new one, never a part:
-// a temporary file beside it, fsync, rename, fsync of the directory.
-void writeAtomically(const fs::path& path, std::string_view bytes) {
-  const fs::path temporary = path.string() + ".tmp";
+// a temporary file beside it, fsync, rename, fsync of the directory. The temporary's name is this
+// process's and this call's own, so servers sharing the directory never write into one file.
+// Returns the stamp of the file written (rename keeps inode and mtime).
+StateFileStamp writeAtomically(const fs::path& path, std::string_view bytes) {
+  static std::atomic<uint64_t> serial{0};
+  const fs::path temporary = path.string() + ".tmp." + std::to_string(::getpid()) + "." +
+                             std::to_string(serial.fetch_add(1));
   const int fd = ::open(temporary.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0600);
   if (fd < 0) throw std::runtime_error("cannot write " + temporary.string());
   size_t written = 0;
@@ -49,7 +59,9 @@ void writeAtomically(const fs::path& path, std::string_view bytes) {
     }
     written += size_t(n);
   }
-  const bool synced = ::fsync(fd) == 0;
+  bool synced = ::fsync(fd) == 0;
+  struct stat st {};
+  synced = synced && ::fstat(fd, &st) == 0;
   ::close(fd);
   if (!synced || ::rename(temporary.c_str(), path.c_str()) != 0) {
     ::unlink(temporary.c_str());
@@ -60,6 +72,31 @@ void writeAtomically(const fs::path& path, std::string_view bytes) {
     ::fsync(dirFd);
     ::close(dirFd);
   }
+  return stampOf(st);
+}
+
+// The file's bytes and the stamp of the version read (one open file: another process replacing
+// it meanwhile does not mix versions).
+std::optional<std::string> readWhole(const fs::path& path, StateFileStamp* stamp) {
+  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+  if (fd < 0) return std::nullopt;
+  struct stat st {};
+  if (::fstat(fd, &st) != 0) {
+    ::close(fd);
+    return std::nullopt;
+  }
+  std::string bytes;
+  bytes.resize(size_t(st.st_size));
+  size_t got = 0;
+  while (got < bytes.size()) {
+    const ssize_t n = ::read(fd, bytes.data() + got, bytes.size() - got);
+    if (n <= 0) break;
+    got += size_t(n);
+  }
+  ::close(fd);
+  if (got != bytes.size()) return std::nullopt;
+  if (stamp) *stamp = stampOf(st);
+  return bytes;
 }
 
 std::optional<std::string> readWhole(const fs::path& path) {
@@ -92,6 +129,18 @@ nlohmann::json toJson(const StoredSession& s) {
                    {"blob", s.model->blob}};
   }
   if (s.environmentBlob) j["environmentBlob"] = *s.environmentBlob;
+  if (!s.lightIds.empty()) {
+    // As runs [first, count]: generated lights have consecutive ids, so a million of them is one.
+    nlohmann::json runs = nlohmann::json::array();
+    for (size_t i = 0; i < s.lightIds.size();) {
+      size_t n = 1;
+      while (i + n < s.lightIds.size() && s.lightIds[i + n] == s.lightIds[i] + n) ++n;
+      runs.push_back({s.lightIds[i], n});
+      i += n;
+    }
+    j["lightIds"] = std::move(runs);
+    j["nextLightId"] = s.nextLightId;
+  }
   return j;
 }
 
@@ -115,6 +164,17 @@ StoredSession fromJson(const nlohmann::json& j) {
     s.model = std::move(upload);
   }
   if (j.contains("environmentBlob")) s.environmentBlob = j.at("environmentBlob").get<std::string>();
+  if (j.contains("lightIds")) {
+    for (const nlohmann::json& run : j.at("lightIds")) {
+      const uint64_t first = run.at(0).get<uint64_t>();
+      const uint64_t count = run.at(1).get<uint64_t>();
+      if (count > (1ull << 24) || s.lightIds.size() + count > (1ull << 24)) {
+        throw std::runtime_error("too many light ids");
+      }
+      for (uint64_t k = 0; k < count; ++k) s.lightIds.push_back(first + k);
+    }
+    s.nextLightId = j.at("nextLightId").get<uint64_t>();
+  }
   return s;
 }
 
@@ -182,7 +242,7 @@ void StateStore::save(const StoredSession& session) {
   const std::string text = toJson(session).dump();
   std::lock_guard lock(mutex_);
   if (forgotten_.contains(session.id)) return;
-  writeAtomically(sessionPath(session.id), text);
+  stamps_[session.id] = writeAtomically(sessionPath(session.id), text);
 }
 
 std::optional<StoredSession> StateStore::load(std::string_view id) const {
@@ -190,7 +250,9 @@ std::optional<StoredSession> StateStore::load(std::string_view id) const {
   std::optional<std::string> text;
   {
     std::lock_guard lock(mutex_);
-    text = readWhole(sessionPath(id));
+    StateFileStamp stamp;
+    text = readWhole(sessionPath(id), &stamp);
+    if (text) stamps_[std::string(id)] = stamp;
   }
   if (!text) return std::nullopt;
   try {
@@ -209,6 +271,16 @@ void StateStore::remove(std::string_view id) {
   std::lock_guard lock(mutex_);
   std::error_code error;
   fs::remove(sessionPath(id), error);
+  if (auto it = stamps_.find(id); it != stamps_.end()) stamps_.erase(it);
+}
+
+bool StateStore::changedElsewhere(std::string_view id) const {
+  std::lock_guard lock(mutex_);
+  auto it = stamps_.find(id);
+  if (it == stamps_.end()) return false;
+  struct stat st {};
+  if (::stat(sessionPath(id).c_str(), &st) != 0) return true;  // deleted by another server
+  return !(stampOf(st) == it->second);
 }
 
 void StateStore::forget(std::string_view id) {
@@ -217,6 +289,7 @@ void StateStore::forget(std::string_view id) {
   forgotten_.emplace(id);
   std::error_code error;
   fs::remove(sessionPath(id), error);
+  if (auto it = stamps_.find(id); it != stamps_.end()) stamps_.erase(it);
 }
 
 size_t StateStore::sweep(std::chrono::seconds retention) {
@@ -225,10 +298,21 @@ size_t StateStore::sweep(std::chrono::seconds retention) {
   const auto cutoff = fs::file_time_type::clock::now() - retention;
   size_t removed = 0;
   std::set<std::string> named;
+  const auto aMinuteAgo = fs::file_time_type::clock::now() - std::chrono::minutes(1);
   for (const fs::directory_entry& entry : fs::directory_iterator(dir_ / "sessions", error)) {
-    if (entry.path().extension() != ".json") continue;
+    if (entry.path().extension() != ".json") {
+      // A temporary left by a server killed while writing.
+      if (entry.path().filename().string().find(".tmp.") != std::string::npos &&
+          entry.last_write_time(error) < aMinuteAgo) {
+        fs::remove(entry.path(), error);
+      }
+      continue;
+    }
     if (entry.last_write_time(error) < cutoff) {
       fs::remove(entry.path(), error);
+      if (auto it = stamps_.find(entry.path().stem().string()); it != stamps_.end()) {
+        stamps_.erase(it);
+      }
       ++removed;
       continue;
     }
@@ -269,6 +353,7 @@ StatePersister::~StatePersister() {
 }
 
 void StatePersister::flush() {
+  std::lock_guard lock(flushMutex_);
   for (const StoredSession& session : collect_()) {
     try {
       store_.save(session);

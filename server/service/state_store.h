@@ -15,12 +15,14 @@
 #include <cstdint>
 #include <filesystem>
 #include <functional>
+#include <map>
 #include <mutex>
 #include <set>
 #include <optional>
 #include <string>
 #include <string_view>
 #include <thread>
+#include <vector>
 #include <condition_variable>
 
 #include <nlohmann/json.hpp>
@@ -42,10 +44,23 @@ struct StoredSession {
   nlohmann::json snapshot; // protocol::Snapshot
   std::optional<StoredUpload> model;        // when the snapshot's model was uploaded
   std::optional<std::string> environmentBlob;  // an uploaded environment, decoded floats
+  // The lights' ids in the snapshot's order and the next id (a snapshot lists lights without
+  // ids; a restored session keeps them). Empty lightIds: none stored.
+  std::vector<uint64_t> lightIds;
+  uint64_t nextLightId = 0;
 };
 
 // Lower-case hex SHA-256 of `bytes` (OpenSSL).
 std::string sha256Hex(std::string_view bytes);
+
+// Which version of a file: its inode changes with every atomic replacement; mtime and size
+// besides, since a freed inode may be reused.
+struct StateFileStamp {
+  uint64_t inode = 0;
+  int64_t mtimeNs = 0;
+  int64_t size = 0;
+  bool operator==(const StateFileStamp&) const = default;
+};
 
 class StateStore {
  public:
@@ -70,6 +85,11 @@ class StateStore {
   // session was deleted must not bring its file back).
   void forget(std::string_view id);
 
+  // True when the session's file is no longer the one this process last wrote or read: another
+  // server sharing DIR wrote it (or deleted it) since. A session open here is then stale and must
+  // be restored from the file again. False for a session this process never wrote nor read.
+  bool changedElsewhere(std::string_view id) const;
+
   // Removes session files not written for `retention`, then blobs no remaining file names.
   // Returns how many session files went.
   size_t sweep(std::chrono::seconds retention);
@@ -79,6 +99,8 @@ class StateStore {
   std::filesystem::path dir_;
   mutable std::mutex mutex_;  // one writer of a path at a time; sweep against save
   std::set<std::string, std::less<>> forgotten_;
+  // What each session file was when this process last wrote or read it.
+  mutable std::map<std::string, StateFileStamp, std::less<>> stamps_;
 };
 
 // Writes every session whose version moved since it was last written, at most every `interval`
@@ -94,6 +116,8 @@ class StatePersister {
   StatePersister(const StatePersister&) = delete;
   StatePersister& operator=(const StatePersister&) = delete;
 
+  // Writes what changed now. Callers on several threads are served one after the other, so a
+  // session's file never goes back to an older version.
   void flush();
 
  private:
@@ -103,7 +127,8 @@ class StatePersister {
   Collect collect_;
   const std::chrono::milliseconds interval_;
   const std::chrono::seconds retention_;
-  std::mutex mutex_;  // serializes flushes; guards stopping_
+  std::mutex mutex_;  // guards stopping_
+  std::mutex flushMutex_;  // one flush at a time
   std::condition_variable wake_;
   bool stopping_ = false;
   std::thread thread_;
