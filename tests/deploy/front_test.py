@@ -72,11 +72,11 @@ def rss_bytes(pid):
 
 
 class Node:
-    def __init__(self, server, index, state_dir, work):
+    def __init__(self, server, index, state_dir, work, port=0):
         self.index = index
-        self.stderr = open(os.path.join(work, f"node{index}.log"), "wb")
+        self.stderr = open(os.path.join(work, f"node{index}.log"), "ab")
         self.process = subprocess.Popen(
-            [server, "--host", "127.0.0.1", "--port", "0", "--node-id", str(index),
+            [server, "--host", "127.0.0.1", "--port", str(port), "--node-id", str(index),
              "--state-dir", state_dir, "--max-sessions", "64", "--lights", "16", "--validate"],
             stdout=subprocess.PIPE, stderr=self.stderr)
         self.port = None
@@ -325,13 +325,38 @@ http {{
             check(st == 200, f"PATCH camera of a moved session -> {st}")
             st, _, body = front.request("GET", path + "/camera", None, s["token"])
             check(st == 200 and json.loads(body)["fovY"] == 33, "the moved session's edit is lost")
+            # The node comes back (same port): the session goes home with the edit made on its
+            # failover node; edited there and killed again, the failover node's copy is stale and
+            # must be reloaded from the state directory, not served.
+            restarted = Node(server, victim.index, state_dir, work, port=victim.port)
+            restarted.wait_listening()
+            nodes[victim.index] = restarted
+            st, h, body = front.request("GET", path + "/camera", None, s["token"])
+            check(st == 200 and json.loads(body)["fovY"] == 33 and
+                  h.get("x-myriad-node") == str(victim.index),
+                  f"back home: {st} node {h.get('x-myriad-node')} {body[:100]!r}")
+            st, _, _ = front.request("PATCH", path + "/camera", {"fovY": 34}, s["token"])
+            check(st == 200, f"PATCH camera at home -> {st}")
+            restarted.process.send_signal(signal.SIGKILL)
+            restarted.process.wait()
+            st, h, body = front.request("GET", path + "/camera", None, s["token"])
+            check(st == 200 and json.loads(body)["fovY"] == 34 and
+                  h.get("x-myriad-node") == next(iter(s["after"])),
+                  f"after the second kill: {st} node {h.get('x-myriad-node')} {body[:100]!r} "
+                  f"(expected fovY 34 from node {next(iter(s['after']))})")
+            print(f"node {victim.index} restarted: session {s['id']} went home with the edit made "
+                  f"on node {next(iter(s['after']))}, and back there after a second SIGKILL "
+                  f"with the edit made at home (a stale copy reloaded)", flush=True)
+        if len(moved) > 1:
+            s = moved[1]
+            path = "/v1/sessions/" + s["id"]
             st, _, _ = front.request("DELETE", path, None, s["token"])
             check(st == 204, f"DELETE of a moved session -> {st}")
             st, _, _ = front.request("GET", path, None, s["token"])
             check(st == 404, f"GET of a deleted session -> {st}")
 
         for node in nodes:
-            if node is victim:
+            if node.index == victim.index:
                 continue
             st, body = node.direct("/v1/info")
             messages = json.loads(body)["validation"]["messages"]
@@ -339,7 +364,7 @@ http {{
 
         # --- hostile clients ---------------------------------------------------------------------
         slow_clients(front_port, context, front)
-        big_requests(front_port, context, [n for n in nodes if n is not victim])
+        big_requests(front_port, context, [n for n in nodes if n.index != victim.index])
     finally:
         if nginx_process is not None:
             nginx_process.terminate()
