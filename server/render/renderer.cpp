@@ -24,7 +24,7 @@ namespace myriad::render {
 namespace {
 
 // environment (when rebuilt), animate, gbuffer, the technique's (sun + lights, or lighting),
-// markers, tonemap, overlay, readback: room for a technique of four passes.
+// blend, markers, tonemap, overlay, readback: room for a technique of three passes.
 constexpr uint32_t kMaxTimedPasses = 11;
 
 // The light-count view's hottest colour when the request leaves it to us.
@@ -403,6 +403,11 @@ Frame Renderer::State::renderOnce(SceneBuffers& scene, SceneEnvironment* environ
   // Lighting leaves HDR and light counts as attachments (raster) or storage images (compute).
   const VkImageLayout lightingLayout = technique.record({cmd, s.timer, t, scene});
   VkImageLayout hdrLayout = lightingLayout;
+  if (hasBlendDraws(scene)) {
+    s.timer.beginPass(cmd, "blend");
+    hdrLayout = recordBlendPass(cmd, p, t, scene, scene::viewMatrix(settings.camera), hdrLayout,
+                                technique.bindForwardLights(cmd));
+  }
   if (settings.markers) {
     s.timer.beginPass(cmd, "markers");
     recordMarkerPass(cmd, p, t, scene, hdrLayout);

@@ -55,6 +55,15 @@ class LightingTechnique {
   // gets its barrier here.
   virtual VkImageLayout record(const LightingPass& pass) = 0;
 
+  // Light lists for the forward pass of alpha-blended surfaces (recordBlendPass): binds them (set
+  // 2, MYRIAD_BINDING_CLUSTER_RANGES and _LIGHTS, covering every cluster a blended fragment lies
+  // in) at the graphics bind point and returns true; false (the default): the forward pass tests
+  // every light. Called after record().
+  virtual bool bindForwardLights(VkCommandBuffer cmd) const {
+    (void)cmd;
+    return false;
+  }
+
   // After the frame's GPU work finished: the culling counters, list memory and capacity.
   virtual void report(CullingReport& report) const { (void)report; }
 
