@@ -30,8 +30,11 @@ void bindGeometry(VkCommandBuffer cmd, const SceneBuffers& scene);
 // G-buffer pass and every pass that rasterises the scene's surfaces with it.
 gpu::VertexLayout surfaceVertexLayout();
 
-// One instanced draw of the light proxy sphere per light (nothing without lights).
+// One instanced draw of the light proxy sphere per light (nothing without lights); with `first`
+// and `count`, of lights [first, first + count) only (firstInstance carries the light index).
 void drawLightProxies(VkCommandBuffer cmd, const SceneBuffers& scene);
+void drawLightProxies(VkCommandBuffer cmd, const SceneBuffers& scene, uint32_t first,
+                      uint32_t count);
 
 // Blending reads the attachment, so consecutive blending passes need write -> read/write.
 gpu::ImageTransition colorWriteToBlend(const gpu::Image& image);
