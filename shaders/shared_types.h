@@ -127,6 +127,12 @@ using mat4 = glm::mat4;
 #define MYRIAD_VIEW_EMISSIVE 11
 #define MYRIAD_VIEW_OCCLUSION 12
 
+// The G-buffer targets a frame writes only when it needs them (FrameUniforms.written.x): the uv
+// target for the uv view, emission when a material emits or for the emissive view. Raster output
+// is what the G-buffer pass spends its time on where few units rasterize (docs/performance.md).
+#define MYRIAD_GBUFFER_UV 1u
+#define MYRIAD_GBUFFER_EMISSIVE 2u
+
 // Directional lights besides the sun (scene::kMaxExtraSuns; render/gpu_types.h checks it).
 #define MYRIAD_MAX_EXTRA_SUNS 3
 
@@ -146,6 +152,8 @@ MYRIAD_STRUCT(FrameUniforms) {
   vec4 boundsMax;
   uvec4 flags;           // x view (MYRIAD_VIEW_*), y light count, z raw output (0/1), w list capacity
   uvec4 grid;            // x,y clusters across/down, z depth slices, w technique (render::Technique)
+  uvec4 written;         // x the optional G-buffer targets this frame wrote (MYRIAD_GBUFFER_*);
+                         // yzw unused
   vec4 slicing;          // x slices / ln(far/near), y ln(near) * x, z heat-map max, w time (s)
   vec4 environment;      // x mode (MYRIAD_ENV_*), y intensity, z background shown (0/1), w unused
   vec4 environmentRotation;  // x cos, y sin of the environment's rotation about +Y
