@@ -14,6 +14,7 @@ using gpu_types::GpuInstance;
 using gpu_types::GpuMaterial;
 using gpu_types::GpuPointLight;
 using gpu_types::CullingStats;
+using gpu_types::LargeLightQueue;
 
 static_assert(sizeof(gpu_types::vec4) == 16 && sizeof(gpu_types::mat4) == 64);
 static_assert(sizeof(FrameUniforms) == 4 * 64 + 15 * 16 + 2 * MYRIAD_MAX_EXTRA_SUNS * 16);
@@ -28,6 +29,7 @@ static_assert(offsetof(FrameUniforms, flags) == 256 + 9 * 16);
 static_assert(offsetof(FrameUniforms, written) == 256 + 11 * 16);
 static_assert(offsetof(FrameUniforms, slicing) == 256 + 12 * 16);
 static_assert(sizeof(CullingStats) == 32);
+static_assert(sizeof(LargeLightQueue) == 32);
 static_assert(sizeof(GpuPointLight) == 48 && offsetof(GpuPointLight, radianceFalloff) == 16 &&
               offsetof(GpuPointLight, cone) == 32);
 static_assert(sizeof(GpuInstance) == 144 && offsetof(GpuInstance, material) == 128);

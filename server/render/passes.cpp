@@ -85,7 +85,7 @@ Pipelines::Pipelines(gpu::Context& context) : device(context.device) {
                                                 VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, 1,
                                                 VK_SHADER_STAGE_COMPUTE_BIT, nullptr};
   targetSetLayout = gpu::createDescriptorSetLayout(device, targetBindings);
-  std::array<VkDescriptorSetLayoutBinding, 4> cullingBindings{};
+  std::array<VkDescriptorSetLayoutBinding, 5> cullingBindings{};
   for (uint32_t i = 0; i < cullingBindings.size(); ++i) {
     cullingBindings[i] = {i, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, VK_SHADER_STAGE_COMPUTE_BIT, nullptr};
   }
