@@ -39,9 +39,10 @@ struct Pipelines {
   VkPipeline markerResolve = VK_NULL_HANDLE;  // markers: one thread per pixel
 };
 
-// 1. Writes depth, normal, base colour, material, uv, emissive; leaves them readable by later passes.
+// 1. Writes depth, normal, base colour, material, and uv and emissive where `written`
+// (MYRIAD_GBUFFER_* bits) says; leaves them readable by later passes.
 void recordGBufferPass(VkCommandBuffer cmd, const Pipelines& p, const FrameTargets& t,
-                       const SceneBuffers& scene);
+                       const SceneBuffers& scene, uint32_t written);
 // 2-3. The lighting technique's passes (render/techniques/technique.h).
 // 3b. Alpha-blended (glTF BLEND) draws, sorted back to front by the view depth of each draw's
 //    centre, depth-tested against the G-buffer depth without writing it, lit like opaque pixels
