@@ -16,6 +16,12 @@
 
 namespace myriad::render {
 
+// Who waits for a frame. A request's frame counts against maxQueuedFrames (a waiting request
+// holds an HTTP worker); a stream's does not: an open stream has at most one frame queued and
+// --max-streams bounds the streams, while refusing its frame only made the stream retry 50 ms
+// later, which gave concurrent streams uneven rates and left the GPU idle.
+enum class FrameSource { Request, Stream };
+
 // submit() found the queue full (or the queue stopping); the client should retry later.
 class RenderQueueFullError : public std::runtime_error {
  public:
@@ -58,8 +64,12 @@ class RenderQueue {
   // Queues a frame of scene `id`; the future holds the frame or what the renderer threw. The
   // settings carry the sun, ambient and background (FrameSettings::takeLightingFrom). Throws
   // RenderQueueFullError when maxQueuedFrames() frames already wait behind the one rendering, or
-  // after stop(). Only frames count against maxQueuedFrames().
-  virtual std::future<Frame> submit(SceneId id, const FrameSettings& settings) = 0;
+  // after stop(). Only frames of FrameSource::Request count against maxQueuedFrames().
+  virtual std::future<Frame> submit(SceneId id, const FrameSettings& settings,
+                                    FrameSource source) = 0;
+  std::future<Frame> submit(SceneId id, const FrameSettings& settings) {
+    return submit(id, settings, FrameSource::Request);
+  }
   // The same for the default scene.
   std::future<Frame> submit(const FrameSettings& settings) {
     return submit(defaultScene(), settings);

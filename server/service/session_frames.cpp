@@ -119,9 +119,9 @@ protocol::Stats FrameStatsBook::statsOf(const Session& session, uint64_t lightCo
 }
 
 DeliveredFrame deliverFrame(render::RenderQueue& renderThread, Metrics& metrics, render::SceneId id,
-                            const FrameRequest& request) {
+                            const FrameRequest& request, render::FrameSource source) {
   const auto start = std::chrono::steady_clock::now();
-  std::future<render::Frame> pending = renderThread.submit(id, request.settings);
+  std::future<render::Frame> pending = renderThread.submit(id, request.settings, source);
   DeliveredFrame delivered;
   delivered.frame = pending.get();
   delivered.encoded = encodeFrame(delivered.frame, request);
@@ -131,7 +131,7 @@ DeliveredFrame deliverFrame(render::RenderQueue& renderThread, Metrics& metrics,
 }
 
 SessionFrame renderSessionFrame(const SessionFrameContext& context, const SessionPtr& session,
-                                const FrameRequest& request) {
+                                const FrameRequest& request, render::FrameSource source) {
   FrameRequest rendered = request;
   render::SceneId sceneId = 0;
   SessionFrame result;
@@ -145,7 +145,7 @@ SessionFrame renderSessionFrame(const SessionFrameContext& context, const Sessio
 
   DeliveredFrame delivered;
   try {
-    delivered = deliverFrame(context.renderThread, context.metrics, sceneId, rendered);
+    delivered = deliverFrame(context.renderThread, context.metrics, sceneId, rendered, source);
   } catch (const render::RenderQueueFullError&) {
     throw;
   } catch (const std::exception&) {

@@ -62,7 +62,8 @@ struct DeliveredFrame {
   EncodedFrame encoded;
 };
 DeliveredFrame deliverFrame(render::RenderQueue& renderThread, Metrics& metrics, render::SceneId id,
-                            const FrameRequest& request);
+                            const FrameRequest& request,
+                            render::FrameSource source = render::FrameSource::Request);
 
 // A session frame as delivered: the encoded bytes and what it showed.
 struct SessionFrame {
@@ -81,7 +82,9 @@ struct SessionFrameContext {
 // waits, encodes, and records the frame in stats and metrics. `request.time` overrides the
 // session's animation clock. Throws render::RenderQueueFullError (queue full), ProblemError 404 when the
 // session closed meanwhile, and whatever the renderer or encoder threw.
+// `source`: a stream's frames are not refused for a full queue (render::FrameSource).
 SessionFrame renderSessionFrame(const SessionFrameContext& context, const SessionPtr& session,
-                                const FrameRequest& request);
+                                const FrameRequest& request,
+                                render::FrameSource source = render::FrameSource::Request);
 
 }  // namespace myriad::service

@@ -7,8 +7,9 @@
 namespace myriad::service {
 namespace {
 
-// How long a stream waits before retrying when the render queue is full: short enough to keep
-// the picture live, long enough not to hammer the queue while other requests drain it.
+// How long a stream waits before retrying when the render queue refuses its frame. A stream's
+// frames are not counted against --max-queued-frames (render::FrameSource::Stream), so this is
+// only the render thread stopping, which the next turn of the loop sees.
 constexpr std::chrono::milliseconds kQueueFullRetry{50};
 
 // Everything one stream carries from part to part. Used only by the worker serving the stream.
@@ -73,7 +74,7 @@ bool StreamState::next(httplib::DataSink& sink) {
     if (wantFrame && now >= nextFrameAt) {
       SessionFrame frame;
       try {
-        frame = renderSessionFrame(context, session, request);
+        frame = renderSessionFrame(context, session, request, render::FrameSource::Stream);
       } catch (const render::RenderQueueFullError&) {
         nextFrameAt = now + kQueueFullRetry;
         continue;
