@@ -268,7 +268,12 @@ struct StreamCount {
   uint64_t bytes = 0;
   double firstAt = 0.0, lastAt = 0.0;  // seconds since the start, of the first and last part
   std::string error;
-  double fps() const { return frames > 1 && lastAt > firstAt ? double(frames - 1) / (lastAt - firstAt) : 0.0; }
+  // Parts per second between the first part and the last; with fewer than two parts (a device
+  // slower than the window), the parts over the whole window.
+  double fps(double window) const {
+    if (frames > 1 && lastAt > firstAt) return double(frames - 1) / (lastAt - firstAt);
+    return double(frames) / window;
+  }
 };
 
 StreamCount readStream(const std::string& url, const Options& o, const Session& s, const Size& size,
@@ -337,25 +342,30 @@ json measureStreams(const std::string& url, const Options& o, const std::vector<
   }
   for (std::thread& t : readers) t.join();
   json perStream = json::array();
+  json perStreamFrames = json::array();
   double total = 0.0;
   uint64_t bytes = 0, frames = 0;
   for (const StreamCount& c : counts) {
     if (!c.error.empty()) throw std::runtime_error("stream: " + c.error);
-    perStream.push_back(c.fps());
-    total += c.fps();
+    perStream.push_back(c.fps(o.seconds));
+    perStreamFrames.push_back(c.frames);
+    total += c.fps(o.seconds);
     bytes += c.bytes;
     frames += c.frames;
   }
   const double mean = total / double(counts.size());
   double deviation = 0.0;
   for (const StreamCount& c : counts) {
-    if (mean > 0.0) deviation = std::max(deviation, std::abs(c.fps() - mean) / mean * 100.0);
+    if (mean > 0.0) {
+      deviation = std::max(deviation, std::abs(c.fps(o.seconds) - mean) / mean * 100.0);
+    }
   }
   json result = {{"size", size.text()},
                  {"streams", counts.size()},
                  {"seconds", o.seconds},
                  {"totalFps", total},
                  {"perStreamFps", perStream},
+                 {"perStreamFrames", perStreamFrames},
                  {"maxDeviationPercent", deviation},
                  {"bytesPerFrame", frames ? bytes / frames : 0}};
   return result;
@@ -404,6 +414,9 @@ int main(int argc, char** argv) {
       std::fprintf(stderr, "  one stream %s...\n", o.large->text().c_str());
       report["large"] = measureStreams(url, o, {sessions[0]}, *o.large);
     }
+    // With the server's --validate: the messages its Vulkan validation reported during the run.
+    report["validation"] =
+        checkedJson(client->Get("/v1/info"), 200, "GET /v1/info").value("validation", json());
     const std::string text = report.dump(2);
     std::cout << text << std::endl;
     if (!o.json.empty()) std::ofstream(o.json) << text << "\n";

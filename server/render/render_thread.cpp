@@ -155,7 +155,8 @@ std::future<void> RenderThread::setEnvironmentImage(
 }
 
 std::future<Frame> RenderThread::submit(SceneId id, const FrameSettings& settings,
-                                        FrameSource source) {
+                                        FrameSource source,
+                                        std::shared_ptr<const std::atomic<bool>> drop) {
   // Shared between the task's turns: a split frame keeps its progress here.
   struct Pending {
     std::promise<Frame> promise;
@@ -169,8 +170,11 @@ std::future<Frame> RenderThread::submit(SceneId id, const FrameSettings& setting
   task.scene = id;
   task.frame = true;
   task.counted = source == FrameSource::Request;
-  task.run = [this, pending, id, settings](Renderer& r) {
+  task.run = [this, pending, id, settings, drop = std::move(drop)](Renderer& r) {
     try {
+      if (!pending->split && drop && drop->load()) {
+        throw FrameDroppedError("the frame was given up before it started");
+      }
       if (!pending->split) {
         // Not started yet: a whole frame, or the first submission of a split one.
         const bool split = r.shouldSplit(id, settings);

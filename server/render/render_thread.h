@@ -65,8 +65,8 @@ class RenderThread final : public RenderQueue {
   std::future<void> updateMaterials(SceneId id, std::vector<MaterialWrite> writes) override;
   std::future<void> setEnvironmentImage(
       SceneId id, std::shared_ptr<const scene::EnvironmentImage> image) override;
-  std::future<Frame> submit(SceneId id, const FrameSettings& settings,
-                            FrameSource source) override;
+  std::future<Frame> submit(SceneId id, const FrameSettings& settings, FrameSource source,
+                            std::shared_ptr<const std::atomic<bool>> drop) override;
   using RenderQueue::submit;  // submit(settings): the default scene
   uint64_t gpuMemoryBytes() const override { return gpuMemoryBytes_.load(); }
   // Renders the frames already queued, then releases the renderer and the device on the render
