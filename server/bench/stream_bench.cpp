@@ -36,6 +36,8 @@
 
 #include <nlohmann/json.hpp>
 
+#include "protocol/constants.h"
+
 extern char** environ;
 
 namespace {
@@ -200,6 +202,16 @@ struct Session {
   std::string token;
 };
 
+namespace routes = myriad::protocol::routes;
+
+// A route template of protocol/constants.h with the session id filled in.
+std::string route(std::string_view pattern, const std::string& id) {
+  std::string path(pattern);
+  const size_t at = path.find("{id}");
+  if (at != std::string::npos) path.replace(at, 4, id);
+  return path;
+}
+
 json checkedJson(const httplib::Result& res, int status, const std::string& what) {
   if (!res) throw std::runtime_error(what + ": no answer (" + httplib::to_string(res.error()) + ")");
   if (res->status != status) {
@@ -209,16 +221,16 @@ json checkedJson(const httplib::Result& res, int status, const std::string& what
 }
 
 Session createSession(httplib::Client& client, const Options& o, uint32_t seed) {
-  json created = checkedJson(client.Post("/v1/sessions", "{}", "application/json"), 201,
-                             "POST /v1/sessions");
+  json created = checkedJson(client.Post(std::string(routes::kSessions), "{}", "application/json"),
+                             201, "POST sessions");
   Session s{created["id"].get<std::string>(), created["token"].get<std::string>()};
   const httplib::Headers auth = {{"Authorization", "Bearer " + s.token}};
-  const std::string path = "/v1/sessions/" + s.id;
   json generate = {{"count", o.lights}, {"seed", seed}, {"radius", {o.radiusMin, o.radiusMax}}};
-  checkedJson(client.Post(path + "/lights/generate", auth, generate.dump(), "application/json"),
+  checkedJson(client.Post(route(routes::kSessionLightsGenerate, s.id), auth, generate.dump(),
+                          "application/json"),
               200, "POST lights/generate");
-  checkedJson(client.Patch(path + "/settings", auth, R"({"markers": false, "animate": true})",
-                           "application/json"),
+  checkedJson(client.Patch(route(routes::kSessionSettings, s.id), auth,
+                           R"({"markers": false, "animate": true})", "application/json"),
               200, "PATCH settings");
   return s;
 }
@@ -238,7 +250,7 @@ double percentile(std::vector<double> values, double p) {
 json measureRequests(const std::string& url, const Options& o, const Session& s) {
   auto client = clientFor(url);
   const httplib::Headers auth = {{"Authorization", "Bearer " + s.token}};
-  const std::string path = "/v1/sessions/" + s.id + "/frame?" + frameQuery(o, o.size);
+  const std::string path = route(routes::kSessionFrame, s.id) + "?" + frameQuery(o, o.size);
   std::vector<double> ms;
   size_t bytes = 0;
   std::string timing;
@@ -281,8 +293,7 @@ StreamCount readStream(const std::string& url, const Options& o, const Session& 
   StreamCount count;
   auto client = clientFor(url);
   const httplib::Headers auth = {{"Authorization", "Bearer " + s.token}};
-  const std::string path =
-      "/v1/sessions/" + s.id + "/stream?fps=240&" + frameQuery(o, size);
+  const std::string path = route(routes::kSessionStream, s.id) + "?fps=240&" + frameQuery(o, size);
   std::string buffer;
   size_t need = 0;  // body bytes of the current part still to skip
   std::string lastSequence;
@@ -392,7 +403,7 @@ int main(int argc, char** argv) {
       url = started->url();
     }
     auto client = clientFor(url);
-    json info = checkedJson(client->Get("/v1/info"), 200, "GET /v1/info");
+    json info = checkedJson(client->Get(std::string(routes::kInfo)), 200, "GET info");
     std::fprintf(stderr, "myriad-stream-bench: %s, %u lights per session\n", url.c_str(), o.lights);
 
     std::vector<Session> sessions;
@@ -416,7 +427,7 @@ int main(int argc, char** argv) {
     }
     // With the server's --validate: the messages its Vulkan validation reported during the run.
     report["validation"] =
-        checkedJson(client->Get("/v1/info"), 200, "GET /v1/info").value("validation", json());
+        checkedJson(client->Get(std::string(routes::kInfo)), 200, "GET info").value("validation", json());
     const std::string text = report.dump(2);
     std::cout << text << std::endl;
     if (!o.json.empty()) std::ofstream(o.json) << text << "\n";
