@@ -4,6 +4,8 @@
 #include <cstdio>
 #include <utility>
 
+#include "service/shared_frames.h"
+
 namespace myriad::service {
 namespace {
 
@@ -23,6 +25,7 @@ struct StreamState {
 
   bool hasFrame = false;
   uint64_t shownVersion = 0;  // the session version of the last frame
+  uint64_t shownGeneration = 0;  // its SharedFrames generation (0: none, or not shared)
   uint64_t sequence = 0;      // X-Myriad-Frame of the last frame (re-sends keep it)
   std::string image;          // the last frame, for idle re-sends
   std::string contentType;
@@ -71,9 +74,14 @@ bool StreamState::next(httplib::DataSink& sink) {
     const Clock::time_point now = Clock::now();
     const bool wantFrame = !hasFrame || version != shownVersion || animate;
     if (wantFrame && now >= nextFrameAt) {
-      SessionFrame frame;
+      SharedFrames::Frame frame;
       try {
-        frame = renderSessionFrame(context, session, request);
+        if (context.shared != nullptr) {
+          frame = context.shared->next(context, session, request, shownGeneration, interval);
+        } else {
+          SessionFrame own = renderSessionFrame(context, session, request);
+          frame = {std::make_shared<const EncodedFrame>(std::move(own.encoded)), own.version, 0};
+        }
       } catch (const render::RenderQueueFullError&) {
         nextFrameAt = now + kQueueFullRetry;
         continue;
@@ -89,9 +97,10 @@ bool StreamState::next(httplib::DataSink& sink) {
       nextFrameAt = now + interval;
       hasFrame = true;
       shownVersion = frame.version;
+      shownGeneration = frame.generation;
       ++sequence;
-      image = std::move(frame.encoded.body);
-      contentType = std::move(frame.encoded.contentType);
+      image = frame.encoded->body;
+      contentType = frame.encoded->contentType;
       return writePart(sink);
     }
     if (hasFrame && now - lastWriteAt >= kIdleResend) return writePart(sink);
