@@ -85,7 +85,7 @@ Pipelines::Pipelines(gpu::Context& context) : device(context.device) {
                                                 VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, 1,
                                                 VK_SHADER_STAGE_COMPUTE_BIT, nullptr};
   targetSetLayout = gpu::createDescriptorSetLayout(device, targetBindings);
-  std::array<VkDescriptorSetLayoutBinding, 4> cullingBindings{};
+  std::array<VkDescriptorSetLayoutBinding, 5> cullingBindings{};
   for (uint32_t i = 0; i < cullingBindings.size(); ++i) {
     cullingBindings[i] = {i, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, VK_SHADER_STAGE_COMPUTE_BIT, nullptr};
   }
@@ -146,7 +146,7 @@ Pipelines::~Pipelines() {
 }
 
 void recordGBufferPass(VkCommandBuffer cmd, const Pipelines& p, const FrameTargets& t,
-                       const SceneBuffers& scene) {
+                       const SceneBuffers& scene, uint32_t written) {
   const VkPipelineStageFlags2 reader = VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT;
   const ImageTransition before[] = {
       discardForColorWrite(t.normal, reader),
@@ -168,6 +168,10 @@ void recordGBufferPass(VkCommandBuffer cmd, const Pipelines& p, const FrameTarge
       colorAttachment(t.uv, VK_ATTACHMENT_LOAD_OP_CLEAR),
       colorAttachment(t.emissive, VK_ATTACHMENT_LOAD_OP_CLEAR)};
   for (auto& c : colors) c.clearValue.color = {{0.0f, 0.0f, 0.0f, 0.0f}};
+  // Optional targets the frame does not read are left unbound: their writes are discarded (and
+  // their contents undefined; FrameUniforms.written tells the shaders).
+  if ((written & MYRIAD_GBUFFER_UV) == 0) colors[3].imageView = VK_NULL_HANDLE;
+  if ((written & MYRIAD_GBUFFER_EMISSIVE) == 0) colors[4].imageView = VK_NULL_HANDLE;
   VkRenderingAttachmentInfo depth{VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO};
   depth.imageView = t.depth.view;
   depth.imageLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;

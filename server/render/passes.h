@@ -36,9 +36,10 @@ struct Pipelines {
   VkPipeline markerResolve = VK_NULL_HANDLE;  // markers: one thread per pixel
 };
 
-// 1. Writes depth, normal, base colour, material, uv, emissive; leaves them readable by later passes.
+// 1. Writes depth, normal, base colour, material, and uv and emissive where `written`
+// (MYRIAD_GBUFFER_* bits) says; leaves them readable by later passes.
 void recordGBufferPass(VkCommandBuffer cmd, const Pipelines& p, const FrameTargets& t,
-                       const SceneBuffers& scene);
+                       const SceneBuffers& scene, uint32_t written);
 // 2-3. The lighting technique's passes (render/techniques/technique.h).
 // 4. Reads depth (test only, kept from pass 1) and lights; splats light markers (compute, a few
 //    pixels each) into the marker keys, then blends them into HDR. `hdrLayout` is where the

@@ -84,6 +84,11 @@ void transfer(gpu::Context& context, gpu::CommandRecorder& recorder,
 
 GpuPointLight toGpu(const scene::PointLight& l) { return packLight(l); }
 
+// Emission is factor x strength (x texture): zero whenever the factor or the strength is.
+bool emitsLight(const scene::Material& m) {
+  return m.emissiveStrength != 0.0f && m.emissive != glm::vec3(0.0f);
+}
+
 GpuMaterial toGpu(const scene::Material& m) {
   GpuMaterial g{};
   g.baseColor = glm::vec4(m.baseColor, m.alpha);
@@ -189,7 +194,10 @@ SceneBuffers::SceneBuffers(gpu::Context& context, gpu::CommandRecorder& recorder
   // One descriptor set bind per material in the G-buffer pass.
   std::stable_sort(draws.begin(), draws.end(),
                    [](const DrawItem& a, const DrawItem& b) { return a.material < b.material; });
-  for (const scene::Material& m : scene.materials) doubleSided.push_back(m.doubleSided ? 1 : 0);
+  for (const scene::Material& m : scene.materials) {
+    doubleSided.push_back(m.doubleSided ? 1 : 0);
+    emits.push_back(emitsLight(m) ? 1 : 0);
+  }
   textures = std::make_unique<MaterialTextures>(context, recorder, materialSetLayout, scene);
   std::vector<GpuMaterial> gpuMaterials;
   for (const scene::Material& m : scene.materials) gpuMaterials.push_back(toGpu(m));
@@ -314,7 +322,14 @@ void SceneBuffers::updateMaterials(gpu::CommandRecorder& recorder,
   std::vector<Upload> uploads = elementUploads<GpuMaterial>(
       writes, materials, staged, [](const MaterialWrite& w) { return toGpu(w.material); });
   transfer(context, recorder, {}, uploads);
-  for (const MaterialWrite& w : writes) doubleSided[w.index] = w.material.doubleSided ? 1 : 0;
+  for (const MaterialWrite& w : writes) {
+    doubleSided[w.index] = w.material.doubleSided ? 1 : 0;
+    emits[w.index] = emitsLight(w.material) ? 1 : 0;
+  }
+}
+
+bool SceneBuffers::anyEmission() const {
+  return std::find(emits.begin(), emits.end(), uint8_t{1}) != emits.end();
 }
 
 }  // namespace myriad::render

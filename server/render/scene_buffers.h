@@ -58,6 +58,8 @@ struct SceneBuffers {
   std::vector<DrawItem> draws;         // grouped by material
   std::unique_ptr<MaterialTextures> textures;
   std::vector<uint8_t> doubleSided;   // per material: whether back faces are drawn
+  std::vector<uint8_t> emits;         // per material: whether its emission can be non-zero
+  bool anyEmission() const;
   MeshRange lightProxy;  // icosphere circumscribing the unit sphere (volumes, markers)
   uint32_t lightCount = 0;
   uint32_t lightCapacity = 0;  // lights the two light buffers hold

@@ -57,23 +57,29 @@ uint32_t initialCapacity(const ClusterGrid& grid, uint32_t lightCount, uint64_t 
 
 // The grid's buffers, recreated together when the grid or the capacity changes.
 struct ClusterLists {
-  ClusterLists(gpu::Context& context, const ClusterGrid& g, uint32_t references)
-      : grid(g), capacity(references), arena(context, kListBlockSize) {
+  ClusterLists(gpu::Context& context, const ClusterGrid& g, uint32_t references, uint32_t lights)
+      : grid(g), capacity(references), lightCapacity(lights), arena(context, kListBlockSize) {
     const VkBufferUsageFlags storage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT;
     ranges = arena.createBuffer(VkDeviceSize(grid.count()) * 8, storage, gpu::MemoryUse::DeviceLocal);
     cursors = arena.createBuffer(VkDeviceSize(grid.count()) * 4,
                                  storage | VK_BUFFER_USAGE_TRANSFER_DST_BIT, gpu::MemoryUse::DeviceLocal);
     lists = arena.createBuffer(VkDeviceSize(capacity) * 4, storage, gpu::MemoryUse::DeviceLocal);
+    large = arena.createBuffer(sizeof(LargeLightQueue) + VkDeviceSize(std::max(lightCapacity, 1u)) * 4,
+                               storage | VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT |
+                                   VK_BUFFER_USAGE_TRANSFER_DST_BIT,
+                               gpu::MemoryUse::DeviceLocal);
   }
 
-  uint64_t bytes() const { return ranges.size + cursors.size + lists.size; }
+  uint64_t bytes() const { return ranges.size + cursors.size + lists.size + large.size; }
 
   ClusterGrid grid;
   uint32_t capacity;  // light references all lists together can hold
+  uint32_t lightCapacity;  // lights the large-light queue can hold
   gpu::Arena arena;
   gpu::Buffer ranges;   // uvec2 per cluster: first index, count
   gpu::Buffer cursors;  // uint per cluster: count, then fill cursor
   gpu::Buffer lists;    // uint per light reference
+  gpu::Buffer large;    // LargeLightQueue, then a uint per queued light
 };
 
 class Clustered final : public LightingTechnique {
@@ -89,12 +95,17 @@ class Clustered final : public LightingTechnique {
     shade_ = pipelines_.add(gpu::createComputePipeline(device, layout, spirv::light_clustered_comp));
     // cluster_assign.comp counts (kAssign = false) or fills the lists (true): one source, so both
     // passes run the identical overlap test.
-    VkSpecializationMapEntry entry{0, 0, sizeof(VkBool32)};
+    // kLarge (constant 1) picks the per-light or the per-large-light (workgroup) variant.
+    const VkSpecializationMapEntry entries[] = {{0, 0, sizeof(VkBool32)},
+                                                {1, sizeof(VkBool32), sizeof(VkBool32)}};
     for (VkBool32 assign : {VK_FALSE, VK_TRUE}) {
-      VkSpecializationInfo spec{1, &entry, sizeof(VkBool32), &assign};
-      VkPipeline& target = assign ? assign_ : count_;
-      target = pipelines_.add(
-          gpu::createComputePipeline(device, layout, spirv::cluster_assign_comp, &spec));
+      for (VkBool32 large : {VK_FALSE, VK_TRUE}) {
+        const VkBool32 values[] = {assign, large};
+        VkSpecializationInfo spec{2, entries, sizeof(values), values};
+        VkPipeline& target = assign ? (large ? assignLarge_ : assign_) : (large ? countLarge_ : count_);
+        target = pipelines_.add(
+            gpu::createComputePipeline(device, layout, spirv::cluster_assign_comp, &spec));
+      }
     }
   }
 
@@ -111,15 +122,16 @@ class Clustered final : public LightingTechnique {
         std::min<uint64_t>(std::max(capacity, grownListCapacity_), mostReferences));
     const bool keep = lists_ && lists_->grid == grid && lists_->capacity >= capacity &&
                       lists_->capacity <= 2 * uint64_t(capacity) &&
-                      lists_->capacity <= mostReferences;
+                      lists_->capacity <= mostReferences && lists_->lightCapacity >= lightCount;
     if (keep) return;
     lists_.reset();
-    lists_ = std::make_unique<ClusterLists>(context_, grid, capacity);
+    lists_ = std::make_unique<ClusterLists>(context_, grid, capacity, lightCount);
     const CullingSet::Binding bindings[] = {
         {MYRIAD_BINDING_CLUSTER_RANGES, &lists_->ranges},
         {MYRIAD_BINDING_CLUSTER_LIGHTS, &lists_->lists},
         {MYRIAD_BINDING_CULLING_STATS, &counters_.stats},
         {MYRIAD_BINDING_CLUSTER_CURSORS, &lists_->cursors},
+        {MYRIAD_BINDING_LARGE_LIGHTS, &lists_->large},
     };
     set_.write(bindings);
   }
@@ -134,9 +146,11 @@ class Clustered final : public LightingTechnique {
     // Two timed parts: "assign" (steps 1-4, building the lists) and "shade" (step 5).
     pass.timer.beginPass(cmd, "assign");
     set_.bind(cmd);
-    // Every cluster starts inactive; the counters start at zero.
+    // Every cluster starts inactive; the counters start at zero, the large-light queue empty.
     vkCmdFillBuffer(cmd, lists_->cursors.buffer, 0, VK_WHOLE_SIZE, MYRIAD_CLUSTER_INACTIVE);
     counters_.reset(cmd);
+    const LargeLightQueue emptyQueue{{0, 1, 1, 0}, {0, 0, 0, 0}};
+    vkCmdUpdateBuffer(cmd, lists_->large.buffer, 0, sizeof(emptyQueue), &emptyQueue);
     gpu::memoryBarrier(cmd, kFillStage, VK_ACCESS_2_TRANSFER_WRITE_BIT, kComputeStage,
                        kStorageReadWrite);
 
@@ -145,9 +159,15 @@ class Clustered final : public LightingTechnique {
     gpu::memoryBarrier(cmd, kComputeStage, kStorageWrite, kComputeStage, kStorageReadWrite);
     uint32_t lightGroups = groupCount(pass.scene.lightCount, MYRIAD_LIGHTS_PER_GROUP);
     if (lightGroups > 0) {
-      // 2. Count each active cluster's lights.
+      // 2. Count each active cluster's lights: small lights a thread each, queueing the large
+      // ones, then the queue a workgroup per light (an indirect dispatch of the queue's length).
       vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, count_);
       vkCmdDispatch(cmd, lightGroups, 1, 1);
+      gpu::memoryBarrier(cmd, kComputeStage, kStorageWrite,
+                         kComputeStage | VK_PIPELINE_STAGE_2_DRAW_INDIRECT_BIT,
+                         kStorageReadWrite | VK_ACCESS_2_INDIRECT_COMMAND_READ_BIT);
+      vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, countLarge_);
+      vkCmdDispatchIndirect(cmd, lists_->large.buffer, 0);
       gpu::memoryBarrier(cmd, kComputeStage, kStorageWrite, kComputeStage, kStorageReadWrite);
     }
     // 3. Prefix sum: list offsets, capacity cuts, counters.
@@ -155,16 +175,22 @@ class Clustered final : public LightingTechnique {
     vkCmdDispatch(cmd, 1, 1, 1);
     gpu::memoryBarrier(cmd, kComputeStage, kStorageWrite, kComputeStage, kStorageReadWrite);
     if (lightGroups > 0) {
-      // 4. Fill the lists.
+      // 4. Fill the lists: the same split, the queue kept from step 2.
       vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, assign_);
       vkCmdDispatch(cmd, lightGroups, 1, 1);
+      // The small-light pass does not write the queue, but it holds it writable: order it before
+      // the indirect read all the same (the synchronization layer's rule, and cheap).
+      gpu::memoryBarrier(cmd, kComputeStage, kStorageWrite, VK_PIPELINE_STAGE_2_DRAW_INDIRECT_BIT,
+                         VK_ACCESS_2_INDIRECT_COMMAND_READ_BIT);
+      vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, assignLarge_);
+      vkCmdDispatchIndirect(cmd, lists_->large.buffer, 0);
       gpu::memoryBarrier(cmd, kComputeStage, kStorageWrite, kComputeStage,
                          VK_ACCESS_2_SHADER_STORAGE_READ_BIT);
     }
     // 5. Shade every pixel from its cluster's list, narrowed per tile.
     pass.timer.beginPass(cmd, "shade");
     prepareLightingTargets(cmd, t);
-    dispatchPixels(cmd, shade_, t.extent, MYRIAD_TILE_SIZE);
+    dispatchPixels(cmd, shade_, t.extent, MYRIAD_CLUSTER_SHADE_TILE);
     counters_.makeHostVisible(cmd);
     return VK_IMAGE_LAYOUT_GENERAL;
   }
@@ -221,6 +247,8 @@ class Clustered final : public LightingTechnique {
   VkPipeline count_ = VK_NULL_HANDLE;
   VkPipeline scan_ = VK_NULL_HANDLE;
   VkPipeline assign_ = VK_NULL_HANDLE;
+  VkPipeline countLarge_ = VK_NULL_HANDLE;   // the queued large lights, a workgroup each
+  VkPipeline assignLarge_ = VK_NULL_HANDLE;
   VkPipeline shade_ = VK_NULL_HANDLE;
   CullingSet set_;
   CullingCounters counters_;
