@@ -49,7 +49,7 @@ SharedFrames::Frame SharedFrames::next(const SessionFrameContext& context,
                       (!animate || now - entry.renderedAt < maxAge);
     if (fits) {
       ++shared_;
-      return {entry.encoded, entry.version, entry.generation};
+      return {entry.encoded, entry.version, entry.generation, entry.took};
     }
     if (entry.rendering) {
       // Another stream renders this picture now: take its frame rather than queue a second.
@@ -63,7 +63,7 @@ SharedFrames::Frame SharedFrames::next(const SessionFrameContext& context,
     lock.unlock();
     SessionFrame frame;
     try {
-      frame = renderSessionFrame(context, session, request);
+      frame = renderSessionFrame(context, session, request, render::FrameSource::Stream);
     } catch (...) {
       lock.lock();
       entries_[key].rendering = false;
@@ -77,9 +77,10 @@ SharedFrames::Frame SharedFrames::next(const SessionFrameContext& context,
     done.version = frame.version;
     // Fresh from now on: a stream that waited for it takes it whatever the render took.
     done.renderedAt = Clock::now();
+    done.took = done.renderedAt - now;
     done.generation = ++generations_;
     rendered_.notify_all();
-    return {done.encoded, done.version, done.generation};
+    return {done.encoded, done.version, done.generation, done.took};
   }
 }
 

@@ -31,6 +31,7 @@ class SharedFrames {
     std::shared_ptr<const EncodedFrame> encoded;
     uint64_t version = 0;
     uint64_t generation = 0;
+    Clock::duration took{};  // how long its render and encode took
   };
 
   // A frame of `session` as `request` asks, other than generation `shown`: shared when a fitting
@@ -51,6 +52,7 @@ class SharedFrames {
     uint64_t version = 0;
     Clock::time_point renderedAt{};
     Clock::time_point usedAt{};
+    Clock::duration took{};
     std::shared_ptr<const EncodedFrame> encoded;
   };
   static std::string keyOf(const Session& session, const FrameRequest& request);
