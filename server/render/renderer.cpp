@@ -26,7 +26,8 @@ namespace myriad::render {
 namespace {
 
 // environment (when rebuilt), animate, gbuffer, the technique's (sun + lights, lighting, or
-// assign + shade), markers, tonemap, overlay, readback: room for a technique of four passes.
+// assign + shade), blend, markers, tonemap, overlay, readback: room for a technique of three
+// passes.
 constexpr uint32_t kMaxTimedPasses = 11;
 
 // The light-count view's hottest colour when the request leaves it to us.
@@ -510,7 +511,7 @@ void Renderer::State::recordBeforeLighting(VkCommandBuffer cmd, const FrameSlot&
   recordGBufferPass(cmd, p, *slot.targets, scene, gbufferWrites(settings, scene));
 }
 
-// markers, tonemap, overlay, readback; then the timer's end.
+// blend (alpha-BLEND draws), markers, tonemap, overlay, readback; then the timer's end.
 void Renderer::State::recordAfterLighting(VkCommandBuffer cmd, const FrameSlot& slot,
                                           SceneBuffers& scene, const FrameSettings& settings,
                                           VkImageLayout lightingLayout) {
@@ -518,6 +519,11 @@ void Renderer::State::recordAfterLighting(VkCommandBuffer cmd, const FrameSlot& 
   const Pipelines& p = s.pipelines;
   const FrameTargets& t = *slot.targets;
   VkImageLayout hdrLayout = lightingLayout;
+  if (hasBlendDraws(scene)) {
+    s.timer.beginPass(cmd, "blend");
+    hdrLayout = recordBlendPass(cmd, p, t, scene, scene::viewMatrix(settings.camera), hdrLayout,
+                                s.technique(settings.technique).bindForwardLights(cmd));
+  }
   if (settings.markers) {
     s.timer.beginPass(cmd, "markers");
     recordMarkerPass(cmd, p, t, scene, hdrLayout);

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <limits>
 #include <string>
 #include <stdexcept>
 
@@ -169,7 +170,17 @@ SceneBuffers::SceneBuffers(gpu::Context& context, gpu::CommandRecorder& recorder
     allIndices.insert(allIndices.end(), mesh.indices.begin(), mesh.indices.end());
     return range;
   };
-  for (const scene::Mesh& mesh : scene.meshes) ranges.push_back(append(mesh));
+  std::vector<glm::vec3> centres;  // of each mesh's bounds
+  for (const scene::Mesh& mesh : scene.meshes) {
+    ranges.push_back(append(mesh));
+    glm::vec3 lo(std::numeric_limits<float>::max()), hi(-std::numeric_limits<float>::max());
+    for (uint32_t index : mesh.indices) {
+      if (index >= mesh.vertices.size()) continue;
+      lo = glm::min(lo, mesh.vertices[index].position);
+      hi = glm::max(hi, mesh.vertices[index].position);
+    }
+    centres.push_back(lo.x <= hi.x ? 0.5f * (lo + hi) : glm::vec3(0.0f));
+  }
 
   scene::Mesh proxy = scene::makeIcosphere(kProxySubdivisions);
   float scale = circumscribeScale(proxy);
@@ -188,7 +199,8 @@ SceneBuffers::SceneBuffers(gpu::Context& context, gpu::CommandRecorder& recorder
     g.material = glm::uvec4(instance.material, 0, 0, 0);
     gpuInstances.push_back(g);
     if (ranges[instance.mesh].indexCount > 0) {
-      draws.push_back({ranges[instance.mesh], i, instance.material});
+      draws.push_back({ranges[instance.mesh], i, instance.material,
+                       glm::vec3(instance.transform * glm::vec4(centres[instance.mesh], 1.0f))});
     }
   }
   // One descriptor set bind per material in the G-buffer pass.
@@ -196,6 +208,7 @@ SceneBuffers::SceneBuffers(gpu::Context& context, gpu::CommandRecorder& recorder
                    [](const DrawItem& a, const DrawItem& b) { return a.material < b.material; });
   for (const scene::Material& m : scene.materials) {
     doubleSided.push_back(m.doubleSided ? 1 : 0);
+    blend.push_back(m.alphaMode == scene::AlphaMode::blend ? 1 : 0);
     emits.push_back(emitsLight(m) ? 1 : 0);
   }
   textures = std::make_unique<MaterialTextures>(context, recorder, materialSetLayout, scene);
@@ -324,6 +337,7 @@ void SceneBuffers::updateMaterials(gpu::CommandRecorder& recorder,
   transfer(context, recorder, {}, uploads);
   for (const MaterialWrite& w : writes) {
     doubleSided[w.index] = w.material.doubleSided ? 1 : 0;
+    blend[w.index] = w.material.alphaMode == scene::AlphaMode::blend ? 1 : 0;
     emits[w.index] = emitsLight(w.material) ? 1 : 0;
   }
 }

@@ -17,6 +17,7 @@
 #include "gpu/commands.h"
 #include "gpu/pipelines.h"
 #include "render/cluster_grid.h"
+#include "render/raster.h"
 #include "render/techniques/compute_lighting.h"
 #include "render/techniques/technique.h"
 #include "shared_types.h"
@@ -93,6 +94,19 @@ class Clustered final : public LightingTechnique {
     mark_ = pipelines_.add(gpu::createComputePipeline(device, layout, spirv::cluster_mark_comp));
     scan_ = pipelines_.add(gpu::createComputePipeline(device, layout, spirv::cluster_scan_comp));
     shade_ = pipelines_.add(gpu::createComputePipeline(device, layout, spirv::light_clustered_comp));
+    // Alpha-blended surfaces mark their clusters from their fragments (storage writes from a
+    // fragment shader): without fragmentStoresAndAtomics the forward pass tests every light.
+    if (setup.context.fragmentStores) {
+      gpu::GraphicsPipelineDesc d;
+      d.vertexShader = spirv::gbuffer_vert;
+      d.fragmentShader = spirv::cluster_mark_blend_frag;
+      d.vertexLayout = surfaceVertexLayout();
+      d.depthFormat = kDepthFormat;
+      d.depthTest = true;
+      d.depthCompare = VK_COMPARE_OP_LESS;  // as the forward pass: its fragments are these
+      d.cullMode = VK_CULL_MODE_NONE;       // both faces: a superset of what it draws
+      markBlend_ = pipelines_.add(gpu::createGraphicsPipeline(device, layout, d));
+    }
     // cluster_assign.comp counts (kAssign = false) or fills the lists (true): one source, so both
     // passes run the identical overlap test.
     // kLarge (constant 1) picks the per-light or the per-large-light (workgroup) variant.
@@ -157,6 +171,8 @@ class Clustered final : public LightingTechnique {
     // 1. Mark clusters holding visible geometry.
     dispatchPixels(cmd, mark_, t.extent, MYRIAD_PIXEL_GROUP);
     gpu::memoryBarrier(cmd, kComputeStage, kStorageWrite, kComputeStage, kStorageReadWrite);
+    // 1b. And those of alpha-blended surfaces in front of it (or over the background).
+    if (markBlend_ != VK_NULL_HANDLE && hasBlendDraws(pass.scene)) markBlendClusters(cmd, pass);
     uint32_t lightGroups = groupCount(pass.scene.lightCount, MYRIAD_LIGHTS_PER_GROUP);
     if (lightGroups > 0) {
       // 2. Count each active cluster's lights: small lights a thread each, queueing the large
@@ -193,6 +209,12 @@ class Clustered final : public LightingTechnique {
     dispatchPixels(cmd, shade_, t.extent, MYRIAD_CLUSTER_SHADE_TILE);
     counters_.makeHostVisible(cmd);
     return VK_IMAGE_LAYOUT_GENERAL;
+  }
+
+  bool bindForwardLights(VkCommandBuffer cmd) const override {
+    if (markBlend_ == VK_NULL_HANDLE) return false;
+    set_.bindGraphics(cmd);
+    return true;
   }
 
   void report(CullingReport& report) const override {
@@ -236,6 +258,26 @@ class Clustered final : public LightingTechnique {
   }
 
  private:
+  // The blended draws, depth-tested against the G-buffer without writing it, write 0 (active) into
+  // the cursor of each fragment's cluster (cluster_mark_blend.frag).
+  void markBlendClusters(VkCommandBuffer cmd, const LightingPass& pass) const {
+    const VkPipelineStageFlags2 fragment = VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT;
+    gpu::memoryBarrier(cmd, kComputeStage, kStorageWrite, fragment, kStorageReadWrite);
+    VkRenderingAttachmentInfo depth = readOnlyDepth(pass.targets.depth);
+    beginRendering(cmd, pass.targets.extent, {}, &depth);
+    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, markBlend_);
+    set_.bindGraphics(cmd);
+    bindGeometry(cmd, pass.scene);
+    for (const DrawItem& draw : pass.scene.draws) {
+      if (!pass.scene.blend[draw.material]) continue;
+      vkCmdDrawIndexed(cmd, draw.mesh.indexCount, 1, draw.mesh.firstIndex, draw.mesh.vertexOffset,
+                       draw.instance);
+    }
+    vkCmdEndRendering(cmd);
+    gpu::memoryBarrier(cmd, fragment, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT, kComputeStage,
+                       kStorageReadWrite);
+  }
+
   uint64_t maxListBytes() const {
     uint64_t device = context_.info.maxStorageBufferRange;
     return listLimitBytes_ > 0 ? std::min(listLimitBytes_, device) : device;
@@ -250,6 +292,7 @@ class Clustered final : public LightingTechnique {
   VkPipeline countLarge_ = VK_NULL_HANDLE;   // the queued large lights, a workgroup each
   VkPipeline assignLarge_ = VK_NULL_HANDLE;
   VkPipeline shade_ = VK_NULL_HANDLE;
+  VkPipeline markBlend_ = VK_NULL_HANDLE;  // null without fragmentStoresAndAtomics
   CullingSet set_;
   CullingCounters counters_;
   std::unique_ptr<ClusterLists> lists_;

@@ -75,6 +75,11 @@ void CullingSet::bind(VkCommandBuffer cmd) const {
                           &set_, 0, nullptr);
 }
 
+void CullingSet::bindGraphics(VkCommandBuffer cmd) const {
+  vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, layout_, MYRIAD_SET_CULLING, 1,
+                          &set_, 0, nullptr);
+}
+
 CullingCounters::CullingCounters(gpu::Context& context) : arena(context, kCountersBlockSize) {
   stats = arena.createBuffer(sizeof(CullingStats),
                              VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT,
