@@ -141,6 +141,13 @@ nlohmann::json toJson(const StoredSession& s) {
     j["lightIds"] = std::move(runs);
     j["nextLightId"] = s.nextLightId;
   }
+  if (!s.viewers.empty()) {
+    nlohmann::json viewers = nlohmann::json::array();
+    for (const StoredSession::Viewer& v : s.viewers) {
+      viewers.push_back({{"tokenSha256", v.tokenHash}, {"expiresAt", v.expiresAtUnix}});
+    }
+    j["viewerTokens"] = std::move(viewers);
+  }
   return j;
 }
 
@@ -174,6 +181,14 @@ StoredSession fromJson(const nlohmann::json& j) {
       for (uint64_t k = 0; k < count; ++k) s.lightIds.push_back(first + k);
     }
     s.nextLightId = j.at("nextLightId").get<uint64_t>();
+  }
+  if (j.contains("viewerTokens")) {
+    for (const nlohmann::json& v : j.at("viewerTokens")) {
+      StoredSession::Viewer viewer{v.at("tokenSha256").get<std::string>(),
+                                   v.at("expiresAt").get<int64_t>()};
+      if (!isHexKey(viewer.tokenHash)) throw std::runtime_error("bad viewer token hash");
+      s.viewers.push_back(std::move(viewer));
+    }
   }
   return s;
 }

@@ -48,6 +48,12 @@ struct StoredSession {
   // ids; a restored session keeps them). Empty lightIds: none stored.
   std::vector<uint64_t> lightIds;
   uint64_t nextLightId = 0;
+  // Viewer tokens (POST .../tokens): SHA-256 and expiry in Unix seconds, like the owner's.
+  struct Viewer {
+    std::string tokenHash;
+    int64_t expiresAtUnix = 0;
+  };
+  std::vector<Viewer> viewers;
 };
 
 // Lower-case hex SHA-256 of `bytes` (OpenSSL).
