@@ -108,8 +108,14 @@ void handleStream(ApiContext& context, FrameServices& frames, const httplib::Req
             " streams, its limit (--max-streams); close one or retry later."));
   }
   res.set_header("Cache-Control", "no-store");
+  std::string contentType(protocol::kStreamContentType);
+  if (request.video) {
+    contentType = protocol::kVideoStreamContentType;
+    res.set_header(std::string(protocol::headers::kVideoCodec),
+                   std::string(encode::webCodecsName(request.video->codec)));
+  }
   res.set_chunked_content_provider(
-      std::string(protocol::kStreamContentType),
+      contentType,
       makeStreamProvider({context.renderThread, frames.stats, frames.metrics}, frames.streams,
                          std::move(slot), std::move(session), std::move(request),
                          PeerWatch(req.local_addr, req.local_port, req.remote_addr, req.remote_port)));

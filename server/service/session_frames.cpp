@@ -119,19 +119,20 @@ protocol::Stats FrameStatsBook::statsOf(const Session& session, uint64_t lightCo
 }
 
 DeliveredFrame deliverFrame(render::RenderQueue& renderThread, Metrics& metrics, render::SceneId id,
-                            const FrameRequest& request) {
+                            const FrameRequest& request, const FrameEncoder* encoder) {
   const auto start = std::chrono::steady_clock::now();
   std::future<render::Frame> pending = renderThread.submit(id, request.settings);
   DeliveredFrame delivered;
   delivered.frame = pending.get();
-  delivered.encoded = encodeFrame(delivered.frame, request);
+  delivered.encoded =
+      encoder ? (*encoder)(delivered.frame) : encodeFrame(delivered.frame, request);
   metrics.observeFrame(
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
   return delivered;
 }
 
 SessionFrame renderSessionFrame(const SessionFrameContext& context, const SessionPtr& session,
-                                const FrameRequest& request) {
+                                const FrameRequest& request, const FrameEncoder* encoder) {
   FrameRequest rendered = request;
   render::SceneId sceneId = 0;
   SessionFrame result;
@@ -141,11 +142,12 @@ SessionFrame renderSessionFrame(const SessionFrameContext& context, const Sessio
     rendered.settings = session->scene.frameSettings(request.settings, request.time, Clock::now());
     sceneId = static_cast<render::SceneId>(session->sceneId);
     result.version = session->version;
+    result.time = rendered.settings.time;
   }
 
   DeliveredFrame delivered;
   try {
-    delivered = deliverFrame(context.renderThread, context.metrics, sceneId, rendered);
+    delivered = deliverFrame(context.renderThread, context.metrics, sceneId, rendered, encoder);
   } catch (const render::RenderQueueFullError&) {
     throw;
   } catch (const std::exception&) {

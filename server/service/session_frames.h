@@ -4,6 +4,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <map>
 #include <memory>
 #include <mutex>
@@ -54,20 +55,25 @@ class FrameStatsBook {
   std::map<std::string, Entry, std::less<>> entries_;
 };
 
+// Encodes a rendered frame some other way than encodeFrame (a video stream's encoder).
+using FrameEncoder = std::function<EncodedFrame(const render::Frame&)>;
+
 // Renders `request.settings` of scene `id` on the render thread, waits, encodes the frame as
-// `request` asks and adds the time taken to myriad_frame_seconds: the path every frame takes.
+// `request` asks (or with `encoder` when given) and adds the time taken to myriad_frame_seconds:
+// the path every frame takes.
 // Throws render::RenderQueueFullError (queue full) and whatever the renderer or encoder threw.
 struct DeliveredFrame {
   render::Frame frame;  // what the renderer returned (pixels included)
   EncodedFrame encoded;
 };
 DeliveredFrame deliverFrame(render::RenderQueue& renderThread, Metrics& metrics, render::SceneId id,
-                            const FrameRequest& request);
+                            const FrameRequest& request, const FrameEncoder* encoder = nullptr);
 
 // A session frame as delivered: the encoded bytes and what it showed.
 struct SessionFrame {
   EncodedFrame encoded;
   uint64_t version = 0;  // the session version the frame shows
+  double time = 0.0;     // the animation time it shows, in seconds
 };
 
 // What SessionFrames needs from the rest of the server.
@@ -82,6 +88,6 @@ struct SessionFrameContext {
 // session's animation clock. Throws render::RenderQueueFullError (queue full), ProblemError 404 when the
 // session closed meanwhile, and whatever the renderer or encoder threw.
 SessionFrame renderSessionFrame(const SessionFrameContext& context, const SessionPtr& session,
-                                const FrameRequest& request);
+                                const FrameRequest& request, const FrameEncoder* encoder = nullptr);
 
 }  // namespace myriad::service
