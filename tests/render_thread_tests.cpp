@@ -157,6 +157,18 @@ TEST_CASE("render thread: scenes take turns, so a backlog of one delays another'
   destroyed.get();
   CHECK_THROWS_AS(dropped.get(), std::invalid_argument);
   thread.destroyScene(again.get()).get();
+
+  // A frame given up before it starts (a stream that ended with a frame submitted ahead) is not
+  // rendered; one not given up is.
+  auto giveUp = std::make_shared<std::atomic<bool>>(true);
+  CHECK_THROWS_AS(
+      thread.submit(thread.defaultScene(), settingsFor(builtin), render::FrameSource::Stream, giveUp)
+          .get(),
+      render::FrameDroppedError);
+  auto keep = std::make_shared<std::atomic<bool>>(false);
+  CHECK(thread.submit(thread.defaultScene(), settingsFor(builtin), render::FrameSource::Stream, keep)
+            .get()
+            .width == 48);
   CHECK(thread.validationMessages() == 0);
   thread.stop();
 }

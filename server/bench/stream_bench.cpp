@@ -1,497 +1,439 @@
-// myriad-stream-bench: what the live view costs on the wire, through a running myriad-server's
-// HTTP API as a client sees it. One session with N generated lights, animated (the lights move
-// every frame), streamed for a while as JPEG (multipart) and as video (VP8/VP9): Mbit/s, bytes
-// per frame, delivered fps, encode ms per frame; for video also the quality of the decoded frames
-// (libvpx's decoder here) as PSNR against the PNG frame of the same state (GET .../frame?time=
-// with the animation time the chunk header names), and the input-to-frame latency: from sending a
-// camera PATCH to the arrival of the first chunk that shows it (its session version). Prints one
-// JSON document. server/bench/stream_bandwidth.sh starts the server and runs this against it.
+// myriad-stream-bench: the frame pipeline as a client sees it, end to end through the real server
+// (HTTP, render thread, encoder, multipart streams). It starts myriad-server (or uses --url),
+// creates sessions with generated lights and animation on (so every stream part is a new frame),
+// and reports, as one JSON object:
+//   - request: one JPEG frame at --size, request to last byte on a kept-alive connection
+//     (median and 90th percentile of --requests, after 3 warm-up requests);
+//   - stream: one stream at --size (frames per second over --seconds, from the first part to the
+//     last, so the first frame's latency is not counted);
+//   - streams: --streams concurrent streams at --size, one session each: total and per-stream
+//     fps, and the largest deviation of a stream from their mean, in percent;
+//   - large: one stream at --large (skipped with --large none).
+// Every stream asks fps=240 (the server's ceiling), so the pipeline, not the cap, sets the rate.
+#include <fcntl.h>
+#include <poll.h>
+#include <signal.h>
+#include <spawn.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
 #include <httplib.h>
 
 #include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <cmath>
-#include <condition_variable>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
-#include <ctime>
 #include <fstream>
-#include <functional>
 #include <iostream>
-#include <mutex>
-#include <numeric>
 #include <optional>
+#include <stdexcept>
 #include <string>
 #include <thread>
 #include <vector>
 
 #include <nlohmann/json.hpp>
 
-#include "encode/png.h"
-#include "encode/video.h"
 #include "protocol/constants.h"
 
-using nlohmann::json;
-using Clock = std::chrono::steady_clock;
-namespace encode = myriad::encode;
-namespace protocol = myriad::protocol;
+extern char** environ;
 
 namespace {
 
+using Clock = std::chrono::steady_clock;
+using nlohmann::json;
+
+struct Size {
+  uint32_t width = 0;
+  uint32_t height = 0;
+  std::string text() const { return std::to_string(width) + "x" + std::to_string(height); }
+};
+
 struct Options {
-  std::string host = "127.0.0.1";
-  int port = 0;
-  uint32_t width = 1280;
-  uint32_t height = 720;
-  uint32_t fps = 30;
-  uint32_t lights = 1000;
+  std::string server;  // myriad-server to start (default: next to this binary)
+  std::string url;     // or a running server
+  std::vector<std::string> serverArgs;
+  uint32_t lights = 100000;
+  double radiusMin = 0.5, radiusMax = 2.0;
+  Size size{1920, 1080};
+  std::optional<Size> large = Size{3840, 2160};
+  uint32_t streams = 8;
+  uint32_t requests = 20;
   double seconds = 10.0;
-  int jpegQuality = 85;
-  std::vector<std::string> codecs = {"vp8", "vp9"};
-  uint32_t bitrateKbps = 0;  // 0: the server's default
-  uint32_t psnrSamples = 8;
-  uint32_t latencyEdits = 10;
-  std::string jsonPath;
+  int quality = 80;
+  std::string json;
 };
 
 [[noreturn]] void usage(const std::string& problem) {
+  if (!problem.empty()) std::fprintf(stderr, "myriad-stream-bench: %s\n", problem.c_str());
   std::fprintf(stderr,
-               "myriad-stream-bench: %s\n"
-               "usage: myriad-stream-bench --url http://HOST:PORT [--width 1280] [--height 720]\n"
-               "         [--fps 30] [--lights 1000] [--seconds 10] [--jpeg-quality 85]\n"
-               "         [--codecs vp8,vp9] [--bitrate KBPS (default: the server's)]\n"
-               "         [--psnr-samples 8] [--latency-edits 10] [--json FILE]\n",
-               problem.c_str());
-  std::exit(2);
+      "usage: myriad-stream-bench [--server PATH | --url http://HOST:PORT] [--lights N]\n"
+      "          [--radius MIN,MAX] [--size WxH] [--large WxH|none] [--streams N]\n"
+      "          [--requests N] [--seconds S] [--quality Q] [--json PATH] [-- SERVER ARGS...]\n"
+      "Starts myriad-server (default: the one next to this binary) on a free loopback port with\n"
+      "SERVER ARGS (e.g. --device 0), or uses --url; every session gets N generated lights\n"
+      "(default 100000, radii MIN..MAX, default 0.5,2), markers off, animation on. Reports one\n"
+      "JPEG request at --size (default 1920x1080), one stream, --streams concurrent streams\n"
+      "(default 8, one session each) and one stream at --large (default 3840x2160) as JSON on\n"
+      "stdout (and in --json PATH). --seconds per stream measurement (default 10).\n");
+  std::exit(problem.empty() ? 0 : 2);
 }
 
-Options parse(int argc, char** argv) {
+Size parseSize(const std::string& text) {
+  Size s;
+  if (std::sscanf(text.c_str(), "%ux%u", &s.width, &s.height) != 2 || s.width == 0 ||
+      s.height == 0) {
+    usage("a size is WIDTHxHEIGHT, got \"" + text + "\"");
+  }
+  return s;
+}
+
+Options parseOptions(int argc, char** argv) {
   Options o;
-  auto number = [&](int& i, const char* name) {
-    if (i + 1 >= argc) usage(std::string(name) + " needs a value");
-    try {
-      return std::stod(argv[++i]);
-    } catch (const std::exception&) {
-      usage(std::string(name) + " needs a number, got " + argv[i]);
-    }
-  };
   for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    if (a == "--url") {
-      if (i + 1 >= argc) usage("--url needs a value");
-      std::string url = argv[++i];
-      const std::string prefix = "http://";
-      if (url.rfind(prefix, 0) != 0) usage("--url must start with http://");
-      url = url.substr(prefix.size());
-      while (!url.empty() && url.back() == '/') url.pop_back();
-      const size_t colon = url.rfind(':');
-      if (colon == std::string::npos) usage("--url needs a port");
-      o.host = url.substr(0, colon);
-      o.port = std::stoi(url.substr(colon + 1));
-    } else if (a == "--width") {
-      o.width = uint32_t(number(i, "--width"));
-    } else if (a == "--height") {
-      o.height = uint32_t(number(i, "--height"));
-    } else if (a == "--fps") {
-      o.fps = uint32_t(number(i, "--fps"));
-    } else if (a == "--lights") {
-      o.lights = uint32_t(number(i, "--lights"));
-    } else if (a == "--seconds") {
-      o.seconds = number(i, "--seconds");
-    } else if (a == "--jpeg-quality") {
-      o.jpegQuality = int(number(i, "--jpeg-quality"));
-    } else if (a == "--bitrate") {
-      o.bitrateKbps = uint32_t(number(i, "--bitrate"));
-    } else if (a == "--psnr-samples") {
-      o.psnrSamples = uint32_t(number(i, "--psnr-samples"));
-    } else if (a == "--latency-edits") {
-      o.latencyEdits = uint32_t(number(i, "--latency-edits"));
-    } else if (a == "--codecs") {
-      if (i + 1 >= argc) usage("--codecs needs a value");
-      o.codecs.clear();
-      std::string list = argv[++i];
-      size_t at = 0;
-      while (at <= list.size()) {
-        size_t comma = list.find(',', at);
-        if (comma == std::string::npos) comma = list.size();
-        std::string name = list.substr(at, comma - at);
-        if (!name.empty()) o.codecs.push_back(name);
-        at = comma + 1;
+    const std::string flag = argv[i];
+    if (flag == "--help" || flag == "-h") usage("");
+    if (flag == "--") {
+      for (++i; i < argc; ++i) o.serverArgs.push_back(argv[i]);
+      break;
+    }
+    if (i + 1 >= argc) usage(flag + " needs a value");
+    const std::string v = argv[++i];
+    if (flag == "--server") {
+      o.server = v;
+    } else if (flag == "--url") {
+      o.url = v;
+    } else if (flag == "--lights") {
+      o.lights = uint32_t(std::stoul(v));
+    } else if (flag == "--radius") {
+      if (std::sscanf(v.c_str(), "%lf,%lf", &o.radiusMin, &o.radiusMax) != 2) {
+        usage("--radius is MIN,MAX");
       }
-    } else if (a == "--json") {
-      if (i + 1 >= argc) usage("--json needs a value");
-      o.jsonPath = argv[++i];
+    } else if (flag == "--size") {
+      o.size = parseSize(v);
+    } else if (flag == "--large") {
+      o.large = v == "none" ? std::nullopt : std::optional<Size>(parseSize(v));
+    } else if (flag == "--streams") {
+      o.streams = uint32_t(std::stoul(v));
+    } else if (flag == "--requests") {
+      o.requests = std::max(1u, uint32_t(std::stoul(v)));
+    } else if (flag == "--seconds") {
+      o.seconds = std::stod(v);
+    } else if (flag == "--quality") {
+      o.quality = std::stoi(v);
+    } else if (flag == "--json") {
+      o.json = v;
     } else {
-      usage("unknown option " + a);
+      usage("unknown flag " + flag);
     }
   }
-  if (o.port == 0) usage("--url is required");
   return o;
 }
 
-struct Fail : std::runtime_error {
-  using std::runtime_error::runtime_error;
-};
-
-class Api {
+// The server this run started: stopped (SIGTERM, then waited for) when destroyed.
+class StartedServer {
  public:
-  Api(const Options& o) : client_(o.host, o.port) {
-    client_.set_read_timeout(600, 0);
-    client_.set_connection_timeout(10, 0);
-  }
-  json call(const std::string& method, const std::string& path, const json& body = nullptr) {
-    httplib::Headers headers;
-    if (!token.empty()) headers.emplace("Authorization", "Bearer " + token);
-    httplib::Result res =
-        method == "GET"    ? client_.Get(path, headers)
-        : method == "POST" ? client_.Post(path, headers, body.dump(), "application/json")
-                           : client_.Patch(path, headers, body.dump(), "application/json");
-    if (!res) throw Fail(method + " " + path + ": " + httplib::to_string(res.error()));
-    if (res->status >= 300) {
-      throw Fail(method + " " + path + ": " + std::to_string(res->status) + " " + res->body);
+  StartedServer(const std::string& path, const std::vector<std::string>& extra) {
+    std::vector<std::string> args = {path, "--port", "0", "--host", "127.0.0.1",
+                                     "--max-streams", "64", "--threads", "96"};
+    args.insert(args.end(), extra.begin(), extra.end());
+    std::vector<char*> argp;
+    for (std::string& a : args) argp.push_back(a.data());
+    argp.push_back(nullptr);
+    int fds[2];
+    if (pipe2(fds, O_CLOEXEC) != 0) throw std::runtime_error("pipe failed");
+    posix_spawn_file_actions_t actions;
+    posix_spawn_file_actions_init(&actions);
+    posix_spawn_file_actions_adddup2(&actions, fds[1], STDOUT_FILENO);
+    const int rc = posix_spawn(&pid_, path.c_str(), &actions, nullptr, argp.data(), environ);
+    posix_spawn_file_actions_destroy(&actions);
+    close(fds[1]);
+    if (rc != 0) throw std::runtime_error("cannot start " + path + ": " + std::strerror(rc));
+    // Its stdout until "Myriad listening on http://HOST:PORT" (a large scene takes a while).
+    std::string received;
+    const auto deadline = Clock::now() + std::chrono::minutes(5);
+    while (Clock::now() < deadline) {
+      const size_t at = received.find("http://");
+      if (at != std::string::npos && received.find('\n', at) != std::string::npos) {
+        url_ = received.substr(at, received.find('\n', at) - at);
+        break;
+      }
+      pollfd p{fds[0], POLLIN, 0};
+      if (poll(&p, 1, 1000) < 0 && errno != EINTR) break;
+      char buffer[512];
+      const ssize_t n = read(fds[0], buffer, sizeof buffer);
+      if (n == 0) break;
+      if (n > 0) received.append(buffer, size_t(n));
     }
-    return res->body.empty() ? json(nullptr) : json::parse(res->body);
+    close(fds[0]);
+    if (url_.empty()) {
+      stop();
+      throw std::runtime_error(path + " did not start listening (its stderr says why)");
+    }
   }
-  std::string getBytes(const std::string& path) {
-    httplib::Result res = client_.Get(path, {{"Authorization", "Bearer " + token}});
-    if (!res || res->status != 200) throw Fail("GET " + path + " failed");
-    return res->body;
-  }
-  std::string token;
+  ~StartedServer() { stop(); }
+  const std::string& url() const { return url_; }
 
  private:
-  httplib::Client client_;
-};
-
-double mean(const std::vector<double>& v) {
-  return v.empty() ? 0.0 : std::accumulate(v.begin(), v.end(), 0.0) / double(v.size());
-}
-double percentile(std::vector<double> v, double p) {
-  if (v.empty()) return 0.0;
-  std::sort(v.begin(), v.end());
-  const size_t index = std::min(v.size() - 1, size_t(std::ceil(p * double(v.size()))) - (p > 0 ? 1 : 0));
-  return v[index];
-}
-double round3(double v) { return std::round(v * 1000.0) / 1000.0; }
-
-// Reads one stream on its own thread, handing every received piece to `onBytes` (under the
-// reader's mutex) until stop() or the stream ends.
-class StreamRun {
- public:
-  using OnBytes = std::function<void(const char*, size_t)>;
-  StreamRun(const Options& o, std::string path, std::string token, OnBytes onBytes)
-      : client_(o.host, o.port), onBytes_(std::move(onBytes)) {
-    client_.set_read_timeout(600, 0);
-    thread_ = std::thread([this, path = std::move(path), token = std::move(token)] {
-      httplib::Result res = client_.Get(
-          path, {{"Authorization", "Bearer " + token}},
-          [this](const httplib::Response& r) {
-            status_ = r.status;
-            return r.status == 200;
-          },
-          [this](const char* data, size_t size) {
-            {
-              std::lock_guard lock(mutex);
-              if (first_ == Clock::time_point{}) first_ = Clock::now();
-              onBytes_(data, size);
-            }
-            return !stop_.load();
-          });
-      (void)res;
-      done_ = true;
-    });
-  }
-  ~StreamRun() { stop(); }
   void stop() {
-    stop_ = true;
-    if (thread_.joinable()) {
-      client_.stop();
-      thread_.join();
-    }
+    if (pid_ <= 0) return;
+    kill(pid_, SIGTERM);
+    int status = 0;
+    waitpid(pid_, &status, 0);
+    pid_ = -1;
   }
-  int status() const { return status_; }
-  bool done() const { return done_; }
-  std::mutex mutex;
-
- private:
-  httplib::Client client_;
-  OnBytes onBytes_;
-  std::thread thread_;
-  std::atomic<bool> stop_{false};
-  std::atomic<bool> done_{false};
-  std::atomic<int> status_{0};
-  Clock::time_point first_{};
+  pid_t pid_ = -1;
+  std::string url_;
 };
 
-std::string sizeQuery(const Options& o) {
-  return "fps=" + std::to_string(o.fps) + "&width=" + std::to_string(o.width) +
-         "&height=" + std::to_string(o.height);
+std::unique_ptr<httplib::Client> clientFor(const std::string& url) {
+  auto client = std::make_unique<httplib::Client>(url);
+  client->set_keep_alive(true);
+  client->set_read_timeout(600, 0);
+  client->set_write_timeout(60, 0);
+  client->set_connection_timeout(10, 0);
+  return client;
 }
 
-// The multipart JPEG stream: parts counted by their Content-Length.
-json measureJpeg(const Options& o, Api& api, const std::string& base) {
-  size_t bytes = 0, parts = 0, jpegBytes = 0;
-  std::string buffer;
-  Clock::time_point firstPart{}, lastPart{};
-  std::vector<double> encodeMs;
-  StreamRun run(o, base + "/stream?format=jpeg&quality=" + std::to_string(o.jpegQuality) + "&" +
-                       sizeQuery(o),
-                api.token, [&](const char* data, size_t size) {
-                  bytes += size;
-                  buffer.append(data, size);
-                  for (;;) {
-                    const size_t header = buffer.find("\r\n\r\n");
-                    if (header == std::string::npos) return;
-                    const size_t lengthAt = buffer.find("Content-Length: ");
-                    if (lengthAt == std::string::npos || lengthAt > header) return;
-                    const size_t length = std::stoul(buffer.substr(lengthAt + 16));
-                    if (buffer.size() < header + 4 + length) return;
-                    ++parts;
-                    jpegBytes += length;
-                    lastPart = Clock::now();
-                    if (parts == 1) firstPart = lastPart;
-                    buffer.erase(0, header + 4 + length);
-                  }
-                });
-  // The last frame's encode time, sampled from GET .../stats while the stream runs.
-  const auto end = Clock::now() + std::chrono::duration<double>(o.seconds);
-  while (Clock::now() < end) {
-    std::this_thread::sleep_for(std::chrono::milliseconds(250));
-    json stats = api.call("GET", base + "/stats");
-    if (!stats["frame"].is_null()) encodeMs.push_back(stats["frame"]["encodeMs"].get<double>());
-  }
-  run.stop();
-  if (run.status() != 200) throw Fail("the JPEG stream answered " + std::to_string(run.status()));
-  if (parts < 2) throw Fail("the JPEG stream delivered fewer than 2 frames");
-  const double span = std::chrono::duration<double>(lastPart - firstPart).count();
-  const double fps = double(parts - 1) / span;
-  const double bytesPerFrame = double(jpegBytes) / double(parts);
-  return {{"quality", o.jpegQuality},
-          {"frames", parts},
-          {"deliveredFps", round3(fps)},
-          {"bytesPerFrame", std::llround(bytesPerFrame)},
-          {"mbitPerSecondDelivered", round3(bytesPerFrame * 8.0 * fps / 1e6)},
-          {"mbitPerSecondAtFps", round3(bytesPerFrame * 8.0 * o.fps / 1e6)},
-          {"encodeMsMean", round3(mean(encodeMs))},
-          {"encodeMsP95", round3(percentile(encodeMs, 0.95))}};
-}
-
-struct Chunk {
-  uint8_t kind = 0;
-  uint32_t sequence = 0;
-  uint64_t version = 0;
-  double time = 0.0;
-  uint32_t encodeUs = 0;
-  size_t payloadBytes = 0;
-  Clock::time_point arrived;
+struct Session {
+  std::string id;
+  std::string token;
 };
 
-json measureVideo(const Options& o, Api& api, const std::string& base, const std::string& codecName) {
-  encode::VideoCodec codec = encode::VideoCodec::Vp8;
-  bool known = false;
-  for (size_t i = 0; i < protocol::kVideoCodecs.size(); ++i) {
-    if (protocol::kVideoCodecs[i] == codecName) {
-      codec = static_cast<encode::VideoCodec>(i);
-      known = true;
-    }
+namespace routes = myriad::protocol::routes;
+
+// A route template of protocol/constants.h with the session id filled in.
+std::string route(std::string_view pattern, const std::string& id) {
+  std::string path(pattern);
+  const size_t at = path.find("{id}");
+  if (at != std::string::npos) path.replace(at, 4, id);
+  return path;
+}
+
+json checkedJson(const httplib::Result& res, int status, const std::string& what) {
+  if (!res) throw std::runtime_error(what + ": no answer (" + httplib::to_string(res.error()) + ")");
+  if (res->status != status) {
+    throw std::runtime_error(what + ": " + std::to_string(res->status) + " " + res->body);
   }
-  if (!known) throw Fail("unknown codec " + codecName);
-  encode::VideoDecoder decoder(codec);
-  std::vector<Chunk> chunks;
-  std::vector<double> decodeMs;
-  struct Sample {
-    double time;
-    std::vector<uint8_t> rgba;
-  };
-  std::vector<Sample> samples;
+  return res->body.empty() ? json() : json::parse(res->body);
+}
+
+Session createSession(httplib::Client& client, const Options& o, uint32_t seed) {
+  json created = checkedJson(client.Post(std::string(routes::kSessions), "{}", "application/json"),
+                             201, "POST sessions");
+  Session s{created["id"].get<std::string>(), created["token"].get<std::string>()};
+  const httplib::Headers auth = {{"Authorization", "Bearer " + s.token}};
+  json generate = {{"count", o.lights}, {"seed", seed}, {"radius", {o.radiusMin, o.radiusMax}}};
+  checkedJson(client.Post(route(routes::kSessionLightsGenerate, s.id), auth, generate.dump(),
+                          "application/json"),
+              200, "POST lights/generate");
+  checkedJson(client.Patch(route(routes::kSessionSettings, s.id), auth,
+                           R"({"markers": false, "animate": true})", "application/json"),
+              200, "PATCH settings");
+  return s;
+}
+
+std::string frameQuery(const Options& o, const Size& size) {
+  return "format=jpeg&quality=" + std::to_string(o.quality) + "&width=" + std::to_string(size.width) +
+         "&height=" + std::to_string(size.height);
+}
+
+double percentile(std::vector<double> values, double p) {
+  std::sort(values.begin(), values.end());
+  const size_t at = std::min(values.size() - 1, size_t(p * double(values.size() - 1) + 0.5));
+  return values[at];
+}
+
+// One JPEG frame, request to last byte, on one kept-alive connection.
+json measureRequests(const std::string& url, const Options& o, const Session& s) {
+  auto client = clientFor(url);
+  const httplib::Headers auth = {{"Authorization", "Bearer " + s.token}};
+  const std::string path = route(routes::kSessionFrame, s.id) + "?" + frameQuery(o, o.size);
+  std::vector<double> ms;
   size_t bytes = 0;
+  std::string timing;
+  for (uint32_t i = 0; i < o.requests + 3; ++i) {
+    const auto start = Clock::now();
+    httplib::Result res = client->Get(path, auth);
+    const double elapsed = std::chrono::duration<double, std::milli>(Clock::now() - start).count();
+    if (!res || res->status != 200) {
+      throw std::runtime_error("GET frame: " + (res ? std::to_string(res->status) + " " + res->body
+                                                    : httplib::to_string(res.error())));
+    }
+    if (i < 3) continue;  // warm-up: targets, pipelines, lists
+    ms.push_back(elapsed);
+    bytes = res->body.size();
+    timing = res->get_header_value("Server-Timing");
+  }
+  return {{"size", o.size.text()},         {"count", ms.size()},
+          {"medianMs", percentile(ms, 0.5)}, {"p90Ms", percentile(ms, 0.9)},
+          {"minMs", percentile(ms, 0.0)},    {"bytes", bytes},
+          {"serverTiming", timing}};
+}
+
+// Reads one stream for `seconds`, counting parts by their Content-Length (a proper multipart
+// parse: image bytes are never searched for headers).
+struct StreamCount {
+  uint64_t frames = 0;  // parts with a new X-Myriad-Frame
+  uint64_t bytes = 0;
+  double firstAt = 0.0, lastAt = 0.0;  // seconds since the start, of the first and last part
+  std::string error;
+  // Parts per second between the first part and the last; with fewer than two parts (a device
+  // slower than the window), the parts over the whole window.
+  double fps(double window) const {
+    if (frames > 1 && lastAt > firstAt) return double(frames - 1) / (lastAt - firstAt);
+    return double(frames) / window;
+  }
+};
+
+StreamCount readStream(const std::string& url, const Options& o, const Session& s, const Size& size,
+                       Clock::time_point start, Clock::time_point end) {
+  StreamCount count;
+  auto client = clientFor(url);
+  const httplib::Headers auth = {{"Authorization", "Bearer " + s.token}};
+  const std::string path = route(routes::kSessionStream, s.id) + "?fps=240&" + frameQuery(o, size);
   std::string buffer;
-  std::string decodeError;
-  std::condition_variable arrivedCv;
-  bool sampling = true;
-  // Spread the PSNR samples over the measured seconds: the first frame after each due time.
-  const Clock::time_point started = Clock::now();
-  const double sampleEvery = o.seconds / std::max<uint32_t>(1, o.psnrSamples);
-  std::string query = "/stream?codec=" + codecName + "&" + sizeQuery(o);
-  if (o.bitrateKbps) query += "&bitrate=" + std::to_string(o.bitrateKbps);
-  StreamRun run(o, base + query, api.token, [&](const char* data, size_t size) {
-    bytes += size;
-    buffer.append(data, size);
-    while (buffer.size() >= protocol::video_chunk::kHeaderBytes) {
-      uint32_t payload = 0;
-      std::memcpy(&payload, buffer.data(), 4);
-      if (buffer.size() < protocol::video_chunk::kHeaderBytes + payload) break;
-      Chunk c;
-      c.kind = uint8_t(buffer[4]);
-      std::memcpy(&c.sequence, buffer.data() + 12, 4);
-      std::memcpy(&c.version, buffer.data() + 24, 8);
-      std::memcpy(&c.time, buffer.data() + 32, 8);
-      std::memcpy(&c.encodeUs, buffer.data() + 40, 4);
-      c.payloadBytes = payload;
-      c.arrived = Clock::now();
-      if (c.kind != protocol::video_chunk::kKeepAlive && decodeError.empty()) {
-        const auto start = Clock::now();
-        try {
-          encode::VideoDecoder::Picture picture = decoder.decode(
-              {reinterpret_cast<const uint8_t*>(buffer.data()) + protocol::video_chunk::kHeaderBytes,
-               payload});
-          decodeMs.push_back(std::chrono::duration<double, std::milli>(Clock::now() - start).count());
-          const double due = sampleEvery * (double(samples.size()) + 0.5);
-          if (sampling && samples.size() < o.psnrSamples &&
-              std::chrono::duration<double>(c.arrived - started).count() >= due) {
-            samples.push_back({c.time, std::move(picture.rgba)});
-          }
-        } catch (const std::exception& e) {
-          decodeError = e.what();
-        }
+  size_t need = 0;  // body bytes of the current part still to skip
+  std::string lastSequence;
+  auto onData = [&](const char* data, size_t length) {
+    buffer.append(data, length);
+    for (;;) {
+      if (need > 0) {
+        const size_t take = std::min(need, buffer.size());
+        buffer.erase(0, take);
+        need -= take;
+        if (need > 0) break;
+        continue;
       }
-      if (c.kind != protocol::video_chunk::kKeepAlive) chunks.push_back(c);
-      buffer.erase(0, protocol::video_chunk::kHeaderBytes + payload);
-    }
-    arrivedCv.notify_all();
-  });
-
-  // Bandwidth: the stream alone for `seconds`.
-  std::this_thread::sleep_for(std::chrono::duration<double>(o.seconds));
-  std::vector<Chunk> measured;
-  size_t measuredBytes = 0;
-  {
-    std::lock_guard lock(run.mutex);
-    measured = chunks;
-    measuredBytes = bytes;
-    sampling = false;
-  }
-  if (run.status() != 200) throw Fail(codecName + " stream answered " + std::to_string(run.status()));
-  if (measured.size() < 2) throw Fail(codecName + " stream delivered fewer than 2 frames");
-
-  // Quality: each sampled decoded frame against the PNG frame of its animation time.
-  std::vector<double> psnr;
-  std::vector<Sample> taken;
-  {
-    std::lock_guard lock(run.mutex);
-    taken = std::move(samples);
-  }
-  for (const Sample& sample : taken) {
-    char time[64];
-    std::snprintf(time, sizeof time, "%.17g", sample.time);
-    // Before the latency edits move the camera: the PNG must show the camera of the sample.
-    std::string png = api.getBytes(base + "/frame?format=png&width=" + std::to_string(o.width) +
-                                   "&height=" + std::to_string(o.height) + "&time=" + time);
-    psnr.push_back(encode::psnrRgb(
-        sample.rgba,
-        encode::decodePng({reinterpret_cast<const uint8_t*>(png.data()), png.size()}).rgba));
-  }
-
-  // Latency: camera edits, one at a time; each waits for the first chunk of a newer version.
-  std::vector<double> latencyMs;
-  for (uint32_t edit = 0; edit < o.latencyEdits; ++edit) {
-    uint64_t versionBefore = 0;
-    size_t seen = 0;
-    {
-      std::lock_guard lock(run.mutex);
-      if (!chunks.empty()) versionBefore = chunks.back().version;
-      seen = chunks.size();
-    }
-    const auto sent = Clock::now();
-    api.call("PATCH", base + "/camera", {{"fovY", edit % 2 ? 50.0 : 55.0}});
-    std::unique_lock lock(run.mutex);
-    std::optional<double> latency;
-    arrivedCv.wait_for(lock, std::chrono::seconds(60), [&] {
-      for (size_t i = seen; i < chunks.size(); ++i) {
-        if (chunks[i].version > versionBefore) {
-          latency = std::chrono::duration<double, std::milli>(chunks[i].arrived - sent).count();
-          return true;
-        }
+      const size_t headersEnd = buffer.find("\r\n\r\n");
+      if (headersEnd == std::string::npos) break;
+      const std::string headers = buffer.substr(0, headersEnd);
+      buffer.erase(0, headersEnd + 4);
+      const size_t lengthAt = headers.find("Content-Length: ");
+      if (lengthAt == std::string::npos) continue;  // the opening boundary line
+      need = std::strtoull(headers.c_str() + lengthAt + 16, nullptr, 10);
+      const size_t sequenceAt = headers.find("X-Myriad-Frame: ");
+      std::string sequence;
+      if (sequenceAt != std::string::npos) {
+        sequence = headers.substr(sequenceAt + 16, headers.find("\r\n", sequenceAt) - sequenceAt - 16);
       }
-      seen = chunks.size();
-      return run.done();
-    });
-    lock.unlock();
-    if (!latency) throw Fail(codecName + ": no frame showed camera edit " + std::to_string(edit));
-    latencyMs.push_back(*latency);
-    std::this_thread::sleep_for(std::chrono::milliseconds(200));
+      const double at = std::chrono::duration<double>(Clock::now() - start).count();
+      if (sequence != lastSequence) {
+        lastSequence = sequence;
+        if (count.frames == 0) count.firstAt = at;
+        count.lastAt = at;
+        ++count.frames;
+        count.bytes += need;
+      }
+    }
+    return Clock::now() < end;
+  };
+  httplib::Result res = client->Get(path, auth, [&](const httplib::Response& r) {
+    if (r.status != 200) count.error = "stream answered " + std::to_string(r.status);
+    return r.status == 200;
+  }, onData);
+  // Ending the read ourselves is how a stream measurement ends: httplib reports it as canceled.
+  if (!res && res.error() != httplib::Error::Canceled && count.error.empty()) {
+    count.error = httplib::to_string(res.error());
   }
-  run.stop();
-  if (!decodeError.empty()) throw Fail(codecName + ": " + decodeError);
+  return count;
+}
 
-  size_t payloadBytes = 0, keyFrames = 0;
-  std::vector<double> encodeMs;
-  for (const Chunk& c : measured) {
-    payloadBytes += c.payloadBytes;
-    keyFrames += c.kind == protocol::video_chunk::kKey;
-    encodeMs.push_back(c.encodeUs / 1000.0);
+json measureStreams(const std::string& url, const Options& o, const std::vector<Session>& sessions,
+                    const Size& size) {
+  const auto start = Clock::now();
+  const auto end = start + std::chrono::duration_cast<Clock::duration>(
+                               std::chrono::duration<double>(o.seconds));
+  std::vector<StreamCount> counts(sessions.size());
+  std::vector<std::thread> readers;
+  for (size_t i = 0; i < sessions.size(); ++i) {
+    readers.emplace_back([&, i] { counts[i] = readStream(url, o, sessions[i], size, start, end); });
   }
-  const double span =
-      std::chrono::duration<double>(measured.back().arrived - measured.front().arrived).count();
-  const double fps = double(measured.size() - 1) / span;
-  const double bytesPerFrame = double(payloadBytes) / double(measured.size());
-  (void)measuredBytes;
-  json out = {{"codec", codecName},
-              {"frames", measured.size()},
-              {"keyFrames", keyFrames},
-              {"deliveredFps", round3(fps)},
-              {"bytesPerFrame", std::llround(bytesPerFrame)},
-              {"mbitPerSecondDelivered", round3(bytesPerFrame * 8.0 * fps / 1e6)},
-              {"encodeMsMean", round3(mean(encodeMs))},
-              {"encodeMsP95", round3(percentile(encodeMs, 0.95))},
-              {"decodeMsMean", round3(mean(decodeMs))},
-              {"psnrDbMean", round3(mean(psnr))},
-              {"psnrDbMin", psnr.empty() ? 0.0 : round3(*std::min_element(psnr.begin(), psnr.end()))},
-              {"psnrSamples", psnr.size()},
-              {"latencyMsMedian", round3(percentile(latencyMs, 0.5))},
-              {"latencyMsMax", latencyMs.empty() ? 0.0 : round3(*std::max_element(latencyMs.begin(), latencyMs.end()))},
-              {"latencyEdits", latencyMs.size()}};
-  if (o.bitrateKbps) out["bitrateKbps"] = o.bitrateKbps;
-  return out;
+  for (std::thread& t : readers) t.join();
+  json perStream = json::array();
+  json perStreamFrames = json::array();
+  double total = 0.0;
+  uint64_t bytes = 0, frames = 0;
+  for (const StreamCount& c : counts) {
+    if (!c.error.empty()) throw std::runtime_error("stream: " + c.error);
+    perStream.push_back(c.fps(o.seconds));
+    perStreamFrames.push_back(c.frames);
+    total += c.fps(o.seconds);
+    bytes += c.bytes;
+    frames += c.frames;
+  }
+  const double mean = total / double(counts.size());
+  double deviation = 0.0;
+  for (const StreamCount& c : counts) {
+    if (mean > 0.0) {
+      deviation = std::max(deviation, std::abs(c.fps(o.seconds) - mean) / mean * 100.0);
+    }
+  }
+  json result = {{"size", size.text()},
+                 {"streams", counts.size()},
+                 {"seconds", o.seconds},
+                 {"totalFps", total},
+                 {"perStreamFps", perStream},
+                 {"perStreamFrames", perStreamFrames},
+                 {"maxDeviationPercent", deviation},
+                 {"bytesPerFrame", frames ? bytes / frames : 0}};
+  return result;
 }
 
 }  // namespace
 
 int main(int argc, char** argv) {
-  const Options o = parse(argc, argv);
+  const Options o = parseOptions(argc, argv);
   try {
-    Api api(o);
-    json info = api.call("GET", std::string(protocol::routes::kInfo));
-    json created = api.call("POST", std::string(protocol::routes::kSessions), json::object());
-    api.token = created["token"].get<std::string>();
-    const std::string base =
-        protocol::expandRoute(protocol::routes::kSession, "id", created["id"].get<std::string>());
-    api.call("POST", base + "/lights/generate", {{"count", o.lights}, {"seed", 7}});
-    api.call("PATCH", base + "/settings", {{"animate", true}});
-    // One frame first: pipelines and buffers at this size exist before anything is timed.
-    api.getBytes(base + "/frame?format=png&width=" + std::to_string(o.width) + "&height=" +
-                 std::to_string(o.height));
-
-    json report;
-    char date[32];
-    const std::time_t now = std::time(nullptr);
-    std::strftime(date, sizeof date, "%Y-%m-%dT%H:%M:%SZ", std::gmtime(&now));
-    report["date"] = date;
-    report["device"] = info["device"]["name"];
-    report["deviceIsCpu"] = info["device"]["isCpu"];
-    report["hardwareThreads"] = std::thread::hardware_concurrency();
-    report["width"] = o.width;
-    report["height"] = o.height;
-    report["fps"] = o.fps;
-    report["lights"] = o.lights;
-    report["animated"] = true;
-    report["secondsPerStream"] = o.seconds;
-    report["jpeg"] = measureJpeg(o, api, base);
-    report["video"] = json::array();
-    const json camera = api.call("GET", base + "/camera");
-    for (const std::string& codec : o.codecs) {
-      report["video"].push_back(measureVideo(o, api, base, codec));
-      // The latency edits moved the camera: every stream starts from the same view.
-      api.call("PATCH", base + "/camera", {{"fovY", camera["fovY"]}});
+    std::unique_ptr<StartedServer> started;
+    std::string url = o.url;
+    if (url.empty()) {
+      std::string server = o.server;
+      if (server.empty()) {
+        // Default: myriad-server next to this binary (a pack), else in the build tree.
+        std::string self = argv[0];
+        const size_t slash = self.rfind('/');
+        const std::string dir = slash == std::string::npos ? "." : self.substr(0, slash);
+        server = access((dir + "/myriad-server").c_str(), X_OK) == 0 ? dir + "/myriad-server"
+                                                                     : dir + "/../myriad-server";
+      }
+      started = std::make_unique<StartedServer>(server, o.serverArgs);
+      url = started->url();
     }
-    api.call("PATCH", base + "/settings", {{"animate", false}});
+    auto client = clientFor(url);
+    json info = checkedJson(client->Get(std::string(routes::kInfo)), 200, "GET info");
+    std::fprintf(stderr, "myriad-stream-bench: %s, %u lights per session\n", url.c_str(), o.lights);
+
+    std::vector<Session> sessions;
+    for (uint32_t i = 0; i < std::max(1u, o.streams); ++i) {
+      sessions.push_back(createSession(*client, o, i + 1));
+    }
+    json report = {{"url", url}, {"device", info.value("device", json())}, {"lights", o.lights},
+                   {"radius", {o.radiusMin, o.radiusMax}}, {"quality", o.quality},
+                   {"serverArgs", o.serverArgs}};
+    std::fprintf(stderr, "  request %s...\n", o.size.text().c_str());
+    report["request"] = measureRequests(url, o, sessions[0]);
+    std::fprintf(stderr, "  one stream %s...\n", o.size.text().c_str());
+    report["stream"] = measureStreams(url, o, {sessions[0]}, o.size);
+    if (o.streams > 1) {
+      std::fprintf(stderr, "  %u streams %s...\n", o.streams, o.size.text().c_str());
+      report["streams"] = measureStreams(url, o, sessions, o.size);
+    }
+    if (o.large) {
+      std::fprintf(stderr, "  one stream %s...\n", o.large->text().c_str());
+      report["large"] = measureStreams(url, o, {sessions[0]}, *o.large);
+    }
+    // With the server's --validate: the messages its Vulkan validation reported during the run.
+    report["validation"] =
+        checkedJson(client->Get(std::string(routes::kInfo)), 200, "GET info").value("validation", json());
     const std::string text = report.dump(2);
-    std::cout << text << "\n";
-    if (!o.jsonPath.empty()) std::ofstream(o.jsonPath) << text << "\n";
+    std::cout << text << std::endl;
+    if (!o.json.empty()) std::ofstream(o.json) << text << "\n";
+    return 0;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "myriad-stream-bench: %s\n", e.what());
     return 1;
   }
-  return 0;
 }

@@ -119,37 +119,41 @@ protocol::Stats FrameStatsBook::statsOf(const Session& session, uint64_t lightCo
 }
 
 DeliveredFrame deliverFrame(render::RenderQueue& renderThread, Metrics& metrics, render::SceneId id,
-                            const FrameRequest& request, const FrameEncoder* encoder) {
+                            const FrameRequest& request, render::FrameSource source) {
   const auto start = std::chrono::steady_clock::now();
-  std::future<render::Frame> pending = renderThread.submit(id, request.settings);
+  std::future<render::Frame> pending = renderThread.submit(id, request.settings, source);
   DeliveredFrame delivered;
   delivered.frame = pending.get();
-  delivered.encoded =
-      encoder ? (*encoder)(delivered.frame) : encodeFrame(delivered.frame, request);
+  delivered.encoded = encodeFrame(delivered.frame, request);
   metrics.observeFrame(
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
   return delivered;
 }
 
-SessionFrame renderSessionFrame(const SessionFrameContext& context, const SessionPtr& session,
-                                const FrameRequest& request, const FrameEncoder* encoder) {
-  FrameRequest rendered = request;
+PendingSessionFrame submitSessionFrame(const SessionFrameContext& context, const SessionPtr& session,
+                                       const FrameRequest& request, render::FrameSource source) {
+  PendingSessionFrame pending;
+  pending.rendered = request;
   render::SceneId sceneId = 0;
-  SessionFrame result;
   {
     std::lock_guard lock(session->mutex);
     if (session->closed) throw ProblemError(notFoundDetail("Session " + session->id + " is gone."));
-    rendered.settings = session->scene.frameSettings(request.settings, request.time, Clock::now());
+    pending.rendered.settings =
+        session->scene.frameSettings(request.settings, request.time, Clock::now());
     sceneId = static_cast<render::SceneId>(session->sceneId);
-    result.version = session->version;
-    result.time = rendered.settings.time;
+    pending.version = session->version;
   }
+  pending.submitted = Clock::now();
+  pending.frame =
+      context.renderThread.submit(sceneId, pending.rendered.settings, source, pending.drop);
+  return pending;
+}
 
+SessionFrame collectSessionFrame(const SessionFrameContext& context, const SessionPtr& session,
+                                 PendingSessionFrame& pending, const FrameEncoder* encoder) {
   DeliveredFrame delivered;
   try {
-    delivered = deliverFrame(context.renderThread, context.metrics, sceneId, rendered, encoder);
-  } catch (const render::RenderQueueFullError&) {
-    throw;
+    delivered.frame = pending.frame.get();
   } catch (const std::exception&) {
     // A session deleted while its frame waited takes its scene with it: that is a 404, not a
     // renderer failure.
@@ -157,10 +161,23 @@ SessionFrame renderSessionFrame(const SessionFrameContext& context, const Sessio
     if (session->closed) throw ProblemError(notFoundDetail("Session " + session->id + " is gone."));
     throw;
   }
-  context.stats.record(session, delivered.frame, rendered.settings.target,
+  delivered.encoded = encoder ? (*encoder)(delivered.frame)
+                              : encodeFrame(delivered.frame, pending.rendered);
+  context.metrics.observeFrame(
+      std::chrono::duration<double>(Clock::now() - pending.submitted).count());
+  context.stats.record(session, delivered.frame, pending.rendered.settings.target,
                        delivered.encoded.encodeMs);
+  SessionFrame result;
   result.encoded = std::move(delivered.encoded);
+  result.version = pending.version;
+  result.time = pending.rendered.settings.time;
   return result;
+}
+
+SessionFrame renderSessionFrame(const SessionFrameContext& context, const SessionPtr& session,
+                                const FrameRequest& request, render::FrameSource source) {
+  PendingSessionFrame pending = submitSessionFrame(context, session, request, source);
+  return collectSessionFrame(context, session, pending);
 }
 
 }  // namespace myriad::service

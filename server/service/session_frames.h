@@ -55,19 +55,16 @@ class FrameStatsBook {
   std::map<std::string, Entry, std::less<>> entries_;
 };
 
-// Encodes a rendered frame some other way than encodeFrame (a video stream's encoder).
-using FrameEncoder = std::function<EncodedFrame(const render::Frame&)>;
-
 // Renders `request.settings` of scene `id` on the render thread, waits, encodes the frame as
-// `request` asks (or with `encoder` when given) and adds the time taken to myriad_frame_seconds:
-// the path every frame takes.
+// `request` asks and adds the time taken to myriad_frame_seconds: the path every frame takes.
 // Throws render::RenderQueueFullError (queue full) and whatever the renderer or encoder threw.
 struct DeliveredFrame {
   render::Frame frame;  // what the renderer returned (pixels included)
   EncodedFrame encoded;
 };
 DeliveredFrame deliverFrame(render::RenderQueue& renderThread, Metrics& metrics, render::SceneId id,
-                            const FrameRequest& request, const FrameEncoder* encoder = nullptr);
+                            const FrameRequest& request,
+                            render::FrameSource source = render::FrameSource::Request);
 
 // A session frame as delivered: the encoded bytes and what it showed.
 struct SessionFrame {
@@ -76,6 +73,9 @@ struct SessionFrame {
   double time = 0.0;     // the animation time it shows, in seconds
 };
 
+// Encodes a rendered frame some other way than encodeFrame (a video stream's encoder).
+using FrameEncoder = std::function<EncodedFrame(const render::Frame&)>;
+
 // What SessionFrames needs from the rest of the server.
 struct SessionFrameContext {
   render::RenderQueue& renderThread;
@@ -83,11 +83,33 @@ struct SessionFrameContext {
   Metrics& metrics;
 };
 
+// A session frame submitted to the render thread and not yet collected (submitSessionFrame).
+struct PendingSessionFrame {
+  std::future<render::Frame> frame;
+  // Set to give the frame up: not rendered if it has not started (render::FrameDroppedError).
+  std::shared_ptr<std::atomic<bool>> drop = std::make_shared<std::atomic<bool>>(false);
+  FrameRequest rendered;  // the request with the session's state applied
+  uint64_t version = 0;   // the session version the frame shows
+  Clock::time_point submitted;
+};
+
+// The two halves of renderSessionFrame, for a caller that overlaps one frame's encoding with the
+// next frame's rendering (a stream): submit takes the session's state and queues the frame;
+// collect waits for it, encodes it (with `encoder` when given, else as the request asks) and
+// records it in stats and metrics. Same exceptions.
+PendingSessionFrame submitSessionFrame(const SessionFrameContext& context, const SessionPtr& session,
+                                       const FrameRequest& request, render::FrameSource source);
+SessionFrame collectSessionFrame(const SessionFrameContext& context, const SessionPtr& session,
+                                 PendingSessionFrame& pending,
+                                 const FrameEncoder* encoder = nullptr);
+
 // Takes the session's camera, settings and scene (under its mutex), renders on the render thread,
 // waits, encodes, and records the frame in stats and metrics. `request.time` overrides the
 // session's animation clock. Throws render::RenderQueueFullError (queue full), ProblemError 404 when the
 // session closed meanwhile, and whatever the renderer or encoder threw.
+// `source`: a stream's frames are not refused for a full queue (render::FrameSource).
 SessionFrame renderSessionFrame(const SessionFrameContext& context, const SessionPtr& session,
-                                const FrameRequest& request, const FrameEncoder* encoder = nullptr);
+                                const FrameRequest& request,
+                                render::FrameSource source = render::FrameSource::Request);
 
 }  // namespace myriad::service

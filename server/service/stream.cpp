@@ -4,14 +4,16 @@
 #include <bit>
 #include <cstdio>
 #include <cstring>
+#include <optional>
 #include <thread>
 #include <utility>
 
 namespace myriad::service {
 namespace {
 
-// How long a stream waits before retrying when the render queue is full: short enough to keep
-// the picture live, long enough not to hammer the queue while other requests drain it.
+// How long a stream waits before retrying when the render queue refuses its frame. A stream's
+// frames are not counted against --max-queued-frames (render::FrameSource::Stream), so this is
+// only the render thread stopping, which the next turn of the loop sees.
 constexpr std::chrono::milliseconds kQueueFullRetry{50};
 // libvpx threads per video stream: 1080p at 30 fps needs about 4 on the GPU machine's cores.
 constexpr unsigned kVideoEncoderThreads = 4;
@@ -34,6 +36,12 @@ struct StreamState {
   bool wroteAny = false;
   Clock::time_point nextFrameAt{};   // the fps limit: no new frame before this
   Clock::time_point lastWriteAt{};
+  // Frames in flight: while the lights animate and frames take longer than 1 / fps (the pipeline,
+  // not the fps limit, sets the rate), the next frame is submitted before this one is collected,
+  // so the render thread renders frame N+1 while this worker encodes and writes frame N. It shows
+  // the session as it was when submitted: an edit made meanwhile shows one frame later.
+  std::optional<PendingSessionFrame> ahead;
+  Clock::duration lastFrameTook{};  // submit to encoded, of the last frame
 
   // Video streams (request.video): the stream's own encoder, freed with the stream; `image` then
   // holds the last chunk's payload only until it is written.
@@ -51,28 +59,6 @@ struct StreamState {
       session->lastUsed = lastWriteAt;
     }
     return sink.write(bytes.data(), bytes.size());
-  }
-
-  bool writePart(httplib::DataSink& sink) {
-    if (encoder) {
-      // A video stream re-sends no picture (a delta frame only decodes once): a keep-alive
-      // chunk says the stream is alive and nothing changed.
-      VideoChunk keepAlive = chunk;
-      keepAlive.kind = protocol::video_chunk::kKeepAlive;
-      keepAlive.timestampUs = microsecondsSince(startedAt);
-      keepAlive.encodeUs = 0;
-      return write(sink, videoChunk(keepAlive, {}));
-    }
-    return write(sink, multipartPart(contentType, image, sequence, !wroteAny));
-  }
-
-  // The frame just rendered, whose payload is in `image`.
-  bool writeFrame(httplib::DataSink& sink) {
-    if (!encoder) return writePart(sink);
-    std::string bytes = videoChunk(chunk, image);
-    image.clear();
-    image.shrink_to_fit();
-    return write(sink, bytes);
   }
 
   static uint64_t microsecondsSince(Clock::time_point start) {
@@ -96,6 +82,43 @@ struct StreamState {
     chunk.timestampUs = timestampUs;
     chunk.encodeUs = static_cast<uint32_t>(out.encodeMs * 1000.0);
     return out;
+  }
+
+  // The frame just collected, whose payload is in `image`.
+  bool writeFrame(httplib::DataSink& sink) {
+    if (!encoder) return writePart(sink);
+    std::string bytes = videoChunk(chunk, image);
+    image.clear();
+    image.shrink_to_fit();
+    return write(sink, bytes);
+  }
+
+  // A stream that ends with a frame submitted ahead gives it up: not rendered unless it already
+  // started, and then waited for, so stats count every render.
+  void settleAhead() {
+    if (!ahead) return;
+    *ahead->drop = true;
+    try {
+      // Nobody sees it: a video stream's encoder skips it (its next frame would need it).
+      const FrameEncoder skip = [](const render::Frame&) { return EncodedFrame{}; };
+      collectSessionFrame(context, session, *ahead, encoder ? &skip : nullptr);
+    } catch (const std::exception&) {
+      // Dropped, the session closed, or the frame failed: nobody is waiting for it.
+    }
+    ahead.reset();
+  }
+
+  bool writePart(httplib::DataSink& sink) {
+    if (encoder) {
+      // A video stream re-sends no picture (a delta frame only decodes once): a keep-alive
+      // chunk says the stream is alive and nothing changed.
+      VideoChunk keepAlive = chunk;
+      keepAlive.kind = protocol::video_chunk::kKeepAlive;
+      keepAlive.timestampUs = microsecondsSince(startedAt);
+      keepAlive.encodeUs = 0;
+      return write(sink, videoChunk(keepAlive, {}));
+    }
+    return write(sink, multipartPart(contentType, image, sequence, !wroteAny));
   }
 
   // One provider call: waits for something to send, sends one part, returns. False ends the
@@ -128,12 +151,20 @@ bool StreamState::next(httplib::DataSink& sink) {
     if (wantFrame && now >= nextFrameAt) {
       SessionFrame frame;
       try {
+        PendingSessionFrame pending =
+            ahead ? std::move(*ahead)
+                  : submitSessionFrame(context, session, request, render::FrameSource::Stream);
+        ahead.reset();
+        if (animate && lastFrameTook >= interval) {
+          ahead = submitSessionFrame(context, session, request, render::FrameSource::Stream);
+        }
         if (encoder) {
           const FrameEncoder encode = [this](const render::Frame& f) { return encodeVideo(f); };
-          frame = renderSessionFrame(context, session, request, &encode);
+          frame = collectSessionFrame(context, session, pending, &encode);
         } else {
-          frame = renderSessionFrame(context, session, request);
+          frame = collectSessionFrame(context, session, pending);
         }
+        lastFrameTook = Clock::now() - pending.submitted;
       } catch (const render::RenderQueueFullError&) {
         nextFrameAt = now + kQueueFullRetry;
         continue;
@@ -278,7 +309,11 @@ httplib::ContentProviderWithoutLength makeStreamProvider(const SessionFrameConte
                                kVideoEncoderThreads);
     state->encoder = std::make_unique<encode::VideoEncoder>(video);
   }
-  return [state](size_t /*offset*/, httplib::DataSink& sink) { return state->next(sink); };
+  return [state](size_t /*offset*/, httplib::DataSink& sink) {
+    const bool more = state->next(sink);
+    if (!more) state->settleAhead();
+    return more;
+  };
 }
 
 }  // namespace myriad::service
