@@ -73,7 +73,8 @@ class RenderQueue {
   // RenderQueueFullError when maxQueuedFrames() frames already wait behind the one rendering, or
   // after stop(). Only frames of FrameSource::Request count against maxQueuedFrames().
   // `drop`, when given, lets the submitter give the frame up: set before the frame starts, the
-  // frame is not rendered and its future gets FrameDroppedError.
+  // frame is not rendered, and set while a split frame renders, it stops at its next part; its
+  // future gets FrameDroppedError.
   virtual std::future<Frame> submit(SceneId id, const FrameSettings& settings, FrameSource source,
                                     std::shared_ptr<const std::atomic<bool>> drop) = 0;
   std::future<Frame> submit(SceneId id, const FrameSettings& settings, FrameSource source) {

@@ -172,8 +172,9 @@ std::future<Frame> RenderThread::submit(SceneId id, const FrameSettings& setting
   task.counted = source == FrameSource::Request;
   task.run = [this, pending, id, settings, drop = std::move(drop)](Renderer& r) {
     try {
-      if (!pending->split && drop && drop->load()) {
-        throw FrameDroppedError("the frame was given up before it started");
+      if (drop && drop->load()) {
+        throw FrameDroppedError(pending->split ? "the frame was given up while it rendered"
+                                               : "the frame was given up before it started");
       }
       if (!pending->split) {
         // Not started yet: a whole frame, or the first submission of a split one.

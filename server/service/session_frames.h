@@ -76,11 +76,16 @@ struct SessionFrame {
 // Encodes a rendered frame some other way than encodeFrame (a video stream's encoder).
 using FrameEncoder = std::function<EncodedFrame(const render::Frame&)>;
 
+class SharedFrames;
+
 // What SessionFrames needs from the rest of the server.
 struct SessionFrameContext {
   render::RenderQueue& renderThread;
   FrameStatsBook& stats;
   Metrics& metrics;
+  // Streams take their frames through it (shared_frames.h), so that streams of one session
+  // share renders; null: each stream renders its own.
+  SharedFrames* shared = nullptr;
 };
 
 // A session frame submitted to the render thread and not yet collected (submitSessionFrame).

@@ -8,6 +8,8 @@
 #include <thread>
 #include <utility>
 
+#include "service/shared_frames.h"
+
 namespace myriad::service {
 namespace {
 
@@ -30,6 +32,7 @@ struct StreamState {
 
   bool hasFrame = false;
   uint64_t shownVersion = 0;  // the session version of the last frame
+  uint64_t shownGeneration = 0;  // its SharedFrames generation (0: none, or not shared)
   uint64_t sequence = 0;      // X-Myriad-Frame of the last frame (re-sends keep it)
   std::string image;          // the last frame, for idle re-sends
   std::string contentType;
@@ -149,22 +152,37 @@ bool StreamState::next(httplib::DataSink& sink) {
     const Clock::time_point now = Clock::now();
     const bool wantFrame = !hasFrame || version != shownVersion || animate;
     if (wantFrame && now >= nextFrameAt) {
-      SessionFrame frame;
+      SharedFrames::Frame frame;
+      double frameTime = 0.0;  // the animation time it shows (video chunk headers)
       try {
-        PendingSessionFrame pending =
-            ahead ? std::move(*ahead)
-                  : submitSessionFrame(context, session, request, render::FrameSource::Stream);
-        ahead.reset();
-        if (animate && lastFrameTook >= interval) {
-          ahead = submitSessionFrame(context, session, request, render::FrameSource::Stream);
-        }
-        if (encoder) {
-          const FrameEncoder encode = [this](const render::Frame& f) { return encodeVideo(f); };
-          frame = collectSessionFrame(context, session, pending, &encode);
+        // Streams of one session share renders (SharedFrames) unless this one pipelines: an
+        // animated stream whose frames take longer than 1 / fps submits the next frame ahead,
+        // which a shared render cannot (it would keep each stream's own frames in flight).
+        // A video stream encodes with its own encoder, whose every frame its client must get:
+        // it renders its own frames too.
+        const bool pipelined = animate && (ahead || lastFrameTook >= interval);
+        if (context.shared != nullptr && !pipelined && !encoder) {
+          frame = context.shared->next(context, session, request, shownGeneration, interval);
+          lastFrameTook = frame.took;
         } else {
-          frame = collectSessionFrame(context, session, pending);
+          PendingSessionFrame pending =
+              ahead ? std::move(*ahead)
+                    : submitSessionFrame(context, session, request, render::FrameSource::Stream);
+          ahead.reset();
+          if (animate && lastFrameTook >= interval) {
+            ahead = submitSessionFrame(context, session, request, render::FrameSource::Stream);
+          }
+          SessionFrame own;
+          if (encoder) {
+            const FrameEncoder encode = [this](const render::Frame& f) { return encodeVideo(f); };
+            own = collectSessionFrame(context, session, pending, &encode);
+          } else {
+            own = collectSessionFrame(context, session, pending);
+          }
+          frameTime = own.time;
+          lastFrameTook = Clock::now() - pending.submitted;
+          frame = {std::make_shared<const EncodedFrame>(std::move(own.encoded)), own.version, 0};
         }
-        lastFrameTook = Clock::now() - pending.submitted;
       } catch (const render::RenderQueueFullError&) {
         nextFrameAt = now + kQueueFullRetry;
         continue;
@@ -180,12 +198,13 @@ bool StreamState::next(httplib::DataSink& sink) {
       nextFrameAt = now + interval;
       hasFrame = true;
       shownVersion = frame.version;
+      shownGeneration = frame.generation;
       ++sequence;
-      image = std::move(frame.encoded.body);
-      contentType = std::move(frame.encoded.contentType);
+      image = frame.encoded->body;
+      contentType = frame.encoded->contentType;
       chunk.sequence = static_cast<uint32_t>(sequence);
       chunk.version = frame.version;
-      chunk.time = frame.time;
+      chunk.time = frameTime;
       return writeFrame(sink);
     }
     if (hasFrame && now - lastWriteAt >= kIdleResend) return writePart(sink);
