@@ -65,6 +65,9 @@ export class LiveView {
     this.bytesReceived = 0;         // stream bytes so far, all streams (for a bandwidth figure)
     this.framesShown = 0;           // pictures shown so far
     this.ready = this.chooseMode();
+    this.onConnect = () => {};      // a stream is being opened
+    this.onFrame = () => {};        // ({id, bytes, codec}) a frame was delivered
+    this.onInput = () => {};        // camera input: the picture is about to change
 
     this.img.addEventListener('load', () => {
       // The newest part shows: the parts before it are no longer needed.
@@ -154,6 +157,7 @@ export class LiveView {
     this.stream = stream;
     this.img.dataset.stream = key;
     if (this.canvas) this.canvas.dataset.stream = key;
+    this.onConnect();
     this.read(stream, query);
   }
 
@@ -186,6 +190,7 @@ export class LiveView {
 
   // Called on every camera input: smaller frames now, the full-quality view once input pauses.
   noteInput() {
+    this.onInput();
     if (!this.interactive) {
       this.interactive = true;
       this.restart();
@@ -285,6 +290,8 @@ export class LiveView {
     this.canvas.dataset.shown = stream.key;
     this.canvas.dataset.frame = String(chunk.sequence);
     this.framesShown += 1;
+    this.onFrame({id: `${stream.key}#${chunk.sequence}`, bytes: chunk.payload.byteLength,
+                  codec: this.codec});
     this.status.textContent = `${chunk.width}\u00d7${chunk.height} ${this.codec.toUpperCase()}` +
                               (this.interactive ? ' (moving)' : '');
     this.noteShown();
@@ -307,6 +314,8 @@ export class LiveView {
     this.img.dataset.shown = stream.key;
     this.img.dataset.frame = part.headers['x-myriad-frame'] || '';
     this.framesShown += 1;
+    this.onFrame({id: `${stream.key}#${this.img.dataset.frame}`, bytes: part.body.byteLength,
+                  codec: this.codec});
     this.noteShown();
   }
 
