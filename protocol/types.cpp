@@ -104,6 +104,7 @@ void patchMembers(Tag<SettingsPatch>, F f) {
   f("ambient", &Settings::ambient, &SettingsPatch::ambient);
   f("exposure", &Settings::exposure, &SettingsPatch::exposure);
   f("markers", &Settings::markers, &SettingsPatch::markers);
+  f("antialias", &Settings::antialias, &SettingsPatch::antialias);
   f("technique", &Settings::technique, &SettingsPatch::technique);
   f("animate", &Settings::animate, &SettingsPatch::animate);
   f("background", &Settings::background, &SettingsPatch::background);
@@ -447,8 +448,8 @@ T applyPatch(T whole, const P& p);
 template <class T, class U>
 void patch(T& target, const std::optional<U>& value) {
   if (!value) return;
-  if constexpr (std::is_same_v<T, U>) {
-    target = *value;
+  if constexpr (std::is_same_v<T, U> || std::is_same_v<T, std::optional<U>>) {
+    target = *value;  // (a whole's member the body may omit takes the patch's value too)
   } else {
     target = applyPatch(std::move(target), *value);
   }

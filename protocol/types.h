@@ -77,6 +77,9 @@ struct Settings {
   Color ambient{};
   double exposure = 1;
   bool markers = false;
+  // antialias_modes:: "none" | "fxaa". The server always sends it; a body may leave it out (a
+  // snapshot saved before anti-aliasing existed), which restores as a new session starts: "fxaa".
+  std::optional<std::string> antialias;
   std::string technique;  // "volumes" | "tiled" | "clustered" (constants.h technique_names::)
   bool animate = false;
   Color background{};
@@ -91,6 +94,7 @@ struct SettingsPatch {
   std::optional<Color> ambient;
   std::optional<double> exposure;
   std::optional<bool> markers;
+  std::optional<std::string> antialias;
   std::optional<std::string> technique;
   std::optional<bool> animate;
   std::optional<Color> background;

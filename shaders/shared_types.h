@@ -65,6 +65,9 @@ using mat4 = glm::mat4;
 #define MYRIAD_BINDING_LIGHT_COUNT_STORAGE 8  // storage image: compute lighting writes counts here
 #define MYRIAD_BINDING_GBUFFER_EMISSIVE 9     // sampled: emitted radiance (RGBA16F, a unused)
 #define MYRIAD_BINDING_MARKER_KEYS 10         // storage image: light markers' keys (shaders/markers.h)
+#define MYRIAD_BINDING_OUTPUT 11              // storage image: the output (RGBA8, or RGBA32F when raw)
+#define MYRIAD_BINDING_LDR 12                 // sampled (linear filter): tonemapped final + luma, for AA
+#define MYRIAD_BINDING_LDR_STORAGE 13         // storage image: the same, written by the final pass
 
 // Descriptor set 2: light culling. Each compute technique binds its own set of this layout
 // (server/render/techniques/) and writes the bindings its shaders use.
@@ -122,6 +125,10 @@ using mat4 = glm::mat4;
 #define MYRIAD_VIEW_EMISSIVE 11
 #define MYRIAD_VIEW_OCCLUSION 12
 
+// Anti-aliasing of `final` (FrameUniforms.post.x): render::Antialias's values (gpu_types.h checks).
+#define MYRIAD_ANTIALIAS_NONE 0
+#define MYRIAD_ANTIALIAS_FXAA 1
+
 // Directional lights besides the sun (scene::kMaxExtraSuns; render/gpu_types.h checks it).
 #define MYRIAD_MAX_EXTRA_SUNS 3
 
@@ -144,6 +151,8 @@ MYRIAD_STRUCT(FrameUniforms) {
   vec4 slicing;          // x slices / ln(far/near), y ln(near) * x, z heat-map max, w time (s)
   vec4 environment;      // x mode (MYRIAD_ENV_*), y intensity, z background shown (0/1), w unused
   vec4 environmentRotation;  // x cos, y sin of the environment's rotation about +Y
+  uvec4 post;            // x anti-aliasing of this frame (MYRIAD_ANTIALIAS_*: NONE unless the view
+                         // is an 8-bit final), y light markers drawn (0/1), zw unused
   // Directional lights besides the sun (a model's): xyz towards the light, w intensity (0: none).
   vec4 extraSunDirection[MYRIAD_MAX_EXTRA_SUNS];
   vec4 extraSunColor[MYRIAD_MAX_EXTRA_SUNS];  // rgb linear, w unused

@@ -331,6 +331,9 @@ TEST_CASE("constants agree with the schemas") {
   const json& modes = protocol::schema("defs")["$defs"]["environmentMode"]["enum"];
   REQUIRE(modes.size() == protocol::kEnvironmentModes.size());
   for (size_t i = 0; i < modes.size(); ++i) CHECK(modes[i] == protocol::kEnvironmentModes[i]);
+  const json& antialias = protocol::schema("defs")["$defs"]["antialias"]["enum"];
+  REQUIRE(antialias.size() == protocol::kAntialiasModes.size());
+  for (size_t i = 0; i < antialias.size(); ++i) CHECK(antialias[i] == protocol::kAntialiasModes[i]);
 
   for (std::string_view name : protocol::problems::kAll) {
     std::string uri = protocol::problemTypeUri(name);

@@ -22,6 +22,7 @@ render::FrameSettings frameSettings(const scene::Scene& scene, render::Technique
   f.takeLightingFrom(scene);
   f.technique = technique;
   f.markers = plan.markers;
+  f.antialias = plan.antialias;
   f.animate = true;
   f.time = frameIndex * plan.frameSeconds;
   f.environment.mode = plan.environment;

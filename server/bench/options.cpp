@@ -55,12 +55,14 @@ const char* const kUsage =
     "                    [--seed N] [--max-seconds S] [--volumes-max-lights N] [--markers]\n"
     "                    [--json PATH] [--validate] [--device INDEX|NAME]\n"
     "                    [--environment none|sky] [--environment-every-frame]\n"
+    "                    [--antialias none|fxaa]\n"
     "                    [--model PATH [--textures on|off]]\n"
     "Renders animated frames for every light count x technique, timing each pass with GPU\n"
     "timestamp queries after warm-up, and prints medians and 90th percentiles.\n"
     "defaults: 1920x1080, lights 1000,10000,100000,1000000, every technique,\n"
     "          50 frames after 10 warm-up, scene floor with 64 lights per point, volumes only up to\n"
-    "          100000 lights, at most 30 s of timed frames per configuration, markers off.\n"
+    "          100000 lights, at most 30 s of timed frames per configuration, markers off,\n"
+    "          antialias fxaa (the final image's \"antialias\" pass; the server's default too).\n"
     "--validate enables VK_LAYER_KHRONOS_validation; any message makes the exit status 1.\n"
     "--environment sky lights every frame with the procedural sky (default none: the constant\n"
     "ambient); with --environment-every-frame its maps are rebuilt every frame, timed as the\n"
@@ -132,6 +134,11 @@ Options parseOptions(const std::vector<std::string>& args) {
       o.plan.environmentEveryFrame = true;
     } else if (flag == "--markers") {
       o.plan.markers = true;
+    } else if (flag == "--antialias") {
+      std::string_view name = value();
+      auto mode = render::parseAntialias(name);
+      if (!mode) throw UsageError("--antialias expects none or fxaa, not \"" + std::string(name) + "\".");
+      o.plan.antialias = *mode;
     } else if (flag == "--json") {
       std::string_view path = value();
       if (path.empty()) throw UsageError("--json expects a file path.");

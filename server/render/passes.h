@@ -5,6 +5,7 @@
 #include <vulkan/vulkan.h>
 
 #include "gpu/context.h"
+#include "render/frame.h"
 #include "render/frame_targets.h"
 #include "render/scene_buffers.h"
 
@@ -28,12 +29,16 @@ struct Pipelines {
   VkPipelineLayout layout = VK_NULL_HANDLE;
   VkPipeline gbuffer = VK_NULL_HANDLE;
   VkPipeline lightVolumeOverlay = VK_NULL_HANDLE;
-  VkPipeline tonemap = VK_NULL_HANDLE;
-  VkPipeline tonemapRaw = VK_NULL_HANDLE;  // same shader, float output
   // Compute (render/compute_passes.h).
   VkPipeline animateLights = VK_NULL_HANDLE;
-  VkPipeline markerSplat = VK_NULL_HANDLE;    // markers: one thread per light
-  VkPipeline markerResolve = VK_NULL_HANDLE;  // markers: one thread per pixel
+  VkPipeline markerSplat = VK_NULL_HANDLE;  // markers: one thread per light
+  // The output, one thread per pixel: final (markers resolved, tonemapped), the data and debug
+  // views, each for the 8-bit and the raw (float) output; then anti-aliasing of final.
+  VkPipeline final = VK_NULL_HANDLE;
+  VkPipeline finalRaw = VK_NULL_HANDLE;
+  VkPipeline views = VK_NULL_HANDLE;
+  VkPipeline viewsRaw = VK_NULL_HANDLE;
+  VkPipeline antialias = VK_NULL_HANDLE;
 };
 
 // 1. Writes depth, normal, base colour, material, uv, emissive; leaves them readable by later passes.
@@ -41,18 +46,24 @@ void recordGBufferPass(VkCommandBuffer cmd, const Pipelines& p, const FrameTarge
                        const SceneBuffers& scene);
 // 2-3. The lighting technique's passes (render/techniques/technique.h).
 // 4. Reads depth (test only, kept from pass 1) and lights; splats light markers (compute, a few
-//    pixels each) into the marker keys, then blends them into HDR. `hdrLayout` is where the
-//    lighting pass left HDR (GENERAL after compute, COLOR_ATTACHMENT after volumes); HDR leaves
-//    this pass in GENERAL, written by compute.
+//    pixels each) into the marker keys, which the final pass resolves (blends into the picture).
 void recordMarkerPass(VkCommandBuffer cmd, const Pipelines& p, const FrameTargets& t,
-                      const SceneBuffers& scene, VkImageLayout hdrLayout);
-// 5. Reads HDR and the G-buffer; writes the chosen view into the output image.
-void recordTonemapPass(VkCommandBuffer cmd, const Pipelines& p, const FrameTargets& t,
-                       VkImageLayout hdrLayout, VkImageLayout lightCountLayout);
-// 5b. (light-volumes view) Reads depth and lights; adds each volume's coverage to the output.
+                      const SceneBuffers& scene);
+// 5. Compute, one thread per pixel. `final`/`light-volumes`: reads HDR and (with `markers`) the
+//    marker keys, writes the tonemapped picture to the output, or with `antialias` to the LDR
+//    target for pass 5b. Other views: reads the G-buffer or light counts, writes the output.
+//    `lightingLayout` is where lighting left HDR and light counts (GENERAL after compute,
+//    COLOR_ATTACHMENT after volumes). Leaves the output in GENERAL.
+void recordFinalPass(VkCommandBuffer cmd, const Pipelines& p, const FrameTargets& t, Target target,
+                     bool markers, bool antialias, VkImageLayout lightingLayout);
+// 5b. (final, 8-bit, antialias on) Reads the LDR target; writes the anti-aliased output.
+void recordAntialiasPass(VkCommandBuffer cmd, const Pipelines& p, const FrameTargets& t);
+// 5c. (light-volumes view) Reads depth and lights; adds each volume's coverage to the output.
+//     Leaves the output as a colour attachment.
 void recordLightVolumeOverlayPass(VkCommandBuffer cmd, const Pipelines& p, const FrameTargets& t,
                                   const SceneBuffers& scene);
-// 6. Reads the output image; writes it to the host-visible readback buffer.
-void recordReadback(VkCommandBuffer cmd, const FrameTargets& t);
+// 6. Reads the output image (in `outputLayout`: GENERAL from compute, or COLOR_ATTACHMENT after
+//    the overlay); writes it to the host-visible readback buffer.
+void recordReadback(VkCommandBuffer cmd, const FrameTargets& t, VkImageLayout outputLayout);
 
 }  // namespace myriad::render

@@ -24,8 +24,8 @@ namespace myriad::render {
 namespace {
 
 // environment (when rebuilt), animate, gbuffer, the technique's (sun + lights, or lighting),
-// markers, tonemap, overlay, readback: room for a technique of four passes.
-constexpr uint32_t kMaxTimedPasses = 11;
+// markers, final, antialias, overlay, readback: room for a technique of four passes and more.
+constexpr uint32_t kMaxTimedPasses = 14;
 
 // The light-count view's hottest colour when the request leaves it to us.
 constexpr uint32_t kDefaultHeatMapMax = 64;
@@ -48,7 +48,8 @@ struct Renderer::State {
   gpu::Buffer uniforms;
   gpu::CommandRecorder recorder;
   gpu::PassTimer timer;
-  VkSampler sampler = VK_NULL_HANDLE;
+  VkSampler sampler = VK_NULL_HANDLE;        // nearest: targets are read texel by texel
+  VkSampler linearSampler = VK_NULL_HANDLE;  // the anti-aliasing pass's reads between pixels
   VkDescriptorPool descriptorPool = VK_NULL_HANDLE;
   // One set per kind, rewritten for whichever scene the frame draws: frames run one at a time.
   VkDescriptorSet sceneSet = VK_NULL_HANDLE;
@@ -128,18 +129,23 @@ void Renderer::State::writeSceneSet(const SceneBuffers& scene, const gpu::Buffer
 
 void Renderer::State::writeTargetSet() {
   // Bindings 0-6 and 9 are sampled (READ_ONLY_OPTIMAL); 7-8 are the same HDR and light-count
-  // images as storage images (GENERAL), written by compute lighting; 10 the markers' keys
-  // (storage, GENERAL).
-  const gpu::Image* images[11] = {&targets->depth,      &targets->normal, &targets->baseColor,
-                                  &targets->material,   &targets->uv,     &targets->hdr,
-                                  &targets->lightCount, &targets->hdr,    &targets->lightCount,
-                                  &targets->emissive,   &targets->markerKeys};
-  VkDescriptorImageInfo infos[11];
-  VkWriteDescriptorSet writes[11];
-  for (uint32_t i = 0; i < 11; ++i) {
+  // images as storage images (GENERAL), written by compute lighting; 10 the markers' keys, 11 the
+  // output and 13 the LDR target are storage (GENERAL); 12 is the LDR target sampled with a
+  // linear filter.
+  constexpr uint32_t kBindings = 14;
+  const gpu::Image* images[kBindings] = {
+      &targets->depth,    &targets->normal,     &targets->baseColor, &targets->material,
+      &targets->uv,       &targets->hdr,        &targets->lightCount, &targets->hdr,
+      &targets->lightCount, &targets->emissive, &targets->markerKeys, &targets->output,
+      &targets->ldr,      &targets->ldr};
+  VkDescriptorImageInfo infos[kBindings];
+  VkWriteDescriptorSet writes[kBindings];
+  for (uint32_t i = 0; i < kBindings; ++i) {
     bool storage = i == MYRIAD_BINDING_HDR_STORAGE || i == MYRIAD_BINDING_LIGHT_COUNT_STORAGE ||
-                   i == MYRIAD_BINDING_MARKER_KEYS;
-    infos[i] = {storage ? VK_NULL_HANDLE : sampler, images[i]->view,
+                   i == MYRIAD_BINDING_MARKER_KEYS || i == MYRIAD_BINDING_OUTPUT ||
+                   i == MYRIAD_BINDING_LDR_STORAGE;
+    VkSampler filter = i == MYRIAD_BINDING_LDR ? linearSampler : sampler;
+    infos[i] = {storage ? VK_NULL_HANDLE : filter, images[i]->view,
                 storage ? VK_IMAGE_LAYOUT_GENERAL : VK_IMAGE_LAYOUT_READ_ONLY_OPTIMAL};
     writes[i] = {VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET};
     writes[i].dstSet = targetSet;
@@ -149,7 +155,7 @@ void Renderer::State::writeTargetSet() {
         storage ? VK_DESCRIPTOR_TYPE_STORAGE_IMAGE : VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER;
     writes[i].pImageInfo = &infos[i];
   }
-  vkUpdateDescriptorSets(context.device, 11, writes, 0, nullptr);
+  vkUpdateDescriptorSets(context.device, kBindings, writes, 0, nullptr);
 }
 
 // Targets follow the output size and are rebuilt only when it changes (every frame is waited
@@ -202,6 +208,8 @@ void Renderer::State::writeUniforms(const FrameSettings& s, const SceneBuffers& 
   u.environment = glm::vec4(float(static_cast<uint32_t>(s.environment.mode)),
                             s.environment.intensity, s.environment.background ? 1.0f : 0.0f, 0.0f);
   u.environmentRotation = glm::vec4(std::cos(rotation), std::sin(rotation), 0.0f, 0.0f);
+  u.post = glm::uvec4(static_cast<uint32_t>(s.antialiased() ? s.antialias : Antialias::None),
+                      s.markers ? 1 : 0, 0, 0);
   technique.writeUniforms(u);
   std::memcpy(uniforms.mapped, &u, sizeof(u));
 }
@@ -219,12 +227,14 @@ Renderer::Renderer(gpu::Context& context) : state_(std::make_unique<State>(conte
   samplerInfo.addressModeU = samplerInfo.addressModeV = samplerInfo.addressModeW =
       VK_SAMPLER_ADDRESS_MODE_CLAMP_TO_EDGE;
   VK_CHECK(vkCreateSampler(device, &samplerInfo, nullptr, &s.sampler));
+  samplerInfo.magFilter = samplerInfo.minFilter = VK_FILTER_LINEAR;
+  VK_CHECK(vkCreateSampler(device, &samplerInfo, nullptr, &s.linearSampler));
 
   // Sets 0 (scene) and 1 (targets); each technique allocates its own set 2.
   VkDescriptorPoolSize sizes[] = {{VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1},
                                   {VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 6},
-                                  {VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 8},
-                                  {VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, 3}};
+                                  {VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 9},
+                                  {VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, 5}};
   VkDescriptorPoolCreateInfo poolInfo{VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO};
   poolInfo.maxSets = 2;
   poolInfo.poolSizeCount = 4;
@@ -251,6 +261,7 @@ Renderer::~Renderer() {
   s.environmentPasses.reset();
   vkDestroyDescriptorPool(s.context.device, s.descriptorPool, nullptr);
   vkDestroySampler(s.context.device, s.sampler, nullptr);
+  vkDestroySampler(s.context.device, s.linearSampler, nullptr);
   gpu::destroyCommandRecorder(s.context, s.recorder);
 }
 
@@ -402,20 +413,25 @@ Frame Renderer::State::renderOnce(SceneBuffers& scene, SceneEnvironment* environ
   recordGBufferPass(cmd, p, t, scene);
   // Lighting leaves HDR and light counts as attachments (raster) or storage images (compute).
   const VkImageLayout lightingLayout = technique.record({cmd, s.timer, t, scene});
-  VkImageLayout hdrLayout = lightingLayout;
   if (settings.markers) {
     s.timer.beginPass(cmd, "markers");
-    recordMarkerPass(cmd, p, t, scene, hdrLayout);
-    hdrLayout = VK_IMAGE_LAYOUT_GENERAL;
+    recordMarkerPass(cmd, p, t, scene);
   }
-  s.timer.beginPass(cmd, "tonemap");
-  recordTonemapPass(cmd, p, t, hdrLayout, lightingLayout);
+  const bool antialias = settings.antialiased();  // as FrameUniforms.post.x says
+  s.timer.beginPass(cmd, "final");  // names-once: the pass, not the target
+  recordFinalPass(cmd, p, t, settings.target, settings.markers, antialias, lightingLayout);
+  VkImageLayout outputLayout = VK_IMAGE_LAYOUT_GENERAL;
+  if (antialias) {
+    s.timer.beginPass(cmd, "antialias");
+    recordAntialiasPass(cmd, p, t);
+  }
   if (settings.target == Target::LightVolumes && !settings.raw) {
     s.timer.beginPass(cmd, "overlay");
     recordLightVolumeOverlayPass(cmd, p, t, scene);
+    outputLayout = VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL;
   }
   s.timer.beginPass(cmd, "readback");
-  recordReadback(cmd, t);
+  recordReadback(cmd, t, outputLayout);
   s.timer.end(cmd);
   gpu::submitAndWait(s.context, s.recorder);
 

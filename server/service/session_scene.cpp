@@ -184,6 +184,7 @@ const render::SceneSettings& SessionScene::patchSettings(const protocol::Setting
   if (patch.background) s.background = fromWire(*patch.background);
   if (patch.exposure) s.exposure = float(*patch.exposure);
   if (patch.markers) s.markers = *patch.markers;
+  if (patch.antialias) s.antialias = antialiasFromWire(*patch.antialias);
   if (patch.technique) s.technique = techniqueFromWire(*patch.technique);
   if (patch.animate) s.animate = *patch.animate;
   if (patch.environment) {
@@ -271,6 +272,9 @@ SessionScene::Restored SessionScene::restore(const protocol::Snapshot& snapshot,
   settings.background = snapshot.settings.background;
   settings.exposure = snapshot.settings.exposure;
   settings.markers = snapshot.settings.markers;
+  // A snapshot from before anti-aliasing existed restores it as a new session has it.
+  settings.antialias =
+      snapshot.settings.antialias.value_or(std::string(protocol::antialias_modes::kFxaa));
   settings.technique = snapshot.settings.technique;
   settings.animate = snapshot.settings.animate;
   const protocol::Environment& environment = snapshot.settings.environment;
