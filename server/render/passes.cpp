@@ -244,7 +244,7 @@ void recordMarkerPass(VkCommandBuffer cmd, const Pipelines& p, const FrameTarget
 }
 
 void recordFinalPass(VkCommandBuffer cmd, const Pipelines& p, const FrameTargets& t, Target target,
-                     bool markers, bool antialias, VkImageLayout lightingLayout) {
+                     bool markers, VkImageLayout lightingLayout) {
   constexpr VkPipelineStageFlags2 kCompute = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT;
   const bool picture = target == Target::Final || target == Target::LightVolumes;
   std::vector<ImageTransition> before = {

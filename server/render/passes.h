@@ -50,12 +50,12 @@ void recordGBufferPass(VkCommandBuffer cmd, const Pipelines& p, const FrameTarge
 void recordMarkerPass(VkCommandBuffer cmd, const Pipelines& p, const FrameTargets& t,
                       const SceneBuffers& scene);
 // 5. Compute, one thread per pixel. `final`/`light-volumes`: reads HDR and (with `markers`) the
-//    marker keys, writes the tonemapped picture to the output, or with `antialias` to the LDR
-//    target for pass 5b. Other views: reads the G-buffer or light counts, writes the output.
+//    marker keys, writes the tonemapped picture to the output, or when the frame is anti-aliased
+//    (FrameUniforms.post.x) to the LDR target for pass 5b. Other views: reads the G-buffer or light counts, writes the output.
 //    `lightingLayout` is where lighting left HDR and light counts (GENERAL after compute,
 //    COLOR_ATTACHMENT after volumes). Leaves the output in GENERAL.
 void recordFinalPass(VkCommandBuffer cmd, const Pipelines& p, const FrameTargets& t, Target target,
-                     bool markers, bool antialias, VkImageLayout lightingLayout);
+                     bool markers, VkImageLayout lightingLayout);
 // 5b. (final, 8-bit, antialias on) Reads the LDR target; writes the anti-aliased output.
 void recordAntialiasPass(VkCommandBuffer cmd, const Pipelines& p, const FrameTargets& t);
 // 5c. (light-volumes view) Reads depth and lights; adds each volume's coverage to the output.

@@ -524,7 +524,7 @@ void Renderer::State::recordAfterLighting(VkCommandBuffer cmd, const FrameSlot& 
   }
   const bool antialias = settings.antialiased();  // as FrameUniforms.post.x says
   s.timer.beginPass(cmd, "final");  // names-once: the pass, not the target
-  recordFinalPass(cmd, p, t, settings.target, settings.markers, antialias, lightingLayout);
+  recordFinalPass(cmd, p, t, settings.target, settings.markers, lightingLayout);
   VkImageLayout outputLayout = VK_IMAGE_LAYOUT_GENERAL;
   if (antialias) {
     s.timer.beginPass(cmd, "antialias");
