@@ -14,20 +14,23 @@ using gpu_types::GpuInstance;
 using gpu_types::GpuMaterial;
 using gpu_types::GpuPointLight;
 using gpu_types::CullingStats;
+using gpu_types::LargeLightQueue;
 
 static_assert(sizeof(gpu_types::vec4) == 16 && sizeof(gpu_types::mat4) == 64);
-static_assert(sizeof(FrameUniforms) == 4 * 64 + 15 * 16 + 2 * MYRIAD_MAX_EXTRA_SUNS * 16);
-static_assert(offsetof(FrameUniforms, environment) == 256 + 12 * 16);
-static_assert(offsetof(FrameUniforms, post) == 256 + 14 * 16);
-static_assert(offsetof(FrameUniforms, extraSunDirection) == 256 + 15 * 16);
+static_assert(sizeof(FrameUniforms) == 4 * 64 + 16 * 16 + 2 * MYRIAD_MAX_EXTRA_SUNS * 16);
+static_assert(offsetof(FrameUniforms, environment) == 256 + 13 * 16);
+static_assert(offsetof(FrameUniforms, post) == 256 + 15 * 16);
+static_assert(offsetof(FrameUniforms, extraSunDirection) == 256 + 16 * 16);
 static_assert(MYRIAD_MAX_EXTRA_SUNS == scene::kMaxExtraSuns);
 static_assert(sizeof(gpu_types::EnvironmentParams) == 48);
 static_assert(offsetof(FrameUniforms, inverseViewProjection) == 192);
 static_assert(offsetof(FrameUniforms, cameraPosition) == 256);
 static_assert(offsetof(FrameUniforms, viewport) == 256 + 5 * 16);
 static_assert(offsetof(FrameUniforms, flags) == 256 + 9 * 16);
-static_assert(offsetof(FrameUniforms, slicing) == 256 + 11 * 16);
+static_assert(offsetof(FrameUniforms, written) == 256 + 11 * 16);
+static_assert(offsetof(FrameUniforms, slicing) == 256 + 12 * 16);
 static_assert(sizeof(CullingStats) == 32);
+static_assert(sizeof(LargeLightQueue) == 32);
 static_assert(sizeof(GpuPointLight) == 48 && offsetof(GpuPointLight, radianceFalloff) == 16 &&
               offsetof(GpuPointLight, cone) == 32);
 static_assert(sizeof(GpuInstance) == 144 && offsetof(GpuInstance, material) == 128);

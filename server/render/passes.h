@@ -28,6 +28,9 @@ struct Pipelines {
   VkDescriptorSetLayout materialSetLayout = VK_NULL_HANDLE;  // set 3: one material's textures
   VkPipelineLayout layout = VK_NULL_HANDLE;
   VkPipeline gbuffer = VK_NULL_HANDLE;
+  // Alpha-blended surfaces (recordBlendPass): every light tested, or the clustered lists.
+  VkPipeline forward = VK_NULL_HANDLE;
+  VkPipeline forwardClustered = VK_NULL_HANDLE;
   VkPipeline lightVolumeOverlay = VK_NULL_HANDLE;
   // Compute (render/compute_passes.h).
   VkPipeline animateLights = VK_NULL_HANDLE;
@@ -41,10 +44,22 @@ struct Pipelines {
   VkPipeline antialias = VK_NULL_HANDLE;
 };
 
-// 1. Writes depth, normal, base colour, material, uv, emissive; leaves them readable by later passes.
+// 1. Writes depth, normal, base colour, material, and uv and emissive where `written`
+// (MYRIAD_GBUFFER_* bits) says; leaves them readable by later passes.
 void recordGBufferPass(VkCommandBuffer cmd, const Pipelines& p, const FrameTargets& t,
-                       const SceneBuffers& scene);
+                       const SceneBuffers& scene, uint32_t written);
 // 2-3. The lighting technique's passes (render/techniques/technique.h).
+// 3b. Alpha-blended (glTF BLEND) draws, sorted back to front by the view depth of each draw's
+//    centre, depth-tested against the G-buffer depth without writing it, lit like opaque pixels
+//    (sun, ambient or environment, emission, local lights) and blended `over` into HDR. Lights come
+//    from the clustered lists when `clusterLists` (the technique bound them as set 2 at the
+//    graphics bind point), else every light is tested. `hdrLayout`: where lighting left HDR
+//    (GENERAL after compute, COLOR_ATTACHMENT after volumes); returns HDR's layout after it (COLOR_ATTACHMENT, or `hdrLayout` when nothing is blended).
+VkImageLayout recordBlendPass(VkCommandBuffer cmd, const Pipelines& p, const FrameTargets& t,
+                              const SceneBuffers& scene, const glm::mat4& view,
+                              VkImageLayout hdrLayout, bool clusterLists);
+// Whether the scene has alpha-blended draws (the clustered technique then marks their clusters).
+bool hasBlendDraws(const SceneBuffers& scene);
 // 4. Reads depth (test only, kept from pass 1) and lights; splats light markers (compute, a few
 //    pixels each) into the marker keys, which the final pass resolves (blends into the picture).
 void recordMarkerPass(VkCommandBuffer cmd, const Pipelines& p, const FrameTargets& t,
@@ -52,10 +67,11 @@ void recordMarkerPass(VkCommandBuffer cmd, const Pipelines& p, const FrameTarget
 // 5. Compute, one thread per pixel. `final`/`light-volumes`: reads HDR and (with `markers`) the
 //    marker keys, writes the tonemapped picture to the output, or when the frame is anti-aliased
 //    (FrameUniforms.post.x) to the LDR target for pass 5b. Other views: reads the G-buffer or light counts, writes the output.
-//    `lightingLayout` is where lighting left HDR and light counts (GENERAL after compute,
-//    COLOR_ATTACHMENT after volumes). Leaves the output in GENERAL.
+//    `hdrLayout` and `lightCountLayout` are where lighting (and blending) left them (GENERAL
+//    after compute, COLOR_ATTACHMENT after volumes or the blend pass). Leaves the output in
+//    GENERAL.
 void recordFinalPass(VkCommandBuffer cmd, const Pipelines& p, const FrameTargets& t, Target target,
-                     bool markers, VkImageLayout lightingLayout);
+                     bool markers, VkImageLayout hdrLayout, VkImageLayout lightCountLayout);
 // 5b. (final, 8-bit, antialias on) Reads the LDR target; writes the anti-aliased output.
 void recordAntialiasPass(VkCommandBuffer cmd, const Pipelines& p, const FrameTargets& t);
 // 5c. (light-volumes view) Reads depth and lights; adds each volume's coverage to the output.
