@@ -87,7 +87,7 @@ let session = null;
 
 try {
   await step('the overlay says connecting, then the first frame; the page shows frames', async () => {
-    await owner.goto(`${base}/`);
+    await owner.goto(`${base}/?stream=jpeg`);  // JPEG: the marker step reads the <img>
     await frameOf(owner);
     session = await owner.evaluate(() => JSON.parse(localStorage.getItem('myriad.session')));
     check(session?.id && session?.token, 'the page saved no session');
@@ -206,7 +206,7 @@ try {
       return Array.from(new Uint8Array(await png.arrayBuffer()));
     }, {session, size});
     // The page again (the same session), showing the frame with markers.
-    await owner.goto(`${base}/`);
+    await owner.goto(`${base}/?stream=jpeg`);  // JPEG: the marker step reads the <img>
     const shown = await frameOf(owner);
     check(shown.width === size.width && shown.height === size.height,
           `the view shows ${shown.width}x${shown.height}, not ${size.width}x${size.height}`);
