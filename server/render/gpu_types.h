@@ -16,7 +16,9 @@ using gpu_types::GpuPointLight;
 using gpu_types::CullingStats;
 
 static_assert(sizeof(gpu_types::vec4) == 16 && sizeof(gpu_types::mat4) == 64);
-static_assert(sizeof(FrameUniforms) == 4 * 64 + 14 * 16 + 2 * MYRIAD_MAX_EXTRA_SUNS * 16);
+static_assert(sizeof(FrameUniforms) == 4 * 64 + 14 * 16 + 2 * MYRIAD_MAX_EXTRA_SUNS * 16 + 64 + 16);
+static_assert(offsetof(FrameUniforms, sunShadowMatrix) == 256 + 14 * 16 + 2 * MYRIAD_MAX_EXTRA_SUNS * 16);
+static_assert(sizeof(gpu_types::ShadowPush) == 64);
 static_assert(offsetof(FrameUniforms, environment) == 256 + 12 * 16);
 static_assert(offsetof(FrameUniforms, extraSunDirection) == 256 + 14 * 16);
 static_assert(MYRIAD_MAX_EXTRA_SUNS == scene::kMaxExtraSuns);

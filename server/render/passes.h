@@ -27,6 +27,7 @@ struct Pipelines {
   VkDescriptorSetLayout materialSetLayout = VK_NULL_HANDLE;  // set 3: one material's textures
   VkPipelineLayout layout = VK_NULL_HANDLE;
   VkPipeline gbuffer = VK_NULL_HANDLE;
+  VkPipeline shadow = VK_NULL_HANDLE;  // depth only, from a light (render/shadows.h)
   VkPipeline lightVolumeOverlay = VK_NULL_HANDLE;
   VkPipeline tonemap = VK_NULL_HANDLE;
   VkPipeline tonemapRaw = VK_NULL_HANDLE;  // same shader, float output

@@ -15,6 +15,7 @@
 #include "render/gpu_types.h"
 #include "render/passes.h"
 #include "render/scene_buffers.h"
+#include "render/shadows.h"
 #include "render/techniques/registry.h"
 #include "render/techniques/technique.h"
 #include "scene/camera.h"
@@ -23,9 +24,9 @@ namespace myriad::render {
 
 namespace {
 
-// environment (when rebuilt), animate, gbuffer, the technique's (sun + lights, or lighting),
+// environment (when rebuilt), animate, shadow, gbuffer, the technique's (sun + lights, or lighting),
 // markers, tonemap, overlay, readback: room for a technique of four passes.
-constexpr uint32_t kMaxTimedPasses = 11;
+constexpr uint32_t kMaxTimedPasses = 12;
 
 // The light-count view's hottest colour when the request leaves it to us.
 constexpr uint32_t kDefaultHeatMapMax = 64;
@@ -38,7 +39,7 @@ constexpr VkDeviceSize kUniformBlockSize = 64ull << 10;
 struct Renderer::State {
   explicit State(gpu::Context& c)
       : context(c), pipelines(c), techniques(createTechniques({c, pipelines})),
-        uniformArena(c, kUniformBlockSize), timer(c, kMaxTimedPasses) {}
+        uniformArena(c, kUniformBlockSize), timer(c, kMaxTimedPasses), shadows(c) {}
 
   gpu::Context& context;
   Pipelines pipelines;
@@ -48,6 +49,7 @@ struct Renderer::State {
   gpu::Buffer uniforms;
   gpu::CommandRecorder recorder;
   gpu::PassTimer timer;
+  ShadowMaps shadows;  // the sun's map, shared by every scene (rendered each frame it is on)
   VkSampler sampler = VK_NULL_HANDLE;
   VkDescriptorPool descriptorPool = VK_NULL_HANDLE;
   // One set per kind, rewritten for whichever scene the frame draws: frames run one at a time.
@@ -70,7 +72,7 @@ struct Renderer::State {
   SceneEnvironment& environment(SceneId id);
   void writeTargetSet();
   void writeUniforms(const FrameSettings& settings, const SceneBuffers& scene,
-                     const LightingTechnique& technique);
+                     const LightingTechnique& technique, const SunShadowFit* sunShadow);
   void ensureTargets(VkExtent2D extent, bool raw);
   Frame renderOnce(SceneBuffers& scene, SceneEnvironment* environment,
                    const FrameSettings& settings);
@@ -104,6 +106,7 @@ SceneEnvironment& Renderer::State::environment(SceneId id) {
 // `environment` is the scene's lighting maps, or any storage buffer when the environment is off
 // (the shaders then never read it).
 void Renderer::State::writeSceneSet(const SceneBuffers& scene, const gpu::Buffer& environment) {
+  const VkDescriptorImageInfo sunShadowMap = shadows.sunDescriptor();
   VkDescriptorBufferInfo buffers[7] = {
       {uniforms.buffer, 0, sizeof(FrameUniforms)},
       {scene.lights.buffer, 0, VK_WHOLE_SIZE},
@@ -113,7 +116,7 @@ void Renderer::State::writeSceneSet(const SceneBuffers& scene, const gpu::Buffer
       {environment.buffer, 0, VK_WHOLE_SIZE},
       {environmentPasses->brdfLut().buffer, 0, VK_WHOLE_SIZE},
   };
-  VkWriteDescriptorSet writes[7];
+  VkWriteDescriptorSet writes[8];
   for (uint32_t i = 0; i < 7; ++i) {
     writes[i] = {VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET};
     writes[i].dstSet = sceneSet;
@@ -123,7 +126,13 @@ void Renderer::State::writeSceneSet(const SceneBuffers& scene, const gpu::Buffer
         i == MYRIAD_BINDING_FRAME ? VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER : VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
     writes[i].pBufferInfo = &buffers[i];
   }
-  vkUpdateDescriptorSets(context.device, 7, writes, 0, nullptr);
+  writes[7] = {VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET};
+  writes[7].dstSet = sceneSet;
+  writes[7].dstBinding = MYRIAD_BINDING_SUN_SHADOW_MAP;
+  writes[7].descriptorCount = 1;
+  writes[7].descriptorType = VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER;
+  writes[7].pImageInfo = &sunShadowMap;
+  vkUpdateDescriptorSets(context.device, 8, writes, 0, nullptr);
 }
 
 void Renderer::State::writeTargetSet() {
@@ -164,7 +173,8 @@ void Renderer::State::ensureTargets(VkExtent2D extent, bool raw) {
 }
 
 void Renderer::State::writeUniforms(const FrameSettings& s, const SceneBuffers& scene,
-                                    const LightingTechnique& technique) {
+                                    const LightingTechnique& technique,
+                                    const SunShadowFit* sunShadow) {
   float aspect = float(s.width) / float(s.height);
   glm::mat4 view = scene::viewMatrix(s.camera);
   glm::mat4 projection = scene::projectionMatrix(s.camera, aspect);
@@ -202,6 +212,13 @@ void Renderer::State::writeUniforms(const FrameSettings& s, const SceneBuffers& 
   u.environment = glm::vec4(float(static_cast<uint32_t>(s.environment.mode)),
                             s.environment.intensity, s.environment.background ? 1.0f : 0.0f, 0.0f);
   u.environmentRotation = glm::vec4(std::cos(rotation), std::sin(rotation), 0.0f, 0.0f);
+  if (sunShadow) {
+    u.sunShadowMatrix = sunShadow->mapFromWorld;
+    // Offset: a texel along the normal (more at grazing angles, frame.glsl); bias: a texel of
+    // depth (the map's depth range is as deep as it is wide), scaled by the slope there.
+    u.sunShadow = glm::vec4(1.0f, sunShadow->texelWorld, 1.0f / float(s.shadows.mapSize),
+                            1.0f / float(s.shadows.mapSize));
+  }
   technique.writeUniforms(u);
   std::memcpy(uniforms.mapped, &u, sizeof(u));
 }
@@ -223,7 +240,7 @@ Renderer::Renderer(gpu::Context& context) : state_(std::make_unique<State>(conte
   // Sets 0 (scene) and 1 (targets); each technique allocates its own set 2.
   VkDescriptorPoolSize sizes[] = {{VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1},
                                   {VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 6},
-                                  {VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 8},
+                                  {VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 9},
                                   {VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, 3}};
   VkDescriptorPoolCreateInfo poolInfo{VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO};
   poolInfo.maxSets = 2;
@@ -310,6 +327,7 @@ void Renderer::releaseFrameMemory() {
   // Every frame is waited for, so nothing in flight uses the targets; the target descriptor set
   // points at freed views until ensureTargets() makes new ones and writes it again.
   state_->targets.reset();
+  state_->shadows.release();
 }
 
 uint64_t Renderer::gpuMemoryBytes() const {
@@ -319,6 +337,7 @@ uint64_t Renderer::gpuMemoryBytes() const {
   for (const auto& [id, env] : s.environments) total += env->bytes();
   total += s.environmentPasses->gpuMemoryBytes();
   if (s.targets) total += s.targets->arena.bytesAllocated();
+  total += s.shadows.gpuMemoryBytes();
   for (const auto& technique : s.techniques) total += technique->gpuMemoryBytes();
   return total;
 }
@@ -369,7 +388,17 @@ Frame Renderer::State::renderOnce(SceneBuffers& scene, SceneEnvironment* environ
   VkExtent2D extent{settings.width, settings.height};
   s.ensureTargets(extent, settings.raw);
   technique.prepare(extent, scene.lightCount);
-  s.writeUniforms(settings, scene, technique);
+  // The sun's shadow map: fitted to this scene and sun, rendered this frame when on.
+  const bool sunShadows = settings.shadows.sun && settings.sun.intensity > 0.0f &&
+                          !scene.draws.empty();
+  SunShadowFit sunShadow;
+  if (sunShadows) {
+    s.shadows.ensureSun(settings.shadows.mapSize);
+    sunShadow = fitSunShadow(scene.bounds, settings.sun.direction, settings.shadows.mapSize);
+  } else {
+    s.shadows.ensureSunPlaceholder();
+  }
+  s.writeUniforms(settings, scene, technique, sunShadows ? &sunShadow : nullptr);
   s.writeSceneSet(scene, environment ? environment->lighting : environmentPasses->brdfLut());
   const FrameTargets& t = *s.targets;
   const Pipelines& p = s.pipelines;
@@ -397,6 +426,12 @@ Frame Renderer::State::renderOnce(SceneBuffers& scene, SceneEnvironment* environ
   } else if (scene.lightsMoved) {
     recordRestoreLights(cmd, scene);
     scene.lightsMoved = false;
+  }
+  if (sunShadows) {
+    s.timer.beginPass(cmd, "shadow");
+    s.shadows.recordSun(cmd, p, scene, sunShadow.viewProjection);
+  } else {
+    s.shadows.recordSunUnused(cmd);
   }
   s.timer.beginPass(cmd, "gbuffer");
   recordGBufferPass(cmd, p, t, scene);
