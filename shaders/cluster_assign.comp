@@ -10,21 +10,6 @@
 layout(local_size_x = MYRIAD_LIGHTS_PER_GROUP) in;
 layout(constant_id = 0) const bool kAssign = false;
 
-// The view-space box of cluster (x, y, slice): the frustum segment's eight corners' bounds.
-void clusterBounds(uvec3 c, out vec3 lo, out vec3 hi) {
-  vec2 size = frame.viewport.xy;
-  vec2 ndc0 = vec2(c.xy * MYRIAD_CLUSTER_TILE_SIZE) / size * 2.0 - 1.0;
-  vec2 ndc1 = vec2(min((c.xy + 1u) * MYRIAD_CLUSTER_TILE_SIZE, uvec2(size))) / size * 2.0 - 1.0;
-  float z0 = c.z == 0u ? frame.camera.y : viewDepthOfSlice(c.z);
-  float z1 = c.z + 1u == frame.grid.z ? frame.camera.z : viewDepthOfSlice(c.z + 1u);
-  vec2 scale = vec2(1.0 / frame.projection[0][0], 1.0 / frame.projection[1][1]);
-  vec2 a0 = ndc0 * scale, a1 = ndc1 * scale;  // view x/y per unit depth at the two edges
-  vec2 xyLo = min(min(a0 * z0, a0 * z1), min(a1 * z0, a1 * z1));
-  vec2 xyHi = max(max(a0 * z0, a0 * z1), max(a1 * z0, a1 * z1));
-  lo = vec3(xyLo, -z1);
-  hi = vec3(xyHi, -z0);
-}
-
 void main() {
   uint index = gl_GlobalInvocationID.x;
   if (index >= frame.flags.y) return;
@@ -58,10 +43,8 @@ void main() {
         uint cluster = clusterIndex(uvec3(x, y, s));
         if (clusterCursors[cluster] == MYRIAD_CLUSTER_INACTIVE) continue;
         vec3 bmin, bmax;
-        clusterBounds(uvec3(x, y, s), bmin, bmax);
-        vec3 closest = clamp(c, bmin, bmax);
-        vec3 d = closest - c;
-        if (dot(d, d) > r * r) continue;
+        clusterViewBox(uvec3(x, y, s), bmin, bmax);
+        if (!sphereOverlapsBox(c, r, bmin, bmax)) continue;
         uint slot = atomicAdd(clusterCursors[cluster], 1u);
         if (kAssign) {
           uvec2 range = clusterRanges[cluster];

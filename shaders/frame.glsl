@@ -175,7 +175,14 @@ vec3 shadeLight(Surface s, uint index) {
 
 // Whether the light reaches the surface point at all: inside its radius and its outer cone (what
 // the light-count view counts; shadeLight is exactly 0 wherever this is false).
+// The radius test runs first on the light's first 16 bytes alone: with long lists most lights fail
+// it, and they need neither their cone nor its decoding.
 bool lightReaches(Surface s, uint index) {
+  vec4 positionRadius = lights[index].positionRadius;
+  vec3 toLight = positionRadius.xyz - s.position;
+  if (dot(toLight, toLight) >= positionRadius.w * positionRadius.w) {
+    return false;
+  }
   GpuPointLight light = lights[index];
   return localLightReaches(s.position, light.positionRadius.xyz, light.positionRadius.w,
                            spotDirectionOf(light), light.cone.z);
@@ -194,6 +201,35 @@ float viewDepthOfSlice(uint k) {
 
 uint clusterIndex(uvec3 c) {
   return c.x + frame.grid.x * (c.y + frame.grid.y * c.z);
+}
+
+// The view-space box around the frustum segment of the screen rectangle [pixelLo, pixelHi)
+// between view depths z0 < z1: the bounds of its eight corners (view space looks down -z).
+void viewBoxOfRect(vec2 pixelLo, vec2 pixelHi, float z0, float z1, out vec3 lo, out vec3 hi) {
+  vec2 size = frame.viewport.xy;
+  vec2 ndc0 = pixelLo / size * 2.0 - 1.0;
+  vec2 ndc1 = pixelHi / size * 2.0 - 1.0;
+  vec2 scale = vec2(1.0 / frame.projection[0][0], 1.0 / frame.projection[1][1]);
+  vec2 a0 = ndc0 * scale, a1 = ndc1 * scale;  // view x/y per unit depth at the two edges
+  vec2 xyLo = min(min(a0 * z0, a0 * z1), min(a1 * z0, a1 * z1));
+  vec2 xyHi = max(max(a0 * z0, a0 * z1), max(a1 * z0, a1 * z1));
+  lo = vec3(xyLo, -z1);
+  hi = vec3(xyHi, -z0);
+}
+
+// The view-space box of cluster (x, y, slice).
+void clusterViewBox(uvec3 c, out vec3 lo, out vec3 hi) {
+  float z0 = c.z == 0u ? frame.camera.y : viewDepthOfSlice(c.z);
+  float z1 = c.z + 1u == frame.grid.z ? frame.camera.z : viewDepthOfSlice(c.z + 1u);
+  vec2 pixelLo = vec2(c.xy * MYRIAD_CLUSTER_TILE_SIZE);
+  vec2 pixelHi = vec2(min((c.xy + 1u) * MYRIAD_CLUSTER_TILE_SIZE, uvec2(frame.viewport.xy)));
+  viewBoxOfRect(pixelLo, pixelHi, z0, z1, lo, hi);
+}
+
+// Whether a sphere (view-space centre c, radius r) overlaps the box [lo, hi].
+bool sphereOverlapsBox(vec3 c, float r, vec3 lo, vec3 hi) {
+  vec3 d = clamp(c, lo, hi) - c;
+  return dot(d, d) <= r * r;
 }
 
 uint clusterOfPixel(ivec2 pixel, float depth) {

@@ -1,26 +1,127 @@
 #version 450
 #extension GL_GOOGLE_include_directive : require
-// Clustered step 5: each pixel shades sun + ambient + the lights in its cluster's list.
+// Clustered step 5: each pixel shades sun + ambient + the lights of its cluster's list.
+//
+// A 64x64-pixel cluster's list holds every light overlapping the whole frustum segment; with a
+// million small lights that is thousands of lights of which a pixel's few dozen reach it. So each
+// MYRIAD_TILE_SIZE-square workgroup first narrows the lists of the clusters its pixels fall in to
+// the lights whose sphere overlaps the box around its own pixels: its 16x16-pixel rectangle
+// between the nearest and farthest surface depth of its pixels in that slice (the geometry's actual
+// depth range, not the slice's). The narrowed lists live in shared memory, one segment per slice,
+// and each pixel walks its slice's segment. The test is conservative (a margin covers rounding),
+// and each pixel still decides every light exactly (lightReaches), so the image and the light
+// counts are those of the whole list. A tile whose narrowed lists overflow the shared capacity, or
+// whose pixels span more than MYRIAD_CLUSTER_TILE_SLICES slices, walks the whole list there.
 #include "frame.glsl"
 #include "compute_targets.glsl"
 
-layout(local_size_x = MYRIAD_PIXEL_GROUP, local_size_y = MYRIAD_PIXEL_GROUP) in;
+layout(local_size_x = MYRIAD_TILE_SIZE, local_size_y = MYRIAD_TILE_SIZE) in;
+
+const uint kThreads = MYRIAD_TILE_SIZE * MYRIAD_TILE_SIZE;
+const uint kSlices = MYRIAD_CLUSTER_TILE_SLICES;
+const uint kCapacity = MYRIAD_CLUSTER_TILE_LIGHTS;
+const uint kWholeList = 0xFFFFFFFFu;  // a segment's length when its pixels walk the cluster's list
+
+shared uint tileLights[kCapacity];
+shared uint firstSlice;
+shared uint depthLo[kSlices];  // view depth bits (positive floats order as their bits do)
+shared uint depthHi[kSlices];
+shared uint used;
+shared uint segmentStart[kSlices];
+shared uint segmentLength[kSlices];
 
 void main() {
   ivec2 pixel = ivec2(gl_GlobalInvocationID.xy);
-  if (pixel.x >= int(frame.viewport.x) || pixel.y >= int(frame.viewport.y)) return;
-  float depth = texelFetch(gbufferDepth, pixel, 0).r;
+  uint thread = gl_LocalInvocationIndex;
+  bool inside = pixel.x < int(frame.viewport.x) && pixel.y < int(frame.viewport.y);
+  float depth = inside ? texelFetch(gbufferDepth, pixel, 0).r : 1.0;
   Surface s;
+  bool surface = inside && loadSurfaceWithDepth(pixel, depth, s);
+  float viewDepth = viewDepthFromDepth(depth);
+  uint slice = sliceOfViewDepth(viewDepth);
+
+  if (thread == 0u) {
+    firstSlice = 0xFFFFFFFFu;
+    used = 0u;
+  }
+  if (thread < kSlices) {
+    depthLo[thread] = 0xFFFFFFFFu;
+    depthHi[thread] = 0u;
+  }
+  barrier();
+  if (surface) atomicMin(firstSlice, slice);
+  barrier();
+  uint k = slice - firstSlice;  // this pixel's segment
+  if (surface && k < kSlices) {
+    atomicMin(depthLo[k], floatBitsToUint(viewDepth));
+    atomicMax(depthHi[k], floatBitsToUint(viewDepth));
+  }
+  barrier();
+
+  // Narrow each occupied slice's list in turn (the loop's conditions read shared memory after a
+  // barrier, so every invocation takes the same path through the barriers inside).
+  uvec2 tile = gl_WorkGroupID.xy * MYRIAD_TILE_SIZE / MYRIAD_CLUSTER_TILE_SIZE;
+  vec2 rectLo = vec2(gl_WorkGroupID.xy * MYRIAD_TILE_SIZE);
+  vec2 rectHi = min(rectLo + vec2(MYRIAD_TILE_SIZE), frame.viewport.xy);
+  for (uint j = 0u; j < kSlices; ++j) {
+    if (firstSlice == 0xFFFFFFFFu || depthHi[j] == 0u) continue;
+    uint start = used;
+    barrier();  // every invocation has read where this segment starts before any appends
+    uvec2 range = clusterRanges[clusterIndex(uvec3(tile, firstSlice + j))];
+    float z0 = uintBitsToFloat(depthLo[j]);
+    float z1 = uintBitsToFloat(depthHi[j]);
+    vec3 lo, hi;
+    viewBoxOfRect(rectLo, rectHi, z0, z1, lo, hi);
+    // Pixel positions come from the depth through the inverse view-projection, the box from the
+    // projection's scale: widen it by far more than their rounding apart.
+    vec3 margin = vec3(1e-3 * z1 + 1e-4);
+    lo -= margin;
+    hi += margin;
+    for (uint i = thread; i < range.y; i += kThreads) {
+      uint index = clusterLights[range.x + i];
+      vec4 light = lights[index].positionRadius;
+      vec3 c = (frame.view * vec4(light.xyz, 1.0)).xyz;
+      if (sphereOverlapsBox(c, light.w, lo, hi)) {
+        uint slot = atomicAdd(used, 1u);
+        if (slot < kCapacity) tileLights[slot] = index;
+      }
+    }
+    barrier();
+    if (thread == 0u) {
+      segmentStart[j] = start;
+      if (used > kCapacity) {
+        segmentLength[j] = kWholeList;
+        used = start;  // later slices may still fit
+      } else {
+        segmentLength[j] = used - start;
+      }
+    }
+    barrier();
+  }
+
+  if (!inside) return;
   vec3 color = backgroundRadiance(pixel);
   uint reached = 0u;
-  if (loadSurfaceWithDepth(pixel, depth, s)) {
+  if (surface) {
     color = sunAndAmbient(s);
-    uvec2 range = clusterRanges[clusterOfPixel(pixel, depth)];
-    for (uint i = 0u; i < range.y; ++i) {
-      uint index = clusterLights[range.x + i];
-      if (lightReaches(s, index)) {
-        color += shadeLight(s, index);
-        ++reached;
+    uint count = k < kSlices ? segmentLength[k] : kWholeList;
+    if (count != kWholeList) {
+      uint start = segmentStart[k];
+      for (uint i = 0u; i < count; ++i) {
+        uint index = tileLights[start + i];
+        if (lightReaches(s, index)) {
+          color += shadeLight(s, index);
+          ++reached;
+        }
+      }
+    } else {
+      uvec2 range = clusterRanges[clusterIndex(uvec3(uvec2(pixel) / MYRIAD_CLUSTER_TILE_SIZE, slice))];
+      for (uint i = 0u; i < range.y; ++i) {
+        uint index = clusterLights[range.x + i];
+        if (lightReaches(s, index)) {
+          color += shadeLight(s, index);
+          ++reached;
+        }
       }
     }
   }

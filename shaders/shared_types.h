@@ -105,6 +105,11 @@ using mat4 = glm::mat4;
 #define MYRIAD_CLUSTER_TILE_SIZE 64
 #define MYRIAD_CLUSTER_SLICES 32
 #define MYRIAD_CLUSTER_INACTIVE 0xFFFFFFFFu  // cursor value of a cluster no pixel falls in
+// The clustered shading pass narrows its clusters' lists per MYRIAD_TILE_SIZE tile into shared
+// memory: at most this many references per tile (all its slices together), at most this many
+// slices from its nearest; pixels beyond either walk their cluster's whole list.
+#define MYRIAD_CLUSTER_TILE_LIGHTS 2048
+#define MYRIAD_CLUSTER_TILE_SLICES 8
 
 // Workgroup sizes. The shaders' local_size and the C++ dispatch counts both use these macros, so
 // they cannot disagree; Pipelines checks at start-up that the device runs groups this large

@@ -35,6 +35,8 @@ using myriad::test::createSession;
 using myriad::test::ServerProcess;
 using myriad::test::TestSession;
 using myriad::test::validationMessages;
+using myriad::test::checkProblem;
+using myriad::test::Reply;
 using nlohmann::json;
 using Clock = std::chrono::steady_clock;
 
@@ -917,6 +919,80 @@ TEST_CASE("host memory: ten 4096x4096 raw frames stay within the per-frame bound
           " MiB after the session was deleted");
   CHECK(peakKb <= startKb + boundKb);
   CHECK(endKb <= startKb + 64 * 1024);
+  std::optional<myriad::test::ExitStatus> status = server.stop();
+  REQUIRE(status.has_value());
+  CHECK(status->cleanExit());
+}
+
+TEST_CASE("fairness: a 1,000,000-light volumes frame does not hold another session's frame") {
+  // On lavapipe one 160x90 frame of a million light volumes takes 45-90 s; it is split into
+  // submissions of about Renderer::kSliceMilliseconds, and other sessions' frames run between
+  // them. Deleting the session drops the rest of its frame (its request gets the 404 of a
+  // session gone) instead of rendering it for nobody.
+  ServerProcess server({"--lights", "8"});
+  REQUIRE(server.start() == ServerProcess::Start::Listening);
+  ApiClient api(server);
+  TestSession heavy = createSession(api);
+  TestSession light = createSession(api);
+  const auto generateStart = std::chrono::steady_clock::now();
+  Reply generated = api.post(heavy.path() + "/lights/generate",
+                             R"({"count": 1000000, "seed": 3})", heavy.token);
+  REQUIRE(generated.status == 200);
+  REQUIRE(generated.json["total"].get<uint64_t>() == 1000000u);
+  MESSAGE("1,000,000 lights generated and uploaded in ",
+          std::chrono::duration<double>(std::chrono::steady_clock::now() - generateStart).count(),
+          " s");
+  for (const TestSession* s : {&heavy, &light}) {
+    REQUIRE(api.patch(s->path() + "/settings", R"({"markers": false})", s->token).status == 200);
+  }
+  REQUIRE(api.patch(heavy.path() + "/settings", R"({"technique": "volumes"})", heavy.token)
+              .status == 200);
+  const std::string small = "/frame?format=jpeg&width=160&height=90";
+
+  std::atomic<bool> heavyAnswered{false};
+  Reply heavyReply;
+  double heavyAnsweredAt = 0.0;
+  const auto heavyStart = std::chrono::steady_clock::now();
+  std::thread heavyRequest([&] {
+    ApiClient own(server);
+    heavyReply = own.get(heavy.path() + small, heavy.token);
+    heavyAnsweredAt =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - heavyStart).count();
+    heavyAnswered = true;
+  });
+  // Let the heavy frame start (its first submission: G-buffer and sun; then light ranges).
+  std::this_thread::sleep_for(std::chrono::milliseconds(1500));
+
+  std::vector<double> lightMs;
+  for (int i = 0; i < 3; ++i) {
+    const auto start = std::chrono::steady_clock::now();
+    Reply frame = api.get(light.path() + small, light.token);
+    lightMs.push_back(
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
+            .count());
+    CHECK(frame.status == 200);
+    CHECK(frame.header("Content-Type") == "image/jpeg");
+    CHECK(frame.body.size() > 500);
+  }
+  const bool heavyStillRendering = !heavyAnswered.load();
+  MESSAGE("160x90 frames of another session while the 1,000,000-light frame renders: ",
+          lightMs[0], ", ", lightMs[1], ", ", lightMs[2], " ms");
+  CHECK(heavyStillRendering);  // otherwise the check below proves nothing
+  for (double ms : lightMs) CHECK(ms < 5000.0);
+
+  // Deleting the heavy session ends its frame within about a slice, not after the whole frame.
+  const auto deleteStart = std::chrono::steady_clock::now();
+  Reply deleted = api.del(heavy.path(), heavy.token);
+  const double deleteMs =
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - deleteStart)
+          .count();
+  CHECK(deleted.status == 204);
+  heavyRequest.join();
+  MESSAGE("DELETE of the heavy session took ", deleteMs, " ms; its frame request was answered ",
+          heavyAnsweredAt, " s after it was sent, with ", heavyReply.status);
+  CHECK(deleteMs < 5000.0);
+  checkProblem(heavyReply, 404, "not-found", "the heavy session's dropped frame");
+  CHECK(validationMessages(api) == 0);
   std::optional<myriad::test::ExitStatus> status = server.stop();
   REQUIRE(status.has_value());
   CHECK(status->cleanExit());

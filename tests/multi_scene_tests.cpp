@@ -6,6 +6,8 @@
 
 #include <cmath>
 #include <memory>
+#include <optional>
+#include <stdexcept>
 
 #include <glm/gtc/matrix_transform.hpp>
 
@@ -488,5 +490,74 @@ TEST_CASE("a random run of light edits leaves the GPU matching the scene the edi
   }
   CHECK(checks == 4);
   r.destroyScene(id);
+  CHECK(gpu.context->validationMessages.load() == 0);
+}
+
+TEST_CASE("a split frame equals the whole frame, with other scenes' frames between its parts") {
+  Gpu& gpu = sharedGpu();
+  render::Renderer& r = *gpu.renderer;
+  scene::Scene heavy = floorScene(glm::vec3(0.5f, 0.5f, 0.45f));
+  scene::LightGeneration g;
+  g.count = 3000;
+  g.bounds = {glm::vec3(-4.0f, 0.1f, -5.0f), glm::vec3(4.0f, 1.0f, 2.0f)};
+  g.minRadius = 0.3f;
+  g.maxRadius = 1.2f;
+  heavy.lights = scene::generateLights(g);
+  const scene::Scene other = sceneB();
+  const render::SceneId heavyId = r.createScene(heavy);
+  const render::SceneId otherId = r.createScene(other);
+  const render::FrameSettings heavySettings = settingsFor(heavy, render::Technique::Volumes);
+  render::FrameSettings otherSettings = settingsFor(other);
+  otherSettings.width = 40;  // other targets' size: the split frame's own must not change
+  otherSettings.height = 30;
+
+  // The whole frame measures what a light costs; with a tiny slice the frame must now split.
+  const render::Frame whole = r.render(heavyId, heavySettings);
+  const render::Frame otherAlone = r.render(otherId, otherSettings);
+  CHECK(whole.submissions == 1);
+  r.setSliceMilliseconds(0.001);
+  CHECK(r.shouldSplit(heavyId, heavySettings));
+  CHECK_FALSE(r.shouldSplit(otherId, otherSettings));  // clustered never splits
+
+  std::unique_ptr<render::Renderer::SplitFrame> split = r.beginSplit(heavyId, heavySettings);
+  CHECK(r.splitBusy());
+  CHECK_THROWS_AS(r.beginSplit(heavyId, heavySettings), std::logic_error);
+  std::optional<render::Frame> done;
+  int between = 0;
+  while (!(done = r.continueSplit(*split))) {
+    // What the render thread does between the parts: other scenes' whole frames.
+    render::Frame o = r.render(otherId, otherSettings);
+    CHECK(o.rgba == otherAlone.rgba);
+    ++between;
+  }
+  split.reset();
+  CHECK_FALSE(r.splitBusy());
+  MESSAGE("3,000 lights split into " << done->submissions << " submissions, " << between
+                                     << " other frames between them");
+  // 256 lights a range at the least: the lights take 2..12 submissions, plus the first and last.
+  CHECK(done->submissions >= 4);
+  CHECK(done->submissions <= 14);
+  CHECK(done->rgba == whole.rgba);  // the same draws in the same order, split
+  CHECK(done->lightCount == 3000);
+  double lightsMs = -1.0;
+  for (const render::PassTiming& p : done->passes) {
+    if (p.name == "lights") lightsMs = p.milliseconds;
+  }
+  CHECK(lightsMs >= 0.0);  // one "lights" pass, summed over the ranges
+
+  // A split frame dropped half way frees the split targets for the next one, which completes.
+  split = r.beginSplit(heavyId, heavySettings);
+  CHECK(!r.continueSplit(*split).has_value());
+  split.reset();
+  split = r.beginSplit(heavyId, heavySettings);
+  while (!(done = r.continueSplit(*split))) {
+  }
+  split.reset();
+  CHECK(done->rgba == whole.rgba);
+
+  r.setSliceMilliseconds(render::Renderer::kSliceMilliseconds);
+  r.releaseFrameMemory();
+  r.destroyScene(heavyId);
+  r.destroyScene(otherId);
   CHECK(gpu.context->validationMessages.load() == 0);
 }

@@ -1,7 +1,11 @@
-// The render thread's task queue: scene edits and frames run in the order submitted, only frames
+// The render thread's task queue: a scene's edits and frames run in the order submitted, only frames
 // count against maxQueuedFrames, exceptions reach the future and the thread keeps serving, and
 // gpuMemoryBytes() follows scenes created and destroyed. Vulkan with validation on.
 #include <doctest/doctest.h>
+
+#include <algorithm>
+#include <chrono>
+#include <stdexcept>
 
 #include <glm/gtc/matrix_transform.hpp>
 
@@ -92,8 +96,11 @@ TEST_CASE("render thread: edits and frames in order, errors to the future, frame
   stillAccepted.get();
 
   // Destroying the scenes gives their memory back, visible as soon as each future is ready.
+  // (Scene creations have a queue of their own: the frames above may finish before them.)
+  std::vector<render::SceneId> heavyIds;
+  for (auto& c : created) heavyIds.push_back(c.get());
   const uint64_t withHeavy = thread.gpuMemoryBytes();
-  for (auto& c : created) thread.destroyScene(c.get()).get();
+  for (render::SceneId heavyId : heavyIds) thread.destroyScene(heavyId).get();
   thread.destroyScene(id).get();
   MESSAGE("GPU memory: " << startBytes / 1024 << " KiB at start, " << withHeavy / 1024
                          << " KiB with 4 scenes of 300,000 lights, " << thread.gpuMemoryBytes() / 1024
@@ -104,4 +111,52 @@ TEST_CASE("render thread: edits and frames in order, errors to the future, frame
   thread.stop();
   CHECK_THROWS_AS(thread.createScene(session), render::RenderQueueFullError);
   CHECK_THROWS_AS(thread.submit(settingsFor(builtin)), render::RenderQueueFullError);
+}
+
+TEST_CASE("render thread: scenes take turns, so a backlog of one delays another's frame by one") {
+  const scene::Scene builtin = floorWithBlock(glm::vec3(0.2f, 0.8f, 0.2f));
+  render::RenderThread thread({.validation = true, .device = ""}, builtin, 8);
+  auto session = std::make_shared<scene::Scene>(floorWithBlock(glm::vec3(0.2f, 0.2f, 0.9f)));
+  const render::SceneId busy = thread.createScene(session).get();
+
+  // Keep the thread busy (a scene upload) while the frames queue: four of one scene, then one of
+  // another. In one FIFO the last would finish fifth; taking turns, it finishes second.
+  scene::Scene upload = floorWithBlock(glm::vec3(0.5f));
+  scene::LightGeneration g;
+  g.count = 300000;
+  upload.lights = scene::generateLights(g);
+  std::future<render::SceneId> created =
+      thread.createScene(std::make_shared<const scene::Scene>(std::move(upload)));
+  std::vector<std::future<render::Frame>> frames;
+  for (int i = 0; i < 4; ++i) frames.push_back(thread.submit(busy, settingsFor(*session)));
+  frames.push_back(thread.submit(settingsFor(builtin)));
+  std::vector<size_t> order;  // indices of `frames` as they finish
+  std::vector<bool> seen(frames.size(), false);
+  while (order.size() < frames.size()) {
+    for (size_t i = 0; i < frames.size(); ++i) {
+      if (!seen[i] && frames[i].wait_for(std::chrono::microseconds(50)) == std::future_status::ready) {
+        seen[i] = true;
+        order.push_back(i);
+      }
+    }
+  }
+  const size_t otherPosition = size_t(std::find(order.begin(), order.end(), 4) - order.begin());
+  MESSAGE("the other scene's frame finished at position " << otherPosition + 1 << " of 5");
+  CHECK(otherPosition <= 2);  // second, allowing for the polling
+  for (auto& f : frames) CHECK(f.get().width == 48);
+  thread.destroyScene(created.get()).get();
+
+  // destroyScene drops the scene's frames still waiting: their futures fail, nothing renders.
+  // (Behind another 300,000-light upload, so that the frame is still waiting.)
+  scene::Scene second = floorWithBlock(glm::vec3(0.5f));
+  second.lights = scene::generateLights(g);
+  std::future<render::SceneId> again =
+      thread.createScene(std::make_shared<const scene::Scene>(std::move(second)));
+  std::future<render::Frame> dropped = thread.submit(busy, settingsFor(*session));
+  std::future<void> destroyed = thread.destroyScene(busy);
+  destroyed.get();
+  CHECK_THROWS_AS(dropped.get(), std::invalid_argument);
+  thread.destroyScene(again.get()).get();
+  CHECK(thread.validationMessages() == 0);
+  thread.stop();
 }

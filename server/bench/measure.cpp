@@ -31,10 +31,15 @@ render::FrameSettings frameSettings(const scene::Scene& scene, render::Technique
   return f;
 }
 
+// Lighting: volumes' "sun" + "lights", tiled's one "lighting" dispatch, clustered's "assign"
+// (building the lists) + "shade".
 double lightingMilliseconds(const render::Frame& frame) {
   double ms = 0.0;
   for (const auto& pass : frame.passes) {
-    if (pass.name == "sun" || pass.name == "lights" || pass.name == "lighting") ms += pass.milliseconds;
+    if (pass.name == "sun" || pass.name == "lights" || pass.name == "lighting" ||
+        pass.name == "assign" || pass.name == "shade") {
+      ms += pass.milliseconds;
+    }
   }
   return ms;
 }

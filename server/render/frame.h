@@ -244,6 +244,8 @@ struct Frame {
   std::vector<float> data;
   std::vector<PassTiming> passes;
   double queueMs = 0.0;  // how long the frame waited in the render queue before rendering began
+  // GPU submissions the frame took: 1, or more for a frame split into slices (Renderer::SplitFrame)
+  uint32_t submissions = 1;
   Technique technique = Technique::Clustered;
   uint32_t lightCount = 0;
   uint64_t sceneBytes = 0;  // GPU memory of the rendered scene (geometry, materials, lights)

@@ -1,5 +1,6 @@
 #include "render/raster.h"
 
+#include <algorithm>
 #include <cstddef>
 
 #include "embedded_shaders.h"
@@ -49,10 +50,17 @@ void bindGeometry(VkCommandBuffer cmd, const SceneBuffers& scene) {
 }
 
 void drawLightProxies(VkCommandBuffer cmd, const SceneBuffers& scene) {
-  if (scene.lightCount == 0) return;
+  drawLightProxies(cmd, scene, 0, scene.lightCount);
+}
+
+void drawLightProxies(VkCommandBuffer cmd, const SceneBuffers& scene, uint32_t first,
+                      uint32_t count) {
+  if (first >= scene.lightCount) return;
+  count = std::min(count, scene.lightCount - first);
+  if (count == 0) return;
   bindGeometry(cmd, scene);
-  vkCmdDrawIndexed(cmd, scene.lightProxy.indexCount, scene.lightCount, scene.lightProxy.firstIndex,
-                   scene.lightProxy.vertexOffset, 0);
+  vkCmdDrawIndexed(cmd, scene.lightProxy.indexCount, count, scene.lightProxy.firstIndex,
+                   scene.lightProxy.vertexOffset, first);
 }
 
 gpu::ImageTransition colorWriteToBlend(const gpu::Image& image) {

@@ -26,8 +26,11 @@ void beginRendering(VkCommandBuffer cmd, VkExtent2D extent,
 
 void bindGeometry(VkCommandBuffer cmd, const SceneBuffers& scene);
 
-// One instanced draw of the light proxy sphere per light (nothing without lights).
+// One instanced draw of the light proxy sphere per light (nothing without lights); with `first`
+// and `count`, of lights [first, first + count) only (firstInstance carries the light index).
 void drawLightProxies(VkCommandBuffer cmd, const SceneBuffers& scene);
+void drawLightProxies(VkCommandBuffer cmd, const SceneBuffers& scene, uint32_t first,
+                      uint32_t count);
 
 // Blending reads the attachment, so consecutive blending passes need write -> read/write.
 gpu::ImageTransition colorWriteToBlend(const gpu::Image& image);

@@ -22,10 +22,12 @@ class RenderQueueFullError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
-// Every task (scene edits and frames) runs in the order submitted, so a frame submitted after an
-// edit sees the edit. Exceptions a task throws (an unknown scene: std::invalid_argument; out of
-// device memory: a gpu error) reach its future; the queue keeps serving. Every method is safe
-// from any thread.
+// The tasks of one scene (its edits and frames) run in the order submitted, so a frame submitted
+// after an edit sees the edit; different scenes take turns (round-robin), and a frame too long
+// for one GPU submission is split so that other scenes' frames run between its parts
+// (render/render_thread.h). Exceptions a task throws (an unknown scene: std::invalid_argument;
+// out of device memory: a gpu error) reach its future; the queue keeps serving. Every method is
+// safe from any thread.
 class RenderQueue {
  public:
   virtual ~RenderQueue() = default;
@@ -45,6 +47,8 @@ class RenderQueue {
   // RenderQueueFullError only after stop(). See render::Renderer for what each does and throws.
   virtual std::future<SceneId> createScene(std::shared_ptr<const scene::Scene> scene) = 0;
   virtual std::future<void> replaceScene(SceneId id, std::shared_ptr<const scene::Scene> scene) = 0;
+  // Also drops the scene's frames that have not finished (waiting, or split in progress): their
+  // futures get std::invalid_argument.
   virtual std::future<void> destroyScene(SceneId id) = 0;
   virtual std::future<void> updateLights(SceneId id, LightUpdate update) = 0;
   virtual std::future<void> updateMaterials(SceneId id, std::vector<MaterialWrite> writes) = 0;

@@ -2,8 +2,11 @@
 
 #include <malloc.h>
 
+#include <algorithm>
 #include <chrono>
 #include <memory>
+#include <optional>
+#include <stdexcept>
 #include <type_traits>
 #include <utility>
 
@@ -63,96 +66,182 @@ void RenderThread::enqueue(Task task) {
     std::lock_guard lock(mutex_);
     if (stopping_) throw RenderQueueFullError("the server is shutting down");
     if (task.frame) {
-      // The frame being rendered is not waiting; while none is, a new frame starts at once.
-      size_t ahead = framesWaiting_ + (renderingFrame_ ? 1 : 0);
-      if (ahead > maxQueuedFrames_) {
-        throw RenderQueueFullError(std::to_string(framesWaiting_) +
+      // Besides the frame rendering, at most maxQueuedFrames wait; while none renders, a new
+      // frame starts at once.
+      if (framesUnfinished_ > maxQueuedFrames_) {
+        throw RenderQueueFullError(std::to_string(framesUnfinished_ - 1) +
                                    " frames are already waiting for the renderer (the limit is " +
                                    std::to_string(maxQueuedFrames_) + ")");
       }
-      ++framesWaiting_;
+      ++framesUnfinished_;
     }
-    tasks_.push_back(std::move(task));
+    SceneQueue& queue = queues_[task.scene];
+    // A queue with tasks is in turns_, or its head is running and finish() puts it back.
+    if (queue.tasks.empty()) turns_.push_back(task.scene);
+    if (task.destroy) ++queue.destroys;
+    queue.tasks.push_back(std::move(task));
   }
   wake_.notify_one();
 }
 
-// Wraps `work(renderer) -> T` in a task whose promise gets the result or the exception.
-// std::function needs a copyable callable, hence the shared promise.
+// Wraps `work(renderer) -> T` in a task of `scene`'s queue whose promise gets the result or the
+// exception. std::function needs a copyable callable, hence the shared promise.
 template <typename T, typename Work>
-std::future<T> RenderThread::enqueueWork(bool frame, Work work) {
+std::future<T> RenderThread::enqueueWork(SceneId scene, Work work, bool destroy) {
   auto promise = std::make_shared<std::promise<T>>();
   std::future<T> result = promise->get_future();
   // gpuMemoryBytes() is refreshed before the promise is kept, so a caller whose future is ready
   // (a session deleted, say) already reads the memory it freed.
-  enqueue(Task{frame, [this, promise, work = std::move(work)](Renderer& renderer) mutable {
-                 try {
-                   if constexpr (std::is_void_v<T>) {
-                     work(renderer);
-                     gpuMemoryBytes_ = renderer.gpuMemoryBytes();
-                     promise->set_value();
-                   } else {
-                     T value = work(renderer);
-                     gpuMemoryBytes_ = renderer.gpuMemoryBytes();
-                     promise->set_value(std::move(value));
-                   }
-                 } catch (...) {
-                   gpuMemoryBytes_ = renderer.gpuMemoryBytes();
-                   promise->set_exception(std::current_exception());
-                 }
-               }});
+  Task task;
+  task.scene = scene;
+  task.destroy = destroy;
+  task.run = [this, promise, work = std::move(work)](Renderer& renderer) mutable {
+    try {
+      if constexpr (std::is_void_v<T>) {
+        work(renderer);
+        gpuMemoryBytes_ = renderer.gpuMemoryBytes();
+        promise->set_value();
+      } else {
+        T value = work(renderer);
+        gpuMemoryBytes_ = renderer.gpuMemoryBytes();
+        promise->set_value(std::move(value));
+      }
+    } catch (...) {
+      gpuMemoryBytes_ = renderer.gpuMemoryBytes();
+      promise->set_exception(std::current_exception());
+    }
+    return Step::Done;
+  };
+  enqueue(std::move(task));
   return result;
 }
 
 std::future<SceneId> RenderThread::createScene(std::shared_ptr<const scene::Scene> scene) {
-  return enqueueWork<SceneId>(false, [scene = std::move(scene)](Renderer& r) {
+  return enqueueWork<SceneId>(0, [scene = std::move(scene)](Renderer& r) {
     return r.createScene(*scene);
   });
 }
 
 std::future<void> RenderThread::replaceScene(SceneId id,
                                              std::shared_ptr<const scene::Scene> scene) {
-  return enqueueWork<void>(false, [id, scene = std::move(scene)](Renderer& r) {
+  return enqueueWork<void>(id, [id, scene = std::move(scene)](Renderer& r) {
     r.replaceScene(id, *scene);
   });
 }
 
 std::future<void> RenderThread::destroyScene(SceneId id) {
-  return enqueueWork<void>(false, [id](Renderer& r) { r.destroyScene(id); });
+  // The scene's frames still waiting (or split) are dropped when their turn comes.
+  return enqueueWork<void>(id, [id](Renderer& r) { r.destroyScene(id); }, true);
 }
 
 std::future<void> RenderThread::updateLights(SceneId id, LightUpdate update) {
-  return enqueueWork<void>(false, [id, update = std::move(update)](Renderer& r) {
+  return enqueueWork<void>(id, [id, update = std::move(update)](Renderer& r) {
     r.updateLights(id, update);
   });
 }
 
 std::future<void> RenderThread::updateMaterials(SceneId id,
                                                 std::vector<MaterialWrite> writes) {
-  return enqueueWork<void>(false, [id, writes = std::move(writes)](Renderer& r) {
+  return enqueueWork<void>(id, [id, writes = std::move(writes)](Renderer& r) {
     r.updateMaterials(id, writes);
   });
 }
 
 std::future<void> RenderThread::setEnvironmentImage(
     SceneId id, std::shared_ptr<const scene::EnvironmentImage> image) {
-  return enqueueWork<void>(false, [id, image = std::move(image)](Renderer& r) {
+  return enqueueWork<void>(id, [id, image = std::move(image)](Renderer& r) {
     r.setEnvironmentImage(id, image);
   });
 }
 
-std::future<Frame> RenderThread::submit(SceneId id,
-                                                const FrameSettings& settings) {
-  const auto queued = std::chrono::steady_clock::now();
-  return enqueueWork<Frame>(true, [id, settings, queued](Renderer& r) {
-    const double waited =
-        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - queued).count();
-    Frame frame = r.render(id, settings);
-    frame.queueMs = waited;
-    return frame;
-  });
+std::future<Frame> RenderThread::submit(SceneId id, const FrameSettings& settings) {
+  // Shared between the task's turns: a split frame keeps its progress here.
+  struct Pending {
+    std::promise<Frame> promise;
+    std::chrono::steady_clock::time_point queued = std::chrono::steady_clock::now();
+    double waitedMs = -1.0;  // until the frame started
+    std::unique_ptr<Renderer::SplitFrame> split;
+  };
+  auto pending = std::make_shared<Pending>();
+  std::future<Frame> result = pending->promise.get_future();
+  Task task;
+  task.scene = id;
+  task.frame = true;
+  task.run = [this, pending, id, settings](Renderer& r) {
+    try {
+      if (!pending->split) {
+        // Not started yet: a whole frame, or the first submission of a split one.
+        const bool split = r.shouldSplit(id, settings);
+        if (split && r.splitBusy()) return Step::Blocked;
+        pending->waitedMs = std::chrono::duration<double, std::milli>(
+                                std::chrono::steady_clock::now() - pending->queued)
+                                .count();
+        if (split) {
+          pending->split = r.beginSplit(id, settings);
+          return Step::More;
+        }
+        Frame frame = r.render(id, settings);
+        frame.queueMs = pending->waitedMs;
+        gpuMemoryBytes_ = r.gpuMemoryBytes();
+        pending->promise.set_value(std::move(frame));
+        return Step::Done;
+      }
+      std::optional<Frame> frame = r.continueSplit(*pending->split);
+      if (!frame) return Step::More;
+      pending->split.reset();
+      frame->queueMs = pending->waitedMs;
+      gpuMemoryBytes_ = r.gpuMemoryBytes();
+      pending->promise.set_value(std::move(*frame));
+    } catch (...) {
+      pending->split.reset();
+      gpuMemoryBytes_ = r.gpuMemoryBytes();
+      pending->promise.set_exception(std::current_exception());
+    }
+    return Step::Done;
+  };
+  task.cancel = [pending, id] {
+    pending->split.reset();
+    pending->promise.set_exception(std::make_exception_ptr(std::invalid_argument(
+        "scene " + std::to_string(id) + " was destroyed before its frame was rendered")));
+  };
+  enqueue(std::move(task));
+  return result;
 }
 
+RenderThread::Task* RenderThread::pick() {
+  while (!turns_.empty()) {
+    const SceneId id = turns_.front();
+    turns_.pop_front();
+    SceneQueue& queue = queues_.at(id);
+    // A scene being destroyed: its frames ahead of the destroyScene are for nobody.
+    while (queue.destroys > 0 && !queue.tasks.empty() && queue.tasks.front().frame) {
+      queue.tasks.front().cancel();
+      queue.tasks.pop_front();
+      --framesUnfinished_;
+    }
+    if (queue.tasks.empty()) {
+      queues_.erase(id);
+      continue;
+    }
+    return &queue.tasks.front();
+  }
+  return nullptr;
+}
+
+void RenderThread::finish(Task& task, Step step) {
+  const SceneId id = task.scene;
+  SceneQueue& queue = queues_.at(id);
+  if (step == Step::Done) {
+    if (task.frame) --framesUnfinished_;
+    if (task.destroy) --queue.destroys;
+    queue.tasks.pop_front();  // `task`
+  }
+  if (queue.tasks.empty()) {
+    queues_.erase(id);
+  } else {
+    turns_.push_back(id);  // the back of the round
+  }
+}
 void RenderThread::stop() {
   {
     std::lock_guard lock(mutex_);
@@ -187,14 +276,14 @@ void RenderThread::run(const gpu::ContextOptions& options, const scene::Scene& s
 
   bool trimmed = true;  // nothing rendered yet: nothing to give back
   for (;;) {
-    Task task;
+    Task* task = nullptr;
     {
       std::unique_lock lock(mutex_);
       // Idle for kIdleTrim: the frame targets (sized to the last output: 1 GB at 4096 x 4096 on a
       // CPU device, where device memory is host memory) go back, and so does the heap. A stream
       // or a sequence of frames never leaves the queue idle that long, so it keeps its targets.
       if (!trimmed && !wake_.wait_for(lock, kIdleTrim,
-                                      [this] { return stopping_ || !tasks_.empty(); })) {
+                                      [this] { return stopping_ || !turns_.empty(); })) {
         lock.unlock();
         renderer->releaseFrameMemory();
         gpuMemoryBytes_ = renderer->gpuMemoryBytes();
@@ -202,20 +291,17 @@ void RenderThread::run(const gpu::ContextOptions& options, const scene::Scene& s
         trimmed = true;
         continue;
       }
-      wake_.wait(lock, [this] { return stopping_ || !tasks_.empty(); });
+      wake_.wait(lock, [this] { return stopping_ || !turns_.empty(); });
       // Stopping still runs what was queued: those requests are in flight and get answers.
-      if (tasks_.empty()) break;
-      task = std::move(tasks_.front());
-      tasks_.pop_front();
-      if (task.frame) {
-        --framesWaiting_;
-        renderingFrame_ = true;
-      }
+      if (turns_.empty()) break;
+      task = pick();
+      if (task == nullptr) continue;  // only dropped frames
     }
-    task.run(*renderer);  // fulfils its promise, exception or not
+    // Outside the lock: other threads only append to the queues, which keeps `task` valid.
+    const Step step = task->run(*renderer);  // fulfils its promise when Done, exception or not
     trimmed = false;
     std::lock_guard lock(mutex_);
-    renderingFrame_ = false;
+    finish(*task, step);
   }
 
   renderer.reset();

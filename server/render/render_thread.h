@@ -3,6 +3,16 @@
 // the pixels come back as plain memory, and the worker encodes them. One owner means no locking
 // inside the renderer and one queue submission at a time, which is what a single VkQueue wants
 // anyway.
+//
+// Scheduling: every scene has its own FIFO of tasks (its edits and frames, in the order
+// submitted); the thread takes the head of each scene's queue in turn (round-robin), so a scene
+// with many frames waiting (several streams, a burst of requests) delays another scene's frame by
+// at most one frame of each other scene, not by its whole backlog. A frame the renderer would
+// hold the GPU with for longer than Renderer::kSliceMilliseconds (volumes with many lights) is
+// split into submissions of about that length, and each is one turn: other scenes' frames run
+// between them (Renderer::SplitFrame; one split frame at a time, a second waits its turn while
+// others pass it). destroyScene drops its scene's frames still waiting or split (their futures
+// get std::invalid_argument) instead of rendering them for nobody.
 #pragma once
 
 #include <atomic>
@@ -12,6 +22,7 @@
 #include <deque>
 #include <functional>
 #include <future>
+#include <map>
 #include <memory>
 #include <mutex>
 #include <thread>
@@ -62,16 +73,36 @@ class RenderThread final : public RenderQueue {
   void stop() override;
 
  private:
+  // What one turn of a task did.
+  enum class Step {
+    Done,     // finished; its promise is kept
+    More,     // a split frame with submissions left: stays at the head of its scene's queue
+    Blocked,  // could not start (another split frame is unfinished): stays, others go first
+  };
   // One unit of work for the render thread; `run` fulfils its own promise.
   struct Task {
-    bool frame = false;  // counts against maxQueuedFrames
-    std::function<void(Renderer&)> run;
+    SceneId scene = 0;     // whose queue: the scene it edits or renders (0: creating a scene)
+    bool frame = false;    // counts against maxQueuedFrames
+    bool destroy = false;  // destroyScene
+    std::function<Step(Renderer&)> run;
+    // A frame only: fails its promise without rendering (its scene is being destroyed).
+    std::function<void()> cancel;
+  };
+  struct SceneQueue {
+    std::deque<Task> tasks;   // oldest first; the head may be a split frame in progress
+    // destroyScene tasks queued: while any is, the frames reaching the head are dropped (they
+    // would render a scene about to go, for a session already closed).
+    uint32_t destroys = 0;
   };
 
   // Queues `task`; throws RenderQueueFullError after stop() or, for a frame, when the queue is full.
   void enqueue(Task task);
   template <typename T, typename Work>
-  std::future<T> enqueueWork(bool frame, Work work);
+  std::future<T> enqueueWork(SceneId scene, Work work, bool destroy = false);
+  // The next task to run (its queue's head; its scene is out of turns_ until finish()), or null
+  // when no queue has one. Drops the frames of scenes being destroyed. mutex_ held.
+  Task* pick();
+  void finish(Task& task, Step step);  // mutex_ held
 
   void run(const gpu::ContextOptions& options, const scene::Scene& scene,
            std::promise<void>& ready);
@@ -86,9 +117,11 @@ class RenderThread final : public RenderQueue {
 
   std::mutex mutex_;
   std::condition_variable wake_;
-  std::deque<Task> tasks_;  // waiting, oldest first
-  uint32_t framesWaiting_ = 0;
-  bool renderingFrame_ = false;
+  // Scenes with tasks, and the order they get their turns (a scene is in turns_ while it has
+  // tasks and none of them is running). References to tasks stay valid across push_back.
+  std::map<SceneId, SceneQueue> queues_;
+  std::deque<SceneId> turns_;
+  uint32_t framesUnfinished_ = 0;  // frames queued, rendering or split, not yet answered
   bool stopping_ = false;
 
   std::thread thread_;

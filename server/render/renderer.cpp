@@ -1,7 +1,10 @@
 #include "render/renderer.h"
 
+#include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <cstring>
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <unordered_map>
@@ -34,27 +37,68 @@ constexpr uint32_t kDefaultHeatMapMax = 64;
 // The frame uniforms are one small buffer; a default 64 MiB block would be almost all waste.
 constexpr VkDeviceSize kUniformBlockSize = 64ull << 10;
 
+// Split frames (Renderer::SplitFrame): the fewest lights a range draws, and the first range of a
+// frame when no light pass has been measured yet (about 0.4 s at 160x90 on lavapipe, where a
+// light costs 0.05-0.09 ms).
+constexpr uint32_t kMinRangeLights = 256;
+constexpr uint32_t kFirstRangeLights = 4096;
+// Without a measurement, frames with more lights than this are split (the first range measures).
+constexpr uint32_t kUnmeasuredSplitLights = 65536;
+
+// Adds `results` (one submission's passes) to `passes`, summing passes of the same name.
+void addPasses(std::vector<PassTiming>& passes,
+               const std::vector<std::pair<std::string, double>>& results) {
+  for (const auto& [name, ms] : results) {
+    auto it = std::find_if(passes.begin(), passes.end(),
+                           [&](const PassTiming& p) { return p.name == name; });
+    if (it == passes.end()) {
+      passes.push_back({name, ms});
+    } else {
+      it->milliseconds += ms;
+    }
+  }
+}
+
 }  // namespace
 
 struct Renderer::State {
   explicit State(gpu::Context& c)
       : context(c), pipelines(c), techniques(createTechniques({c, pipelines})),
-        uniformArena(c, kUniformBlockSize), timer(c, kMaxTimedPasses), shadows(c) {}
+        uniformArena(c, kUniformBlockSize), timer(c, kMaxTimedPasses) {
+    whole.shadows = std::make_unique<ShadowMaps>(c);
+    split.shadows = std::make_unique<ShadowMaps>(c);
+  }
 
   gpu::Context& context;
   Pipelines pipelines;
   // Index = Technique (techniques/registry.h); destroyed before the pipeline layout they use.
   std::vector<std::unique_ptr<LightingTechnique>> techniques;
   gpu::Arena uniformArena;
-  gpu::Buffer uniforms;
   gpu::CommandRecorder recorder;
   gpu::PassTimer timer;
-  ShadowMaps shadows;  // the sun's map, shared by every scene (rendered each frame it is on)
   VkSampler sampler = VK_NULL_HANDLE;
   VkDescriptorPool descriptorPool = VK_NULL_HANDLE;
-  // One set per kind, rewritten for whichever scene the frame draws: frames run one at a time.
-  VkDescriptorSet sceneSet = VK_NULL_HANDLE;
-  VkDescriptorSet targetSet = VK_NULL_HANDLE;  // set 2 (light culling) is each technique's own
+  // What a frame renders into and reads through: one set per kind, rewritten for whichever scene
+  // the frame draws. `whole` serves render(), whose frames run one at a time; `split` the one
+  // split frame, so whole frames rendered between its submissions leave it untouched.
+  struct FrameSlot {
+    gpu::Buffer uniforms;
+    VkDescriptorSet sceneSet = VK_NULL_HANDLE;
+    VkDescriptorSet targetSet = VK_NULL_HANDLE;  // set 2 (light culling) is each technique's own
+    // Sized for the frame being drawn, rebuilt when that changes.
+    std::unique_ptr<FrameTargets> targets;
+    // The sun's shadow map, rendered by each frame that has it on: the slot's own, so whole
+    // frames between a split frame's submissions do not overwrite the split frame's map.
+    std::unique_ptr<ShadowMaps> shadows;
+  };
+  FrameSlot whole;
+  FrameSlot split;
+  bool splitBusy = false;
+  // The last measured cost of one light of a technique that splits (volumes), in milliseconds,
+  // and the output pixels it was measured at (0: not measured yet).
+  double msPerLight = 0.0;
+  double msPerLightPixels = 0.0;
+  double sliceMs = kSliceMilliseconds;
   std::unordered_map<SceneId, std::unique_ptr<SceneBuffers>> scenes;
   // The BRDF table and the passes that build environments (created after the recorder).
   std::unique_ptr<EnvironmentPasses> environmentPasses;
@@ -62,20 +106,34 @@ struct Renderer::State {
   // kept when the scene is replaced (a new model keeps the session's environment).
   std::unordered_map<SceneId, std::unique_ptr<SceneEnvironment>> environments;
   SceneId nextSceneId = 1;
-  // Shared by every scene: sized for the frame being drawn, rebuilt when that changes.
-  std::unique_ptr<FrameTargets> targets;
 
   SceneBuffers& scene(SceneId id);
   const SceneBuffers& scene(SceneId id) const;
   LightingTechnique& technique(Technique t);
-  void writeSceneSet(const SceneBuffers& scene, const gpu::Buffer& environment);
+  void writeSceneSet(FrameSlot& slot, const SceneBuffers& scene, const gpu::Buffer& environment);
   SceneEnvironment& environment(SceneId id);
-  void writeTargetSet();
-  void writeUniforms(const FrameSettings& settings, const SceneBuffers& scene,
+  // The sun's shadow map fitted to the scene and the sun, when the frame has sun shadows.
+  static std::optional<SunShadowFit> sunShadowFor(const SceneBuffers& scene,
+                                                  const FrameSettings& settings);
+  SceneEnvironment* environmentFor(SceneId id, const FrameSettings& settings);
+  void writeTargetSet(FrameSlot& slot);
+  void writeUniforms(FrameSlot& slot, const FrameSettings& settings, const SceneBuffers& scene,
                      const LightingTechnique& technique, const SunShadowFit* sunShadow);
-  void ensureTargets(VkExtent2D extent, bool raw);
+  void ensureTargets(FrameSlot& slot, VkExtent2D extent, bool raw);
   Frame renderOnce(SceneBuffers& scene, SceneEnvironment* environment,
                    const FrameSettings& settings);
+  // The steps of a frame, shared by whole and split frames.
+  void prepareFrame(FrameSlot& slot, SceneBuffers& scene, SceneEnvironment* environment,
+                    const FrameSettings& settings, LightingTechnique& technique);
+  VkCommandBuffer beginFrameCommands(const FrameSlot& slot);
+  void recordBeforeLighting(VkCommandBuffer cmd, const FrameSlot& slot, SceneBuffers& scene,
+                            SceneEnvironment* environment, const FrameSettings& settings);
+  void recordAfterLighting(VkCommandBuffer cmd, const FrameSlot& slot, SceneBuffers& scene,
+                           const FrameSettings& settings, VkImageLayout lightingLayout);
+  Frame readFrame(const FrameSlot& slot, SceneBuffers& scene, SceneEnvironment* environment,
+                  const FrameSettings& settings, LightingTechnique& technique);
+  // The estimated milliseconds of the lights of `lightCount` at `pixels` (0: not measured).
+  double estimateLightsMs(uint32_t lightCount, double pixels) const;
 };
 
 SceneBuffers& Renderer::State::scene(SceneId id) {
@@ -105,10 +163,11 @@ SceneEnvironment& Renderer::State::environment(SceneId id) {
 
 // `environment` is the scene's lighting maps, or any storage buffer when the environment is off
 // (the shaders then never read it).
-void Renderer::State::writeSceneSet(const SceneBuffers& scene, const gpu::Buffer& environment) {
-  const VkDescriptorImageInfo sunShadowMap = shadows.sunDescriptor();
+void Renderer::State::writeSceneSet(FrameSlot& slot, const SceneBuffers& scene,
+                                    const gpu::Buffer& environment) {
+  const VkDescriptorImageInfo sunShadowMap = slot.shadows->sunDescriptor();
   VkDescriptorBufferInfo buffers[7] = {
-      {uniforms.buffer, 0, sizeof(FrameUniforms)},
+      {slot.uniforms.buffer, 0, sizeof(FrameUniforms)},
       {scene.lights.buffer, 0, VK_WHOLE_SIZE},
       {scene.instances.buffer, 0, VK_WHOLE_SIZE},
       {scene.materials.buffer, 0, VK_WHOLE_SIZE},
@@ -119,7 +178,7 @@ void Renderer::State::writeSceneSet(const SceneBuffers& scene, const gpu::Buffer
   VkWriteDescriptorSet writes[8];
   for (uint32_t i = 0; i < 7; ++i) {
     writes[i] = {VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET};
-    writes[i].dstSet = sceneSet;
+    writes[i].dstSet = slot.sceneSet;
     writes[i].dstBinding = i;
     writes[i].descriptorCount = 1;
     writes[i].descriptorType =
@@ -127,7 +186,7 @@ void Renderer::State::writeSceneSet(const SceneBuffers& scene, const gpu::Buffer
     writes[i].pBufferInfo = &buffers[i];
   }
   writes[7] = {VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET};
-  writes[7].dstSet = sceneSet;
+  writes[7].dstSet = slot.sceneSet;
   writes[7].dstBinding = MYRIAD_BINDING_SUN_SHADOW_MAP;
   writes[7].descriptorCount = 1;
   writes[7].descriptorType = VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER;
@@ -135,7 +194,8 @@ void Renderer::State::writeSceneSet(const SceneBuffers& scene, const gpu::Buffer
   vkUpdateDescriptorSets(context.device, 8, writes, 0, nullptr);
 }
 
-void Renderer::State::writeTargetSet() {
+void Renderer::State::writeTargetSet(FrameSlot& slot) {
+  const std::unique_ptr<FrameTargets>& targets = slot.targets;
   // Bindings 0-6 and 9 are sampled (READ_ONLY_OPTIMAL); 7-8 are the same HDR and light-count
   // images as storage images (GENERAL), written by compute lighting; 10 the markers' keys
   // (storage, GENERAL).
@@ -151,7 +211,7 @@ void Renderer::State::writeTargetSet() {
     infos[i] = {storage ? VK_NULL_HANDLE : sampler, images[i]->view,
                 storage ? VK_IMAGE_LAYOUT_GENERAL : VK_IMAGE_LAYOUT_READ_ONLY_OPTIMAL};
     writes[i] = {VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET};
-    writes[i].dstSet = targetSet;
+    writes[i].dstSet = slot.targetSet;
     writes[i].dstBinding = i;
     writes[i].descriptorCount = 1;
     writes[i].descriptorType =
@@ -163,16 +223,18 @@ void Renderer::State::writeTargetSet() {
 
 // Targets follow the output size and are rebuilt only when it changes (every frame is waited
 // for, so nothing is in flight here).
-void Renderer::State::ensureTargets(VkExtent2D extent, bool raw) {
+void Renderer::State::ensureTargets(FrameSlot& slot, VkExtent2D extent, bool raw) {
+  std::unique_ptr<FrameTargets>& targets = slot.targets;
   if (!targets || targets->extent.width != extent.width ||
       targets->extent.height != extent.height || targets->raw != raw) {
     targets.reset();
     targets = std::make_unique<FrameTargets>(context, extent, raw);
-    writeTargetSet();
+    writeTargetSet(slot);
   }
 }
 
-void Renderer::State::writeUniforms(const FrameSettings& s, const SceneBuffers& scene,
+void Renderer::State::writeUniforms(FrameSlot& slot, const FrameSettings& s,
+                                    const SceneBuffers& scene,
                                     const LightingTechnique& technique,
                                     const SunShadowFit* sunShadow) {
   float aspect = float(s.width) / float(s.height);
@@ -220,14 +282,16 @@ void Renderer::State::writeUniforms(const FrameSettings& s, const SceneBuffers& 
                             1.0f / float(s.shadows.mapSize));
   }
   technique.writeUniforms(u);
-  std::memcpy(uniforms.mapped, &u, sizeof(u));
+  std::memcpy(slot.uniforms.mapped, &u, sizeof(u));
 }
 
 Renderer::Renderer(gpu::Context& context) : state_(std::make_unique<State>(context)) {
   State& s = *state_;
   VkDevice device = context.device;
-  s.uniforms = s.uniformArena.createBuffer(sizeof(FrameUniforms), VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT,
-                                           gpu::MemoryUse::Upload);
+  for (State::FrameSlot* slot : {&s.whole, &s.split}) {
+    slot->uniforms = s.uniformArena.createBuffer(
+        sizeof(FrameUniforms), VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT, gpu::MemoryUse::Upload);
+  }
   s.recorder = gpu::createCommandRecorder(context);
   s.environmentPasses = std::make_unique<EnvironmentPasses>(context, s.recorder);
 
@@ -237,31 +301,35 @@ Renderer::Renderer(gpu::Context& context) : state_(std::make_unique<State>(conte
       VK_SAMPLER_ADDRESS_MODE_CLAMP_TO_EDGE;
   VK_CHECK(vkCreateSampler(device, &samplerInfo, nullptr, &s.sampler));
 
-  // Sets 0 (scene) and 1 (targets); each technique allocates its own set 2.
-  VkDescriptorPoolSize sizes[] = {{VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1},
-                                  {VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 6},
-                                  {VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 9},
-                                  {VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, 3}};
+  // Sets 0 (scene) and 1 (targets) of both frame slots; each technique allocates its own set 2.
+  VkDescriptorPoolSize sizes[] = {{VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 2 * 1},
+                                  {VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 2 * 6},
+                                  {VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 2 * 9},
+                                  {VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, 2 * 3}};
   VkDescriptorPoolCreateInfo poolInfo{VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO};
-  poolInfo.maxSets = 2;
+  poolInfo.maxSets = 4;
   poolInfo.poolSizeCount = 4;
   poolInfo.pPoolSizes = sizes;
   VK_CHECK(vkCreateDescriptorPool(device, &poolInfo, nullptr, &s.descriptorPool));
-  VkDescriptorSetLayout layouts[] = {s.pipelines.sceneSetLayout, s.pipelines.targetSetLayout};
+  VkDescriptorSetLayout layouts[] = {s.pipelines.sceneSetLayout, s.pipelines.targetSetLayout,
+                                     s.pipelines.sceneSetLayout, s.pipelines.targetSetLayout};
   VkDescriptorSetAllocateInfo alloc{VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO};
   alloc.descriptorPool = s.descriptorPool;
-  alloc.descriptorSetCount = 2;
+  alloc.descriptorSetCount = 4;
   alloc.pSetLayouts = layouts;
-  VkDescriptorSet sets[2];
+  VkDescriptorSet sets[4];
   VK_CHECK(vkAllocateDescriptorSets(device, &alloc, sets));
-  s.sceneSet = sets[0];
-  s.targetSet = sets[1];
+  s.whole.sceneSet = sets[0];
+  s.whole.targetSet = sets[1];
+  s.split.sceneSet = sets[2];
+  s.split.targetSet = sets[3];
 }
 
 Renderer::~Renderer() {
   State& s = *state_;
   vkDeviceWaitIdle(s.context.device);
-  s.targets.reset();
+  s.whole.targets.reset();
+  s.split.targets.reset();
   s.techniques.clear();
   s.scenes.clear();
   s.environments.clear();
@@ -324,10 +392,15 @@ uint64_t Renderer::sceneBytes(SceneId id) const {
 }
 
 void Renderer::releaseFrameMemory() {
-  // Every frame is waited for, so nothing in flight uses the targets; the target descriptor set
-  // points at freed views until ensureTargets() makes new ones and writes it again.
-  state_->targets.reset();
-  state_->shadows.release();
+  // Every submission is waited for, so nothing in flight uses the targets; the target descriptor
+  // set points at freed views until ensureTargets() makes new ones and writes it again. An
+  // unfinished split frame keeps its own.
+  state_->whole.targets.reset();
+  state_->whole.shadows->release();
+  if (!state_->splitBusy) {
+    state_->split.targets.reset();
+    state_->split.shadows->release();
+  }
 }
 
 uint64_t Renderer::gpuMemoryBytes() const {
@@ -336,8 +409,9 @@ uint64_t Renderer::gpuMemoryBytes() const {
   for (const auto& [id, scene] : s.scenes) total += scene->bytes();
   for (const auto& [id, env] : s.environments) total += env->bytes();
   total += s.environmentPasses->gpuMemoryBytes();
-  if (s.targets) total += s.targets->arena.bytesAllocated();
-  total += s.shadows.gpuMemoryBytes();
+  if (s.whole.targets) total += s.whole.targets->arena.bytesAllocated();
+  if (s.split.targets) total += s.split.targets->arena.bytesAllocated();
+  total += s.whole.shadows->gpuMemoryBytes() + s.split.shadows->gpuMemoryBytes();
   for (const auto& technique : s.techniques) total += technique->gpuMemoryBytes();
   return total;
 }
@@ -348,24 +422,56 @@ void Renderer::limitListMemory(uint64_t bytes, uint64_t startBytes) {
 
 uint32_t Renderer::maxDimension() const { return state_->context.info.maxImageDimension2D; }
 
+namespace {
+
+void checkSize(const FrameSettings& settings, uint32_t maxDimension) {
+  if (settings.width == 0 || settings.height == 0 || settings.width > maxDimension ||
+      settings.height > maxDimension) {
+    throw std::invalid_argument("frame size " + std::to_string(settings.width) + "x" +
+                                std::to_string(settings.height) + " is outside 1.." +
+                                std::to_string(maxDimension));
+  }
+}
+
+double pixelsOf(const FrameSettings& settings) {
+  return double(settings.width) * double(settings.height);
+}
+
+}  // namespace
+
+std::optional<SunShadowFit> Renderer::State::sunShadowFor(const SceneBuffers& scene,
+                                                          const FrameSettings& settings) {
+  if (!settings.shadows.sun || settings.sun.intensity <= 0.0f || scene.draws.empty()) {
+    return std::nullopt;
+  }
+  return fitSunShadow(scene.bounds, settings.sun.direction, settings.shadows.mapSize);
+}
+
+// The scene's environment when the frame uses one; throws for hdr without an image.
+SceneEnvironment* Renderer::State::environmentFor(SceneId id, const FrameSettings& settings) {
+  if (settings.environment.mode == EnvironmentMode::None) return nullptr;
+  SceneEnvironment* env = &environment(id);
+  EnvironmentPasses::inputsFor(settings, *env);  // throws for hdr without an image
+  return env;
+}
+
 // Renders, and when the technique's lists overflowed but may still grow, grows them and renders
 // the frame once more: a frame with lights missing is never the answer while memory allows.
 Frame Renderer::render(SceneId id, const FrameSettings& settings) {
   State& s = *state_;
   SceneBuffers& scene = s.scene(id);
-  if (settings.width == 0 || settings.height == 0 || settings.width > maxDimension() ||
-      settings.height > maxDimension()) {
-    throw std::invalid_argument("frame size " + std::to_string(settings.width) + "x" +
-                                std::to_string(settings.height) + " is outside 1.." +
-                                std::to_string(maxDimension()));
-  }
+  checkSize(settings, maxDimension());
   LightingTechnique& technique = s.technique(settings.technique);
-  SceneEnvironment* environment = nullptr;
-  if (settings.environment.mode != EnvironmentMode::None) {
-    environment = &s.environment(id);
-    EnvironmentPasses::inputsFor(settings, *environment);  // throws for hdr without an image
-  }
+  SceneEnvironment* environment = s.environmentFor(id, settings);
   Frame frame = s.renderOnce(scene, environment, settings);
+  if (technique.splitsByLights() && scene.lightCount > 0) {
+    // What a light costs, for shouldSplit: the lights pass's GPU time.
+    for (const PassTiming& pass : frame.passes) {
+      if (pass.name != "lights") continue;
+      s.msPerLight = pass.milliseconds / scene.lightCount;
+      s.msPerLightPixels = pixelsOf(settings);
+    }
+  }
   if (technique.growLists(frame.culling)) {
     try {
       Frame regrown = s.renderOnce(scene, environment, settings);
@@ -380,41 +486,50 @@ Frame Renderer::render(SceneId id, const FrameSettings& settings) {
   return frame;
 }
 
-// The frame, top to bottom. Every request (any view, any size, any technique) takes this path.
-Frame Renderer::State::renderOnce(SceneBuffers& scene, SceneEnvironment* environment,
-                                  const FrameSettings& settings) {
-  State& s = *this;
-  LightingTechnique& technique = s.technique(settings.technique);
+// Fits the slot's targets and the technique's buffers to the frame; writes its uniforms and set 0.
+void Renderer::State::prepareFrame(FrameSlot& slot, SceneBuffers& scene,
+                                   SceneEnvironment* environment, const FrameSettings& settings,
+                                   LightingTechnique& technique) {
   VkExtent2D extent{settings.width, settings.height};
-  s.ensureTargets(extent, settings.raw);
+  ensureTargets(slot, extent, settings.raw);
   technique.prepare(extent, scene.lightCount);
   // The sun's shadow map: fitted to this scene and sun, rendered this frame when on.
-  const bool sunShadows = settings.shadows.sun && settings.sun.intensity > 0.0f &&
-                          !scene.draws.empty();
-  SunShadowFit sunShadow;
-  if (sunShadows) {
-    s.shadows.ensureSun(settings.shadows.mapSize);
-    sunShadow = fitSunShadow(scene.bounds, settings.sun.direction, settings.shadows.mapSize);
+  const std::optional<SunShadowFit> sunShadow = sunShadowFor(scene, settings);
+  if (sunShadow) {
+    slot.shadows->ensureSun(settings.shadows.mapSize);
   } else {
-    s.shadows.ensureSunPlaceholder();
+    slot.shadows->ensureSunPlaceholder();
   }
-  s.writeUniforms(settings, scene, technique, sunShadows ? &sunShadow : nullptr);
-  s.writeSceneSet(scene, environment ? environment->lighting : environmentPasses->brdfLut());
-  const FrameTargets& t = *s.targets;
+  writeUniforms(slot, settings, scene, technique, sunShadow ? &*sunShadow : nullptr);
+  writeSceneSet(slot, scene, environment ? environment->lighting : environmentPasses->brdfLut());
+}
+
+// Begins a command buffer with the slot's sets 0 and 1 bound for graphics and compute and the
+// timer reset.
+VkCommandBuffer Renderer::State::beginFrameCommands(const FrameSlot& slot) {
+  VkCommandBuffer cmd = gpu::beginCommands(context, recorder);
+  VkDescriptorSet sets[] = {slot.sceneSet, slot.targetSet};
+  vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipelines.layout, 0, 2, sets, 0,
+                          nullptr);
+  vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipelines.layout, 0, 2, sets, 0,
+                          nullptr);
+  timer.reset(cmd);
+  return cmd;
+}
+
+// environment (when its inputs changed), animate (or restoring the origins), shadow, gbuffer.
+void Renderer::State::recordBeforeLighting(VkCommandBuffer cmd, const FrameSlot& slot,
+                                           SceneBuffers& scene, SceneEnvironment* environment,
+                                           const FrameSettings& settings) {
+  State& s = *this;
   const Pipelines& p = s.pipelines;
-
-  VkCommandBuffer cmd = gpu::beginCommands(s.context, s.recorder);
-  VkDescriptorSet sets[] = {s.sceneSet, s.targetSet};
-  vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, p.layout, 0, 2, sets, 0, nullptr);
-  vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, p.layout, 0, 2, sets, 0, nullptr);
-  s.timer.reset(cmd);
-
   if (environment) {
     const SceneEnvironment::Inputs inputs = EnvironmentPasses::inputsFor(settings, *environment);
     if (environment->built != inputs) {
       s.timer.beginPass(cmd, "environment");
       environmentPasses->record(cmd, *environment, inputs);
       // The environment passes bound their own layout's set 0; the frame's sets go back.
+      VkDescriptorSet sets[] = {slot.sceneSet, slot.targetSet};
       vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, p.layout, 0, 2, sets, 0, nullptr);
     }
   }
@@ -427,16 +542,23 @@ Frame Renderer::State::renderOnce(SceneBuffers& scene, SceneEnvironment* environ
     recordRestoreLights(cmd, scene);
     scene.lightsMoved = false;
   }
-  if (sunShadows) {
+  if (const std::optional<SunShadowFit> sunShadow = sunShadowFor(scene, settings)) {
     s.timer.beginPass(cmd, "shadow");
-    s.shadows.recordSun(cmd, p, scene, sunShadow.viewProjection);
+    slot.shadows->recordSun(cmd, p, scene, sunShadow->viewProjection);
   } else {
-    s.shadows.recordSunUnused(cmd);
+    slot.shadows->recordSunUnused(cmd);
   }
   s.timer.beginPass(cmd, "gbuffer");
-  recordGBufferPass(cmd, p, t, scene);
-  // Lighting leaves HDR and light counts as attachments (raster) or storage images (compute).
-  const VkImageLayout lightingLayout = technique.record({cmd, s.timer, t, scene});
+  recordGBufferPass(cmd, p, *slot.targets, scene);
+}
+
+// markers, tonemap, overlay, readback; then the timer's end.
+void Renderer::State::recordAfterLighting(VkCommandBuffer cmd, const FrameSlot& slot,
+                                          SceneBuffers& scene, const FrameSettings& settings,
+                                          VkImageLayout lightingLayout) {
+  State& s = *this;
+  const Pipelines& p = s.pipelines;
+  const FrameTargets& t = *slot.targets;
   VkImageLayout hdrLayout = lightingLayout;
   if (settings.markers) {
     s.timer.beginPass(cmd, "markers");
@@ -452,25 +574,146 @@ Frame Renderer::State::renderOnce(SceneBuffers& scene, SceneEnvironment* environ
   s.timer.beginPass(cmd, "readback");
   recordReadback(cmd, t);
   s.timer.end(cmd);
-  gpu::submitAndWait(s.context, s.recorder);
+}
 
+// After the last submission: the pixels and what the frame reports (passes: the last
+// submission's; a split frame sums its own).
+Frame Renderer::State::readFrame(const FrameSlot& slot, SceneBuffers& scene,
+                                 SceneEnvironment* environment, const FrameSettings& settings,
+                                 LightingTechnique& technique) {
+  const FrameTargets& t = *slot.targets;
   Frame frame;
-  frame.width = extent.width;
-  frame.height = extent.height;
+  frame.width = t.extent.width;
+  frame.height = t.extent.height;
   if (settings.raw) {
-    frame.data.resize(size_t(extent.width) * extent.height * 4);
+    frame.data.resize(size_t(t.extent.width) * t.extent.height * 4);
     std::memcpy(frame.data.data(), t.readback.mapped, frame.data.size() * sizeof(float));
   } else {
-    frame.rgba.resize(size_t(extent.width) * extent.height * 4);
+    frame.rgba.resize(size_t(t.extent.width) * t.extent.height * 4);
     std::memcpy(frame.rgba.data(), t.readback.mapped, frame.rgba.size());
   }
-  for (auto& [name, ms] : s.timer.results()) frame.passes.push_back({name, ms});
+  for (auto& [name, ms] : timer.results()) frame.passes.push_back({name, ms});
   frame.technique = settings.technique;
   frame.lightCount = scene.lightCount;
   frame.sceneBytes = scene.bytes() + (environment ? environment->bytes() : 0);
   frame.culling.lightBytes = scene.lights.size + scene.lightOrigins.size;
   technique.report(frame.culling);
   return frame;
+}
+
+// The frame, top to bottom, in one submission. Every request (any view, any size, any technique)
+// takes this path, or the same steps split (beginSplit).
+Frame Renderer::State::renderOnce(SceneBuffers& scene, SceneEnvironment* environment,
+                                  const FrameSettings& settings) {
+  LightingTechnique& technique = this->technique(settings.technique);
+  prepareFrame(whole, scene, environment, settings, technique);
+  VkCommandBuffer cmd = beginFrameCommands(whole);
+  recordBeforeLighting(cmd, whole, scene, environment, settings);
+  // Lighting leaves HDR and light counts as attachments (raster) or storage images (compute).
+  const VkImageLayout lightingLayout = technique.record({cmd, timer, *whole.targets, scene});
+  recordAfterLighting(cmd, whole, scene, settings, lightingLayout);
+  gpu::submitAndWait(context, recorder);
+  return readFrame(whole, scene, environment, settings, technique);
+}
+
+double Renderer::State::estimateLightsMs(uint32_t lightCount, double pixels) const {
+  if (msPerLight <= 0.0) return 0.0;
+  // Larger outputs cost more per light (more covered pixels); smaller ones are not assumed
+  // cheaper (the vertex work per light stays).
+  return double(lightCount) * msPerLight * std::max(1.0, pixels / msPerLightPixels);
+}
+
+bool Renderer::shouldSplit(SceneId id, const FrameSettings& settings) const {
+  State& s = *state_;
+  const SceneBuffers& scene = s.scene(id);
+  if (!s.technique(settings.technique).splitsByLights()) return false;
+  if (scene.lightCount <= kMinRangeLights) return false;
+  const double estimate = s.estimateLightsMs(scene.lightCount, pixelsOf(settings));
+  if (estimate <= 0.0) return scene.lightCount > kUnmeasuredSplitLights;
+  return estimate > s.sliceMs;
+}
+
+bool Renderer::splitBusy() const { return state_->splitBusy; }
+
+void Renderer::setSliceMilliseconds(double milliseconds) { state_->sliceMs = milliseconds; }
+
+Renderer::SplitFrame::~SplitFrame() { renderer_.state_->splitBusy = false; }
+
+std::unique_ptr<Renderer::SplitFrame> Renderer::beginSplit(SceneId id,
+                                                           const FrameSettings& settings) {
+  State& s = *state_;
+  if (s.splitBusy) throw std::logic_error("another split frame is unfinished");
+  SceneBuffers& scene = s.scene(id);
+  checkSize(settings, maxDimension());
+  LightingTechnique& technique = s.technique(settings.technique);
+  if (!technique.splitsByLights()) {
+    throw std::logic_error(std::string(techniqueName(settings.technique)) + " frames do not split");
+  }
+  SceneEnvironment* environment = s.environmentFor(id, settings);
+  std::unique_ptr<SplitFrame> frame(new SplitFrame(*this, id, settings));
+  s.splitBusy = true;  // until `frame` is destroyed
+
+  const double estimate = s.estimateLightsMs(scene.lightCount, pixelsOf(settings));
+  frame->rangeLights_ =
+      estimate > 0.0 ? std::clamp(uint32_t(s.sliceMs / (estimate / scene.lightCount)),
+                                  kMinRangeLights, std::max(scene.lightCount, kMinRangeLights))
+                     : kFirstRangeLights;
+
+  // The first submission: everything before the first light.
+  s.prepareFrame(s.split, scene, environment, settings, technique);
+  VkCommandBuffer cmd = s.beginFrameCommands(s.split);
+  s.recordBeforeLighting(cmd, s.split, scene, environment, settings);
+  frame->lightingLayout_ = technique.recordBeforeLights({cmd, s.timer, *s.split.targets, scene});
+  s.timer.end(cmd);
+  gpu::submitAndWait(s.context, s.recorder);
+  addPasses(frame->passes_, s.timer.results());
+  ++frame->submissions_;
+  frame->lit_ = scene.lightCount == 0;
+  return frame;
+}
+
+std::optional<Frame> Renderer::continueSplit(SplitFrame& frame) {
+  State& s = *state_;
+  const FrameSettings& settings = frame.settings_;
+  SceneBuffers& scene = s.scene(frame.scene_);
+  LightingTechnique& technique = s.technique(settings.technique);
+  SceneEnvironment* environment = s.environmentFor(frame.scene_, settings);
+  // The slot's sets, uniforms and targets are as beginSplit left them: whole frames use their own.
+  VkCommandBuffer cmd = s.beginFrameCommands(s.split);
+  if (!frame.lit_) {
+    const uint32_t first = frame.nextLight_;
+    const uint32_t count = std::min(frame.rangeLights_, scene.lightCount - first);
+    technique.recordLightRange({cmd, s.timer, *s.split.targets, scene}, first, count);
+    s.timer.end(cmd);
+    const auto start = std::chrono::steady_clock::now();
+    gpu::submitAndWait(s.context, s.recorder);
+    const double ms =
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+    addPasses(frame.passes_, s.timer.results());
+    ++frame.submissions_;
+    frame.nextLight_ = first + count;
+    frame.lit_ = frame.nextLight_ >= scene.lightCount;
+    // The next range takes about a slice at what this one cost per light (host time: what the
+    // queue was held for).
+    const double perLight = std::max(ms, 0.001) / count;
+    s.msPerLight = perLight;
+    s.msPerLightPixels = pixelsOf(settings);
+    frame.rangeLights_ = std::clamp(uint32_t(std::min(s.sliceMs / perLight, 4.0e9)),
+                                    kMinRangeLights, std::max(scene.lightCount, kMinRangeLights));
+    return std::nullopt;
+  }
+  s.recordAfterLighting(cmd, s.split, scene, settings, frame.lightingLayout_);
+  gpu::submitAndWait(s.context, s.recorder);
+  ++frame.submissions_;
+  Frame result = s.readFrame(s.split, scene, environment, settings, technique);
+  addPasses(frame.passes_, [&] {
+    std::vector<std::pair<std::string, double>> last;
+    for (const PassTiming& pass : result.passes) last.emplace_back(pass.name, pass.milliseconds);
+    return last;
+  }());
+  result.passes = frame.passes_;
+  result.submissions = frame.submissions_;
+  return result;
 }
 
 }  // namespace myriad::render

@@ -6,6 +6,7 @@
 
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <vector>
 
 #include "gpu/context.h"
@@ -52,6 +53,30 @@ class Renderer {
   // outside 1..maxDimension().
   Frame render(SceneId id, const FrameSettings& settings);
 
+  // Frames too long for one submission. A GPU submission cannot be preempted, so a frame whose
+  // lighting would hold the queue for more than kSliceMilliseconds is recorded as several
+  // submissions of about that length, each waited for: the passes before lighting, then the
+  // lights in ranges (sized from the time the previous range took), then the passes after it.
+  // The caller (the render thread) runs other scenes' frames and edits between them. A split
+  // frame has its own targets, uniforms and descriptor sets, so whole frames rendered meanwhile
+  // leave it untouched; only one split frame exists at a time. Its scene must not be edited,
+  // replaced or destroyed until it finishes or is dropped (the render thread queues a scene's
+  // tasks behind its frame). Only techniques whose lighting is a sum over independently drawn
+  // lights split (volumes); the others render whole.
+  class SplitFrame;
+  static constexpr double kSliceMilliseconds = 200.0;
+  // The slice (default kSliceMilliseconds); tests make it tiny to split small frames.
+  void setSliceMilliseconds(double milliseconds);
+  // Whether render(id, settings) is estimated to take longer than a slice and can be split.
+  bool shouldSplit(SceneId id, const FrameSettings& settings) const;
+  // True while a split frame is unfinished (and not dropped).
+  bool splitBusy() const;
+  // Starts a split frame and runs its first submission. Throws what render() throws, and
+  // std::logic_error while another split frame is unfinished.
+  std::unique_ptr<SplitFrame> beginSplit(SceneId id, const FrameSettings& settings);
+  // Runs the next submission of `frame`; after the last one, returns the frame (read back).
+  std::optional<Frame> continueSplit(SplitFrame& frame);
+
   // Every method taking a SceneId throws std::invalid_argument for an id that is not (or no
   // longer) a scene of this renderer.
   bool hasScene(SceneId id) const;
@@ -77,6 +102,34 @@ class Renderer {
  private:
   struct State;
   std::unique_ptr<State> state_;
+};
+
+// A split frame in progress (Renderer::beginSplit). Dropping it before the last submission
+// abandons the frame (nothing is in flight between submissions) and frees the split targets for
+// the next split frame.
+class Renderer::SplitFrame {
+ public:
+  ~SplitFrame();
+  SplitFrame(const SplitFrame&) = delete;
+  SplitFrame& operator=(const SplitFrame&) = delete;
+
+  uint32_t submissions() const { return submissions_; }  // run so far
+  uint32_t lightsDone() const { return nextLight_; }
+
+ private:
+  friend class Renderer;
+  SplitFrame(Renderer& renderer, SceneId scene, const FrameSettings& settings)
+      : renderer_(renderer), scene_(scene), settings_(settings) {}
+
+  Renderer& renderer_;
+  SceneId scene_;
+  FrameSettings settings_;
+  uint32_t nextLight_ = 0;    // the first light of the next range
+  uint32_t rangeLights_ = 0;  // lights in the next range
+  bool lit_ = false;          // every light drawn: the next submission is the last
+  VkImageLayout lightingLayout_ = VK_IMAGE_LAYOUT_UNDEFINED;  // where the lighting leaves hdr
+  uint32_t submissions_ = 0;
+  std::vector<PassTiming> passes_;  // summed by name over the submissions
 };
 
 }  // namespace myriad::render

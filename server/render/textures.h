@@ -1,8 +1,9 @@
 // One scene's texture images on the GPU, and one descriptor set (set 3) per material binding them.
 // Each scene image is uploaded once per way it is read: as R8G8B8A8_SRGB where a material uses it
 // as base colour or emissive (so filtering and the mip chain average linear light), as
-// R8G8B8A8_UNORM where it holds data (metallic-roughness, normal, occlusion); the mip chain is
-// generated on the GPU with blits where the format allows (else it has one level). Samplers are made once per distinct scene::Sampler
+// R8G8B8A8_UNORM where it holds data (metallic-roughness, normal, occlusion); the full mip chain is
+// made on the CPU at upload (box filter; colour in linear light, re-encoded with exact rounding),
+// not by blits, whose sRGB rounding is the driver's. Samplers are made once per distinct scene::Sampler
 // (anisotropic where the device offers samplerAnisotropy). A slot a material leaves empty binds a
 // 1x1 white image; the material's flags tell the shader which slots are real.
 #pragma once

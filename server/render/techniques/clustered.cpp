@@ -2,7 +2,9 @@
 // compact per-cluster light lists built on the GPU each frame, and each pixel walks its
 // cluster's list. Five dispatches: mark the clusters holding visible geometry, count each active
 // cluster's lights, prefix-sum the counts into list offsets (cut at the capacity, overflow
-// counted), fill the lists, shade (shaders/cluster_*.comp, light_clustered.comp).
+// counted), fill the lists (timed together as "assign"), shade ("shade": each 16x16 tile first
+// narrows its clusters' lists to the lights reaching its own pixels' depth range, in shared
+// memory; shaders/cluster_*.comp, light_clustered.comp).
 //
 // The lists are sized from the output and the light count; when a frame overflows them and they
 // may still grow, growLists() makes them 1.25 x what the frame needed and the renderer renders
@@ -129,7 +131,8 @@ class Clustered final : public LightingTechnique {
   VkImageLayout record(const LightingPass& pass) override {
     VkCommandBuffer cmd = pass.cmd;
     const FrameTargets& t = pass.targets;
-    pass.timer.beginPass(cmd, "lighting");
+    // Two timed parts: "assign" (steps 1-4, building the lists) and "shade" (step 5).
+    pass.timer.beginPass(cmd, "assign");
     set_.bind(cmd);
     // Every cluster starts inactive; the counters start at zero.
     vkCmdFillBuffer(cmd, lists_->cursors.buffer, 0, VK_WHOLE_SIZE, MYRIAD_CLUSTER_INACTIVE);
@@ -158,9 +161,10 @@ class Clustered final : public LightingTechnique {
       gpu::memoryBarrier(cmd, kComputeStage, kStorageWrite, kComputeStage,
                          VK_ACCESS_2_SHADER_STORAGE_READ_BIT);
     }
-    // 5. Shade every pixel from its cluster's list.
+    // 5. Shade every pixel from its cluster's list, narrowed per tile.
+    pass.timer.beginPass(cmd, "shade");
     prepareLightingTargets(cmd, t);
-    dispatchPixels(cmd, shade_, t.extent, MYRIAD_PIXEL_GROUP);
+    dispatchPixels(cmd, shade_, t.extent, MYRIAD_TILE_SIZE);
     counters_.makeHostVisible(cmd);
     return VK_IMAGE_LAYOUT_GENERAL;
   }

@@ -55,6 +55,19 @@ class LightingTechnique {
   // gets its barrier here.
   virtual VkImageLayout record(const LightingPass& pass) = 0;
 
+  // Lighting that is a sum over independently drawn lights may be recorded in ranges of lights,
+  // each range in its own submission (Renderer::SplitFrame). recordBeforeLights records what
+  // record() does before the first light (every pixel of hdr and lightCount written);
+  // recordLightRange adds lights [first, first + count). Both leave hdr and lightCount in the
+  // layout record() returns, which recordBeforeLights returns.
+  virtual bool splitsByLights() const { return false; }
+  virtual VkImageLayout recordBeforeLights(const LightingPass& pass) { return record(pass); }
+  virtual void recordLightRange(const LightingPass& pass, uint32_t first, uint32_t count) {
+    (void)pass;
+    (void)first;
+    (void)count;
+  }
+
   // After the frame's GPU work finished: the culling counters, list memory and capacity.
   virtual void report(CullingReport& report) const { (void)report; }
 

@@ -32,11 +32,24 @@ class Volumes final : public LightingTechnique {
   }
 
   VkImageLayout record(const LightingPass& pass) override {
+    recordBeforeLights(pass);
+    recordLightRange(pass, 0, pass.scene.lightCount);
+    return VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL;
+  }
+
+  // Each light is one instance of the proxy, added by blending: any range of them can be drawn
+  // in a submission of its own.
+  bool splitsByLights() const override { return true; }
+
+  VkImageLayout recordBeforeLights(const LightingPass& pass) override {
     pass.timer.beginPass(pass.cmd, "sun");
     recordSun(pass.cmd, pass.targets);
-    pass.timer.beginPass(pass.cmd, "lights");
-    recordLights(pass.cmd, pass.targets, pass.scene);
     return VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL;
+  }
+
+  void recordLightRange(const LightingPass& pass, uint32_t first, uint32_t count) override {
+    pass.timer.beginPass(pass.cmd, "lights");
+    recordLights(pass.cmd, pass.targets, pass.scene, first, count);
   }
 
  private:
@@ -57,9 +70,10 @@ class Volumes final : public LightingTechnique {
     vkCmdEndRendering(cmd);
   }
 
-  // Reads the G-buffer and lights; adds each light's contribution to HDR inside its sphere, and
-  // 1 to the light count there.
-  void recordLights(VkCommandBuffer cmd, const FrameTargets& t, const SceneBuffers& scene) const {
+  // Reads the G-buffer and lights [first, first + count); adds each light's contribution to HDR
+  // inside its sphere, and 1 to the light count there.
+  void recordLights(VkCommandBuffer cmd, const FrameTargets& t, const SceneBuffers& scene,
+                    uint32_t first, uint32_t count) const {
     const gpu::ImageTransition before[] = {colorWriteToBlend(t.hdr), colorWriteToBlend(t.lightCount)};
     gpu::barrier(cmd, before);
     std::array<VkRenderingAttachmentInfo, 2> colors = {
@@ -68,7 +82,7 @@ class Volumes final : public LightingTechnique {
     VkRenderingAttachmentInfo depth = readOnlyDepth(t.depth);
     beginRendering(cmd, t.extent, colors, &depth);
     vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, volumes_);
-    drawLightProxies(cmd, scene);
+    drawLightProxies(cmd, scene, first, count);
     vkCmdEndRendering(cmd);
   }
 
