@@ -17,5 +17,9 @@ layout(std430, set = MYRIAD_SET_CULLING, binding = MYRIAD_BINDING_CULLING_STATS)
 layout(std430, set = MYRIAD_SET_CULLING, binding = MYRIAD_BINDING_CLUSTER_CURSORS) buffer CursorBlock {
   uint clusterCursors[];
 };
+layout(std430, set = MYRIAD_SET_CULLING, binding = MYRIAD_BINDING_LARGE_LIGHTS) buffer LargeLightBlock {
+  LargeLightQueue largeQueue;
+  uint largeLights[];
+};
 
 #endif

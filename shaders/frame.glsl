@@ -71,7 +71,9 @@ bool loadSurfaceWithDepth(ivec2 pixel, float depth, out Surface s) {
   s.metallic = material.x;
   s.roughness = material.y;
   s.occlusion = material.z;
-  s.emissive = texelFetch(gbufferEmissive, pixel, 0).rgb;
+  s.emissive = (frame.written.x & MYRIAD_GBUFFER_EMISSIVE) != 0u
+                   ? texelFetch(gbufferEmissive, pixel, 0).rgb
+                   : vec3(0.0);
   return true;
 }
 

@@ -4,7 +4,7 @@
 //
 // A 64x64-pixel cluster's list holds every light overlapping the whole frustum segment; with a
 // million small lights that is thousands of lights of which a pixel's few dozen reach it. So each
-// MYRIAD_TILE_SIZE-square workgroup first narrows the lists of the clusters its pixels fall in to
+// MYRIAD_CLUSTER_SHADE_TILE-square workgroup first narrows the lists of the clusters its pixels fall in to
 // the lights whose sphere overlaps the box around its own pixels: its 16x16-pixel rectangle
 // between the nearest and farthest surface depth of its pixels in that slice (the geometry's actual
 // depth range, not the slice's). The narrowed lists live in shared memory, one segment per slice,
@@ -15,9 +15,9 @@
 #include "frame.glsl"
 #include "compute_targets.glsl"
 
-layout(local_size_x = MYRIAD_TILE_SIZE, local_size_y = MYRIAD_TILE_SIZE) in;
+layout(local_size_x = MYRIAD_CLUSTER_SHADE_TILE, local_size_y = MYRIAD_CLUSTER_SHADE_TILE) in;
 
-const uint kThreads = MYRIAD_TILE_SIZE * MYRIAD_TILE_SIZE;
+const uint kThreads = MYRIAD_CLUSTER_SHADE_TILE * MYRIAD_CLUSTER_SHADE_TILE;
 const uint kSlices = MYRIAD_CLUSTER_TILE_SLICES;
 const uint kCapacity = MYRIAD_CLUSTER_TILE_LIGHTS;
 const uint kWholeList = 0xFFFFFFFFu;  // a segment's length when its pixels walk the cluster's list
@@ -60,9 +60,9 @@ void main() {
 
   // Narrow each occupied slice's list in turn (the loop's conditions read shared memory after a
   // barrier, so every invocation takes the same path through the barriers inside).
-  uvec2 tile = gl_WorkGroupID.xy * MYRIAD_TILE_SIZE / MYRIAD_CLUSTER_TILE_SIZE;
-  vec2 rectLo = vec2(gl_WorkGroupID.xy * MYRIAD_TILE_SIZE);
-  vec2 rectHi = min(rectLo + vec2(MYRIAD_TILE_SIZE), frame.viewport.xy);
+  uvec2 tile = gl_WorkGroupID.xy * MYRIAD_CLUSTER_SHADE_TILE / MYRIAD_CLUSTER_TILE_SIZE;
+  vec2 rectLo = vec2(gl_WorkGroupID.xy * MYRIAD_CLUSTER_SHADE_TILE);
+  vec2 rectHi = min(rectLo + vec2(MYRIAD_CLUSTER_SHADE_TILE), frame.viewport.xy);
   for (uint j = 0u; j < kSlices; ++j) {
     if (firstSlice == 0xFFFFFFFFu || depthHi[j] == 0u) continue;
     uint start = used;

@@ -80,6 +80,7 @@ using mat4 = glm::mat4;
 #define MYRIAD_BINDING_CLUSTER_LIGHTS 1    // uint light indices, every cluster's list back to back
 #define MYRIAD_BINDING_CULLING_STATS 2     // CullingStats, read back after the frame
 #define MYRIAD_BINDING_CLUSTER_CURSORS 3   // uint per cluster: count, then fill cursor
+#define MYRIAD_BINDING_LARGE_LIGHTS 4      // LargeLightQueue, then the queued light indices
 
 // Descriptor set 3: one material's textures (the G-buffer pass binds one set per material; lavapipe
 // has no descriptor indexing). A slot the material lacks holds a 1x1 white image, and the
@@ -105,10 +106,16 @@ using mat4 = glm::mat4;
 #define MYRIAD_CLUSTER_TILE_SIZE 64
 #define MYRIAD_CLUSTER_SLICES 32
 #define MYRIAD_CLUSTER_INACTIVE 0xFFFFFFFFu  // cursor value of a cluster no pixel falls in
-// The clustered shading pass narrows its clusters' lists per MYRIAD_TILE_SIZE tile into shared
-// memory: at most this many references per tile (all its slices together), at most this many
-// slices from its nearest; pixels beyond either walk their cluster's whole list.
+// The clustered shading pass narrows its clusters' lists per MYRIAD_CLUSTER_SHADE_TILE-square
+// tile (one workgroup; divides MYRIAD_CLUSTER_TILE_SIZE) into shared memory: at most this many
+// references per tile (all its slices together), at most this many slices from its nearest;
+// pixels beyond either walk their cluster's whole list.
+#define MYRIAD_CLUSTER_SHADE_TILE 16
 #define MYRIAD_CLUSTER_TILE_LIGHTS 2048
+// Lights whose box spans more clusters than this are assigned by a workgroup each, not a thread;
+// the indirect dispatch doing it has at most this many groups (Vulkan's guaranteed minimum).
+#define MYRIAD_LARGE_LIGHT_CLUSTERS 64
+#define MYRIAD_LARGE_LIGHT_GROUPS 65535u
 #define MYRIAD_CLUSTER_TILE_SLICES 8
 
 // Workgroup sizes. The shaders' local_size and the C++ dispatch counts both use these macros, so
@@ -134,6 +141,12 @@ using mat4 = glm::mat4;
 #define MYRIAD_VIEW_EMISSIVE 11
 #define MYRIAD_VIEW_OCCLUSION 12
 
+// The G-buffer targets a frame writes only when it needs them (FrameUniforms.written.x): the uv
+// target for the uv view, emission when a material emits or for the emissive view. Raster output
+// is what the G-buffer pass spends its time on where few units rasterize (docs/performance.md).
+#define MYRIAD_GBUFFER_UV 1u
+#define MYRIAD_GBUFFER_EMISSIVE 2u
+
 // Directional lights besides the sun (scene::kMaxExtraSuns; render/gpu_types.h checks it).
 #define MYRIAD_MAX_EXTRA_SUNS 3
 
@@ -153,6 +166,8 @@ MYRIAD_STRUCT(FrameUniforms) {
   vec4 boundsMax;
   uvec4 flags;           // x view (MYRIAD_VIEW_*), y light count, z raw output (0/1), w list capacity
   uvec4 grid;            // x,y clusters across/down, z depth slices, w technique (render::Technique)
+  uvec4 written;         // x the optional G-buffer targets this frame wrote (MYRIAD_GBUFFER_*);
+                         // yzw unused
   vec4 slicing;          // x slices / ln(far/near), y ln(near) * x, z heat-map max, w time (s)
   vec4 environment;      // x mode (MYRIAD_ENV_*), y intensity, z background shown (0/1), w unused
   vec4 environmentRotation;  // x cos, y sin of the environment's rotation about +Y
@@ -175,6 +190,13 @@ MYRIAD_STRUCT(EnvironmentParams) {
   vec4 sunDirection;  // xyz towards the sun (unit), w unused
   vec4 sunColor;      // rgb linear, w unused
   uvec4 step;         // x pyramid level written (downsample), y mode; zw unused
+};
+
+// The clustered assignment's queue of large lights: an indirect dispatch's group counts, then the
+// queue's length; the light indices follow in the same buffer.
+MYRIAD_STRUCT(LargeLightQueue) {
+  uvec4 groups;  // VkDispatchIndirectCommand x, y, z; w unused
+  uvec4 queued;  // x lights queued; yzw unused
 };
 
 // Counters the culling passes write and the host reads back: nothing is dropped silently.

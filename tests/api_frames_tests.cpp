@@ -997,3 +997,52 @@ TEST_CASE("fairness: a 1,000,000-light volumes frame does not hold another sessi
   REQUIRE(status.has_value());
   CHECK(status->cleanExit());
 }
+
+TEST_CASE("streams: 8 animated streams of 8 sessions each get within 20% of their mean rate") {
+  // The render thread takes the sessions' frames in turn, and streams' frames are never refused
+  // for a full queue (8 streams over --max-queued-frames 4 used to retry every 50 ms, unevenly).
+  ServerProcess server({"--lights", "8"});
+  REQUIRE(server.start() == ServerProcess::Start::Listening);
+  ApiClient api(server);
+  std::vector<TestSession> sessions;
+  for (int i = 0; i < 8; ++i) {
+    sessions.push_back(createSession(api));
+    REQUIRE(api.patch(sessions.back().path() + "/settings", R"({"animate": true, "markers": false})",
+                      sessions.back().token)
+                .status == 200);
+  }
+  const std::string query = "format=jpeg&fps=240&width=" + std::to_string(kWidth) +
+                            "&height=" + std::to_string(kHeight);
+  std::vector<std::unique_ptr<StreamReader>> readers;
+  for (const TestSession& s : sessions) {
+    readers.push_back(std::make_unique<StreamReader>(server, streamPath(s, query), auth(s)));
+  }
+  for (auto& reader : readers) {
+    REQUIRE(reader->status() == 200);
+    REQUIRE(reader->waitForParts(2, std::chrono::seconds(120)).size() >= 2u);
+  }
+  std::vector<size_t> before;
+  for (auto& reader : readers) before.push_back(reader->waitForParts(0, std::chrono::seconds(0)).size());
+  std::this_thread::sleep_for(std::chrono::seconds(5));
+  std::vector<double> frames;
+  for (size_t i = 0; i < readers.size(); ++i) {
+    frames.push_back(double(readers[i]->waitForParts(0, std::chrono::seconds(0)).size() - before[i]));
+  }
+  readers.clear();
+  double mean = 0.0;
+  for (double f : frames) mean += f / double(frames.size());
+  std::ostringstream list;
+  double worst = 0.0;
+  for (double f : frames) {
+    list << f << " ";
+    worst = std::max(worst, std::abs(f - mean) / mean);
+  }
+  MESSAGE("frames per stream in 5 s: " << list.str() << "(mean " << mean << ", largest deviation "
+                                       << worst * 100.0 << "%)");
+  REQUIRE(mean >= 5.0);  // enough frames for 20% to be measurable
+  CHECK(worst <= 0.20);
+  CHECK(validationMessages(api) == 0);
+  std::optional<myriad::test::ExitStatus> status = server.stop();
+  REQUIRE(status.has_value());
+  CHECK(status->cleanExit());
+}

@@ -318,6 +318,35 @@ TEST_CASE("updateMaterials changes exactly the material's pixels") {
   CHECK(gpu.context->validationMessages.load() == 0);
 }
 
+// The emissive target is written only while some material emits (MYRIAD_GBUFFER_EMISSIVE): an
+// edit that makes one emit must light it up, one that stops it must give the frame of before.
+TEST_CASE("emission follows material edits both ways, though the emissive target is optional") {
+  Gpu& gpu = sharedGpu();
+  render::Renderer& r = *gpu.renderer;
+  scene::Scene s = sceneB();
+  for (scene::Material& m : s.materials) m.emissive = glm::vec3(0.0f);
+  render::SceneId id = r.createScene(s);
+  render::Frame dark = r.render(id, settingsFor(s));
+
+  s.materials[1].emissive = glm::vec3(0.0f, 2.0f, 0.0f);
+  s.materials[1].emissiveStrength = 1.0f;
+  r.updateMaterials(id, {{1, s.materials[1]}});
+  render::Frame glowing = r.render(id, settingsFor(s));
+  checkMatchesReference(glowing, s, settingsFor(s));
+  size_t greener = 0;
+  for (size_t i = 0; i < glowing.rgba.size(); i += 4) {
+    if (glowing.rgba[i + 1] > dark.rgba[i + 1] + 40) ++greener;
+  }
+  MESSAGE(greener << " pixels glow green");
+  CHECK(greener > 30);
+
+  s.materials[1].emissive = glm::vec3(0.0f);
+  r.updateMaterials(id, {{1, s.materials[1]}});
+  CHECK(r.render(id, settingsFor(s)).rgba == dark.rgba);
+  r.destroyScene(id);
+  CHECK(gpu.context->validationMessages.load() == 0);
+}
+
 TEST_CASE("sun, ambient and background come from the frame settings, not the scene") {
   Gpu& gpu = sharedGpu();
   render::Renderer& r = *gpu.renderer;

@@ -6,6 +6,8 @@
 #include <algorithm>
 #include <chrono>
 #include <stdexcept>
+#include <string>
+#include <thread>
 
 #include <glm/gtc/matrix_transform.hpp>
 
@@ -157,6 +159,58 @@ TEST_CASE("render thread: scenes take turns, so a backlog of one delays another'
   destroyed.get();
   CHECK_THROWS_AS(dropped.get(), std::invalid_argument);
   thread.destroyScene(again.get()).get();
+
+  // A frame given up before it starts (a stream that ended with a frame submitted ahead) is not
+  // rendered; one not given up is.
+  auto giveUp = std::make_shared<std::atomic<bool>>(true);
+  CHECK_THROWS_AS(
+      thread.submit(thread.defaultScene(), settingsFor(builtin), render::FrameSource::Stream, giveUp)
+          .get(),
+      render::FrameDroppedError);
+  auto keep = std::make_shared<std::atomic<bool>>(false);
+  CHECK(thread.submit(thread.defaultScene(), settingsFor(builtin), render::FrameSource::Stream, keep)
+            .get()
+            .width == 48);
+  CHECK(thread.validationMessages() == 0);
+  thread.stop();
+}
+
+TEST_CASE("render thread: a split frame given up stops at its next part") {
+  const scene::Scene builtin = floorWithBlock(glm::vec3(0.2f, 0.8f, 0.2f));
+  render::RenderThread thread({.validation = true, .device = ""}, builtin, 4);
+  // 100,000 light volumes: more than a frame splits before any light was measured; each part
+  // draws a few thousand of them, and the whole frame takes seconds on lavapipe.
+  scene::Scene heavy = floorWithBlock(glm::vec3(0.5f));
+  scene::LightGeneration g;
+  g.count = 100000;
+  g.bounds = {glm::vec3(-3.0f, 0.1f, -3.0f), glm::vec3(3.0f, 1.5f, 3.0f)};
+  heavy.lights = scene::generateLights(g);
+  const render::SceneId id =
+      thread.createScene(std::make_shared<const scene::Scene>(std::move(heavy))).get();
+  render::FrameSettings settings = settingsFor(builtin);
+  settings.technique = render::Technique::Volumes;
+  auto giveUp = std::make_shared<std::atomic<bool>>(false);
+  std::future<render::Frame> frame =
+      thread.submit(id, settings, render::FrameSource::Request, giveUp);
+  // Once it renders (its first part is quick), other frames still pass it...
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  CHECK(thread.submit(settingsFor(builtin)).get().width == 48);
+  REQUIRE(frame.wait_for(std::chrono::seconds(0)) != std::future_status::ready);
+  // ...and giving it up ends it at its next part, not after all of its lights.
+  const auto start = std::chrono::steady_clock::now();
+  *giveUp = true;
+  std::string message;
+  try {
+    frame.get();
+  } catch (const render::FrameDroppedError& e) {
+    message = e.what();
+  }
+  const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() -
+                                                              start).count();
+  MESSAGE("a split frame given up ended " << ms << " ms later: " << message);
+  CHECK(message == "the frame was given up while it rendered");
+  CHECK(ms < 3000.0);
+  thread.destroyScene(id).get();
   CHECK(thread.validationMessages() == 0);
   thread.stop();
 }

@@ -17,10 +17,13 @@ class JpegError : public std::runtime_error {
 
 // Encodes tightly packed RGBA8 rows, top row first (alpha ignored), as a baseline JPEG at
 // `quality` 1..100. Chroma is subsampled 4:2:0 below quality 90 and kept whole (4:4:4) from 90 up,
-// where the asker wants fidelity more than size.
+// where the asker wants fidelity more than size. Images of 1280x720 pixels and more are encoded in
+// strips of whole MCU rows on `threads` threads (0: half the machine's cores, at most 8, leaving
+// the rest to the renderer and the other workers; 1: one thread) and joined with restart markers:
+// the decoded pixels are the same as one encoding's.
 // Throws std::invalid_argument when rgba.size() != width * height * 4, a size is 0 or above
 // JPEG's 65,535, or quality is outside 1..100; JpegError when libturbojpeg fails.
 std::vector<uint8_t> encodeJpeg(std::span<const uint8_t> rgba, uint32_t width, uint32_t height,
-                                int quality);
+                                int quality, unsigned threads = 0);
 
 }  // namespace myriad::encode

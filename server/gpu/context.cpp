@@ -282,6 +282,7 @@ std::unique_ptr<Context> createContext(const ContextOptions& options) {
   VkPhysicalDeviceFeatures supported{};
   vkGetPhysicalDeviceFeatures(context->physicalDevice, &supported);
   context->depthClamp = supported.depthClamp == VK_TRUE;
+  context->fragmentStores = supported.fragmentStoresAndAtomics == VK_TRUE;
   if (supported.samplerAnisotropy == VK_TRUE) {
     VkPhysicalDeviceProperties properties;
     vkGetPhysicalDeviceProperties(context->physicalDevice, &properties);
@@ -308,6 +309,7 @@ std::unique_ptr<Context> createContext(const ContextOptions& options) {
   features.pNext = &features13;
   features.features.depthClamp = supported.depthClamp;
   features.features.samplerAnisotropy = supported.samplerAnisotropy;
+  features.features.fragmentStoresAndAtomics = supported.fragmentStoresAndAtomics;
 
   float priority = 1.0f;
   VkDeviceQueueCreateInfo queueInfo{VK_STRUCTURE_TYPE_DEVICE_QUEUE_CREATE_INFO};

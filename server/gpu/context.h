@@ -35,6 +35,9 @@ struct Context {
   DeviceInfo info;
   VkPhysicalDeviceMemoryProperties memoryProperties{};
   bool depthClamp = false;
+  // fragmentStoresAndAtomics: fragment shaders may write storage buffers (the clustered technique
+  // marks the clusters of alpha-blended surfaces from their fragments).
+  bool fragmentStores = false;
   float maxAnisotropy = 0.0f;  // 0: samplerAnisotropy is not available (textures filter without it)
 
   // Validation-layer messages of warning or error severity seen so far (0 when validation is off).

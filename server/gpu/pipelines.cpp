@@ -72,6 +72,14 @@ VkPipeline createGraphicsPipeline(VkDevice device, VkPipelineLayout layout,
       b.srcAlphaBlendFactor = VK_BLEND_FACTOR_ZERO;
       b.dstAlphaBlendFactor = VK_BLEND_FACTOR_ONE;
       b.alphaBlendOp = VK_BLEND_OP_ADD;
+    } else if (desc.blend == Blend::Alpha) {
+      b.blendEnable = VK_TRUE;
+      b.srcColorBlendFactor = VK_BLEND_FACTOR_SRC_ALPHA;
+      b.dstColorBlendFactor = VK_BLEND_FACTOR_ONE_MINUS_SRC_ALPHA;
+      b.colorBlendOp = VK_BLEND_OP_ADD;
+      b.srcAlphaBlendFactor = VK_BLEND_FACTOR_ZERO;
+      b.dstAlphaBlendFactor = VK_BLEND_FACTOR_ONE;
+      b.alphaBlendOp = VK_BLEND_OP_ADD;
     }
   }
   VkPipelineColorBlendStateCreateInfo blend{VK_STRUCTURE_TYPE_PIPELINE_COLOR_BLEND_STATE_CREATE_INFO};

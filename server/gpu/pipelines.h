@@ -9,7 +9,8 @@
 
 namespace myriad::gpu {
 
-enum class Blend { None, Additive };
+// Alpha: `over` (colour = src * src.a + dst * (1 - src.a), the destination's alpha kept).
+enum class Blend { None, Additive, Alpha };
 
 struct VertexLayout {
   uint32_t stride = 0;  // 0: no vertex buffer (fullscreen triangle)

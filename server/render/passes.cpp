@@ -1,7 +1,10 @@
 #include "render/passes.h"
 
+#include <algorithm>
 #include <array>
 #include <cstddef>
+#include <utility>
+#include <vector>
 
 #include "embedded_shaders.h"
 #include "gpu/commands.h"
@@ -16,21 +19,6 @@ namespace myriad::render {
 namespace {
 
 using gpu::ImageTransition;
-
-gpu::VertexLayout fullVertexLayout() {
-  return {sizeof(scene::Vertex),
-          {{0, 0, VK_FORMAT_R32G32B32_SFLOAT, offsetof(scene::Vertex, position)},
-           {1, 0, VK_FORMAT_R32G32B32_SFLOAT, offsetof(scene::Vertex, normal)},
-           {2, 0, VK_FORMAT_R32G32_SFLOAT, offsetof(scene::Vertex, uv)}}};
-}
-
-// The G-buffer pass reads every vertex attribute.
-gpu::VertexLayout gbufferVertexLayout() {
-  gpu::VertexLayout layout = fullVertexLayout();
-  layout.attributes.push_back({3, 0, VK_FORMAT_R32G32B32A32_SFLOAT, offsetof(scene::Vertex, tangent)});
-  layout.attributes.push_back({4, 0, VK_FORMAT_R32G32B32A32_SFLOAT, offsetof(scene::Vertex, color)});
-  return layout;
-}
 
 // G-buffer images are read by fragment shaders (sun, light volumes, tonemap views) and by the
 // compute lighting of the tiled and clustered techniques.
@@ -53,6 +41,15 @@ ImageTransition writtenToSampled(const gpu::Image& image, VkImageLayout layout) 
 }
 
 }  // namespace
+
+gpu::VertexLayout surfaceVertexLayout() {
+  return {sizeof(scene::Vertex),
+          {{0, 0, VK_FORMAT_R32G32B32_SFLOAT, offsetof(scene::Vertex, position)},
+           {1, 0, VK_FORMAT_R32G32B32_SFLOAT, offsetof(scene::Vertex, normal)},
+           {2, 0, VK_FORMAT_R32G32_SFLOAT, offsetof(scene::Vertex, uv)},
+           {3, 0, VK_FORMAT_R32G32B32A32_SFLOAT, offsetof(scene::Vertex, tangent)},
+           {4, 0, VK_FORMAT_R32G32B32A32_SFLOAT, offsetof(scene::Vertex, color)}}};
+}
 
 Pipelines::Pipelines(gpu::Context& context) : device(context.device) {
   const VkShaderStageFlags all =
@@ -86,9 +83,11 @@ Pipelines::Pipelines(gpu::Context& context) : device(context.device) {
                                                 VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, 1,
                                                 VK_SHADER_STAGE_COMPUTE_BIT, nullptr};
   targetSetLayout = gpu::createDescriptorSetLayout(device, targetBindings);
-  std::array<VkDescriptorSetLayoutBinding, 4> cullingBindings{};
+  std::array<VkDescriptorSetLayoutBinding, 5> cullingBindings{};
   for (uint32_t i = 0; i < cullingBindings.size(); ++i) {
-    cullingBindings[i] = {i, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, VK_SHADER_STAGE_COMPUTE_BIT, nullptr};
+    // Fragment too: the clustered technique marks blended surfaces' clusters from fragments, and
+    // the forward pass reads the lists.
+    cullingBindings[i] = {i, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, readers, nullptr};
   }
   cullingSetLayout = gpu::createDescriptorSetLayout(device, cullingBindings);
   std::array<VkDescriptorSetLayoutBinding, MYRIAD_TEXTURE_SLOTS> materialBindings{};
@@ -111,13 +110,23 @@ Pipelines::Pipelines(gpu::Context& context) : device(context.device) {
   gpu::GraphicsPipelineDesc d;
   d.vertexShader = spirv::gbuffer_vert;
   d.fragmentShader = spirv::gbuffer_frag;
-  d.vertexLayout = gbufferVertexLayout();
+  d.vertexLayout = surfaceVertexLayout();
   d.colorFormats = {kNormalFormat, kBaseColorFormat, kMaterialFormat, kUvFormat, kEmissiveFormat};
   d.depthFormat = kDepthFormat;
   d.depthTest = d.depthWrite = true;
   d.depthCompare = VK_COMPARE_OP_LESS;
   d.dynamicCullMode = true;  // per material: glTF's doubleSided
   gbuffer = gpu::createGraphicsPipeline(device, layout, d);
+
+  // Alpha-blended surfaces: the G-buffer's vertex stage, one HDR target blended `over`, the
+  // G-buffer depth tested and kept.
+  d.fragmentShader = spirv::forward_frag;
+  d.colorFormats = {kHdrFormat};
+  d.depthWrite = false;
+  d.blend = gpu::Blend::Alpha;
+  forward = gpu::createGraphicsPipeline(device, layout, d);
+  d.fragmentShader = spirv::forward_clustered_frag;
+  forwardClustered = gpu::createGraphicsPipeline(device, layout, d);
 
   // Shadow maps: depth only, both faces (render/shadows.cpp).
   d = {};
@@ -149,7 +158,7 @@ Pipelines::Pipelines(gpu::Context& context) : device(context.device) {
 }
 
 Pipelines::~Pipelines() {
-  for (VkPipeline p : {gbuffer, shadow, lightVolumeOverlay, tonemap, tonemapRaw, animateLights, markerSplat,
+  for (VkPipeline p : {gbuffer, forward, forwardClustered, shadow, lightVolumeOverlay, tonemap, tonemapRaw, animateLights, markerSplat,
                       markerResolve}) {
     if (p) vkDestroyPipeline(device, p, nullptr);
   }
@@ -161,7 +170,7 @@ Pipelines::~Pipelines() {
 }
 
 void recordGBufferPass(VkCommandBuffer cmd, const Pipelines& p, const FrameTargets& t,
-                       const SceneBuffers& scene) {
+                       const SceneBuffers& scene, uint32_t written) {
   const VkPipelineStageFlags2 reader = VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT;
   const ImageTransition before[] = {
       discardForColorWrite(t.normal, reader),
@@ -183,6 +192,10 @@ void recordGBufferPass(VkCommandBuffer cmd, const Pipelines& p, const FrameTarge
       colorAttachment(t.uv, VK_ATTACHMENT_LOAD_OP_CLEAR),
       colorAttachment(t.emissive, VK_ATTACHMENT_LOAD_OP_CLEAR)};
   for (auto& c : colors) c.clearValue.color = {{0.0f, 0.0f, 0.0f, 0.0f}};
+  // Optional targets the frame does not read are left unbound: their writes are discarded (and
+  // their contents undefined; FrameUniforms.written tells the shaders).
+  if ((written & MYRIAD_GBUFFER_UV) == 0) colors[3].imageView = VK_NULL_HANDLE;
+  if ((written & MYRIAD_GBUFFER_EMISSIVE) == 0) colors[4].imageView = VK_NULL_HANDLE;
   VkRenderingAttachmentInfo depth{VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO};
   depth.imageView = t.depth.view;
   depth.imageLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
@@ -196,6 +209,7 @@ void recordGBufferPass(VkCommandBuffer cmd, const Pipelines& p, const FrameTarge
   // per group.
   uint32_t bound = UINT32_MAX;
   for (const DrawItem& draw : scene.draws) {
+    if (scene.blend[draw.material]) continue;  // the forward pass draws it (recordBlendPass)
     if (draw.material != bound) {
       bound = draw.material;
       VkDescriptorSet set = scene.textures->set(bound);
@@ -222,6 +236,59 @@ void recordGBufferPass(VkCommandBuffer cmd, const Pipelines& p, const FrameTarge
        VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL, VK_IMAGE_LAYOUT_READ_ONLY_OPTIMAL},
   };
   gpu::barrier(cmd, after);
+}
+
+bool hasBlendDraws(const SceneBuffers& scene) {
+  return std::any_of(scene.draws.begin(), scene.draws.end(),
+                     [&](const DrawItem& d) { return scene.blend[d.material] != 0; });
+}
+
+VkImageLayout recordBlendPass(VkCommandBuffer cmd, const Pipelines& p, const FrameTargets& t,
+                              const SceneBuffers& scene, const glm::mat4& view,
+                              VkImageLayout hdrLayout, bool clusterLists) {
+  // Back to front: the farthest centre (most negative view-space z) first; ties keep scene order.
+  std::vector<std::pair<float, const DrawItem*>> order;
+  for (const DrawItem& draw : scene.draws) {
+    if (scene.blend[draw.material]) order.emplace_back((view * glm::vec4(draw.centre, 1.0f)).z, &draw);
+  }
+  if (order.empty()) return hdrLayout;
+  std::stable_sort(order.begin(), order.end(),
+                   [](const auto& a, const auto& b) { return a.first < b.first; });
+
+  const bool storage = hdrLayout == VK_IMAGE_LAYOUT_GENERAL;
+  const ImageTransition before[] = {
+      storage ? ImageTransition{&t.hdr, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
+                                VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
+                                VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT,
+                                VK_ACCESS_2_COLOR_ATTACHMENT_READ_BIT |
+                                    VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT,
+                                VK_IMAGE_LAYOUT_GENERAL, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL}
+              : colorWriteToBlend(t.hdr)};
+  gpu::barrier(cmd, before);
+  if (clusterLists) {
+    // The lists were filled by compute (the clustered technique's assign step).
+    gpu::memoryBarrier(cmd, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
+                       VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT, VK_ACCESS_2_SHADER_STORAGE_READ_BIT);
+  }
+  VkRenderingAttachmentInfo color = colorAttachment(t.hdr, VK_ATTACHMENT_LOAD_OP_LOAD);
+  VkRenderingAttachmentInfo depth = readOnlyDepth(t.depth);
+  beginRendering(cmd, t.extent, {&color, 1}, &depth);
+  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, clusterLists ? p.forwardClustered : p.forward);
+  bindGeometry(cmd, scene);
+  uint32_t bound = UINT32_MAX;
+  for (const auto& [z, draw] : order) {
+    if (draw->material != bound) {
+      bound = draw->material;
+      VkDescriptorSet set = scene.textures->set(bound);
+      vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, p.layout, MYRIAD_SET_MATERIAL,
+                              1, &set, 0, nullptr);
+      vkCmdSetCullMode(cmd, scene.doubleSided[bound] ? VK_CULL_MODE_NONE : VK_CULL_MODE_BACK_BIT);
+    }
+    vkCmdDrawIndexed(cmd, draw->mesh.indexCount, 1, draw->mesh.firstIndex, draw->mesh.vertexOffset,
+                     draw->instance);
+  }
+  vkCmdEndRendering(cmd);
+  return VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL;
 }
 
 void recordMarkerPass(VkCommandBuffer cmd, const Pipelines& p, const FrameTargets& t,

@@ -27,6 +27,9 @@ struct Pipelines {
   VkDescriptorSetLayout materialSetLayout = VK_NULL_HANDLE;  // set 3: one material's textures
   VkPipelineLayout layout = VK_NULL_HANDLE;
   VkPipeline gbuffer = VK_NULL_HANDLE;
+  // Alpha-blended surfaces (recordBlendPass): every light tested, or the clustered lists.
+  VkPipeline forward = VK_NULL_HANDLE;
+  VkPipeline forwardClustered = VK_NULL_HANDLE;
   VkPipeline shadow = VK_NULL_HANDLE;  // depth only, from a light (render/shadows.h)
   VkPipeline lightVolumeOverlay = VK_NULL_HANDLE;
   VkPipeline tonemap = VK_NULL_HANDLE;
@@ -37,10 +40,22 @@ struct Pipelines {
   VkPipeline markerResolve = VK_NULL_HANDLE;  // markers: one thread per pixel
 };
 
-// 1. Writes depth, normal, base colour, material, uv, emissive; leaves them readable by later passes.
+// 1. Writes depth, normal, base colour, material, and uv and emissive where `written`
+// (MYRIAD_GBUFFER_* bits) says; leaves them readable by later passes.
 void recordGBufferPass(VkCommandBuffer cmd, const Pipelines& p, const FrameTargets& t,
-                       const SceneBuffers& scene);
+                       const SceneBuffers& scene, uint32_t written);
 // 2-3. The lighting technique's passes (render/techniques/technique.h).
+// 3b. Alpha-blended (glTF BLEND) draws, sorted back to front by the view depth of each draw's
+//    centre, depth-tested against the G-buffer depth without writing it, lit like opaque pixels
+//    (sun, ambient or environment, emission, local lights) and blended `over` into HDR. Lights come
+//    from the clustered lists when `clusterLists` (the technique bound them as set 2 at the
+//    graphics bind point), else every light is tested. `hdrLayout` as for the marker pass;
+//    returns HDR's layout after it (COLOR_ATTACHMENT, or `hdrLayout` when nothing is blended).
+VkImageLayout recordBlendPass(VkCommandBuffer cmd, const Pipelines& p, const FrameTargets& t,
+                              const SceneBuffers& scene, const glm::mat4& view,
+                              VkImageLayout hdrLayout, bool clusterLists);
+// Whether the scene has alpha-blended draws (the clustered technique then marks their clusters).
+bool hasBlendDraws(const SceneBuffers& scene);
 // 4. Reads depth (test only, kept from pass 1) and lights; splats light markers (compute, a few
 //    pixels each) into the marker keys, then blends them into HDR. `hdrLayout` is where the
 //    lighting pass left HDR (GENERAL after compute, COLOR_ATTACHMENT after volumes); HDR leaves

@@ -26,6 +26,10 @@ void beginRendering(VkCommandBuffer cmd, VkExtent2D extent,
 
 void bindGeometry(VkCommandBuffer cmd, const SceneBuffers& scene);
 
+// Every vertex attribute (position, normal, uv, tangent, colour): what gbuffer.vert reads, for the
+// G-buffer pass and every pass that rasterises the scene's surfaces with it.
+gpu::VertexLayout surfaceVertexLayout();
+
 // One instanced draw of the light proxy sphere per light (nothing without lights); with `first`
 // and `count`, of lights [first, first + count) only (firstInstance carries the light index).
 void drawLightProxies(VkCommandBuffer cmd, const SceneBuffers& scene);

@@ -3,6 +3,7 @@
 // render::RenderThread (render/render_thread.h) is the implementation main() starts.
 #pragma once
 
+#include <atomic>
 #include <cstdint>
 #include <future>
 #include <memory>
@@ -15,6 +16,18 @@
 #include "scene/scene.h"
 
 namespace myriad::render {
+
+// Who waits for a frame. A request's frame counts against maxQueuedFrames (a waiting request
+// holds an HTTP worker); a stream's does not: an open stream has at most one frame queued and
+// --max-streams bounds the streams, while refusing its frame only made the stream retry 50 ms
+// later, which gave concurrent streams uneven rates and left the GPU idle.
+enum class FrameSource { Request, Stream };
+
+// A frame its submitter gave up on before it started (submit's `drop`).
+class FrameDroppedError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
 
 // submit() found the queue full (or the queue stopping); the client should retry later.
 class RenderQueueFullError : public std::runtime_error {
@@ -58,8 +71,18 @@ class RenderQueue {
   // Queues a frame of scene `id`; the future holds the frame or what the renderer threw. The
   // settings carry the sun, ambient and background (FrameSettings::takeLightingFrom). Throws
   // RenderQueueFullError when maxQueuedFrames() frames already wait behind the one rendering, or
-  // after stop(). Only frames count against maxQueuedFrames().
-  virtual std::future<Frame> submit(SceneId id, const FrameSettings& settings) = 0;
+  // after stop(). Only frames of FrameSource::Request count against maxQueuedFrames().
+  // `drop`, when given, lets the submitter give the frame up: set before the frame starts, the
+  // frame is not rendered, and set while a split frame renders, it stops at its next part; its
+  // future gets FrameDroppedError.
+  virtual std::future<Frame> submit(SceneId id, const FrameSettings& settings, FrameSource source,
+                                    std::shared_ptr<const std::atomic<bool>> drop) = 0;
+  std::future<Frame> submit(SceneId id, const FrameSettings& settings, FrameSource source) {
+    return submit(id, settings, source, nullptr);
+  }
+  std::future<Frame> submit(SceneId id, const FrameSettings& settings) {
+    return submit(id, settings, FrameSource::Request, nullptr);
+  }
   // The same for the default scene.
   std::future<Frame> submit(const FrameSettings& settings) {
     return submit(defaultScene(), settings);

@@ -65,7 +65,7 @@ void RenderThread::enqueue(Task task) {
   {
     std::lock_guard lock(mutex_);
     if (stopping_) throw RenderQueueFullError("the server is shutting down");
-    if (task.frame) {
+    if (task.counted) {
       // Besides the frame rendering, at most maxQueuedFrames wait; while none renders, a new
       // frame starts at once.
       if (framesUnfinished_ > maxQueuedFrames_) {
@@ -154,7 +154,9 @@ std::future<void> RenderThread::setEnvironmentImage(
   });
 }
 
-std::future<Frame> RenderThread::submit(SceneId id, const FrameSettings& settings) {
+std::future<Frame> RenderThread::submit(SceneId id, const FrameSettings& settings,
+                                        FrameSource source,
+                                        std::shared_ptr<const std::atomic<bool>> drop) {
   // Shared between the task's turns: a split frame keeps its progress here.
   struct Pending {
     std::promise<Frame> promise;
@@ -167,8 +169,13 @@ std::future<Frame> RenderThread::submit(SceneId id, const FrameSettings& setting
   Task task;
   task.scene = id;
   task.frame = true;
-  task.run = [this, pending, id, settings](Renderer& r) {
+  task.counted = source == FrameSource::Request;
+  task.run = [this, pending, id, settings, drop = std::move(drop)](Renderer& r) {
     try {
+      if (drop && drop->load()) {
+        throw FrameDroppedError(pending->split ? "the frame was given up while it rendered"
+                                               : "the frame was given up before it started");
+      }
       if (!pending->split) {
         // Not started yet: a whole frame, or the first submission of a split one.
         const bool split = r.shouldSplit(id, settings);
@@ -216,8 +223,8 @@ RenderThread::Task* RenderThread::pick() {
     // A scene being destroyed: its frames ahead of the destroyScene are for nobody.
     while (queue.destroys > 0 && !queue.tasks.empty() && queue.tasks.front().frame) {
       queue.tasks.front().cancel();
+      if (queue.tasks.front().counted) --framesUnfinished_;
       queue.tasks.pop_front();
-      --framesUnfinished_;
     }
     if (queue.tasks.empty()) {
       queues_.erase(id);
@@ -232,7 +239,7 @@ void RenderThread::finish(Task& task, Step step) {
   const SceneId id = task.scene;
   SceneQueue& queue = queues_.at(id);
   if (step == Step::Done) {
-    if (task.frame) --framesUnfinished_;
+    if (task.counted) --framesUnfinished_;
     if (task.destroy) --queue.destroys;
     queue.tasks.pop_front();  // `task`
   }

@@ -65,7 +65,8 @@ class RenderThread final : public RenderQueue {
   std::future<void> updateMaterials(SceneId id, std::vector<MaterialWrite> writes) override;
   std::future<void> setEnvironmentImage(
       SceneId id, std::shared_ptr<const scene::EnvironmentImage> image) override;
-  std::future<Frame> submit(SceneId id, const FrameSettings& settings) override;
+  std::future<Frame> submit(SceneId id, const FrameSettings& settings, FrameSource source,
+                            std::shared_ptr<const std::atomic<bool>> drop) override;
   using RenderQueue::submit;  // submit(settings): the default scene
   uint64_t gpuMemoryBytes() const override { return gpuMemoryBytes_.load(); }
   // Renders the frames already queued, then releases the renderer and the device on the render
@@ -82,7 +83,8 @@ class RenderThread final : public RenderQueue {
   // One unit of work for the render thread; `run` fulfils its own promise.
   struct Task {
     SceneId scene = 0;     // whose queue: the scene it edits or renders (0: creating a scene)
-    bool frame = false;    // counts against maxQueuedFrames
+    bool frame = false;    // a frame (dropped when its scene is destroyed)
+    bool counted = false;  // a frame that counts against maxQueuedFrames (FrameSource::Request)
     bool destroy = false;  // destroyScene
     std::function<Step(Renderer&)> run;
     // A frame only: fails its promise without rendering (its scene is being destroyed).
@@ -121,7 +123,7 @@ class RenderThread final : public RenderQueue {
   // tasks and none of them is running). References to tasks stay valid across push_back.
   std::map<SceneId, SceneQueue> queues_;
   std::deque<SceneId> turns_;
-  uint32_t framesUnfinished_ = 0;  // frames queued, rendering or split, not yet answered
+  uint32_t framesUnfinished_ = 0;  // counted frames queued, rendering or split, not yet answered
   bool stopping_ = false;
 
   std::thread thread_;

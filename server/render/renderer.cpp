@@ -27,8 +27,9 @@ namespace myriad::render {
 
 namespace {
 
-// environment (when rebuilt), animate, shadow, gbuffer, the technique's (sun + lights, or lighting),
-// markers, tonemap, overlay, readback: room for a technique of four passes.
+// environment (when rebuilt), animate, shadow, gbuffer, the technique's (sun + lights, lighting,
+// or assign + shade), blend, markers, tonemap, overlay, readback: room for a technique of three
+// passes.
 constexpr uint32_t kMaxTimedPasses = 12;
 
 // The light-count view's hottest colour when the request leaves it to us.
@@ -36,6 +37,15 @@ constexpr uint32_t kDefaultHeatMapMax = 64;
 
 // The frame uniforms are one small buffer; a default 64 MiB block would be almost all waste.
 constexpr VkDeviceSize kUniformBlockSize = 64ull << 10;
+
+// The optional G-buffer targets (MYRIAD_GBUFFER_*) a frame reads: uv only for the uv view,
+// emission for the emissive view and wherever a material emits.
+uint32_t gbufferWrites(const FrameSettings& s, const SceneBuffers& scene) {
+  uint32_t written = 0;
+  if (s.target == Target::Uv) written |= MYRIAD_GBUFFER_UV;
+  if (s.target == Target::Emissive || scene.anyEmission()) written |= MYRIAD_GBUFFER_EMISSIVE;
+  return written;
+}
 
 // Split frames (Renderer::SplitFrame): the fewest lights a range draws, and the first range of a
 // frame when no light pass has been measured yet (about 0.4 s at 160x90 on lavapipe, where a
@@ -262,6 +272,7 @@ void Renderer::State::writeUniforms(FrameSlot& slot, const FrameSettings& s,
   u.boundsMin = glm::vec4(bounds.empty() ? glm::vec3(0.0f) : bounds.min, 0.0f);
   u.boundsMax = glm::vec4(bounds.empty() ? glm::vec3(1.0f) : bounds.max, 0.0f);
   u.flags = glm::uvec4(static_cast<uint32_t>(s.target), scene.lightCount, s.raw ? 1 : 0, 0);
+  u.written = glm::uvec4(gbufferWrites(s, scene), 0, 0, 0);
   // The cluster grid: the clustered technique's, and the clusters view's whatever the technique.
   const ClusterGrid g = clusterGrid({s.width, s.height});
   u.grid = glm::uvec4(g.x, g.y, g.slices, static_cast<uint32_t>(s.technique));
@@ -549,10 +560,10 @@ void Renderer::State::recordBeforeLighting(VkCommandBuffer cmd, const FrameSlot&
     slot.shadows->recordSunUnused(cmd);
   }
   s.timer.beginPass(cmd, "gbuffer");
-  recordGBufferPass(cmd, p, *slot.targets, scene);
+  recordGBufferPass(cmd, p, *slot.targets, scene, gbufferWrites(settings, scene));
 }
 
-// markers, tonemap, overlay, readback; then the timer's end.
+// blend (alpha-BLEND draws), markers, tonemap, overlay, readback; then the timer's end.
 void Renderer::State::recordAfterLighting(VkCommandBuffer cmd, const FrameSlot& slot,
                                           SceneBuffers& scene, const FrameSettings& settings,
                                           VkImageLayout lightingLayout) {
@@ -560,6 +571,11 @@ void Renderer::State::recordAfterLighting(VkCommandBuffer cmd, const FrameSlot& 
   const Pipelines& p = s.pipelines;
   const FrameTargets& t = *slot.targets;
   VkImageLayout hdrLayout = lightingLayout;
+  if (hasBlendDraws(scene)) {
+    s.timer.beginPass(cmd, "blend");
+    hdrLayout = recordBlendPass(cmd, p, t, scene, scene::viewMatrix(settings.camera), hdrLayout,
+                                s.technique(settings.technique).bindForwardLights(cmd));
+  }
   if (settings.markers) {
     s.timer.beginPass(cmd, "markers");
     recordMarkerPass(cmd, p, t, scene, hdrLayout);

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <limits>
 #include <string>
 #include <stdexcept>
 
@@ -84,6 +85,11 @@ void transfer(gpu::Context& context, gpu::CommandRecorder& recorder,
 
 GpuPointLight toGpu(const scene::PointLight& l) { return packLight(l); }
 
+// Emission is factor x strength (x texture): zero whenever the factor or the strength is.
+bool emitsLight(const scene::Material& m) {
+  return m.emissiveStrength != 0.0f && m.emissive != glm::vec3(0.0f);
+}
+
 GpuMaterial toGpu(const scene::Material& m) {
   GpuMaterial g{};
   g.baseColor = glm::vec4(m.baseColor, m.alpha);
@@ -164,7 +170,17 @@ SceneBuffers::SceneBuffers(gpu::Context& context, gpu::CommandRecorder& recorder
     allIndices.insert(allIndices.end(), mesh.indices.begin(), mesh.indices.end());
     return range;
   };
-  for (const scene::Mesh& mesh : scene.meshes) ranges.push_back(append(mesh));
+  std::vector<glm::vec3> centres;  // of each mesh's bounds
+  for (const scene::Mesh& mesh : scene.meshes) {
+    ranges.push_back(append(mesh));
+    glm::vec3 lo(std::numeric_limits<float>::max()), hi(-std::numeric_limits<float>::max());
+    for (uint32_t index : mesh.indices) {
+      if (index >= mesh.vertices.size()) continue;
+      lo = glm::min(lo, mesh.vertices[index].position);
+      hi = glm::max(hi, mesh.vertices[index].position);
+    }
+    centres.push_back(lo.x <= hi.x ? 0.5f * (lo + hi) : glm::vec3(0.0f));
+  }
 
   scene::Mesh proxy = scene::makeIcosphere(kProxySubdivisions);
   float scale = circumscribeScale(proxy);
@@ -183,13 +199,18 @@ SceneBuffers::SceneBuffers(gpu::Context& context, gpu::CommandRecorder& recorder
     g.material = glm::uvec4(instance.material, 0, 0, 0);
     gpuInstances.push_back(g);
     if (ranges[instance.mesh].indexCount > 0) {
-      draws.push_back({ranges[instance.mesh], i, instance.material});
+      draws.push_back({ranges[instance.mesh], i, instance.material,
+                       glm::vec3(instance.transform * glm::vec4(centres[instance.mesh], 1.0f))});
     }
   }
   // One descriptor set bind per material in the G-buffer pass.
   std::stable_sort(draws.begin(), draws.end(),
                    [](const DrawItem& a, const DrawItem& b) { return a.material < b.material; });
-  for (const scene::Material& m : scene.materials) doubleSided.push_back(m.doubleSided ? 1 : 0);
+  for (const scene::Material& m : scene.materials) {
+    doubleSided.push_back(m.doubleSided ? 1 : 0);
+    blend.push_back(m.alphaMode == scene::AlphaMode::blend ? 1 : 0);
+    emits.push_back(emitsLight(m) ? 1 : 0);
+  }
   textures = std::make_unique<MaterialTextures>(context, recorder, materialSetLayout, scene);
   std::vector<GpuMaterial> gpuMaterials;
   for (const scene::Material& m : scene.materials) gpuMaterials.push_back(toGpu(m));
@@ -314,7 +335,15 @@ void SceneBuffers::updateMaterials(gpu::CommandRecorder& recorder,
   std::vector<Upload> uploads = elementUploads<GpuMaterial>(
       writes, materials, staged, [](const MaterialWrite& w) { return toGpu(w.material); });
   transfer(context, recorder, {}, uploads);
-  for (const MaterialWrite& w : writes) doubleSided[w.index] = w.material.doubleSided ? 1 : 0;
+  for (const MaterialWrite& w : writes) {
+    doubleSided[w.index] = w.material.doubleSided ? 1 : 0;
+    blend[w.index] = w.material.alphaMode == scene::AlphaMode::blend ? 1 : 0;
+    emits[w.index] = emitsLight(w.material) ? 1 : 0;
+  }
+}
+
+bool SceneBuffers::anyEmission() const {
+  return std::find(emits.begin(), emits.end(), uint8_t{1}) != emits.end();
 }
 
 }  // namespace myriad::render

@@ -27,6 +27,7 @@ struct DrawItem {
   MeshRange mesh;
   uint32_t instance = 0;  // index into the instance buffer, passed as firstInstance
   uint32_t material = 0;  // the instance's material: draws are sorted by it
+  glm::vec3 centre{0.0f};  // world-space centre of the mesh's bounds: alpha-blended draws sort by it
 };
 
 struct SceneBuffers {
@@ -58,6 +59,11 @@ struct SceneBuffers {
   std::vector<DrawItem> draws;         // grouped by material
   std::unique_ptr<MaterialTextures> textures;
   std::vector<uint8_t> doubleSided;   // per material: whether back faces are drawn
+  // Per material: alphaMode BLEND, drawn by the forward pass (recordBlendPass), not into the
+  // G-buffer. Follows material edits, like doubleSided.
+  std::vector<uint8_t> blend;
+  std::vector<uint8_t> emits;         // per material: whether its emission can be non-zero
+  bool anyEmission() const;
   MeshRange lightProxy;  // icosphere circumscribing the unit sphere (volumes, markers)
   uint32_t lightCount = 0;
   uint32_t lightCapacity = 0;  // lights the two light buffers hold

@@ -4,12 +4,16 @@
 
 #include <chrono>
 #include <cstdio>
+#include <future>
+#include <optional>
 #include <string>
 
 #include <nlohmann/json.hpp>
 
 #include "protocol/constants.h"
 #include "render/render_queue.h"
+#include "service/peer_watch.h"
+#include "service/session_frames.h"
 #include "web_assets.h"
 
 namespace myriad::service {
@@ -38,6 +42,9 @@ Problem busy(const render::RenderQueueFullError& e) {
   return problem;
 }
 
+// How often a waiting frame request asks whether its client is still connected.
+constexpr std::chrono::milliseconds kPeerCheck{100};
+
 // Runs `deliver` (a frame's way through the renderer); a full render queue becomes 503 with
 // Retry-After, a renderer or encoder failure 500 render-failed (logged), a ProblemError passes.
 template <typename Deliver>
@@ -46,6 +53,9 @@ auto withFrameProblems(const std::string& what, Deliver deliver) -> decltype(del
     return deliver();
   } catch (const render::RenderQueueFullError& e) {
     throw ProblemError(busy(e));
+  } catch (const render::FrameDroppedError& e) {
+    // Only for a client that went away: nobody reads this answer.
+    throw ProblemError(serverBusy(std::string("The frame was dropped: ") + e.what()));
   } catch (const ProblemError&) {
     throw;
   } catch (const std::exception& e) {
@@ -85,9 +95,19 @@ void handleSessionFrame(const ApiContext& context, FrameServices& frames,
   SessionPtr session = authorizeSession(context, req, /*allowQueryToken=*/true);
   FrameRequest request = parsedQuery(
       [&] { return parseSessionFrameQuery(req.params, context.config.limits.maxResolution); });
+  const SessionFrameContext frameContext{context.renderThread, frames.stats, frames.metrics};
   SessionFrame frame = withFrameProblems("frame of " + session->id, [&] {
-    return renderSessionFrame({context.renderThread, frames.stats, frames.metrics}, session,
-                              request);
+    PendingSessionFrame pending =
+        submitSessionFrame(frameContext, session, request, render::FrameSource::Request);
+    // A client that hangs up while its frame waits (or renders split: a heavy frame takes
+    // minutes on a CPU device) gives the frame up: not started, or stopped at its next slice.
+    // The socket is looked up only for a frame still waiting after kPeerCheck.
+    std::optional<PeerWatch> peer;
+    while (pending.frame.wait_for(kPeerCheck) != std::future_status::ready) {
+      if (!peer) peer.emplace(req.local_addr, req.local_port, req.remote_addr, req.remote_port);
+      if (peer->gone()) *pending.drop = true;
+    }
+    return collectSessionFrame(frameContext, session, pending);
   });
   sendFrame(res, std::move(frame.encoded));
 }

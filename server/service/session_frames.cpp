@@ -119,9 +119,9 @@ protocol::Stats FrameStatsBook::statsOf(const Session& session, uint64_t lightCo
 }
 
 DeliveredFrame deliverFrame(render::RenderQueue& renderThread, Metrics& metrics, render::SceneId id,
-                            const FrameRequest& request) {
+                            const FrameRequest& request, render::FrameSource source) {
   const auto start = std::chrono::steady_clock::now();
-  std::future<render::Frame> pending = renderThread.submit(id, request.settings);
+  std::future<render::Frame> pending = renderThread.submit(id, request.settings, source);
   DeliveredFrame delivered;
   delivered.frame = pending.get();
   delivered.encoded = encodeFrame(delivered.frame, request);
@@ -130,24 +130,30 @@ DeliveredFrame deliverFrame(render::RenderQueue& renderThread, Metrics& metrics,
   return delivered;
 }
 
-SessionFrame renderSessionFrame(const SessionFrameContext& context, const SessionPtr& session,
-                                const FrameRequest& request) {
-  FrameRequest rendered = request;
+PendingSessionFrame submitSessionFrame(const SessionFrameContext& context, const SessionPtr& session,
+                                       const FrameRequest& request, render::FrameSource source) {
+  PendingSessionFrame pending;
+  pending.rendered = request;
   render::SceneId sceneId = 0;
-  SessionFrame result;
   {
     std::lock_guard lock(session->mutex);
     if (session->closed) throw ProblemError(notFoundDetail("Session " + session->id + " is gone."));
-    rendered.settings = session->scene.frameSettings(request.settings, request.time, Clock::now());
+    pending.rendered.settings =
+        session->scene.frameSettings(request.settings, request.time, Clock::now());
     sceneId = static_cast<render::SceneId>(session->sceneId);
-    result.version = session->version;
+    pending.version = session->version;
   }
+  pending.submitted = Clock::now();
+  pending.frame =
+      context.renderThread.submit(sceneId, pending.rendered.settings, source, pending.drop);
+  return pending;
+}
 
+SessionFrame collectSessionFrame(const SessionFrameContext& context, const SessionPtr& session,
+                                 PendingSessionFrame& pending) {
   DeliveredFrame delivered;
   try {
-    delivered = deliverFrame(context.renderThread, context.metrics, sceneId, rendered);
-  } catch (const render::RenderQueueFullError&) {
-    throw;
+    delivered.frame = pending.frame.get();
   } catch (const std::exception&) {
     // A session deleted while its frame waited takes its scene with it: that is a 404, not a
     // renderer failure.
@@ -155,10 +161,21 @@ SessionFrame renderSessionFrame(const SessionFrameContext& context, const Sessio
     if (session->closed) throw ProblemError(notFoundDetail("Session " + session->id + " is gone."));
     throw;
   }
-  context.stats.record(session, delivered.frame, rendered.settings.target,
+  delivered.encoded = encodeFrame(delivered.frame, pending.rendered);
+  context.metrics.observeFrame(
+      std::chrono::duration<double>(Clock::now() - pending.submitted).count());
+  context.stats.record(session, delivered.frame, pending.rendered.settings.target,
                        delivered.encoded.encodeMs);
+  SessionFrame result;
   result.encoded = std::move(delivered.encoded);
+  result.version = pending.version;
   return result;
+}
+
+SessionFrame renderSessionFrame(const SessionFrameContext& context, const SessionPtr& session,
+                                const FrameRequest& request, render::FrameSource source) {
+  PendingSessionFrame pending = submitSessionFrame(context, session, request, source);
+  return collectSessionFrame(context, session, pending);
 }
 
 }  // namespace myriad::service

@@ -62,7 +62,8 @@ struct DeliveredFrame {
   EncodedFrame encoded;
 };
 DeliveredFrame deliverFrame(render::RenderQueue& renderThread, Metrics& metrics, render::SceneId id,
-                            const FrameRequest& request);
+                            const FrameRequest& request,
+                            render::FrameSource source = render::FrameSource::Request);
 
 // A session frame as delivered: the encoded bytes and what it showed.
 struct SessionFrame {
@@ -77,11 +78,31 @@ struct SessionFrameContext {
   Metrics& metrics;
 };
 
+// A session frame submitted to the render thread and not yet collected (submitSessionFrame).
+struct PendingSessionFrame {
+  std::future<render::Frame> frame;
+  // Set to give the frame up: not rendered if it has not started (render::FrameDroppedError).
+  std::shared_ptr<std::atomic<bool>> drop = std::make_shared<std::atomic<bool>>(false);
+  FrameRequest rendered;  // the request with the session's state applied
+  uint64_t version = 0;   // the session version the frame shows
+  Clock::time_point submitted;
+};
+
+// The two halves of renderSessionFrame, for a caller that overlaps one frame's encoding with the
+// next frame's rendering (a stream): submit takes the session's state and queues the frame;
+// collect waits for it, encodes it and records it in stats and metrics. Same exceptions.
+PendingSessionFrame submitSessionFrame(const SessionFrameContext& context, const SessionPtr& session,
+                                       const FrameRequest& request, render::FrameSource source);
+SessionFrame collectSessionFrame(const SessionFrameContext& context, const SessionPtr& session,
+                                 PendingSessionFrame& pending);
+
 // Takes the session's camera, settings and scene (under its mutex), renders on the render thread,
 // waits, encodes, and records the frame in stats and metrics. `request.time` overrides the
 // session's animation clock. Throws render::RenderQueueFullError (queue full), ProblemError 404 when the
 // session closed meanwhile, and whatever the renderer or encoder threw.
+// `source`: a stream's frames are not refused for a full queue (render::FrameSource).
 SessionFrame renderSessionFrame(const SessionFrameContext& context, const SessionPtr& session,
-                                const FrameRequest& request);
+                                const FrameRequest& request,
+                                render::FrameSource source = render::FrameSource::Request);
 
 }  // namespace myriad::service

@@ -2,13 +2,15 @@
 
 #include <algorithm>
 #include <cstdio>
+#include <optional>
 #include <utility>
 
 namespace myriad::service {
 namespace {
 
-// How long a stream waits before retrying when the render queue is full: short enough to keep
-// the picture live, long enough not to hammer the queue while other requests drain it.
+// How long a stream waits before retrying when the render queue refuses its frame. A stream's
+// frames are not counted against --max-queued-frames (render::FrameSource::Stream), so this is
+// only the render thread stopping, which the next turn of the loop sees.
 constexpr std::chrono::milliseconds kQueueFullRetry{50};
 
 // Everything one stream carries from part to part. Used only by the worker serving the stream.
@@ -29,6 +31,25 @@ struct StreamState {
   bool wroteAny = false;
   Clock::time_point nextFrameAt{};   // the fps limit: no new frame before this
   Clock::time_point lastWriteAt{};
+  // Frames in flight: while the lights animate and frames take longer than 1 / fps (the pipeline,
+  // not the fps limit, sets the rate), the next frame is submitted before this one is collected,
+  // so the render thread renders frame N+1 while this worker encodes and writes frame N. It shows
+  // the session as it was when submitted: an edit made meanwhile shows one frame later.
+  std::optional<PendingSessionFrame> ahead;
+  Clock::duration lastFrameTook{};  // submit to encoded, of the last frame
+
+  // A stream that ends with a frame submitted ahead gives it up: not rendered unless it already
+  // started, and then waited for, so stats count every render.
+  void settleAhead() {
+    if (!ahead) return;
+    *ahead->drop = true;
+    try {
+      collectSessionFrame(context, session, *ahead);
+    } catch (const std::exception&) {
+      // Dropped, the session closed, or the frame failed: nobody is waiting for it.
+    }
+    ahead.reset();
+  }
 
   bool writePart(httplib::DataSink& sink) {
     std::string part = multipartPart(contentType, image, sequence, !wroteAny);
@@ -73,7 +94,15 @@ bool StreamState::next(httplib::DataSink& sink) {
     if (wantFrame && now >= nextFrameAt) {
       SessionFrame frame;
       try {
-        frame = renderSessionFrame(context, session, request);
+        PendingSessionFrame pending =
+            ahead ? std::move(*ahead)
+                  : submitSessionFrame(context, session, request, render::FrameSource::Stream);
+        ahead.reset();
+        if (animate && lastFrameTook >= interval) {
+          ahead = submitSessionFrame(context, session, request, render::FrameSource::Stream);
+        }
+        frame = collectSessionFrame(context, session, pending);
+        lastFrameTook = Clock::now() - pending.submitted;
       } catch (const render::RenderQueueFullError&) {
         nextFrameAt = now + kQueueFullRetry;
         continue;
@@ -180,7 +209,11 @@ httplib::ContentProviderWithoutLength makeStreamProvider(const SessionFrameConte
       context, registry, std::move(slot), std::move(session), request,
       std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(1.0 / request.fps)),
       peer});
-  return [state](size_t /*offset*/, httplib::DataSink& sink) { return state->next(sink); };
+  return [state](size_t /*offset*/, httplib::DataSink& sink) {
+    const bool more = state->next(sink);
+    if (!more) state->settleAhead();
+    return more;
+  };
 }
 
 }  // namespace myriad::service

@@ -1,9 +1,12 @@
 // GET /v1/sessions/{id}/stream: a multipart/x-mixed-replace response that carries a new frame
 // whenever the session changes (or continuously while its lights animate), at most `fps` a second.
 //
-// One frame at a time per stream: the next frame is rendered from the session's newest state only
-// after the previous part was written, so a slow client sees fewer, newer frames and nothing
-// queues. While nothing changes the last part is re-sent every kIdleResend, which keeps proxies
+// At most two frames in flight per stream: the next frame is rendered from the session's newest
+// state after the previous part was written, so a slow client sees fewer, newer frames and
+// nothing queues; except that while the lights animate and frames take longer than 1 / fps, the
+// frame after the next is submitted before the next is encoded, so rendering overlaps encoding
+// and writing (an edit then shows one frame later; a stream that ends gives that frame up unless
+// it already started). While nothing changes the last part is re-sent every kIdleResend, which keeps proxies
 // from timing the connection out and tells a client that just connected what the scene looks like.
 // A stream ends when the client goes away (seen before each frame is rendered, through PeerWatch,
 // or when a write fails), the session closes (deleted or

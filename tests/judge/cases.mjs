@@ -12,7 +12,7 @@
 // run and rendered only with --pending; once it passes, drop the mark.
 
 import {readFileSync} from 'node:fs';
-import {checkerGlb, maskGlb, normalMapGlb, spheresGlb, spotGlb} from './fixtures.mjs';
+import {blendGlb, checkerGlb, maskGlb, normalMapGlb, spheresGlb, spotGlb} from './fixtures.mjs';
 
 const HELMET = '/work/shared/assets/DamagedHelmet/DamagedHelmet.glb';
 const BOX_TEXTURED = '/usr/share/assimp/models/glTF2/BoxTextured-glTF-Binary/BoxTextured.glb';
@@ -65,6 +65,11 @@ export const CASES = [
    what: 'an alphaMode MASK cut-out (texture alpha, cutoff 0.5) in front of a backdrop',
    width: 192, height: 144, camera: camera([0.6, 0.4, 4], [0, 0, -0.3], 45, 0.5, 20),
    sun: sun([-0.3, -0.5, -1], 3)},
+  {name: 'alpha-blend', file: 'blend.glb', bytes: () => blendGlb(),
+   what: 'two overlapping alphaMode BLEND quads (a textured one with smooth alpha, nearer but first in the file, and a plain one) over a backdrop, under the sun and a point light',
+   width: 192, height: 144, camera: camera([0.5, 0.3, 4], [0, 0, -0.3], 45, 0.5, 20),
+   sun: sun([-0.3, -0.5, -1], 3),
+   lights: [{type: 'point', position: [0.2, 0.4, 1.2], color: [1, 0.9, 0.8], intensity: 3, range: 3}]},
   {name: 'spot-light', file: 'spot.glb', bytes: () => spotGlb(),
    what: 'a floor and a ball lit only by the file\'s spot light and point light (inverse-square, range)',
    width: 224, height: 160, camera: camera([0, 3.5, 6.5], [0, 0.3, 0], 45, 0.5, 30),

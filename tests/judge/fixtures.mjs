@@ -334,3 +334,23 @@ export function checkerGlb() {
   b.node({name: 'quad', mesh: b.mesh(quad(), material)});
   return b.glb();
 }
+
+// A grey backdrop and, in front of it, two overlapping alphaMode BLEND quads: the nearer one
+// listed first (so drawing in file order would be wrong), a textured one (the mask texture's
+// colour and smooth alpha, times 0.8) and a plain orange one of alpha 0.5, single-sided.
+export function blendGlb() {
+  const b = new GltfBuilder();
+  const backdrop = b.material({name: 'backdrop', pbrMetallicRoughness: {baseColorFactor: [0.5, 0.5, 0.5, 1],
+                                                                        metallicFactor: 0, roughnessFactor: 0.9}});
+  const glass = b.material({name: 'textured-glass', alphaMode: 'BLEND', doubleSided: true,
+                            pbrMetallicRoughness: {baseColorTexture: {index: b.image(maskTexture(64))},
+                                                   baseColorFactor: [1, 1, 1, 0.8], metallicFactor: 0,
+                                                   roughnessFactor: 0.4}});
+  const tint = b.material({name: 'orange-tint', alphaMode: 'BLEND', doubleSided: false,
+                           pbrMetallicRoughness: {baseColorFactor: [0.95, 0.5, 0.1, 0.5], metallicFactor: 0,
+                                                  roughnessFactor: 0.6}});
+  b.node({name: 'backdrop', mesh: b.mesh(quad(), backdrop), translation: [0, 0, -1], scale: [5, 4, 1]});
+  b.node({name: 'near', mesh: b.mesh(quad(), glass), translation: [0.25, 0.1, 0.4], scale: [1.6, 1.6, 1]});
+  b.node({name: 'far', mesh: b.mesh(quad(), tint), translation: [-0.35, -0.2, -0.3], scale: [1.8, 1.5, 1]});
+  return b.glb();
+}

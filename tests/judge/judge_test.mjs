@@ -43,6 +43,8 @@ const SENSITIVITY = [
   ['spot-light', 'the spot\'s outer cone 0.03 radians wider', {coneRadians: 0.03}],
   ['normal-map', 'the bumps as dents (a flipped tangent frame)', {normalScale: -1}],
   ['normal-map', 'the bumps 20% flatter', {normalScale: 0.8}],
+  ['alpha-blend', 'every blended surface 15% more opaque', {opacity: 1.15}],
+  ['alpha-blend', 'the blended surfaces drawn in the file\'s order (nearest first), not back to front', {fileOrder: true}],
 ];
 
 const args = process.argv.slice(2);

@@ -17,6 +17,7 @@
 #include "gpu/commands.h"
 #include "gpu/pipelines.h"
 #include "render/cluster_grid.h"
+#include "render/raster.h"
 #include "render/techniques/compute_lighting.h"
 #include "render/techniques/technique.h"
 #include "shared_types.h"
@@ -57,23 +58,29 @@ uint32_t initialCapacity(const ClusterGrid& grid, uint32_t lightCount, uint64_t 
 
 // The grid's buffers, recreated together when the grid or the capacity changes.
 struct ClusterLists {
-  ClusterLists(gpu::Context& context, const ClusterGrid& g, uint32_t references)
-      : grid(g), capacity(references), arena(context, kListBlockSize) {
+  ClusterLists(gpu::Context& context, const ClusterGrid& g, uint32_t references, uint32_t lights)
+      : grid(g), capacity(references), lightCapacity(lights), arena(context, kListBlockSize) {
     const VkBufferUsageFlags storage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT;
     ranges = arena.createBuffer(VkDeviceSize(grid.count()) * 8, storage, gpu::MemoryUse::DeviceLocal);
     cursors = arena.createBuffer(VkDeviceSize(grid.count()) * 4,
                                  storage | VK_BUFFER_USAGE_TRANSFER_DST_BIT, gpu::MemoryUse::DeviceLocal);
     lists = arena.createBuffer(VkDeviceSize(capacity) * 4, storage, gpu::MemoryUse::DeviceLocal);
+    large = arena.createBuffer(sizeof(LargeLightQueue) + VkDeviceSize(std::max(lightCapacity, 1u)) * 4,
+                               storage | VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT |
+                                   VK_BUFFER_USAGE_TRANSFER_DST_BIT,
+                               gpu::MemoryUse::DeviceLocal);
   }
 
-  uint64_t bytes() const { return ranges.size + cursors.size + lists.size; }
+  uint64_t bytes() const { return ranges.size + cursors.size + lists.size + large.size; }
 
   ClusterGrid grid;
   uint32_t capacity;  // light references all lists together can hold
+  uint32_t lightCapacity;  // lights the large-light queue can hold
   gpu::Arena arena;
   gpu::Buffer ranges;   // uvec2 per cluster: first index, count
   gpu::Buffer cursors;  // uint per cluster: count, then fill cursor
   gpu::Buffer lists;    // uint per light reference
+  gpu::Buffer large;    // LargeLightQueue, then a uint per queued light
 };
 
 class Clustered final : public LightingTechnique {
@@ -87,14 +94,32 @@ class Clustered final : public LightingTechnique {
     mark_ = pipelines_.add(gpu::createComputePipeline(device, layout, spirv::cluster_mark_comp));
     scan_ = pipelines_.add(gpu::createComputePipeline(device, layout, spirv::cluster_scan_comp));
     shade_ = pipelines_.add(gpu::createComputePipeline(device, layout, spirv::light_clustered_comp));
+    // Alpha-blended surfaces mark their clusters from their fragments (storage writes from a
+    // fragment shader): without fragmentStoresAndAtomics the forward pass tests every light.
+    if (setup.context.fragmentStores) {
+      gpu::GraphicsPipelineDesc d;
+      d.vertexShader = spirv::gbuffer_vert;
+      d.fragmentShader = spirv::cluster_mark_blend_frag;
+      d.vertexLayout = surfaceVertexLayout();
+      d.depthFormat = kDepthFormat;
+      d.depthTest = true;
+      d.depthCompare = VK_COMPARE_OP_LESS;  // as the forward pass: its fragments are these
+      d.cullMode = VK_CULL_MODE_NONE;       // both faces: a superset of what it draws
+      markBlend_ = pipelines_.add(gpu::createGraphicsPipeline(device, layout, d));
+    }
     // cluster_assign.comp counts (kAssign = false) or fills the lists (true): one source, so both
     // passes run the identical overlap test.
-    VkSpecializationMapEntry entry{0, 0, sizeof(VkBool32)};
+    // kLarge (constant 1) picks the per-light or the per-large-light (workgroup) variant.
+    const VkSpecializationMapEntry entries[] = {{0, 0, sizeof(VkBool32)},
+                                                {1, sizeof(VkBool32), sizeof(VkBool32)}};
     for (VkBool32 assign : {VK_FALSE, VK_TRUE}) {
-      VkSpecializationInfo spec{1, &entry, sizeof(VkBool32), &assign};
-      VkPipeline& target = assign ? assign_ : count_;
-      target = pipelines_.add(
-          gpu::createComputePipeline(device, layout, spirv::cluster_assign_comp, &spec));
+      for (VkBool32 large : {VK_FALSE, VK_TRUE}) {
+        const VkBool32 values[] = {assign, large};
+        VkSpecializationInfo spec{2, entries, sizeof(values), values};
+        VkPipeline& target = assign ? (large ? assignLarge_ : assign_) : (large ? countLarge_ : count_);
+        target = pipelines_.add(
+            gpu::createComputePipeline(device, layout, spirv::cluster_assign_comp, &spec));
+      }
     }
   }
 
@@ -111,15 +136,16 @@ class Clustered final : public LightingTechnique {
         std::min<uint64_t>(std::max(capacity, grownListCapacity_), mostReferences));
     const bool keep = lists_ && lists_->grid == grid && lists_->capacity >= capacity &&
                       lists_->capacity <= 2 * uint64_t(capacity) &&
-                      lists_->capacity <= mostReferences;
+                      lists_->capacity <= mostReferences && lists_->lightCapacity >= lightCount;
     if (keep) return;
     lists_.reset();
-    lists_ = std::make_unique<ClusterLists>(context_, grid, capacity);
+    lists_ = std::make_unique<ClusterLists>(context_, grid, capacity, lightCount);
     const CullingSet::Binding bindings[] = {
         {MYRIAD_BINDING_CLUSTER_RANGES, &lists_->ranges},
         {MYRIAD_BINDING_CLUSTER_LIGHTS, &lists_->lists},
         {MYRIAD_BINDING_CULLING_STATS, &counters_.stats},
         {MYRIAD_BINDING_CLUSTER_CURSORS, &lists_->cursors},
+        {MYRIAD_BINDING_LARGE_LIGHTS, &lists_->large},
     };
     set_.write(bindings);
   }
@@ -134,20 +160,30 @@ class Clustered final : public LightingTechnique {
     // Two timed parts: "assign" (steps 1-4, building the lists) and "shade" (step 5).
     pass.timer.beginPass(cmd, "assign");
     set_.bind(cmd);
-    // Every cluster starts inactive; the counters start at zero.
+    // Every cluster starts inactive; the counters start at zero, the large-light queue empty.
     vkCmdFillBuffer(cmd, lists_->cursors.buffer, 0, VK_WHOLE_SIZE, MYRIAD_CLUSTER_INACTIVE);
     counters_.reset(cmd);
+    const LargeLightQueue emptyQueue{{0, 1, 1, 0}, {0, 0, 0, 0}};
+    vkCmdUpdateBuffer(cmd, lists_->large.buffer, 0, sizeof(emptyQueue), &emptyQueue);
     gpu::memoryBarrier(cmd, kFillStage, VK_ACCESS_2_TRANSFER_WRITE_BIT, kComputeStage,
                        kStorageReadWrite);
 
     // 1. Mark clusters holding visible geometry.
     dispatchPixels(cmd, mark_, t.extent, MYRIAD_PIXEL_GROUP);
     gpu::memoryBarrier(cmd, kComputeStage, kStorageWrite, kComputeStage, kStorageReadWrite);
+    // 1b. And those of alpha-blended surfaces in front of it (or over the background).
+    if (markBlend_ != VK_NULL_HANDLE && hasBlendDraws(pass.scene)) markBlendClusters(cmd, pass);
     uint32_t lightGroups = groupCount(pass.scene.lightCount, MYRIAD_LIGHTS_PER_GROUP);
     if (lightGroups > 0) {
-      // 2. Count each active cluster's lights.
+      // 2. Count each active cluster's lights: small lights a thread each, queueing the large
+      // ones, then the queue a workgroup per light (an indirect dispatch of the queue's length).
       vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, count_);
       vkCmdDispatch(cmd, lightGroups, 1, 1);
+      gpu::memoryBarrier(cmd, kComputeStage, kStorageWrite,
+                         kComputeStage | VK_PIPELINE_STAGE_2_DRAW_INDIRECT_BIT,
+                         kStorageReadWrite | VK_ACCESS_2_INDIRECT_COMMAND_READ_BIT);
+      vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, countLarge_);
+      vkCmdDispatchIndirect(cmd, lists_->large.buffer, 0);
       gpu::memoryBarrier(cmd, kComputeStage, kStorageWrite, kComputeStage, kStorageReadWrite);
     }
     // 3. Prefix sum: list offsets, capacity cuts, counters.
@@ -155,18 +191,30 @@ class Clustered final : public LightingTechnique {
     vkCmdDispatch(cmd, 1, 1, 1);
     gpu::memoryBarrier(cmd, kComputeStage, kStorageWrite, kComputeStage, kStorageReadWrite);
     if (lightGroups > 0) {
-      // 4. Fill the lists.
+      // 4. Fill the lists: the same split, the queue kept from step 2.
       vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, assign_);
       vkCmdDispatch(cmd, lightGroups, 1, 1);
+      // The small-light pass does not write the queue, but it holds it writable: order it before
+      // the indirect read all the same (the synchronization layer's rule, and cheap).
+      gpu::memoryBarrier(cmd, kComputeStage, kStorageWrite, VK_PIPELINE_STAGE_2_DRAW_INDIRECT_BIT,
+                         VK_ACCESS_2_INDIRECT_COMMAND_READ_BIT);
+      vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, assignLarge_);
+      vkCmdDispatchIndirect(cmd, lists_->large.buffer, 0);
       gpu::memoryBarrier(cmd, kComputeStage, kStorageWrite, kComputeStage,
                          VK_ACCESS_2_SHADER_STORAGE_READ_BIT);
     }
     // 5. Shade every pixel from its cluster's list, narrowed per tile.
     pass.timer.beginPass(cmd, "shade");
     prepareLightingTargets(cmd, t);
-    dispatchPixels(cmd, shade_, t.extent, MYRIAD_TILE_SIZE);
+    dispatchPixels(cmd, shade_, t.extent, MYRIAD_CLUSTER_SHADE_TILE);
     counters_.makeHostVisible(cmd);
     return VK_IMAGE_LAYOUT_GENERAL;
+  }
+
+  bool bindForwardLights(VkCommandBuffer cmd) const override {
+    if (markBlend_ == VK_NULL_HANDLE) return false;
+    set_.bindGraphics(cmd);
+    return true;
   }
 
   void report(CullingReport& report) const override {
@@ -210,6 +258,26 @@ class Clustered final : public LightingTechnique {
   }
 
  private:
+  // The blended draws, depth-tested against the G-buffer without writing it, write 0 (active) into
+  // the cursor of each fragment's cluster (cluster_mark_blend.frag).
+  void markBlendClusters(VkCommandBuffer cmd, const LightingPass& pass) const {
+    const VkPipelineStageFlags2 fragment = VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT;
+    gpu::memoryBarrier(cmd, kComputeStage, kStorageWrite, fragment, kStorageReadWrite);
+    VkRenderingAttachmentInfo depth = readOnlyDepth(pass.targets.depth);
+    beginRendering(cmd, pass.targets.extent, {}, &depth);
+    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, markBlend_);
+    set_.bindGraphics(cmd);
+    bindGeometry(cmd, pass.scene);
+    for (const DrawItem& draw : pass.scene.draws) {
+      if (!pass.scene.blend[draw.material]) continue;
+      vkCmdDrawIndexed(cmd, draw.mesh.indexCount, 1, draw.mesh.firstIndex, draw.mesh.vertexOffset,
+                       draw.instance);
+    }
+    vkCmdEndRendering(cmd);
+    gpu::memoryBarrier(cmd, fragment, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT, kComputeStage,
+                       kStorageReadWrite);
+  }
+
   uint64_t maxListBytes() const {
     uint64_t device = context_.info.maxStorageBufferRange;
     return listLimitBytes_ > 0 ? std::min(listLimitBytes_, device) : device;
@@ -221,7 +289,10 @@ class Clustered final : public LightingTechnique {
   VkPipeline count_ = VK_NULL_HANDLE;
   VkPipeline scan_ = VK_NULL_HANDLE;
   VkPipeline assign_ = VK_NULL_HANDLE;
+  VkPipeline countLarge_ = VK_NULL_HANDLE;   // the queued large lights, a workgroup each
+  VkPipeline assignLarge_ = VK_NULL_HANDLE;
   VkPipeline shade_ = VK_NULL_HANDLE;
+  VkPipeline markBlend_ = VK_NULL_HANDLE;  // null without fragmentStoresAndAtomics
   CullingSet set_;
   CullingCounters counters_;
   std::unique_ptr<ClusterLists> lists_;

@@ -17,7 +17,7 @@ namespace {
 // The counters are 32 bytes; a default 64 MiB block would be almost all waste.
 constexpr VkDeviceSize kCountersBlockSize = 64ull << 10;
 
-constexpr uint32_t kCullingBindings = 4;  // MYRIAD_BINDING_CLUSTER_RANGES .. _CURSORS
+constexpr uint32_t kCullingBindings = 5;  // MYRIAD_BINDING_CLUSTER_RANGES .. _LARGE_LIGHTS
 
 }  // namespace
 
@@ -72,6 +72,11 @@ void CullingSet::write(std::span<const Binding> bindings) {
 
 void CullingSet::bind(VkCommandBuffer cmd) const {
   vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, layout_, MYRIAD_SET_CULLING, 1,
+                          &set_, 0, nullptr);
+}
+
+void CullingSet::bindGraphics(VkCommandBuffer cmd) const {
+  vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, layout_, MYRIAD_SET_CULLING, 1,
                           &set_, 0, nullptr);
 }
 

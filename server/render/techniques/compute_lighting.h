@@ -44,6 +44,8 @@ class CullingSet {
   void write(std::span<const Binding> bindings);
   // Binds the set for compute dispatches (set 2; sets 0 and 1 stay as the frame bound them).
   void bind(VkCommandBuffer cmd) const;
+  // The same at the graphics bind point (fragment shaders reading or marking clusters).
+  void bindGraphics(VkCommandBuffer cmd) const;
 
  private:
   VkDevice device_;

@@ -55,6 +55,15 @@ class LightingTechnique {
   // gets its barrier here.
   virtual VkImageLayout record(const LightingPass& pass) = 0;
 
+  // Light lists for the forward pass of alpha-blended surfaces (recordBlendPass): binds them (set
+  // 2, MYRIAD_BINDING_CLUSTER_RANGES and _LIGHTS, covering every cluster a blended fragment lies
+  // in) at the graphics bind point and returns true; false (the default): the forward pass tests
+  // every light. Called after record().
+  virtual bool bindForwardLights(VkCommandBuffer cmd) const {
+    (void)cmd;
+    return false;
+  }
+
   // Lighting that is a sum over independently drawn lights may be recorded in ranges of lights,
   // each range in its own submission (Renderer::SplitFrame). recordBeforeLights records what
   // record() does before the first light (every pixel of hdr and lightCount written);

@@ -78,12 +78,16 @@ async function renderCase(spec) {
   // sunDegrees: the sun turned about the vertical, roughness: scale of every roughness, fovY:
   // degrees added, range: scale of every light's range, coneRadians: added to every spot's outer
   // cone (the inner one kept), normalScale: scale of every normal map's x and y (-1: bumps become
-  // dents, as a flipped tangent frame makes them)}.
+  // dents, as a flipped tangent frame makes them), opacity: scale of every transparent (BLEND)
+  // material's opacity, fileOrder: transparent surfaces drawn in the file's order, not sorted}.
   const perturb = {light: 1, sunDegrees: 0, roughness: 1, fovY: 0, range: 1, coneRadians: 0, normalScale: 1,
-                   ...(spec.perturb || {})};
+                   opacity: 1, fileOrder: false, ...(spec.perturb || {})};
+  let order = 0;
   scene.traverse((o) => {
     if (o.material && perturb.roughness !== 1) o.material.roughness = Math.min(1, o.material.roughness * perturb.roughness);
     if (o.material?.normalMap && perturb.normalScale !== 1) o.material.normalScale.multiplyScalar(perturb.normalScale);
+    if (o.material?.transparent && perturb.opacity !== 1) o.material.opacity = Math.min(1, o.material.opacity * perturb.opacity);
+    if (o.isMesh && perturb.fileOrder) o.renderOrder = order++;  // draw in the file's order, unsorted
   });
   // Texture filtering as Myriad samples (the glTF leaves anisotropy to the renderer): spec.anisotropy
   // (Myriad's, from its device: 16x anisotropic on a GPU where the sampler is linear and mipmapped,
