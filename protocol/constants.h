@@ -34,6 +34,8 @@ inline constexpr std::string_view kSessionFrame = "/v1/sessions/{id}/frame";
 inline constexpr std::string_view kSessionStream = "/v1/sessions/{id}/stream";
 inline constexpr std::string_view kSessionStats = "/v1/sessions/{id}/stats";
 inline constexpr std::string_view kSessionSnapshot = "/v1/sessions/{id}/snapshot";
+inline constexpr std::string_view kSessionTokens = "/v1/sessions/{id}/tokens";  // viewer tokens
+inline constexpr std::string_view kSessionLightsPick = "/v1/sessions/{id}/lights/pick";
 inline constexpr std::string_view kOpenApi = "/v1/openapi.json";  // this API as OpenAPI 3.1
 inline constexpr std::string_view kWebRoot = "/";                 // the web client's page
 inline constexpr std::string_view kWebFile = "/web/{file}";       // and its other files
@@ -71,7 +73,22 @@ inline constexpr std::string_view kInfo = "info";
 inline constexpr std::string_view kModelsList = "models-list";
 inline constexpr std::string_view kProblem = "problem";
 inline constexpr std::string_view kHealth = "health";
+inline constexpr std::string_view kTokenCreate = "token-create";
+inline constexpr std::string_view kTokenCreated = "token-created";
+inline constexpr std::string_view kLightPick = "light-pick";
 }  // namespace schema_names
+
+// Roles of a session's tokens: the token POST /v1/sessions returns is the owner's (everything);
+// POST .../tokens makes viewer tokens, which may GET (read the session, watch its frames and
+// stream) and nothing else.
+namespace roles {
+inline constexpr std::string_view kOwner = "owner";
+inline constexpr std::string_view kViewer = "viewer";
+}  // namespace roles
+inline constexpr uint64_t kDefaultViewerTokenSeconds = 3600;
+// A session holds at most this many viewer tokens; a new one beyond replaces the one that
+// expires first (bounded memory and state file).
+inline constexpr size_t kMaxViewerTokens = 32;
 
 // Problem types: the last segment of https://myriad.dev/problems/NAME.
 namespace problems {

@@ -216,6 +216,29 @@ std::vector<Operation> buildOperations() {
                  .responses = {json200(n::kSessionState, "The session state.")},
                  .problems = {400, 401, 403, 404, 413, 415, 429}});
 
+  ops.push_back({.method = "POST",
+                 .route = routes::kSessionTokens,
+                 .id = "createToken",
+                 .tag = "Sessions",
+                 .summary = "Make a viewer token: it reads and watches the session (every GET) "
+                            "but cannot change it (403); owner's token only",
+                 .access = Access::Session,
+                 .body = {{kJsonContentType, n::kTokenCreate}},
+                 .responses = {{201,
+                                "The token (shown once: the server keeps its SHA-256), its "
+                                "role, its lifetime and the web client's link with it.",
+                                {{kJsonContentType, n::kTokenCreated}},
+                                {}}},
+                 .problems = kSessionBodyProblems});
+  ops.push_back({.method = "DELETE",
+                 .route = routes::kSessionTokens,
+                 .id = "revokeTokens",
+                 .tag = "Sessions",
+                 .summary = "Revoke every viewer token of the session (owner's token only)",
+                 .access = Access::Session,
+                 .responses = {noContent("Revoked; viewers' next requests are 401.")},
+                 .problems = kSessionProblems});
+
   // Model.
   ops.push_back(
       {.method = "PUT",
@@ -390,6 +413,25 @@ std::vector<Operation> buildOperations() {
                  .body = {{kJsonContentType, n::kLightsGenerate}},
                  .responses = {json200(n::kLightsGenerated, "The session's light count now.")},
                  .problems = kSessionBodyProblems});
+  ops.push_back(
+      {.method = "GET",
+       .route = routes::kSessionLightsPick,
+       .id = "pickLight",
+       .tag = "Lights",
+       .summary = "The light whose marker is under a pixel of a frame of the session's camera",
+       .access = Access::Session,
+       .query = {{"x", {{"type", "number"}, {"minimum", 0}},
+                  "The pixel's column, 0 at the left, less than width (fractions allowed)."},
+                 {"y", {{"type", "number"}, {"minimum", 0}},
+                  "The pixel's row, 0 at the top, less than height."},
+                 {"width", integerIn(1, 16384), "The frame's width in pixels (the view clicked)."},
+                 {"height", integerIn(1, 16384), "The frame's height in pixels."},
+                 {"radius", {{"type", "number"}, {"minimum", 0}, {"maximum", 64}},
+                  "Also pick a marker whose edge is within this many pixels. Default 0."}},
+       .responses = {json200(n::kLightPick,
+                             "The light (absent when no marker is within reach) and how many "
+                             "were.")},
+       .problems = kSessionProblems});
   ops.push_back({.method = "GET",
                  .route = routes::kSessionLight,
                  .id = "getLight",

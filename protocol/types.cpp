@@ -333,6 +333,27 @@ void members(Tag<CameraSelect>, F f) {
 }
 
 template <class F>
+void members(Tag<TokenCreate>, F f) {
+  f("role", &TokenCreate::role);
+  f("ttlSeconds", &TokenCreate::ttlSeconds);
+}
+
+template <class F>
+void members(Tag<TokenCreated>, F f) {
+  f("token", &TokenCreated::token);
+  f("role", &TokenCreated::role);
+  f("expiresInSeconds", &TokenCreated::expiresInSeconds);
+  f("link", &TokenCreated::link);
+}
+
+template <class F>
+void members(Tag<LightPick>, F f) {
+  f("light", &LightPick::light);
+  f("distance", &LightPick::distance);
+  f("candidates", &LightPick::candidates);
+}
+
+template <class F>
 void members(Tag<SessionCreated>, F f) {
   f("id", &SessionCreated::id);
   f("token", &SessionCreated::token);
@@ -535,6 +556,9 @@ MYRIAD_MEMBERWISE_JSON(ModelCamera)
 MYRIAD_MEMBERWISE_JSON(ModelLights)
 MYRIAD_MEMBERWISE_JSON(CameraSelect)
 MYRIAD_MEMBERWISE_JSON(SessionCreated)
+MYRIAD_MEMBERWISE_JSON(TokenCreate)
+MYRIAD_MEMBERWISE_JSON(TokenCreated)
+MYRIAD_MEMBERWISE_JSON(LightPick)
 MYRIAD_MEMBERWISE_JSON(PassTiming)
 MYRIAD_MEMBERWISE_JSON(FrameStats)
 MYRIAD_MEMBERWISE_JSON(CullingStats)

@@ -319,6 +319,26 @@ struct SessionCreated {
   SessionState session;
 };
 
+// POST .../tokens: a token of another role for the session (roles::kViewer).
+struct TokenCreate {
+  std::string role;
+  std::optional<uint64_t> ttlSeconds;  // default kDefaultViewerTokenSeconds
+};
+
+struct TokenCreated {
+  std::string token;  // 64 hex digits
+  std::string role;
+  uint64_t expiresInSeconds = 0;
+  std::string link;  // "/#session=ID&token=TOKEN": the web client with this token
+};
+
+// GET .../lights/pick: the light whose marker is under a pixel; absent members when none is.
+struct LightPick {
+  std::optional<Light> light;
+  std::optional<double> distance;  // pixels
+  uint64_t candidates = 0;
+};
+
 struct PassTiming {
   std::string name;
   double ms = 0;
@@ -476,6 +496,9 @@ MYRIAD_PROTOCOL_JSON(CameraSelect);
 MYRIAD_PROTOCOL_JSON(ModelSummary);
 MYRIAD_PROTOCOL_JSON(SessionState);
 MYRIAD_PROTOCOL_JSON(SessionCreated);
+MYRIAD_PROTOCOL_JSON(TokenCreate);
+MYRIAD_PROTOCOL_JSON(TokenCreated);
+MYRIAD_PROTOCOL_JSON(LightPick);
 MYRIAD_PROTOCOL_JSON(PassTiming);
 MYRIAD_PROTOCOL_JSON(FrameStats);
 MYRIAD_PROTOCOL_JSON(CullingStats);

@@ -7,12 +7,10 @@
 
 layout(set = MYRIAD_SET_TARGETS, binding = MYRIAD_BINDING_MARKER_KEYS, r32ui) uniform uimage2D markerKeys;
 
-// Markers may cover at most this share of the picture (every drawn marker in view, none hidden).
-const float kMarkerCoverage = 0.08;
-// The largest marker radius, in pixels (few lights).
-const float kMarkerMaxRadius = 3.5;
-// Below this radius a marker is the one pixel that holds the light's centre.
-const float kMarkerMinRadius = 1.0;
+// markers.h says why (shared with the service's light picking, render/marker_pick.h).
+const float kMarkerCoverage = MYRIAD_MARKER_COVERAGE;
+const float kMarkerMaxRadius = MYRIAD_MARKER_MAX_RADIUS;
+const float kMarkerMinRadius = MYRIAD_MARKER_MIN_RADIUS;
 
 float markerBudget() { return kMarkerCoverage * frame.viewport.x * frame.viewport.y; }
 

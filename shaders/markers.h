@@ -10,4 +10,12 @@
 #define MYRIAD_MARKER_INDEX_BITS 24u
 #define MYRIAD_MARKER_GROUP 8  // resolve pass: 8x8 pixels per group
 
+// Markers' size and share (markers.glsl; the service's light picking, render/marker_pick.h):
+// markers may cover at most COVERAGE of the picture (every drawn marker in view, none hidden);
+// the largest radius in pixels (few lights); below MIN_RADIUS a marker is the one pixel that
+// holds the light's centre.
+#define MYRIAD_MARKER_COVERAGE 0.08
+#define MYRIAD_MARKER_MAX_RADIUS 3.5
+#define MYRIAD_MARKER_MIN_RADIUS 1.0
+
 #endif

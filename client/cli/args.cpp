@@ -269,6 +269,19 @@ Invocation parseArguments(const std::vector<std::string>& args) {
     throw UsageError("", "no subcommand given");
   }
 
+  // `myriad help [COMMAND]`: the overview, or that command's help (as `myriad COMMAND --help`).
+  if (args[i] == "help") {
+    inv.help = true;
+    if (i + 1 == args.size()) return inv;
+    if (i + 2 < args.size()) inv.command = findCommand(args[i + 1] + " " + args[i + 2]);
+    if (inv.command == nullptr) inv.command = findCommand(args[i + 1]);
+    if (inv.command == nullptr && groupSubcommands(args[i + 1]).empty()) {
+      throw UsageError(args[i + 1], "unknown command \"" + args[i + 1] +
+                                        "\"; myriad help lists the commands");
+    }
+    return inv;
+  }
+
   // ...whose name is one or two words: the longest that names a command wins.
   const std::string first = args[i];
   if (i + 1 < args.size()) {
@@ -454,7 +467,8 @@ std::string overviewHelp() {
          "                          $XDG_STATE_HOME/myriad/session or ~/.local/state/myriad/session);\n"
          "                          env MYRIAD_SESSION=id:token wins over the file\n"
          "  --json                  print the server's JSON responses as they come\n"
-         "  -h, --help              help (after a command: that command's help)\n"
+         "  -h, --help              help (after a command: that command's help;\n"
+         "                          `myriad help COMMAND` says the same)\n"
          "  --version               the client's version and the protocol it speaks\n"
          "\nExit status: 0 done, 1 the server refused or could not be reached, 2 bad usage.\n";
   return out.str();

@@ -98,6 +98,12 @@ std::vector<OptionSpec> lightOptions(bool forAdd) {
           flag("point", "make it a point light again")};
 }
 
+PositionalSpec pixel(std::string name, std::string help) {
+  PositionalSpec p = positional(std::move(name), Kind::Number, std::move(help));
+  p.bounds = Bounds{0.0, 16384.0, false, true, "pixels"};
+  return p;
+}
+
 void requireSomeOption(const Invocation& inv, const std::string& what) {
   if (inv.options.empty()) throw UsageError(inv.command->name, what);
 }
@@ -116,6 +122,19 @@ std::vector<CommandSpec> buildSpecs() {
                    {}, {}});
   specs.push_back({"session delete", "end the session and free its GPU memory", {}, {},
                    "Removes the session file when the session came from it.", {}});
+  specs.push_back({"session share", "make a view-only token and print the page link that uses it",
+                   {},
+                   {option("ttl", Kind::Unsigned, "seconds the token works (default 3600)",
+                           Bounds{60.0, 604800.0, false, false, "seconds"}, "SECONDS")},
+                   "Whoever opens the link watches the session live and can read it, but every "
+                   "change is refused (403). `myriad session unshare` revokes every such token.",
+                   {}});
+  specs.push_back({"session unshare", "revoke every view-only token of the session", {}, {}, {},
+                   {}});
+  specs.push_back({"open", "print the web page's address for the session", {}, {},
+                   "The link carries the session's own token: whoever has it can change the "
+                   "session (share a view-only link with `myriad session share`).",
+                   {}});
 
   // Server-wide.
   specs.push_back({"health", "whether the server answers", {}, {}, {}, {}});
@@ -221,6 +240,18 @@ std::vector<CommandSpec> buildSpecs() {
                    {}});
   specs.push_back({"lights show", "one light", {positional("ID", Kind::Unsigned, "the light id")},
                    {}, {}, {}});
+  specs.push_back({"lights pick", "the light whose marker is at a pixel of the view",
+                   {pixel("X", "the pixel's column, 0 at the left"),
+                    pixel("Y", "the pixel's row, 0 at the top")},
+                   {option("width", Kind::Unsigned, "the view's width in pixels (default 1280)",
+                           kAtLeastOne),
+                    option("height", Kind::Unsigned, "the view's height in pixels (default 720)",
+                           kAtLeastOne),
+                    option("radius", Kind::Number, "also a marker this many pixels away",
+                           Bounds{0.0, 64.0}, "PX")},
+                   "Looks among all of the session's lights (the server projects them with the "
+                   "session's camera); prints the light, or says no marker is there.",
+                   {}});
   specs.push_back({"lights add", "add one light (a point light, or a spot with --spot)", {}, lightOptions(true),
                    "Prints the new light's id.", {}});
   CommandSpec lightsSet{"lights set", "change the members given of one light",

@@ -30,7 +30,7 @@ int runCommand(Context& ctx) {
   auto group = [&](const char* prefix) {
     return name == prefix || name.starts_with(std::string(prefix) + " ");
   };
-  if (group("session")) return runSessionCommand(ctx);
+  if (group("session") || name == "open") return runSessionCommand(ctx);
   if (name == "health" || name == "info" || name == "models") return runServerCommand(ctx);
   if (name == "load") return runModelCommand(ctx);
   if (group("camera")) return runCameraCommand(ctx);

@@ -43,7 +43,7 @@ class Context {
 };
 
 // Each returns the exit status (0); failures throw ApiError, UsageError or std::runtime_error.
-int runSessionCommand(Context& ctx);   // session new|show|delete
+int runSessionCommand(Context& ctx);   // session new|show|delete|share|unshare, open
 int runServerCommand(Context& ctx);    // health, info, models
 int runModelCommand(Context& ctx);     // load
 int runCameraCommand(Context& ctx);    // camera, camera frame

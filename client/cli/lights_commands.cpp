@@ -142,11 +142,36 @@ int generate(Context& ctx) {
   return 0;
 }
 
+// lights pick X Y: the server looks among every light (GET .../lights/pick).
+int pick(Context& ctx) {
+  const Invocation& inv = ctx.inv;
+  auto number = [](double v) { return formatNumber(v); };
+  Query query = {{"x", number(std::get<double>(inv.positionals[0]))},
+                 {"y", number(std::get<double>(inv.positionals[1]))},
+                 {"width", std::to_string(inv.find<uint64_t>("width").value_or(1280))},
+                 {"height", std::to_string(inv.find<uint64_t>("height").value_or(720))}};
+  if (auto radius = inv.find<double>("radius")) query.emplace_back("radius", number(*radius));
+  nlohmann::json answer =
+      ctx.call("GET", ctx.sessionRoute(protocol::routes::kSessionLightsPick), nullptr, query);
+  if (ctx.json()) return 0;
+  const auto picked = answer.get<protocol::LightPick>();
+  if (!picked.light) {
+    ctx.out << "no light's marker at " << query[0].second << "," << query[1].second << "\n";
+    return 0;
+  }
+  printTable(ctx.out, kHeader, {lightRow(*picked.light)});
+  describeShape(ctx.out, *picked.light);
+  ctx.out << "light " << picked.light->id << ": its marker is " << formatNumber(*picked.distance)
+          << " px from the pixel (" << picked.candidates << " within reach)\n";
+  return 0;
+}
+
 }  // namespace
 
 int runLightsCommand(Context& ctx) {
   const std::string& name = ctx.inv.command->name;
   if (name == "lights list") return list(ctx);
+  if (name == "lights pick") return pick(ctx);
   if (name == "lights add") return add(ctx);
   if (name == "lights set") return set(ctx);
   if (name == "lights generate") return generate(ctx);

@@ -101,10 +101,45 @@ int sessionDelete(Context& ctx) {
   return 0;
 }
 
+// The web client's address for the session with `token` (the page reads #session=&token=).
+std::string pageLink(Context& ctx, const std::string& id, const std::string& token) {
+  return ctx.http.url().text() + std::string(protocol::routes::kWebRoot) + "#session=" + id +
+         "&token=" + token;
+}
+
+int sessionShare(Context& ctx) {
+  protocol::TokenCreate request;
+  request.role = std::string(protocol::roles::kViewer);
+  if (auto ttl = ctx.inv.find<uint64_t>("ttl")) request.ttlSeconds = *ttl;
+  nlohmann::json answer =
+      ctx.call("POST", ctx.sessionRoute(protocol::routes::kSessionTokens), request);
+  if (ctx.json()) return 0;
+  const auto created = answer.get<protocol::TokenCreated>();
+  printFields(ctx.out, {{"session", ctx.session().id},
+                        {"role", created.role + " (reads and watches; changes are refused)"},
+                        {"expires", "in " + std::to_string(created.expiresInSeconds) + " s"},
+                        {"token", created.token},
+                        {"link", pageLink(ctx, ctx.session().id, created.token)}});
+  return 0;
+}
+
+int sessionUnshare(Context& ctx) {
+  ctx.call("DELETE", ctx.sessionRoute(protocol::routes::kSessionTokens));
+  if (!ctx.json()) ctx.out << "revoked every view-only token of session " << ctx.session().id << "\n";
+  return 0;
+}
+
 }  // namespace
 
 int runSessionCommand(Context& ctx) {
   const std::string& name = ctx.inv.command->name;
+  if (name == "open") {
+    const SessionRef& session = ctx.session();
+    ctx.out << pageLink(ctx, session.id, session.token) << "\n";
+    return 0;
+  }
+  if (name == "session share") return sessionShare(ctx);
+  if (name == "session unshare") return sessionUnshare(ctx);
   if (name == "session new") return sessionNew(ctx);
   if (name == "session show") return sessionShow(ctx);
   return sessionDelete(ctx);

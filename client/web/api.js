@@ -61,10 +61,23 @@ function loadStoredSession() {
   return null;
 }
 
+// A session named by the page's address: /#session=ID&token=TOKEN (a link from "Share" or
+// `myriad session share`: a viewer token; `myriad open`: the owner's). null when there is none.
+function linkedSession() {
+  const params = new URLSearchParams(location.hash.slice(1));
+  const id = params.get('session');
+  const token = params.get('token');
+  return id && token ? {id, token} : null;
+}
+
 export class Api {
   constructor() {
-    this.session = loadStoredSession();  // {id, token} or null
+    // A linked session is this page's only: it does not replace the one kept in localStorage.
+    this.linked = linkedSession();
+    this.session = this.linked || loadStoredSession();  // {id, token} or null
     this.apiKey = '';                    // only for creating a session with --api-key
+    this.onChange = () => {};            // a request that changes the session is on its way
+    this.onChangeFailed = () => {};      // ... and was refused (nothing will change)
   }
 
   get hasSession() {
@@ -90,6 +103,7 @@ export class Api {
     const session = this.session;  // a new session may start while this request is out
     if (auth && sessionRoute && session) headers.Authorization = `Bearer ${session.token}`;
     const url = query ? `${path}?${new URLSearchParams(query)}` : path;
+    if (sessionRoute && method !== 'GET' && !path.endsWith('/tokens')) this.onChange();
 
     let response;
     try {
@@ -98,6 +112,7 @@ export class Api {
       throw new ApiError(0, null, `The server cannot be reached (${e.message}).`);
     }
     if (!response.ok) {
+      if (sessionRoute && method !== 'GET' && !path.endsWith('/tokens')) this.onChangeFailed();
       let error = await errorFromResponse(response);
       if (sessionRoute && await this.isSessionLost(error, session)) {
         error = new SessionLostError(error.status, error.problem,
@@ -112,11 +127,12 @@ export class Api {
     return response.json();
   }
 
-  // 401/403: the token no longer fits. 404: either the session or something inside it (a light
-  // id) is missing; asking for the session itself tells which.
+  // 401: the token no longer fits. 403: the token of another session, or a viewer's token asked
+  // to change something (the session is still there). 404: either the session or something
+  // inside it (a light id) is missing. Asking for the session itself tells which.
   async isSessionLost(error, session) {
-    if (error.status === 401 || error.status === 403) return true;
-    if (error.status !== 404 || !session) return false;
+    if (error.status === 401) return true;
+    if ((error.status !== 404 && error.status !== 403) || !session) return false;
     try {
       const r = await fetch(`/v1/sessions/${encodeURIComponent(session.id)}`, {
         headers: {Authorization: `Bearer ${session.token}`}, cache: 'no-store'});
@@ -146,11 +162,25 @@ export class Api {
     const created = await response.json();
     this.session = {id: created.id, token: created.token};
     localStorage.setItem(STORAGE_KEY, JSON.stringify(this.session));
+    this.leaveLink();
     return created.session;
   }
 
   forgetSession() {
     this.session = null;
-    localStorage.removeItem(STORAGE_KEY);
+    if (this.linked) this.leaveLink();
+    else localStorage.removeItem(STORAGE_KEY);
+  }
+
+  // The page no longer shows the linked session: drop the link from the address.
+  leaveLink() {
+    this.linked = null;
+    if (location.hash) history.replaceState(null, '', location.pathname + location.search);
+  }
+
+  // POST .../tokens: a view-only token; returns the page link that opens the session with it.
+  async share() {
+    const created = await this.post(this.sessionPath('/tokens'), {role: 'viewer'});
+    return {link: new URL(created.link, location.href).href, expiresInSeconds: created.expiresInSeconds};
   }
 }

@@ -1,5 +1,5 @@
 // Camera input. Orbit: left drag turns the eye around the target, the wheel zooms, right or
-// middle drag pans. Fly: hold the right button to look around, WASD to move, Q/E down/up, Shift
+// middle drag pans; on a touch screen one finger orbits, two pinch to zoom and drag to pan. Fly: hold the right button to look around, WASD to move, Q/E down/up, Shift
 // faster. The camera itself lives on the server: every change is sent as PATCH camera (at most
 // ~30 a second, one request in flight, always the newest pose) and the stream shows the result.
 
@@ -30,6 +30,8 @@ export class CameraControl {
     this.pending = false;        // a newer pose than the one in flight
     this.lastSend = 0;
     this.sendTimer = 0;
+    this.touches = new Map();    // pointerId -> {x, y} of the fingers on the view
+    this.pinch = null;           // {distance, x, y} of two fingers, while they pinch or pan
     this.onClick = () => {};     // (x, y) in CSS pixels of the view, for light picking
     this.onChange = () => {};    // the pose changed (local or from the server)
     this.onProblem = () => {};   // (ApiError)
@@ -64,6 +66,9 @@ export class CameraControl {
   }
 
   pointerDown(e) {
+    // The message box and the stats strip sit on the view: their clicks are theirs.
+    if (e.target.closest?.('[data-no-camera]')) return;
+    if (e.pointerType === 'touch' && this.touchDown(e)) return;
     if (!this.camera || this.drag) return;
     this.element.focus();
     this.element.setPointerCapture(e.pointerId);
@@ -73,7 +78,47 @@ export class CameraControl {
     e.preventDefault();
   }
 
+  // Touch: one finger drags as the left button does; a second finger turns the gesture into a
+  // pinch (the change in the fingers' distance zooms) and a two-finger pan (their midpoint moves
+  // the camera as a right drag does). True when the event belongs to a two-finger gesture.
+  touchDown(e) {
+    this.touches.set(e.pointerId, {x: e.clientX, y: e.clientY});
+    if (this.touches.size < 2) return false;
+    this.element.setPointerCapture(e.pointerId);
+    this.drag = null;  // the first finger's drag becomes the pinch
+    this.element.classList.remove('dragging');
+    this.pinch = this.twoFingers();
+    e.preventDefault();
+    return true;
+  }
+
+  twoFingers() {
+    const [a, b] = [...this.touches.values()];
+    return {distance: Math.max(1, Math.hypot(a.x - b.x, a.y - b.y)),
+            x: (a.x + b.x) / 2, y: (a.y + b.y) / 2};
+  }
+
+  touchMove(e) {
+    this.touches.set(e.pointerId, {x: e.clientX, y: e.clientY});
+    if (!this.pinch || this.touches.size < 2 || !this.camera) return;
+    const now = this.twoFingers();
+    const before = this.pinch;
+    this.pinch = now;
+    // Fingers apart: closer to the target, by the ratio of their distances.
+    this.zoomBy(before.distance / now.distance);
+    if (this.mode === 'orbit') this.pan(now.x - before.x, now.y - before.y);
+  }
+
+  touchUp(e) {
+    this.touches.delete(e.pointerId);
+    if (this.touches.size < 2) this.pinch = null;
+  }
+
   pointerMove(e) {
+    if (e.pointerType === 'touch' && this.touches.has(e.pointerId)) {
+      this.touchMove(e);
+      if (this.pinch) return;
+    }
     const drag = this.drag;
     if (!drag) return;
     const dx = e.clientX - drag.x;
@@ -94,6 +139,11 @@ export class CameraControl {
   }
 
   pointerUp(e) {
+    if (e.pointerType === 'touch') {
+      const pinching = this.pinch !== null;
+      this.touchUp(e);
+      if (pinching) return;
+    }
     const drag = this.drag;
     if (!drag) return;
     this.drag = null;
@@ -107,10 +157,16 @@ export class CameraControl {
   wheel(e) {
     if (!this.camera) return;
     e.preventDefault();
+    this.zoomBy(Math.exp(e.deltaY * ZOOM_PER_WHEEL_UNIT));
+  }
+
+  // Moves the eye towards (factor < 1) or away from the target.
+  zoomBy(factor) {
+    if (!Number.isFinite(factor) || factor <= 0) return;
     const offset = sub(this.camera.eye, this.camera.target);
     const distance = length(offset);
     const minDistance = Math.max(this.camera.near * 2, 1e-3);
-    const next = Math.max(minDistance, distance * Math.exp(e.deltaY * ZOOM_PER_WHEEL_UNIT));
+    const next = Math.max(minDistance, distance * factor);
     this.update({eye: add(this.camera.target, scale(offset, next / distance))});
   }
 

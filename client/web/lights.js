@@ -1,6 +1,8 @@
 // Local lights: generate (count, seed, radius, intensity, falloff C), delete, a paged list, an
-// editor for one light (point or spot: direction and cone angles; window or inverse-square), and picking a light by clicking its marker in the view: the listed
-// lights are projected with the session's camera and the nearest one to the click is chosen.
+// editor for one light (point or spot: direction and cone angles; window or inverse-square), and
+// picking a light by clicking its marker in the view. The page knows only a page of the lights,
+// so the server picks: GET .../lights/pick with the clicked pixel in the shown frame's pixels
+// looks among all of them (a session may hold a million).
 
 import {hexToLinear, linearToHex} from './color.js';
 import {fmt} from './panels.js';
@@ -8,23 +10,22 @@ import {project} from './vec.js';
 
 const $ = (id) => document.getElementById(id);
 const PAGE_SIZE = 50;
-const PICK_LIMIT = 1000;     // the API's page limit; picking considers the first this many
-const PICK_RADIUS_PX = 16;   // how far from a marker a click still selects it
+const PICK_RADIUS_PX = 8;    // how far (CSS pixels) from a marker a click still selects it
 const DEGREES = 180 / Math.PI;  // the editor shows cone angles in degrees; the API takes radians
 const HALF_PI = Math.PI / 2;
 
 export class LightsPanel {
-  constructor(api, {onProblem, onInfo, getCamera, getViewSize, overlay}) {
+  constructor(api, {onProblem, onInfo, getCamera, getViewSize, getFrameSize, overlay}) {
     this.api = api;
     this.onProblem = onProblem;
     this.onInfo = onInfo;
     this.getCamera = getCamera;      // () => Camera
     this.getViewSize = getViewSize;  // () => {width, height} in CSS pixels
+    this.getFrameSize = getFrameSize;  // () => {width, height} of the frame shown, in its pixels
     this.overlay = overlay;          // canvas over the view: the selected light's ring
     this.offset = 0;
     this.total = 0;
     this.page = [];
-    this.pickable = null;            // the first PICK_LIMIT lights, fetched on the first click
     this.selected = null;            // a Light
 
     $('gen-lights').addEventListener('click', () => this.generate());
@@ -82,7 +83,6 @@ export class LightsPanel {
   // After the set of lights changed: back to the first page, nothing selected.
   changed(total) {
     this.total = total;
-    this.pickable = null;
     this.select(null);
     this.showPage(0);
   }
@@ -192,8 +192,6 @@ export class LightsPanel {
   replace(light) {
     const i = this.page.findIndex((l) => l.id === light.id);
     if (i >= 0) this.page[i] = light;
-    const j = this.pickable ? this.pickable.findIndex((l) => l.id === light.id) : -1;
-    if (j >= 0) this.pickable[j] = light;
     this.renderList();
   }
 
@@ -208,33 +206,33 @@ export class LightsPanel {
     }
   }
 
-  // A click in the view: the nearest projected light within PICK_RADIUS_PX, nearer to the eye
-  // when two are equally close.
+  // A click in the view at (x, y) CSS pixels: the server names the light whose marker is under
+  // that pixel of the frame shown (or within PICK_RADIUS_PX of it), whichever of the session's
+  // lights it is; the editor opens where it can be seen.
   async pick(x, y) {
-    const camera = this.getCamera();
-    if (!camera || this.total === 0) return;
+    const view = this.getViewSize();
+    const frame = this.getFrameSize();
+    if (!view.width || !view.height || !frame.width || !frame.height) return;
+    const sx = frame.width / view.width;
+    const sy = frame.height / view.height;
+    const query = {
+      x: Math.min(frame.width - 0.01, Math.max(0, x * sx)).toFixed(2),
+      y: Math.min(frame.height - 0.01, Math.max(0, y * sy)).toFixed(2),
+      width: frame.width, height: frame.height,
+      radius: Math.min(64, PICK_RADIUS_PX * sx).toFixed(2),
+    };
+    let answer;
     try {
-      if (!this.pickable) {
-        const answer = await this.api.get(this.api.sessionPath('/lights'),
-                                          {query: {offset: 0, limit: PICK_LIMIT}});
-        this.pickable = answer.lights;
-      }
+      answer = await this.api.get(this.api.sessionPath('/lights/pick'), {query});
     } catch (e) {
       this.onProblem(e);
       return;
     }
-    const {width, height} = this.getViewSize();
-    let best = null;
-    for (const light of this.pickable) {
-      const p = project(camera, light.position, width, height);
-      if (!p) continue;
-      const distance = Math.hypot(p.x - x, p.y - y);
-      if (distance > PICK_RADIUS_PX) continue;
-      if (!best || distance < best.distance - 1 || (distance < best.distance + 1 && p.depth < best.depth)) {
-        best = {light, distance, depth: p.depth};
-      }
-    }
-    if (best) this.select(best.light);
+    if (!answer.light) return;
+    this.select(answer.light);
+    const section = $('light-editor').closest('details');
+    if (section) section.open = true;
+    $('light-editor').scrollIntoView({block: 'nearest'});
   }
 
   // A ring around the selected light, re-projected whenever the camera or the view changes.

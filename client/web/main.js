@@ -6,6 +6,7 @@ import {CameraControl, isTyping} from './camera.js';
 import {LightsPanel} from './lights.js';
 import {MaterialPanel, ModelPanel, SettingsPanel} from './panels.js';
 import {StatsPanel} from './stats.js';
+import {ViewOverlay} from './overlay.js';
 import {LiveView} from './view.js';
 
 const $ = (id) => document.getElementById(id);
@@ -58,6 +59,14 @@ function sessionLost(text) {
 // --- parts ----------------------------------------------------------------------------------
 
 const view = new LiveView(api, $('view'), $('stream'), $('view-status'));
+// The status line and stats strip on the view: "rendering" from the moment of a change (an edit
+// sent, camera input) until a new frame shows; fps, latency, bandwidth and codec of the stream.
+const overlay = new ViewOverlay($('view-state'), $('stats-strip'));
+view.onConnect = () => overlay.connect();
+view.onFrame = (frame) => overlay.frame(frame);
+view.onInput = () => overlay.changed();
+api.onChange = () => overlay.changed();
+api.onChangeFailed = () => overlay.cancelChange();
 view.onProblem = (error) => {
   showProblem(error);
   messageIsStream = !(error instanceof SessionLostError) && !$('message').hidden;
@@ -68,9 +77,10 @@ const camera = new CameraControl(api, $('view'), view);
 camera.onProblem = showProblem;
 
 const viewSize = () => ({width: $('view').clientWidth, height: $('view').clientHeight});
+const frameSize = () => ({width: $('stream').naturalWidth, height: $('stream').naturalHeight});
 const lights = new LightsPanel(api, {
   onProblem: showProblem, onInfo: showInfo, getCamera: () => camera.camera,
-  getViewSize: viewSize, overlay: $('markers-overlay'),
+  getViewSize: viewSize, getFrameSize: frameSize, overlay: $('markers-overlay'),
 });
 camera.onChange = () => lights.drawOverlay();
 camera.onClick = (x, y) => lights.pick(x, y);
@@ -110,8 +120,9 @@ model.acceptDrops($('view'));
 
 function startSession(state) {
   hideMessage();
-  $('session-label').textContent = api.session.id;
-  $('session-label').title = `session ${api.session.id}`;
+  $('session-label').textContent = api.linked ? `${api.session.id} (shared link)` : api.session.id;
+  $('session-label').title = `session ${api.session.id}` +
+      (api.linked ? ': opened from a link; a view-only link watches but cannot change it' : '');
   model.show(state);
   camera.setModelBounds(state.model.bounds);
   camera.setFromServer(state.camera);
@@ -215,6 +226,25 @@ function toggleHelp(show = $('help').hidden) {
   if (show) $('help-close').focus();
 }
 
+// Share: a view-only link (a viewer token) to this session, copied where the browser allows.
+async function share() {
+  if (!api.hasSession) return;
+  try {
+    const {link, expiresInSeconds} = await api.share();
+    const minutes = Math.round(expiresInSeconds / 60);
+    try {
+      await navigator.clipboard.writeText(link);
+      showMessage(`Copied a view-only link (works for ${minutes} min):\n${link}`, {info: true});
+    } catch {
+      showMessage(`A view-only link (works for ${minutes} min):\n${link}`, {info: true});
+    }
+    $('message-text').dataset.link = link;
+  } catch (e) {
+    showProblem(e);
+  }
+}
+
+$('share').addEventListener('click', share);
 $('new-session').addEventListener('click', newSession);
 $('api-key-label').addEventListener('submit', (e) => {
   e.preventDefault();

@@ -46,6 +46,10 @@ export class LiveView {
     this.onProblem = () => {};      // (ApiError) => void
     this.onRecovered = () => {};    // a part shows again after onProblem
     this.troubled = false;          // onProblem was called and no part has shown since
+    this.codec = 'jpeg';            // how the frames shown are encoded (the stats strip says it)
+    this.onConnect = () => {};      // a stream is being opened
+    this.onFrame = () => {};        // ({id, bytes, codec}) a frame was delivered
+    this.onInput = () => {};        // camera input: the picture is about to change
 
     this.img.addEventListener('load', () => {
       // The newest part shows: the parts before it are no longer needed.
@@ -100,6 +104,7 @@ export class LiveView {
     const stream = {key, abort: new AbortController()};
     this.stream = stream;
     this.img.dataset.stream = key;
+    this.onConnect();
     this.read(stream, query);
   }
 
@@ -126,6 +131,7 @@ export class LiveView {
 
   // Called on every camera input: smaller frames now, the full-quality view once input pauses.
   noteInput() {
+    this.onInput();
     if (!this.interactive) {
       this.interactive = true;
       this.restart();
@@ -202,6 +208,8 @@ export class LiveView {
     this.img.src = url;
     this.img.dataset.shown = stream.key;
     this.img.dataset.frame = part.headers['x-myriad-frame'] || '';
+    this.onFrame({id: `${stream.key}#${this.img.dataset.frame}`, bytes: part.body.byteLength,
+                  codec: this.codec});
     this.retryDelayMs = FIRST_RETRY_MS;
     if (this.troubled) {
       this.troubled = false;

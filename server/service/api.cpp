@@ -451,7 +451,10 @@ std::unique_lock<std::mutex> lockOpen(Session& session) {
 
 SessionPtr authorizeSession(const ApiContext& context, const httplib::Request& req,
                             bool allowQueryToken) {
-  return context.sessions.authorize(req.matches[1].str(), credentialsOf(req), allowQueryToken);
+  // A viewer token may GET (read, watch); everything else changes the session.
+  const bool reads = req.method == "GET" || req.method == "HEAD";
+  return context.sessions.authorize(req.matches[1].str(), credentialsOf(req), allowQueryToken,
+                                    reads ? Role::viewer : Role::owner);
 }
 
 }  // namespace myriad::service

@@ -130,7 +130,8 @@ void handleStream(ApiContext& context, FrameServices& frames, const httplib::Req
   res.set_header("Cache-Control", "no-store");
   res.set_chunked_content_provider(
       std::string(protocol::kStreamContentType),
-      makeStreamProvider({context.renderThread, frames.stats, frames.metrics}, frames.streams,
+      makeStreamProvider({context.renderThread, frames.stats, frames.metrics, &frames.shared},
+                         frames.streams,
                          std::move(slot), std::move(session), std::move(request),
                          PeerWatch(req.local_addr, req.local_port, req.remote_addr, req.remote_port)));
 }
@@ -157,6 +158,7 @@ void handleMetrics(const ApiContext& context, FrameServices& frames, const httpl
   gauges.streams = frames.streams.count();
   gauges.gpuMemoryBytes = context.renderThread.gpuMemoryBytes();
   gauges.validationMessages = context.renderThread.validationMessages();
+  gauges.sharedStreamFrames = frames.shared.sharedCount();
   res.set_content(frames.metrics.exposition(gauges), std::string(protocol::kMetricsContentType));
 }
 

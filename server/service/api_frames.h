@@ -9,6 +9,7 @@
 #include "service/frame_query.h"
 #include "service/metrics.h"
 #include "service/session_frames.h"
+#include "service/shared_frames.h"
 #include "service/stream.h"
 
 namespace myriad::service {
@@ -20,6 +21,7 @@ struct FrameServices {
   Metrics metrics;
   FrameStatsBook stats;
   StreamRegistry streams;
+  SharedFrames shared;  // streams of one session share renders
   FrameDefaults builtinDefaults;          // GET /v1/frame: the built-in scene's camera and bounds
   render::FrameSettings builtinLighting;  // its sun, ambient and background
 };

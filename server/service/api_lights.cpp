@@ -1,12 +1,15 @@
 // A session's local lights: parse, authorize, one SessionScene edit, queue its GPU change (under
 // the session's lock, so the render thread sees edits in the order the CPU copy took them), answer.
 #include <charconv>
+#include <cmath>
+#include <optional>
 
 #include "protocol/constants.h"
 #include "protocol/types.h"
 #include "protocol/validate.h"
 #include "scene/light_generator.h"
 #include "service/api.h"
+#include "render/marker_pick.h"
 #include "render/render_queue.h"
 #include "service/session_json.h"
 #include "service/startup.h"
@@ -175,6 +178,61 @@ void generate(ApiContext& context, const httplib::Request& req, httplib::Respons
   sendJson(res, generated);
 }
 
+// A finite number in [min, max] from the query, or 400 naming the parameter.
+double numberParameter(const httplib::Request& req, const std::string& name, double min,
+                       double max, std::optional<double> fallback = std::nullopt) {
+  if (!req.has_param(name)) {
+    if (fallback) return *fallback;
+    throw ProblemError(invalidParameter(name, "\"" + name + "\" is required."));
+  }
+  const std::string text = req.get_param_value(name);
+  double value = 0;
+  auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), value);
+  if (text.empty() || ec != std::errc() || end != text.data() + text.size() ||
+      !std::isfinite(value) || value < min || value > max) {
+    throw ProblemError(invalidParameter(
+        name, "\"" + name + "\" must be a number from " + std::to_string(int64_t(min)) + " to " +
+                  std::to_string(int64_t(max)) + ", not " + quoteClientText(text) + "."));
+  }
+  return value;
+}
+
+// GET .../lights/pick?x=&y=&width=&height=[&radius=]: the light whose marker is under the pixel,
+// found among all the session's lights (render/marker_pick.h), answered by id.
+void pick(ApiContext& context, const httplib::Request& req, httplib::Response& res) {
+  SessionPtr session = authorizeSession(context, req);
+  checkQuery(req, {"x", "y", "width", "height", "radius"});
+  constexpr uint64_t kMaxSide = 16384;
+  for (const char* required : {"width", "height"}) {
+    if (!req.has_param(required)) {
+      throw ProblemError(invalidParameter(
+          required, "\"" + std::string(required) +
+                        "\" is required: the size in pixels of the frame the pixel is in."));
+    }
+  }
+  const uint64_t width = unsignedParameter(req, "width", 0, 1, kMaxSide);
+  const uint64_t height = unsignedParameter(req, "height", 0, 1, kMaxSide);
+  const double x = numberParameter(req, "x", 0, double(width));
+  const double y = numberParameter(req, "y", 0, double(height));
+  if (x >= double(width) || y >= double(height)) {
+    throw ProblemError(invalidParameter(x >= double(width) ? "x" : "y",
+                                        "The pixel must lie inside the width x height frame."));
+  }
+  const float radius = float(numberParameter(req, "radius", 0, 64, 0.0));
+  protocol::LightPick answer;
+  auto lock = lockOpen(*session);
+  const SessionScene& scene = session->scene;
+  const std::optional<render::MarkerHit> hit =
+      render::pickMarker(scene.lights(), scene.camera(), uint32_t(width), uint32_t(height), x, y,
+                         radius);
+  if (hit) {
+    answer.light = toWire(scene.idAt(hit->slot), scene.lightAt(hit->slot));
+    answer.distance = hit->distance;
+    answer.candidates = hit->candidates;
+  }
+  sendJson(res, answer);
+}
+
 }  // namespace
 
 void addLightRoutes(Routes& routes, ApiContext& context) {
@@ -182,8 +240,9 @@ void addLightRoutes(Routes& routes, ApiContext& context) {
   routes.add("GET", protocol::routes::kSessionLights, bind(getPage));
   routes.add("POST", protocol::routes::kSessionLights, bind(addLights));
   routes.add("DELETE", protocol::routes::kSessionLights, bind(clearLights));
-  // Before {lid}, which would otherwise take "generate" for a light id.
+  // Before {lid}, which would otherwise take "generate" or "pick" for a light id.
   routes.add("POST", protocol::routes::kSessionLightsGenerate, bind(generate));
+  routes.add("GET", protocol::routes::kSessionLightsPick, bind(pick));
   routes.add("GET", protocol::routes::kSessionLight, bind(getLight));
   routes.add("PATCH", protocol::routes::kSessionLight, bind(patchLight));
   routes.add("DELETE", protocol::routes::kSessionLight, bind(deleteLight));

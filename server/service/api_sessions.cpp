@@ -1,4 +1,5 @@
 // POST /v1/sessions, GET/DELETE /v1/sessions/{id}, PUT /v1/sessions/{id}/model, GET /v1/models.
+#include <algorithm>
 #include <memory>
 
 #include "loader/archive.h"
@@ -371,6 +372,48 @@ void putModel(ApiContext& context, const httplib::Request& req, httplib::Respons
   sendState(context, res, *session);
 }
 
+// POST .../tokens: a viewer token, returned once and kept as its hash.
+void createToken(ApiContext& context, const httplib::Request& req, httplib::Response& res) {
+  SessionPtr session = authorizeSession(context, req);
+  checkQuery(req, {});
+  const auto body =
+      jsonBody(req, protocol::schema_names::kTokenCreate).get<protocol::TokenCreate>();
+  // The schema admits only the viewer role.
+  const uint64_t ttl = body.ttlSeconds.value_or(protocol::kDefaultViewerTokenSeconds);
+  protocol::TokenCreated created;
+  created.token = randomToken();
+  created.role = std::string(protocol::roles::kViewer);
+  created.expiresInSeconds = ttl;
+  created.link = std::string(protocol::routes::kWebRoot) + "#session=" + session->id +
+                 "&token=" + created.token;
+  {
+    auto lock = lockOpen(*session);
+    const int64_t now = unixNow();
+    std::vector<ViewerToken>& tokens = session->viewerTokens;
+    std::erase_if(tokens, [&](const ViewerToken& v) { return v.expiresAtUnix <= now; });
+    if (tokens.size() >= protocol::kMaxViewerTokens) {
+      // Bounded: the token that would expire first makes room.
+      tokens.erase(std::min_element(tokens.begin(), tokens.end(), [](const auto& a, const auto& b) {
+        return a.expiresAtUnix < b.expiresAtUnix;
+      }));
+    }
+    tokens.push_back({sha256Hex(created.token), now + int64_t(ttl)});
+    session->persisted.tokensChanged = true;
+  }
+  sendJson(res, created, 201);
+}
+
+void revokeTokens(ApiContext& context, const httplib::Request& req, httplib::Response& res) {
+  SessionPtr session = authorizeSession(context, req);
+  checkQuery(req, {});
+  {
+    auto lock = lockOpen(*session);
+    session->viewerTokens.clear();
+    session->persisted.tokensChanged = true;
+  }
+  res.status = 204;
+}
+
 }  // namespace
 
 SessionPtr restoreStoredSession(ApiContext& context, std::string_view id,
@@ -378,7 +421,14 @@ SessionPtr restoreStoredSession(ApiContext& context, std::string_view id,
   if (context.state == nullptr) return nullptr;
   std::optional<StoredSession> stored = context.state->load(id);
   if (!stored) return nullptr;
-  if (!constantTimeEquals(sha256Hex(token), stored->tokenHash)) {
+  const std::string hash = sha256Hex(token);
+  const bool owner = constantTimeEquals(hash, stored->tokenHash);
+  bool viewer = false;
+  for (const StoredSession::Viewer& v : stored->viewers) {
+    if (constantTimeEquals(hash, v.tokenHash)) viewer = true;
+  }
+  // An expired viewer token still restores the session; authorize() then answers 401 for it.
+  if (!owner && !viewer) {
     throw ProblemError(forbidden("The token is not the token of the session " +
                                  quoteClientText(id) + "."));
   }
@@ -406,8 +456,8 @@ SessionPtr restoreStoredSession(ApiContext& context, std::string_view id,
   } else {
     environment = snapshotEnvironment(context, snapshot, "");
   }
-  SessionPtr session = context.sessions.createWithIdentity(std::string(id), token,
-                                                           newSessionScene(context));
+  SessionPtr session = context.sessions.createWithIdentity(
+      std::string(id), owner ? token : std::string(), stored->tokenHash, newSessionScene(context));
   try {
     populate(context, *session, std::move(loaded), source, &snapshot, "", environment);
   } catch (...) {
@@ -418,6 +468,9 @@ SessionPtr restoreStoredSession(ApiContext& context, std::string_view id,
     std::lock_guard lock(session->mutex);
     session->persisted.model = stored->model;
     session->persisted.environmentBlob = stored->environmentBlob;
+    for (const StoredSession::Viewer& v : stored->viewers) {
+      session->viewerTokens.push_back({v.tokenHash, v.expiresAtUnix});
+    }
   }
   std::fprintf(stderr, "myriad-server: session %s restored from the state directory (%s)\n",
                session->id.c_str(), source.c_str());
@@ -449,6 +502,8 @@ void addSessionRoutes(Routes& routes, ApiContext& context) {
                }
                res.status = 204;
              });
+  routes.add("POST", protocol::routes::kSessionTokens, bindContext(context, createToken));
+  routes.add("DELETE", protocol::routes::kSessionTokens, bindContext(context, revokeTokens));
   RouteOptions upload;
   upload.maxBodyBytes = context.config.limits.maxUploadBytes;
   upload.bodyLimitName = "maxUploadBytes";

@@ -112,10 +112,17 @@ struct HttpServer::State {
       std::lock_guard lock(session->mutex);
       // A session still being created has no GPU scene yet; a closed one is gone (or going).
       if (session->closed || session->sceneId == 0) continue;
-      if (session->version == session->persisted.savedVersion) continue;
+      if (session->version == session->persisted.savedVersion &&
+          !session->persisted.tokensChanged) {
+        continue;
+      }
       StoredSession stored;
       stored.id = session->id;
-      stored.tokenHash = sha256Hex(session->token);
+      stored.tokenHash = session->tokenHash;
+      for (const ViewerToken& v : session->viewerTokens) {
+        stored.viewers.push_back({v.hash, v.expiresAtUnix});
+      }
+      session->persisted.tokensChanged = false;
       stored.snapshot = session->scene.snapshot();
       stored.model = session->persisted.model;
       stored.environmentBlob = session->persisted.environmentBlob;

@@ -85,6 +85,9 @@ std::string Metrics::exposition(const MetricGauges& gauges) const {
   out += "myriad_sessions " + std::to_string(gauges.sessions) + "\n";
   family(out, "myriad_streams", "gauge", "Frame streams open now.");
   out += "myriad_streams " + std::to_string(gauges.streams) + "\n";
+  family(out, "myriad_stream_frames_shared_total", "counter",
+         "Stream parts sent from a frame another stream of the session rendered (no render).");
+  out += "myriad_stream_frames_shared_total " + std::to_string(gauges.sharedStreamFrames) + "\n";
   family(out, "myriad_gpu_memory_bytes", "gauge",
          "GPU memory held for scenes, lights and light lists.");
   out += "myriad_gpu_memory_bytes " + std::to_string(gauges.gpuMemoryBytes) + "\n";

@@ -18,6 +18,7 @@ struct MetricGauges {
   uint64_t streams = 0;
   uint64_t gpuMemoryBytes = 0;
   uint64_t validationMessages = 0;
+  uint64_t sharedStreamFrames = 0;  // stream parts another stream's render made (SharedFrames)
 };
 
 class Metrics {

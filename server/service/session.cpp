@@ -7,6 +7,8 @@
 #include <cstdio>
 #include <stdexcept>
 
+#include "service/state_store.h"
+
 namespace myriad::service {
 namespace {
 
@@ -37,6 +39,26 @@ std::string randomHex(size_t bytes) {
 }
 
 }  // namespace
+
+std::string randomToken() { return randomHex(kTokenBytes); }
+
+int64_t unixNow() {
+  return std::chrono::duration_cast<std::chrono::seconds>(
+             std::chrono::system_clock::now().time_since_epoch())
+      .count();
+}
+
+Session::Session(std::string id, std::string token, SessionScene scene)
+    : id(std::move(id)),
+      token(std::move(token)),
+      tokenHash(sha256Hex(this->token)),
+      scene(std::move(scene)) {}
+
+Session::Session(std::string id, std::string token, std::string tokenHash, SessionScene scene)
+    : id(std::move(id)),
+      token(std::move(token)),
+      tokenHash(std::move(tokenHash)),
+      scene(std::move(scene)) {}
 
 bool constantTimeEquals(std::string_view a, std::string_view b) {
   if (a.size() != b.size()) return false;
@@ -93,7 +115,7 @@ SessionPtr SessionManager::create(SessionScene scene) {
 }
 
 SessionPtr SessionManager::createWithIdentity(std::string id, std::string token,
-                                             SessionScene scene) {
+                                             std::string tokenHash, SessionScene scene) {
   std::lock_guard lock(mutex_);
   if (sessions_.size() >= maxSessions_) {
     throw ProblemError(limitExceeded(
@@ -101,7 +123,8 @@ SessionPtr SessionManager::createWithIdentity(std::string id, std::string token,
         "The server already holds " + std::to_string(sessions_.size()) +
             " sessions, its limit; the session cannot be restored until one is deleted or expires."));
   }
-  auto session = std::make_shared<Session>(id, std::move(token), std::move(scene));
+  auto session = std::make_shared<Session>(id, std::move(token), std::move(tokenHash),
+                                          std::move(scene));
   sessions_.emplace(std::move(id), session);
   return session;
 }
@@ -121,7 +144,7 @@ SessionPtr SessionManager::find(std::string_view id) const {
 }
 
 SessionPtr SessionManager::authorize(std::string_view id, const Credentials& credentials,
-                                     bool allowQueryToken) const {
+                                     bool allowQueryToken, Role needed, Role* role) const {
   std::optional<std::string> token;
   if (credentials.authorization) {
     token = bearerToken(*credentials.authorization);
@@ -139,6 +162,9 @@ SessionPtr SessionManager::authorize(std::string_view id, const Credentials& cre
             ? "This route needs the session's token: Authorization: Bearer <token> or ?token=."
             : "This route needs the session's token: Authorization: Bearer <token>."));
   }
+  // Tokens are compared by their SHA-256: viewer tokens are only kept that way, and a session
+  // restored by a viewer never saw its owner's token.
+  const std::string hash = sha256Hex(*token);
 
   SessionPtr session;
   bool otherSession = false;
@@ -148,7 +174,15 @@ SessionPtr SessionManager::authorize(std::string_view id, const Credentials& cre
     if (it != sessions_.end()) session = it->second;
     // Every open session's token is compared, so the time taken does not tell which matched.
     for (const auto& [otherId, other] : sessions_) {
-      if (constantTimeEquals(other->token, *token) && other != session) otherSession = true;
+      if (other == session) continue;
+      bool matches = constantTimeEquals(other->tokenHash, hash);
+      {
+        std::lock_guard otherLock(other->mutex);
+        for (const ViewerToken& viewer : other->viewerTokens) {
+          if (constantTimeEquals(viewer.hash, hash)) matches = true;
+        }
+      }
+      if (matches) otherSession = true;
     }
   }
   if (!session && restorer_) {
@@ -162,13 +196,38 @@ SessionPtr SessionManager::authorize(std::string_view id, const Credentials& cre
                                       " (never created, deleted, or expired after " +
                                       std::to_string(idleTimeout_.count()) + " s idle)."));
   }
-  if (!constantTimeEquals(session->token, *token)) {
-    if (otherSession) {
-      throw ProblemError(forbidden("The token belongs to another session, not to " +
-                                   quoteClientText(id) + "."));
+  Role presented = Role::owner;
+  if (!constantTimeEquals(session->tokenHash, hash)) {
+    bool viewer = false;
+    bool expired = false;
+    {
+      std::lock_guard lock(session->mutex);
+      const int64_t now = unixNow();
+      for (const ViewerToken& v : session->viewerTokens) {
+        if (!constantTimeEquals(v.hash, hash)) continue;
+        (v.expiresAtUnix > now ? viewer : expired) = true;
+      }
     }
-    throw ProblemError(unauthorized("The token is not the token of any open session."));
+    if (!viewer) {
+      if (expired) {
+        throw ProblemError(unauthorized("This viewer token of " + quoteClientText(id) +
+                                        " has expired; ask the session's owner for a new one."));
+      }
+      if (otherSession) {
+        throw ProblemError(forbidden("The token belongs to another session, not to " +
+                                     quoteClientText(id) + "."));
+      }
+      throw ProblemError(unauthorized("The token is not the token of any open session."));
+    }
+    presented = Role::viewer;
+    if (needed == Role::owner) {
+      throw ProblemError(forbidden(
+          "This is a viewer token of " + quoteClientText(id) +
+          ": it can read and watch the session but not change it; changes need the token "
+          "POST /v1/sessions returned."));
+    }
   }
+  if (role != nullptr) *role = presented;
   std::lock_guard lock(session->mutex);
   if (session->closed) {
     throw ProblemError(notFoundDetail("The session " + quoteClientText(id) + " was deleted."));

@@ -30,15 +30,32 @@
 
 namespace myriad::service {
 
+// What a token lets its holder do: the owner's (POST /v1/sessions) everything, a viewer's
+// (POST .../tokens) only GET: read the session, watch its frames and stream.
+enum class Role { owner, viewer };
+
+// A viewer token as the server keeps it: its SHA-256 and when it stops working (seconds since
+// the Unix epoch: a wall-clock time, so that it means the same after a restart).
+struct ViewerToken {
+  std::string hash;
+  int64_t expiresAtUnix = 0;
+};
+
+// Seconds since the Unix epoch now (viewer tokens' expiry).
+int64_t unixNow();
+
 struct Session {
   // Without `scene`: an empty scene that may hold no lights (tests of what does not need one).
-  Session(std::string id, std::string token, SessionScene scene = SessionScene(0, {}))
-      : id(std::move(id)), token(std::move(token)), scene(std::move(scene)) {}
+  Session(std::string id, std::string token, SessionScene scene = SessionScene(0, {}));
+  // A session restored from the state directory knows its owner token's hash, and the token
+  // itself only when the request that restored it carried it (empty otherwise).
+  Session(std::string id, std::string token, std::string tokenHash, SessionScene scene);
   Session(const Session&) = delete;
   Session& operator=(const Session&) = delete;
 
-  const std::string id;     // "s-" + 16 hex digits
-  const std::string token;  // 64 hex digits (32 random bytes)
+  const std::string id;         // "s-" + 16 hex digits
+  const std::string token;      // 64 hex digits (32 random bytes); what POST /v1/sessions returns
+  const std::string tokenHash;  // sha256Hex(token): what requests are checked against
 
   // Guards everything below. Never held while waiting for a frame.
   mutable std::mutex mutex;
@@ -49,6 +66,10 @@ struct Session {
   // The CPU scene: model, materials, camera, settings, lights. Only its methods change it; each
   // returns the GPU change to queue, which the caller queues before unlocking `mutex`.
   SessionScene scene;
+
+  // Viewer tokens (POST .../tokens), by hash; at most protocol::kMaxViewerTokens, expired ones
+  // dropped whenever one is added. `tokensChanged` tells the state persister to write them.
+  std::vector<ViewerToken> viewerTokens;
 
   // Bumped (under `mutex`) on every change that can alter a frame; streams compare it.
   uint64_t version = 0;
@@ -61,6 +82,7 @@ struct Session {
     std::optional<StoredUpload> model;
     std::optional<std::string> environmentBlob;
     uint64_t savedVersion = UINT64_MAX;
+    bool tokensChanged = false;  // viewer tokens added or revoked since the last write
   };
   Persisted persisted;
 
@@ -108,7 +130,9 @@ class SessionManager {
   SessionPtr create(SessionScene scene = SessionScene(0, {}));
   // A session with a given id and token (one restored from the state directory). Also 429 at
   // maxSessions; 409-free: the caller checked that `id` is not open (under restoring()).
-  SessionPtr createWithIdentity(std::string id, std::string token, SessionScene scene);
+  // `token` is the presented token when it is the owner's, else "" (restored by a viewer).
+  SessionPtr createWithIdentity(std::string id, std::string token, std::string tokenHash,
+                                SessionScene scene);
 
   // Every open session (the state persister walks them).
   std::vector<SessionPtr> all() const;
@@ -127,8 +151,13 @@ class SessionManager {
   // token, or one that belongs to no session), 404 (no such session: never created, deleted or
   // expired), 403 (the token of another session). Tokens are compared in constant time. Refreshes
   // the session's idle timer. Throws ProblemError.
+  //
+  // A viewer token of the session (not expired) passes when `needed` is Role::viewer, and is 403
+  // otherwise (a change needs the owner's token); an expired one is 401. `role`, when given,
+  // receives the role of the token presented.
   SessionPtr authorize(std::string_view id, const Credentials& credentials,
-                       bool allowQueryToken = false) const;
+                       bool allowQueryToken = false, Role needed = Role::owner,
+                       Role* role = nullptr) const;
 
   // Closes the session (streams wake and end), releases its GPU scene and forgets it. False when
   // there was no such session.
@@ -167,6 +196,9 @@ class SessionManager {
 // Constant-time equality of two strings of equal length (false, quickly, when lengths differ:
 // every token has the same length, so that reveals nothing).
 bool constantTimeEquals(std::string_view a, std::string_view b);
+
+// A new token: 32 bytes from the kernel's CSPRNG, as 64 hex digits.
+std::string randomToken();
 
 // "Bearer <64 hex>" -> the token; nullopt when the header is missing or malformed.
 std::optional<std::string> bearerToken(std::string_view authorization);

@@ -71,11 +71,16 @@ struct SessionFrame {
   uint64_t version = 0;  // the session version the frame shows
 };
 
+class SharedFrames;
+
 // What SessionFrames needs from the rest of the server.
 struct SessionFrameContext {
   render::RenderQueue& renderThread;
   FrameStatsBook& stats;
   Metrics& metrics;
+  // Streams take their frames through it (shared_frames.h), so that streams of one session
+  // share renders; null: each stream renders its own.
+  SharedFrames* shared = nullptr;
 };
 
 // A session frame submitted to the render thread and not yet collected (submitSessionFrame).

@@ -167,6 +167,7 @@ class SessionScene {
   uint32_t maxLights() const { return maxLights_; }
   size_t lightCount() const { return lights_.size(); }
   const scene::PointLight& lightAt(uint32_t slot) const { return lights_[slot]; }
+  std::span<const scene::PointLight> lights() const { return lights_; }  // by slot
   uint64_t idAt(uint32_t slot) const { return ids_[slot]; }
   // The slot of the light `id` names (a route segment: decimal digits); throws ProblemError 404
   // when the session has no such light (deleted, never created, or not a number).

@@ -92,6 +92,13 @@ nlohmann::json toJson(const StoredSession& s) {
                    {"blob", s.model->blob}};
   }
   if (s.environmentBlob) j["environmentBlob"] = *s.environmentBlob;
+  if (!s.viewers.empty()) {
+    nlohmann::json viewers = nlohmann::json::array();
+    for (const StoredSession::Viewer& v : s.viewers) {
+      viewers.push_back({{"tokenSha256", v.tokenHash}, {"expiresAt", v.expiresAtUnix}});
+    }
+    j["viewerTokens"] = std::move(viewers);
+  }
   return j;
 }
 
@@ -115,6 +122,14 @@ StoredSession fromJson(const nlohmann::json& j) {
     s.model = std::move(upload);
   }
   if (j.contains("environmentBlob")) s.environmentBlob = j.at("environmentBlob").get<std::string>();
+  if (j.contains("viewerTokens")) {
+    for (const nlohmann::json& v : j.at("viewerTokens")) {
+      StoredSession::Viewer viewer{v.at("tokenSha256").get<std::string>(),
+                                   v.at("expiresAt").get<int64_t>()};
+      if (!isHexKey(viewer.tokenHash)) throw std::runtime_error("bad viewer token hash");
+      s.viewers.push_back(std::move(viewer));
+    }
+  }
   return s;
 }
 

@@ -21,6 +21,7 @@
 #include <string>
 #include <string_view>
 #include <thread>
+#include <vector>
 #include <condition_variable>
 
 #include <nlohmann/json.hpp>
@@ -42,6 +43,12 @@ struct StoredSession {
   nlohmann::json snapshot; // protocol::Snapshot
   std::optional<StoredUpload> model;        // when the snapshot's model was uploaded
   std::optional<std::string> environmentBlob;  // an uploaded environment, decoded floats
+  // Viewer tokens (POST .../tokens): SHA-256 and expiry in Unix seconds, like the owner's.
+  struct Viewer {
+    std::string tokenHash;
+    int64_t expiresAtUnix = 0;
+  };
+  std::vector<Viewer> viewers;
 };
 
 // Lower-case hex SHA-256 of `bytes` (OpenSSL).

@@ -5,6 +5,8 @@
 #include <optional>
 #include <utility>
 
+#include "service/shared_frames.h"
+
 namespace myriad::service {
 namespace {
 
@@ -25,6 +27,7 @@ struct StreamState {
 
   bool hasFrame = false;
   uint64_t shownVersion = 0;  // the session version of the last frame
+  uint64_t shownGeneration = 0;  // its SharedFrames generation (0: none, or not shared)
   uint64_t sequence = 0;      // X-Myriad-Frame of the last frame (re-sends keep it)
   std::string image;          // the last frame, for idle re-sends
   std::string contentType;
@@ -92,17 +95,27 @@ bool StreamState::next(httplib::DataSink& sink) {
     const Clock::time_point now = Clock::now();
     const bool wantFrame = !hasFrame || version != shownVersion || animate;
     if (wantFrame && now >= nextFrameAt) {
-      SessionFrame frame;
+      SharedFrames::Frame frame;
       try {
-        PendingSessionFrame pending =
-            ahead ? std::move(*ahead)
-                  : submitSessionFrame(context, session, request, render::FrameSource::Stream);
-        ahead.reset();
-        if (animate && lastFrameTook >= interval) {
-          ahead = submitSessionFrame(context, session, request, render::FrameSource::Stream);
+        // Streams of one session share renders (SharedFrames) unless this one pipelines: an
+        // animated stream whose frames take longer than 1 / fps submits the next frame ahead,
+        // which a shared render cannot (it would keep each stream's own frames in flight).
+        const bool pipelined = animate && (ahead || lastFrameTook >= interval);
+        if (context.shared != nullptr && !pipelined) {
+          frame = context.shared->next(context, session, request, shownGeneration, interval);
+          lastFrameTook = frame.took;
+        } else {
+          PendingSessionFrame pending =
+              ahead ? std::move(*ahead)
+                    : submitSessionFrame(context, session, request, render::FrameSource::Stream);
+          ahead.reset();
+          if (animate && lastFrameTook >= interval) {
+            ahead = submitSessionFrame(context, session, request, render::FrameSource::Stream);
+          }
+          SessionFrame own = collectSessionFrame(context, session, pending);
+          lastFrameTook = Clock::now() - pending.submitted;
+          frame = {std::make_shared<const EncodedFrame>(std::move(own.encoded)), own.version, 0};
         }
-        frame = collectSessionFrame(context, session, pending);
-        lastFrameTook = Clock::now() - pending.submitted;
       } catch (const render::RenderQueueFullError&) {
         nextFrameAt = now + kQueueFullRetry;
         continue;
@@ -118,9 +131,10 @@ bool StreamState::next(httplib::DataSink& sink) {
       nextFrameAt = now + interval;
       hasFrame = true;
       shownVersion = frame.version;
+      shownGeneration = frame.generation;
       ++sequence;
-      image = std::move(frame.encoded.body);
-      contentType = std::move(frame.encoded.contentType);
+      image = frame.encoded->body;
+      contentType = frame.encoded->contentType;
       return writePart(sink);
     }
     if (hasFrame && now - lastWriteAt >= kIdleResend) return writePart(sink);

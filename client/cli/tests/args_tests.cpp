@@ -32,7 +32,7 @@ bool contains(const std::string& text, const std::string& part) {
 }  // namespace
 
 TEST_CASE("every command in the table has help that names its options") {
-  CHECK(commandSpecs().size() == 22);
+  CHECK(commandSpecs().size() == 26);
   for (const CommandSpec& c : commandSpecs()) {
     INFO(c.name);
     std::string help = commandHelp(c);
@@ -109,8 +109,8 @@ TEST_CASE("unknown flags and subcommands are named") {
   CHECK(contains(sub.what(), "unknown subcommand"));
   UsageError group = usageError({"lights"});
   CHECK(group.argument() == "lights");
-  CHECK(group.what() == std::string("\"lights\" needs a subcommand: list, show, add, set, rm, "
-                                    "clear, generate"));
+  CHECK(group.what() == std::string("\"lights\" needs a subcommand: list, show, pick, add, set, "
+                                    "rm, clear, generate"));
   UsageError groupBad = usageError({"lights", "explode"});
   CHECK(groupBad.argument() == "explode");
   CHECK(contains(groupBad.what(), "unknown subcommand \"lights explode\"; lights takes: list"));
@@ -161,6 +161,21 @@ TEST_CASE("help: overview, per command, and help wins over missing arguments") {
   CHECK(parse({"--version"}).version);
   CHECK(parse({"lights", "list", "--version"}).version);
   CHECK(contains(overviewHelp(), "--version"));
+  // `myriad help COMMAND` is `myriad COMMAND --help`, for one- and two-word commands.
+  Invocation helpLightsAdd = parse({"help", "lights", "add"});
+  CHECK(helpLightsAdd.help);
+  REQUIRE(helpLightsAdd.command != nullptr);
+  CHECK(helpLightsAdd.command->name == "lights add");
+  CHECK(parse({"help", "frame"}).command->name == "frame");
+  CHECK(parse({"help", "lights", "pick"}).command->name == "lights pick");
+  Invocation helpOnly = parse({"help"});
+  CHECK(helpOnly.help);
+  CHECK(helpOnly.command == nullptr);
+  CHECK(parse({"help", "lights"}).command == nullptr);  // a group: the overview lists its commands
+  CHECK(contains(usageError({"help", "nonsense"}).what(), "unknown command \"nonsense\""));
+  CHECK(contains(commandHelp(*findCommand("session share")), "--ttl SECONDS"));
+  CHECK(contains(commandHelp(*findCommand("lights pick")), "usage: myriad lights pick X Y"));
+  CHECK(contains(overviewHelp(), "myriad help COMMAND"));
 }
 
 TEST_CASE("settings: colours, switches, choices, ranges") {

@@ -247,6 +247,49 @@ TEST_CASE("myriad drives a real server from session new to session delete") {
   checkOneLineError(myriad({"lights", "set", lastId, "--cone", "0.4,0.4"}), "(400 invalid-body)");  // inner == outer: the server
   CHECK(jsonOf(myriad({"lights", "set", lastId, "--point", "--json"}))["type"] == "point");
 
+  // lights pick: the server looks among every light; the id it prints is an id `lights show`
+  // takes.
+  const json pickJson = jsonOf(myriad({"lights", "pick", "160", "120", "--width", "320",
+                                       "--height", "240", "--radius", "64", "--json"}));
+  REQUIRE(pickJson.contains("light"));
+  const std::string pickedId = std::to_string(pickJson["light"]["id"].get<uint64_t>());
+  CliResult picked = myriad({"lights", "pick", "160", "120", "--width", "320", "--height", "240",
+                             "--radius", "64"});
+  CHECK(picked.exitCode == 0);
+  CHECK(picked.out.find("light " + pickedId + ": its marker is ") != std::string::npos);
+  CHECK(myriad({"lights", "show", pickedId}).out.find(pickedId) != std::string::npos);
+  CHECK(myriad({"lights", "pick", "-1", "0"}).exitCode == 2);
+  checkOneLineError(myriad({"lights", "pick", "400", "10", "--width", "320", "--height", "240"}),
+                    "(400 invalid-parameter)");
+
+  // open: the page's address for the session; session share: a view-only token and its link,
+  // which reads but cannot change the session.
+  CliResult opened = myriad({"open"});
+  CHECK(opened.exitCode == 0);
+  std::smatch openedParts;
+  REQUIRE(std::regex_match(opened.out, openedParts,
+                           std::regex(R"((http://[^/]+)/#session=(s-[0-9a-f]{16})&token=([0-9a-f]{64})\n)")));
+  CHECK(openedParts[1] == server.url());
+  CHECK(openedParts[2] == sessionId);
+  CliResult shared = myriad({"session", "share", "--ttl", "120"});
+  CHECK(shared.exitCode == 0);
+  std::smatch sharedParts;
+  REQUIRE(std::regex_search(shared.out, sharedParts,
+                            std::regex("link +" + server.url() + "/#session=" + sessionId +
+                                       "&token=([0-9a-f]{64})\n")));
+  const std::string viewerToken = sharedParts[1];
+  CHECK(viewerToken != openedParts[3].str());
+  CHECK(std::regex_search(shared.out, std::regex("\nexpires +in 120 s\n")));
+  std::map<std::string, std::string> viewerEnv = env;
+  viewerEnv["MYRIAD_SESSION"] = sessionId + ":" + viewerToken;
+  CliResult viewerShow = runCli({"session", "show"}, viewerEnv);
+  CHECK(viewerShow.exitCode == 0);
+  CHECK(std::regex_search(viewerShow.out, std::regex("^session +" + sessionId + "\n")));
+  CliResult viewerEdit = runCli({"camera", "--fov", "30"}, viewerEnv);
+  checkOneLineError(viewerEdit, "(403 forbidden)");
+  CHECK(myriad({"session", "unshare"}).exitCode == 0);
+  checkOneLineError(runCli({"session", "show"}, viewerEnv), "(401 unauthorized)");
+
   // Settings.
   CliResult tiled = myriad({"settings", "--technique", "tiled", "--exposure", "1.2"});
   CHECK(tiled.exitCode == 0);

@@ -1,0 +1,105 @@
+// What the view says about itself, on the view: a status line (connecting, waiting for the first
+// frame with the seconds counting, "rendering" from the moment of a change until a new frame
+// shows) and a stats strip (delivered frames a second, input-to-frame latency, bandwidth, codec).
+//
+// The live view reports each delivered frame through frame(); the page reports each change
+// (camera input, an edit sent) through changed(). Nothing here knows how frames travel: the codec
+// is whatever the view says it decodes ("jpeg" for the multipart stream).
+
+const STATS_WINDOW_MS = 2000;   // fps and bandwidth: over the last two seconds
+const TICK_MS = 250;            // how often the waiting text and the strip refresh
+
+export class ViewOverlay {
+  constructor(status, strip) {
+    this.status = status;   // the status line on the view
+    this.strip = strip;     // the stats strip
+    this.connectingSince = 0;  // performance.now() of connect(); 0 once a frame showed
+    this.changeAt = 0;         // performance.now() of the oldest change no frame shows yet
+    this.changeFrame = '';     // the frame shown when that change was made
+    this.lastFrame = '';       // "stream key#frame number" of the frame shown last
+    this.latencyMs = null;     // the last change's input-to-frame time
+    this.codec = '';
+    this.frames = [];          // {t, bytes} of the frames delivered in the stats window
+    this.firstFrameMs = null;
+    this.firstShownAt = 0;
+    this.timer = setInterval(() => this.refresh(), TICK_MS);
+    this.refresh();
+  }
+
+  // A stream is being opened: "connecting" until its first frame.
+  connect() {
+    if (this.connectingSince === 0 && this.lastFrame === '') this.connectingSince = performance.now();
+    this.refresh();
+  }
+
+  // Something that changes the picture happened: "rendering" at once, until a new frame shows.
+  changed() {
+    if (!this.changeAt) {
+      this.changeAt = performance.now();
+      this.changeFrame = this.lastFrame;
+    }
+    this.show('rendering\u2026', 'rendering');
+  }
+
+  // The change was refused: no new frame is coming for it.
+  cancelChange() {
+    this.changeAt = 0;
+    this.refresh();
+  }
+
+  // A frame was delivered: `id` names it (a re-send of the same frame keeps its id), `bytes` its
+  // size on the wire, `codec` how it is encoded.
+  frame({id, bytes, codec}) {
+    const now = performance.now();
+    this.codec = codec;
+    this.frames.push({t: now, bytes});
+    if (this.connectingSince) {
+      this.firstFrameMs = now - this.connectingSince;
+      this.firstShownAt = now;
+      this.connectingSince = 0;
+    }
+    const isNew = id !== this.lastFrame;
+    this.lastFrame = id;
+    if (this.changeAt && isNew && id !== this.changeFrame) {
+      this.latencyMs = now - this.changeAt;
+      this.changeAt = 0;
+    }
+    this.refresh();
+  }
+
+  show(text, state) {
+    this.status.textContent = text;
+    this.status.dataset.state = state;
+    this.status.hidden = !text;
+  }
+
+  refresh() {
+    const now = performance.now();
+    if (this.changeAt) {
+      this.show('rendering\u2026', 'rendering');
+    } else if (this.connectingSince) {
+      const seconds = (now - this.connectingSince) / 1000;
+      this.show(seconds < 1 ? 'connecting\u2026'
+                            : `waiting for the first frame: ${seconds.toFixed(1)} s`, 'connecting');
+    } else if (this.firstFrameMs !== null && now - this.firstShownAt < 3000) {
+      this.show(`first frame in ${(this.firstFrameMs / 1000).toFixed(1)} s`, 'shown');
+    } else {
+      this.show('', 'idle');
+    }
+    this.frames = this.frames.filter((f) => now - f.t <= STATS_WINDOW_MS);
+    const seconds = STATS_WINDOW_MS / 1000;
+    const fps = this.frames.length / seconds;
+    const bits = this.frames.reduce((sum, f) => sum + f.bytes, 0) * 8 / seconds;
+    const latency = this.latencyMs === null ? '\u2013' : `${Math.round(this.latencyMs)} ms`;
+    const rate = bits >= 1e6 ? `${(bits / 1e6).toFixed(2)} Mbit/s` : `${(bits / 1e3).toFixed(0)} kbit/s`;
+    const fields = {fps: fps.toFixed(1), latency, bandwidth: rate, codec: this.codec || '\u2013'};
+    for (const [name, value] of Object.entries(fields)) {
+      const cell = this.strip.querySelector(`[data-stat="${name}"]`);
+      if (cell && cell.textContent !== value) cell.textContent = value;
+    }
+    this.strip.dataset.fps = fps.toFixed(2);
+    this.strip.dataset.latencyMs = this.latencyMs === null ? '' : String(Math.round(this.latencyMs));
+    this.strip.dataset.bitsPerSecond = String(Math.round(bits));
+    this.strip.dataset.codec = this.codec;
+  }
+}

@@ -1,0 +1,325 @@
+// The live view as people use it (Debian's Chromium, headless, playwright-core) against the real
+// server with validation: the status overlay says "rendering" within 100 ms of a change and the
+// stats strip reads fps, latency, bandwidth and codec; a view-only link opens the same session in
+// a second page, which sees the owner's edits and whose own edit is refused on the view; with
+// 100,000 lights a click on a marker of a light past the first 1,000 selects that light; and a
+// 390x844 touch screen gets a view across its width that a pinch zooms.
+//
+// Usage: node live_view_test.mjs <path to myriad-server>. Exit 0 pass, 1 fail, 77 skip (no
+// Chromium at /usr/bin/chromium).
+
+import {existsSync} from 'node:fs';
+import {WAIT_MS, check, difference, signatureInPage, until} from './helpers.mjs';
+import {startServer} from './server_process.mjs';
+
+const CHROMIUM = '/usr/bin/chromium';
+// The view is the window less the 340 px panel: 320x220 keeps 100,000 lights quick on lavapipe.
+const DESKTOP = {width: 660, height: 220};
+const PHONE = {width: 390, height: 844};
+const MANY_LIGHTS = 100000;
+
+if (!existsSync(CHROMIUM)) {
+  console.log(`SKIP: ${CHROMIUM} is absent (scripts/install-deps.sh --with-test-tools installs it).`);
+  process.exit(77);
+}
+const {chromium} = await import('playwright-core');
+const serverPath = process.argv[2];
+if (!serverPath) {
+  console.error('usage: node live_view_test.mjs <myriad-server>');
+  process.exit(2);
+}
+
+const failures = [];
+const started = performance.now();
+async function step(name, fn) {
+  const start = performance.now();
+  try {
+    await fn();
+    console.log(`ok   ${name} (${Math.round(performance.now() - start)} ms)`);
+  } catch (e) {
+    failures.push(`${name}: ${e.message}`);
+    console.log(`FAIL ${name}: ${e.stack || e.message}`);
+  }
+}
+
+const server = await startServer(serverPath, ['--validate', '--port', '0', '--lights', '64']);
+const base = server.url;
+console.log(`server at ${base}`);
+
+async function api(method, path, {token, json} = {}) {
+  const headers = {};
+  if (token) headers.Authorization = `Bearer ${token}`;
+  if (json !== undefined) headers['Content-Type'] = 'application/json';
+  const response = await fetch(base + path, {
+    method, headers, body: json === undefined ? undefined : JSON.stringify(json)});
+  const type = response.headers.get('content-type') || '';
+  const body = type.includes('json') ? await response.json() : null;
+  return {status: response.status, body};
+}
+
+const browser = await chromium.launch({executablePath: CHROMIUM,
+                                       args: ['--headless', '--no-sandbox', '--disable-gpu']});
+const consoleErrors = [];
+function watch(page, name) {
+  page.on('console', (msg) => {
+    // A viewer's refused edit is a 403 the page provokes on purpose (Chromium logs it).
+    // The JSON page the marker step opens has no favicon.
+    if (msg.type() === 'error' && !/status of 403/.test(msg.text()) &&
+        !msg.location().url.endsWith('/favicon.ico')) {
+      consoleErrors.push(`${name}: ${msg.text()}`);
+    }
+  });
+  page.on('pageerror', (e) => consoleErrors.push(`${name}: uncaught ${e.message}`));
+}
+
+// The picture in a page once a frame shows (and, with `unlike`, once it differs from that one).
+async function frameOf(page, unlike = null) {
+  return until('a frame in the view', async () => {
+    const s = await page.evaluate(signatureInPage);
+    if (!s) return null;
+    return !unlike || difference(s, unlike) > 1.0 ? s : null;
+  }, 120000);
+}
+
+const owner = await (await browser.newContext({viewport: DESKTOP})).newPage();
+watch(owner, 'owner');
+let session = null;
+
+try {
+  await step('the overlay says connecting, then the first frame; the page shows frames', async () => {
+    await owner.goto(`${base}/`);
+    await frameOf(owner);
+    session = await owner.evaluate(() => JSON.parse(localStorage.getItem('myriad.session')));
+    check(session?.id && session?.token, 'the page saved no session');
+  });
+
+  await step('a change shows "rendering" within 100 ms; the strip reads fps, latency, bandwidth, codec', async () => {
+    const before = await frameOf(owner);
+    // A wheel notch over the view, timed inside the page from the event to the overlay's text.
+    const ms = await owner.evaluate(() => new Promise((resolve) => {
+      const state = document.getElementById('view-state');
+      const view = document.getElementById('view');
+      const start = performance.now();
+      view.dispatchEvent(new WheelEvent('wheel', {deltaY: -200, bubbles: true, cancelable: true,
+                                                  clientX: 100, clientY: 100}));
+      const poll = () => {
+        if (state.dataset.state === 'rendering' && !state.hidden &&
+            /rendering/.test(state.textContent)) {
+          resolve(performance.now() - start);
+        } else if (performance.now() - start > 1000) {
+          resolve(Infinity);
+        } else {
+          requestAnimationFrame(poll);
+        }
+      };
+      poll();
+    }));
+    console.log(`     "rendering" shown ${ms.toFixed(1)} ms after the wheel`);
+    check(ms < 100, `"rendering" took ${ms} ms`);
+    await frameOf(owner, before);
+    const strip = await until('the strip to read a latency', async () => {
+      const s = await owner.evaluate(() => {
+        const strip = document.getElementById('stats-strip');
+        const text = (name) => strip.querySelector(`[data-stat="${name}"]`).textContent;
+        return {fps: Number(strip.dataset.fps), latencyMs: Number(strip.dataset.latencyMs || NaN),
+                bits: Number(strip.dataset.bitsPerSecond), codec: strip.dataset.codec,
+                text: {fps: text('fps'), latency: text('latency'), bandwidth: text('bandwidth'),
+                       codec: text('codec')},
+                state: document.getElementById('view-state').dataset.state};
+      });
+      return Number.isFinite(s.latencyMs) && s.state !== 'rendering' ? s : null;
+    });
+    console.log(`     strip: ${JSON.stringify(strip.text)}`);
+    check(strip.codec === 'jpeg' && strip.text.codec === 'jpeg', `codec ${strip.codec}`);
+    check(strip.fps > 0 && /^[0-9.]+$/.test(strip.text.fps), `fps ${strip.fps}`);
+    check(strip.latencyMs > 0 && strip.latencyMs < 60000 && /ms$/.test(strip.text.latency),
+          `latency ${strip.latencyMs}`);
+    check(strip.bits > 0 && /bit\/s$/.test(strip.text.bandwidth), `bandwidth ${strip.bits}`);
+  });
+
+  await step('a view-only link: both pages see an edit; the viewer\'s edit is 403, said on the view', async () => {
+    const minted = await api('POST', `/v1/sessions/${session.id}/tokens`,
+                             {token: session.token, json: {role: 'viewer'}});
+    check(minted.status === 201, `POST tokens: ${minted.status}`);
+    const viewerContext = await browser.newContext({viewport: DESKTOP});
+    const viewer = await viewerContext.newPage();
+    watch(viewer, 'viewer');
+    await viewer.goto(base + minted.body.link);
+    const viewerBefore = await frameOf(viewer);
+    const ownerBefore = await frameOf(owner);
+    check(await viewer.evaluate(() => localStorage.getItem('myriad.session')) === null,
+          'the link replaced the stored session');
+    const label = await viewer.textContent('#session-label');
+    check(label.includes(session.id), `the viewer shows session "${label}"`);
+    // The owner changes the scene: both pictures follow.
+    const edited = await api('PATCH', `/v1/sessions/${session.id}/settings`,
+                             {token: session.token, json: {exposure: 3}});
+    check(edited.status === 200, `PATCH settings: ${edited.status}`);
+    await frameOf(owner, ownerBefore);
+    await frameOf(viewer, viewerBefore);
+    // The viewer tries to zoom: refused, and the page says so on the view.
+    const camera = (await api('GET', `/v1/sessions/${session.id}/camera`, {token: session.token})).body;
+    await viewer.mouse.move(150, 120);
+    await viewer.mouse.wheel(0, -300);
+    const message = await until('the refusal on the view', async () =>
+        (await viewer.isVisible('#message')) && await viewer.textContent('#message-text'));
+    check(/403/.test(message) && /viewer token/.test(message), `message: ${message}`);
+    const inView = await viewer.evaluate(() => {
+      const m = document.getElementById('message').getBoundingClientRect();
+      const v = document.getElementById('view').getBoundingClientRect();
+      return m.top >= v.top && m.bottom <= v.bottom && m.left >= v.left && m.right <= v.right;
+    });
+    check(inView, 'the message is not on the view');
+    const after = (await api('GET', `/v1/sessions/${session.id}/camera`, {token: session.token})).body;
+    check(JSON.stringify(after) === JSON.stringify(camera), 'the viewer moved the camera');
+    await viewerContext.close();
+  });
+
+  await step(`${MANY_LIGHTS} lights: a click on a marker of a light past the first 1,000 selects it`, async () => {
+    const size = await owner.evaluate(() => {
+      const view = document.getElementById('view');
+      return {width: view.clientWidth, height: view.clientHeight,
+              cssWidth: view.clientWidth, cssHeight: view.clientHeight};
+    });
+    // Off the page while the frames with and without markers render: every render of 100,000
+    // lights costs seconds on lavapipe, and an open stream would render each edit too.
+    await owner.goto('about:blank');
+    const generated = await api('POST', `/v1/sessions/${session.id}/lights/generate`,
+                                {token: session.token, json: {count: MANY_LIGHTS, seed: 7}});
+    check(generated.status === 200 && generated.body.total === MANY_LIGHTS, 'generate failed');
+    const firstPage = (await api('GET', `/v1/sessions/${session.id}/lights?limit=1000`,
+                                 {token: session.token})).body.lights.map((l) => l.id);
+    // Marker pixels: where the view's frame (markers on) is brighter than a PNG of the same size
+    // without markers.
+    await owner.goto(`${base}/v1/health`);  // the server's origin, without the page's stream
+    const without = await owner.evaluate(async ({session, size}) => {
+      const headers = {Authorization: `Bearer ${session.token}`, 'Content-Type': 'application/json'};
+      await fetch(`/v1/sessions/${session.id}/settings`,
+                  {method: 'PATCH', headers, body: JSON.stringify({markers: false})});
+      const png = await fetch(`/v1/sessions/${session.id}/frame?format=png&width=${size.width}&height=${size.height}`,
+                              {headers});
+      await fetch(`/v1/sessions/${session.id}/settings`,
+                  {method: 'PATCH', headers, body: JSON.stringify({markers: true})});
+      return Array.from(new Uint8Array(await png.arrayBuffer()));
+    }, {session, size});
+    // The page again (the same session), showing the frame with markers.
+    await owner.goto(`${base}/`);
+    const shown = await frameOf(owner);
+    check(shown.width === size.width && shown.height === size.height,
+          `the view shows ${shown.width}x${shown.height}, not ${size.width}x${size.height}`);
+    const markerPixels = await owner.evaluate(async ({without, size}) => {
+      const pixels = async (source) => {
+        const c = new OffscreenCanvas(size.width, size.height);
+        const g = c.getContext('2d');
+        g.drawImage(source, 0, 0);
+        return g.getImageData(0, 0, size.width, size.height).data;
+      };
+      const off = await pixels(await createImageBitmap(new Blob([new Uint8Array(without)], {type: 'image/png'})));
+      const on = await pixels(document.getElementById('stream'));
+      const found = [];
+      for (let y = 2; y < size.height - 2; ++y) {
+        for (let x = 2; x < size.width - 2; ++x) {
+          const i = (y * size.width + x) * 4;
+          const d = Math.min(...[0, 1, 2].map((k) => on[i + k] - off[i + k]));
+          if (d > 60) found.push({x, y, d});
+        }
+      }
+      return found;
+    }, {without, size});
+    console.log(`     ${markerPixels.length} marker pixels in ${size.width}x${size.height}`);
+    check(markerPixels.length > 20, 'too few marker pixels');
+    const camera = (await api('GET', `/v1/sessions/${session.id}/camera`, {token: session.token})).body;
+    // The brightest marker pixels first; a click there must select the light whose marker it
+    // is: one whose centre projects into that pixel.
+    markerPixels.sort((a, b) => b.d - a.d);
+    const box = await owner.locator('#view').boundingBox();
+    let beyond = null;
+    for (const p of markerPixels.slice(0, 12)) {
+      await owner.mouse.click(box.x + (p.x + 0.5) * size.cssWidth / size.width,
+                              box.y + (p.y + 0.5) * size.cssHeight / size.height);
+      const title = await until('the editor to show a light', async () => {
+        const t = await owner.textContent('#light-editor-title');
+        const shown = await owner.isVisible('#light-editor');
+        return shown && /^Light #\d+$/.test(t) && t !== owner.lastTitle ? t : null;
+      }, 10000).catch(() => null);
+      if (!title) continue;
+      owner.lastTitle = title;
+      const id = Number(title.slice(7));
+      const light = (await api('GET', `/v1/sessions/${session.id}/lights/${id}`, {token: session.token})).body;
+      const at = await owner.evaluate(async ({camera, position, size}) => {
+        const {project} = await import('/web/vec.js');
+        return project(camera, position, size.width, size.height);
+      }, {camera, position: light.position, size});
+      const off = Math.hypot(at.x - (p.x + 0.5), at.y - (p.y + 0.5));
+      check(off < 1.5, `light #${id} projects ${off.toFixed(2)} px from the clicked marker pixel`);
+      const visible = await owner.evaluate(() => {
+        const r = document.getElementById('light-editor').getBoundingClientRect();
+        const panel = document.getElementById('panels').getBoundingClientRect();
+        return r.top >= panel.top - 1 && r.top < panel.bottom;
+      });
+      check(visible, 'the editor is out of sight');
+      if (!firstPage.includes(id)) {
+        beyond = id;
+        break;
+      }
+    }
+    check(beyond !== null, 'no click selected a light past the first 1,000');
+    console.log(`     selected light #${beyond} (the first page ends at #${firstPage.at(-1)})`);
+    // Back to a few lights, and the page closed, so that the next step renders quickly.
+    await owner.close();
+    await api('POST', `/v1/sessions/${session.id}/lights/generate`,
+              {token: session.token, json: {count: 64, seed: 1}});
+  });
+
+  await step('a 390x844 touch screen: the view fills the width, a pinch zooms the camera', async () => {
+    const phoneContext = await browser.newContext({viewport: PHONE, hasTouch: true, isMobile: true,
+                                                   deviceScaleFactor: 1});
+    const phone = await phoneContext.newPage();
+    watch(phone, 'phone');
+    await phone.goto(`${base}/#session=${session.id}&token=${session.token}`);
+    await frameOf(phone);
+    const layout = await phone.evaluate(() => {
+      const v = document.getElementById('view').getBoundingClientRect();
+      return {left: v.left, width: v.width, height: v.height, img: document.getElementById('stream').naturalWidth};
+    });
+    console.log(`     view ${layout.width}x${layout.height} at x=${layout.left}, stream ${layout.img} px wide`);
+    check(layout.left === 0 && layout.width >= PHONE.width - 1, `the view is ${layout.width} px wide`);
+    check(layout.height >= 300, `the view is ${layout.height} px high`);
+    const distance = (c) => Math.hypot(...c.eye.map((e, i) => e - c.target[i]));
+    const before = (await api('GET', `/v1/sessions/${session.id}/camera`, {token: session.token})).body;
+    const cdp = await phoneContext.newCDPSession(phone);
+    const cx = layout.width / 2;
+    const cy = layout.height / 2;
+    const touch = (type, spread) => cdp.send('Input.dispatchTouchEvent', {
+      type, touchPoints: type === 'touchEnd' ? [] : [
+        {x: cx - spread, y: cy, id: 1}, {x: cx + spread, y: cy, id: 2}]});
+    await touch('touchStart', 30);
+    for (let spread = 40; spread <= 150; spread += 10) {
+      await touch('touchMove', spread);
+      await new Promise((r) => setTimeout(r, 16));
+    }
+    await touch('touchEnd', 0);
+    let after = null;
+    await until('the camera to come closer', async () => {
+      after = (await api('GET', `/v1/sessions/${session.id}/camera`, {token: session.token})).body;
+      return distance(after) < distance(before) * 0.6;
+    }, 15000);
+    console.log(`     pinch: distance ${distance(before).toFixed(3)} -> ${distance(after).toFixed(3)}`);
+    await phoneContext.close();
+  });
+
+  await step('no console errors', async () => {
+    check(consoleErrors.length === 0, consoleErrors.join('\n'));
+  });
+} finally {
+  await browser.close();
+  const status = await server.stop();
+  if (status !== 0) failures.push(`the server exited with ${status}:\n${server.log()}`);
+}
+
+console.log(`live view test: ${Math.round(performance.now() - started)} ms`);
+if (failures.length) {
+  console.log(`\n${failures.length} failed:\n${failures.join('\n')}`);
+  process.exit(1);
+}
+console.log('all passed');
