@@ -143,6 +143,7 @@ inline constexpr std::string_view kHeight = "X-Myriad-Height";        // raw
 inline constexpr std::string_view kTarget = "X-Myriad-Target";        // raw
 inline constexpr std::string_view kTechnique = "X-Myriad-Technique";  // every frame
 inline constexpr std::string_view kFrameSequence = "X-Myriad-Frame";  // each stream part
+inline constexpr std::string_view kVideoCodec = "X-Myriad-Codec";  // video stream: WebCodecs codec
 inline constexpr std::string_view kServerTiming = "Server-Timing";
 inline constexpr std::string_view kRetryAfter = "Retry-After";
 inline constexpr std::string_view kAllow = "Allow";
@@ -159,7 +160,27 @@ inline constexpr uint32_t kMaxFps = 240;  // a 240 Hz display; the GPU machine r
 inline constexpr uint32_t kDefaultFps = 15;
 inline constexpr uint32_t kMinQuality = 1;
 inline constexpr uint32_t kMaxQuality = 100;
+inline constexpr uint32_t kMinBitrateKbps = 50;     // video streams' bitrate, kbit/s
+inline constexpr uint32_t kMaxBitrateKbps = 100000;
 }  // namespace query
+
+// Video streams (GET .../stream?codec=): the codecs, and for each (same order) the codec string
+// WebCodecs' VideoDecoder takes for it (VP9: profile 0, level 1.0, 8 bits).
+inline constexpr std::array<std::string_view, 2> kVideoCodecs = {"vp8", "vp9"};
+inline constexpr std::array<std::string_view, 2> kWebCodecsCodecs = {"vp8", "vp09.00.10.08"};
+inline constexpr std::string_view kVideoStreamContentType = "application/x-myriad-video";
+// The body of a video stream: chunks, each a header of kHeaderBytes then `payload bytes` of the
+// codec's bitstream (one frame). The header, little-endian:
+//   0 u32 payload bytes   4 u8 kind   5..7 zero   8 u16 width   10 u16 height
+//   12 u32 frame sequence   16 u64 timestamp (microseconds since the stream began)
+//   24 u64 session version shown   32 f64 animation time (s)   40 u32 encode microseconds
+//   44 u32 zero
+namespace video_chunk {
+inline constexpr size_t kHeaderBytes = 48;
+inline constexpr uint8_t kKey = 1;        // a key frame: decodable alone
+inline constexpr uint8_t kDelta = 2;      // needs the frames before it since the last key frame
+inline constexpr uint8_t kKeepAlive = 3;  // no payload: nothing changed (sent every 2 s)
+}  // namespace video_chunk
 
 inline constexpr std::string_view kStreamBoundary = "myriad-frame";
 inline constexpr std::string_view kStreamContentType = "multipart/x-mixed-replace; boundary=myriad-frame";

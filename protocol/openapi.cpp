@@ -128,6 +128,9 @@ json headerObject(std::string_view name) {
       {headers::kRetryAfter, {"integer", "Seconds to wait before retrying."}},
       {headers::kAllow, {"string", "The methods the route allows."}},
       {headers::kLocation, {"string", "The new session's URL."}},
+      {headers::kVideoCodec,
+       {"string", "Video streams: the codec string for WebCodecs' VideoDecoder (vp8, "
+                  "vp09.00.10.08)."}},
   };
   auto it = known.find(name);
   if (it == known.end()) {

@@ -491,13 +491,22 @@ std::vector<Operation> buildOperations() {
                   "Most frames per second. Default " + std::to_string(query::kDefaultFps) + "."},
                  width(),
                  height(),
-                 quality()},
+                 quality(),
+                 {"codec",
+                  {{"type", "string"}, {"enum", {kVideoCodecs[0], kVideoCodecs[1]}}},
+                  "A video stream in this codec instead of images (format and quality are then "
+                  "refused). Default: images."},
+                 {"bitrate", integerIn(query::kMinBitrateKbps, query::kMaxBitrateKbps),
+                  "Video streams: the target bitrate in kbit/s. Default 0.1 bit per pixel per "
+                  "frame at the stream's size and fps."}},
        .responses = {{200,
                       "multipart/x-mixed-replace: each part an image with Content-Type, "
                       "Content-Length and X-Myriad-Frame (its sequence number; a re-send keeps "
-                      "it).",
-                      {{kStreamContentType, ""}},
-                      {}}},
+                      "it). With codec: application/x-myriad-video, chunks of a 48-byte header "
+                      "and one frame of the codec's bitstream; X-Myriad-Codec names the WebCodecs "
+                      "codec string.",
+                      {{kStreamContentType, ""}, {kVideoStreamContentType, ""}},
+                      {headers::kVideoCodec}}},
        .problems = {400, 401, 403, 404, 429, 503}});
   ops.push_back({.method = "GET",
                  .route = routes::kSessionStats,

@@ -19,6 +19,7 @@ build_packages=(
   nlohmann-json3-dev
   libpng-dev
   libturbojpeg0-dev        # JPEG frames and streams (TurboJPEG API)
+  libvpx-dev               # VP8/VP9 video streams (libvpx, BSD), and their decoder in tests and bench
   libzip-dev               # zip uploads of a model with its files, read in the loader child
   libstb-dev               # stb_image's header: .hdr environment images, decoded in the loader child
   libssl-dev               # libcrypto: SHA-256 of session tokens in --state-dir

@@ -110,6 +110,43 @@ TEST_CASE("stream query: jpeg by default, png allowed, raw not, fps bounded") {
   CHECK(time.unknown);
 }
 
+TEST_CASE("stream query: codec makes a video stream with a bitrate; image members refused") {
+  CHECK_FALSE(service::parseStreamQuery({}, 2048).video.has_value());
+  FrameRequest vp8 = service::parseStreamQuery(
+      {{"codec", "vp8"}, {"width", "1920"}, {"height", "1080"}, {"fps", "30"}}, 2048);
+  REQUIRE(vp8.video.has_value());
+  CHECK(vp8.video->codec == encode::VideoCodec::Vp8);
+  CHECK(vp8.video->bitrateKbps == 6220);  // 0.1 bit per pixel per frame
+  FrameRequest vp9 = service::parseStreamQuery({{"codec", "vp9"}, {"bitrate", "800"}}, 2048);
+  REQUIRE(vp9.video.has_value());
+  CHECK(vp9.video->codec == encode::VideoCodec::Vp9);
+  CHECK(vp9.video->bitrateKbps == 800);
+  // Tiny streams get the protocol's least bitrate.
+  CHECK(service::parseStreamQuery({{"codec", "vp8"}, {"width", "8"}, {"height", "8"}}, 2048)
+            .video->bitrateKbps == protocol::query::kMinBitrateKbps);
+  struct Case {
+    std::multimap<std::string, std::string> params;
+    std::string parameter;
+    std::string says;
+  };
+  const Case cases[] = {
+      {{{"codec", "h264"}}, "codec", "is not one of: vp8, vp9"},
+      {{{"codec", "vp8"}, {"format", "jpeg"}}, "format", "takes bitrate instead"},
+      {{{"codec", "vp9"}, {"quality", "80"}}, "quality", "takes bitrate instead"},
+      {{{"codec", "vp8"}, {"bitrate", "49"}}, "bitrate", "from 50 to 100000"},
+      {{{"codec", "vp8"}, {"bitrate", "100001"}}, "bitrate", "from 50 to 100000"},
+      {{{"codec", "vp8"}, {"width", "1"}}, "width", "at least 2"},
+      {{{"bitrate", "1000"}}, "bitrate", "name a codec"},
+      {{{"codec", "vp8"}, {"codec", "vp9"}}, "codec", "more than once"},
+  };
+  for (const Case& c : cases) {
+    INFO("parameter ", c.parameter, ", expecting: ", c.says);
+    Failure failure = failureOf([&] { service::parseStreamQuery(c.params, 2048); });
+    CHECK(failure.parameter == c.parameter);
+    CHECK(failure.detail.find(c.says) != std::string::npos);
+  }
+}
+
 TEST_CASE("GET /v1/frame takes format and quality") {
   service::FrameDefaults defaults;
   defaults.camera.eye = {0.0f, 2.0f, 6.0f};

@@ -4,6 +4,13 @@
 // the input stops at full size and quality 90 again, so what stays on screen is a full-quality
 // still.
 //
+// Video: where the browser decodes it (WebCodecs, in a secure context), the stream is VP9 video
+// (?codec=vp9, protocol/reference.md "Video streams") decoded into a <canvas id="video"> over the
+// <img>: far fewer bytes than JPEG at the same size (docs/performance.md). The page falls back to the JPEG stream where
+// VideoDecoder is missing or cannot decode it, and when the page's address says ?stream=jpeg
+// (?stream=vp8 asks for VP8). #view's data-codec says which is in use (vp8, vp9 or jpeg) and
+// data-codec-why why JPEG was chosen.
+//
 // Why fetch and not <img src=stream>: an <img> shows a part only once the next part's headers
 // arrive (so a still stayed one part, up to the server's 2 s re-send, behind), gives no event
 // when a stream ends or stalls after its first part (the view froze without a word), and needs
@@ -12,6 +19,7 @@
 
 import {ApiError, SessionLostError} from './api.js';
 import {MultipartReader, multipartBoundary} from './multipart.js';
+import {VideoChunkReader, VideoPlayer, videoSupport} from './video.js';
 
 const FULL_QUALITY = 90;
 const INTERACTIVE_QUALITY = 60;
@@ -28,6 +36,11 @@ const SILENT_STREAM_MS = 30000;
 const SILENT_GAPS = 4;
 const FIRST_RETRY_MS = 1000;
 const LAST_RETRY_MS = 10000;
+// The video codecs the page can ask for, with the WebCodecs codec string of the server's encoder.
+const VIDEO_CODECS = {vp8: 'vp8', vp9: 'vp09.00.10.08'};
+// VP9: better pictures than VP8 at the same bitrate, and an encoder whose threads do not spin
+// (docs/performance.md, "Stream bandwidth").
+const DEFAULT_CODEC = 'vp9';
 
 export class LiveView {
   constructor(api, element, img, status) {
@@ -46,7 +59,12 @@ export class LiveView {
     this.onProblem = () => {};      // (ApiError) => void
     this.onRecovered = () => {};    // a part shows again after onProblem
     this.troubled = false;          // onProblem was called and no part has shown since
-    this.codec = 'jpeg';            // how the frames shown are encoded (the stats strip says it)
+    this.mode = null;               // 'video' or 'jpeg', once chooseMode() decided
+    this.codec = 'jpeg';            // 'vp8', 'vp9' or 'jpeg'
+    this.canvas = null;             // <canvas id="video"> in video mode
+    this.bytesReceived = 0;         // stream bytes so far, all streams (for a bandwidth figure)
+    this.framesShown = 0;           // pictures shown so far
+    this.ready = this.chooseMode();
     this.onConnect = () => {};      // a stream is being opened
     this.onFrame = () => {};        // ({id, bytes, codec}) a frame was delivered
     this.onInput = () => {};        // camera input: the picture is about to change
@@ -56,7 +74,7 @@ export class LiveView {
       const shown = this.img.src;
       for (const url of this.urls.filter((u) => u !== shown)) URL.revokeObjectURL(url);
       this.urls = this.urls.filter((u) => u === shown);
-      this.status.textContent = `${this.img.naturalWidth}\u00d7${this.img.naturalHeight}` +
+      this.status.textContent = `${this.img.naturalWidth}\u00d7${this.img.naturalHeight} JPEG` +
                                 (this.interactive ? ' (moving)' : '');
     });
 
@@ -65,6 +83,33 @@ export class LiveView {
       clearTimeout(resizeTimer);
       resizeTimer = setTimeout(() => this.restart(), RESIZE_DEBOUNCE_MS);
     }).observe(this.element);
+  }
+
+  // Video when this browser decodes it, else JPEG (see the top of this file).
+  async chooseMode() {
+    const asked = new URLSearchParams(globalThis.location?.search || '').get('stream');
+    let why = '';
+    if (asked === 'jpeg') {
+      why = 'asked for by ?stream=jpeg';
+    } else {
+      const codec = asked in VIDEO_CODECS ? asked : DEFAULT_CODEC;
+      const support = await videoSupport(VIDEO_CODECS[codec]);
+      if (support.supported) {
+        this.mode = 'video';
+        this.codec = codec;
+        this.canvas = document.createElement('canvas');
+        this.canvas.id = 'video';
+        this.canvas.setAttribute('aria-label', "The session's live video");
+        this.img.after(this.canvas);
+        this.element.dataset.codec = codec;
+        return;
+      }
+      why = support.why;
+    }
+    this.mode = 'jpeg';
+    this.codec = 'jpeg';
+    this.element.dataset.codec = 'jpeg';
+    this.element.dataset.codecWhy = why;
   }
 
   // The full-quality size: the element's size in device pixels, scaled down to the server's
@@ -92,9 +137,16 @@ export class LiveView {
   // (Re)opens the stream when what it should show changed; the old one is closed first.
   restart() {
     if (!this.api.hasSession) return;
+    if (!this.mode) {
+      this.ready.then(() => this.restart());
+      return;
+    }
     const p = this.streamParams();
-    const query = {target: this.target, format: 'jpeg', fps: STREAM_FPS,
-                   width: p.width, height: p.height, quality: p.quality};
+    // Video takes no quality: its bitrate follows the size (the server's default).
+    const query = this.mode === 'video'
+        ? {target: this.target, codec: this.codec, fps: STREAM_FPS, width: p.width, height: p.height}
+        : {target: this.target, format: 'jpeg', fps: STREAM_FPS,
+           width: p.width, height: p.height, quality: p.quality};
     // The stream's address without the token (data-stream: what the view asks for now).
     const key = `${this.api.sessionPath('/stream')}?${new URLSearchParams(query)}`;
     // The same stream, open or waiting for its retry: nothing to do (and the retry stays due).
@@ -104,6 +156,7 @@ export class LiveView {
     const stream = {key, abort: new AbortController()};
     this.stream = stream;
     this.img.dataset.stream = key;
+    if (this.canvas) this.canvas.dataset.stream = key;
     this.onConnect();
     this.read(stream, query);
   }
@@ -117,6 +170,12 @@ export class LiveView {
     delete this.img.dataset.frame;
     for (const url of this.urls) URL.revokeObjectURL(url);
     this.urls = [];
+    if (this.canvas) {
+      this.canvas.width = 0;  // nothing of the old session stays on screen
+      delete this.canvas.dataset.stream;
+      delete this.canvas.dataset.shown;
+      delete this.canvas.dataset.frame;
+    }
   }
 
   close() {
@@ -166,8 +225,9 @@ export class LiveView {
     }
 
     const reader = response.body.getReader();
-    const parts = new MultipartReader(multipartBoundary(response.headers.get('content-type')) ||
-                                      'myriad-frame');
+    const video = this.mode === 'video' ? this.startVideo(stream, response) : null;
+    const parts = video || new MultipartReader(
+        multipartBoundary(response.headers.get('content-type')) || 'myriad-frame');
     let silence = 0;
     let lastPart = 0;
     let longestGap = 0;
@@ -175,9 +235,11 @@ export class LiveView {
       for (;;) {
         const {done, value} = await reader.read();
         if (done || !current()) break;
+        this.bytesReceived += value.length;
         const got = parts.feed(value);
         if (!got.length) continue;
-        this.show(stream, got[got.length - 1]);  // only the newest part matters
+        // Images: only the newest part matters. Video: the player has each chunk already.
+        if (!video) this.show(stream, got[got.length - 1]);
         const now = performance.now();
         if (lastPart) longestGap = Math.max(longestGap, now - lastPart);
         lastPart = now;
@@ -191,12 +253,55 @@ export class LiveView {
     } finally {
       clearTimeout(silence);
       reader.cancel().catch(() => {});
+      stream.player?.close();
     }
     // Ended by the server (session deleted, server stopping) or gone silent: open it again; the
     // new request says why if it cannot be (a lost session, an unreachable server).
     if (current()) {
       this.status.textContent = 'The stream stopped; reconnecting.';
       this.retryLater(stream);
+    }
+  }
+
+  // A video stream's reader: chunks in, each handed to a decoder that draws on the canvas. A
+  // decoder error ends the stream; read() then opens a new one, which starts with a key frame.
+  startVideo(stream, response) {
+    const chunks = new VideoChunkReader();
+    const codec = response.headers.get('x-myriad-codec') || VIDEO_CODECS[this.codec];
+    stream.player = new VideoPlayer(this.canvas, codec, {
+      onPicture: (chunk) => this.showPicture(stream, chunk),
+      onError: (e) => {
+        console.warn(`video: ${e.message}`);
+        stream.abort.abort();
+      },
+    });
+    return {
+      feed: (bytes) => {
+        const got = chunks.feed(bytes);
+        for (const chunk of got) stream.player.push(chunk);
+        return got;
+      },
+    };
+  }
+
+  // A decoded video picture is on the canvas: as show() for an image.
+  showPicture(stream, chunk) {
+    if (this.stream !== stream) return;
+    this.canvas.dataset.shown = stream.key;
+    this.canvas.dataset.frame = String(chunk.sequence);
+    this.framesShown += 1;
+    this.onFrame({id: `${stream.key}#${chunk.sequence}`, bytes: chunk.payload.byteLength,
+                  codec: this.codec});
+    this.status.textContent = `${chunk.width}\u00d7${chunk.height} ${this.codec.toUpperCase()}` +
+                              (this.interactive ? ' (moving)' : '');
+    this.noteShown();
+  }
+
+  noteShown() {
+    this.retryDelayMs = FIRST_RETRY_MS;
+    if (this.troubled) {
+      this.troubled = false;
+      this.onRecovered();
     }
   }
 
@@ -208,13 +313,10 @@ export class LiveView {
     this.img.src = url;
     this.img.dataset.shown = stream.key;
     this.img.dataset.frame = part.headers['x-myriad-frame'] || '';
+    this.framesShown += 1;
     this.onFrame({id: `${stream.key}#${this.img.dataset.frame}`, bytes: part.body.byteLength,
                   codec: this.codec});
-    this.retryDelayMs = FIRST_RETRY_MS;
-    if (this.troubled) {
-      this.troubled = false;
-      this.onRecovered();
-    }
+    this.noteShown();
   }
 
   // Opens the stream again after a growing delay: a 429 (too many streams), a restarting server

@@ -128,8 +128,14 @@ void handleStream(ApiContext& context, FrameServices& frames, const httplib::Req
             " streams, its limit (--max-streams); close one or retry later."));
   }
   res.set_header("Cache-Control", "no-store");
+  std::string contentType(protocol::kStreamContentType);
+  if (request.video) {
+    contentType = protocol::kVideoStreamContentType;
+    res.set_header(std::string(protocol::headers::kVideoCodec),
+                   std::string(encode::webCodecsName(request.video->codec)));
+  }
   res.set_chunked_content_provider(
-      std::string(protocol::kStreamContentType),
+      contentType,
       makeStreamProvider({context.renderThread, frames.stats, frames.metrics, &frames.shared},
                          frames.streams,
                          std::move(slot), std::move(session), std::move(request),

@@ -211,6 +211,56 @@ FrameRequest parseStreamQuery(const QueryParams& params, uint32_t maxResolution)
     request.fps = parseBoundedInteger("fps", *text, protocol::query::kMinFps, kMaxStreamFps,
                                       "frames per second");
   }
+  const std::string* codecText = single(params, "codec");
+  const std::string* bitrateText = single(params, "bitrate");
+  if (!codecText) {
+    if (bitrateText) {
+      throw FrameQueryError("bitrate",
+                            "bitrate applies to video streams; name a codec (codec=vp8 or "
+                            "codec=vp9) or leave bitrate out.");
+    }
+    return request;
+  }
+  VideoStreamRequest video;
+  std::string names;
+  bool known = false;
+  for (size_t i = 0; i < protocol::kVideoCodecs.size(); ++i) {
+    if (protocol::kVideoCodecs[i] == *codecText) {
+      video.codec = static_cast<encode::VideoCodec>(i);
+      known = true;
+    }
+    names += (names.empty() ? "" : ", ") + std::string(protocol::kVideoCodecs[i]);
+  }
+  if (!known) {
+    throw FrameQueryError("codec",
+                          "codec " + quoteClientText(*codecText) + " is not one of: " + names + ".");
+  }
+  for (const char* imageOnly : {"format", "quality"}) {
+    if (single(params, imageOnly)) {
+      throw FrameQueryError(imageOnly, std::string(imageOnly) +
+                                           " describes image streams; a video stream (codec=" +
+                                           *codecText + ") takes bitrate instead.");
+    }
+  }
+  for (auto [name, value] : {std::pair{"width", request.settings.width},
+                             std::pair{"height", request.settings.height}}) {
+    if (value < 2) {
+      throw FrameQueryError(name, std::string(name) + " of a video stream must be at least 2.");
+    }
+  }
+  if (bitrateText) {
+    video.bitrateKbps = parseBoundedInteger("bitrate", *bitrateText,
+                                            protocol::query::kMinBitrateKbps,
+                                            protocol::query::kMaxBitrateKbps,
+                                            "the video bitrate in kbit/s");
+  } else {
+    const double bits = kDefaultVideoBitsPerPixel * request.settings.width *
+                        request.settings.height * request.fps;
+    video.bitrateKbps = static_cast<uint32_t>(
+        std::clamp(bits / 1000.0, double(protocol::query::kMinBitrateKbps),
+                   double(protocol::query::kMaxBitrateKbps)));
+  }
+  request.video = video;
   return request;
 }
 

@@ -11,6 +11,7 @@
 #include <string_view>
 #include <vector>
 
+#include "encode/video.h"
 #include "protocol/constants.h"
 #include "render/frame.h"
 #include "scene/scene.h"
@@ -25,8 +26,8 @@ inline constexpr std::array<std::string_view, 11> kFrameParameters = {
 inline constexpr std::array<std::string_view, 7> kSessionFrameParameters = {
     "target", "format", "width", "height", "quality", "time", "token"};
 // GET /v1/sessions/{id}/stream.
-inline constexpr std::array<std::string_view, 7> kStreamParameters = {
-    "target", "format", "fps", "width", "height", "quality", "token"};
+inline constexpr std::array<std::string_view, 9> kStreamParameters = {
+    "target", "format", "fps", "width", "height", "quality", "codec", "bitrate", "token"};
 
 // How a frame's pixels are sent; in the order of protocol::kFormats, which names them.
 enum class ImageFormat { Png, Jpeg, Raw };
@@ -41,6 +42,17 @@ inline constexpr int kDefaultJpegQuality = 85;
 inline constexpr uint32_t kMaxStreamFps = protocol::query::kMaxFps;
 inline constexpr uint32_t kDefaultStreamFps = protocol::query::kDefaultFps;
 
+// A video stream's default bitrate: this many bits per pixel per frame at the stream's size and
+// fps (1920x1080 at 30 fps: 6.2 Mbit/s; 1280x720 at 15 fps: 1.4 Mbit/s), within the protocol's
+// bitrate bounds.
+inline constexpr double kDefaultVideoBitsPerPixel = 0.1;
+
+// GET .../stream?codec=: the video a stream sends instead of images.
+struct VideoStreamRequest {
+  encode::VideoCodec codec = encode::VideoCodec::Vp8;
+  uint32_t bitrateKbps = 0;
+};
+
 // What a frame request asks for: the render settings and how to encode the result.
 struct FrameRequest {
   render::FrameSettings settings;  // settings.raw is set for ImageFormat::Raw
@@ -48,6 +60,7 @@ struct FrameRequest {
   int quality = kDefaultJpegQuality;  // JPEG only; accepted (and checked) but unused otherwise
   std::optional<double> time;         // session frames: animation time asked for, in seconds
   uint32_t fps = kDefaultStreamFps;   // streams only
+  std::optional<VideoStreamRequest> video;  // streams with codec= only: video, not images
 };
 
 // What a frame request starts from before its parameters apply.
@@ -88,7 +101,9 @@ render::FrameSettings parseFrameQuery(const QueryParams& params, const FrameDefa
 FrameRequest parseSessionFrameQuery(const QueryParams& params, uint32_t maxResolution);
 
 // GET /v1/sessions/{id}/stream: as a session frame, without time, with fps; format png or jpeg
-// (default jpeg).
+// (default jpeg). With codec (vp8, vp9): a video stream at `bitrate` kbit/s (default
+// kDefaultVideoBitsPerPixel), at least 2x2 pixels, and format and quality are refused (they
+// describe images).
 FrameRequest parseStreamQuery(const QueryParams& params, uint32_t maxResolution);
 
 // The Server-Timing header value: one metric per GPU pass, then the CPU PNG encode, then (when

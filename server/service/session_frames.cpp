@@ -150,7 +150,7 @@ PendingSessionFrame submitSessionFrame(const SessionFrameContext& context, const
 }
 
 SessionFrame collectSessionFrame(const SessionFrameContext& context, const SessionPtr& session,
-                                 PendingSessionFrame& pending) {
+                                 PendingSessionFrame& pending, const FrameEncoder* encoder) {
   DeliveredFrame delivered;
   try {
     delivered.frame = pending.frame.get();
@@ -161,7 +161,8 @@ SessionFrame collectSessionFrame(const SessionFrameContext& context, const Sessi
     if (session->closed) throw ProblemError(notFoundDetail("Session " + session->id + " is gone."));
     throw;
   }
-  delivered.encoded = encodeFrame(delivered.frame, pending.rendered);
+  delivered.encoded = encoder ? (*encoder)(delivered.frame)
+                              : encodeFrame(delivered.frame, pending.rendered);
   context.metrics.observeFrame(
       std::chrono::duration<double>(Clock::now() - pending.submitted).count());
   context.stats.record(session, delivered.frame, pending.rendered.settings.target,
@@ -169,6 +170,7 @@ SessionFrame collectSessionFrame(const SessionFrameContext& context, const Sessi
   SessionFrame result;
   result.encoded = std::move(delivered.encoded);
   result.version = pending.version;
+  result.time = pending.rendered.settings.time;
   return result;
 }
 

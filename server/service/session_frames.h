@@ -4,6 +4,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <map>
 #include <memory>
 #include <mutex>
@@ -69,7 +70,11 @@ DeliveredFrame deliverFrame(render::RenderQueue& renderThread, Metrics& metrics,
 struct SessionFrame {
   EncodedFrame encoded;
   uint64_t version = 0;  // the session version the frame shows
+  double time = 0.0;     // the animation time it shows, in seconds
 };
+
+// Encodes a rendered frame some other way than encodeFrame (a video stream's encoder).
+using FrameEncoder = std::function<EncodedFrame(const render::Frame&)>;
 
 class SharedFrames;
 
@@ -95,11 +100,13 @@ struct PendingSessionFrame {
 
 // The two halves of renderSessionFrame, for a caller that overlaps one frame's encoding with the
 // next frame's rendering (a stream): submit takes the session's state and queues the frame;
-// collect waits for it, encodes it and records it in stats and metrics. Same exceptions.
+// collect waits for it, encodes it (with `encoder` when given, else as the request asks) and
+// records it in stats and metrics. Same exceptions.
 PendingSessionFrame submitSessionFrame(const SessionFrameContext& context, const SessionPtr& session,
                                        const FrameRequest& request, render::FrameSource source);
 SessionFrame collectSessionFrame(const SessionFrameContext& context, const SessionPtr& session,
-                                 PendingSessionFrame& pending);
+                                 PendingSessionFrame& pending,
+                                 const FrameEncoder* encoder = nullptr);
 
 // Takes the session's camera, settings and scene (under its mutex), renders on the render thread,
 // waits, encodes, and records the frame in stats and metrics. `request.time` overrides the

@@ -1,8 +1,11 @@
 #include "service/stream.h"
 
 #include <algorithm>
+#include <bit>
 #include <cstdio>
+#include <cstring>
 #include <optional>
+#include <thread>
 #include <utility>
 
 #include "service/shared_frames.h"
@@ -14,6 +17,8 @@ namespace {
 // frames are not counted against --max-queued-frames (render::FrameSource::Stream), so this is
 // only the render thread stopping, which the next turn of the loop sees.
 constexpr std::chrono::milliseconds kQueueFullRetry{50};
+// libvpx threads per video stream: 1080p at 30 fps needs about 4 on the GPU machine's cores.
+constexpr unsigned kVideoEncoderThreads = 4;
 
 // Everything one stream carries from part to part. Used only by the worker serving the stream.
 struct StreamState {
@@ -41,21 +46,13 @@ struct StreamState {
   std::optional<PendingSessionFrame> ahead;
   Clock::duration lastFrameTook{};  // submit to encoded, of the last frame
 
-  // A stream that ends with a frame submitted ahead gives it up: not rendered unless it already
-  // started, and then waited for, so stats count every render.
-  void settleAhead() {
-    if (!ahead) return;
-    *ahead->drop = true;
-    try {
-      collectSessionFrame(context, session, *ahead);
-    } catch (const std::exception&) {
-      // Dropped, the session closed, or the frame failed: nobody is waiting for it.
-    }
-    ahead.reset();
-  }
+  // Video streams (request.video): the stream's own encoder, freed with the stream; `image` then
+  // holds the last chunk's payload only until it is written.
+  std::unique_ptr<encode::VideoEncoder> encoder;
+  Clock::time_point startedAt = Clock::now();
+  VideoChunk chunk;  // the header of the chunk being written
 
-  bool writePart(httplib::DataSink& sink) {
-    std::string part = multipartPart(contentType, image, sequence, !wroteAny);
+  bool write(httplib::DataSink& sink, const std::string& bytes) {
     wroteAny = true;
     lastWriteAt = Clock::now();
     {
@@ -64,7 +61,67 @@ struct StreamState {
       std::lock_guard lock(session->mutex);
       session->lastUsed = lastWriteAt;
     }
-    return sink.write(part.data(), part.size());
+    return sink.write(bytes.data(), bytes.size());
+  }
+
+  static uint64_t microsecondsSince(Clock::time_point start) {
+    return static_cast<uint64_t>(
+        std::chrono::duration_cast<std::chrono::microseconds>(Clock::now() - start).count());
+  }
+
+  // Encodes a rendered frame with this stream's encoder and fills `chunk` (all but the version
+  // and animation time, which the caller sets from the SessionFrame).
+  EncodedFrame encodeVideo(const render::Frame& frame) {
+    const auto start = Clock::now();
+    const uint64_t timestampUs = microsecondsSince(startedAt);
+    encode::VideoPacket packet = encoder->encode(frame.rgba, timestampUs / 1000, !hasFrame);
+    EncodedFrame out;
+    out.body.assign(reinterpret_cast<const char*>(packet.data.data()), packet.data.size());
+    out.contentType = protocol::kVideoStreamContentType;
+    out.encodeMs = std::chrono::duration<double, std::milli>(Clock::now() - start).count();
+    chunk.kind = packet.key ? protocol::video_chunk::kKey : protocol::video_chunk::kDelta;
+    chunk.width = frame.width;
+    chunk.height = frame.height;
+    chunk.timestampUs = timestampUs;
+    chunk.encodeUs = static_cast<uint32_t>(out.encodeMs * 1000.0);
+    return out;
+  }
+
+  // The frame just collected, whose payload is in `image`.
+  bool writeFrame(httplib::DataSink& sink) {
+    if (!encoder) return writePart(sink);
+    std::string bytes = videoChunk(chunk, image);
+    image.clear();
+    image.shrink_to_fit();
+    return write(sink, bytes);
+  }
+
+  // A stream that ends with a frame submitted ahead gives it up: not rendered unless it already
+  // started, and then waited for, so stats count every render.
+  void settleAhead() {
+    if (!ahead) return;
+    *ahead->drop = true;
+    try {
+      // Nobody sees it: a video stream's encoder skips it (its next frame would need it).
+      const FrameEncoder skip = [](const render::Frame&) { return EncodedFrame{}; };
+      collectSessionFrame(context, session, *ahead, encoder ? &skip : nullptr);
+    } catch (const std::exception&) {
+      // Dropped, the session closed, or the frame failed: nobody is waiting for it.
+    }
+    ahead.reset();
+  }
+
+  bool writePart(httplib::DataSink& sink) {
+    if (encoder) {
+      // A video stream re-sends no picture (a delta frame only decodes once): a keep-alive
+      // chunk says the stream is alive and nothing changed.
+      VideoChunk keepAlive = chunk;
+      keepAlive.kind = protocol::video_chunk::kKeepAlive;
+      keepAlive.timestampUs = microsecondsSince(startedAt);
+      keepAlive.encodeUs = 0;
+      return write(sink, videoChunk(keepAlive, {}));
+    }
+    return write(sink, multipartPart(contentType, image, sequence, !wroteAny));
   }
 
   // One provider call: waits for something to send, sends one part, returns. False ends the
@@ -96,12 +153,15 @@ bool StreamState::next(httplib::DataSink& sink) {
     const bool wantFrame = !hasFrame || version != shownVersion || animate;
     if (wantFrame && now >= nextFrameAt) {
       SharedFrames::Frame frame;
+      double frameTime = 0.0;  // the animation time it shows (video chunk headers)
       try {
         // Streams of one session share renders (SharedFrames) unless this one pipelines: an
         // animated stream whose frames take longer than 1 / fps submits the next frame ahead,
         // which a shared render cannot (it would keep each stream's own frames in flight).
+        // A video stream encodes with its own encoder, whose every frame its client must get:
+        // it renders its own frames too.
         const bool pipelined = animate && (ahead || lastFrameTook >= interval);
-        if (context.shared != nullptr && !pipelined) {
+        if (context.shared != nullptr && !pipelined && !encoder) {
           frame = context.shared->next(context, session, request, shownGeneration, interval);
           lastFrameTook = frame.took;
         } else {
@@ -112,7 +172,14 @@ bool StreamState::next(httplib::DataSink& sink) {
           if (animate && lastFrameTook >= interval) {
             ahead = submitSessionFrame(context, session, request, render::FrameSource::Stream);
           }
-          SessionFrame own = collectSessionFrame(context, session, pending);
+          SessionFrame own;
+          if (encoder) {
+            const FrameEncoder encode = [this](const render::Frame& f) { return encodeVideo(f); };
+            own = collectSessionFrame(context, session, pending, &encode);
+          } else {
+            own = collectSessionFrame(context, session, pending);
+          }
+          frameTime = own.time;
           lastFrameTook = Clock::now() - pending.submitted;
           frame = {std::make_shared<const EncodedFrame>(std::move(own.encoded)), own.version, 0};
         }
@@ -135,7 +202,10 @@ bool StreamState::next(httplib::DataSink& sink) {
       ++sequence;
       image = frame.encoded->body;
       contentType = frame.encoded->contentType;
-      return writePart(sink);
+      chunk.sequence = static_cast<uint32_t>(sequence);
+      chunk.version = frame.version;
+      chunk.time = frameTime;
+      return writeFrame(sink);
     }
     if (hasFrame && now - lastWriteAt >= kIdleResend) return writePart(sink);
 
@@ -214,6 +284,26 @@ std::string multipartPart(std::string_view contentType, std::string_view image, 
   return part;
 }
 
+std::string videoChunk(const VideoChunk& header, std::string_view payload) {
+  std::string bytes(protocol::video_chunk::kHeaderBytes + payload.size(), '\0');
+  auto put = [&](size_t offset, auto value) {
+    // Little-endian on the wire; every machine Myriad builds for is little-endian (checked).
+    static_assert(std::endian::native == std::endian::little);
+    std::memcpy(bytes.data() + offset, &value, sizeof value);
+  };
+  put(0, static_cast<uint32_t>(payload.size()));
+  put(4, header.kind);
+  put(8, static_cast<uint16_t>(header.width));
+  put(10, static_cast<uint16_t>(header.height));
+  put(12, header.sequence);
+  put(16, header.timestampUs);
+  put(24, header.version);
+  put(32, header.time);
+  put(40, header.encodeUs);
+  std::memcpy(bytes.data() + protocol::video_chunk::kHeaderBytes, payload.data(), payload.size());
+  return bytes;
+}
+
 httplib::ContentProviderWithoutLength makeStreamProvider(const SessionFrameContext& context,
                                                          StreamRegistry& registry,
                                                          std::unique_ptr<StreamRegistry::Slot> slot,
@@ -223,6 +313,21 @@ httplib::ContentProviderWithoutLength makeStreamProvider(const SessionFrameConte
       context, registry, std::move(slot), std::move(session), request,
       std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(1.0 / request.fps)),
       peer});
+  if (state->request.video) {
+    encode::VideoSettings video;
+    video.codec = state->request.video->codec;
+    video.width = state->request.settings.width;
+    video.height = state->request.settings.height;
+    video.fps = state->request.fps;
+    video.bitrateKbps = state->request.video->bitrateKbps;
+    // libvpx's VP8 threads spin-wait on each other: on a machine whose cores are busy (other
+    // streams, a CPU renderer) 4 threads were 17x slower than 1 (949 against 57 ms a 1080p frame
+    // on 2 shared cores). VP8 gets a thread per 4 cores; VP9's row-based threads block properly.
+    const unsigned cores = std::max(1u, std::thread::hardware_concurrency());
+    video.threads = std::clamp(video.codec == encode::VideoCodec::Vp8 ? cores / 4 : cores, 1u,
+                               kVideoEncoderThreads);
+    state->encoder = std::make_unique<encode::VideoEncoder>(video);
+  }
   return [state](size_t /*offset*/, httplib::DataSink& sink) {
     const bool more = state->next(sink);
     if (!more) state->settleAhead();

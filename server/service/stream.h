@@ -1,5 +1,8 @@
 // GET /v1/sessions/{id}/stream: a multipart/x-mixed-replace response that carries a new frame
 // whenever the session changes (or continuously while its lights animate), at most `fps` a second.
+// With codec= the same frames go out as video instead (protocol::kVideoStreamContentType): the
+// stream owns one encoder, made with the stream and freed with it, whose first frame is a key
+// frame; idle re-sends become keep-alive chunks without a picture.
 //
 // At most two frames in flight per stream: the next frame is rendered from the session's newest
 // state after the previous part was written, so a slow client sees fewer, newer frames and
@@ -25,6 +28,7 @@
 #include <string_view>
 
 #include "protocol/constants.h"
+#include "encode/video.h"
 #include "service/frame_query.h"
 #include "service/peer_watch.h"
 #include "service/session.h"
@@ -90,6 +94,21 @@ httplib::ContentProviderWithoutLength makeStreamProvider(const SessionFrameConte
                                                          std::unique_ptr<StreamRegistry::Slot> slot,
                                                          SessionPtr session, FrameRequest request,
                                                          PeerWatch peer);
+
+// A video stream's chunk header (protocol::video_chunk gives the layout).
+struct VideoChunk {
+  uint8_t kind = 0;  // protocol::video_chunk::kKey, kDelta or kKeepAlive
+  uint32_t width = 0;
+  uint32_t height = 0;
+  uint32_t sequence = 0;
+  uint64_t timestampUs = 0;
+  uint64_t version = 0;
+  double time = 0.0;
+  uint32_t encodeUs = 0;
+};
+
+// One chunk's bytes: the header, then the payload (the frame's bitstream; empty for keep-alive).
+std::string videoChunk(const VideoChunk& header, std::string_view payload);
 
 // One part's bytes: headers, image, CRLF and the next boundary line (so a reader that splits on
 // boundaries has the part at once). The first part of a stream also carries the opening boundary.

@@ -157,8 +157,13 @@ let picture = null;
 
 try {
   await step('page loads, creates a session and shows stream frames', async () => {
-    await page.goto(`${base}/`);
+    // The JPEG stream (?stream=jpeg): most steps compare its full-quality parts; the video
+    // stream, the page's default, has its own step below.
+    await page.goto(`${base}/?stream=jpeg`);
     picture = await settled();
+    check(await page.getAttribute('#view', 'data-codec') === 'jpeg', 'the view says jpeg');
+    check(await page.getAttribute('#view', 'data-codec-why') === 'asked for by ?stream=jpeg',
+          'why jpeg');
     check(picture.width > 0 && picture.height > 0, 'the stream image has no size');
     ({id: sessionId, token} = await session());
     check(/^s-[0-9a-f]{16}$/.test(sessionId), `session id "${sessionId}" in localStorage`);
@@ -684,7 +689,7 @@ try {
     }
     expectedHttpErrors = /status of 429/;
     try {
-      await page.goto(`${base}/`);
+      await page.goto(`${base}/?stream=jpeg`);
       await page.waitForSelector('#message', {state: 'visible', timeout: WAIT_MS});
       const text = await page.textContent('#message-text');
       check(text.includes('429') && text.includes('maxStreams'), `message "${text}"`);
@@ -810,6 +815,83 @@ try {
     picture = await changedFrom('the constant ambient again', picture);
   });
 
+  await step('video: the page decodes VP9 with WebCodecs; a light colour edit changes its pixels', async () => {
+    // A context of its own: its own localStorage, so its own session.
+    const own = await browser.newContext({viewport: VIEWPORT});
+    const other = await own.newPage();
+    other.on('console', (msg) => {
+      if (msg.type() === 'error') consoleErrors.push(`${msg.text()} (${msg.location().url})`);
+    });
+    other.on('pageerror', (e) => consoleErrors.push(`uncaught: ${e.message}`));
+    let opened = null;  // the page's session, deleted once the page is closed
+    try {
+      await other.goto(`${base}/`);
+      const shown = () => other.evaluate(signatureInPage);
+      const before = await until('a decoded video picture on the canvas', async () => {
+        const s = await shown();
+        return s && s.codec === 'vp9' && s.src.includes('codec=vp9') && s.width > 0 ? s : null;
+      });
+      check(await other.evaluate(() => !document.getElementById('stream').hasAttribute('src')),
+            'the JPEG <img> stays empty while video shows');
+      const view = await other.evaluate(() => {
+        const c = document.getElementById('video');
+        return {w: c.clientWidth, h: c.clientHeight, vw: document.getElementById('view').clientWidth};
+      });
+      check(view.w === view.vw && view.h > 0, `the canvas fills the view: ${JSON.stringify(view)}`);
+      opened = await other.evaluate(() => JSON.parse(localStorage.getItem('myriad.session')));
+      const {id, token: otherToken} = opened;
+      const green = (s) => s.sig.reduce((sum, v, i) => sum + (i % 3 === 1 ? v : i % 3 === 0 ? -v : 0), 0) /
+                           (s.sig.length / 3);
+      // Every light green: what the decoded pictures show must turn greener.
+      const page1 = (await api('GET', `/v1/sessions/${id}/lights?limit=1000`, {token: otherToken})).body;
+      check(page1.lights.length === 64, `${page1.lights.length} lights`);
+      for (const light of page1.lights) {
+        const r = await api('PATCH', `/v1/sessions/${id}/lights/${light.id}`,
+                            {token: otherToken, json: {color: [0, 1, 0]}});
+        check(r.status === 200, `PATCH light ${light.id}: ${r.status}`);
+      }
+      const after = await until('the decoded picture after the colour edit', async () => {
+        const s = await shown();
+        return s && s.frame > before.frame && changed(s, before) && green(s) > green(before) + 2 ? s : null;
+      });
+      console.log(`    video frames ${before.frame} -> ${after.frame}: green - red ` +
+                  `${green(before).toFixed(1)} -> ${green(after).toFixed(1)}, largest cell change ` +
+                  `${largestCellDifference(before, after).toFixed(1)}`);
+      const counters = await other.evaluate(() => document.getElementById('view-status').textContent);
+      check(/VP9/.test(counters), `the status line names the codec: "${counters}"`);
+    } finally {
+      await own.close();
+      if (opened) await api('DELETE', `/v1/sessions/${opened.id}`, {token: opened.token});
+    }
+  });
+
+  await step('video: without WebCodecs the page falls back to the JPEG stream and says so', async () => {
+    // A context of its own: its own localStorage, so its own session.
+    const own = await browser.newContext({viewport: VIEWPORT});
+    const other = await own.newPage();
+    other.on('console', (msg) => {
+      if (msg.type() === 'error') consoleErrors.push(`${msg.text()} (${msg.location().url})`);
+    });
+    other.on('pageerror', (e) => consoleErrors.push(`uncaught: ${e.message}`));
+    let opened = null;
+    try {
+      await other.addInitScript(() => { delete globalThis.VideoDecoder; });
+      await other.goto(`${base}/`);
+      const s = await until('a JPEG picture', async () => {
+        const now = await other.evaluate(signatureInPage);
+        return now && now.src.includes('format=jpeg') ? now : null;
+      });
+      check(s.codec === 'jpeg', `data-codec ${s.codec}`);
+      const why = await other.getAttribute('#view', 'data-codec-why');
+      check(/WebCodecs is unavailable/.test(why), `why: "${why}"`);
+      check(await other.evaluate(() => document.getElementById('video') === null), 'no video canvas');
+      opened = await other.evaluate(() => JSON.parse(localStorage.getItem('myriad.session')));
+    } finally {
+      await own.close();
+      if (opened) await api('DELETE', `/v1/sessions/${opened.id}`, {token: opened.token});
+    }
+  });
+
   await step('a server with --api-key asks for the key, then works', async () => {
     const keyed = await startServer(serverPath, ['--validate', '--port', '0', '--lights', '8',
                                               '--api-key', API_KEY]);
@@ -822,7 +904,8 @@ try {
       check(text.includes('401') && /API key/.test(text), `message "${text}"`);
       await other.fill('#api-key', API_KEY);
       await other.press('#api-key', 'Enter');
-      await other.waitForFunction(() => document.getElementById('stream').naturalWidth > 0, null,
+      await other.waitForFunction(() => document.getElementById('stream').naturalWidth > 0 ||
+                                        document.getElementById('video')?.dataset.shown, null,
                                   {timeout: WAIT_MS});
       check(await other.isHidden('#message'), 'the message stays once the key worked');
       const info = await (await fetch(`${keyed.url}/v1/info`)).json();

@@ -18,17 +18,34 @@ export async function until(what, probe, timeoutMs = WAIT_MS, intervalMs = 150) 
   }
 }
 
-// The picture in the view as 32x32 mean colours, from the <img> itself (same origin, so the
-// canvas can read it): what the user sees, not a screenshot of the page around it.
+// The picture in the view as 32x32 mean colours, from what shows it (same origin, so a canvas
+// can read it): the video canvas (#video) once it shows a decoded picture, else the <img> of the
+// JPEG stream. What the user sees, not a screenshot of the page around it.
 export function signatureInPage() {
+  const video = document.getElementById('video');
   const img = document.getElementById('stream');
-  if (!img.complete || img.naturalWidth === 0) return null;
+  let source;
+  let width;
+  let height;
+  let shownFrom;
+  if (video && video.dataset.shown && video.width > 0) {
+    source = video;
+    width = video.width;
+    height = video.height;
+    shownFrom = video;
+  } else {
+    if (!img.complete || img.naturalWidth === 0) return null;
+    source = img;
+    width = img.naturalWidth;
+    height = img.naturalHeight;
+    shownFrom = img;
+  }
   const n = 32;
   const c = document.createElement('canvas');
-  c.width = img.naturalWidth;
-  c.height = img.naturalHeight;
+  c.width = width;
+  c.height = height;
   const g = c.getContext('2d', {willReadFrequently: true});
-  g.drawImage(img, 0, 0);
+  g.drawImage(source, 0, 0);
   const {data} = g.getImageData(0, 0, c.width, c.height);
   const sums = new Float64Array(n * n * 3);
   const counts = new Float64Array(n * n);
@@ -45,8 +62,8 @@ export function signatureInPage() {
   const sig = Array.from(sums, (s, i) => s / Math.max(1, counts[Math.floor(i / 3)]));
   // src: the stream the shown part came from (the view keeps it in data-shown); frame: its
   // X-Myriad-Frame number.
-  return {width: img.naturalWidth, height: img.naturalHeight, src: img.dataset.shown || '',
-          frame: Number(img.dataset.frame), sig};
+  return {width, height, src: shownFrom.dataset.shown || '', frame: Number(shownFrom.dataset.frame),
+          codec: document.getElementById('view').dataset.codec || '', sig};
 }
 
 // The largest change of one cell (of 32x32, 0..255): what a local change (a light on one corner of

@@ -1,0 +1,104 @@
+// Video encoding of rendered frames for GET .../stream?codec= (libvpx: VP8 and VP9), and the
+// matching decoder that tests and the stream benchmark use to look at what a client would see.
+// Plain CPU code: an encoder belongs to one stream and runs on that stream's HTTP worker (libvpx
+// adds its own threads); never on the render thread.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <span>
+#include <stdexcept>
+#include <string_view>
+#include <vector>
+
+namespace myriad::encode {
+
+// libvpx refused a configuration or failed to encode/decode.
+class VideoError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+// In the order of protocol::kVideoCodecs, which names them.
+enum class VideoCodec { Vp8, Vp9 };
+
+struct VideoSettings {
+  VideoCodec codec = VideoCodec::Vp8;
+  uint32_t width = 0;   // 2..16,383 (libvpx's limit)
+  uint32_t height = 0;  // 2..16,383
+  uint32_t fps = 30;    // the expected rate: sizes the rate control's buffer and key frame spacing
+  uint32_t bitrateKbps = 4000;  // the target bitrate (constant bitrate rate control)
+  uint32_t threads = 4;         // libvpx worker threads, 1..16
+};
+
+struct VideoPacket {
+  std::vector<uint8_t> data;  // one frame of the codec's bitstream (VP9: one superframe)
+  bool key = false;           // a key frame: decodable without anything before it
+};
+
+// One realtime encoder: no B-frames, no look-ahead (each frame's packet comes out of the call
+// that took it), constant bitrate with a 1 s buffer, no dropped frames, BT.601 studio-range YUV
+// 4:2:0. The first frame is a key frame, and so is every frame asked for with forceKey.
+class VideoEncoder {
+ public:
+  // Throws std::invalid_argument for sizes, fps, bitrate or threads out of range and VideoError
+  // when libvpx refuses the configuration.
+  explicit VideoEncoder(const VideoSettings& settings);
+  ~VideoEncoder();
+  VideoEncoder(const VideoEncoder&) = delete;
+  VideoEncoder& operator=(const VideoEncoder&) = delete;
+
+  // Encodes tightly packed RGBA8 rows, top row first (alpha ignored), taken `timestampMs` after
+  // the stream began (non-decreasing). Throws std::invalid_argument when rgba.size() is not
+  // width * height * 4 and VideoError when libvpx fails.
+  VideoPacket encode(std::span<const uint8_t> rgba, uint64_t timestampMs, bool forceKey);
+
+  const VideoSettings& settings() const { return settings_; }
+
+ private:
+  struct Impl;
+  VideoSettings settings_;
+  std::unique_ptr<Impl> impl_;
+};
+
+// Decodes the packets of one stream back to RGBA8 (alpha 255) with the inverse of the encoder's
+// colour conversion.
+class VideoDecoder {
+ public:
+  explicit VideoDecoder(VideoCodec codec);
+  ~VideoDecoder();
+  VideoDecoder(const VideoDecoder&) = delete;
+  VideoDecoder& operator=(const VideoDecoder&) = delete;
+
+  struct Picture {
+    uint32_t width = 0;
+    uint32_t height = 0;
+    std::vector<uint8_t> rgba;
+  };
+  // The picture of one packet. Throws VideoError when the packet does not decode (or shows
+  // nothing, which a packet of this encoder never does).
+  Picture decode(std::span<const uint8_t> packet);
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+// protocol::kVideoCodecs' name of `codec` ("vp8", "vp9"), and the codec string WebCodecs'
+// VideoDecoder.configure takes for this encoder's output (protocol::kWebCodecsCodecs).
+std::string_view videoCodecName(VideoCodec codec);
+std::string_view webCodecsName(VideoCodec codec);
+
+// The colour conversions, exposed for tests: BT.601 studio range, chroma the mean of each 2x2
+// block (odd sizes: the last row/column alone). Planes are tightly packed: Y width*height, U and V
+// ((width+1)/2)*((height+1)/2) each.
+void rgbaToI420(std::span<const uint8_t> rgba, uint32_t width, uint32_t height, uint8_t* y,
+                size_t yStride, uint8_t* u, size_t uStride, uint8_t* v, size_t vStride);
+void i420ToRgba(const uint8_t* y, size_t yStride, const uint8_t* u, size_t uStride,
+                const uint8_t* v, size_t vStride, uint32_t width, uint32_t height, uint8_t* rgba);
+
+// Peak signal-to-noise ratio in dB of two RGBA8 pictures of one size over R, G and B (alpha
+// ignored); +infinity when they are equal. Throws std::invalid_argument on a size mismatch.
+double psnrRgb(std::span<const uint8_t> a, std::span<const uint8_t> b);
+
+}  // namespace myriad::encode

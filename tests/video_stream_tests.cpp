@@ -1,0 +1,293 @@
+// GET .../stream?codec=: video streams over loopback against the real myriad-server (validation
+// on). The chunks are read as a client would (tests/browser reads the same ones with WebCodecs) and
+// decoded with libvpx: the first is a key frame, pictures match the PNG frame of the same state,
+// edits arrive as delta frames that change pixels, idle streams send keep-alives, and a closed
+// stream stops encoding.
+#include <doctest/doctest.h>
+#include <httplib.h>
+
+#include <chrono>
+#include <cstdio>
+#include <tuple>
+#include <condition_variable>
+#include <cstring>
+#include <mutex>
+#include <optional>
+#include <span>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "api_client.h"
+#include "encode/png.h"
+#include "encode/video.h"
+#include "server_process.h"
+
+using myriad::encode::psnrRgb;
+using myriad::encode::VideoCodec;
+using myriad::encode::VideoDecoder;
+using myriad::test::ApiClient;
+using myriad::test::createSession;
+using myriad::test::ServerProcess;
+using myriad::test::TestSession;
+using nlohmann::json;
+using Clock = std::chrono::steady_clock;
+
+namespace {
+
+constexpr uint32_t kWidth = 96;
+constexpr uint32_t kHeight = 64;
+constexpr size_t kHeaderBytes = 48;
+
+struct Chunk {
+  uint8_t kind = 0;
+  uint16_t width = 0, height = 0;
+  uint32_t sequence = 0;
+  uint64_t timestampUs = 0;
+  uint64_t version = 0;
+  double time = 0.0;
+  uint32_t encodeUs = 0;
+  std::string payload;
+  Clock::time_point arrived;
+};
+
+template <typename T>
+T read(const std::string& bytes, size_t offset) {
+  T value;
+  std::memcpy(&value, bytes.data() + offset, sizeof value);
+  return value;
+}
+
+// Reads a video stream on its own thread and splits it into chunks.
+class VideoReader {
+ public:
+  VideoReader(const ServerProcess& server, std::string path, std::string token)
+      : client_(server.host(), server.port()) {
+    client_.set_read_timeout(300, 0);
+    thread_ = std::thread([this, path = std::move(path), token = std::move(token)] {
+      httplib::Result res = client_.Get(
+          path, {{"Authorization", "Bearer " + token}},
+          [this](const httplib::Response& response) {
+            std::lock_guard lock(mutex_);
+            status_ = response.status;
+            contentType_ = response.get_header_value("Content-Type");
+            codec_ = response.get_header_value("X-Myriad-Codec");
+            changed_.notify_all();
+            return true;
+          },
+          [this](const char* data, size_t size) {
+            std::lock_guard lock(mutex_);
+            buffer_.append(data, size);
+            while (buffer_.size() >= kHeaderBytes) {
+              const uint32_t payload = read<uint32_t>(buffer_, 0);
+              if (buffer_.size() < kHeaderBytes + payload) break;
+              Chunk chunk;
+              chunk.kind = read<uint8_t>(buffer_, 4);
+              chunk.width = read<uint16_t>(buffer_, 8);
+              chunk.height = read<uint16_t>(buffer_, 10);
+              chunk.sequence = read<uint32_t>(buffer_, 12);
+              chunk.timestampUs = read<uint64_t>(buffer_, 16);
+              chunk.version = read<uint64_t>(buffer_, 24);
+              chunk.time = read<double>(buffer_, 32);
+              chunk.encodeUs = read<uint32_t>(buffer_, 40);
+              chunk.payload = buffer_.substr(kHeaderBytes, payload);
+              chunk.arrived = Clock::now();
+              if (buffer_[5] != 0 || buffer_[6] != 0 || buffer_[7] != 0 ||
+                  read<uint32_t>(buffer_, 44) != 0) {
+                framingError_ = "reserved header bytes are not zero";
+              }
+              chunks_.push_back(std::move(chunk));
+              buffer_.erase(0, kHeaderBytes + payload);
+            }
+            changed_.notify_all();
+            return !stop_;
+          });
+      std::lock_guard lock(mutex_);
+      if (res && status_ == 0) status_ = res->status;
+      if (res && status_ >= 400) errorBody_ = res->body;
+      ended_ = true;
+      changed_.notify_all();
+    });
+  }
+  ~VideoReader() {
+    {
+      std::lock_guard lock(mutex_);
+      stop_ = true;
+    }
+    client_.stop();
+    thread_.join();
+  }
+  std::vector<Chunk> waitFor(size_t count, std::chrono::seconds timeout) {
+    std::unique_lock lock(mutex_);
+    changed_.wait_for(lock, timeout, [&] { return chunks_.size() >= count || ended_; });
+    return chunks_;
+  }
+  int status() {
+    std::unique_lock lock(mutex_);
+    changed_.wait_for(lock, std::chrono::seconds(300), [&] { return status_ != 0 || ended_; });
+    return status_;
+  }
+  std::string contentType() { std::lock_guard lock(mutex_); return contentType_; }
+  std::string codec() { std::lock_guard lock(mutex_); return codec_; }
+  std::string framingError() { std::lock_guard lock(mutex_); return framingError_; }
+  std::string errorBody() { std::lock_guard lock(mutex_); return errorBody_; }
+
+ private:
+  httplib::Client client_;
+  std::thread thread_;
+  std::mutex mutex_;
+  std::condition_variable changed_;
+  std::string buffer_;
+  std::vector<Chunk> chunks_;
+  int status_ = 0;
+  bool ended_ = false;
+  bool stop_ = false;
+  std::string contentType_, codec_, framingError_, errorBody_;
+};
+
+std::span<const uint8_t> bytesOf(const std::string& s) {
+  return {reinterpret_cast<const uint8_t*>(s.data()), s.size()};
+}
+
+// The session's PNG frame, as RGBA; with `time`, at that animation time (the state a chunk of an
+// animated session says it shows; a time also animates a session that is not animated).
+std::vector<uint8_t> pngFrame(ApiClient& api, const TestSession& session,
+                              std::optional<double> time = std::nullopt) {
+  std::string query = "/frame?format=png&width=" + std::to_string(kWidth) +
+                      "&height=" + std::to_string(kHeight);
+  if (time) {
+    char timeText[64];
+    std::snprintf(timeText, sizeof timeText, "%.17g", *time);
+    query += std::string("&time=") + timeText;
+  }
+  myriad::test::Reply reply = api.get(session.path() + query, session.token);
+  REQUIRE(reply.status == 200);
+  myriad::encode::DecodedImage png = myriad::encode::decodePng(bytesOf(reply.body));
+  REQUIRE(png.width == kWidth);
+  return png.rgba;
+}
+
+std::string videoPath(const TestSession& session, const std::string& query) {
+  return session.path() + "/stream?width=" + std::to_string(kWidth) +
+         "&height=" + std::to_string(kHeight) + "&" + query;
+}
+
+}  // namespace
+
+TEST_CASE("video streams: key frame first, PNG-close pictures, edits as deltas, keep-alives") {
+  ServerProcess server({"--lights", "64"});
+  REQUIRE(server.start() == ServerProcess::Start::Listening);
+  ApiClient api(server);
+  TestSession session = createSession(api);
+
+  for (auto [name, codec, webName] : {std::tuple{"vp8", VideoCodec::Vp8, "vp8"},
+                                      std::tuple{"vp9", VideoCodec::Vp9, "vp09.00.10.08"}}) {
+    const std::string codecName = name;
+    CAPTURE(codecName);
+    VideoReader reader(server, videoPath(session, std::string("codec=") + name + "&fps=8&bitrate=600"),
+                       session.token);
+    REQUIRE(reader.status() == 200);
+    CHECK(reader.contentType() == "application/x-myriad-video");
+    CHECK(reader.codec() == webName);
+    std::vector<Chunk> chunks = reader.waitFor(1, std::chrono::seconds(120));
+    REQUIRE(chunks.size() == 1);
+    const Chunk first = chunks[0];
+    CHECK(first.kind == 1);  // a key frame
+    CHECK(first.width == kWidth);
+    CHECK(first.height == kHeight);
+    CHECK(first.sequence == 1);
+    CHECK(first.payload.size() > 20);
+    VideoDecoder decoder(codec);
+    VideoDecoder::Picture before = decoder.decode(bytesOf(first.payload));
+    REQUIRE(before.width == kWidth);
+    REQUIRE(before.height == kHeight);
+    const double psnrFirst = psnrRgb(before.rgba, pngFrame(api, session));
+    MESSAGE(codecName, " key frame: ", first.payload.size(), " bytes, ", psnrFirst,
+            " dB against the PNG frame, encoded in ", first.encodeUs, " us");
+    CHECK(psnrFirst > 30.0);
+
+    // Idle: a keep-alive after about 2 s, without a picture, repeating the sequence number.
+    chunks = reader.waitFor(2, std::chrono::seconds(30));
+    REQUIRE(chunks.size() == 2);
+    CHECK(chunks[1].kind == 3);
+    CHECK(chunks[1].payload.empty());
+    CHECK(chunks[1].sequence == 1);
+    const double gap = std::chrono::duration<double>(chunks[1].arrived - first.arrived).count();
+    CHECK(gap > 1.5);
+    CHECK(gap < 3.5);
+
+    // An edit: a delta frame of a newer version whose pixels changed, matching the new PNG.
+    const double fov = std::string(name) == "vp8" ? 30.0 : 70.0;
+    REQUIRE(api.patch(session.path() + "/camera", json{{"fovY", fov}}.dump(), session.token)
+                .status == 200);
+    chunks = reader.waitFor(3, std::chrono::seconds(60));
+    REQUIRE(chunks.size() == 3);
+    const Chunk& edited = chunks[2];
+    CHECK(edited.kind == 2);
+    CHECK(edited.sequence == 2);
+    CHECK(edited.version > first.version);
+    CHECK(edited.timestampUs > first.timestampUs);
+    VideoDecoder::Picture after = decoder.decode(bytesOf(edited.payload));
+    const double psnrEdited = psnrRgb(after.rgba, pngFrame(api, session));
+    const double psnrChange = psnrRgb(after.rgba, before.rgba);
+    MESSAGE(codecName, " delta frame: ", edited.payload.size(), " bytes, ", psnrEdited,
+            " dB against its PNG, ", psnrChange, " dB against the frame before the edit");
+    CHECK(psnrEdited > 30.0);
+    CHECK(psnrChange < psnrEdited - 5.0);  // the picture really changed
+    CHECK(reader.framingError() == "");
+  }
+
+  // Bad requests are problems naming the parameter.
+  for (auto [query, parameter] : {std::pair{"codec=h264", "codec"},
+                                  std::pair{"codec=vp8&format=jpeg", "format"},
+                                  std::pair{"codec=vp8&bitrate=10", "bitrate"}}) {
+    myriad::test::Reply reply = api.get(videoPath(session, query), session.token);
+    myriad::test::checkProblem(reply, 400, "invalid-parameter", query, std::nullopt, std::nullopt,
+                               parameter);
+  }
+  CHECK(myriad::test::validationMessages(api) == 0);
+  REQUIRE(server.stop().has_value());
+}
+
+TEST_CASE("video streams: a closed stream stops encoding; animated frames all arrive in order") {
+  ServerProcess server({"--lights", "64"});
+  REQUIRE(server.start() == ServerProcess::Start::Listening);
+  ApiClient api(server);
+  TestSession session = createSession(api);
+  REQUIRE(api.patch(session.path() + "/settings", json{{"animate", true}}.dump(), session.token)
+              .status == 200);
+  const auto framesRendered = [&] {
+    myriad::test::Reply reply = api.get(session.path() + "/stats", session.token);
+    REQUIRE(reply.status == 200);
+    return reply.json["frames"].get<uint64_t>();
+  };
+  {
+    VideoReader reader(server, videoPath(session, "codec=vp8&fps=4"), session.token);
+    REQUIRE(reader.status() == 200);
+    std::vector<Chunk> chunks = reader.waitFor(4, std::chrono::seconds(120));
+    REQUIRE(chunks.size() >= 4);
+    VideoDecoder decoder(VideoCodec::Vp8);
+    for (size_t i = 0; i < chunks.size(); ++i) {
+      CAPTURE(i);
+      CHECK(chunks[i].kind == (i == 0 ? 1 : 2));
+      CHECK(chunks[i].sequence == i + 1);
+      if (i > 0) CHECK(chunks[i].time > chunks[i - 1].time);  // the lights moved on
+      VideoDecoder::Picture picture = decoder.decode(bytesOf(chunks[i].payload));
+      REQUIRE(picture.width == kWidth);
+      // The animation time in the header renders the same picture as a PNG frame.
+      const double psnr = psnrRgb(picture.rgba, pngFrame(api, session, chunks[i].time));
+      MESSAGE("animated frame ", i + 1, " at t=", chunks[i].time, ": ", psnr, " dB against its PNG");
+      CHECK(psnr > 30.0);
+    }
+  }  // the reader closes the connection
+  const uint64_t atClose = framesRendered();
+  std::this_thread::sleep_for(std::chrono::milliseconds(1500));  // 6 frames at 4 fps
+  const uint64_t after = framesRendered();
+  MESSAGE("frames rendered after the client closed its animated video stream: ", after - atClose);
+  CHECK(after - atClose <= 1);
+  myriad::test::Reply metrics = api.get("/metrics");
+  CHECK(metrics.body.find("myriad_streams 0") != std::string::npos);
+  REQUIRE(server.stop().has_value());
+}
