@@ -44,6 +44,12 @@ void get(const json& j, const char* key, Environment& out) {
   out = it == j.end() ? Environment{} : it->get<Environment>();
 }
 
+// Settings' shadows likewise (a snapshot from before shadows): off.
+void get(const json& j, const char* key, Shadows& out) {
+  auto it = j.find(key);
+  out = it == j.end() ? Shadows{} : it->get<Shadows>();
+}
+
 template <class T>
 void put(json& j, const char* key, const T& value) {
   j[key] = value;
@@ -98,6 +104,12 @@ void patchMembers(Tag<EnvironmentPatch>, F f) {
 }
 
 template <class F>
+void patchMembers(Tag<ShadowsPatch>, F f) {
+  f("sun", &Shadows::sun, &ShadowsPatch::sun);
+  f("mapSize", &Shadows::mapSize, &ShadowsPatch::mapSize);
+}
+
+template <class F>
 void patchMembers(Tag<SettingsPatch>, F f) {
   f("sun", &Settings::sun, &SettingsPatch::sun);
   f("suns", &Settings::suns, &SettingsPatch::suns);
@@ -109,6 +121,7 @@ void patchMembers(Tag<SettingsPatch>, F f) {
   f("animate", &Settings::animate, &SettingsPatch::animate);
   f("background", &Settings::background, &SettingsPatch::background);
   f("environment", &Settings::environment, &SettingsPatch::environment);
+  f("shadows", &Settings::shadows, &SettingsPatch::shadows);
 }
 
 template <class F>
@@ -161,6 +174,8 @@ template <class F> void members(Tag<Environment>, F f) {
   f("source", &Environment::source);
 }
 template <class F> void members(Tag<EnvironmentPatch>, F f) { patchedMembers<EnvironmentPatch>(f); }
+template <class F> void members(Tag<Shadows>, F f) { wholeMembers<ShadowsPatch>(f); }
+template <class F> void members(Tag<ShadowsPatch>, F f) { patchedMembers<ShadowsPatch>(f); }
 template <class F> void members(Tag<Settings>, F f) { wholeMembers<SettingsPatch>(f); }
 template <class F> void members(Tag<SettingsPatch>, F f) { patchedMembers<SettingsPatch>(f); }
 template <class F> void members(Tag<MaterialPatch>, F f) { patchedMembers<MaterialPatch>(f); }
@@ -516,6 +531,8 @@ MYRIAD_MEMBERWISE_JSON(Sun)
 MYRIAD_MEMBERWISE_JSON(SunPatch)
 MYRIAD_MEMBERWISE_JSON(Environment)
 MYRIAD_MEMBERWISE_JSON(EnvironmentPatch)
+MYRIAD_MEMBERWISE_JSON(Shadows)
+MYRIAD_MEMBERWISE_JSON(ShadowsPatch)
 MYRIAD_MEMBERWISE_JSON(Settings)
 MYRIAD_MEMBERWISE_JSON(SettingsPatch)
 MYRIAD_MEMBERWISE_JSON(MaterialTexture)

@@ -71,6 +71,17 @@ struct EnvironmentPatch {
   std::optional<bool> background;
 };
 
+// Shadow maps.
+struct Shadows {
+  bool sun = false;         // the sun casts shadows
+  uint32_t mapSize = 2048;  // the sun's map, texels across (defs.schema.json shadowMapSize)
+};
+
+struct ShadowsPatch {
+  std::optional<bool> sun;
+  std::optional<uint32_t> mapSize;
+};
+
 struct Settings {
   Sun sun;
   std::vector<Sun> suns;  // more directional lights (a model's), at most kMaxExtraSuns
@@ -84,6 +95,7 @@ struct Settings {
   bool animate = false;
   Color background{};
   Environment environment;
+  Shadows shadows;
 };
 
 inline constexpr size_t kMaxExtraSuns = 3;
@@ -99,6 +111,7 @@ struct SettingsPatch {
   std::optional<bool> animate;
   std::optional<Color> background;
   std::optional<EnvironmentPatch> environment;
+  std::optional<ShadowsPatch> shadows;
 };
 Settings applied(Settings settings, const SettingsPatch& patch);
 
@@ -459,6 +472,8 @@ MYRIAD_PROTOCOL_JSON(Sun);
 MYRIAD_PROTOCOL_JSON(SunPatch);
 MYRIAD_PROTOCOL_JSON(Environment);
 MYRIAD_PROTOCOL_JSON(EnvironmentPatch);
+MYRIAD_PROTOCOL_JSON(Shadows);
+MYRIAD_PROTOCOL_JSON(ShadowsPatch);
 MYRIAD_PROTOCOL_JSON(Settings);
 MYRIAD_PROTOCOL_JSON(SettingsPatch);
 MYRIAD_PROTOCOL_JSON(MaterialTexture);

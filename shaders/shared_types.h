@@ -27,6 +27,13 @@ using mat4 = glm::mat4;
 #define MYRIAD_BINDING_LIGHT_ORIGINS 4  // storage GpuPointLight[]: where animation starts from
 #define MYRIAD_BINDING_ENVIRONMENT 5    // storage vec4[]: the environment's SH9 irradiance + specular
 #define MYRIAD_BINDING_BRDF_LUT 6       // storage vec4[]: the split-sum BRDF table (x scale, y bias)
+#define MYRIAD_BINDING_SUN_SHADOW_MAP 7 // sampler2DShadow: the sun's depth from its side (D32)
+
+// Shadows (render/shadows.cpp). The shadow pass draws depth only, with one push constant: the
+// light's view-projection (ShadowPush).
+#define MYRIAD_SHADOW_MAP_MIN 256
+#define MYRIAD_SHADOW_MAP_MAX 4096
+#define MYRIAD_SHADOW_MAP_DEFAULT 2048
 
 // The environment light (shaders/environment.glsl, render/environment.cpp). Sizes are modest so
 // lavapipe prefilters in well under a second; all maps are equirectangular (u = longitude,
@@ -176,6 +183,15 @@ MYRIAD_STRUCT(FrameUniforms) {
   // Directional lights besides the sun (a model's): xyz towards the light, w intensity (0: none).
   vec4 extraSunDirection[MYRIAD_MAX_EXTRA_SUNS];
   vec4 extraSunColor[MYRIAD_MAX_EXTRA_SUNS];  // rgb linear, w unused
+  // The sun's shadow map: world -> (u, v, depth) of the map (orthographic, so w = 1).
+  mat4 sunShadowMatrix;
+  vec4 sunShadow;  // x 1 when the sun casts shadows, y normal offset (world units), z depth bias
+                   // (map depth units), w one texel in uv (1 / map size)
+};
+
+// The shadow pass's push constant: world -> the light's clip space.
+MYRIAD_STRUCT(ShadowPush) {
+  mat4 viewProjection;
 };
 
 // Push constants of the environment's compute passes (render/environment.cpp).

@@ -35,6 +35,9 @@ struct Plan {
   // to the next), so the "environment" pass is timed; otherwise it runs in the first warm-up
   // frame only and the timed frames measure shading alone.
   bool environmentEveryFrame = false;
+  // The sun's shadow map, texels across (render::kShadowMapSizes); 0: no shadows. Timed as the
+  // "shadow" pass.
+  uint32_t sunShadowMap = 0;
 };
 
 struct Summary {

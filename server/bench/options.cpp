@@ -1,5 +1,6 @@
 #include "bench/options.h"
 
+#include <algorithm>
 #include <charconv>
 #include <cmath>
 
@@ -56,6 +57,7 @@ const char* const kUsage =
     "                    [--json PATH] [--validate] [--device INDEX|NAME]\n"
     "                    [--environment none|sky] [--environment-every-frame]\n"
     "                    [--antialias none|fxaa]\n"
+    "                    [--sun-shadows 256|512|1024|2048|4096]\n"
     "                    [--model PATH [--textures on|off]]\n"
     "Renders animated frames for every light count x technique, timing each pass with GPU\n"
     "timestamp queries after warm-up, and prints medians and 90th percentiles.\n"
@@ -67,6 +69,8 @@ const char* const kUsage =
     "--environment sky lights every frame with the procedural sky (default none: the constant\n"
     "ambient); with --environment-every-frame its maps are rebuilt every frame, timed as the\n"
     "\"environment\" pass.\n"
+    "--sun-shadows N renders the sun's shadow map (N texels across) every frame, timed as the\n"
+    "\"shadow\" pass (default: no shadows).\n"
     "--model PATH renders a model file (loaded in this process) from its framing camera, with\n"
     "lights around it; --textures off strips its textures (the same geometry, factors only).\n";
 
@@ -132,6 +136,15 @@ Options parseOptions(const std::vector<std::string>& args) {
       o.plan.environment = *mode;
     } else if (flag == "--environment-every-frame") {
       o.plan.environmentEveryFrame = true;
+    } else if (flag == "--sun-shadows") {
+      std::string_view text = value();
+      const uint64_t size = parseCount(flag, text, 0, UINT32_MAX);
+      if (std::find(render::kShadowMapSizes.begin(), render::kShadowMapSizes.end(), size) ==
+          render::kShadowMapSizes.end()) {
+        throw UsageError("--sun-shadows expects 256, 512, 1024, 2048 or 4096, not \"" +
+                         std::string(text) + "\".");
+      }
+      o.plan.sunShadowMap = uint32_t(size);
     } else if (flag == "--markers") {
       o.plan.markers = true;
     } else if (flag == "--antialias") {

@@ -119,6 +119,7 @@ nlohmann::json toJson(const RunInfo& run, const std::vector<ConfigResult>& resul
       {"max_seconds_per_config", run.plan.maxSecondsPerConfig},
       {"markers", run.plan.markers},
       {"antialias", render::antialiasName(run.plan.antialias)},
+      {"sun_shadow_map", run.plan.sunShadowMap},
       {"ceiling_pairs_per_second", kH200PairsPerSecondCeiling},
       {"validation", {{"enabled", run.validation}, {"messages", run.validationMessages}}},
       {"configs", std::move(configs)},

@@ -157,6 +157,16 @@ struct EnvironmentSettings {
   bool background = false;  // show the environment where no geometry is (else `background`)
 };
 
+// Shadows (render/shadows.h). Off by default at this level, so frames and tests that do not ask
+// for them stay as they were; sessions turn the sun's on for their scenes (service/session_scene).
+struct ShadowSettings {
+  bool sun = false;         // the sun casts shadows (one map over the scene's bounds)
+  uint32_t mapSize = 2048;  // the sun's map, texels across: kShadowMapSizes
+};
+
+// The sizes a shadow map may have (protocol/schemas/defs.schema.json's shadowMapSize).
+inline constexpr std::array<uint32_t, 5> kShadowMapSizes = {256, 512, 1024, 2048, 4096};
+
 // What a scene is shown with, kept between frames: a session's settings (GET/PATCH .../settings)
 // are exactly this, and every frame starts from it. Scene-wide lighting comes with the frame, not
 // the scene upload, so a settings change needs no upload. The lighting defaults are
@@ -172,6 +182,7 @@ struct SceneSettings {
   Technique technique = Technique::Clustered;
   bool animate = false;  // lights move (on the GPU) with the animation clock
   EnvironmentSettings environment;  // with mode None, `ambient` lights the scene; else not
+  ShadowSettings shadows;
 
   // Sets sun, ambient and background to `scene`'s (what the scene was authored with).
   SceneSettings& takeLightingFrom(const scene::Scene& scene) {

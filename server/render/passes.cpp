@@ -57,7 +57,7 @@ gpu::VertexLayout surfaceVertexLayout() {
 Pipelines::Pipelines(gpu::Context& context) : device(context.device) {
   const VkShaderStageFlags all =
       VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT | VK_SHADER_STAGE_COMPUTE_BIT;
-  std::array<VkDescriptorSetLayoutBinding, 7> sceneBindings{{
+  std::array<VkDescriptorSetLayoutBinding, 8> sceneBindings{{
       {MYRIAD_BINDING_FRAME, VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1, all, nullptr},
       {MYRIAD_BINDING_LIGHTS, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, all, nullptr},
       {MYRIAD_BINDING_INSTANCES, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, all, nullptr},
@@ -65,6 +65,7 @@ Pipelines::Pipelines(gpu::Context& context) : device(context.device) {
       {MYRIAD_BINDING_LIGHT_ORIGINS, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, all, nullptr},
       {MYRIAD_BINDING_ENVIRONMENT, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, all, nullptr},
       {MYRIAD_BINDING_BRDF_LUT, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, all, nullptr},
+      {MYRIAD_BINDING_SUN_SHADOW_MAP, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, all, nullptr},
   }};
   sceneSetLayout = gpu::createDescriptorSetLayout(device, sceneBindings);
   const VkShaderStageFlags readers = VK_SHADER_STAGE_FRAGMENT_BIT | VK_SHADER_STAGE_COMPUTE_BIT;
@@ -106,6 +107,10 @@ Pipelines::Pipelines(gpu::Context& context) : device(context.device) {
   VkPipelineLayoutCreateInfo layoutInfo{VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO};
   layoutInfo.setLayoutCount = 4;
   layoutInfo.pSetLayouts = setLayouts;
+  // The shadow pass's light view-projection (ShadowPush); no other pass uses push constants.
+  const VkPushConstantRange shadowPush{VK_SHADER_STAGE_VERTEX_BIT, 0, sizeof(gpu_types::ShadowPush)};
+  layoutInfo.pushConstantRangeCount = 1;
+  layoutInfo.pPushConstantRanges = &shadowPush;
   VK_CHECK(vkCreatePipelineLayout(device, &layoutInfo, nullptr, &layout));
 
   gpu::GraphicsPipelineDesc d;
@@ -129,6 +134,16 @@ Pipelines::Pipelines(gpu::Context& context) : device(context.device) {
   d.fragmentShader = spirv::forward_clustered_frag;
   forwardClustered = gpu::createGraphicsPipeline(device, layout, d);
 
+  // Shadow maps: depth only, both faces (render/shadows.cpp).
+  d = {};
+  d.vertexShader = spirv::shadow_vert;
+  d.vertexLayout = {sizeof(scene::Vertex),
+                    {{0, 0, VK_FORMAT_R32G32B32_SFLOAT, offsetof(scene::Vertex, position)}}};
+  d.depthFormat = kDepthFormat;
+  d.depthTest = d.depthWrite = true;
+  d.depthCompare = VK_COMPARE_OP_LESS;
+  shadow = gpu::createGraphicsPipeline(device, layout, d);
+
   // The light-volumes view: the volumes technique's proxies, drawn onto the 8-bit output.
   d = lightVolumeDesc(context);
   d.fragmentShader = spirv::light_volume_overlay_frag;
@@ -145,7 +160,7 @@ Pipelines::Pipelines(gpu::Context& context) : device(context.device) {
 }
 
 Pipelines::~Pipelines() {
-  for (VkPipeline p : {gbuffer, forward, forwardClustered, lightVolumeOverlay, animateLights,
+  for (VkPipeline p : {gbuffer, forward, forwardClustered, shadow, lightVolumeOverlay, animateLights,
                       markerSplat, final, finalRaw, views, viewsRaw, antialias}) {
     if (p) vkDestroyPipeline(device, p, nullptr);
   }

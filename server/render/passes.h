@@ -31,6 +31,7 @@ struct Pipelines {
   // Alpha-blended surfaces (recordBlendPass): every light tested, or the clustered lists.
   VkPipeline forward = VK_NULL_HANDLE;
   VkPipeline forwardClustered = VK_NULL_HANDLE;
+  VkPipeline shadow = VK_NULL_HANDLE;  // depth only, from a light (render/shadows.h)
   VkPipeline lightVolumeOverlay = VK_NULL_HANDLE;
   // Compute (render/compute_passes.h).
   VkPipeline animateLights = VK_NULL_HANDLE;

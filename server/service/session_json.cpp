@@ -70,6 +70,8 @@ protocol::Settings toWire(const render::SceneSettings& s) {
   out.environment.intensity = wire(s.environment.intensity);
   out.environment.rotation = wire(s.environment.rotation);
   out.environment.background = s.environment.background;
+  out.shadows.sun = s.shadows.sun;
+  out.shadows.mapSize = s.shadows.mapSize;
   return out;
 }
 

@@ -202,6 +202,11 @@ const render::SceneSettings& SessionScene::patchSettings(const protocol::Setting
     if (e.rotation) s.environment.rotation = float(*e.rotation);
     if (e.background) s.environment.background = *e.background;
   }
+  if (patch.shadows) {
+    // The schema allows only render::kShadowMapSizes.
+    if (patch.shadows->sun) s.shadows.sun = *patch.shadows->sun;
+    if (patch.shadows->mapSize) s.shadows.mapSize = *patch.shadows->mapSize;
+  }
   if (s.animate && !settings_.animate) animationStart_ = now;
   if (patch.environment && patch.environment->mode) environmentChosen_ = true;
   settings_ = s;
@@ -281,6 +286,8 @@ SessionScene::Restored SessionScene::restore(const protocol::Snapshot& snapshot,
   if (image.image) next.setEnvironmentImage(image.image, image.source);
   settings.environment = protocol::EnvironmentPatch{environment.mode, environment.intensity,
                                                     environment.rotation, environment.background};
+  settings.shadows = protocol::ShadowsPatch{snapshot.settings.shadows.sun,
+                                            snapshot.settings.shadows.mapSize};
   try {
     next.patchSettings(settings, now);
   } catch (const ProblemError& e) {
