@@ -231,6 +231,13 @@ inline constexpr std::string_view kHdr = "hdr";    // the session's equirectangu
 }  // namespace environment_modes
 inline constexpr std::array kEnvironmentModes = {environment_modes::kNone, environment_modes::kSky,
                                                  environment_modes::kHdr};
+// Anti-aliasing of the final image (settings "antialias", ?antialias=): render::Antialias is an
+// index into kAntialiasModes; the schemas' enum mirrors it (tests/protocol_tests.cpp).
+namespace antialias_modes {
+inline constexpr std::string_view kNone = environment_modes::kNone;  // the image as tonemapped
+inline constexpr std::string_view kFxaa = "fxaa";  // a luminance-edge post-process (compute)
+}  // namespace antialias_modes
+inline constexpr std::array kAntialiasModes = {antialias_modes::kNone, antialias_modes::kFxaa};
 // What a frame shows: ?target=, GET /v1/info "targets", X-Myriad-Target. In render::Target's order
 // (which the shaders' MYRIAD_VIEW_* values follow): the final image, then G-buffer and debug views.
 inline constexpr std::array<std::string_view, 13> kTargets = {

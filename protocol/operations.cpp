@@ -132,7 +132,10 @@ std::vector<Operation> buildOperations() {
                   {{"type", "number"}, {"exclusiveMinimum", 0}},
                   "Multiplier before tonemapping. Default 1."},
                  {"technique", component("technique"),
-                  "How local lights are shaded. Default: GET /v1/info defaultTechnique."}},
+                  "How local lights are shaded. Default: GET /v1/info defaultTechnique."},
+                 {"antialias", component("antialias"),
+                  "Anti-aliasing of the final image (none or fxaa; data views and raw output are "
+                  "never filtered). Default fxaa."}},
        .responses = {frameResponse()},
        .problems = {400, 500, 503}});
   ops.push_back({.method = "GET",
@@ -321,7 +324,7 @@ std::vector<Operation> buildOperations() {
                  .route = routes::kSessionSettings,
                  .id = "getSettings",
                  .tag = "Settings",
-                 .summary = "Sun, ambient, exposure, markers, technique, animation, background",
+                 .summary = "Sun, ambient, exposure, markers, anti-aliasing, technique, animation, background",
                  .access = Access::Session,
                  .responses = {json200(n::kSettings, "The settings.")},
                  .problems = kSessionProblems});

@@ -44,6 +44,12 @@ void get(const json& j, const char* key, Environment& out) {
   out = it == j.end() ? Environment{} : it->get<Environment>();
 }
 
+// Settings' shadows likewise (a snapshot from before shadows): off.
+void get(const json& j, const char* key, Shadows& out) {
+  auto it = j.find(key);
+  out = it == j.end() ? Shadows{} : it->get<Shadows>();
+}
+
 template <class T>
 void put(json& j, const char* key, const T& value) {
   j[key] = value;
@@ -98,16 +104,24 @@ void patchMembers(Tag<EnvironmentPatch>, F f) {
 }
 
 template <class F>
+void patchMembers(Tag<ShadowsPatch>, F f) {
+  f("sun", &Shadows::sun, &ShadowsPatch::sun);
+  f("mapSize", &Shadows::mapSize, &ShadowsPatch::mapSize);
+}
+
+template <class F>
 void patchMembers(Tag<SettingsPatch>, F f) {
   f("sun", &Settings::sun, &SettingsPatch::sun);
   f("suns", &Settings::suns, &SettingsPatch::suns);
   f("ambient", &Settings::ambient, &SettingsPatch::ambient);
   f("exposure", &Settings::exposure, &SettingsPatch::exposure);
   f("markers", &Settings::markers, &SettingsPatch::markers);
+  f("antialias", &Settings::antialias, &SettingsPatch::antialias);
   f("technique", &Settings::technique, &SettingsPatch::technique);
   f("animate", &Settings::animate, &SettingsPatch::animate);
   f("background", &Settings::background, &SettingsPatch::background);
   f("environment", &Settings::environment, &SettingsPatch::environment);
+  f("shadows", &Settings::shadows, &SettingsPatch::shadows);
 }
 
 template <class F>
@@ -160,6 +174,8 @@ template <class F> void members(Tag<Environment>, F f) {
   f("source", &Environment::source);
 }
 template <class F> void members(Tag<EnvironmentPatch>, F f) { patchedMembers<EnvironmentPatch>(f); }
+template <class F> void members(Tag<Shadows>, F f) { wholeMembers<ShadowsPatch>(f); }
+template <class F> void members(Tag<ShadowsPatch>, F f) { patchedMembers<ShadowsPatch>(f); }
 template <class F> void members(Tag<Settings>, F f) { wholeMembers<SettingsPatch>(f); }
 template <class F> void members(Tag<SettingsPatch>, F f) { patchedMembers<SettingsPatch>(f); }
 template <class F> void members(Tag<MaterialPatch>, F f) { patchedMembers<MaterialPatch>(f); }
@@ -468,8 +484,8 @@ T applyPatch(T whole, const P& p);
 template <class T, class U>
 void patch(T& target, const std::optional<U>& value) {
   if (!value) return;
-  if constexpr (std::is_same_v<T, U>) {
-    target = *value;
+  if constexpr (std::is_same_v<T, U> || std::is_same_v<T, std::optional<U>>) {
+    target = *value;  // (a whole's member the body may omit takes the patch's value too)
   } else {
     target = applyPatch(std::move(target), *value);
   }
@@ -515,6 +531,8 @@ MYRIAD_MEMBERWISE_JSON(Sun)
 MYRIAD_MEMBERWISE_JSON(SunPatch)
 MYRIAD_MEMBERWISE_JSON(Environment)
 MYRIAD_MEMBERWISE_JSON(EnvironmentPatch)
+MYRIAD_MEMBERWISE_JSON(Shadows)
+MYRIAD_MEMBERWISE_JSON(ShadowsPatch)
 MYRIAD_MEMBERWISE_JSON(Settings)
 MYRIAD_MEMBERWISE_JSON(SettingsPatch)
 MYRIAD_MEMBERWISE_JSON(MaterialTexture)

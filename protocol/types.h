@@ -71,16 +71,31 @@ struct EnvironmentPatch {
   std::optional<bool> background;
 };
 
+// Shadow maps.
+struct Shadows {
+  bool sun = false;         // the sun casts shadows
+  uint32_t mapSize = 2048;  // the sun's map, texels across (defs.schema.json shadowMapSize)
+};
+
+struct ShadowsPatch {
+  std::optional<bool> sun;
+  std::optional<uint32_t> mapSize;
+};
+
 struct Settings {
   Sun sun;
   std::vector<Sun> suns;  // more directional lights (a model's), at most kMaxExtraSuns
   Color ambient{};
   double exposure = 1;
   bool markers = false;
+  // antialias_modes:: "none" | "fxaa". The server always sends it; a body may leave it out (a
+  // snapshot saved before anti-aliasing existed), which restores as a new session starts: "fxaa".
+  std::optional<std::string> antialias;
   std::string technique;  // "volumes" | "tiled" | "clustered" (constants.h technique_names::)
   bool animate = false;
   Color background{};
   Environment environment;
+  Shadows shadows;
 };
 
 inline constexpr size_t kMaxExtraSuns = 3;
@@ -91,10 +106,12 @@ struct SettingsPatch {
   std::optional<Color> ambient;
   std::optional<double> exposure;
   std::optional<bool> markers;
+  std::optional<std::string> antialias;
   std::optional<std::string> technique;
   std::optional<bool> animate;
   std::optional<Color> background;
   std::optional<EnvironmentPatch> environment;
+  std::optional<ShadowsPatch> shadows;
 };
 Settings applied(Settings settings, const SettingsPatch& patch);
 
@@ -455,6 +472,8 @@ MYRIAD_PROTOCOL_JSON(Sun);
 MYRIAD_PROTOCOL_JSON(SunPatch);
 MYRIAD_PROTOCOL_JSON(Environment);
 MYRIAD_PROTOCOL_JSON(EnvironmentPatch);
+MYRIAD_PROTOCOL_JSON(Shadows);
+MYRIAD_PROTOCOL_JSON(ShadowsPatch);
 MYRIAD_PROTOCOL_JSON(Settings);
 MYRIAD_PROTOCOL_JSON(SettingsPatch);
 MYRIAD_PROTOCOL_JSON(MaterialTexture);

@@ -26,6 +26,9 @@ layout(std430, set = MYRIAD_SET_SCENE, binding = MYRIAD_BINDING_ENVIRONMENT) rea
 layout(std430, set = MYRIAD_SET_SCENE, binding = MYRIAD_BINDING_BRDF_LUT) readonly buffer BrdfLutBlock {
   vec4 brdfLutTexels[];
 };
+// The sun's shadow map (render/shadows.cpp), a comparison sampler: LESS_OR_EQUAL, linear where
+// the device filters the depth format linearly (then each tap is a 2x2 PCF of its own).
+layout(set = MYRIAD_SET_SCENE, binding = MYRIAD_BINDING_SUN_SHADOW_MAP) uniform sampler2DShadow sunShadowMap;
 #define MYRIAD_ENV_LIGHTING(i) environmentTexels[i]
 #define MYRIAD_BRDF_LUT(i) brdfLutTexels[i]
 #include "environment.glsl"
@@ -89,21 +92,52 @@ bool environmentOn() {
   return frame.environment.x != float(MYRIAD_ENV_NONE);
 }
 
+// How much of the sun reaches a surface point: 1 lit, 0 in shadow, between in the penumbra.
+// 3x3 taps a texel apart (percentage-closer filtering, Reeves et al. 1987), so the penumbra is
+// about three texels wide. Acne is kept off by a normal offset (Holbein 2011: the point moves
+// along its normal by more the more the surface grazes the light, where its texels stretch) plus
+// a depth bias of 1.5 texels of depth, more on slopes (2 tan(theta), at most 10 more: the 3x3 taps
+// reach a texel away, where a sloped receiver is that much nearer the light). Outside the map
+// (nothing of the scene is: the map covers the scene's bounds) the sun is unoccluded.
+float sunShadowFactor(vec3 position, vec3 normal) {
+  if (frame.sunShadow.x == 0.0) {
+    return 1.0;
+  }
+  float cosTheta = dot(normal, frame.sunDirection.xyz);
+  if (cosTheta <= 0.0) {
+    return 1.0;  // facing away: the sun adds nothing here whatever the map says
+  }
+  float sinTheta = sqrt(max(1.0 - cosTheta * cosTheta, 0.0));
+  vec3 p = position + normal * (frame.sunShadow.y * (0.5 + sinTheta));
+  vec3 map = (frame.sunShadowMatrix * vec4(p, 1.0)).xyz;
+  if (map.x < 0.0 || map.x > 1.0 || map.y < 0.0 || map.y > 1.0 || map.z > 1.0) {
+    return 1.0;
+  }
+  float reference = map.z - frame.sunShadow.z * (1.5 + min(2.0 * sinTheta / cosTheta, 10.0));
+  float texel = frame.sunShadow.w;
+  float lit = 0.0;
+  for (int y = -1; y <= 1; ++y) {
+    for (int x = -1; x <= 1; ++x) {
+      lit += textureLod(sunShadowMap, vec3(map.xy + vec2(float(x), float(y)) * texel, reference), 0.0);
+    }
+  }
+  return lit / 9.0;
+}
+
 // What every technique adds once per pixel besides its local lights: the sun, either the constant
 // ambient term (environment "none") or the environment light, both scaled by the material's
 // occlusion, and the surface's own emission. Every technique calls this, so they agree exactly;
 // the C++ reference makes the same calls.
 vec3 sunAndAmbient(Surface s) {
   vec3 V = normalize(frame.cameraPosition.xyz - s.position);
+  vec3 sun = frame.sunColor.rgb * (frame.sunDirection.w * sunShadowFactor(s.position, s.normal));
   vec3 color;
   if (!environmentOn()) {
     color = shadeSunAndAmbient(s.normal, V, s.baseColor, s.metallic, s.roughness,
-                               frame.sunDirection.xyz, frame.sunColor.rgb * frame.sunDirection.w,
-                               frame.ambient.rgb * s.occlusion);
+                               frame.sunDirection.xyz, sun, frame.ambient.rgb * s.occlusion);
   } else {
     color = shadeSunAndAmbient(s.normal, V, s.baseColor, s.metallic, s.roughness,
-                               frame.sunDirection.xyz, frame.sunColor.rgb * frame.sunDirection.w,
-                               vec3(0.0)) +
+                               frame.sunDirection.xyz, sun, vec3(0.0)) +
             shadeEnvironment(s.normal, V, s.baseColor, s.metallic, s.roughness, s.occlusion,
                              frame.environmentRotation.x, frame.environmentRotation.y,
                              frame.environment.y);

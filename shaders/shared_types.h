@@ -27,6 +27,13 @@ using mat4 = glm::mat4;
 #define MYRIAD_BINDING_LIGHT_ORIGINS 4  // storage GpuPointLight[]: where animation starts from
 #define MYRIAD_BINDING_ENVIRONMENT 5    // storage vec4[]: the environment's SH9 irradiance + specular
 #define MYRIAD_BINDING_BRDF_LUT 6       // storage vec4[]: the split-sum BRDF table (x scale, y bias)
+#define MYRIAD_BINDING_SUN_SHADOW_MAP 7 // sampler2DShadow: the sun's depth from its side (D32)
+
+// Shadows (render/shadows.cpp). The shadow pass draws depth only, with one push constant: the
+// light's view-projection (ShadowPush).
+#define MYRIAD_SHADOW_MAP_MIN 256
+#define MYRIAD_SHADOW_MAP_MAX 4096
+#define MYRIAD_SHADOW_MAP_DEFAULT 2048
 
 // The environment light (shaders/environment.glsl, render/environment.cpp). Sizes are modest so
 // lavapipe prefilters in well under a second; all maps are equirectangular (u = longitude,
@@ -65,6 +72,9 @@ using mat4 = glm::mat4;
 #define MYRIAD_BINDING_LIGHT_COUNT_STORAGE 8  // storage image: compute lighting writes counts here
 #define MYRIAD_BINDING_GBUFFER_EMISSIVE 9     // sampled: emitted radiance (RGBA16F, a unused)
 #define MYRIAD_BINDING_MARKER_KEYS 10         // storage image: light markers' keys (shaders/markers.h)
+#define MYRIAD_BINDING_OUTPUT 11              // storage image: the output (RGBA8, or RGBA32F when raw)
+#define MYRIAD_BINDING_LDR 12                 // sampled (linear filter): tonemapped final + luma, for AA
+#define MYRIAD_BINDING_LDR_STORAGE 13         // storage image: the same, written by the final pass
 
 // Descriptor set 2: light culling. Each compute technique binds its own set of this layout
 // (server/render/techniques/) and writes the bindings its shaders use.
@@ -134,6 +144,10 @@ using mat4 = glm::mat4;
 #define MYRIAD_VIEW_EMISSIVE 11
 #define MYRIAD_VIEW_OCCLUSION 12
 
+// Anti-aliasing of `final` (FrameUniforms.post.x): render::Antialias's values (gpu_types.h checks).
+#define MYRIAD_ANTIALIAS_NONE 0
+#define MYRIAD_ANTIALIAS_FXAA 1
+
 // The G-buffer targets a frame writes only when it needs them (FrameUniforms.written.x): the uv
 // target for the uv view, emission when a material emits or for the emissive view. Raster output
 // is what the G-buffer pass spends its time on where few units rasterize (docs/performance.md).
@@ -164,9 +178,20 @@ MYRIAD_STRUCT(FrameUniforms) {
   vec4 slicing;          // x slices / ln(far/near), y ln(near) * x, z heat-map max, w time (s)
   vec4 environment;      // x mode (MYRIAD_ENV_*), y intensity, z background shown (0/1), w unused
   vec4 environmentRotation;  // x cos, y sin of the environment's rotation about +Y
+  uvec4 post;            // x anti-aliasing of this frame (MYRIAD_ANTIALIAS_*: NONE unless the view
+                         // is an 8-bit final), y light markers drawn (0/1), zw unused
   // Directional lights besides the sun (a model's): xyz towards the light, w intensity (0: none).
   vec4 extraSunDirection[MYRIAD_MAX_EXTRA_SUNS];
   vec4 extraSunColor[MYRIAD_MAX_EXTRA_SUNS];  // rgb linear, w unused
+  // The sun's shadow map: world -> (u, v, depth) of the map (orthographic, so w = 1).
+  mat4 sunShadowMatrix;
+  vec4 sunShadow;  // x 1 when the sun casts shadows, y normal offset (world units), z depth bias
+                   // (map depth units), w one texel in uv (1 / map size)
+};
+
+// The shadow pass's push constant: world -> the light's clip space.
+MYRIAD_STRUCT(ShadowPush) {
+  mat4 viewProjection;
 };
 
 // Push constants of the environment's compute passes (render/environment.cpp).

@@ -190,9 +190,12 @@ TEST_CASE("api: a session's whole life through every route it owns") {
   Reply newSettings = api.patch(
       path + "/settings",
       R"({"sun": {"direction": [0, -2, 0], "intensity": 3}, "exposure": 1.5, "technique": "tiled",
-          "markers": false, "animate": true, "ambient": [0.1, 0.2, 0.3], "background": [0, 0, 0.5]})",
+          "markers": false, "animate": true, "ambient": [0.1, 0.2, 0.3], "background": [0, 0, 0.5],
+          "antialias": "none"})",
       token);
   REQUIRE(newSettings.status == 200);
+  CHECK(settings.json["antialias"] == "fxaa");  // a new session's default
+  CHECK(newSettings.json["antialias"] == "none");
   CHECK(vecNear(newSettings.json["sun"]["direction"], {0, -1, 0}));
   CHECK(newSettings.json["sun"]["intensity"] == 3);
   CHECK(newSettings.json["sun"]["color"] == sunColor);  // untouched member kept
@@ -493,6 +496,7 @@ TEST_CASE("api: request bodies are checked against the schemas, naming the membe
       {"PATCH", "/settings", R"({"exposure": 1001})", "/exposure"},
       {"PATCH", "/settings", R"({"technique": "forward"})", "/technique"},
       {"PATCH", "/settings", R"({"markers": 1})", "/markers"},
+      {"PATCH", "/settings", R"({"antialias": "msaa"})", "/antialias"},
       {"PATCH", "/settings", R"({"sun": {"intensity": -1}})", "/sun/intensity"},
       {"PATCH", "/settings", R"({"sun": {"direction": [0, 0, 0]}})", "/sun/direction"},
       {"PATCH", "/settings", R"({"sun": {"spin": 1}})", "/sun/spin"},

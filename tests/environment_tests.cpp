@@ -58,6 +58,7 @@ render::FrameSettings frameOf(render::EnvironmentMode mode) {
   f.camera.nearPlane = 0.1f;
   f.camera.farPlane = 50.0f;
   f.markers = false;
+  f.antialias = render::Antialias::None;  // compared with the reference, which does not anti-alias
   f.environment.mode = mode;
   return f;
 }

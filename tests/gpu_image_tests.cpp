@@ -77,6 +77,7 @@ render::FrameSettings settingsFor(const scene::Camera& camera, render::Target ta
   f.camera = camera;
   f.target = target;
   f.markers = false;
+  f.antialias = render::Antialias::None;  // compared with the reference, which does not anti-alias
   return f;
 }
 

@@ -235,6 +235,18 @@ TEST_CASE("http: the whole API against one server") {
     CHECK(metrics.count("encode") == 1);
     CHECK(metrics.count("gbuffer") == 1);
     CHECK(metrics.size() >= 3);
+    // final is anti-aliased by default: its own pass after the final pass; antialias=none and
+    // data views have none.
+    CHECK(metrics.count("final") == 1);  // names-once: the pass, not the target
+    CHECK(metrics.count("antialias") == 1);
+    httplib::Params plain = small;
+    plain.emplace("antialias", "none");
+    getFrame(*client, plain, &header);
+    CHECK(parseServerTiming(header).count("antialias") == 0);
+    httplib::Params normals = small;
+    normals.emplace("target", "normal");  // names-once: a data view, the target's name
+    getFrame(*client, normals, &header);
+    CHECK(parseServerTiming(header).count("antialias") == 0);
   }
 
   // The camera parameters change the picture.
@@ -259,14 +271,19 @@ TEST_CASE("http: the whole API against one server") {
     CHECK(fractionDifferent(base, getFrame(*client, small)) == 0.0);
     // Every technique shades the same picture (tests/technique_tests.cpp holds them to 1/255
     // in-process; here, through HTTP, the bar is that no pixel moves by more than 2/255).
+    // Without anti-aliasing: at an edge, a 1/255 difference can tip a pixel over the filter's
+    // contrast threshold and blend it (antialias_tests.cpp holds the filter to its own bars).
+    httplib::Params unfiltered = small;
+    unfiltered.emplace("antialias", "none");
+    const auto plain = getFrame(*client, unfiltered);
     for (std::string_view technique : {"volumes", "tiled", "clustered"}) {
-      httplib::Params with = small;
+      httplib::Params with = unfiltered;
       with.emplace("technique", std::string(technique));
       auto shaded = getFrame(*client, with);
-      REQUIRE(shaded.rgba.size() == base.rgba.size());
+      REQUIRE(shaded.rgba.size() == plain.rgba.size());
       int worst = 0;
-      for (size_t i = 0; i < base.rgba.size(); ++i) {
-        worst = std::max(worst, std::abs(int(base.rgba[i]) - int(shaded.rgba[i])));
+      for (size_t i = 0; i < plain.rgba.size(); ++i) {
+        worst = std::max(worst, std::abs(int(plain.rgba[i]) - int(shaded.rgba[i])));
       }
       INFO("technique ", technique);
       CHECK(worst <= 2);
@@ -305,6 +322,8 @@ TEST_CASE("http: the whole API against one server") {
       {"fov=180", "fov"},
       {"fov=abc", "fov"},
       {"markers=maybe", "markers"},
+      {"antialias=smaa", "antialias"},
+      {"antialias=", "antialias"},
       {"exposure=-1", "exposure"},
       {"exposure=nan", "exposure"},
       {"technique=forward", "technique"},

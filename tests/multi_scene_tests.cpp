@@ -80,6 +80,7 @@ render::FrameSettings settingsFor(const scene::Scene& s, render::Technique techn
   f.camera.nearPlane = 0.1f;
   f.camera.farPlane = 100.0f;
   f.markers = false;
+  f.antialias = render::Antialias::None;  // compared with the reference, which does not anti-alias
   f.technique = technique;
   f.takeLightingFrom(s);
   return f;

@@ -204,8 +204,8 @@ TEST_CASE("messages: whole sentences that name the member, escaped pointers, sho
   REQUIRE(error);
   CHECK(error->pointer == "/a~1b~0c");  // RFC 6901 escaping
   CHECK(error->message ==
-        "\"a~1b~0c\" is not a member of the body; its members are ambient, animate, background, "
-        "environment, exposure, markers, sun, suns, technique.");
+        "\"a~1b~0c\" is not a member of the body; its members are ambient, animate, antialias, "
+        "background, environment, exposure, markers, shadows, sun, suns, technique.");
 
   error = protocol::validate("camera", json::array());
   REQUIRE(error);
@@ -334,6 +334,9 @@ TEST_CASE("constants agree with the schemas") {
   const json& modes = protocol::schema("defs")["$defs"]["environmentMode"]["enum"];
   REQUIRE(modes.size() == protocol::kEnvironmentModes.size());
   for (size_t i = 0; i < modes.size(); ++i) CHECK(modes[i] == protocol::kEnvironmentModes[i]);
+  const json& antialias = protocol::schema("defs")["$defs"]["antialias"]["enum"];
+  REQUIRE(antialias.size() == protocol::kAntialiasModes.size());
+  for (size_t i = 0; i < antialias.size(); ++i) CHECK(antialias[i] == protocol::kAntialiasModes[i]);
 
   for (std::string_view name : protocol::problems::kAll) {
     std::string uri = protocol::problemTypeUri(name);

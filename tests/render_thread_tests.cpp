@@ -40,6 +40,7 @@ render::FrameSettings settingsFor(const scene::Scene& s) {
   f.camera.eye = glm::vec3(0.0f, 2.5f, 4.0f);
   f.camera.target = glm::vec3(0.0f, 0.3f, 0.0f);
   f.markers = false;
+  f.antialias = render::Antialias::None;  // compared with the reference, which does not anti-alias
   f.takeLightingFrom(s);
   return f;
 }

@@ -74,6 +74,7 @@ render::FrameSettings frameSettings(Technique technique, uint32_t w = 96, uint32
   f.camera.nearPlane = 0.1f;
   f.camera.farPlane = 60.0f;
   f.markers = false;
+  f.antialias = render::Antialias::None;  // compared with the reference, which does not anti-alias
   f.technique = technique;
   return f;
 }

@@ -202,6 +202,7 @@ std::vector<CommandSpec> buildSpecs() {
        option("background", Kind::Vector, "background, linear RGB", kLinearColour, "r,g,b"),
        option("exposure", Kind::Number, "exposure before tonemapping", kExposure),
        option("markers", Kind::OnOff, "draw a marker at each light"),
+       choice("antialias", protocol::kAntialiasModes, "anti-aliasing of the final image"),
        choice("technique", protocol::kTechniques, "how local lights are assigned"),
        option("animate", Kind::OnOff, "move the lights on the GPU"),
        choice("environment", protocol::kEnvironmentModes,

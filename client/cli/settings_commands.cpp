@@ -20,6 +20,7 @@ void printSettings(std::ostream& out, const protocol::Settings& s) {
                     {"background", formatVec(s.background)},
                     {"exposure", formatNumber(s.exposure)},
                     {"markers", onOff(s.markers)},
+                    {"antialias", s.antialias.value_or(std::string(protocol::antialias_modes::kFxaa))},
                     {"technique", s.technique},
                     {"animate", onOff(s.animate)},
                     {"environment", s.environment.mode},
@@ -63,6 +64,7 @@ int runSettingsCommand(Context& ctx) {
     patch.background = inv.find<Vec3>("background");
     patch.exposure = inv.find<double>("exposure");
     patch.markers = inv.find<bool>("markers");
+    patch.antialias = inv.find<std::string>("antialias");
     patch.technique = inv.find<std::string>("technique");
     patch.animate = inv.find<bool>("animate");
     if (inv.has("environment") || inv.has("env-intensity") || inv.has("env-rotation") ||

@@ -1,5 +1,5 @@
 // The side panels for what the session holds: the model (upload, library, built-in), materials,
-// and the settings (sun, ambient, exposure, markers, technique, animation). Every control shows
+// and the settings (sun, ambient, exposure, markers, anti-aliasing, technique, animation). Every control shows
 // the server's value and every change is a request; the answer is what the control shows next.
 
 import {hexToLinear, linearToHex, splitStrength} from './color.js';
@@ -311,6 +311,8 @@ export class SettingsPanel {
     $('exposure').addEventListener('input', (e) =>
         this.edit({exposure: round(2 ** Number(e.target.value))}));
     $('markers').addEventListener('change', (e) => this.edit({markers: e.target.checked}));
+    $('antialias').addEventListener('change', (e) =>
+        this.edit({antialias: e.target.checked ? 'fxaa' : 'none'}));
     $('animate').addEventListener('change', (e) => this.edit({animate: e.target.checked}));
     $('technique').addEventListener('change', (e) => this.edit({technique: e.target.value}));
     // The environment light: mode, intensity, rotation (degrees here, radians on the wire),
@@ -374,6 +376,7 @@ export class SettingsPanel {
     $('ambient-strength').value = ambient.strength;
     $('exposure').value = Math.log2(s.exposure);
     $('markers').checked = s.markers;
+    $('antialias').checked = s.antialias !== 'none';
     $('animate').checked = s.animate;
     $('technique').value = s.technique;
     const env = s.environment;

@@ -45,6 +45,16 @@ if [[ -n $helmet && -f $helmet ]]; then
       --techniques clustered --lights 1000 --frames 50 --warmup 10
   done
 fi
+# The final pass and anti-aliasing (issue 13): "final" (tonemap + the markers' resolve, compute)
+# and "antialias" at 4K and 1080p, with and without anti-aliasing; and the markers' splat
+# ("markers") at a million lights, 1080p.
+for aa in fxaa none; do
+  step "final-2160p-$aa" --width 3840 --height 2160 --techniques clustered --lights 1000 --markers \
+    --antialias "$aa" --frames 50 --warmup 10
+  step "final-1080p-$aa" --techniques clustered --lights 1000 --markers --antialias "$aa" \
+    --frames 50 --warmup 10
+done
+step markers-1080p-1M --techniques clustered --lights 1000000 --markers --frames 30 --warmup 5
 # Validation on (core + synchronization): every technique once, and a million lights at both sizes.
 step validate-1080p --validate --lights 10000,1000000 --frames 5 --warmup 2
 step validate-2160p --validate --width 3840 --height 2160 --techniques clustered --lights 1000000 \

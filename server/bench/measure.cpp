@@ -22,10 +22,13 @@ render::FrameSettings frameSettings(const scene::Scene& scene, render::Technique
   f.takeLightingFrom(scene);
   f.technique = technique;
   f.markers = plan.markers;
+  f.antialias = plan.antialias;
   f.animate = true;
   f.time = frameIndex * plan.frameSeconds;
   f.environment.mode = plan.environment;
   if (plan.environmentEveryFrame) f.sun.color *= 1.0f + 1e-4f * float(frameIndex % 2);
+  f.shadows.sun = plan.sunShadowMap > 0;
+  if (plan.sunShadowMap > 0) f.shadows.mapSize = plan.sunShadowMap;
   return f;
 }
 

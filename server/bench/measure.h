@@ -25,6 +25,9 @@ struct Plan {
   uint32_t timedFrames = 50;
   double maxSecondsPerConfig = 30.0;  // timed frames stop early past this (at least 3 are kept)
   bool markers = false;
+  // Anti-aliasing of the final image (the "antialias" pass); the renderer's default, as a
+  // session's, is fxaa.
+  render::Antialias antialias = render::Antialias::Fxaa;
   double frameSeconds = 1.0 / 60.0;  // animation time between frames
   // The environment light of every frame (none: the constant ambient, the seed's).
   render::EnvironmentMode environment = render::EnvironmentMode::None;
@@ -32,6 +35,9 @@ struct Plan {
   // to the next), so the "environment" pass is timed; otherwise it runs in the first warm-up
   // frame only and the timed frames measure shading alone.
   bool environmentEveryFrame = false;
+  // The sun's shadow map, texels across (render::kShadowMapSizes); 0: no shadows. Timed as the
+  // "shadow" pass.
+  uint32_t sunShadowMap = 0;
 };
 
 struct Summary {

@@ -1,5 +1,6 @@
 #include "bench/options.h"
 
+#include <algorithm>
 #include <charconv>
 #include <cmath>
 
@@ -55,16 +56,21 @@ const char* const kUsage =
     "                    [--seed N] [--max-seconds S] [--volumes-max-lights N] [--markers]\n"
     "                    [--json PATH] [--validate] [--device INDEX|NAME]\n"
     "                    [--environment none|sky] [--environment-every-frame]\n"
+    "                    [--antialias none|fxaa]\n"
+    "                    [--sun-shadows 256|512|1024|2048|4096]\n"
     "                    [--model PATH [--textures on|off]]\n"
     "Renders animated frames for every light count x technique, timing each pass with GPU\n"
     "timestamp queries after warm-up, and prints medians and 90th percentiles.\n"
     "defaults: 1920x1080, lights 1000,10000,100000,1000000, every technique,\n"
     "          50 frames after 10 warm-up, scene floor with 64 lights per point, volumes only up to\n"
-    "          100000 lights, at most 30 s of timed frames per configuration, markers off.\n"
+    "          100000 lights, at most 30 s of timed frames per configuration, markers off,\n"
+    "          antialias fxaa (the final image's \"antialias\" pass; the server's default too).\n"
     "--validate enables VK_LAYER_KHRONOS_validation; any message makes the exit status 1.\n"
     "--environment sky lights every frame with the procedural sky (default none: the constant\n"
     "ambient); with --environment-every-frame its maps are rebuilt every frame, timed as the\n"
     "\"environment\" pass.\n"
+    "--sun-shadows N renders the sun's shadow map (N texels across) every frame, timed as the\n"
+    "\"shadow\" pass (default: no shadows).\n"
     "--model PATH renders a model file (loaded in this process) from its framing camera, with\n"
     "lights around it; --textures off strips its textures (the same geometry, factors only).\n";
 
@@ -130,8 +136,22 @@ Options parseOptions(const std::vector<std::string>& args) {
       o.plan.environment = *mode;
     } else if (flag == "--environment-every-frame") {
       o.plan.environmentEveryFrame = true;
+    } else if (flag == "--sun-shadows") {
+      std::string_view text = value();
+      const uint64_t size = parseCount(flag, text, 0, UINT32_MAX);
+      if (std::find(render::kShadowMapSizes.begin(), render::kShadowMapSizes.end(), size) ==
+          render::kShadowMapSizes.end()) {
+        throw UsageError("--sun-shadows expects 256, 512, 1024, 2048 or 4096, not \"" +
+                         std::string(text) + "\".");
+      }
+      o.plan.sunShadowMap = uint32_t(size);
     } else if (flag == "--markers") {
       o.plan.markers = true;
+    } else if (flag == "--antialias") {
+      std::string_view name = value();
+      auto mode = render::parseAntialias(name);
+      if (!mode) throw UsageError("--antialias expects none or fxaa, not \"" + std::string(name) + "\".");
+      o.plan.antialias = *mode;
     } else if (flag == "--json") {
       std::string_view path = value();
       if (path.empty()) throw UsageError("--json expects a file path.");

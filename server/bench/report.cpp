@@ -118,6 +118,8 @@ nlohmann::json toJson(const RunInfo& run, const std::vector<ConfigResult>& resul
       {"timed_frames", run.plan.timedFrames},
       {"max_seconds_per_config", run.plan.maxSecondsPerConfig},
       {"markers", run.plan.markers},
+      {"antialias", render::antialiasName(run.plan.antialias)},
+      {"sun_shadow_map", run.plan.sunShadowMap},
       {"ceiling_pairs_per_second", kH200PairsPerSecondCeiling},
       {"validation", {{"enabled", run.validation}, {"messages", run.validationMessages}}},
       {"configs", std::move(configs)},

@@ -16,7 +16,9 @@ VkShaderModule createShaderModule(VkDevice device, std::span<const uint32_t> spi
 VkPipeline createGraphicsPipeline(VkDevice device, VkPipelineLayout layout,
                                   const GraphicsPipelineDesc& desc) {
   VkShaderModule vert = createShaderModule(device, desc.vertexShader);
-  VkShaderModule frag = createShaderModule(device, desc.fragmentShader);
+  // No fragment shader: a depth-only pass (shadow maps).
+  const bool hasFragment = !desc.fragmentShader.empty();
+  VkShaderModule frag = hasFragment ? createShaderModule(device, desc.fragmentShader) : VK_NULL_HANDLE;
   VkPipelineShaderStageCreateInfo stages[2] = {
       {VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO, nullptr, 0, VK_SHADER_STAGE_VERTEX_BIT,
        vert, "main", nullptr},
@@ -97,7 +99,7 @@ VkPipeline createGraphicsPipeline(VkDevice device, VkPipelineLayout layout,
 
   VkGraphicsPipelineCreateInfo info{VK_STRUCTURE_TYPE_GRAPHICS_PIPELINE_CREATE_INFO};
   info.pNext = &rendering;
-  info.stageCount = 2;
+  info.stageCount = hasFragment ? 2 : 1;
   info.pStages = stages;
   info.pVertexInputState = &vertexInput;
   info.pInputAssemblyState = &inputAssembly;
@@ -112,7 +114,7 @@ VkPipeline createGraphicsPipeline(VkDevice device, VkPipelineLayout layout,
   VkPipeline pipeline = VK_NULL_HANDLE;
   VkResult result = vkCreateGraphicsPipelines(device, VK_NULL_HANDLE, 1, &info, nullptr, &pipeline);
   vkDestroyShaderModule(device, vert, nullptr);
-  vkDestroyShaderModule(device, frag, nullptr);
+  if (frag) vkDestroyShaderModule(device, frag, nullptr);
   VK_CHECK(result);
   return pipeline;
 }

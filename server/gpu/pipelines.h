@@ -19,7 +19,7 @@ struct VertexLayout {
 
 struct GraphicsPipelineDesc {
   std::span<const uint32_t> vertexShader;
-  std::span<const uint32_t> fragmentShader;
+  std::span<const uint32_t> fragmentShader;  // empty: depth only (no fragment stage)
   VertexLayout vertexLayout;
   std::vector<VkFormat> colorFormats;
   Blend blend = Blend::None;  // applied to every colour attachment

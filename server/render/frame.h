@@ -38,7 +38,7 @@ struct MaterialWrite {
   scene::Material material;
 };
 
-// What the tonemap pass writes into the output image. Values index protocol::kTargets (the names)
+// What the final pass (or, for data views, the views pass) writes into the output image. Values index protocol::kTargets (the names)
 // and equal MYRIAD_VIEW_* in shaders/shared_types.h (render/gpu_types.h checks both).
 enum class Target : uint32_t {
   Final = 0,
@@ -132,12 +132,40 @@ inline std::optional<EnvironmentMode> parseEnvironmentMode(std::string_view name
   return std::nullopt;
 }
 
+// Anti-aliasing of the `final` view (8-bit output only: raw values and data views are never
+// filtered). Values index protocol::kAntialiasModes and equal MYRIAD_ANTIALIAS_* (gpu_types.h).
+enum class Antialias : uint32_t {
+  None = 0,  // the tonemapped image as it is
+  Fxaa,      // luminance-edge detection and a directional blend after tonemapping (antialias.comp)
+};
+
+inline std::string_view antialiasName(Antialias a) {
+  return protocol::kAntialiasModes[static_cast<uint32_t>(a)];
+}
+
+inline std::optional<Antialias> parseAntialias(std::string_view name) {
+  for (uint32_t i = 0; i < protocol::kAntialiasModes.size(); ++i) {
+    if (protocol::kAntialiasModes[i] == name) return static_cast<Antialias>(i);
+  }
+  return std::nullopt;
+}
+
 struct EnvironmentSettings {
   EnvironmentMode mode = EnvironmentMode::None;
   float intensity = 1.0f;   // scales the environment's light (and its background), >= 0
   float rotation = 0.0f;    // radians about +Y (hdr only: the sky's orientation is the sun's)
   bool background = false;  // show the environment where no geometry is (else `background`)
 };
+
+// Shadows (render/shadows.h). Off by default at this level, so frames and tests that do not ask
+// for them stay as they were; sessions turn the sun's on for their scenes (service/session_scene).
+struct ShadowSettings {
+  bool sun = false;         // the sun casts shadows (one map over the scene's bounds)
+  uint32_t mapSize = 2048;  // the sun's map, texels across: kShadowMapSizes
+};
+
+// The sizes a shadow map may have (protocol/schemas/defs.schema.json's shadowMapSize).
+inline constexpr std::array<uint32_t, 5> kShadowMapSizes = {256, 512, 1024, 2048, 4096};
 
 // What a scene is shown with, kept between frames: a session's settings (GET/PATCH .../settings)
 // are exactly this, and every frame starts from it. Scene-wide lighting comes with the frame, not
@@ -150,9 +178,11 @@ struct SceneSettings {
   glm::vec3 background = scene::Scene{}.background;
   float exposure = 1.0f;
   bool markers = true;
+  Antialias antialias = Antialias::Fxaa;  // applies to `final` only
   Technique technique = Technique::Clustered;
   bool animate = false;  // lights move (on the GPU) with the animation clock
   EnvironmentSettings environment;  // with mode None, `ambient` lights the scene; else not
+  ShadowSettings shadows;
 
   // Sets sun, ambient and background to `scene`'s (what the scene was authored with).
   SceneSettings& takeLightingFrom(const scene::Scene& scene) {
@@ -177,6 +207,11 @@ struct FrameSettings : SceneSettings {
   FrameSettings& takeLightingFrom(const scene::Scene& scene) {
     SceneSettings::takeLightingFrom(scene);
     return *this;
+  }
+
+  // Anti-aliasing filters the 8-bit `final` image only: never raw values or another view.
+  bool antialiased() const {
+    return antialias != Antialias::None && target == Target::Final && !raw;
   }
 };
 
@@ -218,7 +253,7 @@ inline std::vector<std::string_view> rawChannels(Target target) {
 }
 
 struct PassTiming {
-  std::string name;     // e.g. "gbuffer", "sun", "lights", "markers", "tonemap", "readback"
+  std::string name;     // e.g. "gbuffer", "sun", "lights", "markers", "final", "antialias", "readback"
   double milliseconds;  // GPU time from timestamp queries
 };
 

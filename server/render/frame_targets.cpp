@@ -24,8 +24,12 @@ FrameTargets::FrameTargets(gpu::Context& context, VkExtent2D size, bool rawOutpu
   lightCount = arena.createImage2D(extent, kLightCountFormat, gbufferUsage | VK_IMAGE_USAGE_STORAGE_BIT);
   markerKeys = arena.createImage2D(extent, kMarkerKeyFormat,
                                    VK_IMAGE_USAGE_STORAGE_BIT | VK_IMAGE_USAGE_TRANSFER_DST_BIT);
+  // 4 bytes per pixel, kept for raw frames too (which never anti-alias) so that every binding of
+  // the target set always holds an image.
+  ldr = arena.createImage2D(extent, kLdrFormat, VK_IMAGE_USAGE_STORAGE_BIT | VK_IMAGE_USAGE_SAMPLED_BIT);
   output = arena.createImage2D(extent, raw ? kRawOutputFormat : kOutputFormat,
-                               VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT);
+                               VK_IMAGE_USAGE_STORAGE_BIT | VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT |
+                                   VK_IMAGE_USAGE_TRANSFER_SRC_BIT);
   readback = arena.createBuffer(VkDeviceSize(extent.width) * extent.height * (raw ? 16 : 4),
                                 VK_BUFFER_USAGE_TRANSFER_DST_BIT, gpu::MemoryUse::Readback);
 }

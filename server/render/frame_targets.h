@@ -28,6 +28,9 @@ inline constexpr VkFormat kLightCountFormat = VK_FORMAT_R32_SFLOAT;
 // The markers pass's per-pixel keys (shaders/markers.h): storage-image atomics on R32_UINT are
 // required of every Vulkan device, lavapipe included.
 inline constexpr VkFormat kMarkerKeyFormat = VK_FORMAT_R32_UINT;
+// The tonemapped final image before anti-aliasing: sRGB-encoded colour and its luma in alpha,
+// the form the anti-aliasing pass compares and blends (storage write, linear-filtered reads).
+inline constexpr VkFormat kLdrFormat = VK_FORMAT_R8G8B8A8_UNORM;
 
 struct FrameTargets {
   // `raw`: the output holds float values (kRawOutputFormat) instead of an 8-bit image.
@@ -45,7 +48,8 @@ struct FrameTargets {
   gpu::Image hdr;
   gpu::Image lightCount;
   gpu::Image markerKeys;
-  gpu::Image output;
+  gpu::Image ldr;     // final, tonemapped, before anti-aliasing (kLdrFormat)
+  gpu::Image output;  // written by compute (storage); the light-volumes overlay blends onto it
   gpu::Buffer readback;  // output pixels, rows top first
 };
 

@@ -17,9 +17,12 @@ using gpu_types::CullingStats;
 using gpu_types::LargeLightQueue;
 
 static_assert(sizeof(gpu_types::vec4) == 16 && sizeof(gpu_types::mat4) == 64);
-static_assert(sizeof(FrameUniforms) == 4 * 64 + 15 * 16 + 2 * MYRIAD_MAX_EXTRA_SUNS * 16);
+static_assert(sizeof(FrameUniforms) == 4 * 64 + 16 * 16 + 2 * MYRIAD_MAX_EXTRA_SUNS * 16 + 64 + 16);
+static_assert(offsetof(FrameUniforms, sunShadowMatrix) == 256 + 16 * 16 + 2 * MYRIAD_MAX_EXTRA_SUNS * 16);
+static_assert(sizeof(gpu_types::ShadowPush) == 64);
 static_assert(offsetof(FrameUniforms, environment) == 256 + 13 * 16);
-static_assert(offsetof(FrameUniforms, extraSunDirection) == 256 + 15 * 16);
+static_assert(offsetof(FrameUniforms, post) == 256 + 15 * 16);
+static_assert(offsetof(FrameUniforms, extraSunDirection) == 256 + 16 * 16);
 static_assert(MYRIAD_MAX_EXTRA_SUNS == scene::kMaxExtraSuns);
 static_assert(sizeof(gpu_types::EnvironmentParams) == 48);
 static_assert(offsetof(FrameUniforms, inverseViewProjection) == 192);
@@ -42,7 +45,10 @@ static_assert(uint32_t(EnvironmentMode::Sky) == MYRIAD_ENV_SKY);
 static_assert(uint32_t(EnvironmentMode::Hdr) == MYRIAD_ENV_HDR);
 static_assert(protocol::kEnvironmentModes.size() == 3);
 
-// The tonemap view numbers are render::Target's values.
+static_assert(uint32_t(Antialias::None) == MYRIAD_ANTIALIAS_NONE);
+static_assert(uint32_t(Antialias::Fxaa) == MYRIAD_ANTIALIAS_FXAA);
+
+// The view numbers of the final and views passes are render::Target's values.
 static_assert(uint32_t(Target::Final) == MYRIAD_VIEW_FINAL);
 static_assert(uint32_t(Target::Albedo) == MYRIAD_VIEW_ALBEDO);
 static_assert(uint32_t(Target::Normal) == MYRIAD_VIEW_NORMAL);

@@ -20,8 +20,8 @@ namespace {
 
 using gpu::ImageTransition;
 
-// G-buffer images are read by fragment shaders (sun, light volumes, tonemap views) and by the
-// compute lighting of the tiled and clustered techniques.
+// G-buffer images are read by fragment shaders (sun, light volumes, forward) and by compute (the
+// lighting of the tiled and clustered techniques, markers, the final and views passes).
 ImageTransition colorWriteToSampled(const gpu::Image& image) {
   return {&image,
           VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT, VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT,
@@ -30,14 +30,17 @@ ImageTransition colorWriteToSampled(const gpu::Image& image) {
           VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL, VK_IMAGE_LAYOUT_READ_ONLY_OPTIMAL};
 }
 
-// From whichever kind of write produced the image (attachment or storage) to sampling.
+// From whichever kind of write produced the image (attachment or storage) to sampling by compute
+// (the final and views passes).
 ImageTransition writtenToSampled(const gpu::Image& image, VkImageLayout layout) {
   if (layout == VK_IMAGE_LAYOUT_GENERAL) {
     return {&image, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
-            VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT, VK_ACCESS_2_SHADER_SAMPLED_READ_BIT,
+            VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_SAMPLED_READ_BIT,
             VK_IMAGE_LAYOUT_GENERAL, VK_IMAGE_LAYOUT_READ_ONLY_OPTIMAL};
   }
-  return colorWriteToSampled(image);
+  ImageTransition t = colorWriteToSampled(image);
+  t.dstStage = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT;
+  return t;
 }
 
 }  // namespace
@@ -54,7 +57,7 @@ gpu::VertexLayout surfaceVertexLayout() {
 Pipelines::Pipelines(gpu::Context& context) : device(context.device) {
   const VkShaderStageFlags all =
       VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT | VK_SHADER_STAGE_COMPUTE_BIT;
-  std::array<VkDescriptorSetLayoutBinding, 7> sceneBindings{{
+  std::array<VkDescriptorSetLayoutBinding, 8> sceneBindings{{
       {MYRIAD_BINDING_FRAME, VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1, all, nullptr},
       {MYRIAD_BINDING_LIGHTS, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, all, nullptr},
       {MYRIAD_BINDING_INSTANCES, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, all, nullptr},
@@ -62,10 +65,11 @@ Pipelines::Pipelines(gpu::Context& context) : device(context.device) {
       {MYRIAD_BINDING_LIGHT_ORIGINS, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, all, nullptr},
       {MYRIAD_BINDING_ENVIRONMENT, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, all, nullptr},
       {MYRIAD_BINDING_BRDF_LUT, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, all, nullptr},
+      {MYRIAD_BINDING_SUN_SHADOW_MAP, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, all, nullptr},
   }};
   sceneSetLayout = gpu::createDescriptorSetLayout(device, sceneBindings);
   const VkShaderStageFlags readers = VK_SHADER_STAGE_FRAGMENT_BIT | VK_SHADER_STAGE_COMPUTE_BIT;
-  std::array<VkDescriptorSetLayoutBinding, 11> targetBindings{};
+  std::array<VkDescriptorSetLayoutBinding, 14> targetBindings{};
   for (uint32_t i = 0; i <= MYRIAD_BINDING_LIGHT_COUNT; ++i) {
     targetBindings[i] = {i, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, readers, nullptr};
   }
@@ -78,9 +82,12 @@ Pipelines::Pipelines(gpu::Context& context) : device(context.device) {
   targetBindings[MYRIAD_BINDING_LIGHT_COUNT_STORAGE] = {MYRIAD_BINDING_LIGHT_COUNT_STORAGE,
                                                         VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, 1,
                                                         VK_SHADER_STAGE_COMPUTE_BIT, nullptr};
-  targetBindings[MYRIAD_BINDING_MARKER_KEYS] = {MYRIAD_BINDING_MARKER_KEYS,
-                                                VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, 1,
-                                                VK_SHADER_STAGE_COMPUTE_BIT, nullptr};
+  for (uint32_t storage : {MYRIAD_BINDING_MARKER_KEYS, MYRIAD_BINDING_OUTPUT, MYRIAD_BINDING_LDR_STORAGE}) {
+    targetBindings[storage] = {storage, VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, 1,
+                               VK_SHADER_STAGE_COMPUTE_BIT, nullptr};
+  }
+  targetBindings[MYRIAD_BINDING_LDR] = {MYRIAD_BINDING_LDR, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER,
+                                        1, VK_SHADER_STAGE_COMPUTE_BIT, nullptr};
   targetSetLayout = gpu::createDescriptorSetLayout(device, targetBindings);
   std::array<VkDescriptorSetLayoutBinding, 5> cullingBindings{};
   for (uint32_t i = 0; i < cullingBindings.size(); ++i) {
@@ -100,6 +107,10 @@ Pipelines::Pipelines(gpu::Context& context) : device(context.device) {
   VkPipelineLayoutCreateInfo layoutInfo{VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO};
   layoutInfo.setLayoutCount = 4;
   layoutInfo.pSetLayouts = setLayouts;
+  // The shadow pass's light view-projection (ShadowPush); no other pass uses push constants.
+  const VkPushConstantRange shadowPush{VK_SHADER_STAGE_VERTEX_BIT, 0, sizeof(gpu_types::ShadowPush)};
+  layoutInfo.pushConstantRangeCount = 1;
+  layoutInfo.pPushConstantRanges = &shadowPush;
   VK_CHECK(vkCreatePipelineLayout(device, &layoutInfo, nullptr, &layout));
 
   gpu::GraphicsPipelineDesc d;
@@ -123,28 +134,34 @@ Pipelines::Pipelines(gpu::Context& context) : device(context.device) {
   d.fragmentShader = spirv::forward_clustered_frag;
   forwardClustered = gpu::createGraphicsPipeline(device, layout, d);
 
+  // Shadow maps: depth only, both faces (render/shadows.cpp).
+  d = {};
+  d.vertexShader = spirv::shadow_vert;
+  d.vertexLayout = {sizeof(scene::Vertex),
+                    {{0, 0, VK_FORMAT_R32G32B32_SFLOAT, offsetof(scene::Vertex, position)}}};
+  d.depthFormat = kDepthFormat;
+  d.depthTest = d.depthWrite = true;
+  d.depthCompare = VK_COMPARE_OP_LESS;
+  shadow = gpu::createGraphicsPipeline(device, layout, d);
+
   // The light-volumes view: the volumes technique's proxies, drawn onto the 8-bit output.
   d = lightVolumeDesc(context);
   d.fragmentShader = spirv::light_volume_overlay_frag;
   d.colorFormats = {kOutputFormat};
   lightVolumeOverlay = gpu::createGraphicsPipeline(device, layout, d);
 
-  d = {};
-  d.vertexShader = spirv::fullscreen_vert;
-  d.fragmentShader = spirv::tonemap_frag;
-  d.colorFormats = {kOutputFormat};
-  tonemap = gpu::createGraphicsPipeline(device, layout, d);
-  d.colorFormats = {kRawOutputFormat};
-  tonemapRaw = gpu::createGraphicsPipeline(device, layout, d);
-
   animateLights = gpu::createComputePipeline(device, layout, spirv::light_animate_comp);
   markerSplat = gpu::createComputePipeline(device, layout, spirv::marker_splat_comp);
-  markerResolve = gpu::createComputePipeline(device, layout, spirv::marker_resolve_comp);
+  final = gpu::createComputePipeline(device, layout, spirv::final_comp);
+  finalRaw = gpu::createComputePipeline(device, layout, spirv::final_raw_comp);
+  views = gpu::createComputePipeline(device, layout, spirv::views_comp);
+  viewsRaw = gpu::createComputePipeline(device, layout, spirv::views_raw_comp);
+  antialias = gpu::createComputePipeline(device, layout, spirv::antialias_comp);
 }
 
 Pipelines::~Pipelines() {
-  for (VkPipeline p : {gbuffer, forward, forwardClustered, lightVolumeOverlay, tonemap, tonemapRaw, animateLights, markerSplat,
-                      markerResolve}) {
+  for (VkPipeline p : {gbuffer, forward, forwardClustered, shadow, lightVolumeOverlay, animateLights,
+                      markerSplat, final, finalRaw, views, viewsRaw, antialias}) {
     if (p) vkDestroyPipeline(device, p, nullptr);
   }
   if (layout) vkDestroyPipelineLayout(device, layout, nullptr);
@@ -156,7 +173,9 @@ Pipelines::~Pipelines() {
 
 void recordGBufferPass(VkCommandBuffer cmd, const Pipelines& p, const FrameTargets& t,
                        const SceneBuffers& scene, uint32_t written) {
-  const VkPipelineStageFlags2 reader = VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT;
+  // Last frame's readers: the raster lighting (fragment) and compute lighting and views (compute).
+  const VkPipelineStageFlags2 reader =
+      VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT | VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT;
   const ImageTransition before[] = {
       discardForColorWrite(t.normal, reader),
       discardForColorWrite(t.baseColor, reader),
@@ -277,11 +296,11 @@ VkImageLayout recordBlendPass(VkCommandBuffer cmd, const Pipelines& p, const Fra
 }
 
 void recordMarkerPass(VkCommandBuffer cmd, const Pipelines& p, const FrameTargets& t,
-                      const SceneBuffers& scene, VkImageLayout hdrLayout) {
+                      const SceneBuffers& scene) {
   constexpr VkPipelineStageFlags2 kCompute = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT;
   constexpr VkAccessFlags2 kReadWrite =
       VK_ACCESS_2_SHADER_STORAGE_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT;
-  // Keys: the previous frame's resolve read them; clear to 0 (no marker).
+  // Keys: the previous frame's final pass read them; clear to 0 (no marker).
   const ImageTransition clear[] = {{&t.markerKeys, kCompute, VK_ACCESS_2_NONE,
                                     VK_PIPELINE_STAGE_2_ALL_TRANSFER_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT,
                                     VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL}};
@@ -298,41 +317,64 @@ void recordMarkerPass(VkCommandBuffer cmd, const Pipelines& p, const FrameTarget
   if (scene.lightCount > 0) {
     vkCmdDispatch(cmd, gpu::groupCount(scene.lightCount, MYRIAD_LIGHTS_PER_GROUP), 1, 1);
   }
-  // HDR from the lighting technique's writes (attachment or storage) to read-modify-write.
-  const bool storage = hdrLayout == VK_IMAGE_LAYOUT_GENERAL;
+  // The final pass reads the keys (its resolve).
   const ImageTransition resolve[] = {
       {&t.markerKeys, kCompute, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT, kCompute,
-       VK_ACCESS_2_SHADER_STORAGE_READ_BIT, VK_IMAGE_LAYOUT_GENERAL, VK_IMAGE_LAYOUT_GENERAL},
-      {&t.hdr, storage ? kCompute : VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT,
-       storage ? VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT : VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT,
-       kCompute, kReadWrite, hdrLayout, VK_IMAGE_LAYOUT_GENERAL}};
+       VK_ACCESS_2_SHADER_STORAGE_READ_BIT, VK_IMAGE_LAYOUT_GENERAL, VK_IMAGE_LAYOUT_GENERAL}};
   gpu::barrier(cmd, resolve);
-  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, p.markerResolve);
-  vkCmdDispatch(cmd, gpu::groupCount(t.extent.width, MYRIAD_MARKER_GROUP),
-                gpu::groupCount(t.extent.height, MYRIAD_MARKER_GROUP), 1);
 }
 
-void recordTonemapPass(VkCommandBuffer cmd, const Pipelines& p, const FrameTargets& t,
-                       VkImageLayout hdrLayout, VkImageLayout lightCountLayout) {
-  const ImageTransition before[] = {
+void recordFinalPass(VkCommandBuffer cmd, const Pipelines& p, const FrameTargets& t, Target target,
+                     bool markers, VkImageLayout hdrLayout, VkImageLayout lightCountLayout) {
+  constexpr VkPipelineStageFlags2 kCompute = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT;
+  const bool picture = target == Target::Final || target == Target::LightVolumes;
+  std::vector<ImageTransition> before = {
       writtenToSampled(t.hdr, hdrLayout),
       writtenToSampled(t.lightCount, lightCountLayout),
       // The previous frame's last use of the output was the readback copy.
-      {&t.output, VK_PIPELINE_STAGE_2_COPY_BIT, VK_ACCESS_2_NONE,
-       VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT, VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT,
-       VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL},
+      {&t.output, VK_PIPELINE_STAGE_2_COPY_BIT, VK_ACCESS_2_NONE, kCompute,
+       VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT, VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_GENERAL},
   };
+  // The final shader binds the keys and (8-bit) the LDR target whether or not this frame uses
+  // them, so they get their layout either way. Their previous contents are not needed: the keys
+  // were last read by the previous final pass, the LDR target sampled by the previous
+  // anti-aliasing pass.
+  if (picture && !markers) {
+    before.push_back({&t.markerKeys, kCompute, VK_ACCESS_2_NONE, kCompute,
+                      VK_ACCESS_2_SHADER_STORAGE_READ_BIT, VK_IMAGE_LAYOUT_UNDEFINED,
+                      VK_IMAGE_LAYOUT_GENERAL});
+  }
+  if (picture && !t.raw) {
+    before.push_back({&t.ldr, kCompute, VK_ACCESS_2_NONE, kCompute, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
+                      VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_GENERAL});
+  }
   gpu::barrier(cmd, before);
-  VkRenderingAttachmentInfo color = colorAttachment(t.output, VK_ATTACHMENT_LOAD_OP_DONT_CARE);
-  beginRendering(cmd, t.extent, {&color, 1}, nullptr);
-  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, t.raw ? p.tonemapRaw : p.tonemap);
-  vkCmdDraw(cmd, 3, 1, 0, 0);
-  vkCmdEndRendering(cmd);
+  VkPipeline pipeline = picture ? (t.raw ? p.finalRaw : p.final) : (t.raw ? p.viewsRaw : p.views);
+  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipeline);
+  vkCmdDispatch(cmd, gpu::groupCount(t.extent.width, MYRIAD_PIXEL_GROUP),
+                gpu::groupCount(t.extent.height, MYRIAD_PIXEL_GROUP), 1);
+}
+
+void recordAntialiasPass(VkCommandBuffer cmd, const Pipelines& p, const FrameTargets& t) {
+  constexpr VkPipelineStageFlags2 kCompute = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT;
+  // The output is already GENERAL (recordFinalPass), and the final pass did not write it.
+  const ImageTransition before[] = {{&t.ldr, kCompute, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT, kCompute,
+                                     VK_ACCESS_2_SHADER_SAMPLED_READ_BIT, VK_IMAGE_LAYOUT_GENERAL,
+                                     VK_IMAGE_LAYOUT_READ_ONLY_OPTIMAL}};
+  gpu::barrier(cmd, before);
+  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, p.antialias);
+  vkCmdDispatch(cmd, gpu::groupCount(t.extent.width, MYRIAD_PIXEL_GROUP),
+                gpu::groupCount(t.extent.height, MYRIAD_PIXEL_GROUP), 1);
 }
 
 void recordLightVolumeOverlayPass(VkCommandBuffer cmd, const Pipelines& p, const FrameTargets& t,
                                   const SceneBuffers& scene) {
-  const ImageTransition before[] = {colorWriteToBlend(t.output)};
+  // The final pass stored the dimmed picture; blending reads and writes it.
+  const ImageTransition before[] = {
+      {&t.output, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
+       VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT,
+       VK_ACCESS_2_COLOR_ATTACHMENT_READ_BIT | VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT,
+       VK_IMAGE_LAYOUT_GENERAL, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL}};
   gpu::barrier(cmd, before);
   VkRenderingAttachmentInfo color = colorAttachment(t.output, VK_ATTACHMENT_LOAD_OP_LOAD);
   VkRenderingAttachmentInfo depth = readOnlyDepth(t.depth);
@@ -342,11 +384,13 @@ void recordLightVolumeOverlayPass(VkCommandBuffer cmd, const Pipelines& p, const
   vkCmdEndRendering(cmd);
 }
 
-void recordReadback(VkCommandBuffer cmd, const FrameTargets& t) {
+void recordReadback(VkCommandBuffer cmd, const FrameTargets& t, VkImageLayout outputLayout) {
+  const bool storage = outputLayout == VK_IMAGE_LAYOUT_GENERAL;
   const ImageTransition before[] = {
-      {&t.output, VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT,
-       VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT, VK_PIPELINE_STAGE_2_COPY_BIT,
-       VK_ACCESS_2_TRANSFER_READ_BIT, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL,
+      {&t.output,
+       storage ? VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT : VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT,
+       storage ? VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT : VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT,
+       VK_PIPELINE_STAGE_2_COPY_BIT, VK_ACCESS_2_TRANSFER_READ_BIT, outputLayout,
        VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL}};
   gpu::barrier(cmd, before);
   VkBufferImageCopy region{};

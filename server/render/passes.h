@@ -5,6 +5,7 @@
 #include <vulkan/vulkan.h>
 
 #include "gpu/context.h"
+#include "render/frame.h"
 #include "render/frame_targets.h"
 #include "render/scene_buffers.h"
 
@@ -30,13 +31,18 @@ struct Pipelines {
   // Alpha-blended surfaces (recordBlendPass): every light tested, or the clustered lists.
   VkPipeline forward = VK_NULL_HANDLE;
   VkPipeline forwardClustered = VK_NULL_HANDLE;
+  VkPipeline shadow = VK_NULL_HANDLE;  // depth only, from a light (render/shadows.h)
   VkPipeline lightVolumeOverlay = VK_NULL_HANDLE;
-  VkPipeline tonemap = VK_NULL_HANDLE;
-  VkPipeline tonemapRaw = VK_NULL_HANDLE;  // same shader, float output
   // Compute (render/compute_passes.h).
   VkPipeline animateLights = VK_NULL_HANDLE;
-  VkPipeline markerSplat = VK_NULL_HANDLE;    // markers: one thread per light
-  VkPipeline markerResolve = VK_NULL_HANDLE;  // markers: one thread per pixel
+  VkPipeline markerSplat = VK_NULL_HANDLE;  // markers: one thread per light
+  // The output, one thread per pixel: final (markers resolved, tonemapped), the data and debug
+  // views, each for the 8-bit and the raw (float) output; then anti-aliasing of final.
+  VkPipeline final = VK_NULL_HANDLE;
+  VkPipeline finalRaw = VK_NULL_HANDLE;
+  VkPipeline views = VK_NULL_HANDLE;
+  VkPipeline viewsRaw = VK_NULL_HANDLE;
+  VkPipeline antialias = VK_NULL_HANDLE;
 };
 
 // 1. Writes depth, normal, base colour, material, and uv and emissive where `written`
@@ -48,26 +54,33 @@ void recordGBufferPass(VkCommandBuffer cmd, const Pipelines& p, const FrameTarge
 //    centre, depth-tested against the G-buffer depth without writing it, lit like opaque pixels
 //    (sun, ambient or environment, emission, local lights) and blended `over` into HDR. Lights come
 //    from the clustered lists when `clusterLists` (the technique bound them as set 2 at the
-//    graphics bind point), else every light is tested. `hdrLayout` as for the marker pass;
-//    returns HDR's layout after it (COLOR_ATTACHMENT, or `hdrLayout` when nothing is blended).
+//    graphics bind point), else every light is tested. `hdrLayout`: where lighting left HDR
+//    (GENERAL after compute, COLOR_ATTACHMENT after volumes); returns HDR's layout after it (COLOR_ATTACHMENT, or `hdrLayout` when nothing is blended).
 VkImageLayout recordBlendPass(VkCommandBuffer cmd, const Pipelines& p, const FrameTargets& t,
                               const SceneBuffers& scene, const glm::mat4& view,
                               VkImageLayout hdrLayout, bool clusterLists);
 // Whether the scene has alpha-blended draws (the clustered technique then marks their clusters).
 bool hasBlendDraws(const SceneBuffers& scene);
 // 4. Reads depth (test only, kept from pass 1) and lights; splats light markers (compute, a few
-//    pixels each) into the marker keys, then blends them into HDR. `hdrLayout` is where the
-//    lighting pass left HDR (GENERAL after compute, COLOR_ATTACHMENT after volumes); HDR leaves
-//    this pass in GENERAL, written by compute.
+//    pixels each) into the marker keys, which the final pass resolves (blends into the picture).
 void recordMarkerPass(VkCommandBuffer cmd, const Pipelines& p, const FrameTargets& t,
-                      const SceneBuffers& scene, VkImageLayout hdrLayout);
-// 5. Reads HDR and the G-buffer; writes the chosen view into the output image.
-void recordTonemapPass(VkCommandBuffer cmd, const Pipelines& p, const FrameTargets& t,
-                       VkImageLayout hdrLayout, VkImageLayout lightCountLayout);
-// 5b. (light-volumes view) Reads depth and lights; adds each volume's coverage to the output.
+                      const SceneBuffers& scene);
+// 5. Compute, one thread per pixel. `final`/`light-volumes`: reads HDR and (with `markers`) the
+//    marker keys, writes the tonemapped picture to the output, or when the frame is anti-aliased
+//    (FrameUniforms.post.x) to the LDR target for pass 5b. Other views: reads the G-buffer or light counts, writes the output.
+//    `hdrLayout` and `lightCountLayout` are where lighting (and blending) left them (GENERAL
+//    after compute, COLOR_ATTACHMENT after volumes or the blend pass). Leaves the output in
+//    GENERAL.
+void recordFinalPass(VkCommandBuffer cmd, const Pipelines& p, const FrameTargets& t, Target target,
+                     bool markers, VkImageLayout hdrLayout, VkImageLayout lightCountLayout);
+// 5b. (final, 8-bit, antialias on) Reads the LDR target; writes the anti-aliased output.
+void recordAntialiasPass(VkCommandBuffer cmd, const Pipelines& p, const FrameTargets& t);
+// 5c. (light-volumes view) Reads depth and lights; adds each volume's coverage to the output.
+//     Leaves the output as a colour attachment.
 void recordLightVolumeOverlayPass(VkCommandBuffer cmd, const Pipelines& p, const FrameTargets& t,
                                   const SceneBuffers& scene);
-// 6. Reads the output image; writes it to the host-visible readback buffer.
-void recordReadback(VkCommandBuffer cmd, const FrameTargets& t);
+// 6. Reads the output image (in `outputLayout`: GENERAL from compute, or COLOR_ATTACHMENT after
+//    the overlay); writes it to the host-visible readback buffer.
+void recordReadback(VkCommandBuffer cmd, const FrameTargets& t, VkImageLayout outputLayout);
 
 }  // namespace myriad::render

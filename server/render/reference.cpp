@@ -1,5 +1,6 @@
 #include "render/reference.h"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <stdexcept>
@@ -79,6 +80,17 @@ void intersect(const Triangle& tri, glm::vec3 origin, glm::vec3 dir, Hit& best) 
   best.normal = n;
   best.uv = w * tri.uv[0] + u * tri.uv[1] + v * tri.uv[2];
   best.material = tri.material;
+}
+
+// Whether any triangle crosses the ray from `origin` along `dir` (t > 0): the analytic shadow
+// test, exact where the GPU's shadow map is filtered (so they differ only in the penumbra band).
+bool occluded(const std::vector<Triangle>& triangles, glm::vec3 origin, glm::vec3 dir) {
+  for (const Triangle& tri : triangles) {
+    Hit hit;
+    intersect(tri, origin, dir, hit);
+    if (hit.t < std::numeric_limits<float>::max()) return true;
+  }
+  return false;
 }
 
 float quantizeSnorm16(float x) { return std::round(glm::clamp(x, -1.0f, 1.0f) * 32767.0f) / 32767.0f; }
@@ -179,7 +191,10 @@ std::vector<uint8_t> renderReference(const scene::Scene& scene, const FrameSetti
   const glm::mat4 inverse = glm::inverse(viewProjection);
   const scene::Bounds bounds = scene.bounds();
   const glm::vec3 sunDirection = -glm::normalize(s.sun.direction);
-  const glm::vec3 sunRadiance = s.sun.color * s.sun.intensity;
+  const bool sunShadows = s.shadows.sun && s.sun.intensity > 0.0f;
+  // Shadow rays start this far off the surface, along its normal, so it does not shadow itself.
+  const float shadowEpsilon =
+      1e-4f * std::max(1.0f, bounds.empty() ? 1.0f : glm::length(bounds.max - bounds.min));
   const float n = s.camera.nearPlane;
   const float f = s.camera.farPlane;
   std::vector<GpuPointLight> lights;
@@ -231,6 +246,11 @@ std::vector<uint8_t> renderReference(const scene::Scene& scene, const FrameSetti
           }
           if (found) {
             glm::vec3 V = glm::normalize(s.camera.eye - hit.position);
+            glm::vec3 sunRadiance = s.sun.color * s.sun.intensity;
+            if (sunShadows && glm::dot(hit.normal, sunDirection) > 0.0f &&
+                occluded(triangles, hit.position + hit.normal * shadowEpsilon, sunDirection)) {
+              sunRadiance = glm::vec3(0.0f);
+            }
             glm::vec3 sunAndAmbient;
             if (!environmentOn) {
               sunAndAmbient = shading::shadeSunAndAmbient(normal, V, baseColor, metallic, roughness,

@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstring>
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <unordered_map>
@@ -17,6 +18,7 @@
 #include "render/gpu_types.h"
 #include "render/passes.h"
 #include "render/scene_buffers.h"
+#include "render/shadows.h"
 #include "render/techniques/registry.h"
 #include "render/techniques/technique.h"
 #include "scene/camera.h"
@@ -25,10 +27,10 @@ namespace myriad::render {
 
 namespace {
 
-// environment (when rebuilt), animate, gbuffer, the technique's (sun + lights, lighting, or
-// assign + shade), blend, markers, tonemap, overlay, readback: room for a technique of three
-// passes.
-constexpr uint32_t kMaxTimedPasses = 11;
+// environment (when rebuilt), animate, shadow, gbuffer, the technique's (sun + lights, lighting,
+// or assign + shade), blend, markers, final, antialias, overlay, readback: room for a technique
+// of three passes and more.
+constexpr uint32_t kMaxTimedPasses = 15;
 
 // The light-count view's hottest colour when the request leaves it to us.
 constexpr uint32_t kDefaultHeatMapMax = 64;
@@ -72,7 +74,10 @@ void addPasses(std::vector<PassTiming>& passes,
 struct Renderer::State {
   explicit State(gpu::Context& c)
       : context(c), pipelines(c), techniques(createTechniques({c, pipelines})),
-        uniformArena(c, kUniformBlockSize), timer(c, kMaxTimedPasses) {}
+        uniformArena(c, kUniformBlockSize), timer(c, kMaxTimedPasses) {
+    whole.shadows = std::make_unique<ShadowMaps>(c);
+    split.shadows = std::make_unique<ShadowMaps>(c);
+  }
 
   gpu::Context& context;
   Pipelines pipelines;
@@ -81,7 +86,8 @@ struct Renderer::State {
   gpu::Arena uniformArena;
   gpu::CommandRecorder recorder;
   gpu::PassTimer timer;
-  VkSampler sampler = VK_NULL_HANDLE;
+  VkSampler sampler = VK_NULL_HANDLE;        // nearest: targets are read texel by texel
+  VkSampler linearSampler = VK_NULL_HANDLE;  // the anti-aliasing pass's reads between pixels
   VkDescriptorPool descriptorPool = VK_NULL_HANDLE;
   // What a frame renders into and reads through: one set per kind, rewritten for whichever scene
   // the frame draws. `whole` serves render(), whose frames run one at a time; `split` the one
@@ -92,6 +98,9 @@ struct Renderer::State {
     VkDescriptorSet targetSet = VK_NULL_HANDLE;  // set 2 (light culling) is each technique's own
     // Sized for the frame being drawn, rebuilt when that changes.
     std::unique_ptr<FrameTargets> targets;
+    // The sun's shadow map, rendered by each frame that has it on: the slot's own, so whole
+    // frames between a split frame's submissions do not overwrite the split frame's map.
+    std::unique_ptr<ShadowMaps> shadows;
   };
   FrameSlot whole;
   FrameSlot split;
@@ -114,10 +123,13 @@ struct Renderer::State {
   LightingTechnique& technique(Technique t);
   void writeSceneSet(FrameSlot& slot, const SceneBuffers& scene, const gpu::Buffer& environment);
   SceneEnvironment& environment(SceneId id);
+  // The sun's shadow map fitted to the scene and the sun, when the frame has sun shadows.
+  static std::optional<SunShadowFit> sunShadowFor(const SceneBuffers& scene,
+                                                  const FrameSettings& settings);
   SceneEnvironment* environmentFor(SceneId id, const FrameSettings& settings);
   void writeTargetSet(FrameSlot& slot);
   void writeUniforms(FrameSlot& slot, const FrameSettings& settings, const SceneBuffers& scene,
-                     const LightingTechnique& technique);
+                     const LightingTechnique& technique, const SunShadowFit* sunShadow);
   void ensureTargets(FrameSlot& slot, VkExtent2D extent, bool raw);
   Frame renderOnce(SceneBuffers& scene, SceneEnvironment* environment,
                    const FrameSettings& settings);
@@ -164,6 +176,7 @@ SceneEnvironment& Renderer::State::environment(SceneId id) {
 // (the shaders then never read it).
 void Renderer::State::writeSceneSet(FrameSlot& slot, const SceneBuffers& scene,
                                     const gpu::Buffer& environment) {
+  const VkDescriptorImageInfo sunShadowMap = slot.shadows->sunDescriptor();
   VkDescriptorBufferInfo buffers[7] = {
       {slot.uniforms.buffer, 0, sizeof(FrameUniforms)},
       {scene.lights.buffer, 0, VK_WHOLE_SIZE},
@@ -173,7 +186,7 @@ void Renderer::State::writeSceneSet(FrameSlot& slot, const SceneBuffers& scene,
       {environment.buffer, 0, VK_WHOLE_SIZE},
       {environmentPasses->brdfLut().buffer, 0, VK_WHOLE_SIZE},
   };
-  VkWriteDescriptorSet writes[7];
+  VkWriteDescriptorSet writes[8];
   for (uint32_t i = 0; i < 7; ++i) {
     writes[i] = {VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET};
     writes[i].dstSet = slot.sceneSet;
@@ -183,24 +196,35 @@ void Renderer::State::writeSceneSet(FrameSlot& slot, const SceneBuffers& scene,
         i == MYRIAD_BINDING_FRAME ? VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER : VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
     writes[i].pBufferInfo = &buffers[i];
   }
-  vkUpdateDescriptorSets(context.device, 7, writes, 0, nullptr);
+  writes[7] = {VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET};
+  writes[7].dstSet = slot.sceneSet;
+  writes[7].dstBinding = MYRIAD_BINDING_SUN_SHADOW_MAP;
+  writes[7].descriptorCount = 1;
+  writes[7].descriptorType = VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER;
+  writes[7].pImageInfo = &sunShadowMap;
+  vkUpdateDescriptorSets(context.device, 8, writes, 0, nullptr);
 }
 
 void Renderer::State::writeTargetSet(FrameSlot& slot) {
   const std::unique_ptr<FrameTargets>& targets = slot.targets;
   // Bindings 0-6 and 9 are sampled (READ_ONLY_OPTIMAL); 7-8 are the same HDR and light-count
-  // images as storage images (GENERAL), written by compute lighting; 10 the markers' keys
-  // (storage, GENERAL).
-  const gpu::Image* images[11] = {&targets->depth,      &targets->normal, &targets->baseColor,
-                                  &targets->material,   &targets->uv,     &targets->hdr,
-                                  &targets->lightCount, &targets->hdr,    &targets->lightCount,
-                                  &targets->emissive,   &targets->markerKeys};
-  VkDescriptorImageInfo infos[11];
-  VkWriteDescriptorSet writes[11];
-  for (uint32_t i = 0; i < 11; ++i) {
+  // images as storage images (GENERAL), written by compute lighting; 10 the markers' keys, 11 the
+  // output and 13 the LDR target are storage (GENERAL); 12 is the LDR target sampled with a
+  // linear filter.
+  constexpr uint32_t kBindings = 14;
+  const gpu::Image* images[kBindings] = {
+      &targets->depth,    &targets->normal,     &targets->baseColor, &targets->material,
+      &targets->uv,       &targets->hdr,        &targets->lightCount, &targets->hdr,
+      &targets->lightCount, &targets->emissive, &targets->markerKeys, &targets->output,
+      &targets->ldr,      &targets->ldr};
+  VkDescriptorImageInfo infos[kBindings];
+  VkWriteDescriptorSet writes[kBindings];
+  for (uint32_t i = 0; i < kBindings; ++i) {
     bool storage = i == MYRIAD_BINDING_HDR_STORAGE || i == MYRIAD_BINDING_LIGHT_COUNT_STORAGE ||
-                   i == MYRIAD_BINDING_MARKER_KEYS;
-    infos[i] = {storage ? VK_NULL_HANDLE : sampler, images[i]->view,
+                   i == MYRIAD_BINDING_MARKER_KEYS || i == MYRIAD_BINDING_OUTPUT ||
+                   i == MYRIAD_BINDING_LDR_STORAGE;
+    VkSampler filter = i == MYRIAD_BINDING_LDR ? linearSampler : sampler;
+    infos[i] = {storage ? VK_NULL_HANDLE : filter, images[i]->view,
                 storage ? VK_IMAGE_LAYOUT_GENERAL : VK_IMAGE_LAYOUT_READ_ONLY_OPTIMAL};
     writes[i] = {VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET};
     writes[i].dstSet = slot.targetSet;
@@ -210,7 +234,7 @@ void Renderer::State::writeTargetSet(FrameSlot& slot) {
         storage ? VK_DESCRIPTOR_TYPE_STORAGE_IMAGE : VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER;
     writes[i].pImageInfo = &infos[i];
   }
-  vkUpdateDescriptorSets(context.device, 11, writes, 0, nullptr);
+  vkUpdateDescriptorSets(context.device, kBindings, writes, 0, nullptr);
 }
 
 // Targets follow the output size and are rebuilt only when it changes (every frame is waited
@@ -227,7 +251,8 @@ void Renderer::State::ensureTargets(FrameSlot& slot, VkExtent2D extent, bool raw
 
 void Renderer::State::writeUniforms(FrameSlot& slot, const FrameSettings& s,
                                     const SceneBuffers& scene,
-                                    const LightingTechnique& technique) {
+                                    const LightingTechnique& technique,
+                                    const SunShadowFit* sunShadow) {
   float aspect = float(s.width) / float(s.height);
   glm::mat4 view = scene::viewMatrix(s.camera);
   glm::mat4 projection = scene::projectionMatrix(s.camera, aspect);
@@ -266,6 +291,15 @@ void Renderer::State::writeUniforms(FrameSlot& slot, const FrameSettings& s,
   u.environment = glm::vec4(float(static_cast<uint32_t>(s.environment.mode)),
                             s.environment.intensity, s.environment.background ? 1.0f : 0.0f, 0.0f);
   u.environmentRotation = glm::vec4(std::cos(rotation), std::sin(rotation), 0.0f, 0.0f);
+  u.post = glm::uvec4(static_cast<uint32_t>(s.antialiased() ? s.antialias : Antialias::None),
+                      s.markers ? 1 : 0, 0, 0);
+  if (sunShadow) {
+    u.sunShadowMatrix = sunShadow->mapFromWorld;
+    // Offset: a texel along the normal (more at grazing angles, frame.glsl); bias: a texel of
+    // depth (the map's depth range is as deep as it is wide), scaled by the slope there.
+    u.sunShadow = glm::vec4(1.0f, sunShadow->texelWorld, 1.0f / float(s.shadows.mapSize),
+                            1.0f / float(s.shadows.mapSize));
+  }
   technique.writeUniforms(u);
   std::memcpy(slot.uniforms.mapped, &u, sizeof(u));
 }
@@ -285,12 +319,14 @@ Renderer::Renderer(gpu::Context& context) : state_(std::make_unique<State>(conte
   samplerInfo.addressModeU = samplerInfo.addressModeV = samplerInfo.addressModeW =
       VK_SAMPLER_ADDRESS_MODE_CLAMP_TO_EDGE;
   VK_CHECK(vkCreateSampler(device, &samplerInfo, nullptr, &s.sampler));
+  samplerInfo.magFilter = samplerInfo.minFilter = VK_FILTER_LINEAR;
+  VK_CHECK(vkCreateSampler(device, &samplerInfo, nullptr, &s.linearSampler));
 
   // Sets 0 (scene) and 1 (targets) of both frame slots; each technique allocates its own set 2.
   VkDescriptorPoolSize sizes[] = {{VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 2 * 1},
                                   {VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 2 * 6},
-                                  {VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 2 * 8},
-                                  {VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, 2 * 3}};
+                                  {VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 2 * 10},  // + the sun shadow map, the LDR target
+                                  {VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, 2 * 5}};
   VkDescriptorPoolCreateInfo poolInfo{VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO};
   poolInfo.maxSets = 4;
   poolInfo.poolSizeCount = 4;
@@ -321,6 +357,7 @@ Renderer::~Renderer() {
   s.environmentPasses.reset();
   vkDestroyDescriptorPool(s.context.device, s.descriptorPool, nullptr);
   vkDestroySampler(s.context.device, s.sampler, nullptr);
+  vkDestroySampler(s.context.device, s.linearSampler, nullptr);
   gpu::destroyCommandRecorder(s.context, s.recorder);
 }
 
@@ -381,7 +418,11 @@ void Renderer::releaseFrameMemory() {
   // set points at freed views until ensureTargets() makes new ones and writes it again. An
   // unfinished split frame keeps its own.
   state_->whole.targets.reset();
-  if (!state_->splitBusy) state_->split.targets.reset();
+  state_->whole.shadows->release();
+  if (!state_->splitBusy) {
+    state_->split.targets.reset();
+    state_->split.shadows->release();
+  }
 }
 
 uint64_t Renderer::gpuMemoryBytes() const {
@@ -392,6 +433,7 @@ uint64_t Renderer::gpuMemoryBytes() const {
   total += s.environmentPasses->gpuMemoryBytes();
   if (s.whole.targets) total += s.whole.targets->arena.bytesAllocated();
   if (s.split.targets) total += s.split.targets->arena.bytesAllocated();
+  total += s.whole.shadows->gpuMemoryBytes() + s.split.shadows->gpuMemoryBytes();
   for (const auto& technique : s.techniques) total += technique->gpuMemoryBytes();
   return total;
 }
@@ -418,6 +460,14 @@ double pixelsOf(const FrameSettings& settings) {
 }
 
 }  // namespace
+
+std::optional<SunShadowFit> Renderer::State::sunShadowFor(const SceneBuffers& scene,
+                                                          const FrameSettings& settings) {
+  if (!settings.shadows.sun || settings.sun.intensity <= 0.0f || scene.draws.empty()) {
+    return std::nullopt;
+  }
+  return fitSunShadow(scene.bounds, settings.sun.direction, settings.shadows.mapSize);
+}
 
 // The scene's environment when the frame uses one; throws for hdr without an image.
 SceneEnvironment* Renderer::State::environmentFor(SceneId id, const FrameSettings& settings) {
@@ -465,7 +515,14 @@ void Renderer::State::prepareFrame(FrameSlot& slot, SceneBuffers& scene,
   VkExtent2D extent{settings.width, settings.height};
   ensureTargets(slot, extent, settings.raw);
   technique.prepare(extent, scene.lightCount);
-  writeUniforms(slot, settings, scene, technique);
+  // The sun's shadow map: fitted to this scene and sun, rendered this frame when on.
+  const std::optional<SunShadowFit> sunShadow = sunShadowFor(scene, settings);
+  if (sunShadow) {
+    slot.shadows->ensureSun(settings.shadows.mapSize);
+  } else {
+    slot.shadows->ensureSunPlaceholder();
+  }
+  writeUniforms(slot, settings, scene, technique, sunShadow ? &*sunShadow : nullptr);
   writeSceneSet(slot, scene, environment ? environment->lighting : environmentPasses->brdfLut());
 }
 
@@ -482,7 +539,7 @@ VkCommandBuffer Renderer::State::beginFrameCommands(const FrameSlot& slot) {
   return cmd;
 }
 
-// environment (when its inputs changed), animate (or restoring the origins), gbuffer.
+// environment (when its inputs changed), animate (or restoring the origins), shadow, gbuffer.
 void Renderer::State::recordBeforeLighting(VkCommandBuffer cmd, const FrameSlot& slot,
                                            SceneBuffers& scene, SceneEnvironment* environment,
                                            const FrameSettings& settings) {
@@ -507,11 +564,17 @@ void Renderer::State::recordBeforeLighting(VkCommandBuffer cmd, const FrameSlot&
     recordRestoreLights(cmd, scene);
     scene.lightsMoved = false;
   }
+  if (const std::optional<SunShadowFit> sunShadow = sunShadowFor(scene, settings)) {
+    s.timer.beginPass(cmd, "shadow");
+    slot.shadows->recordSun(cmd, p, scene, sunShadow->viewProjection);
+  } else {
+    slot.shadows->recordSunUnused(cmd);
+  }
   s.timer.beginPass(cmd, "gbuffer");
   recordGBufferPass(cmd, p, *slot.targets, scene, gbufferWrites(settings, scene));
 }
 
-// blend (alpha-BLEND draws), markers, tonemap, overlay, readback; then the timer's end.
+// blend (alpha-BLEND draws), markers, final, antialias, overlay, readback; then the timer's end.
 void Renderer::State::recordAfterLighting(VkCommandBuffer cmd, const FrameSlot& slot,
                                           SceneBuffers& scene, const FrameSettings& settings,
                                           VkImageLayout lightingLayout) {
@@ -526,17 +589,23 @@ void Renderer::State::recordAfterLighting(VkCommandBuffer cmd, const FrameSlot& 
   }
   if (settings.markers) {
     s.timer.beginPass(cmd, "markers");
-    recordMarkerPass(cmd, p, t, scene, hdrLayout);
-    hdrLayout = VK_IMAGE_LAYOUT_GENERAL;
+    recordMarkerPass(cmd, p, t, scene);
   }
-  s.timer.beginPass(cmd, "tonemap");
-  recordTonemapPass(cmd, p, t, hdrLayout, lightingLayout);
+  const bool antialias = settings.antialiased();  // as FrameUniforms.post.x says
+  s.timer.beginPass(cmd, "final");  // names-once: the pass, not the target
+  recordFinalPass(cmd, p, t, settings.target, settings.markers, hdrLayout, lightingLayout);
+  VkImageLayout outputLayout = VK_IMAGE_LAYOUT_GENERAL;
+  if (antialias) {
+    s.timer.beginPass(cmd, "antialias");
+    recordAntialiasPass(cmd, p, t);
+  }
   if (settings.target == Target::LightVolumes && !settings.raw) {
     s.timer.beginPass(cmd, "overlay");
     recordLightVolumeOverlayPass(cmd, p, t, scene);
+    outputLayout = VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL;
   }
   s.timer.beginPass(cmd, "readback");
-  recordReadback(cmd, t);
+  recordReadback(cmd, t, outputLayout);
   s.timer.end(cmd);
 }
 

@@ -159,6 +159,9 @@ void sendState(const ApiContext& context, httplib::Response& res, const Session&
 SessionScene newSessionScene(const ApiContext& context) {
   render::SceneSettings settings;
   settings.technique = context.config.defaultTechnique;
+  // A session's scene (the built-in one or a model) is grounded by the sun's shadow from the
+  // start; a client turns it off with PATCH .../settings {"shadows": {"sun": false}}.
+  settings.shadows.sun = true;
   return SessionScene(context.config.limits.maxLightsPerSession, settings);
 }
 

@@ -336,6 +336,15 @@ FrameRequest parseFrameRequest(const QueryParams& params, const FrameDefaults& d
     }
     settings.technique = *technique;
   }
+
+  if (const std::string* text = single(params, "antialias")) {
+    std::optional<render::Antialias> antialias = render::parseAntialias(*text);
+    if (!antialias) {
+      throw FrameQueryError("antialias", "antialias must be none or fxaa, got " +
+                                             quoteClientText(*text) + ".");
+    }
+    settings.antialias = *antialias;
+  }
   return request;
 }
 

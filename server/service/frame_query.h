@@ -19,9 +19,9 @@
 namespace myriad::service {
 
 // GET /v1/frame (stateless, the built-in scene).
-inline constexpr std::array<std::string_view, 11> kFrameParameters = {
+inline constexpr std::array<std::string_view, 12> kFrameParameters = {
     "target", "width",   "height", "format",  "quality", "eye",
-    "look_at", "fov",    "markers", "exposure", "technique"};
+    "look_at", "fov",    "markers", "exposure", "technique", "antialias"};
 // GET /v1/sessions/{id}/frame: camera and settings come from the session.
 inline constexpr std::array<std::string_view, 7> kSessionFrameParameters = {
     "target", "format", "width", "height", "quality", "time", "token"};

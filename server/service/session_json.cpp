@@ -62,6 +62,7 @@ protocol::Settings toWire(const render::SceneSettings& s) {
   out.ambient = toWire(s.ambient);
   out.exposure = wire(s.exposure);
   out.markers = s.markers;
+  out.antialias = std::string(render::antialiasName(s.antialias));
   out.technique = std::string(render::techniqueName(s.technique));
   out.animate = s.animate;
   out.background = toWire(s.background);
@@ -69,6 +70,8 @@ protocol::Settings toWire(const render::SceneSettings& s) {
   out.environment.intensity = wire(s.environment.intensity);
   out.environment.rotation = wire(s.environment.rotation);
   out.environment.background = s.environment.background;
+  out.shadows.sun = s.shadows.sun;
+  out.shadows.mapSize = s.shadows.mapSize;
   return out;
 }
 
@@ -83,6 +86,12 @@ render::EnvironmentMode environmentModeFromWire(std::string_view name) {
   if (!mode) {
     throw ProblemError(invalidBody("/environment/mode", "\"mode\" must be none, sky or hdr."));
   }
+  return *mode;
+}
+
+render::Antialias antialiasFromWire(std::string_view name) {
+  std::optional<render::Antialias> mode = render::parseAntialias(name);
+  if (!mode) throw ProblemError(invalidBody("/antialias", "\"antialias\" must be none or fxaa."));
   return *mode;
 }
 

@@ -23,6 +23,8 @@ protocol::Settings toWire(const render::SceneSettings& settings);
 render::Technique techniqueFromWire(std::string_view name);
 // The session's settings as GET .../settings answers them (the environment's source included).
 protocol::Settings toWire(const SessionScene& scene);
+// Throws ProblemError 400 (/antialias) for a name that is no anti-aliasing mode.
+render::Antialias antialiasFromWire(std::string_view name);
 // Throws ProblemError 400 (/environment/mode) for a name that is no environment mode.
 render::EnvironmentMode environmentModeFromWire(std::string_view name);
 

@@ -184,6 +184,7 @@ const render::SceneSettings& SessionScene::patchSettings(const protocol::Setting
   if (patch.background) s.background = fromWire(*patch.background);
   if (patch.exposure) s.exposure = float(*patch.exposure);
   if (patch.markers) s.markers = *patch.markers;
+  if (patch.antialias) s.antialias = antialiasFromWire(*patch.antialias);
   if (patch.technique) s.technique = techniqueFromWire(*patch.technique);
   if (patch.animate) s.animate = *patch.animate;
   if (patch.environment) {
@@ -200,6 +201,11 @@ const render::SceneSettings& SessionScene::patchSettings(const protocol::Setting
     if (e.intensity) s.environment.intensity = float(*e.intensity);
     if (e.rotation) s.environment.rotation = float(*e.rotation);
     if (e.background) s.environment.background = *e.background;
+  }
+  if (patch.shadows) {
+    // The schema allows only render::kShadowMapSizes.
+    if (patch.shadows->sun) s.shadows.sun = *patch.shadows->sun;
+    if (patch.shadows->mapSize) s.shadows.mapSize = *patch.shadows->mapSize;
   }
   if (s.animate && !settings_.animate) animationStart_ = now;
   if (patch.environment && patch.environment->mode) environmentChosen_ = true;
@@ -271,12 +277,17 @@ SessionScene::Restored SessionScene::restore(const protocol::Snapshot& snapshot,
   settings.background = snapshot.settings.background;
   settings.exposure = snapshot.settings.exposure;
   settings.markers = snapshot.settings.markers;
+  // A snapshot from before anti-aliasing existed restores it as a new session has it.
+  settings.antialias =
+      snapshot.settings.antialias.value_or(std::string(protocol::antialias_modes::kFxaa));
   settings.technique = snapshot.settings.technique;
   settings.animate = snapshot.settings.animate;
   const protocol::Environment& environment = snapshot.settings.environment;
   if (image.image) next.setEnvironmentImage(image.image, image.source);
   settings.environment = protocol::EnvironmentPatch{environment.mode, environment.intensity,
                                                     environment.rotation, environment.background};
+  settings.shadows = protocol::ShadowsPatch{snapshot.settings.shadows.sun,
+                                            snapshot.settings.shadows.mapSize};
   try {
     next.patchSettings(settings, now);
   } catch (const ProblemError& e) {

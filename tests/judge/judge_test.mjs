@@ -119,9 +119,13 @@ async function renderMyriad(c) {
     const settings = {sun: c.sun, ambient: [0, 0, 0], background: [0, 0, 0], exposure: 1, markers: false};
     // The environment light (issue 12) is off for the judge, its background too: a loaded model
     // starts under the sky. (A server without environments has no such member.)
-    if ((await api('GET', `${s}/settings`, {token})).json().environment !== undefined) {
+    const current = (await api('GET', `${s}/settings`, {token})).json();
+    if (current.environment !== undefined) {
       settings.environment = {mode: 'none', background: false};
     }
+    // three.js renders these cases without shadows: Myriad's sun shadows (on by default in a
+    // session) go off for the comparison.
+    if (current.shadows !== undefined) settings.shadows = {sun: false};
     await api('PATCH', `${s}/settings`, {token, json: settings});
     const lights = (await api('GET', `${s}/lights`, {token})).json();
     const frame = async (target) => {

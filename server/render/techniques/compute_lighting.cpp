@@ -108,9 +108,9 @@ void CullingCounters::read(CullingReport& report) const {
 
 void prepareLightingTargets(VkCommandBuffer cmd, const FrameTargets& t) {
   const gpu::ImageTransition transitions[] = {
-      {&t.hdr, VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT, VK_ACCESS_2_NONE, kComputeStage,
+      {&t.hdr, kComputeStage, VK_ACCESS_2_NONE, kComputeStage,
        kStorageWrite, VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_GENERAL},
-      {&t.lightCount, VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT, VK_ACCESS_2_NONE, kComputeStage,
+      {&t.lightCount, kComputeStage, VK_ACCESS_2_NONE, kComputeStage,
        kStorageWrite, VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_GENERAL},
   };
   gpu::barrier(cmd, transitions);

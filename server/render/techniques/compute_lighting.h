@@ -70,7 +70,8 @@ struct CullingCounters {
   void read(CullingReport& report) const;
 };
 
-// Lighting targets are rewritten each frame; the previous frame last sampled them (tonemap).
+// Lighting targets are rewritten each frame; the previous frame last sampled them (the final or
+// views pass, compute).
 // UNDEFINED -> GENERAL for compute storage writes.
 void prepareLightingTargets(VkCommandBuffer cmd, const FrameTargets& t);
 

@@ -57,8 +57,9 @@ class Volumes final : public LightingTechnique {
   // light counts.
   void recordSun(VkCommandBuffer cmd, const FrameTargets& t) const {
     const gpu::ImageTransition before[] = {
-        discardForColorWrite(t.hdr, VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT),
-        discardForColorWrite(t.lightCount, VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT)};
+        // Last read by the previous frame's final or views pass (compute).
+        discardForColorWrite(t.hdr, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT),
+        discardForColorWrite(t.lightCount, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT)};
     gpu::barrier(cmd, before);
     // Every pixel is written (background included), so nothing is loaded or cleared.
     std::array<VkRenderingAttachmentInfo, 2> colors = {

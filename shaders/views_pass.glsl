@@ -1,11 +1,19 @@
-#version 450
-#extension GL_GOOGLE_include_directive : require
-// The last full-screen pass: writes the requested view. For images (RGBA8_UNORM) it tone-maps and
-// sRGB-encodes `final` and `albedo` and maps data views to [0,1]; for raw output (RGBA32F,
-// flags.z = 1) it writes the view's values themselves (see protocol reference, format=raw).
+// The views pass (views.comp, views_raw.comp): every view of the frame but `final` and
+// `light-volumes` (final_pass.glsl), one thread per pixel. For images (RGBA8_UNORM) it maps data
+// views to [0,1] (sRGB-encoding albedo, tonemapping emissive); for raw output (RGBA32F) it writes
+// the view's values themselves (see protocol reference, format=raw). Never anti-aliased: a data
+// view's pixels are the target's own values.
 #include "frame.glsl"
 
-layout(location = 0) out vec4 outColor;
+layout(local_size_x = MYRIAD_PIXEL_GROUP, local_size_y = MYRIAD_PIXEL_GROUP) in;
+
+#ifdef MYRIAD_RAW_OUTPUT
+layout(set = MYRIAD_SET_TARGETS, binding = MYRIAD_BINDING_OUTPUT, rgba32f) uniform writeonly image2D outputImage;
+const bool raw = true;
+#else
+layout(set = MYRIAD_SET_TARGETS, binding = MYRIAD_BINDING_OUTPUT, rgba8) uniform writeonly image2D outputImage;
+const bool raw = false;
+#endif
 
 // --- light-count heat map and its scale ---------------------------------------------------
 
@@ -75,41 +83,23 @@ vec3 sliceColor(uint slice) {
   return mix(vec3(0.3), rgb, 0.75);
 }
 
-void main() {
-  ivec2 pixel = ivec2(gl_FragCoord.xy);
+
+vec4 viewValue(ivec2 pixel) {
   uint view = frame.flags.x;
-  bool raw = frame.flags.z != 0u;
   float depth = texelFetch(gbufferDepth, pixel, 0).r;
   bool hasSurface = depth < 1.0;
 
-  if (view == MYRIAD_VIEW_FINAL || view == MYRIAD_VIEW_LIGHT_VOLUMES) {
-    vec3 hdr = texelFetch(hdrColor, pixel, 0).rgb;
-    if (raw) {
-      outColor = vec4(hdr, 1.0);
-      return;
-    }
-    vec3 color = srgbEncode3(tonemapPbrNeutral(hdr * frame.camera.x));
-    // The light-volumes view dims the picture so the overlay drawn next stands out.
-    outColor = vec4(view == MYRIAD_VIEW_FINAL ? color : color * 0.5, 1.0);
-    return;
-  }
   if (view == MYRIAD_VIEW_LIGHT_COUNT) {
     float count = texelFetch(lightCount, pixel, 0).r;
-    outColor = raw ? vec4(count, 0.0, 0.0, 0.0) : vec4(lightCountView(pixel, count, hasSurface), 1.0);
-    return;
+    return raw ? vec4(count, 0.0, 0.0, 0.0) : vec4(lightCountView(pixel, count, hasSurface), 1.0);
   }
   if (view == MYRIAD_VIEW_DEPTH) {
     float n = frame.camera.y;
     float f = frame.camera.z;
     float z = hasSurface ? viewDepthFromDepth(depth) : f;
-    outColor = raw ? vec4(z, 0.0, 0.0, 0.0) : vec4(vec3(clamp((z - n) / (f - n), 0.0, 1.0)), 1.0);
-    return;
+    return raw ? vec4(z, 0.0, 0.0, 0.0) : vec4(vec3(clamp((z - n) / (f - n), 0.0, 1.0)), 1.0);
   }
-  if (!hasSurface) {
-    outColor = vec4(0.0);
-    if (!raw) outColor.a = 1.0;
-    return;
-  }
+  if (!hasSurface) return vec4(0.0, 0.0, 0.0, raw ? 0.0 : 1.0);
   vec4 value = vec4(0.0, 0.0, 0.0, 1.0);
   if (view == MYRIAD_VIEW_ALBEDO) {
     vec3 albedo = texelFetch(gbufferBaseColor, pixel, 0).rgb;
@@ -139,5 +129,11 @@ void main() {
     float checker = ((tile.x + tile.y) & 1u) == 0u ? 1.0 : 0.8;
     value.rgb = raw ? vec3(float(slice), float(tile.x), float(tile.y)) : sliceColor(slice) * checker;
   }
-  outColor = value;
+  return value;
+}
+
+void main() {
+  ivec2 pixel = ivec2(gl_GlobalInvocationID.xy);
+  if (any(greaterThanEqual(pixel, ivec2(frame.viewport.xy)))) return;
+  imageStore(outputImage, pixel, viewValue(pixel));
 }
