@@ -66,6 +66,7 @@ render::FrameSettings frameSettings(render::Technique technique, bool shadows) {
   f.height = kHeight;
   f.camera = camera();
   f.markers = false;
+  f.antialias = render::Antialias::None;  // compared with the reference, which does not anti-alias
   f.technique = technique;
   f.shadows.sun = shadows;
   f.shadows.mapSize = 1024;
