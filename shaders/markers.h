@@ -1,4 +1,4 @@
-// Light markers (shaders/marker_splat.comp, marker_resolve.comp; render/passes.cpp): shared by
+// Light markers (shaders/marker_splat.comp, resolved in final.comp; render/passes.cpp): shared by
 // GLSL and C++ like shared_types.h.
 #ifndef MYRIAD_MARKERS_H
 #define MYRIAD_MARKERS_H
@@ -8,7 +8,6 @@
 // 0 = no marker. imageAtomicMax keeps the strongest marker at each pixel, ties to the higher
 // index, so the picture does not depend on the order the threads ran in.
 #define MYRIAD_MARKER_INDEX_BITS 24u
-#define MYRIAD_MARKER_GROUP 8  // resolve pass: 8x8 pixels per group
 
 // Markers' size and share (markers.glsl; the service's light picking, render/marker_pick.h):
 // markers may cover at most COVERAGE of the picture (every drawn marker in view, none hidden);

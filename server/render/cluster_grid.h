@@ -1,6 +1,6 @@
 // The cluster grid of an output: 64x64-pixel screen tiles x 32 exponential depth slices between
 // near and far (MYRIAD_CLUSTER_*). The clustered technique's lists and the clusters view
-// (tonemap.frag) both use it, through FrameUniforms.grid and .slicing.
+// (views_pass.glsl) both use it, through FrameUniforms.grid and .slicing.
 #pragma once
 
 #include <cstdint>
