@@ -250,7 +250,9 @@ TEST_CASE("shared sessions: the pick route finds the light under a marker among 
   TestSession s = createSession(api);
   const std::string size = "width=320&height=240";
   auto frame = [&](bool markers) {
-    REQUIRE(api.patch(s.path() + "/settings", json{{"markers", markers}}.dump(), s.token).status == 200);
+    // Anti-aliasing (on by default) would smear markers' edges into pixels no marker covers.
+    REQUIRE(api.patch(s.path() + "/settings", json{{"markers", markers}, {"antialias", "none"}}.dump(),
+                      s.token).status == 200);
     Reply png = api.get(s.path() + "/frame?format=png&" + size, s.token);
     REQUIRE(png.status == 200);
     return myriad::encode::decodePng(
