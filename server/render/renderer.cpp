@@ -58,13 +58,15 @@ constexpr uint32_t kUnmeasuredSplitLights = 65536;
 // Adds `results` (one submission's passes) to `passes`, summing passes of the same name.
 void addPasses(std::vector<PassTiming>& passes,
                const std::vector<std::pair<std::string, double>>& results) {
-  for (const auto& [name, ms] : results) {
+  // (No structured binding: clang before 16, which builds the fuzz preset, cannot capture one.)
+  for (const auto& result : results) {
+    const std::string& name = result.first;
     auto it = std::find_if(passes.begin(), passes.end(),
                            [&](const PassTiming& p) { return p.name == name; });
     if (it == passes.end()) {
-      passes.push_back({name, ms});
+      passes.push_back({name, result.second});
     } else {
-      it->milliseconds += ms;
+      it->milliseconds += result.second;
     }
   }
 }

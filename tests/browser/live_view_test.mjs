@@ -193,16 +193,16 @@ try {
     const firstPage = (await api('GET', `/v1/sessions/${session.id}/lights?limit=1000`,
                                  {token: session.token})).body.lights.map((l) => l.id);
     // Marker pixels: where the view's frame (markers on) is brighter than a PNG of the same size
-    // without markers.
+    // without markers; both without anti-aliasing (on by default), which blurs one-pixel markers.
     await owner.goto(`${base}/v1/health`);  // the server's origin, without the page's stream
     const without = await owner.evaluate(async ({session, size}) => {
       const headers = {Authorization: `Bearer ${session.token}`, 'Content-Type': 'application/json'};
       await fetch(`/v1/sessions/${session.id}/settings`,
-                  {method: 'PATCH', headers, body: JSON.stringify({markers: false})});
+                  {method: 'PATCH', headers, body: JSON.stringify({markers: false, antialias: 'none'})});
       const png = await fetch(`/v1/sessions/${session.id}/frame?format=png&width=${size.width}&height=${size.height}`,
                               {headers});
       await fetch(`/v1/sessions/${session.id}/settings`,
-                  {method: 'PATCH', headers, body: JSON.stringify({markers: true})});
+                  {method: 'PATCH', headers, body: JSON.stringify({markers: true, antialias: 'none'})});
       return Array.from(new Uint8Array(await png.arrayBuffer()));
     }, {session, size});
     // The page again (the same session), showing the frame with markers.
