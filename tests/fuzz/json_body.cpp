@@ -138,6 +138,9 @@ constexpr Body kBodies[] = {
     {names::kProblem, convert<protocol::Problem>},
     {names::kHealth, convert<protocol::Health>},
     {names::kCameraSelect, convert<protocol::CameraSelect>},
+    {names::kTokenCreate, convert<protocol::TokenCreate>},
+    {names::kTokenCreated, convert<protocol::TokenCreated>},
+    {names::kLightPick, convert<protocol::LightPick>},
 };
 constexpr size_t kBodyCount = sizeof kBodies / sizeof kBodies[0];
 
