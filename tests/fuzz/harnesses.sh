@@ -80,6 +80,10 @@ fuzz_triage_model() {
     esac
     local replay
     replay=$("$binary" -runs=1 -timeout=25 "$input" 2>&1)
+    # A replay starved by a busy machine can end without a stack: once more before judging it.
+    if ! grep -qE '^ +#0 ' <<<"$replay"; then
+      replay=$("$binary" -runs=1 -timeout=25 "$input" 2>&1)
+    fi
     if [[ $input == */timeout-* ]] && ! grep -q 'ERROR: libFuzzer: timeout' <<<"$replay"; then
       # Under 25 s when run alone: the machine was busy (the timeout is wall-clock time).
       echo "fuzz_model: $input does not time out when replayed; set aside in $artifacts/slow"
