@@ -35,12 +35,15 @@ test_packages=(
   libclang-rt-14-dev       # libFuzzer and the ASan/UBSan runtimes clang links into the harnesses
   nginx                    # the front CTest runs deploy/nginx/myriad.conf (as the test's user)
   openssl                  # the front CTest makes its self-signed TLS certificate
-  kubernetes-client        # kubectl: the k8s CTest checks deploy/k8s with --dry-run=client
   python3-yaml             # the k8s CTest parses the manifests
 )
 # npm installs the browser test's playwright-core. Only where no npm exists: NodeSource's nodejs
 # bundles its own and conflicts with Debian's npm package.
 if ! command -v npm >/dev/null 2>&1; then test_packages+=(npm); fi
+# kubectl: the k8s CTest checks deploy/k8s with --dry-run=client. Debian's kubernetes-client only
+# where no kubectl exists: a machine with Google's kubectl package (/usr/bin/kubectl, any version
+# the test accepts) cannot install it (dpkg refuses to overwrite the file; CI failed on it).
+if ! command -v kubectl >/dev/null 2>&1; then test_packages+=(kubernetes-client); fi
 container_test_packages=(
   buildah                  # builds and runs the OCI image daemonless (--isolation chroot)
   podman                   # imports the bootstrapped base image into the local image store
