@@ -107,6 +107,7 @@ template <class F>
 void patchMembers(Tag<ShadowsPatch>, F f) {
   f("sun", &Shadows::sun, &ShadowsPatch::sun);
   f("mapSize", &Shadows::mapSize, &ShadowsPatch::mapSize);
+  f("maxShadowedLights", &Shadows::maxShadowedLights, &ShadowsPatch::maxShadowedLights);
 }
 
 template <class F>
@@ -151,6 +152,7 @@ void patchMembers(Tag<LightPatch>, F f) {
   f("direction", &Light::direction, &LightPatch::direction);
   f("innerConeAngle", &Light::innerConeAngle, &LightPatch::innerConeAngle);
   f("outerConeAngle", &Light::outerConeAngle, &LightPatch::outerConeAngle);
+  f("castsShadows", &Light::castsShadows, &LightPatch::castsShadows);
 }
 
 // The two halves of a patch list: the whole type's members, and the patch's.
@@ -221,6 +223,7 @@ void members(Tag<LightNew>, F f) {
   f("direction", &LightNew::direction);
   f("innerConeAngle", &LightNew::innerConeAngle);
   f("outerConeAngle", &LightNew::outerConeAngle);
+  f("castsShadows", &LightNew::castsShadows);
 }
 
 template <class F>
@@ -391,6 +394,13 @@ void members(Tag<CullingStats>, F f) {
 }
 
 template <class F>
+void members(Tag<LightShadowStats>, F f) {
+  f("lights", &LightShadowStats::lights);
+  f("requested", &LightShadowStats::requested);
+  f("dropped", &LightShadowStats::dropped);
+}
+
+template <class F>
 void members(Tag<GpuMemory>, F f) {
   f("lightBytes", &GpuMemory::lightBytes);
   f("listBytes", &GpuMemory::listBytes);
@@ -517,6 +527,7 @@ Light withId(const LightNew& l, uint64_t id) {
   if (l.direction) out.direction = *l.direction;
   if (l.innerConeAngle) out.innerConeAngle = *l.innerConeAngle;
   if (l.outerConeAngle) out.outerConeAngle = *l.outerConeAngle;
+  out.castsShadows = l.castsShadows.value_or(false);
   return out;
 }
 
@@ -563,6 +574,7 @@ MYRIAD_MEMBERWISE_JSON(LightPick)
 MYRIAD_MEMBERWISE_JSON(PassTiming)
 MYRIAD_MEMBERWISE_JSON(FrameStats)
 MYRIAD_MEMBERWISE_JSON(CullingStats)
+MYRIAD_MEMBERWISE_JSON(LightShadowStats)
 MYRIAD_MEMBERWISE_JSON(GpuMemory)
 MYRIAD_MEMBERWISE_JSON(Limits)
 MYRIAD_MEMBERWISE_JSON(DeviceSummary)
@@ -603,6 +615,7 @@ void to_json(json& j, const Stats& v) {
   j = {{"frame", orNull(v.frame)},
        {"lights", {{"count", v.lightCount}, {"animated", v.lightsAnimated}}},
        {"culling", orNull(v.culling)},
+       {"lightShadows", orNull(v.lightShadows)},
        {"gpuMemory", v.gpuMemory},
        {"frames", v.frames}};
 }
@@ -613,6 +626,9 @@ void from_json(const json& j, Stats& v) {
   get(j.at("lights"), "animated", v.lightsAnimated);
   const json& culling = j.at("culling");
   v.culling = culling.is_null() ? std::nullopt : std::optional(culling.get<CullingStats>());
+  const json& shadows = j.at("lightShadows");
+  v.lightShadows =
+      shadows.is_null() ? std::nullopt : std::optional(shadows.get<LightShadowStats>());
   get(j, "gpuMemory", v.gpuMemory);
   get(j, "frames", v.frames);
 }

@@ -75,11 +75,15 @@ struct EnvironmentPatch {
 struct Shadows {
   bool sun = false;         // the sun casts shadows
   uint32_t mapSize = 2048;  // the sun's map, texels across (defs.schema.json shadowMapSize)
+  // Local lights asking for shadows that get a map in a frame, at most. The server always sends
+  // it; a body may leave it out (a snapshot from before local shadows): the default then.
+  std::optional<uint32_t> maxShadowedLights;
 };
 
 struct ShadowsPatch {
   std::optional<bool> sun;
   std::optional<uint32_t> mapSize;
+  std::optional<uint32_t> maxShadowedLights;
 };
 
 struct Settings {
@@ -170,6 +174,7 @@ struct LightNew {
   std::optional<Vec3> direction;           // where a spot points; absent = [0, -1, 0]
   std::optional<double> innerConeAngle;    // radians; absent = 0
   std::optional<double> outerConeAngle;    // radians; absent = pi/4
+  std::optional<bool> castsShadows;        // asks for a shadow map; absent = false
 };
 
 inline constexpr double kDefaultOuterConeAngle = 0.78539816339744831;  // pi/4, glTF's default
@@ -186,6 +191,9 @@ struct Light {
   Vec3 direction{0, -1, 0};
   double innerConeAngle = 0;
   double outerConeAngle = kDefaultOuterConeAngle;
+  // Asks for a shadow map. The server always sends it; absent (a snapshot from before local
+  // shadows) reads as false.
+  std::optional<bool> castsShadows;
 };
 Light withId(const LightNew& light, uint64_t id);
 
@@ -197,6 +205,7 @@ struct LightPatch {
   std::optional<std::string> type, attenuation;
   std::optional<Vec3> direction;
   std::optional<double> innerConeAngle, outerConeAngle;
+  std::optional<bool> castsShadows;
 };
 Light applied(Light light, const LightPatch& patch);
 
@@ -374,8 +383,16 @@ struct GpuMemory {
   uint64_t sceneBytes = 0;
 };
 
+// The last frame's local-light shadows (render::Frame::LightShadows, indices made ids).
+struct LightShadowStats {
+  std::vector<uint64_t> lights;  // ids of the lights that had a shadow map, most important first
+  uint64_t requested = 0;        // lights asking for one that reach into the view
+  uint64_t dropped = 0;          // of those, past maxShadowedLights: drawn unshadowed
+};
+
 struct Stats {
   std::optional<FrameStats> frame;      // null before the session's first frame
+  std::optional<LightShadowStats> lightShadows;  // null before the first frame
   uint64_t lightCount = 0;              // "lights": {"count", "animated"}
   bool lightsAnimated = false;
   std::optional<CullingStats> culling;  // null before the first frame
@@ -506,6 +523,7 @@ MYRIAD_PROTOCOL_JSON(LightPick);
 MYRIAD_PROTOCOL_JSON(PassTiming);
 MYRIAD_PROTOCOL_JSON(FrameStats);
 MYRIAD_PROTOCOL_JSON(CullingStats);
+MYRIAD_PROTOCOL_JSON(LightShadowStats);
 MYRIAD_PROTOCOL_JSON(GpuMemory);
 MYRIAD_PROTOCOL_JSON(Stats);
 MYRIAD_PROTOCOL_JSON(Limits);

@@ -29,6 +29,8 @@ layout(std430, set = MYRIAD_SET_SCENE, binding = MYRIAD_BINDING_BRDF_LUT) readon
 // The sun's shadow map (render/shadows.cpp), a comparison sampler: LESS_OR_EQUAL, linear where
 // the device filters the depth format linearly (then each tap is a 2x2 PCF of its own).
 layout(set = MYRIAD_SET_SCENE, binding = MYRIAD_BINDING_SUN_SHADOW_MAP) uniform sampler2DShadow sunShadowMap;
+// Local lights' shadow tiles, all in one atlas (render/shadows.cpp), the same sampler.
+layout(set = MYRIAD_SET_SCENE, binding = MYRIAD_BINDING_LIGHT_SHADOW_ATLAS) uniform sampler2DShadow lightShadowAtlas;
 #define MYRIAD_ENV_LIGHTING(i) environmentTexels[i]
 #define MYRIAD_BRDF_LUT(i) brdfLutTexels[i]
 #include "environment.glsl"
@@ -167,12 +169,104 @@ vec3 spotDirectionOf(GpuPointLight light) {
   return octahedralDecode(light.cone.xy);
 }
 
+// The shadow-map slot of light `index` this frame, or -1 (most lights: then nothing changes).
+int lightShadowSlot(uint index) {
+  for (uint i = 0u; i < frame.lightShadows.x; ++i) {
+    if (frame.shadowedLightIndex[i >> 2u][i & 3u] == index) {
+      return int(i);
+    }
+  }
+  return -1;
+}
+
+// The cube faces' axes, as render/shadows.cpp renders them (glm::lookAt(eye, eye + forward, up)):
+// the tile's u runs along cross(forward, up), its v along the view's up.
+vec3 cubeFaceForward(uint face) {
+  vec3 f[6] = vec3[6](vec3(1, 0, 0), vec3(-1, 0, 0), vec3(0, 1, 0), vec3(0, -1, 0), vec3(0, 0, 1),
+                      vec3(0, 0, -1));
+  return f[face];
+}
+vec3 cubeFaceUp(uint face) {
+  vec3 u[6] = vec3[6](vec3(0, 1, 0), vec3(0, 1, 0), vec3(0, 0, 1), vec3(0, 0, 1), vec3(0, 1, 0),
+                      vec3(0, 1, 0));
+  return u[face];
+}
+
+// How much of shadowed light `slot` reaches a surface point: 1 lit, 0 occluded. The sun's scheme
+// (sunShadowFactor) in a perspective map: 3x3 PCF, a normal offset and a depth bias both sized to
+// one texel at the point's distance from the light (plus the slope term), the bias in world units
+// along the tile's axis. Taps stay inside the tile (clamped half a texel in), so a tile never
+// reads its neighbour's depth.
+float localShadowFactor(int slot, vec3 position, vec3 normal) {
+  GpuLightShadow ls = frame.lightShadow[slot];
+  vec3 toLight = ls.positionNear.xyz - position;
+  float distance = length(toLight);
+  if (distance <= 0.0) {
+    return 1.0;
+  }
+  float cosTheta = dot(normal, toLight / distance);
+  if (cosTheta <= 0.0) {
+    return 1.0;  // facing away: the light adds nothing here whatever the map says
+  }
+  float sinTheta = sqrt(max(1.0 - cosTheta * cosTheta, 0.0));
+  float texel = ls.params.y * distance;  // one texel's width in world units, here
+  vec3 v = position + normal * (texel * (0.5 + sinTheta)) - ls.positionNear.xyz;
+  uint tile = ls.tiles.x;
+  vec2 uv;
+  float d;
+  if (ls.tiles.y == MYRIAD_LIGHT_SHADOW_SPOT) {
+    vec4 clip = ls.mapFromWorld * vec4(v + ls.positionNear.xyz, 1.0);
+    d = clip.w;
+    if (d <= 0.0) {
+      return 1.0;
+    }
+    uv = clip.xy / clip.w * 0.5 + 0.5;
+    if (uv.x < 0.0 || uv.x > 1.0 || uv.y < 0.0 || uv.y > 1.0) {
+      return 1.0;  // outside the map is outside the cone: the light adds nothing there
+    }
+  } else {
+    vec3 a = abs(v);
+    uint face = a.x >= a.y && a.x >= a.z ? (v.x >= 0.0 ? 0u : 1u)
+                                         : (a.y >= a.z ? (v.y >= 0.0 ? 2u : 3u) : (v.z >= 0.0 ? 4u : 5u));
+    vec3 forward = cubeFaceForward(face);
+    vec3 side = cross(forward, cubeFaceUp(face));
+    vec3 up = cross(side, forward);
+    d = dot(v, forward);
+    uv = vec2(dot(v, side), dot(v, up)) / d * 0.5 + 0.5;
+    tile += face;
+  }
+  float near = ls.positionNear.w, far = ls.params.x;
+  if (d >= far) {
+    return 1.0;
+  }
+  float biased = max(d - texel * (1.5 + min(2.0 * sinTheta / cosTheta, 10.0)), near);
+  float reference = far / (far - near) * (1.0 - near / biased);
+  float tileTexels = float(frame.lightShadows.y);
+  vec2 origin = vec2(float(tile % MYRIAD_SHADOW_ATLAS_COLUMNS), float(tile / MYRIAD_SHADOW_ATLAS_COLUMNS)) * tileTexels;
+  vec2 atlasTexel = 1.0 / vec2(frame.lightShadows.zw);
+  float lit = 0.0;
+  for (int y = -1; y <= 1; ++y) {
+    for (int x = -1; x <= 1; ++x) {
+      vec2 inTile = clamp(uv * tileTexels + vec2(float(x), float(y)), vec2(0.5), vec2(tileTexels - 0.5));
+      lit += textureLod(lightShadowAtlas, vec3((origin + inTile) * atlasTexel, reference), 0.0);
+    }
+  }
+  return lit / 9.0;
+}
+
 vec3 shadeLight(Surface s, uint index) {
   GpuPointLight light = lights[index];
-  return shadeLocalLight(s.position, s.normal, normalize(frame.cameraPosition.xyz - s.position),
-                         s.baseColor, s.metallic, s.roughness, light.positionRadius.xyz,
-                         light.positionRadius.w, light.radianceFalloff.rgb, light.radianceFalloff.w,
-                         spotDirectionOf(light), light.cone.z, light.cone.w);
+  vec3 c = shadeLocalLight(s.position, s.normal, normalize(frame.cameraPosition.xyz - s.position),
+                           s.baseColor, s.metallic, s.roughness, light.positionRadius.xyz,
+                           light.positionRadius.w, light.radianceFalloff.rgb, light.radianceFalloff.w,
+                           spotDirectionOf(light), light.cone.z, light.cone.w);
+  if (frame.lightShadows.x != 0u) {
+    int slot = lightShadowSlot(index);
+    if (slot >= 0) {
+      c *= localShadowFactor(slot, s.position, s.normal);
+    }
+  }
+  return c;
 }
 
 // Whether the light reaches the surface point at all: inside its radius and its outer cone (what

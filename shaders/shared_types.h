@@ -28,12 +28,26 @@ using mat4 = glm::mat4;
 #define MYRIAD_BINDING_ENVIRONMENT 5    // storage vec4[]: the environment's SH9 irradiance + specular
 #define MYRIAD_BINDING_BRDF_LUT 6       // storage vec4[]: the split-sum BRDF table (x scale, y bias)
 #define MYRIAD_BINDING_SUN_SHADOW_MAP 7 // sampler2DShadow: the sun's depth from its side (D32)
+#define MYRIAD_BINDING_LIGHT_SHADOW_ATLAS 8 // sampler2DShadow: local lights' depth tiles (D32)
 
 // Shadows (render/shadows.cpp). The shadow pass draws depth only, with one push constant: the
 // light's view-projection (ShadowPush).
 #define MYRIAD_SHADOW_MAP_MIN 256
 #define MYRIAD_SHADOW_MAP_MAX 4096
 #define MYRIAD_SHADOW_MAP_DEFAULT 2048
+// Local lights' shadows: at most this many lights a frame get a shadow map (settings.shadows.
+// maxShadowedLights, default below). Their depth lives in ONE atlas (no descriptor indexing): a
+// spot light takes one square tile (a perspective projection over its cone), a point light (or a
+// spot wider than MYRIAD_SPOT_SHADOW_MAX_ANGLE) six, the faces of a cube around it. Tiles are
+// mapSize / 4 texels across, between the MIN and MAX below, MYRIAD_SHADOW_ATLAS_COLUMNS a row.
+#define MYRIAD_MAX_SHADOWED_LIGHTS 16
+#define MYRIAD_SHADOWED_LIGHTS_DEFAULT 4
+#define MYRIAD_SHADOW_TILE_MIN 64
+#define MYRIAD_SHADOW_TILE_MAX 512
+#define MYRIAD_SHADOW_ATLAS_COLUMNS 8
+#define MYRIAD_SPOT_SHADOW_MAX_ANGLE 0.95993109f  // 55 degrees: one projection up to 110 + margin
+#define MYRIAD_LIGHT_SHADOW_SPOT 0u  // GpuLightShadow.tiles.y: one perspective tile
+#define MYRIAD_LIGHT_SHADOW_CUBE 1u  // six tiles, +X -X +Y -Y +Z -Z (shaders/frame.glsl)
 
 // The environment light (shaders/environment.glsl, render/environment.cpp). Sizes are modest so
 // lavapipe prefilters in well under a second; all maps are equirectangular (u = longitude,
@@ -157,6 +171,16 @@ using mat4 = glm::mat4;
 // Directional lights besides the sun (scene::kMaxExtraSuns; render/gpu_types.h checks it).
 #define MYRIAD_MAX_EXTRA_SUNS 3
 
+// One shadowed local light's map (FrameUniforms.lightShadow). Depth in its tiles is perspective
+// depth between near and far along the tile's axis: far / (far - near) * (1 - near / d).
+MYRIAD_STRUCT(GpuLightShadow) {
+  mat4 mapFromWorld;   // spot: world -> the tile's clip space (w = distance along the axis)
+  vec4 positionNear;   // xyz where the map was rendered from, w near (world units)
+  vec4 params;         // x far (the light's radius), y one texel's width per unit of distance,
+                       // zw unused
+  uvec4 tiles;         // x first tile in the atlas, y MYRIAD_LIGHT_SHADOW_SPOT / _CUBE, zw unused
+};
+
 MYRIAD_STRUCT(FrameUniforms) {
   mat4 view;
   mat4 projection;
@@ -187,6 +211,12 @@ MYRIAD_STRUCT(FrameUniforms) {
   mat4 sunShadowMatrix;
   vec4 sunShadow;  // x 1 when the sun casts shadows, y normal offset (world units), z depth bias
                    // (map depth units), w one texel in uv (1 / map size)
+  // Local lights' shadows (render/shadows.cpp). x how many lights have a map this frame (0: none,
+  // and no shader reads further), y tile size (texels), zw the atlas's size (texels).
+  uvec4 lightShadows;
+  // The shadowed lights' indices into the light buffer, four per uvec4 (slot i: [i / 4][i % 4]).
+  uvec4 shadowedLightIndex[MYRIAD_MAX_SHADOWED_LIGHTS / 4];
+  GpuLightShadow lightShadow[MYRIAD_MAX_SHADOWED_LIGHTS];
 };
 
 // The shadow pass's push constant: world -> the light's clip space.

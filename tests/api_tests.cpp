@@ -1339,3 +1339,67 @@ TEST_CASE("api: a glTF file's point, spot and directional lights and its cameras
   CHECK(myriad::test::validationMessages(api) == 0);
   checkStopsCleanly(server);
 }
+
+TEST_CASE("api: lights ask for shadows; maxShadowedLights is bounded; stats name the shadowed lights") {
+  ServerProcess server({"--lights", "0"});
+  requireListening(server);
+  ApiClient api(server);
+  TestSession s = createSession(api);
+  const std::string settings = s.path() + "/settings";
+  // Outside 0..16: a 400 naming the member, settings unchanged.
+  for (const char* bad : {R"({"shadows": {"maxShadowedLights": 17}})",
+                          R"({"shadows": {"maxShadowedLights": -1}})",
+                          R"({"shadows": {"maxShadowedLights": 2.5}})"}) {
+    checkProblem(api.patch(settings, bad, s.token), 400, "invalid-body", bad,
+                 std::string("/shadows/maxShadowedLights"));
+  }
+  Reply current = api.get(settings, s.token);
+  REQUIRE(current.status == 200);
+  CHECK(current.json["shadows"]["maxShadowedLights"] == 4);
+  Reply patched = api.patch(settings, R"({"shadows": {"maxShadowedLights": 1}})", s.token);
+  REQUIRE(patched.status == 200);
+  CHECK(patched.json["shadows"]["maxShadowedLights"] == 1);
+
+  // Three lights over the scene's centre, two asking; the brighter of those gets the one map.
+  const json lights = {
+      {"lights",
+       {{{"position", {0.0, 2.0, 0.0}}, {"radius", 8.0}, {"color", {1.0, 1.0, 1.0}}, {"intensity", 2.0},
+         {"falloff", 1.0}, {"castsShadows", true}},
+        {{"position", {1.0, 2.0, 0.0}}, {"radius", 8.0}, {"color", {1.0, 1.0, 1.0}}, {"intensity", 5.0},
+         {"falloff", 1.0}, {"castsShadows", true}, {"type", "spot"}},
+        {{"position", {-1.0, 2.0, 0.0}}, {"radius", 8.0}, {"color", {1.0, 1.0, 1.0}}, {"intensity", 9.0},
+         {"falloff", 1.0}}}}};
+  Reply added = api.post(s.path() + "/lights", lights.dump(), s.token);
+  REQUIRE(added.status == 201);
+  const uint64_t dim = added.json["ids"][0], bright = added.json["ids"][1], plain = added.json["ids"][2];
+  CHECK(api.get(s.path() + "/lights/" + std::to_string(plain), s.token).json["castsShadows"] == false);
+  CHECK(api.get(s.path() + "/lights/" + std::to_string(bright), s.token).json["castsShadows"] == true);
+
+  const std::string frame = s.path() + "/frame?width=96&height=64&format=png";
+  REQUIRE(api.get(frame, s.token).status == 200);
+  Reply stats = api.get(s.path() + "/stats", s.token);
+  REQUIRE(stats.status == 200);
+  INFO(stats.body);
+  CHECK(stats.json["lightShadows"]["lights"] == json::array({bright}));
+  CHECK(stats.json["lightShadows"]["requested"] == 2);
+  CHECK(stats.json["lightShadows"]["dropped"] == 1);
+  bool timed = false;
+  for (const json& pass : stats.json["frame"]["passes"]) timed = timed || pass["name"] == "light-shadows";
+  CHECK(timed);
+
+  // The bright one stops asking: the other gets the map.
+  REQUIRE(api.patch(s.path() + "/lights/" + std::to_string(bright), R"({"castsShadows": false})", s.token)
+              .status == 200);
+  REQUIRE(api.get(frame, s.token).status == 200);
+  stats = api.get(s.path() + "/stats", s.token);
+  CHECK(stats.json["lightShadows"]["lights"] == json::array({dim}));
+  CHECK(stats.json["lightShadows"]["dropped"] == 0);
+  // None allowed: every asking light is reported dropped, none shadowed.
+  REQUIRE(api.patch(settings, R"({"shadows": {"maxShadowedLights": 0}})", s.token).status == 200);
+  REQUIRE(api.get(frame, s.token).status == 200);
+  stats = api.get(s.path() + "/stats", s.token);
+  CHECK(stats.json["lightShadows"]["lights"] == json::array());
+  CHECK(stats.json["lightShadows"]["dropped"] == 1);
+  CHECK(myriad::test::validationMessages(api) == 0);
+  checkStopsCleanly(server);
+}

@@ -140,6 +140,7 @@ export class LightsPanel {
       [$('light-dx').value, $('light-dy').value, $('light-dz').value] = light.direction;
       $('light-inner').value = +(light.innerConeAngle * DEGREES).toFixed(4);
       $('light-outer').value = +(light.outerConeAngle * DEGREES).toFixed(4);
+      $('light-shadows').checked = light.castsShadows === true;
       this.showCone();
     }
     this.drawOverlay();
@@ -158,6 +159,7 @@ export class LightsPanel {
         falloff: this.numberField('light-falloff'),
         attenuation: $('light-attenuation').value,
         type: $('light-type').value,
+        castsShadows: $('light-shadows').checked,
       };
       if (patch.type === 'spot') {
         patch.direction = ['light-dx', 'light-dy', 'light-dz'].map((id) => this.numberField(id));

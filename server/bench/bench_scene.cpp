@@ -119,6 +119,33 @@ scene::Scene makeModelScene(const BenchSceneSpec& spec) {
   return s;
 }
 
+void addShadowedLights(scene::Scene& scene, uint32_t count, bool spots) {
+  if (count == 0) return;
+  const scene::Bounds bounds = scene.bounds();
+  const glm::vec3 lo = bounds.empty() ? glm::vec3(-1.0f) : bounds.min;
+  const glm::vec3 hi = bounds.empty() ? glm::vec3(1.0f) : bounds.max;
+  const float diagonal = glm::length(hi - lo);
+  const uint32_t across = uint32_t(std::ceil(std::sqrt(double(count))));
+  for (uint32_t i = 0; i < count; ++i) {
+    const float u = (float(i % across) + 0.5f) / float(across);
+    const float v = (float(i / across) + 0.5f) / float(across);
+    scene::PointLight l;
+    l.position = glm::vec3(lo.x + u * (hi.x - lo.x), hi.y + 0.2f * diagonal, lo.z + v * (hi.z - lo.z));
+    l.radius = 0.6f * diagonal;
+    l.color = glm::vec3(1.0f, 0.95f, 0.85f);
+    l.intensity = 2.0f;
+    l.falloff = 1.0f;
+    l.castsShadows = true;
+    if (spots) {
+      l.type = scene::LightType::Spot;
+      l.direction = glm::vec3(0.0f, -1.0f, 0.0f);
+      l.innerConeAngle = 0.5f;
+      l.outerConeAngle = 0.6981317f;  // 40 degrees
+    }
+    scene.lights.push_back(l);
+  }
+}
+
 scene::Scene makeBenchScene(const BenchSceneSpec& spec) {
   if (spec.kind == BenchScene::Builtin) return scene::makeBuiltinScene(spec.lightCount, spec.seed);
   if (spec.kind == BenchScene::Model) return makeModelScene(spec);

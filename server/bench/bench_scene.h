@@ -40,4 +40,10 @@ struct BenchSceneSpec {
 // The scene, with scene.camera the view the benchmark renders.
 scene::Scene makeBenchScene(const BenchSceneSpec& spec);
 
+// Appends `count` lights asking for shadows (--shadowed-lights): on a grid over the scene's
+// bounds, a fifth of its diagonal above its top, each reaching 60% of the diagonal (so each map
+// holds most of the scene); spot lights (`spots`) point down with a 40-degree cone, point lights
+// get a cube. They come after the scene's own lights, which keep their indices.
+void addShadowedLights(scene::Scene& scene, uint32_t count, bool spots);
+
 }  // namespace myriad::bench

@@ -67,6 +67,7 @@ int run(const bench::Options& options, const std::string& commandLine) {
         {.kind = options.scene, .lightCount = lights, .seed = options.seed,
          .lightsPerPoint = options.lightsPerPoint, .modelPath = options.modelPath,
          .textures = options.textures});
+    bench::addShadowedLights(scene, options.plan.shadowedLights, options.plan.shadowedSpots);
     // One scene at a time: the previous one's memory goes before the next is uploaded.
     if (sceneId != 0) renderer.destroyScene(sceneId);
     sceneId = renderer.createScene(scene);

@@ -29,6 +29,7 @@ render::FrameSettings frameSettings(const scene::Scene& scene, render::Technique
   if (plan.environmentEveryFrame) f.sun.color *= 1.0f + 1e-4f * float(frameIndex % 2);
   f.shadows.sun = plan.sunShadowMap > 0;
   if (plan.sunShadowMap > 0) f.shadows.mapSize = plan.sunShadowMap;
+  f.shadows.maxShadowedLights = plan.shadowedLights;
   return f;
 }
 

@@ -38,6 +38,11 @@ struct Plan {
   // The sun's shadow map, texels across (render::kShadowMapSizes); 0: no shadows. Timed as the
   // "shadow" pass.
   uint32_t sunShadowMap = 0;
+  // Lights asking for shadows added to every scene (bench_scene.h addShadowedLights), all given a
+  // map (maxShadowedLights = this); their tiles are timed as the "light-shadows" pass. The tile
+  // size is a quarter of sunShadowMap (2048 when the sun has none: 512-texel tiles).
+  uint32_t shadowedLights = 0;
+  bool shadowedSpots = false;  // spot lights (one tile each), else point lights (six)
 };
 
 struct Summary {

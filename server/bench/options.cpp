@@ -58,6 +58,7 @@ const char* const kUsage =
     "                    [--environment none|sky] [--environment-every-frame]\n"
     "                    [--antialias none|fxaa]\n"
     "                    [--sun-shadows 256|512|1024|2048|4096]\n"
+    "                    [--shadowed-lights N [--shadowed-kind point|spot]]\n"
     "                    [--model PATH [--textures on|off]]\n"
     "Renders animated frames for every light count x technique, timing each pass with GPU\n"
     "timestamp queries after warm-up, and prints medians and 90th percentiles.\n"
@@ -71,6 +72,9 @@ const char* const kUsage =
     "\"environment\" pass.\n"
     "--sun-shadows N renders the sun's shadow map (N texels across) every frame, timed as the\n"
     "\"shadow\" pass (default: no shadows).\n"
+    "--shadowed-lights N (0-16) adds N lights asking for shadows over the scene (besides --lights),\n"
+    "every one given a map each frame, timed as the \"light-shadows\" pass; --shadowed-kind spot\n"
+    "makes them spots (one tile each) instead of point lights (six tiles, a cube).\n"
     "--model PATH renders a model file (loaded in this process) from its framing camera, with\n"
     "lights around it; --textures off strips its textures (the same geometry, factors only).\n";
 
@@ -145,6 +149,14 @@ Options parseOptions(const std::vector<std::string>& args) {
                          std::string(text) + "\".");
       }
       o.plan.sunShadowMap = uint32_t(size);
+    } else if (flag == "--shadowed-lights") {
+      o.plan.shadowedLights = uint32_t(parseCount(flag, value(), 0, render::kMaxShadowedLights));
+    } else if (flag == "--shadowed-kind") {
+      std::string_view kind = value();
+      if (kind != "point" && kind != "spot") {
+        throw UsageError("--shadowed-kind expects point or spot, not \"" + std::string(kind) + "\".");
+      }
+      o.plan.shadowedSpots = kind == "spot";
     } else if (flag == "--markers") {
       o.plan.markers = true;
     } else if (flag == "--antialias") {

@@ -120,6 +120,8 @@ nlohmann::json toJson(const RunInfo& run, const std::vector<ConfigResult>& resul
       {"markers", run.plan.markers},
       {"antialias", render::antialiasName(run.plan.antialias)},
       {"sun_shadow_map", run.plan.sunShadowMap},
+      {"shadowed_lights", run.plan.shadowedLights},
+      {"shadowed_kind", run.plan.shadowedSpots ? "spot" : "point"},
       {"ceiling_pairs_per_second", kH200PairsPerSecondCeiling},
       {"validation", {{"enabled", run.validation}, {"messages", run.validationMessages}}},
       {"configs", std::move(configs)},

@@ -162,7 +162,15 @@ struct EnvironmentSettings {
 struct ShadowSettings {
   bool sun = false;         // the sun casts shadows (one map over the scene's bounds)
   uint32_t mapSize = 2048;  // the sun's map, texels across: kShadowMapSizes
+  // Local lights asking for shadows (scene::PointLight::castsShadows) that get a map this frame,
+  // at most: 0..MYRIAD_MAX_SHADOWED_LIGHTS (kMaxShadowedLights); the rest are unshadowed.
+  uint32_t maxShadowedLights = 4;  // kDefaultShadowedLights
 };
+
+// The most maxShadowedLights may be (shaders/shared_types.h MYRIAD_MAX_SHADOWED_LIGHTS; the
+// schema's maximum, checked by the protocol test).
+inline constexpr uint32_t kMaxShadowedLights = 16;
+inline constexpr uint32_t kDefaultShadowedLights = 4;
 
 // The sizes a shadow map may have (protocol/schemas/defs.schema.json's shadowMapSize).
 inline constexpr std::array<uint32_t, 5> kShadowMapSizes = {256, 512, 1024, 2048, 4096};
@@ -274,6 +282,12 @@ struct Frame {
   uint32_t lightCount = 0;
   uint64_t sceneBytes = 0;  // GPU memory of the rendered scene (geometry, materials, lights)
   CullingReport culling;
+  // Local lights' shadows this frame (render/shadows.h planLightShadows).
+  struct LightShadows {
+    std::vector<uint32_t> lights;  // indices of the lights that had a shadow map, most important first
+    uint32_t requested = 0;        // lights asking for one whose light reaches into the view
+    uint32_t dropped = 0;          // of those, past maxShadowedLights: shaded unshadowed
+  } lightShadows;
 };
 
 }  // namespace myriad::render

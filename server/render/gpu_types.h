@@ -17,7 +17,13 @@ using gpu_types::CullingStats;
 using gpu_types::LargeLightQueue;
 
 static_assert(sizeof(gpu_types::vec4) == 16 && sizeof(gpu_types::mat4) == 64);
-static_assert(sizeof(FrameUniforms) == 4 * 64 + 16 * 16 + 2 * MYRIAD_MAX_EXTRA_SUNS * 16 + 64 + 16);
+static_assert(sizeof(gpu_types::GpuLightShadow) == 64 + 3 * 16);
+static_assert(sizeof(FrameUniforms) == 4 * 64 + 16 * 16 + 2 * MYRIAD_MAX_EXTRA_SUNS * 16 + 64 + 16 +
+                                           16 + MYRIAD_MAX_SHADOWED_LIGHTS / 4 * 16 +
+                                           MYRIAD_MAX_SHADOWED_LIGHTS * (64 + 3 * 16));
+static_assert(MYRIAD_MAX_SHADOWED_LIGHTS % 4 == 0);
+static_assert(MYRIAD_MAX_SHADOWED_LIGHTS == kMaxShadowedLights);
+static_assert(MYRIAD_SHADOWED_LIGHTS_DEFAULT == kDefaultShadowedLights);
 static_assert(offsetof(FrameUniforms, sunShadowMatrix) == 256 + 16 * 16 + 2 * MYRIAD_MAX_EXTRA_SUNS * 16);
 static_assert(sizeof(gpu_types::ShadowPush) == 64);
 static_assert(offsetof(FrameUniforms, environment) == 256 + 13 * 16);

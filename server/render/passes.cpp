@@ -57,7 +57,7 @@ gpu::VertexLayout surfaceVertexLayout() {
 Pipelines::Pipelines(gpu::Context& context) : device(context.device) {
   const VkShaderStageFlags all =
       VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT | VK_SHADER_STAGE_COMPUTE_BIT;
-  std::array<VkDescriptorSetLayoutBinding, 8> sceneBindings{{
+  std::array<VkDescriptorSetLayoutBinding, 9> sceneBindings{{
       {MYRIAD_BINDING_FRAME, VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1, all, nullptr},
       {MYRIAD_BINDING_LIGHTS, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, all, nullptr},
       {MYRIAD_BINDING_INSTANCES, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, all, nullptr},
@@ -66,6 +66,7 @@ Pipelines::Pipelines(gpu::Context& context) : device(context.device) {
       {MYRIAD_BINDING_ENVIRONMENT, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, all, nullptr},
       {MYRIAD_BINDING_BRDF_LUT, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, all, nullptr},
       {MYRIAD_BINDING_SUN_SHADOW_MAP, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, all, nullptr},
+      {MYRIAD_BINDING_LIGHT_SHADOW_ATLAS, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, all, nullptr},
   }};
   sceneSetLayout = gpu::createDescriptorSetLayout(device, sceneBindings);
   const VkShaderStageFlags readers = VK_SHADER_STAGE_FRAGMENT_BIT | VK_SHADER_STAGE_COMPUTE_BIT;

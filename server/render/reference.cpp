@@ -10,6 +10,7 @@
 
 #include "render/light_packing.h"
 #include "render/shading.h"
+#include "render/shadows.h"
 #include "scene/camera.h"
 
 namespace myriad::render {
@@ -82,13 +83,16 @@ void intersect(const Triangle& tri, glm::vec3 origin, glm::vec3 dir, Hit& best) 
   best.material = tri.material;
 }
 
-// Whether any triangle crosses the ray from `origin` along `dir` (t > 0): the analytic shadow
-// test, exact where the GPU's shadow map is filtered (so they differ only in the penumbra band).
-bool occluded(const std::vector<Triangle>& triangles, glm::vec3 origin, glm::vec3 dir) {
+// Whether any triangle crosses the ray from `origin` along `dir` (unit) at 0 < t < `reach`: the
+// analytic shadow test, exact where the GPU's shadow map is filtered (so they differ only in the
+// penumbra band). The sun's reach is unbounded; a local light's is its distance.
+bool occluded(const std::vector<Triangle>& triangles, glm::vec3 origin, glm::vec3 dir,
+              float reach = std::numeric_limits<float>::max()) {
   for (const Triangle& tri : triangles) {
     Hit hit;
+    hit.t = reach;
     intersect(tri, origin, dir, hit);
-    if (hit.t < std::numeric_limits<float>::max()) return true;
+    if (hit.t < reach) return true;
   }
   return false;
 }
@@ -200,6 +204,16 @@ std::vector<uint8_t> renderReference(const scene::Scene& scene, const FrameSetti
   std::vector<GpuPointLight> lights;
   lights.reserve(scene.lights.size());
   for (const scene::PointLight& l : scene.lights) lights.push_back(packLight(l));
+  // The lights the renderer gives a shadow map this frame (the same choice, from the same packed
+  // lights): their light is cut by an exact ray to the light instead.
+  std::vector<uint8_t> shadowed(lights.size(), 0);
+  {
+    std::vector<ShadowCaster> casters;
+    for (uint32_t i = 0; i < scene.lights.size(); ++i) {
+      if (scene.lights[i].castsShadows) casters.push_back({i, lights[i]});
+    }
+    for (uint32_t index : planLightShadows(casters, s).lights) shadowed[index] = 1;
+  }
   const bool environmentOn = s.environment.mode != EnvironmentMode::None;
   EnvironmentMaps maps;
   if (environmentOn) maps = buildEnvironmentMaps(s, environmentImage);
@@ -271,11 +285,21 @@ std::vector<uint8_t> renderReference(const scene::Scene& scene, const FrameSetti
             }
             // Emission is added with the sun and ambient (or environment) term, as on the GPU.
             hdr = half3(sunAndAmbient + emissive);
-            for (const GpuPointLight& l : lights) {
+            for (size_t i = 0; i < lights.size(); ++i) {
+              const GpuPointLight& l = lights[i];
               glm::vec3 c = shading::shadeLocalLight(
                   hit.position, normal, V, baseColor, metallic, roughness, glm::vec3(l.positionRadius),
                   l.positionRadius.w, glm::vec3(l.radianceFalloff), l.radianceFalloff.w,
                   spotDirectionOf(l), l.cone.z, l.cone.w);
+              if (shadowed[i] && c != glm::vec3(0.0f)) {
+                const glm::vec3 toLight = glm::vec3(l.positionRadius) - hit.position;
+                const float distance = glm::length(toLight);
+                if (glm::dot(hit.normal, toLight) > 0.0f &&
+                    occluded(triangles, hit.position + hit.normal * shadowEpsilon, toLight / distance,
+                             distance)) {
+                  c = glm::vec3(0.0f);
+                }
+              }
               if (c != glm::vec3(0.0f)) hdr = half3(hdr + half3(c));
             }
           }

@@ -27,10 +27,10 @@ namespace myriad::render {
 
 namespace {
 
-// environment (when rebuilt), animate, shadow, gbuffer, the technique's (sun + lights, lighting,
+// environment (when rebuilt), animate, shadow, light-shadows, gbuffer, the technique's (sun + lights, lighting,
 // or assign + shade), blend, markers, final, antialias, overlay, readback: room for a technique
 // of three passes and more.
-constexpr uint32_t kMaxTimedPasses = 15;
+constexpr uint32_t kMaxTimedPasses = 16;
 
 // The light-count view's hottest colour when the request leaves it to us.
 constexpr uint32_t kDefaultHeatMapMax = 64;
@@ -103,6 +103,8 @@ struct Renderer::State {
     // The sun's shadow map, rendered by each frame that has it on: the slot's own, so whole
     // frames between a split frame's submissions do not overwrite the split frame's map.
     std::unique_ptr<ShadowMaps> shadows;
+    // Which local lights have a shadow map this frame, and their tiles (prepareFrame plans it).
+    LightShadowPlan lightShadows;
   };
   FrameSlot whole;
   FrameSlot split;
@@ -131,7 +133,8 @@ struct Renderer::State {
   SceneEnvironment* environmentFor(SceneId id, const FrameSettings& settings);
   void writeTargetSet(FrameSlot& slot);
   void writeUniforms(FrameSlot& slot, const FrameSettings& settings, const SceneBuffers& scene,
-                     const LightingTechnique& technique, const SunShadowFit* sunShadow);
+                     const LightingTechnique& technique, const SunShadowFit* sunShadow,
+                     const LightShadowPlan& lightShadows);
   void ensureTargets(FrameSlot& slot, VkExtent2D extent, bool raw);
   Frame renderOnce(SceneBuffers& scene, SceneEnvironment* environment,
                    const FrameSettings& settings);
@@ -179,6 +182,7 @@ SceneEnvironment& Renderer::State::environment(SceneId id) {
 void Renderer::State::writeSceneSet(FrameSlot& slot, const SceneBuffers& scene,
                                     const gpu::Buffer& environment) {
   const VkDescriptorImageInfo sunShadowMap = slot.shadows->sunDescriptor();
+  const VkDescriptorImageInfo lightShadowAtlas = slot.shadows->atlasDescriptor();
   VkDescriptorBufferInfo buffers[7] = {
       {slot.uniforms.buffer, 0, sizeof(FrameUniforms)},
       {scene.lights.buffer, 0, VK_WHOLE_SIZE},
@@ -188,7 +192,7 @@ void Renderer::State::writeSceneSet(FrameSlot& slot, const SceneBuffers& scene,
       {environment.buffer, 0, VK_WHOLE_SIZE},
       {environmentPasses->brdfLut().buffer, 0, VK_WHOLE_SIZE},
   };
-  VkWriteDescriptorSet writes[8];
+  VkWriteDescriptorSet writes[9];
   for (uint32_t i = 0; i < 7; ++i) {
     writes[i] = {VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET};
     writes[i].dstSet = slot.sceneSet;
@@ -204,7 +208,10 @@ void Renderer::State::writeSceneSet(FrameSlot& slot, const SceneBuffers& scene,
   writes[7].descriptorCount = 1;
   writes[7].descriptorType = VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER;
   writes[7].pImageInfo = &sunShadowMap;
-  vkUpdateDescriptorSets(context.device, 8, writes, 0, nullptr);
+  writes[8] = writes[7];
+  writes[8].dstBinding = MYRIAD_BINDING_LIGHT_SHADOW_ATLAS;
+  writes[8].pImageInfo = &lightShadowAtlas;
+  vkUpdateDescriptorSets(context.device, 9, writes, 0, nullptr);
 }
 
 void Renderer::State::writeTargetSet(FrameSlot& slot) {
@@ -254,7 +261,8 @@ void Renderer::State::ensureTargets(FrameSlot& slot, VkExtent2D extent, bool raw
 void Renderer::State::writeUniforms(FrameSlot& slot, const FrameSettings& s,
                                     const SceneBuffers& scene,
                                     const LightingTechnique& technique,
-                                    const SunShadowFit* sunShadow) {
+                                    const SunShadowFit* sunShadow,
+                                    const LightShadowPlan& lightShadows) {
   float aspect = float(s.width) / float(s.height);
   glm::mat4 view = scene::viewMatrix(s.camera);
   glm::mat4 projection = scene::projectionMatrix(s.camera, aspect);
@@ -302,6 +310,14 @@ void Renderer::State::writeUniforms(FrameSlot& slot, const FrameSettings& s,
     u.sunShadow = glm::vec4(1.0f, sunShadow->texelWorld, 1.0f / float(s.shadows.mapSize),
                             1.0f / float(s.shadows.mapSize));
   }
+  if (!lightShadows.empty()) {
+    u.lightShadows = glm::uvec4(uint32_t(lightShadows.lights.size()), lightShadows.tileSize,
+                                lightShadows.atlas.width, lightShadows.atlas.height);
+    for (size_t i = 0; i < lightShadows.lights.size(); ++i) {
+      u.shadowedLightIndex[i / 4][int(i % 4)] = lightShadows.lights[i];
+      u.lightShadow[i] = lightShadows.shadows[i];
+    }
+  }
   technique.writeUniforms(u);
   std::memcpy(slot.uniforms.mapped, &u, sizeof(u));
 }
@@ -327,7 +343,7 @@ Renderer::Renderer(gpu::Context& context) : state_(std::make_unique<State>(conte
   // Sets 0 (scene) and 1 (targets) of both frame slots; each technique allocates its own set 2.
   VkDescriptorPoolSize sizes[] = {{VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 2 * 1},
                                   {VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 2 * 6},
-                                  {VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 2 * 10},  // + the sun shadow map, the LDR target
+                                  {VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 2 * 11},  // + the shadow maps, the LDR target
                                   {VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, 2 * 5}};
   VkDescriptorPoolCreateInfo poolInfo{VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO};
   poolInfo.maxSets = 4;
@@ -524,7 +540,15 @@ void Renderer::State::prepareFrame(FrameSlot& slot, SceneBuffers& scene,
   } else {
     slot.shadows->ensureSunPlaceholder();
   }
-  writeUniforms(slot, settings, scene, technique, sunShadow ? &*sunShadow : nullptr);
+  // The local lights' maps: which lights get one this frame, their tiles in the atlas.
+  slot.lightShadows = planLightShadows(scene.shadowCasters, settings);
+  if (slot.lightShadows.empty()) {
+    slot.shadows->ensureAtlasPlaceholder();
+  } else {
+    slot.shadows->ensureAtlas(slot.lightShadows.atlas);
+  }
+  writeUniforms(slot, settings, scene, technique, sunShadow ? &*sunShadow : nullptr,
+                slot.lightShadows);
   writeSceneSet(slot, scene, environment ? environment->lighting : environmentPasses->brdfLut());
 }
 
@@ -571,6 +595,12 @@ void Renderer::State::recordBeforeLighting(VkCommandBuffer cmd, const FrameSlot&
     slot.shadows->recordSun(cmd, p, scene, sunShadow->viewProjection);
   } else {
     slot.shadows->recordSunUnused(cmd);
+  }
+  if (!slot.lightShadows.empty()) {
+    s.timer.beginPass(cmd, "light-shadows");
+    slot.shadows->recordLights(cmd, p, scene, slot.lightShadows);
+  } else {
+    slot.shadows->recordAtlasUnused(cmd);
   }
   s.timer.beginPass(cmd, "gbuffer");
   recordGBufferPass(cmd, p, *slot.targets, scene, gbufferWrites(settings, scene));
@@ -633,6 +663,8 @@ Frame Renderer::State::readFrame(const FrameSlot& slot, SceneBuffers& scene,
   frame.sceneBytes = scene.bytes() + (environment ? environment->bytes() : 0);
   frame.culling.lightBytes = scene.lights.size + scene.lightOrigins.size;
   technique.report(frame.culling);
+  frame.lightShadows = {slot.lightShadows.lights, slot.lightShadows.requested,
+                        slot.lightShadows.dropped};
   return frame;
 }
 

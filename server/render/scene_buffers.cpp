@@ -219,6 +219,9 @@ SceneBuffers::SceneBuffers(gpu::Context& context, gpu::CommandRecorder& recorder
   gpuLights.reserve(scene.lights.size());
   for (const scene::PointLight& l : scene.lights) gpuLights.push_back(toGpu(l));
   lightCount = static_cast<uint32_t>(gpuLights.size());
+  for (uint32_t i = 0; i < lightCount; ++i) {
+    if (scene.lights[i].castsShadows) shadowCasters.push_back({i, gpuLights[i]});
+  }
   bounds = scene.bounds();
 
   auto bytes = [](const auto& v) { return VkDeviceSize(v.size() * sizeof(v[0])); };
@@ -289,6 +292,7 @@ void SceneBuffers::updateLights(gpu::CommandRecorder& recorder, const LightUpdat
     }
     transfer(context, recorder, {}, uploads);
     lightCount = count;
+    updateShadowCasters(update);
     return;
   }
 
@@ -321,6 +325,30 @@ void SceneBuffers::updateLights(gpu::CommandRecorder& recorder, const LightUpdat
     throw;
   }
   lightCount = count;
+  updateShadowCasters(update);
+}
+
+// Merges the update into the sorted caster list: O(casters + writes log writes), so an update
+// that adds a million asking lights at once costs one pass, not a million insertions.
+void SceneBuffers::updateShadowCasters(const LightUpdate& update) {
+  std::vector<const LightWrite*> writes;
+  writes.reserve(update.writes.size());
+  for (const LightWrite& w : update.writes) writes.push_back(&w);
+  // The last write to an index wins, as on the GPU (uploads run in order).
+  std::stable_sort(writes.begin(), writes.end(),
+                   [](const LightWrite* a, const LightWrite* b) { return a->index < b->index; });
+  std::vector<ShadowCaster> next;
+  next.reserve(shadowCasters.size());
+  size_t c = 0;
+  for (size_t w = 0; w <= writes.size(); ++w) {
+    const uint32_t upTo = w < writes.size() ? writes[w]->index : lightCount;
+    for (; c < shadowCasters.size() && shadowCasters[c].index < upTo; ++c) next.push_back(shadowCasters[c]);
+    if (w == writes.size()) break;
+    if (w + 1 < writes.size() && writes[w + 1]->index == upTo) continue;  // a later write wins
+    while (c < shadowCasters.size() && shadowCasters[c].index == upTo) ++c;  // replaced
+    if (writes[w]->light.castsShadows) next.push_back({upTo, toGpu(writes[w]->light)});
+  }
+  shadowCasters = std::move(next);  // lights at or past the new count fell off the end
 }
 
 void SceneBuffers::updateMaterials(gpu::CommandRecorder& recorder,

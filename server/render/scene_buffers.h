@@ -14,6 +14,7 @@
 #include "render/frame.h"
 #include "render/textures.h"
 #include "scene/scene.h"
+#include "shared_types.h"
 
 namespace myriad::render {
 
@@ -28,6 +29,13 @@ struct DrawItem {
   uint32_t instance = 0;  // index into the instance buffer, passed as firstInstance
   uint32_t material = 0;  // the instance's material: draws are sorted by it
   glm::vec3 centre{0.0f};  // world-space centre of the mesh's bounds: alpha-blended draws sort by it
+};
+
+// A light that asks for a shadow (scene::PointLight::castsShadows): its index in the light
+// buffer and what was uploaded there (render/shadows.h plans the frame's maps from these).
+struct ShadowCaster {
+  uint32_t index = 0;
+  gpu_types::GpuPointLight light{};
 };
 
 struct SceneBuffers {
@@ -70,9 +78,13 @@ struct SceneBuffers {
   uint32_t materialCount = 0;
   scene::Bounds bounds;
   bool lightsMoved = false;  // `lights` holds animated positions, not the origins
+  // The lights asking for shadows, sorted by index; follows updateLights. One entry per asking
+  // light (52 bytes: a million asking cost 52 MB of host memory, bounded by the light count).
+  std::vector<ShadowCaster> shadowCasters;
 
  private:
   void allocateLights(uint32_t capacity);
+  void updateShadowCasters(const LightUpdate& update);
 };
 
 // Scale that makes a mesh with vertices on the unit sphere contain the unit sphere: 1 / the

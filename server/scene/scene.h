@@ -136,6 +136,9 @@ struct PointLight {
   glm::vec3 direction{0.0f, -1.0f, 0.0f};  // unit; the way a spot light points
   float innerConeAngle = 0.0f;             // glTF's defaults
   float outerConeAngle = 0.78539816339744831f;
+  // The light asks for a shadow map (render/shadows.h): it gets one when it is among the frame's
+  // most important asking lights, up to settings.shadows.maxShadowedLights; else it is unshadowed.
+  bool castsShadows = false;
 };
 
 struct Sun {

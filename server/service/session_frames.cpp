@@ -88,6 +88,16 @@ void FrameStatsBook::record(const SessionPtr& session, const render::Frame& fram
   protocol::CullingStats culling{c.tilesOverflowed, c.tileLightsDropped, c.clusterLightsDropped,
                                  c.listEntries,     c.activeClusters,    c.mostLightsInList};
   protocol::GpuMemory memory{c.lightBytes, c.listBytes, frame.sceneBytes};
+  // The lights that had a shadow map, by id: the slots as the session holds them now (an edit
+  // between the frame and here may have moved a light; a slot past the end is left out).
+  protocol::LightShadowStats lightShadows{{}, frame.lightShadows.requested, frame.lightShadows.dropped};
+  if (!frame.lightShadows.lights.empty()) {
+    std::lock_guard sessionLock(session->mutex);
+    const std::vector<uint64_t>& ids = session->scene.lightIds();
+    for (uint32_t slot : frame.lightShadows.lights) {
+      if (slot < ids.size()) lightShadows.lights.push_back(ids[slot]);
+    }
+  }
 
   std::lock_guard lock(mutex_);
   for (auto it = entries_.begin(); it != entries_.end();) {
@@ -97,6 +107,7 @@ void FrameStatsBook::record(const SessionPtr& session, const render::Frame& fram
   entry.session = session;
   entry.frame = std::move(stats);
   entry.culling = culling;
+  entry.lightShadows = std::move(lightShadows);
   entry.gpuMemory = memory;
   ++entry.frames;
 }
@@ -112,6 +123,7 @@ protocol::Stats FrameStatsBook::statsOf(const Session& session, uint64_t lightCo
   if (it != entries_.end()) {
     stats.frame = it->second.frame;
     stats.culling = it->second.culling;
+    stats.lightShadows = it->second.lightShadows;
     stats.gpuMemory = it->second.gpuMemory;
     stats.frames = it->second.frames;
   }

@@ -48,6 +48,7 @@ class FrameStatsBook {
     std::weak_ptr<Session> session;  // entries of sessions gone are dropped on the next record
     protocol::FrameStats frame;
     protocol::CullingStats culling;
+    protocol::LightShadowStats lightShadows;
     protocol::GpuMemory gpuMemory;
     uint64_t frames = 0;
   };

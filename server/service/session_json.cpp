@@ -72,6 +72,7 @@ protocol::Settings toWire(const render::SceneSettings& s) {
   out.environment.background = s.environment.background;
   out.shadows.sun = s.shadows.sun;
   out.shadows.mapSize = s.shadows.mapSize;
+  out.shadows.maxShadowedLights = s.shadows.maxShadowedLights;
   return out;
 }
 
@@ -160,6 +161,7 @@ protocol::LightNew toWireNew(const scene::PointLight& l) {
   out.direction = toWire(l.direction);
   out.innerConeAngle = wire(l.innerConeAngle);
   out.outerConeAngle = wire(l.outerConeAngle);
+  out.castsShadows = l.castsShadows;
   return out;
 }
 
@@ -188,6 +190,7 @@ scene::PointLight fromWire(const protocol::Light& l, std::string_view pointer, b
   out.outerConeAngle =
       std::clamp(float(l.outerConeAngle), std::nextafter(0.0f, 1.0f), scene::kMaxConeAngle);
   out.innerConeAngle = std::min(float(l.innerConeAngle), std::nextafter(out.outerConeAngle, 0.0f));
+  out.castsShadows = l.castsShadows.value_or(false);
   return out;
 }
 

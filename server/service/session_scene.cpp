@@ -206,6 +206,10 @@ const render::SceneSettings& SessionScene::patchSettings(const protocol::Setting
     // The schema allows only render::kShadowMapSizes.
     if (patch.shadows->sun) s.shadows.sun = *patch.shadows->sun;
     if (patch.shadows->mapSize) s.shadows.mapSize = *patch.shadows->mapSize;
+    // The schema bounds it to 0..render::kMaxShadowedLights.
+    if (patch.shadows->maxShadowedLights) {
+      s.shadows.maxShadowedLights = std::min(*patch.shadows->maxShadowedLights, render::kMaxShadowedLights);
+    }
   }
   if (s.animate && !settings_.animate) animationStart_ = now;
   if (patch.environment && patch.environment->mode) environmentChosen_ = true;
@@ -286,8 +290,9 @@ SessionScene::Restored SessionScene::restore(const protocol::Snapshot& snapshot,
   if (image.image) next.setEnvironmentImage(image.image, image.source);
   settings.environment = protocol::EnvironmentPatch{environment.mode, environment.intensity,
                                                     environment.rotation, environment.background};
-  settings.shadows = protocol::ShadowsPatch{snapshot.settings.shadows.sun,
-                                            snapshot.settings.shadows.mapSize};
+  settings.shadows = protocol::ShadowsPatch{
+      snapshot.settings.shadows.sun, snapshot.settings.shadows.mapSize,
+      snapshot.settings.shadows.maxShadowedLights.value_or(render::kDefaultShadowedLights)};
   try {
     next.patchSettings(settings, now);
   } catch (const ProblemError& e) {
