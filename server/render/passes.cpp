@@ -123,6 +123,8 @@ Pipelines::Pipelines(gpu::Context& context) : device(context.device) {
   d.depthCompare = VK_COMPARE_OP_LESS;
   d.dynamicCullMode = true;  // per material: glTF's doubleSided
   gbuffer = gpu::createGraphicsPipeline(device, layout, d);
+  d.fragmentShader = spirv::gbuffer_alpha_test_frag;
+  gbufferAlphaTest = gpu::createGraphicsPipeline(device, layout, d);
 
   // Alpha-blended surfaces: the G-buffer's vertex stage, one HDR target blended `over`, the
   // G-buffer depth tested and kept.
@@ -160,7 +162,7 @@ Pipelines::Pipelines(gpu::Context& context) : device(context.device) {
 }
 
 Pipelines::~Pipelines() {
-  for (VkPipeline p : {gbuffer, forward, forwardClustered, shadow, lightVolumeOverlay, animateLights,
+  for (VkPipeline p : {gbuffer, gbufferAlphaTest, forward, forwardClustered, shadow, lightVolumeOverlay, animateLights,
                       markerSplat, final, finalRaw, views, viewsRaw, antialias}) {
     if (p) vkDestroyPipeline(device, p, nullptr);
   }
@@ -207,22 +209,31 @@ void recordGBufferPass(VkCommandBuffer cmd, const Pipelines& p, const FrameTarge
   depth.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
   depth.clearValue.depthStencil = {1.0f, 0};
   beginRendering(cmd, t.extent, colors, &depth);
-  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, p.gbuffer);
   bindGeometry(cmd, scene);
-  // Draws come grouped by material (SceneBuffers sorts them): one texture set and one cull mode
-  // per group.
-  uint32_t bound = UINT32_MAX;
-  for (const DrawItem& draw : scene.draws) {
-    if (scene.blend[draw.material]) continue;  // the forward pass draws it (recordBlendPass)
-    if (draw.material != bound) {
-      bound = draw.material;
-      VkDescriptorSet set = scene.textures->set(bound);
-      vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, p.layout, MYRIAD_SET_MATERIAL,
-                              1, &set, 0, nullptr);
-      vkCmdSetCullMode(cmd, scene.doubleSided[bound] ? VK_CULL_MODE_NONE : VK_CULL_MODE_BACK_BIT);
+  // Opaque materials first, then alpha-tested ones (their own pipeline: a shader that may discard
+  // writes depth only after it runs). Draws come grouped by material (SceneBuffers sorts them):
+  // one texture set and one cull mode per group.
+  for (const bool alphaTest : {false, true}) {
+    bool pipelineBound = false;
+    uint32_t bound = UINT32_MAX;
+    for (const DrawItem& draw : scene.draws) {
+      if (scene.blend[draw.material]) continue;  // the forward pass draws it (recordBlendPass)
+      if ((scene.alphaTest[draw.material] != 0) != alphaTest) continue;
+      if (!pipelineBound) {
+        vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS,
+                          alphaTest ? p.gbufferAlphaTest : p.gbuffer);
+        pipelineBound = true;
+      }
+      if (draw.material != bound) {
+        bound = draw.material;
+        VkDescriptorSet set = scene.textures->set(bound);
+        vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, p.layout,
+                                MYRIAD_SET_MATERIAL, 1, &set, 0, nullptr);
+        vkCmdSetCullMode(cmd, scene.doubleSided[bound] ? VK_CULL_MODE_NONE : VK_CULL_MODE_BACK_BIT);
+      }
+      vkCmdDrawIndexed(cmd, draw.mesh.indexCount, 1, draw.mesh.firstIndex, draw.mesh.vertexOffset,
+                       draw.instance);
     }
-    vkCmdDrawIndexed(cmd, draw.mesh.indexCount, 1, draw.mesh.firstIndex, draw.mesh.vertexOffset,
-                     draw.instance);
   }
   vkCmdEndRendering(cmd);
 
