@@ -625,38 +625,43 @@ TEST_CASE("frames in flight each keep their own pixels, counters and animation t
   CHECK(pixelsOver(serial[2].rgba, serial[3].rgba, 2) > 0);  // the lights moved between them
 
   // Three in flight: a frame is begun while up to two others are on the GPU, and finished in
-  // the order begun.
+  // the order begun; with overlap, frames of another scene start without waiting for them.
   r.setFramesInFlight(3);
   CHECK(r.framesInFlight() == 3);
-  std::deque<uint32_t> slots;
-  std::vector<render::Frame> pipelined;
-  size_t mostInFlight = 0;
-  for (const Job& job : jobs) {
-    if (!r.canBegin()) {
+  for (bool overlap : {false, true}) {
+    CAPTURE(overlap);
+    r.setOverlap(overlap);
+    std::deque<uint32_t> slots;
+    std::vector<render::Frame> pipelined;
+    size_t mostInFlight = 0;
+    for (const Job& job : jobs) {
+      if (!r.canBegin()) {
+        pipelined.push_back(r.finishFrame(slots.front()));
+        slots.pop_front();
+      }
+      slots.push_back(r.beginFrame(job.id, job.settings));
+      mostInFlight = std::max(mostInFlight, slots.size());
+    }
+    CHECK_THROWS_AS(r.beginFrame(idA, jobs[0].settings), std::logic_error);  // every slot busy
+    CHECK_THROWS_AS(r.setFramesInFlight(1), std::logic_error);
+    while (!slots.empty()) {
       pipelined.push_back(r.finishFrame(slots.front()));
       slots.pop_front();
     }
-    slots.push_back(r.beginFrame(job.id, job.settings));
-    mostInFlight = std::max(mostInFlight, slots.size());
+    CHECK(mostInFlight == 3);
+    REQUIRE(pipelined.size() == serial.size());
+    for (size_t i = 0; i < jobs.size(); ++i) {
+      CAPTURE(i);
+      // Up to the order a list's lights were summed in (the GPU's atomics).
+      CHECK(maxDifference(pipelined[i].rgba, serial[i].rgba) <= 1);
+      CHECK(pipelined[i].culling.listEntries == serial[i].culling.listEntries);
+      CHECK(pipelined[i].culling.activeClusters == serial[i].culling.activeClusters);
+      CHECK(pipelined[i].culling.mostLightsInList == serial[i].culling.mostLightsInList);
+      CHECK(pipelined[i].lightCount == serial[i].lightCount);
+      CHECK(pipelined[i].technique == serial[i].technique);
+    }
   }
-  CHECK_THROWS_AS(r.beginFrame(idA, jobs[0].settings), std::logic_error);  // every slot in flight
-  CHECK_THROWS_AS(r.setFramesInFlight(1), std::logic_error);
-  while (!slots.empty()) {
-    pipelined.push_back(r.finishFrame(slots.front()));
-    slots.pop_front();
-  }
-  CHECK(mostInFlight == 3);
-  REQUIRE(pipelined.size() == serial.size());
-  for (size_t i = 0; i < jobs.size(); ++i) {
-    CAPTURE(i);
-    // Up to the order a list's lights were summed in (the GPU's atomics).
-    CHECK(maxDifference(pipelined[i].rgba, serial[i].rgba) <= 1);
-    CHECK(pipelined[i].culling.listEntries == serial[i].culling.listEntries);
-    CHECK(pipelined[i].culling.activeClusters == serial[i].culling.activeClusters);
-    CHECK(pipelined[i].culling.mostLightsInList == serial[i].culling.mostLightsInList);
-    CHECK(pipelined[i].lightCount == serial[i].lightCount);
-    CHECK(pipelined[i].technique == serial[i].technique);
-  }
+  r.setOverlap(false);
 
   // A frame in flight when its scene is destroyed keeps what it rendered; edits wait for it.
   const uint32_t slot = r.beginFrame(idA, jobs[0].settings);

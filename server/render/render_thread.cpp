@@ -14,6 +14,10 @@ namespace myriad::render {
 
 namespace {
 
+// How long the render thread waits on a frame's fence before it looks at the queue again, while
+// frames are in flight and nothing is queued.
+constexpr uint64_t kAnswerPollNs = 500'000;
+
 // What the service may know about the device: gpu::DeviceInfo without the limits only the
 // renderer uses.
 DeviceSummary summarize(const gpu::DeviceInfo& d) {
@@ -39,9 +43,11 @@ DeviceSummary summarize(const gpu::DeviceInfo& d) {
 }  // namespace
 
 RenderThread::RenderThread(const gpu::ContextOptions& options, const scene::Scene& scene,
-                           uint32_t maxQueuedFrames, uint32_t framesInFlight)
+                           uint32_t maxQueuedFrames, uint32_t framesInFlight,
+                           bool overlapFrames)
     : maxQueuedFrames_(maxQueuedFrames),
-      framesInFlight_(std::clamp(framesInFlight, 1u, Renderer::kMaxFramesInFlight)) {
+      framesInFlight_(std::clamp(framesInFlight, 1u, Renderer::kMaxFramesInFlight)),
+      overlapFrames_(overlapFrames) {
   std::promise<void> ready;
   std::future<void> started = ready.get_future();
   thread_ = std::thread([this, &options, &scene, &ready] { run(options, scene, ready); });
@@ -289,6 +295,7 @@ void RenderThread::run(const gpu::ContextOptions& options, const scene::Scene& s
     context = gpu::createContext(options);
     renderer = std::make_unique<Renderer>(*context);
     renderer->setFramesInFlight(framesInFlight_);
+    renderer->setOverlap(overlapFrames_);
     defaultScene_ = renderer->createScene(scene);
     device_ = summarize(context->info);
     maxDimension_ = renderer->maxDimension();
@@ -318,7 +325,9 @@ void RenderThread::run(const gpu::ContextOptions& options, const scene::Scene& s
       answer = !inFlight_.empty() && turns_.empty();
     }
     if (answer) {
-      finishOldest(*renderer);
+      // Wait for it in short steps: a frame queued meanwhile is submitted at once (into the slot
+      // the previous answer freed), so the GPU gets it before this one is copied out.
+      if (renderer->waitFrame(inFlight_.front().slot, kAnswerPollNs)) finishOldest(*renderer);
       continue;
     }
     {

@@ -55,8 +55,10 @@ class RenderThread final : public RenderQueue {
   // the default scene (`scene` need not outlive the constructor). Returns once frames can be
   // submitted; rethrows whatever start-up threw on the thread (gpu::NoDeviceError among others).
   // `framesInFlight`: frame slots (1..Renderer::kMaxFramesInFlight, clamped).
+  // `overlapFrames`: Renderer::setOverlap.
   RenderThread(const gpu::ContextOptions& options, const scene::Scene& scene,
-               uint32_t maxQueuedFrames, uint32_t framesInFlight = kDefaultFramesInFlight);
+               uint32_t maxQueuedFrames, uint32_t framesInFlight = kDefaultFramesInFlight,
+               bool overlapFrames = false);
   static constexpr uint32_t kDefaultFramesInFlight = 2;
   ~RenderThread() override;
   RenderThread(const RenderThread&) = delete;
@@ -142,6 +144,7 @@ class RenderThread final : public RenderQueue {
   uint32_t maxDimension_ = 0;
   const uint32_t maxQueuedFrames_;
   const uint32_t framesInFlight_;
+  const bool overlapFrames_;
   std::deque<InFlight> inFlight_;  // oldest first; the render thread's alone
   SceneId defaultScene_ = 0;
   std::atomic<uint64_t> gpuMemoryBytes_{0};

@@ -120,6 +120,7 @@ struct Renderer::State {
   std::vector<std::unique_ptr<FrameSlot>> slots;  // kMaxFramesInFlight; framesInFlight used
   FrameSlot split;
   uint32_t framesInFlight = 1;
+  bool overlap = false;  // setOverlap
   // What the last whole frame was recorded with: a frame that differs waits for those in flight
   // (its technique's prepare() may reallocate what they use).
   struct Shape {
@@ -172,8 +173,10 @@ struct Renderer::State {
                      const LightingTechnique& technique, const SunShadowFit* sunShadow);
   void ensureTargets(FrameSlot& slot, VkExtent2D extent, bool raw);
   // Records a whole frame into `slot` (not submitted) and fills slot.meta.
+  // `waitAtStart`: the frame's first command waits for everything submitted before; otherwise
+  // its lighting does (setOverlap).
   void recordFrame(FrameSlot& slot, SceneBuffers& scene, SceneEnvironment* environment,
-                   const FrameSettings& settings);
+                   const FrameSettings& settings, bool waitAtStart = true);
   // recordFrame, submit, wait, read back.
   Frame renderOnce(FrameSlot& slot, SceneBuffers& scene, SceneEnvironment* environment,
                    const FrameSettings& settings);
@@ -182,7 +185,7 @@ struct Renderer::State {
   // The steps of a frame, shared by whole and split frames.
   void prepareFrame(FrameSlot& slot, SceneBuffers& scene, SceneEnvironment* environment,
                     const FrameSettings& settings, LightingTechnique& technique);
-  VkCommandBuffer beginFrameCommands(FrameSlot& slot);
+  VkCommandBuffer beginFrameCommands(FrameSlot& slot, bool waitAtStart = true);
   void recordBeforeLighting(VkCommandBuffer cmd, const FrameSlot& slot, SceneBuffers& scene,
                             SceneEnvironment* environment, const FrameSettings& settings);
   void recordAfterLighting(VkCommandBuffer cmd, const FrameSlot& slot, SceneBuffers& scene,
@@ -559,6 +562,8 @@ void Renderer::setFramesInFlight(uint32_t frames) {
 
 uint32_t Renderer::framesInFlight() const { return state_->framesInFlight; }
 
+void Renderer::setOverlap(bool overlap) { state_->overlap = overlap; }
+
 bool Renderer::canBegin() const {
   const State& s = *state_;
   for (uint32_t i = 0; i < s.framesInFlight; ++i) {
@@ -585,7 +590,9 @@ uint32_t Renderer::beginFrame(SceneId id, const FrameSettings& settings) {
       environment->built != EnvironmentPasses::inputsFor(settings, *environment);
   if (shape != s.lastShape || rebuildsEnvironment) s.quiesce();
   s.lastShape = shape;
-  s.recordFrame(slot, scene, environment, settings);
+  bool sharesScene = false;  // with a frame in flight
+  for (const auto& other : s.slots) sharesScene = sharesScene || (other->inFlight && other->scene == id);
+  s.recordFrame(slot, scene, environment, settings, !s.overlap || sharesScene);
   gpu::submit(s.context, slot.recorder);
   slot.inFlight = true;
   slot.scene = id;
@@ -597,6 +604,16 @@ bool Renderer::frameDone(uint32_t index) const {
   const State& s = *state_;
   return index < s.slots.size() && s.slots[index]->inFlight &&
          vkGetFenceStatus(s.context.device, s.slots[index]->recorder.fence) == VK_SUCCESS;
+}
+
+bool Renderer::waitFrame(uint32_t index, uint64_t timeoutNs) const {
+  const State& s = *state_;
+  if (index >= s.slots.size() || !s.slots[index]->inFlight) return false;
+  const VkResult result =
+      vkWaitForFences(s.context.device, 1, &s.slots[index]->recorder.fence, VK_TRUE, timeoutNs);
+  if (result == VK_TIMEOUT) return false;
+  VK_CHECK(result);
+  return true;
 }
 
 // Reads the frame back; when the technique's lists overflowed but may still grow, grows them and
@@ -659,15 +676,24 @@ void Renderer::State::prepareFrame(FrameSlot& slot, SceneBuffers& scene,
   writeSceneSet(slot, scene, environment ? environment->lighting : environmentPasses->brdfLut());
 }
 
+namespace {
+
+// Everything submitted before (earlier frames on the queue included) happens before what follows.
+void waitForEarlier(VkCommandBuffer cmd) {
+  gpu::memoryBarrier(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, VK_ACCESS_2_MEMORY_WRITE_BIT,
+                     VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT,
+                     VK_ACCESS_2_MEMORY_READ_BIT | VK_ACCESS_2_MEMORY_WRITE_BIT);
+}
+
+}  // namespace
+
 // Begins the slot's command buffer with its sets 0 and 1 bound for graphics and compute and its
 // timer reset. The first command waits for everything submitted before (frames in flight share
 // the scenes' lights, the techniques' lists and counters, and write them without other
 // barriers); the frames' host work overlaps, their GPU work runs in order.
-VkCommandBuffer Renderer::State::beginFrameCommands(FrameSlot& slot) {
+VkCommandBuffer Renderer::State::beginFrameCommands(FrameSlot& slot, bool waitAtStart) {
   VkCommandBuffer cmd = gpu::beginCommands(context, slot.recorder);
-  gpu::memoryBarrier(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, VK_ACCESS_2_MEMORY_WRITE_BIT,
-                     VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT,
-                     VK_ACCESS_2_MEMORY_READ_BIT | VK_ACCESS_2_MEMORY_WRITE_BIT);
+  if (waitAtStart) waitForEarlier(cmd);
   VkDescriptorSet sets[] = {slot.sceneSet, slot.targetSet};
   vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipelines.layout, 0, 2, sets, 0,
                           nullptr);
@@ -789,11 +815,15 @@ Frame Renderer::State::readFrame(const FrameSlot& slot, const Frame& meta,
 // The frame, top to bottom, in one submission. Every request (any view, any size, any technique)
 // takes this path, or the same steps split (beginSplit).
 void Renderer::State::recordFrame(FrameSlot& slot, SceneBuffers& scene,
-                                  SceneEnvironment* environment, const FrameSettings& settings) {
+                                  SceneEnvironment* environment, const FrameSettings& settings,
+                                  bool waitAtStart) {
   LightingTechnique& technique = this->technique(settings.technique);
   prepareFrame(slot, scene, environment, settings, technique);
-  VkCommandBuffer cmd = beginFrameCommands(slot);
+  VkCommandBuffer cmd = beginFrameCommands(slot, waitAtStart);
   recordBeforeLighting(cmd, slot, scene, environment, settings);
+  // The technique's lists and counters are shared by frames in flight: the earlier frames are
+  // done with them (their lighting, blend pass and counter copy) before this one resets them.
+  if (!waitAtStart) waitForEarlier(cmd);
   // Lighting leaves HDR and light counts as attachments (raster) or storage images (compute).
   const VkImageLayout lightingLayout =
       technique.record({cmd, *slot.timer, *slot.targets, scene});

@@ -72,6 +72,13 @@ class Renderer {
   // 1..kMaxFramesInFlight (clamped); std::logic_error while a frame is in flight.
   void setFramesInFlight(uint32_t frames);
   uint32_t framesInFlight() const;
+  // Overlap on the GPU (off by default): a frame of a scene no frame in flight draws starts
+  // without the full barrier, so its passes before lighting (animation, shadow, G-buffer: its
+  // own slot's targets and its own scene's buffers) may run while the previous frame lights and
+  // finishes; the full barrier moves to just before its lighting (the techniques' shared lists
+  // and counters). A frame of a scene already in flight keeps the barrier at its start (its
+  // animation rewrites the lights the other frame reads). Off: every frame starts with it.
+  void setOverlap(bool overlap);
   // Whether beginFrame has a free slot.
   bool canBegin() const;
   // Records and submits a frame into a free slot (the lowest: a client that waits for each frame
@@ -80,6 +87,8 @@ class Renderer {
   uint32_t beginFrame(SceneId id, const FrameSettings& settings);
   // Whether the GPU has finished the frame in flight in `slot` (finishFrame will not wait).
   bool frameDone(uint32_t slot) const;
+  // Waits at most `timeoutNs` for it; true once finished.
+  bool waitFrame(uint32_t slot, uint64_t timeoutNs) const;
   // Waits for the frame in `slot` (beginFrame's) and reads it back; the slot is free afterwards,
   // even when this throws. When the technique's lists overflowed and may grow, waits for every
   // frame in flight, grows them and renders the frame again (in the same slot, synchronously),

@@ -95,6 +95,7 @@ const std::vector<Flag>& flags() {
        [](Options& o, std::string_view v) {
          o.framesInFlight = parseUnsigned<uint32_t>("--frames-in-flight", v, 1, 4);
        }},
+      {"--overlap-frames", false, [](Options& o, std::string_view) { o.overlapFrames = true; }},
       {"--max-sessions", true,
        [](Options& o, std::string_view v) {
          o.maxSessions = parseUnsigned<uint32_t>("--max-sessions", v, 1, kMaxCountLimit);
@@ -251,6 +252,8 @@ materials and lights (protocol/reference.md), and the stateless GET /v1/frame.
                            503 + Retry-After (default 4)
   --frames-in-flight N     frames the renderer keeps submitted to the GPU at once, 1-4: the
                            next is recorded while the GPU renders (default 2; 1: serial)
+  --overlap-frames         let frames of different sessions overlap on the GPU (the next
+                           frame's G-buffer while the previous one lights; experimental)
   --max-sessions N         sessions open at once; more get 429 (default 16)
   --max-lights N           local lights per session; more get 413 (default 1000000)
   --max-upload-bytes N     largest model upload (default 67108864, 64 MiB)
