@@ -2,10 +2,16 @@
 // on). The chunks are read as a client would (tests/browser reads the same ones with WebCodecs) and
 // decoded with libvpx: the first is a key frame, pictures match the PNG frame of the same state,
 // edits arrive as delta frames that change pixels, idle streams send keep-alives, and a closed
-// stream stops encoding.
+// stream stops encoding; a viewer that stops reading skips to a key frame without stalling another
+// viewer of the same encoder.
 #include <doctest/doctest.h>
 #include <httplib.h>
 
+#include <netinet/in.h>
+#include <netinet/tcp.h>
+#include <sys/socket.h>
+
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <tuple>
@@ -32,6 +38,9 @@ using myriad::test::ApiClient;
 using myriad::test::createSession;
 using myriad::test::ServerProcess;
 using myriad::test::TestSession;
+using myriad::test::VideoReader;
+using Chunk = myriad::test::VideoChunk;
+using myriad::test::bearer;
 using nlohmann::json;
 using Clock = std::chrono::steady_clock;
 
@@ -39,113 +48,6 @@ namespace {
 
 constexpr uint32_t kWidth = 96;
 constexpr uint32_t kHeight = 64;
-constexpr size_t kHeaderBytes = 48;
-
-struct Chunk {
-  uint8_t kind = 0;
-  uint16_t width = 0, height = 0;
-  uint32_t sequence = 0;
-  uint64_t timestampUs = 0;
-  uint64_t version = 0;
-  double time = 0.0;
-  uint32_t encodeUs = 0;
-  std::string payload;
-  Clock::time_point arrived;
-};
-
-template <typename T>
-T read(const std::string& bytes, size_t offset) {
-  T value;
-  std::memcpy(&value, bytes.data() + offset, sizeof value);
-  return value;
-}
-
-// Reads a video stream on its own thread and splits it into chunks.
-class VideoReader {
- public:
-  VideoReader(const ServerProcess& server, std::string path, std::string token)
-      : client_(server.host(), server.port()) {
-    client_.set_read_timeout(300, 0);
-    thread_ = std::thread([this, path = std::move(path), token = std::move(token)] {
-      httplib::Result res = client_.Get(
-          path, {{"Authorization", "Bearer " + token}},
-          [this](const httplib::Response& response) {
-            std::lock_guard lock(mutex_);
-            status_ = response.status;
-            contentType_ = response.get_header_value("Content-Type");
-            codec_ = response.get_header_value("X-Myriad-Codec");
-            changed_.notify_all();
-            return true;
-          },
-          [this](const char* data, size_t size) {
-            std::lock_guard lock(mutex_);
-            buffer_.append(data, size);
-            while (buffer_.size() >= kHeaderBytes) {
-              const uint32_t payload = read<uint32_t>(buffer_, 0);
-              if (buffer_.size() < kHeaderBytes + payload) break;
-              Chunk chunk;
-              chunk.kind = read<uint8_t>(buffer_, 4);
-              chunk.width = read<uint16_t>(buffer_, 8);
-              chunk.height = read<uint16_t>(buffer_, 10);
-              chunk.sequence = read<uint32_t>(buffer_, 12);
-              chunk.timestampUs = read<uint64_t>(buffer_, 16);
-              chunk.version = read<uint64_t>(buffer_, 24);
-              chunk.time = read<double>(buffer_, 32);
-              chunk.encodeUs = read<uint32_t>(buffer_, 40);
-              chunk.payload = buffer_.substr(kHeaderBytes, payload);
-              chunk.arrived = Clock::now();
-              if (buffer_[5] != 0 || buffer_[6] != 0 || buffer_[7] != 0 ||
-                  read<uint32_t>(buffer_, 44) != 0) {
-                framingError_ = "reserved header bytes are not zero";
-              }
-              chunks_.push_back(std::move(chunk));
-              buffer_.erase(0, kHeaderBytes + payload);
-            }
-            changed_.notify_all();
-            return !stop_;
-          });
-      std::lock_guard lock(mutex_);
-      if (res && status_ == 0) status_ = res->status;
-      if (res && status_ >= 400) errorBody_ = res->body;
-      ended_ = true;
-      changed_.notify_all();
-    });
-  }
-  ~VideoReader() {
-    {
-      std::lock_guard lock(mutex_);
-      stop_ = true;
-    }
-    client_.stop();
-    thread_.join();
-  }
-  std::vector<Chunk> waitFor(size_t count, std::chrono::seconds timeout) {
-    std::unique_lock lock(mutex_);
-    changed_.wait_for(lock, timeout, [&] { return chunks_.size() >= count || ended_; });
-    return chunks_;
-  }
-  int status() {
-    std::unique_lock lock(mutex_);
-    changed_.wait_for(lock, std::chrono::seconds(300), [&] { return status_ != 0 || ended_; });
-    return status_;
-  }
-  std::string contentType() { std::lock_guard lock(mutex_); return contentType_; }
-  std::string codec() { std::lock_guard lock(mutex_); return codec_; }
-  std::string framingError() { std::lock_guard lock(mutex_); return framingError_; }
-  std::string errorBody() { std::lock_guard lock(mutex_); return errorBody_; }
-
- private:
-  httplib::Client client_;
-  std::thread thread_;
-  std::mutex mutex_;
-  std::condition_variable changed_;
-  std::string buffer_;
-  std::vector<Chunk> chunks_;
-  int status_ = 0;
-  bool ended_ = false;
-  bool stop_ = false;
-  std::string contentType_, codec_, framingError_, errorBody_;
-};
 
 std::span<const uint8_t> bytesOf(const std::string& s) {
   return {reinterpret_cast<const uint8_t*>(s.data()), s.size()};
@@ -187,10 +89,10 @@ TEST_CASE("video streams: key frame first, PNG-close pictures, edits as deltas, 
     const std::string codecName = name;
     CAPTURE(codecName);
     VideoReader reader(server, videoPath(session, std::string("codec=") + name + "&fps=8&bitrate=600"),
-                       session.token);
+                       bearer(session.token));
     REQUIRE(reader.status() == 200);
-    CHECK(reader.contentType() == "application/x-myriad-video");
-    CHECK(reader.codec() == webName);
+    CHECK(reader.header("Content-Type") == "application/x-myriad-video");
+    CHECK(reader.header("X-Myriad-Codec") == webName);
     std::vector<Chunk> chunks = reader.waitFor(1, std::chrono::seconds(120));
     REQUIRE(chunks.size() == 1);
     const Chunk first = chunks[0];
@@ -264,7 +166,7 @@ TEST_CASE("video streams: a closed stream stops encoding; animated frames all ar
     return reply.json["frames"].get<uint64_t>();
   };
   {
-    VideoReader reader(server, videoPath(session, "codec=vp8&fps=4"), session.token);
+    VideoReader reader(server, videoPath(session, "codec=vp8&fps=4"), bearer(session.token));
     REQUIRE(reader.status() == 200);
     std::vector<Chunk> chunks = reader.waitFor(4, std::chrono::seconds(120));
     REQUIRE(chunks.size() >= 4);
@@ -289,5 +191,106 @@ TEST_CASE("video streams: a closed stream stops encoding; animated frames all ar
   CHECK(after - atClose <= 1);
   myriad::test::Reply metrics = api.get("/metrics");
   CHECK(metrics.body.find("myriad_streams 0") != std::string::npos);
+  REQUIRE(server.stop().has_value());
+}
+
+TEST_CASE("video streams: a viewer that stops reading skips to a key frame; the other never stalls") {
+  ServerProcess server({"--lights", "64"});
+  REQUIRE(server.start() == ServerProcess::Start::Listening);
+  ApiClient api(server);
+  TestSession session = createSession(api);
+  REQUIRE(api.patch(session.path() + "/settings", json{{"animate", true}}.dump(), session.token)
+              .status == 200);
+  // 10 fps: a viewer more than max(8, fps) = 10 chunks behind skips to a key frame.
+  const std::string path =
+      session.path() + "/stream?codec=vp9&fps=10&width=320&height=240&bitrate=8000";
+  const auto metric = [&](const std::string& name) {
+    myriad::test::Reply metrics = api.get("/metrics");
+    const size_t at = metrics.body.find("\n" + name + " ");
+    REQUIRE(at != std::string::npos);
+    return std::stoull(metrics.body.substr(at + name.size() + 2));
+  };
+
+  // The slow page: a small receive buffer and segment size (so the server's socket fills after a
+  // few frames), and a body callback that stops reading while `paused`.
+  std::mutex mutex;
+  std::condition_variable resumed;
+  bool paused = true;
+  bool stop = false;
+  std::string slowBytes;
+  httplib::Client slowClient(server.host(), server.port());
+  slowClient.set_read_timeout(300, 0);
+  slowClient.set_socket_options([](int sock) {
+    const int receiveBuffer = 4096, segment = 536;
+    setsockopt(sock, SOL_SOCKET, SO_RCVBUF, &receiveBuffer, sizeof receiveBuffer);
+    setsockopt(sock, IPPROTO_TCP, TCP_MAXSEG, &segment, sizeof segment);
+  });
+  std::thread slowThread([&] {
+    slowClient.Get(path, bearer(session.token), [&](const char* data, size_t size) {
+      std::unique_lock lock(mutex);
+      slowBytes.append(data, size);
+      resumed.wait(lock, [&] { return !paused || stop; });
+      return !stop;
+    });
+  });
+  VideoReader fast(server, path, bearer(session.token));
+  REQUIRE(fast.status() == 200);
+  fast.waitFor(2, std::chrono::seconds(120));
+  // The slow page reads nothing while the fast one gets 40 chunks (at ~5 KB each, more than the
+  // ~100 KB the two sockets hold at this segment size), or for 24 s (the server gives up a write
+  // after 30 s).
+  const size_t before = fast.items().size();
+  const auto pausedAt = Clock::now();
+  fast.waitFor(before + 40, std::chrono::seconds(24));
+  const size_t during = fast.items().size() - before;
+  const double pausedFor = std::chrono::duration<double>(Clock::now() - pausedAt).count();
+  const uint64_t resyncsBefore = metric("myriad_video_resyncs_total");
+  {
+    std::lock_guard lock(mutex);
+    paused = false;
+  }
+  resumed.notify_all();
+  // Reading again, it gets what was queued for it, then (too far behind) a key frame.
+  const auto deadline = Clock::now() + std::chrono::seconds(120);
+  std::vector<Chunk> slow;
+  size_t keysAfterFirst = 0;
+  while (Clock::now() < deadline && keysAfterFirst == 0) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(200));
+    std::lock_guard lock(mutex);
+    slow.clear();
+    auto parse = myriad::test::videoChunkParser();
+    std::string_view rest = slowBytes;
+    while (size_t used = parse(rest, slow)) rest.remove_prefix(used);
+    keysAfterFirst = std::count_if(slow.begin() + std::min<size_t>(1, slow.size()), slow.end(),
+                                   [](const Chunk& c) { return c.kind == 1; });
+  }
+  {
+    std::lock_guard lock(mutex);
+    stop = true;
+  }
+  resumed.notify_all();
+  slowClient.stop();
+  slowThread.join();
+  const uint64_t resyncs = metric("myriad_video_resyncs_total");
+  MESSAGE("while the slow page read nothing for ", pausedFor, " s the other got ", during,
+          " chunks; the slow page then got ", slow.size(), " chunks with ", keysAfterFirst,
+          " key frame(s) after its first (", slowBytes.size(), " bytes); resyncs ", resyncsBefore,
+          " -> ", resyncs);
+  CHECK(during >= 12);  // not stalled
+  CHECK(keysAfterFirst >= 1);
+  CHECK(resyncs >= 1);
+  // Everything either page got decodes in order with one decoder each: the slow page's skipped
+  // deltas are never needed after its key frame.
+  for (const std::vector<Chunk>& chunks : {fast.items(), slow}) {
+    VideoDecoder decoder(VideoCodec::Vp9);
+    size_t pictures = 0;
+    for (const Chunk& c : chunks) {
+      if (c.kind == 3) continue;
+      CHECK_NOTHROW(decoder.decode(bytesOf(c.payload)));
+      ++pictures;
+    }
+    CHECK(pictures >= 2);
+  }
+  CHECK(myriad::test::validationMessages(api) == 0);
   REQUIRE(server.stop().has_value());
 }

@@ -1,7 +1,8 @@
 // Video encoding of rendered frames for GET .../stream?codec= (libvpx: VP8 and VP9), and the
 // matching decoder that tests and the stream benchmark use to look at what a client would see.
-// Plain CPU code: an encoder belongs to one stream and runs on that stream's HTTP worker (libvpx
-// adds its own threads); never on the render thread.
+// Plain CPU code: an encoder belongs to one video channel (service/shared_frames.h: the streams
+// of a session asking for the same video) and runs on the HTTP worker of whichever of its streams
+// makes the frame, one at a time (libvpx adds its own threads); never on the render thread.
 #pragma once
 
 #include <cstdint>
@@ -52,6 +53,11 @@ class VideoEncoder {
   // the stream began (non-decreasing). Throws std::invalid_argument when rgba.size() is not
   // width * height * 4 and VideoError when libvpx fails.
   VideoPacket encode(std::span<const uint8_t> rgba, uint64_t timestampMs, bool forceKey);
+
+  // A new target bitrate (1..1,000,000 kbit/s) for the frames encoded from now on, without a key
+  // frame (the rate control's configuration changes in place); settings().bitrateKbps follows.
+  // Throws std::invalid_argument out of range and VideoError when libvpx refuses it.
+  void setBitrate(uint32_t kbps);
 
   const VideoSettings& settings() const { return settings_; }
 
