@@ -2,6 +2,8 @@
 
 #include <doctest/doctest.h>
 
+#include <cstring>
+
 namespace myriad::test {
 namespace {
 
@@ -101,6 +103,77 @@ void checkProblem(const Reply& reply, int status, const std::string& typeName,
   if (limit) CHECK(reply.json.value("limit", "<none>") == *limit);
   if (parameter) CHECK(reply.json.value("parameter", "<none>") == *parameter);
   if (status == 429) CHECK(!reply.header("Retry-After").empty());
+}
+
+ChunkParser<StreamPart> multipartParser() {
+  static constexpr std::string_view kOpening = "--myriad-frame\r\n";
+  static constexpr std::string_view kClosing = "\r\n--myriad-frame\r\n";
+  return [opened = false](std::string_view bytes, std::vector<StreamPart>& out) mutable -> size_t {
+    size_t used = 0;
+    if (!opened) {
+      if (bytes.size() < kOpening.size()) return 0;
+      if (bytes.substr(0, kOpening.size()) != kOpening) {
+        throw FramingError("the body does not start with the boundary line");
+      }
+      opened = true;
+      used = kOpening.size();
+    }
+    const size_t headerEnd = bytes.find("\r\n\r\n", used);
+    if (headerEnd == std::string_view::npos) return used;
+    StreamPart part;
+    for (size_t line = used; line < headerEnd;) {
+      const size_t end = bytes.find("\r\n", line);
+      const std::string_view text = bytes.substr(line, end - line);
+      const size_t colon = text.find(": ");
+      if (colon == std::string_view::npos) {
+        throw FramingError("malformed part header line: " + std::string(text));
+      }
+      part.headers[std::string(text.substr(0, colon))] = std::string(text.substr(colon + 2));
+      line = end + 2;
+    }
+    if (!part.headers.count("Content-Length")) throw FramingError("a part without Content-Length");
+    const size_t length = std::stoul(part.headers["Content-Length"]);
+    const size_t bodyStart = headerEnd + 4;
+    if (bytes.size() < bodyStart + length + kClosing.size()) return used;
+    if (bytes.substr(bodyStart + length, kClosing.size()) != kClosing) {
+      throw FramingError("Content-Length does not end where the boundary starts");
+    }
+    part.body = std::string(bytes.substr(bodyStart, length));
+    part.arrived = StreamClock::now();
+    out.push_back(std::move(part));
+    return bodyStart + length + kClosing.size();
+  };
+}
+
+ChunkParser<VideoChunk> videoChunkParser() {
+  constexpr size_t kHeaderBytes = 48;
+  return [](std::string_view bytes, std::vector<VideoChunk>& out) -> size_t {
+    if (bytes.size() < kHeaderBytes) return 0;
+    auto read = [&]<typename T>(T& value, size_t offset) {
+      std::memcpy(&value, bytes.data() + offset, sizeof value);
+    };
+    uint32_t payload = 0;
+    read(payload, 0);
+    if (bytes.size() < kHeaderBytes + payload) return 0;
+    VideoChunk chunk;
+    read(chunk.kind, 4);
+    read(chunk.width, 8);
+    read(chunk.height, 10);
+    read(chunk.sequence, 12);
+    read(chunk.timestampUs, 16);
+    read(chunk.version, 24);
+    read(chunk.time, 32);
+    read(chunk.encodeUs, 40);
+    uint32_t reserved = 0;
+    read(reserved, 44);
+    if (bytes[5] != 0 || bytes[6] != 0 || bytes[7] != 0 || reserved != 0) {
+      throw FramingError("reserved header bytes are not zero");
+    }
+    chunk.payload = std::string(bytes.substr(kHeaderBytes, payload));
+    chunk.arrived = StreamClock::now();
+    out.push_back(std::move(chunk));
+    return kHeaderBytes + payload;
+  };
 }
 
 uint64_t validationMessages(ApiClient& api) {

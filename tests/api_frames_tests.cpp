@@ -146,155 +146,9 @@ void checkProblem(const httplib::Result& res, int status, const std::string& typ
   if (!parameter.empty()) CHECK(body["parameter"] == parameter);
 }
 
-// --- a stream reader -----------------------------------------------------------------------------
-
-struct StreamPart {
-  std::map<std::string, std::string> headers;
-  std::string body;
-  Clock::time_point arrived;
-};
-
-// Reads GET .../stream on its own thread and splits the body into parts, insisting on the exact
-// framing of protocol/CONTRACT.md: "--myriad-frame\r\n" once, then per part the headers, the
-// Content-Length bytes, "\r\n--myriad-frame\r\n".
-class StreamReader {
- public:
-  StreamReader(const ServerProcess& server, std::string path, httplib::Headers headers)
-      : client_(clientFor(server)) {
-    thread_ = std::thread([this, path = std::move(path), headers = std::move(headers)] {
-      httplib::Result res = client_->Get(
-          path, headers,
-          [this](const httplib::Response& response) {
-            std::lock_guard lock(mutex_);
-            status_ = response.status;
-            contentType_ = response.get_header_value("Content-Type");
-            changed_.notify_all();
-            return true;
-          },
-          [this](const char* data, size_t size) {
-            std::lock_guard lock(mutex_);
-            buffer_.append(data, size);
-            parse();
-            changed_.notify_all();
-            return !stop_;
-          });
-      std::lock_guard lock(mutex_);
-      if (res && status_ == 0) status_ = res->status;
-      if (res && status_ >= 400) errorBody_ = res->body;
-      ended_ = true;
-      changed_.notify_all();
-    });
-  }
-
-  ~StreamReader() {
-    {
-      std::lock_guard lock(mutex_);
-      stop_ = true;
-    }
-    client_->stop();
-    thread_.join();
-  }
-
-  // The parts so far once there are `count` (or the stream ended, or the timeout passed).
-  std::vector<StreamPart> waitForParts(size_t count, std::chrono::seconds timeout) {
-    std::unique_lock lock(mutex_);
-    changed_.wait_for(lock, timeout, [&] { return parts_.size() >= count || ended_; });
-    return parts_;
-  }
-
-  bool waitForEnd(std::chrono::seconds timeout) {
-    std::unique_lock lock(mutex_);
-    return changed_.wait_for(lock, timeout, [&] { return ended_; });
-  }
-
-  int status() {
-    std::unique_lock lock(mutex_);
-    changed_.wait_for(lock, std::chrono::seconds(kFrameTimeoutSeconds),
-                      [&] { return status_ != 0 || ended_; });
-    return status_;
-  }
-  std::string contentType() {
-    std::lock_guard lock(mutex_);
-    return contentType_;
-  }
-  std::string framingError() {
-    std::lock_guard lock(mutex_);
-    return framingError_;
-  }
-  std::string errorBody() {
-    std::lock_guard lock(mutex_);
-    return errorBody_;
-  }
-  // Bytes after the last whole part (a stream that ends cleanly leaves none).
-  size_t leftover() {
-    std::lock_guard lock(mutex_);
-    return buffer_.size() - consumed_;
-  }
-
- private:
-  static constexpr std::string_view kOpening = "--myriad-frame\r\n";
-  static constexpr std::string_view kClosing = "\r\n--myriad-frame\r\n";
-
-  void parse() {
-    if (!framingError_.empty()) return;
-    if (!opened_) {
-      if (buffer_.size() < kOpening.size()) return;
-      if (buffer_.compare(0, kOpening.size(), kOpening) != 0) {
-        framingError_ = "the body does not start with the boundary line";
-        return;
-      }
-      opened_ = true;
-      consumed_ = kOpening.size();
-    }
-    for (;;) {
-      size_t headerEnd = buffer_.find("\r\n\r\n", consumed_);
-      if (headerEnd == std::string::npos) return;
-      StreamPart part;
-      size_t line = consumed_;
-      while (line < headerEnd) {
-        size_t end = buffer_.find("\r\n", line);
-        std::string text = buffer_.substr(line, end - line);
-        size_t colon = text.find(": ");
-        if (colon == std::string::npos) {
-          framingError_ = "malformed part header line: " + text;
-          return;
-        }
-        part.headers[text.substr(0, colon)] = text.substr(colon + 2);
-        line = end + 2;
-      }
-      if (!part.headers.count("Content-Length")) {
-        framingError_ = "a part without Content-Length";
-        return;
-      }
-      size_t length = std::stoul(part.headers["Content-Length"]);
-      size_t bodyStart = headerEnd + 4;
-      if (buffer_.size() < bodyStart + length + kClosing.size()) return;
-      if (buffer_.compare(bodyStart + length, kClosing.size(), kClosing) != 0) {
-        framingError_ = "Content-Length does not end where the boundary starts";
-        return;
-      }
-      part.body = buffer_.substr(bodyStart, length);
-      part.arrived = Clock::now();
-      parts_.push_back(std::move(part));
-      consumed_ = bodyStart + length + kClosing.size();
-    }
-  }
-
-  std::unique_ptr<httplib::Client> client_;
-  std::thread thread_;
-  std::mutex mutex_;
-  std::condition_variable changed_;
-  std::string buffer_;
-  size_t consumed_ = 0;
-  bool opened_ = false;
-  std::vector<StreamPart> parts_;
-  std::string framingError_;
-  std::string contentType_;
-  std::string errorBody_;
-  int status_ = 0;
-  bool ended_ = false;
-  bool stop_ = false;
-};
+// Streams are read with myriad::test::MultipartReader (api_client.h).
+using myriad::test::MultipartReader;
+using myriad::test::StreamPart;
 
 // User plus system CPU time of a process so far, from /proc/PID/stat.
 double cpuSeconds(pid_t pid) {
@@ -543,14 +397,14 @@ TEST_CASE("streams: animated parts, idle re-sends, the end on DELETE, limits, st
                             "&height=" + std::to_string(kHeight);
 
   SUBCASE("idle: the last part again every 2 s, a new one at once after a change") {
-    StreamReader reader(server, streamPath(session, query), auth(session));
+    MultipartReader reader(server, streamPath(session, query), auth(session));
     REQUIRE(reader.status() == 200);
-    CHECK(reader.contentType() == "multipart/x-mixed-replace; boundary=myriad-frame");
-    REQUIRE(reader.waitForParts(1, std::chrono::seconds(60)).size() == 1);
+    CHECK(reader.header("Content-Type") == "multipart/x-mixed-replace; boundary=myriad-frame");
+    REQUIRE(reader.waitFor(1, std::chrono::seconds(60)).size() == 1);
     // An idle stream sleeps on the session's condition variable: the whole server uses a small
     // fraction of one core while it waits and re-sends.
     const double cpuBefore = cpuSeconds(server.pid());
-    std::vector<StreamPart> parts = reader.waitForParts(3, std::chrono::seconds(60));
+    std::vector<StreamPart> parts = reader.waitFor(3, std::chrono::seconds(60));
     const double idleCpu = cpuSeconds(server.pid()) - cpuBefore;
     MESSAGE("server CPU time over ~4 s of idle stream: ", idleCpu, " s");
     CHECK(idleCpu < 0.5);
@@ -568,7 +422,7 @@ TEST_CASE("streams: animated parts, idle re-sends, the end on DELETE, limits, st
 
     const auto changed = Clock::now();
     patchJson(*client, sessionPath + "/camera", session, {{"fovY", 30.0}});
-    parts = reader.waitForParts(4, std::chrono::seconds(60));
+    parts = reader.waitFor(4, std::chrono::seconds(60));
     REQUIRE(parts.size() == 4);
     CHECK(parts[3].headers.at("X-Myriad-Frame") == "2");
     CHECK(parts[3].body != parts[0].body);
@@ -584,9 +438,9 @@ TEST_CASE("streams: animated parts, idle re-sends, the end on DELETE, limits, st
     const std::string animatedQuery = "format=jpeg&fps=" + std::to_string(kFps) + "&width=" +
                                       std::to_string(kWidth) + "&height=" +
                                       std::to_string(kHeight) + "&token=" + session.token;
-    StreamReader reader(server, streamPath(session, animatedQuery), {});
+    MultipartReader reader(server, streamPath(session, animatedQuery), {});
     REQUIRE(reader.status() == 200);
-    std::vector<StreamPart> parts = reader.waitForParts(4, std::chrono::seconds(120));
+    std::vector<StreamPart> parts = reader.waitFor(4, std::chrono::seconds(120));
     INFO("framing: ", reader.framingError());
     REQUIRE(parts.size() >= 4);
     std::vector<DecodedJpeg> images;
@@ -615,14 +469,14 @@ TEST_CASE("streams: animated parts, idle re-sends, the end on DELETE, limits, st
     constexpr double kWindowSeconds = 2.5;
     std::this_thread::sleep_for(std::chrono::duration<double>(kWindowSeconds));
     size_t inWindow = 0;
-    for (const StreamPart& part : reader.waitForParts(0, std::chrono::seconds(0))) {
+    for (const StreamPart& part : reader.waitFor(0, std::chrono::seconds(0))) {
       const double at = std::chrono::duration<double>(part.arrived - windowStart).count();
       if (at >= 0.0 && at <= kWindowSeconds) ++inWindow;
     }
     MESSAGE("fps ", kFps, ": ", inWindow, " parts in ", kWindowSeconds, " s");
     CHECK(inWindow >= 1);
     CHECK(inWindow <= size_t(kWindowSeconds * kFps) + 3);
-    parts = reader.waitForParts(0, std::chrono::seconds(0));
+    parts = reader.waitFor(0, std::chrono::seconds(0));
 
     json stats = getJson(*client, sessionPath + "/stats", auth(session));
     CHECK(stats["frames"].get<uint64_t>() >= parts.size());
@@ -657,11 +511,11 @@ TEST_CASE("streams: animated parts, idle re-sends, the end on DELETE, limits, st
   }
 
   SUBCASE("over --max-streams: another session gets 429, the same session replaces its oldest") {
-    StreamReader first(server, streamPath(session, query), auth(session));
-    StreamReader second(server, streamPath(session, query), auth(session));
+    MultipartReader first(server, streamPath(session, query), auth(session));
+    MultipartReader second(server, streamPath(session, query), auth(session));
     REQUIRE(first.status() == 200);
     REQUIRE(second.status() == 200);
-    REQUIRE(first.waitForParts(1, std::chrono::seconds(60)).size() == 1);
+    REQUIRE(first.waitFor(1, std::chrono::seconds(60)).size() == 1);
     TestSession other = createSession(api);
     httplib::Result refused = client->Get(streamPath(other, query), auth(other));
     checkProblem(refused, 429, "limit-exceeded");
@@ -673,7 +527,7 @@ TEST_CASE("streams: animated parts, idle re-sends, the end on DELETE, limits, st
     // failed write can end it: only being replaced does.
     // (The two readers connect concurrently: either may be the one the server opened first.)
     const auto opened = Clock::now();
-    StreamReader third(server, streamPath(session, query), auth(session));
+    MultipartReader third(server, streamPath(session, query), auth(session));
     REQUIRE(third.status() == 200);
     bool firstEnded = false;
     bool secondEnded = false;
@@ -687,7 +541,7 @@ TEST_CASE("streams: animated parts, idle re-sends, the end on DELETE, limits, st
     CHECK(firstEnded != secondEnded);  // exactly one: the oldest
     CHECK(first.framingError().empty());
     CHECK(second.framingError().empty());
-    CHECK(third.waitForParts(1, std::chrono::seconds(60)).size() == 1);
+    CHECK(third.waitFor(1, std::chrono::seconds(60)).size() == 1);
     CHECK_FALSE(third.waitForEnd(std::chrono::seconds(0)));
   }
 
@@ -801,13 +655,13 @@ TEST_CASE("shutdown ends open streams promptly, idle or animated") {
   TestSession idle = createSession(api);
   TestSession animated = createSession(api);
   patchJson(*client, "/v1/sessions/" + animated.id + "/settings", animated, {{"animate", true}});
-  StreamReader idleReader(server, streamPath(idle, "width=32&height=32"), auth(idle));
-  StreamReader animatedReader(server, streamPath(animated, "width=32&height=32&fps=30"),
+  MultipartReader idleReader(server, streamPath(idle, "width=32&height=32"), auth(idle));
+  MultipartReader animatedReader(server, streamPath(animated, "width=32&height=32&fps=30"),
                               auth(animated));
   REQUIRE(idleReader.status() == 200);
   REQUIRE(animatedReader.status() == 200);
-  REQUIRE(idleReader.waitForParts(1, std::chrono::seconds(60)).size() == 1);
-  REQUIRE(animatedReader.waitForParts(3, std::chrono::seconds(60)).size() == 3);
+  REQUIRE(idleReader.waitFor(1, std::chrono::seconds(60)).size() == 1);
+  REQUIRE(animatedReader.waitFor(3, std::chrono::seconds(60)).size() == 3);
   CHECK(validationMessages(api) == 0);
 
   const auto signalled = Clock::now();
@@ -817,7 +671,7 @@ TEST_CASE("shutdown ends open streams promptly, idle or animated") {
   MESSAGE("SIGTERM to exit with an idle and an animated stream open: ", seconds, " s");
   CHECK(exit->cleanExit());
   CHECK(seconds < 5.0);
-  for (StreamReader* reader : {&idleReader, &animatedReader}) {
+  for (MultipartReader* reader : {&idleReader, &animatedReader}) {
     CHECK(reader->waitForEnd(std::chrono::seconds(10)));
     CHECK(reader->framingError().empty());
     CHECK(reader->leftover() == 0);
@@ -841,9 +695,9 @@ TEST_CASE("streams: a stream closed by its client renders at most the frame alre
     // What a page does on every drag or resize: it drops its stream and opens another; the old
     // one sleeps until the session changes, and then must not render for nobody.
     {
-      StreamReader reader(server, streamPath(session, query), auth(session));
+      MultipartReader reader(server, streamPath(session, query), auth(session));
       REQUIRE(reader.status() == 200);
-      REQUIRE(reader.waitForParts(1, std::chrono::seconds(120)).size() == 1);
+      REQUIRE(reader.waitFor(1, std::chrono::seconds(120)).size() == 1);
       std::this_thread::sleep_for(std::chrono::milliseconds(200));  // the stream is idle now
     }  // the reader's destructor closes the connection
     const uint64_t atClose = framesRendered();
@@ -863,9 +717,9 @@ TEST_CASE("streams: a stream closed by its client renders at most the frame alre
     for (int round = 0; round < 3; ++round) {
       CAPTURE(round);
       {
-        StreamReader reader(server, streamPath(session, slow), auth(session));
+        MultipartReader reader(server, streamPath(session, slow), auth(session));
         REQUIRE(reader.status() == 200);
-        REQUIRE(reader.waitForParts(2, std::chrono::seconds(120)).size() >= 2u);
+        REQUIRE(reader.waitFor(2, std::chrono::seconds(120)).size() >= 2u);
       }
       const uint64_t atClose = framesRendered();
       std::this_thread::sleep_for(std::chrono::milliseconds(1500));  // 6 frames at 4 fps
@@ -1013,20 +867,20 @@ TEST_CASE("streams: 8 animated streams of 8 sessions each get within 20% of thei
   }
   const std::string query = "format=jpeg&fps=240&width=" + std::to_string(kWidth) +
                             "&height=" + std::to_string(kHeight);
-  std::vector<std::unique_ptr<StreamReader>> readers;
+  std::vector<std::unique_ptr<MultipartReader>> readers;
   for (const TestSession& s : sessions) {
-    readers.push_back(std::make_unique<StreamReader>(server, streamPath(s, query), auth(s)));
+    readers.push_back(std::make_unique<MultipartReader>(server, streamPath(s, query), auth(s)));
   }
   for (auto& reader : readers) {
     REQUIRE(reader->status() == 200);
-    REQUIRE(reader->waitForParts(2, std::chrono::seconds(120)).size() >= 2u);
+    REQUIRE(reader->waitFor(2, std::chrono::seconds(120)).size() >= 2u);
   }
   std::vector<size_t> before;
-  for (auto& reader : readers) before.push_back(reader->waitForParts(0, std::chrono::seconds(0)).size());
+  for (auto& reader : readers) before.push_back(reader->waitFor(0, std::chrono::seconds(0)).size());
   std::this_thread::sleep_for(std::chrono::seconds(5));
   std::vector<double> frames;
   for (size_t i = 0; i < readers.size(); ++i) {
-    frames.push_back(double(readers[i]->waitForParts(0, std::chrono::seconds(0)).size() - before[i]));
+    frames.push_back(double(readers[i]->waitFor(0, std::chrono::seconds(0)).size() - before[i]));
   }
   readers.clear();
   double mean = 0.0;

@@ -2,14 +2,19 @@
 // exposition, the multipart framing and slots of streams, frame encoding and per-session stats.
 #include <doctest/doctest.h>
 
+#include <atomic>
 #include <cstring>
+#include <future>
 #include <map>
 #include <memory>
 #include <string>
 
+#include "encode/video.h"
+#include "render/render_queue.h"
 #include "service/frame_query.h"
 #include "service/interactive_quality.h"
 #include "service/metrics.h"
+#include "service/shared_frames.h"
 #include "service/session_frames.h"
 #include "service/stream.h"
 
@@ -387,4 +392,193 @@ TEST_CASE("frame stats: the last frame per session, counted; entries of sessions
   book.record(other, frame, render::Target::Final, 1.0);
   service::Session again(oldId, std::string(64, 'b'));
   CHECK(book.statsOf(again, 0, false).frames == 0);
+}
+
+// ---- Video channels (SharedFrames::joinVideo / nextVideo) against a render queue that makes
+// pictures on the CPU: what each viewer of one encoder gets, in which order, and when it skips to
+// a key frame.
+
+namespace {
+
+// Renders a picture of the asked size whose colours depend on how many it rendered before.
+class PictureQueue final : public render::RenderQueue {
+ public:
+  const render::DeviceSummary& device() const override { return device_; }
+  uint32_t maxDimension() const override { return 4096; }
+  uint32_t maxQueuedFrames() const override { return 8; }
+  uint32_t validationMessages() const override { return 0; }
+  render::SceneId defaultScene() const override { return 0; }
+  std::future<render::SceneId> createScene(std::shared_ptr<const scene::Scene>) override {
+    return ready<render::SceneId>(1);
+  }
+  std::future<void> replaceScene(render::SceneId, std::shared_ptr<const scene::Scene>) override {
+    return ready();
+  }
+  std::future<void> destroyScene(render::SceneId) override { return ready(); }
+  std::future<void> updateLights(render::SceneId, render::LightUpdate) override { return ready(); }
+  std::future<void> updateMaterials(render::SceneId, std::vector<render::MaterialWrite>) override {
+    return ready();
+  }
+  std::future<void> setEnvironmentImage(render::SceneId,
+                                        std::shared_ptr<const scene::EnvironmentImage>) override {
+    return ready();
+  }
+  std::future<render::Frame> submit(render::SceneId, const render::FrameSettings& settings,
+                                    render::FrameSource,
+                                    std::shared_ptr<const std::atomic<bool>>) override {
+    render::Frame frame;
+    frame.width = settings.width;
+    frame.height = settings.height;
+    frame.rgba.resize(size_t(frame.width) * frame.height * 4);
+    const uint32_t n = ++rendered;
+    for (uint32_t y = 0; y < frame.height; ++y) {
+      for (uint32_t x = 0; x < frame.width; ++x) {
+        uint8_t* p = &frame.rgba[(size_t(y) * frame.width + x) * 4];
+        p[0] = uint8_t((x * 4 + n * 9) & 255);
+        p[1] = uint8_t((y * 4 + n * 5) & 255);
+        p[2] = uint8_t(((x + y) * 2 + n * 13) & 255);
+        p[3] = 255;
+      }
+    }
+    return ready<render::Frame>(std::move(frame));
+  }
+  uint64_t gpuMemoryBytes() const override { return 0; }
+  void stop() override {}
+
+  std::atomic<uint32_t> rendered{0};
+
+ private:
+  template <typename T>
+  static std::future<T> ready(T value) {
+    std::promise<T> promise;
+    promise.set_value(std::move(value));
+    return promise.get_future();
+  }
+  static std::future<void> ready() {
+    std::promise<void> promise;
+    promise.set_value();
+    return promise.get_future();
+  }
+  render::DeviceSummary device_;
+};
+
+}  // namespace
+
+TEST_CASE("video channels: one encoder for its viewers; a late or slow viewer skips to a key frame") {
+  PictureQueue queue;
+  service::FrameStatsBook stats;
+  service::Metrics metrics;
+  service::SharedFrames shared;
+  const service::SessionFrameContext context{queue, stats, metrics, &shared};
+  auto session = std::make_shared<service::Session>("s-0000000000000001", "token");
+  FrameRequest request = service::parseStreamQuery(
+      {{"codec", "vp9"}, {"width", "64"}, {"height", "48"}, {"fps", "10"}, {"bitrate", "300"}},
+      4096);
+  encode::VideoSettings settings;
+  settings.codec = encode::VideoCodec::Vp9;
+  settings.width = 64;
+  settings.height = 48;
+  settings.fps = 10;
+  settings.bitrateKbps = 300;
+  settings.threads = 1;
+  const auto interval = std::chrono::milliseconds(100);
+  const size_t backlog = service::SharedFrames::maxVideoBacklog(10);
+  REQUIRE(backlog == 10);  // max(8, fps)
+  const auto edit = [&] {
+    std::lock_guard lock(session->mutex);
+    ++session->version;
+  };
+  // A viewer's client: decodes every chunk it gets, in order.
+  struct Client {
+    service::SharedFrames::VideoViewer viewer;
+    encode::VideoDecoder decoder{encode::VideoCodec::Vp9};
+    std::vector<service::SharedFrames::VideoFramePtr> got;
+    std::vector<service::SharedFrames::VideoFramePtr> take(
+        const service::SessionFrameContext& c, const service::SessionPtr& s,
+        const FrameRequest& r, std::chrono::milliseconds maxAge,
+        service::SharedFrames& frames) {
+      auto chunks = frames.nextVideo(c, s, r, viewer, maxAge);
+      for (const auto& chunk : chunks) {
+        encode::VideoDecoder::Picture picture = decoder.decode(
+            {reinterpret_cast<const uint8_t*>(chunk->payload.data()), chunk->payload.size()});
+        CHECK(picture.width == 64);
+        got.push_back(chunk);
+      }
+      return chunks;
+    }
+  };
+  Client a{shared.joinVideo(session, request, settings)};
+  Client b{shared.joinVideo(session, request, settings)};
+  CHECK(a.viewer.channel == b.viewer.channel);
+  CHECK(shared.videoChannelCount() == 1);
+  // Another bitrate is another encoder.
+  {
+    encode::VideoSettings other = settings;
+    other.bitrateKbps = 600;
+    FrameRequest otherRequest = request;
+    otherRequest.video->bitrateKbps = 600;
+    auto third = shared.joinVideo(session, otherRequest, other);
+    CHECK(third.channel != a.viewer.channel);
+    CHECK(shared.videoChannelCount() == 2);
+  }
+  CHECK(shared.videoChannelCount() == 1);  // gone with its only viewer
+
+  // The first frame: rendered once, a key frame, for both.
+  auto first = a.take(context, session, request, interval, shared);
+  REQUIRE(first.size() == 1);
+  CHECK(first[0]->key);
+  auto firstB = b.take(context, session, request, interval, shared);
+  REQUIRE(firstB.size() == 1);
+  CHECK(firstB[0] == first[0]);  // the same chunk, not an encode of its own
+  CHECK(queue.rendered == 1);
+  CHECK(shared.videoEncodeCount() == 1);
+
+  // Three edits that only `a` asks for: `b` then gets the three deltas at once, in order.
+  for (int i = 0; i < 3; ++i) {
+    edit();
+    REQUIRE(a.take(context, session, request, interval, shared).size() == 1);
+  }
+  auto caught = b.take(context, session, request, interval, shared);
+  REQUIRE(caught.size() == 3);
+  CHECK_FALSE(caught[0]->key);
+  CHECK(caught.back() == a.got.back());
+  CHECK(queue.rendered == 4);
+  CHECK(b.viewer.resyncs == 0);
+
+  // `b` stalls for more than its backlog: it skips to a key frame (forced on its next take: one
+  // render), decodes from there, and `a` takes that key frame in order with what follows.
+  for (size_t i = 0; i < backlog + 3; ++i) {
+    edit();
+    REQUIRE(a.take(context, session, request, interval, shared).size() == 1);
+  }
+  const uint32_t renderedBefore = queue.rendered;
+  auto resynced = b.take(context, session, request, interval, shared);
+  REQUIRE(resynced.size() == 1);
+  CHECK(resynced[0]->key);
+  CHECK(b.viewer.resyncs == 1);
+  CHECK(queue.rendered == renderedBefore + 1);
+  edit();
+  auto next = a.take(context, session, request, interval, shared);
+  REQUIRE(next.size() == 2);  // the key frame b asked for, then the new frame
+  CHECK(next[0] == resynced[0]);
+  CHECK(queue.rendered == renderedBefore + 2);
+
+  // A viewer joining now gets the log from its key frame (2 chunks: short enough), no render.
+  Client c{shared.joinVideo(session, request, settings)};
+  auto joined = c.take(context, session, request, interval, shared);
+  REQUIRE(joined.size() == 2);
+  CHECK(joined[0]->key);
+  CHECK(queue.rendered == renderedBefore + 2);
+  // After more than 4 chunks since the key frame, a joiner's key frame is forced (one render).
+  for (int i = 0; i < 4; ++i) {
+    edit();
+    REQUIRE(a.take(context, session, request, interval, shared).size() == 1);
+  }
+  Client d{shared.joinVideo(session, request, settings)};
+  auto late = d.take(context, session, request, interval, shared);
+  REQUIRE(late.size() == 1);
+  CHECK(late[0]->key);
+  CHECK(late[0]->version == a.got.back()->version);  // the same state, encoded as a key frame
+  CHECK(shared.videoEncodeCount() == queue.rendered);
+  CHECK(shared.videoChannelCount() == 1);
 }

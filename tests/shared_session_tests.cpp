@@ -6,13 +6,12 @@
 
 #include <algorithm>
 #include <chrono>
-#include <condition_variable>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
-#include <mutex>
 #include <regex>
 #include <set>
+#include <span>
 #include <sstream>
 #include <string>
 #include <thread>
@@ -22,6 +21,7 @@
 
 #include "api_client.h"
 #include "encode/png.h"
+#include "encode/video.h"
 #include "server_process.h"
 
 using nlohmann::json;
@@ -31,6 +31,11 @@ using myriad::test::ServerProcess;
 using myriad::test::TestSession;
 using myriad::test::checkProblem;
 using myriad::test::createSession;
+using myriad::test::MultipartReader;
+using myriad::test::StreamPart;
+using myriad::test::VideoChunk;
+using myriad::test::VideoReader;
+using myriad::test::bearer;
 namespace fs = std::filesystem;
 using Clock = std::chrono::steady_clock;
 
@@ -47,74 +52,47 @@ std::string readFile(const fs::path& path) {
   return text.str();
 }
 
-// The X-Myriad-Frame numbers and bodies of a stream's parts, read on a thread of its own.
-class PartCounter {
- public:
-  PartCounter(const ServerProcess& server, const std::string& path, httplib::Headers headers)
-      : client_(server.host(), server.port()) {
-    client_.set_read_timeout(300, 0);
-    thread_ = std::thread([this, path, headers] {
-      client_.Get(path, headers, [this](const char* data, size_t size) {
-        std::lock_guard lock(mutex_);
-        buffer_.append(data, size);
-        parse();
-        changed_.notify_all();
-        return !stop_;
-      });
-      std::lock_guard lock(mutex_);
-      ended_ = true;
-      changed_.notify_all();
-    });
-  }
-  ~PartCounter() {
-    {
-      std::lock_guard lock(mutex_);
-      stop_ = true;
-    }
-    client_.stop();
-    thread_.join();
-  }
+// The distinct X-Myriad-Frame numbers of a stream's parts (idle re-sends repeat the last).
+size_t distinctFrames(const std::vector<StreamPart>& parts) {
+  std::set<std::string> numbers;
+  for (const StreamPart& part : parts) numbers.insert(part.headers.at("X-Myriad-Frame"));
+  return numbers.size();
+}
 
-  // The frame numbers of the parts so far, once `frames` distinct ones arrived (or timeout).
-  std::vector<std::string> waitForFrames(size_t frames, std::chrono::seconds timeout) {
-    std::unique_lock lock(mutex_);
-    changed_.wait_for(lock, timeout, [&] { return distinct() >= frames || ended_; });
-    return numbers_;
-  }
-  std::vector<std::string> bodies() {
-    std::lock_guard lock(mutex_);
-    return bodies_;
-  }
+// Waits for `frames` distinct frames on `reader`; REQUIREs them.
+std::vector<StreamPart> waitForFrames(MultipartReader& reader, size_t frames) {
+  std::vector<StreamPart> parts = reader.waitUntil(
+      [&](const std::vector<StreamPart>& p) { return distinctFrames(p) >= frames; },
+      std::chrono::seconds(120));
+  REQUIRE(distinctFrames(parts) >= frames);
+  return parts;
+}
 
- private:
-  size_t distinct() const { return std::set<std::string>(numbers_.begin(), numbers_.end()).size(); }
-  void parse() {
-    static const std::regex header("X-Myriad-Frame: ([0-9]+)\r\n\r\n");
-    for (;;) {
-      const size_t length = buffer_.find("Content-Length: ", consumed_);
-      const size_t end = buffer_.find("\r\n\r\n", consumed_);
-      if (length == std::string::npos || end == std::string::npos) return;
-      const size_t bytes = std::stoul(buffer_.substr(length + 16));
-      if (buffer_.size() < end + 4 + bytes) return;
-      std::smatch m;
-      const std::string head = buffer_.substr(consumed_, end + 4 - consumed_);
-      if (std::regex_search(head, m, header)) numbers_.push_back(m[1]);
-      bodies_.push_back(buffer_.substr(end + 4, bytes));
-      consumed_ = end + 4 + bytes;
-    }
+// A video stream's chunks with a picture (keep-alives left out).
+std::vector<VideoChunk> pictures(const std::vector<VideoChunk>& chunks) {
+  std::vector<VideoChunk> out;
+  for (const VideoChunk& c : chunks) {
+    if (c.kind != 3) out.push_back(c);
   }
+  return out;
+}
 
-  httplib::Client client_;
-  std::thread thread_;
-  std::mutex mutex_;
-  std::condition_variable changed_;
-  std::string buffer_;
-  size_t consumed_ = 0;
-  std::vector<std::string> numbers_;
-  std::vector<std::string> bodies_;
-  bool ended_ = false;
-  bool stop_ = false;
-};
+// Waits for `count` chunks with a picture on `reader`; REQUIREs them.
+std::vector<VideoChunk> waitForPictures(VideoReader& reader, size_t count) {
+  std::vector<VideoChunk> chunks = reader.waitUntil(
+      [&](const std::vector<VideoChunk>& c) { return pictures(c).size() >= count; },
+      std::chrono::seconds(120));
+  INFO("framing: ", reader.framingError());
+  REQUIRE(pictures(chunks).size() >= count);
+  return pictures(chunks);
+}
+
+uint64_t metricOf(ApiClient& api, const std::string& name) {
+  Reply metrics = api.get("/metrics");
+  std::smatch m;
+  REQUIRE(std::regex_search(metrics.body, m, std::regex("\n" + name + " ([0-9]+)")));
+  return std::stoull(m[1]);
+}
 
 json statsOf(ApiClient& api, const TestSession& s) {
   Reply stats = api.get(s.path() + "/stats", s.token);
@@ -218,28 +196,137 @@ TEST_CASE("shared sessions: an owner's and a viewer's stream of one session rend
   const std::string query = "/stream?format=jpeg&fps=10&width=96&height=64";
   const uint64_t framesBefore = statsOf(api, s).at("frames").get<uint64_t>();
 
-  PartCounter owner(server, s.path() + query, {{"Authorization", "Bearer " + s.token}});
-  PartCounter watcher(server, s.path() + query + "&token=" + viewer, {});
-  REQUIRE(owner.waitForFrames(1, std::chrono::seconds(120)).size() >= 1);
-  REQUIRE(watcher.waitForFrames(1, std::chrono::seconds(120)).size() >= 1);
+  MultipartReader owner(server, s.path() + query, bearer(s.token));
+  MultipartReader watcher(server, s.path() + query + "&token=" + viewer);
+  waitForFrames(owner, 1);
+  waitForFrames(watcher, 1);
   // Edits: each must reach both pages; the server renders each frame once for the two.
   constexpr int kEdits = 4;
   for (int i = 1; i <= kEdits; ++i) {
     REQUIRE(api.patch(s.path() + "/camera", json{{"fovY", 30 + 5 * i}}.dump(), s.token).status == 200);
-    REQUIRE(owner.waitForFrames(size_t(i) + 1, std::chrono::seconds(120)).size() >= size_t(i) + 1);
-    REQUIRE(watcher.waitForFrames(size_t(i) + 1, std::chrono::seconds(120)).size() >= size_t(i) + 1);
+    waitForFrames(owner, size_t(i) + 1);
+    waitForFrames(watcher, size_t(i) + 1);
   }
   const uint64_t rendered = statsOf(api, s).at("frames").get<uint64_t>() - framesBefore;
   MESSAGE("two streams, ", kEdits + 1, " frames each: ", rendered, " renders");
   CHECK(rendered == kEdits + 1);  // not 2 * (kEdits + 1)
   // Both saw the same pictures: the last frame of each is the same encode.
-  CHECK(owner.bodies().back() == watcher.bodies().back());
+  CHECK(owner.items().back().body == watcher.items().back().body);
   Reply metrics = api.get("/metrics");
   std::smatch shared;
   REQUIRE(std::regex_search(metrics.body, shared,
                             std::regex("myriad_stream_frames_shared_total ([0-9]+)")));
   MESSAGE("stream parts from another stream's render: ", shared[1].str());
   CHECK(std::stoul(shared[1]) >= size_t(kEdits + 1));
+}
+
+TEST_CASE("shared sessions: an owner's and a viewer's VP9 stream share one render and one encoder") {
+  using myriad::encode::VideoCodec;
+  using myriad::encode::VideoDecoder;
+  ServerProcess server({"--lights", "32"});
+  requireListening(server);
+  ApiClient api(server);
+  TestSession s = createSession(api);
+  Reply minted = api.post(s.path() + "/tokens", R"({"role": "viewer"})", s.token);
+  REQUIRE(minted.status == 201);
+  const std::string viewer = minted.json.at("token").get<std::string>();
+  const std::string query = "/stream?codec=vp9&fps=10&width=96&height=64&bitrate=600";
+  const auto bytesOf = [](const std::string& text) {
+    return std::span<const uint8_t>(reinterpret_cast<const uint8_t*>(text.data()), text.size());
+  };
+  const auto png = [&] {
+    Reply frame = api.get(s.path() + "/frame?format=png&width=96&height=64", s.token);
+    REQUIRE(frame.status == 200);
+    return myriad::encode::decodePng(bytesOf(frame.body)).rgba;
+  };
+  const auto renders = [&] { return statsOf(api, s).at("frames").get<uint64_t>(); };
+  const uint64_t rendersBefore = renders();
+  const uint64_t encodesBefore = metricOf(api, "myriad_video_encodes_total");
+
+  VideoReader owner(server, s.path() + query, bearer(s.token));
+  VideoReader watcher(server, s.path() + query + "&token=" + viewer);
+  REQUIRE(owner.status() == 200);
+  REQUIRE(watcher.status() == 200);
+  CHECK(waitForPictures(owner, 1).front().kind == 1);  // each starts with a key frame
+  CHECK(waitForPictures(watcher, 1).front().kind == 1);
+  CHECK(metricOf(api, "myriad_video_encoders") == 1);  // one encoder for the two
+  // The viewer's page cannot edit.
+  checkProblem(api.patch(s.path() + "/camera", R"({"fovY": 20})", viewer), 403, "forbidden",
+               "viewer edit");
+  constexpr int kEdits = 4;
+  for (int i = 1; i <= kEdits; ++i) {
+    REQUIRE(api.patch(s.path() + "/camera", json{{"fovY", 50 + 6 * i}}.dump(), s.token).status == 200);
+    waitForPictures(owner, size_t(i) + 1);
+    waitForPictures(watcher, size_t(i) + 1);
+  }
+  const uint64_t rendered = renders() - rendersBefore;
+  const uint64_t encoded = metricOf(api, "myriad_video_encodes_total") - encodesBefore;
+  MESSAGE("two VP9 streams, ", kEdits + 1, " frames each: ", rendered, " renders, ", encoded,
+          " encodes");
+  CHECK(rendered == kEdits + 1);  // not 2 * (kEdits + 1)
+  CHECK(encoded == kEdits + 1);
+  // Both pages decode every chunk and see every edit: the same chunks, the last one the PNG
+  // frame of the last state, far from the first picture.
+  const std::vector<uint8_t> last = png();
+  std::vector<std::vector<uint8_t>> shown;
+  for (VideoReader* reader : {&owner, &watcher}) {
+    const std::vector<VideoChunk> chunks = pictures(reader->items());
+    REQUIRE(chunks.size() == kEdits + 1);
+    VideoDecoder decoder(VideoCodec::Vp9);
+    std::vector<uint8_t> first;
+    for (size_t i = 0; i < chunks.size(); ++i) {
+      CAPTURE(i);
+      CHECK(chunks[i].sequence == i + 1);
+      CHECK(chunks[i].kind == (i == 0 ? 1 : 2));
+      if (i > 0) CHECK(chunks[i].version > chunks[i - 1].version);
+      VideoDecoder::Picture picture = decoder.decode(bytesOf(chunks[i].payload));
+      REQUIRE(picture.width == 96);
+      if (i == 0) first = picture.rgba;
+      if (i + 1 == chunks.size()) {
+        const double psnrLast = myriad::encode::psnrRgb(picture.rgba, last);
+        const double psnrChange = myriad::encode::psnrRgb(picture.rgba, first);
+        MESSAGE("last picture: ", psnrLast, " dB against the PNG frame, ", psnrChange,
+                " dB against the first");
+        CHECK(psnrLast > 30.0);
+        CHECK(psnrChange < psnrLast - 5.0);
+        shown.push_back(picture.rgba);
+      }
+    }
+    CHECK(reader->framingError() == "");
+  }
+  CHECK(pictures(owner.items()).back().payload == pictures(watcher.items()).back().payload);
+
+  // A third page joining mid-stream starts with a key frame (forced: the channel's log since its
+  // key frame is longer than a joiner is replayed), decodable alone; the next edit reaches all
+  // three with one render and one encode.
+  const uint64_t rendersBeforeJoin = renders();  // the PNG frame above was one
+  VideoReader late(server, s.path() + query + "&token=" + viewer);
+  const VideoChunk joined = waitForPictures(late, 1).front();
+  CHECK(joined.kind == 1);
+  {
+    VideoDecoder decoder(VideoCodec::Vp9);
+    CHECK(myriad::encode::psnrRgb(decoder.decode(bytesOf(joined.payload)).rgba, last) > 30.0);
+  }
+  const uint64_t rendersJoined = renders();
+  const uint64_t encodesJoined = metricOf(api, "myriad_video_encodes_total");
+  MESSAGE("the join cost ", rendersJoined - rendersBeforeJoin, " render(s)");
+  CHECK(rendersJoined - rendersBeforeJoin == 1);
+  REQUIRE(api.patch(s.path() + "/camera", json{{"fovY", 40}}.dump(), s.token).status == 200);
+  const VideoChunk afterEdit = waitForPictures(late, 2).back();
+  const uint64_t version = afterEdit.version;
+  CHECK(version > joined.version);
+  for (VideoReader* reader : {&owner, &watcher}) {
+    const std::vector<VideoChunk> seen = reader->waitUntil(
+        [&](const std::vector<VideoChunk>& c) {
+          return !pictures(c).empty() && pictures(c).back().version == version;
+        },
+        std::chrono::seconds(120));
+    CHECK(pictures(seen).back().payload == afterEdit.payload);
+  }
+  CHECK(renders() - rendersJoined == 1);
+  CHECK(metricOf(api, "myriad_video_encodes_total") - encodesJoined == 1);
+  CHECK(metricOf(api, "myriad_video_encoders") == 1);
+  CHECK(myriad::test::validationMessages(api) == 0);
 }
 
 TEST_CASE("shared sessions: the pick route finds the light under a marker among all lights") {

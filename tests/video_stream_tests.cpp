@@ -32,6 +32,9 @@ using myriad::test::ApiClient;
 using myriad::test::createSession;
 using myriad::test::ServerProcess;
 using myriad::test::TestSession;
+using myriad::test::VideoReader;
+using Chunk = myriad::test::VideoChunk;
+using myriad::test::bearer;
 using nlohmann::json;
 using Clock = std::chrono::steady_clock;
 
@@ -39,113 +42,6 @@ namespace {
 
 constexpr uint32_t kWidth = 96;
 constexpr uint32_t kHeight = 64;
-constexpr size_t kHeaderBytes = 48;
-
-struct Chunk {
-  uint8_t kind = 0;
-  uint16_t width = 0, height = 0;
-  uint32_t sequence = 0;
-  uint64_t timestampUs = 0;
-  uint64_t version = 0;
-  double time = 0.0;
-  uint32_t encodeUs = 0;
-  std::string payload;
-  Clock::time_point arrived;
-};
-
-template <typename T>
-T read(const std::string& bytes, size_t offset) {
-  T value;
-  std::memcpy(&value, bytes.data() + offset, sizeof value);
-  return value;
-}
-
-// Reads a video stream on its own thread and splits it into chunks.
-class VideoReader {
- public:
-  VideoReader(const ServerProcess& server, std::string path, std::string token)
-      : client_(server.host(), server.port()) {
-    client_.set_read_timeout(300, 0);
-    thread_ = std::thread([this, path = std::move(path), token = std::move(token)] {
-      httplib::Result res = client_.Get(
-          path, {{"Authorization", "Bearer " + token}},
-          [this](const httplib::Response& response) {
-            std::lock_guard lock(mutex_);
-            status_ = response.status;
-            contentType_ = response.get_header_value("Content-Type");
-            codec_ = response.get_header_value("X-Myriad-Codec");
-            changed_.notify_all();
-            return true;
-          },
-          [this](const char* data, size_t size) {
-            std::lock_guard lock(mutex_);
-            buffer_.append(data, size);
-            while (buffer_.size() >= kHeaderBytes) {
-              const uint32_t payload = read<uint32_t>(buffer_, 0);
-              if (buffer_.size() < kHeaderBytes + payload) break;
-              Chunk chunk;
-              chunk.kind = read<uint8_t>(buffer_, 4);
-              chunk.width = read<uint16_t>(buffer_, 8);
-              chunk.height = read<uint16_t>(buffer_, 10);
-              chunk.sequence = read<uint32_t>(buffer_, 12);
-              chunk.timestampUs = read<uint64_t>(buffer_, 16);
-              chunk.version = read<uint64_t>(buffer_, 24);
-              chunk.time = read<double>(buffer_, 32);
-              chunk.encodeUs = read<uint32_t>(buffer_, 40);
-              chunk.payload = buffer_.substr(kHeaderBytes, payload);
-              chunk.arrived = Clock::now();
-              if (buffer_[5] != 0 || buffer_[6] != 0 || buffer_[7] != 0 ||
-                  read<uint32_t>(buffer_, 44) != 0) {
-                framingError_ = "reserved header bytes are not zero";
-              }
-              chunks_.push_back(std::move(chunk));
-              buffer_.erase(0, kHeaderBytes + payload);
-            }
-            changed_.notify_all();
-            return !stop_;
-          });
-      std::lock_guard lock(mutex_);
-      if (res && status_ == 0) status_ = res->status;
-      if (res && status_ >= 400) errorBody_ = res->body;
-      ended_ = true;
-      changed_.notify_all();
-    });
-  }
-  ~VideoReader() {
-    {
-      std::lock_guard lock(mutex_);
-      stop_ = true;
-    }
-    client_.stop();
-    thread_.join();
-  }
-  std::vector<Chunk> waitFor(size_t count, std::chrono::seconds timeout) {
-    std::unique_lock lock(mutex_);
-    changed_.wait_for(lock, timeout, [&] { return chunks_.size() >= count || ended_; });
-    return chunks_;
-  }
-  int status() {
-    std::unique_lock lock(mutex_);
-    changed_.wait_for(lock, std::chrono::seconds(300), [&] { return status_ != 0 || ended_; });
-    return status_;
-  }
-  std::string contentType() { std::lock_guard lock(mutex_); return contentType_; }
-  std::string codec() { std::lock_guard lock(mutex_); return codec_; }
-  std::string framingError() { std::lock_guard lock(mutex_); return framingError_; }
-  std::string errorBody() { std::lock_guard lock(mutex_); return errorBody_; }
-
- private:
-  httplib::Client client_;
-  std::thread thread_;
-  std::mutex mutex_;
-  std::condition_variable changed_;
-  std::string buffer_;
-  std::vector<Chunk> chunks_;
-  int status_ = 0;
-  bool ended_ = false;
-  bool stop_ = false;
-  std::string contentType_, codec_, framingError_, errorBody_;
-};
 
 std::span<const uint8_t> bytesOf(const std::string& s) {
   return {reinterpret_cast<const uint8_t*>(s.data()), s.size()};
@@ -187,10 +83,10 @@ TEST_CASE("video streams: key frame first, PNG-close pictures, edits as deltas, 
     const std::string codecName = name;
     CAPTURE(codecName);
     VideoReader reader(server, videoPath(session, std::string("codec=") + name + "&fps=8&bitrate=600"),
-                       session.token);
+                       bearer(session.token));
     REQUIRE(reader.status() == 200);
-    CHECK(reader.contentType() == "application/x-myriad-video");
-    CHECK(reader.codec() == webName);
+    CHECK(reader.header("Content-Type") == "application/x-myriad-video");
+    CHECK(reader.header("X-Myriad-Codec") == webName);
     std::vector<Chunk> chunks = reader.waitFor(1, std::chrono::seconds(120));
     REQUIRE(chunks.size() == 1);
     const Chunk first = chunks[0];
@@ -264,7 +160,7 @@ TEST_CASE("video streams: a closed stream stops encoding; animated frames all ar
     return reply.json["frames"].get<uint64_t>();
   };
   {
-    VideoReader reader(server, videoPath(session, "codec=vp8&fps=4"), session.token);
+    VideoReader reader(server, videoPath(session, "codec=vp8&fps=4"), bearer(session.token));
     REQUIRE(reader.status() == 200);
     std::vector<Chunk> chunks = reader.waitFor(4, std::chrono::seconds(120));
     REQUIRE(chunks.size() >= 4);

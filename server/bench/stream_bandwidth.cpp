@@ -6,6 +6,10 @@
 // with the animation time the chunk header names), and the input-to-frame latency: from sending a
 // camera PATCH to the arrival of the first chunk that shows it (its session version). Prints one
 // JSON document. server/bench/stream_bandwidth.sh starts the server and runs this against it.
+// With --viewers N (N > 1), N - 1 more streams of each video (a viewer token's, same query) run
+// through the bandwidth measurement, as pages watching the session would: the report adds renders
+// and encodes per second (GET .../stats "frames", /metrics myriad_video_encodes_total), the
+// encoders open, and each viewer's delivered fps (the server shares one render and one encoder).
 #include <httplib.h>
 
 #include <algorithm>
@@ -19,6 +23,7 @@
 #include <fstream>
 #include <functional>
 #include <iostream>
+#include <memory>
 #include <mutex>
 #include <numeric>
 #include <optional>
@@ -52,6 +57,7 @@ struct Options {
   uint32_t bitrateKbps = 0;  // 0: the server's default
   uint32_t psnrSamples = 8;
   uint32_t latencyEdits = 10;
+  uint32_t viewers = 1;
   std::string jsonPath;
 };
 
@@ -61,7 +67,7 @@ struct Options {
                "usage: myriad-stream-bandwidth --url http://HOST:PORT [--width 1280] [--height 720]\n"
                "         [--fps 30] [--lights 1000] [--seconds 10] [--jpeg-quality 85]\n"
                "         [--codecs vp8,vp9] [--bitrate KBPS (default: the server's)]\n"
-               "         [--psnr-samples 8] [--latency-edits 10] [--json FILE]\n",
+               "         [--psnr-samples 8] [--latency-edits 10] [--viewers 1] [--json FILE]\n",
                problem.c_str());
   std::exit(2);
 }
@@ -105,6 +111,9 @@ Options parse(int argc, char** argv) {
       o.bitrateKbps = uint32_t(number(i, "--bitrate"));
     } else if (a == "--psnr-samples") {
       o.psnrSamples = uint32_t(number(i, "--psnr-samples"));
+    } else if (a == "--viewers") {
+      o.viewers = uint32_t(number(i, "--viewers"));
+      if (o.viewers < 1 || o.viewers > 32) usage("--viewers must be 1 to 32");
     } else if (a == "--latency-edits") {
       o.latencyEdits = uint32_t(number(i, "--latency-edits"));
     } else if (a == "--codecs") {
@@ -277,6 +286,13 @@ json measureJpeg(const Options& o, Api& api, const std::string& base) {
           {"encodeMsP95", round3(percentile(encodeMs, 0.95))}};
 }
 
+// A counter of /metrics by its name (0 when absent).
+uint64_t metric(Api& api, const std::string& name) {
+  const std::string text = api.getBytes("/metrics");
+  const size_t at = text.find("\n" + name + " ");
+  return at == std::string::npos ? 0 : std::stoull(text.substr(at + name.size() + 2));
+}
+
 struct Chunk {
   uint8_t kind = 0;
   uint32_t sequence = 0;
@@ -352,8 +368,62 @@ json measureVideo(const Options& o, Api& api, const std::string& base, const std
     arrivedCv.notify_all();
   });
 
-  // Bandwidth: the stream alone for `seconds`.
+  // More pages watching (--viewers): each counts the chunks with a picture it gets.
+  struct Viewer {
+    std::unique_ptr<StreamRun> run;
+    std::string buffer;
+    size_t pictures = 0;
+  };
+  std::vector<std::unique_ptr<Viewer>> viewers;
+  if (o.viewers > 1) {
+    const std::string viewerToken =
+        api.call("POST", base + "/tokens", {{"role", "viewer"}})["token"].get<std::string>();
+    for (uint32_t v = 1; v < o.viewers; ++v) {
+      auto viewer = std::make_unique<Viewer>();
+      Viewer* self = viewer.get();
+      viewer->run = std::make_unique<StreamRun>(o, base + query, viewerToken, [self](const char* data, size_t size) {
+        self->buffer.append(data, size);
+        while (self->buffer.size() >= protocol::video_chunk::kHeaderBytes) {
+          uint32_t payload = 0;
+          std::memcpy(&payload, self->buffer.data(), 4);
+          if (self->buffer.size() < protocol::video_chunk::kHeaderBytes + payload) break;
+          if (uint8_t(self->buffer[4]) != protocol::video_chunk::kKeepAlive) ++self->pictures;
+          self->buffer.erase(0, protocol::video_chunk::kHeaderBytes + payload);
+        }
+      });
+      viewers.push_back(std::move(viewer));
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(500));  // every viewer joined
+  }
+  const uint64_t rendersBefore = api.call("GET", base + "/stats")["frames"].get<uint64_t>();
+  const uint64_t encodesBefore = metric(api, "myriad_video_encodes_total");
+  std::vector<size_t> viewerPicturesBefore;
+  for (auto& v : viewers) {
+    std::lock_guard lock(v->run->mutex);
+    viewerPicturesBefore.push_back(v->pictures);
+  }
+
+  // Bandwidth: the stream (and its viewers) for `seconds`.
+  const Clock::time_point measureStart = Clock::now();
   std::this_thread::sleep_for(std::chrono::duration<double>(o.seconds));
+  json shared = nullptr;
+  if (!viewers.empty()) {
+    const double took = std::chrono::duration<double>(Clock::now() - measureStart).count();
+    const uint64_t renders = api.call("GET", base + "/stats")["frames"].get<uint64_t>() - rendersBefore;
+    const uint64_t encodes = metric(api, "myriad_video_encodes_total") - encodesBefore;
+    json viewerFps = json::array();
+    for (size_t v = 0; v < viewers.size(); ++v) {
+      std::lock_guard lock(viewers[v]->run->mutex);
+      viewerFps.push_back(round3(double(viewers[v]->pictures - viewerPicturesBefore[v]) / took));
+    }
+    shared = {{"viewers", o.viewers},
+              {"rendersPerSecond", round3(double(renders) / took)},
+              {"encodesPerSecond", round3(double(encodes) / took)},
+              {"encodersOpen", metric(api, "myriad_video_encoders")},
+              {"otherViewersFps", viewerFps}};
+    for (auto& v : viewers) v->run->stop();
+    viewers.clear();
+  }
   std::vector<Chunk> measured;
   size_t measuredBytes = 0;
   {
@@ -443,6 +513,7 @@ json measureVideo(const Options& o, Api& api, const std::string& base, const std
               {"latencyMsMax", latencyMs.empty() ? 0.0 : round3(*std::max_element(latencyMs.begin(), latencyMs.end()))},
               {"latencyEdits", latencyMs.size()}};
   if (o.bitrateKbps) out["bitrateKbps"] = o.bitrateKbps;
+  if (!shared.is_null()) out["shared"] = shared;
   return out;
 }
 

@@ -7,7 +7,7 @@
 #   e.g. server/bench/stream_bandwidth.sh build/release/server/myriad-server \
 #          build/release/server/bench/myriad-stream-bandwidth --width 1280 --height 720 --fps 30
 # Bench options: --width --height --fps --lights --seconds --jpeg-quality --codecs --bitrate
-# --psnr-samples --latency-edits --json FILE (myriad-stream-bandwidth with no --url lists them).
+# --psnr-samples --latency-edits --viewers --json FILE (myriad-stream-bandwidth with no --url lists them).
 # Needs nothing but the two binaries (no browser, no curl); exit status 0 only when every stream
 # delivered frames, decoded, and showed every edit.
 set -euo pipefail

@@ -1,7 +1,8 @@
 // Video encoding of rendered frames for GET .../stream?codec= (libvpx: VP8 and VP9), and the
 // matching decoder that tests and the stream benchmark use to look at what a client would see.
-// Plain CPU code: an encoder belongs to one stream and runs on that stream's HTTP worker (libvpx
-// adds its own threads); never on the render thread.
+// Plain CPU code: an encoder belongs to one video channel (service/shared_frames.h: the streams
+// of a session asking for the same video) and runs on the HTTP worker of whichever of its streams
+// makes the frame, one at a time (libvpx adds its own threads); never on the render thread.
 #pragma once
 
 #include <cstdint>

@@ -165,6 +165,8 @@ void handleMetrics(const ApiContext& context, FrameServices& frames, const httpl
   gauges.gpuMemoryBytes = context.renderThread.gpuMemoryBytes();
   gauges.validationMessages = context.renderThread.validationMessages();
   gauges.sharedStreamFrames = frames.shared.sharedCount();
+  gauges.videoEncodes = frames.shared.videoEncodeCount();
+  gauges.videoEncoders = frames.shared.videoChannelCount();
   res.set_content(frames.metrics.exposition(gauges), std::string(protocol::kMetricsContentType));
 }
 

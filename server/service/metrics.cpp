@@ -88,6 +88,12 @@ std::string Metrics::exposition(const MetricGauges& gauges) const {
   family(out, "myriad_stream_frames_shared_total", "counter",
          "Stream parts sent from a frame another stream of the session rendered (no render).");
   out += "myriad_stream_frames_shared_total " + std::to_string(gauges.sharedStreamFrames) + "\n";
+  family(out, "myriad_video_encodes_total", "counter",
+         "Frames encoded for video streams (one encode however many viewers share it).");
+  out += "myriad_video_encodes_total " + std::to_string(gauges.videoEncodes) + "\n";
+  family(out, "myriad_video_encoders", "gauge",
+         "Video encoders open now: one per session, target, size, codec, bitrate and fps streamed.");
+  out += "myriad_video_encoders " + std::to_string(gauges.videoEncoders) + "\n";
   family(out, "myriad_gpu_memory_bytes", "gauge",
          "GPU memory held for scenes, lights and light lists.");
   out += "myriad_gpu_memory_bytes " + std::to_string(gauges.gpuMemoryBytes) + "\n";

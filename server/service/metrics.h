@@ -19,6 +19,8 @@ struct MetricGauges {
   uint64_t gpuMemoryBytes = 0;
   uint64_t validationMessages = 0;
   uint64_t sharedStreamFrames = 0;  // stream parts another stream's render made (SharedFrames)
+  uint64_t videoEncodes = 0;        // frames encoded by video streams' shared encoders
+  uint64_t videoEncoders = 0;       // video stream encoders open now (one per channel)
 };
 
 class Metrics {

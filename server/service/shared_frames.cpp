@@ -1,6 +1,9 @@
 #include "service/shared_frames.h"
 
+#include <algorithm>
 #include <utility>
+
+#include "protocol/constants.h"
 
 namespace myriad::service {
 namespace {
@@ -87,6 +90,170 @@ SharedFrames::Frame SharedFrames::next(const SessionFrameContext& context,
 uint64_t SharedFrames::sharedCount() const {
   std::lock_guard lock(mutex_);
   return shared_;
+}
+
+// ---- Video channels.
+
+std::string SharedFrames::videoKeyOf(const Session& session, const FrameRequest& request,
+                                     const encode::VideoSettings& settings) {
+  return session.id + '|' + std::to_string(static_cast<int>(request.settings.target)) + '|' +
+         std::to_string(settings.width) + 'x' + std::to_string(settings.height) + '|' +
+         std::string(encode::videoCodecName(settings.codec)) + '|' +
+         std::to_string(settings.bitrateKbps) + "kbps|" + std::to_string(settings.fps) + "fps";
+}
+
+SharedFrames::VideoViewer SharedFrames::joinVideo(const SessionPtr& session,
+                                                  const FrameRequest& request,
+                                                  const encode::VideoSettings& settings) {
+  const std::string key = videoKeyOf(*session, request, settings);
+  {
+    std::lock_guard lock(mutex_);
+    std::erase_if(channels_, [](const auto& item) { return item.second.expired(); });
+    if (auto it = channels_.find(key); it != channels_.end()) {
+      if (std::shared_ptr<VideoChannel> channel = it->second.lock()) return {channel};
+    }
+  }
+  // A new encoder (libvpx allocates its buffers here): made without the lock.
+  auto made = std::make_shared<VideoChannel>(key, settings);
+  std::lock_guard lock(mutex_);
+  std::weak_ptr<VideoChannel>& slot = channels_[key];
+  if (std::shared_ptr<VideoChannel> raced = slot.lock()) return {raced};  // another joined first
+  slot = made;
+  return {made};
+}
+
+std::vector<SharedFrames::VideoFramePtr> SharedFrames::sliceFor(const VideoChannel& channel,
+                                                                uint64_t position,
+                                                                size_t backlog) {
+  if (channel.log.empty()) return {};
+  const uint64_t first = channel.log.front()->generation;
+  const uint64_t newest = channel.log.back()->generation;
+  if (position >= newest) return {};
+  if (position > 0 && position + 1 >= first && newest - position <= backlog) {
+    // Keeping up: everything after its position.
+    return {channel.log.begin() + static_cast<std::ptrdiff_t>(position + 1 - first),
+            channel.log.end()};
+  }
+  // Joined, or too far behind: the log from a key frame, when short.
+  if (channel.log.front()->key && channel.log.size() <= kMaxVideoReplay) {
+    return {channel.log.begin(), channel.log.end()};
+  }
+  return {};
+}
+
+std::vector<SharedFrames::VideoFramePtr> SharedFrames::nextVideo(
+    const SessionFrameContext& context, const SessionPtr& session, const FrameRequest& request,
+    VideoViewer& viewer, Clock::duration maxAge) {
+  VideoChannel& channel = *viewer.channel;
+  const size_t backlog = maxVideoBacklog(request.fps);
+  std::unique_lock lock(mutex_);
+  for (;;) {
+    uint64_t version = 0;
+    bool animate = false;
+    {
+      std::lock_guard sessionLock(session->mutex);
+      version = session->version;
+      animate = session->scene.settings().animate;
+    }
+    const Clock::time_point now = Clock::now();
+    if (!channel.log.empty()) {
+      const VideoFrame& newest = *channel.log.back();
+      const bool fits = newest.generation > viewer.position && newest.version == version &&
+                        (!animate || now - newest.renderedAt < maxAge);
+      if (fits) {
+        std::vector<VideoFramePtr> slice = sliceFor(channel, viewer.position, backlog);
+        if (!slice.empty()) {
+          shared_ += slice.size();
+          viewer.position = slice.back()->generation;
+          return slice;
+        }
+        // Too far behind (or joined late): skip to the next key frame, which the next encode
+        // makes (whoever makes it).
+        if (!channel.keyWanted) ++viewer.resyncs;
+        channel.keyWanted = true;
+      }
+    }
+    if (channel.rendering) {
+      // Another viewer renders and encodes this channel's next frame: take it rather than make
+      // a second.
+      rendered_.wait(lock, [&] { return !channel.rendering; });
+      continue;
+    }
+    channel.rendering = true;
+    const bool forceKey = channel.keyWanted || channel.log.empty();
+    lock.unlock();
+    auto made = std::make_shared<VideoFrame>();
+    SessionFrame frame;
+    try {
+      const FrameEncoder encode = [&](const render::Frame& f) {
+        const auto start = Clock::now();
+        made->timestampUs = static_cast<uint64_t>(
+            std::chrono::duration_cast<std::chrono::microseconds>(start - channel.startedAt)
+                .count());
+        encode::VideoPacket packet = channel.encoder.encode(f.rgba, made->timestampUs / 1000, forceKey);
+        EncodedFrame out;
+        out.body.assign(reinterpret_cast<const char*>(packet.data.data()), packet.data.size());
+        out.contentType = protocol::kVideoStreamContentType;
+        out.encodeMs = std::chrono::duration<double, std::milli>(Clock::now() - start).count();
+        made->key = packet.key;
+        made->width = f.width;
+        made->height = f.height;
+        made->encodeUs = static_cast<uint32_t>(out.encodeMs * 1000.0);
+        return out;
+      };
+      PendingSessionFrame pending =
+          submitSessionFrame(context, session, request, render::FrameSource::Stream);
+      frame = collectSessionFrame(context, session, pending, &encode);
+    } catch (...) {
+      lock.lock();
+      channel.rendering = false;
+      rendered_.notify_all();
+      throw;
+    }
+    made->payload = std::move(frame.encoded.body);
+    made->version = frame.version;
+    made->time = frame.time;
+    lock.lock();
+    ++videoEncodes_;
+    made->generation = ++channel.generations;
+    made->renderedAt = Clock::now();
+    if (made->key) {
+      // Nothing before a key frame is needed to decode what follows.
+      channel.log.clear();
+      channel.logBytes = 0;
+      channel.keyWanted = false;
+    }
+    channel.logBytes += made->payload.size();
+    channel.log.push_back(std::move(made));
+    while (channel.log.size() > 1 &&
+           (channel.log.size() > backlog + 1 || channel.logBytes > kMaxVideoLogBytes)) {
+      channel.logBytes -= channel.log.front()->payload.size();
+      channel.log.pop_front();
+    }
+    channel.rendering = false;
+    rendered_.notify_all();
+    std::vector<VideoFramePtr> slice = sliceFor(channel, viewer.position, backlog);
+    if (!slice.empty()) {
+      shared_ += slice.size() - 1;  // all but the one made here
+      viewer.position = slice.back()->generation;
+      return slice;
+    }
+    // Still too far behind (its own frame was not a key frame: the request came during it).
+    if (!channel.keyWanted) ++viewer.resyncs;
+    channel.keyWanted = true;
+  }
+}
+
+uint64_t SharedFrames::videoEncodeCount() const {
+  std::lock_guard lock(mutex_);
+  return videoEncodes_;
+}
+
+uint32_t SharedFrames::videoChannelCount() const {
+  std::lock_guard lock(mutex_);
+  return static_cast<uint32_t>(std::count_if(channels_.begin(), channels_.end(), [](const auto& item) {
+    return !item.second.expired();
+  }));
 }
 
 }  // namespace myriad::service

@@ -8,14 +8,36 @@
 // rendering it, it waits for that frame instead of queueing its own; otherwise it renders, and the
 // others take what it made. So N streams of one session at one fps make as many renders as one
 // stream (GET .../stats "frames" and myriad_frame_seconds_count count them).
+//
+// Video streams (codec=) of one session that ask for the same picture and encoding (target, size,
+// codec, bitrate, fps) share a channel: one render and ONE encoder for all of them, whose chunks
+// every viewer of the channel gets. A delta chunk decodes only after every chunk since the key
+// frame before it, so a channel keeps a log of its newest chunks (at most kMaxVideoBacklog + 1,
+// and kMaxVideoLogBytes) and each viewer its position in it (the generation it sent last):
+//   - a viewer that wants a frame gets every chunk after its position, when its position is still
+//     in the log and it is at most kMaxVideoBacklog (max(8, fps): about a second) behind;
+//   - a viewer that just joined, or fell further behind (a slow client: its worker was blocked
+//     writing), gets the log from its first chunk when that is a key frame and the log is short
+//     (kMaxVideoReplay chunks); otherwise it asks the channel for a key frame (the next encode is
+//     forced to be one) and skips every chunk until that key frame. So a slow viewer never holds
+//     the others back, and costs memory only through the log, which is bounded.
+// As for images, a viewer takes the newest chunk when it is newer than its position, shows the
+// session's current version and (animating) is younger than the stream's interval; when another
+// viewer is rendering and encoding, it waits for that chunk; otherwise it renders and encodes.
+// Channels go with their last viewer (the encoder with them).
 #pragma once
 
+#include <algorithm>
 #include <condition_variable>
 #include <cstdint>
+#include <deque>
 #include <map>
 #include <memory>
 #include <mutex>
 #include <string>
+#include <vector>
+
+#include "encode/video.h"
 
 #include "service/frame_query.h"
 #include "service/session.h"
@@ -44,6 +66,51 @@ class SharedFrames {
   // Frames handed to a stream that another stream rendered (myriad_stream_frames_shared_total).
   uint64_t sharedCount() const;
 
+  // ---- Video channels.
+
+  // One encoded frame of a channel as every viewer gets it (the stream adds its own sequence).
+  struct VideoFrame {
+    uint64_t generation = 0;  // 1, 2, ... in its channel
+    bool key = false;
+    std::string payload;  // the codec's bitstream of the frame
+    uint32_t width = 0;
+    uint32_t height = 0;
+    uint64_t timestampUs = 0;  // since the channel's first frame
+    uint64_t version = 0;      // the session version it shows
+    double time = 0.0;         // the animation time it shows
+    uint32_t encodeUs = 0;
+    Clock::time_point renderedAt{};
+  };
+  using VideoFramePtr = std::shared_ptr<const VideoFrame>;
+  class VideoChannel;
+
+  // A video stream's place in its channel: made by joinVideo, released with the stream.
+  struct VideoViewer {
+    std::shared_ptr<VideoChannel> channel;
+    uint64_t position = 0;  // the generation sent last (0: none yet)
+    uint64_t resyncs = 0;   // times it was too far behind and skipped to a key frame
+  };
+
+  // Joins (or opens) the channel of `session` for `request` (request.video set) with `settings`'
+  // encoder. Throws what encode::VideoEncoder's constructor throws.
+  VideoViewer joinVideo(const SessionPtr& session, const FrameRequest& request,
+                        const encode::VideoSettings& settings);
+
+  // The chunks `viewer` sends next, oldest first, never empty; its position moves to the last.
+  // Renders and encodes one frame when no fitting chunk exists or is being made. Throws what
+  // renderSessionFrame throws and encode::VideoError.
+  std::vector<VideoFramePtr> nextVideo(const SessionFrameContext& context,
+                                       const SessionPtr& session, const FrameRequest& request,
+                                       VideoViewer& viewer, Clock::duration maxAge);
+
+  uint64_t videoEncodeCount() const;   // frames encoded by channels (myriad_video_encodes_total)
+  uint32_t videoChannelCount() const;  // channels open now (myriad_video_encoders)
+
+  // A viewer's bounds (see the top of this file).
+  static constexpr size_t kMaxVideoReplay = 4;
+  static constexpr size_t kMaxVideoLogBytes = size_t(32) << 20;
+  static size_t maxVideoBacklog(uint32_t fps) { return std::max<size_t>(8, fps); }
+
  private:
   struct Entry {
     std::weak_ptr<Session> session;
@@ -58,11 +125,35 @@ class SharedFrames {
   static std::string keyOf(const Session& session, const FrameRequest& request);
   void dropStale(Clock::time_point now);  // mutex_ held
 
+  static std::string videoKeyOf(const Session& session, const FrameRequest& request,
+                                const encode::VideoSettings& settings);
+  // The chunks `viewer` may take now, or empty when it must wait for a key frame. mutex_ held.
+  static std::vector<VideoFramePtr> sliceFor(const VideoChannel& channel, uint64_t position,
+                                             size_t backlog);
+
   mutable std::mutex mutex_;
   std::condition_variable rendered_;  // an entry's render finished (or failed)
   std::map<std::string, Entry, std::less<>> entries_;
   uint64_t shared_ = 0;
   uint64_t generations_ = 0;  // every entry's generations from one count: never one twice
+  std::map<std::string, std::weak_ptr<VideoChannel>, std::less<>> channels_;
+  uint64_t videoEncodes_ = 0;
+};
+
+class SharedFrames::VideoChannel {
+ public:
+  VideoChannel(std::string key, const encode::VideoSettings& settings)
+      : key(std::move(key)), encoder(settings) {}
+
+  const std::string key;
+  encode::VideoEncoder encoder;  // used only by the viewer rendering (one at a time)
+  const Clock::time_point startedAt = Clock::now();
+  // Guarded by SharedFrames::mutex_:
+  bool rendering = false;
+  bool keyWanted = false;  // a viewer waits for a key frame: the next encode makes one
+  uint64_t generations = 0;
+  std::deque<VideoFramePtr> log;  // the newest frames, oldest first
+  size_t logBytes = 0;
 };
 
 }  // namespace myriad::service

@@ -55,11 +55,13 @@ struct StreamState {
   bool lastInteractive = false;  // the last frame sent was an interactive one
   std::string interactiveScale;  // its render scale, as its part's X-Myriad-Interactive says
 
-  // Video streams (request.video): the stream's own encoder, freed with the stream; `image` then
-  // holds the last chunk's payload only until it is written.
-  std::unique_ptr<encode::VideoEncoder> encoder;
-  Clock::time_point startedAt = Clock::now();
-  VideoChunk chunk;  // the header of the chunk being written
+  // Video streams (request.video): the stream's place in its SharedFrames channel, whose encoder
+  // it shares with every stream of the session asking for the same video.
+  std::optional<SharedFrames::VideoViewer> video;
+  std::unique_ptr<SharedFrames> ownShared;  // the channels when context.shared is null
+  VideoChunk chunk;  // the header of the last chunk written
+
+  SharedFrames& shared() { return context.shared ? *context.shared : *ownShared; }
 
   bool write(httplib::DataSink& sink, const std::string& bytes) {
     wroteAny = true;
@@ -78,30 +80,21 @@ struct StreamState {
         std::chrono::duration_cast<std::chrono::microseconds>(Clock::now() - start).count());
   }
 
-  // Encodes a rendered frame with this stream's encoder and fills `chunk` (all but the version
-  // and animation time, which the caller sets from the SessionFrame).
-  EncodedFrame encodeVideo(const render::Frame& frame) {
-    const auto start = Clock::now();
-    const uint64_t timestampUs = microsecondsSince(startedAt);
-    encode::VideoPacket packet = encoder->encode(frame.rgba, timestampUs / 1000, !hasFrame);
-    EncodedFrame out;
-    out.body.assign(reinterpret_cast<const char*>(packet.data.data()), packet.data.size());
-    out.contentType = protocol::kVideoStreamContentType;
-    out.encodeMs = std::chrono::duration<double, std::milli>(Clock::now() - start).count();
-    chunk.kind = packet.key ? protocol::video_chunk::kKey : protocol::video_chunk::kDelta;
-    chunk.width = frame.width;
-    chunk.height = frame.height;
-    chunk.timestampUs = timestampUs;
-    chunk.encodeUs = static_cast<uint32_t>(out.encodeMs * 1000.0);
-    return out;
-  }
-
-  // The frame just collected, whose payload is in `image`.
-  bool writeFrame(httplib::DataSink& sink) {
-    if (!encoder) return writePart(sink);
-    std::string bytes = videoChunk(chunk, image);
-    image.clear();
-    image.shrink_to_fit();
+  // A video stream's next chunks (SharedFrames::nextVideo), in one write, numbered on.
+  bool writeVideo(httplib::DataSink& sink,
+                  const std::vector<SharedFrames::VideoFramePtr>& frames) {
+    std::string bytes;
+    for (const SharedFrames::VideoFramePtr& frame : frames) {
+      chunk.kind = frame->key ? protocol::video_chunk::kKey : protocol::video_chunk::kDelta;
+      chunk.width = frame->width;
+      chunk.height = frame->height;
+      chunk.sequence = static_cast<uint32_t>(++sequence);
+      chunk.timestampUs = frame->timestampUs;
+      chunk.version = frame->version;
+      chunk.time = frame->time;
+      chunk.encodeUs = frame->encodeUs;
+      bytes += videoChunk(chunk, frame->payload);
+    }
     return write(sink, bytes);
   }
 
@@ -111,9 +104,7 @@ struct StreamState {
     if (!ahead) return;
     *ahead->drop = true;
     try {
-      // Nobody sees it: a video stream's encoder skips it (its next frame would need it).
-      const FrameEncoder skip = [](const render::Frame&) { return EncodedFrame{}; };
-      collectSessionFrame(context, session, *ahead, encoder ? &skip : nullptr);
+      collectSessionFrame(context, session, *ahead);
     } catch (const std::exception&) {
       // Dropped, the session closed, or the frame failed: nobody is waiting for it.
     }
@@ -121,12 +112,12 @@ struct StreamState {
   }
 
   bool writePart(httplib::DataSink& sink) {
-    if (encoder) {
+    if (video) {
       // A video stream re-sends no picture (a delta frame only decodes once): a keep-alive
       // chunk says the stream is alive and nothing changed.
       VideoChunk keepAlive = chunk;
       keepAlive.kind = protocol::video_chunk::kKeepAlive;
-      keepAlive.timestampUs = microsecondsSince(startedAt);
+      keepAlive.timestampUs = microsecondsSince(video->channel->startedAt);
       keepAlive.encodeUs = 0;
       return write(sink, videoChunk(keepAlive, {}));
     }
@@ -173,14 +164,13 @@ bool StreamState::next(httplib::DataSink& sink) {
     const bool wantFrame = !hasFrame || version != shownVersion || animate || wantStill;
     if (wantFrame && now >= nextFrameAt) {
       SharedFrames::Frame frame;
-      double frameTime = 0.0;  // the animation time it shows (video chunk headers)
+      std::vector<SharedFrames::VideoFramePtr> videoFrames;
       std::string scaleText;   // the interactive frame's render scale
       try {
         // Streams of one session share renders (SharedFrames) unless this one pipelines: an
         // animated stream whose frames take longer than 1 / fps submits the next frame ahead,
         // which a shared render cannot (it would keep each stream's own frames in flight).
-        // A video stream encodes with its own encoder, whose every frame its client must get:
-        // it renders its own frames too.
+        // Video streams always share (their channel's encoder needs every frame in order).
         const bool pipelined = animate && (ahead || lastFrameTook >= interval);
         if (moving) {
           // A cheaper frame of the stream's own (its size is its own, so it is not shared); a
@@ -191,12 +181,15 @@ bool StreamState::next(httplib::DataSink& sink) {
               context, session, quality->degrade(request), render::FrameSource::Stream);
           SessionFrame own = collectSessionFrame(context, session, pending);
           quality->measured(scale, Clock::now() - pending.submitted);
-          frameTime = own.time;
           frame = {std::make_shared<const EncodedFrame>(std::move(own.encoded)), own.version, 0};
           char text[32];
           auto [end, ec] = std::to_chars(text, text + sizeof text, scale);
           scaleText.assign(text, ec == std::errc() ? end : text);
-        } else if (context.shared != nullptr && !pipelined && !encoder) {
+        } else if (video) {
+          const Clock::time_point start = Clock::now();
+          videoFrames = shared().nextVideo(context, session, request, *video, interval);
+          lastFrameTook = Clock::now() - start;
+        } else if (context.shared != nullptr && !pipelined) {
           frame = context.shared->next(context, session, request, shownGeneration, interval);
           lastFrameTook = frame.took;
         } else {
@@ -207,14 +200,7 @@ bool StreamState::next(httplib::DataSink& sink) {
           if (animate && lastFrameTook >= interval) {
             ahead = submitSessionFrame(context, session, request, render::FrameSource::Stream);
           }
-          SessionFrame own;
-          if (encoder) {
-            const FrameEncoder encode = [this](const render::Frame& f) { return encodeVideo(f); };
-            own = collectSessionFrame(context, session, pending, &encode);
-          } else {
-            own = collectSessionFrame(context, session, pending);
-          }
-          frameTime = own.time;
+          SessionFrame own = collectSessionFrame(context, session, pending);
           lastFrameTook = Clock::now() - pending.submitted;
           frame = {std::make_shared<const EncodedFrame>(std::move(own.encoded)), own.version, 0};
         }
@@ -234,15 +220,16 @@ bool StreamState::next(httplib::DataSink& sink) {
       lastInteractive = moving;
       interactiveScale = std::move(scaleText);
       hasFrame = true;
+      if (video) {
+        shownVersion = videoFrames.back()->version;
+        return writeVideo(sink, videoFrames);
+      }
       shownVersion = frame.version;
       shownGeneration = frame.generation;
       ++sequence;
       image = frame.encoded->body;
       contentType = frame.encoded->contentType;
-      chunk.sequence = static_cast<uint32_t>(sequence);
-      chunk.version = frame.version;
-      chunk.time = frameTime;
-      return writeFrame(sink);
+      return writePart(sink);
     }
     if (hasFrame && now - lastWriteAt >= kIdleResend) return writePart(sink);
 
@@ -368,7 +355,8 @@ httplib::ContentProviderWithoutLength makeStreamProvider(const SessionFrameConte
     const unsigned cores = std::max(1u, std::thread::hardware_concurrency());
     video.threads = std::clamp(video.codec == encode::VideoCodec::Vp8 ? cores / 4 : cores, 1u,
                                kVideoEncoderThreads);
-    state->encoder = std::make_unique<encode::VideoEncoder>(video);
+    if (state->context.shared == nullptr) state->ownShared = std::make_unique<SharedFrames>();
+    state->video = state->shared().joinVideo(state->session, state->request, video);
   }
   if (state->request.interactiveFps > 0) state->quality.emplace(state->request.interactiveFps);
   return [state](size_t /*offset*/, httplib::DataSink& sink) {

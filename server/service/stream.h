@@ -1,8 +1,9 @@
 // GET /v1/sessions/{id}/stream: a multipart/x-mixed-replace response that carries a new frame
 // whenever the session changes (or continuously while its lights animate), at most `fps` a second.
 // With codec= the same frames go out as video instead (protocol::kVideoStreamContentType): the
-// stream owns one encoder, made with the stream and freed with it, whose first frame is a key
-// frame; idle re-sends become keep-alive chunks without a picture.
+// stream joins its session's video channel for that video (SharedFrames: one encoder shared by
+// every stream asking for the same target, size, codec, bitrate and fps, freed with the last);
+// its first chunk is a key frame; idle re-sends become keep-alive chunks without a picture.
 //
 // At most two frames in flight per stream: the next frame is rendered from the session's newest
 // state after the previous part was written, so a slow client sees fewer, newer frames and

@@ -1,7 +1,9 @@
 // The live view as people use it (Debian's Chromium, headless, playwright-core) against the real
 // server with validation: the status overlay says "rendering" within 100 ms of a change and the
 // stats strip reads fps, latency, bandwidth and codec; a view-only link opens the same session in
-// a second page, which sees the owner's edits and whose own edit is refused on the view; with
+// a second page, which sees the owner's edits and whose own edit is refused on the view; two pages
+// on the VP9 stream of one session (owner and viewer) see each edit from one render and one
+// encode (GET .../stats frames, /metrics myriad_video_encodes_total and myriad_video_encoders); with
 // 100,000 lights a click on a marker of a light past the first 1,000 selects that light; and a
 // 390x844 touch screen gets a view across its width that a pinch zooms.
 //
@@ -248,6 +250,68 @@ try {
     const after = (await api('GET', `/v1/sessions/${session.id}/camera`, {token: session.token})).body;
     check(JSON.stringify(after) === JSON.stringify(camera), 'the viewer moved the camera');
     await viewerContext.close();
+  });
+
+  await step('two pages on the VP9 stream of one session (one a viewer): both see each edit, rendered and encoded once for both', async () => {
+    // A session of its own, so that only these two pages' streams render for it.
+    const created = await api('POST', '/v1/sessions', {json: {}});
+    check(created.status === 201, `POST sessions: ${created.status}`);
+    const {id, token: ownerToken} = created.body;
+    const minted = await api('POST', `/v1/sessions/${id}/tokens`, {token: ownerToken, json: {role: 'viewer'}});
+    check(minted.status === 201, `POST tokens: ${minted.status}`);
+    const metric = async (name) => {
+      const text = await (await fetch(`${base}/metrics`)).text();
+      const m = text.match(new RegExp(`^${name} ([0-9]+)$`, 'm'));
+      return m ? Number(m[1]) : NaN;
+    };
+    const renders = async () => (await api('GET', `/v1/sessions/${id}/stats`, {token: ownerToken})).body.frames;
+    const contexts = [];
+    try {
+      const pages = [];
+      for (const [name, link] of [['owner video', `/#session=${id}&token=${ownerToken}`],
+                                  ['viewer video', minted.body.link]]) {
+        const ctx = await browser.newContext({viewport: DESKTOP});
+        contexts.push(ctx);
+        const page = await ctx.newPage();
+        watch(page, name);
+        await page.goto(base + link);
+        pages.push(page);
+      }
+      const stream = (s) => {
+        const u = new URL(s.src, base);
+        u.searchParams.delete('token');
+        return u.toString();
+      };
+      const decoded = (page, unlike = null) => until('a decoded VP9 picture', async () => {
+        const s = await page.evaluate(signatureInPage);
+        if (!s || s.codec !== 'vp9' || !s.src.includes('codec=vp9')) return null;
+        return !unlike || (s.frame > unlike.frame && difference(s, unlike) > 1.0) ? s : null;
+      }, 120000);
+      // Both pages on the same video (same size and bitrate): one encoder between them.
+      let shown = await until('both pages on one VP9 stream, one encoder', async () => {
+        const both = [await decoded(pages[0]), await decoded(pages[1])];
+        return stream(both[0]) === stream(both[1]) && await metric('myriad_video_encoders') === 1 ? both : null;
+      }, 120000);
+      const rendersBefore = await renders();
+      const encodesBefore = await metric('myriad_video_encodes_total');
+      for (const exposure of [3, 0.4]) {
+        const edited = await api('PATCH', `/v1/sessions/${id}/settings`, {token: ownerToken, json: {exposure}});
+        check(edited.status === 200, `PATCH settings: ${edited.status}`);
+        shown = [await decoded(pages[0], shown[0]), await decoded(pages[1], shown[1])];
+      }
+      const rendered = await renders() - rendersBefore;
+      const encoded = await metric('myriad_video_encodes_total') - encodesBefore;
+      console.log(`     2 edits seen by both VP9 pages: ${rendered} renders, ${encoded} encodes, ` +
+                  `${await metric('myriad_video_encoders')} encoder`);
+      check(rendered === 2 && encoded === 2, `${rendered} renders and ${encoded} encodes for 2 edits`);
+      // The viewer's token cannot edit.
+      const refused = await api('PATCH', `/v1/sessions/${id}/settings`,
+                                {token: minted.body.token, json: {exposure: 1}});
+      check(refused.status === 403, `the viewer's PATCH: ${refused.status}`);
+    } finally {
+      for (const ctx of contexts) await ctx.close();
+      await api('DELETE', `/v1/sessions/${id}`, {token: ownerToken});
+    }
   });
 
   await step(`${MANY_LIGHTS} lights: a click on a marker of a light past the first 1,000 selects it`, async () => {
