@@ -556,6 +556,9 @@ TEST_CASE("video channels: one encoder for its viewers; a late or slow viewer sk
   REQUIRE(resynced.size() == 1);
   CHECK(resynced[0]->key);
   CHECK(b.viewer.resyncs == 1);
+  CHECK(shared.videoResyncCount() == 1);
+  // It lowered the channel's bitrate a step (3/4) for the frame it made.
+  CHECK(b.viewer.channel->encoder.settings().bitrateKbps == 225);
   CHECK(queue.rendered == renderedBefore + 1);
   edit();
   auto next = a.take(context, session, request, interval, shared);
@@ -579,6 +582,16 @@ TEST_CASE("video channels: one encoder for its viewers; a late or slow viewer sk
   REQUIRE(late.size() == 1);
   CHECK(late[0]->key);
   CHECK(late[0]->version == a.got.back()->version);  // the same state, encoded as a key frame
+  CHECK(shared.videoResyncCount() == 1);  // joiners are not slow viewers
+  // Falling behind again within a second: counted, but no second step down yet.
+  REQUIRE(a.take(context, session, request, interval, shared).size() == 1);  // d's key frame
+  for (size_t i = 0; i < backlog + 3; ++i) {
+    edit();
+    REQUIRE(a.take(context, session, request, interval, shared).size() == 1);
+  }
+  REQUIRE(b.take(context, session, request, interval, shared).front()->key);
+  CHECK(b.viewer.resyncs == 2);
+  CHECK(b.viewer.channel->encoder.settings().bitrateKbps == 225);
   CHECK(shared.videoEncodeCount() == queue.rendered);
   CHECK(shared.videoChannelCount() == 1);
 }

@@ -82,6 +82,35 @@ TEST_CASE("video: the bitrate follows the target over a second of moving frames"
   }
 }
 
+TEST_CASE("video: a new bitrate takes effect without a key frame") {
+  constexpr uint32_t w = 320, h = 180;
+  for (VideoCodec codec : {VideoCodec::Vp8, VideoCodec::Vp9}) {
+    CAPTURE(videoCodecName(codec));
+    VideoEncoder encoder({codec, w, h, 30, 1500, 2});
+    VideoDecoder decoder(codec);
+    size_t high = 0, low = 0;
+    for (int frame = 0; frame < 120; ++frame) {
+      if (frame == 60) {
+        encoder.setBitrate(300);
+        CHECK(encoder.settings().bitrateKbps == 300);
+      }
+      std::vector<uint8_t> source = movingImage(w, h, 10.0f + 2.5f * frame, 20.0f + 1.2f * frame);
+      for (size_t i = 0; i < source.size(); i += 4) source[i] ^= uint8_t((i * 2654435761u + frame * 97u) >> 27);
+      VideoPacket packet = encoder.encode(source, uint64_t(frame) * 1000 / 30, false);
+      CHECK(packet.key == (frame == 0));
+      CHECK(decoder.decode(packet.data).width == w);  // the stream stays decodable
+      // The second after the change, less its first 10 frames (the buffer drains).
+      if (frame >= 30 && frame < 60) high += packet.data.size();
+      if (frame >= 90) low += packet.data.size();
+    }
+    MESSAGE(videoCodecName(codec), ": ", high * 8 / 1000, " kbit/s at 1500, ", low * 8 / 1000,
+            " kbit/s after setBitrate(300)");
+    CHECK(low * 2 < high);
+  }
+  VideoEncoder encoder({VideoCodec::Vp9, 64, 64, 30, 500, 1});
+  CHECK_THROWS_AS(encoder.setBitrate(0), std::invalid_argument);
+}
+
 TEST_CASE("video: colour conversion keeps flat colours within two levels") {
   for (auto [r, g, b] : {std::array{0, 0, 0}, std::array{255, 255, 255}, std::array{200, 40, 90},
                          std::array{12, 180, 250}}) {

@@ -2,10 +2,16 @@
 // on). The chunks are read as a client would (tests/browser reads the same ones with WebCodecs) and
 // decoded with libvpx: the first is a key frame, pictures match the PNG frame of the same state,
 // edits arrive as delta frames that change pixels, idle streams send keep-alives, and a closed
-// stream stops encoding.
+// stream stops encoding; a viewer that stops reading skips to a key frame without stalling another
+// viewer of the same encoder.
 #include <doctest/doctest.h>
 #include <httplib.h>
 
+#include <netinet/in.h>
+#include <netinet/tcp.h>
+#include <sys/socket.h>
+
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <tuple>
@@ -185,5 +191,106 @@ TEST_CASE("video streams: a closed stream stops encoding; animated frames all ar
   CHECK(after - atClose <= 1);
   myriad::test::Reply metrics = api.get("/metrics");
   CHECK(metrics.body.find("myriad_streams 0") != std::string::npos);
+  REQUIRE(server.stop().has_value());
+}
+
+TEST_CASE("video streams: a viewer that stops reading skips to a key frame; the other never stalls") {
+  ServerProcess server({"--lights", "64"});
+  REQUIRE(server.start() == ServerProcess::Start::Listening);
+  ApiClient api(server);
+  TestSession session = createSession(api);
+  REQUIRE(api.patch(session.path() + "/settings", json{{"animate", true}}.dump(), session.token)
+              .status == 200);
+  // 10 fps: a viewer more than max(8, fps) = 10 chunks behind skips to a key frame.
+  const std::string path =
+      session.path() + "/stream?codec=vp9&fps=10&width=320&height=240&bitrate=8000";
+  const auto metric = [&](const std::string& name) {
+    myriad::test::Reply metrics = api.get("/metrics");
+    const size_t at = metrics.body.find("\n" + name + " ");
+    REQUIRE(at != std::string::npos);
+    return std::stoull(metrics.body.substr(at + name.size() + 2));
+  };
+
+  // The slow page: a small receive buffer and segment size (so the server's socket fills after a
+  // few frames), and a body callback that stops reading while `paused`.
+  std::mutex mutex;
+  std::condition_variable resumed;
+  bool paused = true;
+  bool stop = false;
+  std::string slowBytes;
+  httplib::Client slowClient(server.host(), server.port());
+  slowClient.set_read_timeout(300, 0);
+  slowClient.set_socket_options([](int sock) {
+    const int receiveBuffer = 4096, segment = 536;
+    setsockopt(sock, SOL_SOCKET, SO_RCVBUF, &receiveBuffer, sizeof receiveBuffer);
+    setsockopt(sock, IPPROTO_TCP, TCP_MAXSEG, &segment, sizeof segment);
+  });
+  std::thread slowThread([&] {
+    slowClient.Get(path, bearer(session.token), [&](const char* data, size_t size) {
+      std::unique_lock lock(mutex);
+      slowBytes.append(data, size);
+      resumed.wait(lock, [&] { return !paused || stop; });
+      return !stop;
+    });
+  });
+  VideoReader fast(server, path, bearer(session.token));
+  REQUIRE(fast.status() == 200);
+  fast.waitFor(2, std::chrono::seconds(120));
+  // The slow page reads nothing while the fast one gets 40 chunks (at ~5 KB each, more than the
+  // ~100 KB the two sockets hold at this segment size), or for 24 s (the server gives up a write
+  // after 30 s).
+  const size_t before = fast.items().size();
+  const auto pausedAt = Clock::now();
+  fast.waitFor(before + 40, std::chrono::seconds(24));
+  const size_t during = fast.items().size() - before;
+  const double pausedFor = std::chrono::duration<double>(Clock::now() - pausedAt).count();
+  const uint64_t resyncsBefore = metric("myriad_video_resyncs_total");
+  {
+    std::lock_guard lock(mutex);
+    paused = false;
+  }
+  resumed.notify_all();
+  // Reading again, it gets what was queued for it, then (too far behind) a key frame.
+  const auto deadline = Clock::now() + std::chrono::seconds(120);
+  std::vector<Chunk> slow;
+  size_t keysAfterFirst = 0;
+  while (Clock::now() < deadline && keysAfterFirst == 0) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(200));
+    std::lock_guard lock(mutex);
+    slow.clear();
+    auto parse = myriad::test::videoChunkParser();
+    std::string_view rest = slowBytes;
+    while (size_t used = parse(rest, slow)) rest.remove_prefix(used);
+    keysAfterFirst = std::count_if(slow.begin() + std::min<size_t>(1, slow.size()), slow.end(),
+                                   [](const Chunk& c) { return c.kind == 1; });
+  }
+  {
+    std::lock_guard lock(mutex);
+    stop = true;
+  }
+  resumed.notify_all();
+  slowClient.stop();
+  slowThread.join();
+  const uint64_t resyncs = metric("myriad_video_resyncs_total");
+  MESSAGE("while the slow page read nothing for ", pausedFor, " s the other got ", during,
+          " chunks; the slow page then got ", slow.size(), " chunks with ", keysAfterFirst,
+          " key frame(s) after its first (", slowBytes.size(), " bytes); resyncs ", resyncsBefore,
+          " -> ", resyncs);
+  CHECK(during >= 12);  // not stalled
+  CHECK(keysAfterFirst >= 1);
+  CHECK(resyncs >= 1);
+  // Everything either page got decodes in order with one decoder each: the slow page's skipped
+  // deltas are never needed after its key frame.
+  for (const std::vector<Chunk>& chunks : {fast.items(), slow}) {
+    VideoDecoder decoder(VideoCodec::Vp9);
+    size_t pictures = 0;
+    for (const Chunk& c : chunks) {
+      if (c.kind == 3) continue;
+      CHECK_NOTHROW(decoder.decode(bytesOf(c.payload)));
+      ++pictures;
+    }
+    CHECK(pictures >= 2);
+  }
+  CHECK(myriad::test::validationMessages(api) == 0);
   REQUIRE(server.stop().has_value());
 }

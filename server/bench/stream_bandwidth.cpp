@@ -288,7 +288,7 @@ json measureJpeg(const Options& o, Api& api, const std::string& base) {
 
 // A counter of /metrics by its name (0 when absent).
 uint64_t metric(Api& api, const std::string& name) {
-  const std::string text = api.getBytes("/metrics");
+  const std::string text = api.getBytes(std::string(protocol::routes::kMetrics));
   const size_t at = text.find("\n" + name + " ");
   return at == std::string::npos ? 0 : std::stoull(text.substr(at + name.size() + 2));
 }

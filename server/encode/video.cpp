@@ -103,6 +103,7 @@ double psnrRgb(std::span<const uint8_t> a, std::span<const uint8_t> b) {
 
 struct VideoEncoder::Impl {
   vpx_codec_ctx_t codec{};
+  vpx_codec_enc_cfg_t config{};  // as initialised, kept for setBitrate
   vpx_image_t image{};
   bool codecOpen = false;
   bool imageAllocated = false;
@@ -166,6 +167,7 @@ VideoEncoder::VideoEncoder(const VideoSettings& settings)
     throw VideoError(message);
   }
   impl_->codecOpen = true;
+  impl_->config = cfg;
   vpx_codec_ctx_t* ctx = &impl_->codec;
   if (vp8) {
     // Speed 10 of 16 (realtime): about half the bits of speed 16 at the same quality for a
@@ -196,6 +198,19 @@ VideoEncoder::VideoEncoder(const VideoSettings& settings)
 }
 
 VideoEncoder::~VideoEncoder() = default;
+
+void VideoEncoder::setBitrate(uint32_t kbps) {
+  if (kbps < 1 || kbps > 1000000) {
+    throw std::invalid_argument("video bitrate must be 1 to 1,000,000 kbit/s");
+  }
+  vpx_codec_enc_cfg_t cfg = impl_->config;
+  cfg.rc_target_bitrate = kbps;
+  if (vpx_codec_enc_config_set(&impl_->codec, &cfg) != VPX_CODEC_OK) {
+    throw VideoError(vpxMessage(&impl_->codec, "libvpx refused the new bitrate"));
+  }
+  impl_->config = cfg;
+  settings_.bitrateKbps = kbps;
+}
 
 VideoPacket VideoEncoder::encode(std::span<const uint8_t> rgba, uint64_t timestampMs,
                                  bool forceKey) {

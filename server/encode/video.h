@@ -54,6 +54,11 @@ class VideoEncoder {
   // width * height * 4 and VideoError when libvpx fails.
   VideoPacket encode(std::span<const uint8_t> rgba, uint64_t timestampMs, bool forceKey);
 
+  // A new target bitrate (1..1,000,000 kbit/s) for the frames encoded from now on, without a key
+  // frame (the rate control's configuration changes in place); settings().bitrateKbps follows.
+  // Throws std::invalid_argument out of range and VideoError when libvpx refuses it.
+  void setBitrate(uint32_t kbps);
+
   const VideoSettings& settings() const { return settings_; }
 
  private:

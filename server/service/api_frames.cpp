@@ -167,6 +167,7 @@ void handleMetrics(const ApiContext& context, FrameServices& frames, const httpl
   gauges.sharedStreamFrames = frames.shared.sharedCount();
   gauges.videoEncodes = frames.shared.videoEncodeCount();
   gauges.videoEncoders = frames.shared.videoChannelCount();
+  gauges.videoResyncs = frames.shared.videoResyncCount();
   res.set_content(frames.metrics.exposition(gauges), std::string(protocol::kMetricsContentType));
 }
 

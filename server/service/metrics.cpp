@@ -94,6 +94,9 @@ std::string Metrics::exposition(const MetricGauges& gauges) const {
   family(out, "myriad_video_encoders", "gauge",
          "Video encoders open now: one per session, target, size, codec, bitrate and fps streamed.");
   out += "myriad_video_encoders " + std::to_string(gauges.videoEncoders) + "\n";
+  family(out, "myriad_video_resyncs_total", "counter",
+         "Video stream clients that fell behind and skipped to a key frame (each lowers the bitrate).");
+  out += "myriad_video_resyncs_total " + std::to_string(gauges.videoResyncs) + "\n";
   family(out, "myriad_gpu_memory_bytes", "gauge",
          "GPU memory held for scenes, lights and light lists.");
   out += "myriad_gpu_memory_bytes " + std::to_string(gauges.gpuMemoryBytes) + "\n";

@@ -21,6 +21,7 @@ struct MetricGauges {
   uint64_t sharedStreamFrames = 0;  // stream parts another stream's render made (SharedFrames)
   uint64_t videoEncodes = 0;        // frames encoded by video streams' shared encoders
   uint64_t videoEncoders = 0;       // video stream encoders open now (one per channel)
+  uint64_t videoResyncs = 0;        // video viewers that fell behind and skipped to a key frame
 };
 
 class Metrics {

@@ -141,6 +141,23 @@ std::vector<SharedFrames::VideoFramePtr> SharedFrames::sliceFor(const VideoChann
   return {};
 }
 
+void SharedFrames::wantKey(VideoChannel& channel, VideoViewer& viewer, Clock::time_point now) {
+  channel.keyWanted = true;
+  if (viewer.skipping) return;  // counted when it started waiting
+  viewer.skipping = true;
+  if (viewer.position == 0) return;  // a joiner
+  // A viewer that had frames and fell behind: count it, and step the bitrate down.
+  ++viewer.resyncs;
+  ++videoResyncs_;
+  if (now - channel.lastDown >= kVideoLowerEvery) {
+    const uint32_t floor = std::max(1u, channel.askedKbps / 4);
+    channel.targetKbps =
+        std::max(floor, static_cast<uint32_t>(uint64_t(channel.targetKbps) * 3 / 4));
+    channel.lastDown = now;
+    channel.lastStep = now;
+  }
+}
+
 std::vector<SharedFrames::VideoFramePtr> SharedFrames::nextVideo(
     const SessionFrameContext& context, const SessionPtr& session, const FrameRequest& request,
     VideoViewer& viewer, Clock::duration maxAge) {
@@ -165,12 +182,12 @@ std::vector<SharedFrames::VideoFramePtr> SharedFrames::nextVideo(
         if (!slice.empty()) {
           shared_ += slice.size();
           viewer.position = slice.back()->generation;
+          viewer.skipping = false;
           return slice;
         }
         // Too far behind (or joined late): skip to the next key frame, which the next encode
         // makes (whoever makes it).
-        if (!channel.keyWanted) ++viewer.resyncs;
-        channel.keyWanted = true;
+        wantKey(channel, viewer, now);
       }
     }
     if (channel.rendering) {
@@ -181,6 +198,13 @@ std::vector<SharedFrames::VideoFramePtr> SharedFrames::nextVideo(
     }
     channel.rendering = true;
     const bool forceKey = channel.keyWanted || channel.log.empty();
+    if (channel.targetKbps < channel.askedKbps && now - channel.lastStep >= kVideoRaiseAfter) {
+      // No viewer fell behind for a while: one step back up.
+      channel.targetKbps = static_cast<uint32_t>(
+          std::min<uint64_t>(channel.askedKbps, uint64_t(channel.targetKbps) * 5 / 4 + 1));
+      channel.lastStep = now;
+    }
+    const uint32_t kbps = channel.targetKbps;
     lock.unlock();
     auto made = std::make_shared<VideoFrame>();
     SessionFrame frame;
@@ -201,6 +225,7 @@ std::vector<SharedFrames::VideoFramePtr> SharedFrames::nextVideo(
         made->encodeUs = static_cast<uint32_t>(out.encodeMs * 1000.0);
         return out;
       };
+      if (channel.encoder.settings().bitrateKbps != kbps) channel.encoder.setBitrate(kbps);
       PendingSessionFrame pending =
           submitSessionFrame(context, session, request, render::FrameSource::Stream);
       frame = collectSessionFrame(context, session, pending, &encode);
@@ -236,17 +261,22 @@ std::vector<SharedFrames::VideoFramePtr> SharedFrames::nextVideo(
     if (!slice.empty()) {
       shared_ += slice.size() - 1;  // all but the one made here
       viewer.position = slice.back()->generation;
+      viewer.skipping = false;
       return slice;
     }
     // Still too far behind (its own frame was not a key frame: the request came during it).
-    if (!channel.keyWanted) ++viewer.resyncs;
-    channel.keyWanted = true;
+    wantKey(channel, viewer, Clock::now());
   }
 }
 
 uint64_t SharedFrames::videoEncodeCount() const {
   std::lock_guard lock(mutex_);
   return videoEncodes_;
+}
+
+uint64_t SharedFrames::videoResyncCount() const {
+  std::lock_guard lock(mutex_);
+  return videoResyncs_;
 }
 
 uint32_t SharedFrames::videoChannelCount() const {

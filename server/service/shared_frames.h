@@ -21,6 +21,11 @@
 //     (kMaxVideoReplay chunks); otherwise it asks the channel for a key frame (the next encode is
 //     forced to be one) and skips every chunk until that key frame. So a slow viewer never holds
 //     the others back, and costs memory only through the log, which is bounded.
+// Rate adaptation (per channel, bounded steps): a viewer that falls behind (not a joiner) lowers
+// the channel's bitrate to 3/4 (at most one step a second, never below 1/4 of the asked bitrate):
+// its link did not carry what the encoder made. After kVideoRaiseAfter without a step down, each
+// encode may raise it by 5/4, up to the asked bitrate. One encoder serves every viewer, so the
+// slowest viewer's link sets the quality for all of them (no per-viewer layers).
 // As for images, a viewer takes the newest chunk when it is newer than its position, shows the
 // session's current version and (animating) is younger than the stream's interval; when another
 // viewer is rendering and encoding, it waits for that chunk; otherwise it renders and encodes.
@@ -89,6 +94,7 @@ class SharedFrames {
     std::shared_ptr<VideoChannel> channel;
     uint64_t position = 0;  // the generation sent last (0: none yet)
     uint64_t resyncs = 0;   // times it was too far behind and skipped to a key frame
+    bool skipping = false;  // waiting for a key frame (joined late or fell behind)
   };
 
   // Joins (or opens) the channel of `session` for `request` (request.video set) with `settings`'
@@ -104,12 +110,15 @@ class SharedFrames {
                                        VideoViewer& viewer, Clock::duration maxAge);
 
   uint64_t videoEncodeCount() const;   // frames encoded by channels (myriad_video_encodes_total)
+  uint64_t videoResyncCount() const;   // viewers that skipped to a key frame (myriad_video_resyncs_total)
   uint32_t videoChannelCount() const;  // channels open now (myriad_video_encoders)
 
   // A viewer's bounds (see the top of this file).
   static constexpr size_t kMaxVideoReplay = 4;
   static constexpr size_t kMaxVideoLogBytes = size_t(32) << 20;
   static size_t maxVideoBacklog(uint32_t fps) { return std::max<size_t>(8, fps); }
+  static constexpr std::chrono::seconds kVideoRaiseAfter{10};
+  static constexpr std::chrono::seconds kVideoLowerEvery{1};
 
  private:
   struct Entry {
@@ -128,6 +137,9 @@ class SharedFrames {
   static std::string videoKeyOf(const Session& session, const FrameRequest& request,
                                 const encode::VideoSettings& settings);
   // The chunks `viewer` may take now, or empty when it must wait for a key frame. mutex_ held.
+  // `viewer` must skip to a key frame: the next encode makes one; a viewer that had frames
+  // (not a joiner) counts as a resync and steps the bitrate down. mutex_ held.
+  void wantKey(VideoChannel& channel, VideoViewer& viewer, Clock::time_point now);
   static std::vector<VideoFramePtr> sliceFor(const VideoChannel& channel, uint64_t position,
                                              size_t backlog);
 
@@ -138,12 +150,14 @@ class SharedFrames {
   uint64_t generations_ = 0;  // every entry's generations from one count: never one twice
   std::map<std::string, std::weak_ptr<VideoChannel>, std::less<>> channels_;
   uint64_t videoEncodes_ = 0;
+  uint64_t videoResyncs_ = 0;
 };
 
 class SharedFrames::VideoChannel {
  public:
   VideoChannel(std::string key, const encode::VideoSettings& settings)
-      : key(std::move(key)), encoder(settings) {}
+      : key(std::move(key)), encoder(settings), askedKbps(settings.bitrateKbps),
+        targetKbps(settings.bitrateKbps) {}
 
   const std::string key;
   encode::VideoEncoder encoder;  // used only by the viewer rendering (one at a time)
@@ -154,6 +168,10 @@ class SharedFrames::VideoChannel {
   uint64_t generations = 0;
   std::deque<VideoFramePtr> log;  // the newest frames, oldest first
   size_t logBytes = 0;
+  const uint32_t askedKbps;          // the streams' bitrate
+  uint32_t targetKbps;               // the rate adaptation's, applied by the next encode
+  Clock::time_point lastStep{};      // the last bitrate step (down or up)
+  Clock::time_point lastDown{};      // the last step down
 };
 
 }  // namespace myriad::service
