@@ -143,7 +143,11 @@ try {
     // Function only, no timing (issue 18's figures come from scripts/bench-page.sh): the stream
     // asks for ?interactive=, the server renders cheaper frames while the camera moves
     // (X-Myriad-Interactive: their scale) and a full-size still once it stops.
-    const full = await frameOf(owner);
+    // A full-quality frame first (the wheel of the step before ends in interactive parts).
+    const full = await until('a full-quality frame', async () => {
+      const f = await owner.evaluate(signatureInPage);
+      return f && !f.interactive ? f : null;
+    }, 120000);
     check(/interactive=24/.test(full.src), `the stream does not ask for interactive: ${full.src}`);
     await owner.evaluate(() => window.myriadPerf.reset());
     const box = await owner.locator('#view').boundingBox();
