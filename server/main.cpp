@@ -70,7 +70,8 @@ int run(const service::Options& options, const sigset_t& shutdownSignals) {
   std::unique_ptr<render::RenderThread> renderThread;
   try {
     renderThread = std::make_unique<render::RenderThread>(
-        gpu::ContextOptions{options.validate, options.device}, scene, options.maxQueuedFrames);
+        gpu::ContextOptions{options.validate, options.device}, scene, options.maxQueuedFrames,
+        options.framesInFlight, options.overlapFrames);
   } catch (const gpu::NoDeviceError& e) {
     return fail(e.what());
   } catch (const std::exception& e) {

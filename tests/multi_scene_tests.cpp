@@ -4,7 +4,9 @@
 // lists grow. On lavapipe with validation on; any validation message fails.
 #include <doctest/doctest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <deque>
 #include <memory>
 #include <optional>
 #include <stdexcept>
@@ -589,5 +591,87 @@ TEST_CASE("a split frame equals the whole frame, with other scenes' frames betwe
   r.releaseFrameMemory();
   r.destroyScene(heavyId);
   r.destroyScene(otherId);
+  CHECK(gpu.context->validationMessages.load() == 0);
+}
+
+TEST_CASE("frames in flight each keep their own pixels, counters and animation time") {
+  Gpu& gpu = sharedGpu();
+  render::Renderer& r = *gpu.renderer;
+  const scene::Scene a = sceneA();
+  const scene::Scene b = sceneB();
+  const render::SceneId idA = r.createScene(a);
+  const render::SceneId idB = r.createScene(b);
+  // Animated: every frame of a scene moves that scene's lights (on the GPU) to its own time, so a
+  // frame recorded behind another of the same scene must not see the other's positions.
+  auto at = [](const scene::Scene& s, double time,
+               render::Technique technique = render::Technique::Clustered) {
+    render::FrameSettings f = settingsFor(s, technique);
+    f.animate = true;
+    f.time = time;
+    return f;
+  };
+  struct Job {
+    render::SceneId id;
+    render::FrameSettings settings;
+  };
+  // Two scenes in turn and back to back, and a technique change (the renderer waits for the
+  // frames in flight before the tiled frame: its lists differ).
+  const std::vector<Job> jobs = {{idA, at(a, 0.0)},  {idB, at(b, 0.5)},
+                                 {idA, at(a, 1.0)},  {idA, at(a, 2.0)},
+                                 {idB, at(b, 1.5)},  {idB, at(b, 3.0, render::Technique::Tiled)},
+                                 {idA, at(a, 4.0)},  {idB, at(b, 5.0)}};
+  std::vector<render::Frame> serial;
+  for (const Job& job : jobs) serial.push_back(r.render(job.id, job.settings));
+  CHECK(pixelsOver(serial[2].rgba, serial[3].rgba, 2) > 0);  // the lights moved between them
+
+  // Three in flight: a frame is begun while up to two others are on the GPU, and finished in
+  // the order begun; with overlap, frames of another scene start without waiting for them.
+  r.setFramesInFlight(3);
+  CHECK(r.framesInFlight() == 3);
+  for (bool overlap : {false, true}) {
+    CAPTURE(overlap);
+    r.setOverlap(overlap);
+    std::deque<uint32_t> slots;
+    std::vector<render::Frame> pipelined;
+    size_t mostInFlight = 0;
+    for (const Job& job : jobs) {
+      if (!r.canBegin()) {
+        pipelined.push_back(r.finishFrame(slots.front()));
+        slots.pop_front();
+      }
+      slots.push_back(r.beginFrame(job.id, job.settings));
+      mostInFlight = std::max(mostInFlight, slots.size());
+    }
+    CHECK_THROWS_AS(r.beginFrame(idA, jobs[0].settings), std::logic_error);  // every slot busy
+    CHECK_THROWS_AS(r.setFramesInFlight(1), std::logic_error);
+    while (!slots.empty()) {
+      pipelined.push_back(r.finishFrame(slots.front()));
+      slots.pop_front();
+    }
+    CHECK(mostInFlight == 3);
+    REQUIRE(pipelined.size() == serial.size());
+    for (size_t i = 0; i < jobs.size(); ++i) {
+      CAPTURE(i);
+      // Up to the order a list's lights were summed in (the GPU's atomics).
+      CHECK(maxDifference(pipelined[i].rgba, serial[i].rgba) <= 1);
+      CHECK(pipelined[i].culling.listEntries == serial[i].culling.listEntries);
+      CHECK(pipelined[i].culling.activeClusters == serial[i].culling.activeClusters);
+      CHECK(pipelined[i].culling.mostLightsInList == serial[i].culling.mostLightsInList);
+      CHECK(pipelined[i].lightCount == serial[i].lightCount);
+      CHECK(pipelined[i].technique == serial[i].technique);
+    }
+  }
+  r.setOverlap(false);
+
+  // A frame in flight when its scene is destroyed keeps what it rendered; edits wait for it.
+  const uint32_t slot = r.beginFrame(idA, jobs[0].settings);
+  r.updateLights(idB, {3, {{0, b.lights[0]}}});
+  r.destroyScene(idA);
+  const render::Frame orphan = r.finishFrame(slot);
+  CHECK(maxDifference(orphan.rgba, serial[0].rgba) <= 1);
+  CHECK(orphan.lightCount == 2);
+  CHECK_THROWS_AS(r.finishFrame(slot), std::logic_error);  // no longer in flight
+  r.setFramesInFlight(1);
+  r.destroyScene(idB);
   CHECK(gpu.context->validationMessages.load() == 0);
 }

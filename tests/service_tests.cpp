@@ -128,6 +128,11 @@ TEST_CASE("options: every flag, in both spellings") {
   CHECK(o.technique == render::Technique::Tiled);
   CHECK(parse({}).technique == render::Technique::Clustered);
   CHECK(parse({"--technique=volumes"}).technique == render::Technique::Volumes);
+  CHECK(parse({}).framesInFlight == 2);
+  CHECK(parse({"--frames-in-flight", "1"}).framesInFlight == 1);
+  CHECK(parse({"--frames-in-flight=4"}).framesInFlight == 4);
+  CHECK_FALSE(parse({}).overlapFrames);
+  CHECK(parse({"--overlap-frames"}).overlapFrames);
   CHECK(parse({"--help"}).help);
   CHECK(parse({"-h"}).help);
   CHECK(parse({"--port", "1", "--port", "2"}).port == 2);  // last one wins
@@ -179,6 +184,9 @@ TEST_CASE("options: bad flags and values are one sentence naming the flag") {
       {{"--max-resolution", "0"}, "--max-resolution"},
       {{"--threads", "0"}, "--threads"},
       {{"--max-queued-frames", "many"}, "--max-queued-frames"},
+      {{"--frames-in-flight", "0"}, "--frames-in-flight"},
+      {{"--frames-in-flight", "5"}, "--frames-in-flight"},
+      {{"--overlap-frames=yes"}, "--overlap-frames"},
       {{"--model", "--validate"}, "--model"},
       {{"--model="}, "--model"},
       {{"--host="}, "--host"},
@@ -199,7 +207,8 @@ TEST_CASE("options: usage lists every flag") {
   std::string text = service::usage();
   for (const char* flag :
        {"--host", "--port", "--device", "--validate", "--model", "--lights", "--seed",
-        "--max-resolution", "--threads", "--max-queued-frames", "--max-sessions", "--max-lights",
+        "--max-resolution", "--threads", "--max-queued-frames", "--frames-in-flight",
+        "--overlap-frames", "--max-sessions", "--max-lights",
         "--max-upload-bytes", "--max-body-bytes", "--max-streams", "--max-requests",
         "--session-idle-seconds", "--models", "--api-key", "--cors-origin", "--help"}) {
     CHECK(text.find(flag) != std::string::npos);

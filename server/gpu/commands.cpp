@@ -90,14 +90,22 @@ VkCommandBuffer beginCommands(Context&, CommandRecorder& r) {
 }
 
 void submitAndWait(Context& context, CommandRecorder& r) {
+  submit(context, r);
+  waitFor(context, r);
+}
+
+void submit(Context& context, CommandRecorder& r) {
   VK_CHECK(vkEndCommandBuffer(r.cmd));
   VkCommandBufferSubmitInfo cmdInfo{VK_STRUCTURE_TYPE_COMMAND_BUFFER_SUBMIT_INFO};
   cmdInfo.commandBuffer = r.cmd;
-  VkSubmitInfo2 submit{VK_STRUCTURE_TYPE_SUBMIT_INFO_2};
-  submit.commandBufferInfoCount = 1;
-  submit.pCommandBufferInfos = &cmdInfo;
+  VkSubmitInfo2 info{VK_STRUCTURE_TYPE_SUBMIT_INFO_2};
+  info.commandBufferInfoCount = 1;
+  info.pCommandBufferInfos = &cmdInfo;
   VK_CHECK(vkResetFences(context.device, 1, &r.fence));
-  VK_CHECK(vkQueueSubmit2(context.queue, 1, &submit, r.fence));
+  VK_CHECK(vkQueueSubmit2(context.queue, 1, &info, r.fence));
+}
+
+void waitFor(Context& context, CommandRecorder& r) {
   VK_CHECK(vkWaitForFences(context.device, 1, &r.fence, VK_TRUE, UINT64_MAX));
 }
 

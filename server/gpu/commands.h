@@ -57,6 +57,11 @@ void destroyCommandRecorder(Context& context, CommandRecorder& recorder);
 VkCommandBuffer beginCommands(Context& context, CommandRecorder& recorder);
 // Ends, submits on the context's queue and waits for completion.
 void submitAndWait(Context& context, CommandRecorder& recorder);
+// Ends and submits on the context's queue without waiting: the recorder's command buffer stays
+// pending (neither re-recorded nor its resources touched by the host) until waitFor() returns.
+void submit(Context& context, CommandRecorder& recorder);
+// Waits for the recorder's last submission (submit or submitAndWait) to complete.
+void waitFor(Context& context, CommandRecorder& recorder);
 
 // Timestamps between passes: mark(i) after pass i-1 ends; pass i takes t[i+1] - t[i].
 class PassTimer {

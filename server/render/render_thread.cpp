@@ -14,6 +14,10 @@ namespace myriad::render {
 
 namespace {
 
+// How long the render thread waits on a frame's fence before it looks at the queue again, while
+// frames are in flight and nothing is queued.
+constexpr uint64_t kAnswerPollNs = 500'000;
+
 // What the service may know about the device: gpu::DeviceInfo without the limits only the
 // renderer uses.
 DeviceSummary summarize(const gpu::DeviceInfo& d) {
@@ -39,8 +43,11 @@ DeviceSummary summarize(const gpu::DeviceInfo& d) {
 }  // namespace
 
 RenderThread::RenderThread(const gpu::ContextOptions& options, const scene::Scene& scene,
-                           uint32_t maxQueuedFrames)
-    : maxQueuedFrames_(maxQueuedFrames) {
+                           uint32_t maxQueuedFrames, uint32_t framesInFlight,
+                           bool overlapFrames)
+    : maxQueuedFrames_(maxQueuedFrames),
+      framesInFlight_(std::clamp(framesInFlight, 1u, Renderer::kMaxFramesInFlight)),
+      overlapFrames_(overlapFrames) {
   std::promise<void> ready;
   std::future<void> started = ready.get_future();
   thread_ = std::thread([this, &options, &scene, &ready] { run(options, scene, ready); });
@@ -157,20 +164,15 @@ std::future<void> RenderThread::setEnvironmentImage(
 std::future<Frame> RenderThread::submit(SceneId id, const FrameSettings& settings,
                                         FrameSource source,
                                         std::shared_ptr<const std::atomic<bool>> drop) {
-  // Shared between the task's turns: a split frame keeps its progress here.
-  struct Pending {
-    std::promise<Frame> promise;
-    std::chrono::steady_clock::time_point queued = std::chrono::steady_clock::now();
-    double waitedMs = -1.0;  // until the frame started
-    std::unique_ptr<Renderer::SplitFrame> split;
-  };
-  auto pending = std::make_shared<Pending>();
+  // Shared between the task's turns (a split frame keeps its progress here) and its slot in flight.
+  auto pending = std::make_shared<PendingFrame>();
+  const bool counted = source == FrameSource::Request;
   std::future<Frame> result = pending->promise.get_future();
   Task task;
   task.scene = id;
   task.frame = true;
-  task.counted = source == FrameSource::Request;
-  task.run = [this, pending, id, settings, drop = std::move(drop)](Renderer& r) {
+  task.counted = counted;
+  task.run = [this, pending, id, settings, counted, drop = std::move(drop)](Renderer& r) {
     try {
       if (drop && drop->load()) {
         throw FrameDroppedError(pending->split ? "the frame was given up while it rendered"
@@ -184,15 +186,18 @@ std::future<Frame> RenderThread::submit(SceneId id, const FrameSettings& setting
                                 std::chrono::steady_clock::now() - pending->queued)
                                 .count();
         if (split) {
+          finishAll(r);  // the parts are waited for: answer the frames in flight first
           pending->split = r.beginSplit(id, settings);
           return Step::More;
         }
-        Frame frame = r.render(id, settings);
-        frame.queueMs = pending->waitedMs;
-        gpuMemoryBytes_ = r.gpuMemoryBytes();
-        pending->promise.set_value(std::move(frame));
-        return Step::Done;
+        // A whole frame: into a free slot (the oldest in flight finished first when none is).
+        if (!r.canBegin()) finishOldest(r);
+        const uint32_t slot = r.beginFrame(id, settings);
+        inFlight_.push_back({slot, pending, counted});
+        if (framesInFlight_ == 1) finishOldest(r);  // the serial path
+        return Step::InFlight;
       }
+      finishAll(r);  // whole frames submitted between the parts
       std::optional<Frame> frame = r.continueSplit(*pending->split);
       if (!frame) return Step::More;
       pending->split.reset();
@@ -213,6 +218,28 @@ std::future<Frame> RenderThread::submit(SceneId id, const FrameSettings& setting
   };
   enqueue(std::move(task));
   return result;
+}
+
+void RenderThread::finishOldest(Renderer& renderer) {
+  InFlight frame = std::move(inFlight_.front());
+  inFlight_.pop_front();
+  try {
+    Frame result = renderer.finishFrame(frame.slot);
+    result.queueMs = frame.pending->waitedMs;
+    gpuMemoryBytes_ = renderer.gpuMemoryBytes();
+    frame.pending->promise.set_value(std::move(result));
+  } catch (...) {
+    gpuMemoryBytes_ = renderer.gpuMemoryBytes();
+    frame.pending->promise.set_exception(std::current_exception());
+  }
+  if (frame.counted) {
+    std::lock_guard lock(mutex_);
+    --framesUnfinished_;
+  }
+}
+
+void RenderThread::finishAll(Renderer& renderer) {
+  while (!inFlight_.empty()) finishOldest(renderer);
 }
 
 RenderThread::Task* RenderThread::pick() {
@@ -238,8 +265,9 @@ RenderThread::Task* RenderThread::pick() {
 void RenderThread::finish(Task& task, Step step) {
   const SceneId id = task.scene;
   SceneQueue& queue = queues_.at(id);
-  if (step == Step::Done) {
-    if (task.counted) --framesUnfinished_;
+  if (step == Step::Done || step == Step::InFlight) {
+    // A frame in flight stays counted until finishOldest() answers it.
+    if (task.counted && step == Step::Done) --framesUnfinished_;
     if (task.destroy) --queue.destroys;
     queue.tasks.pop_front();  // `task`
   }
@@ -266,6 +294,8 @@ void RenderThread::run(const gpu::ContextOptions& options, const scene::Scene& s
   try {
     context = gpu::createContext(options);
     renderer = std::make_unique<Renderer>(*context);
+    renderer->setFramesInFlight(framesInFlight_);
+    renderer->setOverlap(overlapFrames_);
     defaultScene_ = renderer->createScene(scene);
     device_ = summarize(context->info);
     maxDimension_ = renderer->maxDimension();
@@ -284,6 +314,22 @@ void RenderThread::run(const gpu::ContextOptions& options, const scene::Scene& s
   bool trimmed = true;  // nothing rendered yet: nothing to give back
   for (;;) {
     Task* task = nullptr;
+    bool answer = false;
+    // Frames the GPU has finished are answered at once, whatever is queued.
+    while (!inFlight_.empty() && renderer->frameDone(inFlight_.front().slot)) {
+      finishOldest(*renderer);
+    }
+    {
+      std::unique_lock lock(mutex_);
+      // Nothing queued but frames in flight: answer the oldest (its GPU work is under way).
+      answer = !inFlight_.empty() && turns_.empty();
+    }
+    if (answer) {
+      // Wait for it in short steps: a frame queued meanwhile is submitted at once (into the slot
+      // the previous answer freed), so the GPU gets it before this one is copied out.
+      if (renderer->waitFrame(inFlight_.front().slot, kAnswerPollNs)) finishOldest(*renderer);
+      continue;
+    }
     {
       std::unique_lock lock(mutex_);
       // Idle for kIdleTrim: the frame targets (sized to the last output: 1 GB at 4096 x 4096 on a
@@ -305,12 +351,15 @@ void RenderThread::run(const gpu::ContextOptions& options, const scene::Scene& s
       if (task == nullptr) continue;  // only dropped frames
     }
     // Outside the lock: other threads only append to the queues, which keeps `task` valid.
+    // An edit waits for the frames in flight to be answered: a scene's tasks finish in order.
+    if (!task->frame) finishAll(*renderer);
     const Step step = task->run(*renderer);  // fulfils its promise when Done, exception or not
     trimmed = false;
     std::lock_guard lock(mutex_);
     finish(*task, step);
   }
 
+  finishAll(*renderer);  // none: the loop ends with nothing queued or in flight
   renderer.reset();
   context.reset();
 }

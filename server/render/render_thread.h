@@ -13,6 +13,15 @@
 // between them (Renderer::SplitFrame; one split frame at a time, a second waits its turn while
 // others pass it). destroyScene drops its scene's frames still waiting or split (their futures
 // get std::invalid_argument) instead of rendering them for nobody.
+//
+// Frames in flight: a whole frame's turn records and submits it into a free frame slot of the
+// renderer (Renderer::beginFrame) without waiting, and the thread goes on to the next turn; the
+// frames in flight are finished (waited for, read back, their futures kept) oldest first: when a
+// turn needs a slot and none is free, when nothing else is queued, and before any edit (so a
+// scene's tasks still finish in the order submitted). The GPU thus always has the next frame
+// queued while the host copies out the previous one and HTTP workers encode it; the turns, and
+// so the fairness between scenes, are as above. framesInFlight 1 is the serial path of before:
+// each frame is finished right after it is submitted.
 #pragma once
 
 #include <atomic>
@@ -45,8 +54,12 @@ class RenderThread final : public RenderQueue {
   // Starts the thread, which creates the Vulkan context and the renderer and uploads `scene` as
   // the default scene (`scene` need not outlive the constructor). Returns once frames can be
   // submitted; rethrows whatever start-up threw on the thread (gpu::NoDeviceError among others).
+  // `framesInFlight`: frame slots (1..Renderer::kMaxFramesInFlight, clamped).
+  // `overlapFrames`: Renderer::setOverlap.
   RenderThread(const gpu::ContextOptions& options, const scene::Scene& scene,
-               uint32_t maxQueuedFrames);
+               uint32_t maxQueuedFrames, uint32_t framesInFlight = kDefaultFramesInFlight,
+               bool overlapFrames = false);
+  static constexpr uint32_t kDefaultFramesInFlight = 2;
   ~RenderThread() override;
   RenderThread(const RenderThread&) = delete;
   RenderThread& operator=(const RenderThread&) = delete;
@@ -79,6 +92,7 @@ class RenderThread final : public RenderQueue {
     Done,     // finished; its promise is kept
     More,     // a split frame with submissions left: stays at the head of its scene's queue
     Blocked,  // could not start (another split frame is unfinished): stays, others go first
+    InFlight,  // a whole frame submitted: leaves the queue; finishOldest() keeps its promise
   };
   // One unit of work for the render thread; `run` fulfils its own promise.
   struct Task {
@@ -97,6 +111,23 @@ class RenderThread final : public RenderQueue {
     uint32_t destroys = 0;
   };
 
+  // A frame's promise and progress, shared between its task's turns and its slot in flight.
+  struct PendingFrame {
+    std::promise<Frame> promise;
+    std::chrono::steady_clock::time_point queued = std::chrono::steady_clock::now();
+    double waitedMs = -1.0;  // until the frame started
+    std::unique_ptr<Renderer::SplitFrame> split;
+  };
+  // A frame submitted and not finished (render thread only).
+  struct InFlight {
+    uint32_t slot = 0;
+    std::shared_ptr<PendingFrame> pending;
+    bool counted = false;
+  };
+  // Finishes the oldest frame in flight: reads it back and keeps its promise. Render thread.
+  void finishOldest(Renderer& renderer);
+  void finishAll(Renderer& renderer);
+
   // Queues `task`; throws RenderQueueFullError after stop() or, for a frame, when the queue is full.
   void enqueue(Task task);
   template <typename T, typename Work>
@@ -112,6 +143,9 @@ class RenderThread final : public RenderQueue {
   DeviceSummary device_;
   uint32_t maxDimension_ = 0;
   const uint32_t maxQueuedFrames_;
+  const uint32_t framesInFlight_;
+  const bool overlapFrames_;
+  std::deque<InFlight> inFlight_;  // oldest first; the render thread's alone
   SceneId defaultScene_ = 0;
   std::atomic<uint64_t> gpuMemoryBytes_{0};
   // Points into the context the render thread owns; valid from start-up until stop().
@@ -123,7 +157,8 @@ class RenderThread final : public RenderQueue {
   // tasks and none of them is running). References to tasks stay valid across push_back.
   std::map<SceneId, SceneQueue> queues_;
   std::deque<SceneId> turns_;
-  uint32_t framesUnfinished_ = 0;  // counted frames queued, rendering or split, not yet answered
+  // counted frames queued, rendering, split or in flight, not yet answered
+  uint32_t framesUnfinished_ = 0;
   bool stopping_ = false;
 
   std::thread thread_;

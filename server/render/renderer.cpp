@@ -76,9 +76,12 @@ void addPasses(std::vector<PassTiming>& passes,
 struct Renderer::State {
   explicit State(gpu::Context& c)
       : context(c), pipelines(c), techniques(createTechniques({c, pipelines})),
-        uniformArena(c, kUniformBlockSize), timer(c, kMaxTimedPasses) {
-    whole.shadows = std::make_unique<ShadowMaps>(c);
-    split.shadows = std::make_unique<ShadowMaps>(c);
+        uniformArena(c, kUniformBlockSize) {
+    for (uint32_t i = 0; i < kMaxFramesInFlight; ++i) slots.push_back(std::make_unique<FrameSlot>());
+    for (FrameSlot* slot : allSlots()) {
+      slot->shadows = std::make_unique<ShadowMaps>(c);
+      slot->timer = std::make_unique<gpu::PassTimer>(c, kMaxTimedPasses);
+    }
   }
 
   gpu::Context& context;
@@ -86,14 +89,15 @@ struct Renderer::State {
   // Index = Technique (techniques/registry.h); destroyed before the pipeline layout they use.
   std::vector<std::unique_ptr<LightingTechnique>> techniques;
   gpu::Arena uniformArena;
-  gpu::CommandRecorder recorder;
-  gpu::PassTimer timer;
+  gpu::CommandRecorder recorder;  // scene uploads and edits (frames have their slot's)
   VkSampler sampler = VK_NULL_HANDLE;        // nearest: targets are read texel by texel
   VkSampler linearSampler = VK_NULL_HANDLE;  // the anti-aliasing pass's reads between pixels
   VkDescriptorPool descriptorPool = VK_NULL_HANDLE;
   // What a frame renders into and reads through: one set per kind, rewritten for whichever scene
-  // the frame draws. `whole` serves render(), whose frames run one at a time; `split` the one
-  // split frame, so whole frames rendered between its submissions leave it untouched.
+  // the frame draws. `slots` serve whole frames (beginFrame), one frame in flight each; `split`
+  // the one split frame, so whole frames rendered between its submissions leave it untouched.
+  // A slot in flight (submitted, not finished) is the GPU's: the host touches nothing of it
+  // (uniforms, sets, targets, readback, counters, timestamps) until finishFrame waited for it.
   struct FrameSlot {
     gpu::Buffer uniforms;
     VkDescriptorSet sceneSet = VK_NULL_HANDLE;
@@ -103,9 +107,44 @@ struct Renderer::State {
     // The sun's shadow map, rendered by each frame that has it on: the slot's own, so whole
     // frames between a split frame's submissions do not overwrite the split frame's map.
     std::unique_ptr<ShadowMaps> shadows;
+    gpu::CommandRecorder recorder;            // its command buffer and fence
+    std::unique_ptr<gpu::PassTimer> timer;    // its timestamps
+    gpu::Buffer counters;  // its copy of the technique's culling counters (CullingStats)
+    // The frame in flight: what finishFrame needs besides the GPU's results (taken when it was
+    // recorded, so a scene destroyed meanwhile does not matter).
+    bool inFlight = false;
+    SceneId scene = 0;
+    FrameSettings settings;
+    Frame meta;  // size, technique, light count, scene bytes; no pixels
   };
-  FrameSlot whole;
+  std::vector<std::unique_ptr<FrameSlot>> slots;  // kMaxFramesInFlight; framesInFlight used
   FrameSlot split;
+  uint32_t framesInFlight = 1;
+  bool overlap = false;  // setOverlap
+  // What the last whole frame was recorded with: a frame that differs waits for those in flight
+  // (its technique's prepare() may reallocate what they use).
+  struct Shape {
+    Technique technique = Technique::Clustered;
+    uint32_t width = 0;
+    uint32_t height = 0;
+    bool raw = false;
+    uint32_t lightCount = 0;
+    bool operator==(const Shape&) const = default;
+  };
+  Shape lastShape;
+
+  std::vector<FrameSlot*> allSlots() {
+    std::vector<FrameSlot*> all;
+    for (auto& slot : slots) all.push_back(slot.get());
+    all.push_back(&split);
+    return all;
+  }
+  // Waits for every frame in flight (they stay in flight until finishFrame reads them).
+  void quiesce() {
+    for (auto& slot : slots) {
+      if (slot->inFlight) gpu::waitFor(context, slot->recorder);
+    }
+  }
   bool splitBusy = false;
   // The last measured cost of one light of a technique that splits (volumes), in milliseconds,
   // and the output pixels it was measured at (0: not measured yet).
@@ -133,18 +172,27 @@ struct Renderer::State {
   void writeUniforms(FrameSlot& slot, const FrameSettings& settings, const SceneBuffers& scene,
                      const LightingTechnique& technique, const SunShadowFit* sunShadow);
   void ensureTargets(FrameSlot& slot, VkExtent2D extent, bool raw);
-  Frame renderOnce(SceneBuffers& scene, SceneEnvironment* environment,
+  // Records a whole frame into `slot` (not submitted) and fills slot.meta.
+  // `waitAtStart`: the frame's first command waits for everything submitted before; otherwise
+  // its lighting does (setOverlap).
+  void recordFrame(FrameSlot& slot, SceneBuffers& scene, SceneEnvironment* environment,
+                   const FrameSettings& settings, bool waitAtStart = true);
+  // recordFrame, submit, wait, read back.
+  Frame renderOnce(FrameSlot& slot, SceneBuffers& scene, SceneEnvironment* environment,
                    const FrameSettings& settings);
+  static Frame metaOf(const SceneBuffers& scene, const SceneEnvironment* environment,
+                      const FrameSettings& settings);
   // The steps of a frame, shared by whole and split frames.
   void prepareFrame(FrameSlot& slot, SceneBuffers& scene, SceneEnvironment* environment,
                     const FrameSettings& settings, LightingTechnique& technique);
-  VkCommandBuffer beginFrameCommands(const FrameSlot& slot);
+  VkCommandBuffer beginFrameCommands(FrameSlot& slot, bool waitAtStart = true);
   void recordBeforeLighting(VkCommandBuffer cmd, const FrameSlot& slot, SceneBuffers& scene,
                             SceneEnvironment* environment, const FrameSettings& settings);
   void recordAfterLighting(VkCommandBuffer cmd, const FrameSlot& slot, SceneBuffers& scene,
                            const FrameSettings& settings, VkImageLayout lightingLayout);
-  Frame readFrame(const FrameSlot& slot, SceneBuffers& scene, SceneEnvironment* environment,
-                  const FrameSettings& settings, LightingTechnique& technique);
+  // After the slot's last submission completed: its pixels, timings and counters, with `meta`.
+  Frame readFrame(const FrameSlot& slot, const Frame& meta, const FrameSettings& settings,
+                  LightingTechnique& technique);
   // The estimated milliseconds of the lights of `lightCount` at `pixels` (0: not measured).
   double estimateLightsMs(uint32_t lightCount, double pixels) const;
 };
@@ -236,7 +284,16 @@ void Renderer::State::writeTargetSet(FrameSlot& slot) {
         storage ? VK_DESCRIPTOR_TYPE_STORAGE_IMAGE : VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER;
     writes[i].pImageInfo = &infos[i];
   }
+  // 14: the edge pixels the final pass lists for anti-aliasing (a storage buffer).
+  const VkDescriptorBufferInfo edges{targets->edges.buffer, 0, VK_WHOLE_SIZE};
+  VkWriteDescriptorSet edgeWrite{VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET};
+  edgeWrite.dstSet = slot.targetSet;
+  edgeWrite.dstBinding = MYRIAD_BINDING_EDGE_PIXELS;
+  edgeWrite.descriptorCount = 1;
+  edgeWrite.descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
+  edgeWrite.pBufferInfo = &edges;
   vkUpdateDescriptorSets(context.device, kBindings, writes, 0, nullptr);
+  vkUpdateDescriptorSets(context.device, 1, &edgeWrite, 0, nullptr);
 }
 
 // Targets follow the output size and are rebuilt only when it changes (every frame is waited
@@ -309,9 +366,13 @@ void Renderer::State::writeUniforms(FrameSlot& slot, const FrameSettings& s,
 Renderer::Renderer(gpu::Context& context) : state_(std::make_unique<State>(context)) {
   State& s = *state_;
   VkDevice device = context.device;
-  for (State::FrameSlot* slot : {&s.whole, &s.split}) {
+  const std::vector<State::FrameSlot*> slots = s.allSlots();
+  for (State::FrameSlot* slot : slots) {
     slot->uniforms = s.uniformArena.createBuffer(
         sizeof(FrameUniforms), VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT, gpu::MemoryUse::Upload);
+    slot->counters = s.uniformArena.createBuffer(
+        sizeof(CullingStats), VK_BUFFER_USAGE_TRANSFER_DST_BIT, gpu::MemoryUse::Readback);
+    slot->recorder = gpu::createCommandRecorder(context);
   }
   s.recorder = gpu::createCommandRecorder(context);
   s.environmentPasses = std::make_unique<EnvironmentPasses>(context, s.recorder);
@@ -324,35 +385,41 @@ Renderer::Renderer(gpu::Context& context) : state_(std::make_unique<State>(conte
   samplerInfo.magFilter = samplerInfo.minFilter = VK_FILTER_LINEAR;
   VK_CHECK(vkCreateSampler(device, &samplerInfo, nullptr, &s.linearSampler));
 
-  // Sets 0 (scene) and 1 (targets) of both frame slots; each technique allocates its own set 2.
-  VkDescriptorPoolSize sizes[] = {{VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 2 * 1},
-                                  {VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 2 * 6},
-                                  {VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 2 * 10},  // + the sun shadow map, the LDR target
-                                  {VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, 2 * 5}};
+  // Sets 0 (scene) and 1 (targets) of every frame slot; each technique allocates its own set 2.
+  const auto n = static_cast<uint32_t>(slots.size());
+  VkDescriptorPoolSize sizes[] = {{VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, n * 1},
+                                  {VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, n * 6},
+                                  {VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, n * 10},  // + the sun shadow map, the LDR target
+                                  {VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, n * 5}};
   VkDescriptorPoolCreateInfo poolInfo{VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO};
-  poolInfo.maxSets = 4;
+  poolInfo.maxSets = 2 * n;
   poolInfo.poolSizeCount = 4;
   poolInfo.pPoolSizes = sizes;
   VK_CHECK(vkCreateDescriptorPool(device, &poolInfo, nullptr, &s.descriptorPool));
-  VkDescriptorSetLayout layouts[] = {s.pipelines.sceneSetLayout, s.pipelines.targetSetLayout,
-                                     s.pipelines.sceneSetLayout, s.pipelines.targetSetLayout};
+  std::vector<VkDescriptorSetLayout> layouts;
+  for (uint32_t i = 0; i < n; ++i) {
+    layouts.push_back(s.pipelines.sceneSetLayout);
+    layouts.push_back(s.pipelines.targetSetLayout);
+  }
   VkDescriptorSetAllocateInfo alloc{VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO};
   alloc.descriptorPool = s.descriptorPool;
-  alloc.descriptorSetCount = 4;
-  alloc.pSetLayouts = layouts;
-  VkDescriptorSet sets[4];
-  VK_CHECK(vkAllocateDescriptorSets(device, &alloc, sets));
-  s.whole.sceneSet = sets[0];
-  s.whole.targetSet = sets[1];
-  s.split.sceneSet = sets[2];
-  s.split.targetSet = sets[3];
+  alloc.descriptorSetCount = 2 * n;
+  alloc.pSetLayouts = layouts.data();
+  std::vector<VkDescriptorSet> sets(2 * n);
+  VK_CHECK(vkAllocateDescriptorSets(device, &alloc, sets.data()));
+  for (uint32_t i = 0; i < n; ++i) {
+    slots[i]->sceneSet = sets[2 * i];
+    slots[i]->targetSet = sets[2 * i + 1];
+  }
 }
 
 Renderer::~Renderer() {
   State& s = *state_;
   vkDeviceWaitIdle(s.context.device);
-  s.whole.targets.reset();
-  s.split.targets.reset();
+  for (State::FrameSlot* slot : s.allSlots()) {
+    slot->targets.reset();
+    gpu::destroyCommandRecorder(s.context, slot->recorder);
+  }
   s.techniques.clear();
   s.scenes.clear();
   s.environments.clear();
@@ -375,6 +442,7 @@ SceneId Renderer::createScene(const scene::Scene& scene) {
 void Renderer::replaceScene(SceneId id, const scene::Scene& scene) {
   State& s = *state_;
   s.scene(id);  // throws for an unknown id
+  s.quiesce();  // frames in flight may draw the old buffers
   // Build the new buffers before dropping the old, so a failure leaves the old scene in place.
   auto buffers = std::make_unique<SceneBuffers>(s.context, s.recorder, scene,
                                                 s.pipelines.materialSetLayout);
@@ -384,11 +452,13 @@ void Renderer::replaceScene(SceneId id, const scene::Scene& scene) {
 void Renderer::destroyScene(SceneId id) {
   State& s = *state_;
   s.scene(id);  // throws for an unknown id
+  s.quiesce();
   s.scenes.erase(id);
   s.environments.erase(id);
 }
 
 void Renderer::setEnvironmentImage(SceneId id, std::shared_ptr<const scene::EnvironmentImage> image) {
+  state_->quiesce();
   state_->environment(id).setImage(std::move(image));
 }
 
@@ -399,10 +469,12 @@ uint64_t Renderer::environmentRebuilds(SceneId id) const {
 }
 
 void Renderer::updateLights(SceneId id, const LightUpdate& update) {
+  state_->quiesce();  // frames in flight read the buffers the edit writes (or replaces)
   state_->scene(id).updateLights(state_->recorder, update);
 }
 
 void Renderer::updateMaterials(SceneId id, const std::vector<MaterialWrite>& writes) {
+  state_->quiesce();
   state_->scene(id).updateMaterials(state_->recorder, writes);
 }
 
@@ -416,11 +488,15 @@ uint64_t Renderer::sceneBytes(SceneId id) const {
 }
 
 void Renderer::releaseFrameMemory() {
-  // Every submission is waited for, so nothing in flight uses the targets; the target descriptor
-  // set points at freed views until ensureTargets() makes new ones and writes it again. An
-  // unfinished split frame keeps its own.
-  state_->whole.targets.reset();
-  state_->whole.shadows->release();
+  // Slots not in flight: nothing on the GPU uses their targets; the target descriptor set points
+  // at freed views until ensureTargets() makes new ones and writes it again. Frames in flight,
+  // and an unfinished split frame, keep their own.
+  state_->quiesce();
+  for (auto& slot : state_->slots) {
+    if (slot->inFlight) continue;
+    slot->targets.reset();
+    slot->shadows->release();
+  }
   if (!state_->splitBusy) {
     state_->split.targets.reset();
     state_->split.shadows->release();
@@ -433,14 +509,16 @@ uint64_t Renderer::gpuMemoryBytes() const {
   for (const auto& [id, scene] : s.scenes) total += scene->bytes();
   for (const auto& [id, env] : s.environments) total += env->bytes();
   total += s.environmentPasses->gpuMemoryBytes();
-  if (s.whole.targets) total += s.whole.targets->arena.bytesAllocated();
-  if (s.split.targets) total += s.split.targets->arena.bytesAllocated();
-  total += s.whole.shadows->gpuMemoryBytes() + s.split.shadows->gpuMemoryBytes();
+  for (const State::FrameSlot* slot : const_cast<State&>(s).allSlots()) {
+    if (slot->targets) total += slot->targets->arena.bytesAllocated();
+    total += slot->shadows->gpuMemoryBytes();
+  }
   for (const auto& technique : s.techniques) total += technique->gpuMemoryBytes();
   return total;
 }
 
 void Renderer::limitListMemory(uint64_t bytes, uint64_t startBytes) {
+  state_->quiesce();
   for (const auto& technique : state_->techniques) technique->limitListMemory(bytes, startBytes);
 }
 
@@ -479,26 +557,105 @@ SceneEnvironment* Renderer::State::environmentFor(SceneId id, const FrameSetting
   return env;
 }
 
-// Renders, and when the technique's lists overflowed but may still grow, grows them and renders
-// the frame once more: a frame with lights missing is never the answer while memory allows.
 Frame Renderer::render(SceneId id, const FrameSettings& settings) {
+  return finishFrame(beginFrame(id, settings));
+}
+
+void Renderer::setFramesInFlight(uint32_t frames) {
+  State& s = *state_;
+  for (const auto& slot : s.slots) {
+    if (slot->inFlight) throw std::logic_error("frames are in flight");
+  }
+  s.framesInFlight = std::clamp(frames, 1u, kMaxFramesInFlight);
+}
+
+uint32_t Renderer::framesInFlight() const { return state_->framesInFlight; }
+
+void Renderer::setOverlap(bool overlap) { state_->overlap = overlap; }
+
+bool Renderer::canBegin() const {
+  const State& s = *state_;
+  for (uint32_t i = 0; i < s.framesInFlight; ++i) {
+    if (!s.slots[i]->inFlight) return true;
+  }
+  return false;
+}
+
+uint32_t Renderer::beginFrame(SceneId id, const FrameSettings& settings) {
   State& s = *state_;
   SceneBuffers& scene = s.scene(id);
   checkSize(settings, maxDimension());
-  LightingTechnique& technique = s.technique(settings.technique);
+  s.technique(settings.technique);  // throws for an unknown technique
   SceneEnvironment* environment = s.environmentFor(id, settings);
-  Frame frame = s.renderOnce(scene, environment, settings);
-  if (technique.splitsByLights() && scene.lightCount > 0) {
+  uint32_t index = 0;
+  while (index < s.framesInFlight && s.slots[index]->inFlight) ++index;
+  if (index == s.framesInFlight) throw std::logic_error("every frame slot is in flight");
+  State::FrameSlot& slot = *s.slots[index];
+  // The host may change what frames in flight use: wait for them first (Renderer's comment).
+  const State::Shape shape{settings.technique, settings.width, settings.height, settings.raw,
+                           scene.lightCount};
+  const bool rebuildsEnvironment =
+      environment != nullptr &&
+      environment->built != EnvironmentPasses::inputsFor(settings, *environment);
+  if (shape != s.lastShape || rebuildsEnvironment) s.quiesce();
+  s.lastShape = shape;
+  bool sharesScene = false;  // with a frame in flight
+  for (const auto& other : s.slots) sharesScene = sharesScene || (other->inFlight && other->scene == id);
+  s.recordFrame(slot, scene, environment, settings, !s.overlap || sharesScene);
+  gpu::submit(s.context, slot.recorder);
+  slot.inFlight = true;
+  slot.scene = id;
+  slot.settings = settings;
+  return index;
+}
+
+bool Renderer::frameDone(uint32_t index) const {
+  const State& s = *state_;
+  return index < s.slots.size() && s.slots[index]->inFlight &&
+         vkGetFenceStatus(s.context.device, s.slots[index]->recorder.fence) == VK_SUCCESS;
+}
+
+bool Renderer::waitFrame(uint32_t index, uint64_t timeoutNs) const {
+  const State& s = *state_;
+  if (index >= s.slots.size() || !s.slots[index]->inFlight) return false;
+  const VkResult result =
+      vkWaitForFences(s.context.device, 1, &s.slots[index]->recorder.fence, VK_TRUE, timeoutNs);
+  if (result == VK_TIMEOUT) return false;
+  VK_CHECK(result);
+  return true;
+}
+
+// Reads the frame back; when the technique's lists overflowed but may still grow, grows them and
+// renders the frame once more: a frame with lights missing is never the answer while memory
+// allows.
+Frame Renderer::finishFrame(uint32_t index) {
+  State& s = *state_;
+  if (index >= s.slots.size() || !s.slots[index]->inFlight) {
+    throw std::logic_error("frame slot " + std::to_string(index) + " is not in flight");
+  }
+  State::FrameSlot& slot = *s.slots[index];
+  struct Free {  // the slot is free once this returns or throws
+    State::FrameSlot& slot;
+    ~Free() { slot.inFlight = false; }
+  } free{slot};
+  gpu::waitFor(s.context, slot.recorder);
+  const FrameSettings& settings = slot.settings;
+  LightingTechnique& technique = s.technique(settings.technique);
+  Frame frame = s.readFrame(slot, slot.meta, settings, technique);
+  if (technique.splitsByLights() && frame.lightCount > 0) {
     // What a light costs, for shouldSplit: the lights pass's GPU time.
     for (const PassTiming& pass : frame.passes) {
       if (pass.name != "lights") continue;
-      s.msPerLight = pass.milliseconds / scene.lightCount;
+      s.msPerLight = pass.milliseconds / frame.lightCount;
       s.msPerLightPixels = pixelsOf(settings);
     }
   }
-  if (technique.growLists(frame.culling)) {
+  if (s.scenes.contains(slot.scene) && technique.growLists(frame.culling)) {
+    // The lists are reallocated: nothing in flight may use them.
+    s.quiesce();
     try {
-      Frame regrown = s.renderOnce(scene, environment, settings);
+      SceneBuffers& scene = s.scene(slot.scene);
+      Frame regrown = s.renderOnce(slot, scene, s.environmentFor(slot.scene, settings), settings);
       regrown.culling.listsGrew = true;
       return regrown;
     } catch (const gpu::VulkanError&) {
@@ -528,16 +685,30 @@ void Renderer::State::prepareFrame(FrameSlot& slot, SceneBuffers& scene,
   writeSceneSet(slot, scene, environment ? environment->lighting : environmentPasses->brdfLut());
 }
 
-// Begins a command buffer with the slot's sets 0 and 1 bound for graphics and compute and the
-// timer reset.
-VkCommandBuffer Renderer::State::beginFrameCommands(const FrameSlot& slot) {
-  VkCommandBuffer cmd = gpu::beginCommands(context, recorder);
+namespace {
+
+// Everything submitted before (earlier frames on the queue included) happens before what follows.
+void waitForEarlier(VkCommandBuffer cmd) {
+  gpu::memoryBarrier(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, VK_ACCESS_2_MEMORY_WRITE_BIT,
+                     VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT,
+                     VK_ACCESS_2_MEMORY_READ_BIT | VK_ACCESS_2_MEMORY_WRITE_BIT);
+}
+
+}  // namespace
+
+// Begins the slot's command buffer with its sets 0 and 1 bound for graphics and compute and its
+// timer reset. The first command waits for everything submitted before (frames in flight share
+// the scenes' lights, the techniques' lists and counters, and write them without other
+// barriers); the frames' host work overlaps, their GPU work runs in order.
+VkCommandBuffer Renderer::State::beginFrameCommands(FrameSlot& slot, bool waitAtStart) {
+  VkCommandBuffer cmd = gpu::beginCommands(context, slot.recorder);
+  if (waitAtStart) waitForEarlier(cmd);
   VkDescriptorSet sets[] = {slot.sceneSet, slot.targetSet};
   vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipelines.layout, 0, 2, sets, 0,
                           nullptr);
   vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipelines.layout, 0, 2, sets, 0,
                           nullptr);
-  timer.reset(cmd);
+  slot.timer->reset(cmd);
   return cmd;
 }
 
@@ -550,7 +721,7 @@ void Renderer::State::recordBeforeLighting(VkCommandBuffer cmd, const FrameSlot&
   if (environment) {
     const SceneEnvironment::Inputs inputs = EnvironmentPasses::inputsFor(settings, *environment);
     if (environment->built != inputs) {
-      s.timer.beginPass(cmd, "environment");
+      slot.timer->beginPass(cmd, "environment");
       environmentPasses->record(cmd, *environment, inputs);
       // The environment passes bound their own layout's set 0; the frame's sets go back.
       VkDescriptorSet sets[] = {slot.sceneSet, slot.targetSet};
@@ -559,7 +730,7 @@ void Renderer::State::recordBeforeLighting(VkCommandBuffer cmd, const FrameSlot&
   }
 
   if (settings.animate) {
-    s.timer.beginPass(cmd, "animate");
+    slot.timer->beginPass(cmd, "animate");
     recordAnimateLights(cmd, p, scene);
     scene.lightsMoved = true;
   } else if (scene.lightsMoved) {
@@ -567,12 +738,12 @@ void Renderer::State::recordBeforeLighting(VkCommandBuffer cmd, const FrameSlot&
     scene.lightsMoved = false;
   }
   if (const std::optional<SunShadowFit> sunShadow = sunShadowFor(scene, settings)) {
-    s.timer.beginPass(cmd, "shadow");
+    slot.timer->beginPass(cmd, "shadow");
     slot.shadows->recordSun(cmd, p, scene, sunShadow->viewProjection);
   } else {
     slot.shadows->recordSunUnused(cmd);
   }
-  s.timer.beginPass(cmd, "gbuffer");
+  slot.timer->beginPass(cmd, "gbuffer");
   recordGBufferPass(cmd, p, *slot.targets, scene, gbufferWrites(settings, scene));
 }
 
@@ -585,39 +756,57 @@ void Renderer::State::recordAfterLighting(VkCommandBuffer cmd, const FrameSlot& 
   const FrameTargets& t = *slot.targets;
   VkImageLayout hdrLayout = lightingLayout;
   if (hasBlendDraws(scene)) {
-    s.timer.beginPass(cmd, "blend");
+    slot.timer->beginPass(cmd, "blend");
     hdrLayout = recordBlendPass(cmd, p, t, scene, scene::viewMatrix(settings.camera), hdrLayout,
                                 s.technique(settings.technique).bindForwardLights(cmd));
   }
   if (settings.markers) {
-    s.timer.beginPass(cmd, "markers");
+    slot.timer->beginPass(cmd, "markers");
     recordMarkerPass(cmd, p, t, scene);
   }
   const bool antialias = settings.antialiased();  // as FrameUniforms.post.x says
-  s.timer.beginPass(cmd, "final");  // names-once: the pass, not the target
+  slot.timer->beginPass(cmd, "final");  // names-once: the pass, not the target
   recordFinalPass(cmd, p, t, settings.target, settings.markers, hdrLayout, lightingLayout);
   VkImageLayout outputLayout = VK_IMAGE_LAYOUT_GENERAL;
   if (antialias) {
-    s.timer.beginPass(cmd, "antialias");
+    slot.timer->beginPass(cmd, "antialias");
     recordAntialiasPass(cmd, p, t);
   }
   if (settings.target == Target::LightVolumes && !settings.raw) {
-    s.timer.beginPass(cmd, "overlay");
+    slot.timer->beginPass(cmd, "overlay");
     recordLightVolumeOverlayPass(cmd, p, t, scene);
     outputLayout = VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL;
   }
-  s.timer.beginPass(cmd, "readback");
+  if (const gpu::Buffer* counters = s.technique(settings.technique).counters()) {
+    // The frame's own copy of the culling counters: the next frame in flight resets the
+    // technique's (record() made them readable by a copy).
+    const VkBufferCopy region{0, 0, sizeof(CullingStats)};
+    vkCmdCopyBuffer(cmd, counters->buffer, slot.counters.buffer, 1, &region);
+    gpu::bufferBarrier(cmd, slot.counters, VK_PIPELINE_STAGE_2_COPY_BIT,
+                       VK_ACCESS_2_TRANSFER_WRITE_BIT, VK_PIPELINE_STAGE_2_HOST_BIT,
+                       VK_ACCESS_2_HOST_READ_BIT);
+  }
+  slot.timer->beginPass(cmd, "readback");
   recordReadback(cmd, t, outputLayout);
-  s.timer.end(cmd);
+  slot.timer->end(cmd);
+}
+
+Frame Renderer::State::metaOf(const SceneBuffers& scene, const SceneEnvironment* environment,
+                              const FrameSettings& settings) {
+  Frame meta;
+  meta.technique = settings.technique;
+  meta.lightCount = scene.lightCount;
+  meta.sceneBytes = scene.bytes() + (environment ? environment->bytes() : 0);
+  meta.culling.lightBytes = scene.lights.size + scene.lightOrigins.size;
+  return meta;
 }
 
 // After the last submission: the pixels and what the frame reports (passes: the last
 // submission's; a split frame sums its own).
-Frame Renderer::State::readFrame(const FrameSlot& slot, SceneBuffers& scene,
-                                 SceneEnvironment* environment, const FrameSettings& settings,
-                                 LightingTechnique& technique) {
+Frame Renderer::State::readFrame(const FrameSlot& slot, const Frame& meta,
+                                 const FrameSettings& settings, LightingTechnique& technique) {
   const FrameTargets& t = *slot.targets;
-  Frame frame;
+  Frame frame = meta;
   frame.width = t.extent.width;
   frame.height = t.extent.height;
   if (settings.raw) {
@@ -627,28 +816,35 @@ Frame Renderer::State::readFrame(const FrameSlot& slot, SceneBuffers& scene,
     frame.rgba.resize(size_t(t.extent.width) * t.extent.height * 4);
     std::memcpy(frame.rgba.data(), t.readback.mapped, frame.rgba.size());
   }
-  for (auto& [name, ms] : timer.results()) frame.passes.push_back({name, ms});
-  frame.technique = settings.technique;
-  frame.lightCount = scene.lightCount;
-  frame.sceneBytes = scene.bytes() + (environment ? environment->bytes() : 0);
-  frame.culling.lightBytes = scene.lights.size + scene.lightOrigins.size;
-  technique.report(frame.culling);
+  for (auto& [name, ms] : slot.timer->results()) frame.passes.push_back({name, ms});
+  technique.report(frame.culling, technique.counters() ? slot.counters.mapped : nullptr);
   return frame;
 }
 
 // The frame, top to bottom, in one submission. Every request (any view, any size, any technique)
 // takes this path, or the same steps split (beginSplit).
-Frame Renderer::State::renderOnce(SceneBuffers& scene, SceneEnvironment* environment,
-                                  const FrameSettings& settings) {
+void Renderer::State::recordFrame(FrameSlot& slot, SceneBuffers& scene,
+                                  SceneEnvironment* environment, const FrameSettings& settings,
+                                  bool waitAtStart) {
   LightingTechnique& technique = this->technique(settings.technique);
-  prepareFrame(whole, scene, environment, settings, technique);
-  VkCommandBuffer cmd = beginFrameCommands(whole);
-  recordBeforeLighting(cmd, whole, scene, environment, settings);
+  prepareFrame(slot, scene, environment, settings, technique);
+  VkCommandBuffer cmd = beginFrameCommands(slot, waitAtStart);
+  recordBeforeLighting(cmd, slot, scene, environment, settings);
+  // The technique's lists and counters are shared by frames in flight: the earlier frames are
+  // done with them (their lighting, blend pass and counter copy) before this one resets them.
+  if (!waitAtStart) waitForEarlier(cmd);
   // Lighting leaves HDR and light counts as attachments (raster) or storage images (compute).
-  const VkImageLayout lightingLayout = technique.record({cmd, timer, *whole.targets, scene});
-  recordAfterLighting(cmd, whole, scene, settings, lightingLayout);
-  gpu::submitAndWait(context, recorder);
-  return readFrame(whole, scene, environment, settings, technique);
+  const VkImageLayout lightingLayout =
+      technique.record({cmd, *slot.timer, *slot.targets, scene});
+  recordAfterLighting(cmd, slot, scene, settings, lightingLayout);
+  slot.meta = metaOf(scene, environment, settings);
+}
+
+Frame Renderer::State::renderOnce(FrameSlot& slot, SceneBuffers& scene,
+                                  SceneEnvironment* environment, const FrameSettings& settings) {
+  recordFrame(slot, scene, environment, settings);
+  gpu::submitAndWait(context, slot.recorder);
+  return readFrame(slot, slot.meta, settings, this->technique(settings.technique));
 }
 
 double Renderer::State::estimateLightsMs(uint32_t lightCount, double pixels) const {
@@ -678,6 +874,7 @@ std::unique_ptr<Renderer::SplitFrame> Renderer::beginSplit(SceneId id,
                                                            const FrameSettings& settings) {
   State& s = *state_;
   if (s.splitBusy) throw std::logic_error("another split frame is unfinished");
+  s.quiesce();  // its parts are waited for one by one; frames in flight go first
   SceneBuffers& scene = s.scene(id);
   checkSize(settings, maxDimension());
   LightingTechnique& technique = s.technique(settings.technique);
@@ -698,10 +895,11 @@ std::unique_ptr<Renderer::SplitFrame> Renderer::beginSplit(SceneId id,
   s.prepareFrame(s.split, scene, environment, settings, technique);
   VkCommandBuffer cmd = s.beginFrameCommands(s.split);
   s.recordBeforeLighting(cmd, s.split, scene, environment, settings);
-  frame->lightingLayout_ = technique.recordBeforeLights({cmd, s.timer, *s.split.targets, scene});
-  s.timer.end(cmd);
-  gpu::submitAndWait(s.context, s.recorder);
-  addPasses(frame->passes_, s.timer.results());
+  frame->lightingLayout_ =
+      technique.recordBeforeLights({cmd, *s.split.timer, *s.split.targets, scene});
+  s.split.timer->end(cmd);
+  gpu::submitAndWait(s.context, s.split.recorder);
+  addPasses(frame->passes_, s.split.timer->results());
   ++frame->submissions_;
   frame->lit_ = scene.lightCount == 0;
   return frame;
@@ -713,18 +911,19 @@ std::optional<Frame> Renderer::continueSplit(SplitFrame& frame) {
   SceneBuffers& scene = s.scene(frame.scene_);
   LightingTechnique& technique = s.technique(settings.technique);
   SceneEnvironment* environment = s.environmentFor(frame.scene_, settings);
+  s.quiesce();
   // The slot's sets, uniforms and targets are as beginSplit left them: whole frames use their own.
   VkCommandBuffer cmd = s.beginFrameCommands(s.split);
   if (!frame.lit_) {
     const uint32_t first = frame.nextLight_;
     const uint32_t count = std::min(frame.rangeLights_, scene.lightCount - first);
-    technique.recordLightRange({cmd, s.timer, *s.split.targets, scene}, first, count);
-    s.timer.end(cmd);
+    technique.recordLightRange({cmd, *s.split.timer, *s.split.targets, scene}, first, count);
+    s.split.timer->end(cmd);
     const auto start = std::chrono::steady_clock::now();
-    gpu::submitAndWait(s.context, s.recorder);
+    gpu::submitAndWait(s.context, s.split.recorder);
     const double ms =
         std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
-    addPasses(frame.passes_, s.timer.results());
+    addPasses(frame.passes_, s.split.timer->results());
     ++frame.submissions_;
     frame.nextLight_ = first + count;
     frame.lit_ = frame.nextLight_ >= scene.lightCount;
@@ -738,9 +937,10 @@ std::optional<Frame> Renderer::continueSplit(SplitFrame& frame) {
     return std::nullopt;
   }
   s.recordAfterLighting(cmd, s.split, scene, settings, frame.lightingLayout_);
-  gpu::submitAndWait(s.context, s.recorder);
+  gpu::submitAndWait(s.context, s.split.recorder);
   ++frame.submissions_;
-  Frame result = s.readFrame(s.split, scene, environment, settings, technique);
+  Frame result = s.readFrame(s.split, State::metaOf(scene, environment, settings), settings,
+                             technique);
   addPasses(frame.passes_, [&] {
     std::vector<std::pair<std::string, double>> last;
     for (const PassTiming& pass : result.passes) last.emplace_back(pass.name, pass.milliseconds);

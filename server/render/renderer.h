@@ -1,7 +1,8 @@
 // The deferred renderer: one frame function, passes top to bottom (see renderer.cpp), over any of
 // the scenes it holds on the GPU (one per session, plus the server's built-in one).
-// Not thread-safe: exactly one thread (the render thread) calls it. Every call is synchronous
-// (each waits for its GPU work), so nothing is in flight between calls.
+// Not thread-safe: exactly one thread (the render thread) calls it. Every call but beginFrame is
+// synchronous (waits for its GPU work); beginFrame leaves its frame in flight, in a frame slot of
+// its own, until finishFrame (see "Frames in flight" below).
 #pragma once
 
 #include <cstdint>
@@ -50,8 +51,49 @@ class Renderer {
 
   // Renders one frame of scene `id` and reads it back. Throws std::invalid_argument for an
   // `hdr` environment without an image (setEnvironmentImage). Throws std::invalid_argument for a size
-  // outside 1..maxDimension().
+  // outside 1..maxDimension(). Needs a free frame slot (std::logic_error otherwise):
+  // finishFrame(beginFrame(id, settings)).
   Frame render(SceneId id, const FrameSettings& settings);
+
+  // Frames in flight. Each of framesInFlight() frame slots has its own command buffer and fence,
+  // uniforms, descriptor sets, targets (with the readback buffer), shadow map, timestamps and
+  // copy of the culling counters. beginFrame records a frame into a free slot and submits it
+  // without waiting; finishFrame waits for it and reads it back. So the host records and submits
+  // frame N+1 (and copies N out) while the GPU renders, and the queue never runs dry between
+  // frames. On the GPU the frames still run one after another: each frame's commands start with
+  // a full memory barrier, because frames share the scenes' light buffers (animation writes them)
+  // and the techniques' light lists and counters. What the host changes under frames in flight
+  // waits for them first (every edit, a split frame's part, list growth, and a frame whose
+  // technique, size, raw format or light count differs from the previous one, since the
+  // technique may reallocate its lists then; an environment rebuild): the renderer waits for the
+  // fences of the slots in flight, which then only need finishing. 1 (the default) is the
+  // serial renderer of before: at most one frame in flight.
+  static constexpr uint32_t kMaxFramesInFlight = 4;
+  // 1..kMaxFramesInFlight (clamped); std::logic_error while a frame is in flight.
+  void setFramesInFlight(uint32_t frames);
+  uint32_t framesInFlight() const;
+  // Overlap on the GPU (off by default): a frame of a scene no frame in flight draws starts
+  // without the full barrier, so its passes before lighting (animation, shadow, G-buffer: its
+  // own slot's targets and its own scene's buffers) may run while the previous frame lights and
+  // finishes; the full barrier moves to just before its lighting (the techniques' shared lists
+  // and counters). A frame of a scene already in flight keeps the barrier at its start (its
+  // animation rewrites the lights the other frame reads). Off: every frame starts with it.
+  void setOverlap(bool overlap);
+  // Whether beginFrame has a free slot.
+  bool canBegin() const;
+  // Records and submits a frame into a free slot (the lowest: a client that waits for each frame
+  // uses, and allocates targets for, one slot only); returns the slot. Throws what render()
+  // throws, and std::logic_error when no slot is free; nothing is in flight then.
+  uint32_t beginFrame(SceneId id, const FrameSettings& settings);
+  // Whether the GPU has finished the frame in flight in `slot` (finishFrame will not wait).
+  bool frameDone(uint32_t slot) const;
+  // Waits at most `timeoutNs` for it; true once finished.
+  bool waitFrame(uint32_t slot, uint64_t timeoutNs) const;
+  // Waits for the frame in `slot` (beginFrame's) and reads it back; the slot is free afterwards,
+  // even when this throws. When the technique's lists overflowed and may grow, waits for every
+  // frame in flight, grows them and renders the frame again (in the same slot, synchronously),
+  // as render() always did. A frame whose scene was destroyed meanwhile keeps what it rendered.
+  Frame finishFrame(uint32_t slot);
 
   // Frames too long for one submission. A GPU submission cannot be preempted, so a frame whose
   // lighting would hold the queue for more than kSliceMilliseconds is recorded as several

@@ -91,6 +91,11 @@ const std::vector<Flag>& flags() {
          o.maxQueuedFrames =
              parseUnsigned<uint32_t>("--max-queued-frames", v, 0, kMaxQueuedFramesLimit);
        }},
+      {"--frames-in-flight", true,
+       [](Options& o, std::string_view v) {
+         o.framesInFlight = parseUnsigned<uint32_t>("--frames-in-flight", v, 1, 4);
+       }},
+      {"--overlap-frames", false, [](Options& o, std::string_view) { o.overlapFrames = true; }},
       {"--max-sessions", true,
        [](Options& o, std::string_view v) {
          o.maxSessions = parseUnsigned<uint32_t>("--max-sessions", v, 1, kMaxCountLimit);
@@ -245,6 +250,10 @@ materials and lights (protocol/reference.md), and the stateless GET /v1/frame.
                            --max-queued-frames: each stream and waiting frame holds one)
   --max-queued-frames N    frame requests that may wait for the renderer; more get
                            503 + Retry-After (default 4)
+  --frames-in-flight N     frames the renderer keeps submitted to the GPU at once, 1-4: the
+                           next is recorded while the GPU renders (default 2; 1: serial)
+  --overlap-frames         let frames of different sessions overlap on the GPU (the next
+                           frame's G-buffer while the previous one lights; experimental)
   --max-sessions N         sessions open at once; more get 429 (default 16)
   --max-lights N           local lights per session; more get 413 (default 1000000)
   --max-upload-bytes N     largest model upload (default 67108864, 64 MiB)

@@ -33,6 +33,13 @@ struct Options {
   // Frame requests allowed to wait for the render thread (besides the one rendering); more get
   // 503 + Retry-After. Each waiting frame holds a worker thread and, later, its pixels in memory.
   uint32_t maxQueuedFrames = 4;
+  // Frames the render thread keeps in flight on the GPU (render::Renderer's frame slots, 1..4):
+  // it records and submits the next frame while the GPU renders and the previous one is read
+  // back. 1: the serial path (submit, wait, read back, then the next).
+  uint32_t framesInFlight = 2;
+  // Frames of different sessions may overlap on the GPU (render::Renderer::setOverlap); off by
+  // default until measured on a GPU.
+  bool overlapFrames = false;
   // Sessions (protocol/CONTRACT.md). Each holds a GPU scene, so the count is bounded.
   uint32_t maxSessions = 16;
   uint32_t maxLightsPerSession = 1000000;

@@ -217,8 +217,9 @@ class Clustered final : public LightingTechnique {
     return true;
   }
 
-  void report(CullingReport& report) const override {
-    counters_.read(report);
+  const gpu::Buffer* counters() const override { return &counters_.stats; }
+  void report(CullingReport& report, const void* counters) const override {
+    CullingCounters::read(counters, report);
     report.listBytes = lists_->bytes();
     report.listCapacity = lists_->capacity;
   }

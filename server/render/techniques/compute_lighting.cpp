@@ -82,7 +82,8 @@ void CullingSet::bindGraphics(VkCommandBuffer cmd) const {
 
 CullingCounters::CullingCounters(gpu::Context& context) : arena(context, kCountersBlockSize) {
   stats = arena.createBuffer(sizeof(CullingStats),
-                             VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT,
+                             VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT |
+                                 VK_BUFFER_USAGE_TRANSFER_SRC_BIT,
                              gpu::MemoryUse::Readback);
 }
 
@@ -91,13 +92,14 @@ void CullingCounters::reset(VkCommandBuffer cmd) const {
 }
 
 void CullingCounters::makeHostVisible(VkCommandBuffer cmd) const {
-  gpu::bufferBarrier(cmd, stats, kComputeStage, kStorageWrite, VK_PIPELINE_STAGE_2_HOST_BIT,
-                     VK_ACCESS_2_HOST_READ_BIT);
+  gpu::bufferBarrier(cmd, stats, kComputeStage, kStorageWrite,
+                     VK_PIPELINE_STAGE_2_HOST_BIT | VK_PIPELINE_STAGE_2_COPY_BIT,
+                     VK_ACCESS_2_HOST_READ_BIT | VK_ACCESS_2_TRANSFER_READ_BIT);
 }
 
-void CullingCounters::read(CullingReport& report) const {
+void CullingCounters::read(const void* copy, CullingReport& report) {
   CullingStats counters;
-  std::memcpy(&counters, stats.mapped, sizeof(counters));
+  std::memcpy(&counters, copy, sizeof(counters));
   report.tilesOverflowed = counters.overflow.x;
   report.tileLightsDropped = counters.overflow.y;
   report.clusterLightsDropped = counters.overflow.z;

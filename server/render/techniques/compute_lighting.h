@@ -64,10 +64,11 @@ struct CullingCounters {
   // Zeroes the counters (a transfer fill; followed by `kFillStage` -> compute barriers by the
   // caller, batched with its own fills).
   void reset(VkCommandBuffer cmd) const;
-  // After the last compute write: the host may read the counters once the frame's fence signals.
+  // After the last compute write: the host may read the counters once the frame's fence signals,
+  // and a copy (the renderer's, into the frame slot's own buffer) may read them.
   void makeHostVisible(VkCommandBuffer cmd) const;
-  // The counters into `report` (after the frame).
-  void read(CullingReport& report) const;
+  // A copy of `stats` (sizeof(CullingStats) bytes, after the frame) into `report`.
+  static void read(const void* counters, CullingReport& report);
 };
 
 // Lighting targets are rewritten each frame; the previous frame last sampled them (the final or

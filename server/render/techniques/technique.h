@@ -51,7 +51,7 @@ class LightingTechnique {
   // (READ_ONLY_OPTIMAL, as the gbuffer pass leaves it) and the lights (sets 0 and 1 are bound for
   // graphics and compute); writes every pixel of hdr and lightCount, whose previous contents are
   // discarded, and leaves both in the returned layout: GENERAL after compute storage writes,
-  // COLOR_ATTACHMENT_OPTIMAL after raster writes. Anything the host reads afterwards (report())
+  // COLOR_ATTACHMENT_OPTIMAL after raster writes. Anything the host reads afterwards (report(), counters())
   // gets its barrier here.
   virtual VkImageLayout record(const LightingPass& pass) = 0;
 
@@ -77,8 +77,17 @@ class LightingTechnique {
     (void)count;
   }
 
-  // After the frame's GPU work finished: the culling counters, list memory and capacity.
-  virtual void report(CullingReport& report) const { (void)report; }
+  // The host-readable buffer its shaders count into (a CullingStats), or null. The renderer
+  // copies it into the frame slot's own buffer at the end of each frame (record() leaves it
+  // ready for a transfer read after the compute stage), so frames in flight keep their counters.
+  virtual const gpu::Buffer* counters() const { return nullptr; }
+
+  // After the frame's GPU work finished: the culling counters (`counters`: the frame's copy of
+  // counters(), sizeof(CullingStats) bytes; null when counters() is), list memory and capacity.
+  virtual void report(CullingReport& report, const void* counters) const {
+    (void)report;
+    (void)counters;
+  }
 
   // After a frame whose report says lights were dropped: makes the lists larger if memory allows,
   // and returns true when the frame should be rendered again with them.

@@ -41,7 +41,10 @@ class Tiled final : public LightingTechnique {
     return VK_IMAGE_LAYOUT_GENERAL;
   }
 
-  void report(CullingReport& report) const override { counters_.read(report); }
+  const gpu::Buffer* counters() const override { return &counters_.stats; }
+  void report(CullingReport& report, const void* counters) const override {
+    CullingCounters::read(counters, report);
+  }
 
   uint64_t gpuMemoryBytes() const override { return counters_.arena.bytesAllocated(); }
 
