@@ -6,13 +6,16 @@
 namespace myriad::service {
 
 void InteractiveQuality::sawChange(Clock::time_point at) {
-  if (seen_) {
-    const Clock::duration gap = at - lastChange_;
-    if (gap < kSameInteraction) {
-      settle_ = std::clamp<Clock::duration>(2 * gap, kMinSettle, kMaxSettle);
-    } else {
-      settle_ = kMinSettle;  // the first change of a new interaction: no rhythm known yet
-    }
+  const Clock::duration gap = at - lastChange_;
+  if (seen_ && gap < kSameInteraction) {
+    gaps_[nextGap_] = gap;
+    nextGap_ = (nextGap_ + 1) % kGaps;
+    const Clock::duration longest = *std::max_element(gaps_.begin(), gaps_.end());
+    settle_ = std::clamp<Clock::duration>(2 * longest, kMinSettle, kMaxSettle);
+  } else {
+    // The first change of a new interaction: no rhythm known yet.
+    gaps_.fill(Clock::duration::zero());
+    settle_ = kMinSettle;
   }
   seen_ = true;
   lastChange_ = at;
