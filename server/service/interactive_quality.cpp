@@ -10,15 +10,19 @@ void InteractiveQuality::sawChange(Clock::time_point at) {
   if (seen_ && gap < kSameInteraction) {
     gaps_[nextGap_] = gap;
     nextGap_ = (nextGap_ + 1) % kGaps;
-    const Clock::duration longest = *std::max_element(gaps_.begin(), gaps_.end());
-    settle_ = std::clamp<Clock::duration>(2 * longest, kMinSettle, kMaxSettle);
   } else {
     // The first change of a new interaction: no rhythm known yet.
     gaps_.fill(Clock::duration::zero());
-    settle_ = kMinSettle;
   }
+  const Clock::duration longest = *std::max_element(gaps_.begin(), gaps_.end());
+  settle_ = std::clamp<Clock::duration>(std::max(2 * longest, fullCost_ / 4), kMinSettle,
+                                        kMaxSettle);
   seen_ = true;
   lastChange_ = at;
+}
+
+void InteractiveQuality::measuredFull(Clock::duration took) {
+  if (took > Clock::duration::zero()) fullCost_ = took;
 }
 
 FrameRequest InteractiveQuality::degrade(const FrameRequest& full) const {

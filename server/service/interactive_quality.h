@@ -24,7 +24,9 @@ class InteractiveQuality {
   // The settle time: twice the longest of the last kGaps gaps between changes of the interaction
   // (the page sends camera changes about every 33 ms and slider changes every 80-100 ms; on a
   // busy machine its requests come irregularly, and a still rendered mid-drag holds the stream
-  // for a whole full-quality frame), within these bounds.
+  // for a whole full-quality frame), and at least a quarter of the last full-quality frame's time
+  // (what a still started too early costs: on an idle lavapipe about 200 ms, so 60 ms; on a loaded
+  // one seconds, so a longer wait), within these bounds.
   static constexpr std::chrono::milliseconds kMinSettle{60};
   static constexpr std::chrono::milliseconds kMaxSettle{400};
   static constexpr size_t kGaps = 4;
@@ -60,6 +62,10 @@ class InteractiveQuality {
   // FrameRequest::interactive set (the session frame then drops anti-aliasing and shadows).
   FrameRequest degrade(const FrameRequest& full) const;
 
+  // A full-quality frame of the stream took `took` from submission to encoded (0: not rendered
+  // for this stream, e.g. taken from another stream's render): the still's cost, for the settle.
+  void measuredFull(Clock::duration took);
+
   // An interactive frame rendered at `usedScale` took `took` from submission to encoded: the
   // next scale is the one whose pixels fit the budget, cost taken as proportional to pixels.
   void measured(double usedScale, Clock::duration took);
@@ -70,6 +76,7 @@ class InteractiveQuality {
   Clock::time_point lastChange_{};
   std::array<Clock::duration, kGaps> gaps_{};  // the interaction's last gaps (zero: none yet)
   size_t nextGap_ = 0;
+  Clock::duration fullCost_{};  // the last full-quality frame's time
   Clock::duration settle_ = kMinSettle;
   double scale_ = kStartScale;
 };
