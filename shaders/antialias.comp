@@ -1,11 +1,12 @@
 #version 450
 #extension GL_GOOGLE_include_directive : require
-// Anti-aliasing of `final` (settings.antialias = "fxaa"), one thread per pixel, after tonemapping:
-// a luminance-edge filter in the manner of Lottes' FXAA (NVIDIA 2009), written for this project.
-// The final pass left the sRGB-encoded colour and its luma in the LDR target; here each pixel
-//  1. measures the luma range of itself and its four neighbours: below the contrast threshold the
-//     pixel is written back unchanged (byte for byte: most of the picture);
-//  2. otherwise decides whether the edge through it runs along x or along y (second differences
+// Anti-aliasing of `final` (settings.antialias = "fxaa"), after tonemapping: a luminance-edge
+// filter in the manner of Lottes' FXAA (NVIDIA 2009), written for this project. The final pass
+// left the sRGB-encoded colour and its luma in the LDR target, and
+//  1. measured the luma range of each pixel and its four neighbours (antialias.glsl): below the
+//     contrast threshold it wrote the pixel to the output unchanged (most of the picture), above
+//     it listed the pixel. Here one thread per listed pixel (an indirect dispatch)
+//  2. decides whether the edge through it runs along x or along y (second differences
 //     of the 3x3 luma), and on which side of the pixel it lies (the steeper neighbour);
 //  3. walks along the edge, half a pixel towards that side, with bilinear luma reads, in both
 //     directions until the luma leaves the edge's mean (the ends of the stair step);
@@ -17,19 +18,15 @@
 // per pixel), and runs the same on lavapipe and GPUs. What it cannot do: recover detail smaller
 // than a pixel (thin wires stay broken), and it softens sharp texture edges a little.
 #include "frame.glsl"
+#include "antialias.glsl"
 
-layout(local_size_x = MYRIAD_PIXEL_GROUP, local_size_y = MYRIAD_PIXEL_GROUP) in;
+layout(local_size_x = MYRIAD_EDGES_PER_GROUP) in;
 
 // RGBA8: rgb the tonemapped, sRGB-encoded colour, a its luma; sampled with a linear filter and
 // clamp-to-edge (bilinear reads between pixels), fetched exactly with texelFetch.
 layout(set = MYRIAD_SET_TARGETS, binding = MYRIAD_BINDING_LDR) uniform sampler2D ldrColor;
 layout(set = MYRIAD_SET_TARGETS, binding = MYRIAD_BINDING_OUTPUT, rgba8) uniform writeonly image2D outputImage;
 
-// A pixel is on an edge when the luma range of its cross exceeds both of these: an absolute
-// floor (noise in dark regions is no edge; 8/255) and a share of the brightest luma there (a
-// step of 1/8 of the local brightness is visible, a smaller one is texture).
-const float kMinContrast = 0.0312;
-const float kRelativeContrast = 0.125;
 // How strongly an isolated sub-pixel feature is blended with its neighbourhood (0 off, 1 full).
 const float kSubpixelBlend = 0.75;
 // The walk along an edge: pixels advanced per step; 12 steps reach 24 pixels each way, enough for
@@ -49,8 +46,8 @@ float lumaBetween(vec2 uv) {
 }
 
 void main() {
-  ivec2 pixel = ivec2(gl_GlobalInvocationID.xy);
-  if (any(greaterThanEqual(pixel, ivec2(frame.viewport.xy)))) return;
+  if (gl_GlobalInvocationID.x >= edges.count.x) return;
+  ivec2 pixel = unpackEdgePixel(edgePixels[gl_GlobalInvocationID.x]);
   gLast = ivec2(frame.viewport.xy) - 1;
   vec4 centre = texelFetch(ldrColor, pixel, 0);
   float m = centre.a;
@@ -60,11 +57,7 @@ void main() {
   float right = lumaAt(pixel + ivec2(1, 0));
   float lowest = min(m, min(min(up, down), min(left, right)));
   float highest = max(m, max(max(up, down), max(left, right)));
-  float range = highest - lowest;
-  if (range < max(kMinContrast, highest * kRelativeContrast)) {
-    imageStore(outputImage, pixel, vec4(centre.rgb, 1.0));
-    return;
-  }
+  float range = highest - lowest;  // on an edge (the final pass listed the pixel): not 0
   float upLeft = lumaAt(pixel + ivec2(-1, -1));
   float upRight = lumaAt(pixel + ivec2(1, -1));
   float downLeft = lumaAt(pixel + ivec2(-1, 1));

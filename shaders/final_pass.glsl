@@ -2,8 +2,9 @@
 // light-volumes view's overlay. One thread per pixel: the lit HDR value, the light marker that
 // marker_splat.comp chose for the pixel blended in (its resolve), then, for an 8-bit image,
 // exposure, Khronos PBR Neutral and sRGB encoding. With anti-aliasing on, the encoded colour and
-// its luma go to the LDR target for antialias.comp instead of the output. Raw output gets the HDR
-// values themselves (markers included), never anti-aliased.
+// its luma go to the LDR target for antialias.comp, and the pixel itself to the output unless it
+// is on an edge (antialias.glsl), where it is listed for antialias.comp instead. Raw output gets
+// the HDR values themselves (markers included), never anti-aliased.
 #include "frame.glsl"
 #include "markers.glsl"
 
@@ -32,27 +33,80 @@ vec3 withMarker(ivec2 pixel, vec3 lit) {
   return mix(lit, glow, markerOpacity() * w);
 }
 
-// Luma of an sRGB-encoded colour (Rec. 601 weights): what the anti-aliasing pass compares. Gamma
-// space on purpose: a step is judged by how it looks, not by its linear energy.
-float perceivedLuma(vec3 encoded) {
-  return dot(encoded, vec3(0.299, 0.587, 0.114));
-}
-
+#ifdef MYRIAD_RAW_OUTPUT
 void main() {
   ivec2 pixel = ivec2(gl_GlobalInvocationID.xy);
   if (any(greaterThanEqual(pixel, ivec2(frame.viewport.xy)))) return;
   vec3 hdr = texelFetch(hdrColor, pixel, 0).rgb;
   if (frame.post.y != 0u) hdr = withMarker(pixel, hdr);
-#ifdef MYRIAD_RAW_OUTPUT
   imageStore(outputImage, pixel, vec4(hdr, 1.0));
+}
 #else
+#include "antialias.glsl"
+
+// The 8-bit colour of `pixel`: exposure, PBR Neutral, sRGB encoding, marker blended in.
+vec3 encodedColor(ivec2 pixel) {
+  vec3 hdr = texelFetch(hdrColor, pixel, 0).rgb;
+  if (frame.post.y != 0u) hdr = withMarker(pixel, hdr);
   vec3 color = srgbEncode3(tonemapPbrNeutral(hdr * frame.camera.x));
   // The light-volumes view dims the picture so the overlay drawn next stands out.
   if (frame.flags.x == MYRIAD_VIEW_LIGHT_VOLUMES) color *= 0.5;
-  if (frame.post.x == MYRIAD_ANTIALIAS_NONE) {
-    imageStore(outputImage, pixel, vec4(color, 1.0));
-  } else {
-    imageStore(ldrImage, pixel, vec4(color, perceivedLuma(color)));
-  }
-#endif
+  return color;
 }
+
+// With anti-aliasing: the group's pixels and a one-pixel border, encoded once each (rgb, luma).
+const int kTileSide = MYRIAD_PIXEL_GROUP + 2;
+shared vec4 tile[kTileSide * kTileSide];
+shared uint groupEdges;  // edge pixels of this group, then (groupBase) where they go in the list
+shared uint groupBase;
+
+void main() {
+  ivec2 pixel = ivec2(gl_GlobalInvocationID.xy);
+  bool inside = all(lessThan(pixel, ivec2(frame.viewport.xy)));
+  if (frame.post.x == MYRIAD_ANTIALIAS_NONE) {  // the same for the whole dispatch
+    if (inside) imageStore(outputImage, pixel, vec4(encodedColor(pixel), 1.0));
+    return;
+  }
+  ivec2 last = ivec2(frame.viewport.xy) - 1;
+  ivec2 origin = ivec2(gl_WorkGroupID.xy) * MYRIAD_PIXEL_GROUP - 1;
+  for (int i = int(gl_LocalInvocationIndex); i < kTileSide * kTileSide;
+       i += MYRIAD_PIXEL_GROUP * MYRIAD_PIXEL_GROUP) {
+    vec3 c = encodedColor(clamp(origin + ivec2(i % kTileSide, i / kTileSide), ivec2(0), last));
+    tile[i] = vec4(c, perceivedLuma(c));
+  }
+  if (gl_LocalInvocationIndex == 0u) groupEdges = 0u;
+  barrier();
+
+  // The edge test of antialias.comp's first step, on the pixel's cross; pixels off an edge are
+  // final here, the others are listed for it (and every pixel's colour and luma go to the LDR
+  // target, which its edge walk reads).
+  int at = (int(gl_LocalInvocationID.y) + 1) * kTileSide + int(gl_LocalInvocationID.x) + 1;
+  vec4 centre = tile[at];
+  bool edge = false;
+  uint slot = 0u;
+  if (inside) {
+    imageStore(ldrImage, pixel, centre);
+    float up = tile[at - kTileSide].a;
+    float down = tile[at + kTileSide].a;
+    float left = tile[at - 1].a;
+    float right = tile[at + 1].a;
+    float lowest = min(centre.a, min(min(up, down), min(left, right)));
+    float highest = max(centre.a, max(max(up, down), max(left, right)));
+    edge = onEdge(lowest, highest);
+    if (edge) {
+      slot = atomicAdd(groupEdges, 1u);
+    } else {
+      imageStore(outputImage, pixel, vec4(centre.rgb, 1.0));
+    }
+  }
+  barrier();
+  // One global atomic per group with edges; the dispatch's group count follows the list.
+  if (gl_LocalInvocationIndex == 0u && groupEdges > 0u) {
+    groupBase = atomicAdd(edges.count.x, groupEdges);
+    atomicMax(edges.groups.x,
+              (groupBase + groupEdges + MYRIAD_EDGES_PER_GROUP - 1u) / MYRIAD_EDGES_PER_GROUP);
+  }
+  barrier();
+  if (edge) edgePixels[groupBase + slot] = packEdgePixel(pixel);
+}
+#endif

@@ -75,6 +75,7 @@ using mat4 = glm::mat4;
 #define MYRIAD_BINDING_OUTPUT 11              // storage image: the output (RGBA8, or RGBA32F when raw)
 #define MYRIAD_BINDING_LDR 12                 // sampled (linear filter): tonemapped final + luma, for AA
 #define MYRIAD_BINDING_LDR_STORAGE 13         // storage image: the same, written by the final pass
+#define MYRIAD_BINDING_EDGE_PIXELS 14         // storage buffer: AntialiasEdges, then the edge pixels
 
 // Descriptor set 2: light culling. Each compute technique binds its own set of this layout
 // (server/render/techniques/) and writes the bindings its shaders use.
@@ -207,6 +208,15 @@ MYRIAD_STRUCT(LargeLightQueue) {
   uvec4 groups;  // VkDispatchIndirectCommand x, y, z; w unused
   uvec4 queued;  // x lights queued; yzw unused
 };
+
+// The pixels the final pass found on an edge (anti-aliasing on): an indirect dispatch's group
+// counts (MYRIAD_EDGES_PER_GROUP pixels a group), then the list's length; the pixels follow in the
+// same buffer, each as x | y << 16. The anti-aliasing pass filters only these.
+MYRIAD_STRUCT(AntialiasEdges) {
+  uvec4 groups;  // VkDispatchIndirectCommand x, y, z; w unused
+  uvec4 count;   // x pixels listed; yzw unused
+};
+#define MYRIAD_EDGES_PER_GROUP 64
 
 // Counters the culling passes write and the host reads back: nothing is dropped silently.
 MYRIAD_STRUCT(CullingStats) {

@@ -8,6 +8,8 @@
 #include <map>
 #include <memory>
 #include <string>
+#include <thread>
+#include <vector>
 
 #include "encode/video.h"
 #include "render/render_queue.h"
@@ -527,6 +529,56 @@ TEST_CASE("video channels: one encoder for its viewers; a late or slow viewer sk
   REQUIRE(b.take(context, session, request, interval, shared).front()->key);
   CHECK(b.viewer.resyncs == 2);
   CHECK(b.viewer.channel->encoder.settings().bitrateKbps == 225);
+}
+
+TEST_CASE("video channels: the bitrate steps down for a slow viewer and back up when none is") {
+  PictureQueue queue;
+  service::FrameStatsBook stats;
+  service::Metrics metrics;
+  // Up a step after 500 ms without one (not 10 s), down at most every 100 ms (not 1 s).
+  service::SharedFrames shared(std::chrono::milliseconds(500), std::chrono::milliseconds(100));
+  const service::SessionFrameContext context{queue, stats, metrics, &shared};
+  auto session = std::make_shared<service::Session>("s-0000000000000002", "token");
+  FrameRequest request = service::parseStreamQuery(
+      {{"codec", "vp8"}, {"width", "64"}, {"height", "48"}, {"fps", "8"}, {"bitrate", "1000"}},
+      4096);
+  encode::VideoSettings settings{encode::VideoCodec::Vp8, 64, 48, 8, 1000, 1};
+  const auto maxAge = std::chrono::milliseconds(125);
+  auto fast = shared.joinVideo(session, request, settings);
+  auto slow = shared.joinVideo(session, request, settings);
+  const auto bitrate = [&] { return fast.channel->encoder.settings().bitrateKbps; };
+  const auto edit = [&] {
+    std::lock_guard lock(session->mutex);
+    ++session->version;
+  };
+  REQUIRE(shared.nextVideo(context, session, request, fast, maxAge).size() == 1);
+  REQUIRE(shared.nextVideo(context, session, request, slow, maxAge).size() == 1);
+  // `slow` falls 9 frames behind (more than max(8, fps)) five times, 150 ms apart: 1000 -> 750 ->
+  // 562 -> 421 -> 315 -> 250 (the floor: a quarter of the asked 1000).
+  std::vector<uint32_t> steps;
+  for (int round = 0; round < 5; ++round) {
+    for (int i = 0; i < 9; ++i) {
+      edit();
+      REQUIRE(shared.nextVideo(context, session, request, fast, maxAge).size() == 1);
+    }
+    REQUIRE(shared.nextVideo(context, session, request, slow, maxAge).front()->key);
+    steps.push_back(bitrate());
+    REQUIRE(shared.nextVideo(context, session, request, fast, maxAge).front()->key);  // caught up
+    std::this_thread::sleep_for(std::chrono::milliseconds(round < 4 ? 150 : 0));
+  }
+  INFO("steps down: ", doctest::toString(steps.size()), " ", steps[0], " ", steps[1], " ", steps[2],
+       " ", steps[3], " ", steps[4]);
+  CHECK(steps == std::vector<uint32_t>{750, 562, 421, 315, 250});
+  // No viewer behind: one step up (5/4) per 500 ms, back to the asked bitrate and no further.
+  std::vector<uint32_t> up;
+  for (int i = 0; i < 8; ++i) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(520));
+    edit();
+    REQUIRE(shared.nextVideo(context, session, request, fast, maxAge).size() == 1);
+    REQUIRE(shared.nextVideo(context, session, request, slow, maxAge).size() == 1);
+    up.push_back(bitrate());
+  }
+  CHECK(up == std::vector<uint32_t>{313, 392, 491, 614, 768, 961, 1000, 1000});
   CHECK(shared.videoEncodeCount() == queue.rendered);
   CHECK(shared.videoChannelCount() == 1);
 }

@@ -1,5 +1,7 @@
 #include "render/frame_targets.h"
 
+#include "render/gpu_types.h"
+
 namespace myriad::render {
 
 namespace {
@@ -30,6 +32,11 @@ FrameTargets::FrameTargets(gpu::Context& context, VkExtent2D size, bool rawOutpu
   output = arena.createImage2D(extent, raw ? kRawOutputFormat : kOutputFormat,
                                VK_IMAGE_USAGE_STORAGE_BIT | VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT |
                                    VK_IMAGE_USAGE_TRANSFER_SRC_BIT);
+  const VkDeviceSize edgePixels = raw ? 1 : VkDeviceSize(extent.width) * extent.height;
+  edges = arena.createBuffer(sizeof(gpu_types::AntialiasEdges) + edgePixels * 4,
+                             VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT |
+                                 VK_BUFFER_USAGE_TRANSFER_DST_BIT,
+                             gpu::MemoryUse::DeviceLocal);
   readback = arena.createBuffer(VkDeviceSize(extent.width) * extent.height * (raw ? 16 : 4),
                                 VK_BUFFER_USAGE_TRANSFER_DST_BIT, gpu::MemoryUse::Readback);
 }

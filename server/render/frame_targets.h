@@ -50,6 +50,9 @@ struct FrameTargets {
   gpu::Image markerKeys;
   gpu::Image ldr;     // final, tonemapped, before anti-aliasing (kLdrFormat)
   gpu::Image output;  // written by compute (storage); the light-volumes overlay blends onto it
+  // AntialiasEdges, then a uint per pixel: the pixels the final pass lists for anti-aliasing (a
+  // header and one pixel for raw targets, which never anti-alias, so the binding always holds one).
+  gpu::Buffer edges;
   gpu::Buffer readback;  // output pixels, rows top first
 };
 

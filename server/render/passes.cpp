@@ -69,7 +69,7 @@ Pipelines::Pipelines(gpu::Context& context) : device(context.device) {
   }};
   sceneSetLayout = gpu::createDescriptorSetLayout(device, sceneBindings);
   const VkShaderStageFlags readers = VK_SHADER_STAGE_FRAGMENT_BIT | VK_SHADER_STAGE_COMPUTE_BIT;
-  std::array<VkDescriptorSetLayoutBinding, 14> targetBindings{};
+  std::array<VkDescriptorSetLayoutBinding, 15> targetBindings{};
   for (uint32_t i = 0; i <= MYRIAD_BINDING_LIGHT_COUNT; ++i) {
     targetBindings[i] = {i, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, readers, nullptr};
   }
@@ -88,6 +88,9 @@ Pipelines::Pipelines(gpu::Context& context) : device(context.device) {
   }
   targetBindings[MYRIAD_BINDING_LDR] = {MYRIAD_BINDING_LDR, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER,
                                         1, VK_SHADER_STAGE_COMPUTE_BIT, nullptr};
+  targetBindings[MYRIAD_BINDING_EDGE_PIXELS] = {MYRIAD_BINDING_EDGE_PIXELS,
+                                                VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1,
+                                                VK_SHADER_STAGE_COMPUTE_BIT, nullptr};
   targetSetLayout = gpu::createDescriptorSetLayout(device, targetBindings);
   std::array<VkDescriptorSetLayoutBinding, 5> cullingBindings{};
   for (uint32_t i = 0; i < cullingBindings.size(); ++i) {
@@ -123,6 +126,8 @@ Pipelines::Pipelines(gpu::Context& context) : device(context.device) {
   d.depthCompare = VK_COMPARE_OP_LESS;
   d.dynamicCullMode = true;  // per material: glTF's doubleSided
   gbuffer = gpu::createGraphicsPipeline(device, layout, d);
+  d.fragmentShader = spirv::gbuffer_alpha_test_frag;
+  gbufferAlphaTest = gpu::createGraphicsPipeline(device, layout, d);
 
   // Alpha-blended surfaces: the G-buffer's vertex stage, one HDR target blended `over`, the
   // G-buffer depth tested and kept.
@@ -160,7 +165,7 @@ Pipelines::Pipelines(gpu::Context& context) : device(context.device) {
 }
 
 Pipelines::~Pipelines() {
-  for (VkPipeline p : {gbuffer, forward, forwardClustered, shadow, lightVolumeOverlay, animateLights,
+  for (VkPipeline p : {gbuffer, gbufferAlphaTest, forward, forwardClustered, shadow, lightVolumeOverlay, animateLights,
                       markerSplat, final, finalRaw, views, viewsRaw, antialias}) {
     if (p) vkDestroyPipeline(device, p, nullptr);
   }
@@ -207,22 +212,31 @@ void recordGBufferPass(VkCommandBuffer cmd, const Pipelines& p, const FrameTarge
   depth.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
   depth.clearValue.depthStencil = {1.0f, 0};
   beginRendering(cmd, t.extent, colors, &depth);
-  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, p.gbuffer);
   bindGeometry(cmd, scene);
-  // Draws come grouped by material (SceneBuffers sorts them): one texture set and one cull mode
-  // per group.
-  uint32_t bound = UINT32_MAX;
-  for (const DrawItem& draw : scene.draws) {
-    if (scene.blend[draw.material]) continue;  // the forward pass draws it (recordBlendPass)
-    if (draw.material != bound) {
-      bound = draw.material;
-      VkDescriptorSet set = scene.textures->set(bound);
-      vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, p.layout, MYRIAD_SET_MATERIAL,
-                              1, &set, 0, nullptr);
-      vkCmdSetCullMode(cmd, scene.doubleSided[bound] ? VK_CULL_MODE_NONE : VK_CULL_MODE_BACK_BIT);
+  // Opaque materials first, then alpha-tested ones (their own pipeline: a shader that may discard
+  // writes depth only after it runs). Draws come grouped by material (SceneBuffers sorts them):
+  // one texture set and one cull mode per group.
+  for (const bool alphaTest : {false, true}) {
+    bool pipelineBound = false;
+    uint32_t bound = UINT32_MAX;
+    for (const DrawItem& draw : scene.draws) {
+      if (scene.blend[draw.material]) continue;  // the forward pass draws it (recordBlendPass)
+      if ((scene.alphaTest[draw.material] != 0) != alphaTest) continue;
+      if (!pipelineBound) {
+        vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS,
+                          alphaTest ? p.gbufferAlphaTest : p.gbuffer);
+        pipelineBound = true;
+      }
+      if (draw.material != bound) {
+        bound = draw.material;
+        VkDescriptorSet set = scene.textures->set(bound);
+        vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, p.layout,
+                                MYRIAD_SET_MATERIAL, 1, &set, 0, nullptr);
+        vkCmdSetCullMode(cmd, scene.doubleSided[bound] ? VK_CULL_MODE_NONE : VK_CULL_MODE_BACK_BIT);
+      }
+      vkCmdDrawIndexed(cmd, draw.mesh.indexCount, 1, draw.mesh.firstIndex, draw.mesh.vertexOffset,
+                       draw.instance);
     }
-    vkCmdDrawIndexed(cmd, draw.mesh.indexCount, 1, draw.mesh.firstIndex, draw.mesh.vertexOffset,
-                     draw.instance);
   }
   vkCmdEndRendering(cmd);
 
@@ -349,6 +363,19 @@ void recordFinalPass(VkCommandBuffer cmd, const Pipelines& p, const FrameTargets
                       VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_GENERAL});
   }
   gpu::barrier(cmd, before);
+  if (picture && !t.raw) {
+    // The edge list starts empty (the previous anti-aliasing pass read it, as its dispatch's
+    // arguments and from the shader).
+    gpu::bufferBarrier(cmd, t.edges,
+                       VK_PIPELINE_STAGE_2_DRAW_INDIRECT_BIT | VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
+                       VK_ACCESS_2_NONE, VK_PIPELINE_STAGE_2_ALL_TRANSFER_BIT,
+                       VK_ACCESS_2_TRANSFER_WRITE_BIT);
+    const gpu_types::AntialiasEdges empty{{0, 1, 1, 0}, {0, 0, 0, 0}};
+    vkCmdUpdateBuffer(cmd, t.edges.buffer, 0, sizeof(empty), &empty);
+    gpu::bufferBarrier(cmd, t.edges, VK_PIPELINE_STAGE_2_ALL_TRANSFER_BIT,
+                       VK_ACCESS_2_TRANSFER_WRITE_BIT, kCompute,
+                       VK_ACCESS_2_SHADER_STORAGE_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT);
+  }
   VkPipeline pipeline = picture ? (t.raw ? p.finalRaw : p.final) : (t.raw ? p.viewsRaw : p.views);
   vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipeline);
   vkCmdDispatch(cmd, gpu::groupCount(t.extent.width, MYRIAD_PIXEL_GROUP),
@@ -357,14 +384,17 @@ void recordFinalPass(VkCommandBuffer cmd, const Pipelines& p, const FrameTargets
 
 void recordAntialiasPass(VkCommandBuffer cmd, const Pipelines& p, const FrameTargets& t) {
   constexpr VkPipelineStageFlags2 kCompute = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT;
-  // The output is already GENERAL (recordFinalPass), and the final pass did not write it.
+  // The output is already GENERAL (recordFinalPass); the final pass wrote the pixels off edges,
+  // this pass writes the listed ones (disjoint, so no barrier on the output between them).
   const ImageTransition before[] = {{&t.ldr, kCompute, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT, kCompute,
                                      VK_ACCESS_2_SHADER_SAMPLED_READ_BIT, VK_IMAGE_LAYOUT_GENERAL,
                                      VK_IMAGE_LAYOUT_READ_ONLY_OPTIMAL}};
   gpu::barrier(cmd, before);
+  gpu::bufferBarrier(cmd, t.edges, kCompute, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
+                     kCompute | VK_PIPELINE_STAGE_2_DRAW_INDIRECT_BIT,
+                     VK_ACCESS_2_SHADER_STORAGE_READ_BIT | VK_ACCESS_2_INDIRECT_COMMAND_READ_BIT);
   vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, p.antialias);
-  vkCmdDispatch(cmd, gpu::groupCount(t.extent.width, MYRIAD_PIXEL_GROUP),
-                gpu::groupCount(t.extent.height, MYRIAD_PIXEL_GROUP), 1);
+  vkCmdDispatchIndirect(cmd, t.edges.buffer, 0);
 }
 
 void recordLightVolumeOverlayPass(VkCommandBuffer cmd, const Pipelines& p, const FrameTargets& t,

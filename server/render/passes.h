@@ -27,7 +27,8 @@ struct Pipelines {
   VkDescriptorSetLayout cullingSetLayout = VK_NULL_HANDLE;
   VkDescriptorSetLayout materialSetLayout = VK_NULL_HANDLE;  // set 3: one material's textures
   VkPipelineLayout layout = VK_NULL_HANDLE;
-  VkPipeline gbuffer = VK_NULL_HANDLE;
+  VkPipeline gbuffer = VK_NULL_HANDLE;           // opaque materials
+  VkPipeline gbufferAlphaTest = VK_NULL_HANDLE;  // alphaMode MASK: may discard
   // Alpha-blended surfaces (recordBlendPass): every light tested, or the clustered lists.
   VkPipeline forward = VK_NULL_HANDLE;
   VkPipeline forwardClustered = VK_NULL_HANDLE;

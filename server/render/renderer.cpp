@@ -284,7 +284,16 @@ void Renderer::State::writeTargetSet(FrameSlot& slot) {
         storage ? VK_DESCRIPTOR_TYPE_STORAGE_IMAGE : VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER;
     writes[i].pImageInfo = &infos[i];
   }
+  // 14: the edge pixels the final pass lists for anti-aliasing (a storage buffer).
+  const VkDescriptorBufferInfo edges{targets->edges.buffer, 0, VK_WHOLE_SIZE};
+  VkWriteDescriptorSet edgeWrite{VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET};
+  edgeWrite.dstSet = slot.targetSet;
+  edgeWrite.dstBinding = MYRIAD_BINDING_EDGE_PIXELS;
+  edgeWrite.descriptorCount = 1;
+  edgeWrite.descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
+  edgeWrite.pBufferInfo = &edges;
   vkUpdateDescriptorSets(context.device, kBindings, writes, 0, nullptr);
+  vkUpdateDescriptorSets(context.device, 1, &edgeWrite, 0, nullptr);
 }
 
 // Targets follow the output size and are rebuilt only when it changes (every frame is waited

@@ -209,6 +209,7 @@ SceneBuffers::SceneBuffers(gpu::Context& context, gpu::CommandRecorder& recorder
   for (const scene::Material& m : scene.materials) {
     doubleSided.push_back(m.doubleSided ? 1 : 0);
     blend.push_back(m.alphaMode == scene::AlphaMode::blend ? 1 : 0);
+    alphaTest.push_back(m.alphaMode == scene::AlphaMode::mask ? 1 : 0);
     emits.push_back(emitsLight(m) ? 1 : 0);
   }
   textures = std::make_unique<MaterialTextures>(context, recorder, materialSetLayout, scene);
@@ -338,6 +339,7 @@ void SceneBuffers::updateMaterials(gpu::CommandRecorder& recorder,
   for (const MaterialWrite& w : writes) {
     doubleSided[w.index] = w.material.doubleSided ? 1 : 0;
     blend[w.index] = w.material.alphaMode == scene::AlphaMode::blend ? 1 : 0;
+    alphaTest[w.index] = w.material.alphaMode == scene::AlphaMode::mask ? 1 : 0;
     emits[w.index] = emitsLight(w.material) ? 1 : 0;
   }
 }

@@ -62,6 +62,7 @@ struct SceneBuffers {
   // Per material: alphaMode BLEND, drawn by the forward pass (recordBlendPass), not into the
   // G-buffer. Follows material edits, like doubleSided.
   std::vector<uint8_t> blend;
+  std::vector<uint8_t> alphaTest;     // per material: alphaMode MASK (the G-buffer's discarding pipeline)
   std::vector<uint8_t> emits;         // per material: whether its emission can be non-zero
   bool anyEmission() const;
   MeshRange lightProxy;  // icosphere circumscribing the unit sphere (volumes, markers)

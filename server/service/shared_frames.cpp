@@ -149,7 +149,7 @@ void SharedFrames::wantKey(VideoChannel& channel, VideoViewer& viewer, Clock::ti
   // A viewer that had frames and fell behind: count it, and step the bitrate down.
   ++viewer.resyncs;
   ++videoResyncs_;
-  if (now - channel.lastDown >= kVideoLowerEvery) {
+  if (now - channel.lastDown >= videoLowerEvery_) {
     const uint32_t floor = std::max(1u, channel.askedKbps / 4);
     channel.targetKbps =
         std::max(floor, static_cast<uint32_t>(uint64_t(channel.targetKbps) * 3 / 4));
@@ -198,7 +198,7 @@ std::vector<SharedFrames::VideoFramePtr> SharedFrames::nextVideo(
     }
     channel.rendering = true;
     const bool forceKey = channel.keyWanted || channel.log.empty();
-    if (channel.targetKbps < channel.askedKbps && now - channel.lastStep >= kVideoRaiseAfter) {
+    if (channel.targetKbps < channel.askedKbps && now - channel.lastStep >= videoRaiseAfter_) {
       // No viewer fell behind for a while: one step back up.
       channel.targetKbps = static_cast<uint32_t>(
           std::min<uint64_t>(channel.askedKbps, uint64_t(channel.targetKbps) * 5 / 4 + 1));

@@ -23,8 +23,8 @@
 //     the others back, and costs memory only through the log, which is bounded.
 // Rate adaptation (per channel, bounded steps): a viewer that falls behind (not a joiner) lowers
 // the channel's bitrate to 3/4 (at most one step a second, never below 1/4 of the asked bitrate):
-// its link did not carry what the encoder made. After kVideoRaiseAfter without a step down, each
-// encode may raise it by 5/4, up to the asked bitrate. One encoder serves every viewer, so the
+// its link did not carry what the encoder made. Every kVideoRaiseAfter without a step (down or
+// up), the next encode raises it by 5/4, up to the asked bitrate. One encoder serves every viewer, so the
 // slowest viewer's link sets the quality for all of them (no per-viewer layers).
 // As for images, a viewer takes the newest chunk when it is newer than its position, shows the
 // session's current version and (animating) is younger than the stream's interval; when another
@@ -52,6 +52,11 @@ namespace myriad::service {
 
 class SharedFrames {
  public:
+  SharedFrames() = default;
+  // Rate adaptation's periods other than kVideoRaiseAfter and kVideoLowerEvery (tests).
+  SharedFrames(Clock::duration videoRaiseAfter, Clock::duration videoLowerEvery)
+      : videoRaiseAfter_(videoRaiseAfter), videoLowerEvery_(videoLowerEvery) {}
+
   // A frame as the streams share it: bytes, the session version it shows, and its generation in
   // its entry (a stream sends a generation once).
   struct Frame {
@@ -151,6 +156,8 @@ class SharedFrames {
   std::map<std::string, std::weak_ptr<VideoChannel>, std::less<>> channels_;
   uint64_t videoEncodes_ = 0;
   uint64_t videoResyncs_ = 0;
+  Clock::duration videoRaiseAfter_ = kVideoRaiseAfter;
+  Clock::duration videoLowerEvery_ = kVideoLowerEvery;
 };
 
 class SharedFrames::VideoChannel {
