@@ -143,6 +143,8 @@ inline constexpr std::string_view kHeight = "X-Myriad-Height";        // raw
 inline constexpr std::string_view kTarget = "X-Myriad-Target";        // raw
 inline constexpr std::string_view kTechnique = "X-Myriad-Technique";  // every frame
 inline constexpr std::string_view kFrameSequence = "X-Myriad-Frame";  // each stream part
+// A stream part rendered while the session changes (?interactive=): its render scale ("0.5")
+inline constexpr std::string_view kInteractive = "X-Myriad-Interactive";
 inline constexpr std::string_view kNode = "X-Myriad-Node";  // every response, with --node-id
 inline constexpr std::string_view kVideoCodec = "X-Myriad-Codec";  // video stream: WebCodecs codec
 inline constexpr std::string_view kServerTiming = "Server-Timing";
@@ -162,6 +164,8 @@ inline constexpr uint32_t kDefaultFps = 15;
 inline constexpr uint32_t kMinQuality = 1;
 inline constexpr uint32_t kMaxQuality = 100;
 inline constexpr uint32_t kMinBitrateKbps = 50;     // video streams' bitrate, kbit/s
+// Streams: ?interactive=N, the frames a second to hold while the session changes (0: off).
+inline constexpr uint32_t kMaxInteractiveFps = 60;
 inline constexpr uint32_t kMaxBitrateKbps = 100000;
 }  // namespace query
 

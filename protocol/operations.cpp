@@ -501,11 +501,18 @@ std::vector<Operation> buildOperations() {
                   "refused). Default: images."},
                  {"bitrate", integerIn(query::kMinBitrateKbps, query::kMaxBitrateKbps),
                   "Video streams: the target bitrate in kbit/s. Default 0.1 bit per pixel per "
-                  "frame at the stream's size and fps."}},
+                  "frame at the stream's size and fps."},
+                 {"interactive", integerIn(0, query::kMaxInteractiveFps),
+                  "Image streams: the frames a second to hold while the scene changes. Frames "
+                  "rendered then are smaller (a render scale chosen from the server's frame "
+                  "times), without anti-aliasing and sun shadows, at JPEG quality 50 at most, "
+                  "and marked X-Myriad-Interactive; a full-quality still follows once the scene "
+                  "stops changing. Default 0: every frame at full quality."}},
        .responses = {{200,
                       "multipart/x-mixed-replace: each part an image with Content-Type, "
                       "Content-Length and X-Myriad-Frame (its sequence number; a re-send keeps "
-                      "it). With codec: application/x-myriad-video, chunks of a 48-byte header "
+                      "it), and X-Myriad-Interactive (its render scale) when it is an interactive "
+                      "frame. With codec: application/x-myriad-video, chunks of a 48-byte header "
                       "and one frame of the codec's bitstream; X-Myriad-Codec names the WebCodecs "
                       "codec string.",
                       {{kStreamContentType, ""}, {kVideoStreamContentType, ""}},

@@ -14,6 +14,7 @@
 #include "encode/video.h"
 #include "render/render_queue.h"
 #include "service/frame_query.h"
+#include "service/interactive_quality.h"
 #include "service/metrics.h"
 #include "service/shared_frames.h"
 #include "service/session_frames.h"
@@ -208,6 +209,70 @@ TEST_CASE("stream parts: the contract's framing") {
   CHECK(service::multipartPart("image/png", std::string(3, '\0'), 8, false) ==
         std::string("Content-Type: image/png\r\nContent-Length: 3\r\nX-Myriad-Frame: 8\r\n\r\n") +
             std::string(3, '\0') + "\r\n--myriad-frame\r\n");
+}
+
+TEST_CASE("stream parts: an interactive part names its render scale") {
+  CHECK(service::multipartPart("image/jpeg", "JPEG", 9, false, "0.4375") ==
+        "Content-Type: image/jpeg\r\nContent-Length: 4\r\nX-Myriad-Frame: 9\r\n"
+        "X-Myriad-Interactive: 0.4375\r\n\r\nJPEG\r\n--myriad-frame\r\n");
+}
+
+TEST_CASE("stream query: interactive is 0 to 60 frames a second, image streams only") {
+  CHECK(service::parseStreamQuery({}, 2048).interactiveFps == 0);
+  CHECK(service::parseStreamQuery({{"interactive", "24"}}, 2048).interactiveFps == 24);
+  CHECK(service::parseStreamQuery({{"interactive", "0"}, {"codec", "vp9"}}, 2048).video);
+  for (const char* bad : {"61", "-1", "x", ""}) {
+    Failure f = failureOf([bad] { service::parseStreamQuery({{"interactive", bad}}, 2048); });
+    CHECK(f.parameter == "interactive");
+    CHECK(f.detail.find("0 to 60") != std::string::npos);
+  }
+  Failure video = failureOf(
+      [] { service::parseStreamQuery({{"interactive", "24"}, {"codec", "vp8"}}, 2048); });
+  CHECK(video.parameter == "interactive");
+  CHECK(video.detail.find("image streams") != std::string::npos);
+}
+
+TEST_CASE("interactive quality: degraded while changes come, settles, scale follows frame times") {
+  using Q = service::InteractiveQuality;
+  using std::chrono::milliseconds;
+  const Q::Clock::time_point t0{};
+  Q quality(20);  // budget 0.8 / 20 s = 40 ms
+  CHECK_FALSE(quality.moving(t0));
+  quality.sawChange(t0);
+  CHECK(quality.moving(t0 + milliseconds(59)));
+  CHECK_FALSE(quality.moving(t0 + milliseconds(60)));  // first change: the shortest settle
+  quality.sawChange(t0 + milliseconds(100));             // 100 ms later: settle 200 ms
+  CHECK(quality.settle() == milliseconds(200));
+  CHECK(quality.moving(t0 + milliseconds(299)));
+  CHECK_FALSE(quality.moving(t0 + milliseconds(300)));
+  quality.sawChange(t0 + milliseconds(5000));            // a new interaction
+  CHECK(quality.settle() == Q::kMinSettle);
+  quality.sawChange(t0 + milliseconds(5400));            // 400 ms gap: capped at 250
+  CHECK(quality.settle() == Q::kMaxSettle);
+
+  // The request: scaled size, JPEG quality at most 50, flagged; the stream's own untouched.
+  FrameRequest full = service::parseStreamQuery({{"width", "1280"}, {"height", "720"},
+                                                 {"quality", "90"}}, 2048);
+  CHECK(quality.scale() == Q::kStartScale);
+  FrameRequest cheap = quality.degrade(full);
+  CHECK(cheap.settings.width == 640);
+  CHECK(cheap.settings.height == 360);
+  CHECK(cheap.quality == 50);
+  CHECK(cheap.interactive);
+  CHECK_FALSE(full.interactive);
+
+  // A frame 4x over budget at 0.5: the scale goes down (half way to 0.25, in 1/16 steps); within
+  // 15% of the budget it stays; far under budget it climbs, never past 1 or below 1/4.
+  quality.measured(0.5, milliseconds(160));
+  CHECK(quality.scale() == doctest::Approx(0.375));
+  quality.measured(0.375, milliseconds(42));
+  CHECK(quality.scale() == doctest::Approx(0.375));
+  for (int i = 0; i < 20; ++i) quality.measured(quality.scale(), milliseconds(1));
+  CHECK(quality.scale() == 1.0);
+  for (int i = 0; i < 20; ++i) quality.measured(quality.scale(), milliseconds(5000));
+  CHECK(quality.scale() == Q::kMinScale);
+  FrameRequest tiny = service::parseStreamQuery({{"width", "2"}, {"height", "1"}}, 2048);
+  CHECK(quality.degrade(tiny).settings.height == 1);  // never 0 pixels
 }
 
 TEST_CASE("stream registry: maxStreams places, a session's newest replaces its oldest, none after shutdown") {

@@ -59,6 +59,8 @@ function sessionLost(text) {
 // --- parts ----------------------------------------------------------------------------------
 
 const view = new LiveView(api, $('view'), $('stream'), $('view-status'));
+// What the view feels like (perf.js), for the browser test and scripts/bench-page.sh.
+window.myriadPerf = view.perf;
 // The status line and stats strip on the view: "rendering" from the moment of a change (an edit
 // sent, camera input) until a new frame shows; fps, latency, bandwidth and codec of the stream.
 const overlay = new ViewOverlay($('view-state'), $('stats-strip'));

@@ -1,8 +1,13 @@
 // The live view: the session's multipart JPEG stream, read with fetch and shown part by part in
-// an <img>. The stream is asked for at the view's size in device pixels; while the camera moves it
-// is asked for smaller and at lower quality (a CPU renderer answers much sooner), and ~300 ms after
-// the input stops at full size and quality 90 again, so what stays on screen is a full-quality
-// still.
+// an <img>. The stream is asked for at the view's size in device pixels, with ?interactive=24:
+// while the scene changes (a camera drag, a slider, anyone's edit) the server renders cheaper
+// frames, their scale chosen from its frame times so that 24 a second hold, marked
+// X-Myriad-Interactive (the <img> scales them up to the view), and a full-quality still once the
+// changes stop; one stream throughout, so no frame is lost to a reconnect. perf.js measures what
+// that feels like (window.myriadPerf).
+//
+// A video stream keeps its size (its encoder's), so in video mode the page itself asks for a
+// half-size stream while the camera moves and ~300 ms after the input stops for the full size.
 //
 // Video: where the browser decodes it (WebCodecs, in a secure context), the stream is VP9 video
 // (?codec=vp9, protocol/reference.md "Video streams") decoded into a <canvas id="video"> over the
@@ -19,12 +24,15 @@
 
 import {ApiError, SessionLostError} from './api.js';
 import {MultipartReader, multipartBoundary} from './multipart.js';
+import {ViewPerf} from './perf.js';
 import {VideoChunkReader, VideoPlayer, videoSupport} from './video.js';
 
 const FULL_QUALITY = 90;
 const INTERACTIVE_QUALITY = 60;
-const INTERACTIVE_SCALE = 0.5;  // of each side: a quarter of the pixels while moving
-const SETTLE_MS = 300;          // input pause after which the full-quality view returns
+const INTERACTIVE_SCALE = 0.5;  // video: of each side, a quarter of the pixels while moving
+const SETTLE_MS = 300;          // video: input pause after which the full-quality view returns
+// JPEG: the frames a second the server holds while the scene changes (?interactive=).
+const INTERACTIVE_FPS = 24;
 const RESIZE_DEBOUNCE_MS = 200;
 const STREAM_FPS = 30;
 const MIN_SIDE = 16;
@@ -65,6 +73,8 @@ export class LiveView {
     this.bytesReceived = 0;         // stream bytes so far, all streams (for a bandwidth figure)
     this.framesShown = 0;           // pictures shown so far
     this.ready = this.chooseMode();
+    this.perf = new ViewPerf();
+    this.loading = new Map();       // object URL -> the shown() figures of the part it holds
     this.onConnect = () => {};      // a stream is being opened
     this.onFrame = () => {};        // ({id, bytes, codec}) a frame was delivered
     this.onInput = () => {};        // camera input: the picture is about to change
@@ -72,11 +82,25 @@ export class LiveView {
     this.img.addEventListener('load', () => {
       // The newest part shows: the parts before it are no longer needed.
       const shown = this.img.src;
+      const figures = this.loading.get(shown);
+      if (figures) {
+        this.perf.shown({...figures, width: this.img.naturalWidth, height: this.img.naturalHeight});
+      }
+      this.loading.clear();
       for (const url of this.urls.filter((u) => u !== shown)) URL.revokeObjectURL(url);
       this.urls = this.urls.filter((u) => u === shown);
       this.status.textContent = `${this.img.naturalWidth}\u00d7${this.img.naturalHeight} JPEG` +
-                                (this.interactive ? ' (moving)' : '');
+                                (this.interactive || this.img.dataset.interactive ? ' (moving)' : '');
     });
+
+    // Drags for perf.js: on the view (the camera) and on any slider of the page.
+    const isSlider = (e) => e.target instanceof HTMLInputElement && e.target.type === 'range';
+    this.element.addEventListener('pointerdown', () => this.perf.dragStart());
+    this.element.addEventListener('pointerup', () => this.perf.release());
+    this.element.addEventListener('pointercancel', () => this.perf.release());
+    document.addEventListener('pointerdown', (e) => { if (isSlider(e)) this.perf.dragStart(); });
+    document.addEventListener('input', (e) => { if (isSlider(e)) this.perf.change(); });
+    document.addEventListener('change', (e) => { if (isSlider(e)) this.perf.release(); });
 
     let resizeTimer = 0;
     new ResizeObserver(() => {
@@ -126,7 +150,7 @@ export class LiveView {
 
   streamParams() {
     const full = this.fullSize();
-    if (!this.interactive) return {...full, quality: FULL_QUALITY};
+    if (!this.interactive || this.mode !== 'video') return {...full, quality: FULL_QUALITY};
     return {
       width: Math.max(MIN_SIDE, Math.round(full.width * INTERACTIVE_SCALE)),
       height: Math.max(MIN_SIDE, Math.round(full.height * INTERACTIVE_SCALE)),
@@ -146,7 +170,7 @@ export class LiveView {
     const query = this.mode === 'video'
         ? {target: this.target, codec: this.codec, fps: STREAM_FPS, width: p.width, height: p.height}
         : {target: this.target, format: 'jpeg', fps: STREAM_FPS,
-           width: p.width, height: p.height, quality: p.quality};
+           width: p.width, height: p.height, quality: p.quality, interactive: INTERACTIVE_FPS};
     // The stream's address without the token (data-stream: what the view asks for now).
     const key = `${this.api.sessionPath('/stream')}?${new URLSearchParams(query)}`;
     // The same stream, open or waiting for its retry: nothing to do (and the retry stays due).
@@ -168,6 +192,7 @@ export class LiveView {
     delete this.img.dataset.stream;
     delete this.img.dataset.shown;
     delete this.img.dataset.frame;
+    delete this.img.dataset.interactive;
     for (const url of this.urls) URL.revokeObjectURL(url);
     this.urls = [];
     if (this.canvas) {
@@ -188,9 +213,12 @@ export class LiveView {
     this.restart();
   }
 
-  // Called on every camera input: smaller frames now, the full-quality view once input pauses.
+  // Called on every camera input. JPEG: the server makes the frames cheaper while the camera
+  // moves. Video: smaller frames now, the full-quality view once input pauses.
   noteInput() {
     this.onInput();
+    this.perf.change();
+    if (this.mode !== 'video') return;
     if (!this.interactive) {
       this.interactive = true;
       this.restart();
@@ -290,6 +318,8 @@ export class LiveView {
     this.canvas.dataset.shown = stream.key;
     this.canvas.dataset.frame = String(chunk.sequence);
     this.framesShown += 1;
+    this.perf.shown({id: `${stream.key}#${chunk.sequence}`, interactive: this.interactive ? 1 : 0,
+                     width: chunk.width, height: chunk.height});
     this.onFrame({id: `${stream.key}#${chunk.sequence}`, bytes: chunk.payload.byteLength,
                   codec: this.codec});
     this.status.textContent = `${chunk.width}\u00d7${chunk.height} ${this.codec.toUpperCase()}` +
@@ -305,14 +335,18 @@ export class LiveView {
     }
   }
 
-  // Gives one part to the <img>. data-shown names the stream it came from and data-frame its
-  // X-Myriad-Frame number, for whoever inspects the page (the browser test does).
+  // Gives one part to the <img>. data-shown names the stream it came from, data-frame its
+  // X-Myriad-Frame number and data-interactive its X-Myriad-Interactive render scale (empty for
+  // a full-quality frame), for whoever inspects the page (the browser test does).
   show(stream, part) {
     const url = URL.createObjectURL(new Blob([part.body], {type: part.headers['content-type']}));
     this.urls.push(url);
     this.img.src = url;
     this.img.dataset.shown = stream.key;
     this.img.dataset.frame = part.headers['x-myriad-frame'] || '';
+    this.img.dataset.interactive = part.headers['x-myriad-interactive'] || '';
+    this.loading.set(url, {id: `${stream.key}#${this.img.dataset.frame}`,
+                           interactive: Number(this.img.dataset.interactive) || 0});
     this.framesShown += 1;
     this.onFrame({id: `${stream.key}#${this.img.dataset.frame}`, bytes: part.body.byteLength,
                   codec: this.codec});

@@ -213,6 +213,16 @@ FrameRequest parseStreamQuery(const QueryParams& params, uint32_t maxResolution)
   }
   const std::string* codecText = single(params, "codec");
   const std::string* bitrateText = single(params, "bitrate");
+  if (const std::string* text = single(params, "interactive")) {
+    request.interactiveFps = parseBoundedInteger(
+        "interactive", *text, 0, protocol::query::kMaxInteractiveFps,
+        "the frames a second to hold while the scene changes (0: off)");
+    if (codecText && request.interactiveFps > 0) {
+      throw FrameQueryError("interactive",
+                            "interactive applies to image streams; a video stream (codec=" +
+                                *codecText + ") keeps its size, so leave interactive out.");
+    }
+  }
   if (!codecText) {
     if (bitrateText) {
       throw FrameQueryError("bitrate",

@@ -26,8 +26,9 @@ inline constexpr std::array<std::string_view, 12> kFrameParameters = {
 inline constexpr std::array<std::string_view, 7> kSessionFrameParameters = {
     "target", "format", "width", "height", "quality", "time", "token"};
 // GET /v1/sessions/{id}/stream.
-inline constexpr std::array<std::string_view, 9> kStreamParameters = {
-    "target", "format", "fps", "width", "height", "quality", "codec", "bitrate", "token"};
+inline constexpr std::array<std::string_view, 10> kStreamParameters = {
+    "target", "format",  "fps",   "width",       "height",
+    "quality", "codec", "bitrate", "interactive", "token"};
 
 // How a frame's pixels are sent; in the order of protocol::kFormats, which names them.
 enum class ImageFormat { Png, Jpeg, Raw };
@@ -61,6 +62,12 @@ struct FrameRequest {
   std::optional<double> time;         // session frames: animation time asked for, in seconds
   uint32_t fps = kDefaultStreamFps;   // streams only
   std::optional<VideoStreamRequest> video;  // streams with codec= only: video, not images
+  // Streams only: frames a second to hold while the session changes (interactive_quality.h);
+  // 0: every frame at full quality.
+  uint32_t interactiveFps = 0;
+  // This frame is a stream's interactive frame: drawn without anti-aliasing and sun shadows
+  // (submitSessionFrame applies it over the session's settings).
+  bool interactive = false;
 };
 
 // What a frame request starts from before its parameters apply.
@@ -103,7 +110,7 @@ FrameRequest parseSessionFrameQuery(const QueryParams& params, uint32_t maxResol
 // GET /v1/sessions/{id}/stream: as a session frame, without time, with fps; format png or jpeg
 // (default jpeg). With codec (vp8, vp9): a video stream at `bitrate` kbit/s (default
 // kDefaultVideoBitsPerPixel), at least 2x2 pixels, and format and quality are refused (they
-// describe images).
+// describe images). interactive: 0 to protocol::query::kMaxInteractiveFps (image streams only).
 FrameRequest parseStreamQuery(const QueryParams& params, uint32_t maxResolution);
 
 // The Server-Timing header value: one metric per GPU pass, then the CPU PNG encode, then (when

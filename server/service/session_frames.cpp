@@ -140,6 +140,12 @@ PendingSessionFrame submitSessionFrame(const SessionFrameContext& context, const
     if (session->closed) throw ProblemError(notFoundDetail("Session " + session->id + " is gone."));
     pending.rendered.settings =
         session->scene.frameSettings(request.settings, request.time, Clock::now());
+    if (request.interactive) {
+      // A stream's interactive frame (interactive_quality.h): the costly passes that change the
+      // picture least while it moves are left out; the still after it has them.
+      pending.rendered.settings.antialias = render::Antialias::None;
+      pending.rendered.settings.shadows.sun = false;
+    }
     sceneId = static_cast<render::SceneId>(session->sceneId);
     pending.version = session->version;
   }

@@ -2,12 +2,14 @@
 
 #include <algorithm>
 #include <bit>
+#include <charconv>
 #include <cstdio>
 #include <cstring>
 #include <optional>
 #include <thread>
 #include <utility>
 
+#include "service/interactive_quality.h"
 #include "service/shared_frames.h"
 
 namespace myriad::service {
@@ -45,6 +47,13 @@ struct StreamState {
   // the session as it was when submitted: an edit made meanwhile shows one frame later.
   std::optional<PendingSessionFrame> ahead;
   Clock::duration lastFrameTook{};  // submit to encoded, of the last frame
+
+  // ?interactive=FPS: frames rendered while the session changes are cheaper, and a full-quality
+  // still follows once it settles (interactive_quality.h). Empty when the stream did not ask.
+  std::optional<InteractiveQuality> quality;
+  uint64_t seenVersion = 0;      // the session version last seen, to time its changes
+  bool lastInteractive = false;  // the last frame sent was an interactive one
+  std::string interactiveScale;  // its render scale, as its part's X-Myriad-Interactive says
 
   // Video streams (request.video): the stream's place in its SharedFrames channel, whose encoder
   // it shares with every stream of the session asking for the same video.
@@ -112,7 +121,7 @@ struct StreamState {
       keepAlive.encodeUs = 0;
       return write(sink, videoChunk(keepAlive, {}));
     }
-    return write(sink, multipartPart(contentType, image, sequence, !wroteAny));
+    return write(sink, multipartPart(contentType, image, sequence, !wroteAny, interactiveScale));
   }
 
   // One provider call: waits for something to send, sends one part, returns. False ends the
@@ -141,17 +150,42 @@ bool StreamState::next(httplib::DataSink& sink) {
     if (peer.gone()) return false;
 
     const Clock::time_point now = Clock::now();
-    const bool wantFrame = !hasFrame || version != shownVersion || animate;
+    if (quality) {
+      if (!hasFrame) {
+        seenVersion = version;
+      } else if (version != seenVersion) {
+        quality->sawChange(now);
+        seenVersion = version;
+      }
+    }
+    // Interactive: the session changed within the settle time; a still is due once it settled.
+    const bool moving = quality && hasFrame && quality->moving(now);
+    const bool wantStill = quality && lastInteractive && !moving;
+    const bool wantFrame = !hasFrame || version != shownVersion || animate || wantStill;
     if (wantFrame && now >= nextFrameAt) {
       SharedFrames::Frame frame;
       std::vector<SharedFrames::VideoFramePtr> videoFrames;
+      std::string scaleText;   // the interactive frame's render scale
       try {
         // Streams of one session share renders (SharedFrames) unless this one pipelines: an
         // animated stream whose frames take longer than 1 / fps submits the next frame ahead,
         // which a shared render cannot (it would keep each stream's own frames in flight).
         // Video streams always share (their channel's encoder needs every frame in order).
         const bool pipelined = animate && (ahead || lastFrameTook >= interval);
-        if (video) {
+        if (moving) {
+          // A cheaper frame of the stream's own (its size is its own, so it is not shared); a
+          // full frame submitted ahead is given up first (it would arrive slow and full).
+          settleAhead();
+          const double scale = quality->scale();
+          PendingSessionFrame pending = submitSessionFrame(
+              context, session, quality->degrade(request), render::FrameSource::Stream);
+          SessionFrame own = collectSessionFrame(context, session, pending);
+          quality->measured(scale, Clock::now() - pending.submitted);
+          frame = {std::make_shared<const EncodedFrame>(std::move(own.encoded)), own.version, 0};
+          char text[32];
+          auto [end, ec] = std::to_chars(text, text + sizeof text, scale);
+          scaleText.assign(text, ec == std::errc() ? end : text);
+        } else if (video) {
           const Clock::time_point start = Clock::now();
           videoFrames = shared().nextVideo(context, session, request, *video, interval);
           lastFrameTook = Clock::now() - start;
@@ -183,6 +217,8 @@ bool StreamState::next(httplib::DataSink& sink) {
         return false;
       }
       nextFrameAt = now + interval;
+      lastInteractive = moving;
+      interactiveScale = std::move(scaleText);
       hasFrame = true;
       if (video) {
         shownVersion = videoFrames.back()->version;
@@ -201,6 +237,7 @@ bool StreamState::next(httplib::DataSink& sink) {
     // or the session changes or closes (or shutdown notifies), whichever comes first.
     Clock::time_point deadline = hasFrame ? lastWriteAt + kIdleResend : now + kIdleResend;
     if (wantFrame) deadline = std::min(deadline, nextFrameAt);
+    if (quality && lastInteractive) deadline = std::min(deadline, quality->settlesAt());
     std::unique_lock lock(session->mutex);
     session->changed.wait_until(lock, deadline, [&] {
       return session->closed || registry.stopping() || slot->replaced() ||
@@ -259,14 +296,18 @@ void StreamRegistry::shutdown() {
 }
 
 std::string multipartPart(std::string_view contentType, std::string_view image, uint64_t sequence,
-                          bool first) {
+                          bool first, std::string_view interactiveScale) {
   std::string part;
   part.reserve(image.size() + 160);
   if (first) part.append("--").append(protocol::kStreamBoundary).append("\r\n");
   part.append("Content-Type: ").append(contentType).append("\r\n");
   part.append("Content-Length: ").append(std::to_string(image.size())).append("\r\n");
   part.append(protocol::headers::kFrameSequence).append(": ");
-  part.append(std::to_string(sequence)).append("\r\n\r\n");
+  part.append(std::to_string(sequence)).append("\r\n");
+  if (!interactiveScale.empty()) {
+    part.append(protocol::headers::kInteractive).append(": ").append(interactiveScale).append("\r\n");
+  }
+  part.append("\r\n");
   part.append(image);
   part.append("\r\n--").append(protocol::kStreamBoundary).append("\r\n");
   return part;
@@ -317,6 +358,7 @@ httplib::ContentProviderWithoutLength makeStreamProvider(const SessionFrameConte
     if (state->context.shared == nullptr) state->ownShared = std::make_unique<SharedFrames>();
     state->video = state->shared().joinVideo(state->session, state->request, video);
   }
+  if (state->request.interactiveFps > 0) state->quality.emplace(state->request.interactiveFps);
   return [state](size_t /*offset*/, httplib::DataSink& sink) {
     const bool more = state->next(sink);
     if (!more) state->settleAhead();

@@ -12,6 +12,9 @@
 // and writing (an edit then shows one frame later; a stream that ends gives that frame up unless
 // it already started). While nothing changes the last part is re-sent every kIdleResend, which keeps proxies
 // from timing the connection out and tells a client that just connected what the scene looks like.
+// With ?interactive=FPS, frames rendered while the session keeps changing are cheaper (smaller,
+// their scale chosen from measured frame times; interactive_quality.h) and marked
+// X-Myriad-Interactive, and a full-quality still follows once the session settles.
 // A stream ends when the client goes away (seen before each frame is rendered, through PeerWatch,
 // or when a write fails), the session closes (deleted or
 // expired), or the server shuts down (StreamRegistry::shutdown wakes every waiting stream).
@@ -113,7 +116,8 @@ std::string videoChunk(const VideoChunk& header, std::string_view payload);
 
 // One part's bytes: headers, image, CRLF and the next boundary line (so a reader that splits on
 // boundaries has the part at once). The first part of a stream also carries the opening boundary.
+// `interactiveScale` (not empty: an interactive frame) becomes its X-Myriad-Interactive header.
 std::string multipartPart(std::string_view contentType, std::string_view image, uint64_t sequence,
-                          bool first);
+                          bool first, std::string_view interactiveScale = {});
 
 }  // namespace myriad::service

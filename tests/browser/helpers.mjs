@@ -62,7 +62,9 @@ export function signatureInPage() {
   const sig = Array.from(sums, (s, i) => s / Math.max(1, counts[Math.floor(i / 3)]));
   // src: the stream the shown part came from (the view keeps it in data-shown); frame: its
   // X-Myriad-Frame number.
+  // interactive: the part's X-Myriad-Interactive render scale ('' for a full-quality part).
   return {width, height, src: shownFrom.dataset.shown || '', frame: Number(shownFrom.dataset.frame),
+          interactive: shownFrom.dataset.interactive || '',
           codec: document.getElementById('view').dataset.codec || '', sig};
 }
 

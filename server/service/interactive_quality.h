@@ -1,0 +1,71 @@
+// The interactive quality of a stream (GET .../stream?interactive=FPS): while the session keeps
+// changing (a camera drag, a slider), the stream's frames are cheaper (a smaller render scale that
+// the client scales up, no anti-aliasing, no sun shadows, a lower JPEG quality), the scale chosen
+// from the measured time of the frames before so that FPS frames a second hold; once the session
+// has stopped changing for a settle time, one full-quality frame (the still) follows. Chosen by
+// the server from its own frame times, so every client of the protocol gets it by asking.
+//
+// Pure: no HTTP, no Vulkan, no clock of its own (times are passed in), so it is unit-tested.
+#pragma once
+
+#include <chrono>
+#include <cstdint>
+
+#include "service/frame_query.h"
+
+namespace myriad::service {
+
+class InteractiveQuality {
+ public:
+  using Clock = std::chrono::steady_clock;
+
+  // The settle time: twice the last gap between two changes (the page sends camera changes
+  // about every 33 ms and slider changes every 80-100 ms, so a drag's own pauses do not end it),
+  // within these bounds.
+  static constexpr std::chrono::milliseconds kMinSettle{60};
+  static constexpr std::chrono::milliseconds kMaxSettle{250};
+  // Changes further apart than this belong to different interactions.
+  static constexpr std::chrono::milliseconds kSameInteraction{1000};
+  // Render scale bounds (of each side) and its step: the scale moves in steps of 1/16, and only
+  // when the frame time is off its budget by more than kTolerance, so that the frame targets
+  // (rebuilt at each new size) change rarely.
+  static constexpr double kMinScale = 0.125;  // 160x90 of 1280x720: a preview, but a moving one
+  static constexpr double kStartScale = 0.5;
+  static constexpr double kScaleStep = 1.0 / 16.0;
+  static constexpr double kTolerance = 0.15;
+  // An interactive frame's share of 1 / FPS: the rest is the wait for the change, the write and
+  // the client's decode.
+  static constexpr double kBudgetShare = 0.8;
+  // JPEG quality of interactive frames (at most the stream's own).
+  static constexpr int kInteractiveJpegQuality = 50;
+
+  explicit InteractiveQuality(uint32_t targetFps) : targetFps_(targetFps) {}
+
+  // The session changed (its version moved), seen at `at`.
+  void sawChange(Clock::time_point at);
+
+  // True while the last change is younger than the settle time: frames are interactive.
+  bool moving(Clock::time_point now) const { return seen_ && now < settlesAt(); }
+  // When the current interaction ends unless another change comes.
+  Clock::time_point settlesAt() const { return lastChange_ + settle_; }
+  Clock::duration settle() const { return settle_; }
+
+  double scale() const { return scale_; }
+
+  // `full` made interactive: the size scaled (at least 1 pixel a side), JPEG quality lowered,
+  // FrameRequest::interactive set (the session frame then drops anti-aliasing and shadows).
+  FrameRequest degrade(const FrameRequest& full) const;
+
+  // An interactive frame rendered at `usedScale` took `took` from submission to encoded: the
+  // next scale is the one whose pixels fit the budget, cost taken as proportional to pixels.
+  void measured(double usedScale, Clock::duration took);
+
+ private:
+  uint32_t targetFps_;
+  bool seen_ = false;
+  Clock::time_point lastChange_{};
+  Clock::duration settle_ = kMinSettle;
+  double scale_ = kStartScale;
+};
+
+}  // namespace myriad::service

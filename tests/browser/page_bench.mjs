@@ -1,0 +1,176 @@
+// Issue 18's page benchmark: what the web client feels like, measured inside the page by its own
+// instrumentation (client/web/perf.js, window.myriadPerf), in Debian's Chromium (headless,
+// playwright-core) against a real myriad-server, with the view 1280x720 device pixels on the
+// session's built-in scene and the JPEG stream (?stream=jpeg, the adaptive one).
+//
+// Measured, idle and then with `--load N` busy processes (`yes`, one core each) running beside:
+//   animatedFps   frames shown a second of the animated scene (animate on), nobody touching it
+//   dragFps       frames shown a second while the mouse drags the camera (orbit) without a pause
+//   stillMs       from the pointer going up to the full-quality still shown
+//   sliderMs      from a slider's input event to the first new frame shown (the exposure slider,
+//                 one step at a time, a pause between)
+//   sliderStillMs from the slider's release to its full-quality still shown
+// Each figure is the median over the repetitions, with min and max; `scales` are the render
+// scales of the interactive frames shown (X-Myriad-Interactive).
+//
+// Not a test: it asserts nothing and prints JSON (and one line per figure). The machine's load
+// average before and after is part of the output, because these are figures of the machine as it
+// was. Usage (scripts/bench-page.sh wraps it):
+//   node page_bench.mjs <myriad-server> [--load 2] [--drags 3] [--sliders 8] [--seconds 6]
+//                       [--json FILE] [-- server flags]
+
+import {spawn} from 'node:child_process';
+import {existsSync, readFileSync, writeFileSync} from 'node:fs';
+import {until} from './helpers.mjs';
+import {startServer} from './server_process.mjs';
+
+const CHROMIUM = '/usr/bin/chromium';
+const VIEW = {width: 1280, height: 720};
+
+const args = process.argv.slice(2);
+const serverPath = args[0];
+const dash = args.indexOf('--');
+const serverFlags = dash >= 0 ? args.slice(dash + 1) : [];
+const own = dash >= 0 ? args.slice(1, dash) : args.slice(1);
+const option = (name, fallback) => {
+  const i = own.indexOf(`--${name}`);
+  return i >= 0 ? own[i + 1] : fallback;
+};
+const LOAD = Number(option('load', 2));
+const DRAGS = Number(option('drags', 3));
+const SLIDERS = Number(option('sliders', 8));
+const SECONDS = Number(option('seconds', 6));
+const JSON_FILE = option('json', '');
+if (!serverPath || !existsSync(CHROMIUM)) {
+  console.error(`usage: node page_bench.mjs <myriad-server> [--load N] ... (needs ${CHROMIUM})`);
+  process.exit(2);
+}
+const {chromium} = await import('playwright-core');
+
+const sleep = (ms) => new Promise((r) => setTimeout(r, ms));
+const loadAverage = () => readFileSync('/proc/loadavg', 'utf8').split(' ').slice(0, 3).map(Number);
+function summary(values, digits = 1) {
+  const v = values.filter(Number.isFinite).sort((a, b) => a - b);
+  if (!v.length) return null;
+  const round = (x) => Math.round(x * 10 ** digits) / 10 ** digits;
+  return {median: round(v[Math.floor((v.length - 1) / 2)]), min: round(v[0]), max: round(v.at(-1)),
+          n: v.length};
+}
+
+const server = await startServer(serverPath, ['--port', '0', ...serverFlags]);
+const browser = await chromium.launch({executablePath: CHROMIUM,
+                                       args: ['--headless', '--no-sandbox', '--disable-gpu']});
+const result = {view: VIEW, loadAverageBefore: loadAverage(), cores: (await import('node:os')).cpus().length};
+let busy = [];
+try {
+  // The window is the view plus the 340 px panel; fitted so the view is exactly VIEW.
+  const context = await browser.newContext({viewport: {width: VIEW.width + 340, height: VIEW.height},
+                                            deviceScaleFactor: 1});
+  const page = await context.newPage();
+  await page.goto(`${server.url}/?stream=jpeg`);
+  const view = await page.evaluate(() => ({width: document.getElementById('view').clientWidth,
+                                           height: document.getElementById('view').clientHeight}));
+  if (view.width !== VIEW.width || view.height !== VIEW.height) {
+    await page.setViewportSize({width: VIEW.width + 340 + (VIEW.width - view.width),
+                                height: VIEW.height + (VIEW.height - view.height)});
+  }
+  const shownSize = () => page.evaluate(() => {
+    const img = document.getElementById('stream');
+    return img.complete && img.naturalWidth ? {width: img.naturalWidth, height: img.naturalHeight,
+                                               interactive: img.dataset.interactive} : null;
+  });
+  await until('a full-size frame', async () => {
+    const s = await shownSize();
+    return s && s.width === VIEW.width && s.height === VIEW.height && !s.interactive;
+  }, 120000);
+  const session = await page.evaluate(() => JSON.parse(localStorage.getItem('myriad.session')));
+  const settings = (patch) => page.evaluate(async ({session, patch}) => {
+    const r = await fetch(`/v1/sessions/${session.id}/settings`, {
+      method: 'PATCH', body: JSON.stringify(patch),
+      headers: {Authorization: `Bearer ${session.token}`, 'Content-Type': 'application/json'}});
+    return r.status;
+  }, {session, patch});
+  const perf = () => page.evaluate(() => window.myriadPerf.toJSON());
+  const reset = () => page.evaluate(() => window.myriadPerf.reset());
+  const box = await page.locator('#view').boundingBox();
+
+  async function animated() {
+    await settings({animate: true});
+    await sleep(2000);
+    await reset();
+    await sleep(SECONDS * 1000);
+    const p = await perf();
+    await settings({animate: false});
+    await sleep(1500);
+    return p.frames.length / SECONDS;
+  }
+
+  // One drag: the mouse goes round a circle at 60 moves a second for SECONDS, then up; the still.
+  async function drag() {
+    await sleep(1000);
+    await reset();
+    const cx = box.x + box.width / 2;
+    const cy = box.y + box.height / 2;
+    await page.mouse.move(cx + 150, cy);
+    await page.mouse.down();
+    const start = Date.now();
+    for (let i = 1; Date.now() - start < SECONDS * 1000; ++i) {
+      const a = i * 0.05;
+      await page.mouse.move(cx + 150 * Math.cos(a), cy + 80 * Math.sin(a));
+      await sleep(16);
+    }
+    await page.mouse.up();
+    await until('the still after the drag', async () => (await perf()).stills.length > 0, 30000)
+        .catch(() => null);
+    return perf();
+  }
+
+  // One slider step (input, then change: a click on the track), then the still.
+  async function slider(i) {
+    await sleep(1200);
+    await reset();
+    await page.evaluate((value) => {
+      const e = document.getElementById('exposure');
+      e.value = String(value);
+      e.dispatchEvent(new Event('input', {bubbles: true}));
+      e.dispatchEvent(new Event('change', {bubbles: true}));
+    }, (i % 2 ? 0.5 : -0.5) + (i % 3) * 0.1);
+    await until('the slider\'s still', async () => (await perf()).stills.length > 0, 30000)
+        .catch(() => null);
+    return perf();
+  }
+
+  async function measureAll(label, withAnimation) {
+    const out = {loadAverageStart: loadAverage()};
+    if (withAnimation) out.animatedFps = Math.round((await animated()) * 10) / 10;
+    const drags = [];
+    for (let i = 0; i < DRAGS; ++i) drags.push(await drag());
+    out.dragFps = summary(drags.map((p) => p.drags[0]?.fps));
+    out.dragInteractiveShare = summary(drags.map(
+        (p) => p.drags[0] ? p.drags[0].interactiveFrames / Math.max(1, p.drags[0].frames) : NaN), 2);
+    out.stillMs = summary(drags.map((p) => p.stills[0]));
+    out.scales = summary(drags.flatMap((p) => p.frames.filter((f) => f.interactive).map((f) => f.interactive)), 4);
+    const sliders = [];
+    for (let i = 0; i < SLIDERS; ++i) sliders.push(await slider(i));
+    out.sliderMs = summary(sliders.map((p) => p.changes[0]));
+    out.sliderStillMs = summary(sliders.map((p) => p.stills[0]));
+    out.loadAverageEnd = loadAverage();
+    console.log(`${label}: ${JSON.stringify(out)}`);
+    return out;
+  }
+
+  result.idle = await measureAll('without added load', true);
+  if (LOAD > 0) {
+    busy = Array.from({length: LOAD}, () => spawn('yes', [], {stdio: ['ignore', 'ignore', 'ignore']}));
+    await sleep(1000);
+    result.loaded = {busyProcesses: LOAD, ...(await measureAll(`with ${LOAD} busy processes`, true))};
+  }
+} finally {
+  for (const p of busy) p.kill();
+  await browser.close();
+  await server.stop();
+}
+result.loadAverageAfter = loadAverage();
+const text = JSON.stringify(result, null, 1);
+if (JSON_FILE) writeFileSync(JSON_FILE, text + '\n');
+console.log(text);
