@@ -245,10 +245,24 @@ TEST_CASE("interactive quality: degraded while changes come, settles, scale foll
   CHECK(quality.settle() == milliseconds(200));
   CHECK(quality.moving(t0 + milliseconds(299)));
   CHECK_FALSE(quality.moving(t0 + milliseconds(300)));
+  quality.sawChange(t0 + milliseconds(280));             // the longest recent gap counts
+  CHECK(quality.settle() == milliseconds(360));
+  quality.sawChange(t0 + milliseconds(320));
+  CHECK(quality.settle() == milliseconds(360));          // 40 ms, but 180 was recent
+  for (int i = 2; i <= 4; ++i) quality.sawChange(t0 + milliseconds(280 + 40 * i));
+  CHECK(quality.settle() == milliseconds(80));           // four 40 ms gaps: the 180 is gone
   quality.sawChange(t0 + milliseconds(5000));            // a new interaction
   CHECK(quality.settle() == Q::kMinSettle);
-  quality.sawChange(t0 + milliseconds(5400));            // 400 ms gap: capped at 250
+  quality.sawChange(t0 + milliseconds(5600));            // 600 ms gap: capped at 400
   CHECK(quality.settle() == Q::kMaxSettle);
+  // A still that costs 1.2 s (a loaded CPU renderer): at least 300 ms before one is started.
+  quality.measuredFull(milliseconds(1200));
+  quality.sawChange(t0 + milliseconds(9000));
+  CHECK(quality.settle() == milliseconds(300));
+  quality.measuredFull(milliseconds(0));                 // not rendered for this stream: kept
+  quality.measuredFull(milliseconds(100));               // cheap stills: the gaps decide again
+  quality.sawChange(t0 + milliseconds(12000));
+  CHECK(quality.settle() == Q::kMinSettle);
 
   // The request: scaled size, JPEG quality at most 50, flagged; the stream's own untouched.
   FrameRequest full = service::parseStreamQuery({{"width", "1280"}, {"height", "720"},

@@ -318,7 +318,10 @@ export class LiveView {
     this.canvas.dataset.shown = stream.key;
     this.canvas.dataset.frame = String(chunk.sequence);
     this.framesShown += 1;
-    this.perf.shown({id: `${stream.key}#${chunk.sequence}`, interactive: this.interactive ? 1 : 0,
+    // The half-size stream of a moving camera counts as interactive, at its scale.
+    const fullWidth = this.fullSize().width;
+    this.perf.shown({id: `${stream.key}#${chunk.sequence}`,
+                     interactive: chunk.width < fullWidth ? chunk.width / fullWidth : 0,
                      width: chunk.width, height: chunk.height});
     this.onFrame({id: `${stream.key}#${chunk.sequence}`, bytes: chunk.payload.byteLength,
                   codec: this.codec});

@@ -404,7 +404,7 @@ Renderer::Renderer(gpu::Context& context) : state_(std::make_unique<State>(conte
   // Sets 0 (scene) and 1 (targets) of every frame slot; each technique allocates its own set 2.
   const auto n = static_cast<uint32_t>(slots.size());
   VkDescriptorPoolSize sizes[] = {{VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, n * 1},
-                                  {VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, n * 6},
+                                  {VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, n * 7},  // + the edge pixels (set 1)
                                   {VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, n * 11},  // + the shadow maps, the LDR target
                                   {VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, n * 5}};
   VkDescriptorPoolCreateInfo poolInfo{VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO};

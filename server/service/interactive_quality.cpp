@@ -6,16 +6,23 @@
 namespace myriad::service {
 
 void InteractiveQuality::sawChange(Clock::time_point at) {
-  if (seen_) {
-    const Clock::duration gap = at - lastChange_;
-    if (gap < kSameInteraction) {
-      settle_ = std::clamp<Clock::duration>(2 * gap, kMinSettle, kMaxSettle);
-    } else {
-      settle_ = kMinSettle;  // the first change of a new interaction: no rhythm known yet
-    }
+  const Clock::duration gap = at - lastChange_;
+  if (seen_ && gap < kSameInteraction) {
+    gaps_[nextGap_] = gap;
+    nextGap_ = (nextGap_ + 1) % kGaps;
+  } else {
+    // The first change of a new interaction: no rhythm known yet.
+    gaps_.fill(Clock::duration::zero());
   }
+  const Clock::duration longest = *std::max_element(gaps_.begin(), gaps_.end());
+  settle_ = std::clamp<Clock::duration>(std::max(2 * longest, fullCost_ / 4), kMinSettle,
+                                        kMaxSettle);
   seen_ = true;
   lastChange_ = at;
+}
+
+void InteractiveQuality::measuredFull(Clock::duration took) {
+  if (took > Clock::duration::zero()) fullCost_ = took;
 }
 
 FrameRequest InteractiveQuality::degrade(const FrameRequest& full) const {

@@ -8,7 +8,9 @@
 // Pure: no HTTP, no Vulkan, no clock of its own (times are passed in), so it is unit-tested.
 #pragma once
 
+#include <array>
 #include <chrono>
+#include <cstddef>
 #include <cstdint>
 
 #include "service/frame_query.h"
@@ -19,11 +21,15 @@ class InteractiveQuality {
  public:
   using Clock = std::chrono::steady_clock;
 
-  // The settle time: twice the last gap between two changes (the page sends camera changes
-  // about every 33 ms and slider changes every 80-100 ms, so a drag's own pauses do not end it),
-  // within these bounds.
+  // The settle time: twice the longest of the last kGaps gaps between changes of the interaction
+  // (the page sends camera changes about every 33 ms and slider changes every 80-100 ms; on a
+  // busy machine its requests come irregularly, and a still rendered mid-drag holds the stream
+  // for a whole full-quality frame), and at least a quarter of the last full-quality frame's time
+  // (what a still started too early costs: on an idle lavapipe about 200 ms, so 60 ms; on a loaded
+  // one seconds, so a longer wait), within these bounds.
   static constexpr std::chrono::milliseconds kMinSettle{60};
-  static constexpr std::chrono::milliseconds kMaxSettle{250};
+  static constexpr std::chrono::milliseconds kMaxSettle{400};
+  static constexpr size_t kGaps = 4;
   // Changes further apart than this belong to different interactions.
   static constexpr std::chrono::milliseconds kSameInteraction{1000};
   // Render scale bounds (of each side) and its step: the scale moves in steps of 1/16, and only
@@ -56,6 +62,10 @@ class InteractiveQuality {
   // FrameRequest::interactive set (the session frame then drops anti-aliasing and shadows).
   FrameRequest degrade(const FrameRequest& full) const;
 
+  // A full-quality frame of the stream took `took` from submission to encoded (0: not rendered
+  // for this stream, e.g. taken from another stream's render): the still's cost, for the settle.
+  void measuredFull(Clock::duration took);
+
   // An interactive frame rendered at `usedScale` took `took` from submission to encoded: the
   // next scale is the one whose pixels fit the budget, cost taken as proportional to pixels.
   void measured(double usedScale, Clock::duration took);
@@ -64,6 +74,9 @@ class InteractiveQuality {
   uint32_t targetFps_;
   bool seen_ = false;
   Clock::time_point lastChange_{};
+  std::array<Clock::duration, kGaps> gaps_{};  // the interaction's last gaps (zero: none yet)
+  size_t nextGap_ = 0;
+  Clock::duration fullCost_{};  // the last full-quality frame's time
   Clock::duration settle_ = kMinSettle;
   double scale_ = kStartScale;
 };

@@ -217,6 +217,7 @@ bool StreamState::next(httplib::DataSink& sink) {
         return false;
       }
       nextFrameAt = now + interval;
+      if (quality && !moving) quality->measuredFull(lastFrameTook);
       lastInteractive = moving;
       interactiveScale = std::move(scaleText);
       hasFrame = true;

@@ -91,8 +91,31 @@ try {
     return r.status;
   }, {session, patch});
   const perf = () => page.evaluate(() => window.myriadPerf.toJSON());
+  // The server's side: frames rendered for the session so far, and the last one's size and GPU ms.
+  const stats = () => page.evaluate(async (session) => {
+    const r = await fetch(`/v1/sessions/${session.id}/stats`,
+                          {headers: {Authorization: `Bearer ${session.token}`}});
+    const s = await r.json();
+    return {frames: s.frames, last: s.frame && {width: s.frame.width, height: s.frame.height,
+                                                 gpuMs: Math.round(s.frame.totalGpuMs)}};
+  }, session);
   const reset = () => page.evaluate(() => window.myriadPerf.reset());
   const box = await page.locator('#view').boundingBox();
+  // Each measurement starts once no new frame has shown for 1.5 s: the frames of the step before
+  // (an animated frame, a still) are not counted against it.
+  async function quiet() {
+    let last = null;
+    let since = Date.now();
+    await until('the stream to go quiet', async () => {
+      const frame = await page.evaluate(() => window.myriadPerf.lastFrame);
+      if (frame !== last) {
+        last = frame;
+        since = Date.now();
+        return false;
+      }
+      return Date.now() - since >= 1500;
+    }, 60000, 100).catch(() => null);
+  }
 
   async function animated() {
     await settings({animate: true});
@@ -107,11 +130,12 @@ try {
 
   // One drag: the mouse goes round a circle at 60 moves a second for SECONDS, then up; the still.
   async function drag() {
-    await sleep(1000);
+    await quiet();
     await reset();
     const cx = box.x + box.width / 2;
     const cy = box.y + box.height / 2;
     await page.mouse.move(cx + 150, cy);
+    const before = await stats();
     await page.mouse.down();
     const start = Date.now();
     for (let i = 1; Date.now() - start < SECONDS * 1000; ++i) {
@@ -120,14 +144,15 @@ try {
       await sleep(16);
     }
     await page.mouse.up();
+    const during = await stats();
     await until('the still after the drag', async () => (await perf()).stills.length > 0, 30000)
         .catch(() => null);
-    return perf();
+    return {...(await perf()), serverFrames: during.frames - before.frames, lastServerFrame: during.last};
   }
 
   // One slider step (input, then change: a click on the track), then the still.
   async function slider(i) {
-    await sleep(1200);
+    await quiet();
     await reset();
     await page.evaluate((value) => {
       const e = document.getElementById('exposure');
@@ -146,6 +171,8 @@ try {
     const drags = [];
     for (let i = 0; i < DRAGS; ++i) drags.push(await drag());
     out.dragFps = summary(drags.map((p) => p.drags[0]?.fps));
+    out.dragServerFrames = drags.map((p) => p.serverFrames);
+    out.dragLastServerFrame = drags.map((p) => p.lastServerFrame);
     out.dragInteractiveShare = summary(drags.map(
         (p) => p.drags[0] ? p.drags[0].interactiveFrames / Math.max(1, p.drags[0].frames) : NaN), 2);
     out.stillMs = summary(drags.map((p) => p.stills[0]));
