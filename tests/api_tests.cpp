@@ -258,13 +258,14 @@ TEST_CASE("api: a session's whole life through every route it owns") {
   REQUIRE(light.status == 200);
   json expected = lightJson(1.0);
   expected["id"] = newIds[0];
-  // What was left out: a point light with the window falloff and glTF's default cone (pi/4 as a
-  // float, written as its shortest decimal).
+  // What was left out: a point light with the window falloff, glTF's default cone (pi/4 as a
+  // float, written as its shortest decimal) and no shadow map asked for.
   expected["type"] = "point";
   expected["attenuation"] = "window";
   expected["direction"] = {0, -1, 0};
   expected["innerConeAngle"] = 0;
   expected["outerConeAngle"] = 0.7853982;
+  expected["castsShadows"] = false;
   CHECK(light.json == expected);
   Reply lightPatched = api.patch(first, R"({"radius": 4, "color": [0, 1, 0]})", token);
   REQUIRE(lightPatched.status == 200);

@@ -46,6 +46,47 @@ float hash01(uint32_t v) {
 
 float luminance(glm::vec3 c) { return 0.2126f * c.r + 0.7152f * c.g + 0.0722f * c.b; }
 
+// Opens a depth-only rendering that clears `map` (the previous frame's lighting sampled it; its
+// contents are rewritten whole), with the shadow pipeline and the scene's geometry bound.
+void beginShadowRendering(VkCommandBuffer cmd, const Pipelines& p, const SceneBuffers& scene,
+                          const gpu::Image& map) {
+  const gpu::ImageTransition before[] = {
+      {&map, kShadowReaders, VK_ACCESS_2_NONE,
+       VK_PIPELINE_STAGE_2_EARLY_FRAGMENT_TESTS_BIT | VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT,
+       VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_READ_BIT | VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT,
+       VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL}};
+  gpu::barrier(cmd, before);
+  VkRenderingAttachmentInfo depth{VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO};
+  depth.imageView = map.view;
+  depth.imageLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
+  depth.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
+  depth.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
+  depth.clearValue.depthStencil = {1.0f, 0};
+  beginRendering(cmd, map.extent, {}, &depth);
+  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, p.shadow);
+  bindGeometry(cmd, scene);
+}
+
+// Every instance casts, whatever its material: both faces (a single-sided wall still blocks the
+// light), and alpha-masked cut-outs cast as solid (no fragment shader).
+void drawCasters(VkCommandBuffer cmd, const SceneBuffers& scene) {
+  for (const DrawItem& draw : scene.draws) {
+    vkCmdDrawIndexed(cmd, draw.mesh.indexCount, 1, draw.mesh.firstIndex, draw.mesh.vertexOffset,
+                     draw.instance);
+  }
+}
+
+// Ends the rendering; `map` becomes readable by the lighting passes.
+void endShadowRendering(VkCommandBuffer cmd, const gpu::Image& map) {
+  vkCmdEndRendering(cmd);
+  const gpu::ImageTransition after[] = {
+      {&map, VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT,
+       VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT, kShadowReaders,
+       VK_ACCESS_2_SHADER_SAMPLED_READ_BIT, VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL,
+       VK_IMAGE_LAYOUT_READ_ONLY_OPTIMAL}};
+  gpu::barrier(cmd, after);
+}
+
 }  // namespace
 
 uint32_t lightShadowTileSize(uint32_t mapSize) {
@@ -225,37 +266,11 @@ VkDescriptorImageInfo ShadowMaps::sunDescriptor() const {
 
 void ShadowMaps::recordSun(VkCommandBuffer cmd, const Pipelines& p, const SceneBuffers& scene,
                            const glm::mat4& viewProjection) {
-  // The previous frame's lighting sampled the map; its contents are rewritten whole.
-  const gpu::ImageTransition before[] = {
-      {&sun_, kShadowReaders, VK_ACCESS_2_NONE,
-       VK_PIPELINE_STAGE_2_EARLY_FRAGMENT_TESTS_BIT | VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT,
-       VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_READ_BIT | VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT,
-       VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL}};
-  gpu::barrier(cmd, before);
-  VkRenderingAttachmentInfo depth{VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO};
-  depth.imageView = sun_.view;
-  depth.imageLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
-  depth.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
-  depth.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
-  depth.clearValue.depthStencil = {1.0f, 0};
-  beginRendering(cmd, sun_.extent, {}, &depth);
-  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, p.shadow);
+  beginShadowRendering(cmd, p, scene, sun_);
   gpu_types::ShadowPush push{viewProjection};
   vkCmdPushConstants(cmd, p.layout, VK_SHADER_STAGE_VERTEX_BIT, 0, sizeof(push), &push);
-  bindGeometry(cmd, scene);
-  // Every instance casts, whatever its material: both faces (a single-sided wall still blocks
-  // the sun), and alpha-masked cut-outs cast as solid (no fragment shader).
-  for (const DrawItem& draw : scene.draws) {
-    vkCmdDrawIndexed(cmd, draw.mesh.indexCount, 1, draw.mesh.firstIndex, draw.mesh.vertexOffset,
-                     draw.instance);
-  }
-  vkCmdEndRendering(cmd);
-  const gpu::ImageTransition after[] = {
-      {&sun_, VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT,
-       VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT, kShadowReaders,
-       VK_ACCESS_2_SHADER_SAMPLED_READ_BIT, VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL,
-       VK_IMAGE_LAYOUT_READ_ONLY_OPTIMAL}};
-  gpu::barrier(cmd, after);
+  drawCasters(cmd, scene);
+  endShadowRendering(cmd, sun_);
   sunReadable_ = true;
 }
 
@@ -288,25 +303,12 @@ void ShadowMaps::recordAtlasUnused(VkCommandBuffer cmd) {
   atlasReadable_ = true;
 }
 
+
 // One rendering over the whole atlas (cleared once), a viewport per tile: a tile's clip space
 // maps onto its own square, and clipping keeps every draw inside it.
 void ShadowMaps::recordLights(VkCommandBuffer cmd, const Pipelines& p, const SceneBuffers& scene,
                               const LightShadowPlan& plan) {
-  const gpu::ImageTransition before[] = {
-      {&atlas_, kShadowReaders, VK_ACCESS_2_NONE,
-       VK_PIPELINE_STAGE_2_EARLY_FRAGMENT_TESTS_BIT | VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT,
-       VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_READ_BIT | VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT,
-       VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL}};
-  gpu::barrier(cmd, before);
-  VkRenderingAttachmentInfo depth{VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO};
-  depth.imageView = atlas_.view;
-  depth.imageLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
-  depth.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
-  depth.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
-  depth.clearValue.depthStencil = {1.0f, 0};
-  beginRendering(cmd, atlas_.extent, {}, &depth);
-  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, p.shadow);
-  bindGeometry(cmd, scene);
+  beginShadowRendering(cmd, p, scene, atlas_);
   const float size = float(plan.tileSize);
   for (uint32_t t = 0; t < plan.tileViewProjection.size(); ++t) {
     const uint32_t x = (t % MYRIAD_SHADOW_ATLAS_COLUMNS) * plan.tileSize;
@@ -317,18 +319,9 @@ void ShadowMaps::recordLights(VkCommandBuffer cmd, const Pipelines& p, const Sce
     vkCmdSetScissor(cmd, 0, 1, &scissor);
     gpu_types::ShadowPush push{plan.tileViewProjection[t]};
     vkCmdPushConstants(cmd, p.layout, VK_SHADER_STAGE_VERTEX_BIT, 0, sizeof(push), &push);
-    for (const DrawItem& draw : scene.draws) {
-      vkCmdDrawIndexed(cmd, draw.mesh.indexCount, 1, draw.mesh.firstIndex, draw.mesh.vertexOffset,
-                       draw.instance);
-    }
+    drawCasters(cmd, scene);
   }
-  vkCmdEndRendering(cmd);
-  const gpu::ImageTransition after[] = {
-      {&atlas_, VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT,
-       VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT, kShadowReaders,
-       VK_ACCESS_2_SHADER_SAMPLED_READ_BIT, VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL,
-       VK_IMAGE_LAYOUT_READ_ONLY_OPTIMAL}};
-  gpu::barrier(cmd, after);
+  endShadowRendering(cmd, atlas_);
   atlasReadable_ = true;
 }
 
