@@ -92,9 +92,11 @@ std::optional<float> hitBox(glm::vec3 o, glm::vec3 d) {
 
 enum Kind : uint8_t { kLitFloor, kShadowedFloor, kOther };
 
-// Per pixel centre: the camera ray meets the floor (lit, or in the box's shadow: the ray from
-// there towards the sun meets the box) or something else (the box, the sky).
-std::vector<uint8_t> analyticShadow() {
+// Per pixel centre: where the camera ray meets the floor in front of the box, `classify` (the
+// floor point) says lit or shadowed, or kOther to leave it out; elsewhere (the box, the sky)
+// kOther.
+template <typename Classify>
+std::vector<uint8_t> classifyFloor(Classify classify) {
   const glm::mat4 viewProjection =
       scene::projectionMatrix(camera(), float(kWidth) / float(kHeight)) * scene::viewMatrix(camera());
   const glm::mat4 inverse = glm::inverse(viewProjection);
@@ -109,10 +111,17 @@ std::vector<uint8_t> analyticShadow() {
       glm::vec3 p = o + d * tFloor;
       if (std::abs(p.x) > 5.0f || std::abs(p.z) > 5.0f) continue;
       if (auto tBox = hitBox(o, d); tBox && *tBox < tFloor) continue;
-      kinds[size_t(y) * kWidth + x] = hitBox(p, -kSunTravel) ? kShadowedFloor : kLitFloor;
+      kinds[size_t(y) * kWidth + x] = classify(p);
     }
   }
   return kinds;
+}
+
+// The floor lit by the sun, or in the box's shadow (the ray from there towards the sun meets it).
+std::vector<uint8_t> analyticShadow() {
+  return classifyFloor([](const glm::vec3& p) -> uint8_t {
+    return hitBox(p, -kSunTravel) ? kShadowedFloor : kLitFloor;
+  });
 }
 
 // Whether a floor pixel lies within 2 px (Chebyshev) of the analytic shadow's outline: a floor
@@ -258,37 +267,21 @@ render::FrameSettings localFrame(render::Technique technique) {
   return f;
 }
 
-// Per pixel centre, as analyticShadow: the floor lit by the light at `light` (its ray to the
-// light misses the box), occluded (meets it), or other (the box, the sky, outside the light's
-// reach or cone: the light adds nothing there either way).
+// The floor lit by the light at `light` (its ray to the light misses the box), occluded (meets
+// it), or other (outside the light's reach or cone: the light adds nothing there either way).
 std::vector<uint8_t> analyticLocalShadow(const scene::PointLight& l) {
-  const glm::mat4 viewProjection =
-      scene::projectionMatrix(camera(), float(kWidth) / float(kHeight)) * scene::viewMatrix(camera());
-  const glm::mat4 inverse = glm::inverse(viewProjection);
-  std::vector<uint8_t> kinds(size_t(kWidth) * kHeight, kOther);
-  for (uint32_t y = 0; y < kHeight; ++y) {
-    for (uint32_t x = 0; x < kWidth; ++x) {
-      glm::vec2 ndc((x + 0.5f) / kWidth * 2.0f - 1.0f, (y + 0.5f) / kHeight * 2.0f - 1.0f);
-      glm::vec4 n = inverse * glm::vec4(ndc, 0.0f, 1.0f), f = inverse * glm::vec4(ndc, 1.0f, 1.0f);
-      glm::vec3 o = glm::vec3(n) / n.w, d = glm::normalize(glm::vec3(f) / f.w - o);
-      if (d.y >= 0.0f) continue;
-      float tFloor = -o.y / d.y;
-      glm::vec3 p = o + d * tFloor;
-      if (std::abs(p.x) > 5.0f || std::abs(p.z) > 5.0f) continue;
-      if (auto tBox = hitBox(o, d); tBox && *tBox < tFloor) continue;
-      const glm::vec3 toLight = l.position - p;
-      const float distance = glm::length(toLight);
-      // Well inside the reach and the cone, where the light is bright enough to judge.
-      if (distance > 0.8f * l.radius) continue;
-      if (l.type == scene::LightType::Spot &&
-          glm::dot(-toLight / distance, glm::normalize(l.direction)) < std::cos(l.innerConeAngle)) {
-        continue;
-      }
-      auto tBox = hitBox(p, toLight / distance);
-      kinds[size_t(y) * kWidth + x] = tBox && *tBox < distance ? kShadowedFloor : kLitFloor;
+  return classifyFloor([&l](const glm::vec3& p) -> uint8_t {
+    const glm::vec3 toLight = l.position - p;
+    const float distance = glm::length(toLight);
+    // Well inside the reach and the cone, where the light is bright enough to judge.
+    if (distance > 0.8f * l.radius) return kOther;
+    if (l.type == scene::LightType::Spot &&
+        glm::dot(-toLight / distance, glm::normalize(l.direction)) < std::cos(l.innerConeAngle)) {
+      return kOther;
     }
-  }
-  return kinds;
+    auto tBox = hitBox(p, toLight / distance);
+    return tBox && *tBox < distance ? kShadowedFloor : kLitFloor;
+  });
 }
 
 // Raw radiance (green) agrees within this: the occluded floor must equal the frame without the

@@ -11,6 +11,17 @@ namespace {
 // An entry no stream asked for in this long goes (its frame with it).
 constexpr std::chrono::seconds kUnusedEntry{10};
 
+// The session's version and whether it animates, under its lock (taken after SharedFrames'
+// own: nothing takes them the other way round).
+struct SessionNow {
+  uint64_t version;
+  bool animate;
+};
+SessionNow sessionNow(Session& session) {
+  std::lock_guard sessionLock(session.mutex);
+  return {session.version, session.scene.settings().animate};
+}
+
 }  // namespace
 
 std::string SharedFrames::keyOf(const Session& session, const FrameRequest& request) {
@@ -34,22 +45,15 @@ SharedFrames::Frame SharedFrames::next(const SessionFrameContext& context,
   const std::string key = keyOf(*session, request);
   std::unique_lock lock(mutex_);
   for (;;) {
-    // The session's version and animation now (its lock after ours: nothing takes them the
-    // other way round).
-    uint64_t version = 0;
-    bool animate = false;
-    {
-      std::lock_guard sessionLock(session->mutex);
-      version = session->version;
-      animate = session->scene.settings().animate;
-    }
+    const SessionNow current = sessionNow(*session);
     const Clock::time_point now = Clock::now();
     dropStale(now);
     Entry& entry = entries_[key];
     entry.session = session;
     entry.usedAt = now;
-    const bool fits = entry.encoded && entry.generation != shown && entry.version == version &&
-                      (!animate || now - entry.renderedAt < maxAge);
+    const bool fits = entry.encoded && entry.generation != shown &&
+                      entry.version == current.version &&
+                      (!current.animate || now - entry.renderedAt < maxAge);
     if (fits) {
       ++shared_;
       return {entry.encoded, entry.version, entry.generation, entry.took};
@@ -165,18 +169,13 @@ std::vector<SharedFrames::VideoFramePtr> SharedFrames::nextVideo(
   const size_t backlog = maxVideoBacklog(request.fps);
   std::unique_lock lock(mutex_);
   for (;;) {
-    uint64_t version = 0;
-    bool animate = false;
-    {
-      std::lock_guard sessionLock(session->mutex);
-      version = session->version;
-      animate = session->scene.settings().animate;
-    }
+    const SessionNow current = sessionNow(*session);
     const Clock::time_point now = Clock::now();
     if (!channel.log.empty()) {
       const VideoFrame& newest = *channel.log.back();
-      const bool fits = newest.generation > viewer.position && newest.version == version &&
-                        (!animate || now - newest.renderedAt < maxAge);
+      const bool fits = newest.generation > viewer.position &&
+                        newest.version == current.version &&
+                        (!current.animate || now - newest.renderedAt < maxAge);
       if (fits) {
         std::vector<VideoFramePtr> slice = sliceFor(channel, viewer.position, backlog);
         if (!slice.empty()) {
