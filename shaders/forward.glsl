@@ -44,5 +44,6 @@ void main() {
     if (lightReaches(s, index)) color += shadeLight(s, index);
   }
 #endif
+  color = withLocalShadows(s, color);
   outColor = vec4(color, clamp(m.baseColor.a, 0.0, 1.0));
 }

@@ -124,6 +124,7 @@ void main() {
         }
       }
     }
+    color = withLocalShadows(s, color);
   }
   imageStore(hdrOut, pixel, vec4(color, 1.0));
   imageStore(lightCountOut, pixel, vec4(float(reached)));

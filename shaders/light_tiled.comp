@@ -94,6 +94,7 @@ void main() {
         ++reached;
       }
     }
+    color = withLocalShadows(s, color);
   }
   imageStore(hdrOut, pixel, vec4(color, 1.0));
   imageStore(lightCountOut, pixel, vec4(float(reached)));

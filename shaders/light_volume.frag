@@ -14,6 +14,6 @@ void main() {
     discard;
   }
   bool reaches = lightReaches(s, inLight);
-  outColor = vec4(reaches ? shadeLight(s, inLight) : vec3(0.0), 0.0);
+  outColor = vec4(reaches ? shadeLightShadowed(s, inLight) : vec3(0.0), 0.0);
   outLightCount = reaches ? 1.0 : 0.0;
 }
