@@ -46,6 +46,9 @@ struct Options {
   bool copyFrames = false;
   // GPU timestamps at frame boundaries only (render::Renderer::setFrameTimestampsOnly).
   bool frameTimestampsOnly = false;
+  // JPEG frames read back as RGBA and converted on the CPU by libjpeg (the path before stop 14);
+  // default off: converted to YCbCr 4:2:0 on the GPU (render::FrameSettings::yuv420).
+  bool rgbaJpeg = false;
   // Sessions (protocol/CONTRACT.md). Each holds a GPU scene, so the count is bounded.
   uint32_t maxSessions = 16;
   uint32_t maxLightsPerSession = 1000000;
