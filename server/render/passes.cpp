@@ -420,7 +420,8 @@ void recordLightVolumeOverlayPass(VkCommandBuffer cmd, const Pipelines& p, const
   vkCmdEndRendering(cmd);
 }
 
-void recordReadback(VkCommandBuffer cmd, const FrameTargets& t, VkImageLayout outputLayout) {
+void recordReadback(VkCommandBuffer cmd, const FrameTargets& t, VkImageLayout outputLayout,
+                    const gpu::Buffer& readback) {
   const bool storage = outputLayout == VK_IMAGE_LAYOUT_GENERAL;
   const ImageTransition before[] = {
       {&t.output,
@@ -433,8 +434,8 @@ void recordReadback(VkCommandBuffer cmd, const FrameTargets& t, VkImageLayout ou
   region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
   region.imageExtent = {t.extent.width, t.extent.height, 1};
   vkCmdCopyImageToBuffer(cmd, t.output.image, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL,
-                         t.readback.buffer, 1, &region);
-  gpu::bufferBarrier(cmd, t.readback, VK_PIPELINE_STAGE_2_COPY_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT,
+                         readback.buffer, 1, &region);
+  gpu::bufferBarrier(cmd, readback, VK_PIPELINE_STAGE_2_COPY_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT,
                      VK_PIPELINE_STAGE_2_HOST_BIT, VK_ACCESS_2_HOST_READ_BIT);
 }
 

@@ -79,6 +79,9 @@ class Renderer {
   // and counters). A frame of a scene already in flight keeps the barrier at its start (its
   // animation rewrites the lights the other frame reads). Off: every frame starts with it.
   void setOverlap(bool overlap);
+  // Per-pass timestamps (the default) or only the frame's first and last (one pass, "frame"):
+  // a timestamp between passes is written at ALL_COMMANDS, which may drain the GPU there.
+  void setFrameTimestampsOnly(bool frameOnly);
   // Whether beginFrame has a free slot.
   bool canBegin() const;
   // Records and submits a frame into a free slot (the lowest: a client that waits for each frame
