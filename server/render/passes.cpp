@@ -132,6 +132,8 @@ Pipelines::Pipelines(gpu::Context& context) : device(context.device) {
   gbuffer = gpu::createGraphicsPipeline(device, layout, d);
   d.fragmentShader = spirv::gbuffer_alpha_test_frag;
   gbufferAlphaTest = gpu::createGraphicsPipeline(device, layout, d);
+  d.fragmentShader = spirv::gbuffer_untextured_frag;
+  gbufferUntextured = gpu::createGraphicsPipeline(device, layout, d);
 
   // Alpha-blended surfaces: the G-buffer's vertex stage, one HDR target blended `over`, the
   // G-buffer depth tested and kept.
@@ -170,7 +172,7 @@ Pipelines::Pipelines(gpu::Context& context) : device(context.device) {
 }
 
 Pipelines::~Pipelines() {
-  for (VkPipeline p : {gbuffer, gbufferAlphaTest, forward, forwardClustered, shadow, lightVolumeOverlay, animateLights,
+  for (VkPipeline p : {gbuffer, gbufferAlphaTest, gbufferUntextured, forward, forwardClustered, shadow, lightVolumeOverlay, animateLights,
                       markerSplat, final, finalRaw, views, viewsRaw, antialias, yuv420}) {
     if (p) vkDestroyPipeline(device, p, nullptr);
   }
@@ -221,16 +223,19 @@ void recordGBufferPass(VkCommandBuffer cmd, const Pipelines& p, const FrameTarge
   // Opaque materials first, then alpha-tested ones (their own pipeline: a shader that may discard
   // writes depth only after it runs). Draws come grouped by material (SceneBuffers sorts them):
   // one texture set and one cull mode per group.
+  // Opaque materials without textures draw with gbufferUntextured (gbuffer.glsl says why).
   for (const bool alphaTest : {false, true}) {
-    bool pipelineBound = false;
+    VkPipeline pipelineBound = VK_NULL_HANDLE;
     uint32_t bound = UINT32_MAX;
     for (const DrawItem& draw : scene.draws) {
       if (scene.blend[draw.material]) continue;  // the forward pass draws it (recordBlendPass)
       if ((scene.alphaTest[draw.material] != 0) != alphaTest) continue;
-      if (!pipelineBound) {
-        vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS,
-                          alphaTest ? p.gbufferAlphaTest : p.gbuffer);
-        pipelineBound = true;
+      const VkPipeline pipeline = alphaTest                        ? p.gbufferAlphaTest
+                                  : scene.textured[draw.material] ? p.gbuffer
+                                                                  : p.gbufferUntextured;
+      if (pipeline != pipelineBound) {
+        vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline);
+        pipelineBound = pipeline;
       }
       if (draw.material != bound) {
         bound = draw.material;

@@ -29,6 +29,7 @@ struct Pipelines {
   VkPipelineLayout layout = VK_NULL_HANDLE;
   VkPipeline gbuffer = VK_NULL_HANDLE;           // opaque materials
   VkPipeline gbufferAlphaTest = VK_NULL_HANDLE;  // alphaMode MASK: may discard
+  VkPipeline gbufferUntextured = VK_NULL_HANDLE;  // opaque materials without any texture
   // Alpha-blended surfaces (recordBlendPass): every light tested, or the clustered lists.
   VkPipeline forward = VK_NULL_HANDLE;
   VkPipeline forwardClustered = VK_NULL_HANDLE;

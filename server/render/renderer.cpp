@@ -20,6 +20,7 @@
 #include "render/gpu_types.h"
 #include "render/passes.h"
 #include "render/scene_buffers.h"
+#include "render/shading_features.h"
 #include "render/shadows.h"
 #include "render/techniques/registry.h"
 #include "render/techniques/technique.h"
@@ -135,6 +136,8 @@ struct Renderer::State {
     std::unique_ptr<ShadowMaps> shadows;
     // Which local lights have a shadow map this frame, and their tiles (prepareFrame plans it).
     LightShadowPlan lightShadows;
+    // What this frame's shading may need (writeUniforms: render/shading_features.h).
+    uint32_t shadingFeatures = MYRIAD_FEATURES_ALL;
     gpu::CommandRecorder recorder;            // its command buffer and fence
     std::unique_ptr<gpu::PassTimer> timer;    // its timestamps
     gpu::Buffer counters;  // its copy of the technique's culling counters (CullingStats)
@@ -411,6 +414,7 @@ void Renderer::State::writeUniforms(FrameSlot& slot, const FrameSettings& s,
     }
   }
   technique.writeUniforms(u);
+  slot.shadingFeatures = shadingFeatures(u, scene);
   std::memcpy(slot.uniforms.mapped, &u, sizeof(u));
 }
 
@@ -886,8 +890,12 @@ void Renderer::State::recordBeforeLighting(VkCommandBuffer cmd, const FrameSlot&
     scene.lightsMoved = false;
   }
   if (const std::optional<SunShadowFit> sunShadow = sunShadowFor(scene, settings)) {
-    slot.timer->beginPass(cmd, "shadow");
-    slot.shadows->recordSun(cmd, p, scene, sunShadow->viewProjection);
+    // Drawn again only when the scene or the fit changed (ShadowMaps::sunHolds): not for a camera
+    // move, a light, material or slider change, or animated lights.
+    if (!slot.shadows->sunHolds(scene, sunShadow->viewProjection)) {
+      slot.timer->beginPass(cmd, "shadow");
+      slot.shadows->recordSun(cmd, p, scene, sunShadow->viewProjection);
+    }
   } else {
     slot.shadows->recordSunUnused(cmd);
   }
@@ -1012,7 +1020,7 @@ void Renderer::State::recordFrame(FrameSlot& slot, SceneBuffers& scene,
   if (!waitAtStart) waitForEarlier(cmd);
   // Lighting leaves HDR and light counts as attachments (raster) or storage images (compute).
   const VkImageLayout lightingLayout =
-      technique.record({cmd, *slot.timer, *slot.targets, scene});
+      technique.record({cmd, *slot.timer, *slot.targets, scene, slot.shadingFeatures});
   recordAfterLighting(cmd, slot, scene, settings, lightingLayout);
   slot.meta = metaOf(scene, environment, settings);
 }
@@ -1073,7 +1081,7 @@ std::unique_ptr<Renderer::SplitFrame> Renderer::beginSplit(SceneId id,
   VkCommandBuffer cmd = s.beginFrameCommands(s.split);
   s.recordBeforeLighting(cmd, s.split, scene, environment, settings);
   frame->lightingLayout_ =
-      technique.recordBeforeLights({cmd, *s.split.timer, *s.split.targets, scene});
+      technique.recordBeforeLights({cmd, *s.split.timer, *s.split.targets, scene, s.split.shadingFeatures});
   s.split.timer->end(cmd);
   gpu::submitAndWait(s.context, s.split.recorder);
   addPasses(frame->passes_, s.split.timer->results());
@@ -1094,7 +1102,7 @@ std::optional<Frame> Renderer::continueSplit(SplitFrame& frame) {
   if (!frame.lit_) {
     const uint32_t first = frame.nextLight_;
     const uint32_t count = std::min(frame.rangeLights_, scene.lightCount - first);
-    technique.recordLightRange({cmd, *s.split.timer, *s.split.targets, scene}, first, count);
+    technique.recordLightRange({cmd, *s.split.timer, *s.split.targets, scene, s.split.shadingFeatures}, first, count);
     s.split.timer->end(cmd);
     const auto start = std::chrono::steady_clock::now();
     gpu::submitAndWait(s.context, s.split.recorder);
