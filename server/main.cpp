@@ -71,7 +71,7 @@ int run(const service::Options& options, const sigset_t& shutdownSignals) {
   try {
     renderThread = std::make_unique<render::RenderThread>(
         gpu::ContextOptions{options.validate, options.device}, scene, options.maxQueuedFrames,
-        options.framesInFlight, options.overlapFrames);
+        options.framesInFlight, options.overlapFrames, options.gbuffer);
   } catch (const gpu::NoDeviceError& e) {
     return fail(e.what());
   } catch (const std::exception& e) {

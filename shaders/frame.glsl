@@ -6,17 +6,9 @@
 #include "shared_types.h"
 #include "shading.glsl"
 
-layout(std140, set = MYRIAD_SET_SCENE, binding = MYRIAD_BINDING_FRAME) uniform FrameBlock {
-  FrameUniforms frame;
-};
+#include "scene_set.glsl"
 layout(std430, set = MYRIAD_SET_SCENE, binding = MYRIAD_BINDING_LIGHTS) readonly buffer LightBlock {
   GpuPointLight lights[];
-};
-layout(std430, set = MYRIAD_SET_SCENE, binding = MYRIAD_BINDING_INSTANCES) readonly buffer InstanceBlock {
-  GpuInstance instances[];
-};
-layout(std430, set = MYRIAD_SET_SCENE, binding = MYRIAD_BINDING_MATERIALS) readonly buffer MaterialBlock {
-  GpuMaterial materials[];
 };
 
 // The environment light (shaders/environment.glsl; render/environment.cpp builds it).

@@ -55,10 +55,10 @@ class RenderThread final : public RenderQueue {
   // the default scene (`scene` need not outlive the constructor). Returns once frames can be
   // submitted; rethrows whatever start-up threw on the thread (gpu::NoDeviceError among others).
   // `framesInFlight`: frame slots (1..Renderer::kMaxFramesInFlight, clamped).
-  // `overlapFrames`: Renderer::setOverlap.
+  // `overlapFrames`: Renderer::setOverlap. `gbuffer`: Renderer::setGBufferPath.
   RenderThread(const gpu::ContextOptions& options, const scene::Scene& scene,
                uint32_t maxQueuedFrames, uint32_t framesInFlight = kDefaultFramesInFlight,
-               bool overlapFrames = false);
+               bool overlapFrames = false, GBufferPath gbuffer = GBufferPath::Raster);
   static constexpr uint32_t kDefaultFramesInFlight = 2;
   ~RenderThread() override;
   RenderThread(const RenderThread&) = delete;
@@ -145,6 +145,7 @@ class RenderThread final : public RenderQueue {
   const uint32_t maxQueuedFrames_;
   const uint32_t framesInFlight_;
   const bool overlapFrames_;
+  const GBufferPath gbuffer_;
   std::deque<InFlight> inFlight_;  // oldest first; the render thread's alone
   SceneId defaultScene_ = 0;
   std::atomic<uint64_t> gpuMemoryBytes_{0};

@@ -79,6 +79,9 @@ class Renderer {
   // and counters). A frame of a scene already in flight keeps the barrier at its start (its
   // animation rewrites the lights the other frame reads). Off: every frame starts with it.
   void setOverlap(bool overlap);
+  // How G-buffers are made (GBufferPath, render/frame.h; raster by default). Takes effect from
+  // the next frame; each frame reports the path it took in its pass names.
+  void setGBufferPath(GBufferPath path);
   // Whether beginFrame has a free slot.
   bool canBegin() const;
   // Records and submits a frame into a free slot (the lowest: a client that waits for each frame

@@ -90,6 +90,13 @@ bool emitsLight(const scene::Material& m) {
   return m.emissiveStrength != 0.0f && m.emissive != glm::vec3(0.0f);
 }
 
+bool isTextured(const scene::Material& m) {
+  for (size_t slot = 0; slot < scene::Material::kTextureSlots; ++slot) {
+    if (m.texture(slot).present()) return true;
+  }
+  return false;
+}
+
 GpuMaterial toGpu(const scene::Material& m) {
   GpuMaterial g{};
   g.baseColor = glm::vec4(m.baseColor, m.alpha);
@@ -211,6 +218,7 @@ SceneBuffers::SceneBuffers(gpu::Context& context, gpu::CommandRecorder& recorder
     blend.push_back(m.alphaMode == scene::AlphaMode::blend ? 1 : 0);
     alphaTest.push_back(m.alphaMode == scene::AlphaMode::mask ? 1 : 0);
     emits.push_back(emitsLight(m) ? 1 : 0);
+    textured.push_back(isTextured(m) ? 1 : 0);
   }
   textures = std::make_unique<MaterialTextures>(context, recorder, materialSetLayout, scene);
   std::vector<GpuMaterial> gpuMaterials;
@@ -227,9 +235,12 @@ SceneBuffers::SceneBuffers(gpu::Context& context, gpu::CommandRecorder& recorder
 
   auto bytes = [](const auto& v) { return VkDeviceSize(v.size() * sizeof(v[0])); };
   const VkBufferUsageFlags dst = VK_BUFFER_USAGE_TRANSFER_DST_BIT;
-  vertices = arena.createBuffer(bytes(allVertices), VK_BUFFER_USAGE_VERTEX_BUFFER_BIT | dst,
+  // Storage too: the G-buffer rasterised in compute reads them (render/visibility.h).
+  vertices = arena.createBuffer(bytes(allVertices), VK_BUFFER_USAGE_VERTEX_BUFFER_BIT |
+                                    VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | dst,
                                 gpu::MemoryUse::DeviceLocal);
-  indices = arena.createBuffer(bytes(allIndices), VK_BUFFER_USAGE_INDEX_BUFFER_BIT | dst,
+  indices = arena.createBuffer(bytes(allIndices), VK_BUFFER_USAGE_INDEX_BUFFER_BIT |
+                                   VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | dst,
                                gpu::MemoryUse::DeviceLocal);
   const VkBufferUsageFlags storage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | dst;
   instances = arena.createBuffer(bytes(gpuInstances), storage, gpu::MemoryUse::DeviceLocal);
@@ -369,6 +380,7 @@ void SceneBuffers::updateMaterials(gpu::CommandRecorder& recorder,
     blend[w.index] = w.material.alphaMode == scene::AlphaMode::blend ? 1 : 0;
     alphaTest[w.index] = w.material.alphaMode == scene::AlphaMode::mask ? 1 : 0;
     emits[w.index] = emitsLight(w.material) ? 1 : 0;
+    textured[w.index] = isTextured(w.material) ? 1 : 0;
   }
 }
 

@@ -72,6 +72,7 @@ struct SceneBuffers {
   std::vector<uint8_t> blend;
   std::vector<uint8_t> alphaTest;     // per material: alphaMode MASK (the G-buffer's discarding pipeline)
   std::vector<uint8_t> emits;         // per material: whether its emission can be non-zero
+  std::vector<uint8_t> textured;      // per material: whether any texture slot is set
   bool anyEmission() const;
   MeshRange lightProxy;  // icosphere circumscribing the unit sphere (volumes, markers)
   uint32_t lightCount = 0;

@@ -96,6 +96,15 @@ const std::vector<Flag>& flags() {
          o.framesInFlight = parseUnsigned<uint32_t>("--frames-in-flight", v, 1, 4);
        }},
       {"--overlap-frames", false, [](Options& o, std::string_view) { o.overlapFrames = true; }},
+      {"--gbuffer", true,
+       [](Options& o, std::string_view v) {
+         const std::optional<render::GBufferPath> path = render::parseGBufferPath(v);
+         if (!path) {
+           throw UsageError("--gbuffer must be raster, compute or auto, not \"" + std::string(v) +
+                            "\".");
+         }
+         o.gbuffer = *path;
+       }},
       {"--max-sessions", true,
        [](Options& o, std::string_view v) {
          o.maxSessions = parseUnsigned<uint32_t>("--max-sessions", v, 1, kMaxCountLimit);
@@ -254,6 +263,10 @@ materials and lights (protocol/reference.md), and the stateless GET /v1/frame.
                            next is recorded while the GPU renders (default 2; 1: serial)
   --overlap-frames         let frames of different sessions overlap on the GPU (the next
                            frame's G-buffer while the previous one lights; experimental)
+  --gbuffer P              how G-buffers are made: raster (default), compute (triangles
+                           rasterised by compute shaders where the scene's materials are opaque
+                           and untextured and the device has 64-bit atomics; raster elsewhere)
+                           or auto (compute where it qualifies, except on CPU devices)
   --max-sessions N         sessions open at once; more get 429 (default 16)
   --max-lights N           local lights per session; more get 413 (default 1000000)
   --max-upload-bytes N     largest model upload (default 67108864, 64 MiB)

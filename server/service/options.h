@@ -40,6 +40,9 @@ struct Options {
   // Frames of different sessions may overlap on the GPU (render::Renderer::setOverlap); off by
   // default until measured on a GPU.
   bool overlapFrames = false;
+  // How G-buffers are made (render::GBufferPath): raster until the compute path is measured
+  // faster where it qualifies (docs/performance.md).
+  render::GBufferPath gbuffer = render::GBufferPath::Raster;
   // Sessions (protocol/CONTRACT.md). Each holds a GPU scene, so the count is bounded.
   uint32_t maxSessions = 16;
   uint32_t maxLightsPerSession = 1000000;
