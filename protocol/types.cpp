@@ -401,6 +401,23 @@ void members(Tag<LightShadowStats>, F f) {
 }
 
 template <class F>
+void members(Tag<PipelineStats>, F f) {
+  f("frames", &PipelineStats::frames);
+  f("queueMs", &PipelineStats::queueMs);
+  f("recordMs", &PipelineStats::recordMs);
+  f("gpuMs", &PipelineStats::gpuMs);
+  f("gpuIdleMs", &PipelineStats::gpuIdleMs);
+  f("fenceWaitMs", &PipelineStats::fenceWaitMs);
+  f("copyMs", &PipelineStats::copyMs);
+  f("answerMs", &PipelineStats::answerMs);
+  f("waitMs", &PipelineStats::waitMs);
+  f("encodeMs", &PipelineStats::encodeMs);
+  f("parts", &PipelineStats::parts);
+  f("sendMs", &PipelineStats::sendMs);
+  f("intervalMs", &PipelineStats::intervalMs);
+}
+
+template <class F>
 void members(Tag<GpuMemory>, F f) {
   f("lightBytes", &GpuMemory::lightBytes);
   f("listBytes", &GpuMemory::listBytes);
@@ -574,6 +591,7 @@ MYRIAD_MEMBERWISE_JSON(LightPick)
 MYRIAD_MEMBERWISE_JSON(PassTiming)
 MYRIAD_MEMBERWISE_JSON(FrameStats)
 MYRIAD_MEMBERWISE_JSON(CullingStats)
+MYRIAD_MEMBERWISE_JSON(PipelineStats)
 MYRIAD_MEMBERWISE_JSON(LightShadowStats)
 MYRIAD_MEMBERWISE_JSON(GpuMemory)
 MYRIAD_MEMBERWISE_JSON(Limits)
@@ -613,6 +631,7 @@ void from_json(const json& j, SessionState& v) {
 
 void to_json(json& j, const Stats& v) {
   j = {{"frame", orNull(v.frame)},
+       {"pipeline", orNull(v.pipeline)},
        {"lights", {{"count", v.lightCount}, {"animated", v.lightsAnimated}}},
        {"culling", orNull(v.culling)},
        {"lightShadows", orNull(v.lightShadows)},
@@ -622,6 +641,8 @@ void to_json(json& j, const Stats& v) {
 void from_json(const json& j, Stats& v) {
   const json& frame = j.at("frame");
   v.frame = frame.is_null() ? std::nullopt : std::optional(frame.get<FrameStats>());
+  const json& pipeline = j.at("pipeline");
+  v.pipeline = pipeline.is_null() ? std::nullopt : std::optional(pipeline.get<PipelineStats>());
   get(j.at("lights"), "count", v.lightCount);
   get(j.at("lights"), "animated", v.lightsAnimated);
   const json& culling = j.at("culling");

@@ -390,8 +390,28 @@ struct LightShadowStats {
   uint64_t dropped = 0;          // of those, past maxShadowedLights: drawn unshadowed
 };
 
+// Where the session's recent frames spent their time: medians (milliseconds) over its last
+// frames of the last frame's size (stats' `pipeline`). Optional members: not measured (no GPU
+// timestamps; no stream part written).
+struct PipelineStats {
+  uint64_t frames = 0;             // frames the medians are over
+  double queueMs = 0;              // waiting for the render thread
+  double recordMs = 0;             // recording and submitting (render thread)
+  std::optional<double> gpuMs;     // first to last GPU timestamp
+  std::optional<double> gpuIdleMs; // the GPU idle before it started
+  double fenceWaitMs = 0;          // the render thread blocked on its fence
+  double copyMs = 0;               // the render thread copying its pixels (0: encoded in place)
+  double answerMs = 0;             // submission to its result handed to the worker
+  std::optional<double> waitMs;    // the worker waiting for it
+  double encodeMs = 0;
+  uint64_t parts = 0;              // stream parts the send medians are over
+  std::optional<double> sendMs;    // writing a stream part
+  std::optional<double> intervalMs;  // between a stream's parts
+};
+
 struct Stats {
   std::optional<FrameStats> frame;      // null before the session's first frame
+  std::optional<PipelineStats> pipeline;  // null before the first frame
   std::optional<LightShadowStats> lightShadows;  // null before the first frame
   uint64_t lightCount = 0;              // "lights": {"count", "animated"}
   bool lightsAnimated = false;

@@ -56,6 +56,7 @@ service::ApiConfig apiConfig(const service::Options& options, uint32_t maxResolu
   api.validation = options.validate;
   api.builtinLights = options.lights;
   api.builtinSeed = options.seed;
+  api.borrowPixels = !options.copyFrames;
   return api;
 }
 
@@ -71,7 +72,8 @@ int run(const service::Options& options, const sigset_t& shutdownSignals) {
   try {
     renderThread = std::make_unique<render::RenderThread>(
         gpu::ContextOptions{options.validate, options.device}, scene, options.maxQueuedFrames,
-        options.framesInFlight, options.overlapFrames, options.gbuffer);
+        options.framesInFlight, options.overlapFrames, options.frameTimestampsOnly,
+        options.gbuffer);
   } catch (const gpu::NoDeviceError& e) {
     return fail(e.what());
   } catch (const std::exception& e) {

@@ -4,6 +4,14 @@
 #define MYRIAD_FRAME_GLSL
 
 #include "shared_types.h"
+
+// What this pipeline's shading may meet (MYRIAD_FEATURE_* bits, shared_types.h): every bit unless
+// the pipeline is specialised for a frame's features (render/shading_features.h).
+layout(constant_id = MYRIAD_SPEC_SHADING_FEATURES) const uint kShadingFeatures = MYRIAD_FEATURES_ALL;
+bool shadingFeature(uint bit) { return (kShadingFeatures & bit) != 0u; }
+#define MYRIAD_MAY_SPOT shadingFeature(MYRIAD_FEATURE_SPOT_LIGHTS)
+#define MYRIAD_MAY_WINDOW_FALLOFF shadingFeature(MYRIAD_FEATURE_WINDOW_FALLOFF)
+#define MYRIAD_MAY_INVERSE_SQUARE shadingFeature(MYRIAD_FEATURE_INVERSE_SQUARE)
 #include "shading.glsl"
 
 #include "scene_set.glsl"
@@ -65,7 +73,7 @@ bool loadSurfaceWithDepth(ivec2 pixel, float depth, out Surface s) {
   s.metallic = material.x;
   s.roughness = material.y;
   s.occlusion = material.z;
-  s.emissive = (frame.written.x & MYRIAD_GBUFFER_EMISSIVE) != 0u
+  s.emissive = shadingFeature(MYRIAD_FEATURE_EMISSIVE) && (frame.written.x & MYRIAD_GBUFFER_EMISSIVE) != 0u
                    ? texelFetch(gbufferEmissive, pixel, 0).rgb
                    : vec3(0.0);
   return true;
@@ -83,7 +91,7 @@ float viewDepthFromDepth(float depth) {
 }
 
 bool environmentOn() {
-  return frame.environment.x != float(MYRIAD_ENV_NONE);
+  return shadingFeature(MYRIAD_FEATURE_ENVIRONMENT) && frame.environment.x != float(MYRIAD_ENV_NONE);
 }
 
 // How much of the sun reaches a surface point: 1 lit, 0 in shadow, between in the penumbra.
@@ -94,7 +102,7 @@ bool environmentOn() {
 // reach a texel away, where a sloped receiver is that much nearer the light). Outside the map
 // (nothing of the scene is: the map covers the scene's bounds) the sun is unoccluded.
 float sunShadowFactor(vec3 position, vec3 normal) {
-  if (frame.sunShadow.x == 0.0) {
+  if (!shadingFeature(MYRIAD_FEATURE_SUN_SHADOW) || frame.sunShadow.x == 0.0) {
     return 1.0;
   }
   float cosTheta = dot(normal, frame.sunDirection.xyz);
@@ -137,7 +145,7 @@ vec3 sunAndAmbient(Surface s) {
                              frame.environment.y);
   }
   // A model's directional lights besides the sun (intensity 0: none).
-  for (int i = 0; i < MYRIAD_MAX_EXTRA_SUNS; ++i) {
+  for (int i = 0; i < MYRIAD_MAX_EXTRA_SUNS && shadingFeature(MYRIAD_FEATURE_EXTRA_SUNS); ++i) {
     if (frame.extraSunDirection[i].w > 0.0) {
       color += brdfCosine(s.normal, V, frame.extraSunDirection[i].xyz, s.baseColor, s.metallic,
                           s.roughness) * (frame.extraSunColor[i].rgb * frame.extraSunDirection[i].w);
@@ -256,7 +264,7 @@ vec3 shadeLight(Surface s, uint index) {
 // shades one light (the volumes technique's light fragments).
 vec3 shadeLightShadowed(Surface s, uint index) {
   vec3 c = shadeLight(s, index);
-  if (frame.lightShadows.x != 0u) {
+  if (shadingFeature(MYRIAD_FEATURE_LOCAL_SHADOWS) && frame.lightShadows.x != 0u) {
     int slot = lightShadowSlot(index);
     if (slot >= 0) {
       c *= localShadowFactor(slot, s.position, s.normal);
@@ -286,6 +294,9 @@ bool lightReaches(Surface s, uint index) {
 // the sum and shadeLight * (1 - factor) comes off it. Kept out of the per-light loop on purpose:
 // the shadow lookup inside it made llvmpipe's lighting 2.3x slower even with no shadowed light.
 vec3 withLocalShadows(Surface s, vec3 color) {
+  if (!shadingFeature(MYRIAD_FEATURE_LOCAL_SHADOWS)) {
+    return color;
+  }
   for (uint i = 0u; i < frame.lightShadows.x; ++i) {
     uint index = frame.shadowedLightIndex[i >> 2u][i & 3u];
     if (lightReaches(s, index)) {

@@ -2,7 +2,11 @@
 // so depth is tested and written before the shader runs) and gbuffer_alpha_test.frag for alphaMode
 // MASK (MYRIAD_GBUFFER_ALPHA_TEST: discards below the cutoff, which defers the depth write until
 // the shader has run). On the H200 the split took the floor scene's G-buffer from 1.514 to
-// 1.461 ms at 1080p and 5.947 to 5.787 ms at 4K (docs/performance.md).
+// 1.461 ms at 1080p and 5.947 to 5.787 ms at 4K (docs/performance.md). Opaque materials without
+// any texture get a third build, gbuffer_untextured.frag (MYRIAD_MATERIAL_UNTEXTURED: hasTexture
+// is false, so the sampling and the normal map's tangent frame compile out): llvmpipe runs both
+// sides of every branch, so the five texture samples cost every pixel whether or not the material
+// has them (the built-in scene's G-buffer was about 2.5x slower with them).
 #ifndef MYRIAD_GBUFFER_GLSL
 #define MYRIAD_GBUFFER_GLSL
 #include "frame.glsl"

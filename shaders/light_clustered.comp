@@ -24,9 +24,11 @@ const uint kWholeList = 0xFFFFFFFFu;  // a segment's length when its pixels walk
 
 shared uint tileLights[kCapacity];
 shared uint firstSlice;
+shared uint lastSlice;
 shared uint depthLo[kSlices];  // view depth bits (positive floats order as their bits do)
 shared uint depthHi[kSlices];
 shared uint used;
+shared uint nextStart;  // where the next slice's segment starts (thread 0 keeps it)
 shared uint segmentStart[kSlices];
 shared uint segmentLength[kSlices];
 
@@ -42,14 +44,19 @@ void main() {
 
   if (thread == 0u) {
     firstSlice = 0xFFFFFFFFu;
+    lastSlice = 0u;
     used = 0u;
+    nextStart = 0u;
   }
   if (thread < kSlices) {
     depthLo[thread] = 0xFFFFFFFFu;
     depthHi[thread] = 0u;
   }
   barrier();
-  if (surface) atomicMin(firstSlice, slice);
+  if (surface) {
+    atomicMin(firstSlice, slice);
+    atomicMax(lastSlice, slice);
+  }
   barrier();
   uint k = slice - firstSlice;  // this pixel's segment
   if (surface && k < kSlices) {
@@ -58,15 +65,16 @@ void main() {
   }
   barrier();
 
-  // Narrow each occupied slice's list in turn (the loop's conditions read shared memory after a
-  // barrier, so every invocation takes the same path through the barriers inside).
+  // Narrow each occupied slice's list in turn, over the tile's span of slices only. The loop's
+  // bound and conditions read shared memory after a barrier, so every invocation takes the same
+  // path through the two barriers inside (on lavapipe each barrier switches all the workgroup's
+  // invocations: walking all kSlices with three barriers each was half the pass's time).
   uvec2 tile = gl_WorkGroupID.xy * MYRIAD_CLUSTER_SHADE_TILE / MYRIAD_CLUSTER_TILE_SIZE;
   vec2 rectLo = vec2(gl_WorkGroupID.xy * MYRIAD_CLUSTER_SHADE_TILE);
   vec2 rectHi = min(rectLo + vec2(MYRIAD_CLUSTER_SHADE_TILE), frame.viewport.xy);
-  for (uint j = 0u; j < kSlices; ++j) {
-    if (firstSlice == 0xFFFFFFFFu || depthHi[j] == 0u) continue;
-    uint start = used;
-    barrier();  // every invocation has read where this segment starts before any appends
+  uint span = firstSlice == 0xFFFFFFFFu ? 0u : min(lastSlice - firstSlice + 1u, kSlices);
+  for (uint j = 0u; j < span; ++j) {
+    if (depthHi[j] == 0u) continue;
     uvec2 range = clusterRanges[clusterIndex(uvec3(tile, firstSlice + j))];
     float z0 = uintBitsToFloat(depthLo[j]);
     float z1 = uintBitsToFloat(depthHi[j]);
@@ -88,6 +96,7 @@ void main() {
     }
     barrier();
     if (thread == 0u) {
+      uint start = nextStart;
       segmentStart[j] = start;
       if (used > kCapacity) {
         segmentLength[j] = kWholeList;
@@ -95,6 +104,7 @@ void main() {
       } else {
         segmentLength[j] = used - start;
       }
+      nextStart = used;
     }
     barrier();
   }

@@ -26,7 +26,11 @@ vec2 slotUv(GpuMaterial m, int slot) {
 }
 
 bool hasTexture(GpuMaterial m, int slot) {
+#ifdef MYRIAD_MATERIAL_UNTEXTURED
+  return false;  // gbuffer_untextured.frag: drawn only for materials with no texture slot
+#else
   return (m.flags.x & (1u << uint(slot))) != 0u;
+#endif
 }
 
 // Screen-space derivatives of the interpolated inputs, taken once at the top, in uniform control

@@ -15,6 +15,19 @@ const float kPi = 3.14159265358979f;
 // Perceptual roughness below this makes GGX a near-delta that 16-bit targets cannot hold.
 const float kMinRoughness = 0.045f;
 
+// Which kinds of local light the caller may pass (frame.glsl narrows them per frame with a
+// specialisation constant, so a frame with none of a kind has its code compiled out); the C++
+// reference and every unspecialised shader take each kind.
+#ifndef MYRIAD_MAY_SPOT
+#define MYRIAD_MAY_SPOT true
+#endif
+#ifndef MYRIAD_MAY_WINDOW_FALLOFF
+#define MYRIAD_MAY_WINDOW_FALLOFF true
+#endif
+#ifndef MYRIAD_MAY_INVERSE_SQUARE
+#define MYRIAD_MAY_INVERSE_SQUARE true
+#endif
+
 // The seed's windowed falloff: exactly 0 at and beyond the radius, 1 at the light.
 // C (>= 0) shapes the curve: 0 gives the quadratic window 1 - d^2/r^2, larger C falls off faster.
 float distanceAttenuation(float d, float radius, float C) {
@@ -40,6 +53,12 @@ float inverseSquareAttenuation(float d, float range) {
 // A light's falloff as GpuPointLight stores it: C >= 0 the window with that constant, C < 0
 // (MYRIAD_ATTENUATION_INVERSE_SQUARE) inverse-square.
 float lightAttenuation(float d, float radius, float C) {
+  if (!MYRIAD_MAY_INVERSE_SQUARE) {
+    return distanceAttenuation(d, radius, C);
+  }
+  if (!MYRIAD_MAY_WINDOW_FALLOFF) {
+    return inverseSquareAttenuation(d, radius);
+  }
   return C < 0.0f ? inverseSquareAttenuation(d, radius) : distanceAttenuation(d, radius, C);
 }
 
@@ -65,6 +84,9 @@ bool localLightReaches(vec3 P, vec3 lightPosition, float radius, vec3 spotDirect
   float d2 = dot(toLight, toLight);
   if (d2 >= radius * radius) {
     return false;
+  }
+  if (!MYRIAD_MAY_SPOT) {
+    return true;  // a point light's cone (cosOuter -2) holds every direction
   }
   return spotCosine(toLight, sqrt(d2), spotDirection) > cosOuter;
 }
@@ -121,12 +143,15 @@ vec3 shadeLocalLight(vec3 P, vec3 N, vec3 V, vec3 baseColor, float metallic, flo
   if (d >= radius) {
     return vec3(0.0f);
   }
-  float cosAngle = spotCosine(toLight, d, spotDirection);
-  if (cosAngle <= cosOuter) {
-    return vec3(0.0f);
-  }
   vec3 L = d > 1e-6f ? toLight * (1.0f / d) : N;
-  float falloff = lightAttenuation(d, radius, C) * spotAttenuation(cosAngle, cosOuter, cosInner);
+  float falloff = lightAttenuation(d, radius, C);
+  if (MYRIAD_MAY_SPOT) {  // without: a point light's cone factor, 1 (cosOuter -2, cosInner -1)
+    float cosAngle = spotCosine(toLight, d, spotDirection);
+    if (cosAngle <= cosOuter) {
+      return vec3(0.0f);
+    }
+    falloff *= spotAttenuation(cosAngle, cosOuter, cosInner);
+  }
   return brdfCosine(N, V, L, baseColor, metallic, roughness) * radiance * falloff;
 }
 

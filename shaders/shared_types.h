@@ -197,6 +197,23 @@ using mat4 = glm::mat4;
 #define MYRIAD_GBUFFER_UV 1u
 #define MYRIAD_GBUFFER_EMISSIVE 2u
 
+// What a pixel's shading may need this frame, as bits of the specialisation constant
+// MYRIAD_SPEC_SHADING_FEATURES (frame.glsl's kShadingFeatures; render/shading_features.h sets it
+// for the compute lighting passes). A pipeline specialised without a bit has that feature's code
+// compiled out; the frame's uniforms still decide where a feature is on. Unspecialised pipelines
+// keep every bit. llvmpipe runs both sides of every branch a pixel could take, so on the CPU path
+// code behind a condition that is false all frame still costs its full price.
+#define MYRIAD_SPEC_SHADING_FEATURES 8  // constant_id (cluster_assign.comp uses 0 and 1)
+#define MYRIAD_FEATURE_ENVIRONMENT 0x1u     // environment light and background (mode not none)
+#define MYRIAD_FEATURE_SUN_SHADOW 0x2u      // the sun's shadow map
+#define MYRIAD_FEATURE_EXTRA_SUNS 0x4u      // a model's directional lights besides the sun
+#define MYRIAD_FEATURE_EMISSIVE 0x8u        // the emissive G-buffer target (MYRIAD_GBUFFER_EMISSIVE)
+#define MYRIAD_FEATURE_SPOT_LIGHTS 0x10u    // a light with a cone (cone.z > MYRIAD_POINT_LIGHT_COS_OUTER)
+#define MYRIAD_FEATURE_WINDOW_FALLOFF 0x20u // a light with the window falloff (radianceFalloff.w >= 0)
+#define MYRIAD_FEATURE_INVERSE_SQUARE 0x40u // a light with inverse-square falloff
+#define MYRIAD_FEATURE_LOCAL_SHADOWS 0x80u  // shadowed local lights (FrameUniforms.lightShadows.x)
+#define MYRIAD_FEATURES_ALL 0xFFu
+
 // Directional lights besides the sun (scene::kMaxExtraSuns; render/gpu_types.h checks it).
 #define MYRIAD_MAX_EXTRA_SUNS 3
 

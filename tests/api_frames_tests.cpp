@@ -875,24 +875,34 @@ TEST_CASE("streams: 8 animated streams of 8 sessions each get within 20% of thei
     REQUIRE(reader->status() == 200);
     REQUIRE(reader->waitFor(2, std::chrono::seconds(120)).size() >= 2u);
   }
+  // The window is at least 5 s and grows (to 60 s at most) until the streams got 8 frames each on
+  // average: on a loaded machine 5 s may hold too few frames for 20% to be measurable.
   std::vector<size_t> before;
   for (auto& reader : readers) before.push_back(reader->waitFor(0, std::chrono::seconds(0)).size());
-  std::this_thread::sleep_for(std::chrono::seconds(5));
+  const auto windowStart = std::chrono::steady_clock::now();
   std::vector<double> frames;
-  for (size_t i = 0; i < readers.size(); ++i) {
-    frames.push_back(double(readers[i]->waitFor(0, std::chrono::seconds(0)).size() - before[i]));
-  }
-  readers.clear();
   double mean = 0.0;
-  for (double f : frames) mean += f / double(frames.size());
+  double windowSeconds = 0.0;
+  do {
+    std::this_thread::sleep_for(std::chrono::seconds(windowSeconds < 5.0 ? 5 : 1));
+    frames.clear();
+    for (size_t i = 0; i < readers.size(); ++i) {
+      frames.push_back(double(readers[i]->waitFor(0, std::chrono::seconds(0)).size() - before[i]));
+    }
+    mean = 0.0;
+    for (double f : frames) mean += f / double(frames.size());
+    windowSeconds =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - windowStart).count();
+  } while (mean < 8.0 && windowSeconds < 60.0);
+  readers.clear();
   std::ostringstream list;
   double worst = 0.0;
   for (double f : frames) {
     list << f << " ";
     worst = std::max(worst, std::abs(f - mean) / mean);
   }
-  MESSAGE("frames per stream in 5 s: " << list.str() << "(mean " << mean << ", largest deviation "
-                                       << worst * 100.0 << "%)");
+  MESSAGE("frames per stream in " << windowSeconds << " s: " << list.str() << "(mean " << mean
+                                   << ", largest deviation " << worst * 100.0 << "%)");
   REQUIRE(mean >= 5.0);  // enough frames for 20% to be measurable
   CHECK(worst <= 0.20);
   CHECK(validationMessages(api) == 0);

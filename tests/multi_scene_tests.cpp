@@ -10,6 +10,8 @@
 #include <memory>
 #include <optional>
 #include <stdexcept>
+#include <thread>
+#include <vector>
 
 #include <glm/gtc/matrix_transform.hpp>
 
@@ -673,5 +675,72 @@ TEST_CASE("frames in flight each keep their own pixels, counters and animation t
   CHECK_THROWS_AS(r.finishFrame(slot), std::logic_error);  // no longer in flight
   r.setFramesInFlight(1);
   r.destroyScene(idB);
+  CHECK(gpu.context->validationMessages.load() == 0);
+}
+
+TEST_CASE("borrowed pixels: frames encoded in place equal copied ones; the memory comes back") {
+  Gpu& gpu = sharedGpu();
+  render::Renderer& r = *gpu.renderer;
+  const scene::Scene a = sceneA();
+  const render::SceneId id = r.createScene(a);
+  render::FrameSettings copied = settingsFor(a);
+  render::FrameSettings borrowing = copied;
+  borrowing.borrowPixels = true;
+  const render::Frame reference = r.render(id, copied);
+  CHECK(!reference.borrowed);
+  CHECK(reference.pixels().size() == reference.rgba.size());
+  r.releaseFrameMemory();
+  const uint64_t before = r.gpuMemoryBytes();
+
+  // Frames in flight, each read back into a pooled buffer of its own and lent out with it; the
+  // render thread copies nothing (FrameTimes::copyMs ~ 0; the copy path took a memcpy).
+  r.setFramesInFlight(3);
+  std::vector<render::Frame> held;
+  std::deque<uint32_t> slots;
+  for (int i = 0; i < 6; ++i) {
+    if (!r.canBegin()) {
+      held.push_back(r.finishFrame(slots.front()));
+      slots.pop_front();
+    }
+    slots.push_back(r.beginFrame(id, borrowing));
+  }
+  while (!slots.empty()) {
+    held.push_back(r.finishFrame(slots.front()));
+    slots.pop_front();
+  }
+  for (const render::Frame& f : held) {
+    REQUIRE(f.borrowed);
+    CHECK(f.rgba.empty());
+    CHECK(f.pixels().size() == size_t(copied.width) * copied.height * 4);
+    CHECK(std::equal(f.pixels().begin(), f.pixels().end(), reference.rgba.begin()));
+    CHECK(f.times.recordMs > 0.0);
+    if (gpu.context->info.timestampsSupported) CHECK(f.times.gpuMs > 0.0);
+  }
+  // Six lent out at once: six buffers; the memory stays while they are held.
+  CHECK(r.gpuMemoryBytes() >= before + 6 * reference.rgba.size());
+  r.releaseFrameMemory();
+  CHECK(r.gpuMemoryBytes() >= 6 * reference.rgba.size());
+  held.clear();  // encoded: given back from whichever thread
+  r.releaseFrameMemory();
+  CHECK(r.gpuMemoryBytes() <= before);
+
+  // More held than the pool lends: the rest are copied out on the render thread, still right.
+  std::vector<render::Frame> many;
+  for (int i = 0; i < 20; ++i) many.push_back(r.render(id, borrowing));
+  size_t lent = 0;
+  for (const render::Frame& f : many) {
+    lent += f.borrowed ? 1 : 0;
+    CHECK(std::equal(f.pixels().begin(), f.pixels().end(), reference.rgba.begin()));
+  }
+  CHECK(lent == 16);
+  CHECK(!many.back().borrowed);
+  CHECK(many.back().rgba == reference.rgba);
+  // Given back from another thread while the renderer renders.
+  std::thread encoder([&] { many.clear(); });
+  encoder.join();
+  CHECK(r.render(id, borrowing).borrowed);
+  r.setFramesInFlight(1);
+  r.releaseFrameMemory();
+  r.destroyScene(id);
   CHECK(gpu.context->validationMessages.load() == 0);
 }

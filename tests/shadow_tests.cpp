@@ -152,6 +152,11 @@ TEST_CASE("the sun's shadow of a box over a plane lies within 2 px of its analyt
   REQUIRE(shadowed > 400);
   REQUIRE(lit > 4000);
 
+  auto drewShadow = [](const render::Frame& f) {
+    return std::any_of(f.passes.begin(), f.passes.end(),
+                       [](const render::PassTiming& p) { return p.name == "shadow"; });
+  };
+  bool drawn = false;  // the map is drawn by the first shadowed frame, kept by the later ones
   for (render::Technique technique : render::allTechniques()) {
     CAPTURE(render::techniqueName(technique));
     render::FrameSettings on = frameSettings(technique, true);
@@ -162,11 +167,12 @@ TEST_CASE("the sun's shadow of a box over a plane lies within 2 px of its analyt
     size_t nonFinite = 0;
     for (float v : shadowedFrame.data) nonFinite += std::isfinite(v) ? 0 : 1;
     CHECK(nonFinite == 0);
-    // The frame says it drew the shadow map.
-    CHECK(std::any_of(shadowedFrame.passes.begin(), shadowedFrame.passes.end(),
-                      [](const render::PassTiming& p) { return p.name == "shadow"; }));
-    CHECK(std::none_of(unshadowedFrame.passes.begin(), unshadowedFrame.passes.end(),
-                       [](const render::PassTiming& p) { return p.name == "shadow"; }));
+    // The first shadowed frame says it drew the shadow map; the later ones (same scene, sun and
+    // map size: only the technique and the frames without shadows between) keep it, and their
+    // shadows below are checked all the same.
+    CHECK(drewShadow(shadowedFrame) == !drawn);
+    drawn = true;
+    CHECK_FALSE(drewShadow(unshadowedFrame));
 
     // In shadow where less than half the unshadowed radiance arrives (the sun is 98% of it).
     size_t misplaced = 0, gpuShadowed = 0, farthest = 0;
@@ -217,6 +223,20 @@ TEST_CASE("the sun's shadow of a box over a plane lies within 2 px of its analyt
     // the other image tests: at most 0.5% of the pixels.
     CHECK(overOffBand <= kWidth * kHeight / 200);
   }
+
+  // The kept map follows what it depends on: a camera move keeps it, another sun direction draws
+  // it again, and so does the first sun again (the map held the other one); a new scene draws its own.
+  render::FrameSettings moved = frameSettings(render::Technique::Clustered, true);
+  moved.camera.eye += glm::vec3(0.5f, 0.0f, 0.0f);
+  CHECK_FALSE(drewShadow(gpu.render(moved)));
+  const scene::Sun sun = gpu.lighting.sun;
+  gpu.lighting.sun.direction = glm::normalize(sun.direction + glm::vec3(0.2f, 0.0f, 0.0f));
+  CHECK(drewShadow(gpu.render(moved)));
+  CHECK_FALSE(drewShadow(gpu.render(moved)));
+  gpu.lighting.sun = sun;
+  CHECK(drewShadow(gpu.render(moved)));
+  gpu.setScene(s);
+  CHECK(drewShadow(gpu.render(moved)));
   CHECK(gpu.context->validationMessages.load() == 0);
 }
 

@@ -346,6 +346,48 @@ TEST_CASE("spot, inverse-square and extra directional lights: every technique th
   CHECK(gpu.context->validationMessages.load() == 0);
 }
 
+// The compute techniques shade with a shader specialised to the kinds of light the scene holds
+// (render/shading_features.h: a frame without spot lights or without one of the falloffs has that
+// code compiled out). Edits that bring a kind in or take the last one out must be followed.
+TEST_CASE("light edits that add or remove spot cones and falloff kinds shade right in every technique") {
+  const scene::Scene spots = spotScene(true);
+  scene::Scene points = spots;  // the same lights as window-falloff point lights
+  for (scene::PointLight& l : points.lights) {
+    l.type = scene::LightType::Point;
+    l.attenuation = scene::Attenuation::Window;
+  }
+  Gpu& gpu = sharedGpu();
+  gpu.setScene(points);
+  const auto n = static_cast<uint32_t>(spots.lights.size());
+  auto update = [&](const scene::Scene& from, uint32_t count) {
+    render::LightUpdate u{count, {}};
+    for (uint32_t i = 0; i < count; ++i) u.writes.push_back({i, from.lights[i]});
+    gpu.renderer->updateLights(gpu.scene, u);
+  };
+  auto check = [&](const scene::Scene& expected, const char* what) {
+    const std::vector<uint8_t> reference = render::renderReference(
+        expected, frameSettings(Technique::Clustered, 192, 128).takeLightingFrom(expected));
+    for (Technique t : kTechniques) {
+      CAPTURE(what);
+      CAPTURE(render::techniqueName(t));
+      const int d = maxDifference(gpu.render(frameSettings(t, 192, 128)).rgba, reference);
+      MESSAGE(what << ", " << render::techniqueName(t) << ": " << d << "/255 from the reference");
+      CHECK(d <= 2);
+    }
+  };
+  check(points, "window point lights");
+  update(spots, n);  // every light becomes what spotScene has: spots and inverse-square in
+  check(spots, "spots and inverse-square after the edit");
+  scene::Scene fewer = spots;  // the first light (an inverse-square spot) alone, then window points
+  fewer.lights.resize(1);
+  update(fewer, 1);
+  check(fewer, "one inverse-square spot left");
+  for (scene::PointLight& l : fewer.lights) l = points.lights[0];
+  update(fewer, 1);  // the last spot and inverse-square light edited back
+  check(fewer, "one window point light left");
+  CHECK(gpu.context->validationMessages.load() == 0);
+}
+
 TEST_CASE("a spot light's cone edge is exact: nothing outside the outer cone, light and a count inside") {
   scene::Scene s = spotScene(false);
   const scene::PointLight spot = s.lights[0];

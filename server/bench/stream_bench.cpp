@@ -9,6 +9,9 @@
 //   - streams: --streams concurrent streams at --size, one session each: total and per-stream
 //     fps, and the largest deviation of a stream from their mean, in percent;
 //   - large: one stream at --large (skipped with --large none).
+// Each stream measurement also carries its sessions' `pipeline` from GET .../stats (where the
+// frames' time went: queue, record, GPU, GPU idle, fence wait, host copy, encode, send; medians
+// over the session's last frames), read right after the streams end.
 // Every stream asks fps=240 (the server's ceiling), so the pipeline, not the cap, sets the rate.
 #include <fcntl.h>
 #include <poll.h>
@@ -341,6 +344,14 @@ StreamCount readStream(const std::string& url, const Options& o, const Session& 
   return count;
 }
 
+// The session's stats `pipeline` (null when it has none).
+json pipelineOf(const std::string& url, const Session& s) {
+  auto client = clientFor(url);
+  const httplib::Headers auth = {{"Authorization", "Bearer " + s.token}};
+  json stats = checkedJson(client->Get(route(routes::kSessionStats, s.id), auth), 200, "GET stats");
+  return stats.value("pipeline", json());
+}
+
 json measureStreams(const std::string& url, const Options& o, const std::vector<Session>& sessions,
                     const Size& size) {
   const auto start = Clock::now();
@@ -379,6 +390,13 @@ json measureStreams(const std::string& url, const Options& o, const std::vector<
                  {"perStreamFrames", perStreamFrames},
                  {"maxDeviationPercent", deviation},
                  {"bytesPerFrame", frames ? bytes / frames : 0}};
+  json pipelines = json::array();
+  for (const Session& s : sessions) pipelines.push_back(pipelineOf(url, s));
+  if (sessions.size() == 1) {
+    result["pipeline"] = pipelines[0];
+  } else {
+    result["perStreamPipeline"] = pipelines;
+  }
   return result;
 }
 

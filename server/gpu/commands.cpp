@@ -133,8 +133,9 @@ void PassTimer::reset(VkCommandBuffer cmd) {
 // timestamp stage, not a barrier; it orders nothing.
 void PassTimer::beginPass(VkCommandBuffer cmd, const char* name) {
   if (!pool_ || written_ + 1 >= capacity_) return;
+  if (frameOnly_ && written_ > 0) return;
   vkCmdWriteTimestamp2(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, pool_, written_++);
-  names_.emplace_back(name);
+  names_.emplace_back(frameOnly_ ? "frame" : name);
 }
 
 void PassTimer::end(VkCommandBuffer cmd) {
@@ -149,6 +150,8 @@ std::vector<std::pair<std::string, double>> PassTimer::results() {
   VK_CHECK(vkGetQueryPoolResults(context_->device, pool_, 0, written_, ticks.size() * sizeof(uint64_t),
                                  ticks.data(), sizeof(uint64_t),
                                  VK_QUERY_RESULT_64_BIT | VK_QUERY_RESULT_WAIT_BIT));
+  firstTick_ = ticks.front();
+  lastTick_ = ticks.back();
   double msPerTick = context_->info.timestampPeriodNs * 1e-6;
   for (uint32_t i = 0; i + 1 < written_ && i < names_.size(); ++i) {
     out.emplace_back(names_[i], static_cast<double>(ticks[i + 1] - ticks[i]) * msPerTick);

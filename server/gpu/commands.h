@@ -77,6 +77,13 @@ class PassTimer {
   void end(VkCommandBuffer cmd);
   // After the submission completed: (name, milliseconds) per pass; empty without timestamps.
   std::vector<std::pair<std::string, double>> results();
+  // The first and last timestamps results() read (raw ticks, the queue's time base; 0 before).
+  uint64_t firstTick() const { return firstTick_; }
+  uint64_t lastTick() const { return lastTick_; }
+  // Frame boundaries only: beginPass writes the first timestamp and then none, so results() has
+  // one pass, `frameOnlyName`, for the whole submission; a timestamp at ALL_COMMANDS between
+  // passes may hold work of the next pass back until the previous one drained.
+  void setFrameOnly(bool frameOnly) { frameOnly_ = frameOnly; }
 
  private:
   Context* context_;
@@ -84,6 +91,9 @@ class PassTimer {
   uint32_t capacity_;
   std::vector<std::string> names_;
   uint32_t written_ = 0;
+  bool frameOnly_ = false;
+  uint64_t firstTick_ = 0;
+  uint64_t lastTick_ = 0;
 };
 
 }  // namespace myriad::gpu

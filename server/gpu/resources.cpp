@@ -1,6 +1,8 @@
 #include "gpu/resources.h"
 
 #include <algorithm>
+#include <string>
+#include <utility>
 
 #include "gpu/vk_check.h"
 
@@ -24,7 +26,11 @@ uint32_t findMemoryType(const VkPhysicalDeviceMemoryProperties& props, uint32_t 
   throw std::runtime_error("no Vulkan memory type has the required properties");
 }
 
-Arena::Placement Arena::place(const VkMemoryRequirements& requirements, MemoryUse use) {
+namespace {
+
+// The memory type place() picks for `use` among `typeBits`.
+uint32_t memoryTypeFor(const VkPhysicalDeviceMemoryProperties& props, uint32_t typeBits,
+                       MemoryUse use) {
   VkMemoryPropertyFlags required = 0;
   VkMemoryPropertyFlags preferred = 0;
   switch (use) {
@@ -37,8 +43,47 @@ Arena::Placement Arena::place(const VkMemoryRequirements& requirements, MemoryUs
       preferred = VK_MEMORY_PROPERTY_HOST_CACHED_BIT;
       break;
   }
-  uint32_t type = findMemoryType(context_->memoryProperties, requirements.memoryTypeBits, required,
-                                 preferred);
+  return findMemoryType(props, typeBits, required, preferred);
+}
+
+}  // namespace
+
+std::string describeMemoryUse(Context& context, MemoryUse use) {
+  VkBufferCreateInfo info{VK_STRUCTURE_TYPE_BUFFER_CREATE_INFO};
+  info.size = 1 << 16;
+  info.usage = VK_BUFFER_USAGE_TRANSFER_DST_BIT;
+  info.sharingMode = VK_SHARING_MODE_EXCLUSIVE;
+  VkBuffer probe = VK_NULL_HANDLE;
+  VK_CHECK(vkCreateBuffer(context.device, &info, nullptr, &probe));
+  VkMemoryRequirements requirements;
+  vkGetBufferMemoryRequirements(context.device, probe, &requirements);
+  vkDestroyBuffer(context.device, probe, nullptr);
+  const VkPhysicalDeviceMemoryProperties& props = context.memoryProperties;
+  const uint32_t type = memoryTypeFor(props, requirements.memoryTypeBits, use);
+  const VkMemoryPropertyFlags flags = props.memoryTypes[type].propertyFlags;
+  std::string text = "type " + std::to_string(type) + ":";
+  const std::pair<VkMemoryPropertyFlags, const char*> names[] = {
+      {VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT, "device-local"},
+      {VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT, "host-visible"},
+      {VK_MEMORY_PROPERTY_HOST_COHERENT_BIT, "host-coherent"},
+      {VK_MEMORY_PROPERTY_HOST_CACHED_BIT, "host-cached"}};
+  const char* separator = " ";
+  for (const auto& [bit, name] : names) {
+    if (flags & bit) {
+      text += separator;
+      text += name;
+      separator = ", ";
+    }
+  }
+  if (!(flags & VK_MEMORY_PROPERTY_HOST_CACHED_BIT)) text += " (not host-cached)";
+  const uint32_t heap = props.memoryTypes[type].heapIndex;
+  text += " (heap " + std::to_string(heap) + ", " +
+          std::to_string(props.memoryHeaps[heap].size >> 20) + " MiB)";
+  return text;
+}
+
+Arena::Placement Arena::place(const VkMemoryRequirements& requirements, MemoryUse use) {
+  uint32_t type = memoryTypeFor(context_->memoryProperties, requirements.memoryTypeBits, use);
   bool mapped = use != MemoryUse::DeviceLocal;
   // bufferImageGranularity keeps linear and optimal resources from sharing a page; aligning every
   // placement to it is simpler than tracking neighbours and costs little at these sizes.

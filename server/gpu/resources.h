@@ -5,6 +5,7 @@
 #pragma once
 
 #include <cstdint>
+#include <string>
 #include <vector>
 
 #include <vulkan/vulkan.h>
@@ -33,6 +34,11 @@ struct Image {
   VkImageAspectFlags aspect = VK_IMAGE_ASPECT_COLOR_BIT;
   uint32_t mipLevels = 1;
 };
+
+// The memory type a buffer of `use` (transfer destination) gets on this device, in words:
+// "type 3: host-visible, host-coherent, host-cached (heap 1, 251 GiB)". For the start-up log: a
+// readback that is not host-cached makes every host read of a frame slow.
+std::string describeMemoryUse(Context& context, MemoryUse use);
 
 // Large enough that a frame's targets take one or two allocations; small enough not to waste much
 // on lavapipe, where "device memory" is host memory.

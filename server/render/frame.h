@@ -4,9 +4,13 @@
 
 #include <array>
 #include <cstdint>
+#include <functional>
+#include <memory>
 #include <optional>
+#include <span>
 #include <string>
 #include <string_view>
+#include <utility>
 #include <vector>
 
 #include "protocol/constants.h"
@@ -232,6 +236,10 @@ struct FrameSettings : SceneSettings {
   double time = 0.0;        // animation time in seconds (lights move only with `animate`)
   uint32_t heatMapMax = 0;  // light-count view: count shown as the hottest colour (0 = auto)
   bool raw = false;         // return the view's float values (Frame::data), not an image
+  // The 8-bit pixels stay in the renderer's readback memory (Frame::borrowed) instead of being
+  // copied into Frame::rgba on the render thread: for a caller that encodes the frame at once and
+  // drops it (the service's JPEG and PNG frames). Ignored for raw frames.
+  bool borrowPixels = false;
 
   FrameSettings& takeLightingFrom(const scene::Scene& scene) {
     SceneSettings::takeLightingFrom(scene);
@@ -286,17 +294,52 @@ struct PassTiming {
   double milliseconds;  // GPU time from timestamp queries
 };
 
+// A frame's pixels left in the renderer's host-visible readback memory (FrameSettings::
+// borrowPixels): the memory is the frame's until the last reference is dropped, which hands it
+// back to the renderer (from any thread). Hold it only while encoding.
+struct BorrowedPixels {
+  BorrowedPixels(const uint8_t* data, size_t size, std::function<void()> release)
+      : bytes(data, size), release_(std::move(release)) {}
+  ~BorrowedPixels() {
+    if (release_) release_();
+  }
+  BorrowedPixels(const BorrowedPixels&) = delete;
+  BorrowedPixels& operator=(const BorrowedPixels&) = delete;
+  std::span<const uint8_t> bytes;
+
+ private:
+  std::function<void()> release_;
+};
+
+// Where one frame's time went on the host and the GPU (render thread and renderer; the service
+// adds its own stages in stats' `pipeline`). Milliseconds; -1 where not measured.
+struct FrameTimes {
+  double recordMs = 0.0;      // recording and submitting its command buffer (render thread)
+  double gpuMs = -1.0;        // its first to last GPU timestamp
+  double gpuIdleMs = -1.0;    // the GPU's idle time between the previous frame's end and its start
+  double fenceWaitMs = 0.0;   // the render thread blocked on its fence
+  double copyMs = 0.0;        // the render thread copying its pixels out (0 when borrowed)
+  double submitToAnswerMs = 0.0;  // from its submission to its future being kept
+};
+
 // One rendered frame: tightly packed RGBA8 rows, top row first. The colour channels of `final` and
 // `albedo` are sRGB-encoded; data views (normal, uv, depth...) hold their values directly.
 struct Frame {
   uint32_t width = 0;
   uint32_t height = 0;
   std::vector<uint8_t> rgba;
+  // With FrameSettings::borrowPixels, the same bytes left in readback memory instead of `rgba`.
+  std::shared_ptr<const BorrowedPixels> borrowed;
+  // The 8-bit pixels, wherever they are.
+  std::span<const uint8_t> pixels() const {
+    return borrowed ? borrowed->bytes : std::span<const uint8_t>(rgba);
+  }
   // With FrameSettings::raw: 4 floats per pixel, rows top first, instead of `rgba`. What the
   // channels hold per target is rawChannels(target).
   std::vector<float> data;
   std::vector<PassTiming> passes;
   double queueMs = 0.0;  // how long the frame waited in the render queue before rendering began
+  FrameTimes times;
   // GPU submissions the frame took: 1, or more for a frame split into slices (Renderer::SplitFrame)
   uint32_t submissions = 1;
   Technique technique = Technique::Clustered;

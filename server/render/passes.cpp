@@ -129,6 +129,8 @@ Pipelines::Pipelines(gpu::Context& context) : device(context.device) {
   gbuffer = gpu::createGraphicsPipeline(device, layout, d);
   d.fragmentShader = spirv::gbuffer_alpha_test_frag;
   gbufferAlphaTest = gpu::createGraphicsPipeline(device, layout, d);
+  d.fragmentShader = spirv::gbuffer_untextured_frag;
+  gbufferUntextured = gpu::createGraphicsPipeline(device, layout, d);
 
   // Alpha-blended surfaces: the G-buffer's vertex stage, one HDR target blended `over`, the
   // G-buffer depth tested and kept.
@@ -166,7 +168,7 @@ Pipelines::Pipelines(gpu::Context& context) : device(context.device) {
 }
 
 Pipelines::~Pipelines() {
-  for (VkPipeline p : {gbuffer, gbufferAlphaTest, forward, forwardClustered, shadow, lightVolumeOverlay, animateLights,
+  for (VkPipeline p : {gbuffer, gbufferAlphaTest, gbufferUntextured, forward, forwardClustered, shadow, lightVolumeOverlay, animateLights,
                       markerSplat, final, finalRaw, views, viewsRaw, antialias}) {
     if (p) vkDestroyPipeline(device, p, nullptr);
   }
@@ -217,16 +219,19 @@ void recordGBufferPass(VkCommandBuffer cmd, const Pipelines& p, const FrameTarge
   // Opaque materials first, then alpha-tested ones (their own pipeline: a shader that may discard
   // writes depth only after it runs). Draws come grouped by material (SceneBuffers sorts them):
   // one texture set and one cull mode per group.
+  // Opaque materials without textures draw with gbufferUntextured (gbuffer.glsl says why).
   for (const bool alphaTest : {false, true}) {
-    bool pipelineBound = false;
+    VkPipeline pipelineBound = VK_NULL_HANDLE;
     uint32_t bound = UINT32_MAX;
     for (const DrawItem& draw : scene.draws) {
       if (scene.blend[draw.material]) continue;  // the forward pass draws it (recordBlendPass)
       if ((scene.alphaTest[draw.material] != 0) != alphaTest) continue;
-      if (!pipelineBound) {
-        vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS,
-                          alphaTest ? p.gbufferAlphaTest : p.gbuffer);
-        pipelineBound = true;
+      const VkPipeline pipeline = alphaTest                        ? p.gbufferAlphaTest
+                                  : scene.textured[draw.material] ? p.gbuffer
+                                                                  : p.gbufferUntextured;
+      if (pipeline != pipelineBound) {
+        vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline);
+        pipelineBound = pipeline;
       }
       if (draw.material != bound) {
         bound = draw.material;
@@ -415,7 +420,8 @@ void recordLightVolumeOverlayPass(VkCommandBuffer cmd, const Pipelines& p, const
   vkCmdEndRendering(cmd);
 }
 
-void recordReadback(VkCommandBuffer cmd, const FrameTargets& t, VkImageLayout outputLayout) {
+void recordReadback(VkCommandBuffer cmd, const FrameTargets& t, VkImageLayout outputLayout,
+                    const gpu::Buffer& readback) {
   const bool storage = outputLayout == VK_IMAGE_LAYOUT_GENERAL;
   const ImageTransition before[] = {
       {&t.output,
@@ -428,8 +434,8 @@ void recordReadback(VkCommandBuffer cmd, const FrameTargets& t, VkImageLayout ou
   region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
   region.imageExtent = {t.extent.width, t.extent.height, 1};
   vkCmdCopyImageToBuffer(cmd, t.output.image, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL,
-                         t.readback.buffer, 1, &region);
-  gpu::bufferBarrier(cmd, t.readback, VK_PIPELINE_STAGE_2_COPY_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT,
+                         readback.buffer, 1, &region);
+  gpu::bufferBarrier(cmd, readback, VK_PIPELINE_STAGE_2_COPY_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT,
                      VK_PIPELINE_STAGE_2_HOST_BIT, VK_ACCESS_2_HOST_READ_BIT);
 }
 

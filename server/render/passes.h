@@ -29,6 +29,7 @@ struct Pipelines {
   VkPipelineLayout layout = VK_NULL_HANDLE;
   VkPipeline gbuffer = VK_NULL_HANDLE;           // opaque materials
   VkPipeline gbufferAlphaTest = VK_NULL_HANDLE;  // alphaMode MASK: may discard
+  VkPipeline gbufferUntextured = VK_NULL_HANDLE;  // opaque materials without any texture
   // Alpha-blended surfaces (recordBlendPass): every light tested, or the clustered lists.
   VkPipeline forward = VK_NULL_HANDLE;
   VkPipeline forwardClustered = VK_NULL_HANDLE;
@@ -82,6 +83,8 @@ void recordLightVolumeOverlayPass(VkCommandBuffer cmd, const Pipelines& p, const
                                   const SceneBuffers& scene);
 // 6. Reads the output image (in `outputLayout`: GENERAL from compute, or COLOR_ATTACHMENT after
 //    the overlay); writes it to the host-visible readback buffer.
-void recordReadback(VkCommandBuffer cmd, const FrameTargets& t, VkImageLayout outputLayout);
+// Copies the output into `readback` (t.readback, or a buffer of the renderer's readback pool).
+void recordReadback(VkCommandBuffer cmd, const FrameTargets& t, VkImageLayout outputLayout,
+                    const gpu::Buffer& readback);
 
 }  // namespace myriad::render

@@ -4,11 +4,14 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cstdio>
 #include <memory>
 #include <optional>
 #include <stdexcept>
 #include <type_traits>
 #include <utility>
+
+#include "gpu/resources.h"
 
 namespace myriad::render {
 
@@ -44,10 +47,11 @@ DeviceSummary summarize(const gpu::DeviceInfo& d) {
 
 RenderThread::RenderThread(const gpu::ContextOptions& options, const scene::Scene& scene,
                            uint32_t maxQueuedFrames, uint32_t framesInFlight,
-                           bool overlapFrames, GBufferPath gbuffer)
+                           bool overlapFrames, bool frameTimestampsOnly, GBufferPath gbuffer)
     : maxQueuedFrames_(maxQueuedFrames),
       framesInFlight_(std::clamp(framesInFlight, 1u, Renderer::kMaxFramesInFlight)),
       overlapFrames_(overlapFrames),
+      frameTimestampsOnly_(frameTimestampsOnly),
       gbuffer_(gbuffer) {
   std::promise<void> ready;
   std::future<void> started = ready.get_future();
@@ -194,7 +198,7 @@ std::future<Frame> RenderThread::submit(SceneId id, const FrameSettings& setting
         // A whole frame: into a free slot (the oldest in flight finished first when none is).
         if (!r.canBegin()) finishOldest(r);
         const uint32_t slot = r.beginFrame(id, settings);
-        inFlight_.push_back({slot, pending, counted});
+        inFlight_.push_back({slot, pending, counted, std::chrono::steady_clock::now()});
         if (framesInFlight_ == 1) finishOldest(r);  // the serial path
         return Step::InFlight;
       }
@@ -227,6 +231,9 @@ void RenderThread::finishOldest(Renderer& renderer) {
   try {
     Frame result = renderer.finishFrame(frame.slot);
     result.queueMs = frame.pending->waitedMs;
+    result.times.submitToAnswerMs = std::chrono::duration<double, std::milli>(
+                                        std::chrono::steady_clock::now() - frame.submitted)
+                                        .count();
     gpuMemoryBytes_ = renderer.gpuMemoryBytes();
     frame.pending->promise.set_value(std::move(result));
   } catch (...) {
@@ -294,9 +301,12 @@ void RenderThread::run(const gpu::ContextOptions& options, const scene::Scene& s
   std::unique_ptr<Renderer> renderer;
   try {
     context = gpu::createContext(options);
+    std::fprintf(stderr, "myriad-server: readback memory: %s\n",
+                 gpu::describeMemoryUse(*context, gpu::MemoryUse::Readback).c_str());
     renderer = std::make_unique<Renderer>(*context);
     renderer->setFramesInFlight(framesInFlight_);
     renderer->setOverlap(overlapFrames_);
+    renderer->setFrameTimestampsOnly(frameTimestampsOnly_);
     renderer->setGBufferPath(gbuffer_);
     defaultScene_ = renderer->createScene(scene);
     device_ = summarize(context->info);

@@ -55,10 +55,12 @@ class RenderThread final : public RenderQueue {
   // the default scene (`scene` need not outlive the constructor). Returns once frames can be
   // submitted; rethrows whatever start-up threw on the thread (gpu::NoDeviceError among others).
   // `framesInFlight`: frame slots (1..Renderer::kMaxFramesInFlight, clamped).
-  // `overlapFrames`: Renderer::setOverlap. `gbuffer`: Renderer::setGBufferPath.
+  // `overlapFrames`: Renderer::setOverlap. `frameTimestampsOnly`: Renderer::setFrameTimestampsOnly.
+  // `gbuffer`: Renderer::setGBufferPath.
   RenderThread(const gpu::ContextOptions& options, const scene::Scene& scene,
                uint32_t maxQueuedFrames, uint32_t framesInFlight = kDefaultFramesInFlight,
-               bool overlapFrames = false, GBufferPath gbuffer = GBufferPath::Raster);
+               bool overlapFrames = false, bool frameTimestampsOnly = false,
+               GBufferPath gbuffer = GBufferPath::Raster);
   static constexpr uint32_t kDefaultFramesInFlight = 2;
   ~RenderThread() override;
   RenderThread(const RenderThread&) = delete;
@@ -123,6 +125,7 @@ class RenderThread final : public RenderQueue {
     uint32_t slot = 0;
     std::shared_ptr<PendingFrame> pending;
     bool counted = false;
+    std::chrono::steady_clock::time_point submitted;  // when beginFrame returned
   };
   // Finishes the oldest frame in flight: reads it back and keeps its promise. Render thread.
   void finishOldest(Renderer& renderer);
@@ -145,6 +148,7 @@ class RenderThread final : public RenderQueue {
   const uint32_t maxQueuedFrames_;
   const uint32_t framesInFlight_;
   const bool overlapFrames_;
+  const bool frameTimestampsOnly_;
   const GBufferPath gbuffer_;
   std::deque<InFlight> inFlight_;  // oldest first; the render thread's alone
   SceneId defaultScene_ = 0;

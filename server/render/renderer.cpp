@@ -1,7 +1,9 @@
 #include "render/renderer.h"
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
+#include <thread>
 #include <cmath>
 #include <cstring>
 #include <optional>
@@ -18,6 +20,7 @@
 #include "render/gpu_types.h"
 #include "render/passes.h"
 #include "render/scene_buffers.h"
+#include "render/shading_features.h"
 #include "render/shadows.h"
 #include "render/visibility.h"
 #include "render/techniques/registry.h"
@@ -56,6 +59,13 @@ constexpr uint32_t kFirstRangeLights = 4096;
 // Without a measurement, frames with more lights than this are split (the first range measures).
 constexpr uint32_t kUnmeasuredSplitLights = 65536;
 
+// Readback buffers lent out with frames (FrameSettings::borrowPixels), at most: the frames in
+// flight plus those being encoded (one per stream or waiting request). Past it a frame is copied
+// out on the render thread as before.
+constexpr size_t kMaxPooledReadbacks = 16;
+
+using Milliseconds = std::chrono::duration<double, std::milli>;
+
 // Adds `results` (one submission's passes) to `passes`, summing passes of the same name.
 void addPasses(std::vector<PassTiming>& passes,
                const std::vector<std::pair<std::string, double>>& results) {
@@ -88,6 +98,23 @@ struct Renderer::State {
 
   gpu::Context& context;
   Pipelines pipelines;
+  // A host-visible buffer a frame's pixels are read back into and lent out with the frame
+  // (FrameSettings::borrowPixels): `held` from the frame's recording until its BorrowedPixels is
+  // dropped (by whichever thread encoded it); only the render thread creates or frees them.
+  struct PooledReadback {
+    std::unique_ptr<gpu::Arena> arena;
+    gpu::Buffer buffer;
+    VkDeviceSize bytes = 0;
+    std::atomic<bool> held{false};
+  };
+  std::vector<std::unique_ptr<PooledReadback>> readbacks;
+  // A free pooled buffer of `bytes` (made if none is and fewer than kMaxPooledReadbacks exist),
+  // marked held; null when every one is lent out. Frees the free ones of another size.
+  PooledReadback* acquireReadback(VkDeviceSize bytes);
+  // Frees the pooled buffers not lent out.
+  void trimReadbacks();
+  // The GPU's last timestamp of the previous whole frame finished (FrameTimes::gpuIdleMs).
+  uint64_t lastGpuEndTick = 0;
   // Index = Technique (techniques/registry.h); destroyed before the pipeline layout they use.
   std::vector<std::unique_ptr<LightingTechnique>> techniques;
   ComputeGBuffer computeGBuffer;  // GBufferPath::Compute (render/visibility.h)
@@ -115,9 +142,14 @@ struct Renderer::State {
     std::unique_ptr<ShadowMaps> shadows;
     // Which local lights have a shadow map this frame, and their tiles (prepareFrame plans it).
     LightShadowPlan lightShadows;
+    // What this frame's shading may need (writeUniforms: render/shading_features.h).
+    uint32_t shadingFeatures = MYRIAD_FEATURES_ALL;
     gpu::CommandRecorder recorder;            // its command buffer and fence
     std::unique_ptr<gpu::PassTimer> timer;    // its timestamps
     gpu::Buffer counters;  // its copy of the technique's culling counters (CullingStats)
+    // The pooled buffer this frame reads back into (borrowPixels), else null: targets->readback.
+    PooledReadback* readback = nullptr;
+    FrameTimes times;  // what the host measured of the frame in flight
     // The frame in flight: what finishFrame needs besides the GPU's results (taken when it was
     // recorded, so a scene destroyed meanwhile does not matter).
     bool inFlight = false;
@@ -394,6 +426,7 @@ void Renderer::State::writeUniforms(FrameSlot& slot, const FrameSettings& s,
     }
   }
   technique.writeUniforms(u);
+  slot.shadingFeatures = shadingFeatures(u, scene);
   std::memcpy(slot.uniforms.mapped, &u, sizeof(u));
 }
 
@@ -450,6 +483,15 @@ Renderer::Renderer(gpu::Context& context) : state_(std::make_unique<State>(conte
 Renderer::~Renderer() {
   State& s = *state_;
   vkDeviceWaitIdle(s.context.device);
+  // Pixels lent out are being encoded: wait for them (bounded) before their memory goes.
+  for (int i = 0; i < 10000; ++i) {
+    const bool lent = std::any_of(s.readbacks.begin(), s.readbacks.end(), [](const auto& r) {
+      return r->held.load(std::memory_order_acquire);
+    });
+    if (!lent) break;
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  }
+  s.readbacks.clear();
   for (State::FrameSlot* slot : s.allSlots()) {
     slot->targets.reset();
     slot->visibility.reset();
@@ -536,6 +578,46 @@ void Renderer::releaseFrameMemory() {
     state_->split.targets.reset();
     state_->split.shadows->release();
   }
+  state_->trimReadbacks();
+}
+
+Renderer::State::PooledReadback* Renderer::State::acquireReadback(VkDeviceSize bytes) {
+  PooledReadback* free = nullptr;
+  size_t count = 0;
+  for (auto it = readbacks.begin(); it != readbacks.end();) {
+    PooledReadback& r = **it;
+    if (r.held.load(std::memory_order_acquire)) {
+      ++count;
+      ++it;
+    } else if (r.bytes != bytes) {
+      it = readbacks.erase(it);  // another size: nothing uses it (frames in flight hold theirs)
+    } else {
+      if (!free) free = &r;
+      ++count;
+      ++it;
+    }
+  }
+  if (!free && count < kMaxPooledReadbacks) {
+    auto made = std::make_unique<PooledReadback>();
+    made->arena = std::make_unique<gpu::Arena>(context, bytes);
+    made->buffer = made->arena->createBuffer(bytes, VK_BUFFER_USAGE_TRANSFER_DST_BIT,
+                                             gpu::MemoryUse::Readback);
+    made->bytes = bytes;
+    free = made.get();
+    readbacks.push_back(std::move(made));
+  }
+  if (free) free->held.store(true, std::memory_order_relaxed);
+  return free;
+}
+
+void Renderer::State::trimReadbacks() {
+  std::erase_if(readbacks, [](const std::unique_ptr<PooledReadback>& r) {
+    return !r->held.load(std::memory_order_acquire);
+  });
+}
+
+void Renderer::setFrameTimestampsOnly(bool frameOnly) {
+  for (State::FrameSlot* slot : state_->allSlots()) slot->timer->setFrameOnly(frameOnly);
 }
 
 uint64_t Renderer::gpuMemoryBytes() const {
@@ -549,6 +631,7 @@ uint64_t Renderer::gpuMemoryBytes() const {
     total += slot->shadows->gpuMemoryBytes();
   }
   for (const auto& technique : s.techniques) total += technique->gpuMemoryBytes();
+  for (const auto& readback : s.readbacks) total += readback->arena->bytesAllocated();
   return total;
 }
 
@@ -638,8 +721,22 @@ uint32_t Renderer::beginFrame(SceneId id, const FrameSettings& settings) {
   s.lastShape = shape;
   bool sharesScene = false;  // with a frame in flight
   for (const auto& other : s.slots) sharesScene = sharesScene || (other->inFlight && other->scene == id);
-  s.recordFrame(slot, scene, environment, settings, !s.overlap || sharesScene);
-  gpu::submit(s.context, slot.recorder);
+  const auto start = std::chrono::steady_clock::now();
+  slot.times = {};
+  // Borrowed pixels: a pooled buffer of their own, lent out with the frame; when every one is
+  // lent out, the slot's own buffer and a copy on the render thread.
+  slot.readback = settings.borrowPixels && !settings.raw
+                      ? s.acquireReadback(VkDeviceSize(settings.width) * settings.height * 4)
+                      : nullptr;
+  try {
+    s.recordFrame(slot, scene, environment, settings, !s.overlap || sharesScene);
+    gpu::submit(s.context, slot.recorder);
+  } catch (...) {
+    if (slot.readback) slot.readback->held.store(false, std::memory_order_release);
+    slot.readback = nullptr;
+    throw;
+  }
+  slot.times.recordMs = Milliseconds(std::chrono::steady_clock::now() - start).count();
   slot.inFlight = true;
   slot.scene = id;
   slot.settings = settings;
@@ -655,8 +752,10 @@ bool Renderer::frameDone(uint32_t index) const {
 bool Renderer::waitFrame(uint32_t index, uint64_t timeoutNs) const {
   const State& s = *state_;
   if (index >= s.slots.size() || !s.slots[index]->inFlight) return false;
+  const auto start = std::chrono::steady_clock::now();
   const VkResult result =
       vkWaitForFences(s.context.device, 1, &s.slots[index]->recorder.fence, VK_TRUE, timeoutNs);
+  s.slots[index]->times.fenceWaitMs += Milliseconds(std::chrono::steady_clock::now() - start).count();
   if (result == VK_TIMEOUT) return false;
   VK_CHECK(result);
   return true;
@@ -675,10 +774,31 @@ Frame Renderer::finishFrame(uint32_t index) {
     State::FrameSlot& slot;
     ~Free() { slot.inFlight = false; }
   } free{slot};
+  const auto waitStart = std::chrono::steady_clock::now();
   gpu::waitFor(s.context, slot.recorder);
+  slot.times.fenceWaitMs += Milliseconds(std::chrono::steady_clock::now() - waitStart).count();
   const FrameSettings& settings = slot.settings;
   LightingTechnique& technique = s.technique(settings.technique);
-  Frame frame = s.readFrame(slot, slot.meta, settings, technique);
+  Frame frame;
+  try {
+    frame = s.readFrame(slot, slot.meta, settings, technique);
+  } catch (...) {
+    if (slot.readback) slot.readback->held.store(false, std::memory_order_release);
+    slot.readback = nullptr;
+    throw;
+  }
+  slot.readback = nullptr;  // the frame's now (or given back if it was not lent out)
+  // Frames finish in the order they were submitted: the GPU idled between the previous one's
+  // last timestamp and this one's first.
+  if (frame.times.gpuMs >= 0.0) {
+    if (s.lastGpuEndTick != 0 && slot.timer->firstTick() >= s.lastGpuEndTick) {
+      frame.times.gpuIdleMs = double(slot.timer->firstTick() - s.lastGpuEndTick) *
+                              s.context.info.timestampPeriodNs * 1e-6;
+    } else if (s.lastGpuEndTick != 0) {
+      frame.times.gpuIdleMs = 0.0;  // it started before the previous one ended (overlap)
+    }
+    s.lastGpuEndTick = std::max(s.lastGpuEndTick, slot.timer->lastTick());
+  }
   if (technique.splitsByLights() && frame.lightCount > 0) {
     // What a light costs, for shouldSplit: the lights pass's GPU time.
     for (const PassTiming& pass : frame.passes) {
@@ -783,8 +903,12 @@ void Renderer::State::recordBeforeLighting(VkCommandBuffer cmd, FrameSlot& slot,
     scene.lightsMoved = false;
   }
   if (const std::optional<SunShadowFit> sunShadow = sunShadowFor(scene, settings)) {
-    slot.timer->beginPass(cmd, "shadow");
-    slot.shadows->recordSun(cmd, p, scene, sunShadow->viewProjection);
+    // Drawn again only when the scene or the fit changed (ShadowMaps::sunHolds): not for a camera
+    // move, a light, material or slider change, or animated lights.
+    if (!slot.shadows->sunHolds(scene, sunShadow->viewProjection)) {
+      slot.timer->beginPass(cmd, "shadow");
+      slot.shadows->recordSun(cmd, p, scene, sunShadow->viewProjection);
+    }
   } else {
     slot.shadows->recordSunUnused(cmd);
   }
@@ -845,7 +969,7 @@ void Renderer::State::recordAfterLighting(VkCommandBuffer cmd, const FrameSlot& 
                        VK_ACCESS_2_HOST_READ_BIT);
   }
   slot.timer->beginPass(cmd, "readback");
-  recordReadback(cmd, t, outputLayout);
+  recordReadback(cmd, t, outputLayout, slot.readback ? slot.readback->buffer : t.readback);
   slot.timer->end(cmd);
 }
 
@@ -867,14 +991,27 @@ Frame Renderer::State::readFrame(const FrameSlot& slot, const Frame& meta,
   Frame frame = meta;
   frame.width = t.extent.width;
   frame.height = t.extent.height;
+  frame.times = slot.times;
+  const auto copyStart = std::chrono::steady_clock::now();
   if (settings.raw) {
     frame.data.resize(size_t(t.extent.width) * t.extent.height * 4);
     std::memcpy(frame.data.data(), t.readback.mapped, frame.data.size() * sizeof(float));
+  } else if (PooledReadback* pooled = slot.readback) {
+    // Lent out: the encoder reads the mapped memory; dropping the frame gives it back.
+    frame.borrowed = std::make_shared<const BorrowedPixels>(
+        static_cast<const uint8_t*>(pooled->buffer.mapped),
+        size_t(t.extent.width) * t.extent.height * 4,
+        [pooled] { pooled->held.store(false, std::memory_order_release); });
   } else {
     frame.rgba.resize(size_t(t.extent.width) * t.extent.height * 4);
     std::memcpy(frame.rgba.data(), t.readback.mapped, frame.rgba.size());
   }
+  frame.times.copyMs = Milliseconds(std::chrono::steady_clock::now() - copyStart).count();
   for (auto& [name, ms] : slot.timer->results()) frame.passes.push_back({name, ms});
+  if (slot.timer->lastTick() > slot.timer->firstTick()) {
+    frame.times.gpuMs = double(slot.timer->lastTick() - slot.timer->firstTick()) *
+                        context.info.timestampPeriodNs * 1e-6;
+  }
   technique.report(frame.culling, technique.counters() ? slot.counters.mapped : nullptr);
   frame.lightShadows = {slot.lightShadows.lights, slot.lightShadows.requested,
                         slot.lightShadows.dropped};
@@ -895,7 +1032,7 @@ void Renderer::State::recordFrame(FrameSlot& slot, SceneBuffers& scene,
   if (!waitAtStart) waitForEarlier(cmd);
   // Lighting leaves HDR and light counts as attachments (raster) or storage images (compute).
   const VkImageLayout lightingLayout =
-      technique.record({cmd, *slot.timer, *slot.targets, scene});
+      technique.record({cmd, *slot.timer, *slot.targets, scene, slot.shadingFeatures});
   recordAfterLighting(cmd, slot, scene, settings, lightingLayout);
   slot.meta = metaOf(scene, environment, settings);
 }
@@ -956,7 +1093,7 @@ std::unique_ptr<Renderer::SplitFrame> Renderer::beginSplit(SceneId id,
   VkCommandBuffer cmd = s.beginFrameCommands(s.split);
   s.recordBeforeLighting(cmd, s.split, scene, environment, settings);
   frame->lightingLayout_ =
-      technique.recordBeforeLights({cmd, *s.split.timer, *s.split.targets, scene});
+      technique.recordBeforeLights({cmd, *s.split.timer, *s.split.targets, scene, s.split.shadingFeatures});
   s.split.timer->end(cmd);
   gpu::submitAndWait(s.context, s.split.recorder);
   addPasses(frame->passes_, s.split.timer->results());
@@ -977,7 +1114,7 @@ std::optional<Frame> Renderer::continueSplit(SplitFrame& frame) {
   if (!frame.lit_) {
     const uint32_t first = frame.nextLight_;
     const uint32_t count = std::min(frame.rangeLights_, scene.lightCount - first);
-    technique.recordLightRange({cmd, *s.split.timer, *s.split.targets, scene}, first, count);
+    technique.recordLightRange({cmd, *s.split.timer, *s.split.targets, scene, s.split.shadingFeatures}, first, count);
     s.split.timer->end(cmd);
     const auto start = std::chrono::steady_clock::now();
     gpu::submitAndWait(s.context, s.split.recorder);

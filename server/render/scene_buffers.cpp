@@ -1,11 +1,13 @@
 #include "render/scene_buffers.h"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <cstring>
 #include <limits>
 #include <string>
 #include <stdexcept>
+#include <utility>
 
 #include "render/gpu_types.h"
 #include "render/light_packing.h"
@@ -90,7 +92,7 @@ bool emitsLight(const scene::Material& m) {
   return m.emissiveStrength != 0.0f && m.emissive != glm::vec3(0.0f);
 }
 
-bool isTextured(const scene::Material& m) {
+bool hasTexture(const scene::Material& m) {
   for (size_t slot = 0; slot < scene::Material::kTextureSlots; ++slot) {
     if (m.texture(slot).present()) return true;
   }
@@ -161,9 +163,18 @@ float circumscribeScale(const scene::Mesh& mesh) {
   return 1.0f / minDistance;
 }
 
+namespace {
+
+uint64_t nextGeneration() {
+  static std::atomic<uint64_t> next{1};
+  return next.fetch_add(1);
+}
+
+}  // namespace
+
 SceneBuffers::SceneBuffers(gpu::Context& context, gpu::CommandRecorder& recorder,
                            const scene::Scene& scene, VkDescriptorSetLayout materialSetLayout)
-    : context(context), arena(context, kSceneBlockSize),
+    : context(context), generation(nextGeneration()), arena(context, kSceneBlockSize),
       lightArena(std::make_unique<gpu::Arena>(context, kLightBlockSize)) {
   std::vector<scene::Vertex> allVertices;
   std::vector<uint32_t> allIndices;
@@ -218,7 +229,7 @@ SceneBuffers::SceneBuffers(gpu::Context& context, gpu::CommandRecorder& recorder
     blend.push_back(m.alphaMode == scene::AlphaMode::blend ? 1 : 0);
     alphaTest.push_back(m.alphaMode == scene::AlphaMode::mask ? 1 : 0);
     emits.push_back(emitsLight(m) ? 1 : 0);
-    textured.push_back(isTextured(m) ? 1 : 0);
+    textured.push_back(hasTexture(m) ? 1 : 0);
   }
   textures = std::make_unique<MaterialTextures>(context, recorder, materialSetLayout, scene);
   std::vector<GpuMaterial> gpuMaterials;
@@ -231,6 +242,7 @@ SceneBuffers::SceneBuffers(gpu::Context& context, gpu::CommandRecorder& recorder
   for (uint32_t i = 0; i < lightCount; ++i) {
     if (scene.lights[i].castsShadows) shadowCasters.push_back({i, gpuLights[i]});
   }
+  setLightKinds(lightCount, nullptr, &gpuLights);
   bounds = scene.bounds();
 
   auto bytes = [](const auto& v) { return VkDeviceSize(v.size() * sizeof(v[0])); };
@@ -303,6 +315,7 @@ void SceneBuffers::updateLights(gpu::CommandRecorder& recorder, const LightUpdat
       uploads.push_back(origin);
     }
     transfer(context, recorder, {}, uploads);
+    setLightKinds(count, &update, nullptr);
     lightCount = count;
     updateShadowCasters(update);
     return;
@@ -336,8 +349,57 @@ void SceneBuffers::updateLights(gpu::CommandRecorder& recorder, const LightUpdat
     restore();  // the old buffers were only read: the scene is as it was
     throw;
   }
+  setLightKinds(count, &update, nullptr);
   lightCount = count;
   updateShadowCasters(update);
+}
+
+namespace {
+
+uint8_t kindOf(const GpuPointLight& light) {
+  uint8_t kind = light.radianceFalloff.w < 0.0f ? 4 : 2;  // inverse-square : window
+  if (light.cone.z > MYRIAD_POINT_LIGHT_COS_OUTER) kind |= 1;
+  return kind;
+}
+
+}  // namespace
+
+// Before lightCount takes `count`: drops the kinds of lights past it, then applies the writes
+// in order (the last write to an index wins, as on the GPU), or takes every light of `all`.
+void SceneBuffers::setLightKinds(uint32_t count, const LightUpdate* update,
+                                 const std::vector<GpuPointLight>* all) {
+  auto count3 = [&](uint8_t kind, int sign) {
+    for (auto [bit, counter] : {std::pair{1, &spotLights_}, std::pair{2, &windowLights_},
+                                std::pair{4, &inverseSquareLights_}}) {
+      if ((kind & bit) == 0) continue;
+      if (sign > 0) {
+        ++*counter;
+      } else {
+        --*counter;
+      }
+    }
+  };
+  for (size_t i = count; i < lightKinds_.size(); ++i) count3(lightKinds_[i], -1);
+  lightKinds_.resize(count, 0);
+  if (all) {
+    for (uint32_t i = 0; i < count; ++i) {
+      lightKinds_[i] = kindOf((*all)[i]);
+      count3(lightKinds_[i], 1);
+    }
+  }
+  if (update) {
+    for (const LightWrite& w : update->writes) {
+      count3(lightKinds_[w.index], -1);
+      lightKinds_[w.index] = kindOf(toGpu(w.light));
+      count3(lightKinds_[w.index], 1);
+    }
+  }
+}
+
+uint32_t SceneBuffers::lightFeatures() const {
+  return (spotLights_ > 0 ? MYRIAD_FEATURE_SPOT_LIGHTS : 0u) |
+         (windowLights_ > 0 ? MYRIAD_FEATURE_WINDOW_FALLOFF : 0u) |
+         (inverseSquareLights_ > 0 ? MYRIAD_FEATURE_INVERSE_SQUARE : 0u);
 }
 
 // Merges the update into the sorted caster list: O(casters + writes log writes), so an update
@@ -380,7 +442,7 @@ void SceneBuffers::updateMaterials(gpu::CommandRecorder& recorder,
     blend[w.index] = w.material.alphaMode == scene::AlphaMode::blend ? 1 : 0;
     alphaTest[w.index] = w.material.alphaMode == scene::AlphaMode::mask ? 1 : 0;
     emits[w.index] = emitsLight(w.material) ? 1 : 0;
-    textured[w.index] = isTextured(w.material) ? 1 : 0;
+    textured[w.index] = hasTexture(w.material) ? 1 : 0;
   }
 }
 

@@ -56,6 +56,10 @@ struct SceneBuffers {
   }
 
   gpu::Context& context;
+  // Unique to this SceneBuffers among all the process makes (from 1): what was drawn from its
+  // geometry (the sun's shadow map) may be kept while it lives, since geometry, instances and
+  // draws never change in place (a new model is a new SceneBuffers).
+  const uint64_t generation;
   gpu::Arena arena;                        // geometry, instances, materials
   std::unique_ptr<gpu::Arena> lightArena;  // the two light buffers; replaced when they grow
   gpu::Buffer vertices;
@@ -72,7 +76,7 @@ struct SceneBuffers {
   std::vector<uint8_t> blend;
   std::vector<uint8_t> alphaTest;     // per material: alphaMode MASK (the G-buffer's discarding pipeline)
   std::vector<uint8_t> emits;         // per material: whether its emission can be non-zero
-  std::vector<uint8_t> textured;      // per material: whether any texture slot is set
+  std::vector<uint8_t> textured;      // per material: whether it has any texture slot
   bool anyEmission() const;
   MeshRange lightProxy;  // icosphere circumscribing the unit sphere (volumes, markers)
   uint32_t lightCount = 0;
@@ -84,9 +88,21 @@ struct SceneBuffers {
   // light (52 bytes: a million asking cost 52 MB of host memory, bounded by the light count).
   std::vector<ShadowCaster> shadowCasters;
 
+  // The kinds of light the scene holds, as MYRIAD_FEATURE_SPOT_LIGHTS, _WINDOW_FALLOFF and
+  // _INVERSE_SQUARE bits (render/shading_features.h); follows updateLights.
+  uint32_t lightFeatures() const;
+
  private:
   void allocateLights(uint32_t capacity);
   void updateShadowCasters(const LightUpdate& update);
+  // lightFeatures' bookkeeping: each light's kind bits (one byte a light) and how many lights
+  // have each kind.
+  void setLightKinds(uint32_t count, const LightUpdate* update,
+                     const std::vector<gpu_types::GpuPointLight>* all);
+  std::vector<uint8_t> lightKinds_;
+  uint32_t spotLights_ = 0;
+  uint32_t windowLights_ = 0;
+  uint32_t inverseSquareLights_ = 0;
 };
 
 // Scale that makes a mesh with vertices on the unit sphere contain the unit sphere: 1 / the

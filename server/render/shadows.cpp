@@ -244,6 +244,7 @@ void ShadowMaps::ensureSun(uint32_t size) {
   sun_ = arena_.createImage2D({size, size}, kDepthFormat,
                               VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT | VK_IMAGE_USAGE_SAMPLED_BIT);
   sunReadable_ = false;
+  sunScene_ = 0;
 }
 
 void ShadowMaps::ensureSunPlaceholder() {
@@ -272,6 +273,13 @@ void ShadowMaps::recordSun(VkCommandBuffer cmd, const Pipelines& p, const SceneB
   drawCasters(cmd, scene);
   endShadowRendering(cmd, sun_);
   sunReadable_ = true;
+  sunScene_ = scene.generation;
+  sunViewProjection_ = viewProjection;
+}
+
+bool ShadowMaps::sunHolds(const SceneBuffers& scene, const glm::mat4& viewProjection) const {
+  return sunReadable_ && sunScene_ != 0 && sunScene_ == scene.generation &&
+         sunViewProjection_ == viewProjection;
 }
 
 void ShadowMaps::ensureAtlas(VkExtent2D extent) {
@@ -329,6 +337,7 @@ void ShadowMaps::release() {
   arena_.release();
   sun_ = {};
   sunReadable_ = false;
+  sunScene_ = 0;
   atlasArena_.release();
   atlas_ = {};
   atlasReadable_ = false;

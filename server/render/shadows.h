@@ -79,6 +79,12 @@ class ShadowMaps {
   // readable by the lighting (fragment and compute shaders).
   void recordSun(VkCommandBuffer cmd, const Pipelines& p, const SceneBuffers& scene,
                  const glm::mat4& viewProjection);
+  // Whether the map already holds what recordSun would draw: an earlier frame of this slot drew
+  // this very scene (SceneBuffers::generation: geometry never changes in place) with this
+  // `viewProjection` (the fit follows the scene's bounds, the sun's direction and the map size,
+  // not the camera) into this image. Then the frame skips the pass: the map is unchanged and
+  // still readable, and nothing has written it since.
+  bool sunHolds(const SceneBuffers& scene, const glm::mat4& viewProjection) const;
 
   // The local lights' atlas: ensureAtlas before the descriptors are written (a new size is a new
   // image), or ensureAtlasPlaceholder (1x1) when no light has a map this frame; recordLights draws
@@ -100,6 +106,8 @@ class ShadowMaps {
   gpu::Arena arena_;
   gpu::Image sun_;
   bool sunReadable_ = false;  // the map has been put into READ_ONLY_OPTIMAL at least once
+  uint64_t sunScene_ = 0;    // what the map holds (sunHolds): the scene's generation, 0 nothing
+  glm::mat4 sunViewProjection_{1.0f};
   gpu::Arena atlasArena_;     // the atlas's own, so a new sun size keeps it (and the reverse)
   gpu::Image atlas_;
   bool atlasReadable_ = false;

@@ -58,6 +58,9 @@ struct ApiConfig {
   // (--lights, --seed).
   uint32_t builtinLights = 256;
   uint64_t builtinSeed = 1;
+  // Session frames' pixels are encoded where the GPU put them (render::FrameSettings::
+  // borrowPixels) rather than copied out on the render thread (--copy-frames turns it off).
+  bool borrowPixels = true;
 };
 
 struct ApiContext {

@@ -96,6 +96,9 @@ const std::vector<Flag>& flags() {
          o.framesInFlight = parseUnsigned<uint32_t>("--frames-in-flight", v, 1, 4);
        }},
       {"--overlap-frames", false, [](Options& o, std::string_view) { o.overlapFrames = true; }},
+      {"--copy-frames", false, [](Options& o, std::string_view) { o.copyFrames = true; }},
+      {"--frame-timestamps", false,
+       [](Options& o, std::string_view) { o.frameTimestampsOnly = true; }},
       {"--gbuffer", true,
        [](Options& o, std::string_view v) {
          const std::optional<render::GBufferPath> path = render::parseGBufferPath(v);
@@ -263,6 +266,10 @@ materials and lights (protocol/reference.md), and the stateless GET /v1/frame.
                            next is recorded while the GPU renders (default 2; 1: serial)
   --overlap-frames         let frames of different sessions overlap on the GPU (the next
                            frame's G-buffer while the previous one lights; experimental)
+  --copy-frames            copy every frame's pixels out of GPU-visible memory on the render
+                           thread (the path before; default: encoders read them in place)
+  --frame-timestamps       time each frame with two GPU timestamps instead of one per pass
+                           (Server-Timing and stats then show one pass, "frame")
   --gbuffer P              how G-buffers are made: raster (default), compute (triangles
                            rasterised by compute shaders where the scene's materials are opaque
                            and untextured and the device has 64-bit atomics; raster elsewhere)

@@ -40,6 +40,12 @@ struct Options {
   // Frames of different sessions may overlap on the GPU (render::Renderer::setOverlap); off by
   // default until measured on a GPU.
   bool overlapFrames = false;
+  // The render thread copies each frame's pixels out of the readback memory (the path before
+  // issue 18's stop 14); default off: JPEG and PNG encoders read them where the GPU put them
+  // (render::FrameSettings::borrowPixels), off the render thread.
+  bool copyFrames = false;
+  // GPU timestamps at frame boundaries only (render::Renderer::setFrameTimestampsOnly).
+  bool frameTimestampsOnly = false;
   // How G-buffers are made (render::GBufferPath): raster until the compute path is measured
   // faster where it qualifies (docs/performance.md).
   render::GBufferPath gbuffer = render::GBufferPath::Raster;

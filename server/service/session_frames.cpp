@@ -1,7 +1,9 @@
 #include "service/session_frames.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
+#include <optional>
 #include <stdexcept>
 
 #include "protocol/constants.h"
@@ -31,14 +33,14 @@ EncodedFrame encodeFrame(const render::Frame& frame, const FrameRequest& request
   const auto start = std::chrono::steady_clock::now();
   switch (request.format) {
     case ImageFormat::Png: {
-      std::vector<uint8_t> png = encode::encodePng(frame.width, frame.height, frame.rgba);
+      std::vector<uint8_t> png = encode::encodePng(frame.width, frame.height, frame.pixels());
       out.body.assign(reinterpret_cast<const char*>(png.data()), png.size());
       out.contentType = protocol::kPngContentType;
       break;
     }
     case ImageFormat::Jpeg: {
       std::vector<uint8_t> jpeg =
-          encode::encodeJpeg(frame.rgba, frame.width, frame.height, request.quality);
+          encode::encodeJpeg(frame.pixels(), frame.width, frame.height, request.quality);
       out.body.assign(reinterpret_cast<const char*>(jpeg.data()), jpeg.size());
       out.contentType = protocol::kJpegContentType;
       break;
@@ -70,8 +72,36 @@ EncodedFrame encodeFrame(const render::Frame& frame, const FrameRequest& request
   return out;
 }
 
+namespace {
+
+// The median of what `value` picks from each of `items` that has it (>= 0); nullopt for none.
+template <class T, class Pick>
+std::optional<double> medianOf(const std::deque<T>& items, Pick value) {
+  std::vector<double> values;
+  values.reserve(items.size());
+  for (const T& item : items) {
+    const double v = value(item);
+    if (v >= 0.0) values.push_back(v);
+  }
+  if (values.empty()) return std::nullopt;
+  const size_t middle = values.size() / 2;
+  std::nth_element(values.begin(), values.begin() + std::ptrdiff_t(middle), values.end());
+  return values[middle];
+}
+
+}  // namespace
+
+void FrameStatsBook::recordSend(const SessionPtr& session, double sendMs, double intervalMs) {
+  std::lock_guard lock(mutex_);
+  auto it = entries_.find(session->id);
+  if (it == entries_.end()) return;
+  std::deque<std::pair<double, double>>& sends = it->second.sends;
+  sends.emplace_back(sendMs, intervalMs);
+  if (sends.size() > kPipelineWindow) sends.pop_front();
+}
+
 void FrameStatsBook::record(const SessionPtr& session, const render::Frame& frame,
-                            render::Target target, double encodeMs) {
+                            render::Target target, double encodeMs, double waitMs) {
   protocol::FrameStats stats;
   for (const render::PassTiming& pass : frame.passes) {
     stats.passes.push_back({pass.name, pass.milliseconds});
@@ -110,6 +140,17 @@ void FrameStatsBook::record(const SessionPtr& session, const render::Frame& fram
   entry.lightShadows = std::move(lightShadows);
   entry.gpuMemory = memory;
   ++entry.frames;
+  if (entry.timesWidth != frame.width || entry.timesHeight != frame.height) {
+    // Another size: its medians start again (a stream's 4K frames are not mixed with 1080p).
+    entry.times.clear();
+    entry.sends.clear();
+    entry.timesWidth = frame.width;
+    entry.timesHeight = frame.height;
+  }
+  const render::FrameTimes& t = frame.times;
+  entry.times.push_back({frame.queueMs, t.recordMs, t.gpuMs, t.gpuIdleMs, t.fenceWaitMs, t.copyMs,
+                         t.submitToAnswerMs, waitMs, encodeMs});
+  if (entry.times.size() > kPipelineWindow) entry.times.pop_front();
 }
 
 protocol::Stats FrameStatsBook::statsOf(const Session& session, uint64_t lightCount,
@@ -126,6 +167,25 @@ protocol::Stats FrameStatsBook::statsOf(const Session& session, uint64_t lightCo
     stats.lightShadows = it->second.lightShadows;
     stats.gpuMemory = it->second.gpuMemory;
     stats.frames = it->second.frames;
+    const std::deque<Times>& times = it->second.times;
+    if (!times.empty()) {
+      protocol::PipelineStats p;
+      p.frames = times.size();
+      p.queueMs = medianOf(times, [](const Times& t) { return t.queueMs; }).value_or(0.0);
+      p.recordMs = medianOf(times, [](const Times& t) { return t.recordMs; }).value_or(0.0);
+      p.gpuMs = medianOf(times, [](const Times& t) { return t.gpuMs; });
+      p.gpuIdleMs = medianOf(times, [](const Times& t) { return t.gpuIdleMs; });
+      p.fenceWaitMs = medianOf(times, [](const Times& t) { return t.fenceWaitMs; }).value_or(0.0);
+      p.copyMs = medianOf(times, [](const Times& t) { return t.copyMs; }).value_or(0.0);
+      p.answerMs = medianOf(times, [](const Times& t) { return t.answerMs; }).value_or(0.0);
+      p.waitMs = medianOf(times, [](const Times& t) { return t.waitMs; });
+      p.encodeMs = medianOf(times, [](const Times& t) { return t.encodeMs; }).value_or(0.0);
+      const std::deque<std::pair<double, double>>& sends = it->second.sends;
+      p.parts = sends.size();
+      p.sendMs = medianOf(sends, [](const auto& s) { return s.first; });
+      p.intervalMs = medianOf(sends, [](const auto& s) { return s.second; });
+      stats.pipeline = p;
+    }
   }
   return stats;
 }
@@ -152,6 +212,7 @@ PendingSessionFrame submitSessionFrame(const SessionFrameContext& context, const
     if (session->closed) throw ProblemError(notFoundDetail("Session " + session->id + " is gone."));
     pending.rendered.settings =
         session->scene.frameSettings(request.settings, request.time, Clock::now());
+    pending.rendered.settings.borrowPixels = context.borrowPixels;
     if (request.interactive) {
       // A stream's interactive frame (interactive_quality.h): the costly passes that change the
       // picture least while it moves are left out; the still after it has them.
@@ -170,6 +231,7 @@ PendingSessionFrame submitSessionFrame(const SessionFrameContext& context, const
 SessionFrame collectSessionFrame(const SessionFrameContext& context, const SessionPtr& session,
                                  PendingSessionFrame& pending, const FrameEncoder* encoder) {
   DeliveredFrame delivered;
+  const Clock::time_point waitStart = Clock::now();
   try {
     delivered.frame = pending.frame.get();
   } catch (const std::exception&) {
@@ -179,12 +241,15 @@ SessionFrame collectSessionFrame(const SessionFrameContext& context, const Sessi
     if (session->closed) throw ProblemError(notFoundDetail("Session " + session->id + " is gone."));
     throw;
   }
+  const double waitMs = std::chrono::duration<double, std::milli>(Clock::now() - waitStart).count();
   delivered.encoded = encoder ? (*encoder)(delivered.frame)
                               : encodeFrame(delivered.frame, pending.rendered);
+  // Encoded: borrowed pixels go back to the renderer now, not when the caller is done.
+  delivered.frame.borrowed.reset();
   context.metrics.observeFrame(
       std::chrono::duration<double>(Clock::now() - pending.submitted).count());
   context.stats.record(session, delivered.frame, pending.rendered.settings.target,
-                       delivered.encoded.encodeMs);
+                       delivered.encoded.encodeMs, waitMs);
   SessionFrame result;
   result.encoded = std::move(delivered.encoded);
   result.version = pending.version;

@@ -4,6 +4,7 @@
 #pragma once
 
 #include <cstdint>
+#include <deque>
 #include <functional>
 #include <map>
 #include <memory>
@@ -34,18 +35,32 @@ struct EncodedFrame {
 // std::invalid_argument or an encoder's error when the frame does not match its settings.
 EncodedFrame encodeFrame(const render::Frame& frame, const FrameRequest& request);
 
-// The last frame of every open session, for GET .../stats. Thread-safe.
+// The last frame of every open session, for GET .../stats, and where the time of its recent
+// frames went (stats' `pipeline`: medians over the last kPipelineWindow frames of the last
+// frame's size). Thread-safe.
 class FrameStatsBook {
  public:
+  static constexpr size_t kPipelineWindow = 128;
+  // `waitMs`: how long the worker waited for the rendered frame.
   void record(const SessionPtr& session, const render::Frame& frame, render::Target target,
-              double encodeMs);
+              double encodeMs, double waitMs = -1.0);
+  // A stream part of the session written: how long the write took and the time since the
+  // stream's previous part (negative for its first).
+  void recordSend(const SessionPtr& session, double sendMs, double intervalMs);
 
   // The stats body; the light count and animation flag come from the session's current state.
   protocol::Stats statsOf(const Session& session, uint64_t lightCount, bool animated) const;
 
  private:
+  // One frame's stages (render::FrameTimes plus the service's), for the medians.
+  struct Times {
+    double queueMs, recordMs, gpuMs, gpuIdleMs, fenceWaitMs, copyMs, answerMs, waitMs, encodeMs;
+  };
   struct Entry {
     std::weak_ptr<Session> session;  // entries of sessions gone are dropped on the next record
+    std::deque<Times> times;         // the last kPipelineWindow frames of the last size, oldest first
+    std::deque<std::pair<double, double>> sends;  // stream parts' send and interval ms
+    uint32_t timesWidth = 0, timesHeight = 0;
     protocol::FrameStats frame;
     protocol::CullingStats culling;
     protocol::LightShadowStats lightShadows;
@@ -87,6 +102,9 @@ struct SessionFrameContext {
   // Streams take their frames through it (shared_frames.h), so that streams of one session
   // share renders; null: each stream renders its own.
   SharedFrames* shared = nullptr;
+  // Frames' pixels stay in the renderer's readback memory until encoded
+  // (render::FrameSettings::borrowPixels): no copy on the render thread.
+  bool borrowPixels = false;
 };
 
 // A session frame submitted to the render thread and not yet collected (submitSessionFrame).

@@ -213,7 +213,7 @@ std::vector<SharedFrames::VideoFramePtr> SharedFrames::nextVideo(
         made->timestampUs = static_cast<uint64_t>(
             std::chrono::duration_cast<std::chrono::microseconds>(start - channel.startedAt)
                 .count());
-        encode::VideoPacket packet = channel.encoder.encode(f.rgba, made->timestampUs / 1000, forceKey);
+        encode::VideoPacket packet = channel.encoder.encode(f.pixels(), made->timestampUs / 1000, forceKey);
         EncodedFrame out;
         out.body.assign(reinterpret_cast<const char*>(packet.data.data()), packet.data.size());
         out.contentType = protocol::kVideoStreamContentType;

@@ -41,6 +41,7 @@ struct StreamState {
   bool wroteAny = false;
   Clock::time_point nextFrameAt{};   // the fps limit: no new frame before this
   Clock::time_point lastWriteAt{};
+  Clock::time_point lastPartAt{};  // the last new picture's write (stats' intervalMs)
   // Frames in flight: while the lights animate and frames take longer than 1 / fps (the pipeline,
   // not the fps limit, sets the rate), the next frame is submitted before this one is collected,
   // so the render thread renders frame N+1 while this worker encodes and writes frame N. It shows
@@ -230,7 +231,16 @@ bool StreamState::next(httplib::DataSink& sink) {
       ++sequence;
       image = frame.encoded->body;
       contentType = frame.encoded->contentType;
-      return writePart(sink);
+      const Clock::time_point sendStart = Clock::now();
+      const bool written = writePart(sink);
+      const Clock::time_point sent = Clock::now();
+      context.stats.recordSend(
+          session, std::chrono::duration<double, std::milli>(sent - sendStart).count(),
+          lastPartAt == Clock::time_point{}
+              ? -1.0
+              : std::chrono::duration<double, std::milli>(sent - lastPartAt).count());
+      lastPartAt = sent;
+      return written;
     }
     if (hasFrame && now - lastWriteAt >= kIdleResend) return writePart(sink);
 

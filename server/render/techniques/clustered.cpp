@@ -18,6 +18,7 @@
 #include "gpu/pipelines.h"
 #include "render/cluster_grid.h"
 #include "render/raster.h"
+#include "render/shading_features.h"
 #include "render/techniques/compute_lighting.h"
 #include "render/techniques/technique.h"
 #include "shared_types.h"
@@ -87,13 +88,13 @@ class Clustered final : public LightingTechnique {
  public:
   explicit Clustered(const TechniqueSetup& setup)
       : context_(setup.context), pipelines_(setup.context.device),
+        shade_(setup.context.device, setup.pipelines.layout, spirv::light_clustered_comp),
         set_(setup.context, setup.pipelines), counters_(setup.context) {
     requireWorkgroup(setup.context, MYRIAD_SCAN_GROUP, MYRIAD_SCAN_GROUP);
     VkDevice device = setup.context.device;
     VkPipelineLayout layout = setup.pipelines.layout;
     mark_ = pipelines_.add(gpu::createComputePipeline(device, layout, spirv::cluster_mark_comp));
     scan_ = pipelines_.add(gpu::createComputePipeline(device, layout, spirv::cluster_scan_comp));
-    shade_ = pipelines_.add(gpu::createComputePipeline(device, layout, spirv::light_clustered_comp));
     // Alpha-blended surfaces mark their clusters from their fragments (storage writes from a
     // fragment shader): without fragmentStoresAndAtomics the forward pass tests every light.
     if (setup.context.fragmentStores) {
@@ -206,7 +207,7 @@ class Clustered final : public LightingTechnique {
     // 5. Shade every pixel from its cluster's list, narrowed per tile.
     pass.timer.beginPass(cmd, "shade");
     prepareLightingTargets(cmd, t);
-    dispatchPixels(cmd, shade_, t.extent, MYRIAD_CLUSTER_SHADE_TILE);
+    dispatchPixels(cmd, shade_.get(pass.shadingFeatures), t.extent, MYRIAD_CLUSTER_SHADE_TILE);
     counters_.makeHostVisible(cmd);
     return VK_IMAGE_LAYOUT_GENERAL;
   }
@@ -292,7 +293,7 @@ class Clustered final : public LightingTechnique {
   VkPipeline assign_ = VK_NULL_HANDLE;
   VkPipeline countLarge_ = VK_NULL_HANDLE;   // the queued large lights, a workgroup each
   VkPipeline assignLarge_ = VK_NULL_HANDLE;
-  VkPipeline shade_ = VK_NULL_HANDLE;
+  FeaturePipelines shade_;  // specialised per frame (render/shading_features.h)
   VkPipeline markBlend_ = VK_NULL_HANDLE;  // null without fragmentStoresAndAtomics
   CullingSet set_;
   CullingCounters counters_;

@@ -16,6 +16,7 @@
 #include "render/gpu_types.h"
 #include "render/passes.h"
 #include "render/scene_buffers.h"
+#include "shared_types.h"
 
 namespace myriad::render {
 
@@ -32,6 +33,9 @@ struct LightingPass {
   gpu::PassTimer& timer;
   const FrameTargets& targets;
   const SceneBuffers& scene;
+  // What the frame's shading may need (MYRIAD_FEATURE_*, render/shading_features.h): the compute
+  // techniques shade with a pipeline specialised to it.
+  uint32_t shadingFeatures = MYRIAD_FEATURES_ALL;
 };
 
 class LightingTechnique {

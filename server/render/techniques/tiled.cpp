@@ -7,6 +7,7 @@
 #include "embedded_shaders.h"
 #include "gpu/commands.h"
 #include "gpu/pipelines.h"
+#include "render/shading_features.h"
 #include "render/techniques/compute_lighting.h"
 #include "render/techniques/technique.h"
 #include "shared_types.h"
@@ -18,11 +19,9 @@ namespace {
 class Tiled final : public LightingTechnique {
  public:
   explicit Tiled(const TechniqueSetup& setup)
-      : pipelines_(setup.context.device), set_(setup.context, setup.pipelines),
-        counters_(setup.context) {
+      : shade_(setup.context.device, setup.pipelines.layout, spirv::light_tiled_comp),
+        set_(setup.context, setup.pipelines), counters_(setup.context) {
     requireWorkgroup(setup.context, MYRIAD_TILE_SIZE * MYRIAD_TILE_SIZE, MYRIAD_TILE_SIZE);
-    shade_ = pipelines_.add(gpu::createComputePipeline(setup.context.device, setup.pipelines.layout,
-                                                       spirv::light_tiled_comp));
     const CullingSet::Binding bindings[] = {{MYRIAD_BINDING_CULLING_STATS, &counters_.stats}};
     set_.write(bindings);
   }
@@ -36,7 +35,7 @@ class Tiled final : public LightingTechnique {
     gpu::memoryBarrier(cmd, kFillStage, VK_ACCESS_2_TRANSFER_WRITE_BIT, kComputeStage,
                        kStorageReadWrite);
     prepareLightingTargets(cmd, pass.targets);
-    dispatchPixels(cmd, shade_, pass.targets.extent, MYRIAD_TILE_SIZE);
+    dispatchPixels(cmd, shade_.get(pass.shadingFeatures), pass.targets.extent, MYRIAD_TILE_SIZE);
     counters_.makeHostVisible(cmd);
     return VK_IMAGE_LAYOUT_GENERAL;
   }
@@ -49,8 +48,7 @@ class Tiled final : public LightingTechnique {
   uint64_t gpuMemoryBytes() const override { return counters_.arena.bytesAllocated(); }
 
  private:
-  PipelineList pipelines_;
-  VkPipeline shade_ = VK_NULL_HANDLE;
+  FeaturePipelines shade_;  // specialised per frame (render/shading_features.h)
   CullingSet set_;
   CullingCounters counters_;
 };
