@@ -28,7 +28,15 @@ render::FrameSettings frameSettings(const scene::Scene& scene, render::Technique
   f.environment.mode = plan.environment;
   if (plan.environmentEveryFrame) f.sun.color *= 1.0f + 1e-4f * float(frameIndex % 2);
   f.shadows.sun = plan.sunShadowMap > 0;
-  if (plan.sunShadowMap > 0) f.shadows.mapSize = plan.sunShadowMap;
+  if (plan.sunShadowMap > 0) {
+    f.shadows.mapSize = plan.sunShadowMap;
+    // The renderer keeps a map whose scene and sun did not change (ShadowMaps::sunHolds); the sun
+    // turns by 1e-4 rad every other frame so that each timed frame draws it, as --sun-shadows says.
+    const float a = 1e-4f * float(frameIndex % 2);
+    const glm::vec3 d = f.sun.direction;
+    f.sun.direction = glm::vec3(std::cos(a) * d.x + std::sin(a) * d.z, d.y,
+                                std::cos(a) * d.z - std::sin(a) * d.x);
+  }
   f.shadows.maxShadowedLights = plan.shadowedLights;
   return f;
 }
