@@ -117,6 +117,27 @@ inline std::optional<Technique> parseTechnique(std::string_view name) {
   return std::nullopt;
 }
 
+// How a frame's G-buffer is made (myriad-server and myriad-bench --gbuffer; render/visibility.h).
+// Raster: the graphics pipeline (vertex + fragment shaders), every scene, every device. Compute:
+// triangles rasterised by compute shaders into 64-bit depth+id keys, then materials resolved per
+// pixel into the same targets; used for frames whose scene qualifies (opaque, untextured
+// materials) on devices with 64-bit buffer atomics, the raster path otherwise. Auto: compute
+// where it qualifies on a GPU, raster on CPU implementations (lavapipe), where raster is cheaper.
+// A frame's pass names say which ran: "gbuffer", or "visibility" and "resolve".
+enum class GBufferPath : uint32_t { Raster = 0, Compute, Auto };
+inline constexpr std::array<std::string_view, 3> kGBufferPathNames = {"raster", "compute", "auto"};
+
+inline std::string_view gbufferPathName(GBufferPath p) {
+  return kGBufferPathNames[static_cast<uint32_t>(p)];
+}
+
+inline std::optional<GBufferPath> parseGBufferPath(std::string_view name) {
+  for (uint32_t i = 0; i < kGBufferPathNames.size(); ++i) {
+    if (kGBufferPathNames[i] == name) return static_cast<GBufferPath>(i);
+  }
+  return std::nullopt;
+}
+
 // The environment light (image-based lighting; render/environment.cpp, shaders/environment.glsl).
 // Values index protocol::kEnvironmentModes and equal MYRIAD_ENV_* (render/gpu_types.h checks).
 enum class EnvironmentMode : uint32_t {

@@ -22,6 +22,7 @@
 #include "render/scene_buffers.h"
 #include "render/shading_features.h"
 #include "render/shadows.h"
+#include "render/visibility.h"
 #include "render/techniques/registry.h"
 #include "render/techniques/technique.h"
 #include "scene/camera.h"
@@ -30,9 +31,9 @@ namespace myriad::render {
 
 namespace {
 
-// environment (when rebuilt), animate, shadow, light-shadows, gbuffer, the technique's (sun + lights, lighting,
-// or assign + shade), blend, markers, final, antialias, overlay, readback: room for a technique
-// of three passes and more.
+// environment (when rebuilt), animate, shadow, light-shadows, gbuffer (or visibility + resolve),
+// the technique's (sun + lights, lighting, or assign + shade), blend, markers, final, antialias,
+// overlay, readback: room for a technique of three passes.
 constexpr uint32_t kMaxTimedPasses = 16;
 
 // The light-count view's hottest colour when the request leaves it to us.
@@ -86,6 +87,7 @@ void addPasses(std::vector<PassTiming>& passes,
 struct Renderer::State {
   explicit State(gpu::Context& c)
       : context(c), pipelines(c), techniques(createTechniques({c, pipelines})),
+        computeGBuffer(c, pipelines.sceneSetLayout, kMaxFramesInFlight + 1),
         uniformArena(c, kUniformBlockSize) {
     for (uint32_t i = 0; i < kMaxFramesInFlight; ++i) slots.push_back(std::make_unique<FrameSlot>());
     for (FrameSlot* slot : allSlots()) {
@@ -115,6 +117,8 @@ struct Renderer::State {
   uint64_t lastGpuEndTick = 0;
   // Index = Technique (techniques/registry.h); destroyed before the pipeline layout they use.
   std::vector<std::unique_ptr<LightingTechnique>> techniques;
+  ComputeGBuffer computeGBuffer;  // GBufferPath::Compute (render/visibility.h)
+  GBufferPath gbufferPath = GBufferPath::Raster;
   gpu::Arena uniformArena;
   gpu::CommandRecorder recorder;  // scene uploads and edits (frames have their slot's)
   VkSampler sampler = VK_NULL_HANDLE;        // nearest: targets are read texel by texel
@@ -131,6 +135,8 @@ struct Renderer::State {
     VkDescriptorSet targetSet = VK_NULL_HANDLE;  // set 2 (light culling) is each technique's own
     // Sized for the frame being drawn, rebuilt when that changes.
     std::unique_ptr<FrameTargets> targets;
+    // The compute G-buffer's buffers and set (when a frame of this slot took that path).
+    std::unique_ptr<ComputeGBuffer::Slot> visibility;
     // The sun's shadow map, rendered by each frame that has it on: the slot's own, so whole
     // frames between a split frame's submissions do not overwrite the split frame's map.
     std::unique_ptr<ShadowMaps> shadows;
@@ -221,7 +227,17 @@ struct Renderer::State {
   void prepareFrame(FrameSlot& slot, SceneBuffers& scene, SceneEnvironment* environment,
                     const FrameSettings& settings, LightingTechnique& technique);
   VkCommandBuffer beginFrameCommands(FrameSlot& slot, bool waitAtStart = true);
-  void recordBeforeLighting(VkCommandBuffer cmd, const FrameSlot& slot, SceneBuffers& scene,
+  // Whether targets are made storage-writable: the compute G-buffer may run on this device.
+  bool computeWritableTargets() const {
+    return gbufferPath != GBufferPath::Raster && computeGBuffer.supported();
+  }
+  // Whether this frame's G-buffer is made in compute (the path asks for it and the frame qualifies).
+  bool computeGBufferFor(const SceneBuffers& scene, const FrameSettings& settings) const {
+    if (!computeWritableTargets()) return false;
+    if (gbufferPath == GBufferPath::Auto && context.info.type == "cpu") return false;
+    return computeGBuffer.qualifies(scene, {settings.width, settings.height});
+  }
+  void recordBeforeLighting(VkCommandBuffer cmd, FrameSlot& slot, SceneBuffers& scene,
                             SceneEnvironment* environment, const FrameSettings& settings);
   void recordAfterLighting(VkCommandBuffer cmd, const FrameSlot& slot, SceneBuffers& scene,
                            const FrameSettings& settings, VkImageLayout lightingLayout);
@@ -345,10 +361,12 @@ void Renderer::State::writeTargetSet(FrameSlot& slot) {
 // for, so nothing is in flight here).
 void Renderer::State::ensureTargets(FrameSlot& slot, VkExtent2D extent, bool raw) {
   std::unique_ptr<FrameTargets>& targets = slot.targets;
+  const bool computeWritable = computeWritableTargets();
   if (!targets || targets->extent.width != extent.width ||
-      targets->extent.height != extent.height || targets->raw != raw) {
+      targets->extent.height != extent.height || targets->raw != raw ||
+      targets->computeWritable != computeWritable) {
     targets.reset();
-    targets = std::make_unique<FrameTargets>(context, extent, raw);
+    targets = std::make_unique<FrameTargets>(context, extent, raw, computeWritable);
     writeTargetSet(slot);
   }
 }
@@ -482,6 +500,7 @@ Renderer::~Renderer() {
   s.readbacks.clear();
   for (State::FrameSlot* slot : s.allSlots()) {
     slot->targets.reset();
+    slot->visibility.reset();
     gpu::destroyCommandRecorder(s.context, slot->recorder);
   }
   s.techniques.clear();
@@ -678,6 +697,8 @@ uint32_t Renderer::framesInFlight() const { return state_->framesInFlight; }
 
 void Renderer::setOverlap(bool overlap) { state_->overlap = overlap; }
 
+void Renderer::setGBufferPath(GBufferPath path) { state_->gbufferPath = path; }
+
 bool Renderer::canBegin() const {
   const State& s = *state_;
   for (uint32_t i = 0; i < s.framesInFlight; ++i) {
@@ -865,7 +886,7 @@ VkCommandBuffer Renderer::State::beginFrameCommands(FrameSlot& slot, bool waitAt
 }
 
 // environment (when its inputs changed), animate (or restoring the origins), shadow, gbuffer.
-void Renderer::State::recordBeforeLighting(VkCommandBuffer cmd, const FrameSlot& slot,
+void Renderer::State::recordBeforeLighting(VkCommandBuffer cmd, FrameSlot& slot,
                                            SceneBuffers& scene, SceneEnvironment* environment,
                                            const FrameSettings& settings) {
   State& s = *this;
@@ -905,8 +926,15 @@ void Renderer::State::recordBeforeLighting(VkCommandBuffer cmd, const FrameSlot&
   } else {
     slot.shadows->recordAtlasUnused(cmd);
   }
-  slot.timer->beginPass(cmd, "gbuffer");
-  recordGBufferPass(cmd, p, *slot.targets, scene, gbufferWrites(settings, scene));
+  if (computeGBufferFor(scene, settings)) {
+    computeGBuffer.record(cmd, slot.visibility, *slot.targets, scene, slot.sceneSet, *slot.timer);
+    // Its passes bound their own layout's sets; the frame's go back.
+    VkDescriptorSet sets[] = {slot.sceneSet, slot.targetSet};
+    vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, p.layout, 0, 2, sets, 0, nullptr);
+  } else {
+    slot.timer->beginPass(cmd, "gbuffer");
+    recordGBufferPass(cmd, p, *slot.targets, scene, gbufferWrites(settings, scene));
+  }
 }
 
 // blend (alpha-BLEND draws), markers, final, antialias, overlay, readback; then the timer's end.
