@@ -513,6 +513,20 @@ TEST_CASE("streams: animated parts, idle re-sends, the end on DELETE, limits, st
     CHECK(stats["culling"]["clusterLightsDropped"] == 0);
     CHECK(stats["gpuMemory"]["sceneBytes"].get<uint64_t>() > 0);
     CHECK(stats["gpuMemory"]["lightBytes"].get<uint64_t>() >= 64u * 16u);
+    // Where the stream's frames spent their time: medians over its frames and parts. The pixels
+    // were encoded where the GPU put them (no copy on the render thread; a copy of this size
+    // takes tens of microseconds), each part written and timed, the parts at most fps apart.
+    const json& pipeline = stats["pipeline"];
+    REQUIRE(pipeline.is_object());
+    CHECK(pipeline["frames"].get<uint64_t>() >= 2);
+    CHECK(pipeline["parts"].get<uint64_t>() >= 2);
+    CHECK(pipeline["gpuMs"].get<double>() > 0.0);
+    CHECK(pipeline["recordMs"].get<double>() > 0.0);
+    CHECK(pipeline["answerMs"].get<double>() > 0.0);
+    CHECK(pipeline["copyMs"].get<double>() < 0.05);
+    CHECK(pipeline["encodeMs"].get<double>() > 0.0);
+    CHECK(pipeline.contains("sendMs"));
+    CHECK(pipeline["intervalMs"].get<double>() >= 1000.0 / kFps * 0.5);
 
     httplib::Result metrics = client->Get("/metrics");
     REQUIRE(metrics);
