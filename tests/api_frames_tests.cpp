@@ -431,6 +431,46 @@ TEST_CASE("streams: animated parts, idle re-sends, the end on DELETE, limits, st
     CHECK(latency < 1.9);  // not the idle re-send
   }
 
+  SUBCASE("interactive: a change is interactive until it settles; a change that ends its interaction gets its still at once") {
+    MultipartReader reader(server, streamPath(session, query + "&interactive=24"), auth(session));
+    REQUIRE(reader.status() == 200);
+    REQUIRE(reader.waitFor(1, std::chrono::seconds(60)).size() == 1);
+    auto isInteractive = [](const StreamPart& p) { return p.headers.count("X-Myriad-Interactive") > 0; };
+    // A change without the header: the next part is interactive, a still follows once it settles.
+    patchJson(*client, sessionPath + "/camera", session, {{"fovY", 35.0}});
+    std::vector<StreamPart> parts = reader.waitFor(2, std::chrono::seconds(60));
+    REQUIRE(parts.size() == 2);
+    CHECK(isInteractive(parts[1]));
+    size_t still = 0;
+    for (size_t n = 3; n < 40 && still == 0; ++n) {
+      parts = reader.waitFor(n, std::chrono::seconds(60));
+      REQUIRE(parts.size() == n);
+      if (!isInteractive(parts.back())) still = n;
+    }
+    REQUIRE(still > 0);
+    // The last change of an interaction: the very next part is the still.
+    httplib::Headers ending = auth(session);
+    ending.emplace("X-Myriad-Interaction", "end");
+    httplib::Result res = client->Patch(sessionPath + "/camera", ending,
+                                        json{{"fovY", 30.0}}.dump(), "application/json");
+    REQUIRE(res);
+    CHECK(res->status == 200);
+    parts = reader.waitFor(still + 1, std::chrono::seconds(60));
+    REQUIRE(parts.size() == still + 1);
+    CHECK_FALSE(isInteractive(parts.back()));
+    CHECK(parts.back().body != parts[still - 1].body);
+    // Any other value is refused, naming the header; the camera is unchanged.
+    httplib::Headers wrong = auth(session);
+    wrong.emplace("X-Myriad-Interaction", "later");
+    res = client->Patch(sessionPath + "/settings", wrong, json{{"exposure", 2.0}}.dump(),
+                        "application/json");
+    REQUIRE(res);
+    CHECK(res->status == 400);
+    CHECK(json::parse(res->body)["type"].get<std::string>().find("bad-request") != std::string::npos);
+    CHECK(res->body.find("X-Myriad-Interaction") != std::string::npos);
+    CHECK(getJson(*client, sessionPath + "/settings", auth(session))["exposure"] != 2.0);
+  }
+
   SUBCASE("animated lights: parts differ, stats and metrics follow, DELETE ends the stream") {
     patchJson(*client, sessionPath + "/settings", session, {{"animate", true}});
     // A low fps, so that the cap is far below what lavapipe renders at this size.

@@ -135,11 +135,13 @@ bool StreamState::next(httplib::DataSink& sink) {
     bool closed = false;
     bool animate = false;
     uint64_t version = 0;
+    bool ended = false;  // the newest change ends its interaction (X-Myriad-Interaction: end)
     {
       std::lock_guard lock(session->mutex);
       closed = session->closed;
       animate = session->scene.settings().animate;
       version = session->version;
+      ended = session->interactionEndVersion == version;
     }
     if (closed || registry.stopping() || slot->replaced()) {
       // The terminating chunk, then close: the client sees a complete body and end of file.
@@ -160,7 +162,8 @@ bool StreamState::next(httplib::DataSink& sink) {
       }
     }
     // Interactive: the session changed within the settle time; a still is due once it settled.
-    const bool moving = quality && hasFrame && quality->moving(now);
+    // A change that its client said ends the interaction needs no settle time: the still now.
+    const bool moving = quality && hasFrame && quality->moving(now) && !ended;
     const bool wantStill = quality && lastInteractive && !moving;
     const bool wantFrame = !hasFrame || version != shownVersion || animate || wantStill;
     if (wantFrame && now >= nextFrameAt) {
