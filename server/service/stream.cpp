@@ -162,8 +162,11 @@ bool StreamState::next(httplib::DataSink& sink) {
       }
     }
     // Interactive: the session changed within the settle time; a still is due once it settled.
-    // A change that its client said ends the interaction needs no settle time: the still now.
-    const bool moving = quality && hasFrame && quality->moving(now) && !ended;
+    // A change that its client said ends the interaction needs no settle time: once it has been
+    // shown (as an interactive part, quickly: a slider's single click still shows at once), the
+    // still follows straight away.
+    const bool endShown = ended && hasFrame && version == shownVersion;
+    const bool moving = quality && hasFrame && quality->moving(now) && !endShown;
     const bool wantStill = quality && lastInteractive && !moving;
     const bool wantFrame = !hasFrame || version != shownVersion || animate || wantStill;
     if (wantFrame && now >= nextFrameAt) {
