@@ -57,6 +57,7 @@ service::ApiConfig apiConfig(const service::Options& options, uint32_t maxResolu
   api.builtinLights = options.lights;
   api.builtinSeed = options.seed;
   api.borrowPixels = !options.copyFrames;
+  api.yuvJpeg = !options.rgbaJpeg;
   return api;
 }
 
@@ -72,7 +73,8 @@ int run(const service::Options& options, const sigset_t& shutdownSignals) {
   try {
     renderThread = std::make_unique<render::RenderThread>(
         gpu::ContextOptions{options.validate, options.device}, scene, options.maxQueuedFrames,
-        options.framesInFlight, options.overlapFrames, options.frameTimestampsOnly);
+        options.framesInFlight, options.overlapFrames, options.frameTimestampsOnly,
+        options.gbuffer);
   } catch (const gpu::NoDeviceError& e) {
     return fail(e.what());
   } catch (const std::exception& e) {

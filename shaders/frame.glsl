@@ -14,17 +14,9 @@ bool shadingFeature(uint bit) { return (kShadingFeatures & bit) != 0u; }
 #define MYRIAD_MAY_INVERSE_SQUARE shadingFeature(MYRIAD_FEATURE_INVERSE_SQUARE)
 #include "shading.glsl"
 
-layout(std140, set = MYRIAD_SET_SCENE, binding = MYRIAD_BINDING_FRAME) uniform FrameBlock {
-  FrameUniforms frame;
-};
+#include "scene_set.glsl"
 layout(std430, set = MYRIAD_SET_SCENE, binding = MYRIAD_BINDING_LIGHTS) readonly buffer LightBlock {
   GpuPointLight lights[];
-};
-layout(std430, set = MYRIAD_SET_SCENE, binding = MYRIAD_BINDING_INSTANCES) readonly buffer InstanceBlock {
-  GpuInstance instances[];
-};
-layout(std430, set = MYRIAD_SET_SCENE, binding = MYRIAD_BINDING_MATERIALS) readonly buffer MaterialBlock {
-  GpuMaterial materials[];
 };
 
 // The environment light (shaders/environment.glsl; render/environment.cpp builds it).

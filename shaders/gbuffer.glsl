@@ -27,10 +27,11 @@ void main() {
     discard;
   }
 #endif
-  outNormal = octahedralEncode(m.normal);
-  outBaseColor = vec4(clamp(m.baseColor.rgb, 0.0, 1.0), 1.0);
-  outMaterial = vec4(clamp(vec3(m.metallic, m.roughness, m.occlusion), 0.0, 1.0), 1.0);
+  GBufferTexels t = gbufferTexels(m);
+  outNormal = t.normal;
+  outBaseColor = t.baseColor;
+  outMaterial = t.material;
   outUv = inUv;
-  outEmissive = vec4(m.emissive, 1.0);
+  outEmissive = t.emissive;
 }
 #endif

@@ -4,6 +4,8 @@
 #ifndef MYRIAD_MATERIAL_GLSL
 #define MYRIAD_MATERIAL_GLSL
 
+#include "material_core.glsl"
+
 layout(location = 0) in vec3 inWorldPosition;
 layout(location = 1) in vec3 inNormal;
 layout(location = 2) in vec2 inUv;
@@ -51,35 +53,21 @@ vec4 sampleSlot(sampler2D tex, GpuMaterial m, int slot) {
   return textureGrad(tex, slotUv(m, slot), j * uvDx, j * uvDy);
 }
 
-struct MaterialSample {
-  vec4 baseColor;  // linear rgb (not clamped), alpha
-  vec3 normal;     // the mapped normal, facing the viewer's side
-  float metallic;
-  float roughness;
-  float occlusion;
-  vec3 emissive;   // emitted radiance
-};
-
 MaterialSample evaluateMaterial(GpuMaterial material) {
   uvDx = dFdx(inUv);
   uvDy = dFdy(inUv);
   vec3 positionDx = dFdx(inWorldPosition);
   vec3 positionDy = dFdy(inWorldPosition);
-  vec4 baseColor = material.baseColor * inColor;
-  if (hasTexture(material, MYRIAD_BINDING_TEXTURE_BASE_COLOR)) {
-    baseColor *= sampleSlot(baseColorTexture, material, MYRIAD_BINDING_TEXTURE_BASE_COLOR);
-  }
-  vec3 n = inNormal;
-  // Broken models (zero or NaN normals) still get a usable normal: the triangle's own.
-  if (!(dot(n, n) > 1e-12)) {
-    n = cross(positionDx, positionDy);
-  }
-  n = normalize(n);
   // Double-sided surfaces (and formats that do not say) are drawn from both sides; the back side
   // faces us, so its normal (and tangent frame) is flipped. Single-sided ones have their back
   // faces culled by the pipeline.
   float side = gl_FrontFacing ? 1.0 : -1.0;
-  n *= side;
+  MaterialSample m = untexturedMaterial(material, inColor, inNormal,
+                                        cross(positionDx, positionDy), side);
+  if (hasTexture(material, MYRIAD_BINDING_TEXTURE_BASE_COLOR)) {
+    m.baseColor *= sampleSlot(baseColorTexture, material, MYRIAD_BINDING_TEXTURE_BASE_COLOR);
+  }
+  vec3 n = m.normal;
 
   if (hasTexture(material, MYRIAD_BINDING_TEXTURE_NORMAL)) {
     vec2 uv = slotUv(material, MYRIAD_BINDING_TEXTURE_NORMAL);
@@ -125,30 +113,19 @@ MaterialSample evaluateMaterial(GpuMaterial material) {
     }
   }
 
-  float metallic = material.metallicRoughness.x;
-  float roughness = material.metallicRoughness.y;
+  m.normal = n;
   if (hasTexture(material, MYRIAD_BINDING_TEXTURE_METALLIC_ROUGHNESS)) {
     vec4 mr = sampleSlot(metallicRoughnessTexture, material, MYRIAD_BINDING_TEXTURE_METALLIC_ROUGHNESS);
-    metallic *= mr.b;
-    roughness *= mr.g;
+    m.metallic *= mr.b;
+    m.roughness *= mr.g;
   }
-  float occlusion = 1.0;
   if (hasTexture(material, MYRIAD_BINDING_TEXTURE_OCCLUSION)) {
     float ao = sampleSlot(occlusionTexture, material, MYRIAD_BINDING_TEXTURE_OCCLUSION).r;
-    occlusion = 1.0 + material.metallicRoughness.w * (ao - 1.0);
+    m.occlusion = 1.0 + material.metallicRoughness.w * (ao - 1.0);
   }
-  vec3 emissive = material.emissive.rgb;
   if (hasTexture(material, MYRIAD_BINDING_TEXTURE_EMISSIVE)) {
-    emissive *= sampleSlot(emissiveTexture, material, MYRIAD_BINDING_TEXTURE_EMISSIVE).rgb;
+    m.emissive *= sampleSlot(emissiveTexture, material, MYRIAD_BINDING_TEXTURE_EMISSIVE).rgb;
   }
-
-  MaterialSample m;
-  m.baseColor = baseColor;
-  m.normal = n;
-  m.metallic = metallic;
-  m.roughness = roughness;
-  m.occlusion = occlusion;
-  m.emissive = emissive;
   return m;
 }
 

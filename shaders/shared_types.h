@@ -90,6 +90,35 @@ using mat4 = glm::mat4;
 #define MYRIAD_BINDING_LDR 12                 // sampled (linear filter): tonemapped final + luma, for AA
 #define MYRIAD_BINDING_LDR_STORAGE 13         // storage image: the same, written by the final pass
 #define MYRIAD_BINDING_EDGE_PIXELS 14         // storage buffer: AntialiasEdges, then the edge pixels
+#define MYRIAD_BINDING_YUV_PLANES 15          // storage buffer: final as YCbCr 4:2:0 planes (yuv420.comp)
+
+// The G-buffer rasterised in compute (render/visibility.h; shaders/visibility.glsl): its pipelines'
+// set 1 (their layout is set 0 = the scene, set 1 = this; not the frame's targets set).
+#define MYRIAD_SET_VISIBILITY 1
+#define MYRIAD_BINDING_VISIBILITY_VERTICES 0   // storage float[]: the scene's vertices (scene::Vertex)
+#define MYRIAD_BINDING_VISIBILITY_INDICES 1    // storage uint[]: the scene's indices
+#define MYRIAD_BINDING_VISIBILITY_DRAWS 2      // storage uvec4[]: header, then one per draw
+#define MYRIAD_BINDING_VISIBILITY_KEYS 3       // storage uint64[] per pixel: depth bits << 32 | triangle
+#define MYRIAD_BINDING_VISIBILITY_DEPTH 4      // storage float[] per pixel: copied into the depth target
+#define MYRIAD_BINDING_VISIBILITY_LARGE 5      // storage: VisibilityLargeHeader, then VisibilityTriangle[]
+#define MYRIAD_BINDING_VISIBILITY_NORMAL 6     // storage images: the G-buffer targets (GENERAL)
+#define MYRIAD_BINDING_VISIBILITY_BASE_COLOR 7 // (an RGBA8_UNORM view: the shader encodes sRGB)
+#define MYRIAD_BINDING_VISIBILITY_MATERIAL 8
+#define MYRIAD_BINDING_VISIBILITY_UV 9
+#define MYRIAD_BINDING_VISIBILITY_EMISSIVE 10
+#define MYRIAD_VISIBILITY_BINDINGS 11
+#define MYRIAD_VISIBILITY_NONE 0xFFFFFFFFu       // a pixel's triangle where none was drawn
+#define MYRIAD_VISIBILITY_GROUP 64               // triangles per workgroup of the visibility pass
+#define MYRIAD_VISIBILITY_SUBPIXEL_BITS 8        // vertices snap to 1/256 pixel, as raster units do
+// A triangle whose box holds more pixel centres than this is queued for the tile pass (a
+// workgroup per 64x64 tile it touches) instead of being walked by its one thread.
+#define MYRIAD_VISIBILITY_SMALL_PIXELS 256
+#define MYRIAD_VISIBILITY_TILE 64                // pixels across a tile of the tile pass
+#define MYRIAD_VISIBILITY_TILE_THREADS 16        // its workgroup: 16x16, each thread 4x4 pixels
+#define MYRIAD_VISIBILITY_LARGE_CAPACITY 65535u  // queued triangles (an indirect dispatch's z)
+// Clipping keeps projected vertices within this many viewports of the centre, so fixed-point
+// edge functions of 8192-pixel frames stay far inside 64-bit integers.
+#define MYRIAD_VISIBILITY_GUARD_BAND 16.0
 
 // Descriptor set 2: light culling. Each compute technique binds its own set of this layout
 // (server/render/techniques/) and writes the bindings its shaders use.
@@ -264,6 +293,20 @@ MYRIAD_STRUCT(AntialiasEdges) {
   uvec4 count;   // x pixels listed; yzw unused
 };
 #define MYRIAD_EDGES_PER_GROUP 64
+
+// The tile pass's queue (MYRIAD_BINDING_VISIBILITY_LARGE): an indirect dispatch's group counts
+// (tiles across, tiles down, queued triangles), then the capacity.
+MYRIAD_STRUCT(VisibilityLargeHeader) {
+  uvec4 groups;  // VkDispatchIndirectCommand x, y, z; w MYRIAD_VISIBILITY_LARGE_CAPACITY
+};
+// One queued triangle (after clipping): vertices in fixed point (MYRIAD_VISIBILITY_SUBPIXEL_BITS),
+// wound so that its edge functions are positive inside; depth as float bits.
+MYRIAD_STRUCT(VisibilityTriangle) {
+  uvec4 xy01;      // x0, y0, x1, y1 (int bits)
+  uvec4 xy2Depth;  // x2, y2 (int bits), z0, z1 (float bits)
+  uvec4 depthId;   // z2 (float bits), triangle id, yz unused
+  uvec4 pixels;    // the pixel centres' box: min x, min y, max x, max y (inclusive)
+};
 
 // Counters the culling passes write and the host reads back: nothing is dropped silently.
 MYRIAD_STRUCT(CullingStats) {

@@ -224,6 +224,28 @@ TEST_CASE("session frames: every target in png, jpeg and raw; depth and normals 
       REQUIRE(decoded);
       CHECK(decoded->width == kWidth);
       CHECK(decoded->height == kHeight);
+      if (target == "final") {
+        // The picture read back as YCbCr 4:2:0 made on the GPU (the default quality subsamples
+        // chroma), encoded from the planes: the same picture as the PNG's, within JPEG's loss
+        // (31.4 dB and a largest error of 65 at this small size, with markers' dots; the gpu
+        // CTest "YCbCr frames" holds it against libjpeg's own conversion of the RGBA).
+        CHECK(serverTimings(jpeg->get_header_value("Server-Timing")).count("yuv") == 1);
+        double squares = 0.0;
+        int maxError = 0;
+        for (size_t i = 0; i < size_t(kWidth) * kHeight; ++i) {
+          for (size_t c = 0; c < 3; ++c) {
+            const int d = int(decoded->rgb[i * 3 + c]) - int(image.rgba[i * 4 + c]);
+            squares += double(d) * d;
+            maxError = std::max(maxError, std::abs(d));
+          }
+        }
+        const double mse = squares / (double(kWidth) * kHeight * 3);
+        const double psnr = mse > 0.0 ? 10.0 * std::log10(255.0 * 255.0 / mse) : 99.0;
+        MESSAGE("final JPEG from YCbCr planes against the PNG: PSNR ", psnr, " dB, max error ",
+                maxError);
+        CHECK(psnr >= 28.0);
+        CHECK(maxError <= 96);
+      }
 
       httplib::Result raw = sessionFrame(*client, session, frameParams(target, "raw"));
       REQUIRE(raw);
@@ -557,6 +579,20 @@ TEST_CASE("streams: animated parts, idle re-sends, the end on DELETE, limits, st
     CHECK(stats["culling"]["clusterLightsDropped"] == 0);
     CHECK(stats["gpuMemory"]["sceneBytes"].get<uint64_t>() > 0);
     CHECK(stats["gpuMemory"]["lightBytes"].get<uint64_t>() >= 64u * 16u);
+    // Where the stream's frames spent their time: medians over its frames and parts. The pixels
+    // were encoded where the GPU put them (no copy on the render thread; a copy of this size
+    // takes tens of microseconds), each part written and timed, the parts at most fps apart.
+    const json& pipeline = stats["pipeline"];
+    REQUIRE(pipeline.is_object());
+    CHECK(pipeline["frames"].get<uint64_t>() >= 2);
+    CHECK(pipeline["parts"].get<uint64_t>() >= 2);
+    CHECK(pipeline["gpuMs"].get<double>() > 0.0);
+    CHECK(pipeline["recordMs"].get<double>() > 0.0);
+    CHECK(pipeline["answerMs"].get<double>() > 0.0);
+    CHECK(pipeline["copyMs"].get<double>() < 0.05);
+    CHECK(pipeline["encodeMs"].get<double>() > 0.0);
+    CHECK(pipeline.contains("sendMs"));
+    CHECK(pipeline["intervalMs"].get<double>() >= 1000.0 / kFps * 0.5);
 
     httplib::Result metrics = client->Get("/metrics");
     REQUIRE(metrics);

@@ -419,6 +419,23 @@ TEST_CASE("http: a full render queue answers 503 with Retry-After, then recovers
   requireCleanStop(server);
 }
 
+TEST_CASE("http: --gbuffer compute makes the G-buffer in compute, named in Server-Timing") {
+  ServerProcess server({"--lights", "64", "--gbuffer", "compute"});
+  requireListening(server);
+  auto client = clientFor(server);
+  std::string timing;
+  auto image = getFrame(*client, {{"width", "96"}, {"height", "64"}}, &timing);
+  INFO("Server-Timing: ", timing);
+  const std::map<std::string, double> passes = parseServerTiming(timing);
+  // The built-in scene's materials are opaque and untextured: the compute path on lavapipe too.
+  CHECK(passes.count("visibility") == 1);
+  CHECK(passes.count("resolve") == 1);
+  CHECK(passes.count("gbuffer") == 0);
+  CHECK(lumaSpread(image) > 5.0);
+  CHECK(getInfo(*client)["validation"]["messages"] == 0);
+  requireCleanStop(server);
+}
+
 TEST_CASE("http: SIGTERM during a frame finishes the frame, then exits 0") {
   // A grace far past the frames' time: this is about answering what is in flight.
   ServerProcess server({"--lights", "256", "--shutdown-grace", "300"});

@@ -133,6 +133,9 @@ TEST_CASE("options: every flag, in both spellings") {
   CHECK(parse({"--frames-in-flight=4"}).framesInFlight == 4);
   CHECK_FALSE(parse({}).overlapFrames);
   CHECK(parse({"--overlap-frames"}).overlapFrames);
+  CHECK(parse({}).gbuffer == render::GBufferPath::Raster);
+  CHECK(parse({"--gbuffer", "compute"}).gbuffer == render::GBufferPath::Compute);
+  CHECK(parse({"--gbuffer=auto"}).gbuffer == render::GBufferPath::Auto);
   CHECK(parse({"--help"}).help);
   CHECK(parse({"-h"}).help);
   CHECK(parse({"--port", "1", "--port", "2"}).port == 2);  // last one wins
@@ -185,6 +188,7 @@ TEST_CASE("options: bad flags and values are one sentence naming the flag") {
       {{"--threads", "0"}, "--threads"},
       {{"--max-queued-frames", "many"}, "--max-queued-frames"},
       {{"--frames-in-flight", "0"}, "--frames-in-flight"},
+      {{"--gbuffer", "visibility"}, "--gbuffer"},
       {{"--frames-in-flight", "5"}, "--frames-in-flight"},
       {{"--overlap-frames=yes"}, "--overlap-frames"},
       {{"--model", "--validate"}, "--model"},

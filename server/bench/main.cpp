@@ -45,6 +45,7 @@ int run(const bench::Options& options, const std::string& commandLine) {
     return 1;
   }
   render::Renderer renderer(*context);
+  renderer.setGBufferPath(options.gbuffer);
   render::SceneId sceneId = 0;
   bench::RunInfo info;
   info.device = context->info;
@@ -59,6 +60,7 @@ int run(const bench::Options& options, const std::string& commandLine) {
   }
   info.lightsPerPoint = options.scene == bench::BenchScene::Floor ? options.lightsPerPoint : 0.0f;
   info.seed = options.seed;
+  info.gbuffer = std::string(render::gbufferPathName(options.gbuffer));
   bench::printHeader(stdout, info);
 
   std::vector<bench::ConfigResult> results;

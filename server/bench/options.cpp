@@ -59,7 +59,7 @@ const char* const kUsage =
     "                    [--antialias none|fxaa]\n"
     "                    [--sun-shadows 256|512|1024|2048|4096]\n"
     "                    [--shadowed-lights N [--shadowed-kind point|spot]]\n"
-    "                    [--model PATH [--textures on|off]]\n"
+    "                    [--model PATH [--textures on|off]] [--gbuffer raster|compute|auto]\n"
     "Renders animated frames for every light count x technique, timing each pass with GPU\n"
     "timestamp queries after warm-up, and prints medians and 90th percentiles.\n"
     "defaults: 1920x1080, lights 1000,10000,100000,1000000, every technique,\n"
@@ -67,6 +67,9 @@ const char* const kUsage =
     "          100000 lights, at most 30 s of timed frames per configuration, markers off,\n"
     "          antialias fxaa (the final image's \"antialias\" pass; the server's default too).\n"
     "--validate enables VK_LAYER_KHRONOS_validation; any message makes the exit status 1.\n"
+    "--gbuffer compute makes the G-buffer with compute shaders where the scene qualifies (opaque,\n"
+    "untextured materials; 64-bit atomics), timed as \"visibility\" and \"resolve\" instead of\n"
+    "\"gbuffer\" (default raster; auto: compute where it qualifies, except on CPU devices).\n"
     "--environment sky lights every frame with the procedural sky (default none: the constant\n"
     "ambient); with --environment-every-frame its maps are rebuilt every frame, timed as the\n"
     "\"environment\" pass.\n"
@@ -168,6 +171,13 @@ Options parseOptions(const std::vector<std::string>& args) {
       std::string_view path = value();
       if (path.empty()) throw UsageError("--json expects a file path.");
       o.jsonPath = path;
+    } else if (flag == "--gbuffer") {
+      std::string_view name = value();
+      auto path = render::parseGBufferPath(name);
+      if (!path) {
+        throw UsageError("--gbuffer expects raster, compute or auto, not \"" + std::string(name) + "\".");
+      }
+      o.gbuffer = *path;
     } else if (flag == "--validate") {
       o.validate = true;
     } else if (flag == "--device") {

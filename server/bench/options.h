@@ -33,6 +33,7 @@ struct Options {
   std::string jsonPath;
   bool validate = false;
   std::string device;
+  render::GBufferPath gbuffer = render::GBufferPath::Raster;  // --gbuffer
   bool help = false;
 };
 

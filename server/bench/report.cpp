@@ -15,9 +15,11 @@ void printHeader(std::FILE* out, const RunInfo& run) {
   std::fprintf(out, "device: %s (%s), driver %s %s, Vulkan %s, timestamp period %.3g ns\n",
                d.name.c_str(), d.type.c_str(), d.driverName.c_str(), d.driverInfo.c_str(),
                d.apiVersion.c_str(), d.timestampPeriodNs);
-  std::fprintf(out, "started %s; scene %s; %u warm-up + %u timed frames (cap %.0f s); validation %s\n",
+  std::fprintf(out, "started %s; scene %s; %u warm-up + %u timed frames (cap %.0f s); validation %s; "
+                    "gbuffer %s\n",
                run.startedUtc.c_str(), run.scene.c_str(), run.plan.warmupFrames,
-               run.plan.timedFrames, run.plan.maxSecondsPerConfig, run.validation ? "on" : "off");
+               run.plan.timedFrames, run.plan.maxSecondsPerConfig, run.validation ? "on" : "off",
+               run.gbuffer.c_str());
   std::fprintf(out, "GPU times in ms from timestamp queries: median / p90. pairs: pixel-light pairs "
                     "shaded per frame; ceiling: %.2g pairs/s (H200 microkernel)\n",
                kH200PairsPerSecondCeiling);
@@ -114,6 +116,7 @@ nlohmann::json toJson(const RunInfo& run, const std::vector<ConfigResult>& resul
       {"scene", run.scene},
       {"lights_per_point", run.lightsPerPoint},
       {"seed", run.seed},
+      {"gbuffer", run.gbuffer},
       {"warmup_frames", run.plan.warmupFrames},
       {"timed_frames", run.plan.timedFrames},
       {"max_seconds_per_config", run.plan.maxSecondsPerConfig},

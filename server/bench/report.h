@@ -23,6 +23,7 @@ struct RunInfo {
   std::string scene;
   float lightsPerPoint = 0.0f;
   uint64_t seed = 0;
+  std::string gbuffer = "raster";  // --gbuffer (which path each frame took: its pass names)
 };
 
 void printHeader(std::FILE* out, const RunInfo& run);

@@ -290,6 +290,8 @@ std::unique_ptr<Context> createContext(const ContextOptions& options) {
   }
 
   VkPhysicalDeviceVulkan13Features supported13{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_VULKAN_1_3_FEATURES};
+  VkPhysicalDeviceVulkan12Features supported12{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_VULKAN_1_2_FEATURES};
+  supported13.pNext = &supported12;
   VkPhysicalDeviceFeatures2 query{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_FEATURES_2};
   query.pNext = &supported13;
   vkGetPhysicalDeviceFeatures2(context->physicalDevice, &query);
@@ -305,8 +307,14 @@ std::unique_ptr<Context> createContext(const ContextOptions& options) {
   features13.dynamicRendering = VK_TRUE;
   features13.synchronization2 = VK_TRUE;
   features13.maintenance4 = VK_TRUE;
+  context->int64Atomics = supported.shaderInt64 == VK_TRUE &&
+                          supported12.shaderBufferInt64Atomics == VK_TRUE;
+  VkPhysicalDeviceVulkan12Features features12{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_VULKAN_1_2_FEATURES};
+  features12.shaderBufferInt64Atomics = context->int64Atomics ? VK_TRUE : VK_FALSE;
+  features13.pNext = &features12;
   VkPhysicalDeviceFeatures2 features{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_FEATURES_2};
   features.pNext = &features13;
+  features.features.shaderInt64 = context->int64Atomics ? VK_TRUE : VK_FALSE;
   features.features.depthClamp = supported.depthClamp;
   features.features.samplerAnisotropy = supported.samplerAnisotropy;
   features.features.fragmentStoresAndAtomics = supported.fragmentStoresAndAtomics;

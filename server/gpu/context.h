@@ -38,6 +38,9 @@ struct Context {
   // fragmentStoresAndAtomics: fragment shaders may write storage buffers (the clustered technique
   // marks the clusters of alpha-blended surfaces from their fragments).
   bool fragmentStores = false;
+  // shaderInt64 and shaderBufferInt64Atomics: 64-bit atomicMin on storage buffers (the G-buffer
+  // rasterised in compute, render/visibility.h, needs them; lavapipe and NVIDIA have them).
+  bool int64Atomics = false;
   float maxAnisotropy = 0.0f;  // 0: samplerAnisotropy is not available (textures filter without it)
 
   // Validation-layer messages of warning or error severity seen so far (0 when validation is off).

@@ -173,13 +173,21 @@ Image Arena::createImage2D(VkExtent2D extent, VkFormat format, VkImageUsageFlags
   view.viewType = VK_IMAGE_VIEW_TYPE_2D;
   view.format = format;
   view.subresourceRange = {image.aspect, 0, mipLevels, 0, 1};
+  // An image with extended usage may carry a usage its own format lacks (another view's, e.g.
+  // storage through a UNORM view of an sRGB image): its own view leaves storage out.
+  VkImageViewUsageCreateInfo viewUsage{VK_STRUCTURE_TYPE_IMAGE_VIEW_USAGE_CREATE_INFO};
+  viewUsage.usage = usage & ~VK_IMAGE_USAGE_STORAGE_BIT;
+  if (flags & VK_IMAGE_CREATE_EXTENDED_USAGE_BIT) view.pNext = &viewUsage;
   VK_CHECK(vkCreateImageView(context_->device, &view, nullptr, &image.view));
   views_.push_back(image.view);
   return image;
 }
 
-VkImageView Arena::createView(const Image& image, VkFormat format) {
+VkImageView Arena::createView(const Image& image, VkFormat format, VkImageUsageFlags usage) {
   VkImageViewCreateInfo view{VK_STRUCTURE_TYPE_IMAGE_VIEW_CREATE_INFO};
+  VkImageViewUsageCreateInfo viewUsage{VK_STRUCTURE_TYPE_IMAGE_VIEW_USAGE_CREATE_INFO};
+  viewUsage.usage = usage;
+  if (usage != 0) view.pNext = &viewUsage;
   view.image = image.image;
   view.viewType = VK_IMAGE_VIEW_TYPE_2D;
   view.format = format;

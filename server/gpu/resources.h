@@ -59,8 +59,9 @@ class Arena {
   // for an image viewed in two compatible formats (createView).
   Image createImage2D(VkExtent2D extent, VkFormat format, VkImageUsageFlags usage,
                       uint32_t mipLevels = 1, VkImageCreateFlags flags = 0);
-  // Another view of `image` (every mip level) in `format`, destroyed with the arena.
-  VkImageView createView(const Image& image, VkFormat format);
+  // Another view of `image` (every mip level) in `format`, destroyed with the arena; `usage`
+  // non-zero: what this view is used for (a subset of the image's usage).
+  VkImageView createView(const Image& image, VkFormat format, VkImageUsageFlags usage = 0);
 
   // Destroys every resource and frees every block. The caller ensures the GPU is done with them.
   void release();

@@ -1,5 +1,7 @@
 #include "render/frame_targets.h"
 
+#include <algorithm>
+
 #include "render/gpu_types.h"
 
 namespace myriad::render {
@@ -10,17 +12,29 @@ namespace {
 constexpr VkDeviceSize kTargetBlockSize = 4ull << 20;
 }  // namespace
 
-FrameTargets::FrameTargets(gpu::Context& context, VkExtent2D size, bool rawOutput)
-    : extent(size), raw(rawOutput), arena(context, kTargetBlockSize) {
+FrameTargets::FrameTargets(gpu::Context& context, VkExtent2D size, bool rawOutput,
+                           bool computeWritable_)
+    : extent(size), raw(rawOutput), computeWritable(computeWritable_),
+      arena(context, kTargetBlockSize) {
   const VkImageUsageFlags gbufferUsage =
       VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_SAMPLED_BIT;
+  const VkImageUsageFlags computeUsage = computeWritable ? VK_IMAGE_USAGE_STORAGE_BIT : 0;
   depth = arena.createImage2D(extent, kDepthFormat,
-                              VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT | VK_IMAGE_USAGE_SAMPLED_BIT);
-  normal = arena.createImage2D(extent, kNormalFormat, gbufferUsage);
-  baseColor = arena.createImage2D(extent, kBaseColorFormat, gbufferUsage);
-  material = arena.createImage2D(extent, kMaterialFormat, gbufferUsage);
-  uv = arena.createImage2D(extent, kUvFormat, gbufferUsage);
-  emissive = arena.createImage2D(extent, kEmissiveFormat, gbufferUsage);
+                              VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT | VK_IMAGE_USAGE_SAMPLED_BIT |
+                                  (computeWritable ? VK_IMAGE_USAGE_TRANSFER_DST_BIT : 0));
+  normal = arena.createImage2D(extent, kNormalFormat, gbufferUsage | computeUsage);
+  if (computeWritable) {
+    // sRGB formats are not storage formats: compute stores through a UNORM view and encodes.
+    baseColor = arena.createImage2D(extent, kBaseColorFormat, gbufferUsage | computeUsage, 1,
+                                    VK_IMAGE_CREATE_MUTABLE_FORMAT_BIT |
+                                        VK_IMAGE_CREATE_EXTENDED_USAGE_BIT);
+    baseColorStorage = arena.createView(baseColor, kBaseColorStorageFormat, VK_IMAGE_USAGE_STORAGE_BIT);
+  } else {
+    baseColor = arena.createImage2D(extent, kBaseColorFormat, gbufferUsage);
+  }
+  material = arena.createImage2D(extent, kMaterialFormat, gbufferUsage | computeUsage);
+  uv = arena.createImage2D(extent, kUvFormat, gbufferUsage | computeUsage);
+  emissive = arena.createImage2D(extent, kEmissiveFormat, gbufferUsage | computeUsage);
   // Compute lighting (tiled, clustered) stores into these; volumes blend into them.
   hdr = arena.createImage2D(extent, kHdrFormat, gbufferUsage | VK_IMAGE_USAGE_STORAGE_BIT);
   lightCount = arena.createImage2D(extent, kLightCountFormat, gbufferUsage | VK_IMAGE_USAGE_STORAGE_BIT);
@@ -37,7 +51,12 @@ FrameTargets::FrameTargets(gpu::Context& context, VkExtent2D size, bool rawOutpu
                              VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT |
                                  VK_BUFFER_USAGE_TRANSFER_DST_BIT,
                              gpu::MemoryUse::DeviceLocal);
-  readback = arena.createBuffer(VkDeviceSize(extent.width) * extent.height * (raw ? 16 : 4),
+  const VkDeviceSize planeBytes = raw ? 16 : yuv420Layout(extent.width, extent.height).bytes();
+  planes = arena.createBuffer(planeBytes,
+                              VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_SRC_BIT,
+                              gpu::MemoryUse::DeviceLocal);
+  const VkDeviceSize pixelBytes = VkDeviceSize(extent.width) * extent.height * (raw ? 16 : 4);
+  readback = arena.createBuffer(std::max(pixelBytes, raw ? 0 : planeBytes),
                                 VK_BUFFER_USAGE_TRANSFER_DST_BIT, gpu::MemoryUse::Readback);
 }
 

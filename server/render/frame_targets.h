@@ -17,6 +17,7 @@ namespace myriad::render {
 inline constexpr VkFormat kDepthFormat = VK_FORMAT_D32_SFLOAT;
 inline constexpr VkFormat kNormalFormat = VK_FORMAT_R16G16_SNORM;
 inline constexpr VkFormat kBaseColorFormat = VK_FORMAT_R8G8B8A8_SRGB;
+inline constexpr VkFormat kBaseColorStorageFormat = VK_FORMAT_R8G8B8A8_UNORM;  // compute's view
 inline constexpr VkFormat kMaterialFormat = VK_FORMAT_R8G8B8A8_UNORM;
 inline constexpr VkFormat kUvFormat = VK_FORMAT_R16G16_SFLOAT;
 inline constexpr VkFormat kEmissiveFormat = VK_FORMAT_R16G16B16A16_SFLOAT;
@@ -34,14 +35,19 @@ inline constexpr VkFormat kLdrFormat = VK_FORMAT_R8G8B8A8_UNORM;
 
 struct FrameTargets {
   // `raw`: the output holds float values (kRawOutputFormat) instead of an 8-bit image.
-  FrameTargets(gpu::Context& context, VkExtent2D extent, bool raw);
+  // `computeWritable`: the G-buffer may also be written by compute (render/visibility.h): its
+  // colour targets are storage images too (base colour through a UNORM view) and depth a copy
+  // destination. Only then: storage may cost a GPU its render-target compression.
+  FrameTargets(gpu::Context& context, VkExtent2D extent, bool raw, bool computeWritable = false);
 
   VkExtent2D extent;
   bool raw;
+  bool computeWritable;
   gpu::Arena arena;
   gpu::Image depth;
   gpu::Image normal;
   gpu::Image baseColor;
+  VkImageView baseColorStorage = VK_NULL_HANDLE;  // RGBA8_UNORM view (computeWritable only)
   gpu::Image material;
   gpu::Image uv;
   gpu::Image emissive;
@@ -53,7 +59,9 @@ struct FrameTargets {
   // AntialiasEdges, then a uint per pixel: the pixels the final pass lists for anti-aliasing (a
   // header and one pixel for raw targets, which never anti-alias, so the binding always holds one).
   gpu::Buffer edges;
-  gpu::Buffer readback;  // output pixels, rows top first
+  // The output as YCbCr 4:2:0 planes (yuv420Layout; 8-bit targets; a 16-byte stand-in for raw).
+  gpu::Buffer planes;
+  gpu::Buffer readback;  // output pixels, rows top first (RGBA, floats, or the planes)
 };
 
 }  // namespace myriad::render

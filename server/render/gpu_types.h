@@ -40,6 +40,7 @@ static_assert(offsetof(FrameUniforms, slicing) == 256 + 12 * 16);
 static_assert(sizeof(CullingStats) == 32);
 static_assert(sizeof(LargeLightQueue) == 32);
 static_assert(sizeof(gpu_types::AntialiasEdges) == 32);
+static_assert(sizeof(gpu_types::VisibilityLargeHeader) == 16 && sizeof(gpu_types::VisibilityTriangle) == 64);
 static_assert(sizeof(GpuPointLight) == 48 && offsetof(GpuPointLight, radianceFalloff) == 16 &&
               offsetof(GpuPointLight, cone) == 32);
 static_assert(sizeof(GpuInstance) == 144 && offsetof(GpuInstance, material) == 128);

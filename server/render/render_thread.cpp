@@ -47,11 +47,12 @@ DeviceSummary summarize(const gpu::DeviceInfo& d) {
 
 RenderThread::RenderThread(const gpu::ContextOptions& options, const scene::Scene& scene,
                            uint32_t maxQueuedFrames, uint32_t framesInFlight,
-                           bool overlapFrames, bool frameTimestampsOnly)
+                           bool overlapFrames, bool frameTimestampsOnly, GBufferPath gbuffer)
     : maxQueuedFrames_(maxQueuedFrames),
       framesInFlight_(std::clamp(framesInFlight, 1u, Renderer::kMaxFramesInFlight)),
       overlapFrames_(overlapFrames),
-      frameTimestampsOnly_(frameTimestampsOnly) {
+      frameTimestampsOnly_(frameTimestampsOnly),
+      gbuffer_(gbuffer) {
   std::promise<void> ready;
   std::future<void> started = ready.get_future();
   thread_ = std::thread([this, &options, &scene, &ready] { run(options, scene, ready); });
@@ -306,6 +307,7 @@ void RenderThread::run(const gpu::ContextOptions& options, const scene::Scene& s
     renderer->setFramesInFlight(framesInFlight_);
     renderer->setOverlap(overlapFrames_);
     renderer->setFrameTimestampsOnly(frameTimestampsOnly_);
+    renderer->setGBufferPath(gbuffer_);
     defaultScene_ = renderer->createScene(scene);
     device_ = summarize(context->info);
     maxDimension_ = renderer->maxDimension();

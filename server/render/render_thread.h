@@ -56,9 +56,11 @@ class RenderThread final : public RenderQueue {
   // submitted; rethrows whatever start-up threw on the thread (gpu::NoDeviceError among others).
   // `framesInFlight`: frame slots (1..Renderer::kMaxFramesInFlight, clamped).
   // `overlapFrames`: Renderer::setOverlap. `frameTimestampsOnly`: Renderer::setFrameTimestampsOnly.
+  // `gbuffer`: Renderer::setGBufferPath.
   RenderThread(const gpu::ContextOptions& options, const scene::Scene& scene,
                uint32_t maxQueuedFrames, uint32_t framesInFlight = kDefaultFramesInFlight,
-               bool overlapFrames = false, bool frameTimestampsOnly = false);
+               bool overlapFrames = false, bool frameTimestampsOnly = false,
+               GBufferPath gbuffer = GBufferPath::Raster);
   static constexpr uint32_t kDefaultFramesInFlight = 2;
   ~RenderThread() override;
   RenderThread(const RenderThread&) = delete;
@@ -147,6 +149,7 @@ class RenderThread final : public RenderQueue {
   const uint32_t framesInFlight_;
   const bool overlapFrames_;
   const bool frameTimestampsOnly_;
+  const GBufferPath gbuffer_;
   std::deque<InFlight> inFlight_;  // oldest first; the render thread's alone
   SceneId defaultScene_ = 0;
   std::atomic<uint64_t> gpuMemoryBytes_{0};

@@ -22,6 +22,7 @@
 #include "render/scene_buffers.h"
 #include "render/shading_features.h"
 #include "render/shadows.h"
+#include "render/visibility.h"
 #include "render/techniques/registry.h"
 #include "render/techniques/technique.h"
 #include "scene/camera.h"
@@ -30,9 +31,9 @@ namespace myriad::render {
 
 namespace {
 
-// environment (when rebuilt), animate, shadow, light-shadows, gbuffer, the technique's (sun + lights, lighting,
-// or assign + shade), blend, markers, final, antialias, overlay, readback: room for a technique
-// of three passes and more.
+// environment (when rebuilt), animate, shadow, light-shadows, gbuffer (or visibility + resolve),
+// the technique's (sun + lights, lighting, or assign + shade), blend, markers, final, antialias,
+// overlay, readback: room for a technique of three passes.
 constexpr uint32_t kMaxTimedPasses = 16;
 
 // The light-count view's hottest colour when the request leaves it to us.
@@ -86,6 +87,7 @@ void addPasses(std::vector<PassTiming>& passes,
 struct Renderer::State {
   explicit State(gpu::Context& c)
       : context(c), pipelines(c), techniques(createTechniques({c, pipelines})),
+        computeGBuffer(c, pipelines.sceneSetLayout, kMaxFramesInFlight + 1),
         uniformArena(c, kUniformBlockSize) {
     for (uint32_t i = 0; i < kMaxFramesInFlight; ++i) slots.push_back(std::make_unique<FrameSlot>());
     for (FrameSlot* slot : allSlots()) {
@@ -115,6 +117,8 @@ struct Renderer::State {
   uint64_t lastGpuEndTick = 0;
   // Index = Technique (techniques/registry.h); destroyed before the pipeline layout they use.
   std::vector<std::unique_ptr<LightingTechnique>> techniques;
+  ComputeGBuffer computeGBuffer;  // GBufferPath::Compute (render/visibility.h)
+  GBufferPath gbufferPath = GBufferPath::Raster;
   gpu::Arena uniformArena;
   gpu::CommandRecorder recorder;  // scene uploads and edits (frames have their slot's)
   VkSampler sampler = VK_NULL_HANDLE;        // nearest: targets are read texel by texel
@@ -131,6 +135,8 @@ struct Renderer::State {
     VkDescriptorSet targetSet = VK_NULL_HANDLE;  // set 2 (light culling) is each technique's own
     // Sized for the frame being drawn, rebuilt when that changes.
     std::unique_ptr<FrameTargets> targets;
+    // The compute G-buffer's buffers and set (when a frame of this slot took that path).
+    std::unique_ptr<ComputeGBuffer::Slot> visibility;
     // The sun's shadow map, rendered by each frame that has it on: the slot's own, so whole
     // frames between a split frame's submissions do not overwrite the split frame's map.
     std::unique_ptr<ShadowMaps> shadows;
@@ -221,7 +227,17 @@ struct Renderer::State {
   void prepareFrame(FrameSlot& slot, SceneBuffers& scene, SceneEnvironment* environment,
                     const FrameSettings& settings, LightingTechnique& technique);
   VkCommandBuffer beginFrameCommands(FrameSlot& slot, bool waitAtStart = true);
-  void recordBeforeLighting(VkCommandBuffer cmd, const FrameSlot& slot, SceneBuffers& scene,
+  // Whether targets are made storage-writable: the compute G-buffer may run on this device.
+  bool computeWritableTargets() const {
+    return gbufferPath != GBufferPath::Raster && computeGBuffer.supported();
+  }
+  // Whether this frame's G-buffer is made in compute (the path asks for it and the frame qualifies).
+  bool computeGBufferFor(const SceneBuffers& scene, const FrameSettings& settings) const {
+    if (!computeWritableTargets()) return false;
+    if (gbufferPath == GBufferPath::Auto && context.info.type == "cpu") return false;
+    return computeGBuffer.qualifies(scene, {settings.width, settings.height});
+  }
+  void recordBeforeLighting(VkCommandBuffer cmd, FrameSlot& slot, SceneBuffers& scene,
                             SceneEnvironment* environment, const FrameSettings& settings);
   void recordAfterLighting(VkCommandBuffer cmd, const FrameSlot& slot, SceneBuffers& scene,
                            const FrameSettings& settings, VkImageLayout lightingLayout);
@@ -331,18 +347,26 @@ void Renderer::State::writeTargetSet(FrameSlot& slot) {
   edgeWrite.descriptorCount = 1;
   edgeWrite.descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
   edgeWrite.pBufferInfo = &edges;
+  // 15: the YCbCr planes (yuv420.comp).
+  const VkDescriptorBufferInfo planes{targets->planes.buffer, 0, VK_WHOLE_SIZE};
+  VkWriteDescriptorSet planeWrite = edgeWrite;
+  planeWrite.dstBinding = MYRIAD_BINDING_YUV_PLANES;
+  planeWrite.pBufferInfo = &planes;
   vkUpdateDescriptorSets(context.device, kBindings, writes, 0, nullptr);
   vkUpdateDescriptorSets(context.device, 1, &edgeWrite, 0, nullptr);
+  vkUpdateDescriptorSets(context.device, 1, &planeWrite, 0, nullptr);
 }
 
 // Targets follow the output size and are rebuilt only when it changes (every frame is waited
 // for, so nothing is in flight here).
 void Renderer::State::ensureTargets(FrameSlot& slot, VkExtent2D extent, bool raw) {
   std::unique_ptr<FrameTargets>& targets = slot.targets;
+  const bool computeWritable = computeWritableTargets();
   if (!targets || targets->extent.width != extent.width ||
-      targets->extent.height != extent.height || targets->raw != raw) {
+      targets->extent.height != extent.height || targets->raw != raw ||
+      targets->computeWritable != computeWritable) {
     targets.reset();
-    targets = std::make_unique<FrameTargets>(context, extent, raw);
+    targets = std::make_unique<FrameTargets>(context, extent, raw, computeWritable);
     writeTargetSet(slot);
   }
 }
@@ -437,7 +461,7 @@ Renderer::Renderer(gpu::Context& context) : state_(std::make_unique<State>(conte
   // Sets 0 (scene) and 1 (targets) of every frame slot; each technique allocates its own set 2.
   const auto n = static_cast<uint32_t>(slots.size());
   VkDescriptorPoolSize sizes[] = {{VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, n * 1},
-                                  {VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, n * 7},  // + the edge pixels (set 1)
+                                  {VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, n * 8},  // + the edge pixels, the YCbCr planes (set 1)
                                   {VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, n * 11},  // + the shadow maps, the LDR target
                                   {VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, n * 5}};
   VkDescriptorPoolCreateInfo poolInfo{VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO};
@@ -476,6 +500,7 @@ Renderer::~Renderer() {
   s.readbacks.clear();
   for (State::FrameSlot* slot : s.allSlots()) {
     slot->targets.reset();
+    slot->visibility.reset();
     gpu::destroyCommandRecorder(s.context, slot->recorder);
   }
   s.techniques.clear();
@@ -672,6 +697,8 @@ uint32_t Renderer::framesInFlight() const { return state_->framesInFlight; }
 
 void Renderer::setOverlap(bool overlap) { state_->overlap = overlap; }
 
+void Renderer::setGBufferPath(GBufferPath path) { state_->gbufferPath = path; }
+
 bool Renderer::canBegin() const {
   const State& s = *state_;
   for (uint32_t i = 0; i < s.framesInFlight; ++i) {
@@ -705,7 +732,9 @@ uint32_t Renderer::beginFrame(SceneId id, const FrameSettings& settings) {
   // Borrowed pixels: a pooled buffer of their own, lent out with the frame; when every one is
   // lent out, the slot's own buffer and a copy on the render thread.
   slot.readback = settings.borrowPixels && !settings.raw
-                      ? s.acquireReadback(VkDeviceSize(settings.width) * settings.height * 4)
+                      ? s.acquireReadback(settings.yuv420Readback()
+                                              ? yuv420Layout(settings.width, settings.height).bytes()
+                                              : VkDeviceSize(settings.width) * settings.height * 4)
                       : nullptr;
   try {
     s.recordFrame(slot, scene, environment, settings, !s.overlap || sharesScene);
@@ -857,7 +886,7 @@ VkCommandBuffer Renderer::State::beginFrameCommands(FrameSlot& slot, bool waitAt
 }
 
 // environment (when its inputs changed), animate (or restoring the origins), shadow, gbuffer.
-void Renderer::State::recordBeforeLighting(VkCommandBuffer cmd, const FrameSlot& slot,
+void Renderer::State::recordBeforeLighting(VkCommandBuffer cmd, FrameSlot& slot,
                                            SceneBuffers& scene, SceneEnvironment* environment,
                                            const FrameSettings& settings) {
   State& s = *this;
@@ -897,8 +926,15 @@ void Renderer::State::recordBeforeLighting(VkCommandBuffer cmd, const FrameSlot&
   } else {
     slot.shadows->recordAtlasUnused(cmd);
   }
-  slot.timer->beginPass(cmd, "gbuffer");
-  recordGBufferPass(cmd, p, *slot.targets, scene, gbufferWrites(settings, scene));
+  if (computeGBufferFor(scene, settings)) {
+    computeGBuffer.record(cmd, slot.visibility, *slot.targets, scene, slot.sceneSet, *slot.timer);
+    // Its passes bound their own layout's sets; the frame's go back.
+    VkDescriptorSet sets[] = {slot.sceneSet, slot.targetSet};
+    vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, p.layout, 0, 2, sets, 0, nullptr);
+  } else {
+    slot.timer->beginPass(cmd, "gbuffer");
+    recordGBufferPass(cmd, p, *slot.targets, scene, gbufferWrites(settings, scene));
+  }
 }
 
 // blend (alpha-BLEND draws), markers, final, antialias, overlay, readback; then the timer's end.
@@ -940,8 +976,14 @@ void Renderer::State::recordAfterLighting(VkCommandBuffer cmd, const FrameSlot& 
                        VK_ACCESS_2_TRANSFER_WRITE_BIT, VK_PIPELINE_STAGE_2_HOST_BIT,
                        VK_ACCESS_2_HOST_READ_BIT);
   }
-  slot.timer->beginPass(cmd, "readback");
-  recordReadback(cmd, t, outputLayout, slot.readback ? slot.readback->buffer : t.readback);
+  const gpu::Buffer& readback = slot.readback ? slot.readback->buffer : t.readback;
+  if (settings.yuv420Readback()) {
+    slot.timer->beginPass(cmd, "yuv");
+    recordYuv420Readback(cmd, s.pipelines, t, readback);
+  } else {
+    slot.timer->beginPass(cmd, "readback");
+    recordReadback(cmd, t, outputLayout, readback);
+  }
   slot.timer->end(cmd);
 }
 
@@ -964,6 +1006,9 @@ Frame Renderer::State::readFrame(const FrameSlot& slot, const Frame& meta,
   frame.width = t.extent.width;
   frame.height = t.extent.height;
   frame.times = slot.times;
+  frame.yuv420 = settings.yuv420Readback();
+  const size_t bytes = frame.yuv420 ? yuv420Layout(t.extent.width, t.extent.height).bytes()
+                                    : size_t(t.extent.width) * t.extent.height * 4;
   const auto copyStart = std::chrono::steady_clock::now();
   if (settings.raw) {
     frame.data.resize(size_t(t.extent.width) * t.extent.height * 4);
@@ -971,11 +1016,10 @@ Frame Renderer::State::readFrame(const FrameSlot& slot, const Frame& meta,
   } else if (PooledReadback* pooled = slot.readback) {
     // Lent out: the encoder reads the mapped memory; dropping the frame gives it back.
     frame.borrowed = std::make_shared<const BorrowedPixels>(
-        static_cast<const uint8_t*>(pooled->buffer.mapped),
-        size_t(t.extent.width) * t.extent.height * 4,
+        static_cast<const uint8_t*>(pooled->buffer.mapped), bytes,
         [pooled] { pooled->held.store(false, std::memory_order_release); });
   } else {
-    frame.rgba.resize(size_t(t.extent.width) * t.extent.height * 4);
+    frame.rgba.resize(bytes);
     std::memcpy(frame.rgba.data(), t.readback.mapped, frame.rgba.size());
   }
   frame.times.copyMs = Milliseconds(std::chrono::steady_clock::now() - copyStart).count();

@@ -82,6 +82,9 @@ class Renderer {
   // Per-pass timestamps (the default) or only the frame's first and last (one pass, "frame"):
   // a timestamp between passes is written at ALL_COMMANDS, which may drain the GPU there.
   void setFrameTimestampsOnly(bool frameOnly);
+  // How G-buffers are made (GBufferPath, render/frame.h; raster by default). Takes effect from
+  // the next frame; each frame reports the path it took in its pass names.
+  void setGBufferPath(GBufferPath path);
   // Whether beginFrame has a free slot.
   bool canBegin() const;
   // Records and submits a frame into a free slot (the lowest: a client that waits for each frame

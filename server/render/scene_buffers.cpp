@@ -247,9 +247,12 @@ SceneBuffers::SceneBuffers(gpu::Context& context, gpu::CommandRecorder& recorder
 
   auto bytes = [](const auto& v) { return VkDeviceSize(v.size() * sizeof(v[0])); };
   const VkBufferUsageFlags dst = VK_BUFFER_USAGE_TRANSFER_DST_BIT;
-  vertices = arena.createBuffer(bytes(allVertices), VK_BUFFER_USAGE_VERTEX_BUFFER_BIT | dst,
+  // Storage too: the G-buffer rasterised in compute reads them (render/visibility.h).
+  vertices = arena.createBuffer(bytes(allVertices), VK_BUFFER_USAGE_VERTEX_BUFFER_BIT |
+                                    VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | dst,
                                 gpu::MemoryUse::DeviceLocal);
-  indices = arena.createBuffer(bytes(allIndices), VK_BUFFER_USAGE_INDEX_BUFFER_BIT | dst,
+  indices = arena.createBuffer(bytes(allIndices), VK_BUFFER_USAGE_INDEX_BUFFER_BIT |
+                                   VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | dst,
                                gpu::MemoryUse::DeviceLocal);
   const VkBufferUsageFlags storage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | dst;
   instances = arena.createBuffer(bytes(gpuInstances), storage, gpu::MemoryUse::DeviceLocal);

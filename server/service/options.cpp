@@ -97,8 +97,18 @@ const std::vector<Flag>& flags() {
        }},
       {"--overlap-frames", false, [](Options& o, std::string_view) { o.overlapFrames = true; }},
       {"--copy-frames", false, [](Options& o, std::string_view) { o.copyFrames = true; }},
+      {"--rgba-jpeg", false, [](Options& o, std::string_view) { o.rgbaJpeg = true; }},
       {"--frame-timestamps", false,
        [](Options& o, std::string_view) { o.frameTimestampsOnly = true; }},
+      {"--gbuffer", true,
+       [](Options& o, std::string_view v) {
+         const std::optional<render::GBufferPath> path = render::parseGBufferPath(v);
+         if (!path) {
+           throw UsageError("--gbuffer must be raster, compute or auto, not \"" + std::string(v) +
+                            "\".");
+         }
+         o.gbuffer = *path;
+       }},
       {"--max-sessions", true,
        [](Options& o, std::string_view v) {
          o.maxSessions = parseUnsigned<uint32_t>("--max-sessions", v, 1, kMaxCountLimit);
@@ -259,8 +269,14 @@ materials and lights (protocol/reference.md), and the stateless GET /v1/frame.
                            frame's G-buffer while the previous one lights; experimental)
   --copy-frames            copy every frame's pixels out of GPU-visible memory on the render
                            thread (the path before; default: encoders read them in place)
+  --rgba-jpeg              read JPEG frames back as RGBA and convert them on the CPU (the path
+                           before; default: YCbCr 4:2:0 made on the GPU, 1.5 bytes a pixel)
   --frame-timestamps       time each frame with two GPU timestamps instead of one per pass
                            (Server-Timing and stats then show one pass, "frame")
+  --gbuffer P              how G-buffers are made: raster (default), compute (triangles
+                           rasterised by compute shaders where the scene's materials are opaque
+                           and untextured and the device has 64-bit atomics; raster elsewhere)
+                           or auto (compute where it qualifies, except on CPU devices)
   --max-sessions N         sessions open at once; more get 429 (default 16)
   --max-lights N           local lights per session; more get 413 (default 1000000)
   --max-upload-bytes N     largest model upload (default 67108864, 64 MiB)

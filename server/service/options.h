@@ -46,6 +46,12 @@ struct Options {
   bool copyFrames = false;
   // GPU timestamps at frame boundaries only (render::Renderer::setFrameTimestampsOnly).
   bool frameTimestampsOnly = false;
+  // JPEG frames read back as RGBA and converted on the CPU by libjpeg (the path before stop 14);
+  // default off: converted to YCbCr 4:2:0 on the GPU (render::FrameSettings::yuv420).
+  bool rgbaJpeg = false;
+  // How G-buffers are made (render::GBufferPath): raster until the compute path is measured
+  // faster where it qualifies (docs/performance.md).
+  render::GBufferPath gbuffer = render::GBufferPath::Raster;
   // Sessions (protocol/CONTRACT.md). Each holds a GPU scene, so the count is bounded.
   uint32_t maxSessions = 16;
   uint32_t maxLightsPerSession = 1000000;
