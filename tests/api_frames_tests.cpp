@@ -453,6 +453,72 @@ TEST_CASE("streams: animated parts, idle re-sends, the end on DELETE, limits, st
     CHECK(latency < 1.9);  // not the idle re-send
   }
 
+  SUBCASE("interactive: a change is shown interactive, its still after the settle time, or at once after a change that ends the interaction") {
+    // Tiny frames (a full one takes milliseconds), changes 300 ms apart: the settle time is then
+    // its 400 ms maximum (twice the longest recent gap), far above two frames' time.
+    MultipartReader reader(server, streamPath(session, "format=jpeg&width=32&height=24&interactive=24"),
+                           auth(session));
+    REQUIRE(reader.status() == 200);
+    REQUIRE(reader.waitFor(1, std::chrono::seconds(60)).size() == 1);
+    auto isInteractive = [](const StreamPart& p) { return p.headers.count("X-Myriad-Interactive") > 0; };
+    // Every part until the first still (a part without X-Myriad-Interactive) that arrived after
+    // `after`, and how many interactive parts arrived after `after` before it.
+    auto untilStill = [&](Clock::time_point after, size_t& interactive) {
+      interactive = 0;
+      for (size_t n = 1;; ++n) {
+        std::vector<StreamPart> parts = reader.waitFor(n, std::chrono::seconds(60));
+        REQUIRE(parts.size() >= n);
+        parts.resize(n);
+        if (parts.back().arrived <= after) continue;
+        if (!isInteractive(parts.back())) return parts;
+        ++interactive;
+      }
+    };
+    auto rhythm = [&] {
+      for (double fov : {40.0, 41.0, 42.0}) {
+        patchJson(*client, sessionPath + "/camera", session, {{"fovY", fov}});
+        std::this_thread::sleep_for(std::chrono::milliseconds(300));
+      }
+    };
+    rhythm();
+    auto last = Clock::now();
+    patchJson(*client, sessionPath + "/camera", session, {{"fovY", 43.0}});
+    size_t interactive = 0;
+    std::vector<StreamPart> parts = untilStill(last, interactive);
+    CHECK(interactive >= 1);  // the change showed interactive first
+    double settled = std::chrono::duration<double>(parts.back().arrived - last).count();
+    MESSAGE("still ", settled, " s after the last change");
+    CHECK(settled > 0.35);  // the settle time (400 ms) passed first
+
+    // The same rhythm, then the last change says it ends the interaction: its interactive part,
+    // then the still without the settle time.
+    std::this_thread::sleep_for(std::chrono::milliseconds(1200));  // a new interaction
+    rhythm();
+    httplib::Headers ending = auth(session);
+    ending.emplace("X-Myriad-Interaction", "end");
+    last = Clock::now();
+    httplib::Result res = client->Patch(sessionPath + "/camera", ending,
+                                        json{{"fovY", 30.0}}.dump(), "application/json");
+    REQUIRE(res);
+    CHECK(res->status == 200);
+    parts = untilStill(last, interactive);
+    CHECK(interactive >= 1);
+    const double ended = std::chrono::duration<double>(parts.back().arrived - last).count();
+    MESSAGE("still ", ended, " s after the change that ended the interaction");
+    // Two frames of 32x24 against the 400 ms settle time plus one frame (loose for a loaded CI).
+    CHECK(ended < settled);
+    // Any other value is refused, naming the header; nothing changes.
+    httplib::Headers wrong = auth(session);
+    wrong.emplace("X-Myriad-Interaction", "later");
+    res = client->Patch(sessionPath + "/settings", wrong, json{{"exposure", 2.0}}.dump(),
+                        "application/json");
+    REQUIRE(res);
+    CHECK(res->status == 400);
+    CHECK(json::parse(res->body)["type"].get<std::string>().find("bad-request") != std::string::npos);
+    CHECK(res->body.find("X-Myriad-Interaction") != std::string::npos);
+    CHECK(getJson(*client, sessionPath + "/settings", auth(session))["exposure"] != 2.0);
+  }
+
   SUBCASE("animated lights: parts differ, stats and metrics follow, DELETE ends the stream") {
     patchJson(*client, sessionPath + "/settings", session, {{"animate", true}});
     // A low fps, so that the cap is far below what lavapipe renders at this size.
