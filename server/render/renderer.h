@@ -82,7 +82,7 @@ class Renderer {
   // Per-pass timestamps (the default) or only the frame's first and last (one pass, "frame"):
   // a timestamp between passes is written at ALL_COMMANDS, which may drain the GPU there.
   void setFrameTimestampsOnly(bool frameOnly);
-  // How G-buffers are made (GBufferPath, render/frame.h; raster by default). Takes effect from
+  // How G-buffers are made (GBufferPath, render/frame.h; Raster until set). Takes effect from
   // the next frame; each frame reports the path it took in its pass names.
   void setGBufferPath(GBufferPath path);
   // Whether beginFrame has a free slot.
