@@ -145,6 +145,10 @@ inline constexpr std::string_view kTechnique = "X-Myriad-Technique";  // every f
 inline constexpr std::string_view kFrameSequence = "X-Myriad-Frame";  // each stream part
 // A stream part rendered while the session changes (?interactive=): its render scale ("0.5")
 inline constexpr std::string_view kInteractive = "X-Myriad-Interactive";
+// On a change (PUT/PATCH camera, PATCH settings or a material): "end" says it is the last of an
+// interaction (a drag or a slider released), so interactive streams send the still at once.
+inline constexpr std::string_view kInteraction = "X-Myriad-Interaction";
+inline constexpr std::string_view kInteractionEnd = "end";
 inline constexpr std::string_view kNode = "X-Myriad-Node";  // every response, with --node-id
 inline constexpr std::string_view kVideoCodec = "X-Myriad-Codec";  // video stream: WebCodecs codec
 inline constexpr std::string_view kServerTiming = "Server-Timing";

@@ -57,6 +57,7 @@ service::ApiConfig apiConfig(const service::Options& options, uint32_t maxResolu
   api.builtinLights = options.lights;
   api.builtinSeed = options.seed;
   api.borrowPixels = !options.copyFrames;
+  api.yuvJpeg = !options.rgbaJpeg;
   return api;
 }
 

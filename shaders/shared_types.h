@@ -90,6 +90,7 @@ using mat4 = glm::mat4;
 #define MYRIAD_BINDING_LDR 12                 // sampled (linear filter): tonemapped final + luma, for AA
 #define MYRIAD_BINDING_LDR_STORAGE 13         // storage image: the same, written by the final pass
 #define MYRIAD_BINDING_EDGE_PIXELS 14         // storage buffer: AntialiasEdges, then the edge pixels
+#define MYRIAD_BINDING_YUV_PLANES 15          // storage buffer: final as YCbCr 4:2:0 planes (yuv420.comp)
 
 // The G-buffer rasterised in compute (render/visibility.h; shaders/visibility.glsl): its pipelines'
 // set 1 (their layout is set 0 = the scene, set 1 = this; not the frame's targets set).

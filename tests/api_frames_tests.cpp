@@ -224,6 +224,28 @@ TEST_CASE("session frames: every target in png, jpeg and raw; depth and normals 
       REQUIRE(decoded);
       CHECK(decoded->width == kWidth);
       CHECK(decoded->height == kHeight);
+      if (target == "final") {
+        // The picture read back as YCbCr 4:2:0 made on the GPU (the default quality subsamples
+        // chroma), encoded from the planes: the same picture as the PNG's, within JPEG's loss
+        // (31.4 dB and a largest error of 65 at this small size, with markers' dots; the gpu
+        // CTest "YCbCr frames" holds it against libjpeg's own conversion of the RGBA).
+        CHECK(serverTimings(jpeg->get_header_value("Server-Timing")).count("yuv") == 1);
+        double squares = 0.0;
+        int maxError = 0;
+        for (size_t i = 0; i < size_t(kWidth) * kHeight; ++i) {
+          for (size_t c = 0; c < 3; ++c) {
+            const int d = int(decoded->rgb[i * 3 + c]) - int(image.rgba[i * 4 + c]);
+            squares += double(d) * d;
+            maxError = std::max(maxError, std::abs(d));
+          }
+        }
+        const double mse = squares / (double(kWidth) * kHeight * 3);
+        const double psnr = mse > 0.0 ? 10.0 * std::log10(255.0 * 255.0 / mse) : 99.0;
+        MESSAGE("final JPEG from YCbCr planes against the PNG: PSNR ", psnr, " dB, max error ",
+                maxError);
+        CHECK(psnr >= 28.0);
+        CHECK(maxError <= 96);
+      }
 
       httplib::Result raw = sessionFrame(*client, session, frameParams(target, "raw"));
       REQUIRE(raw);
@@ -431,6 +453,72 @@ TEST_CASE("streams: animated parts, idle re-sends, the end on DELETE, limits, st
     CHECK(latency < 1.9);  // not the idle re-send
   }
 
+  SUBCASE("interactive: a change is shown interactive, its still after the settle time, or at once after a change that ends the interaction") {
+    // Tiny frames (a full one takes milliseconds), changes 300 ms apart: the settle time is then
+    // its 400 ms maximum (twice the longest recent gap), far above two frames' time.
+    MultipartReader reader(server, streamPath(session, "format=jpeg&width=32&height=24&interactive=24"),
+                           auth(session));
+    REQUIRE(reader.status() == 200);
+    REQUIRE(reader.waitFor(1, std::chrono::seconds(60)).size() == 1);
+    auto isInteractive = [](const StreamPart& p) { return p.headers.count("X-Myriad-Interactive") > 0; };
+    // Every part until the first still (a part without X-Myriad-Interactive) that arrived after
+    // `after`, and how many interactive parts arrived after `after` before it.
+    auto untilStill = [&](Clock::time_point after, size_t& interactive) {
+      interactive = 0;
+      for (size_t n = 1;; ++n) {
+        std::vector<StreamPart> parts = reader.waitFor(n, std::chrono::seconds(60));
+        REQUIRE(parts.size() >= n);
+        parts.resize(n);
+        if (parts.back().arrived <= after) continue;
+        if (!isInteractive(parts.back())) return parts;
+        ++interactive;
+      }
+    };
+    auto rhythm = [&] {
+      for (double fov : {40.0, 41.0, 42.0}) {
+        patchJson(*client, sessionPath + "/camera", session, {{"fovY", fov}});
+        std::this_thread::sleep_for(std::chrono::milliseconds(300));
+      }
+    };
+    rhythm();
+    auto last = Clock::now();
+    patchJson(*client, sessionPath + "/camera", session, {{"fovY", 43.0}});
+    size_t interactive = 0;
+    std::vector<StreamPart> parts = untilStill(last, interactive);
+    CHECK(interactive >= 1);  // the change showed interactive first
+    double settled = std::chrono::duration<double>(parts.back().arrived - last).count();
+    MESSAGE("still ", settled, " s after the last change");
+    CHECK(settled > 0.35);  // the settle time (400 ms) passed first
+
+    // The same rhythm, then the last change says it ends the interaction: its interactive part,
+    // then the still without the settle time.
+    std::this_thread::sleep_for(std::chrono::milliseconds(1200));  // a new interaction
+    rhythm();
+    httplib::Headers ending = auth(session);
+    ending.emplace("X-Myriad-Interaction", "end");
+    last = Clock::now();
+    httplib::Result res = client->Patch(sessionPath + "/camera", ending,
+                                        json{{"fovY", 30.0}}.dump(), "application/json");
+    REQUIRE(res);
+    CHECK(res->status == 200);
+    parts = untilStill(last, interactive);
+    CHECK(interactive >= 1);
+    const double ended = std::chrono::duration<double>(parts.back().arrived - last).count();
+    MESSAGE("still ", ended, " s after the change that ended the interaction");
+    // Two frames of 32x24 against the 400 ms settle time plus one frame (loose for a loaded CI).
+    CHECK(ended < settled);
+    // Any other value is refused, naming the header; nothing changes.
+    httplib::Headers wrong = auth(session);
+    wrong.emplace("X-Myriad-Interaction", "later");
+    res = client->Patch(sessionPath + "/settings", wrong, json{{"exposure", 2.0}}.dump(),
+                        "application/json");
+    REQUIRE(res);
+    CHECK(res->status == 400);
+    CHECK(json::parse(res->body)["type"].get<std::string>().find("bad-request") != std::string::npos);
+    CHECK(res->body.find("X-Myriad-Interaction") != std::string::npos);
+    CHECK(getJson(*client, sessionPath + "/settings", auth(session))["exposure"] != 2.0);
+  }
+
   SUBCASE("animated lights: parts differ, stats and metrics follow, DELETE ends the stream") {
     patchJson(*client, sessionPath + "/settings", session, {{"animate", true}});
     // A low fps, so that the cap is far below what lavapipe renders at this size.
@@ -491,6 +579,20 @@ TEST_CASE("streams: animated parts, idle re-sends, the end on DELETE, limits, st
     CHECK(stats["culling"]["clusterLightsDropped"] == 0);
     CHECK(stats["gpuMemory"]["sceneBytes"].get<uint64_t>() > 0);
     CHECK(stats["gpuMemory"]["lightBytes"].get<uint64_t>() >= 64u * 16u);
+    // Where the stream's frames spent their time: medians over its frames and parts. The pixels
+    // were encoded where the GPU put them (no copy on the render thread; a copy of this size
+    // takes tens of microseconds), each part written and timed, the parts at most fps apart.
+    const json& pipeline = stats["pipeline"];
+    REQUIRE(pipeline.is_object());
+    CHECK(pipeline["frames"].get<uint64_t>() >= 2);
+    CHECK(pipeline["parts"].get<uint64_t>() >= 2);
+    CHECK(pipeline["gpuMs"].get<double>() > 0.0);
+    CHECK(pipeline["recordMs"].get<double>() > 0.0);
+    CHECK(pipeline["answerMs"].get<double>() > 0.0);
+    CHECK(pipeline["copyMs"].get<double>() < 0.05);
+    CHECK(pipeline["encodeMs"].get<double>() > 0.0);
+    CHECK(pipeline.contains("sendMs"));
+    CHECK(pipeline["intervalMs"].get<double>() >= 1000.0 / kFps * 0.5);
 
     httplib::Result metrics = client->Get("/metrics");
     REQUIRE(metrics);

@@ -214,3 +214,40 @@ TEST_CASE("a large JPEG encoded in strips decodes to exactly the pixels of one e
     CHECK(strips.size() <= whole.size() + 64 * 8);
   }
 }
+
+TEST_CASE("JPEG from YCbCr 4:2:0 planes: strips decode to one encoding's pixels; bad planes named") {
+  // Planes as the GPU lays them out (render::yuv420Layout): strides rounded up to 8 and 4, rows
+  // to 2; an odd size, so the last strip and the padding are exercised.
+  const uint32_t w = 1283, h = 731, yStride = 1288, chromaStride = 644, rows = 732;
+  std::vector<uint8_t> y(size_t(yStride) * rows), cb(size_t(chromaStride) * rows / 2),
+      cr(size_t(chromaStride) * rows / 2);
+  for (size_t i = 0; i < y.size(); ++i) y[i] = uint8_t((i * 7 + i / yStride * 3) % 251);
+  for (size_t i = 0; i < cb.size(); ++i) cb[i] = uint8_t(96 + (i * 5) % 64);
+  for (size_t i = 0; i < cr.size(); ++i) cr[i] = uint8_t(112 + (i / chromaStride) % 48);
+  const std::vector<uint8_t> strips = encode::encodeJpegYuv420(y, cb, cr, w, h, yStride, chromaStride, 80, 4);
+  const std::vector<uint8_t> one = encode::encodeJpegYuv420(y, cb, cr, w, h, yStride, chromaStride, 80, 1);
+  bool restarts = false;
+  for (size_t i = 0; i + 1 < strips.size(); ++i) {
+    if (strips[i] == 0xFF && strips[i + 1] == 0xDD) restarts = true;
+  }
+  CHECK(restarts);
+  const Decoded a = decodeJpeg(strips);
+  const Decoded b = decodeJpeg(one);
+  CHECK(a.width == int(w));
+  CHECK(a.height == int(h));
+  CHECK(a.rgba == b.rgba);
+
+  auto rejects = [&](std::span<const uint8_t> py, uint32_t width, uint32_t height, uint32_t ys,
+                     int quality, const std::string& mentions) {
+    try {
+      encode::encodeJpegYuv420(py, cb, cr, width, height, ys, chromaStride, quality);
+      FAIL("accepted");
+    } catch (const std::invalid_argument& e) {
+      CHECK(std::string(e.what()).find(mentions) != std::string::npos);
+    }
+  };
+  rejects(std::span<const uint8_t>(y).subspan(0, 1000), w, h, yStride, 80, "planes of 1000");
+  rejects(y, w, h, 1000, 80, "strides 1000");
+  rejects(y, 0, h, yStride, 80, "JPEG size 0x731");
+  rejects(y, w, h, yStride, 0, "JPEG quality 0");
+}

@@ -14,7 +14,9 @@
 #include <vector>
 
 #include <glm/gtc/matrix_transform.hpp>
+#include <turbojpeg.h>
 
+#include "encode/jpeg.h"
 #include "gpu_test_support.h"
 #include "image_compare.h"
 #include "render/reference.h"
@@ -740,6 +742,123 @@ TEST_CASE("borrowed pixels: frames encoded in place equal copied ones; the memor
   encoder.join();
   CHECK(r.render(id, borrowing).borrowed);
   r.setFramesInFlight(1);
+  r.releaseFrameMemory();
+  r.destroyScene(id);
+  CHECK(gpu.context->validationMessages.load() == 0);
+}
+
+namespace {
+
+// A JPEG decoded to RGB (libturbojpeg), or empty when it does not decode.
+std::vector<uint8_t> decodeJpegRgb(const std::vector<uint8_t>& jpeg, uint32_t width, uint32_t height) {
+  tjhandle handle = tjInitDecompress();
+  REQUIRE(handle != nullptr);
+  std::vector<uint8_t> rgb(size_t(width) * height * 3);
+  const bool ok = tjDecompress2(handle, jpeg.data(), static_cast<unsigned long>(jpeg.size()),
+                                rgb.data(), int(width), 0, int(height), TJPF_RGB, 0) == 0;
+  tjDestroy(handle);
+  if (!ok) rgb.clear();
+  return rgb;
+}
+
+struct RgbError {
+  double psnr = 0.0;  // dB over the three channels
+  int maxError = 0;
+};
+
+RgbError compareToRgba(const std::vector<uint8_t>& rgb, const std::vector<uint8_t>& rgba) {
+  RgbError e;
+  double squares = 0.0;
+  const size_t pixels = rgba.size() / 4;
+  for (size_t i = 0; i < pixels; ++i) {
+    for (size_t c = 0; c < 3; ++c) {
+      const int d = int(rgb[i * 3 + c]) - int(rgba[i * 4 + c]);
+      squares += double(d) * d;
+      e.maxError = std::max(e.maxError, std::abs(d));
+    }
+  }
+  const double mse = squares / double(pixels * 3);
+  e.psnr = mse > 0.0 ? 10.0 * std::log10(255.0 * 255.0 / mse) : 99.0;
+  return e;
+}
+
+}  // namespace
+
+TEST_CASE("YCbCr frames: the GPU's 4:2:0 planes encode the same picture as the RGBA path") {
+  Gpu& gpu = sharedGpu();
+  render::Renderer& r = *gpu.renderer;
+  const scene::Scene b = sceneB();
+  const render::SceneId id = r.createScene(b);
+  // Odd sizes (padding to 8 x 2), and one large enough to be encoded in strips.
+  for (const auto& [width, height] : {std::pair{101u, 77u}, std::pair{1280u, 720u}}) {
+    CAPTURE(width);
+    render::FrameSettings rgbaSettings = settingsFor(b);
+    rgbaSettings.width = width;
+    rgbaSettings.height = height;
+    rgbaSettings.antialias = render::Antialias::Fxaa;
+    rgbaSettings.markers = true;
+    render::FrameSettings yuvSettings = rgbaSettings;
+    yuvSettings.yuv420 = true;
+    yuvSettings.borrowPixels = true;
+    const render::Frame rgba = r.render(id, rgbaSettings);
+    const render::Frame yuv = r.render(id, yuvSettings);
+    REQUIRE(!rgba.yuv420);
+    REQUIRE(yuv.yuv420);
+    const render::Yuv420Layout l = render::yuv420Layout(width, height);
+    REQUIRE(yuv.pixels().size() == l.bytes());
+    CHECK(l.bytes() * 2 < rgba.rgba.size());  // 1.5 bytes a pixel (with padding) against 4
+    const std::span<const uint8_t> planes = yuv.pixels();
+
+    // The planes against JFIF's conversion done here in doubles: Y of each pixel, Cb and Cr of
+    // each 2 x 2 block's mean, edges repeated. Rounding may differ by one level.
+    int yError = 0, chromaError = 0;
+    auto at = [&](uint32_t x, uint32_t y, int c) {
+      return double(rgba.rgba[(size_t(std::min(y, height - 1)) * width + std::min(x, width - 1)) * 4 + c]);
+    };
+    for (uint32_t y = 0; y < height; ++y) {
+      for (uint32_t x = 0; x < width; ++x) {
+        const double luma = 0.299 * at(x, y, 0) + 0.587 * at(x, y, 1) + 0.114 * at(x, y, 2);
+        yError = std::max(yError, std::abs(int(planes[size_t(y) * l.yStride + x]) - int(std::lround(luma))));
+      }
+    }
+    for (uint32_t y = 0; y < l.rows / 2; ++y) {
+      for (uint32_t x = 0; x < (width + 1) / 2; ++x) {
+        double m[3] = {0, 0, 0};
+        for (int c = 0; c < 3; ++c) {
+          m[c] = (at(2 * x, 2 * y, c) + at(2 * x + 1, 2 * y, c) + at(2 * x, 2 * y + 1, c) +
+                  at(2 * x + 1, 2 * y + 1, c)) / 4.0;
+        }
+        const double cb = -0.168736 * m[0] - 0.331264 * m[1] + 0.5 * m[2] + 128.0;
+        const double cr = 0.5 * m[0] - 0.418688 * m[1] - 0.081312 * m[2] + 128.0;
+        const size_t i = l.yBytes() + size_t(y) * l.chromaStride + x;
+        chromaError = std::max(chromaError, std::abs(int(planes[i]) - int(std::lround(cb))));
+        chromaError = std::max(chromaError, std::abs(int(planes[i + l.chromaBytes()]) - int(std::lround(cr))));
+      }
+    }
+    CHECK(yError <= 1);
+    CHECK(chromaError <= 1);
+
+    // Both encoded at quality 80 (4:2:0) and decoded: the YCbCr path is as close to the RGBA
+    // picture (what PNG carries) as libjpeg's own conversion is.
+    const std::vector<uint8_t> fromRgba = encode::encodeJpeg(rgba.rgba, width, height, 80, 4);
+    const std::vector<uint8_t> fromPlanes = encode::encodeJpegYuv420(
+        planes.subspan(0, l.yBytes()), planes.subspan(l.yBytes(), l.chromaBytes()),
+        planes.subspan(l.yBytes() + l.chromaBytes(), l.chromaBytes()), width, height, l.yStride,
+        l.chromaStride, 80, 4);
+    const std::vector<uint8_t> decodedRgba = decodeJpegRgb(fromRgba, width, height);
+    const std::vector<uint8_t> decodedPlanes = decodeJpegRgb(fromPlanes, width, height);
+    REQUIRE(!decodedRgba.empty());
+    REQUIRE(!decodedPlanes.empty());
+    const RgbError viaRgba = compareToRgba(decodedRgba, rgba.rgba);
+    const RgbError viaPlanes = compareToRgba(decodedPlanes, rgba.rgba);
+    MESSAGE(width << "x" << height << ": PSNR against the RGBA picture " << viaPlanes.psnr
+                  << " dB from planes (max error " << viaPlanes.maxError << "), " << viaRgba.psnr
+                  << " dB from RGBA (max error " << viaRgba.maxError << "); " << fromPlanes.size()
+                  << " against " << fromRgba.size() << " bytes");
+    CHECK(viaPlanes.psnr >= 30.0);
+    CHECK(viaPlanes.psnr >= viaRgba.psnr - 0.5);
+    CHECK(viaPlanes.maxError <= viaRgba.maxError + 8);
+  }
   r.releaseFrameMemory();
   r.destroyScene(id);
   CHECK(gpu.context->validationMessages.load() == 0);

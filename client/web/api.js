@@ -90,8 +90,9 @@ export class Api {
 
   // One request. `path` starting with "/v1/sessions/" carries the session token. Returns the
   // parsed JSON, null for 204, or the Response itself when `raw` is set.
-  async request(method, path, {json, body, contentType, query, signal, raw = false, auth = true} = {}) {
-    const headers = {};
+  async request(method, path, {json, body, contentType, query, signal, raw = false, auth = true,
+                               headers: extra = {}} = {}) {
+    const headers = {...extra};
     let payload = body;
     if (json !== undefined) {
       payload = JSON.stringify(json);
@@ -143,7 +144,10 @@ export class Api {
   }
 
   get(path, options) { return this.request('GET', path, options); }
-  patch(path, json) { return this.request('PATCH', path, {json}); }
+  // `end`: the last change of an interaction (a drag or a slider released), X-Myriad-Interaction.
+  patch(path, json, end = false) {
+    return this.request('PATCH', path, {json, headers: end ? {'X-Myriad-Interaction': 'end'} : {}});
+  }
   put(path, json) { return this.request('PUT', path, {json}); }
   post(path, json) { return this.request('POST', path, {json}); }
   delete(path) { return this.request('DELETE', path); }

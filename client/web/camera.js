@@ -28,6 +28,7 @@ export class CameraControl {
     this.flyFrame = 0;
     this.sending = false;
     this.pending = false;        // a newer pose than the one in flight
+    this.ending = false;         // the next PATCH ends the interaction (a drag released)
     this.lastSend = 0;
     this.sendTimer = 0;
     this.touches = new Map();    // pointerId -> {x, y} of the fingers on the view
@@ -148,6 +149,13 @@ export class CameraControl {
     if (!drag) return;
     this.drag = null;
     this.element.classList.remove('dragging');
+    if (drag.moved) {
+      // The pose once more, at once, saying the drag ended: the stream's still needs no settle
+      // time then (X-Myriad-Interaction: end).
+      this.ending = true;
+      this.pending = true;
+      this.scheduleSend();
+    }
     if (!drag.moved && drag.button === 0) {
       const rect = this.element.getBoundingClientRect();
       this.onClick(e.clientX - rect.left, e.clientY - rect.top);
@@ -254,8 +262,13 @@ export class CameraControl {
   }
 
   scheduleSend() {
-    if (this.sending || this.sendTimer) return;
-    const wait = Math.max(0, this.lastSend + SEND_INTERVAL_MS - performance.now());
+    if (this.sending) return;
+    if (this.sendTimer) {
+      if (!this.ending) return;
+      clearTimeout(this.sendTimer);  // the drag's end goes now
+      this.sendTimer = 0;
+    }
+    const wait = this.ending ? 0 : Math.max(0, this.lastSend + SEND_INTERVAL_MS - performance.now());
     this.sendTimer = setTimeout(() => {
       this.sendTimer = 0;
       this.send();
@@ -267,9 +280,11 @@ export class CameraControl {
     this.pending = false;
     this.sending = true;
     this.lastSend = performance.now();
+    const end = this.ending;
+    this.ending = false;
     const {eye, target, up} = this.camera;
     try {
-      const answer = await this.api.patch(this.api.sessionPath('/camera'), {eye, target, up});
+      const answer = await this.api.patch(this.api.sessionPath('/camera'), {eye, target, up}, end);
       if (!this.pending) this.camera = answer;
     } catch (e) {
       this.onProblem(e);

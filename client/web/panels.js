@@ -180,13 +180,19 @@ export class MaterialPanel {
   constructor(api, {onProblem}) {
     this.api = api;
     this.materials = [];
-    this.sender = new PatchSender((patch) => this.api.patch(
-        this.api.sessionPath(`/materials/${this.current().id}`), patch));
+    this.sender = new PatchSender((patch, end) => this.api.patch(
+        this.api.sessionPath(`/materials/${this.current().id}`), patch, end));
     this.sender.onProblem = onProblem;
     this.sender.onAnswer = (material) => this.replace(material);
     this.onProblem = onProblem;
 
     $('material').addEventListener('change', () => this.showCurrent());
+    // A slider or colour released: its still at once (PatchSender.end).
+    for (const id of ['material-color', 'material-metallic', 'material-roughness', 'material-alpha',
+                      'material-emissive', 'material-normal-scale', 'material-occlusion',
+                      'material-alpha-cutoff']) {
+      $(id).addEventListener('change', () => { if (this.current()) this.sender.end(); });
+    }
     $('material-color').addEventListener('input', (e) =>
         this.edit({baseColor: hexToLinear(e.target.value)}));
     $('material-metallic').addEventListener('input', (e) =>
@@ -283,7 +289,8 @@ export class SettingsPanel {
     this.settings = null;
     this.sunColorStrength = 1;
     this.onChange = onChange;  // (Settings) after the server answered
-    this.sender = new PatchSender((patch) => this.api.patch(this.api.sessionPath('/settings'), patch));
+    this.sender = new PatchSender((patch, end) =>
+        this.api.patch(this.api.sessionPath('/settings'), patch, end));
     this.sender.onProblem = onProblem;
     this.sender.onAnswer = (settings) => this.show(settings);
     this.onProblem = onProblem;
@@ -295,6 +302,11 @@ export class SettingsPanel {
       return [-Math.cos(el) * Math.sin(az), -Math.sin(el), -Math.cos(el) * Math.cos(az)].map(
           (c) => round(c, 5));
     };
+    // A slider or colour released: its still at once (PatchSender.end).
+    for (const id of ['sun-azimuth', 'sun-elevation', 'sun-color', 'sun-intensity', 'ambient-color',
+                      'ambient-strength', 'exposure', 'env-intensity', 'env-rotation']) {
+      $(id).addEventListener('change', () => this.sender.end());
+    }
     $('sun-azimuth').addEventListener('input', () => this.edit({sun: {direction: sunDirection()}}));
     $('sun-elevation').addEventListener('input', () => this.edit({sun: {direction: sunDirection()}}));
     // The picker shows the sun colour's hue; its strength above 1 (colours go to 64) is kept.

@@ -1,6 +1,8 @@
 // Sends the newest value of something the user is dragging (a slider, a colour) without piling up
 // requests: one request in flight, at most one every `intervalMs`, and patches made meanwhile are
-// merged so the last state always reaches the server.
+// merged so the last state always reaches the server. end() (the control released) sends the last
+// state once more, at once, saying the interaction ended: the stream's still then needs no
+// settle time (X-Myriad-Interaction: end, protocol/reference.md).
 
 export class PatchSender {
   constructor(send, intervalMs = 80) {
@@ -10,6 +12,8 @@ export class PatchSender {
     this.inFlight = false;
     this.timer = 0;
     this.last = 0;
+    this.lastPatch = null;       // the last patch sent (end() sends it again)
+    this.ending = false;         // the next request says the interaction ended
     this.onAnswer = () => {};    // (answer), after the last queued patch landed
     this.onProblem = () => {};   // (ApiError)
   }
@@ -25,13 +29,25 @@ export class PatchSender {
     this.schedule();
   }
 
+  end() {
+    if (!this.patch) this.patch = this.lastPatch;
+    if (!this.patch) return;
+    this.ending = true;
+    this.schedule();
+  }
+
   get busy() {
     return this.inFlight || this.patch !== null;
   }
 
   schedule() {
-    if (this.inFlight || this.timer || !this.patch) return;
-    const wait = Math.max(0, this.last + this.intervalMs - performance.now());
+    if (this.inFlight || !this.patch) return;
+    if (this.timer) {
+      if (!this.ending) return;
+      clearTimeout(this.timer);  // the interaction's end goes now
+      this.timer = 0;
+    }
+    const wait = this.ending ? 0 : Math.max(0, this.last + this.intervalMs - performance.now());
     this.timer = setTimeout(() => {
       this.timer = 0;
       this.flush();
@@ -42,12 +58,15 @@ export class PatchSender {
     const patch = this.patch;
     if (!patch) return;
     this.patch = null;
+    this.lastPatch = patch;
+    const end = this.ending;
+    this.ending = false;
     this.inFlight = true;
     this.last = performance.now();
     let answer;
     let failure = null;
     try {
-      answer = await this.sendFn(patch);
+      answer = await this.sendFn(patch, end);
     } catch (e) {
       failure = e;
     }

@@ -35,22 +35,53 @@ struct BufferDeleter {
 
 namespace {
 
-// One baseline JPEG of `rows` rows starting at `firstRow` (the whole image: 0, height).
-std::vector<uint8_t> compressRows(std::span<const uint8_t> rgba, uint32_t width, uint32_t firstRow,
-                                  uint32_t rows, int subsampling, int quality) {
+// Takes over a buffer tjCompress* allocated; throws with the handle's message when it failed.
+std::vector<uint8_t> compressed(void* handle, int result, unsigned char* out, unsigned long size) {
+  std::unique_ptr<unsigned char, BufferDeleter> owned(out);
+  if (result != 0) {
+    throw JpegError(std::string("JPEG encoding failed: ") + tjGetErrorStr2(handle));
+  }
+  return std::vector<uint8_t>(out, out + size);
+}
+
+std::unique_ptr<void, HandleDeleter> compressor() {
   // A handle per call: cheap next to the encoding, and no state shared between threads.
   std::unique_ptr<void, HandleDeleter> handle(tjInitCompress());
   if (!handle) throw JpegError(std::string("tjInitCompress failed: ") + tjGetErrorStr2(nullptr));
+  return handle;
+}
+
+// One baseline JPEG of `rows` rows starting at `firstRow` (the whole image: 0, height).
+std::vector<uint8_t> compressRows(std::span<const uint8_t> rgba, uint32_t width, uint32_t firstRow,
+                                  uint32_t rows, int subsampling, int quality) {
+  std::unique_ptr<void, HandleDeleter> handle = compressor();
   unsigned char* out = nullptr;
   unsigned long size = 0;
   const unsigned char* first = rgba.data() + size_t(firstRow) * width * 4;
   int result = tjCompress2(handle.get(), first, int(width), 0, int(rows), TJPF_RGBA, &out, &size,
                            subsampling, quality, 0);
-  std::unique_ptr<unsigned char, BufferDeleter> owned(out);
-  if (result != 0) {
-    throw JpegError(std::string("JPEG encoding failed: ") + tjGetErrorStr2(handle.get()));
-  }
-  return std::vector<uint8_t>(out, out + size);
+  return compressed(handle.get(), result, out, size);
+}
+
+// YCbCr 4:2:0 planes.
+struct Planes {
+  std::span<const uint8_t> y, cb, cr;
+  uint32_t yStride = 0, chromaStride = 0;
+};
+
+// The same from planes: `firstRow` is even (strips are whole MCU rows of 16).
+std::vector<uint8_t> compressPlaneRows(const Planes& p, uint32_t width, uint32_t firstRow,
+                                       uint32_t rows, int quality) {
+  std::unique_ptr<void, HandleDeleter> handle = compressor();
+  unsigned char* out = nullptr;
+  unsigned long size = 0;
+  const unsigned char* planes[3] = {p.y.data() + size_t(firstRow) * p.yStride,
+                                    p.cb.data() + size_t(firstRow / 2) * p.chromaStride,
+                                    p.cr.data() + size_t(firstRow / 2) * p.chromaStride};
+  const int strides[3] = {int(p.yStride), int(p.chromaStride), int(p.chromaStride)};
+  int result = tjCompressFromYUVPlanes(handle.get(), planes, int(width), strides, int(rows),
+                                       TJSAMP_420, &out, &size, quality, 0);
+  return compressed(handle.get(), result, out, size);
 }
 
 // Where a baseline JPEG's marker `code` starts (its 0xFF), walking the segments from SOI up to
@@ -76,29 +107,27 @@ std::span<const uint8_t> scanData(const std::vector<uint8_t>& jpeg) {
   return std::span<const uint8_t>(jpeg).subspan(begin, jpeg.size() - 2 - begin);
 }
 
-}  // namespace
-
-std::vector<uint8_t> encodeJpeg(std::span<const uint8_t> rgba, uint32_t width, uint32_t height,
-                                int quality, unsigned threads) {
+void checkJpegArguments(uint32_t width, uint32_t height, int quality) {
   if (width == 0 || height == 0 || width > kMaxJpegDimension || height > kMaxJpegDimension) {
     throw std::invalid_argument("JPEG size " + std::to_string(width) + "x" + std::to_string(height) +
                                 " is outside 1.." + std::to_string(kMaxJpegDimension));
   }
-  if (rgba.size() != size_t(width) * height * 4) {
-    throw std::invalid_argument("RGBA data of " + std::to_string(rgba.size()) + " bytes for a " +
-                                std::to_string(width) + "x" + std::to_string(height) + " image");
-  }
   if (quality < 1 || quality > 100) {
     throw std::invalid_argument("JPEG quality " + std::to_string(quality) + " is outside 1..100");
   }
-  const int subsampling = quality >= kFullChromaQuality ? TJSAMP_444 : TJSAMP_420;
+}
+
+// The picture encoded by `compress(firstRow, rows)` (rows a whole number of MCU rows but for
+// the last strip): whole when small or on one thread, else in strips joined with restart markers.
+template <class Compress>
+std::vector<uint8_t> encodeInStrips(uint32_t width, uint32_t height, int subsampling,
+                                    unsigned threads, Compress compress) {
   // Measured on the 2-core container while both cores were busy: strips were slower (4K: 112
   // against 93 ms), so a machine of 2 or 3 cores encodes on one thread.
   if (threads == 0) threads = std::min(kMaxStripThreads, std::thread::hardware_concurrency() / 2);
   if (uint64_t(width) * height < kParallelPixels || threads < 2) {
-    return compressRows(rgba, width, 0, height, subsampling, quality);
+    return compress(0, height);
   }
-
   // In parallel: strips of whole MCU rows, each encoded as a JPEG of its own by its own thread,
   // then joined into one baseline JPEG with restart markers between them. A restart resets the
   // DC predictions, which is what starting a new image does, and the encoder pads each strip's
@@ -112,7 +141,7 @@ std::vector<uint8_t> encodeJpeg(std::span<const uint8_t> rgba, uint32_t width, u
   uint32_t rowsPerStrip = (mcuRows + threads - 1) / threads;
   rowsPerStrip = std::max(1u, std::min(rowsPerStrip, kMaxRestartInterval / mcusPerRow));
   const uint32_t strips = (mcuRows + rowsPerStrip - 1) / rowsPerStrip;
-  if (strips < 2) return compressRows(rgba, width, 0, height, subsampling, quality);
+  if (strips < 2) return compress(0, height);
 
   std::vector<std::vector<uint8_t>> encoded(strips);
   std::vector<std::exception_ptr> failures(strips);
@@ -122,7 +151,7 @@ std::vector<uint8_t> encodeJpeg(std::span<const uint8_t> rgba, uint32_t width, u
       const uint32_t first = i * rowsPerStrip * mcuHeight;
       const uint32_t rows = std::min(rowsPerStrip * mcuHeight, height - first);
       try {
-        encoded[i] = compressRows(rgba, width, first, rows, subsampling, quality);
+        encoded[i] = compress(first, rows);
       } catch (...) {
         failures[i] = std::current_exception();
       }
@@ -166,6 +195,46 @@ std::vector<uint8_t> encodeJpeg(std::span<const uint8_t> rgba, uint32_t width, u
   out.push_back(0xFF);
   out.push_back(0xD9);
   return out;
+}
+
+}  // namespace
+
+bool jpegSubsamplesChroma(int quality) { return quality < kFullChromaQuality; }
+
+std::vector<uint8_t> encodeJpeg(std::span<const uint8_t> rgba, uint32_t width, uint32_t height,
+                                int quality, unsigned threads) {
+  checkJpegArguments(width, height, quality);
+  if (rgba.size() != size_t(width) * height * 4) {
+    throw std::invalid_argument("RGBA data of " + std::to_string(rgba.size()) + " bytes for a " +
+                                std::to_string(width) + "x" + std::to_string(height) + " image");
+  }
+  const int subsampling = jpegSubsamplesChroma(quality) ? TJSAMP_420 : TJSAMP_444;
+  return encodeInStrips(width, height, subsampling, threads, [&](uint32_t first, uint32_t rows) {
+    return compressRows(rgba, width, first, rows, subsampling, quality);
+  });
+}
+
+std::vector<uint8_t> encodeJpegYuv420(std::span<const uint8_t> y, std::span<const uint8_t> cb,
+                                      std::span<const uint8_t> cr, uint32_t width, uint32_t height,
+                                      uint32_t yStride, uint32_t chromaStride, int quality,
+                                      unsigned threads) {
+  checkJpegArguments(width, height, quality);
+  const uint32_t chromaWidth = (width + 1) / 2;
+  const uint32_t chromaRows = (height + 1) / 2;
+  if (yStride < width || chromaStride < chromaWidth ||
+      y.size() < size_t(yStride) * (height - 1) + width ||
+      cb.size() < size_t(chromaStride) * (chromaRows - 1) + chromaWidth ||
+      cr.size() < size_t(chromaStride) * (chromaRows - 1) + chromaWidth) {
+    throw std::invalid_argument("YCbCr 4:2:0 planes of " + std::to_string(y.size()) + ", " +
+                                std::to_string(cb.size()) + " and " + std::to_string(cr.size()) +
+                                " bytes (strides " + std::to_string(yStride) + ", " +
+                                std::to_string(chromaStride) + ") for a " + std::to_string(width) +
+                                "x" + std::to_string(height) + " image");
+  }
+  const Planes planes{y, cb, cr, yStride, chromaStride};
+  return encodeInStrips(width, height, TJSAMP_420, threads, [&](uint32_t first, uint32_t rows) {
+    return compressPlaneRows(planes, width, first, rows, quality);
+  });
 }
 
 }  // namespace myriad::encode

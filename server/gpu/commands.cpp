@@ -134,7 +134,12 @@ void PassTimer::reset(VkCommandBuffer cmd) {
 void PassTimer::beginPass(VkCommandBuffer cmd, const char* name) {
   if (!pool_ || written_ + 1 >= capacity_) return;
   if (frameOnly_ && written_ > 0) return;
-  vkCmdWriteTimestamp2(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, pool_, written_++);
+  // Frame boundaries only: the first timestamp at the top of the pipe waits for nothing, so the
+  // frame's work may start while earlier frames' still runs (--overlap-frames).
+  vkCmdWriteTimestamp2(cmd,
+                       frameOnly_ ? VK_PIPELINE_STAGE_2_TOP_OF_PIPE_BIT
+                                  : VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT,
+                       pool_, written_++);
   names_.emplace_back(frameOnly_ ? "frame" : name);
 }
 

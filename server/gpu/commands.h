@@ -81,8 +81,9 @@ class PassTimer {
   uint64_t firstTick() const { return firstTick_; }
   uint64_t lastTick() const { return lastTick_; }
   // Frame boundaries only: beginPass writes the first timestamp and then none, so results() has
-  // one pass, `frameOnlyName`, for the whole submission; a timestamp at ALL_COMMANDS between
-  // passes may hold work of the next pass back until the previous one drained.
+  // one pass, "frame", for the whole submission: the first written at the top of the pipe (it
+  // waits for nothing), the last at ALL_COMMANDS. A timestamp at ALL_COMMANDS between passes (or
+  // at a frame's start) may hold later work back until everything before it drained.
   void setFrameOnly(bool frameOnly) { frameOnly_ = frameOnly; }
 
  private:

@@ -241,6 +241,12 @@ struct FrameSettings : SceneSettings {
   // copied into Frame::rgba on the render thread: for a caller that encodes the frame at once and
   // drops it (the service's JPEG and PNG frames). Ignored for raw frames.
   bool borrowPixels = false;
+  // Read `final` back as JPEG's YCbCr 4:2:0 planes (yuv420Layout; Frame::yuv420) instead of
+  // RGBA: 1.5 bytes a pixel, converted on the GPU (shaders/yuv420.comp). For JPEG frames with
+  // subsampled chroma only; honoured for the 8-bit final picture (yuv420Readback()).
+  bool yuv420 = false;
+
+  bool yuv420Readback() const { return yuv420 && target == Target::Final && !raw; }
 
   FrameSettings& takeLightingFrom(const scene::Scene& scene) {
     SceneSettings::takeLightingFrom(scene);
@@ -295,6 +301,26 @@ struct PassTiming {
   double milliseconds;  // GPU time from timestamp queries
 };
 
+// Where the planes of a YCbCr 4:2:0 frame lie (FrameSettings::yuv420, shaders/yuv420.comp): Y
+// rows of `yStride` bytes (the width rounded up to 8), `rows` of them (the height rounded up to
+// 2); then Cb and then Cr, each `chromaStride` (yStride / 2) bytes by rows / 2. Padding repeats
+// the last column and row.
+struct Yuv420Layout {
+  uint32_t yStride = 0;
+  uint32_t rows = 0;
+  uint32_t chromaStride = 0;
+  size_t yBytes() const { return size_t(yStride) * rows; }
+  size_t chromaBytes() const { return size_t(chromaStride) * (rows / 2); }
+  size_t bytes() const { return yBytes() + 2 * chromaBytes(); }
+};
+inline Yuv420Layout yuv420Layout(uint32_t width, uint32_t height) {
+  Yuv420Layout l;
+  l.yStride = (width + 7u) & ~7u;
+  l.rows = (height + 1u) & ~1u;
+  l.chromaStride = l.yStride / 2;
+  return l;
+}
+
 // A frame's pixels left in the renderer's host-visible readback memory (FrameSettings::
 // borrowPixels): the memory is the frame's until the last reference is dropped, which hands it
 // back to the renderer (from any thread). Hold it only while encoding.
@@ -331,6 +357,9 @@ struct Frame {
   std::vector<uint8_t> rgba;
   // With FrameSettings::borrowPixels, the same bytes left in readback memory instead of `rgba`.
   std::shared_ptr<const BorrowedPixels> borrowed;
+  // With FrameSettings::yuv420 (for `final`): the pixels are YCbCr 4:2:0 planes laid out as
+  // yuv420Layout(width, height) says, not RGBA.
+  bool yuv420 = false;
   // The 8-bit pixels, wherever they are.
   std::span<const uint8_t> pixels() const {
     return borrowed ? borrowed->bytes : std::span<const uint8_t>(rgba);

@@ -1,5 +1,7 @@
 #include "render/frame_targets.h"
 
+#include <algorithm>
+
 #include "render/gpu_types.h"
 
 namespace myriad::render {
@@ -49,7 +51,12 @@ FrameTargets::FrameTargets(gpu::Context& context, VkExtent2D size, bool rawOutpu
                              VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT |
                                  VK_BUFFER_USAGE_TRANSFER_DST_BIT,
                              gpu::MemoryUse::DeviceLocal);
-  readback = arena.createBuffer(VkDeviceSize(extent.width) * extent.height * (raw ? 16 : 4),
+  const VkDeviceSize planeBytes = raw ? 16 : yuv420Layout(extent.width, extent.height).bytes();
+  planes = arena.createBuffer(planeBytes,
+                              VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_SRC_BIT,
+                              gpu::MemoryUse::DeviceLocal);
+  const VkDeviceSize pixelBytes = VkDeviceSize(extent.width) * extent.height * (raw ? 16 : 4);
+  readback = arena.createBuffer(std::max(pixelBytes, raw ? 0 : planeBytes),
                                 VK_BUFFER_USAGE_TRANSFER_DST_BIT, gpu::MemoryUse::Readback);
 }
 

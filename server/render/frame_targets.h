@@ -59,7 +59,9 @@ struct FrameTargets {
   // AntialiasEdges, then a uint per pixel: the pixels the final pass lists for anti-aliasing (a
   // header and one pixel for raw targets, which never anti-alias, so the binding always holds one).
   gpu::Buffer edges;
-  gpu::Buffer readback;  // output pixels, rows top first
+  // The output as YCbCr 4:2:0 planes (yuv420Layout; 8-bit targets; a 16-byte stand-in for raw).
+  gpu::Buffer planes;
+  gpu::Buffer readback;  // output pixels, rows top first (RGBA, floats, or the planes)
 };
 
 }  // namespace myriad::render

@@ -70,7 +70,7 @@ Pipelines::Pipelines(gpu::Context& context) : device(context.device) {
   }};
   sceneSetLayout = gpu::createDescriptorSetLayout(device, sceneBindings);
   const VkShaderStageFlags readers = VK_SHADER_STAGE_FRAGMENT_BIT | VK_SHADER_STAGE_COMPUTE_BIT;
-  std::array<VkDescriptorSetLayoutBinding, 15> targetBindings{};
+  std::array<VkDescriptorSetLayoutBinding, 16> targetBindings{};
   for (uint32_t i = 0; i <= MYRIAD_BINDING_LIGHT_COUNT; ++i) {
     targetBindings[i] = {i, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, readers, nullptr};
   }
@@ -92,6 +92,9 @@ Pipelines::Pipelines(gpu::Context& context) : device(context.device) {
   targetBindings[MYRIAD_BINDING_EDGE_PIXELS] = {MYRIAD_BINDING_EDGE_PIXELS,
                                                 VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1,
                                                 VK_SHADER_STAGE_COMPUTE_BIT, nullptr};
+  targetBindings[MYRIAD_BINDING_YUV_PLANES] = {MYRIAD_BINDING_YUV_PLANES,
+                                               VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1,
+                                               VK_SHADER_STAGE_COMPUTE_BIT, nullptr};
   targetSetLayout = gpu::createDescriptorSetLayout(device, targetBindings);
   std::array<VkDescriptorSetLayoutBinding, 5> cullingBindings{};
   for (uint32_t i = 0; i < cullingBindings.size(); ++i) {
@@ -165,11 +168,12 @@ Pipelines::Pipelines(gpu::Context& context) : device(context.device) {
   views = gpu::createComputePipeline(device, layout, spirv::views_comp);
   viewsRaw = gpu::createComputePipeline(device, layout, spirv::views_raw_comp);
   antialias = gpu::createComputePipeline(device, layout, spirv::antialias_comp);
+  yuv420 = gpu::createComputePipeline(device, layout, spirv::yuv420_comp);
 }
 
 Pipelines::~Pipelines() {
   for (VkPipeline p : {gbuffer, gbufferAlphaTest, gbufferUntextured, forward, forwardClustered, shadow, lightVolumeOverlay, animateLights,
-                      markerSplat, final, finalRaw, views, viewsRaw, antialias}) {
+                      markerSplat, final, finalRaw, views, viewsRaw, antialias, yuv420}) {
     if (p) vkDestroyPipeline(device, p, nullptr);
   }
   if (layout) vkDestroyPipelineLayout(device, layout, nullptr);
@@ -352,7 +356,8 @@ void recordFinalPass(VkCommandBuffer cmd, const Pipelines& p, const FrameTargets
       writtenToSampled(t.hdr, hdrLayout),
       writtenToSampled(t.lightCount, lightCountLayout),
       // The previous frame's last use of the output was the readback copy.
-      {&t.output, VK_PIPELINE_STAGE_2_COPY_BIT, VK_ACCESS_2_NONE, kCompute,
+      // (or, for a YCbCr frame, the conversion's loads).
+      {&t.output, VK_PIPELINE_STAGE_2_COPY_BIT | kCompute, VK_ACCESS_2_NONE, kCompute,
        VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT, VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_GENERAL},
   };
   // The final shader binds the keys and (8-bit) the LDR target whether or not this frame uses
@@ -435,6 +440,26 @@ void recordReadback(VkCommandBuffer cmd, const FrameTargets& t, VkImageLayout ou
   region.imageExtent = {t.extent.width, t.extent.height, 1};
   vkCmdCopyImageToBuffer(cmd, t.output.image, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL,
                          readback.buffer, 1, &region);
+  gpu::bufferBarrier(cmd, readback, VK_PIPELINE_STAGE_2_COPY_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT,
+                     VK_PIPELINE_STAGE_2_HOST_BIT, VK_ACCESS_2_HOST_READ_BIT);
+}
+
+void recordYuv420Readback(VkCommandBuffer cmd, const Pipelines& p, const FrameTargets& t,
+                          const gpu::Buffer& readback) {
+  constexpr VkPipelineStageFlags2 kCompute = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT;
+  // The final (and anti-aliasing) pass stored the output; this pass loads it.
+  const ImageTransition before[] = {{&t.output, kCompute, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
+                                     kCompute, VK_ACCESS_2_SHADER_STORAGE_READ_BIT,
+                                     VK_IMAGE_LAYOUT_GENERAL, VK_IMAGE_LAYOUT_GENERAL}};
+  gpu::barrier(cmd, before);
+  const Yuv420Layout layout = yuv420Layout(t.extent.width, t.extent.height);
+  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, p.yuv420);
+  vkCmdDispatch(cmd, gpu::groupCount(layout.yStride / 8, MYRIAD_PIXEL_GROUP),
+                gpu::groupCount(layout.rows / 2, MYRIAD_PIXEL_GROUP), 1);
+  gpu::bufferBarrier(cmd, t.planes, kCompute, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
+                     VK_PIPELINE_STAGE_2_COPY_BIT, VK_ACCESS_2_TRANSFER_READ_BIT);
+  const VkBufferCopy region{0, 0, layout.bytes()};
+  vkCmdCopyBuffer(cmd, t.planes.buffer, readback.buffer, 1, &region);
   gpu::bufferBarrier(cmd, readback, VK_PIPELINE_STAGE_2_COPY_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT,
                      VK_PIPELINE_STAGE_2_HOST_BIT, VK_ACCESS_2_HOST_READ_BIT);
 }

@@ -45,6 +45,7 @@ struct Pipelines {
   VkPipeline views = VK_NULL_HANDLE;
   VkPipeline viewsRaw = VK_NULL_HANDLE;
   VkPipeline antialias = VK_NULL_HANDLE;
+  VkPipeline yuv420 = VK_NULL_HANDLE;  // final as YCbCr 4:2:0 planes
 };
 
 // 1. Writes depth, normal, base colour, material, and uv and emissive where `written`
@@ -83,6 +84,10 @@ void recordLightVolumeOverlayPass(VkCommandBuffer cmd, const Pipelines& p, const
                                   const SceneBuffers& scene);
 // 6. Reads the output image (in `outputLayout`: GENERAL from compute, or COLOR_ATTACHMENT after
 //    the overlay); writes it to the host-visible readback buffer.
+// 5d. (FrameSettings::yuv420) Reads the 8-bit output (GENERAL, written by compute); writes its
+//     YCbCr 4:2:0 planes (t.planes) and copies them into `readback` for the host.
+void recordYuv420Readback(VkCommandBuffer cmd, const Pipelines& p, const FrameTargets& t,
+                          const gpu::Buffer& readback);
 // Copies the output into `readback` (t.readback, or a buffer of the renderer's readback pool).
 void recordReadback(VkCommandBuffer cmd, const FrameTargets& t, VkImageLayout outputLayout,
                     const gpu::Buffer& readback);

@@ -347,8 +347,14 @@ void Renderer::State::writeTargetSet(FrameSlot& slot) {
   edgeWrite.descriptorCount = 1;
   edgeWrite.descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
   edgeWrite.pBufferInfo = &edges;
+  // 15: the YCbCr planes (yuv420.comp).
+  const VkDescriptorBufferInfo planes{targets->planes.buffer, 0, VK_WHOLE_SIZE};
+  VkWriteDescriptorSet planeWrite = edgeWrite;
+  planeWrite.dstBinding = MYRIAD_BINDING_YUV_PLANES;
+  planeWrite.pBufferInfo = &planes;
   vkUpdateDescriptorSets(context.device, kBindings, writes, 0, nullptr);
   vkUpdateDescriptorSets(context.device, 1, &edgeWrite, 0, nullptr);
+  vkUpdateDescriptorSets(context.device, 1, &planeWrite, 0, nullptr);
 }
 
 // Targets follow the output size and are rebuilt only when it changes (every frame is waited
@@ -455,7 +461,7 @@ Renderer::Renderer(gpu::Context& context) : state_(std::make_unique<State>(conte
   // Sets 0 (scene) and 1 (targets) of every frame slot; each technique allocates its own set 2.
   const auto n = static_cast<uint32_t>(slots.size());
   VkDescriptorPoolSize sizes[] = {{VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, n * 1},
-                                  {VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, n * 7},  // + the edge pixels (set 1)
+                                  {VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, n * 8},  // + the edge pixels, the YCbCr planes (set 1)
                                   {VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, n * 11},  // + the shadow maps, the LDR target
                                   {VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, n * 5}};
   VkDescriptorPoolCreateInfo poolInfo{VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO};
@@ -727,7 +733,9 @@ uint32_t Renderer::beginFrame(SceneId id, const FrameSettings& settings) {
   // Borrowed pixels: a pooled buffer of their own, lent out with the frame; when every one is
   // lent out, the slot's own buffer and a copy on the render thread.
   slot.readback = settings.borrowPixels && !settings.raw
-                      ? s.acquireReadback(VkDeviceSize(settings.width) * settings.height * 4)
+                      ? s.acquireReadback(settings.yuv420Readback()
+                                              ? yuv420Layout(settings.width, settings.height).bytes()
+                                              : VkDeviceSize(settings.width) * settings.height * 4)
                       : nullptr;
   try {
     s.recordFrame(slot, scene, environment, settings, !s.overlap || sharesScene);
@@ -969,8 +977,14 @@ void Renderer::State::recordAfterLighting(VkCommandBuffer cmd, const FrameSlot& 
                        VK_ACCESS_2_TRANSFER_WRITE_BIT, VK_PIPELINE_STAGE_2_HOST_BIT,
                        VK_ACCESS_2_HOST_READ_BIT);
   }
-  slot.timer->beginPass(cmd, "readback");
-  recordReadback(cmd, t, outputLayout, slot.readback ? slot.readback->buffer : t.readback);
+  const gpu::Buffer& readback = slot.readback ? slot.readback->buffer : t.readback;
+  if (settings.yuv420Readback()) {
+    slot.timer->beginPass(cmd, "yuv");
+    recordYuv420Readback(cmd, s.pipelines, t, readback);
+  } else {
+    slot.timer->beginPass(cmd, "readback");
+    recordReadback(cmd, t, outputLayout, readback);
+  }
   slot.timer->end(cmd);
 }
 
@@ -993,6 +1007,9 @@ Frame Renderer::State::readFrame(const FrameSlot& slot, const Frame& meta,
   frame.width = t.extent.width;
   frame.height = t.extent.height;
   frame.times = slot.times;
+  frame.yuv420 = settings.yuv420Readback();
+  const size_t bytes = frame.yuv420 ? yuv420Layout(t.extent.width, t.extent.height).bytes()
+                                    : size_t(t.extent.width) * t.extent.height * 4;
   const auto copyStart = std::chrono::steady_clock::now();
   if (settings.raw) {
     frame.data.resize(size_t(t.extent.width) * t.extent.height * 4);
@@ -1000,11 +1017,10 @@ Frame Renderer::State::readFrame(const FrameSlot& slot, const Frame& meta,
   } else if (PooledReadback* pooled = slot.readback) {
     // Lent out: the encoder reads the mapped memory; dropping the frame gives it back.
     frame.borrowed = std::make_shared<const BorrowedPixels>(
-        static_cast<const uint8_t*>(pooled->buffer.mapped),
-        size_t(t.extent.width) * t.extent.height * 4,
+        static_cast<const uint8_t*>(pooled->buffer.mapped), bytes,
         [pooled] { pooled->held.store(false, std::memory_order_release); });
   } else {
-    frame.rgba.resize(size_t(t.extent.width) * t.extent.height * 4);
+    frame.rgba.resize(bytes);
     std::memcpy(frame.rgba.data(), t.readback.mapped, frame.rgba.size());
   }
   frame.times.copyMs = Milliseconds(std::chrono::steady_clock::now() - copyStart).count();

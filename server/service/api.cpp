@@ -14,7 +14,8 @@ namespace {
 // What a browser may send and read across origins: the token, JSON bodies, and the headers that
 // carry timings and frame metadata.
 const std::string kCorsAllowHeaders =
-    std::string(protocol::headers::kAuthorization) + ", Content-Type";
+    std::string(protocol::headers::kAuthorization) + ", Content-Type, " +
+    std::string(protocol::headers::kInteraction);
 const std::string kCorsExposeHeaders = [] {
   namespace h = protocol::headers;
   std::string list;

@@ -61,6 +61,8 @@ struct ApiConfig {
   // Session frames' pixels are encoded where the GPU put them (render::FrameSettings::
   // borrowPixels) rather than copied out on the render thread (--copy-frames turns it off).
   bool borrowPixels = true;
+  // JPEG frames are converted to YCbCr 4:2:0 on the GPU (--rgba-jpeg turns it off).
+  bool yuvJpeg = true;
 };
 
 struct ApiContext {

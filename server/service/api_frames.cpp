@@ -96,7 +96,8 @@ void handleSessionFrame(const ApiContext& context, FrameServices& frames,
   FrameRequest request = parsedQuery(
       [&] { return parseSessionFrameQuery(req.params, context.config.limits.maxResolution); });
   const SessionFrameContext frameContext{context.renderThread, frames.stats, frames.metrics,
-                                         nullptr, context.config.borrowPixels};
+                                         nullptr, context.config.borrowPixels,
+                                         context.config.yuvJpeg};
   SessionFrame frame = withFrameProblems("frame of " + session->id, [&] {
     PendingSessionFrame pending =
         submitSessionFrame(frameContext, session, request, render::FrameSource::Request);
@@ -138,7 +139,7 @@ void handleStream(ApiContext& context, FrameServices& frames, const httplib::Req
   res.set_chunked_content_provider(
       contentType,
       makeStreamProvider({context.renderThread, frames.stats, frames.metrics, &frames.shared,
-                          context.config.borrowPixels},
+                          context.config.borrowPixels, context.config.yuvJpeg},
                          frames.streams,
                          std::move(slot), std::move(session), std::move(request),
                          PeerWatch(req.local_addr, req.local_port, req.remote_addr, req.remote_port)));

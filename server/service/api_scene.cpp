@@ -31,6 +31,16 @@ void getCamera(ApiContext& context, const httplib::Request& req, httplib::Respon
   sendJson(res, toWire(session->scene.camera()));
 }
 
+// X-Myriad-Interaction: "end" (the last change of a drag or a slider), absent, or a 400.
+bool endsInteraction(const httplib::Request& req) {
+  const std::string name(protocol::headers::kInteraction);
+  if (!req.has_header(name)) return false;
+  if (req.get_header_value(name) == protocol::headers::kInteractionEnd) return true;
+  throw ProblemError(badRequest(400, name + " must be \"" +
+                                         std::string(protocol::headers::kInteractionEnd) +
+                                         "\" when present."));
+}
+
 // PUT (whole camera) and PATCH (any subset): both must leave a valid camera.
 void setCamera(ApiContext& context, const httplib::Request& req, httplib::Response& res,
                bool patch) {
@@ -38,13 +48,14 @@ void setCamera(ApiContext& context, const httplib::Request& req, httplib::Respon
   checkQuery(req, {});
   nlohmann::json body =
       jsonBody(req, patch ? protocol::schema_names::kCameraPatch : protocol::schema_names::kCamera);
+  const bool ends = endsInteraction(req);
   auto lock = lockOpen(*session);
   if (patch) {
     session->scene.patchCamera(body.get<protocol::CameraPatch>());
   } else {
     session->scene.setCamera(fromWire(body.get<protocol::Camera>()));
   }
-  session->bump();
+  session->bump(ends);
   sendJson(res, toWire(session->scene.camera()));
 }
 
@@ -81,9 +92,10 @@ void patchSettings(ApiContext& context, const httplib::Request& req, httplib::Re
   checkQuery(req, {});
   const auto patch =
       jsonBody(req, protocol::schema_names::kSettingsPatch).get<protocol::SettingsPatch>();
+  const bool ends = endsInteraction(req);
   auto lock = lockOpen(*session);
   session->scene.patchSettings(patch, Clock::now());
-  session->bump();
+  session->bump(ends);
   sendJson(res, toWire(session->scene));
 }
 
@@ -181,6 +193,7 @@ void patchMaterial(ApiContext& context, const httplib::Request& req, httplib::Re
   checkQuery(req, {});
   const auto patch =
       jsonBody(req, protocol::schema_names::kMaterialPatch).get<protocol::MaterialPatch>();
+  const bool ends = endsInteraction(req);
   std::future<void> uploaded;
   protocol::Material result;
   {
@@ -189,7 +202,7 @@ void patchMaterial(ApiContext& context, const httplib::Request& req, httplib::Re
     const uint32_t id = scene.materialId(req.matches[2].str());
     uploaded = context.renderThread.updateMaterials(session->sceneId,
                                                     {scene.patchMaterial(id, patch)});
-    session->bump();
+    session->bump(ends);
     result = toWire(id, scene.materials()[id], scene.model().images);
   }
   uploaded.get();

@@ -97,6 +97,7 @@ const std::vector<Flag>& flags() {
        }},
       {"--overlap-frames", false, [](Options& o, std::string_view) { o.overlapFrames = true; }},
       {"--copy-frames", false, [](Options& o, std::string_view) { o.copyFrames = true; }},
+      {"--rgba-jpeg", false, [](Options& o, std::string_view) { o.rgbaJpeg = true; }},
       {"--frame-timestamps", false,
        [](Options& o, std::string_view) { o.frameTimestampsOnly = true; }},
       {"--gbuffer", true,
@@ -268,6 +269,8 @@ materials and lights (protocol/reference.md), and the stateless GET /v1/frame.
                            frame's G-buffer while the previous one lights; experimental)
   --copy-frames            copy every frame's pixels out of GPU-visible memory on the render
                            thread (the path before; default: encoders read them in place)
+  --rgba-jpeg              read JPEG frames back as RGBA and convert them on the CPU (the path
+                           before; default: YCbCr 4:2:0 made on the GPU, 1.5 bytes a pixel)
   --frame-timestamps       time each frame with two GPU timestamps instead of one per pass
                            (Server-Timing and stats then show one pass, "frame")
   --gbuffer P              how G-buffers are made: raster, compute (triangles rasterised by

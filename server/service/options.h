@@ -46,6 +46,9 @@ struct Options {
   bool copyFrames = false;
   // GPU timestamps at frame boundaries only (render::Renderer::setFrameTimestampsOnly).
   bool frameTimestampsOnly = false;
+  // JPEG frames read back as RGBA and converted on the CPU by libjpeg (the path before stop 14);
+  // default off: converted to YCbCr 4:2:0 on the GPU (render::FrameSettings::yuv420).
+  bool rgbaJpeg = false;
   // How G-buffers are made (render::GBufferPath). Auto: in compute where the scene qualifies on a
   // GPU (on the H200 the floor scene's G-buffer took 0.24 ms instead of 1.34 at 1080p, 0.81
   // instead of 5.31 at 4K; docs/performance.md), raster on CPU devices, where raster is cheaper.

@@ -73,6 +73,9 @@ struct Session {
 
   // Bumped (under `mutex`) on every change that can alter a frame; streams compare it.
   uint64_t version = 0;
+  // The version of the last change its client said ends an interaction (X-Myriad-Interaction:
+  // end): an interactive stream sends the still for it without waiting to see changes stop.
+  uint64_t interactionEndVersion = 0;
   // Set when the session is deleted, expired or the server stops; streams end when they see it.
   bool closed = false;
 
@@ -90,8 +93,9 @@ struct Session {
   Clock::time_point lastUsed = Clock::now();  // refreshed by every authorized request
 
   // With `mutex` held: records a change and wakes whoever waits on `changed`.
-  void bump() {
+  void bump(bool endsInteraction = false) {
     ++version;
+    if (endsInteraction) interactionEndVersion = version;
     changed.notify_all();
   }
 

@@ -39,8 +39,20 @@ EncodedFrame encodeFrame(const render::Frame& frame, const FrameRequest& request
       break;
     }
     case ImageFormat::Jpeg: {
-      std::vector<uint8_t> jpeg =
-          encode::encodeJpeg(frame.pixels(), frame.width, frame.height, request.quality);
+      std::vector<uint8_t> jpeg;
+      if (frame.yuv420) {
+        // Converted and subsampled on the GPU (render::FrameSettings::yuv420).
+        const render::Yuv420Layout l = render::yuv420Layout(frame.width, frame.height);
+        const std::span<const uint8_t> planes = frame.pixels();
+        if (planes.size() < l.bytes()) throw std::invalid_argument("YCbCr frame too small");
+        jpeg = encode::encodeJpegYuv420(planes.subspan(0, l.yBytes()),
+                                        planes.subspan(l.yBytes(), l.chromaBytes()),
+                                        planes.subspan(l.yBytes() + l.chromaBytes(), l.chromaBytes()),
+                                        frame.width, frame.height, l.yStride, l.chromaStride,
+                                        request.quality);
+      } else {
+        jpeg = encode::encodeJpeg(frame.pixels(), frame.width, frame.height, request.quality);
+      }
       out.body.assign(reinterpret_cast<const char*>(jpeg.data()), jpeg.size());
       out.contentType = protocol::kJpegContentType;
       break;
@@ -213,6 +225,10 @@ PendingSessionFrame submitSessionFrame(const SessionFrameContext& context, const
     pending.rendered.settings =
         session->scene.frameSettings(request.settings, request.time, Clock::now());
     pending.rendered.settings.borrowPixels = context.borrowPixels;
+    // A JPEG with subsampled chroma: converted to YCbCr 4:2:0 on the GPU, read back at 1.5
+    // bytes a pixel, encoded from the planes (the same picture: gpu CTest "YCbCr frames").
+    pending.rendered.settings.yuv420 = context.yuvJpeg && request.format == ImageFormat::Jpeg &&
+                                       !request.video && encode::jpegSubsamplesChroma(request.quality);
     if (request.interactive) {
       // A stream's interactive frame (interactive_quality.h): the costly passes that change the
       // picture least while it moves are left out; the still after it has them.

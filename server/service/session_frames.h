@@ -105,6 +105,9 @@ struct SessionFrameContext {
   // Frames' pixels stay in the renderer's readback memory until encoded
   // (render::FrameSettings::borrowPixels): no copy on the render thread.
   bool borrowPixels = false;
+  // JPEG frames with subsampled chroma are read back as YCbCr 4:2:0 planes
+  // (render::FrameSettings::yuv420) and encoded from them.
+  bool yuvJpeg = false;
 };
 
 // A session frame submitted to the render thread and not yet collected (submitSessionFrame).

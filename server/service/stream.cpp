@@ -135,11 +135,13 @@ bool StreamState::next(httplib::DataSink& sink) {
     bool closed = false;
     bool animate = false;
     uint64_t version = 0;
+    bool ended = false;  // the newest change ends its interaction (X-Myriad-Interaction: end)
     {
       std::lock_guard lock(session->mutex);
       closed = session->closed;
       animate = session->scene.settings().animate;
       version = session->version;
+      ended = session->interactionEndVersion == version;
     }
     if (closed || registry.stopping() || slot->replaced()) {
       // The terminating chunk, then close: the client sees a complete body and end of file.
@@ -160,7 +162,11 @@ bool StreamState::next(httplib::DataSink& sink) {
       }
     }
     // Interactive: the session changed within the settle time; a still is due once it settled.
-    const bool moving = quality && hasFrame && quality->moving(now);
+    // A change that its client said ends the interaction needs no settle time: once it has been
+    // shown (as an interactive part, quickly: a slider's single click still shows at once), the
+    // still follows straight away.
+    const bool endShown = ended && hasFrame && version == shownVersion;
+    const bool moving = quality && hasFrame && quality->moving(now) && !endShown;
     const bool wantStill = quality && lastInteractive && !moving;
     const bool wantFrame = !hasFrame || version != shownVersion || animate || wantStill;
     if (wantFrame && now >= nextFrameAt) {
