@@ -519,6 +519,42 @@ TEST_CASE("streams: animated parts, idle re-sends, the end on DELETE, limits, st
     CHECK(getJson(*client, sessionPath + "/settings", auth(session))["exposure"] != 2.0);
   }
 
+  SUBCASE("interactive and animated: parts stay interactive while the lights animate, the still follows when they stop") {
+    MultipartReader reader(server, streamPath(session, "format=jpeg&width=64&height=48&interactive=24"),
+                           auth(session));
+    REQUIRE(reader.status() == 200);
+    REQUIRE(reader.waitFor(1, std::chrono::seconds(60)).size() == 1);
+    patchJson(*client, sessionPath + "/settings", session, {{"animate", true}});
+    const auto animating = Clock::now();
+    // Long after any settle time (400 ms at most): the animation alone keeps the parts interactive.
+    std::this_thread::sleep_for(std::chrono::milliseconds(1500));
+    std::vector<StreamPart> parts = reader.waitFor(0, std::chrono::seconds(0));
+    size_t late = 0;
+    size_t lateInteractive = 0;
+    for (const StreamPart& part : parts) {
+      if (part.arrived < animating + std::chrono::milliseconds(600)) continue;
+      ++late;
+      if (part.headers.count("X-Myriad-Interactive") > 0) ++lateInteractive;
+    }
+    MESSAGE("animated parts 0.6-1.5 s after animate: ", late, ", interactive ", lateInteractive);
+    CHECK(late >= 2);
+    CHECK(lateInteractive == late);
+    const size_t before = parts.size();
+    patchJson(*client, sessionPath + "/settings", session, {{"animate", false}});
+    // The animation stopped: a still (no X-Myriad-Interactive) at the stream's size follows.
+    std::optional<StreamPart> still;
+    for (size_t n = before + 1; !still && n < before + 200; ++n) {
+      parts = reader.waitFor(n, std::chrono::seconds(60));
+      REQUIRE(parts.size() >= n);
+      if (parts[n - 1].headers.count("X-Myriad-Interactive") == 0) still = parts[n - 1];
+    }
+    REQUIRE(still);
+    std::optional<DecodedJpeg> image = decodeJpeg(still->body);
+    REQUIRE(image);
+    CHECK(image->width == 64);
+    CHECK(image->height == 48);
+  }
+
   SUBCASE("animated lights: parts differ, stats and metrics follow, DELETE ends the stream") {
     patchJson(*client, sessionPath + "/settings", session, {{"animate", true}});
     // A low fps, so that the cap is far below what lavapipe renders at this size.

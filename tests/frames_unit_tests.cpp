@@ -267,8 +267,8 @@ TEST_CASE("interactive quality: degraded while changes come, settles, scale foll
   // The request: scaled size, JPEG quality at most 50, flagged; the stream's own untouched.
   FrameRequest full = service::parseStreamQuery({{"width", "1280"}, {"height", "720"},
                                                  {"quality", "90"}}, 2048);
-  CHECK(quality.scale() == Q::kStartScale);
-  FrameRequest cheap = quality.degrade(full);
+  CHECK(quality.scale(Q::Motion::Steered) == Q::kStartScale);
+  FrameRequest cheap = quality.degrade(full, Q::Motion::Steered);
   CHECK(cheap.settings.width == 640);
   CHECK(cheap.settings.height == 360);
   CHECK(cheap.quality == 50);
@@ -277,16 +277,28 @@ TEST_CASE("interactive quality: degraded while changes come, settles, scale foll
 
   // A frame 4x over budget at 0.5: the scale goes down (half way to 0.25, in 1/16 steps); within
   // 15% of the budget it stays; far under budget it climbs, never past 1 or below 1/4.
-  quality.measured(0.5, milliseconds(160));
-  CHECK(quality.scale() == doctest::Approx(0.375));
-  quality.measured(0.375, milliseconds(42));
-  CHECK(quality.scale() == doctest::Approx(0.375));
-  for (int i = 0; i < 20; ++i) quality.measured(quality.scale(), milliseconds(1));
-  CHECK(quality.scale() == 1.0);
-  for (int i = 0; i < 20; ++i) quality.measured(quality.scale(), milliseconds(5000));
-  CHECK(quality.scale() == Q::kMinScale);
+  quality.measured(Q::Motion::Steered, 0.5, milliseconds(160));
+  CHECK(quality.scale(Q::Motion::Steered) == doctest::Approx(0.375));
+  quality.measured(Q::Motion::Steered, 0.375, milliseconds(42));
+  CHECK(quality.scale(Q::Motion::Steered) == doctest::Approx(0.375));
+  for (int i = 0; i < 20; ++i) quality.measured(Q::Motion::Steered, quality.scale(Q::Motion::Steered), milliseconds(1));
+  CHECK(quality.scale(Q::Motion::Steered) == 1.0);
+  for (int i = 0; i < 20; ++i) quality.measured(Q::Motion::Steered, quality.scale(Q::Motion::Steered), milliseconds(5000));
+  CHECK(quality.scale(Q::Motion::Steered) == Q::kMinScale);
   FrameRequest tiny = service::parseStreamQuery({{"width", "2"}, {"height", "1"}}, 2048);
-  CHECK(quality.degrade(tiny).settings.height == 1);  // never 0 pixels
+  CHECK(quality.degrade(tiny, Q::Motion::Steered).settings.height == 1);  // never 0 pixels
+
+  // Animation holds half the rate (10 fps: an 80 ms budget) with a scale of its own: a frame of
+  // 80 ms at 0.5 keeps 0.5 there, while the steered scale (now at its floor) is untouched.
+  CHECK(quality.targetFps(Q::Motion::Animated) == 10);
+  CHECK(Q(1).targetFps(Q::Motion::Animated) == 1);
+  CHECK(quality.scale(Q::Motion::Animated) == Q::kStartScale);
+  quality.measured(Q::Motion::Animated, 0.5, milliseconds(80));
+  CHECK(quality.scale(Q::Motion::Animated) == Q::kStartScale);
+  quality.measured(Q::Motion::Animated, 0.5, milliseconds(320));  // 4x over: down, as steered
+  CHECK(quality.scale(Q::Motion::Animated) == doctest::Approx(0.375));
+  CHECK(quality.scale(Q::Motion::Steered) == Q::kMinScale);
+  CHECK(quality.degrade(full, Q::Motion::Animated).settings.width == 480);
 }
 
 TEST_CASE("stream registry: maxStreams places, a session's newest replaces its oldest, none after shutdown") {

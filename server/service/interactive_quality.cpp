@@ -25,21 +25,22 @@ void InteractiveQuality::measuredFull(Clock::duration took) {
   if (took > Clock::duration::zero()) fullCost_ = took;
 }
 
-FrameRequest InteractiveQuality::degrade(const FrameRequest& full) const {
+FrameRequest InteractiveQuality::degrade(const FrameRequest& full, Motion motion) const {
+  const double scale = this->scale(motion);
   FrameRequest out = full;
   out.settings.width = std::max<uint32_t>(
-      1, static_cast<uint32_t>(std::lround(full.settings.width * scale_)));
+      1, static_cast<uint32_t>(std::lround(full.settings.width * scale)));
   out.settings.height = std::max<uint32_t>(
-      1, static_cast<uint32_t>(std::lround(full.settings.height * scale_)));
+      1, static_cast<uint32_t>(std::lround(full.settings.height * scale)));
   out.quality = std::min(full.quality, kInteractiveJpegQuality);
   out.interactive = true;
   return out;
 }
 
-void InteractiveQuality::measured(double usedScale, Clock::duration took) {
+void InteractiveQuality::measured(Motion motion, double usedScale, Clock::duration took) {
   const double ms = std::chrono::duration<double, std::milli>(took).count();
   if (!(ms > 0.0) || targetFps_ == 0) return;
-  const double budgetMs = kBudgetShare * 1000.0 / targetFps_;
+  const double budgetMs = kBudgetShare * 1000.0 / targetFps(motion);
   const double ratio = budgetMs / ms;
   if (std::abs(ratio - 1.0) <= kTolerance) return;
   // Pixels go with the square of the scale; half of the way there per frame, so that one odd
@@ -48,7 +49,7 @@ void InteractiveQuality::measured(double usedScale, Clock::duration took) {
   const double next = usedScale + 0.5 * (wanted - usedScale);
   double stepped = std::round(next / kScaleStep) * kScaleStep;
   if (stepped == usedScale) stepped += ratio > 1.0 ? kScaleStep : -kScaleStep;
-  scale_ = std::clamp(stepped, kMinScale, 1.0);
+  (motion == Motion::Animated ? animatedScale_ : scale_) = std::clamp(stepped, kMinScale, 1.0);
 }
 
 }  // namespace myriad::service

@@ -2,12 +2,17 @@
 // changing (a camera drag, a slider), the stream's frames are cheaper (a smaller render scale that
 // the client scales up, no anti-aliasing, no sun shadows, a lower JPEG quality), the scale chosen
 // from the measured time of the frames before so that FPS frames a second hold; once the session
-// has stopped changing for a settle time, one full-quality frame (the still) follows. Chosen by
-// the server from its own frame times, so every client of the protocol gets it by asking.
+// has stopped changing for a settle time, one full-quality frame (the still) follows. Lights that
+// animate change every frame, so an animated session's stream stays interactive while it animates,
+// at half the rate (animation is watched, not steered: no input waits on it, so it takes twice the
+// time and about twice the pixels of a frame while dragging), with its own learnt scale; the still
+// follows when the animation stops. Chosen by the server from its own frame times, so every
+// client of the protocol gets it by asking.
 //
 // Pure: no HTTP, no Vulkan, no clock of its own (times are passed in), so it is unit-tested.
 #pragma once
 
+#include <algorithm>
 #include <array>
 #include <chrono>
 #include <cstddef>
@@ -56,19 +61,28 @@ class InteractiveQuality {
   Clock::time_point settlesAt() const { return lastChange_ + settle_; }
   Clock::duration settle() const { return settle_; }
 
-  double scale() const { return scale_; }
+  // What changes the picture: a client steering it (a drag, a slider) or only the lights'
+  // animation. Each has its own frame rate and learnt scale.
+  enum class Motion { Steered, Animated };
+
+  double scale(Motion motion) const { return motion == Motion::Animated ? animatedScale_ : scale_; }
+  // The frames a second held: the stream's interactive rate, half of it (at least 1) for animation.
+  uint32_t targetFps(Motion motion) const {
+    return motion == Motion::Animated ? std::max<uint32_t>(1, targetFps_ / 2) : targetFps_;
+  }
 
   // `full` made interactive: the size scaled (at least 1 pixel a side), JPEG quality lowered,
   // FrameRequest::interactive set (the session frame then drops anti-aliasing and shadows).
-  FrameRequest degrade(const FrameRequest& full) const;
+  FrameRequest degrade(const FrameRequest& full, Motion motion) const;
 
   // A full-quality frame of the stream took `took` from submission to encoded (0: not rendered
   // for this stream, e.g. taken from another stream's render): the still's cost, for the settle.
   void measuredFull(Clock::duration took);
 
   // An interactive frame rendered at `usedScale` took `took` from submission to encoded: the
-  // next scale is the one whose pixels fit the budget, cost taken as proportional to pixels.
-  void measured(double usedScale, Clock::duration took);
+  // next scale (of that motion) is the one whose pixels fit the budget, cost taken as
+  // proportional to pixels.
+  void measured(Motion motion, double usedScale, Clock::duration took);
 
  private:
   uint32_t targetFps_;
@@ -79,6 +93,7 @@ class InteractiveQuality {
   Clock::duration fullCost_{};  // the last full-quality frame's time
   Clock::duration settle_ = kMinSettle;
   double scale_ = kStartScale;
+  double animatedScale_ = kStartScale;
 };
 
 }  // namespace myriad::service

@@ -165,8 +165,13 @@ bool StreamState::next(httplib::DataSink& sink) {
     // A change that its client said ends the interaction needs no settle time: once it has been
     // shown (as an interactive part, quickly: a slider's single click still shows at once), the
     // still follows straight away.
+    // Animated lights change the picture every frame: the stream stays interactive while they
+    // animate (at the animation's rate and scale), and the still follows once they stop.
     const bool endShown = ended && hasFrame && version == shownVersion;
-    const bool moving = quality && hasFrame && quality->moving(now) && !endShown;
+    const bool steered = quality && hasFrame && quality->moving(now) && !endShown;
+    const bool moving = steered || (quality && hasFrame && animate);
+    const InteractiveQuality::Motion motion =
+        steered ? InteractiveQuality::Motion::Steered : InteractiveQuality::Motion::Animated;
     const bool wantStill = quality && lastInteractive && !moving;
     const bool wantFrame = !hasFrame || version != shownVersion || animate || wantStill;
     if (wantFrame && now >= nextFrameAt) {
@@ -183,11 +188,11 @@ bool StreamState::next(httplib::DataSink& sink) {
           // A cheaper frame of the stream's own (its size is its own, so it is not shared); a
           // full frame submitted ahead is given up first (it would arrive slow and full).
           settleAhead();
-          const double scale = quality->scale();
+          const double scale = quality->scale(motion);
           PendingSessionFrame pending = submitSessionFrame(
-              context, session, quality->degrade(request), render::FrameSource::Stream);
+              context, session, quality->degrade(request, motion), render::FrameSource::Stream);
           SessionFrame own = collectSessionFrame(context, session, pending);
-          quality->measured(scale, Clock::now() - pending.submitted);
+          quality->measured(motion, scale, Clock::now() - pending.submitted);
           frame = {std::make_shared<const EncodedFrame>(std::move(own.encoded)), own.version, 0};
           char text[32];
           auto [end, ec] = std::to_chars(text, text + sizeof text, scale);

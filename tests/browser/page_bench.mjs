@@ -4,7 +4,9 @@
 // session's built-in scene and the JPEG stream (?stream=jpeg, the adaptive one).
 //
 // Measured, idle and then with `--load N` busy processes (`yes`, one core each) running beside:
-//   animatedFps   frames shown a second of the animated scene (animate on), nobody touching it
+//   animatedFps   frames shown a second of the animated scene (animate on), nobody touching it;
+//                 animatedScales the render scales of those frames (the stream holds half its
+//                 interactive rate while the lights animate)
 //   dragFps       frames shown a second while the mouse drags the camera (orbit) without a pause
 //   stillMs       from the pointer going up to the full-quality still shown
 //   sliderMs      from a slider's input event to the first new frame shown (the exposure slider,
@@ -125,7 +127,8 @@ try {
     const p = await perf();
     await settings({animate: false});
     await sleep(1500);
-    return p.frames.length / SECONDS;
+    return {fps: p.frames.length / SECONDS,
+            scales: p.frames.map((f) => f.interactive || 1)};
   }
 
   // One drag: the mouse goes round a circle at 60 moves a second for SECONDS, then up; the still.
@@ -167,7 +170,11 @@ try {
 
   async function measureAll(label, withAnimation) {
     const out = {loadAverageStart: loadAverage()};
-    if (withAnimation) out.animatedFps = Math.round((await animated()) * 10) / 10;
+    if (withAnimation) {
+      const a = await animated();
+      out.animatedFps = Math.round(a.fps * 10) / 10;
+      out.animatedScales = summary(a.scales, 4);  // 1: a full-size frame
+    }
     const drags = [];
     for (let i = 0; i < DRAGS; ++i) drags.push(await drag());
     out.dragFps = summary(drags.map((p) => p.drags[0]?.fps));
