@@ -10,7 +10,7 @@ layout(std430, set = MYRIAD_SET_CULLING, binding = MYRIAD_BINDING_CLUSTER_CURSOR
 };
 
 void main() {
-  uvec2 tile = uvec2(gl_FragCoord.xy) / MYRIAD_CLUSTER_TILE_SIZE;
+  uvec2 tile = uvec2(gl_FragCoord.xy) / clusterTileSize();
   // Every writer writes the same 0 (active), as in cluster_mark.comp.
   clusterCursors[clusterIndex(uvec3(tile, sliceOfViewDepth(viewDepthFromDepth(gl_FragCoord.z))))] = 0u;
 }

@@ -32,7 +32,7 @@ void main() {
   s.emissive = m.emissive;
   vec3 color = sunAndAmbient(s);
 #ifdef MYRIAD_FORWARD_CLUSTERED
-  uvec2 tile = uvec2(gl_FragCoord.xy) / MYRIAD_CLUSTER_TILE_SIZE;
+  uvec2 tile = uvec2(gl_FragCoord.xy) / clusterTileSize();
   uint cluster = clusterIndex(uvec3(tile, sliceOfViewDepth(viewDepthFromDepth(gl_FragCoord.z))));
   uvec2 range = clusterRanges[cluster];
   for (uint i = 0u; i < range.y; ++i) {

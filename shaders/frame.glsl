@@ -318,6 +318,11 @@ float viewDepthOfSlice(uint k) {
   return exp((float(k) + frame.slicing.y) / frame.slicing.x);
 }
 
+// The clusters' screen tiles are this many pixels square (FrameUniforms.written.y).
+uint clusterTileSize() {
+  return frame.written.y;
+}
+
 uint clusterIndex(uvec3 c) {
   return c.x + frame.grid.x * (c.y + frame.grid.y * c.z);
 }
@@ -340,8 +345,8 @@ void viewBoxOfRect(vec2 pixelLo, vec2 pixelHi, float z0, float z1, out vec3 lo, 
 void clusterViewBox(uvec3 c, out vec3 lo, out vec3 hi) {
   float z0 = c.z == 0u ? frame.camera.y : viewDepthOfSlice(c.z);
   float z1 = c.z + 1u == frame.grid.z ? frame.camera.z : viewDepthOfSlice(c.z + 1u);
-  vec2 pixelLo = vec2(c.xy * MYRIAD_CLUSTER_TILE_SIZE);
-  vec2 pixelHi = vec2(min((c.xy + 1u) * MYRIAD_CLUSTER_TILE_SIZE, uvec2(frame.viewport.xy)));
+  vec2 pixelLo = vec2(c.xy * clusterTileSize());
+  vec2 pixelHi = vec2(min((c.xy + 1u) * clusterTileSize(), uvec2(frame.viewport.xy)));
   viewBoxOfRect(pixelLo, pixelHi, z0, z1, lo, hi);
 }
 
@@ -352,7 +357,7 @@ bool sphereOverlapsBox(vec3 c, float r, vec3 lo, vec3 hi) {
 }
 
 uint clusterOfPixel(ivec2 pixel, float depth) {
-  uvec2 tile = uvec2(pixel) / MYRIAD_CLUSTER_TILE_SIZE;
+  uvec2 tile = uvec2(pixel) / clusterTileSize();
   return clusterIndex(uvec3(tile, sliceOfViewDepth(viewDepthFromDepth(depth))));
 }
 

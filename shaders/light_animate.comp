@@ -24,14 +24,15 @@ float hash01(uint v) {
 void main() {
   uint index = gl_GlobalInvocationID.x;
   if (index >= frame.flags.y) return;
-  GpuPointLight light = origins[index];
+  vec4 positionRadius = origins[index].positionRadius;
   float t = frame.slicing.w;
-  float radius = light.positionRadius.w;
+  float radius = positionRadius.w;
   float speed = 0.4 + 0.8 * hash01(index * 3u);
   float phase = 6.2831853 * hash01(index * 3u + 1u);
   float reach = radius * (0.5 + 0.5 * hash01(index * 3u + 2u));
   vec3 offset = reach * vec3(sin(speed * t + phase), 0.25 * sin(1.7 * speed * t + phase),
                              cos(0.8 * speed * t + phase));
-  light.positionRadius.xyz += offset;
-  movingLights[index] = light;
+  // Only the position moves: the rest of each light is the origin's already (every upload writes
+  // both buffers, and restoring copies origins to lights), so a 16-byte read and write, not 48.
+  movingLights[index].positionRadius = vec4(positionRadius.xyz + offset, radius);
 }

@@ -69,7 +69,7 @@ void main() {
   // bound and conditions read shared memory after a barrier, so every invocation takes the same
   // path through the two barriers inside (on lavapipe each barrier switches all the workgroup's
   // invocations: walking all kSlices with three barriers each was half the pass's time).
-  uvec2 tile = gl_WorkGroupID.xy * MYRIAD_CLUSTER_SHADE_TILE / MYRIAD_CLUSTER_TILE_SIZE;
+  uvec2 tile = gl_WorkGroupID.xy * MYRIAD_CLUSTER_SHADE_TILE / clusterTileSize();
   vec2 rectLo = vec2(gl_WorkGroupID.xy * MYRIAD_CLUSTER_SHADE_TILE);
   vec2 rectHi = min(rectLo + vec2(MYRIAD_CLUSTER_SHADE_TILE), frame.viewport.xy);
   uint span = firstSlice == 0xFFFFFFFFu ? 0u : min(lastSlice - firstSlice + 1u, kSlices);
@@ -125,7 +125,7 @@ void main() {
         }
       }
     } else {
-      uvec2 range = clusterRanges[clusterIndex(uvec3(uvec2(pixel) / MYRIAD_CLUSTER_TILE_SIZE, slice))];
+      uvec2 range = clusterRanges[clusterIndex(uvec3(uvec2(pixel) / clusterTileSize(), slice))];
       for (uint i = 0u; i < range.y; ++i) {
         uint index = clusterLights[range.x + i];
         if (lightReaches(s, index)) {

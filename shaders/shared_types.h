@@ -164,13 +164,20 @@ using mat4 = glm::mat4;
 #define MYRIAD_LARGE_LIGHT_CLUSTERS 64
 #define MYRIAD_LARGE_LIGHT_GROUPS 65535u
 #define MYRIAD_CLUSTER_TILE_SLICES 8
+// The small lights' assignment (cluster_assign_binned.comp) counts a workgroup's light-cluster
+// pairs in a shared hash table of this many clusters (a power of two), probing at most this many
+// bins for a free one before taking the global atomic.
+#define MYRIAD_ASSIGN_BINS 2048u
+#define MYRIAD_ASSIGN_PROBES 32u
 
 // Workgroup sizes. The shaders' local_size and the C++ dispatch counts both use these macros, so
 // they cannot disagree; Pipelines checks at start-up that the device runs groups this large
 // (Vulkan guarantees only 128 invocations; lavapipe and desktop GPUs give 1024).
 #define MYRIAD_LIGHTS_PER_GROUP 64
 #define MYRIAD_PIXEL_GROUP 8
-#define MYRIAD_SCAN_GROUP 1024
+#define MYRIAD_SCAN_GROUP 256
+#define MYRIAD_SCAN_CLUSTERS_PER_THREAD 4
+#define MYRIAD_ASSIGN_BIN_GROUP 256
 
 // The view the tonemap pass writes (FrameUniforms.flags.x). render::Target's values
 // (render/gpu_types.h checks them).
@@ -245,7 +252,8 @@ MYRIAD_STRUCT(FrameUniforms) {
   uvec4 flags;           // x view (MYRIAD_VIEW_*), y light count, z raw output (0/1), w list capacity
   uvec4 grid;            // x,y clusters across/down, z depth slices, w technique (render::Technique)
   uvec4 written;         // x the optional G-buffer targets this frame wrote (MYRIAD_GBUFFER_*);
-                         // yzw unused
+                         // y the cluster grid's tile size in pixels (render/cluster_grid.h);
+                         // zw unused
   vec4 slicing;          // x slices / ln(far/near), y ln(near) * x, z heat-map max, w time (s)
   vec4 environment;      // x mode (MYRIAD_ENV_*), y intensity, z background shown (0/1), w unused
   vec4 environmentRotation;  // x cos, y sin of the environment's rotation about +Y
@@ -313,7 +321,7 @@ MYRIAD_STRUCT(CullingStats) {
   uvec4 overflow;  // x tiles that overflowed, y light indices dropped (tiles), z light indices
                    // dropped (clusters), w unused
   uvec4 totals;    // x light indices written (clusters), y active clusters, z most lights in a
-                   // tile or cluster, w unused
+                   // tile or cluster, w list slots handed out (clusters; the scan's running total)
 };
 
 // A local light, point or spot (48 bytes: a million fit in 48 MB). radiance = color * intensity.

@@ -125,7 +125,7 @@ vec4 viewValue(ivec2 pixel) {
     value.rgb = raw ? emitted : srgbEncode3(tonemapPbrNeutral(emitted * frame.camera.x));
   } else if (view == MYRIAD_VIEW_CLUSTERS) {
     uint slice = sliceOfViewDepth(viewDepthFromDepth(depth));
-    uvec2 tile = uvec2(pixel) / MYRIAD_CLUSTER_TILE_SIZE;
+    uvec2 tile = uvec2(pixel) / clusterTileSize();
     float checker = ((tile.x + tile.y) & 1u) == 0u ? 1.0 : 0.8;
     value.rgb = raw ? vec3(float(slice), float(tile.x), float(tile.y)) : sliceColor(slice) * checker;
   }

@@ -5,6 +5,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <memory>
 #include <vector>
 
@@ -181,6 +182,38 @@ TEST_CASE("light-count target is exact at sampled pixels with 200,000 lights") {
     CHECK(exact == sampled);
   }
   CHECK(gpu.context->validationMessages.load() == 0);
+}
+
+TEST_CASE("binned and per-pair cluster assignment build the same lists and image") {
+  // The clustered technique counts small lights per workgroup in shared memory on GPUs and with a
+  // global atomic per light-cluster pair on CPU devices (techniques/clustered.cpp); a second
+  // renderer made with MYRIAD_CLUSTER_ASSIGN set to the other way must agree exactly.
+  Gpu& gpu = sharedGpu();
+  const bool cpu = gpu.context->info.isCpu;
+  setenv("MYRIAD_CLUSTER_ASSIGN", cpu ? "binned" : "atomic", 1);
+  Gpu other = test::createGpuSuite();
+  unsetenv("MYRIAD_CLUSTER_ASSIGN");
+  scene::Scene s = litFloor(20000, 7);
+  gpu.setScene(s);
+  other.setScene(s);
+  render::FrameSettings f = frameSettings(Technique::Clustered, 160, 112);
+  render::Frame a = gpu.render(f);
+  render::Frame b = other.render(f);
+  f.raw = true;
+  f.target = render::Target::LightCount;
+  render::Frame countsA = gpu.render(f);
+  render::Frame countsB = other.render(f);
+  MESSAGE("20,000 lights: " << a.culling.listEntries << " references in " << a.culling.activeClusters
+                            << " clusters, longest " << a.culling.mostLightsInList);
+  CHECK(a.culling.listEntries > 10000);
+  CHECK_FALSE(a.culling.overflowed());
+  CHECK(a.culling.listEntries == b.culling.listEntries);
+  CHECK(a.culling.activeClusters == b.culling.activeClusters);
+  CHECK(a.culling.mostLightsInList == b.culling.mostLightsInList);
+  CHECK(countsA.data == countsB.data);  // every pixel's exact light count
+  CHECK(maxDifference(a.rgba, b.rgba) <= 1);  // the same lights summed in another order
+  CHECK(gpu.context->validationMessages.load() == 0);
+  CHECK(other.context->validationMessages.load() == 0);
 }
 
 TEST_CASE("overflowing lists are counted and reported, never silent") {

@@ -4,6 +4,8 @@
 #pragma once
 
 #include <cstdint>
+#include <cstdlib>
+#include <cstring>
 
 #include <vulkan/vulkan.h>
 
@@ -20,10 +22,21 @@ struct ClusterGrid {
   bool operator==(const ClusterGrid&) const = default;
 };
 
+// The tiles' size in pixels: MYRIAD_CLUSTER_TILE_SIZE, or 32 or 16 with MYRIAD_CLUSTER_TILE=32|16
+// in the environment (a benchmark experiment: the shading pass's tiles divide each).
+inline uint32_t clusterTileSize() {
+  static const uint32_t size = [] {
+    const char* v = std::getenv("MYRIAD_CLUSTER_TILE");
+    if (v && std::strcmp(v, "32") == 0) return 32u;
+    if (v && std::strcmp(v, "16") == 0) return 16u;
+    return uint32_t(MYRIAD_CLUSTER_TILE_SIZE);
+  }();
+  return size;
+}
+
 inline ClusterGrid clusterGrid(VkExtent2D extent) {
-  return {(extent.width + MYRIAD_CLUSTER_TILE_SIZE - 1) / MYRIAD_CLUSTER_TILE_SIZE,
-          (extent.height + MYRIAD_CLUSTER_TILE_SIZE - 1) / MYRIAD_CLUSTER_TILE_SIZE,
-          MYRIAD_CLUSTER_SLICES};
+  const uint32_t tile = clusterTileSize();
+  return {(extent.width + tile - 1) / tile, (extent.height + tile - 1) / tile, MYRIAD_CLUSTER_SLICES};
 }
 
 }  // namespace myriad::render

@@ -401,7 +401,7 @@ void Renderer::State::writeUniforms(FrameSlot& slot, const FrameSettings& s,
   u.boundsMin = glm::vec4(bounds.empty() ? glm::vec3(0.0f) : bounds.min, 0.0f);
   u.boundsMax = glm::vec4(bounds.empty() ? glm::vec3(1.0f) : bounds.max, 0.0f);
   u.flags = glm::uvec4(static_cast<uint32_t>(s.target), scene.lightCount, s.raw ? 1 : 0, 0);
-  u.written = glm::uvec4(gbufferWrites(s, scene), 0, 0, 0);
+  u.written = glm::uvec4(gbufferWrites(s, scene), clusterTileSize(), 0, 0);
   // The cluster grid: the clustered technique's, and the clusters view's whatever the technique.
   const ClusterGrid g = clusterGrid({s.width, s.height});
   u.grid = glm::uvec4(g.x, g.y, g.slices, static_cast<uint32_t>(s.technique));

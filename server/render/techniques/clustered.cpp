@@ -1,8 +1,9 @@
 // Clustered (Olsson, Billeter, Assarsson 2012): the cluster grid (render/cluster_grid.h) gets
 // compact per-cluster light lists built on the GPU each frame, and each pixel walks its
-// cluster's list. Five dispatches: mark the clusters holding visible geometry, count each active
-// cluster's lights, prefix-sum the counts into list offsets (cut at the capacity, overflow
-// counted), fill the lists (timed together as "assign"), shade ("shade": each 16x16 tile first
+// cluster's list. Five steps: mark the clusters holding visible geometry, count each active
+// cluster's lights (per workgroup in shared memory, then once per cluster globally; lights
+// reaching many clusters a workgroup each), place each cluster's list (cut at the capacity,
+// overflow counted), fill the lists (timed together as "assign"), shade ("shade": each 16x16 tile first
 // narrows its clusters' lists to the lights reaching its own pixels' depth range, in shared
 // memory; shaders/cluster_*.comp, light_clustered.comp).
 //
@@ -11,6 +12,8 @@
 // that frame again; the grown size is kept for later frames.
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
+#include <cstring>
 #include <memory>
 
 #include "embedded_shaders.h"
@@ -48,6 +51,25 @@ constexpr double kListGrowth = 1.25;
 
 // The lists are a few MiB at most sizes; the 64 MiB default block would be mostly waste.
 constexpr VkDeviceSize kListBlockSize = 4ull << 20;
+
+// The small lights' count and fill passes (cluster_assign_binned.comp) run at most this many
+// workgroups, each taking a contiguous run of the lights: the more lights a workgroup counts, the
+// fewer global atomics its shared table leaves, down to one per cluster it touches. On the H200
+// 256 and 4,096 groups measured within 0.1 ms of 1,024 at a million lights (docs/performance.md).
+constexpr uint32_t kBinnedAssignGroups = 1024;
+
+// Whether the small lights are counted per workgroup in shared memory (cluster_assign_binned.comp)
+// or with one global atomic per light-cluster pair (cluster_assign.comp). Binned on GPUs, where
+// the busiest cluster's per-pair atomics were serialised; per pair on CPU devices, where atomics
+// are cheap and binned's third walk of every light doubled lavapipe's assignment of 10,000
+// built-in lights (docs/performance.md). MYRIAD_CLUSTER_ASSIGN=atomic|binned overrides it (the
+// benchmark compares the two; technique_tests holds them to the same lists).
+bool binnedAssignFor(const gpu::DeviceInfo& device) {
+  const char* v = std::getenv("MYRIAD_CLUSTER_ASSIGN");
+  if (v && std::strcmp(v, "atomic") == 0) return false;
+  if (v && std::strcmp(v, "binned") == 0) return true;
+  return !device.isCpu;
+}
 
 // The capacity a grid of `grid` with `lightCount` lights starts with, at most `mostReferences`.
 uint32_t initialCapacity(const ClusterGrid& grid, uint32_t lightCount, uint64_t mostReferences) {
@@ -89,8 +111,10 @@ class Clustered final : public LightingTechnique {
   explicit Clustered(const TechniqueSetup& setup)
       : context_(setup.context), pipelines_(setup.context.device),
         shade_(setup.context.device, setup.pipelines.layout, spirv::light_clustered_comp),
-        set_(setup.context, setup.pipelines), counters_(setup.context) {
+        set_(setup.context, setup.pipelines), counters_(setup.context),
+        binnedAssign_(binnedAssignFor(setup.context.info)) {
     requireWorkgroup(setup.context, MYRIAD_SCAN_GROUP, MYRIAD_SCAN_GROUP);
+    requireWorkgroup(setup.context, MYRIAD_ASSIGN_BIN_GROUP, MYRIAD_ASSIGN_BIN_GROUP);
     VkDevice device = setup.context.device;
     VkPipelineLayout layout = setup.pipelines.layout;
     mark_ = pipelines_.add(gpu::createComputePipeline(device, layout, spirv::cluster_mark_comp));
@@ -121,6 +145,9 @@ class Clustered final : public LightingTechnique {
         target = pipelines_.add(
             gpu::createComputePipeline(device, layout, spirv::cluster_assign_comp, &spec));
       }
+      VkSpecializationInfo spec{1, entries, sizeof(assign), &assign};
+      (assign ? assignBinned_ : countBinned_) = pipelines_.add(
+          gpu::createComputePipeline(device, layout, spirv::cluster_assign_binned_comp, &spec));
     }
   }
 
@@ -178,8 +205,7 @@ class Clustered final : public LightingTechnique {
     if (lightGroups > 0) {
       // 2. Count each active cluster's lights: small lights a thread each, queueing the large
       // ones, then the queue a workgroup per light (an indirect dispatch of the queue's length).
-      vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, count_);
-      vkCmdDispatch(cmd, lightGroups, 1, 1);
+      dispatchSmallLights(cmd, pass.scene.lightCount, count_, countBinned_);
       gpu::memoryBarrier(cmd, kComputeStage, kStorageWrite,
                          kComputeStage | VK_PIPELINE_STAGE_2_DRAW_INDIRECT_BIT,
                          kStorageReadWrite | VK_ACCESS_2_INDIRECT_COMMAND_READ_BIT);
@@ -189,12 +215,12 @@ class Clustered final : public LightingTechnique {
     }
     // 3. Prefix sum: list offsets, capacity cuts, counters.
     vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, scan_);
-    vkCmdDispatch(cmd, 1, 1, 1);
+    vkCmdDispatch(cmd, groupCount(lists_->grid.count(), MYRIAD_SCAN_GROUP * MYRIAD_SCAN_CLUSTERS_PER_THREAD),
+                  1, 1);
     gpu::memoryBarrier(cmd, kComputeStage, kStorageWrite, kComputeStage, kStorageReadWrite);
     if (lightGroups > 0) {
       // 4. Fill the lists: the same split, the queue kept from step 2.
-      vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, assign_);
-      vkCmdDispatch(cmd, lightGroups, 1, 1);
+      dispatchSmallLights(cmd, pass.scene.lightCount, assign_, assignBinned_);
       // The small-light pass does not write the queue, but it holds it writable: order it before
       // the indirect read all the same (the synchronization layer's rule, and cheap).
       gpu::memoryBarrier(cmd, kComputeStage, kStorageWrite, VK_PIPELINE_STAGE_2_DRAW_INDIRECT_BIT,
@@ -260,6 +286,20 @@ class Clustered final : public LightingTechnique {
   }
 
  private:
+  // The small lights' count or fill pass: per light (`perLight`, one thread each) or per
+  // workgroup run (`binned`), as binnedAssign_ says.
+  void dispatchSmallLights(VkCommandBuffer cmd, uint32_t lightCount, VkPipeline perLight,
+                           VkPipeline binned) const {
+    if (binnedAssign_) {
+      vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, binned);
+      vkCmdDispatch(cmd, std::min(groupCount(lightCount, MYRIAD_ASSIGN_BIN_GROUP), kBinnedAssignGroups),
+                    1, 1);
+    } else {
+      vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, perLight);
+      vkCmdDispatch(cmd, groupCount(lightCount, MYRIAD_LIGHTS_PER_GROUP), 1, 1);
+    }
+  }
+
   // The blended draws, depth-tested against the G-buffer without writing it, write 0 (active) into
   // the cursor of each fragment's cluster (cluster_mark_blend.frag).
   void markBlendClusters(VkCommandBuffer cmd, const LightingPass& pass) const {
@@ -293,10 +333,13 @@ class Clustered final : public LightingTechnique {
   VkPipeline assign_ = VK_NULL_HANDLE;
   VkPipeline countLarge_ = VK_NULL_HANDLE;   // the queued large lights, a workgroup each
   VkPipeline assignLarge_ = VK_NULL_HANDLE;
+  VkPipeline countBinned_ = VK_NULL_HANDLE;  // cluster_assign_binned.comp
+  VkPipeline assignBinned_ = VK_NULL_HANDLE;
   FeaturePipelines shade_;  // specialised per frame (render/shading_features.h)
   VkPipeline markBlend_ = VK_NULL_HANDLE;  // null without fragmentStoresAndAtomics
   CullingSet set_;
   CullingCounters counters_;
+  bool binnedAssign_;  // small lights by cluster_assign_binned.comp (else cluster_assign.comp)
   std::unique_ptr<ClusterLists> lists_;
   uint64_t listLimitBytes_ = 0;              // limitListMemory(); 0 = the device's limit
   uint32_t listStartCapacity_ = 0;           // limitListMemory(); 0 = initialCapacity()'s

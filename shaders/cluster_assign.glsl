@@ -1,0 +1,62 @@
+// The overlap test of clustered steps 2 and 4 (cluster_assign.comp, cluster_assign_binned.comp):
+// which clusters a light's sphere reaches. Every pass that counts or fills the lists walks a
+// light's clusters through these two functions, so counts and lists agree exactly.
+#ifndef MYRIAD_CLUSTER_ASSIGN_GLSL
+#define MYRIAD_CLUSTER_ASSIGN_GLSL
+
+// A light's view-space sphere and the box of clusters around it.
+struct LightClusters {
+  vec3 c;         // view-space centre
+  float r;        // radius
+  uvec3 first;    // tile x, tile y, slice of the box's first cluster
+  uvec3 extent;   // clusters across, down, deep
+  uint clusters;  // extent.x * extent.y * extent.z
+};
+
+// The box of clusters light `index` may reach; false if the light is not on screen.
+bool lightClusters(uint index, out LightClusters b) {
+  vec4 light = lights[index].positionRadius;
+  b.c = (frame.view * vec4(light.xyz, 1.0)).xyz;
+  b.r = light.w;
+  b.first = uvec3(0u);
+  b.extent = uvec3(0u);
+  b.clusters = 0u;
+  float zMin = max(-b.c.z - b.r, frame.camera.y);
+  float zMax = min(-b.c.z + b.r, frame.camera.z);
+  if (zMin > zMax) return false;  // entirely behind the near plane or beyond the far plane
+
+  // Screen bounds of the sphere's view-space box clipped to [zMin, zMax]: x/z is monotonic in x
+  // and in z over the box, so its extremes are at the corners. Conservative, never too small.
+  vec2 p = vec2(frame.projection[0][0], frame.projection[1][1]);
+  vec2 lo = vec2(1e30), hi = vec2(-1e30);
+  for (int i = 0; i < 4; ++i) {
+    vec2 xy = b.c.xy + vec2((i & 1) == 0 ? -b.r : b.r, (i & 2) == 0 ? -b.r : b.r);
+    vec2 n0 = p * xy / zMin, n1 = p * xy / zMax;
+    lo = min(lo, min(n0, n1));
+    hi = max(hi, max(n0, n1));
+  }
+  if (hi.x < -1.0 || hi.y < -1.0 || lo.x > 1.0 || lo.y > 1.0) return false;
+  vec2 size = frame.viewport.xy;
+  uvec2 t0 = uvec2(clamp((lo * 0.5 + 0.5) * size / float(clusterTileSize()), vec2(0.0), vec2(frame.grid.xy - 1u)));
+  uvec2 t1 = uvec2(clamp((hi * 0.5 + 0.5) * size / float(clusterTileSize()), vec2(0.0), vec2(frame.grid.xy - 1u)));
+  uint s0 = sliceOfViewDepth(zMin);
+  uint s1 = sliceOfViewDepth(zMax);
+  b.first = uvec3(t0, s0);
+  b.extent = uvec3(t1 - t0 + 1u, s1 - s0 + 1u);
+  b.clusters = b.extent.x * b.extent.y * b.extent.z;
+  return true;
+}
+
+// The i-th cluster of the box (i < b.clusters): true, with its index, when the cluster holds
+// geometry (it has a cursor) and the sphere overlaps it.
+bool lightReachesCluster(LightClusters b, uint i, out uint cluster) {
+  uvec3 at = uvec3(b.first.x + i % b.extent.x, b.first.y + (i / b.extent.x) % b.extent.y,
+                   b.first.z + i / (b.extent.x * b.extent.y));
+  cluster = clusterIndex(at);
+  if (clusterCursors[cluster] == MYRIAD_CLUSTER_INACTIVE) return false;
+  vec3 bmin, bmax;
+  clusterViewBox(at, bmin, bmax);
+  return sphereOverlapsBox(b.c, b.r, bmin, bmax);
+}
+
+#endif
