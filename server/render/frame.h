@@ -338,6 +338,9 @@ struct BorrowedPixels {
   std::function<void()> release_;
 };
 
+// How frames are timed on the GPU (Renderer::setGpuTimestamps; the server's --gpu-timestamps).
+enum class GpuTimestamps { Passes, Frame, None };
+
 // Where one frame's time went on the host and the GPU (render thread and renderer; the service
 // adds its own stages in stats' `pipeline`). Milliseconds; -1 where not measured.
 struct FrameTimes {

@@ -622,8 +622,11 @@ void Renderer::State::trimReadbacks() {
   });
 }
 
-void Renderer::setFrameTimestampsOnly(bool frameOnly) {
-  for (State::FrameSlot* slot : state_->allSlots()) slot->timer->setFrameOnly(frameOnly);
+void Renderer::setGpuTimestamps(GpuTimestamps mode) {
+  for (State::FrameSlot* slot : state_->allSlots()) {
+    slot->timer->setFrameOnly(mode == GpuTimestamps::Frame);
+    slot->timer->setOff(mode == GpuTimestamps::None);
+  }
 }
 
 uint64_t Renderer::gpuMemoryBytes() const {

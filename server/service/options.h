@@ -44,8 +44,8 @@ struct Options {
   // issue 18's stop 14); default off: JPEG and PNG encoders read them where the GPU put them
   // (render::FrameSettings::borrowPixels), off the render thread.
   bool copyFrames = false;
-  // GPU timestamps at frame boundaries only (render::Renderer::setFrameTimestampsOnly).
-  bool frameTimestampsOnly = false;
+  // GPU timestamps per pass, at frame boundaries only, or none (render::Renderer::setGpuTimestamps).
+  render::GpuTimestamps gpuTimestamps = render::GpuTimestamps::Passes;
   // JPEG frames read back as RGBA and converted on the CPU by libjpeg (the path before stop 14);
   // default off: converted to YCbCr 4:2:0 on the GPU (render::FrameSettings::yuv420).
   bool rgbaJpeg = false;
