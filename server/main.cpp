@@ -73,7 +73,7 @@ int run(const service::Options& options, const sigset_t& shutdownSignals) {
   try {
     renderThread = std::make_unique<render::RenderThread>(
         gpu::ContextOptions{options.validate, options.device}, scene, options.maxQueuedFrames,
-        options.framesInFlight, options.overlapFrames, options.frameTimestampsOnly,
+        options.framesInFlight, options.overlapFrames, options.gpuTimestamps,
         options.gbuffer);
   } catch (const gpu::NoDeviceError& e) {
     return fail(e.what());

@@ -125,14 +125,14 @@ PassTimer::~PassTimer() {
 void PassTimer::reset(VkCommandBuffer cmd) {
   names_.clear();
   written_ = 0;
-  if (pool_) vkCmdResetQueryPool(cmd, pool_, 0, capacity_);
+  if (pool_ && !off_) vkCmdResetQueryPool(cmd, pool_, 0, capacity_);
 }
 
 // Timestamps wait for all earlier work (ALL_COMMANDS): a pass's time is then the time between the
 // end of the previous pass and its own end, which is what a per-pass budget needs. This is a
 // timestamp stage, not a barrier; it orders nothing.
 void PassTimer::beginPass(VkCommandBuffer cmd, const char* name) {
-  if (!pool_ || written_ + 1 >= capacity_) return;
+  if (!pool_ || off_ || written_ + 1 >= capacity_) return;
   if (frameOnly_ && written_ > 0) return;
   // Frame boundaries only: the first timestamp at the top of the pipe waits for nothing, so the
   // frame's work may start while earlier frames' still runs (--overlap-frames).

@@ -85,6 +85,9 @@ class PassTimer {
   // waits for nothing), the last at ALL_COMMANDS. A timestamp at ALL_COMMANDS between passes (or
   // at a frame's start) may hold later work back until everything before it drained.
   void setFrameOnly(bool frameOnly) { frameOnly_ = frameOnly; }
+  // No timestamps at all (results() is empty): whether the frame's last timestamp (ALL_COMMANDS)
+  // holds the next frame back.
+  void setOff(bool off) { off_ = off; }
 
  private:
   Context* context_;
@@ -93,6 +96,7 @@ class PassTimer {
   std::vector<std::string> names_;
   uint32_t written_ = 0;
   bool frameOnly_ = false;
+  bool off_ = false;
   uint64_t firstTick_ = 0;
   uint64_t lastTick_ = 0;
 };

@@ -47,11 +47,11 @@ DeviceSummary summarize(const gpu::DeviceInfo& d) {
 
 RenderThread::RenderThread(const gpu::ContextOptions& options, const scene::Scene& scene,
                            uint32_t maxQueuedFrames, uint32_t framesInFlight,
-                           bool overlapFrames, bool frameTimestampsOnly, GBufferPath gbuffer)
+                           bool overlapFrames, GpuTimestamps timestamps, GBufferPath gbuffer)
     : maxQueuedFrames_(maxQueuedFrames),
       framesInFlight_(std::clamp(framesInFlight, 1u, Renderer::kMaxFramesInFlight)),
       overlapFrames_(overlapFrames),
-      frameTimestampsOnly_(frameTimestampsOnly),
+      timestamps_(timestamps),
       gbuffer_(gbuffer) {
   std::promise<void> ready;
   std::future<void> started = ready.get_future();
@@ -306,7 +306,7 @@ void RenderThread::run(const gpu::ContextOptions& options, const scene::Scene& s
     renderer = std::make_unique<Renderer>(*context);
     renderer->setFramesInFlight(framesInFlight_);
     renderer->setOverlap(overlapFrames_);
-    renderer->setFrameTimestampsOnly(frameTimestampsOnly_);
+    renderer->setGpuTimestamps(timestamps_);
     renderer->setGBufferPath(gbuffer_);
     defaultScene_ = renderer->createScene(scene);
     device_ = summarize(context->info);

@@ -55,11 +55,11 @@ class RenderThread final : public RenderQueue {
   // the default scene (`scene` need not outlive the constructor). Returns once frames can be
   // submitted; rethrows whatever start-up threw on the thread (gpu::NoDeviceError among others).
   // `framesInFlight`: frame slots (1..Renderer::kMaxFramesInFlight, clamped).
-  // `overlapFrames`: Renderer::setOverlap. `frameTimestampsOnly`: Renderer::setFrameTimestampsOnly.
+  // `overlapFrames`: Renderer::setOverlap. `timestamps`: Renderer::setGpuTimestamps.
   // `gbuffer`: Renderer::setGBufferPath.
   RenderThread(const gpu::ContextOptions& options, const scene::Scene& scene,
                uint32_t maxQueuedFrames, uint32_t framesInFlight = kDefaultFramesInFlight,
-               bool overlapFrames = false, bool frameTimestampsOnly = false,
+               bool overlapFrames = false, GpuTimestamps timestamps = GpuTimestamps::Passes,
                GBufferPath gbuffer = GBufferPath::Raster);
   static constexpr uint32_t kDefaultFramesInFlight = 2;
   ~RenderThread() override;
@@ -148,7 +148,7 @@ class RenderThread final : public RenderQueue {
   const uint32_t maxQueuedFrames_;
   const uint32_t framesInFlight_;
   const bool overlapFrames_;
-  const bool frameTimestampsOnly_;
+  const GpuTimestamps timestamps_;
   const GBufferPath gbuffer_;
   std::deque<InFlight> inFlight_;  // oldest first; the render thread's alone
   SceneId defaultScene_ = 0;

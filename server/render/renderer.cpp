@@ -622,8 +622,11 @@ void Renderer::State::trimReadbacks() {
   });
 }
 
-void Renderer::setFrameTimestampsOnly(bool frameOnly) {
-  for (State::FrameSlot* slot : state_->allSlots()) slot->timer->setFrameOnly(frameOnly);
+void Renderer::setGpuTimestamps(GpuTimestamps mode) {
+  for (State::FrameSlot* slot : state_->allSlots()) {
+    slot->timer->setFrameOnly(mode == GpuTimestamps::Frame);
+    slot->timer->setOff(mode == GpuTimestamps::None);
+  }
 }
 
 uint64_t Renderer::gpuMemoryBytes() const {
@@ -635,6 +638,7 @@ uint64_t Renderer::gpuMemoryBytes() const {
   for (const State::FrameSlot* slot : const_cast<State&>(s).allSlots()) {
     if (slot->targets) total += slot->targets->arena.bytesAllocated();
     total += slot->shadows->gpuMemoryBytes();
+    if (slot->visibility) total += slot->visibility->arena.bytesAllocated();
   }
   for (const auto& technique : s.techniques) total += technique->gpuMemoryBytes();
   for (const auto& readback : s.readbacks) total += readback->arena->bytesAllocated();

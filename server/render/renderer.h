@@ -79,10 +79,10 @@ class Renderer {
   // and counters). A frame of a scene already in flight keeps the barrier at its start (its
   // animation rewrites the lights the other frame reads). Off: every frame starts with it.
   void setOverlap(bool overlap);
-  // Per-pass timestamps (the default) or only the frame's first and last (one pass, "frame"):
-  // a timestamp between passes is written at ALL_COMMANDS, which may drain the GPU there.
-  void setFrameTimestampsOnly(bool frameOnly);
-  // How G-buffers are made (GBufferPath, render/frame.h; raster by default). Takes effect from
+  // Per-pass timestamps (the default), only the frame's first and last (one pass, "frame"), or
+  // none (frames report no passes): a timestamp at ALL_COMMANDS may drain the GPU there.
+  void setGpuTimestamps(GpuTimestamps mode);
+  // How G-buffers are made (GBufferPath, render/frame.h; Raster until set). Takes effect from
   // the next frame; each frame reports the path it took in its pass names.
   void setGBufferPath(GBufferPath path);
   // Whether beginFrame has a free slot.

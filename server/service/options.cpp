@@ -98,8 +98,19 @@ const std::vector<Flag>& flags() {
       {"--overlap-frames", false, [](Options& o, std::string_view) { o.overlapFrames = true; }},
       {"--copy-frames", false, [](Options& o, std::string_view) { o.copyFrames = true; }},
       {"--rgba-jpeg", false, [](Options& o, std::string_view) { o.rgbaJpeg = true; }},
-      {"--frame-timestamps", false,
-       [](Options& o, std::string_view) { o.frameTimestampsOnly = true; }},
+      {"--gpu-timestamps", true,
+       [](Options& o, std::string_view v) {
+         if (v == "passes") {
+           o.gpuTimestamps = render::GpuTimestamps::Passes;
+         } else if (v == "frame") {
+           o.gpuTimestamps = render::GpuTimestamps::Frame;
+         } else if (v == "none") {
+           o.gpuTimestamps = render::GpuTimestamps::None;
+         } else {
+           throw UsageError("--gpu-timestamps expects passes, frame or none, got \"" +
+                            std::string(v) + "\".");
+         }
+       }},
       {"--gbuffer", true,
        [](Options& o, std::string_view v) {
          const std::optional<render::GBufferPath> path = render::parseGBufferPath(v);
@@ -271,12 +282,13 @@ materials and lights (protocol/reference.md), and the stateless GET /v1/frame.
                            thread (the path before; default: encoders read them in place)
   --rgba-jpeg              read JPEG frames back as RGBA and convert them on the CPU (the path
                            before; default: YCbCr 4:2:0 made on the GPU, 1.5 bytes a pixel)
-  --frame-timestamps       time each frame with two GPU timestamps instead of one per pass
-                           (Server-Timing and stats then show one pass, "frame")
-  --gbuffer P              how G-buffers are made: raster (default), compute (triangles
-                           rasterised by compute shaders where the scene's materials are opaque
-                           and untextured and the device has 64-bit atomics; raster elsewhere)
-                           or auto (compute where it qualifies, except on CPU devices)
+  --gpu-timestamps MODE    how frames are timed on the GPU: passes (default: one timestamp per
+                           pass), frame (two a frame: Server-Timing and stats show one pass,
+                           "frame"), none (no GPU times reported)
+  --gbuffer P              how G-buffers are made: raster, compute (triangles rasterised by
+                           compute shaders where the scene's materials are opaque and untextured
+                           and the device has 64-bit atomics; raster elsewhere) or auto
+                           (default: compute where it qualifies, except on CPU devices)
   --max-sessions N         sessions open at once; more get 429 (default 16)
   --max-lights N           local lights per session; more get 413 (default 1000000)
   --max-upload-bytes N     largest model upload (default 67108864, 64 MiB)
