@@ -133,7 +133,8 @@ TEST_CASE("options: every flag, in both spellings") {
   CHECK(parse({"--frames-in-flight=4"}).framesInFlight == 4);
   CHECK_FALSE(parse({}).overlapFrames);
   CHECK(parse({"--overlap-frames"}).overlapFrames);
-  CHECK(parse({}).gbuffer == render::GBufferPath::Raster);
+  CHECK(parse({}).gbuffer == render::GBufferPath::Auto);
+  CHECK(parse({"--gbuffer", "raster"}).gbuffer == render::GBufferPath::Raster);
   CHECK(parse({"--gbuffer", "compute"}).gbuffer == render::GBufferPath::Compute);
   CHECK(parse({"--gbuffer=auto"}).gbuffer == render::GBufferPath::Auto);
   CHECK(parse({"--help"}).help);

@@ -123,7 +123,8 @@ inline std::optional<Technique> parseTechnique(std::string_view name) {
 // pixel into the same targets; used for frames whose scene qualifies (opaque, untextured
 // materials) on devices with 64-bit buffer atomics, the raster path otherwise. Auto: compute
 // where it qualifies on a GPU, raster on CPU implementations (lavapipe), where raster is cheaper.
-// A frame's pass names say which ran: "gbuffer", or "visibility" and "resolve".
+// A frame's pass names say which ran: "gbuffer", or "visibility" and "resolve". myriad-server's
+// default is Auto, myriad-bench's Raster (its tables compare against earlier runs).
 enum class GBufferPath : uint32_t { Raster = 0, Compute, Auto };
 inline constexpr std::array<std::string_view, 3> kGBufferPathNames = {"raster", "compute", "auto"};
 

@@ -638,6 +638,7 @@ uint64_t Renderer::gpuMemoryBytes() const {
   for (const State::FrameSlot* slot : const_cast<State&>(s).allSlots()) {
     if (slot->targets) total += slot->targets->arena.bytesAllocated();
     total += slot->shadows->gpuMemoryBytes();
+    if (slot->visibility) total += slot->visibility->arena.bytesAllocated();
   }
   for (const auto& technique : s.techniques) total += technique->gpuMemoryBytes();
   for (const auto& readback : s.readbacks) total += readback->arena->bytesAllocated();

@@ -82,7 +82,7 @@ class Renderer {
   // Per-pass timestamps (the default), only the frame's first and last (one pass, "frame"), or
   // none (frames report no passes): a timestamp at ALL_COMMANDS may drain the GPU there.
   void setGpuTimestamps(GpuTimestamps mode);
-  // How G-buffers are made (GBufferPath, render/frame.h; raster by default). Takes effect from
+  // How G-buffers are made (GBufferPath, render/frame.h; Raster until set). Takes effect from
   // the next frame; each frame reports the path it took in its pass names.
   void setGBufferPath(GBufferPath path);
   // Whether beginFrame has a free slot.

@@ -285,10 +285,10 @@ materials and lights (protocol/reference.md), and the stateless GET /v1/frame.
   --gpu-timestamps MODE    how frames are timed on the GPU: passes (default: one timestamp per
                            pass), frame (two a frame: Server-Timing and stats show one pass,
                            "frame"), none (no GPU times reported)
-  --gbuffer P              how G-buffers are made: raster (default), compute (triangles
-                           rasterised by compute shaders where the scene's materials are opaque
-                           and untextured and the device has 64-bit atomics; raster elsewhere)
-                           or auto (compute where it qualifies, except on CPU devices)
+  --gbuffer P              how G-buffers are made: raster, compute (triangles rasterised by
+                           compute shaders where the scene's materials are opaque and untextured
+                           and the device has 64-bit atomics; raster elsewhere) or auto
+                           (default: compute where it qualifies, except on CPU devices)
   --max-sessions N         sessions open at once; more get 429 (default 16)
   --max-lights N           local lights per session; more get 413 (default 1000000)
   --max-upload-bytes N     largest model upload (default 67108864, 64 MiB)
