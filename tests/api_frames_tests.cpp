@@ -679,7 +679,9 @@ TEST_CASE("streams: animated parts, idle re-sends, the end on DELETE, limits, st
     CHECK(firstEnded != secondEnded);  // exactly one: the oldest
     CHECK(first.framingError().empty());
     CHECK(second.framingError().empty());
-    CHECK(third.waitFor(1, std::chrono::seconds(60)).size() == 1);
+    // At least its first part (the loop above polls once a second, so an idle re-send, every 2 s,
+    // may have followed it).
+    CHECK(third.waitFor(1, std::chrono::seconds(60)).size() >= 1);
     CHECK_FALSE(third.waitForEnd(std::chrono::seconds(0)));
   }
 
