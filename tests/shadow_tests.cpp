@@ -14,6 +14,7 @@
 #include <glm/gtc/matrix_transform.hpp>
 
 #include "gpu_test_support.h"
+#include "image_compare.h"
 #include "render/reference.h"
 #include "render/renderer.h"
 #include "scene/camera.h"
@@ -205,10 +206,7 @@ TEST_CASE("the sun's shadow of a box over a plane lies within 2 px of its analyt
     for (uint32_t y = 0; y < kHeight; ++y) {
       for (uint32_t x = 0; x < kWidth; ++x) {
         const size_t i = size_t(y) * kWidth + x;
-        int worst = 0;
-        for (int c = 0; c < 3; ++c) {
-          worst = std::max(worst, std::abs(int(gpuImage.rgba[i * 4 + c]) - int(reference[i * 4 + c])));
-        }
+        const int worst = test::pixelDifference(gpuImage.rgba, reference, i);
         if (worst <= 2) continue;
         ++over;
         if (kinds[i] != kOther && nearOutline(kinds, int(x), int(y))) continue;
@@ -384,10 +382,7 @@ void checkLocalShadow(const scene::PointLight& light, const std::string& what) {
     for (uint32_t y = 0; y < kHeight; ++y) {
       for (uint32_t x = 0; x < kWidth; ++x) {
         const size_t i = size_t(y) * kWidth + x;
-        int worst = 0;
-        for (int c = 0; c < 3; ++c) {
-          worst = std::max(worst, std::abs(int(image.rgba[i * 4 + c]) - int(reference[i * 4 + c])));
-        }
+        const int worst = test::pixelDifference(image.rgba, reference, i);
         if (worst <= 2 || nearOutline(kinds, int(x), int(y))) continue;
         ++overOffBand;
         worstOffBand = std::max(worstOffBand, worst);
