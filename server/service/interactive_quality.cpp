@@ -49,7 +49,7 @@ void InteractiveQuality::measured(Motion motion, double usedScale, Clock::durati
   const double next = usedScale + 0.5 * (wanted - usedScale);
   double stepped = std::round(next / kScaleStep) * kScaleStep;
   if (stepped == usedScale) stepped += ratio > 1.0 ? kScaleStep : -kScaleStep;
-  (motion == Motion::Animated ? animatedScale_ : scale_) = std::clamp(stepped, kMinScale, 1.0);
+  scales_[index(motion)] = std::clamp(stepped, kMinScale, 1.0);
 }
 
 }  // namespace myriad::service

@@ -65,7 +65,7 @@ class InteractiveQuality {
   // animation. Each has its own frame rate and learnt scale.
   enum class Motion { Steered, Animated };
 
-  double scale(Motion motion) const { return motion == Motion::Animated ? animatedScale_ : scale_; }
+  double scale(Motion motion) const { return scales_[index(motion)]; }
   // The frames a second held: the stream's interactive rate, half of it (at least 1) for animation.
   uint32_t targetFps(Motion motion) const {
     return motion == Motion::Animated ? std::max<uint32_t>(1, targetFps_ / 2) : targetFps_;
@@ -92,8 +92,8 @@ class InteractiveQuality {
   size_t nextGap_ = 0;
   Clock::duration fullCost_{};  // the last full-quality frame's time
   Clock::duration settle_ = kMinSettle;
-  double scale_ = kStartScale;
-  double animatedScale_ = kStartScale;
+  static size_t index(Motion motion) { return motion == Motion::Animated ? 1 : 0; }
+  std::array<double, 2> scales_{kStartScale, kStartScale};  // learnt per Motion
 };
 
 }  // namespace myriad::service
