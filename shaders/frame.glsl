@@ -260,6 +260,21 @@ vec3 shadeLight(Surface s, uint index) {
                          spotDirectionOf(light), light.cone.z, light.cone.w);
 }
 
+// What shadeLight works out per light from the surface and the view alone, for a pass that
+// shades many lights at one point (shadeLightAt).
+BrdfSurface brdfSurfaceOf(Surface s) {
+  return brdfSurface(s.normal, normalize(frame.cameraPosition.xyz - s.position), s.baseColor,
+                     s.metallic, s.roughness);
+}
+
+// shadeLight with brdfSurfaceOf(s) worked out once: b.
+vec3 shadeLightAt(BrdfSurface b, Surface s, uint index) {
+  GpuPointLight light = lights[index];
+  return shadeLocalLightAt(b, s.position, light.positionRadius.xyz, light.positionRadius.w,
+                           light.radianceFalloff.rgb, light.radianceFalloff.w,
+                           spotDirectionOf(light), light.cone.z, light.cone.w);
+}
+
 // shadeLight with the light's shadow map applied when it has one this frame: for a pass that
 // shades one light (the volumes technique's light fragments).
 vec3 shadeLightShadowed(Surface s, uint index) {

@@ -91,11 +91,38 @@ bool localLightReaches(vec3 P, vec3 lightPosition, float radius, vec3 spotDirect
   return spotCosine(toLight, sqrt(d2), spotDirection) > cosOuter;
 }
 
+// What brdfCosine needs of a surface point and the view alone, worked out once for a loop over
+// many lights at one point (brdfSurface; brdfCosineAt then takes each light's direction).
+struct BrdfSurface {
+  vec3 N;             // unit normal
+  vec3 V;             // unit vector towards the eye
+  float NdotV;        // |N.V| + 1e-5
+  float alpha2;       // GGX alpha squared (alpha = clamped perceptual roughness squared)
+  float visV;         // the view's half of the Smith visibility denominator
+  vec3 F0;            // Fresnel at normal incidence
+  vec3 diffuseColor;  // base colour without the metal's part
+};
+
+BrdfSurface brdfSurface(vec3 N, vec3 V, vec3 baseColor, float metallic, float roughness) {
+  BrdfSurface b;
+  b.N = N;
+  b.V = V;
+  b.NdotV = abs(dot(N, V)) + 1e-5f;
+  float perceptual = clamp(roughness, kMinRoughness, 1.0f);
+  float alpha = perceptual * perceptual;
+  b.alpha2 = alpha * alpha;
+  b.visV = b.NdotV + sqrt(b.alpha2 + (1.0f - b.alpha2) * b.NdotV * b.NdotV);
+  b.F0 = mix(vec3(0.04f), baseColor, metallic);
+  b.diffuseColor = mix(baseColor, vec3(0.0f), metallic);
+  return b;
+}
+
 // glTF 2.0 metallic-roughness BRDF (specification, Appendix B), times the cosine term:
-// returns f(l, v) * max(N.L, 0). N, V, L are unit vectors; V and L point away from the surface.
-vec3 brdfCosine(vec3 N, vec3 V, vec3 L, vec3 baseColor, float metallic, float roughness) {
+// returns f(l, v) * max(N.L, 0) for the surface b and the unit vector L towards the light.
+vec3 brdfCosineAt(BrdfSurface b, vec3 L) {
+  vec3 N = b.N;
+  vec3 V = b.V;
   float NdotL = dot(N, L);
-  float NdotV = abs(dot(N, V)) + 1e-5f;
   if (NdotL <= 0.0f) {
     return vec3(0.0f);
   }
@@ -107,15 +134,11 @@ vec3 brdfCosine(vec3 N, vec3 V, vec3 L, vec3 baseColor, float metallic, float ro
   vec3 H = halfwayLength2 > 1e-12f ? halfway * (1.0f / sqrt(halfwayLength2)) : N;
   float NdotH = clamp(dot(N, H), 0.0f, 1.0f);
   float VdotH = clamp(dot(V, H), 0.0f, 1.0f);
-
-  float perceptual = clamp(roughness, kMinRoughness, 1.0f);
-  float alpha = perceptual * perceptual;
-  float alpha2 = alpha * alpha;
+  float alpha2 = b.alpha2;
 
   // Schlick Fresnel with F0 = mix(0.04, baseColor, metallic).
-  vec3 F0 = mix(vec3(0.04f), baseColor, metallic);
   float fresnelWeight = pow(1.0f - VdotH, 5.0f);
-  vec3 F = F0 + (vec3(1.0f) - F0) * fresnelWeight;
+  vec3 F = b.F0 + (vec3(1.0f) - b.F0) * fresnelWeight;
 
   // Trowbridge-Reitz (GGX) distribution.
   float denom = NdotH * NdotH * (alpha2 - 1.0f) + 1.0f;
@@ -123,27 +146,29 @@ vec3 brdfCosine(vec3 N, vec3 V, vec3 L, vec3 baseColor, float metallic, float ro
 
   // Height-correlated-free Smith joint visibility V = G / (4 N.L N.V), as in the glTF spec.
   float visL = NdotL + sqrt(alpha2 + (1.0f - alpha2) * NdotL * NdotL);
-  float visV = NdotV + sqrt(alpha2 + (1.0f - alpha2) * NdotV * NdotV);
-  float Vis = 1.0f / (visL * visV);
+  float Vis = 1.0f / (visL * b.visV);
 
-  vec3 diffuseColor = mix(baseColor, vec3(0.0f), metallic);
-  vec3 diffuse = (vec3(1.0f) - F) * diffuseColor * (1.0f / kPi);
+  vec3 diffuse = (vec3(1.0f) - F) * b.diffuseColor * (1.0f / kPi);
   vec3 specular = F * (D * Vis);
   return (diffuse + specular) * NdotL;
 }
 
+// The same for one light: N, V, L are unit vectors; V and L point away from the surface.
+vec3 brdfCosine(vec3 N, vec3 V, vec3 L, vec3 baseColor, float metallic, float roughness) {
+  return brdfCosineAt(brdfSurface(N, V, baseColor, metallic, roughness), L);
+}
+
 // Outgoing radiance from a local light (point or spot) at lightPosition reaching surface point P:
 // BRDF * cos * radiance * distance falloff (C as lightAttenuation) * cone falloff. Exactly 0 at and
-// beyond the radius and outside the outer cone.
-vec3 shadeLocalLight(vec3 P, vec3 N, vec3 V, vec3 baseColor, float metallic, float roughness,
-                     vec3 lightPosition, float radius, vec3 radiance, float C, vec3 spotDirection,
-                     float cosOuter, float cosInner) {
+// beyond the radius and outside the outer cone. For the surface b (brdfSurface) at P:
+vec3 shadeLocalLightAt(BrdfSurface b, vec3 P, vec3 lightPosition, float radius, vec3 radiance,
+                       float C, vec3 spotDirection, float cosOuter, float cosInner) {
   vec3 toLight = lightPosition - P;
   float d = length(toLight);
   if (d >= radius) {
     return vec3(0.0f);
   }
-  vec3 L = d > 1e-6f ? toLight * (1.0f / d) : N;
+  vec3 L = d > 1e-6f ? toLight * (1.0f / d) : b.N;
   float falloff = lightAttenuation(d, radius, C);
   if (MYRIAD_MAY_SPOT) {  // without: a point light's cone factor, 1 (cosOuter -2, cosInner -1)
     float cosAngle = spotCosine(toLight, d, spotDirection);
@@ -152,7 +177,15 @@ vec3 shadeLocalLight(vec3 P, vec3 N, vec3 V, vec3 baseColor, float metallic, flo
     }
     falloff *= spotAttenuation(cosAngle, cosOuter, cosInner);
   }
-  return brdfCosine(N, V, L, baseColor, metallic, roughness) * radiance * falloff;
+  return brdfCosineAt(b, L) * radiance * falloff;
+}
+
+// The same from the surface's normal, view vector and material.
+vec3 shadeLocalLight(vec3 P, vec3 N, vec3 V, vec3 baseColor, float metallic, float roughness,
+                     vec3 lightPosition, float radius, vec3 radiance, float C, vec3 spotDirection,
+                     float cosOuter, float cosInner) {
+  return shadeLocalLightAt(brdfSurface(N, V, baseColor, metallic, roughness), P, lightPosition,
+                           radius, radiance, C, spotDirection, cosOuter, cosInner);
 }
 
 // A point light with the window falloff (C >= 0).

@@ -22,6 +22,7 @@ struct DeviceInfo {
   uint32_t maxComputeWorkGroupInvocations = 0;
   uint32_t maxComputeWorkGroupSizeX = 0;
   uint32_t subgroupSize = 0;
+  bool computeSubgroupBallot = false;  // compute shaders have subgroup vote, arithmetic and ballot
   double timestampPeriodNs = 0.0;
   bool timestampsSupported = false;
 };

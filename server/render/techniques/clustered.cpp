@@ -71,6 +71,30 @@ bool binnedAssignFor(const gpu::DeviceInfo& device) {
   return !device.isCpu;
 }
 
+// The shading pass (light_clustered*.comp): each subgroup walking its tile's narrowed lists
+// together where compute shaders have subgroup ballot and arithmetic, else each pixel on its
+// own. MYRIAD_CLUSTER_SHADE=subgroup|world|pixel overrides it for the benchmark ("pixel": the
+// tile narrowing against its frustum segment's view-space box, as before).
+std::span<const uint32_t> shadeShaderFor(const gpu::DeviceInfo& device) {
+  const char* v = std::getenv("MYRIAD_CLUSTER_SHADE");
+  if (v && std::strcmp(v, "pixel") == 0) return spirv::light_clustered_comp;
+  if (v && std::strcmp(v, "world") == 0) return spirv::light_clustered_world_comp;
+  if (v && std::strcmp(v, "queued") == 0 && device.computeSubgroupBallot) {
+    return spirv::light_clustered_queued_comp;
+  }
+  if (v && std::strcmp(v, "prepared") == 0 && device.computeSubgroupBallot) {
+    return spirv::light_clustered_prepared_comp;
+  }
+  if (v && std::strcmp(v, "direct") == 0 && device.computeSubgroupBallot) {
+    return spirv::light_clustered_direct_comp;
+  }
+  if (v && std::strcmp(v, "subgroup") == 0 && device.computeSubgroupBallot) {
+    return spirv::light_clustered_subgroup_comp;
+  }
+  if (device.isCpu || !device.computeSubgroupBallot) return spirv::light_clustered_comp;
+  return spirv::light_clustered_subgroup_comp;
+}
+
 // The capacity a grid of `grid` with `lightCount` lights starts with, at most `mostReferences`.
 uint32_t initialCapacity(const ClusterGrid& grid, uint32_t lightCount, uint64_t mostReferences) {
   uint64_t wanted = std::max({uint64_t(kMinimumListCapacity), uint64_t(lightCount) * kReferencesPerLight,
@@ -110,7 +134,7 @@ class Clustered final : public LightingTechnique {
  public:
   explicit Clustered(const TechniqueSetup& setup)
       : context_(setup.context), pipelines_(setup.context.device),
-        shade_(setup.context.device, setup.pipelines.layout, spirv::light_clustered_comp),
+        shade_(setup.context.device, setup.pipelines.layout, shadeShaderFor(setup.context.info)),
         set_(setup.context, setup.pipelines), counters_(setup.context),
         binnedAssign_(binnedAssignFor(setup.context.info)) {
     requireWorkgroup(setup.context, MYRIAD_SCAN_GROUP, MYRIAD_SCAN_GROUP);
