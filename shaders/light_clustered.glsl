@@ -24,15 +24,20 @@
 #include "frame.glsl"
 #include "compute_targets.glsl"
 
-#ifdef MYRIAD_CLUSTER_SUBGROUP_WALK  // the includer enables the GL_KHR_shader_subgroup_* it uses
-layout(local_size_x = MYRIAD_CLUSTER_SHADE_TILE * MYRIAD_CLUSTER_SHADE_TILE) in;
-#else
-layout(local_size_x = MYRIAD_CLUSTER_SHADE_TILE, local_size_y = MYRIAD_CLUSTER_SHADE_TILE) in;
+#ifndef MYRIAD_SHADE_TILE  // an experiment's tile size, else the shipped one
+#define MYRIAD_SHADE_TILE MYRIAD_CLUSTER_SHADE_TILE
+#define MYRIAD_SHADE_TILE_LIGHTS MYRIAD_CLUSTER_TILE_LIGHTS
 #endif
 
-const uint kThreads = MYRIAD_CLUSTER_SHADE_TILE * MYRIAD_CLUSTER_SHADE_TILE;
+#ifdef MYRIAD_CLUSTER_SUBGROUP_WALK  // the includer enables the GL_KHR_shader_subgroup_* it uses
+layout(local_size_x = MYRIAD_SHADE_TILE * MYRIAD_SHADE_TILE) in;
+#else
+layout(local_size_x = MYRIAD_SHADE_TILE, local_size_y = MYRIAD_SHADE_TILE) in;
+#endif
+
+const uint kThreads = MYRIAD_SHADE_TILE * MYRIAD_SHADE_TILE;
 const uint kSlices = MYRIAD_CLUSTER_TILE_SLICES;
-const uint kCapacity = MYRIAD_CLUSTER_TILE_LIGHTS;
+const uint kCapacity = MYRIAD_SHADE_TILE_LIGHTS;
 const uint kWholeList = 0xFFFFFFFFu;  // a segment's length when its pixels walk the cluster's list
 const uint kEmpty = 0xFFFFFFFFu;
 
@@ -94,7 +99,7 @@ void main() {
   // Morton order inside the tile: a subgroup of 32 invocations is an 8x4 block, of 8 a 4x2 one.
   uint thread = gl_LocalInvocationIndex;
   uvec2 inTile = uvec2(0u);
-  for (uint b = 0u; b < 8u; ++b) {
+  for (uint b = 0u; (1u << b) < kThreads; ++b) {
     uint bit = (thread >> b) & 1u;
     if ((b & 1u) == 0u) {
       inTile.x |= bit << (b >> 1u);
@@ -102,7 +107,7 @@ void main() {
       inTile.y |= bit << (b >> 1u);
     }
   }
-  ivec2 pixel = ivec2(gl_WorkGroupID.xy * MYRIAD_CLUSTER_SHADE_TILE + inTile);
+  ivec2 pixel = ivec2(gl_WorkGroupID.xy * MYRIAD_SHADE_TILE + inTile);
 #else
   ivec2 pixel = ivec2(gl_GlobalInvocationID.xy);
   uint thread = gl_LocalInvocationIndex;
@@ -162,7 +167,7 @@ void main() {
   // bound and conditions read shared memory after a barrier, so every invocation takes the same
   // path through the two barriers inside (on lavapipe each barrier switches all the workgroup's
   // invocations: walking all kSlices with three barriers each was half the pass's time).
-  uvec2 tile = gl_WorkGroupID.xy * MYRIAD_CLUSTER_SHADE_TILE / clusterTileSize();
+  uvec2 tile = gl_WorkGroupID.xy * MYRIAD_SHADE_TILE / clusterTileSize();
   uint span = firstSlice == kEmpty ? 0u : min(lastSlice - firstSlice + 1u, kSlices);
   for (uint j = 0u; j < span; ++j) {
     if (boxLo[j][0] == kEmpty) continue;

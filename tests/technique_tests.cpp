@@ -3,6 +3,7 @@
 // a million animated lights.
 #include <doctest/doctest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -212,6 +213,44 @@ TEST_CASE("binned and per-pair cluster assignment build the same lists and image
   CHECK(a.culling.mostLightsInList == b.culling.mostLightsInList);
   CHECK(countsA.data == countsB.data);  // every pixel's exact light count
   CHECK(maxDifference(a.rgba, b.rgba) <= 1);  // the same lights summed in another order
+  CHECK(gpu.context->validationMessages.load() == 0);
+  CHECK(other.context->validationMessages.load() == 0);
+}
+
+TEST_CASE("clustered shading per pixel and per subgroup: the same light counts and image") {
+  // The clustered shading pass walks its tile's narrowed lists per subgroup on GPUs with subgroup
+  // ballot and per pixel on CPU devices (techniques/clustered.cpp); a second renderer made with
+  // MYRIAD_CLUSTER_SHADE set to the other walk must count the same lights at every pixel. Twice:
+  // 20,000 small lights, and 3,000 that each cover the whole view, which overflow what a tile can
+  // narrow into shared memory (its pixels then walk their clusters' whole lists).
+  Gpu& gpu = sharedGpu();
+  if (!gpu.context->info.computeSubgroupBallot) return;
+  setenv("MYRIAD_CLUSTER_SHADE", gpu.context->info.isCpu ? "subgroup" : "pixel", 1);
+  Gpu other = test::createGpuSuite();
+  unsetenv("MYRIAD_CLUSTER_SHADE");
+  scene::Scene small = litFloor(20000, 7);
+  scene::Scene huge = litFloor(0, 1);
+  for (int i = 0; i < 3000; ++i) {
+    huge.lights.push_back({glm::vec3(0.01f * i - 15.0f, 2.0f, 0.0f), 100.0f, glm::vec3(0.0005f), 1.0f, 1.0f});
+  }
+  for (const scene::Scene* s : {&small, &huge}) {
+    gpu.setScene(*s);
+    other.setScene(*s);
+    render::FrameSettings f = frameSettings(Technique::Clustered, 160, 112);
+    render::Frame a = gpu.render(f);
+    render::Frame b = other.render(f);
+    f.raw = true;
+    f.target = render::Target::LightCount;
+    render::Frame countsA = gpu.render(f);
+    render::Frame countsB = other.render(f);
+    CHECK_FALSE(a.culling.overflowed());
+    CHECK(countsA.data == countsB.data);  // every pixel's exact light count
+    CHECK(maxDifference(a.rgba, b.rgba) <= 1);  // the same lights summed in another order
+    float most = 0.0f;
+    for (float c : countsA.data) most = std::max(most, c);
+    MESSAGE(s->lights.size() << " lights: up to " << most << " reach a pixel");
+    if (s == &huge) CHECK(most == 3000.0f);
+  }
   CHECK(gpu.context->validationMessages.load() == 0);
   CHECK(other.context->validationMessages.load() == 0);
 }
