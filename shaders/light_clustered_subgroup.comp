@@ -4,7 +4,7 @@
 #extension GL_KHR_shader_subgroup_vote : require
 #extension GL_KHR_shader_subgroup_arithmetic : require
 #extension GL_KHR_shader_subgroup_ballot : require
-// Clustered shading, each subgroup walking its tile's narrowed list together
-// (light_clustered.glsl); for devices with subgroup ballot and arithmetic in compute shaders.
-#define MYRIAD_CLUSTER_SUBGROUP_WALK
+#extension GL_KHR_shader_subgroup_shuffle : require
+// Clustered shading walked per subgroup (light_clustered.glsl); for devices with subgroup vote,
+// arithmetic, ballot and shuffle in compute shaders.
 #include "light_clustered.glsl"

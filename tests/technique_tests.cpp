@@ -224,7 +224,7 @@ TEST_CASE("clustered shading per pixel and per subgroup: the same light counts a
   // 20,000 small lights, and 3,000 that each cover the whole view, which overflow what a tile can
   // narrow into shared memory (its pixels then walk their clusters' whole lists).
   Gpu& gpu = sharedGpu();
-  if (!gpu.context->info.computeSubgroupBallot) return;
+  if (!gpu.context->info.computeSubgroupShuffle) return;
   setenv("MYRIAD_CLUSTER_SHADE", gpu.context->info.isCpu ? "subgroup" : "pixel", 1);
   Gpu other = test::createGpuSuite();
   unsetenv("MYRIAD_CLUSTER_SHADE");

@@ -127,10 +127,11 @@ DeviceInfo describe(VkPhysicalDevice physical, uint32_t index) {
   info.maxComputeWorkGroupInvocations = p.limits.maxComputeWorkGroupInvocations;
   info.maxComputeWorkGroupSizeX = p.limits.maxComputeWorkGroupSize[0];
   info.subgroupSize = subgroup.subgroupSize;
-  const VkSubgroupFeatureFlags ballot = VK_SUBGROUP_FEATURE_BASIC_BIT | VK_SUBGROUP_FEATURE_VOTE_BIT |
-                                        VK_SUBGROUP_FEATURE_ARITHMETIC_BIT | VK_SUBGROUP_FEATURE_BALLOT_BIT;
-  info.computeSubgroupBallot = (subgroup.supportedStages & VK_SHADER_STAGE_COMPUTE_BIT) != 0 &&
-                               (subgroup.supportedOperations & ballot) == ballot;
+  const VkSubgroupFeatureFlags shuffle = VK_SUBGROUP_FEATURE_BASIC_BIT | VK_SUBGROUP_FEATURE_VOTE_BIT |
+                                         VK_SUBGROUP_FEATURE_ARITHMETIC_BIT |
+                                         VK_SUBGROUP_FEATURE_BALLOT_BIT | VK_SUBGROUP_FEATURE_SHUFFLE_BIT;
+  info.computeSubgroupShuffle = (subgroup.supportedStages & VK_SHADER_STAGE_COMPUTE_BIT) != 0 &&
+                                (subgroup.supportedOperations & shuffle) == shuffle;
   info.timestampPeriodNs = p.limits.timestampPeriod;
   int family = findQueueFamily(physical);
   if (family >= 0) {

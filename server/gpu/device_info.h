@@ -22,7 +22,7 @@ struct DeviceInfo {
   uint32_t maxComputeWorkGroupInvocations = 0;
   uint32_t maxComputeWorkGroupSizeX = 0;
   uint32_t subgroupSize = 0;
-  bool computeSubgroupBallot = false;  // compute shaders have subgroup vote, arithmetic and ballot
+  bool computeSubgroupShuffle = false;  // compute shaders have subgroup vote, arithmetic, ballot, shuffle
   double timestampPeriodNs = 0.0;
   bool timestampsSupported = false;
 };

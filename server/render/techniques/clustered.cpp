@@ -72,29 +72,20 @@ bool binnedAssignFor(const gpu::DeviceInfo& device) {
   return !device.isCpu;
 }
 
-// The shading pass (light_clustered*.comp) and its tiles' size: each subgroup walking its
-// tile's narrowed lists together where compute shaders have subgroup ballot and arithmetic, else
-// each pixel on its own. MYRIAD_CLUSTER_SHADE overrides it for the benchmark ("pixel": the tile
-// narrowing against its frustum segment's view-space box, as before; the others experiments).
-struct ShadeShader {
-  std::span<const uint32_t> spirv;
-  uint32_t tile = MYRIAD_CLUSTER_SHADE_TILE;
-};
-
-ShadeShader shadeShaderFor(const gpu::DeviceInfo& device) {
+// The shading pass (light_clustered*.comp): each subgroup walking its tile's narrowed lists
+// together where compute shaders have the subgroup operations it needs, else each pixel on its
+// own (CPU devices too: on lavapipe the subgroup walk was slower). MYRIAD_CLUSTER_SHADE=pixel or
+// subgroup overrides it (the benchmark compares the two; technique_tests holds them to the same
+// light counts); b128, balways and bnever are experiments.
+std::span<const uint32_t> shadeShaderFor(const gpu::DeviceInfo& device) {
   const char* v = std::getenv("MYRIAD_CLUSTER_SHADE");
   const std::string name = v ? v : "";
-  if (name == "pixel") return {spirv::light_clustered_comp};
-  if (name == "world") return {spirv::light_clustered_world_comp};
-  if (device.computeSubgroupBallot) {
-    if (name == "queued") return {spirv::light_clustered_queued_comp};
-    if (name == "prepared") return {spirv::light_clustered_prepared_comp};
-    if (name == "direct") return {spirv::light_clustered_direct_comp};
-    if (name == "wide") return {spirv::light_clustered_wide_comp, 32};
-    if (name == "subgroup") return {spirv::light_clustered_subgroup_comp};
-  }
-  if (device.isCpu || !device.computeSubgroupBallot) return {spirv::light_clustered_comp};
-  return {spirv::light_clustered_subgroup_comp};
+  if (name == "pixel" || !device.computeSubgroupShuffle) return spirv::light_clustered_comp;
+  if (name == "b128") return spirv::light_clustered_b128_comp;
+  if (name == "balways") return spirv::light_clustered_balways_comp;
+  if (name == "bnever") return spirv::light_clustered_bnever_comp;
+  if (name == "subgroup" || !device.isCpu) return spirv::light_clustered_subgroup_comp;
+  return spirv::light_clustered_comp;
 }
 
 // The capacity a grid of `grid` with `lightCount` lights starts with, at most `mostReferences`.
@@ -136,8 +127,7 @@ class Clustered final : public LightingTechnique {
  public:
   explicit Clustered(const TechniqueSetup& setup)
       : context_(setup.context), pipelines_(setup.context.device),
-        shadeShader_(shadeShaderFor(setup.context.info)),
-        shade_(setup.context.device, setup.pipelines.layout, shadeShader_.spirv),
+        shade_(setup.context.device, setup.pipelines.layout, shadeShaderFor(setup.context.info)),
         set_(setup.context, setup.pipelines), counters_(setup.context),
         binnedAssign_(binnedAssignFor(setup.context.info)) {
     requireWorkgroup(setup.context, MYRIAD_SCAN_GROUP, MYRIAD_SCAN_GROUP);
@@ -260,7 +250,7 @@ class Clustered final : public LightingTechnique {
     // 5. Shade every pixel from its cluster's list, narrowed per tile.
     pass.timer.beginPass(cmd, "shade");
     prepareLightingTargets(cmd, t);
-    dispatchPixels(cmd, shade_.get(pass.shadingFeatures), t.extent, shadeShader_.tile);
+    dispatchPixels(cmd, shade_.get(pass.shadingFeatures), t.extent, MYRIAD_CLUSTER_SHADE_TILE);
     counters_.makeHostVisible(cmd);
     return VK_IMAGE_LAYOUT_GENERAL;
   }
@@ -362,7 +352,6 @@ class Clustered final : public LightingTechnique {
   VkPipeline assignLarge_ = VK_NULL_HANDLE;
   VkPipeline countBinned_ = VK_NULL_HANDLE;  // cluster_assign_binned.comp
   VkPipeline assignBinned_ = VK_NULL_HANDLE;
-  ShadeShader shadeShader_;
   FeaturePipelines shade_;  // specialised per frame (render/shading_features.h)
   VkPipeline markBlend_ = VK_NULL_HANDLE;  // null without fragmentStoresAndAtomics
   CullingSet set_;

@@ -4,7 +4,7 @@
 #extension GL_KHR_shader_subgroup_vote : require
 #extension GL_KHR_shader_subgroup_arithmetic : require
 #extension GL_KHR_shader_subgroup_ballot : require
-// Experiment: the subgroup walk over the clusters' whole lists, without the tile's narrowing.
-#define MYRIAD_CLUSTER_SUBGROUP_WALK
-#define MYRIAD_CLUSTER_DIRECT
+#extension GL_KHR_shader_subgroup_shuffle : require
+// Experiment: the subgroup walk with MYRIAD_BALLOT_FROM 128.
+#define MYRIAD_BALLOT_FROM 128u
 #include "light_clustered.glsl"

@@ -4,9 +4,7 @@
 #extension GL_KHR_shader_subgroup_vote : require
 #extension GL_KHR_shader_subgroup_arithmetic : require
 #extension GL_KHR_shader_subgroup_ballot : require
-// Experiment: the prepared subgroup walk with 32x32-pixel tiles (1,024 invocations).
-#define MYRIAD_SHADE_TILE 32
-#define MYRIAD_SHADE_TILE_LIGHTS 4096
-#define MYRIAD_CLUSTER_SUBGROUP_WALK
-#define MYRIAD_CLUSTER_PREPARED
+#extension GL_KHR_shader_subgroup_shuffle : require
+// Experiment: the subgroup walk with MYRIAD_BALLOT_FROM 4294967294.
+#define MYRIAD_BALLOT_FROM 4294967294u
 #include "light_clustered.glsl"

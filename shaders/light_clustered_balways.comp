@@ -4,8 +4,7 @@
 #extension GL_KHR_shader_subgroup_vote : require
 #extension GL_KHR_shader_subgroup_arithmetic : require
 #extension GL_KHR_shader_subgroup_ballot : require
-// Experiment: the subgroup walk, each pixel queueing the lights reaching it, shaded together.
-#define MYRIAD_CLUSTER_SUBGROUP_WALK
-#define MYRIAD_CLUSTER_PREPARED
-#define MYRIAD_CLUSTER_QUEUE
+#extension GL_KHR_shader_subgroup_shuffle : require
+// Experiment: the subgroup walk with MYRIAD_BALLOT_FROM 0.
+#define MYRIAD_BALLOT_FROM 0u
 #include "light_clustered.glsl"
