@@ -13,9 +13,9 @@ struct LightClusters {
   uint clusters;  // extent.x * extent.y * extent.z
 };
 
-// The box of clusters light `index` may reach; false if the light is not on screen.
-bool lightClusters(uint index, out LightClusters b) {
-  vec4 light = lights[index].positionRadius;
+// The box of clusters a light at `light` (world position, radius) may reach; false if it is not
+// on screen.
+bool lightClustersAt(vec4 light, out LightClusters b) {
   b.c = (frame.view * vec4(light.xyz, 1.0)).xyz;
   b.r = light.w;
   b.first = uvec3(0u);
@@ -45,6 +45,11 @@ bool lightClusters(uint index, out LightClusters b) {
   b.extent = uvec3(t1 - t0 + 1u, s1 - s0 + 1u);
   b.clusters = b.extent.x * b.extent.y * b.extent.z;
   return true;
+}
+
+// The same for light `index` where it is now.
+bool lightClusters(uint index, out LightClusters b) {
+  return lightClustersAt(lights[index].positionRadius, b);
 }
 
 // The i-th cluster of the box (i < b.clusters): true, with its index, when the cluster holds

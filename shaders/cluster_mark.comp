@@ -13,5 +13,8 @@ void main() {
   float depth = texelFetch(gbufferDepth, pixel, 0).r;
   if (depth >= 1.0) return;
   // Cursors start at MYRIAD_CLUSTER_INACTIVE; every writer writes the same 0, so races are benign.
-  clusterCursors[clusterOfPixel(pixel, depth)] = 0u;
+  // Most pixels find their cluster marked already: reading first spares the memory system a store
+  // per pixel to a few hundred addresses.
+  uint cluster = clusterOfPixel(pixel, depth);
+  if (clusterCursors[cluster] != 0u) clusterCursors[cluster] = 0u;
 }
