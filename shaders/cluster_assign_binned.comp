@@ -37,6 +37,10 @@ layout(constant_id = 2) const uint kBins = MYRIAD_ASSIGN_BINS;  // a power of tw
 // Counting pass with kAnimate: the frame's lights move here (light_orbit.glsl), each written once
 // by the thread that walks it, instead of in light_animate.comp before.
 layout(constant_id = 3) const bool kAnimate = false;
+// kWalkLarge: the large lights (and those whose region is full) are walked by the workgroup that
+// met them, all its invocations side by side, in this pass, and by every workgroup in turn from the
+// queue in the assigning pass: no passes of their own (cluster_assign.comp's kLarge).
+layout(constant_id = 4) const bool kWalkLarge = false;
 
 layout(std430, set = MYRIAD_SET_SCENE, binding = MYRIAD_BINDING_LIGHT_ORIGINS) readonly buffer OriginBlock {
   GpuPointLight origins[];
@@ -54,6 +58,8 @@ const uint kInTable = 0x80000000u;  // a recorded pair's cluster word is its gro
 shared uint binCluster[kBins];
 shared uint binCount[kBins];  // pairs counted
 shared uint regionUsed;        // region slots handed out (may pass the region's size)
+shared uint largeCount;        // kWalkLarge: large lights met in this step
+shared vec4 largeLight[kGroup];
 
 // Where this workgroup's table and region start, and how many slots a region has (both passes
 // run the same number of workgroups).
@@ -81,11 +87,39 @@ uint claimBin(uint cluster) {
   return kNoBin;
 }
 
-void queueLarge(uint index) {
+void queueLarge(uint index, vec4 light) {
   uint slot = atomicAdd(largeQueue.queued.x, 1u);
   largeLights[slot] = index;
-  // The indirect dispatch's group count: the queue's length, at most the groups it may have.
-  atomicMax(largeQueue.groups.x, min(slot + 1u, MYRIAD_LARGE_LIGHT_GROUPS));
+  if (kWalkLarge) {
+    largeLight[atomicAdd(largeCount, 1u)] = light;
+  } else {
+    // The indirect dispatch's group count: the queue's length, at most the groups it may have.
+    atomicMax(largeQueue.groups.x, min(slot + 1u, MYRIAD_LARGE_LIGHT_GROUPS));
+  }
+}
+
+// kWalkLarge, counting: this invocation's share of a large light's clusters.
+void countLargeLight(vec4 light) {
+  LightClusters b;
+  if (!lightClustersAt(light, b)) return;
+  for (uint i = gl_LocalInvocationIndex; i < b.clusters; i += kGroup) {
+    uint cluster;
+    if (lightReachesCluster(b, i, cluster)) atomicAdd(clusterCursors[clusterSpill(cluster)], 1u);
+  }
+}
+
+// kWalkLarge, assigning: this invocation's share of a queued light's clusters, each pair taking
+// the next slot after the recorded ones.
+void placeLargeLight(uint index) {
+  LightClusters b;
+  if (!lightClusters(index, b)) return;
+  for (uint i = gl_LocalInvocationIndex; i < b.clusters; i += kGroup) {
+    uint cluster;
+    if (!lightReachesCluster(b, i, cluster)) continue;
+    uint slot = atomicAdd(clusterCursors[cluster], 1u);
+    uvec2 range = clusterRanges[cluster];
+    if (slot < range.y) clusterLights[range.x + slot] = index;
+  }
 }
 
 // Walks light `index`'s clusters once, ranking and recording each pair.
@@ -101,7 +135,7 @@ void countLight(uint index, uint size, uint region) {
   LightClusters b;
   if (!lightClustersAt(light, b)) return;
   if (b.clusters > MYRIAD_LARGE_LIGHT_CLUSTERS) {
-    queueLarge(index);
+    queueLarge(index, light);
     return;
   }
   uint at = atomicAdd(regionUsed, b.clusters);
@@ -109,7 +143,7 @@ void countLight(uint index, uint size, uint region) {
     // The region is full: the large-light passes take this light; the slots it was handed that
     // lie inside the region hold no pair.
     for (uint s = at; s < size; ++s) pairWords[region + s] = kNoLight;
-    queueLarge(index);
+    queueLarge(index, light);
     return;
   }
   for (uint i = 0u; i < b.clusters; ++i) {
@@ -157,19 +191,42 @@ void main() {
     uint used = min(pairWords[gl_WorkGroupID.x], size);
     uint table = tableStart();
     for (uint s = thread; s < used; s += kGroup) placePair(region + s, size, table);
+    if (kWalkLarge) {
+      for (uint q = gl_WorkGroupID.x; q < largeQueue.queued.x; q += gl_NumWorkGroups.x) {
+        placeLargeLight(largeLights[q]);
+      }
+    }
     return;
   }
   for (uint bin = thread; bin < kBins; bin += kGroup) {
     binCluster[bin] = kEmpty;
     binCount[bin] = 0u;
   }
-  if (thread == 0u) regionUsed = 0u;
+  if (thread == 0u) {
+    regionUsed = 0u;
+    largeCount = 0u;
+  }
   barrier();
-  // This group's lights: a contiguous run, kGroup consecutive lights per step (coalesced reads).
+  // This group's lights: a contiguous run of an equal share, kGroup consecutive lights per step
+  // (coalesced reads).
   uint lightCount = frame.flags.y;
-  uint steps = (lightCount + gl_NumWorkGroups.x * kGroup - 1u) / (gl_NumWorkGroups.x * kGroup);
-  uint first = gl_WorkGroupID.x * steps * kGroup + thread;
-  for (uint k = 0u; k < steps; ++k) countLight(first + k * kGroup, size, region);
+  uint share = (lightCount + gl_NumWorkGroups.x - 1u) / gl_NumWorkGroups.x;
+  uint first = gl_WorkGroupID.x * share;
+  uint end = min(first + share, lightCount);
+  uint steps = (share + kGroup - 1u) / kGroup;
+  for (uint k = 0u; k < steps; ++k) {
+    uint index = first + k * kGroup + thread;
+    countLight(index < end ? index : lightCount, size, region);
+    if (kWalkLarge) {
+      // The step's large lights, by the whole group.
+      barrier();
+      uint n = largeCount;
+      barrier();
+      if (thread == 0u) largeCount = 0u;
+      for (uint j = 0u; j < n; ++j) countLargeLight(largeLight[j]);
+      barrier();
+    }
+  }
   barrier();
   // Each cluster's total once; the cursor before the add is where the group's part starts.
   uint table = tableStart();

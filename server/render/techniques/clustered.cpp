@@ -109,6 +109,14 @@ bool separateAnimation() {
   return v && std::strcmp(v, "1") == 0;
 }
 
+// MYRIAD_ASSIGN_WALK_LARGE=1: the binned passes walk the large lights themselves, a workgroup
+// each, instead of the indirect passes of cluster_assign.comp (two dispatches and barriers fewer;
+// a benchmark experiment).
+bool walkLargeInBinned() {
+  const char* v = std::getenv("MYRIAD_ASSIGN_WALK_LARGE");
+  return v && std::strcmp(v, "1") == 0;
+}
+
 bool binnedAssignFor(const gpu::DeviceInfo& device) {
   const char* v = std::getenv("MYRIAD_CLUSTER_ASSIGN");
   if (v && std::strcmp(v, "atomic") == 0) return false;
@@ -162,7 +170,8 @@ class Clustered final : public LightingTechnique {
         shade_(setup.context.device, setup.pipelines.layout, spirv::light_clustered_comp),
         set_(setup.context, setup.pipelines), counters_(setup.context),
         binnedAssign_(binnedAssignFor(setup.context.info)),
-        animateInCount_(binnedAssign_ && !separateAnimation()) {
+        animateInCount_(binnedAssign_ && !separateAnimation()),
+        walkLarge_(binnedAssign_ && walkLargeInBinned()) {
     requireWorkgroup(setup.context, MYRIAD_SCAN_GROUP, MYRIAD_SCAN_GROUP);
     requireWorkgroup(setup.context, MYRIAD_ASSIGN_BIN_GROUP, MYRIAD_ASSIGN_BIN_GROUP);
     VkDevice device = setup.context.device;
@@ -195,14 +204,16 @@ class Clustered final : public LightingTechnique {
         target = pipelines_.add(
             gpu::createComputePipeline(device, layout, spirv::cluster_assign_comp, &spec));
       }
-      // cluster_assign_binned.comp: kAssign (constant 0), its table's bins (2), kAnimate (3).
+      // cluster_assign_binned.comp: kAssign (constant 0), its table's bins (2), kAnimate (3),
+      // kWalkLarge (4).
       const VkSpecializationMapEntry binnedEntries[] = {{0, 0, sizeof(VkBool32)},
                                                         {2, 4, sizeof(uint32_t)},
-                                                        {3, 8, sizeof(VkBool32)}};
+                                                        {3, 8, sizeof(VkBool32)},
+                                                        {4, 12, sizeof(VkBool32)}};
       for (VkBool32 animate : {VK_FALSE, VK_TRUE}) {
         if (assign && animate) continue;
-        const uint32_t binnedValues[] = {assign, assignBins(), animate};
-        VkSpecializationInfo binnedSpec{3, binnedEntries, sizeof(binnedValues), binnedValues};
+        const uint32_t binnedValues[] = {assign, assignBins(), animate, VkBool32(walkLarge_)};
+        VkSpecializationInfo binnedSpec{4, binnedEntries, sizeof(binnedValues), binnedValues};
         (assign ? assignBinned_ : animate ? countBinnedAnimated_ : countBinned_) = pipelines_.add(
             gpu::createComputePipeline(device, layout, spirv::cluster_assign_binned_comp, &binnedSpec));
       }
@@ -284,10 +295,12 @@ class Clustered final : public LightingTechnique {
                          kComputeStage | VK_PIPELINE_STAGE_2_DRAW_INDIRECT_BIT |
                              (animate ? lightReaders : 0),
                          kStorageReadWrite | VK_ACCESS_2_INDIRECT_COMMAND_READ_BIT);
-      if (assignSteps()) pass.timer.beginPass(cmd, "assign-count-large");
-      vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, countLarge_);
-      vkCmdDispatchIndirect(cmd, lists_->large.buffer, 0);
-      gpu::memoryBarrier(cmd, kComputeStage, kStorageWrite, kComputeStage, kStorageReadWrite);
+      if (!walkLarge_) {
+        if (assignSteps()) pass.timer.beginPass(cmd, "assign-count-large");
+        vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, countLarge_);
+        vkCmdDispatchIndirect(cmd, lists_->large.buffer, 0);
+        gpu::memoryBarrier(cmd, kComputeStage, kStorageWrite, kComputeStage, kStorageReadWrite);
+      }
     }
     // 3. Prefix sum: list offsets, capacity cuts, counters.
     if (assignSteps()) pass.timer.beginPass(cmd, "assign-scan");
@@ -299,15 +312,17 @@ class Clustered final : public LightingTechnique {
       // 4. Fill the lists: the same split, the queue kept from step 2.
       if (assignSteps()) pass.timer.beginPass(cmd, "assign-fill");
       dispatchSmallLights(cmd, pass.scene.lightCount, assign_, assignBinned_);
-      // The small-light pass does not write the queue, and its list slots are not the large
-      // lights', but it holds both writable: order it before the indirect read and the large
-      // lights' pass all the same (the synchronization layer's rule).
-      gpu::memoryBarrier(cmd, kComputeStage, kStorageWrite,
-                         kComputeStage | VK_PIPELINE_STAGE_2_DRAW_INDIRECT_BIT,
-                         kStorageReadWrite | VK_ACCESS_2_INDIRECT_COMMAND_READ_BIT);
-      if (assignSteps()) pass.timer.beginPass(cmd, "assign-fill-large");
-      vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, assignLarge_);
-      vkCmdDispatchIndirect(cmd, lists_->large.buffer, 0);
+      if (!walkLarge_) {
+        // The small-light pass does not write the queue, and its list slots are not the large
+        // lights', but it holds both writable: order it before the indirect read and the large
+        // lights' pass all the same (the synchronization layer's rule).
+        gpu::memoryBarrier(cmd, kComputeStage, kStorageWrite,
+                           kComputeStage | VK_PIPELINE_STAGE_2_DRAW_INDIRECT_BIT,
+                           kStorageReadWrite | VK_ACCESS_2_INDIRECT_COMMAND_READ_BIT);
+        if (assignSteps()) pass.timer.beginPass(cmd, "assign-fill-large");
+        vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, assignLarge_);
+        vkCmdDispatchIndirect(cmd, lists_->large.buffer, 0);
+      }
       gpu::memoryBarrier(cmd, kComputeStage, kStorageWrite, kComputeStage,
                          VK_ACCESS_2_SHADER_STORAGE_READ_BIT);
     }
@@ -407,13 +422,16 @@ class Clustered final : public LightingTechnique {
 
   // The workgroups of the binned passes for `lightCount` lights (at least one).
   // MYRIAD_ASSIGN_GROUPS (64 to 4096) overrides kBinnedAssignGroups: a benchmark experiment.
-  static uint32_t binnedGroups(uint32_t lightCount) {
+  // Walking the large lights themselves, the passes give each light a group while there are
+  // fewer lights than groups, so that a thousand large lights keep a thousand groups busy.
+  uint32_t binnedGroups(uint32_t lightCount) const {
     static const uint32_t most = [] {
       const char* v = std::getenv("MYRIAD_ASSIGN_GROUPS");
       const uint32_t n = v ? uint32_t(std::strtoul(v, nullptr, 10)) : 0;
       return n >= 64 && n <= 4096 ? n : kBinnedAssignGroups;
     }();
-    return std::clamp(groupCount(lightCount, MYRIAD_ASSIGN_BIN_GROUP), 1u, most);
+    const uint32_t wanted = walkLarge_ ? lightCount : groupCount(lightCount, MYRIAD_ASSIGN_BIN_GROUP);
+    return std::clamp(wanted, 1u, most);
   }
 
   // The pair buffer of cluster_assign_binned.comp for `lightCount` lights: a count and a table per
@@ -446,6 +464,7 @@ class Clustered final : public LightingTechnique {
   CullingCounters counters_;
   bool binnedAssign_;  // small lights by cluster_assign_binned.comp (else cluster_assign.comp)
   bool animateInCount_;  // animatesLights()
+  bool walkLarge_;  // the binned passes walk the large lights themselves (kWalkLarge)
   std::unique_ptr<ClusterLists> lists_;
   uint64_t listLimitBytes_ = 0;              // limitListMemory(); 0 = the device's limit
   uint32_t listStartCapacity_ = 0;           // limitListMemory(); 0 = initialCapacity()'s
