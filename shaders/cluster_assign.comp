@@ -3,7 +3,7 @@
 // Clustered steps 2 and 4: find the clusters each light's sphere overlaps.
 // Counting pass (kAssign = false): add 1 to each active cluster's count of pairs not recorded
 // (clusterSpill). Assigning pass (kAssign = true, after the prefix sum): write the light's index
-// into each cluster's list at the next slot of its cursor.
+// into each cluster's list at the next slot that clusterSpill (reset by the scan) hands out.
 // Both passes run the same overlap test, so counts and lists agree exactly.
 //
 // One thread per light (kLarge = false) walks the clusters of a light whose screen-and-depth box
@@ -36,10 +36,10 @@ void assign(uint index, uint first, uint step, bool queueLarge) {
   }
   for (uint i = first; i < b.clusters; i += step) {
     uint cluster;
-    if (!lightReachesCluster(b, i, cluster)) continue;
+    if (!lightReachesCluster(b, i, kAssign, cluster)) continue;
     if (kAssign) {
-      // The scan left the cursor after the ranks the counting pass handed out (0 if none).
-      uint slot = atomicAdd(clusterCursors[cluster], 1u);
+      // The scan left clusterSpill after the ranks the counting pass handed out (0 if none).
+      uint slot = atomicAdd(clusterCursors[clusterSpill(cluster)], 1u);
       uvec2 range = clusterRanges[cluster];
       if (slot < range.y) clusterLights[range.x + slot] = index;
     } else {

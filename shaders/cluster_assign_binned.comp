@@ -104,7 +104,7 @@ void countLargeLight(vec4 light) {
   if (!lightClustersAt(light, b)) return;
   for (uint i = gl_LocalInvocationIndex; i < b.clusters; i += kGroup) {
     uint cluster;
-    if (lightReachesCluster(b, i, cluster)) atomicAdd(clusterCursors[clusterSpill(cluster)], 1u);
+    if (lightReachesCluster(b, i, false, cluster)) atomicAdd(clusterCursors[clusterSpill(cluster)], 1u);
   }
 }
 
@@ -115,8 +115,8 @@ void placeLargeLight(uint index) {
   if (!lightClusters(index, b)) return;
   for (uint i = gl_LocalInvocationIndex; i < b.clusters; i += kGroup) {
     uint cluster;
-    if (!lightReachesCluster(b, i, cluster)) continue;
-    uint slot = atomicAdd(clusterCursors[cluster], 1u);
+    if (!lightReachesCluster(b, i, true, cluster)) continue;
+    uint slot = atomicAdd(clusterCursors[clusterSpill(cluster)], 1u);
     uvec2 range = clusterRanges[cluster];
     if (slot < range.y) clusterLights[range.x + slot] = index;
   }
@@ -149,7 +149,7 @@ void countLight(uint index, uint size, uint region) {
   for (uint i = 0u; i < b.clusters; ++i) {
     uint s = region + at + i;
     uint cluster;
-    if (!lightReachesCluster(b, i, cluster)) {
+    if (!lightReachesCluster(b, i, false, cluster)) {
       pairWords[s] = kNoLight;
       continue;
     }

@@ -7,8 +7,9 @@
 // them, so reads are coalesced), sums them in shared memory, reserves its part of the lists with
 // one atomic (CullingStats.totals.w, the slots handed out so far) and places its clusters in it.
 // Lists past the capacity are cut and the dropped indices counted. A cluster's count is the pairs
-// the counting pass recorded (its cursor, which stays: the pairs not recorded take the ranks after
-// them in the assigning pass) plus those it did not (clusterSpill).
+// the counting pass recorded (its cursor) plus those it did not (clusterSpill); the latter take the
+// ranks after the former in the assigning pass, from clusterSpill set to the former's count here.
+// Every cursor is left MYRIAD_CLUSTER_INACTIVE, as the next frame's mark pass wants it.
 #include "frame.glsl"
 #include "compute_targets.glsl"
 
@@ -70,6 +71,12 @@ void main() {
     uint start = min(offset, capacity);
     uint kept = min(count, capacity - start);
     clusterRanges[i] = uvec2(start, kept);
+    if (cursors[k] != MYRIAD_CLUSTER_INACTIVE) {
+      // The pairs not recorded take the ranks after the recorded ones (clusterSpill becomes their
+      // fill cursor), and the cursor is inactive again for the next frame's mark: no clearing.
+      clusterCursors[clusterSpill(i)] = cursors[k];
+      clusterCursors[i] = MYRIAD_CLUSTER_INACTIVE;
+    }
     written += kept;
     offset += count;
   }

@@ -161,6 +161,7 @@ struct ClusterLists {
   gpu::Buffer lists;    // uint per light reference
   gpu::Buffer large;    // LargeLightQueue, then a uint per queued light
   gpu::Buffer pairs;    // the binned passes' recorded pairs (one word when they do not run)
+  bool cursorsInactive = false;  // the cursors hold MYRIAD_CLUSTER_INACTIVE (after the first frame)
 };
 
 class Clustered final : public LightingTechnique {
@@ -261,21 +262,26 @@ class Clustered final : public LightingTechnique {
     // Two timed parts: "assign" (steps 1-4, building the lists) and "shade" (step 5).
     pass.timer.beginPass(cmd, "assign");
     set_.bind(cmd);
-    // Every cluster starts inactive with nothing spilled; the counters start at zero, the
-    // large-light queue empty.
-    const VkDeviceSize cursorBytes = VkDeviceSize(lists_->grid.count()) * 4;
-    vkCmdFillBuffer(cmd, lists_->cursors.buffer, 0, cursorBytes, MYRIAD_CLUSTER_INACTIVE);
-    vkCmdFillBuffer(cmd, lists_->cursors.buffer, cursorBytes, cursorBytes, 0);
-    counters_.reset(cmd);
-    const LargeLightQueue emptyQueue{{0, 1, 1, 0}, {0, 0, 0, 0}};
-    vkCmdUpdateBuffer(cmd, lists_->large.buffer, 0, sizeof(emptyQueue), &emptyQueue);
-    // Moving the lights here: the previous frame's readers of them (vertex, fragment and compute
-    // shaders) finish first, as before the renderer's animate pass.
+    // Every cluster starts inactive: the last frame's scan left the cursors so, and new lists get
+    // it once here. The mark pass empties the counters and the large-light queue.
+    VkPipelineStageFlags2 before = 0;
+    if (!lists_->cursorsInactive) {
+      vkCmdFillBuffer(cmd, lists_->cursors.buffer, 0, VkDeviceSize(lists_->grid.count()) * 4,
+                      MYRIAD_CLUSTER_INACTIVE);
+      lists_->cursorsInactive = true;
+      before = kFillStage;
+    }
+    // Moving the lights here: their readers before in the frame (none today) finish first; the
+    // last frame's are behind the renderer's barrier before the lighting.
     const bool animate = pass.animateLights && pass.scene.lightCount > 0;
     const VkPipelineStageFlags2 lightReaders = VK_PIPELINE_STAGE_2_VERTEX_SHADER_BIT |
                                                VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT | kComputeStage;
-    gpu::memoryBarrier(cmd, kFillStage | (animate ? lightReaders : 0), VK_ACCESS_2_TRANSFER_WRITE_BIT,
-                       kComputeStage, kStorageReadWrite);
+    if (animate) before |= lightReaders;
+    if (before != 0) {
+      gpu::memoryBarrier(cmd, before,
+                         (before & kFillStage) != 0 ? VK_ACCESS_2_TRANSFER_WRITE_BIT : VK_ACCESS_2_NONE,
+                         kComputeStage, kStorageReadWrite);
+    }
 
     // 1. Mark clusters holding visible geometry.
     if (assignSteps()) pass.timer.beginPass(cmd, "assign-mark");
