@@ -941,7 +941,8 @@ void Renderer::State::recordBeforeLighting(VkCommandBuffer cmd, FrameSlot& slot,
     vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, p.layout, 0, 2, sets, 0, nullptr);
   } else {
     slot.timer->beginPass(cmd, "gbuffer");
-    recordGBufferPass(cmd, p, *slot.targets, scene, gbufferWrites(settings, scene));
+    recordGBufferPass(cmd, p, *slot.targets, scene, gbufferWrites(settings, scene),
+                      MeshDetail::of(settings));
   }
 }
 

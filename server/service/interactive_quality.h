@@ -49,6 +49,10 @@ class InteractiveQuality {
   static constexpr double kBudgetShare = 0.8;
   // JPEG quality of interactive frames (at most the stream's own).
   static constexpr int kInteractiveJpegQuality = 50;
+  // Interactive frames draw meshes' coarser versions where those differ by at most this many
+  // pixels (FrameSettings::geometryErrorPixels): at 1/8 scale the G-buffer's vertex work, not its
+  // pixels, was most of a frame on llvmpipe.
+  static constexpr float kGeometryErrorPixels = 0.5f;
 
   explicit InteractiveQuality(uint32_t targetFps) : targetFps_(targetFps) {}
 
