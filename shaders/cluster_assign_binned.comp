@@ -41,10 +41,6 @@ layout(constant_id = 3) const bool kAnimate = false;
 // met them, all its invocations side by side, in this pass, and by every workgroup in turn from the
 // queue in the assigning pass: no passes of their own (cluster_assign.comp's kLarge).
 layout(constant_id = 4) const bool kWalkLarge = false;
-// kPacked: a bin is one word, its cluster in the high bits and its count in the low ones, so the
-// same shared memory holds twice the bins (when the frame's cluster indices and the group's share
-// of lights fit one word; else the two-word bins).
-layout(constant_id = 5) const bool kPacked = false;
 
 layout(std430, set = MYRIAD_SET_SCENE, binding = MYRIAD_BINDING_LIGHT_ORIGINS) readonly buffer OriginBlock {
   GpuPointLight origins[];
@@ -59,23 +55,16 @@ const uint kNoBin = 0xFFFFFFFFu;
 const uint kNoLight = 0xFFFFFFFFu;  // a region slot holding no pair
 const uint kInTable = 0x80000000u;  // a recorded pair's cluster word is its group's bin
 
-// Two-word bins: the cluster in table[bin], its pairs counted in table[kBins + bin]. Packed: 2 x
-// kBins one-word bins (cluster << countBits | count).
-shared uint table[2u * kBins];
-bool packed;      // this dispatch packs its bins
-uint countBits;   // packed: the count's bits
-uint bins;        // this dispatch's bins
+shared uint binCluster[kBins];
+shared uint binCount[kBins];  // pairs counted
 shared uint regionUsed;        // region slots handed out (may pass the region's size)
 shared uint largeCount;        // kWalkLarge: large lights met in this step
 shared vec4 largeLight[kGroup];
 
 // Where this workgroup's table and region start, and how many slots a region has (both passes
 // run the same number of workgroups).
-uint tableWords() {
-  return kPacked ? 4u * kBins : 2u * kBins;  // a uvec2 per bin a packed table may have
-}
 uint tablesEnd() {
-  return gl_NumWorkGroups.x * (1u + tableWords());
+  return gl_NumWorkGroups.x * (1u + 2u * kBins);
 }
 uint regionSize() {
   return (uint(pairWords.length()) - tablesEnd()) / (3u * gl_NumWorkGroups.x);
@@ -84,30 +73,16 @@ uint regionStart() {
   return tablesEnd() + gl_WorkGroupID.x * 3u * regionSize();
 }
 uint tableStart() {
-  return gl_NumWorkGroups.x + gl_WorkGroupID.x * tableWords();
+  return gl_NumWorkGroups.x + gl_WorkGroupID.x * kBins * 2u;
 }
 
-// The bin holding `cluster`, claiming a free one, and the pair's rank among the group's pairs of
-// that cluster; kNoBin if the table cannot hold it.
-uint rankInBin(uint cluster, out uint rank) {
+// The bin holding `cluster`, claiming a free one; kNoBin if the table cannot hold it.
+uint claimBin(uint cluster) {
   uint h = (cluster * 2654435761u) >> 16u;
   for (uint p = 0u; p < MYRIAD_ASSIGN_PROBES; ++p) {
-    uint bin = (h + p) & (bins - 1u);
-    if (packed) {
-      uint key = cluster << countBits;
-      uint held = table[bin];
-      if (held == kEmpty) held = atomicCompSwap(table[bin], kEmpty, key);
-      if (held == kEmpty || (held >> countBits) == cluster) {
-        rank = atomicAdd(table[bin], 1u) & ((1u << countBits) - 1u);
-        return bin;
-      }
-    } else {
-      uint held = atomicCompSwap(table[bin], kEmpty, cluster);
-      if (held == cluster || held == kEmpty) {
-        rank = atomicAdd(table[kBins + bin], 1u);
-        return bin;
-      }
-    }
+    uint bin = (h + p) & (kBins - 1u);
+    uint held = atomicCompSwap(binCluster[bin], kEmpty, cluster);
+    if (held == cluster || held == kEmpty) return bin;
   }
   return kNoBin;
 }
@@ -178,10 +153,10 @@ void countLight(uint index, uint size, uint region) {
       pairWords[s] = kNoLight;
       continue;
     }
-    uint rank;
-    uint bin = rankInBin(cluster, rank);
-    uint code;
+    uint bin = claimBin(cluster);
+    uint code, rank;
     if (bin != kNoBin) {
+      rank = atomicAdd(binCount[bin], 1u);
       code = bin | kInTable;
     } else {
       rank = atomicAdd(clusterCursors[cluster], 1u);
@@ -194,13 +169,13 @@ void countLight(uint index, uint size, uint region) {
 }
 
 // Copies one recorded pair into its cluster's list (cut at the list's kept length).
-void placePair(uint s, uint size, uint groupTable) {
+void placePair(uint s, uint size, uint table) {
   uint index = pairWords[s];
   if (index == kNoLight) return;
   uint cluster = pairWords[s + size];
   uint rank = pairWords[s + 2u * size];
   if ((cluster & kInTable) != 0u) {
-    uint t = groupTable + (cluster & ~kInTable) * 2u;
+    uint t = table + (cluster & ~kInTable) * 2u;
     cluster = pairWords[t];
     rank += pairWords[t + 1u];
   }
@@ -214,8 +189,8 @@ void main() {
   uint region = regionStart();
   if (kAssign) {
     uint used = min(pairWords[gl_WorkGroupID.x], size);
-    uint groupTable = tableStart();
-    for (uint s = thread; s < used; s += kGroup) placePair(region + s, size, groupTable);
+    uint table = tableStart();
+    for (uint s = thread; s < used; s += kGroup) placePair(region + s, size, table);
     if (kWalkLarge) {
       for (uint q = gl_WorkGroupID.x; q < largeQueue.queued.x; q += gl_NumWorkGroups.x) {
         placeLargeLight(largeLights[q]);
@@ -223,21 +198,19 @@ void main() {
     }
     return;
   }
-  // This group's lights: a contiguous run of an equal share, kGroup consecutive lights per step
-  // (coalesced reads).
-  uint lightCount = frame.flags.y;
-  uint share = (lightCount + gl_NumWorkGroups.x - 1u) / gl_NumWorkGroups.x;
-  uint clusterBits = uint(findMSB(frame.grid.x * frame.grid.y * frame.grid.z)) + 1u;
-  countBits = 32u - clusterBits;
-  // A count never reaches the mask (a light adds one pair to a cluster at most), so no word is kEmpty.
-  packed = kPacked && countBits < 32u && share < (1u << countBits) - 1u;
-  bins = packed ? 2u * kBins : kBins;
-  for (uint i = thread; i < 2u * kBins; i += kGroup) table[i] = i < kBins || packed ? kEmpty : 0u;
+  for (uint bin = thread; bin < kBins; bin += kGroup) {
+    binCluster[bin] = kEmpty;
+    binCount[bin] = 0u;
+  }
   if (thread == 0u) {
     regionUsed = 0u;
     largeCount = 0u;
   }
   barrier();
+  // This group's lights: a contiguous run of an equal share, kGroup consecutive lights per step
+  // (coalesced reads).
+  uint lightCount = frame.flags.y;
+  uint share = (lightCount + gl_NumWorkGroups.x - 1u) / gl_NumWorkGroups.x;
   uint first = gl_WorkGroupID.x * share;
   uint end = min(first + share, lightCount);
   uint steps = (share + kGroup - 1u) / kGroup;
@@ -256,14 +229,13 @@ void main() {
   }
   barrier();
   // Each cluster's total once; the cursor before the add is where the group's part starts.
-  uint groupTable = tableStart();
-  for (uint bin = thread; bin < bins; bin += kGroup) {
-    uint word = table[bin];
-    if (word == kEmpty) continue;
-    uint count = packed ? word & ((1u << countBits) - 1u) : table[kBins + bin];
-    uint cluster = packed ? word >> countBits : word;
-    pairWords[groupTable + bin * 2u] = cluster;
-    pairWords[groupTable + bin * 2u + 1u] = atomicAdd(clusterCursors[cluster], count);
+  uint table = tableStart();
+  for (uint bin = thread; bin < kBins; bin += kGroup) {
+    uint count = binCount[bin];
+    if (count == 0u) continue;
+    uint cluster = binCluster[bin];
+    pairWords[table + bin * 2u] = cluster;
+    pairWords[table + bin * 2u + 1u] = atomicAdd(clusterCursors[cluster], count);
   }
   if (thread == 0u) pairWords[gl_WorkGroupID.x] = min(regionUsed, size);
 }

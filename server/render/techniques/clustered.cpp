@@ -117,13 +117,6 @@ bool walkLargeInBinned() {
   return v && std::strcmp(v, "1") == 0;
 }
 
-// MYRIAD_ASSIGN_PACKED=1: the binned passes' bins are one word (cluster and count), twice as many
-// in the same shared memory (a benchmark experiment).
-bool packBins() {
-  const char* v = std::getenv("MYRIAD_ASSIGN_PACKED");
-  return v && std::strcmp(v, "1") == 0;
-}
-
 bool binnedAssignFor(const gpu::DeviceInfo& device) {
   const char* v = std::getenv("MYRIAD_CLUSTER_ASSIGN");
   if (v && std::strcmp(v, "atomic") == 0) return false;
@@ -179,8 +172,7 @@ class Clustered final : public LightingTechnique {
         set_(setup.context, setup.pipelines), counters_(setup.context),
         binnedAssign_(binnedAssignFor(setup.context.info)),
         animateInCount_(binnedAssign_ && !separateAnimation()),
-        walkLarge_(binnedAssign_ && walkLargeInBinned()),
-        packedBins_(binnedAssign_ && packBins()) {
+        walkLarge_(binnedAssign_ && walkLargeInBinned()) {
     requireWorkgroup(setup.context, MYRIAD_SCAN_GROUP, MYRIAD_SCAN_GROUP);
     requireWorkgroup(setup.context, MYRIAD_ASSIGN_BIN_GROUP, MYRIAD_ASSIGN_BIN_GROUP);
     VkDevice device = setup.context.device;
@@ -214,17 +206,15 @@ class Clustered final : public LightingTechnique {
             gpu::createComputePipeline(device, layout, spirv::cluster_assign_comp, &spec));
       }
       // cluster_assign_binned.comp: kAssign (constant 0), its table's bins (2), kAnimate (3),
-      // kWalkLarge (4), kPacked (5).
+      // kWalkLarge (4).
       const VkSpecializationMapEntry binnedEntries[] = {{0, 0, sizeof(VkBool32)},
                                                         {2, 4, sizeof(uint32_t)},
                                                         {3, 8, sizeof(VkBool32)},
-                                                        {4, 12, sizeof(VkBool32)},
-                                                        {5, 16, sizeof(VkBool32)}};
+                                                        {4, 12, sizeof(VkBool32)}};
       for (VkBool32 animate : {VK_FALSE, VK_TRUE}) {
         if (assign && animate) continue;
-        const uint32_t binnedValues[] = {assign, assignBins(), animate, VkBool32(walkLarge_),
-                                         VkBool32(packedBins_)};
-        VkSpecializationInfo binnedSpec{5, binnedEntries, sizeof(binnedValues), binnedValues};
+        const uint32_t binnedValues[] = {assign, assignBins(), animate, VkBool32(walkLarge_)};
+        VkSpecializationInfo binnedSpec{4, binnedEntries, sizeof(binnedValues), binnedValues};
         (assign ? assignBinned_ : animate ? countBinnedAnimated_ : countBinned_) = pipelines_.add(
             gpu::createComputePipeline(device, layout, spirv::cluster_assign_binned_comp, &binnedSpec));
       }
@@ -456,7 +446,7 @@ class Clustered final : public LightingTechnique {
   VkDeviceSize pairBytes(uint32_t lightCount) const {
     if (!binnedAssign_) return 4;
     const uint64_t groups = binnedGroups(lightCount);
-    const uint64_t tables = groups * (1 + (packedBins_ ? 4 : 2) * uint64_t(assignBins())) * 4;
+    const uint64_t tables = groups * (1 + 2 * uint64_t(assignBins())) * 4;
     const uint64_t slotBytes = kPairWordsPerSlot * 4;
     const uint64_t wanted = std::max<uint64_t>(lightCount, 1) * pairSlotsPerLight() * slotBytes;
     const uint64_t room = context_.info.maxStorageBufferRange - tables;
@@ -481,7 +471,6 @@ class Clustered final : public LightingTechnique {
   bool binnedAssign_;  // small lights by cluster_assign_binned.comp (else cluster_assign.comp)
   bool animateInCount_;  // animatesLights()
   bool walkLarge_;  // the binned passes walk the large lights themselves (kWalkLarge)
-  bool packedBins_;  // their tables' bins are one word each where they fit (kPacked)
   std::unique_ptr<ClusterLists> lists_;
   uint64_t listLimitBytes_ = 0;              // limitListMemory(); 0 = the device's limit
   uint32_t listStartCapacity_ = 0;           // limitListMemory(); 0 = initialCapacity()'s
