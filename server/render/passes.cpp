@@ -96,7 +96,7 @@ Pipelines::Pipelines(gpu::Context& context) : device(context.device) {
                                                VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1,
                                                VK_SHADER_STAGE_COMPUTE_BIT, nullptr};
   targetSetLayout = gpu::createDescriptorSetLayout(device, targetBindings);
-  std::array<VkDescriptorSetLayoutBinding, 5> cullingBindings{};
+  std::array<VkDescriptorSetLayoutBinding, 6> cullingBindings{};
   for (uint32_t i = 0; i < cullingBindings.size(); ++i) {
     // Fragment too: the clustered technique marks blended surfaces' clusters from fragments, and
     // the forward pass reads the lists.
