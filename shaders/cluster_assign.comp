@@ -1,8 +1,9 @@
 #version 450
 #extension GL_GOOGLE_include_directive : require
 // Clustered steps 2 and 4: find the clusters each light's sphere overlaps.
-// Counting pass (kAssign = false): add 1 to each active cluster's count. Assigning pass
-// (kAssign = true, after the prefix sum): write the light's index into each cluster's list.
+// Counting pass (kAssign = false): add 1 to each active cluster's count of pairs not recorded
+// (clusterSpill). Assigning pass (kAssign = true, after the prefix sum): write the light's index
+// into each cluster's list at the next slot that clusterSpill (reset by the scan) hands out.
 // Both passes run the same overlap test, so counts and lists agree exactly.
 //
 // One thread per light (kLarge = false) walks the clusters of a light whose screen-and-depth box
@@ -35,11 +36,14 @@ void assign(uint index, uint first, uint step, bool queueLarge) {
   }
   for (uint i = first; i < b.clusters; i += step) {
     uint cluster;
-    if (!lightReachesCluster(b, i, cluster)) continue;
-    uint slot = atomicAdd(clusterCursors[cluster], 1u);
+    if (!lightReachesCluster(b, i, kAssign, cluster)) continue;
     if (kAssign) {
+      // The scan left clusterSpill after the ranks the counting pass handed out (0 if none).
+      uint slot = atomicAdd(clusterCursors[clusterSpill(cluster)], 1u);
       uvec2 range = clusterRanges[cluster];
       if (slot < range.y) clusterLights[range.x + slot] = index;
+    } else {
+      atomicAdd(clusterCursors[clusterSpill(cluster)], 1u);
     }
   }
 }

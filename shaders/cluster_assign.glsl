@@ -13,9 +13,9 @@ struct LightClusters {
   uint clusters;  // extent.x * extent.y * extent.z
 };
 
-// The box of clusters light `index` may reach; false if the light is not on screen.
-bool lightClusters(uint index, out LightClusters b) {
-  vec4 light = lights[index].positionRadius;
+// The box of clusters a light at `light` (world position, radius) may reach; false if it is not
+// on screen.
+bool lightClustersAt(vec4 light, out LightClusters b) {
   b.c = (frame.view * vec4(light.xyz, 1.0)).xyz;
   b.r = light.w;
   b.first = uvec3(0u);
@@ -47,13 +47,22 @@ bool lightClusters(uint index, out LightClusters b) {
   return true;
 }
 
+// The same for light `index` where it is now.
+bool lightClusters(uint index, out LightClusters b) {
+  return lightClustersAt(lights[index].positionRadius, b);
+}
+
 // The i-th cluster of the box (i < b.clusters): true, with its index, when the cluster holds
-// geometry (it has a cursor) and the sphere overlaps it.
-bool lightReachesCluster(LightClusters b, uint i, out uint cluster) {
+// geometry and the sphere overlaps it. Counting, a cluster with geometry has a cursor; filling
+// (after the scan reset the cursors), it has room in the lists: a cluster with geometry whose
+// list was cut to nothing is passed over, as it takes no lights either way.
+bool lightReachesCluster(LightClusters b, uint i, bool filling, out uint cluster) {
   uvec3 at = uvec3(b.first.x + i % b.extent.x, b.first.y + (i / b.extent.x) % b.extent.y,
                    b.first.z + i / (b.extent.x * b.extent.y));
   cluster = clusterIndex(at);
-  if (clusterCursors[cluster] == MYRIAD_CLUSTER_INACTIVE) return false;
+  if (filling ? clusterRanges[cluster].y == 0u : clusterCursors[cluster] == MYRIAD_CLUSTER_INACTIVE) {
+    return false;
+  }
   vec3 bmin, bmax;
   clusterViewBox(at, bmin, bmax);
   return sphereOverlapsBox(b.c, b.r, bmin, bmax);

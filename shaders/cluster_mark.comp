@@ -9,9 +9,23 @@ layout(local_size_x = MYRIAD_PIXEL_GROUP, local_size_y = MYRIAD_PIXEL_GROUP) in;
 
 void main() {
   ivec2 pixel = ivec2(gl_GlobalInvocationID.xy);
+  if (pixel == ivec2(0)) {
+    // The frame's counters and the large-light queue start empty (no transfer commands first).
+    stats.overflow = uvec4(0u);
+    stats.totals = uvec4(0u);
+    largeQueue.groups = uvec4(0u, 1u, 1u, 0u);
+    largeQueue.queued = uvec4(0u);
+  }
   if (pixel.x >= int(frame.viewport.x) || pixel.y >= int(frame.viewport.y)) return;
   float depth = texelFetch(gbufferDepth, pixel, 0).r;
   if (depth >= 1.0) return;
-  // Cursors start at MYRIAD_CLUSTER_INACTIVE; every writer writes the same 0, so races are benign.
-  clusterCursors[clusterOfPixel(pixel, depth)] = 0u;
+  // Cursors are MYRIAD_CLUSTER_INACTIVE here (the last frame's scan left them so); a cluster with
+  // geometry gets 0 and nothing counted. Every writer writes the same 0s, so races are benign; most
+  // pixels find their cluster marked already, and reading first spares the memory system a store
+  // per pixel to a few hundred addresses.
+  uint cluster = clusterOfPixel(pixel, depth);
+  if (clusterCursors[cluster] != 0u) {
+    clusterCursors[cluster] = 0u;
+    clusterCursors[clusterSpill(cluster)] = 0u;
+  }
 }

@@ -11,6 +11,10 @@ layout(std430, set = MYRIAD_SET_CULLING, binding = MYRIAD_BINDING_CLUSTER_CURSOR
 
 void main() {
   uvec2 tile = uvec2(gl_FragCoord.xy) / clusterTileSize();
-  // Every writer writes the same 0 (active), as in cluster_mark.comp.
-  clusterCursors[clusterIndex(uvec3(tile, sliceOfViewDepth(viewDepthFromDepth(gl_FragCoord.z))))] = 0u;
+  // Every writer writes the same 0s (active, nothing counted), as in cluster_mark.comp.
+  uint cluster = clusterIndex(uvec3(tile, sliceOfViewDepth(viewDepthFromDepth(gl_FragCoord.z))));
+  if (clusterCursors[cluster] != 0u) {
+    clusterCursors[cluster] = 0u;
+    clusterCursors[frame.grid.x * frame.grid.y * frame.grid.z + cluster] = 0u;  // clusterSpill
+  }
 }

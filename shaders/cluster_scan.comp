@@ -6,8 +6,10 @@
 // MYRIAD_SCAN_CLUSTERS_PER_THREAD consecutive clusters (each thread every MYRIAD_SCAN_GROUP-th of
 // them, so reads are coalesced), sums them in shared memory, reserves its part of the lists with
 // one atomic (CullingStats.totals.w, the slots handed out so far) and places its clusters in it.
-// Lists past the capacity are cut and the dropped indices counted. Active clusters' cursors are
-// reset to 0 for the assigning pass.
+// Lists past the capacity are cut and the dropped indices counted. A cluster's count is the pairs
+// the counting pass recorded (its cursor) plus those it did not (clusterSpill); the latter take the
+// ranks after the former in the assigning pass, from clusterSpill set to the former's count here.
+// Every cursor is left MYRIAD_CLUSTER_INACTIVE, as the next frame's mark pass wants it.
 #include "frame.glsl"
 #include "compute_targets.glsl"
 
@@ -40,7 +42,7 @@ void main() {
   for (uint k = 0u; k < kPerThread; ++k) {
     uint i = first + k * MYRIAD_SCAN_GROUP;
     cursors[k] = i < clusters ? clusterCursors[i] : MYRIAD_CLUSTER_INACTIVE;
-    uint count = cursors[k] == MYRIAD_CLUSTER_INACTIVE ? 0u : cursors[k];
+    uint count = cursors[k] == MYRIAD_CLUSTER_INACTIVE ? 0u : cursors[k] + clusterCursors[clusterSpill(i)];
     sum += count;
     most = max(most, count);
     if (cursors[k] != MYRIAD_CLUSTER_INACTIVE) ++activeCount;
@@ -65,11 +67,16 @@ void main() {
   for (uint k = 0u; k < kPerThread; ++k) {
     uint i = first + k * MYRIAD_SCAN_GROUP;
     if (i >= clusters) break;
-    uint count = cursors[k] == MYRIAD_CLUSTER_INACTIVE ? 0u : cursors[k];
+    uint count = cursors[k] == MYRIAD_CLUSTER_INACTIVE ? 0u : cursors[k] + clusterCursors[clusterSpill(i)];
     uint start = min(offset, capacity);
     uint kept = min(count, capacity - start);
     clusterRanges[i] = uvec2(start, kept);
-    if (cursors[k] != MYRIAD_CLUSTER_INACTIVE) clusterCursors[i] = 0u;
+    if (cursors[k] != MYRIAD_CLUSTER_INACTIVE) {
+      // The pairs not recorded take the ranks after the recorded ones (clusterSpill becomes their
+      // fill cursor), and the cursor is inactive again for the next frame's mark: no clearing.
+      clusterCursors[clusterSpill(i)] = cursors[k];
+      clusterCursors[i] = MYRIAD_CLUSTER_INACTIVE;
+    }
     written += kept;
     offset += count;
   }

@@ -15,11 +15,23 @@ layout(std430, set = MYRIAD_SET_CULLING, binding = MYRIAD_BINDING_CULLING_STATS)
   CullingStats stats;
 };
 layout(std430, set = MYRIAD_SET_CULLING, binding = MYRIAD_BINDING_CLUSTER_CURSORS) buffer CursorBlock {
+  // Per cluster: MYRIAD_CLUSTER_INACTIVE, or the pairs recorded by the counting pass (each took
+  // its rank from here), then the fill cursor of the pairs not recorded. After the grid's
+  // clusters, a second count per cluster: the pairs not recorded (clusterSpill).
   uint clusterCursors[];
 };
+// Where cluster `cluster`'s count of pairs not recorded lives in clusterCursors.
+uint clusterSpill(uint cluster) {
+  return frame.grid.x * frame.grid.y * frame.grid.z + cluster;
+}
 layout(std430, set = MYRIAD_SET_CULLING, binding = MYRIAD_BINDING_LARGE_LIGHTS) buffer LargeLightBlock {
   LargeLightQueue largeQueue;
   uint largeLights[];
+};
+// The pairs the counting pass recorded (cluster_assign_binned.comp; sized by the technique, a
+// single word where nothing is recorded).
+layout(std430, set = MYRIAD_SET_CULLING, binding = MYRIAD_BINDING_CLUSTER_PAIRS) buffer PairBlock {
+  uint pairWords[];
 };
 
 #endif

@@ -126,8 +126,10 @@ using mat4 = glm::mat4;
 #define MYRIAD_BINDING_CLUSTER_RANGES 0    // uvec2 per cluster: first index, light count
 #define MYRIAD_BINDING_CLUSTER_LIGHTS 1    // uint light indices, every cluster's list back to back
 #define MYRIAD_BINDING_CULLING_STATS 2     // CullingStats, read back after the frame
-#define MYRIAD_BINDING_CLUSTER_CURSORS 3   // uint per cluster: count, then fill cursor
+#define MYRIAD_BINDING_CLUSTER_CURSORS 3   // uint per cluster: recorded pairs (count, then fill
+                                           // cursor), then a uint per cluster: pairs not recorded
 #define MYRIAD_BINDING_LARGE_LIGHTS 4      // LargeLightQueue, then the queued light indices
+#define MYRIAD_BINDING_CLUSTER_PAIRS 5     // uint[]: recorded light-cluster pairs (cluster_assign_binned.comp)
 
 // Descriptor set 3: one material's textures (the G-buffer pass binds one set per material; lavapipe
 // has no descriptor indexing). A slot the material lacks holds a 1x1 white image, and the
@@ -211,7 +213,7 @@ using mat4 = glm::mat4;
 // compiled out; the frame's uniforms still decide where a feature is on. Unspecialised pipelines
 // keep every bit. llvmpipe runs both sides of every branch a pixel could take, so on the CPU path
 // code behind a condition that is false all frame still costs its full price.
-#define MYRIAD_SPEC_SHADING_FEATURES 8  // constant_id (cluster_assign.comp uses 0 and 1)
+#define MYRIAD_SPEC_SHADING_FEATURES 8  // constant_id (the cluster assignment shaders use 0-3)
 #define MYRIAD_FEATURE_ENVIRONMENT 0x1u     // environment light and background (mode not none)
 #define MYRIAD_FEATURE_SUN_SHADOW 0x2u      // the sun's shadow map
 #define MYRIAD_FEATURE_EXTRA_SUNS 0x4u      // a model's directional lights besides the sun

@@ -236,7 +236,7 @@ TEST_CASE("interactive quality: degraded while changes come, settles, scale foll
   using Q = service::InteractiveQuality;
   using std::chrono::milliseconds;
   const Q::Clock::time_point t0{};
-  Q quality(20);  // budget 0.8 / 20 s = 40 ms
+  Q quality(20);  // budget 0.5 / 20 s = 25 ms
   CHECK_FALSE(quality.moving(t0));
   quality.sawChange(t0);
   CHECK(quality.moving(t0 + milliseconds(59)));
@@ -275,11 +275,11 @@ TEST_CASE("interactive quality: degraded while changes come, settles, scale foll
   CHECK(cheap.interactive);
   CHECK_FALSE(full.interactive);
 
-  // A frame 4x over budget at 0.5: the scale goes down (half way to 0.25, in 1/16 steps); within
+  // A frame 6.4x over budget at 0.5: the scale goes down (half way to 0.2, in 1/16 steps); within
   // 15% of the budget it stays; far under budget it climbs, never past 1 or below 1/4.
   quality.measured(Q::Motion::Steered, 0.5, milliseconds(160));
   CHECK(quality.scale(Q::Motion::Steered) == doctest::Approx(0.375));
-  quality.measured(Q::Motion::Steered, 0.375, milliseconds(42));
+  quality.measured(Q::Motion::Steered, 0.375, milliseconds(27));
   CHECK(quality.scale(Q::Motion::Steered) == doctest::Approx(0.375));
   for (int i = 0; i < 20; ++i) quality.measured(Q::Motion::Steered, quality.scale(Q::Motion::Steered), milliseconds(1));
   CHECK(quality.scale(Q::Motion::Steered) == 1.0);
@@ -288,14 +288,14 @@ TEST_CASE("interactive quality: degraded while changes come, settles, scale foll
   FrameRequest tiny = service::parseStreamQuery({{"width", "2"}, {"height", "1"}}, 2048);
   CHECK(quality.degrade(tiny, Q::Motion::Steered).settings.height == 1);  // never 0 pixels
 
-  // Animation holds half the rate (10 fps: an 80 ms budget) with a scale of its own: a frame of
-  // 80 ms at 0.5 keeps 0.5 there, while the steered scale (now at its floor) is untouched.
+  // Animation holds half the rate (10 fps: a 50 ms budget) with a scale of its own: a frame of
+  // 50 ms at 0.5 keeps 0.5 there, while the steered scale (now at its floor) is untouched.
   CHECK(quality.targetFps(Q::Motion::Animated) == 10);
   CHECK(Q(1).targetFps(Q::Motion::Animated) == 1);
   CHECK(quality.scale(Q::Motion::Animated) == Q::kStartScale);
-  quality.measured(Q::Motion::Animated, 0.5, milliseconds(80));
+  quality.measured(Q::Motion::Animated, 0.5, milliseconds(50));
   CHECK(quality.scale(Q::Motion::Animated) == Q::kStartScale);
-  quality.measured(Q::Motion::Animated, 0.5, milliseconds(320));  // 4x over: down, as steered
+  quality.measured(Q::Motion::Animated, 0.5, milliseconds(320));  // 6.4x over: down, as steered
   CHECK(quality.scale(Q::Motion::Animated) == doctest::Approx(0.375));
   CHECK(quality.scale(Q::Motion::Steered) == Q::kMinScale);
   CHECK(quality.degrade(full, Q::Motion::Animated).settings.width == 480);

@@ -361,6 +361,45 @@ TEST_CASE("markers: at 100,000 lights' density at least 80% of final shows the s
   }
 }
 
+TEST_CASE("coarser meshes where they differ by under half a pixel: the built-in scene at 160x90") {
+  // A stream's interactive frames (FrameSettings::geometryErrorPixels): the spheres drawn with
+  // fewer triangles must be the same picture but for silhouette pixels, and their depth must
+  // show they were drawn (flat facets sit inside the curved mesh), by at most their error.
+  Gpu& gpu = sharedGpu();
+  const scene::Scene s = scene::makeBuiltinScene(64, 3);
+  gpu.setScene(s);
+  render::FrameSettings f = settingsFor(s.camera, render::Target::Final, 160, 90);
+  const render::Frame full = gpu.render(f);
+  f.geometryErrorPixels = 0.5f;
+  const render::Frame coarse = gpu.render(f);
+  const Comparison c = compare(coarse.rgba, full.rgba, 8);
+  MESSAGE("coarse meshes: " << c.pixelsOver << " of " << c.pixels << " pixels over 8/255, max "
+                            << c.maxDifference);
+  CHECK(c.pixelsOver <= c.pixels / 50);
+
+  f.target = render::Target::Depth;
+  f.raw = true;
+  const render::Frame coarseDepth = gpu.render(f);
+  f.geometryErrorPixels = 0.0f;
+  const render::Frame fullDepth = gpu.render(f);
+  REQUIRE(coarseDepth.data.size() == fullDepth.data.size());
+  // The largest error the chosen versions may have, in metres: the 16x8 sphere's (0.038 of the
+  // radius, 0.45 m), with room for the view angle.
+  const float radius = 0.45f;
+  const float bound = 3.0f * 0.04f * radius;
+  size_t deeper = 0, beyond = 0;
+  for (size_t i = 0; i < coarseDepth.data.size(); i += 4) {
+    const float d = std::abs(coarseDepth.data[i] - fullDepth.data[i]);
+    if (d > 1e-4f && d <= bound) ++deeper;
+    if (d > bound) ++beyond;  // a silhouette pixel: sphere in one, floor behind in the other
+  }
+  const size_t pixels = size_t(f.width) * f.height;
+  MESSAGE("depth: " << deeper << " pixels moved by the coarser facets, " << beyond << " silhouette pixels");
+  CHECK(deeper >= pixels / 100);  // the coarse versions were drawn
+  CHECK(beyond <= pixels / 50);
+  CHECK(gpu.context->validationMessages.load() == 0);
+}
+
 // The full-size case of the test above; skipped in CTest for time (about 3 minutes on lavapipe:
 // 100,000 lights lit twice at 1280x720). Run it with --no-skip -tc="markers: 100,000*".
 // Measured when added: 25,800 of 921,600 pixels changed (2.8%).

@@ -140,6 +140,58 @@ TEST_CASE("UV sphere: unit radius, outward normals, counter-clockwise, uvs in 0.
   checkMeshWellFormed(tiny);
 }
 
+TEST_CASE("UV sphere LODs: the same vertices, fewer triangles, facing out, within their error") {
+  const Mesh sphere = makeSphere(64, 32);
+  REQUIRE(sphere.lods.size() == 3);  // 32x16, 16x8 and 8x4
+  const size_t triangles[] = {2 * 32 * 16 - 2 * 32, 2 * 16 * 8 - 2 * 16, 2 * 8 * 4 - 2 * 8};
+  float previousError = 0.0f;
+  for (size_t l = 0; l < sphere.lods.size(); ++l) {
+    CAPTURE(l);
+    const MeshLod& lod = sphere.lods[l];
+    CHECK(lod.indices.size() / 3 == triangles[l]);
+    CHECK(lod.error > previousError);  // coarser each time
+    previousError = lod.error;
+    float deepest = 0.0f;
+    for (size_t t = 0; t + 2 < lod.indices.size(); t += 3) {
+      REQUIRE(lod.indices[t] < sphere.vertices.size());
+      REQUIRE(lod.indices[t + 1] < sphere.vertices.size());
+      REQUIRE(lod.indices[t + 2] < sphere.vertices.size());
+      const glm::vec3 a = sphere.vertices[lod.indices[t]].position;
+      const glm::vec3 b = sphere.vertices[lod.indices[t + 1]].position;
+      const glm::vec3 c = sphere.vertices[lod.indices[t + 2]].position;
+      const glm::vec3 n = glm::cross(b - a, c - a);
+      CHECK(glm::length(n) > 0.0f);        // no pole triangles without area
+      CHECK(glm::dot(n, a + b + c) > 0.0f);  // counter-clockwise seen from outside
+      // The surface stays within `error` of the sphere (and so of the full mesh, which lies
+      // between them): sampled on a barycentric grid.
+      for (int i = 0; i <= 8; ++i) {
+        for (int j = 0; i + j <= 8; ++j) {
+          const glm::vec3 p = a + (b - a) * (float(i) / 8.0f) + (c - a) * (float(j) / 8.0f);
+          deepest = std::max(deepest, 1.0f - glm::length(p));
+        }
+      }
+    }
+    CHECK(deepest <= lod.error + 1e-5f);
+    CHECK(deepest >= 0.5f * lod.error);  // a bound, not a wild over-estimate
+  }
+  // Halved while at least 8 segments and 4 rings remain; odd counts have none.
+  CHECK(makeSphere(48, 24).lods.size() == 2);  // 24x12, 12x6
+  CHECK(makeSphere(16, 8).lods.size() == 1);
+  CHECK(makeSphere(8, 4).lods.empty());
+  CHECK(makeSphere(30, 15).lods.empty());
+  CHECK(makeSphere(0, 0).lods.empty());
+  CHECK(makeIcosphere(3).lods.empty());
+}
+
+TEST_CASE("coarsestLodWithin: the coarsest version whose error covers at most the pixels allowed") {
+  const std::vector<float> errors = {0.01f, 0.04f};
+  CHECK(coarsestLodWithin(errors, 10.0f, 0.5f) == 1);    // 0.1 and 0.4 pixels
+  CHECK(coarsestLodWithin(errors, 20.0f, 0.5f) == 0);    // 0.2 and 0.8
+  CHECK(coarsestLodWithin(errors, 100.0f, 0.5f) == -1);  // 1 and 4: the full mesh
+  CHECK(coarsestLodWithin(errors, 10.0f, 0.0f) == -1);   // not allowed at all
+  CHECK(coarsestLodWithin({}, 1.0f, 0.5f) == -1);
+}
+
 TEST_CASE("Icosphere: exactly on the unit sphere, watertight, 20 * 4^n faces") {
   for (uint32_t n = 0; n <= 4; ++n) {
     CAPTURE(n);

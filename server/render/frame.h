@@ -245,6 +245,10 @@ struct FrameSettings : SceneSettings {
   // RGBA: 1.5 bytes a pixel, converted on the GPU (shaders/yuv420.comp). For JPEG frames with
   // subsampled chroma only; honoured for the 8-bit final picture (yuv420Readback()).
   bool yuv420 = false;
+  // > 0: the G-buffer may draw a mesh's coarser version (scene::Mesh::lods) where its error
+  // projects to at most this many pixels (a stream's interactive frames: fewer triangles for
+  // llvmpipe's vertex work). 0: always the full meshes (every still, every GET frame).
+  float geometryErrorPixels = 0.0f;
 
   bool yuv420Readback() const { return yuv420 && target == Target::Final && !raw; }
 

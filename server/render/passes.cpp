@@ -96,7 +96,7 @@ Pipelines::Pipelines(gpu::Context& context) : device(context.device) {
                                                VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1,
                                                VK_SHADER_STAGE_COMPUTE_BIT, nullptr};
   targetSetLayout = gpu::createDescriptorSetLayout(device, targetBindings);
-  std::array<VkDescriptorSetLayoutBinding, 5> cullingBindings{};
+  std::array<VkDescriptorSetLayoutBinding, 6> cullingBindings{};
   for (uint32_t i = 0; i < cullingBindings.size(); ++i) {
     // Fragment too: the clustered technique marks blended surfaces' clusters from fragments, and
     // the forward pass reads the lists.
@@ -184,7 +184,7 @@ Pipelines::~Pipelines() {
 }
 
 void recordGBufferPass(VkCommandBuffer cmd, const Pipelines& p, const FrameTargets& t,
-                       const SceneBuffers& scene, uint32_t written) {
+                       const SceneBuffers& scene, uint32_t written, const MeshDetail& detail) {
   // Last frame's readers: the raster lighting (fragment) and compute lighting and views (compute).
   const VkPipelineStageFlags2 reader =
       VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT | VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT;
@@ -244,8 +244,8 @@ void recordGBufferPass(VkCommandBuffer cmd, const Pipelines& p, const FrameTarge
                                 MYRIAD_SET_MATERIAL, 1, &set, 0, nullptr);
         vkCmdSetCullMode(cmd, scene.doubleSided[bound] ? VK_CULL_MODE_NONE : VK_CULL_MODE_BACK_BIT);
       }
-      vkCmdDrawIndexed(cmd, draw.mesh.indexCount, 1, draw.mesh.firstIndex, draw.mesh.vertexOffset,
-                       draw.instance);
+      const MeshRange mesh = detail.range(scene, draw);
+      vkCmdDrawIndexed(cmd, mesh.indexCount, 1, mesh.firstIndex, mesh.vertexOffset, draw.instance);
     }
   }
   vkCmdEndRendering(cmd);

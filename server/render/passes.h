@@ -49,9 +49,10 @@ struct Pipelines {
 };
 
 // 1. Writes depth, normal, base colour, material, and uv and emissive where `written`
-// (MYRIAD_GBUFFER_* bits) says; leaves them readable by later passes.
+// (MYRIAD_GBUFFER_* bits) says; leaves them readable by later passes. Each mesh drawn in the
+// version `detail` chooses (the full one unless the frame allows coarser: MeshDetail).
 void recordGBufferPass(VkCommandBuffer cmd, const Pipelines& p, const FrameTargets& t,
-                       const SceneBuffers& scene, uint32_t written);
+                       const SceneBuffers& scene, uint32_t written, const MeshDetail& detail = {});
 // 2-3. The lighting technique's passes (render/techniques/technique.h).
 // 3b. Alpha-blended (glTF BLEND) draws, sorted back to front by the view depth of each draw's
 //    centre, depth-tested against the G-buffer depth without writing it, lit like opaque pixels

@@ -33,8 +33,9 @@ namespace {
 
 // environment (when rebuilt), animate, shadow, light-shadows, gbuffer (or visibility + resolve),
 // the technique's (sun + lights, lighting, or assign + shade), blend, markers, final, antialias,
-// overlay, readback: room for a technique of three passes.
-constexpr uint32_t kMaxTimedPasses = 16;
+// overlay, readback: room for a technique of three passes, or clustered's assignment timed step
+// by step (MYRIAD_ASSIGN_STEPS, techniques/clustered.cpp: seven).
+constexpr uint32_t kMaxTimedPasses = 20;
 
 // The light-count view's hottest colour when the request leaves it to us.
 constexpr uint32_t kDefaultHeatMapMax = 64;
@@ -907,8 +908,11 @@ void Renderer::State::recordBeforeLighting(VkCommandBuffer cmd, FrameSlot& slot,
   }
 
   if (settings.animate) {
-    slot.timer->beginPass(cmd, "animate");
-    recordAnimateLights(cmd, p, scene);
+    // Or the lighting technique moves them, while it walks them (LightingPass::animateLights).
+    if (!s.technique(settings.technique).animatesLights()) {
+      slot.timer->beginPass(cmd, "animate");
+      recordAnimateLights(cmd, p, scene);
+    }
     scene.lightsMoved = true;
   } else if (scene.lightsMoved) {
     recordRestoreLights(cmd, scene);
@@ -937,7 +941,8 @@ void Renderer::State::recordBeforeLighting(VkCommandBuffer cmd, FrameSlot& slot,
     vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, p.layout, 0, 2, sets, 0, nullptr);
   } else {
     slot.timer->beginPass(cmd, "gbuffer");
-    recordGBufferPass(cmd, p, *slot.targets, scene, gbufferWrites(settings, scene));
+    recordGBufferPass(cmd, p, *slot.targets, scene, gbufferWrites(settings, scene),
+                      MeshDetail::of(settings));
   }
 }
 
@@ -1052,7 +1057,8 @@ void Renderer::State::recordFrame(FrameSlot& slot, SceneBuffers& scene,
   if (!waitAtStart) waitForEarlier(cmd);
   // Lighting leaves HDR and light counts as attachments (raster) or storage images (compute).
   const VkImageLayout lightingLayout =
-      technique.record({cmd, *slot.timer, *slot.targets, scene, slot.shadingFeatures});
+      technique.record({cmd, *slot.timer, *slot.targets, scene, slot.shadingFeatures,
+                        settings.animate && technique.animatesLights()});
   recordAfterLighting(cmd, slot, scene, settings, lightingLayout);
   slot.meta = metaOf(scene, environment, settings);
 }
@@ -1113,7 +1119,8 @@ std::unique_ptr<Renderer::SplitFrame> Renderer::beginSplit(SceneId id,
   VkCommandBuffer cmd = s.beginFrameCommands(s.split);
   s.recordBeforeLighting(cmd, s.split, scene, environment, settings);
   frame->lightingLayout_ =
-      technique.recordBeforeLights({cmd, *s.split.timer, *s.split.targets, scene, s.split.shadingFeatures});
+      technique.recordBeforeLights({cmd, *s.split.timer, *s.split.targets, scene, s.split.shadingFeatures,
+                                    settings.animate && technique.animatesLights()});
   s.split.timer->end(cmd);
   gpu::submitAndWait(s.context, s.split.recorder);
   addPasses(frame->passes_, s.split.timer->results());

@@ -151,6 +151,29 @@ std::vector<Upload> elementUploads(const std::vector<Write>& writes, const gpu::
 
 }  // namespace
 
+MeshDetail MeshDetail::of(const FrameSettings& settings) {
+  MeshDetail detail;
+  if (!(settings.geometryErrorPixels > 0.0f)) return detail;
+  detail.maxErrorPixels = settings.geometryErrorPixels;
+  detail.eye = settings.camera.eye;
+  const float halfFov = 0.5f * glm::radians(std::clamp(settings.camera.fovYDegrees, 1.0f, 179.0f));
+  detail.pixelsAtUnitDistance = 0.5f * float(settings.height) / std::tan(halfFov);
+  detail.nearPlane = std::max(settings.camera.nearPlane, 1e-6f);
+  return detail;
+}
+
+MeshRange MeshDetail::range(const SceneBuffers& scene, const DrawItem& draw) const {
+  if (!(maxErrorPixels > 0.0f) || draw.meshIndex >= scene.lods.size()) return draw.mesh;
+  const MeshLods& lods = scene.lods[draw.meshIndex];
+  if (lods.ranges.empty()) return draw.mesh;
+  // The nearest any of the draw's points can be to the eye (at least the near plane): where a
+  // mesh unit covers the most pixels.
+  const float nearest = std::max(glm::length(draw.centre - eye) - draw.radius, nearPlane);
+  const float pixelsPerUnit = draw.unitScale * pixelsAtUnitDistance / nearest;
+  const int lod = scene::coarsestLodWithin(lods.errors, pixelsPerUnit, maxErrorPixels);
+  return lod < 0 ? draw.mesh : lods.ranges[static_cast<size_t>(lod)];
+}
+
 float circumscribeScale(const scene::Mesh& mesh) {
   float minDistance = 1.0f;
   for (size_t i = 0; i + 2 < mesh.indices.size(); i += 3) {
@@ -189,8 +212,23 @@ SceneBuffers::SceneBuffers(gpu::Context& context, gpu::CommandRecorder& recorder
     return range;
   };
   std::vector<glm::vec3> centres;  // of each mesh's bounds
+  std::vector<float> radii;        // half their diagonal
   for (const scene::Mesh& mesh : scene.meshes) {
     ranges.push_back(append(mesh));
+    // Coarser versions: more indices over the same vertices.
+    MeshLods meshLods;
+    for (const scene::MeshLod& lod : mesh.lods) {
+      const bool valid = std::all_of(lod.indices.begin(), lod.indices.end(),
+                                     [&](uint32_t i) { return i < mesh.vertices.size(); });
+      if (!valid || lod.indices.empty()) break;
+      MeshRange range = ranges.back();
+      range.firstIndex = static_cast<uint32_t>(allIndices.size());
+      range.indexCount = static_cast<uint32_t>(lod.indices.size());
+      allIndices.insert(allIndices.end(), lod.indices.begin(), lod.indices.end());
+      meshLods.ranges.push_back(range);
+      meshLods.errors.push_back(lod.error);
+    }
+    lods.push_back(std::move(meshLods));
     glm::vec3 lo(std::numeric_limits<float>::max()), hi(-std::numeric_limits<float>::max());
     for (uint32_t index : mesh.indices) {
       if (index >= mesh.vertices.size()) continue;
@@ -198,6 +236,7 @@ SceneBuffers::SceneBuffers(gpu::Context& context, gpu::CommandRecorder& recorder
       hi = glm::max(hi, mesh.vertices[index].position);
     }
     centres.push_back(lo.x <= hi.x ? 0.5f * (lo + hi) : glm::vec3(0.0f));
+    radii.push_back(lo.x <= hi.x ? 0.5f * glm::length(hi - lo) : 0.0f);
   }
 
   scene::Mesh proxy = scene::makeIcosphere(kProxySubdivisions);
@@ -217,8 +256,12 @@ SceneBuffers::SceneBuffers(gpu::Context& context, gpu::CommandRecorder& recorder
     g.material = glm::uvec4(instance.material, 0, 0, 0);
     gpuInstances.push_back(g);
     if (ranges[instance.mesh].indexCount > 0) {
+      const glm::mat3 axes(instance.transform);
+      const float unitScale =
+          std::max({glm::length(axes[0]), glm::length(axes[1]), glm::length(axes[2])});
       draws.push_back({ranges[instance.mesh], i, instance.material,
-                       glm::vec3(instance.transform * glm::vec4(centres[instance.mesh], 1.0f))});
+                       glm::vec3(instance.transform * glm::vec4(centres[instance.mesh], 1.0f)),
+                       instance.mesh, radii[instance.mesh] * unitScale, unitScale});
     }
   }
   // One descriptor set bind per material in the G-buffer pass.

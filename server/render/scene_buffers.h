@@ -29,6 +29,31 @@ struct DrawItem {
   uint32_t instance = 0;  // index into the instance buffer, passed as firstInstance
   uint32_t material = 0;  // the instance's material: draws are sorted by it
   glm::vec3 centre{0.0f};  // world-space centre of the mesh's bounds: alpha-blended draws sort by it
+  uint32_t meshIndex = 0;  // scene::Instance::mesh: SceneBuffers::lods[meshIndex]
+  float radius = 0.0f;     // world-space radius of the mesh's bounds around `centre`
+  float unitScale = 1.0f;  // world units per mesh unit (the transform's largest axis scale)
+};
+
+struct SceneBuffers;
+
+// A mesh's coarser versions on the GPU (scene::Mesh::lods): index ranges over its vertices, and
+// their errors in mesh units, finest first.
+struct MeshLods {
+  std::vector<MeshRange> ranges;
+  std::vector<float> errors;
+};
+
+// Which version of each mesh the G-buffer pass draws for a frame: the full meshes, or where the
+// frame allows it (FrameSettings::geometryErrorPixels > 0) the coarsest version whose error,
+// projected at the draw's nearest point to the eye, covers at most that many pixels.
+struct MeshDetail {
+  float maxErrorPixels = 0.0f;  // 0: the full meshes
+  glm::vec3 eye{0.0f};
+  float pixelsAtUnitDistance = 0.0f;  // height / (2 tan(fovY / 2))
+  float nearPlane = 0.0f;
+
+  static MeshDetail of(const FrameSettings& settings);
+  MeshRange range(const SceneBuffers& scene, const DrawItem& draw) const;
 };
 
 // A light that asks for a shadow (scene::PointLight::castsShadows): its index in the light
@@ -69,6 +94,7 @@ struct SceneBuffers {
   gpu::Buffer lights;        // where the lights are this frame (animation writes here)
   gpu::Buffer lightOrigins;  // where the scene put them
   std::vector<DrawItem> draws;         // grouped by material
+  std::vector<MeshLods> lods;          // per scene mesh (empty ranges: none)
   std::unique_ptr<MaterialTextures> textures;
   std::vector<uint8_t> doubleSided;   // per material: whether back faces are drawn
   // Per material: alphaMode BLEND, drawn by the forward pass (recordBlendPass), not into the

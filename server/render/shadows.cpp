@@ -37,7 +37,7 @@ constexpr std::array<glm::vec3, 6> kFaceUp = {glm::vec3(0, 1, 0), glm::vec3(0, 1
 // cone's edge stay inside the tile.
 constexpr float kSpotMargin = 0.0872664626f;  // 5 degrees
 
-// light_animate.comp's hash01 (PCG-style, Jarzynski & Olano 2020), bit for bit.
+// light_orbit.glsl's hash01 (PCG-style, Jarzynski & Olano 2020), bit for bit.
 float hash01(uint32_t v) {
   const uint32_t state = v * 747796405u + 2891336453u;
   const uint32_t word = ((state >> ((state >> 28u) + 4u)) ^ state) * 277803737u;

@@ -47,7 +47,7 @@ struct LightShadowPlan {
 // The tile size for a sun map size: a quarter of it, within MYRIAD_SHADOW_TILE_MIN..MAX.
 uint32_t lightShadowTileSize(uint32_t mapSize);
 
-// Where light `index` is at `time` when lights animate: light_animate.comp's orbit, on the CPU.
+// Where light `index` is at `time` when lights animate: light_orbit.glsl's orbit, on the CPU.
 glm::vec3 animatedLightPosition(uint32_t index, const gpu_types::GpuPointLight& light, double time);
 
 // Chooses up to `settings.shadows.maxShadowedLights` of `casters` (sorted by index) whose light

@@ -59,6 +59,33 @@ Mesh makeSphere(uint32_t segments, uint32_t rings) {
       if (ring != 0) addTriangle(mesh, a, c, d);
     }
   }
+  // Coarser versions over the same vertices: every 2nd, 4th, ... ring and segment, down to 8
+  // segments and 4 rings (a 64x32 sphere: 32x16, 16x8 and 8x4, 4,032 -> 992 -> 240 -> 48 triangles). A
+  // coarse triangle's points lie inside the sphere by at most 1 - cos of half the angle its
+  // quad's diagonal spans (the diagonal's midpoint is the deepest point); the fine mesh lies
+  // between it and the sphere, so that bounds the distance between the two surfaces.
+  for (uint32_t step = 2; segments % step == 0 && rings % step == 0 && segments / step >= 8 &&
+                          rings / step >= 4;
+       step *= 2) {
+    MeshLod lod;
+    const uint32_t coarseRings = rings / step;
+    const uint32_t coarseSegments = segments / step;
+    for (uint32_t ring = 0; ring < coarseRings; ++ring) {
+      for (uint32_t segment = 0; segment < coarseSegments; ++segment) {
+        const uint32_t a = ring * step * columns + segment * step;
+        const uint32_t b = a + step * columns;
+        const uint32_t c = b + step;
+        const uint32_t d = a + step;
+        if (ring != coarseRings - 1) lod.indices.insert(lod.indices.end(), {a, b, c});
+        if (ring != 0) lod.indices.insert(lod.indices.end(), {a, c, d});
+      }
+    }
+    const float ringAngle = kPi / float(coarseRings);
+    const float segmentAngle = 2.0f * kPi / float(coarseSegments);
+    const float diagonal = std::sqrt(ringAngle * ringAngle + segmentAngle * segmentAngle);
+    lod.error = 1.0f - std::cos(0.5f * std::min(diagonal, kPi));
+    mesh.lods.push_back(std::move(lod));
+  }
   return mesh;
 }
 

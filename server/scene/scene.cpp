@@ -15,4 +15,14 @@ Bounds Scene::bounds() const {
   return result;
 }
 
+int coarsestLodWithin(std::span<const float> lodErrors, float pixelsPerUnit,
+                      float maxErrorPixels) {
+  int chosen = -1;
+  if (!(maxErrorPixels > 0.0f) || !(pixelsPerUnit >= 0.0f)) return chosen;
+  for (size_t i = 0; i < lodErrors.size(); ++i) {
+    if (lodErrors[i] * pixelsPerUnit <= maxErrorPixels) chosen = static_cast<int>(i);
+  }
+  return chosen;
+}
+
 }  // namespace myriad::scene

@@ -4,6 +4,7 @@
 
 #include <cstdint>
 #include <limits>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -22,11 +23,27 @@ struct Vertex {
   glm::vec4 color{1.0f};  // COLOR_0, linear RGBA (white where the file has none)
 };
 
+// A coarser version of a mesh's surface over the same vertices: fewer triangles for a frame that
+// may trade geometry it cannot show for speed (a stream's interactive frames, FrameSettings::
+// geometryErrorPixels). `error` bounds the distance between its surface and the mesh's, in the
+// mesh's units.
+struct MeshLod {
+  std::vector<uint32_t> indices;  // triangle list into Mesh::vertices, as Mesh::indices
+  float error = 0.0f;
+};
+
 struct Mesh {
   std::string name;
   std::vector<Vertex> vertices;
   std::vector<uint32_t> indices;  // triangle list, counter-clockwise front faces
+  // Coarser versions, finest first (empty for most meshes: the procedural sphere has them).
+  std::vector<MeshLod> lods;
 };
+
+// Which version of a mesh to draw where one mesh unit covers `pixelsPerUnit` pixels on screen,
+// given its LODs' errors (finest first, as Mesh::lods): the index of the coarsest whose error
+// covers at most `maxErrorPixels`, or -1 for the mesh itself (also when maxErrorPixels <= 0).
+int coarsestLodWithin(std::span<const float> lodErrors, float pixelsPerUnit, float maxErrorPixels);
 
 // A decoded texture image: RGBA8, rows top first, as the file stored it (base colour and emissive
 // images are sRGB-encoded, the data maps linear; the renderer views each as its use needs).

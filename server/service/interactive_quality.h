@@ -45,10 +45,17 @@ class InteractiveQuality {
   static constexpr double kScaleStep = 1.0 / 16.0;
   static constexpr double kTolerance = 0.15;
   // An interactive frame's share of 1 / FPS: the rest is the wait for the change, the write and
-  // the client's decode.
-  static constexpr double kBudgetShare = 0.8;
+  // the client's input, requests and decode. Half: on a CPU renderer a frame's wall time is all
+  // of the machine's cores, and a client on the same machine (the web client on lavapipe) needs
+  // the other half to send the changes and show the frames (docs/performance.md: 0.8 dragged at
+  // 16.1 fps median, 0.4-0.6 at 18.5, same minutes).
+  static constexpr double kBudgetShare = 0.5;
   // JPEG quality of interactive frames (at most the stream's own).
   static constexpr int kInteractiveJpegQuality = 50;
+  // Interactive frames draw meshes' coarser versions where those differ by at most this many
+  // pixels (FrameSettings::geometryErrorPixels): at 1/8 scale the G-buffer's vertex work, not its
+  // pixels, was most of a frame on llvmpipe.
+  static constexpr float kGeometryErrorPixels = 0.5f;
 
   explicit InteractiveQuality(uint32_t targetFps) : targetFps_(targetFps) {}
 

@@ -11,6 +11,7 @@
 #include "encode/jpeg.h"
 #include "encode/png.h"
 #include "encode/raw.h"
+#include "service/interactive_quality.h"
 
 namespace myriad::service {
 namespace {
@@ -234,6 +235,8 @@ PendingSessionFrame submitSessionFrame(const SessionFrameContext& context, const
       // picture least while it moves are left out; the still after it has them.
       pending.rendered.settings.antialias = render::Antialias::None;
       pending.rendered.settings.shadows.sun = false;
+      // Coarser meshes where the difference stays under half a pixel.
+      pending.rendered.settings.geometryErrorPixels = InteractiveQuality::kGeometryErrorPixels;
     }
     sceneId = static_cast<render::SceneId>(session->sceneId);
     pending.version = session->version;

@@ -162,12 +162,14 @@ bool StreamState::next(httplib::DataSink& sink) {
       }
     }
     // Interactive: the session changed within the settle time; a still is due once it settled.
-    // A change that its client said ends the interaction needs no settle time: once it has been
-    // shown (as an interactive part, quickly: a slider's single click still shows at once), the
-    // still follows straight away.
+    // A change that its client said ends the interaction needs no settle time: the still of it
+    // is next. Straight away when the interaction has been showing (the last part was
+    // interactive: a drag's release, a slider let go after moving); a change that ends an
+    // interaction nobody has seen yet (a slider's single click) is shown once as an interactive
+    // part first, quickly, and its still follows.
     // Animated lights change the picture every frame: the stream stays interactive while they
     // animate (at the animation's rate and scale), and the still follows once they stop.
-    const bool endShown = ended && hasFrame && version == shownVersion;
+    const bool endShown = ended && hasFrame && (version == shownVersion || lastInteractive);
     const bool steered = quality && hasFrame && quality->moving(now) && !endShown;
     const bool moving = steered || (quality && hasFrame && animate);
     const InteractiveQuality::Motion motion =

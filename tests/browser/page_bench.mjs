@@ -7,7 +7,11 @@
 //   animatedFps   frames shown a second of the animated scene (animate on), nobody touching it;
 //                 animatedScales the render scales of those frames (the stream holds half its
 //                 interactive rate while the lights animate)
-//   dragFps       frames shown a second while the mouse drags the camera (orbit) without a pause
+//   dragFps       frames shown a second while the mouse drags the camera (orbit) without a pause;
+//                 dragMovesPerS the mouse moves the page took a second (each waits for the page:
+//                 fewer than 60 when it is short of CPU), dragPatchesPerS the camera PATCHes it
+//                 sent a second (at most ~30) and dragPatchMs their median request-to-answer
+//                 time: the server renders one frame per PATCH at most
 //   stillMs       from the pointer going up to the full-quality still shown
 //   sliderMs      from a slider's input event to the first new frame shown (the exposure slider,
 //                 one step at a time, a pause between)
@@ -139,18 +143,33 @@ try {
     const cy = box.y + box.height / 2;
     await page.mouse.move(cx + 150, cy);
     const before = await stats();
+    await page.evaluate(() => {
+      performance.setResourceTimingBufferSize(5000);
+      performance.clearResourceTimings();
+    });
     await page.mouse.down();
     const start = Date.now();
+    let moves = 0;
     for (let i = 1; Date.now() - start < SECONDS * 1000; ++i) {
       const a = i * 0.05;
+      // Each move waits for the page to take it (Chromium hands pointer moves to the page once
+      // per frame it draws), so a page short of CPU gets fewer: dragMovesPerS says how many.
       await page.mouse.move(cx + 150 * Math.cos(a), cy + 80 * Math.sin(a));
+      ++moves;
       await sleep(16);
     }
+    const seconds = (Date.now() - start) / 1000;
     await page.mouse.up();
     const during = await stats();
+    // The camera PATCHes the page sent during the drag (one in flight, at most one per 33 ms):
+    // how many a second and their request-to-answer time.
+    const patches = await page.evaluate(() => performance.getEntriesByType('resource')
+        .filter((e) => e.name.includes('/camera')).map((e) => e.duration));
     await until('the still after the drag', async () => (await perf()).stills.length > 0, 30000)
         .catch(() => null);
-    return {...(await perf()), serverFrames: during.frames - before.frames, lastServerFrame: during.last};
+    return {...(await perf()), serverFrames: during.frames - before.frames, lastServerFrame: during.last,
+            movesPerS: moves / seconds, patchesPerS: patches.length / seconds,
+            patchMs: summary(patches)?.median};
   }
 
   // One slider step (input, then change: a click on the track), then the still.
@@ -179,6 +198,9 @@ try {
     for (let i = 0; i < DRAGS; ++i) drags.push(await drag());
     out.dragFps = summary(drags.map((p) => p.drags[0]?.fps));
     out.dragServerFrames = drags.map((p) => p.serverFrames);
+    out.dragMovesPerS = summary(drags.map((p) => p.movesPerS));
+    out.dragPatchesPerS = summary(drags.map((p) => p.patchesPerS));
+    out.dragPatchMs = summary(drags.map((p) => p.patchMs));
     out.dragLastServerFrame = drags.map((p) => p.lastServerFrame);
     out.dragInteractiveShare = summary(drags.map(
         (p) => p.drags[0] ? p.drags[0].interactiveFrames / Math.max(1, p.drags[0].frames) : NaN), 2);

@@ -59,12 +59,65 @@ constexpr VkDeviceSize kListBlockSize = 4ull << 20;
 // 256 and 4,096 groups measured within 0.1 ms of 1,024 at a million lights (docs/performance.md).
 constexpr uint32_t kBinnedAssignGroups = 1024;
 
+// Pair slots (cluster_assign_binned.comp) per light: a slot for each cluster of a small light's
+// box, reached or not. A light whose box finds its workgroup's region full is walked by the
+// large-light passes instead, so fewer slots are slower, never wrong.
+// MYRIAD_ASSIGN_PAIR_SLOTS (1 to 64) overrides it: a benchmark experiment, and a test's way to
+// send lights down the full region's path.
+uint64_t pairSlotsPerLight() {
+  static const uint64_t slots = [] {
+    const char* v = std::getenv("MYRIAD_ASSIGN_PAIR_SLOTS");
+    const uint64_t n = v ? std::strtoull(v, nullptr, 10) : 0;
+    return n >= 1 && n <= 64 ? n : uint64_t(8);
+  }();
+  return slots;
+}
+constexpr uint64_t kPairWordsPerSlot = 3;  // light, cluster (or bin), rank
+
+// The shared table's bins of the binned passes: MYRIAD_ASSIGN_BINS, or MYRIAD_ASSIGN_BINS_OVERRIDE
+// (a power of two, 256 to 4096; a benchmark experiment).
+uint32_t assignBins() {
+  static const uint32_t bins = [] {
+    const char* v = std::getenv("MYRIAD_ASSIGN_BINS_OVERRIDE");
+    const uint32_t n = v ? uint32_t(std::strtoul(v, nullptr, 10)) : 0;
+    return n >= 256 && n <= 4096 && (n & (n - 1)) == 0 ? n : uint32_t(MYRIAD_ASSIGN_BINS);
+  }();
+  return bins;
+}
+
 // Whether the small lights are counted per workgroup in shared memory (cluster_assign_binned.comp)
 // or with one global atomic per light-cluster pair (cluster_assign.comp). Binned on GPUs, where
 // the busiest cluster's per-pair atomics were serialised; per pair on CPU devices, where atomics
 // are cheap and binned's third walk of every light doubled lavapipe's assignment of 10,000
 // built-in lights (docs/performance.md). MYRIAD_CLUSTER_ASSIGN=atomic|binned overrides it (the
 // benchmark compares the two; technique_tests holds them to the same lists).
+// MYRIAD_ASSIGN_STEPS=1: the benchmark times the assignment's steps apart ("assign" then holds
+// the buffer clears only; "assign-mark", "-count", "-count-large", "-scan", "-fill",
+// "-fill-large" the rest). A diagnostic: the
+// extra timestamps wait for the work before them.
+bool assignSteps() {
+  static const bool on = [] {
+    const char* v = std::getenv("MYRIAD_ASSIGN_STEPS");
+    return v && std::strcmp(v, "1") == 0;
+  }();
+  return on;
+}
+
+// MYRIAD_ANIMATE_SEPARATE=1: the binned counting pass leaves moving the lights to the renderer's
+// animate pass (light_animate.comp), as the per-pair path always does (a benchmark comparison).
+bool separateAnimation() {
+  const char* v = std::getenv("MYRIAD_ANIMATE_SEPARATE");
+  return v && std::strcmp(v, "1") == 0;
+}
+
+// MYRIAD_ASSIGN_WALK_LARGE=1: the binned passes walk the large lights themselves, a workgroup
+// each, instead of the indirect passes of cluster_assign.comp (two dispatches and barriers fewer;
+// a benchmark experiment).
+bool walkLargeInBinned() {
+  const char* v = std::getenv("MYRIAD_ASSIGN_WALK_LARGE");
+  return v && std::strcmp(v, "1") == 0;
+}
+
 bool binnedAssignFor(const gpu::DeviceInfo& device) {
   const char* v = std::getenv("MYRIAD_CLUSTER_ASSIGN");
   if (v && std::strcmp(v, "atomic") == 0) return false;
@@ -98,12 +151,15 @@ uint32_t initialCapacity(const ClusterGrid& grid, uint32_t lightCount, uint64_t 
 
 // The grid's buffers, recreated together when the grid or the capacity changes.
 struct ClusterLists {
-  ClusterLists(gpu::Context& context, const ClusterGrid& g, uint32_t references, uint32_t lights)
+  ClusterLists(gpu::Context& context, const ClusterGrid& g, uint32_t references, uint32_t lights,
+               VkDeviceSize pairBytes)
       : grid(g), capacity(references), lightCapacity(lights), arena(context, kListBlockSize) {
     const VkBufferUsageFlags storage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT;
     ranges = arena.createBuffer(VkDeviceSize(grid.count()) * 8, storage, gpu::MemoryUse::DeviceLocal);
-    cursors = arena.createBuffer(VkDeviceSize(grid.count()) * 4,
+    // Two words per cluster: the cursor, then the count of pairs not recorded (clusterSpill).
+    cursors = arena.createBuffer(VkDeviceSize(grid.count()) * 8,
                                  storage | VK_BUFFER_USAGE_TRANSFER_DST_BIT, gpu::MemoryUse::DeviceLocal);
+    pairs = arena.createBuffer(pairBytes, storage, gpu::MemoryUse::DeviceLocal);
     lists = arena.createBuffer(VkDeviceSize(capacity) * 4, storage, gpu::MemoryUse::DeviceLocal);
     large = arena.createBuffer(sizeof(LargeLightQueue) + VkDeviceSize(std::max(lightCapacity, 1u)) * 4,
                                storage | VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT |
@@ -111,7 +167,7 @@ struct ClusterLists {
                                gpu::MemoryUse::DeviceLocal);
   }
 
-  uint64_t bytes() const { return ranges.size + cursors.size + lists.size + large.size; }
+  uint64_t bytes() const { return ranges.size + cursors.size + lists.size + large.size + pairs.size; }
 
   ClusterGrid grid;
   uint32_t capacity;  // light references all lists together can hold
@@ -121,6 +177,8 @@ struct ClusterLists {
   gpu::Buffer cursors;  // uint per cluster: count, then fill cursor
   gpu::Buffer lists;    // uint per light reference
   gpu::Buffer large;    // LargeLightQueue, then a uint per queued light
+  gpu::Buffer pairs;    // the binned passes' recorded pairs (one word when they do not run)
+  bool cursorsInactive = false;  // the cursors hold MYRIAD_CLUSTER_INACTIVE (after the first frame)
 };
 
 class Clustered final : public LightingTechnique {
@@ -129,7 +187,9 @@ class Clustered final : public LightingTechnique {
       : context_(setup.context), pipelines_(setup.context.device),
         shade_(setup.context.device, setup.pipelines.layout, shadeShaderFor(setup.context.info)),
         set_(setup.context, setup.pipelines), counters_(setup.context),
-        binnedAssign_(binnedAssignFor(setup.context.info)) {
+        binnedAssign_(binnedAssignFor(setup.context.info)),
+        animateInCount_(binnedAssign_ && !separateAnimation()),
+        walkLarge_(binnedAssign_ && walkLargeInBinned()) {
     requireWorkgroup(setup.context, MYRIAD_SCAN_GROUP, MYRIAD_SCAN_GROUP);
     requireWorkgroup(setup.context, MYRIAD_ASSIGN_BIN_GROUP, MYRIAD_ASSIGN_BIN_GROUP);
     VkDevice device = setup.context.device;
@@ -162,9 +222,19 @@ class Clustered final : public LightingTechnique {
         target = pipelines_.add(
             gpu::createComputePipeline(device, layout, spirv::cluster_assign_comp, &spec));
       }
-      VkSpecializationInfo spec{1, entries, sizeof(assign), &assign};
-      (assign ? assignBinned_ : countBinned_) = pipelines_.add(
-          gpu::createComputePipeline(device, layout, spirv::cluster_assign_binned_comp, &spec));
+      // cluster_assign_binned.comp: kAssign (constant 0), its table's bins (2), kAnimate (3),
+      // kWalkLarge (4).
+      const VkSpecializationMapEntry binnedEntries[] = {{0, 0, sizeof(VkBool32)},
+                                                        {2, 4, sizeof(uint32_t)},
+                                                        {3, 8, sizeof(VkBool32)},
+                                                        {4, 12, sizeof(VkBool32)}};
+      for (VkBool32 animate : {VK_FALSE, VK_TRUE}) {
+        if (assign && animate) continue;
+        const uint32_t binnedValues[] = {assign, assignBins(), animate, VkBool32(walkLarge_)};
+        VkSpecializationInfo binnedSpec{4, binnedEntries, sizeof(binnedValues), binnedValues};
+        (assign ? assignBinned_ : animate ? countBinnedAnimated_ : countBinned_) = pipelines_.add(
+            gpu::createComputePipeline(device, layout, spirv::cluster_assign_binned_comp, &binnedSpec));
+      }
     }
   }
 
@@ -184,18 +254,22 @@ class Clustered final : public LightingTechnique {
                       lists_->capacity <= mostReferences && lists_->lightCapacity >= lightCount;
     if (keep) return;
     lists_.reset();
-    lists_ = std::make_unique<ClusterLists>(context_, grid, capacity, lightCount);
+    lists_ = std::make_unique<ClusterLists>(context_, grid, capacity, lightCount, pairBytes(lightCount));
     const CullingSet::Binding bindings[] = {
         {MYRIAD_BINDING_CLUSTER_RANGES, &lists_->ranges},
         {MYRIAD_BINDING_CLUSTER_LIGHTS, &lists_->lists},
         {MYRIAD_BINDING_CULLING_STATS, &counters_.stats},
         {MYRIAD_BINDING_CLUSTER_CURSORS, &lists_->cursors},
         {MYRIAD_BINDING_LARGE_LIGHTS, &lists_->large},
+        {MYRIAD_BINDING_CLUSTER_PAIRS, &lists_->pairs},
     };
     set_.write(bindings);
   }
 
   void writeUniforms(FrameUniforms& u) const override { u.flags.w = lists_->capacity; }
+
+  // On GPUs the counting pass moves the lights as it walks them: one pass over the lights fewer.
+  bool animatesLights() const override { return animateInCount_; }
 
   // Reads the G-buffer and lights; builds the cluster lists (mark, count, scan, assign), then
   // writes HDR and light counts (GENERAL layout) and the counters.
@@ -205,15 +279,29 @@ class Clustered final : public LightingTechnique {
     // Two timed parts: "assign" (steps 1-4, building the lists) and "shade" (step 5).
     pass.timer.beginPass(cmd, "assign");
     set_.bind(cmd);
-    // Every cluster starts inactive; the counters start at zero, the large-light queue empty.
-    vkCmdFillBuffer(cmd, lists_->cursors.buffer, 0, VK_WHOLE_SIZE, MYRIAD_CLUSTER_INACTIVE);
-    counters_.reset(cmd);
-    const LargeLightQueue emptyQueue{{0, 1, 1, 0}, {0, 0, 0, 0}};
-    vkCmdUpdateBuffer(cmd, lists_->large.buffer, 0, sizeof(emptyQueue), &emptyQueue);
-    gpu::memoryBarrier(cmd, kFillStage, VK_ACCESS_2_TRANSFER_WRITE_BIT, kComputeStage,
-                       kStorageReadWrite);
+    // Every cluster starts inactive: the last frame's scan left the cursors so, and new lists get
+    // it once here. The mark pass empties the counters and the large-light queue.
+    VkPipelineStageFlags2 before = 0;
+    if (!lists_->cursorsInactive) {
+      vkCmdFillBuffer(cmd, lists_->cursors.buffer, 0, VkDeviceSize(lists_->grid.count()) * 4,
+                      MYRIAD_CLUSTER_INACTIVE);
+      lists_->cursorsInactive = true;
+      before = kFillStage;
+    }
+    // Moving the lights here: their readers before in the frame (none today) finish first; the
+    // last frame's are behind the renderer's barrier before the lighting.
+    const bool animate = pass.animateLights && pass.scene.lightCount > 0;
+    const VkPipelineStageFlags2 lightReaders = VK_PIPELINE_STAGE_2_VERTEX_SHADER_BIT |
+                                               VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT | kComputeStage;
+    if (animate) before |= lightReaders;
+    if (before != 0) {
+      gpu::memoryBarrier(cmd, before,
+                         (before & kFillStage) != 0 ? VK_ACCESS_2_TRANSFER_WRITE_BIT : VK_ACCESS_2_NONE,
+                         kComputeStage, kStorageReadWrite);
+    }
 
     // 1. Mark clusters holding visible geometry.
+    if (assignSteps()) pass.timer.beginPass(cmd, "assign-mark");
     dispatchPixels(cmd, mark_, t.extent, MYRIAD_PIXEL_GROUP);
     gpu::memoryBarrier(cmd, kComputeStage, kStorageWrite, kComputeStage, kStorageReadWrite);
     // 1b. And those of alpha-blended surfaces in front of it (or over the background).
@@ -222,28 +310,42 @@ class Clustered final : public LightingTechnique {
     if (lightGroups > 0) {
       // 2. Count each active cluster's lights: small lights a thread each, queueing the large
       // ones, then the queue a workgroup per light (an indirect dispatch of the queue's length).
-      dispatchSmallLights(cmd, pass.scene.lightCount, count_, countBinned_);
+      if (assignSteps()) pass.timer.beginPass(cmd, "assign-count");
+      dispatchSmallLights(cmd, pass.scene.lightCount, count_, animate ? countBinnedAnimated_ : countBinned_);
+      // With the lights moved, their later readers too (markers' vertex and the blend pass's
+      // fragment shaders).
       gpu::memoryBarrier(cmd, kComputeStage, kStorageWrite,
-                         kComputeStage | VK_PIPELINE_STAGE_2_DRAW_INDIRECT_BIT,
+                         kComputeStage | VK_PIPELINE_STAGE_2_DRAW_INDIRECT_BIT |
+                             (animate ? lightReaders : 0),
                          kStorageReadWrite | VK_ACCESS_2_INDIRECT_COMMAND_READ_BIT);
-      vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, countLarge_);
-      vkCmdDispatchIndirect(cmd, lists_->large.buffer, 0);
-      gpu::memoryBarrier(cmd, kComputeStage, kStorageWrite, kComputeStage, kStorageReadWrite);
+      if (!walkLarge_) {
+        if (assignSteps()) pass.timer.beginPass(cmd, "assign-count-large");
+        vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, countLarge_);
+        vkCmdDispatchIndirect(cmd, lists_->large.buffer, 0);
+        gpu::memoryBarrier(cmd, kComputeStage, kStorageWrite, kComputeStage, kStorageReadWrite);
+      }
     }
     // 3. Prefix sum: list offsets, capacity cuts, counters.
+    if (assignSteps()) pass.timer.beginPass(cmd, "assign-scan");
     vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, scan_);
     vkCmdDispatch(cmd, groupCount(lists_->grid.count(), MYRIAD_SCAN_GROUP * MYRIAD_SCAN_CLUSTERS_PER_THREAD),
                   1, 1);
     gpu::memoryBarrier(cmd, kComputeStage, kStorageWrite, kComputeStage, kStorageReadWrite);
     if (lightGroups > 0) {
       // 4. Fill the lists: the same split, the queue kept from step 2.
+      if (assignSteps()) pass.timer.beginPass(cmd, "assign-fill");
       dispatchSmallLights(cmd, pass.scene.lightCount, assign_, assignBinned_);
-      // The small-light pass does not write the queue, but it holds it writable: order it before
-      // the indirect read all the same (the synchronization layer's rule, and cheap).
-      gpu::memoryBarrier(cmd, kComputeStage, kStorageWrite, VK_PIPELINE_STAGE_2_DRAW_INDIRECT_BIT,
-                         VK_ACCESS_2_INDIRECT_COMMAND_READ_BIT);
-      vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, assignLarge_);
-      vkCmdDispatchIndirect(cmd, lists_->large.buffer, 0);
+      if (!walkLarge_) {
+        // The small-light pass does not write the queue, and its list slots are not the large
+        // lights', but it holds both writable: order it before the indirect read and the large
+        // lights' pass all the same (the synchronization layer's rule).
+        gpu::memoryBarrier(cmd, kComputeStage, kStorageWrite,
+                           kComputeStage | VK_PIPELINE_STAGE_2_DRAW_INDIRECT_BIT,
+                           kStorageReadWrite | VK_ACCESS_2_INDIRECT_COMMAND_READ_BIT);
+        if (assignSteps()) pass.timer.beginPass(cmd, "assign-fill-large");
+        vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, assignLarge_);
+        vkCmdDispatchIndirect(cmd, lists_->large.buffer, 0);
+      }
       gpu::memoryBarrier(cmd, kComputeStage, kStorageWrite, kComputeStage,
                          VK_ACCESS_2_SHADER_STORAGE_READ_BIT);
     }
@@ -309,8 +411,7 @@ class Clustered final : public LightingTechnique {
                            VkPipeline binned) const {
     if (binnedAssign_) {
       vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, binned);
-      vkCmdDispatch(cmd, std::min(groupCount(lightCount, MYRIAD_ASSIGN_BIN_GROUP), kBinnedAssignGroups),
-                    1, 1);
+      vkCmdDispatch(cmd, binnedGroups(lightCount), 1, 1);
     } else {
       vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, perLight);
       vkCmdDispatch(cmd, groupCount(lightCount, MYRIAD_LIGHTS_PER_GROUP), 1, 1);
@@ -342,6 +443,33 @@ class Clustered final : public LightingTechnique {
     return listLimitBytes_ > 0 ? std::min(listLimitBytes_, device) : device;
   }
 
+  // The workgroups of the binned passes for `lightCount` lights (at least one).
+  // MYRIAD_ASSIGN_GROUPS (64 to 4096) overrides kBinnedAssignGroups: a benchmark experiment.
+  // Walking the large lights themselves, the passes give each light a group while there are
+  // fewer lights than groups, so that a thousand large lights keep a thousand groups busy.
+  uint32_t binnedGroups(uint32_t lightCount) const {
+    static const uint32_t most = [] {
+      const char* v = std::getenv("MYRIAD_ASSIGN_GROUPS");
+      const uint32_t n = v ? uint32_t(std::strtoul(v, nullptr, 10)) : 0;
+      return n >= 64 && n <= 4096 ? n : kBinnedAssignGroups;
+    }();
+    const uint32_t wanted = walkLarge_ ? lightCount : groupCount(lightCount, MYRIAD_ASSIGN_BIN_GROUP);
+    return std::clamp(wanted, 1u, most);
+  }
+
+  // The pair buffer of cluster_assign_binned.comp for `lightCount` lights: a count and a table per
+  // workgroup, then pairSlotsPerLight() slots per light (within the device's storage range). The
+  // lists are kept for fewer lights: the passes then run fewer groups, whose regions are larger.
+  VkDeviceSize pairBytes(uint32_t lightCount) const {
+    if (!binnedAssign_) return 4;
+    const uint64_t groups = binnedGroups(lightCount);
+    const uint64_t tables = groups * (1 + 2 * uint64_t(assignBins())) * 4;
+    const uint64_t slotBytes = kPairWordsPerSlot * 4;
+    const uint64_t wanted = std::max<uint64_t>(lightCount, 1) * pairSlotsPerLight() * slotBytes;
+    const uint64_t room = context_.info.maxStorageBufferRange - tables;
+    return tables + std::min(wanted, room / slotBytes * slotBytes);
+  }
+
   gpu::Context& context_;
   PipelineList pipelines_;
   VkPipeline mark_ = VK_NULL_HANDLE;
@@ -351,12 +479,15 @@ class Clustered final : public LightingTechnique {
   VkPipeline countLarge_ = VK_NULL_HANDLE;   // the queued large lights, a workgroup each
   VkPipeline assignLarge_ = VK_NULL_HANDLE;
   VkPipeline countBinned_ = VK_NULL_HANDLE;  // cluster_assign_binned.comp
+  VkPipeline countBinnedAnimated_ = VK_NULL_HANDLE;  // the same, moving the lights (kAnimate)
   VkPipeline assignBinned_ = VK_NULL_HANDLE;
   FeaturePipelines shade_;  // specialised per frame (render/shading_features.h)
   VkPipeline markBlend_ = VK_NULL_HANDLE;  // null without fragmentStoresAndAtomics
   CullingSet set_;
   CullingCounters counters_;
   bool binnedAssign_;  // small lights by cluster_assign_binned.comp (else cluster_assign.comp)
+  bool animateInCount_;  // animatesLights()
+  bool walkLarge_;  // the binned passes walk the large lights themselves (kWalkLarge)
   std::unique_ptr<ClusterLists> lists_;
   uint64_t listLimitBytes_ = 0;              // limitListMemory(); 0 = the device's limit
   uint32_t listStartCapacity_ = 0;           // limitListMemory(); 0 = initialCapacity()'s

@@ -17,7 +17,7 @@ namespace {
 // The counters are 32 bytes; a default 64 MiB block would be almost all waste.
 constexpr VkDeviceSize kCountersBlockSize = 64ull << 10;
 
-constexpr uint32_t kCullingBindings = 5;  // MYRIAD_BINDING_CLUSTER_RANGES .. _LARGE_LIGHTS
+constexpr uint32_t kCullingBindings = 6;  // MYRIAD_BINDING_CLUSTER_RANGES .. _CLUSTER_PAIRS
 
 }  // namespace
 

@@ -36,6 +36,9 @@ struct LightingPass {
   // What the frame's shading may need (MYRIAD_FEATURE_*, render/shading_features.h): the compute
   // techniques shade with a pipeline specialised to it.
   uint32_t shadingFeatures = MYRIAD_FEATURES_ALL;
+  // The lights move this frame and the technique said it moves them (animatesLights()): its
+  // passes write each light's position (light_orbit.glsl) before anything reads it.
+  bool animateLights = false;
 };
 
 class LightingTechnique {
@@ -58,6 +61,10 @@ class LightingTechnique {
   // COLOR_ATTACHMENT_OPTIMAL after raster writes. Anything the host reads afterwards (report(), counters())
   // gets its barrier here.
   virtual VkImageLayout record(const LightingPass& pass) = 0;
+
+  // Whether record() moves animated lights itself (LightingPass::animateLights), in a pass that
+  // reads the lights anyway; false (the default): the renderer's animate pass moves them first.
+  virtual bool animatesLights() const { return false; }
 
   // Light lists for the forward pass of alpha-blended surfaces (recordBlendPass): binds them (set
   // 2, MYRIAD_BINDING_CLUSTER_RANGES and _LIGHTS, covering every cluster a blended fragment lies
