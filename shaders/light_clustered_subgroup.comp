@@ -5,6 +5,222 @@
 #extension GL_KHR_shader_subgroup_arithmetic : require
 #extension GL_KHR_shader_subgroup_ballot : require
 #extension GL_KHR_shader_subgroup_shuffle : require
-// Clustered shading walked per subgroup (light_clustered.glsl); for devices with subgroup vote,
-// arithmetic, ballot and shuffle in compute shaders.
-#include "light_clustered.glsl"
+// Clustered step 5 on devices with subgroup vote, arithmetic, ballot and shuffle in compute
+// (light_clustered.comp is the per-pixel pass for the others and for CPU devices): each pixel
+// shades sun + ambient + the lights of its cluster's list.
+//
+// The tile's narrowing is light_clustered.comp's: each 16x16-pixel workgroup narrows the lists of
+// the clusters its pixels fall in to the lights overlapping the box of its rectangle between its
+// pixels' nearest and farthest depth in that slice, into shared memory, one segment per slice.
+// Its invocations follow Morton order, so a subgroup of 32 is an 8x4-pixel block (8: 4x2).
+//
+// Then each subgroup walks its pixels' segments one at a time, the pixels of that segment
+// together. A short segment (at most kBallotFrom lights) each pixel walks on its own; a
+// long one the subgroup narrows again as it goes: each lane tests one light against the box of
+// the subgroup's surface points (world space, flat on a floor), and only the lights of that
+// ballot are tested by every pixel, in a loop uniform in the subgroup. Long segments are where
+// a tile spans much of the floor (far from the camera) and most of its lights reach none of a
+// subgroup's pixels. The BRDF's terms that depend on the pixel alone (brdfSurfaceOf) are worked
+// out once per pixel.
+//
+// Every test is conservative (boxes widened by far more than rounding) and each pixel still
+// decides every light exactly (lightReaches), so the image and the light counts are those of
+// the whole list. A tile whose narrowed lists overflow the shared capacity, or whose pixels span
+// more than MYRIAD_CLUSTER_TILE_SLICES slices, walks the whole list there.
+#include "frame.glsl"
+#include "compute_targets.glsl"
+
+layout(local_size_x = MYRIAD_CLUSTER_SHADE_TILE * MYRIAD_CLUSTER_SHADE_TILE) in;
+
+const uint kThreads = MYRIAD_CLUSTER_SHADE_TILE * MYRIAD_CLUSTER_SHADE_TILE;
+const uint kSlices = MYRIAD_CLUSTER_TILE_SLICES;
+const uint kCapacity = MYRIAD_CLUSTER_TILE_LIGHTS;
+const uint kWholeList = 0xFFFFFFFFu;  // a segment's length when its pixels walk the cluster's list
+const uint kEmpty = 0xFFFFFFFFu;
+// Segments longer than this the subgroup walks by ballot (on the H200 ballot from 0 / 128 / 256 /
+// never: docs/performance.md, "clustered shading walked per subgroup").
+const uint kBallotFrom = 256u;
+
+shared uint tileLights[kCapacity];
+shared uint firstSlice;
+shared uint lastSlice;
+shared uint depthLo[kSlices];  // view depth bits (positive floats order as their bits do)
+shared uint depthHi[kSlices];
+shared uint used;
+shared uint nextStart;  // where the next slice's segment starts (thread 0 keeps it)
+shared uint segmentStart[kSlices];
+shared uint segmentLength[kSlices];
+
+void main() {
+  // Morton order inside the tile: bit 2i of the invocation index is bit i of x, bit 2i+1 of y.
+  uint thread = gl_LocalInvocationIndex;
+  uvec2 inTile = uvec2(0u);
+  for (uint b = 0u; (1u << b) < kThreads; ++b) {
+    uint bit = (thread >> b) & 1u;
+    if ((b & 1u) == 0u) {
+      inTile.x |= bit << (b >> 1u);
+    } else {
+      inTile.y |= bit << (b >> 1u);
+    }
+  }
+  ivec2 pixel = ivec2(gl_WorkGroupID.xy * MYRIAD_CLUSTER_SHADE_TILE + inTile);
+  bool inside = pixel.x < int(frame.viewport.x) && pixel.y < int(frame.viewport.y);
+  float depth = inside ? texelFetch(gbufferDepth, pixel, 0).r : 1.0;
+  Surface s;
+  bool surface = inside && loadSurfaceWithDepth(pixel, depth, s);
+  float viewDepth = viewDepthFromDepth(depth);
+  uint slice = sliceOfViewDepth(viewDepth);
+
+  if (thread == 0u) {
+    firstSlice = kEmpty;
+    lastSlice = 0u;
+    used = 0u;
+    nextStart = 0u;
+  }
+  if (thread < kSlices) {
+    depthLo[thread] = 0xFFFFFFFFu;
+    depthHi[thread] = 0u;
+  }
+  barrier();
+  if (surface) {
+    atomicMin(firstSlice, slice);
+    atomicMax(lastSlice, slice);
+  }
+  barrier();
+  uint k = slice - firstSlice;  // this pixel's segment
+  if (surface && k < kSlices) {
+    atomicMin(depthLo[k], floatBitsToUint(viewDepth));
+    atomicMax(depthHi[k], floatBitsToUint(viewDepth));
+  }
+  barrier();
+
+  // Narrow each occupied slice's list in turn (as light_clustered.comp).
+  uvec2 tile = gl_WorkGroupID.xy * MYRIAD_CLUSTER_SHADE_TILE / clusterTileSize();
+  vec2 rectLo = vec2(gl_WorkGroupID.xy * MYRIAD_CLUSTER_SHADE_TILE);
+  vec2 rectHi = min(rectLo + vec2(MYRIAD_CLUSTER_SHADE_TILE), frame.viewport.xy);
+  uint span = firstSlice == kEmpty ? 0u : min(lastSlice - firstSlice + 1u, kSlices);
+  for (uint j = 0u; j < span; ++j) {
+    if (depthHi[j] == 0u) continue;
+    uvec2 range = clusterRanges[clusterIndex(uvec3(tile, firstSlice + j))];
+    float z0 = uintBitsToFloat(depthLo[j]);
+    float z1 = uintBitsToFloat(depthHi[j]);
+    vec3 lo, hi;
+    viewBoxOfRect(rectLo, rectHi, z0, z1, lo, hi);
+    vec3 margin = vec3(1e-3 * z1 + 1e-4);
+    lo -= margin;
+    hi += margin;
+    for (uint i = thread; i < range.y; i += kThreads) {
+      uint index = clusterLights[range.x + i];
+      vec4 light = lights[index].positionRadius;
+      vec3 c = (frame.view * vec4(light.xyz, 1.0)).xyz;
+      if (sphereOverlapsBox(c, light.w, lo, hi)) {
+        uint slot = atomicAdd(used, 1u);
+        if (slot < kCapacity) tileLights[slot] = index;
+      }
+    }
+    barrier();
+    if (thread == 0u) {
+      uint start = nextStart;
+      segmentStart[j] = start;
+      if (used > kCapacity) {
+        segmentLength[j] = kWholeList;
+        used = start;  // later slices may still fit
+      } else {
+        segmentLength[j] = used - start;
+      }
+      nextStart = used;
+    }
+    barrier();
+  }
+
+  vec3 color = vec3(0.0);
+  uint reached = 0u;
+  BrdfSurface brdf;
+  if (surface) {
+    color = sunAndAmbient(s);
+    brdf = brdfSurfaceOf(s);
+  }
+  // The list this pixel walks: its slice's segment (key < kSlices) or its cluster's whole list
+  // (kSlices + cluster index).
+  uint key = kEmpty;
+  if (surface) {
+    key = k < kSlices && segmentLength[k] != kWholeList
+              ? k
+              : kSlices + clusterIndex(uvec3(uvec2(pixel) / clusterTileSize(), slice));
+  }
+  bool pending = key != kEmpty;
+  vec3 position = surface ? s.position : vec3(0.0);
+  while (subgroupAny(pending)) {
+    uint current = subgroupMin(pending ? key : kEmpty);
+    bool mine = pending && key == current;
+    pending = pending && !mine;
+    bool inShared = current < kSlices;
+    uint start, count;
+    if (inShared) {
+      start = segmentStart[current];
+      count = segmentLength[current];
+    } else {
+      uvec2 range = clusterRanges[current - kSlices];
+      start = range.x;
+      count = range.y;
+    }
+    if (count <= kBallotFrom) {
+      if (mine) {
+        for (uint i = 0u; i < count; ++i) {
+          uint index = inShared ? tileLights[start + i] : clusterLights[start + i];
+          if (lightReaches(s, index)) {
+            color += shadeLightAt(brdf, s, index);
+            ++reached;
+          }
+        }
+      }
+      continue;
+    }
+    // The box of the subgroup's points on this list, widened so that a light reaching one of
+    // them (|light - point|^2 < radius^2, rounded) always overlaps it (rounded): 1e-5 of the
+    // coordinates' size is far more than either test's rounding.
+    vec3 lo = subgroupMin(mine ? position : vec3(3.0e38));
+    vec3 hi = subgroupMax(mine ? position : vec3(-3.0e38));
+    vec3 margin = 1e-5 * (max(abs(lo), abs(hi)) + vec3(1.0));
+    lo -= margin;
+    hi += margin;
+    for (uint base = 0u; base < count; base += gl_SubgroupSize) {
+      uint i = base + gl_SubgroupInvocationID;
+      uint index = 0u;
+      vec4 light = vec4(0.0);
+      bool candidate = false;
+      if (i < count) {
+        index = inShared ? tileLights[start + i] : clusterLights[start + i];
+        light = lights[index].positionRadius;
+        candidate = sphereOverlapsBox(light.xyz, light.w, lo, hi);
+      }
+      uvec4 ballot = subgroupBallot(candidate);
+      for (uint w = 0u; w * 32u < gl_SubgroupSize; ++w) {
+        uint bits = ballot[w];
+        while (bits != 0u) {
+          uint lane = w * 32u + uint(findLSB(bits));
+          bits &= bits - 1u;
+          uint candidateIndex = subgroupShuffle(index, lane);
+          vec4 candidateLight = subgroupShuffle(light, lane);
+          // lightReaches' own first test, on the light the lane already holds and loosened by
+          // far more than rounding: a light failing it fails lightReaches, which decides.
+          vec3 toLight = candidateLight.xyz - s.position;
+          float r2 = candidateLight.w * candidateLight.w;
+          if (mine && dot(toLight, toLight) < r2 * 1.0001 + 1e-12 &&
+              lightReaches(s, candidateIndex)) {
+            color += shadeLightAt(brdf, s, candidateIndex);
+            ++reached;
+          }
+        }
+      }
+    }
+  }
+  if (!inside) return;
+  if (surface) {
+    color = withLocalShadows(s, color);
+  } else {
+    color = backgroundRadiance(pixel);
+  }
+  imageStore(hdrOut, pixel, vec4(color, 1.0));
+  imageStore(lightCountOut, pixel, vec4(float(reached)));
+}

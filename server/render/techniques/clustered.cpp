@@ -125,18 +125,15 @@ bool binnedAssignFor(const gpu::DeviceInfo& device) {
   return !device.isCpu;
 }
 
-// The shading pass (light_clustered*.comp): each subgroup walking its tile's narrowed lists
-// together where compute shaders have the subgroup operations it needs, else each pixel on its
-// own (CPU devices too: on lavapipe the subgroup walk was slower). MYRIAD_CLUSTER_SHADE=pixel or
-// subgroup overrides it (the benchmark compares the two; technique_tests holds them to the same
-// light counts); b128, balways and bnever are experiments.
+// The shading pass: each subgroup walking its tile's narrowed lists together
+// (light_clustered_subgroup.comp) where compute shaders have the subgroup operations it needs,
+// else each pixel on its own (light_clustered.comp; CPU devices too: on lavapipe the subgroup walk
+// was slower). MYRIAD_CLUSTER_SHADE=pixel|subgroup overrides it (the benchmark compares the two;
+// technique_tests holds them to the same light counts).
 std::span<const uint32_t> shadeShaderFor(const gpu::DeviceInfo& device) {
   const char* v = std::getenv("MYRIAD_CLUSTER_SHADE");
   const std::string name = v ? v : "";
   if (name == "pixel" || !device.computeSubgroupShuffle) return spirv::light_clustered_comp;
-  if (name == "b128") return spirv::light_clustered_b128_comp;
-  if (name == "balways") return spirv::light_clustered_balways_comp;
-  if (name == "bnever") return spirv::light_clustered_bnever_comp;
   if (name == "subgroup" || !device.isCpu) return spirv::light_clustered_subgroup_comp;
   return spirv::light_clustered_comp;
 }
