@@ -15,7 +15,8 @@
 #include "compute_targets.glsl"
 #include "cluster_assign.glsl"
 
-layout(local_size_x = MYRIAD_LIGHTS_PER_GROUP) in;
+// MYRIAD_LIGHTS_PER_GROUP wide; the large-light variant MYRIAD_ASSIGN_BIN_GROUP (constant 6).
+layout(local_size_x_id = 6) in;
 layout(constant_id = 0) const bool kAssign = false;
 layout(constant_id = 1) const bool kLarge = false;
 
@@ -52,7 +53,7 @@ void main() {
   if (kLarge) {
     // Every group walks queued lights group, group + groups, ...: uniform per group.
     for (uint q = gl_WorkGroupID.x; q < largeQueue.queued.x; q += gl_NumWorkGroups.x) {
-      assign(largeLights[q], gl_LocalInvocationID.x, MYRIAD_LIGHTS_PER_GROUP, false);
+      assign(largeLights[q], gl_LocalInvocationID.x, gl_WorkGroupSize.x, false);
     }
   } else {
     uint index = gl_GlobalInvocationID.x;

@@ -58,6 +58,10 @@ constexpr VkDeviceSize kListBlockSize = 4ull << 20;
 // 256 and 4,096 groups measured within 0.1 ms of 1,024 at a million lights (docs/performance.md).
 constexpr uint32_t kBinnedAssignGroups = 1024;
 
+// cluster_mark.comp gathers an 8x8 group's slices as the bits of a word, one invocation each.
+static_assert(MYRIAD_CLUSTER_SLICES <= 32 && MYRIAD_CLUSTER_SLICES <= MYRIAD_PIXEL_GROUP * MYRIAD_PIXEL_GROUP);
+static_assert(MYRIAD_CLUSTER_TILE_SIZE % MYRIAD_PIXEL_GROUP == 0 && 16 % MYRIAD_PIXEL_GROUP == 0);
+
 // Pair slots (cluster_assign_binned.comp) per light: a slot for each cluster of a small light's
 // box, reached or not. A light whose box finds its workgroup's region full is walked by the
 // large-light passes instead, so fewer slots are slower, never wrong.
@@ -195,12 +199,16 @@ class Clustered final : public LightingTechnique {
     // cluster_assign.comp counts (kAssign = false) or fills the lists (true): one source, so both
     // passes run the identical overlap test.
     // kLarge (constant 1) picks the per-light or the per-large-light (workgroup) variant.
+    // Its workgroup (constant 6): MYRIAD_LIGHTS_PER_GROUP lights, or one large light's clusters
+    // MYRIAD_ASSIGN_BIN_GROUP at a time (a thousand 4K-filling lights: 64 wide measured slower).
     const VkSpecializationMapEntry entries[] = {{0, 0, sizeof(VkBool32)},
-                                                {1, sizeof(VkBool32), sizeof(VkBool32)}};
+                                                {1, sizeof(VkBool32), sizeof(VkBool32)},
+                                                {6, 2 * sizeof(VkBool32), sizeof(uint32_t)}};
     for (VkBool32 assign : {VK_FALSE, VK_TRUE}) {
       for (VkBool32 large : {VK_FALSE, VK_TRUE}) {
-        const VkBool32 values[] = {assign, large};
-        VkSpecializationInfo spec{2, entries, sizeof(values), values};
+        const uint32_t values[] = {assign, large,
+                                   large ? uint32_t(MYRIAD_ASSIGN_BIN_GROUP) : uint32_t(MYRIAD_LIGHTS_PER_GROUP)};
+        VkSpecializationInfo spec{3, entries, sizeof(values), values};
         VkPipeline& target = assign ? (large ? assignLarge_ : assign_) : (large ? countLarge_ : count_);
         target = pipelines_.add(
             gpu::createComputePipeline(device, layout, spirv::cluster_assign_comp, &spec));
