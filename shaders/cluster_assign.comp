@@ -15,8 +15,7 @@
 #include "compute_targets.glsl"
 #include "cluster_assign.glsl"
 
-// MYRIAD_LIGHTS_PER_GROUP wide; the large-light variant MYRIAD_ASSIGN_BIN_GROUP (constant 6).
-layout(local_size_x_id = 6) in;
+layout(local_size_x = MYRIAD_LIGHTS_PER_GROUP) in;
 layout(constant_id = 0) const bool kAssign = false;
 layout(constant_id = 1) const bool kLarge = false;
 
@@ -53,7 +52,7 @@ void main() {
   if (kLarge) {
     // Every group walks queued lights group, group + groups, ...: uniform per group.
     for (uint q = gl_WorkGroupID.x; q < largeQueue.queued.x; q += gl_NumWorkGroups.x) {
-      assign(largeLights[q], gl_LocalInvocationID.x, gl_WorkGroupSize.x, false);
+      assign(largeLights[q], gl_LocalInvocationID.x, MYRIAD_LIGHTS_PER_GROUP, false);
     }
   } else {
     uint index = gl_GlobalInvocationID.x;

@@ -199,16 +199,12 @@ class Clustered final : public LightingTechnique {
     // cluster_assign.comp counts (kAssign = false) or fills the lists (true): one source, so both
     // passes run the identical overlap test.
     // kLarge (constant 1) picks the per-light or the per-large-light (workgroup) variant.
-    // Its workgroup (constant 6): MYRIAD_LIGHTS_PER_GROUP lights, or one large light's clusters
-    // MYRIAD_ASSIGN_BIN_GROUP at a time (a thousand 4K-filling lights: 64 wide measured slower).
     const VkSpecializationMapEntry entries[] = {{0, 0, sizeof(VkBool32)},
-                                                {1, sizeof(VkBool32), sizeof(VkBool32)},
-                                                {6, 2 * sizeof(VkBool32), sizeof(uint32_t)}};
+                                                {1, sizeof(VkBool32), sizeof(VkBool32)}};
     for (VkBool32 assign : {VK_FALSE, VK_TRUE}) {
       for (VkBool32 large : {VK_FALSE, VK_TRUE}) {
-        const uint32_t values[] = {assign, large,
-                                   large ? uint32_t(MYRIAD_ASSIGN_BIN_GROUP) : uint32_t(MYRIAD_LIGHTS_PER_GROUP)};
-        VkSpecializationInfo spec{3, entries, sizeof(values), values};
+        const VkBool32 values[] = {assign, large};
+        VkSpecializationInfo spec{2, entries, sizeof(values), values};
         VkPipeline& target = assign ? (large ? assignLarge_ : assign_) : (large ? countLarge_ : count_);
         target = pipelines_.add(
             gpu::createComputePipeline(device, layout, spirv::cluster_assign_comp, &spec));
