@@ -27,6 +27,7 @@ export class LightsPanel {
     this.total = 0;
     this.page = [];
     this.selected = null;            // a Light
+    this.ringDrawn = false;          // the overlay canvas holds a ring
 
     $('gen-lights').addEventListener('click', () => this.generate());
     $('delete-lights').addEventListener('click', () => this.deleteAll());
@@ -242,14 +243,26 @@ export class LightsPanel {
     const canvas = this.overlay;
     const {width, height} = this.getViewSize();
     const ratio = window.devicePixelRatio || 1;
-    if (canvas.width !== Math.round(width * ratio)) canvas.width = Math.round(width * ratio);
-    if (canvas.height !== Math.round(height * ratio)) canvas.height = Math.round(height * ratio);
+    // Resizing a canvas clears it.
+    if (canvas.width !== Math.round(width * ratio)) {
+      canvas.width = Math.round(width * ratio);
+      this.ringDrawn = false;
+    }
+    if (canvas.height !== Math.round(height * ratio)) {
+      canvas.height = Math.round(height * ratio);
+      this.ringDrawn = false;
+    }
+    const camera = this.getCamera();
+    const p = this.selected && camera ? project(camera, this.selected.position, width, height) : null;
+    // Called on every camera move: a view-sized canvas cleared each time is a view-sized layer
+    // for the compositor to take again (in software, on the cores the server renders on), so it
+    // is touched only when a ring is or was on it.
+    if (!p && !this.ringDrawn) return;
     const g = canvas.getContext('2d');
     g.clearRect(0, 0, canvas.width, canvas.height);
-    const camera = this.getCamera();
-    if (!this.selected || !camera) return;
-    const p = project(camera, this.selected.position, width, height);
+    this.ringDrawn = false;
     if (!p) return;
+    this.ringDrawn = true;
     g.scale(ratio, ratio);
     g.strokeStyle = '#5fa8ff';
     g.lineWidth = 2;

@@ -67,10 +67,12 @@ export class ViewOverlay {
     this.refresh();
   }
 
+  // Called on every camera move and every frame: the DOM is written only when something changed
+  // (each write is a style, layout and paint pass of the page).
   show(text, state) {
-    this.status.textContent = text;
-    this.status.dataset.state = state;
-    this.status.hidden = !text;
+    if (this.status.textContent !== text) this.status.textContent = text;
+    if (this.status.dataset.state !== state) this.status.dataset.state = state;
+    if (this.status.hidden !== !text) this.status.hidden = !text;
   }
 
   refresh() {
@@ -97,9 +99,11 @@ export class ViewOverlay {
       const cell = this.strip.querySelector(`[data-stat="${name}"]`);
       if (cell && cell.textContent !== value) cell.textContent = value;
     }
-    this.strip.dataset.fps = fps.toFixed(2);
-    this.strip.dataset.latencyMs = this.latencyMs === null ? '' : String(Math.round(this.latencyMs));
-    this.strip.dataset.bitsPerSecond = String(Math.round(bits));
-    this.strip.dataset.codec = this.codec;
+    const data = {fps: fps.toFixed(2),
+                  latencyMs: this.latencyMs === null ? '' : String(Math.round(this.latencyMs)),
+                  bitsPerSecond: String(Math.round(bits)), codec: String(this.codec)};
+    for (const [name, value] of Object.entries(data)) {
+      if (this.strip.dataset[name] !== value) this.strip.dataset[name] = value;
+    }
   }
 }
