@@ -166,9 +166,13 @@ Pipelines::Pipelines(gpu::Context& context) : device(context.device) {
   // CPU devices (final_cpu.comp, the same image): 16x16 groups, so fewer border pixels encoded
   // twice, and edge pixels listed without the group count's two workgroup barriers, which
   // llvmpipe pays for on every group; GPUs keep 8x8 and one global atomic per group.
-  final = gpu::createComputePipeline(device, layout,
-                                     context.info.isCpu ? spirv::final_cpu_comp : spirv::final_comp);
-  if (context.info.isCpu) finalGroup = MYRIAD_FINAL_CPU_GROUP;
+  // (Only where the device runs 16x16 groups: Vulkan guarantees 128 invocations.)
+  const bool cpuFinal = context.info.isCpu &&
+                        context.info.maxComputeWorkGroupInvocations >=
+                            MYRIAD_FINAL_CPU_GROUP * MYRIAD_FINAL_CPU_GROUP &&
+                        context.info.maxComputeWorkGroupSizeX >= MYRIAD_FINAL_CPU_GROUP;
+  final = gpu::createComputePipeline(device, layout, cpuFinal ? spirv::final_cpu_comp : spirv::final_comp);
+  if (cpuFinal) finalGroup = MYRIAD_FINAL_CPU_GROUP;
   finalRaw = gpu::createComputePipeline(device, layout, spirv::final_raw_comp);
   views = gpu::createComputePipeline(device, layout, spirv::views_comp);
   viewsRaw = gpu::createComputePipeline(device, layout, spirv::views_raw_comp);
