@@ -56,13 +56,9 @@ bool lightClusters(uint index, out LightClusters b) {
 // geometry and the sphere overlaps it. Counting, a cluster with geometry has a cursor; filling
 // (after the scan reset the cursors), it has room in the lists: a cluster with geometry whose
 // list was cut to nothing is passed over, as it takes no lights either way.
-uvec3 boxCluster(LightClusters b, uint i) {
-  return uvec3(b.first.x + i % b.extent.x, b.first.y + (i / b.extent.x) % b.extent.y,
-               b.first.z + i / (b.extent.x * b.extent.y));
-}
-
 bool lightReachesCluster(LightClusters b, uint i, bool filling, out uint cluster) {
-  uvec3 at = boxCluster(b, i);
+  uvec3 at = uvec3(b.first.x + i % b.extent.x, b.first.y + (i / b.extent.x) % b.extent.y,
+                   b.first.z + i / (b.extent.x * b.extent.y));
   cluster = clusterIndex(at);
   if (filling ? clusterRanges[cluster].y == 0u : clusterCursors[cluster] == MYRIAD_CLUSTER_INACTIVE) {
     return false;

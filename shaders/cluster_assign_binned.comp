@@ -60,8 +60,6 @@ shared uint binCount[kBins];  // pairs counted
 shared uint regionUsed;        // region slots handed out (may pass the region's size)
 shared uint largeCount;        // kWalkLarge: large lights met in this step
 shared vec4 largeLight[kGroup];
-shared uint largeIndex[kGroup];  // !kWalkLarge: large lights met, appended to the queue at the end
-shared uint largeStart;
 
 // Where this workgroup's table and region start, and how many slots a region has (both passes
 // run the same number of workgroups).
@@ -89,27 +87,14 @@ uint claimBin(uint cluster) {
   return kNoBin;
 }
 
-// Appends `count` lights to the large-light queue; where they start.
-uint reserveLarge(uint count) {
-  uint slot = atomicAdd(largeQueue.queued.x, count);
-  // The indirect dispatch's group count: the queue's length, at most the groups it may have.
-  if (!kWalkLarge) atomicMax(largeQueue.groups.x, min(slot + count, MYRIAD_LARGE_LIGHT_GROUPS));
-  return slot;
-}
-
 void queueLarge(uint index, vec4 light) {
+  uint slot = atomicAdd(largeQueue.queued.x, 1u);
+  largeLights[slot] = index;
   if (kWalkLarge) {
-    largeLights[reserveLarge(1u)] = index;
     largeLight[atomicAdd(largeCount, 1u)] = light;
-    return;
-  }
-  // Gathered per workgroup and appended with one global atomic at its end (a thousand large
-  // lights' appends on one address were serialised); past kGroup, one each.
-  uint j = atomicAdd(largeCount, 1u);
-  if (j < kGroup) {
-    largeIndex[j] = index;
   } else {
-    largeLights[reserveLarge(1u)] = index;
+    // The indirect dispatch's group count: the queue's length, at most the groups it may have.
+    atomicMax(largeQueue.groups.x, min(slot + 1u, MYRIAD_LARGE_LIGHT_GROUPS));
   }
 }
 
@@ -153,29 +138,21 @@ void countLight(uint index, uint size, uint region) {
     queueLarge(index, light);
     return;
   }
-  // Which clusters of the box the light reaches (b.clusters <= 64: two words of bits), then a
-  // slot for each of those only.
-  uvec2 hits = uvec2(0u);
-  for (uint i = 0u; i < b.clusters; ++i) {
-    uint cluster;
-    if (lightReachesCluster(b, i, false, cluster)) hits[i >> 5u] |= 1u << (i & 31u);
-  }
-  uint n = bitCount(hits.x) + bitCount(hits.y);
-  if (n == 0u) return;
-  uint at = atomicAdd(regionUsed, n);
-  if (at + n > size) {
+  uint at = atomicAdd(regionUsed, b.clusters);
+  if (at + b.clusters > size) {
     // The region is full: the large-light passes take this light; the slots it was handed that
     // lie inside the region hold no pair.
     for (uint s = at; s < size; ++s) pairWords[region + s] = kNoLight;
     queueLarge(index, light);
     return;
   }
-  for (uint k = 0u; k < n; ++k) {
-    uint s = region + at + k;
-    uint w = hits.x != 0u ? 0u : 1u;
-    uint i = w * 32u + uint(findLSB(hits[w]));
-    hits[w] &= hits[w] - 1u;
-    uint cluster = clusterIndex(boxCluster(b, i));
+  for (uint i = 0u; i < b.clusters; ++i) {
+    uint s = region + at + i;
+    uint cluster;
+    if (!lightReachesCluster(b, i, false, cluster)) {
+      pairWords[s] = kNoLight;
+      continue;
+    }
     uint bin = claimBin(cluster);
     uint code, rank;
     if (bin != kNoBin) {
@@ -261,11 +238,4 @@ void main() {
     pairWords[table + bin * 2u + 1u] = atomicAdd(clusterCursors[cluster], count);
   }
   if (thread == 0u) pairWords[gl_WorkGroupID.x] = min(regionUsed, size);
-  if (!kWalkLarge) {
-    // The group's large lights into the queue: one atomic.
-    uint count = min(largeCount, kGroup);
-    if (thread == 0u && count > 0u) largeStart = reserveLarge(count);
-    barrier();
-    for (uint j = thread; j < count; j += kGroup) largeLights[largeStart + j] = largeIndex[j];
-  }
 }

@@ -58,10 +58,6 @@ constexpr VkDeviceSize kListBlockSize = 4ull << 20;
 // 256 and 4,096 groups measured within 0.1 ms of 1,024 at a million lights (docs/performance.md).
 constexpr uint32_t kBinnedAssignGroups = 1024;
 
-// cluster_mark.comp gathers an 8x8 group's slices as the bits of a word, one invocation each.
-static_assert(MYRIAD_CLUSTER_SLICES <= 32 && MYRIAD_CLUSTER_SLICES <= MYRIAD_PIXEL_GROUP * MYRIAD_PIXEL_GROUP);
-static_assert(MYRIAD_CLUSTER_TILE_SIZE % MYRIAD_PIXEL_GROUP == 0 && 16 % MYRIAD_PIXEL_GROUP == 0);
-
 // Pair slots (cluster_assign_binned.comp) per light: a slot for each cluster of a small light's
 // box, reached or not. A light whose box finds its workgroup's region full is walked by the
 // large-light passes instead, so fewer slots are slower, never wrong.
