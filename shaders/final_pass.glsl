@@ -8,7 +8,12 @@
 #include "frame.glsl"
 #include "markers.glsl"
 
-layout(local_size_x = MYRIAD_PIXEL_GROUP, local_size_y = MYRIAD_PIXEL_GROUP) in;
+#ifdef MYRIAD_FINAL_CPU
+#define FINAL_GROUP MYRIAD_FINAL_CPU_GROUP
+#else
+#define FINAL_GROUP MYRIAD_PIXEL_GROUP
+#endif
+layout(local_size_x = FINAL_GROUP, local_size_y = FINAL_GROUP) in;
 
 #ifdef MYRIAD_RAW_OUTPUT
 layout(set = MYRIAD_SET_TARGETS, binding = MYRIAD_BINDING_OUTPUT, rgba32f) uniform writeonly image2D outputImage;
@@ -55,10 +60,12 @@ vec3 encodedColor(ivec2 pixel) {
 }
 
 // With anti-aliasing: the group's pixels and a one-pixel border, encoded once each (rgb, luma).
-const int kTileSide = MYRIAD_PIXEL_GROUP + 2;
+const int kTileSide = FINAL_GROUP + 2;
 shared vec4 tile[kTileSide * kTileSide];
+#ifndef MYRIAD_FINAL_CPU
 shared uint groupEdges;  // edge pixels of this group, then (groupBase) where they go in the list
 shared uint groupBase;
+#endif
 
 void main() {
   ivec2 pixel = ivec2(gl_GlobalInvocationID.xy);
@@ -68,13 +75,15 @@ void main() {
     return;
   }
   ivec2 last = ivec2(frame.viewport.xy) - 1;
-  ivec2 origin = ivec2(gl_WorkGroupID.xy) * MYRIAD_PIXEL_GROUP - 1;
+  ivec2 origin = ivec2(gl_WorkGroupID.xy) * FINAL_GROUP - 1;
   for (int i = int(gl_LocalInvocationIndex); i < kTileSide * kTileSide;
-       i += MYRIAD_PIXEL_GROUP * MYRIAD_PIXEL_GROUP) {
+       i += FINAL_GROUP * FINAL_GROUP) {
     vec3 c = encodedColor(clamp(origin + ivec2(i % kTileSide, i / kTileSide), ivec2(0), last));
     tile[i] = vec4(c, perceivedLuma(c));
   }
+#ifndef MYRIAD_FINAL_CPU
   if (gl_LocalInvocationIndex == 0u) groupEdges = 0u;
+#endif
   barrier();
 
   // The edge test of antialias.comp's first step, on the pixel's cross; pixels off an edge are
@@ -94,11 +103,21 @@ void main() {
     float highest = max(centre.a, max(max(up, down), max(left, right)));
     edge = onEdge(lowest, highest);
     if (edge) {
+#ifdef MYRIAD_FINAL_CPU
+      // CPU devices (final_cpu.comp): one global atomic per edge pixel (a few percent of them)
+      // instead of a group count and two more workgroup barriers, which llvmpipe pays for on
+      // every group. The list's order differs; each entry is filtered alone, so the image not.
+      slot = atomicAdd(edges.count.x, 1u);
+      atomicMax(edges.groups.x, (slot + MYRIAD_EDGES_PER_GROUP) / MYRIAD_EDGES_PER_GROUP);
+      edgePixels[slot] = packEdgePixel(pixel);
+#else
       slot = atomicAdd(groupEdges, 1u);
+#endif
     } else {
       imageStore(outputImage, pixel, vec4(centre.rgb, 1.0));
     }
   }
+#ifndef MYRIAD_FINAL_CPU
   barrier();
   // One global atomic per group with edges; the dispatch's group count follows the list.
   if (gl_LocalInvocationIndex == 0u && groupEdges > 0u) {
@@ -108,5 +127,6 @@ void main() {
   }
   barrier();
   if (edge) edgePixels[groupBase + slot] = packEdgePixel(pixel);
+#endif
 }
 #endif

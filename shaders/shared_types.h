@@ -177,6 +177,9 @@ using mat4 = glm::mat4;
 // (Vulkan guarantees only 128 invocations; lavapipe and desktop GPUs give 1024).
 #define MYRIAD_LIGHTS_PER_GROUP 64
 #define MYRIAD_PIXEL_GROUP 8
+// The final pass on CPU devices (final_cpu.comp): 16x16 pixels share an 18x18 tile, 1.27 colour
+// encodings a pixel instead of 1.56 with 8x8 (10x10 tiles).
+#define MYRIAD_FINAL_CPU_GROUP 16
 #define MYRIAD_SCAN_GROUP 256
 #define MYRIAD_SCAN_CLUSTERS_PER_THREAD 4
 #define MYRIAD_ASSIGN_BIN_GROUP 256

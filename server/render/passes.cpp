@@ -163,7 +163,16 @@ Pipelines::Pipelines(gpu::Context& context) : device(context.device) {
 
   animateLights = gpu::createComputePipeline(device, layout, spirv::light_animate_comp);
   markerSplat = gpu::createComputePipeline(device, layout, spirv::marker_splat_comp);
-  final = gpu::createComputePipeline(device, layout, spirv::final_comp);
+  // CPU devices (final_cpu.comp, the same image): 16x16 groups, so fewer border pixels encoded
+  // twice, and edge pixels listed without the group count's two workgroup barriers, which
+  // llvmpipe pays for on every group; GPUs keep 8x8 and one global atomic per group.
+  // (Only where the device runs 16x16 groups: Vulkan guarantees 128 invocations.)
+  const bool cpuFinal = context.info.isCpu &&
+                        context.info.maxComputeWorkGroupInvocations >=
+                            MYRIAD_FINAL_CPU_GROUP * MYRIAD_FINAL_CPU_GROUP &&
+                        context.info.maxComputeWorkGroupSizeX >= MYRIAD_FINAL_CPU_GROUP;
+  final = gpu::createComputePipeline(device, layout, cpuFinal ? spirv::final_cpu_comp : spirv::final_comp);
+  if (cpuFinal) finalGroup = MYRIAD_FINAL_CPU_GROUP;
   finalRaw = gpu::createComputePipeline(device, layout, spirv::final_raw_comp);
   views = gpu::createComputePipeline(device, layout, spirv::views_comp);
   viewsRaw = gpu::createComputePipeline(device, layout, spirv::views_raw_comp);
@@ -389,8 +398,8 @@ void recordFinalPass(VkCommandBuffer cmd, const Pipelines& p, const FrameTargets
   }
   VkPipeline pipeline = picture ? (t.raw ? p.finalRaw : p.final) : (t.raw ? p.viewsRaw : p.views);
   vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipeline);
-  vkCmdDispatch(cmd, gpu::groupCount(t.extent.width, MYRIAD_PIXEL_GROUP),
-                gpu::groupCount(t.extent.height, MYRIAD_PIXEL_GROUP), 1);
+  const uint32_t group = picture && !t.raw ? p.finalGroup : MYRIAD_PIXEL_GROUP;
+  vkCmdDispatch(cmd, gpu::groupCount(t.extent.width, group), gpu::groupCount(t.extent.height, group), 1);
 }
 
 void recordAntialiasPass(VkCommandBuffer cmd, const Pipelines& p, const FrameTargets& t) {

@@ -41,6 +41,7 @@ struct Pipelines {
   // The output, one thread per pixel: final (markers resolved, tonemapped), the data and debug
   // views, each for the 8-bit and the raw (float) output; then anti-aliasing of final.
   VkPipeline final = VK_NULL_HANDLE;
+  uint32_t finalGroup = MYRIAD_PIXEL_GROUP;  // its local size (MYRIAD_FINAL_CPU_GROUP on CPU devices)
   VkPipeline finalRaw = VK_NULL_HANDLE;
   VkPipeline views = VK_NULL_HANDLE;
   VkPipeline viewsRaw = VK_NULL_HANDLE;
