@@ -16,23 +16,9 @@
 // whose pixels span more than MYRIAD_CLUSTER_TILE_SLICES slices, walks the whole list there.
 #include "frame.glsl"
 #include "compute_targets.glsl"
+#include "clustered_tile_narrow.glsl"  // the narrowing, shared with the subgroup pass
 
 layout(local_size_x = MYRIAD_CLUSTER_SHADE_TILE, local_size_y = MYRIAD_CLUSTER_SHADE_TILE) in;
-
-const uint kThreads = MYRIAD_CLUSTER_SHADE_TILE * MYRIAD_CLUSTER_SHADE_TILE;
-const uint kSlices = MYRIAD_CLUSTER_TILE_SLICES;
-const uint kCapacity = MYRIAD_CLUSTER_TILE_LIGHTS;
-const uint kWholeList = 0xFFFFFFFFu;  // a segment's length when its pixels walk the cluster's list
-
-shared uint tileLights[kCapacity];
-shared uint firstSlice;
-shared uint lastSlice;
-shared uint depthLo[kSlices];  // view depth bits (positive floats order as their bits do)
-shared uint depthHi[kSlices];
-shared uint used;
-shared uint nextStart;  // where the next slice's segment starts (thread 0 keeps it)
-shared uint segmentStart[kSlices];
-shared uint segmentLength[kSlices];
 
 void main() {
   ivec2 pixel = ivec2(gl_GlobalInvocationID.xy);
@@ -44,72 +30,7 @@ void main() {
   float viewDepth = viewDepthFromDepth(depth);
   uint slice = sliceOfViewDepth(viewDepth);
 
-  if (thread == 0u) {
-    firstSlice = 0xFFFFFFFFu;
-    lastSlice = 0u;
-    used = 0u;
-    nextStart = 0u;
-  }
-  if (thread < kSlices) {
-    depthLo[thread] = 0xFFFFFFFFu;
-    depthHi[thread] = 0u;
-  }
-  barrier();
-  if (surface) {
-    atomicMin(firstSlice, slice);
-    atomicMax(lastSlice, slice);
-  }
-  barrier();
-  uint k = slice - firstSlice;  // this pixel's segment
-  if (surface && k < kSlices) {
-    atomicMin(depthLo[k], floatBitsToUint(viewDepth));
-    atomicMax(depthHi[k], floatBitsToUint(viewDepth));
-  }
-  barrier();
-
-  // Narrow each occupied slice's list in turn, over the tile's span of slices only. The loop's
-  // bound and conditions read shared memory after a barrier, so every invocation takes the same
-  // path through the two barriers inside (on lavapipe each barrier switches all the workgroup's
-  // invocations: walking all kSlices with three barriers each was half the pass's time).
-  uvec2 tile = gl_WorkGroupID.xy * MYRIAD_CLUSTER_SHADE_TILE / clusterTileSize();
-  vec2 rectLo = vec2(gl_WorkGroupID.xy * MYRIAD_CLUSTER_SHADE_TILE);
-  vec2 rectHi = min(rectLo + vec2(MYRIAD_CLUSTER_SHADE_TILE), frame.viewport.xy);
-  uint span = firstSlice == 0xFFFFFFFFu ? 0u : min(lastSlice - firstSlice + 1u, kSlices);
-  for (uint j = 0u; j < span; ++j) {
-    if (depthHi[j] == 0u) continue;
-    uvec2 range = clusterRanges[clusterIndex(uvec3(tile, firstSlice + j))];
-    float z0 = uintBitsToFloat(depthLo[j]);
-    float z1 = uintBitsToFloat(depthHi[j]);
-    vec3 lo, hi;
-    viewBoxOfRect(rectLo, rectHi, z0, z1, lo, hi);
-    // Pixel positions come from the depth through the inverse view-projection, the box from the
-    // projection's scale: widen it by far more than their rounding apart.
-    vec3 margin = vec3(1e-3 * z1 + 1e-4);
-    lo -= margin;
-    hi += margin;
-    for (uint i = thread; i < range.y; i += kThreads) {
-      uint index = clusterLights[range.x + i];
-      vec4 light = lights[index].positionRadius;
-      vec3 c = (frame.view * vec4(light.xyz, 1.0)).xyz;
-      if (sphereOverlapsBox(c, light.w, lo, hi)) {
-        uint slot = atomicAdd(used, 1u);
-        if (slot < kCapacity) tileLights[slot] = index;
-      }
-    }
-    barrier();
-    if (thread == 0u) {
-      uint start = nextStart;
-      segmentStart[j] = start;
-      if (used > kCapacity) {
-        segmentLength[j] = kWholeList;
-        used = start;  // later slices may still fit
-      } else {
-        segmentLength[j] = used - start;
-      }
-      nextStart = used;
-    }
-    barrier();
-  }
+  uint k = narrowTileLists(thread, surface, slice, viewDepth);
 
   if (!inside) return;
   vec3 color = backgroundRadiance(pixel);

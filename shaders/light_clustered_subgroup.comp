@@ -29,27 +29,13 @@
 // more than MYRIAD_CLUSTER_TILE_SLICES slices, walks the whole list there.
 #include "frame.glsl"
 #include "compute_targets.glsl"
+#include "clustered_tile_narrow.glsl"  // the narrowing, shared with light_clustered.comp
 
 layout(local_size_x = MYRIAD_CLUSTER_SHADE_TILE * MYRIAD_CLUSTER_SHADE_TILE) in;
 
-const uint kThreads = MYRIAD_CLUSTER_SHADE_TILE * MYRIAD_CLUSTER_SHADE_TILE;
-const uint kSlices = MYRIAD_CLUSTER_TILE_SLICES;
-const uint kCapacity = MYRIAD_CLUSTER_TILE_LIGHTS;
-const uint kWholeList = 0xFFFFFFFFu;  // a segment's length when its pixels walk the cluster's list
-const uint kEmpty = 0xFFFFFFFFu;
 // Segments longer than this the subgroup walks by ballot (on the H200 ballot from 0 / 128 / 256 /
 // never: docs/performance.md, "clustered shading walked per subgroup").
 const uint kBallotFrom = 256u;
-
-shared uint tileLights[kCapacity];
-shared uint firstSlice;
-shared uint lastSlice;
-shared uint depthLo[kSlices];  // view depth bits (positive floats order as their bits do)
-shared uint depthHi[kSlices];
-shared uint used;
-shared uint nextStart;  // where the next slice's segment starts (thread 0 keeps it)
-shared uint segmentStart[kSlices];
-shared uint segmentLength[kSlices];
 
 void main() {
   // Morton order inside the tile: bit 2i of the invocation index is bit i of x, bit 2i+1 of y.
@@ -71,67 +57,7 @@ void main() {
   float viewDepth = viewDepthFromDepth(depth);
   uint slice = sliceOfViewDepth(viewDepth);
 
-  if (thread == 0u) {
-    firstSlice = kEmpty;
-    lastSlice = 0u;
-    used = 0u;
-    nextStart = 0u;
-  }
-  if (thread < kSlices) {
-    depthLo[thread] = 0xFFFFFFFFu;
-    depthHi[thread] = 0u;
-  }
-  barrier();
-  if (surface) {
-    atomicMin(firstSlice, slice);
-    atomicMax(lastSlice, slice);
-  }
-  barrier();
-  uint k = slice - firstSlice;  // this pixel's segment
-  if (surface && k < kSlices) {
-    atomicMin(depthLo[k], floatBitsToUint(viewDepth));
-    atomicMax(depthHi[k], floatBitsToUint(viewDepth));
-  }
-  barrier();
-
-  // Narrow each occupied slice's list in turn (as light_clustered.comp).
-  uvec2 tile = gl_WorkGroupID.xy * MYRIAD_CLUSTER_SHADE_TILE / clusterTileSize();
-  vec2 rectLo = vec2(gl_WorkGroupID.xy * MYRIAD_CLUSTER_SHADE_TILE);
-  vec2 rectHi = min(rectLo + vec2(MYRIAD_CLUSTER_SHADE_TILE), frame.viewport.xy);
-  uint span = firstSlice == kEmpty ? 0u : min(lastSlice - firstSlice + 1u, kSlices);
-  for (uint j = 0u; j < span; ++j) {
-    if (depthHi[j] == 0u) continue;
-    uvec2 range = clusterRanges[clusterIndex(uvec3(tile, firstSlice + j))];
-    float z0 = uintBitsToFloat(depthLo[j]);
-    float z1 = uintBitsToFloat(depthHi[j]);
-    vec3 lo, hi;
-    viewBoxOfRect(rectLo, rectHi, z0, z1, lo, hi);
-    vec3 margin = vec3(1e-3 * z1 + 1e-4);
-    lo -= margin;
-    hi += margin;
-    for (uint i = thread; i < range.y; i += kThreads) {
-      uint index = clusterLights[range.x + i];
-      vec4 light = lights[index].positionRadius;
-      vec3 c = (frame.view * vec4(light.xyz, 1.0)).xyz;
-      if (sphereOverlapsBox(c, light.w, lo, hi)) {
-        uint slot = atomicAdd(used, 1u);
-        if (slot < kCapacity) tileLights[slot] = index;
-      }
-    }
-    barrier();
-    if (thread == 0u) {
-      uint start = nextStart;
-      segmentStart[j] = start;
-      if (used > kCapacity) {
-        segmentLength[j] = kWholeList;
-        used = start;  // later slices may still fit
-      } else {
-        segmentLength[j] = used - start;
-      }
-      nextStart = used;
-    }
-    barrier();
-  }
+  uint k = narrowTileLists(thread, surface, slice, viewDepth);
 
   vec3 color = vec3(0.0);
   uint reached = 0u;
@@ -142,16 +68,16 @@ void main() {
   }
   // The list this pixel walks: its slice's segment (key < kSlices) or its cluster's whole list
   // (kSlices + cluster index).
-  uint key = kEmpty;
+  uint key = kNoSlice;
   if (surface) {
     key = k < kSlices && segmentLength[k] != kWholeList
               ? k
               : kSlices + clusterIndex(uvec3(uvec2(pixel) / clusterTileSize(), slice));
   }
-  bool pending = key != kEmpty;
+  bool pending = key != kNoSlice;
   vec3 position = surface ? s.position : vec3(0.0);
   while (subgroupAny(pending)) {
-    uint current = subgroupMin(pending ? key : kEmpty);
+    uint current = subgroupMin(pending ? key : kNoSlice);
     bool mine = pending && key == current;
     pending = pending && !mine;
     bool inShared = current < kSlices;

@@ -81,6 +81,30 @@ render::FrameSettings frameSettings(Technique technique, uint32_t w = 96, uint32
   return f;
 }
 
+// A second suite made while the environment variable `name` says `value`: the same renderer
+// taking the technique's other way (techniques/clustered.cpp reads it when it is created).
+Gpu suiteWith(const char* name, const char* value) {
+  setenv(name, value, 1);
+  Gpu other = test::createGpuSuite();
+  unsetenv(name);
+  return other;
+}
+
+// A frame and the same frame's raw light-count target (lights reaching each pixel).
+struct ImageAndCounts {
+  render::Frame image;
+  render::Frame counts;
+};
+
+ImageAndCounts renderWithCounts(Gpu& gpu, render::FrameSettings f) {
+  ImageAndCounts r;
+  r.image = gpu.render(f);
+  f.raw = true;
+  f.target = render::Target::LightCount;
+  r.counts = gpu.render(f);
+  return r;
+}
+
 }  // namespace
 
 TEST_CASE("volumes, tiled and clustered give the same image within 1/255, matching the reference") {
@@ -191,19 +215,13 @@ TEST_CASE("binned and per-pair cluster assignment build the same lists and image
   // renderer made with MYRIAD_CLUSTER_ASSIGN set to the other way must agree exactly.
   Gpu& gpu = sharedGpu();
   const bool cpu = gpu.context->info.isCpu;
-  setenv("MYRIAD_CLUSTER_ASSIGN", cpu ? "binned" : "atomic", 1);
-  Gpu other = test::createGpuSuite();
-  unsetenv("MYRIAD_CLUSTER_ASSIGN");
+  Gpu other = suiteWith("MYRIAD_CLUSTER_ASSIGN", cpu ? "binned" : "atomic");
   scene::Scene s = litFloor(20000, 7);
   gpu.setScene(s);
   other.setScene(s);
   render::FrameSettings f = frameSettings(Technique::Clustered, 160, 112);
-  render::Frame a = gpu.render(f);
-  render::Frame b = other.render(f);
-  f.raw = true;
-  f.target = render::Target::LightCount;
-  render::Frame countsA = gpu.render(f);
-  render::Frame countsB = other.render(f);
+  auto [a, countsA] = renderWithCounts(gpu, f);
+  auto [b, countsB] = renderWithCounts(other, f);
   MESSAGE("20,000 lights: " << a.culling.listEntries << " references in " << a.culling.activeClusters
                             << " clusters, longest " << a.culling.mostLightsInList);
   CHECK(a.culling.listEntries > 10000);
@@ -225,9 +243,7 @@ TEST_CASE("clustered shading per pixel and per subgroup: the same light counts a
   // narrow into shared memory (its pixels then walk their clusters' whole lists).
   Gpu& gpu = sharedGpu();
   if (!gpu.context->info.computeSubgroupShuffle) return;
-  setenv("MYRIAD_CLUSTER_SHADE", gpu.context->info.isCpu ? "subgroup" : "pixel", 1);
-  Gpu other = test::createGpuSuite();
-  unsetenv("MYRIAD_CLUSTER_SHADE");
+  Gpu other = suiteWith("MYRIAD_CLUSTER_SHADE", gpu.context->info.isCpu ? "subgroup" : "pixel");
   scene::Scene small = litFloor(20000, 7);
   scene::Scene huge = litFloor(0, 1);
   for (int i = 0; i < 3000; ++i) {
@@ -237,12 +253,8 @@ TEST_CASE("clustered shading per pixel and per subgroup: the same light counts a
     gpu.setScene(*s);
     other.setScene(*s);
     render::FrameSettings f = frameSettings(Technique::Clustered, 160, 112);
-    render::Frame a = gpu.render(f);
-    render::Frame b = other.render(f);
-    f.raw = true;
-    f.target = render::Target::LightCount;
-    render::Frame countsA = gpu.render(f);
-    render::Frame countsB = other.render(f);
+    auto [a, countsA] = renderWithCounts(gpu, f);
+    auto [b, countsB] = renderWithCounts(other, f);
     CHECK_FALSE(a.culling.overflowed());
     CHECK(countsA.data == countsB.data);  // every pixel's exact light count
     CHECK(maxDifference(a.rgba, b.rgba) <= 1);  // the same lights summed in another order

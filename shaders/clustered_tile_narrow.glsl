@@ -1,0 +1,99 @@
+// Clustered step 5's first half, shared by light_clustered.comp (a walk per pixel) and
+// light_clustered_subgroup.comp (a walk per subgroup): a MYRIAD_CLUSTER_SHADE_TILE-square
+// workgroup narrows the lists of the clusters its pixels fall in to the lights whose sphere
+// overlaps the box around its own pixels: its rectangle between the nearest and farthest surface
+// depth of its pixels in that slice (the geometry's actual depth range, not the slice's). The
+// narrowed lists live in shared memory, one segment per slice of the tile's span. The test is
+// conservative (a margin covers rounding); a slice whose narrowed list overflows the shared
+// capacity gets the length kWholeList, and its pixels walk their cluster's whole list.
+// Needs frame.glsl and compute_targets.glsl included first.
+
+const uint kThreads = MYRIAD_CLUSTER_SHADE_TILE * MYRIAD_CLUSTER_SHADE_TILE;
+const uint kSlices = MYRIAD_CLUSTER_TILE_SLICES;
+const uint kCapacity = MYRIAD_CLUSTER_TILE_LIGHTS;
+const uint kWholeList = 0xFFFFFFFFu;  // a segment's length when its pixels walk the cluster's list
+
+shared uint tileLights[kCapacity];
+shared uint firstSlice;
+shared uint lastSlice;
+shared uint depthLo[kSlices];  // view depth bits (positive floats order as their bits do)
+shared uint depthHi[kSlices];
+shared uint used;
+shared uint nextStart;  // where the next slice's segment starts (thread 0 keeps it)
+shared uint segmentStart[kSlices];
+shared uint segmentLength[kSlices];
+
+const uint kNoSlice = 0xFFFFFFFFu;  // firstSlice of a tile with no surface; no pixel's key
+
+// Called by every invocation of the workgroup (it holds barriers), with the invocation's index,
+// whether its pixel holds a surface, and that surface's slice and view depth. Returns the
+// pixel's segment, an index into segmentStart / segmentLength when below kSlices.
+uint narrowTileLists(uint thread, bool surface, uint slice, float viewDepth) {
+  if (thread == 0u) {
+    firstSlice = kNoSlice;
+    lastSlice = 0u;
+    used = 0u;
+    nextStart = 0u;
+  }
+  if (thread < kSlices) {
+    depthLo[thread] = 0xFFFFFFFFu;
+    depthHi[thread] = 0u;
+  }
+  barrier();
+  if (surface) {
+    atomicMin(firstSlice, slice);
+    atomicMax(lastSlice, slice);
+  }
+  barrier();
+  uint k = slice - firstSlice;  // this pixel's segment
+  if (surface && k < kSlices) {
+    atomicMin(depthLo[k], floatBitsToUint(viewDepth));
+    atomicMax(depthHi[k], floatBitsToUint(viewDepth));
+  }
+  barrier();
+
+  // Narrow each occupied slice's list in turn, over the tile's span of slices only. The loop's
+  // bound and conditions read shared memory after a barrier, so every invocation takes the same
+  // path through the two barriers inside (on lavapipe each barrier switches all the workgroup's
+  // invocations: walking all kSlices with three barriers each was half the pass's time).
+  uvec2 tile = gl_WorkGroupID.xy * MYRIAD_CLUSTER_SHADE_TILE / clusterTileSize();
+  vec2 rectLo = vec2(gl_WorkGroupID.xy * MYRIAD_CLUSTER_SHADE_TILE);
+  vec2 rectHi = min(rectLo + vec2(MYRIAD_CLUSTER_SHADE_TILE), frame.viewport.xy);
+  uint span = firstSlice == kNoSlice ? 0u : min(lastSlice - firstSlice + 1u, kSlices);
+  for (uint j = 0u; j < span; ++j) {
+    if (depthHi[j] == 0u) continue;
+    uvec2 range = clusterRanges[clusterIndex(uvec3(tile, firstSlice + j))];
+    float z0 = uintBitsToFloat(depthLo[j]);
+    float z1 = uintBitsToFloat(depthHi[j]);
+    vec3 lo, hi;
+    viewBoxOfRect(rectLo, rectHi, z0, z1, lo, hi);
+    // Pixel positions come from the depth through the inverse view-projection, the box from the
+    // projection's scale: widen it by far more than their rounding apart.
+    vec3 margin = vec3(1e-3 * z1 + 1e-4);
+    lo -= margin;
+    hi += margin;
+    for (uint i = thread; i < range.y; i += kThreads) {
+      uint index = clusterLights[range.x + i];
+      vec4 light = lights[index].positionRadius;
+      vec3 c = (frame.view * vec4(light.xyz, 1.0)).xyz;
+      if (sphereOverlapsBox(c, light.w, lo, hi)) {
+        uint slot = atomicAdd(used, 1u);
+        if (slot < kCapacity) tileLights[slot] = index;
+      }
+    }
+    barrier();
+    if (thread == 0u) {
+      uint start = nextStart;
+      segmentStart[j] = start;
+      if (used > kCapacity) {
+        segmentLength[j] = kWholeList;
+        used = start;  // later slices may still fit
+      } else {
+        segmentLength[j] = used - start;
+      }
+      nextStart = used;
+    }
+    barrier();
+  }
+  return k;
+}
