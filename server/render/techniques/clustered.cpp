@@ -15,7 +15,6 @@
 #include <cstdlib>
 #include <cstring>
 #include <memory>
-#include <string>
 
 #include "embedded_shaders.h"
 #include "gpu/commands.h"
@@ -59,6 +58,17 @@ constexpr VkDeviceSize kListBlockSize = 4ull << 20;
 // 256 and 4,096 groups measured within 0.1 ms of 1,024 at a million lights (docs/performance.md).
 constexpr uint32_t kBinnedAssignGroups = 1024;
 
+// The benchmark's experiment switches below read the environment once each through these.
+bool envIs(const char* name, const char* value) {
+  const char* v = std::getenv(name);
+  return v && std::strcmp(v, value) == 0;
+}
+// The environment variable `name` as a number, or 0 when unset or not one.
+uint64_t envNumber(const char* name) {
+  const char* v = std::getenv(name);
+  return v ? std::strtoull(v, nullptr, 10) : 0;
+}
+
 // Pair slots (cluster_assign_binned.comp) per light: a slot for each cluster of a small light's
 // box, reached or not. A light whose box finds its workgroup's region full is walked by the
 // large-light passes instead, so fewer slots are slower, never wrong.
@@ -66,8 +76,7 @@ constexpr uint32_t kBinnedAssignGroups = 1024;
 // send lights down the full region's path.
 uint64_t pairSlotsPerLight() {
   static const uint64_t slots = [] {
-    const char* v = std::getenv("MYRIAD_ASSIGN_PAIR_SLOTS");
-    const uint64_t n = v ? std::strtoull(v, nullptr, 10) : 0;
+    const uint64_t n = envNumber("MYRIAD_ASSIGN_PAIR_SLOTS");
     return n >= 1 && n <= 64 ? n : uint64_t(8);
   }();
   return slots;
@@ -78,9 +87,8 @@ constexpr uint64_t kPairWordsPerSlot = 3;  // light, cluster (or bin), rank
 // (a power of two, 256 to 4096; a benchmark experiment).
 uint32_t assignBins() {
   static const uint32_t bins = [] {
-    const char* v = std::getenv("MYRIAD_ASSIGN_BINS_OVERRIDE");
-    const uint32_t n = v ? uint32_t(std::strtoul(v, nullptr, 10)) : 0;
-    return n >= 256 && n <= 4096 && (n & (n - 1)) == 0 ? n : uint32_t(MYRIAD_ASSIGN_BINS);
+    const uint64_t n = envNumber("MYRIAD_ASSIGN_BINS_OVERRIDE");
+    return n >= 256 && n <= 4096 && (n & (n - 1)) == 0 ? uint32_t(n) : uint32_t(MYRIAD_ASSIGN_BINS);
   }();
   return bins;
 }
@@ -96,32 +104,26 @@ uint32_t assignBins() {
 // "-fill-large" the rest). A diagnostic: the
 // extra timestamps wait for the work before them.
 bool assignSteps() {
-  static const bool on = [] {
-    const char* v = std::getenv("MYRIAD_ASSIGN_STEPS");
-    return v && std::strcmp(v, "1") == 0;
-  }();
+  static const bool on = envIs("MYRIAD_ASSIGN_STEPS", "1");
   return on;
 }
 
 // MYRIAD_ANIMATE_SEPARATE=1: the binned counting pass leaves moving the lights to the renderer's
 // animate pass (light_animate.comp), as the per-pair path always does (a benchmark comparison).
 bool separateAnimation() {
-  const char* v = std::getenv("MYRIAD_ANIMATE_SEPARATE");
-  return v && std::strcmp(v, "1") == 0;
+  return envIs("MYRIAD_ANIMATE_SEPARATE", "1");
 }
 
 // MYRIAD_ASSIGN_WALK_LARGE=1: the binned passes walk the large lights themselves, a workgroup
 // each, instead of the indirect passes of cluster_assign.comp (two dispatches and barriers fewer;
 // a benchmark experiment).
 bool walkLargeInBinned() {
-  const char* v = std::getenv("MYRIAD_ASSIGN_WALK_LARGE");
-  return v && std::strcmp(v, "1") == 0;
+  return envIs("MYRIAD_ASSIGN_WALK_LARGE", "1");
 }
 
 bool binnedAssignFor(const gpu::DeviceInfo& device) {
-  const char* v = std::getenv("MYRIAD_CLUSTER_ASSIGN");
-  if (v && std::strcmp(v, "atomic") == 0) return false;
-  if (v && std::strcmp(v, "binned") == 0) return true;
+  if (envIs("MYRIAD_CLUSTER_ASSIGN", "atomic")) return false;
+  if (envIs("MYRIAD_CLUSTER_ASSIGN", "binned")) return true;
   return !device.isCpu;
 }
 
@@ -131,10 +133,10 @@ bool binnedAssignFor(const gpu::DeviceInfo& device) {
 // was slower). MYRIAD_CLUSTER_SHADE=pixel|subgroup overrides it (the benchmark compares the two;
 // technique_tests holds them to the same light counts).
 std::span<const uint32_t> shadeShaderFor(const gpu::DeviceInfo& device) {
-  const char* v = std::getenv("MYRIAD_CLUSTER_SHADE");
-  const std::string name = v ? v : "";
-  if (name == "pixel" || !device.computeSubgroupShuffle) return spirv::light_clustered_comp;
-  if (name == "subgroup" || !device.isCpu) return spirv::light_clustered_subgroup_comp;
+  if (envIs("MYRIAD_CLUSTER_SHADE", "pixel") || !device.computeSubgroupShuffle) {
+    return spirv::light_clustered_comp;
+  }
+  if (envIs("MYRIAD_CLUSTER_SHADE", "subgroup") || !device.isCpu) return spirv::light_clustered_subgroup_comp;
   return spirv::light_clustered_comp;
 }
 
@@ -446,9 +448,8 @@ class Clustered final : public LightingTechnique {
   // fewer lights than groups, so that a thousand large lights keep a thousand groups busy.
   uint32_t binnedGroups(uint32_t lightCount) const {
     static const uint32_t most = [] {
-      const char* v = std::getenv("MYRIAD_ASSIGN_GROUPS");
-      const uint32_t n = v ? uint32_t(std::strtoul(v, nullptr, 10)) : 0;
-      return n >= 64 && n <= 4096 ? n : kBinnedAssignGroups;
+      const uint64_t n = envNumber("MYRIAD_ASSIGN_GROUPS");
+      return n >= 64 && n <= 4096 ? uint32_t(n) : kBinnedAssignGroups;
     }();
     const uint32_t wanted = walkLarge_ ? lightCount : groupCount(lightCount, MYRIAD_ASSIGN_BIN_GROUP);
     return std::clamp(wanted, 1u, most);
