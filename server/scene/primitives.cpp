@@ -48,17 +48,25 @@ Mesh makeSphere(uint32_t segments, uint32_t rings) {
       mesh.vertices.push_back({p, p, {u, v}});
     }
   }
-  for (uint32_t ring = 0; ring < rings; ++ring) {
-    for (uint32_t segment = 0; segment < segments; ++segment) {
-      const uint32_t a = ring * columns + segment;
-      const uint32_t b = a + columns;
-      const uint32_t c = b + 1;
-      const uint32_t d = a + 1;
-      // The quads touching a pole have two corners on it; their second triangle has no area.
-      if (ring != rings - 1) addTriangle(mesh, a, b, c);
-      if (ring != 0) addTriangle(mesh, a, c, d);
+  // The triangles over every `step`-th ring and segment of the vertices (1: the mesh itself).
+  const auto gridTriangles = [&](uint32_t step) {
+    std::vector<uint32_t> indices;
+    const uint32_t gridRings = rings / step;
+    const uint32_t gridSegments = segments / step;
+    for (uint32_t ring = 0; ring < gridRings; ++ring) {
+      for (uint32_t segment = 0; segment < gridSegments; ++segment) {
+        const uint32_t a = ring * step * columns + segment * step;
+        const uint32_t b = a + step * columns;
+        const uint32_t c = b + step;
+        const uint32_t d = a + step;
+        // The quads touching a pole have two corners on it; their second triangle has no area.
+        if (ring != gridRings - 1) indices.insert(indices.end(), {a, b, c});
+        if (ring != 0) indices.insert(indices.end(), {a, c, d});
+      }
     }
-  }
+    return indices;
+  };
+  mesh.indices = gridTriangles(1);
   // Coarser versions over the same vertices: every 2nd, 4th, ... ring and segment, down to 8
   // segments and 4 rings (a 64x32 sphere: 32x16, 16x8 and 8x4, 4,032 -> 992 -> 240 -> 48 triangles). A
   // coarse triangle's points lie inside the sphere by at most 1 - cos of half the angle its
@@ -68,20 +76,9 @@ Mesh makeSphere(uint32_t segments, uint32_t rings) {
                           rings / step >= 4;
        step *= 2) {
     MeshLod lod;
-    const uint32_t coarseRings = rings / step;
-    const uint32_t coarseSegments = segments / step;
-    for (uint32_t ring = 0; ring < coarseRings; ++ring) {
-      for (uint32_t segment = 0; segment < coarseSegments; ++segment) {
-        const uint32_t a = ring * step * columns + segment * step;
-        const uint32_t b = a + step * columns;
-        const uint32_t c = b + step;
-        const uint32_t d = a + step;
-        if (ring != coarseRings - 1) lod.indices.insert(lod.indices.end(), {a, b, c});
-        if (ring != 0) lod.indices.insert(lod.indices.end(), {a, c, d});
-      }
-    }
-    const float ringAngle = kPi / float(coarseRings);
-    const float segmentAngle = 2.0f * kPi / float(coarseSegments);
+    lod.indices = gridTriangles(step);
+    const float ringAngle = kPi / float(rings / step);
+    const float segmentAngle = 2.0f * kPi / float(segments / step);
     const float diagonal = std::sqrt(ringAngle * ringAngle + segmentAngle * segmentAngle);
     lod.error = 1.0f - std::cos(0.5f * std::min(diagonal, kPi));
     mesh.lods.push_back(std::move(lod));
