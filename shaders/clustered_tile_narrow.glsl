@@ -6,7 +6,14 @@
 // narrowed lists live in shared memory, one segment per slice of the tile's span. The test is
 // conservative (a margin covers rounding); a slice whose narrowed list overflows the shared
 // capacity gets the length kWholeList, and its pixels walk their cluster's whole list.
-// Needs frame.glsl and compute_targets.glsl included first.
+// Needs frame.glsl and compute_targets.glsl included first, and from the includer:
+//   kNarrowWorld   (bool) the box is the world-space bounds of the slice's surface points
+//                  (flat on a floor: the lights' spheres must reach down to it), else the view box
+//   kNarrowUnroll  (bool) each invocation tests four lights a step (their loads in flight
+//                  together) and, with MYRIAD_NARROW_SUBGROUP, a subgroup's appends take one
+//                  shared atomic
+//   MYRIAD_NARROW_SUBGROUP (macro) the includer has the subgroup ballot, vote and arithmetic
+//                  extensions (kNarrowWorld's bounds are then reduced per subgroup first)
 
 const uint kThreads = MYRIAD_CLUSTER_SHADE_TILE * MYRIAD_CLUSTER_SHADE_TILE;
 const uint kSlices = MYRIAD_CLUSTER_TILE_SLICES;
@@ -18,6 +25,8 @@ shared uint firstSlice;
 shared uint lastSlice;
 shared uint depthLo[kSlices];  // view depth bits (positive floats order as their bits do)
 shared uint depthHi[kSlices];
+shared uint worldLo[3 * kSlices];  // kNarrowWorld: the points' bounds, orderedBits
+shared uint worldHi[3 * kSlices];
 shared uint used;
 shared uint nextStart;  // where the next slice's segment starts (thread 0 keeps it)
 shared uint segmentStart[kSlices];
@@ -25,10 +34,47 @@ shared uint segmentLength[kSlices];
 
 const uint kNoSlice = 0xFFFFFFFFu;  // firstSlice of a tile with no surface; no pixel's key
 
+// A float's bits mapped so that unsigned order is the floats' order (negatives reversed).
+uint orderedBits(float f) {
+  uint u = floatBitsToUint(f);
+  return (u & 0x80000000u) != 0u ? ~u : u | 0x80000000u;
+}
+float fromOrderedBits(uint u) {
+  return uintBitsToFloat((u & 0x80000000u) != 0u ? u & 0x7FFFFFFFu : ~u);
+}
+
+// Appends light `index` to tileLights when `keep`: a slot from `used` (which may run past the
+// capacity: the slice then overflows).
+void appendTileLight(bool keep, uint index) {
+#ifdef MYRIAD_NARROW_SUBGROUP
+  if (kNarrowUnroll) {  // one shared atomic per subgroup
+    uvec4 ballot = subgroupBallot(keep);
+    uint total = subgroupBallotBitCount(ballot);
+    if (total == 0u) return;
+    uint base = 0u;
+    if (subgroupElect()) base = atomicAdd(used, total);
+    base = subgroupBroadcastFirst(base);
+    uint slot = base + subgroupBallotExclusiveBitCount(ballot);
+    if (keep && slot < kCapacity) tileLights[slot] = index;
+    return;
+  }
+#endif
+  if (keep) {
+    uint slot = atomicAdd(used, 1u);
+    if (slot < kCapacity) tileLights[slot] = index;
+  }
+}
+
+// Whether light sphere (world centre w.xyz, radius w.w) may reach a point in the slice's box.
+bool lightMayReachTile(vec4 light, vec3 lo, vec3 hi) {
+  vec3 c = kNarrowWorld ? light.xyz : (frame.view * vec4(light.xyz, 1.0)).xyz;
+  return sphereOverlapsBox(c, light.w, lo, hi);
+}
+
 // Called by every invocation of the workgroup (it holds barriers), with the invocation's index,
-// whether its pixel holds a surface, and that surface's slice and view depth. Returns the
-// pixel's segment, an index into segmentStart / segmentLength when below kSlices.
-uint narrowTileLists(uint thread, bool surface, uint slice, float viewDepth) {
+// whether its pixel holds a surface, and that surface's slice, view depth and world position.
+// Returns the pixel's segment, an index into segmentStart / segmentLength when below kSlices.
+uint narrowTileLists(uint thread, bool surface, uint slice, float viewDepth, vec3 position) {
   if (thread == 0u) {
     firstSlice = kNoSlice;
     lastSlice = 0u;
@@ -39,6 +85,10 @@ uint narrowTileLists(uint thread, bool surface, uint slice, float viewDepth) {
     depthLo[thread] = 0xFFFFFFFFu;
     depthHi[thread] = 0u;
   }
+  if (kNarrowWorld && thread < 3u * kSlices) {
+    worldLo[thread] = 0xFFFFFFFFu;
+    worldHi[thread] = 0u;
+  }
   barrier();
   if (surface) {
     atomicMin(firstSlice, slice);
@@ -46,9 +96,38 @@ uint narrowTileLists(uint thread, bool surface, uint slice, float viewDepth) {
   }
   barrier();
   uint k = slice - firstSlice;  // this pixel's segment
-  if (surface && k < kSlices) {
+  bool counted = surface && k < kSlices;
+  if (counted) {
     atomicMin(depthLo[k], floatBitsToUint(viewDepth));
     atomicMax(depthHi[k], floatBitsToUint(viewDepth));
+  }
+  if (kNarrowWorld) {
+#ifdef MYRIAD_NARROW_SUBGROUP
+    // Most subgroups' pixels share a slice: their bounds reduced first, one lane's atomics.
+    uint sameK = subgroupAllEqual(counted ? k : kNoSlice) ? 1u : 0u;
+    if (sameK == 1u) {
+      vec3 lo = subgroupMin(position);
+      vec3 hi = subgroupMax(position);
+      if (counted && subgroupElect()) {
+        for (uint a = 0u; a < 3u; ++a) {
+          atomicMin(worldLo[3u * k + a], orderedBits(lo[a]));
+          atomicMax(worldHi[3u * k + a], orderedBits(hi[a]));
+        }
+      }
+    } else if (counted) {
+      for (uint a = 0u; a < 3u; ++a) {
+        atomicMin(worldLo[3u * k + a], orderedBits(position[a]));
+        atomicMax(worldHi[3u * k + a], orderedBits(position[a]));
+      }
+    }
+#else
+    if (counted) {
+      for (uint a = 0u; a < 3u; ++a) {
+        atomicMin(worldLo[3u * k + a], orderedBits(position[a]));
+        atomicMax(worldHi[3u * k + a], orderedBits(position[a]));
+      }
+    }
+#endif
   }
   barrier();
 
@@ -63,23 +142,48 @@ uint narrowTileLists(uint thread, bool surface, uint slice, float viewDepth) {
   for (uint j = 0u; j < span; ++j) {
     if (depthHi[j] == 0u) continue;
     uvec2 range = clusterRanges[clusterIndex(uvec3(tile, firstSlice + j))];
-    float z0 = uintBitsToFloat(depthLo[j]);
-    float z1 = uintBitsToFloat(depthHi[j]);
     vec3 lo, hi;
-    viewBoxOfRect(rectLo, rectHi, z0, z1, lo, hi);
-    // Pixel positions come from the depth through the inverse view-projection, the box from the
-    // projection's scale: widen it by far more than their rounding apart.
-    vec3 margin = vec3(1e-3 * z1 + 1e-4);
-    lo -= margin;
-    hi += margin;
-    for (uint i = thread; i < range.y; i += kThreads) {
-      uint index = clusterLights[range.x + i];
-      vec4 light = lights[index].positionRadius;
-      vec3 c = (frame.view * vec4(light.xyz, 1.0)).xyz;
-      if (sphereOverlapsBox(c, light.w, lo, hi)) {
-        uint slot = atomicAdd(used, 1u);
-        if (slot < kCapacity) tileLights[slot] = index;
+    if (kNarrowWorld) {
+      // The points' own bounds: a light reaching one of them (|light - point|^2 < radius^2,
+      // rounded) overlaps them widened by 1e-5 of the coordinates' size, far more than rounding.
+      lo = vec3(fromOrderedBits(worldLo[3u * j]), fromOrderedBits(worldLo[3u * j + 1u]),
+                fromOrderedBits(worldLo[3u * j + 2u]));
+      hi = vec3(fromOrderedBits(worldHi[3u * j]), fromOrderedBits(worldHi[3u * j + 1u]),
+                fromOrderedBits(worldHi[3u * j + 2u]));
+      vec3 margin = 1e-5 * (max(abs(lo), abs(hi)) + vec3(1.0));
+      lo -= margin;
+      hi += margin;
+    } else {
+      float z0 = uintBitsToFloat(depthLo[j]);
+      float z1 = uintBitsToFloat(depthHi[j]);
+      viewBoxOfRect(rectLo, rectHi, z0, z1, lo, hi);
+      // Pixel positions come from the depth through the inverse view-projection, the box from
+      // the projection's scale: widen it by far more than their rounding apart.
+      vec3 margin = vec3(1e-3 * z1 + 1e-4);
+      lo -= margin;
+      hi += margin;
+    }
+    uint i = thread;
+    if (kNarrowUnroll) {
+      // Four lights a step, each a list read and a dependent gather: their loads overlap.
+      for (; i + 3u * kThreads < range.y; i += 4u * kThreads) {
+        uint index0 = clusterLights[range.x + i];
+        uint index1 = clusterLights[range.x + i + kThreads];
+        uint index2 = clusterLights[range.x + i + 2u * kThreads];
+        uint index3 = clusterLights[range.x + i + 3u * kThreads];
+        vec4 light0 = lights[index0].positionRadius;
+        vec4 light1 = lights[index1].positionRadius;
+        vec4 light2 = lights[index2].positionRadius;
+        vec4 light3 = lights[index3].positionRadius;
+        appendTileLight(lightMayReachTile(light0, lo, hi), index0);
+        appendTileLight(lightMayReachTile(light1, lo, hi), index1);
+        appendTileLight(lightMayReachTile(light2, lo, hi), index2);
+        appendTileLight(lightMayReachTile(light3, lo, hi), index3);
       }
+    }
+    for (; i < range.y; i += kThreads) {
+      uint index = clusterLights[range.x + i];
+      appendTileLight(lightMayReachTile(lights[index].positionRadius, lo, hi), index);
     }
     barrier();
     if (thread == 0u) {

@@ -16,6 +16,8 @@
 // whose pixels span more than MYRIAD_CLUSTER_TILE_SLICES slices, walks the whole list there.
 #include "frame.glsl"
 #include "compute_targets.glsl"
+const bool kNarrowWorld = false;   // the view box of the tile's rectangle and depth range
+const bool kNarrowUnroll = false;  // a light a step (on lavapipe: no loads to overlap)
 #include "clustered_tile_narrow.glsl"  // the narrowing, shared with the subgroup pass
 
 layout(local_size_x = MYRIAD_CLUSTER_SHADE_TILE, local_size_y = MYRIAD_CLUSTER_SHADE_TILE) in;
@@ -30,7 +32,7 @@ void main() {
   float viewDepth = viewDepthFromDepth(depth);
   uint slice = sliceOfViewDepth(viewDepth);
 
-  uint k = narrowTileLists(thread, surface, slice, viewDepth);
+  uint k = narrowTileLists(thread, surface, slice, viewDepth, vec3(0.0));
 
   if (!inside) return;
   vec3 color = backgroundRadiance(pixel);

@@ -29,6 +29,17 @@
 // more than MYRIAD_CLUSTER_TILE_SLICES slices, walks the whole list there.
 #include "frame.glsl"
 #include "compute_targets.glsl"
+
+// How this pipeline walks (MYRIAD_SHADE_* bits of shared_types.h; the technique sets them from
+// MYRIAD_CLUSTER_SHADE_VARIANT, a benchmark experiment, or the default below).
+layout(constant_id = MYRIAD_SPEC_SHADE_VARIANT) const uint kVariant = MYRIAD_SHADE_DEFAULT;
+const bool kMaskWalk = (kVariant & MYRIAD_SHADE_MASK_WALK) != 0u;
+const bool kBoxAlways = (kVariant & MYRIAD_SHADE_BOX_ALWAYS) != 0u;
+const bool kNarrowUnroll = (kVariant & MYRIAD_SHADE_NARROW_UNROLL) != 0u;
+const bool kNarrowWorld = (kVariant & MYRIAD_SHADE_NARROW_WORLD) != 0u;
+const bool kNarrowOnly = (kVariant & MYRIAD_SHADE_DIAG_NARROW_ONLY) != 0u;
+const bool kNoBrdf = (kVariant & MYRIAD_SHADE_DIAG_NO_BRDF) != 0u;
+#define MYRIAD_NARROW_SUBGROUP
 #include "clustered_tile_narrow.glsl"  // the narrowing, shared with light_clustered.comp
 
 layout(local_size_x = MYRIAD_CLUSTER_SHADE_TILE * MYRIAD_CLUSTER_SHADE_TILE) in;
@@ -57,7 +68,7 @@ void main() {
   float viewDepth = viewDepthFromDepth(depth);
   uint slice = sliceOfViewDepth(viewDepth);
 
-  uint k = narrowTileLists(thread, surface, slice, viewDepth);
+  uint k = narrowTileLists(thread, surface, slice, viewDepth, surface ? s.position : vec3(0.0));
 
   vec3 color = vec3(0.0);
   uint reached = 0u;
@@ -76,6 +87,10 @@ void main() {
   }
   bool pending = key != kNoSlice;
   vec3 position = surface ? s.position : vec3(0.0);
+  if (kNarrowOnly) {  // a measurement: the narrowing alone (its lengths kept live)
+    pending = false;
+    if (surface && k < kSlices) reached = segmentLength[k];
+  }
   while (subgroupAny(pending)) {
     uint current = subgroupMin(pending ? key : kNoSlice);
     bool mine = pending && key == current;
@@ -90,12 +105,12 @@ void main() {
       start = range.x;
       count = range.y;
     }
-    if (count <= kBallotFrom) {
+    if (count <= kBallotFrom && !kMaskWalk) {
       if (mine) {
         for (uint i = 0u; i < count; ++i) {
           uint index = inShared ? tileLights[start + i] : clusterLights[start + i];
           if (lightReaches(s, index)) {
-            color += shadeLightAt(brdf, s, index);
+            if (!kNoBrdf) color += shadeLightAt(brdf, s, index);
             ++reached;
           }
         }
@@ -110,6 +125,50 @@ void main() {
     vec3 margin = 1e-5 * (max(abs(lo), abs(hi)) + vec3(1.0));
     lo -= margin;
     hi += margin;
+    if (kMaskWalk) {
+      // Chunks of a subgroup's size: each lane loads one light and, on a long segment, tests it
+      // against the subgroup's box; then every pixel tests each candidate's reach and keeps a
+      // mask of those reaching it, and shades its own mask's lights: a loop as long as the
+      // subgroup's largest mask, not as its union of lights (which is 1.1x-4x a pixel's count
+      // where a subgroup spans much of the floor).
+      bool box = kBoxAlways || count > kBallotFrom;
+      for (uint base = 0u; base < count; base += gl_SubgroupSize) {
+        uint i = base + gl_SubgroupInvocationID;
+        vec4 light = vec4(0.0);
+        bool candidate = false;
+        if (i < count) {
+          uint index = inShared ? tileLights[start + i] : clusterLights[start + i];
+          light = lights[index].positionRadius;
+          candidate = !box || sphereOverlapsBox(light.xyz, light.w, lo, hi);
+        }
+        uvec4 ballot = subgroupBallot(candidate);
+        for (uint w = 0u; w * 32u < gl_SubgroupSize; ++w) {
+          uint bits = ballot[w];
+          uint near = 0u;
+          while (bits != 0u) {
+            uint bit = uint(findLSB(bits));
+            bits &= bits - 1u;
+            vec4 candidateLight = subgroupShuffle(light, w * 32u + bit);
+            // lightReaches' own first test loosened by far more than rounding (it decides).
+            vec3 toLight = candidateLight.xyz - position;
+            float r2 = candidateLight.w * candidateLight.w;
+            if (dot(toLight, toLight) < r2 * 1.0001 + 1e-12) near |= 1u << bit;
+          }
+          if (!mine) near = 0u;
+          while (near != 0u) {
+            uint bit = uint(findLSB(near));
+            near &= near - 1u;
+            uint j = start + base + w * 32u + bit;
+            uint index = inShared ? tileLights[j] : clusterLights[j];
+            if (lightReaches(s, index)) {
+              if (!kNoBrdf) color += shadeLightAt(brdf, s, index);
+              ++reached;
+            }
+          }
+        }
+      }
+      continue;
+    }
     for (uint base = 0u; base < count; base += gl_SubgroupSize) {
       uint i = base + gl_SubgroupInvocationID;
       uint index = 0u;
@@ -134,7 +193,7 @@ void main() {
           float r2 = candidateLight.w * candidateLight.w;
           if (mine && dot(toLight, toLight) < r2 * 1.0001 + 1e-12 &&
               lightReaches(s, candidateIndex)) {
-            color += shadeLightAt(brdf, s, candidateIndex);
+            if (!kNoBrdf) color += shadeLightAt(brdf, s, candidateIndex);
             ++reached;
           }
         }

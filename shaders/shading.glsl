@@ -3,7 +3,7 @@
 // The shaders #include this file; server/render/shading.h includes it inside a C++ namespace with
 // `using namespace glm`, and that copy is the reference the tests judge GPU images with. Rules for
 // editing: no swizzles, no in/out/inout parameters, float literals with an f suffix, and only
-// functions GLM also provides (dot, max, min, clamp, mix, sqrt, pow, abs, normalize). Keep every
+// functions GLM also provides (dot, max, min, clamp, mix, sqrt, inversesqrt, pow, abs, normalize). Keep every
 // argument inside its function's domain (pow's base >= 0, sqrt's >= 0, normalize's non-zero):
 // GLSL leaves the rest undefined, and the C++ twin's pow gives NaN there so tests catch it.
 
@@ -62,6 +62,18 @@ float lightAttenuation(float d, float radius, float C) {
   return C < 0.0f ? inverseSquareAttenuation(d, radius) : distanceAttenuation(d, radius, C);
 }
 
+// The same from the squared distance d2 and squared radius r2, for the light loops (no square
+// root needed for the window; the inverse-square law takes d from d2).
+float lightAttenuationSquared(float d2, float r2, float C) {
+  bool inverseSquare = MYRIAD_MAY_INVERSE_SQUARE && (!MYRIAD_MAY_WINDOW_FALLOFF || C < 0.0f);
+  if (inverseSquare) {
+    float ratio2 = d2 / r2;
+    float window = clamp(1.0f - ratio2 * ratio2, 0.0f, 1.0f);
+    return window * window / max(d2, kMinLightDistance2);
+  }
+  return clamp((r2 - d2) / (C * d2 + r2), 0.0f, 1.0f);
+}
+
 // Cosine of the angle between a spot light's direction and the way from the light to the point,
 // given toLight = light position - point and d = its length; 1 (on the axis) at the light itself.
 float spotCosine(vec3 toLight, float d, vec3 spotDirection) {
@@ -94,63 +106,75 @@ bool localLightReaches(vec3 P, vec3 lightPosition, float radius, vec3 spotDirect
 // What brdfCosine needs of a surface point and the view alone, worked out once for a loop over
 // many lights at one point (brdfSurface; brdfCosineAt then takes each light's direction).
 struct BrdfSurface {
-  vec3 N;             // unit normal
-  vec3 V;             // unit vector towards the eye
-  float NdotV;        // |N.V| + 1e-5
-  float alpha2;       // GGX alpha squared (alpha = clamped perceptual roughness squared)
-  float visV;         // the view's half of the Smith visibility denominator
-  vec3 F0;            // Fresnel at normal incidence
-  vec3 diffuseColor;  // base colour without the metal's part
+  vec3 N;              // unit normal
+  vec3 V;              // unit vector towards the eye
+  float NdotV;         // |N.V| + 1e-5
+  float NdotVSigned;   // N.V
+  float alpha2;        // GGX alpha squared (alpha = clamped perceptual roughness squared)
+  float visV;          // the view's half of the Smith visibility denominator
+  vec3 F0;             // Fresnel at normal incidence
+  vec3 oneMinusF0;     // 1 - F0
+  vec3 diffuseColor;   // base colour without the metal's part
+  vec3 diffuseOverPi;  // diffuseColor / pi: the Lambert term
+  float specularScale; // alpha2 / (pi visV): D Vis = specularScale / (denom^2 visL)
 };
 
 BrdfSurface brdfSurface(vec3 N, vec3 V, vec3 baseColor, float metallic, float roughness) {
   BrdfSurface b;
   b.N = N;
   b.V = V;
-  b.NdotV = abs(dot(N, V)) + 1e-5f;
+  b.NdotVSigned = dot(N, V);
+  b.NdotV = abs(b.NdotVSigned) + 1e-5f;
   float perceptual = clamp(roughness, kMinRoughness, 1.0f);
   float alpha = perceptual * perceptual;
   b.alpha2 = alpha * alpha;
   b.visV = b.NdotV + sqrt(b.alpha2 + (1.0f - b.alpha2) * b.NdotV * b.NdotV);
   b.F0 = mix(vec3(0.04f), baseColor, metallic);
+  b.oneMinusF0 = vec3(1.0f) - b.F0;
   b.diffuseColor = mix(baseColor, vec3(0.0f), metallic);
+  b.diffuseOverPi = b.diffuseColor * (1.0f / kPi);
+  b.specularScale = b.alpha2 / (kPi * b.visV);
   return b;
 }
 
 // glTF 2.0 metallic-roughness BRDF (specification, Appendix B), times the cosine term:
 // returns f(l, v) * max(N.L, 0) for the surface b and the unit vector L towards the light.
+// Written for the light loops' instruction count (every lighting pass runs it per pixel-light
+// pair): the half vector's cosines come from N.V, N.L and V.L (|V + L|^2 = 2 + 2 V.L for unit
+// vectors) without forming H, the Fresnel power by multiplication, and D and Vis share one
+// division: f = (1 - F) diffuse / pi + F D Vis = diffuse / pi + F (D Vis - diffuse / pi).
 vec3 brdfCosineAt(BrdfSurface b, vec3 L) {
-  vec3 N = b.N;
-  vec3 V = b.V;
-  float NdotL = dot(N, L);
+  float NdotL = dot(b.N, L);
   if (NdotL <= 0.0f) {
     return vec3(0.0f);
   }
-  // With L along V (a light at the eye or on the view ray) H is V and V.H rounds to just over 1;
-  // 1 - V.H < 0 would make pow() below undefined (NaN on GPUs). Cosines are clamped to [0, 1].
-  // V + L is zero only for a light exactly behind a grazing view; N stands in for H there.
-  vec3 halfway = V + L;
-  float halfwayLength2 = dot(halfway, halfway);
-  vec3 H = halfwayLength2 > 1e-12f ? halfway * (1.0f / sqrt(halfwayLength2)) : N;
-  float NdotH = clamp(dot(N, H), 0.0f, 1.0f);
-  float VdotH = clamp(dot(V, H), 0.0f, 1.0f);
+  // With L along V (a light at the eye or on the view ray) V.H rounds to just over 1; cosines
+  // are clamped to [0, 1]. V + L is zero only for a light exactly behind a grazing view; N
+  // stands in for H there.
+  float VdotL = dot(b.V, L);
+  float halfwayLength2 = 2.0f + 2.0f * VdotL;
+  float NdotH = 1.0f;
+  float VdotH = clamp(b.NdotVSigned, 0.0f, 1.0f);
+  if (halfwayLength2 > 1e-12f) {
+    float inverseLength = inversesqrt(halfwayLength2);
+    NdotH = clamp((b.NdotVSigned + NdotL) * inverseLength, 0.0f, 1.0f);
+    VdotH = clamp(0.5f * halfwayLength2 * inverseLength, 0.0f, 1.0f);
+  }
   float alpha2 = b.alpha2;
 
   // Schlick Fresnel with F0 = mix(0.04, baseColor, metallic).
-  float fresnelWeight = pow(1.0f - VdotH, 5.0f);
-  vec3 F = b.F0 + (vec3(1.0f) - b.F0) * fresnelWeight;
+  float m = 1.0f - VdotH;
+  float m2 = m * m;
+  float fresnelWeight = m2 * m2 * m;
+  vec3 F = b.F0 + b.oneMinusF0 * fresnelWeight;
 
-  // Trowbridge-Reitz (GGX) distribution.
+  // Trowbridge-Reitz (GGX) distribution D = alpha2 / (pi denom^2) times the Smith joint visibility
+  // Vis = G / (4 N.L N.V) = 1 / (visL visV), as in the glTF spec.
   float denom = NdotH * NdotH * (alpha2 - 1.0f) + 1.0f;
-  float D = alpha2 / (kPi * denom * denom);
-
-  // Height-correlated-free Smith joint visibility V = G / (4 N.L N.V), as in the glTF spec.
   float visL = NdotL + sqrt(alpha2 + (1.0f - alpha2) * NdotL * NdotL);
-  float Vis = 1.0f / (visL * b.visV);
+  float DVis = b.specularScale / (denom * denom * visL);
 
-  vec3 diffuse = (vec3(1.0f) - F) * b.diffuseColor * (1.0f / kPi);
-  vec3 specular = F * (D * Vis);
-  return (diffuse + specular) * NdotL;
+  return (b.diffuseOverPi + F * (vec3(DVis) - b.diffuseOverPi)) * NdotL;
 }
 
 // The same for one light: N, V, L are unit vectors; V and L point away from the surface.
@@ -164,20 +188,24 @@ vec3 brdfCosine(vec3 N, vec3 V, vec3 L, vec3 baseColor, float metallic, float ro
 vec3 shadeLocalLightAt(BrdfSurface b, vec3 P, vec3 lightPosition, float radius, vec3 radiance,
                        float C, vec3 spotDirection, float cosOuter, float cosInner) {
   vec3 toLight = lightPosition - P;
-  float d = length(toLight);
-  if (d >= radius) {
+  float d2 = dot(toLight, toLight);
+  float r2 = radius * radius;
+  if (d2 >= r2) {
     return vec3(0.0f);
   }
-  vec3 L = d > 1e-6f ? toLight * (1.0f / d) : b.N;
-  float falloff = lightAttenuation(d, radius, C);
+  // One reciprocal square root gives L and, for a spot, its cosine (d > 1e-6 as spotCosine).
+  float inverseD = inversesqrt(max(d2, 1e-30f));
+  bool apart = d2 > 1e-12f;
+  vec3 L = apart ? toLight * inverseD : b.N;
+  float falloff = lightAttenuationSquared(d2, r2, C);
   if (MYRIAD_MAY_SPOT) {  // without: a point light's cone factor, 1 (cosOuter -2, cosInner -1)
-    float cosAngle = spotCosine(toLight, d, spotDirection);
+    float cosAngle = apart ? -dot(spotDirection, toLight) * inverseD : 1.0f;
     if (cosAngle <= cosOuter) {
       return vec3(0.0f);
     }
     falloff *= spotAttenuation(cosAngle, cosOuter, cosInner);
   }
-  return brdfCosineAt(b, L) * radiance * falloff;
+  return brdfCosineAt(b, L) * (radiance * falloff);
 }
 
 // The same from the surface's normal, view vector and material.

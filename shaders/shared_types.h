@@ -161,6 +161,17 @@ using mat4 = glm::mat4;
 // pixels beyond either walk their cluster's whole list.
 #define MYRIAD_CLUSTER_SHADE_TILE 16
 #define MYRIAD_CLUSTER_TILE_LIGHTS 2048
+// How light_clustered_subgroup.comp walks, bits of its specialisation constant
+// MYRIAD_SPEC_SHADE_VARIANT (techniques/clustered.cpp sets MYRIAD_SHADE_DEFAULT unless the
+// benchmark's MYRIAD_CLUSTER_SHADE_VARIANT asks for others; docs/performance.md).
+#define MYRIAD_SPEC_SHADE_VARIANT 9               // constant_id
+#define MYRIAD_SHADE_MASK_WALK 0x1u              // every pixel shades its own mask of a chunk's lights
+#define MYRIAD_SHADE_BOX_ALWAYS 0x2u             // the mask walk tests the subgroup's box on every segment
+#define MYRIAD_SHADE_NARROW_UNROLL 0x4u          // the narrowing: four lights a step, appends per subgroup
+#define MYRIAD_SHADE_NARROW_WORLD 0x8u           // the narrowing: the world bounds of the slice's points
+#define MYRIAD_SHADE_DIAG_NARROW_ONLY 0x100u     // a measurement: narrowing only (image wrong)
+#define MYRIAD_SHADE_DIAG_NO_BRDF 0x200u         // a measurement: walks and reach tests, no BRDF (image wrong)
+#define MYRIAD_SHADE_DEFAULT 0x0u
 // Lights whose box spans more clusters than this are assigned by a workgroup each, not a thread;
 // the indirect dispatch doing it has at most this many groups (Vulkan's guaranteed minimum).
 #define MYRIAD_LARGE_LIGHT_CLUSTERS 64

@@ -21,6 +21,10 @@ FeaturePipelines::FeaturePipelines(VkDevice device, VkPipelineLayout layout,
                                    std::span<const uint32_t> shader)
     : device_(device), layout_(layout), shader_(shader) {}
 
+FeaturePipelines::FeaturePipelines(VkDevice device, VkPipelineLayout layout,
+                                   std::span<const uint32_t> shader, uint32_t variant)
+    : device_(device), layout_(layout), shader_(shader), hasVariant_(true), variant_(variant) {}
+
 FeaturePipelines::~FeaturePipelines() {
   for (const auto& [features, pipeline] : pipelines_) vkDestroyPipeline(device_, pipeline, nullptr);
 }
@@ -28,8 +32,10 @@ FeaturePipelines::~FeaturePipelines() {
 VkPipeline FeaturePipelines::get(uint32_t features) {
   features &= MYRIAD_FEATURES_ALL;
   if (auto it = pipelines_.find(features); it != pipelines_.end()) return it->second;
-  const VkSpecializationMapEntry entry{MYRIAD_SPEC_SHADING_FEATURES, 0, sizeof(uint32_t)};
-  const VkSpecializationInfo spec{1, &entry, sizeof(features), &features};
+  const VkSpecializationMapEntry entries[] = {{MYRIAD_SPEC_SHADING_FEATURES, 0, sizeof(uint32_t)},
+                                              {MYRIAD_SPEC_SHADE_VARIANT, 4, sizeof(uint32_t)}};
+  const uint32_t values[] = {features, variant_};
+  const VkSpecializationInfo spec{hasVariant_ ? 2u : 1u, entries, sizeof(values), values};
   VkPipeline pipeline = gpu::createComputePipeline(device_, layout_, shader_, &spec);
   pipelines_.emplace(features, pipeline);
   return pipeline;

@@ -26,6 +26,9 @@ uint32_t shadingFeatures(const gpu_types::FrameUniforms& u, const SceneBuffers& 
 class FeaturePipelines {
  public:
   FeaturePipelines(VkDevice device, VkPipelineLayout layout, std::span<const uint32_t> shader);
+  // The same with MYRIAD_SPEC_SHADE_VARIANT set to `variant` as well (the clustered subgroup pass).
+  FeaturePipelines(VkDevice device, VkPipelineLayout layout, std::span<const uint32_t> shader,
+                   uint32_t variant);
   ~FeaturePipelines();
   FeaturePipelines(const FeaturePipelines&) = delete;
   FeaturePipelines& operator=(const FeaturePipelines&) = delete;
@@ -38,6 +41,8 @@ class FeaturePipelines {
   VkDevice device_;
   VkPipelineLayout layout_;
   std::span<const uint32_t> shader_;
+  bool hasVariant_ = false;
+  uint32_t variant_ = 0;
   std::map<uint32_t, VkPipeline> pipelines_;
 };
 

@@ -140,6 +140,16 @@ std::span<const uint32_t> shadeShaderFor(const gpu::DeviceInfo& device) {
   return spirv::light_clustered_comp;
 }
 
+// The subgroup pass's walk (MYRIAD_SHADE_* bits): MYRIAD_SHADE_DEFAULT, or the number in
+// MYRIAD_CLUSTER_SHADE_VARIANT (a benchmark experiment and a test's way to run the others).
+uint32_t shadeVariant() {
+  static const uint32_t variant = [] {
+    const char* v = std::getenv("MYRIAD_CLUSTER_SHADE_VARIANT");
+    return v ? uint32_t(std::strtoul(v, nullptr, 0)) : uint32_t(MYRIAD_SHADE_DEFAULT);
+  }();
+  return variant;
+}
+
 // The capacity a grid of `grid` with `lightCount` lights starts with, at most `mostReferences`.
 uint32_t initialCapacity(const ClusterGrid& grid, uint32_t lightCount, uint64_t mostReferences) {
   uint64_t wanted = std::max({uint64_t(kMinimumListCapacity), uint64_t(lightCount) * kReferencesPerLight,
@@ -184,7 +194,8 @@ class Clustered final : public LightingTechnique {
  public:
   explicit Clustered(const TechniqueSetup& setup)
       : context_(setup.context), pipelines_(setup.context.device),
-        shade_(setup.context.device, setup.pipelines.layout, shadeShaderFor(setup.context.info)),
+        shade_(setup.context.device, setup.pipelines.layout, shadeShaderFor(setup.context.info),
+               shadeVariant()),
         set_(setup.context, setup.pipelines), counters_(setup.context),
         binnedAssign_(binnedAssignFor(setup.context.info)),
         animateInCount_(binnedAssign_ && !separateAnimation()),
