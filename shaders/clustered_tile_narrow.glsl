@@ -9,10 +9,7 @@
 // Needs frame.glsl and compute_targets.glsl included first, and from the includer:
 //   kNarrowWorld   (bool) the box is the world-space bounds of the slice's surface points
 //                  (flat on a floor: the lights' spheres must reach down to it), else the view box
-//   kNarrowUnroll  (bool) each invocation tests four lights a step (their loads in flight
-//                  together) and, with MYRIAD_NARROW_SUBGROUP, a subgroup's appends take one
-//                  shared atomic
-//   MYRIAD_NARROW_SUBGROUP (macro) the includer has the subgroup ballot, vote and arithmetic
+//   MYRIAD_NARROW_SUBGROUP (macro) the includer has the subgroup vote and arithmetic
 //                  extensions (kNarrowWorld's bounds are then reduced per subgroup first)
 
 const uint kThreads = MYRIAD_CLUSTER_SHADE_TILE * MYRIAD_CLUSTER_SHADE_TILE;
@@ -41,28 +38,6 @@ uint orderedBits(float f) {
 }
 float fromOrderedBits(uint u) {
   return uintBitsToFloat((u & 0x80000000u) != 0u ? u & 0x7FFFFFFFu : ~u);
-}
-
-// Appends light `index` to tileLights when `keep`: a slot from `used` (which may run past the
-// capacity: the slice then overflows).
-void appendTileLight(bool keep, uint index) {
-#ifdef MYRIAD_NARROW_SUBGROUP
-  if (kNarrowUnroll) {  // one shared atomic per subgroup
-    uvec4 ballot = subgroupBallot(keep);
-    uint total = subgroupBallotBitCount(ballot);
-    if (total == 0u) return;
-    uint base = 0u;
-    if (subgroupElect()) base = atomicAdd(used, total);
-    base = subgroupBroadcastFirst(base);
-    uint slot = base + subgroupBallotExclusiveBitCount(ballot);
-    if (keep && slot < kCapacity) tileLights[slot] = index;
-    return;
-  }
-#endif
-  if (keep) {
-    uint slot = atomicAdd(used, 1u);
-    if (slot < kCapacity) tileLights[slot] = index;
-  }
 }
 
 // Whether light sphere (world centre w.xyz, radius w.w) may reach a point in the slice's box.
@@ -163,27 +138,12 @@ uint narrowTileLists(uint thread, bool surface, uint slice, float viewDepth, vec
       lo -= margin;
       hi += margin;
     }
-    uint i = thread;
-    if (kNarrowUnroll) {
-      // Four lights a step, each a list read and a dependent gather: their loads overlap.
-      for (; i + 3u * kThreads < range.y; i += 4u * kThreads) {
-        uint index0 = clusterLights[range.x + i];
-        uint index1 = clusterLights[range.x + i + kThreads];
-        uint index2 = clusterLights[range.x + i + 2u * kThreads];
-        uint index3 = clusterLights[range.x + i + 3u * kThreads];
-        vec4 light0 = lights[index0].positionRadius;
-        vec4 light1 = lights[index1].positionRadius;
-        vec4 light2 = lights[index2].positionRadius;
-        vec4 light3 = lights[index3].positionRadius;
-        appendTileLight(lightMayReachTile(light0, lo, hi), index0);
-        appendTileLight(lightMayReachTile(light1, lo, hi), index1);
-        appendTileLight(lightMayReachTile(light2, lo, hi), index2);
-        appendTileLight(lightMayReachTile(light3, lo, hi), index3);
-      }
-    }
-    for (; i < range.y; i += kThreads) {
+    for (uint i = thread; i < range.y; i += kThreads) {
       uint index = clusterLights[range.x + i];
-      appendTileLight(lightMayReachTile(lights[index].positionRadius, lo, hi), index);
+      if (lightMayReachTile(lights[index].positionRadius, lo, hi)) {
+        uint slot = atomicAdd(used, 1u);
+        if (slot < kCapacity) tileLights[slot] = index;
+      }
     }
     barrier();
     if (thread == 0u) {

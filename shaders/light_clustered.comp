@@ -17,7 +17,6 @@
 #include "frame.glsl"
 #include "compute_targets.glsl"
 const bool kNarrowWorld = false;   // the view box of the tile's rectangle and depth range
-const bool kNarrowUnroll = false;  // a light a step (on lavapipe: no loads to overlap)
 #include "clustered_tile_narrow.glsl"  // the narrowing, shared with the subgroup pass
 
 layout(local_size_x = MYRIAD_CLUSTER_SHADE_TILE, local_size_y = MYRIAD_CLUSTER_SHADE_TILE) in;

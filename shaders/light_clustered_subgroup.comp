@@ -35,8 +35,9 @@
 layout(constant_id = MYRIAD_SPEC_SHADE_VARIANT) const uint kVariant = MYRIAD_SHADE_DEFAULT;
 const bool kMaskWalk = (kVariant & MYRIAD_SHADE_MASK_WALK) != 0u;
 const bool kBoxAlways = (kVariant & MYRIAD_SHADE_BOX_ALWAYS) != 0u;
-const bool kNarrowUnroll = (kVariant & MYRIAD_SHADE_NARROW_UNROLL) != 0u;
 const bool kNarrowWorld = (kVariant & MYRIAD_SHADE_NARROW_WORLD) != 0u;
+const bool kHybrid = (kVariant & MYRIAD_SHADE_HYBRID) != 0u;
+const bool kShuffleLoop = (kVariant & MYRIAD_SHADE_SHUFFLE_LOOP) != 0u;
 const bool kNarrowOnly = (kVariant & MYRIAD_SHADE_DIAG_NARROW_ONLY) != 0u;
 const bool kNoBrdf = (kVariant & MYRIAD_SHADE_DIAG_NO_BRDF) != 0u;
 #define MYRIAD_NARROW_SUBGROUP
@@ -47,6 +48,24 @@ layout(local_size_x = MYRIAD_CLUSTER_SHADE_TILE * MYRIAD_CLUSTER_SHADE_TILE) in;
 // Segments longer than this the subgroup walks by ballot (on the H200 ballot from 0 / 128 / 256 /
 // never: docs/performance.md, "clustered shading walked per subgroup").
 const uint kBallotFrom = 256u;
+
+// lightReaches and shadeLightAt for light `index` whose position and radius the caller holds
+// (positionRadius, the light's own): the same decision and sum, the rest of the light loaded.
+bool lightReachesFrom(Surface s, uint index, vec4 positionRadius) {
+  vec3 toLight = positionRadius.xyz - s.position;
+  if (dot(toLight, toLight) >= positionRadius.w * positionRadius.w) {
+    return false;
+  }
+  if (!MYRIAD_MAY_SPOT) return true;
+  return localLightReaches(s.position, positionRadius.xyz, positionRadius.w,
+                           spotDirectionOf(lights[index]), lights[index].cone.z);
+}
+vec3 shadeLightFrom(BrdfSurface b, Surface s, uint index, vec4 positionRadius,
+                    vec4 radianceFalloff) {
+  vec4 cone = MYRIAD_MAY_SPOT ? lights[index].cone : vec4(0.0, 0.0, -2.0, -1.0);
+  return shadeLocalLightAt(b, s.position, positionRadius.xyz, positionRadius.w, radianceFalloff.rgb,
+                           radianceFalloff.w, octahedralDecode(cone.xy), cone.z, cone.w);
+}
 
 void main() {
   // Morton order inside the tile: bit 2i of the invocation index is bit i of x, bit 2i+1 of y.
@@ -126,24 +145,49 @@ void main() {
     lo -= margin;
     hi += margin;
     if (kMaskWalk) {
-      // Chunks of a subgroup's size: each lane loads one light and, on a long segment, tests it
-      // against the subgroup's box; then every pixel tests each candidate's reach and keeps a
-      // mask of those reaching it, and shades its own mask's lights: a loop as long as the
-      // subgroup's largest mask, not as its union of lights (which is 1.1x-4x a pixel's count
-      // where a subgroup spans much of the floor).
+      // Chunks of a subgroup's size: each lane loads one light and, on a long segment (or
+      // always, kBoxAlways), tests it against the subgroup's box. Then every pixel tests each
+      // candidate's reach and keeps a mask of those reaching it, and shades its own mask's
+      // lights: a loop as long as the subgroup's largest mask, not as its union of lights (which
+      // is 1.1x-4x a pixel's count where a subgroup spans much of the floor). kHybrid: a light
+      // whose sphere holds the whole box reaches every pixel of the subgroup, which steps
+      // through those lights together instead (as the walk for short segments does).
       bool box = kBoxAlways || count > kBallotFrom;
       for (uint base = 0u; base < count; base += gl_SubgroupSize) {
         uint i = base + gl_SubgroupInvocationID;
+        uint index = 0u;
         vec4 light = vec4(0.0);
         bool candidate = false;
+        bool covers = false;
         if (i < count) {
-          uint index = inShared ? tileLights[start + i] : clusterLights[start + i];
+          index = inShared ? tileLights[start + i] : clusterLights[start + i];
           light = lights[index].positionRadius;
           candidate = !box || sphereOverlapsBox(light.xyz, light.w, lo, hi);
+          if (kHybrid && candidate) {
+            vec3 far = max(abs(light.xyz - lo), abs(light.xyz - hi));  // the box's farthest corner
+            covers = dot(far, far) < light.w * light.w;
+          }
         }
-        uvec4 ballot = subgroupBallot(candidate);
+        uvec4 together = subgroupBallot(candidate && covers);
+        uvec4 apart = subgroupBallot(candidate && !covers);
+        vec4 radiance = vec4(0.0);
+        if (kShuffleLoop && candidate && !covers) radiance = lights[index].radianceFalloff;
         for (uint w = 0u; w * 32u < gl_SubgroupSize; ++w) {
-          uint bits = ballot[w];
+          uint bits = together[w];
+          while (bits != 0u) {  // kHybrid: lights reaching the whole subgroup, every lane at once
+            uint lane = w * 32u + uint(findLSB(bits));
+            bits &= bits - 1u;
+            uint candidateIndex = subgroupShuffle(index, lane);
+            vec4 candidateLight = subgroupShuffle(light, lane);
+            if (mine && lightReachesFrom(s, candidateIndex, candidateLight)) {
+              if (!kNoBrdf) {
+                color += shadeLightFrom(brdf, s, candidateIndex, candidateLight,
+                                        lights[candidateIndex].radianceFalloff);
+              }
+              ++reached;
+            }
+          }
+          bits = apart[w];
           uint near = 0u;
           while (bits != 0u) {
             uint bit = uint(findLSB(bits));
@@ -155,14 +199,38 @@ void main() {
             if (dot(toLight, toLight) < r2 * 1.0001 + 1e-12) near |= 1u << bit;
           }
           if (!mine) near = 0u;
-          while (near != 0u) {
-            uint bit = uint(findLSB(near));
-            near &= near - 1u;
-            uint j = start + base + w * 32u + bit;
-            uint index = inShared ? tileLights[j] : clusterLights[j];
-            if (lightReaches(s, index)) {
-              if (!kNoBrdf) color += shadeLightAt(brdf, s, index);
-              ++reached;
+          if (kShuffleLoop) {
+            // As many steps as the largest mask, every lane active: each takes its next light
+            // from the lane holding it.
+            uint steps = subgroupMax(uint(bitCount(near)));
+            for (uint step = 0u; step < steps; ++step) {
+              bool has = near != 0u;
+              uint lane = w * 32u + (has ? uint(findLSB(near)) : 0u);
+              near &= near - 1u;
+              uint candidateIndex = subgroupShuffle(index, lane);
+              vec4 candidateLight = subgroupShuffle(light, lane);
+              vec4 candidateRadiance = subgroupShuffle(radiance, lane);
+              if (has && lightReachesFrom(s, candidateIndex, candidateLight)) {
+                if (!kNoBrdf) {
+                  color += shadeLightFrom(brdf, s, candidateIndex, candidateLight, candidateRadiance);
+                }
+                ++reached;
+              }
+            }
+          } else {
+            while (near != 0u) {
+              uint bit = uint(findLSB(near));
+              near &= near - 1u;
+              uint j = start + base + w * 32u + bit;
+              uint candidateIndex = inShared ? tileLights[j] : clusterLights[j];
+              vec4 candidateLight = lights[candidateIndex].positionRadius;
+              if (lightReachesFrom(s, candidateIndex, candidateLight)) {
+                if (!kNoBrdf) {
+                  color += shadeLightFrom(brdf, s, candidateIndex, candidateLight,
+                                          lights[candidateIndex].radianceFalloff);
+                }
+                ++reached;
+              }
             }
           }
         }

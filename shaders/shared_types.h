@@ -167,8 +167,9 @@ using mat4 = glm::mat4;
 #define MYRIAD_SPEC_SHADE_VARIANT 9               // constant_id
 #define MYRIAD_SHADE_MASK_WALK 0x1u              // every pixel shades its own mask of a chunk's lights
 #define MYRIAD_SHADE_BOX_ALWAYS 0x2u             // the mask walk tests the subgroup's box on every segment
-#define MYRIAD_SHADE_NARROW_UNROLL 0x4u          // the narrowing: four lights a step, appends per subgroup
 #define MYRIAD_SHADE_NARROW_WORLD 0x8u           // the narrowing: the world bounds of the slice's points
+#define MYRIAD_SHADE_HYBRID 0x20u                // mask walk: lights holding the subgroup's box walked together
+#define MYRIAD_SHADE_SHUFFLE_LOOP 0x40u          // mask walk: the masks' lights passed round by shuffle
 #define MYRIAD_SHADE_DIAG_NARROW_ONLY 0x100u     // a measurement: narrowing only (image wrong)
 #define MYRIAD_SHADE_DIAG_NO_BRDF 0x200u         // a measurement: walks and reach tests, no BRDF (image wrong)
 #define MYRIAD_SHADE_DEFAULT 0x0u
