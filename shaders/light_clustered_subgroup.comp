@@ -38,6 +38,10 @@ const bool kBoxAlways = (kVariant & MYRIAD_SHADE_BOX_ALWAYS) != 0u;
 const bool kNarrowWorld = (kVariant & MYRIAD_SHADE_NARROW_WORLD) != 0u;
 const bool kHybrid = (kVariant & MYRIAD_SHADE_HYBRID) != 0u;
 const bool kShuffleLoop = (kVariant & MYRIAD_SHADE_SHUFFLE_LOOP) != 0u;
+const bool kHybridLoose = (kVariant & MYRIAD_SHADE_HYBRID_LOOSE) != 0u;
+// The mask walk leaves segments of at most this many lights to the walk per pixel.
+const uint kShortFrom = (kVariant & MYRIAD_SHADE_SHORT_128) != 0u ? 128u
+                        : (kVariant & MYRIAD_SHADE_SHORT_64) != 0u ? 64u : 0u;
 const bool kNarrowOnly = (kVariant & MYRIAD_SHADE_DIAG_NARROW_ONLY) != 0u;
 const bool kNoBrdf = (kVariant & MYRIAD_SHADE_DIAG_NO_BRDF) != 0u;
 #define MYRIAD_NARROW_SUBGROUP
@@ -124,7 +128,7 @@ void main() {
       start = range.x;
       count = range.y;
     }
-    if (count <= kBallotFrom && !kMaskWalk) {
+    if (kMaskWalk ? count <= kShortFrom : count <= kBallotFrom) {
       if (mine) {
         for (uint i = 0u; i < count; ++i) {
           uint index = inShared ? tileLights[start + i] : clusterLights[start + i];
@@ -165,7 +169,15 @@ void main() {
           candidate = !box || sphereOverlapsBox(light.xyz, light.w, lo, hi);
           if (kHybrid && candidate) {
             vec3 far = max(abs(light.xyz - lo), abs(light.xyz - hi));  // the box's farthest corner
-            covers = dot(far, far) < light.w * light.w;
+            float r2 = light.w * light.w;
+            covers = dot(far, far) < r2;
+            if (kHybridLoose && !covers) {
+              // Or the sphere holds the box's centre and is at least the box's size: it reaches
+              // about half the subgroup's pixels or more.
+              vec3 toCentre = light.xyz - 0.5 * (lo + hi);
+              vec3 halfSize = 0.5 * (hi - lo);
+              covers = dot(toCentre, toCentre) < r2 && dot(halfSize, halfSize) <= r2;
+            }
           }
         }
         uvec4 together = subgroupBallot(candidate && covers);

@@ -3,9 +3,10 @@
 // The shaders #include this file; server/render/shading.h includes it inside a C++ namespace with
 // `using namespace glm`, and that copy is the reference the tests judge GPU images with. Rules for
 // editing: no swizzles, no in/out/inout parameters, float literals with an f suffix, and only
-// functions GLM also provides (dot, max, min, clamp, mix, sqrt, inversesqrt, pow, abs, normalize). Keep every
-// argument inside its function's domain (pow's base >= 0, sqrt's >= 0, normalize's non-zero):
-// GLSL leaves the rest undefined, and the C++ twin's pow gives NaN there so tests catch it.
+// functions GLM also provides (dot, max, min, clamp, mix, sqrt, inversesqrt, pow, abs,
+// normalize). Keep every argument inside its function's domain (pow's base >= 0, sqrt's >= 0,
+// inversesqrt's > 0, normalize's non-zero): GLSL leaves the rest undefined, and the C++ twin's pow
+// gives NaN there so tests catch it.
 
 #ifndef MYRIAD_SHADING_GLSL
 #define MYRIAD_SHADING_GLSL
