@@ -28,6 +28,7 @@ shared uint used;
 shared uint nextStart;  // where the next slice's segment starts (thread 0 keeps it)
 shared uint segmentStart[kSlices];
 shared uint segmentLength[kSlices];
+shared uint segmentSource[kSlices];  // the length of the cluster's list it was narrowed from
 
 const uint kNoSlice = 0xFFFFFFFFu;  // firstSlice of a tile with no surface; no pixel's key
 
@@ -149,6 +150,7 @@ uint narrowTileLists(uint thread, bool surface, uint slice, float viewDepth, vec
     if (thread == 0u) {
       uint start = nextStart;
       segmentStart[j] = start;
+      segmentSource[j] = range.y;
       if (used > kCapacity) {
         segmentLength[j] = kWholeList;
         used = start;  // later slices may still fit

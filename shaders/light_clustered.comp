@@ -2,7 +2,8 @@
 #extension GL_GOOGLE_include_directive : require
 // Clustered step 5: each pixel shades sun + ambient + the lights of its cluster's list. This is
 // the pass on CPU devices and where compute shaders lack subgroup operations; GPUs with them run
-// light_clustered_subgroup.comp, the same narrowing with a walk per subgroup.
+// light_clustered_subgroup.comp, the same narrowing (there against the world bounds of the
+// tile's surface points) with a walk per subgroup.
 //
 // A 64x64-pixel cluster's list holds every light overlapping the whole frustum segment; with a
 // million small lights that is thousands of lights of which a pixel's few dozen reach it. So each

@@ -9,39 +9,43 @@
 // (light_clustered.comp is the per-pixel pass for the others and for CPU devices): each pixel
 // shades sun + ambient + the lights of its cluster's list.
 //
-// The tile's narrowing is light_clustered.comp's: each 16x16-pixel workgroup narrows the lists of
-// the clusters its pixels fall in to the lights overlapping the box of its rectangle between its
-// pixels' nearest and farthest depth in that slice, into shared memory, one segment per slice.
-// Its invocations follow Morton order, so a subgroup of 32 is an 8x4-pixel block (8: 4x2).
+// The tile's narrowing is light_clustered.comp's (clustered_tile_narrow.glsl): each 16x16-pixel
+// workgroup narrows the lists of the clusters its pixels fall in, into shared memory, one segment
+// per slice; by default (kNarrowWorld) to the lights overlapping the world-space bounds of its
+// surface points in that slice, else the view box of its rectangle between its pixels' nearest
+// and farthest depth there. Its invocations follow Morton order, so a subgroup of 32 is an
+// 8x4-pixel block (8: 4x2).
 //
 // Then each subgroup walks its pixels' segments one at a time, the pixels of that segment
-// together. A short segment (at most kBallotFrom lights) each pixel walks on its own; a
-// long one the subgroup narrows again as it goes: each lane tests one light against the box of
-// the subgroup's surface points (world space, flat on a floor), and only the lights of that
-// ballot are tested by every pixel, in a loop uniform in the subgroup. Long segments are where
-// a tile spans much of the floor (far from the camera) and most of its lights reach none of a
-// subgroup's pixels. The BRDF's terms that depend on the pixel alone (brdfSurfaceOf) are worked
-// out once per pixel.
+// together, in one of two ways (kVariant: MYRIAD_SHADE_* bits, docs/performance.md, "stop 16"):
+// - per pixel, a light a step, every lane the same light: short segments (kShortFrom);
+// - the mask walk: chunks of a subgroup's size, a light per lane, tested against the box of the
+//   subgroup's surface points; lights holding the whole box reach every pixel and are stepped
+//   through together; for the rest every pixel keeps a mask of those near it and loops over its
+//   own mask, as long as the subgroup's largest mask rather than the union of its pixels' lights
+//   (1.1-4x a pixel's count where the subgroup spans much of the floor, far from the camera).
+// (kVariant 0, the walk before stop 16: per pixel up to kBallotFrom lights, beyond by ballot over
+// the union.) The BRDF's terms that depend on the pixel alone (brdfSurfaceOf) are worked out once
+// per pixel.
 //
 // Every test is conservative (boxes widened by far more than rounding) and each pixel still
-// decides every light exactly (lightReaches), so the image and the light counts are those of
-// the whole list. A tile whose narrowed lists overflow the shared capacity, or whose pixels span
-// more than MYRIAD_CLUSTER_TILE_SLICES slices, walks the whole list there.
+// decides every light exactly (lightReaches, lightReachesFrom), so the image and the light counts
+// are those of the whole list. A tile whose narrowed lists overflow the shared capacity, or whose
+// pixels span more than MYRIAD_CLUSTER_TILE_SLICES slices, walks the whole list there.
 #include "frame.glsl"
 #include "compute_targets.glsl"
 
-// How this pipeline walks (MYRIAD_SHADE_* bits of shared_types.h; the technique sets them from
-// MYRIAD_CLUSTER_SHADE_VARIANT, a benchmark experiment, or the default below).
+// How this pipeline narrows and walks (MYRIAD_SHADE_* bits of shared_types.h): the technique
+// sets MYRIAD_SHADE_DEFAULT, or MYRIAD_CLUSTER_SHADE_VARIANT's number (a benchmark experiment).
 layout(constant_id = MYRIAD_SPEC_SHADE_VARIANT) const uint kVariant = MYRIAD_SHADE_DEFAULT;
 const bool kMaskWalk = (kVariant & MYRIAD_SHADE_MASK_WALK) != 0u;
 const bool kBoxAlways = (kVariant & MYRIAD_SHADE_BOX_ALWAYS) != 0u;
 const bool kNarrowWorld = (kVariant & MYRIAD_SHADE_NARROW_WORLD) != 0u;
 const bool kHybrid = (kVariant & MYRIAD_SHADE_HYBRID) != 0u;
-const bool kShuffleLoop = (kVariant & MYRIAD_SHADE_SHUFFLE_LOOP) != 0u;
-const bool kHybridLoose = (kVariant & MYRIAD_SHADE_HYBRID_LOOSE) != 0u;
+const bool kByCluster = (kVariant & MYRIAD_SHADE_BY_CLUSTER) != 0u;
+const uint kMaskFromCluster = 512u;
 // The mask walk leaves segments of at most this many lights to the walk per pixel.
-const uint kShortFrom = (kVariant & MYRIAD_SHADE_SHORT_128) != 0u ? 128u
-                        : (kVariant & MYRIAD_SHADE_SHORT_64) != 0u ? 64u : 0u;
+const uint kShortFrom = (kVariant & MYRIAD_SHADE_SHORT_64) != 0u ? 64u : 0u;
 const bool kNarrowOnly = (kVariant & MYRIAD_SHADE_DIAG_NARROW_ONLY) != 0u;
 const bool kNoBrdf = (kVariant & MYRIAD_SHADE_DIAG_NO_BRDF) != 0u;
 #define MYRIAD_NARROW_SUBGROUP
@@ -49,8 +53,9 @@ const bool kNoBrdf = (kVariant & MYRIAD_SHADE_DIAG_NO_BRDF) != 0u;
 
 layout(local_size_x = MYRIAD_CLUSTER_SHADE_TILE * MYRIAD_CLUSTER_SHADE_TILE) in;
 
-// Segments longer than this the subgroup walks by ballot (on the H200 ballot from 0 / 128 / 256 /
-// never: docs/performance.md, "clustered shading walked per subgroup").
+// kVariant without kMaskWalk: segments longer than this the subgroup walks by ballot over the
+// union (on the H200 ballot from 0 / 128 / 256 / never: docs/performance.md, "clustered shading
+// walked per subgroup").
 const uint kBallotFrom = 256u;
 
 // lightReaches and shadeLightAt for light `index` whose position and radius the caller holds
@@ -119,16 +124,21 @@ void main() {
     bool mine = pending && key == current;
     pending = pending && !mine;
     bool inShared = current < kSlices;
-    uint start, count;
+    uint start, count, source;
     if (inShared) {
       start = segmentStart[current];
       count = segmentLength[current];
+      source = segmentSource[current];
     } else {
       uvec2 range = clusterRanges[current - kSlices];
       start = range.x;
       count = range.y;
+      source = range.y;
     }
-    if (kMaskWalk ? count <= kShortFrom : count <= kBallotFrom) {
+    // kByCluster: the mask walk only where the cluster's list is long (many lights, small next
+    // to the cluster: a million on the floor, ~1,500-2,400 a list, not 10,000, ~150).
+    bool maskWalk = kMaskWalk && (!kByCluster || source > kMaskFromCluster);
+    if (maskWalk ? count <= kShortFrom : count <= kBallotFrom) {
       if (mine) {
         for (uint i = 0u; i < count; ++i) {
           uint index = inShared ? tileLights[start + i] : clusterLights[start + i];
@@ -148,7 +158,7 @@ void main() {
     vec3 margin = 1e-5 * (max(abs(lo), abs(hi)) + vec3(1.0));
     lo -= margin;
     hi += margin;
-    if (kMaskWalk) {
+    if (maskWalk) {
       // Chunks of a subgroup's size: each lane loads one light and, on a long segment (or
       // always, kBoxAlways), tests it against the subgroup's box. Then every pixel tests each
       // candidate's reach and keeps a mask of those reaching it, and shades its own mask's
@@ -169,21 +179,11 @@ void main() {
           candidate = !box || sphereOverlapsBox(light.xyz, light.w, lo, hi);
           if (kHybrid && candidate) {
             vec3 far = max(abs(light.xyz - lo), abs(light.xyz - hi));  // the box's farthest corner
-            float r2 = light.w * light.w;
-            covers = dot(far, far) < r2;
-            if (kHybridLoose && !covers) {
-              // Or the sphere holds the box's centre and is at least the box's size: it reaches
-              // about half the subgroup's pixels or more.
-              vec3 toCentre = light.xyz - 0.5 * (lo + hi);
-              vec3 halfSize = 0.5 * (hi - lo);
-              covers = dot(toCentre, toCentre) < r2 && dot(halfSize, halfSize) <= r2;
-            }
+            covers = dot(far, far) < light.w * light.w;
           }
         }
         uvec4 together = subgroupBallot(candidate && covers);
         uvec4 apart = subgroupBallot(candidate && !covers);
-        vec4 radiance = vec4(0.0);
-        if (kShuffleLoop && candidate && !covers) radiance = lights[index].radianceFalloff;
         for (uint w = 0u; w * 32u < gl_SubgroupSize; ++w) {
           uint bits = together[w];
           while (bits != 0u) {  // kHybrid: lights reaching the whole subgroup, every lane at once
@@ -211,38 +211,18 @@ void main() {
             if (dot(toLight, toLight) < r2 * 1.0001 + 1e-12) near |= 1u << bit;
           }
           if (!mine) near = 0u;
-          if (kShuffleLoop) {
-            // As many steps as the largest mask, every lane active: each takes its next light
-            // from the lane holding it.
-            uint steps = subgroupMax(uint(bitCount(near)));
-            for (uint step = 0u; step < steps; ++step) {
-              bool has = near != 0u;
-              uint lane = w * 32u + (has ? uint(findLSB(near)) : 0u);
-              near &= near - 1u;
-              uint candidateIndex = subgroupShuffle(index, lane);
-              vec4 candidateLight = subgroupShuffle(light, lane);
-              vec4 candidateRadiance = subgroupShuffle(radiance, lane);
-              if (has && lightReachesFrom(s, candidateIndex, candidateLight)) {
-                if (!kNoBrdf) {
-                  color += shadeLightFrom(brdf, s, candidateIndex, candidateLight, candidateRadiance);
-                }
-                ++reached;
+          while (near != 0u) {
+            uint bit = uint(findLSB(near));
+            near &= near - 1u;
+            uint j = start + base + w * 32u + bit;
+            uint candidateIndex = inShared ? tileLights[j] : clusterLights[j];
+            vec4 candidateLight = lights[candidateIndex].positionRadius;
+            if (lightReachesFrom(s, candidateIndex, candidateLight)) {
+              if (!kNoBrdf) {
+                color += shadeLightFrom(brdf, s, candidateIndex, candidateLight,
+                                        lights[candidateIndex].radianceFalloff);
               }
-            }
-          } else {
-            while (near != 0u) {
-              uint bit = uint(findLSB(near));
-              near &= near - 1u;
-              uint j = start + base + w * 32u + bit;
-              uint candidateIndex = inShared ? tileLights[j] : clusterLights[j];
-              vec4 candidateLight = lights[candidateIndex].positionRadius;
-              if (lightReachesFrom(s, candidateIndex, candidateLight)) {
-                if (!kNoBrdf) {
-                  color += shadeLightFrom(brdf, s, candidateIndex, candidateLight,
-                                          lights[candidateIndex].radianceFalloff);
-                }
-                ++reached;
-              }
+              ++reached;
             }
           }
         }

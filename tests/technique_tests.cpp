@@ -83,10 +83,13 @@ render::FrameSettings frameSettings(Technique technique, uint32_t w = 96, uint32
 
 // A second suite made while the environment variable `name` says `value`: the same renderer
 // taking the technique's other way (techniques/clustered.cpp reads it when it is created).
-Gpu suiteWith(const char* name, const char* value) {
+Gpu suiteWith(const char* name, const char* value, const char* name2 = nullptr,
+              const char* value2 = nullptr) {
   setenv(name, value, 1);
+  if (name2) setenv(name2, value2, 1);
   Gpu other = test::createGpuSuite();
   unsetenv(name);
+  if (name2) unsetenv(name2);
   return other;
 }
 
@@ -244,6 +247,9 @@ TEST_CASE("clustered shading per pixel and per subgroup: the same light counts a
   Gpu& gpu = sharedGpu();
   if (!gpu.context->info.computeSubgroupShuffle) return;
   Gpu other = suiteWith("MYRIAD_CLUSTER_SHADE", gpu.context->info.isCpu ? "subgroup" : "pixel");
+  // And the subgroup pass's walk before issue 16's stop 16 (MYRIAD_CLUSTER_SHADE_VARIANT=0, a
+  // benchmark switch): a light a step for every pixel of a short segment, by ballot beyond.
+  Gpu walk = suiteWith("MYRIAD_CLUSTER_SHADE", "subgroup", "MYRIAD_CLUSTER_SHADE_VARIANT", "0");
   scene::Scene small = litFloor(20000, 7);
   scene::Scene huge = litFloor(0, 1);
   for (int i = 0; i < 3000; ++i) {
@@ -252,19 +258,24 @@ TEST_CASE("clustered shading per pixel and per subgroup: the same light counts a
   for (const scene::Scene* s : {&small, &huge}) {
     gpu.setScene(*s);
     other.setScene(*s);
+    walk.setScene(*s);
     render::FrameSettings f = frameSettings(Technique::Clustered, 160, 112);
     auto [a, countsA] = renderWithCounts(gpu, f);
     auto [b, countsB] = renderWithCounts(other, f);
+    auto [c, countsC] = renderWithCounts(walk, f);
     CHECK_FALSE(a.culling.overflowed());
     CHECK(countsA.data == countsB.data);  // every pixel's exact light count
+    CHECK(countsA.data == countsC.data);
     CHECK(maxDifference(a.rgba, b.rgba) <= 1);  // the same lights summed in another order
+    CHECK(maxDifference(a.rgba, c.rgba) <= 1);
     float most = 0.0f;
-    for (float c : countsA.data) most = std::max(most, c);
+    for (float count : countsA.data) most = std::max(most, count);
     MESSAGE(s->lights.size() << " lights: up to " << most << " reach a pixel");
     if (s == &huge) CHECK(most == 3000.0f);
   }
   CHECK(gpu.context->validationMessages.load() == 0);
   CHECK(other.context->validationMessages.load() == 0);
+  CHECK(walk.context->validationMessages.load() == 0);
 }
 
 TEST_CASE("overflowing lists are counted and reported, never silent") {

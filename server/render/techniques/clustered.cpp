@@ -140,14 +140,12 @@ std::span<const uint32_t> shadeShaderFor(const gpu::DeviceInfo& device) {
   return spirv::light_clustered_comp;
 }
 
-// The subgroup pass's walk (MYRIAD_SHADE_* bits): MYRIAD_SHADE_DEFAULT, or the number in
-// MYRIAD_CLUSTER_SHADE_VARIANT (a benchmark experiment and a test's way to run the others).
+// The subgroup pass's walk (MYRIAD_SHADE_* bits of shared_types.h): MYRIAD_SHADE_DEFAULT, or the
+// number in MYRIAD_CLUSTER_SHADE_VARIANT (a benchmark experiment, and technique_tests' way to run
+// the walk before stop 16, 0). Read when the technique is made.
 uint32_t shadeVariant() {
-  static const uint32_t variant = [] {
-    const char* v = std::getenv("MYRIAD_CLUSTER_SHADE_VARIANT");
-    return v ? uint32_t(std::strtoul(v, nullptr, 0)) : uint32_t(MYRIAD_SHADE_DEFAULT);
-  }();
-  return variant;
+  if (!std::getenv("MYRIAD_CLUSTER_SHADE_VARIANT")) return MYRIAD_SHADE_DEFAULT;
+  return static_cast<uint32_t>(envNumber("MYRIAD_CLUSTER_SHADE_VARIANT"));
 }
 
 // The capacity a grid of `grid` with `lightCount` lights starts with, at most `mostReferences`.
