@@ -20,12 +20,8 @@ void main() {
   float depth = texelFetch(gbufferDepth, pixel, 0).r;
   if (depth >= 1.0) return;
   // Cursors are MYRIAD_CLUSTER_INACTIVE here (the last frame's scan left them so); a cluster with
-  // geometry gets 0 and nothing counted. Every writer writes the same 0s, so races are benign; most
-  // pixels find their cluster marked already, and reading first spares the memory system a store
-  // per pixel to a few hundred addresses.
-  uint cluster = clusterOfPixel(pixel, depth);
-  if (clusterCursors[cluster] != 0u) {
-    clusterCursors[cluster] = 0u;
-    clusterCursors[clusterSpill(cluster)] = 0u;
-  }
+  // geometry gets 0 and nothing counted, and its number among the active clusters
+  // (cluster_cursors.glsl). Most pixels find their cluster marked already and only read; of those
+  // racing to mark it, one wins the compare-and-swap and numbers it.
+  markCluster(clusterOfPixel(pixel, depth));
 }

@@ -167,10 +167,9 @@ using mat4 = glm::mat4;
 #define MYRIAD_LARGE_LIGHT_GROUPS 65535u
 #define MYRIAD_CLUSTER_TILE_SLICES 8
 // The small lights' assignment (cluster_assign_binned.comp) counts a workgroup's light-cluster
-// pairs in a shared hash table of this many clusters (a power of two), probing at most this many
-// bins for a free one before taking the global atomic.
-#define MYRIAD_ASSIGN_BINS 2048u
-#define MYRIAD_ASSIGN_PROBES 32u
+// pairs in a shared table of this many clusters, indexed by their number among the frame's active
+// clusters; clusters numbered past it take a global atomic per pair.
+#define MYRIAD_ASSIGN_BINS 4096u
 
 // Workgroup sizes. The shaders' local_size and the C++ dispatch counts both use these macros, so
 // they cannot disagree; Pipelines checks at start-up that the device runs groups this large
