@@ -61,6 +61,11 @@ struct FrameTargets {
   gpu::Buffer edges;
   // The output as YCbCr 4:2:0 planes (yuv420Layout; 8-bit targets; a 16-byte stand-in for raw).
   gpu::Buffer planes;
+  // A bit per cluster of the extent's grid (render/cluster_grid.h): the clusters holding visible
+  // geometry, as the compute G-buffer's resolve marks them when the clustered technique asks
+  // (FrameUniforms.written.z); the technique numbers them from these bits. Per frame slot, so a
+  // frame's G-buffer never writes what an earlier frame in flight still reads.
+  gpu::Buffer clusterMarks;
   gpu::Buffer readback;  // output pixels, rows top first (RGBA, floats, or the planes)
 };
 

@@ -137,6 +137,14 @@ bool separateAnimation() {
   return envIs("MYRIAD_ANIMATE_SEPARATE", "1");
 }
 
+// Step 1 from the compute G-buffer's marks where it ran (its resolve pass reads every pixel's depth
+// anyway: a bit per cluster, then one invocation per cluster here) instead of a pass over the
+// pixels. MYRIAD_MARK_IN_GBUFFER=0 keeps the pixel pass (a benchmark comparison).
+bool markInGBuffer() {
+  static const bool on = !envIs("MYRIAD_MARK_IN_GBUFFER", "0");
+  return on;
+}
+
 // The binned passes need full subgroups with arithmetic (their scan of a step's boxes).
 bool binnedAssignFor(const gpu::DeviceInfo& device) {
   if (!device.computeSubgroupShuffle) return false;
@@ -213,6 +221,13 @@ class Clustered final : public LightingTechnique {
     VkDevice device = setup.context.device;
     VkPipelineLayout layout = setup.pipelines.layout;
     mark_ = pipelines_.add(gpu::createComputePipeline(device, layout, spirv::cluster_mark_comp));
+    {
+      const VkSpecializationMapEntry entry{0, 0, sizeof(VkBool32)};
+      const VkBool32 fromMarks = VK_TRUE;
+      VkSpecializationInfo spec{1, &entry, sizeof(fromMarks), &fromMarks};
+      markFromGBuffer_ = pipelines_.add(
+          gpu::createComputePipeline(device, layout, spirv::cluster_mark_comp, &spec));
+    }
     scan_ = pipelines_.add(gpu::createComputePipeline(device, layout, spirv::cluster_scan_comp));
     // Alpha-blended surfaces mark their clusters from their fragments (storage writes from a
     // fragment shader): without fragmentStoresAndAtomics the forward pass tests every light.
@@ -286,7 +301,10 @@ class Clustered final : public LightingTechnique {
     set_.write(bindings);
   }
 
-  void writeUniforms(FrameUniforms& u) const override { u.flags.w = lists_->capacity; }
+  void writeUniforms(FrameUniforms& u) const override {
+    u.flags.w = lists_->capacity;
+    u.written.z = markInGBuffer() ? 1u : 0u;  // the compute G-buffer's resolve marks clusters
+  }
 
   // On GPUs the counting pass moves the lights as it walks them: one pass over the lights fewer.
   bool animatesLights() const override { return animateInCount_; }
@@ -322,9 +340,15 @@ class Clustered final : public LightingTechnique {
                          kComputeStage, kStorageReadWrite);
     }
 
-    // 1. Mark clusters holding visible geometry.
+    // 1. Mark clusters holding visible geometry: from the compute G-buffer's bits (a cluster an
+    // invocation), or from the depth (a pixel an invocation).
     if (assignSteps()) pass.timer.beginPass(cmd, "assign-mark");
-    dispatchPixels(cmd, mark_, t.extent, MYRIAD_PIXEL_GROUP);
+    if (pass.computeGBuffer && markInGBuffer()) {
+      vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, markFromGBuffer_);
+      vkCmdDispatch(cmd, groupCount(lists_->grid.count(), MYRIAD_PIXEL_GROUP * MYRIAD_PIXEL_GROUP), 1, 1);
+    } else {
+      dispatchPixels(cmd, mark_, t.extent, MYRIAD_PIXEL_GROUP);
+    }
     gpu::memoryBarrier(cmd, kComputeStage, kStorageWrite, kComputeStage, kStorageReadWrite);
     // 1b. And those of alpha-blended surfaces in front of it (or over the background).
     if (markBlend_ != VK_NULL_HANDLE && hasBlendDraws(pass.scene)) markBlendClusters(cmd, pass);
@@ -494,6 +518,7 @@ class Clustered final : public LightingTechnique {
   gpu::Context& context_;
   PipelineList pipelines_;
   VkPipeline mark_ = VK_NULL_HANDLE;
+  VkPipeline markFromGBuffer_ = VK_NULL_HANDLE;  // cluster_mark.comp's kFromMarks
   VkPipeline count_ = VK_NULL_HANDLE;
   VkPipeline scan_ = VK_NULL_HANDLE;
   VkPipeline assign_ = VK_NULL_HANDLE;
