@@ -902,6 +902,14 @@ void Renderer::State::recordBeforeLighting(VkCommandBuffer cmd, FrameSlot& slot,
                                            const FrameSettings& settings) {
   State& s = *this;
   const Pipelines& p = s.pipelines;
+  if (slot.targets->clusterMarksFresh) {
+    // New targets: their cluster marks start at 0, which no frame's mark is (FrameTargets).
+    vkCmdFillBuffer(cmd, slot.targets->clusterMarks.buffer, 0, VK_WHOLE_SIZE, 0u);
+    gpu::bufferBarrier(cmd, slot.targets->clusterMarks, VK_PIPELINE_STAGE_2_ALL_TRANSFER_BIT,
+                       VK_ACCESS_2_TRANSFER_WRITE_BIT, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
+                       VK_ACCESS_2_SHADER_STORAGE_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT);
+    slot.targets->clusterMarksFresh = false;
+  }
   if (environment) {
     const SceneEnvironment::Inputs inputs = EnvironmentPasses::inputsFor(settings, *environment);
     if (environment->built != inputs) {

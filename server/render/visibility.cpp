@@ -200,18 +200,12 @@ void ComputeGBuffer::record(VkCommandBuffer cmd, std::unique_ptr<Slot>& slot,
   gpu::bufferBarrier(cmd, slot->large, kCompute | VK_PIPELINE_STAGE_2_DRAW_INDIRECT_BIT,
                      VK_ACCESS_2_NONE, kTransfer, VK_ACCESS_2_TRANSFER_WRITE_BIT);
   vkCmdFillBuffer(cmd, slot->keys.buffer, 0, VK_WHOLE_SIZE, 0xFFFFFFFFu);
-  // No cluster marked yet (the resolve marks them when FrameUniforms.written.z asks); their last
-  // reader was the clustered technique's mark pass of this slot's previous frame.
-  gpu::bufferBarrier(cmd, t.clusterMarks, kCompute, VK_ACCESS_2_NONE, kTransfer,
-                     VK_ACCESS_2_TRANSFER_WRITE_BIT);
-  vkCmdFillBuffer(cmd, t.clusterMarks.buffer, 0, VK_WHOLE_SIZE, 0u);
   const gpu_types::VisibilityLargeHeader header{
       {gpu::groupCount(extent.width, MYRIAD_VISIBILITY_TILE),
        gpu::groupCount(extent.height, MYRIAD_VISIBILITY_TILE), 0, MYRIAD_VISIBILITY_LARGE_CAPACITY}};
   vkCmdUpdateBuffer(cmd, slot->large.buffer, 0, sizeof(header), &header);
   gpu::bufferBarrier(cmd, slot->keys, kTransfer, VK_ACCESS_2_TRANSFER_WRITE_BIT, kCompute, kReadWrite);
   gpu::bufferBarrier(cmd, slot->large, kTransfer, VK_ACCESS_2_TRANSFER_WRITE_BIT, kCompute, kReadWrite);
-  gpu::bufferBarrier(cmd, t.clusterMarks, kTransfer, VK_ACCESS_2_TRANSFER_WRITE_BIT, kCompute, kReadWrite);
 
   // Both sets: this layout has no push constants, so it is not compatible with the frame's.
   const VkDescriptorSet sets[] = {sceneSet, slot->set};
@@ -245,7 +239,7 @@ void ComputeGBuffer::record(VkCommandBuffer cmd, std::unique_ptr<Slot>& slot,
   vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, resolve_);
   vkCmdDispatch(cmd, gpu::groupCount(extent.width, MYRIAD_PIXEL_GROUP),
                 gpu::groupCount(extent.height, MYRIAD_PIXEL_GROUP), 1);
-  // The marks, for the lighting's compute passes.
+  // The cluster marks (FrameUniforms.written.w), for the lighting's compute passes.
   gpu::bufferBarrier(cmd, t.clusterMarks, kCompute, kReadWrite, kCompute,
                      VK_ACCESS_2_SHADER_STORAGE_READ_BIT);
 

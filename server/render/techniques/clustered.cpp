@@ -54,12 +54,15 @@ constexpr VkDeviceSize kListBlockSize = 4ull << 20;
 
 // The small lights' count and fill passes (cluster_assign_binned.comp) run at most this many
 // workgroups, each taking a contiguous run of the lights: the more lights a workgroup counts, the
-// fewer global atomics its shared table leaves, down to one per cluster it touches. On the H200
-// 256 and 4,096 groups measured within 0.1 ms of 1,024 at a million lights (docs/performance.md).
-constexpr uint32_t kBinnedAssignGroups = 1024;
+// fewer global atomics its shared table leaves, down to one per active cluster it touches (each
+// group flushes its table), and the walk keeps every invocation busy whatever the group's share.
+// On the H200 with a million lights 256 groups beat 512, 1,024 and 2,048 at 1080p and at 4K
+// (docs/performance.md, issue 16 stop 16).
+constexpr uint32_t kBinnedAssignGroups = 256;
 // And at least this many lights a workgroup (its steps take MYRIAD_ASSIGN_BIN_GROUP lights each;
-// a step of fewer walks their clusters all the same).
-constexpr uint32_t kBinnedGroupLights = MYRIAD_ASSIGN_BIN_GROUP;
+// a step of fewer walks their clusters side by side all the same): 10,000 lights get 157 groups,
+// not 40 (H200: assign 0.081 -> 0.073 ms at 1080p).
+constexpr uint32_t kBinnedGroupLights = 64;
 // The pair buffer holds at least this many slots, so that a few thousand lights with large boxes
 // are still recorded, not queued for the large-light passes.
 constexpr uint64_t kMinimumPairSlots = 1u << 20;
@@ -223,10 +226,9 @@ class Clustered final : public LightingTechnique {
     mark_ = pipelines_.add(gpu::createComputePipeline(device, layout, spirv::cluster_mark_comp));
     {
       const VkSpecializationMapEntry entry{0, 0, sizeof(VkBool32)};
-      const VkBool32 fromMarks = VK_TRUE;
-      VkSpecializationInfo spec{1, &entry, sizeof(fromMarks), &fromMarks};
-      markFromGBuffer_ = pipelines_.add(
-          gpu::createComputePipeline(device, layout, spirv::cluster_mark_comp, &spec));
+      const VkBool32 number = VK_TRUE;
+      VkSpecializationInfo spec{1, &entry, sizeof(number), &number};
+      number_ = pipelines_.add(gpu::createComputePipeline(device, layout, spirv::cluster_mark_comp, &spec));
     }
     scan_ = pipelines_.add(gpu::createComputePipeline(device, layout, spirv::cluster_scan_comp));
     // Alpha-blended surfaces mark their clusters from their fragments (storage writes from a
@@ -303,7 +305,11 @@ class Clustered final : public LightingTechnique {
 
   void writeUniforms(FrameUniforms& u) const override {
     u.flags.w = lists_->capacity;
-    u.written.z = markInGBuffer() ? 1u : 0u;  // the compute G-buffer's resolve marks clusters
+    // A new cluster mark each frame (never 0: FrameTargets::clusterMarks starts so), written by
+    // the compute G-buffer's resolve when it runs.
+    if (++frameMark_ == 0) frameMark_ = 1;
+    u.written.z = frameMark_;
+    u.written.w = markInGBuffer() ? 1u : 0u;
   }
 
   // On GPUs the counting pass moves the lights as it walks them: one pass over the lights fewer.
@@ -340,15 +346,15 @@ class Clustered final : public LightingTechnique {
                          kComputeStage, kStorageReadWrite);
     }
 
-    // 1. Mark clusters holding visible geometry: from the compute G-buffer's bits (a cluster an
-    // invocation), or from the depth (a pixel an invocation).
+    // 1. Mark clusters holding visible geometry (the compute G-buffer's resolve did, or a pass
+    // over the pixels here), then number them (a cluster an invocation).
     if (assignSteps()) pass.timer.beginPass(cmd, "assign-mark");
-    if (pass.computeGBuffer && markInGBuffer()) {
-      vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, markFromGBuffer_);
-      vkCmdDispatch(cmd, groupCount(lists_->grid.count(), MYRIAD_PIXEL_GROUP * MYRIAD_PIXEL_GROUP), 1, 1);
-    } else {
+    if (!(pass.computeGBuffer && markInGBuffer())) {
       dispatchPixels(cmd, mark_, t.extent, MYRIAD_PIXEL_GROUP);
+      gpu::memoryBarrier(cmd, kComputeStage, kStorageWrite, kComputeStage, kStorageReadWrite);
     }
+    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, number_);
+    vkCmdDispatch(cmd, groupCount(lists_->grid.count(), MYRIAD_PIXEL_GROUP * MYRIAD_PIXEL_GROUP), 1, 1);
     gpu::memoryBarrier(cmd, kComputeStage, kStorageWrite, kComputeStage, kStorageReadWrite);
     // 1b. And those of alpha-blended surfaces in front of it (or over the background).
     if (markBlend_ != VK_NULL_HANDLE && hasBlendDraws(pass.scene)) markBlendClusters(cmd, pass);
@@ -517,8 +523,9 @@ class Clustered final : public LightingTechnique {
 
   gpu::Context& context_;
   PipelineList pipelines_;
-  VkPipeline mark_ = VK_NULL_HANDLE;
-  VkPipeline markFromGBuffer_ = VK_NULL_HANDLE;  // cluster_mark.comp's kFromMarks
+  VkPipeline mark_ = VK_NULL_HANDLE;    // cluster_mark.comp's pixel pass
+  VkPipeline number_ = VK_NULL_HANDLE;  // its numbering pass (kNumber)
+  mutable uint32_t frameMark_ = 0;      // the last frame's cluster mark (writeUniforms)
   VkPipeline count_ = VK_NULL_HANDLE;
   VkPipeline scan_ = VK_NULL_HANDLE;
   VkPipeline assign_ = VK_NULL_HANDLE;
