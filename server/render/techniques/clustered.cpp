@@ -102,6 +102,23 @@ uint32_t assignBins() {
   return bins;
 }
 
+// The binned assigning pass runs this many workgroups per counting group, each copying a share of
+// its region: MYRIAD_ASSIGN_FILL_SPLIT (1 to 16) overrides it (a benchmark experiment).
+uint32_t fillSplit() {
+  static const uint32_t split = [] {
+    const uint64_t n = envNumber("MYRIAD_ASSIGN_FILL_SPLIT");
+    return n >= 1 && n <= 16 ? uint32_t(n) : 4u;
+  }();
+  return split;
+}
+
+// MYRIAD_ASSIGN_TABLE_CLUSTERS=1: the binned groups' tables hold each number's cluster beside its
+// part's start (a benchmark experiment; else the assigning pass reads the cluster from the
+// active clusters' list).
+bool tableClusters() {
+  return envIs("MYRIAD_ASSIGN_TABLE_CLUSTERS", "1");
+}
+
 // The binned counting pass walks the candidates of a step's lights side by side (kFlat);
 // MYRIAD_ASSIGN_FLAT=0 has each invocation walk its own light's clusters in turn (a benchmark
 // comparison).
@@ -258,17 +275,20 @@ class Clustered final : public LightingTechnique {
             gpu::createComputePipeline(device, layout, spirv::cluster_assign_comp, &spec));
       }
       // cluster_assign_binned.comp: kAssign (constant 0), its table's bins (2), kAnimate (3),
-      // kFlat (4), kMostClusters (5).
+      // kFlat (4), kMostClusters (5), kFillSplit (6), kTableClusters (7).
       const VkSpecializationMapEntry binnedEntries[] = {{0, 0, sizeof(VkBool32)},
                                                         {2, 4, sizeof(uint32_t)},
                                                         {3, 8, sizeof(VkBool32)},
                                                         {4, 12, sizeof(VkBool32)},
-                                                        {5, 16, sizeof(uint32_t)}};
+                                                        {5, 16, sizeof(uint32_t)},
+                                                        {6, 20, sizeof(uint32_t)},
+                                                        {7, 24, sizeof(VkBool32)}};
       for (VkBool32 animate : {VK_FALSE, VK_TRUE}) {
         if (assign && animate) continue;
-        const uint32_t binnedValues[] = {assign, assignBins(), animate, VkBool32(flatWalk()),
-                                         mostClustersPerLight()};
-        VkSpecializationInfo binnedSpec{5, binnedEntries, sizeof(binnedValues), binnedValues};
+        const uint32_t binnedValues[] = {assign,      assignBins(),           animate,
+                                         VkBool32(flatWalk()), mostClustersPerLight(), fillSplit(),
+                                         VkBool32(tableClusters())};
+        VkSpecializationInfo binnedSpec{7, binnedEntries, sizeof(binnedValues), binnedValues};
         (assign ? assignBinned_ : animate ? countBinnedAnimated_ : countBinned_) = pipelines_.add(
             gpu::createComputePipeline(device, layout, spirv::cluster_assign_binned_comp, &binnedSpec));
       }
@@ -384,7 +404,7 @@ class Clustered final : public LightingTechnique {
     if (lightGroups > 0) {
       // 4. Fill the lists: the same split, the queue kept from step 2.
       if (assignSteps()) pass.timer.beginPass(cmd, "assign-fill");
-      dispatchSmallLights(cmd, pass.scene.lightCount, assign_, assignBinned_);
+      dispatchSmallLights(cmd, pass.scene.lightCount, assign_, assignBinned_, fillSplit());
       // The small-light pass does not write the queue, and its list slots are not the large
       // lights', but it holds both writable: order it before the indirect read and the large
       // lights' pass all the same (the synchronization layer's rule).
@@ -455,11 +475,12 @@ class Clustered final : public LightingTechnique {
  private:
   // The small lights' count or fill pass: per light (`perLight`, one thread each) or per
   // workgroup run (`binned`), as binnedAssign_ says.
+  // `split`: workgroups per binned group (the assigning pass's kFillSplit).
   void dispatchSmallLights(VkCommandBuffer cmd, uint32_t lightCount, VkPipeline perLight,
-                           VkPipeline binned) const {
+                           VkPipeline binned, uint32_t split = 1) const {
     if (binnedAssign_) {
       vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, binned);
-      vkCmdDispatch(cmd, binnedGroups(lightCount), 1, 1);
+      vkCmdDispatch(cmd, binnedGroups(lightCount) * split, 1, 1);
     } else {
       vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, perLight);
       vkCmdDispatch(cmd, groupCount(lightCount, MYRIAD_LIGHTS_PER_GROUP), 1, 1);
@@ -512,7 +533,7 @@ class Clustered final : public LightingTechnique {
   VkDeviceSize pairBytes(uint32_t lightCount) const {
     if (!binnedAssign_) return 4;
     const uint64_t groups = binnedGroups(lightCount);
-    const uint64_t tables = groups * (1 + uint64_t(assignBins())) * 4;
+    const uint64_t tables = groups * (1 + (tableClusters() ? 2 : 1) * uint64_t(assignBins())) * 4;
     const uint64_t slotBytes = kPairWordsPerSlot * 4;
     // The floor only with the default slots: an override is there to fill the regions.
     const uint64_t floor = envNumber("MYRIAD_ASSIGN_PAIR_SLOTS") == 0 ? kMinimumPairSlots : 1;
