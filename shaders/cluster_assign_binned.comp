@@ -52,13 +52,6 @@ layout(constant_id = 2) const uint kBins = MYRIAD_ASSIGN_BINS;
 layout(constant_id = 3) const bool kAnimate = false;
 layout(constant_id = 4) const bool kFlat = true;
 layout(constant_id = 5) const uint kMostClusters = MYRIAD_LARGE_LIGHT_CLUSTERS;
-// Assigning pass: this many workgroups copy each counting group's region, side by side (the
-// dispatch has kFillSplit times the counting pass's groups), so that a few hundred counting
-// groups still leave enough workgroups to hide the copy's scattered reads and writes.
-layout(constant_id = 6) const uint kFillSplit = 1u;
-// kTableClusters: each group's table holds (cluster, part's start) per number, so the assigning
-// pass reads both from one place; else the start only, and the cluster from activeClusterWord.
-layout(constant_id = 7) const bool kTableClusters = false;
 
 layout(std430, set = MYRIAD_SET_SCENE, binding = MYRIAD_BINDING_LIGHT_ORIGINS) readonly buffer OriginBlock {
   GpuPointLight origins[];
@@ -82,25 +75,17 @@ shared uint subgroupTotal[kGroup];
 
 // Where this workgroup's table and region start, and how many slots a region has (both passes
 // run the same number of workgroups).
-// The counting pass's groups, and which of them this group is (or copies, assigning).
-uint countingGroups() {
-  return kAssign ? gl_NumWorkGroups.x / kFillSplit : gl_NumWorkGroups.x;
-}
-uint countingGroup() {
-  return kAssign ? gl_WorkGroupID.x / kFillSplit : gl_WorkGroupID.x;
-}
-const uint kTableWords = kTableClusters ? 2u : 1u;  // per cluster number
 uint tablesEnd() {
-  return countingGroups() * (1u + kTableWords * kBins);
+  return gl_NumWorkGroups.x * (1u + kBins);
 }
 uint regionSize() {
-  return (uint(pairWords.length()) - tablesEnd()) / (3u * countingGroups());
+  return (uint(pairWords.length()) - tablesEnd()) / (3u * gl_NumWorkGroups.x);
 }
 uint regionStart() {
-  return tablesEnd() + countingGroup() * 3u * regionSize();
+  return tablesEnd() + gl_WorkGroupID.x * 3u * regionSize();
 }
 uint tableStart() {
-  return countingGroups() + countingGroup() * kTableWords * kBins;
+  return gl_NumWorkGroups.x + gl_WorkGroupID.x * kBins;
 }
 
 void queueLarge(uint index) {
@@ -243,13 +228,8 @@ void placePair(uint s, uint size, uint table) {
   uint rank = pairWords[s + 2u * size];
   if ((cluster & kInTable) != 0u) {
     uint id = cluster & ~kInTable;
-    if (kTableClusters) {
-      cluster = pairWords[table + 2u * id];
-      rank += pairWords[table + 2u * id + 1u];
-    } else {
-      cluster = clusterCursors[activeClusterWord(id)];
-      rank += pairWords[table + id];
-    }
+    cluster = clusterCursors[activeClusterWord(id)];
+    rank += pairWords[table + id];
   }
   uvec2 range = clusterRanges[cluster];
   if (rank < range.y) clusterLights[range.x + rank] = index;
@@ -261,11 +241,8 @@ void main() {
   uint region = regionStart();
   uint table = tableStart();
   if (kAssign) {
-    uint used = min(pairWords[countingGroup()], size);
-    uint part = gl_WorkGroupID.x % kFillSplit;
-    for (uint s = part * kGroup + thread; s < used; s += kGroup * kFillSplit) {
-      placePair(region + s, size, table);
-    }
+    uint used = min(pairWords[gl_WorkGroupID.x], size);
+    for (uint s = thread; s < used; s += kGroup) placePair(region + s, size, table);
     return;
   }
   // The table's numbers in use this frame.
@@ -296,13 +273,7 @@ void main() {
     uint count = binCount[id];
     if (count == 0u) continue;
     uint cluster = clusterCursors[activeClusterWord(id)];
-    uint start = atomicAdd(clusterCursors[cluster], count);
-    if (kTableClusters) {
-      pairWords[table + 2u * id] = cluster;
-      pairWords[table + 2u * id + 1u] = start;
-    } else {
-      pairWords[table + id] = start;
-    }
+    pairWords[table + id] = atomicAdd(clusterCursors[cluster], count);
   }
   if (thread == 0u) pairWords[gl_WorkGroupID.x] = min(kFlat ? used : regionUsed, size);
 }

@@ -91,8 +91,8 @@ using mat4 = glm::mat4;
 #define MYRIAD_BINDING_LDR_STORAGE 13         // storage image: the same, written by the final pass
 #define MYRIAD_BINDING_EDGE_PIXELS 14         // storage buffer: AntialiasEdges, then the edge pixels
 #define MYRIAD_BINDING_YUV_PLANES 15          // storage buffer: final as YCbCr 4:2:0 planes (yuv420.comp)
-#define MYRIAD_BINDING_CLUSTER_MARKS 16       // storage buffer: a word per cluster, the frame's mark where
-                                              // it holds visible geometry (clustered; FrameTargets)
+#define MYRIAD_BINDING_CLUSTER_MARKS 16       // storage buffer: a bit per cluster, set where it holds
+                                              // visible geometry (clustered; FrameTargets)
 
 // The G-buffer rasterised in compute (render/visibility.h; shaders/visibility.glsl): its pipelines'
 // set 1 (their layout is set 0 = the scene, set 1 = this; not the frame's targets set).
@@ -260,10 +260,9 @@ MYRIAD_STRUCT(FrameUniforms) {
   uvec4 grid;            // x,y clusters across/down, z depth slices, w technique (render::Technique)
   uvec4 written;         // x the optional G-buffer targets this frame wrote (MYRIAD_GBUFFER_*);
                          // y the cluster grid's tile size in pixels (render/cluster_grid.h);
-                         // z the frame's cluster mark (clustered: a cluster holding geometry has
-                         // it in MYRIAD_BINDING_CLUSTER_MARKS this frame; never 0); w 1: the
-                         // compute G-buffer's resolve writes the marks (the clustered technique
-                         // asks), else 0
+                         // z 1: the compute G-buffer's resolve marks the clusters holding
+                         // geometry (MYRIAD_BINDING_CLUSTER_MARKS; the clustered technique asks);
+                         // w unused
   vec4 slicing;          // x slices / ln(far/near), y ln(near) * x, z heat-map max, w time (s)
   vec4 environment;      // x mode (MYRIAD_ENV_*), y intensity, z background shown (0/1), w unused
   vec4 environmentRotation;  // x cos, y sin of the environment's rotation about +Y

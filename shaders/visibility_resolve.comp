@@ -22,7 +22,7 @@ layout(set = MYRIAD_SET_VISIBILITY, binding = MYRIAD_BINDING_VISIBILITY_BASE_COL
 layout(set = MYRIAD_SET_VISIBILITY, binding = MYRIAD_BINDING_VISIBILITY_MATERIAL, rgba8) uniform writeonly image2D materialTarget;
 layout(set = MYRIAD_SET_VISIBILITY, binding = MYRIAD_BINDING_VISIBILITY_UV, rg16f) uniform writeonly image2D uvTarget;
 layout(set = MYRIAD_SET_VISIBILITY, binding = MYRIAD_BINDING_VISIBILITY_EMISSIVE, rgba16f) uniform writeonly image2D emissiveTarget;
-// A word per cluster (FrameTargets::clusterMarks): FrameUniforms.written.z where it holds geometry.
+// A bit per cluster (FrameTargets::clusterMarks), all clear before this pass.
 layout(std430, set = MYRIAD_SET_VISIBILITY, binding = MYRIAD_BINDING_VISIBILITY_CLUSTER_MARKS) buffer ClusterMarkBlock {
   uint clusterMarks[];
 };
@@ -57,13 +57,14 @@ void main() {
   // The depth the visibility pass compared: the value the raster path's depth test kept.
   float depth = uintBitsToFloat(uint(key >> 32));
   visibleDepth[index] = depth;
-  if (frame.written.w != 0u && depth < 1.0) {
+  if (frame.written.z != 0u && depth < 1.0) {
     // The clustered technique's step 1 (cluster_mark.comp's pixel pass on the raster path): this
     // pixel's cluster holds geometry. The same depth bits the depth target gets, the same
-    // arithmetic (cluster_grid.glsl) as the shading pass. Every writer stores the same value (a
-    // benign race); most pixels find it there already and only read.
+    // arithmetic (cluster_grid.glsl) as the shading pass. Most pixels find the bit set and only
+    // read.
     uint cluster = clusterOfPixel(pixel, depth);
-    if (clusterMarks[cluster] != frame.written.z) clusterMarks[cluster] = frame.written.z;
+    uint bit = 1u << (cluster & 31u);
+    if ((clusterMarks[cluster >> 5u] & bit) == 0u) atomicOr(clusterMarks[cluster >> 5u], bit);
   }
 
   TriangleRef ref = triangleRef(id);

@@ -61,12 +61,11 @@ struct FrameTargets {
   gpu::Buffer edges;
   // The output as YCbCr 4:2:0 planes (yuv420Layout; 8-bit targets; a 16-byte stand-in for raw).
   gpu::Buffer planes;
-  // A word per cluster of the extent's grid (render/cluster_grid.h): the frame's mark
-  // (FrameUniforms.written.z, new every frame) where the cluster holds visible geometry, written
-  // by the compute G-buffer's resolve when the clustered technique asks (written.w) or by its own
-  // pixel pass; the technique numbers the marked clusters. Per frame slot, so a frame's G-buffer
-  // never writes what an earlier frame in flight still reads; no clearing but once, when made
-  // (clusterMarksFresh), as an older frame's mark never equals this one's.
+  // A bit per cluster of the extent's grid (render/cluster_grid.h), set where the cluster holds
+  // visible geometry: by the compute G-buffer's resolve when the clustered technique asks
+  // (FrameUniforms.written.z), else by its own pixel pass; its numbering pass reads and clears
+  // them. Per frame slot, so a frame's G-buffer never writes what an earlier frame in flight
+  // still reads; cleared once when made (clusterMarksFresh), then by each frame's reader.
   gpu::Buffer clusterMarks;
   bool clusterMarksFresh = true;
   gpu::Buffer readback;  // output pixels, rows top first (RGBA, floats, or the planes)

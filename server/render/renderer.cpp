@@ -903,7 +903,7 @@ void Renderer::State::recordBeforeLighting(VkCommandBuffer cmd, FrameSlot& slot,
   State& s = *this;
   const Pipelines& p = s.pipelines;
   if (slot.targets->clusterMarksFresh) {
-    // New targets: their cluster marks start at 0, which no frame's mark is (FrameTargets).
+    // New targets: no cluster marked (later frames leave them so; FrameTargets).
     vkCmdFillBuffer(cmd, slot.targets->clusterMarks.buffer, 0, VK_WHOLE_SIZE, 0u);
     gpu::bufferBarrier(cmd, slot.targets->clusterMarks, VK_PIPELINE_STAGE_2_ALL_TRANSFER_BIT,
                        VK_ACCESS_2_TRANSFER_WRITE_BIT, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,

@@ -56,12 +56,12 @@ constexpr VkDeviceSize kListBlockSize = 4ull << 20;
 // workgroups, each taking a contiguous run of the lights: the more lights a workgroup counts, the
 // fewer global atomics its shared table leaves, down to one per active cluster it touches (each
 // group flushes its table), and the walk keeps every invocation busy whatever the group's share.
-// On the H200 with a million lights 256 groups beat 512, 1,024 and 2,048 at 1080p and at 4K
-// (docs/performance.md, issue 16 stop 16).
-constexpr uint32_t kBinnedAssignGroups = 256;
+// On the H200 128 groups beat 256, 512, 1,024 and 2,048 with a million lights at 1080p and at 4K,
+// and with 10,000 (docs/performance.md, issue 16 stop 16).
+constexpr uint32_t kBinnedAssignGroups = 128;
 // And at least this many lights a workgroup (its steps take MYRIAD_ASSIGN_BIN_GROUP lights each;
-// a step of fewer walks their clusters side by side all the same): 10,000 lights get 157 groups,
-// not 40 (H200: assign 0.081 -> 0.073 ms at 1080p).
+// a step of fewer walks their clusters side by side all the same): 10,000 lights get 128 groups,
+// not 40 (H200: assign 0.081 -> 0.066 ms at 1080p).
 constexpr uint32_t kBinnedGroupLights = 64;
 // The pair buffer holds at least this many slots, so that a few thousand lights with large boxes
 // are still recorded, not queued for the large-light passes.
@@ -100,23 +100,6 @@ uint32_t assignBins() {
     return n >= 256 && n <= 4096 ? uint32_t(n) : uint32_t(MYRIAD_ASSIGN_BINS);
   }();
   return bins;
-}
-
-// The binned assigning pass runs this many workgroups per counting group, each copying a share of
-// its region: MYRIAD_ASSIGN_FILL_SPLIT (1 to 16) overrides it (a benchmark experiment).
-uint32_t fillSplit() {
-  static const uint32_t split = [] {
-    const uint64_t n = envNumber("MYRIAD_ASSIGN_FILL_SPLIT");
-    return n >= 1 && n <= 16 ? uint32_t(n) : 4u;
-  }();
-  return split;
-}
-
-// MYRIAD_ASSIGN_TABLE_CLUSTERS=1: the binned groups' tables hold each number's cluster beside its
-// part's start (a benchmark experiment; else the assigning pass reads the cluster from the
-// active clusters' list).
-bool tableClusters() {
-  return envIs("MYRIAD_ASSIGN_TABLE_CLUSTERS", "1");
 }
 
 // The binned counting pass walks the candidates of a step's lights side by side (kFlat);
@@ -275,20 +258,17 @@ class Clustered final : public LightingTechnique {
             gpu::createComputePipeline(device, layout, spirv::cluster_assign_comp, &spec));
       }
       // cluster_assign_binned.comp: kAssign (constant 0), its table's bins (2), kAnimate (3),
-      // kFlat (4), kMostClusters (5), kFillSplit (6), kTableClusters (7).
+      // kFlat (4), kMostClusters (5).
       const VkSpecializationMapEntry binnedEntries[] = {{0, 0, sizeof(VkBool32)},
                                                         {2, 4, sizeof(uint32_t)},
                                                         {3, 8, sizeof(VkBool32)},
                                                         {4, 12, sizeof(VkBool32)},
-                                                        {5, 16, sizeof(uint32_t)},
-                                                        {6, 20, sizeof(uint32_t)},
-                                                        {7, 24, sizeof(VkBool32)}};
+                                                        {5, 16, sizeof(uint32_t)}};
       for (VkBool32 animate : {VK_FALSE, VK_TRUE}) {
         if (assign && animate) continue;
-        const uint32_t binnedValues[] = {assign,      assignBins(),           animate,
-                                         VkBool32(flatWalk()), mostClustersPerLight(), fillSplit(),
-                                         VkBool32(tableClusters())};
-        VkSpecializationInfo binnedSpec{7, binnedEntries, sizeof(binnedValues), binnedValues};
+        const uint32_t binnedValues[] = {assign, assignBins(), animate, VkBool32(flatWalk()),
+                                         mostClustersPerLight()};
+        VkSpecializationInfo binnedSpec{5, binnedEntries, sizeof(binnedValues), binnedValues};
         (assign ? assignBinned_ : animate ? countBinnedAnimated_ : countBinned_) = pipelines_.add(
             gpu::createComputePipeline(device, layout, spirv::cluster_assign_binned_comp, &binnedSpec));
       }
@@ -325,11 +305,7 @@ class Clustered final : public LightingTechnique {
 
   void writeUniforms(FrameUniforms& u) const override {
     u.flags.w = lists_->capacity;
-    // A new cluster mark each frame (never 0: FrameTargets::clusterMarks starts so), written by
-    // the compute G-buffer's resolve when it runs.
-    if (++frameMark_ == 0) frameMark_ = 1;
-    u.written.z = frameMark_;
-    u.written.w = markInGBuffer() ? 1u : 0u;
+    u.written.z = markInGBuffer() ? 1u : 0u;  // the compute G-buffer's resolve marks clusters
   }
 
   // On GPUs the counting pass moves the lights as it walks them: one pass over the lights fewer.
@@ -404,7 +380,7 @@ class Clustered final : public LightingTechnique {
     if (lightGroups > 0) {
       // 4. Fill the lists: the same split, the queue kept from step 2.
       if (assignSteps()) pass.timer.beginPass(cmd, "assign-fill");
-      dispatchSmallLights(cmd, pass.scene.lightCount, assign_, assignBinned_, fillSplit());
+      dispatchSmallLights(cmd, pass.scene.lightCount, assign_, assignBinned_);
       // The small-light pass does not write the queue, and its list slots are not the large
       // lights', but it holds both writable: order it before the indirect read and the large
       // lights' pass all the same (the synchronization layer's rule).
@@ -475,12 +451,11 @@ class Clustered final : public LightingTechnique {
  private:
   // The small lights' count or fill pass: per light (`perLight`, one thread each) or per
   // workgroup run (`binned`), as binnedAssign_ says.
-  // `split`: workgroups per binned group (the assigning pass's kFillSplit).
   void dispatchSmallLights(VkCommandBuffer cmd, uint32_t lightCount, VkPipeline perLight,
-                           VkPipeline binned, uint32_t split = 1) const {
+                           VkPipeline binned) const {
     if (binnedAssign_) {
       vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, binned);
-      vkCmdDispatch(cmd, binnedGroups(lightCount) * split, 1, 1);
+      vkCmdDispatch(cmd, binnedGroups(lightCount), 1, 1);
     } else {
       vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, perLight);
       vkCmdDispatch(cmd, groupCount(lightCount, MYRIAD_LIGHTS_PER_GROUP), 1, 1);
@@ -533,7 +508,7 @@ class Clustered final : public LightingTechnique {
   VkDeviceSize pairBytes(uint32_t lightCount) const {
     if (!binnedAssign_) return 4;
     const uint64_t groups = binnedGroups(lightCount);
-    const uint64_t tables = groups * (1 + (tableClusters() ? 2 : 1) * uint64_t(assignBins())) * 4;
+    const uint64_t tables = groups * (1 + uint64_t(assignBins())) * 4;
     const uint64_t slotBytes = kPairWordsPerSlot * 4;
     // The floor only with the default slots: an override is there to fill the regions.
     const uint64_t floor = envNumber("MYRIAD_ASSIGN_PAIR_SLOTS") == 0 ? kMinimumPairSlots : 1;
@@ -546,7 +521,6 @@ class Clustered final : public LightingTechnique {
   PipelineList pipelines_;
   VkPipeline mark_ = VK_NULL_HANDLE;    // cluster_mark.comp's pixel pass
   VkPipeline number_ = VK_NULL_HANDLE;  // its numbering pass (kNumber)
-  mutable uint32_t frameMark_ = 0;      // the last frame's cluster mark (writeUniforms)
   VkPipeline count_ = VK_NULL_HANDLE;
   VkPipeline scan_ = VK_NULL_HANDLE;
   VkPipeline assign_ = VK_NULL_HANDLE;
