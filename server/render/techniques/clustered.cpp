@@ -52,12 +52,14 @@ constexpr double kListGrowth = 1.25;
 // The lists are a few MiB at most sizes; the 64 MiB default block would be mostly waste.
 constexpr VkDeviceSize kListBlockSize = 4ull << 20;
 
-// The small lights' count and fill passes (cluster_assign_binned.comp) run at most this many
-// workgroups, each taking a contiguous run of the lights: the more lights a workgroup counts, the
-// fewer global atomics its shared table leaves, down to one per active cluster it touches (each
-// group flushes its table), and the walk keeps every invocation busy whatever the group's share.
-// On the H200 128 groups beat 256, 512, 1,024 and 2,048 with a million lights at 1080p and at 4K,
-// and with 10,000 (docs/performance.md, issue 16 stop 16).
+// The small lights' count and fill passes (cluster_assign_binned.comp) run at most one workgroup
+// per multiprocessor of the device (DeviceInfo::multiprocessors), or this many where the driver
+// does not say, each taking a contiguous run of the lights: the more lights a workgroup counts,
+// the fewer global atomics its shared table leaves (each group flushes its table once), and the
+// flattened walk keeps every invocation busy whatever the group's share. The pass takes as long
+// as the busiest multiprocessor: on the H200 (132 SMs) 128 groups beat 64, 96, 192, 256, 512,
+// 1,024 and 2,048 with a million lights at 1080p and at 4K (docs/performance.md, issue 16 stop 16):
+// fewer leave SMs idle, more give some SMs two groups' lights.
 constexpr uint32_t kBinnedAssignGroups = 128;
 // And at least this many lights a workgroup (its steps take MYRIAD_ASSIGN_BIN_GROUP lights each;
 // a step of fewer walks their clusters side by side all the same): 10,000 lights get 128 groups,
@@ -488,13 +490,15 @@ class Clustered final : public LightingTechnique {
   }
 
   // The workgroups of the binned passes for `lightCount` lights (at least one).
-  // MYRIAD_ASSIGN_GROUPS (64 to 4096) overrides kBinnedAssignGroups and MYRIAD_ASSIGN_GROUP_LIGHTS
-  // (16 to 65536) kBinnedGroupLights: benchmark experiments.
+  // MYRIAD_ASSIGN_GROUPS (64 to 4096) overrides the most (the multiprocessors or
+  // kBinnedAssignGroups) and MYRIAD_ASSIGN_GROUP_LIGHTS (16 to 65536) kBinnedGroupLights:
+  // benchmark experiments.
   uint32_t binnedGroups(uint32_t lightCount) const {
-    static const uint32_t most = [] {
-      const uint64_t n = envNumber("MYRIAD_ASSIGN_GROUPS");
-      return n >= 64 && n <= 4096 ? uint32_t(n) : kBinnedAssignGroups;
-    }();
+    static const uint64_t asked = envNumber("MYRIAD_ASSIGN_GROUPS");
+    const uint32_t multiprocessors = context_.info.multiprocessors;
+    const uint32_t most = asked >= 64 && asked <= 4096 ? uint32_t(asked)
+                          : multiprocessors > 0     ? multiprocessors
+                                                    : kBinnedAssignGroups;
     static const uint32_t groupLights = [] {
       const uint64_t n = envNumber("MYRIAD_ASSIGN_GROUP_LIGHTS");
       return n >= 16 && n <= 65536 ? uint32_t(n) : kBinnedGroupLights;
