@@ -28,7 +28,6 @@ shared uint used;
 shared uint nextStart;  // where the next slice's segment starts (thread 0 keeps it)
 shared uint segmentStart[kSlices];
 shared uint segmentLength[kSlices];
-shared uint segmentSource[kSlices];  // the length of the cluster's list it was narrowed from
 
 const uint kNoSlice = 0xFFFFFFFFu;  // firstSlice of a tile with no surface; no pixel's key
 
@@ -41,7 +40,7 @@ float fromOrderedBits(uint u) {
   return uintBitsToFloat((u & 0x80000000u) != 0u ? u & 0x7FFFFFFFu : ~u);
 }
 
-// Whether light sphere (world centre w.xyz, radius w.w) may reach a point in the slice's box.
+// Whether the light (world centre light.xyz, radius light.w) may reach a point in the box.
 bool lightMayReachTile(vec4 light, vec3 lo, vec3 hi) {
   vec3 c = kNarrowWorld ? light.xyz : (frame.view * vec4(light.xyz, 1.0)).xyz;
   return sphereOverlapsBox(c, light.w, lo, hi);
@@ -150,7 +149,6 @@ uint narrowTileLists(uint thread, bool surface, uint slice, float viewDepth, vec
     if (thread == 0u) {
       uint start = nextStart;
       segmentStart[j] = start;
-      segmentSource[j] = range.y;
       if (used > kCapacity) {
         segmentLength[j] = kWholeList;
         used = start;  // later slices may still fit

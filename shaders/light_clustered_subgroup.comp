@@ -42,8 +42,6 @@ const bool kMaskWalk = (kVariant & MYRIAD_SHADE_MASK_WALK) != 0u;
 const bool kBoxAlways = (kVariant & MYRIAD_SHADE_BOX_ALWAYS) != 0u;
 const bool kNarrowWorld = (kVariant & MYRIAD_SHADE_NARROW_WORLD) != 0u;
 const bool kHybrid = (kVariant & MYRIAD_SHADE_HYBRID) != 0u;
-const bool kByCluster = (kVariant & MYRIAD_SHADE_BY_CLUSTER) != 0u;
-const uint kMaskFromCluster = 512u;
 // The mask walk leaves segments of at most this many lights to the walk per pixel.
 const uint kShortFrom = (kVariant & MYRIAD_SHADE_SHORT_64) != 0u ? 64u : 0u;
 const bool kNarrowOnly = (kVariant & MYRIAD_SHADE_DIAG_NARROW_ONLY) != 0u;
@@ -124,21 +122,16 @@ void main() {
     bool mine = pending && key == current;
     pending = pending && !mine;
     bool inShared = current < kSlices;
-    uint start, count, source;
+    uint start, count;
     if (inShared) {
       start = segmentStart[current];
       count = segmentLength[current];
-      source = segmentSource[current];
     } else {
       uvec2 range = clusterRanges[current - kSlices];
       start = range.x;
       count = range.y;
-      source = range.y;
     }
-    // kByCluster: the mask walk only where the cluster's list is long (many lights, small next
-    // to the cluster: a million on the floor, ~1,500-2,400 a list, not 10,000, ~150).
-    bool maskWalk = kMaskWalk && (!kByCluster || source > kMaskFromCluster);
-    if (maskWalk ? count <= kShortFrom : count <= kBallotFrom) {
+    if (kMaskWalk ? count <= kShortFrom : count <= kBallotFrom) {
       if (mine) {
         for (uint i = 0u; i < count; ++i) {
           uint index = inShared ? tileLights[start + i] : clusterLights[start + i];
@@ -158,7 +151,7 @@ void main() {
     vec3 margin = 1e-5 * (max(abs(lo), abs(hi)) + vec3(1.0));
     lo -= margin;
     hi += margin;
-    if (maskWalk) {
+    if (kMaskWalk) {
       // Chunks of a subgroup's size: each lane loads one light and, on a long segment (or
       // always, kBoxAlways), tests it against the subgroup's box. Then every pixel tests each
       // candidate's reach and keeps a mask of those reaching it, and shades its own mask's

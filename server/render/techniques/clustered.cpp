@@ -5,8 +5,9 @@
 // cluster's lights (per workgroup in shared memory, then once per cluster globally; lights
 // reaching many clusters a workgroup each), place each cluster's list (cut at the capacity,
 // overflow counted), fill the lists (timed together as "assign"), shade ("shade": each 16x16 tile first
-// narrows its clusters' lists to the lights reaching its own pixels' depth range, in shared
-// memory; shaders/cluster_*.comp, light_clustered.comp).
+// narrows its clusters' lists to the lights reaching the bounds of its own pixels, in shared
+// memory, then walks them per pixel or per subgroup; shaders/cluster_*.comp, light_clustered.comp,
+// light_clustered_subgroup.comp).
 //
 // The lists are sized from the output and the light count; when a frame overflows them and they
 // may still grow, growLists() makes them 1.25 x what the frame needed and the renderer renders
