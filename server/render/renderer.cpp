@@ -1,6 +1,7 @@
 #include "render/renderer.h"
 
 #include <algorithm>
+#include <array>
 #include <atomic>
 #include <chrono>
 #include <thread>
@@ -112,8 +113,10 @@ struct Renderer::State {
   // A free pooled buffer of `bytes` (made if none is and fewer than kMaxPooledReadbacks exist),
   // marked held; null when every one is lent out. Frees the free ones of another size.
   PooledReadback* acquireReadback(VkDeviceSize bytes);
-  // Frees the pooled buffers not lent out.
-  void trimReadbacks();
+  // Frees the pooled buffers not lent out, but one of `keep` bytes when keep > 0.
+  void trimReadbacks(VkDeviceSize keep = 0);
+  // The two sizes last asked of acquireReadback, newest first: free buffers of other sizes go.
+  std::array<VkDeviceSize, 2> readbackSizes{};
   // The GPU's last timestamp of the previous whole frame finished (FrameTimes::gpuIdleMs).
   uint64_t lastGpuEndTick = 0;
   // Index = Technique (techniques/registry.h); destroyed before the pipeline layout they use.
@@ -151,6 +154,8 @@ struct Renderer::State {
     // The pooled buffer this frame reads back into (borrowPixels), else null: targets->readback.
     PooledReadback* readback = nullptr;
     FrameTimes times;  // what the host measured of the frame in flight
+    uint64_t lastUsed = 0;  // State::framesBegun when this slot last began a frame (0: never)
+    bool madeTargets = false;  // its last frame made its targets (Frame::madeTargets)
     // The frame in flight: what finishFrame needs besides the GPU's results (taken when it was
     // recorded, so a scene destroyed meanwhile does not matter).
     bool inFlight = false;
@@ -159,6 +164,13 @@ struct Renderer::State {
     Frame meta;  // size, technique, light count, scene bytes; no pixels
   };
   std::vector<std::unique_ptr<FrameSlot>> slots;  // kMaxFramesInFlight; framesInFlight used
+  uint64_t framesBegun = 0;  // whole frames begun so far (FrameSlot::lastUsed)
+  // The free slot (index < framesInFlight) a whole frame of `settings` goes to: one whose targets
+  // already have its size, else one that has none yet, else the one used least recently. So a
+  // stream that alternates sizes (its small interactive frames and its full-size still) keeps
+  // each size's targets, and the still's slot its sun map, instead of rebuilding them for every
+  // still. framesInFlight when every slot is in flight.
+  uint32_t pickSlot(const FrameSettings& settings) const;
   FrameSlot split;
   uint32_t framesInFlight = 1;
   bool overlap = false;  // setOverlap
@@ -213,7 +225,8 @@ struct Renderer::State {
   void writeUniforms(FrameSlot& slot, const FrameSettings& settings, const SceneBuffers& scene,
                      const LightingTechnique& technique, const SunShadowFit* sunShadow,
                      const LightShadowPlan& lightShadows);
-  void ensureTargets(FrameSlot& slot, VkExtent2D extent, bool raw);
+  // True when it made them (none yet, or another size or kind).
+  bool ensureTargets(FrameSlot& slot, VkExtent2D extent, bool raw);
   // Records a whole frame into `slot` (not submitted) and fills slot.meta.
   // `waitAtStart`: the frame's first command waits for everything submitted before; otherwise
   // its lighting does (setOverlap).
@@ -360,7 +373,7 @@ void Renderer::State::writeTargetSet(FrameSlot& slot) {
 
 // Targets follow the output size and are rebuilt only when it changes (every frame is waited
 // for, so nothing is in flight here).
-void Renderer::State::ensureTargets(FrameSlot& slot, VkExtent2D extent, bool raw) {
+bool Renderer::State::ensureTargets(FrameSlot& slot, VkExtent2D extent, bool raw) {
   std::unique_ptr<FrameTargets>& targets = slot.targets;
   const bool computeWritable = computeWritableTargets();
   if (!targets || targets->extent.width != extent.width ||
@@ -369,7 +382,9 @@ void Renderer::State::ensureTargets(FrameSlot& slot, VkExtent2D extent, bool raw
     targets.reset();
     targets = std::make_unique<FrameTargets>(context, extent, raw, computeWritable);
     writeTargetSet(slot);
+    return true;
   }
+  return false;
 }
 
 void Renderer::State::writeUniforms(FrameSlot& slot, const FrameSettings& s,
@@ -571,37 +586,97 @@ uint64_t Renderer::sceneBytes(SceneId id) const {
   return state_->scene(id).bytes() + (it == state_->environments.end() ? 0 : it->second->bytes());
 }
 
-void Renderer::releaseFrameMemory() {
+uint32_t Renderer::State::pickSlot(const FrameSettings& settings) const {
+  uint32_t best = framesInFlight;
+  int bestRank = -1;
+  for (uint32_t i = 0; i < framesInFlight; ++i) {
+    const FrameSlot& slot = *slots[i];
+    if (slot.inFlight) continue;
+    const FrameTargets* t = slot.targets.get();
+    // 2: its targets fit as they are; 1: it has none; 0: they would be rebuilt.
+    const int rank = !t ? 1
+                     : t->extent.width == settings.width && t->extent.height == settings.height &&
+                               t->raw == settings.raw &&
+                               t->computeWritable == computeWritableTargets()
+                         ? 2
+                         : 0;
+    if (rank > bestRank || (rank == bestRank && slot.lastUsed < slots[best]->lastUsed)) {
+      best = i;
+      bestRank = rank;
+    }
+  }
+  return best;
+}
+
+void Renderer::releaseFrameMemory(uint64_t keepBytes) {
+  State& s = *state_;
   // Slots not in flight: nothing on the GPU uses their targets; the target descriptor set points
   // at freed views until ensureTargets() makes new ones and writes it again. Frames in flight,
   // and an unfinished split frame, keep their own.
-  state_->quiesce();
-  for (auto& slot : state_->slots) {
-    if (slot->inFlight) continue;
+  s.quiesce();
+  // The slot of the last whole frame may stay (keepBytes): its targets, sun map and one readback
+  // buffer of its size, when together they hold at most keepBytes.
+  State::FrameSlot* kept = nullptr;
+  VkDeviceSize keptReadback = 0;
+  if (keepBytes > 0) {
+    for (auto& slot : s.slots) {
+      if (slot->lastUsed > 0 && (!kept || slot->lastUsed > kept->lastUsed)) kept = slot.get();
+    }
+    if (kept && kept->targets) {
+      const FrameSettings& last = kept->settings;
+      keptReadback = last.borrowPixels && !last.raw
+                         ? (last.yuv420Readback() ? yuv420Layout(last.width, last.height).bytes()
+                                                  : VkDeviceSize(last.width) * last.height * 4)
+                         : 0;
+      const uint64_t bytes = kept->targets->arena.bytesAllocated() +
+                             kept->shadows->gpuMemoryBytes() + keptReadback;
+      if (bytes > keepBytes) kept = nullptr;
+    } else {
+      kept = nullptr;
+    }
+  }
+  for (auto& slot : s.slots) {
+    if (slot->inFlight || slot.get() == kept) continue;
     slot->targets.reset();
     slot->shadows->release();
   }
-  if (!state_->splitBusy) {
-    state_->split.targets.reset();
-    state_->split.shadows->release();
+  if (!s.splitBusy) {
+    s.split.targets.reset();
+    s.split.shadows->release();
   }
-  state_->trimReadbacks();
+  s.trimReadbacks(kept ? keptReadback : 0);
 }
 
 Renderer::State::PooledReadback* Renderer::State::acquireReadback(VkDeviceSize bytes) {
   PooledReadback* free = nullptr;
   size_t count = 0;
+  if (readbackSizes[0] != bytes) readbackSizes = {bytes, readbackSizes[0]};
   for (auto it = readbacks.begin(); it != readbacks.end();) {
     PooledReadback& r = **it;
     if (r.held.load(std::memory_order_acquire)) {
       ++count;
       ++it;
+    } else if (r.bytes != bytes && r.bytes != readbackSizes[1]) {
+      // A size not asked for lately: nothing uses it (frames in flight hold theirs). The size
+      // before this one stays (a stream's interactive frames and its still alternate).
+      it = readbacks.erase(it);
     } else if (r.bytes != bytes) {
-      it = readbacks.erase(it);  // another size: nothing uses it (frames in flight hold theirs)
+      ++count;
+      ++it;
     } else {
       if (!free) free = &r;
       ++count;
       ++it;
+    }
+  }
+  if (!free && count >= kMaxPooledReadbacks) {
+    // Full: a free buffer of the size before goes to make room.
+    auto other = std::find_if(readbacks.begin(), readbacks.end(), [&](const auto& r) {
+      return r->bytes != bytes && !r->held.load(std::memory_order_acquire);
+    });
+    if (other != readbacks.end()) {
+      readbacks.erase(other);
+      --count;
     }
   }
   if (!free && count < kMaxPooledReadbacks) {
@@ -617,9 +692,15 @@ Renderer::State::PooledReadback* Renderer::State::acquireReadback(VkDeviceSize b
   return free;
 }
 
-void Renderer::State::trimReadbacks() {
-  std::erase_if(readbacks, [](const std::unique_ptr<PooledReadback>& r) {
-    return !r->held.load(std::memory_order_acquire);
+void Renderer::State::trimReadbacks(VkDeviceSize keep) {
+  bool keeping = keep > 0;
+  std::erase_if(readbacks, [&](const std::unique_ptr<PooledReadback>& r) {
+    if (r->held.load(std::memory_order_acquire)) return false;
+    if (keeping && r->bytes == keep) {
+      keeping = false;
+      return false;
+    }
+    return true;
   });
 }
 
@@ -718,10 +799,10 @@ uint32_t Renderer::beginFrame(SceneId id, const FrameSettings& settings) {
   checkSize(settings, maxDimension());
   s.technique(settings.technique);  // throws for an unknown technique
   SceneEnvironment* environment = s.environmentFor(id, settings);
-  uint32_t index = 0;
-  while (index < s.framesInFlight && s.slots[index]->inFlight) ++index;
+  const uint32_t index = s.pickSlot(settings);
   if (index == s.framesInFlight) throw std::logic_error("every frame slot is in flight");
   State::FrameSlot& slot = *s.slots[index];
+  slot.lastUsed = ++s.framesBegun;
   // The host may change what frames in flight use: wait for them first (Renderer's comment).
   const State::Shape shape{settings.technique, settings.width, settings.height, settings.raw,
                            scene.lightCount};
@@ -842,7 +923,7 @@ void Renderer::State::prepareFrame(FrameSlot& slot, SceneBuffers& scene,
                                    SceneEnvironment* environment, const FrameSettings& settings,
                                    LightingTechnique& technique) {
   VkExtent2D extent{settings.width, settings.height};
-  ensureTargets(slot, extent, settings.raw);
+  slot.madeTargets = ensureTargets(slot, extent, settings.raw);
   technique.prepare(extent, scene.lightCount);
   // The sun's shadow map: fitted to this scene and sun, rendered this frame when on.
   const std::optional<SunShadowFit> sunShadow = sunShadowFor(scene, settings);
@@ -1061,6 +1142,7 @@ void Renderer::State::recordFrame(FrameSlot& slot, SceneBuffers& scene,
                         settings.animate && technique.animatesLights()});
   recordAfterLighting(cmd, slot, scene, settings, lightingLayout);
   slot.meta = metaOf(scene, environment, settings);
+  slot.meta.madeTargets = slot.madeTargets;
 }
 
 Frame Renderer::State::renderOnce(FrameSlot& slot, SceneBuffers& scene,
