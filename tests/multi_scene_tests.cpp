@@ -720,6 +720,16 @@ TEST_CASE("a still between smaller frames keeps its slot's targets and sun map; 
     CHECK_FALSE(drewShadow(again));
     CHECK(maxDifference(bytes(again), bytes(first)) <= 1);  // up to the GPU's atomics' order
   }
+  // The interactive frames' scale changes: their slot's targets are made again (nearest in
+  // size), the still's stay.
+  render::FrameSettings larger = moving;
+  larger.width = still.width / 2;
+  larger.height = still.height / 2;
+  CHECK(r.render(id, larger).madeTargets);
+  CHECK_FALSE(r.render(id, larger).madeTargets);
+  const render::Frame afterScale = r.render(id, still);
+  CHECK_FALSE(afterScale.madeTargets);
+  CHECK_FALSE(drewShadow(afterScale));
   // One slot: every change of size makes the targets again (what two slots avoid).
   r.setFramesInFlight(1);
   CHECK(r.render(id, moving).madeTargets);

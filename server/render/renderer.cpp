@@ -1,7 +1,6 @@
 #include "render/renderer.h"
 
 #include <algorithm>
-#include <array>
 #include <atomic>
 #include <chrono>
 #include <thread>
@@ -115,8 +114,12 @@ struct Renderer::State {
   PooledReadback* acquireReadback(VkDeviceSize bytes);
   // Frees the pooled buffers not lent out, but one of `keep` bytes when keep > 0.
   void trimReadbacks(VkDeviceSize keep = 0);
-  // The two sizes last asked of acquireReadback, newest first: free buffers of other sizes go.
-  std::array<VkDeviceSize, 2> readbackSizes{};
+  // The pooled readback size a frame of `settings` asks for (0: none, it is not lent out).
+  static VkDeviceSize readbackBytes(const FrameSettings& settings) {
+    if (!settings.borrowPixels || settings.raw) return 0;
+    return settings.yuv420Readback() ? yuv420Layout(settings.width, settings.height).bytes()
+                                     : VkDeviceSize(settings.width) * settings.height * 4;
+  }
   // The GPU's last timestamp of the previous whole frame finished (FrameTimes::gpuIdleMs).
   uint64_t lastGpuEndTick = 0;
   // Index = Technique (techniques/registry.h); destroyed before the pipeline layout they use.
@@ -166,10 +169,11 @@ struct Renderer::State {
   std::vector<std::unique_ptr<FrameSlot>> slots;  // kMaxFramesInFlight; framesInFlight used
   uint64_t framesBegun = 0;  // whole frames begun so far (FrameSlot::lastUsed)
   // The free slot (index < framesInFlight) a whole frame of `settings` goes to: one whose targets
-  // already have its size, else one that has none yet, else the one used least recently. So a
-  // stream that alternates sizes (its small interactive frames and its full-size still) keeps
-  // each size's targets, and the still's slot its sun map, instead of rebuilding them for every
-  // still. framesInFlight when every slot is in flight.
+  // already have its size, else one that has none yet, else the one whose targets are nearest
+  // its size (then the one used least recently). So a stream that alternates sizes (its small
+  // interactive frames, whose scale changes, and its full-size still) keeps the still's targets
+  // and sun map instead of making them again for every still. framesInFlight when every slot is
+  // in flight.
   uint32_t pickSlot(const FrameSettings& settings) const;
   FrameSlot split;
   uint32_t framesInFlight = 1;
@@ -589,20 +593,31 @@ uint64_t Renderer::sceneBytes(SceneId id) const {
 uint32_t Renderer::State::pickSlot(const FrameSettings& settings) const {
   uint32_t best = framesInFlight;
   int bestRank = -1;
+  double bestDistance = 0.0;
+  const double pixels = double(settings.width) * settings.height;
   for (uint32_t i = 0; i < framesInFlight; ++i) {
     const FrameSlot& slot = *slots[i];
     if (slot.inFlight) continue;
     const FrameTargets* t = slot.targets.get();
-    // 2: its targets fit as they are; 1: it has none; 0: they would be rebuilt.
+    // 2: its targets fit as they are; 1: it has none; 0: they would be made again.
     const int rank = !t ? 1
                      : t->extent.width == settings.width && t->extent.height == settings.height &&
                                t->raw == settings.raw &&
                                t->computeWritable == computeWritableTargets()
                          ? 2
                          : 0;
-    if (rank > bestRank || (rank == bestRank && slot.lastUsed < slots[best]->lastUsed)) {
+    // Of targets made again, those nearest in size: an interactive frame whose scale changed
+    // takes the slot of the interactive frames before it, not the still's.
+    const double distance =
+        t ? std::abs(std::log(double(t->extent.width) * t->extent.height / pixels)) : 0.0;
+    const bool better =
+        best == framesInFlight || rank > bestRank ||
+        (rank == bestRank && (distance < bestDistance ||
+                              (distance == bestDistance && slot.lastUsed < slots[best]->lastUsed)));
+    if (better) {
       best = i;
       bestRank = rank;
+      bestDistance = distance;
     }
   }
   return best;
@@ -623,11 +638,7 @@ void Renderer::releaseFrameMemory(uint64_t keepBytes) {
       if (slot->lastUsed > 0 && (!kept || slot->lastUsed > kept->lastUsed)) kept = slot.get();
     }
     if (kept && kept->targets) {
-      const FrameSettings& last = kept->settings;
-      keptReadback = last.borrowPixels && !last.raw
-                         ? (last.yuv420Readback() ? yuv420Layout(last.width, last.height).bytes()
-                                                  : VkDeviceSize(last.width) * last.height * 4)
-                         : 0;
+      keptReadback = State::readbackBytes(kept->settings);
       const uint64_t bytes = kept->targets->arena.bytesAllocated() +
                              kept->shadows->gpuMemoryBytes() + keptReadback;
       if (bytes > keepBytes) kept = nullptr;
@@ -650,16 +661,20 @@ void Renderer::releaseFrameMemory(uint64_t keepBytes) {
 Renderer::State::PooledReadback* Renderer::State::acquireReadback(VkDeviceSize bytes) {
   PooledReadback* free = nullptr;
   size_t count = 0;
-  if (readbackSizes[0] != bytes) readbackSizes = {bytes, readbackSizes[0]};
+  // The sizes of the frames the slots' targets were last made for: a stream's still and its
+  // interactive frames alternate, each in its slot, and each keeps its buffer.
+  auto slotsUse = [&](VkDeviceSize size) {
+    return std::any_of(slots.begin(), slots.end(), [&](const auto& slot) {
+      return slot->targets && readbackBytes(slot->settings) == size;
+    });
+  };
   for (auto it = readbacks.begin(); it != readbacks.end();) {
     PooledReadback& r = **it;
     if (r.held.load(std::memory_order_acquire)) {
       ++count;
       ++it;
-    } else if (r.bytes != bytes && r.bytes != readbackSizes[1]) {
-      // A size not asked for lately: nothing uses it (frames in flight hold theirs). The size
-      // before this one stays (a stream's interactive frames and its still alternate).
-      it = readbacks.erase(it);
+    } else if (r.bytes != bytes && !slotsUse(r.bytes)) {
+      it = readbacks.erase(it);  // another size: nothing uses it (frames in flight hold theirs)
     } else if (r.bytes != bytes) {
       ++count;
       ++it;
@@ -670,7 +685,7 @@ Renderer::State::PooledReadback* Renderer::State::acquireReadback(VkDeviceSize b
     }
   }
   if (!free && count >= kMaxPooledReadbacks) {
-    // Full: a free buffer of the size before goes to make room.
+    // Full: a free buffer of another size goes to make room.
     auto other = std::find_if(readbacks.begin(), readbacks.end(), [&](const auto& r) {
       return r->bytes != bytes && !r->held.load(std::memory_order_acquire);
     });
@@ -817,11 +832,8 @@ uint32_t Renderer::beginFrame(SceneId id, const FrameSettings& settings) {
   slot.times = {};
   // Borrowed pixels: a pooled buffer of their own, lent out with the frame; when every one is
   // lent out, the slot's own buffer and a copy on the render thread.
-  slot.readback = settings.borrowPixels && !settings.raw
-                      ? s.acquireReadback(settings.yuv420Readback()
-                                              ? yuv420Layout(settings.width, settings.height).bytes()
-                                              : VkDeviceSize(settings.width) * settings.height * 4)
-                      : nullptr;
+  const VkDeviceSize readbackBytes = State::readbackBytes(settings);
+  slot.readback = readbackBytes > 0 ? s.acquireReadback(readbackBytes) : nullptr;
   try {
     s.recordFrame(slot, scene, environment, settings, !s.overlap || sharesScene);
     gpu::submit(s.context, slot.recorder);
