@@ -110,7 +110,8 @@ struct Renderer::State {
   };
   std::vector<std::unique_ptr<PooledReadback>> readbacks;
   // A free pooled buffer of `bytes` (made if none is and fewer than kMaxPooledReadbacks exist),
-  // marked held; null when every one is lent out. Frees the free ones of another size.
+  // marked held; null when every one is lent out. Frees the free ones of a size neither this
+  // nor one a slot's targets were last made for (and, when the pool is full, one of those).
   PooledReadback* acquireReadback(VkDeviceSize bytes);
   // Frees the pooled buffers not lent out, but one of `keep` bytes when keep > 0.
   void trimReadbacks(VkDeviceSize keep = 0);
