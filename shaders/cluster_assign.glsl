@@ -52,20 +52,38 @@ bool lightClusters(uint index, out LightClusters b) {
   return lightClustersAt(lights[index].positionRadius, b);
 }
 
+// The i-th cluster of the box (tile x, tile y, slice).
+uvec3 boxCluster(LightClusters b, uint i) {
+  return uvec3(b.first.x + i % b.extent.x, b.first.y + (i / b.extent.x) % b.extent.y,
+               b.first.z + i / (b.extent.x * b.extent.y));
+}
+
+bool sphereReachesCluster(LightClusters b, uvec3 at) {
+  vec3 bmin, bmax;
+  clusterViewBox(at, bmin, bmax);
+  return sphereOverlapsBox(b.c, b.r, bmin, bmax);
+}
+
 // The i-th cluster of the box (i < b.clusters): true, with its index, when the cluster holds
 // geometry and the sphere overlaps it. Counting, a cluster with geometry has a cursor; filling
 // (after the scan reset the cursors), it has room in the lists: a cluster with geometry whose
 // list was cut to nothing is passed over, as it takes no lights either way.
 bool lightReachesCluster(LightClusters b, uint i, bool filling, out uint cluster) {
-  uvec3 at = uvec3(b.first.x + i % b.extent.x, b.first.y + (i / b.extent.x) % b.extent.y,
-                   b.first.z + i / (b.extent.x * b.extent.y));
+  uvec3 at = boxCluster(b, i);
   cluster = clusterIndex(at);
   if (filling ? clusterRanges[cluster].y == 0u : clusterCursors[cluster] == MYRIAD_CLUSTER_INACTIVE) {
     return false;
   }
-  vec3 bmin, bmax;
-  clusterViewBox(at, bmin, bmax);
-  return sphereOverlapsBox(b.c, b.r, bmin, bmax);
+  return sphereReachesCluster(b, at);
+}
+
+// The same counting, for the binned pass: true when the cluster holds geometry and the sphere
+// overlaps it, with its index and its number among the active clusters (cluster_cursors.glsl).
+bool lightReachesActiveCluster(LightClusters b, uint i, out uint cluster, out uint id) {
+  uvec3 at = boxCluster(b, i);
+  cluster = clusterIndex(at);
+  id = clusterCursors[clusterIdWord(cluster)];
+  return id != MYRIAD_CLUSTER_INACTIVE && sphereReachesCluster(b, at);
 }
 
 #endif

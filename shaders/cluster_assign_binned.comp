@@ -1,31 +1,44 @@
 #version 450
 #extension GL_GOOGLE_include_directive : require
+#extension GL_KHR_shader_subgroup_basic : require
+#extension GL_KHR_shader_subgroup_arithmetic : require
 // Clustered steps 2 and 4 for the small lights: each light's clusters are walked once a frame.
 //
-// Counting pass (kAssign = false; with kAnimate it moves the lights first, see below). A workgroup takes a contiguous run of lights and counts its
-// light-cluster pairs per cluster in shared memory (a hash table of kBins clusters, linear
-// probing), then adds each cluster's total to the cluster's global cursor once, so that a million
-// lights do not serialise on the busiest clusters' atomics. Every pair it finds gets its rank in
-// its cluster's list there and then: its rank within the workgroup's part (the table's count
-// before it) plus, once the group has added its totals, the part's start (the cursor before the
-// group's add), kept per group and bin; a cluster the table cannot hold (full after
-// MYRIAD_ASSIGN_PROBES probes) takes its rank from a global atomic per pair. The pair is recorded
-// (light, cluster or bin, rank) in the workgroup's region of the pair buffer, a slot per cluster
-// of the light's box (a slot whose cluster the light does not reach holds kNoLight).
+// Counting pass (kAssign = false; with kAnimate it moves the lights first, see below). A workgroup
+// takes a contiguous run of lights and counts its light-cluster pairs per cluster in shared memory,
+// a table indexed by the cluster's number among the frame's active clusters (the mark passes
+// number them, cluster_cursors.glsl; numbers from kBins on take a global atomic per pair), then
+// adds each cluster's total to the cluster's global cursor once, so that a million lights do not
+// serialise on the busiest clusters' atomics. Every pair it finds gets its rank in its cluster's
+// list there and then: its rank within the workgroup's part (the table's count before it) plus,
+// once the group has added its totals, the part's start (the cursor before the group's add), kept
+// per group and number. The pair is recorded (light, cluster number | kInTable or cluster, rank)
+// in the workgroup's region of the pair buffer, a slot per cluster of the light's box (a slot whose
+// cluster the light does not reach holds kNoLight).
+//
+// The walk (kFlat): the group takes kGroup lights a step; each invocation moves its light and finds
+// its box of clusters, a subgroup scan places the boxes' clusters one after another, and the group
+// walks that run of (light, cluster) candidates kGroup at a time, each invocation finding its
+// candidate's light by a binary search of the run. A light near the camera with 40 clusters is
+// then walked by 40 invocations, not one while its subgroup waits, and the slots written side by
+// side are consecutive. Without kFlat each invocation walks its own light's clusters in turn.
 //
 // Assigning pass (kAssign = true, after the scan, the same number of workgroups): each workgroup
 // copies its region's pairs into the lists, nothing walked again.
 //
-// Lights reaching more than MYRIAD_LARGE_LIGHT_CLUSTERS clusters, and any light whose box no
-// longer fits its workgroup's region, are queued for the per-workgroup passes of
-// cluster_assign.comp (kLarge), which count them separately (clusterSpill) and fill them after
-// the recorded pairs. Counts are exact either way; the order within a list is whatever the atomics
-// give, as in cluster_assign.comp.
+// Lights reaching more than kMostClusters clusters, and any light whose box no longer fits its
+// workgroup's region, are queued for the per-workgroup passes of cluster_assign.comp (kLarge),
+// which count them separately (clusterSpill) and fill them after the recorded pairs. Counts are
+// exact either way; the order within a list is whatever the atomics give, as in
+// cluster_assign.comp.
 //
 // The pair buffer (pairWords), for G workgroups: G words, each group's count of region slots used;
-// G x kBins uvec2 (cluster, start of the group's part), each group's table; then the regions, an
-// equal share of the rest per workgroup, each three arrays of regionSize() words (light, cluster
-// or bin | kInTable, rank).
+// G x kBins words, each group's part's start per cluster number; then the regions, an equal share
+// of the rest per workgroup, each three arrays of regionSize() words (light, cluster number |
+// kInTable or cluster, rank).
+//
+// The subgroups must be full (gl_NumSubgroups x gl_SubgroupSize = kGroup, as on every device the
+// technique picks this pass for); a step's light p is subgroup p / size's invocation p % size.
 #include "frame.glsl"
 #include "compute_targets.glsl"
 #include "cluster_assign.glsl"
@@ -33,14 +46,12 @@
 
 layout(local_size_x = MYRIAD_ASSIGN_BIN_GROUP) in;
 layout(constant_id = 0) const bool kAssign = false;
-layout(constant_id = 2) const uint kBins = MYRIAD_ASSIGN_BINS;  // a power of two
+layout(constant_id = 2) const uint kBins = MYRIAD_ASSIGN_BINS;
 // Counting pass with kAnimate: the frame's lights move here (light_orbit.glsl), each written once
-// by the thread that walks it, instead of in light_animate.comp before.
+// by the invocation that finds its box, instead of in light_animate.comp before.
 layout(constant_id = 3) const bool kAnimate = false;
-// kWalkLarge: the large lights (and those whose region is full) are walked by the workgroup that
-// met them, all its invocations side by side, in this pass, and by every workgroup in turn from the
-// queue in the assigning pass: no passes of their own (cluster_assign.comp's kLarge).
-layout(constant_id = 4) const bool kWalkLarge = false;
+layout(constant_id = 4) const bool kFlat = true;
+layout(constant_id = 5) const uint kMostClusters = MYRIAD_LARGE_LIGHT_CLUSTERS;
 
 layout(std430, set = MYRIAD_SET_SCENE, binding = MYRIAD_BINDING_LIGHT_ORIGINS) readonly buffer OriginBlock {
   GpuPointLight origins[];
@@ -50,21 +61,22 @@ layout(std430, set = MYRIAD_SET_SCENE, binding = MYRIAD_BINDING_LIGHTS) writeonl
 };
 
 const uint kGroup = MYRIAD_ASSIGN_BIN_GROUP;
-const uint kEmpty = 0xFFFFFFFFu;  // a free bin's cluster
-const uint kNoBin = 0xFFFFFFFFu;
 const uint kNoLight = 0xFFFFFFFFu;  // a region slot holding no pair
-const uint kInTable = 0x80000000u;  // a recorded pair's cluster word is its group's bin
+const uint kInTable = 0x80000000u;  // a recorded pair's cluster word is its cluster's number
 
-shared uint binCluster[kBins];
-shared uint binCount[kBins];  // pairs counted
-shared uint regionUsed;        // region slots handed out (may pass the region's size)
-shared uint largeCount;        // kWalkLarge: large lights met in this step
-shared vec4 largeLight[kGroup];
+shared uint binCount[kBins];  // pairs counted per cluster number
+shared uint regionUsed;       // without kFlat: region slots handed out (may pass the region's size)
+// kFlat: the step's lights by place p: view-space sphere, box (first x | y << 16, extent x | y <<
+// 16, first z | extent z << 16) and the end of its candidates in the step's run.
+shared vec4 stepSphere[kGroup];
+shared uvec3 stepBox[kGroup];
+shared uint stepEnd[kGroup];
+shared uint subgroupTotal[kGroup];
 
 // Where this workgroup's table and region start, and how many slots a region has (both passes
 // run the same number of workgroups).
 uint tablesEnd() {
-  return gl_NumWorkGroups.x * (1u + 2u * kBins);
+  return gl_NumWorkGroups.x * (1u + kBins);
 }
 uint regionSize() {
   return (uint(pairWords.length()) - tablesEnd()) / (3u * gl_NumWorkGroups.x);
@@ -73,69 +85,47 @@ uint regionStart() {
   return tablesEnd() + gl_WorkGroupID.x * 3u * regionSize();
 }
 uint tableStart() {
-  return gl_NumWorkGroups.x + gl_WorkGroupID.x * kBins * 2u;
+  return gl_NumWorkGroups.x + gl_WorkGroupID.x * kBins;
 }
 
-// The bin holding `cluster`, claiming a free one; kNoBin if the table cannot hold it.
-uint claimBin(uint cluster) {
-  uint h = (cluster * 2654435761u) >> 16u;
-  for (uint p = 0u; p < MYRIAD_ASSIGN_PROBES; ++p) {
-    uint bin = (h + p) & (kBins - 1u);
-    uint held = atomicCompSwap(binCluster[bin], kEmpty, cluster);
-    if (held == cluster || held == kEmpty) return bin;
-  }
-  return kNoBin;
-}
-
-void queueLarge(uint index, vec4 light) {
+void queueLarge(uint index) {
   uint slot = atomicAdd(largeQueue.queued.x, 1u);
   largeLights[slot] = index;
-  if (kWalkLarge) {
-    largeLight[atomicAdd(largeCount, 1u)] = light;
+  // The indirect dispatch's group count: the queue's length, at most the groups it may have.
+  atomicMax(largeQueue.groups.x, min(slot + 1u, MYRIAD_LARGE_LIGHT_GROUPS));
+}
+
+// Light `index` where it is this frame (moved and written with kAnimate).
+vec4 lightNow(uint index) {
+  if (!kAnimate) return lights[index].positionRadius;
+  vec4 light = orbitPosition(index, origins[index].positionRadius, frame.slicing.w);
+  movingLights[index].positionRadius = light;
+  return light;
+}
+
+// Ranks the pair of light `index` and cluster `cluster` (number `id`) and records it in slot `s`.
+void recordPair(uint s, uint size, uint index, uint cluster, uint id) {
+  uint code, rank;
+  if (id < kBins) {
+    rank = atomicAdd(binCount[id], 1u);
+    code = id | kInTable;
   } else {
-    // The indirect dispatch's group count: the queue's length, at most the groups it may have.
-    atomicMax(largeQueue.groups.x, min(slot + 1u, MYRIAD_LARGE_LIGHT_GROUPS));
+    rank = atomicAdd(clusterCursors[cluster], 1u);
+    code = cluster;
   }
+  pairWords[s] = index;
+  pairWords[s + size] = code;
+  pairWords[s + 2u * size] = rank;
 }
 
-// kWalkLarge, counting: this invocation's share of a large light's clusters.
-void countLargeLight(vec4 light) {
-  LightClusters b;
-  if (!lightClustersAt(light, b)) return;
-  for (uint i = gl_LocalInvocationIndex; i < b.clusters; i += kGroup) {
-    uint cluster;
-    if (lightReachesCluster(b, i, false, cluster)) atomicAdd(clusterCursors[clusterSpill(cluster)], 1u);
-  }
-}
-
-// kWalkLarge, assigning: this invocation's share of a queued light's clusters, each pair taking
-// the next slot after the recorded ones.
-void placeLargeLight(uint index) {
-  LightClusters b;
-  if (!lightClusters(index, b)) return;
-  for (uint i = gl_LocalInvocationIndex; i < b.clusters; i += kGroup) {
-    uint cluster;
-    if (!lightReachesCluster(b, i, true, cluster)) continue;
-    uint slot = atomicAdd(clusterCursors[clusterSpill(cluster)], 1u);
-    uvec2 range = clusterRanges[cluster];
-    if (slot < range.y) clusterLights[range.x + slot] = index;
-  }
-}
-
-// Walks light `index`'s clusters once, ranking and recording each pair.
+// Without kFlat: walks light `index`'s clusters in turn, ranking and recording each pair.
 void countLight(uint index, uint size, uint region) {
   if (index >= frame.flags.y) return;
-  vec4 light;
-  if (kAnimate) {
-    light = orbitPosition(index, origins[index].positionRadius, frame.slicing.w);
-    movingLights[index].positionRadius = light;
-  } else {
-    light = lights[index].positionRadius;
-  }
+  vec4 light = lightNow(index);
   LightClusters b;
   if (!lightClustersAt(light, b)) return;
-  if (b.clusters > MYRIAD_LARGE_LIGHT_CLUSTERS) {
-    queueLarge(index, light);
+  if (b.clusters > kMostClusters) {
+    queueLarge(index);
     return;
   }
   uint at = atomicAdd(regionUsed, b.clusters);
@@ -143,29 +133,91 @@ void countLight(uint index, uint size, uint region) {
     // The region is full: the large-light passes take this light; the slots it was handed that
     // lie inside the region hold no pair.
     for (uint s = at; s < size; ++s) pairWords[region + s] = kNoLight;
-    queueLarge(index, light);
+    queueLarge(index);
     return;
   }
   for (uint i = 0u; i < b.clusters; ++i) {
     uint s = region + at + i;
-    uint cluster;
-    if (!lightReachesCluster(b, i, false, cluster)) {
+    uint cluster, id;
+    if (lightReachesActiveCluster(b, i, cluster, id)) {
+      recordPair(s, size, index, cluster, id);
+    } else {
       pairWords[s] = kNoLight;
+    }
+  }
+}
+
+// kFlat: one step of kGroup lights from `base` (indices at or past `end` are none), their
+// candidates in slots used, used + 1, ... of the region; returns the slots the step took.
+uint countStep(uint base, uint end, uint used, uint size, uint region) {
+  uint p = gl_SubgroupID * gl_SubgroupSize + gl_SubgroupInvocationID;
+  uint index = base + p;
+  LightClusters b;
+  uint n = 0u;
+  if (index < end && lightClustersAt(lightNow(index), b)) {
+    if (b.clusters > kMostClusters) {
+      queueLarge(index);
+    } else {
+      n = b.clusters;
+    }
+  }
+  // The run: the step's boxes one after another in the order of p.
+  uint inSubgroup = subgroupInclusiveAdd(n);
+  if (gl_SubgroupInvocationID == gl_SubgroupSize - 1u) subgroupTotal[gl_SubgroupID] = inSubgroup;
+  barrier();
+  uint before = 0u, total = 0u;
+  for (uint g = 0u; g < gl_NumSubgroups; ++g) {
+    uint t = subgroupTotal[g];
+    if (g < gl_SubgroupID) before += t;
+    total += t;
+  }
+  uint runEnd = before + inSubgroup;
+  stepEnd[p] = runEnd;
+  if (n > 0u) {
+    stepSphere[p] = vec4(b.c, b.r);
+    stepBox[p] = uvec3(b.first.x | (b.first.y << 16u), b.extent.x | (b.extent.y << 16u),
+                       b.first.z | (b.extent.z << 16u));
+    // A box past the region's end: the large-light passes take the light (its slots inside the
+    // region hold no pair, below).
+    if (used + runEnd > size) queueLarge(index);
+  }
+  barrier();
+  uint light = 0u;
+  for (uint j = gl_LocalInvocationIndex; j < total; j += kGroup) {
+    // The candidate's light: the first place whose run ends after j (at or after the last found).
+    uint hi = kGroup - 1u;
+    while (light < hi) {
+      uint mid = (light + hi) >> 1u;
+      if (stepEnd[mid] > j) {
+        hi = mid;
+      } else {
+        light = mid + 1u;
+      }
+    }
+    uint slot = used + j;
+    uint lightEnd = stepEnd[light];
+    if (used + lightEnd > size) {
+      if (slot < size) pairWords[region + slot] = kNoLight;
       continue;
     }
-    uint bin = claimBin(cluster);
-    uint code, rank;
-    if (bin != kNoBin) {
-      rank = atomicAdd(binCount[bin], 1u);
-      code = bin | kInTable;
+    uvec3 box = stepBox[light];
+    vec4 sphere = stepSphere[light];
+    LightClusters c;
+    c.c = sphere.xyz;
+    c.r = sphere.w;
+    c.first = uvec3(box.x & 0xFFFFu, box.x >> 16u, box.z & 0xFFFFu);
+    c.extent = uvec3(box.y & 0xFFFFu, box.y >> 16u, box.z >> 16u);
+    c.clusters = c.extent.x * c.extent.y * c.extent.z;
+    uint i = j - (lightEnd - c.clusters);
+    uint cluster, id;
+    if (lightReachesActiveCluster(c, i, cluster, id)) {
+      recordPair(region + slot, size, base + light, cluster, id);
     } else {
-      rank = atomicAdd(clusterCursors[cluster], 1u);
-      code = cluster;
+      pairWords[region + slot] = kNoLight;
     }
-    pairWords[s] = index;
-    pairWords[s + size] = code;
-    pairWords[s + 2u * size] = rank;
   }
+  barrier();  // the step's shared arrays are read before the next step writes them
+  return total;
 }
 
 // Copies one recorded pair into its cluster's list (cut at the list's kept length).
@@ -175,9 +227,9 @@ void placePair(uint s, uint size, uint table) {
   uint cluster = pairWords[s + size];
   uint rank = pairWords[s + 2u * size];
   if ((cluster & kInTable) != 0u) {
-    uint t = table + (cluster & ~kInTable) * 2u;
-    cluster = pairWords[t];
-    rank += pairWords[t + 1u];
+    uint id = cluster & ~kInTable;
+    cluster = clusterCursors[activeClusterWord(id)];
+    rank += pairWords[table + id];
   }
   uvec2 range = clusterRanges[cluster];
   if (rank < range.y) clusterLights[range.x + rank] = index;
@@ -187,25 +239,16 @@ void main() {
   uint thread = gl_LocalInvocationIndex;
   uint size = regionSize();
   uint region = regionStart();
+  uint table = tableStart();
   if (kAssign) {
     uint used = min(pairWords[gl_WorkGroupID.x], size);
-    uint table = tableStart();
     for (uint s = thread; s < used; s += kGroup) placePair(region + s, size, table);
-    if (kWalkLarge) {
-      for (uint q = gl_WorkGroupID.x; q < largeQueue.queued.x; q += gl_NumWorkGroups.x) {
-        placeLargeLight(largeLights[q]);
-      }
-    }
     return;
   }
-  for (uint bin = thread; bin < kBins; bin += kGroup) {
-    binCluster[bin] = kEmpty;
-    binCount[bin] = 0u;
-  }
-  if (thread == 0u) {
-    regionUsed = 0u;
-    largeCount = 0u;
-  }
+  // The table's numbers in use this frame.
+  uint numbers = min(clusterCursors[activeCountWord()], kBins);
+  for (uint id = thread; id < numbers; id += kGroup) binCount[id] = 0u;
+  if (thread == 0u) regionUsed = 0u;
   barrier();
   // This group's lights: a contiguous run of an equal share, kGroup consecutive lights per step
   // (coalesced reads).
@@ -214,28 +257,23 @@ void main() {
   uint first = gl_WorkGroupID.x * share;
   uint end = min(first + share, lightCount);
   uint steps = (share + kGroup - 1u) / kGroup;
+  uint used = 0u;
   for (uint k = 0u; k < steps; ++k) {
-    uint index = first + k * kGroup + thread;
-    countLight(index < end ? index : lightCount, size, region);
-    if (kWalkLarge) {
-      // The step's large lights, by the whole group.
-      barrier();
-      uint n = largeCount;
-      barrier();
-      if (thread == 0u) largeCount = 0u;
-      for (uint j = 0u; j < n; ++j) countLargeLight(largeLight[j]);
-      barrier();
+    uint base = first + k * kGroup;
+    if (kFlat) {
+      used += countStep(base, end, used, size, region);
+    } else {
+      uint index = base + thread;
+      countLight(index < end ? index : lightCount, size, region);
     }
   }
   barrier();
   // Each cluster's total once; the cursor before the add is where the group's part starts.
-  uint table = tableStart();
-  for (uint bin = thread; bin < kBins; bin += kGroup) {
-    uint count = binCount[bin];
+  for (uint id = thread; id < numbers; id += kGroup) {
+    uint count = binCount[id];
     if (count == 0u) continue;
-    uint cluster = binCluster[bin];
-    pairWords[table + bin * 2u] = cluster;
-    pairWords[table + bin * 2u + 1u] = atomicAdd(clusterCursors[cluster], count);
+    uint cluster = clusterCursors[activeClusterWord(id)];
+    pairWords[table + id] = atomicAdd(clusterCursors[cluster], count);
   }
-  if (thread == 0u) pairWords[gl_WorkGroupID.x] = min(regionUsed, size);
+  if (thread == 0u) pairWords[gl_WorkGroupID.x] = min(kFlat ? used : regionUsed, size);
 }

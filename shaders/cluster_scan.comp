@@ -9,7 +9,8 @@
 // Lists past the capacity are cut and the dropped indices counted. A cluster's count is the pairs
 // the counting pass recorded (its cursor) plus those it did not (clusterSpill); the latter take the
 // ranks after the former in the assigning pass, from clusterSpill set to the former's count here.
-// Every cursor is left MYRIAD_CLUSTER_INACTIVE, as the next frame's mark pass wants it.
+// Every cursor and cluster number is left MYRIAD_CLUSTER_INACTIVE and the active count 0, as the
+// next frame's mark pass wants them.
 #include "frame.glsl"
 #include "compute_targets.glsl"
 
@@ -29,6 +30,9 @@ void main() {
   uint clusters = frame.grid.x * frame.grid.y * frame.grid.z;
   uint first = gl_WorkGroupID.x * MYRIAD_SCAN_GROUP * kPerThread + thread;
   if (thread == 0u) {
+    // The active clusters' numbering starts again next frame (the counting pass, its only other
+    // reader, is done).
+    if (gl_WorkGroupID.x == 0u) clusterCursors[activeCountWord()] = 0u;
     groupWritten = 0u;
     groupDropped = 0u;
     groupActive = 0u;
@@ -76,6 +80,7 @@ void main() {
       // fill cursor), and the cursor is inactive again for the next frame's mark: no clearing.
       clusterCursors[clusterSpill(i)] = cursors[k];
       clusterCursors[i] = MYRIAD_CLUSTER_INACTIVE;
+      clusterCursors[clusterIdWord(i)] = MYRIAD_CLUSTER_INACTIVE;
     }
     written += kept;
     offset += count;

@@ -14,16 +14,7 @@ layout(std430, set = MYRIAD_SET_CULLING, binding = MYRIAD_BINDING_CLUSTER_LIGHTS
 layout(std430, set = MYRIAD_SET_CULLING, binding = MYRIAD_BINDING_CULLING_STATS) buffer StatsBlock {
   CullingStats stats;
 };
-layout(std430, set = MYRIAD_SET_CULLING, binding = MYRIAD_BINDING_CLUSTER_CURSORS) buffer CursorBlock {
-  // Per cluster: MYRIAD_CLUSTER_INACTIVE, or the pairs recorded by the counting pass (each took
-  // its rank from here), then the fill cursor of the pairs not recorded. After the grid's
-  // clusters, a second count per cluster: the pairs not recorded (clusterSpill).
-  uint clusterCursors[];
-};
-// Where cluster `cluster`'s count of pairs not recorded lives in clusterCursors.
-uint clusterSpill(uint cluster) {
-  return frame.grid.x * frame.grid.y * frame.grid.z + cluster;
-}
+#include "cluster_cursors.glsl"
 layout(std430, set = MYRIAD_SET_CULLING, binding = MYRIAD_BINDING_LARGE_LIGHTS) buffer LargeLightBlock {
   LargeLightQueue largeQueue;
   uint largeLights[];

@@ -83,12 +83,7 @@ bool loadSurface(ivec2 pixel, out Surface s) {
   return loadSurfaceWithDepth(pixel, texelFetch(gbufferDepth, pixel, 0).r, s);
 }
 
-// Distance from the eye along the view axis, from a [0,1] depth value (right-handed, zero-to-one).
-float viewDepthFromDepth(float depth) {
-  float n = frame.camera.y;
-  float f = frame.camera.z;
-  return n * f / (f - depth * (f - n));
-}
+#include "cluster_grid.glsl"
 
 bool environmentOn() {
   return shadingFeature(MYRIAD_FEATURE_ENVIRONMENT) && frame.environment.x != float(MYRIAD_ENV_NONE);
@@ -322,26 +317,6 @@ vec3 withLocalShadows(Surface s, vec3 color) {
   return max(color, vec3(0.0));
 }
 
-// Exponential depth slices (Olsson et al. 2012): slice k spans near * (far/near)^(k/S) onwards, so
-// clusters stay roughly cubic in view space at every distance.
-uint sliceOfViewDepth(float z) {
-  float s = floor(log(max(z, frame.camera.y)) * frame.slicing.x - frame.slicing.y);
-  return uint(clamp(s, 0.0, float(frame.grid.z - 1)));
-}
-
-float viewDepthOfSlice(uint k) {
-  return exp((float(k) + frame.slicing.y) / frame.slicing.x);
-}
-
-// The clusters' screen tiles are this many pixels square (FrameUniforms.written.y).
-uint clusterTileSize() {
-  return frame.written.y;
-}
-
-uint clusterIndex(uvec3 c) {
-  return c.x + frame.grid.x * (c.y + frame.grid.y * c.z);
-}
-
 // The view-space box around the frustum segment of the screen rectangle [pixelLo, pixelHi)
 // between view depths z0 < z1: the bounds of its eight corners (view space looks down -z).
 void viewBoxOfRect(vec2 pixelLo, vec2 pixelHi, float z0, float z1, out vec3 lo, out vec3 hi) {
@@ -369,11 +344,6 @@ void clusterViewBox(uvec3 c, out vec3 lo, out vec3 hi) {
 bool sphereOverlapsBox(vec3 c, float r, vec3 lo, vec3 hi) {
   vec3 d = clamp(c, lo, hi) - c;
   return dot(d, d) <= r * r;
-}
-
-uint clusterOfPixel(ivec2 pixel, float depth) {
-  uvec2 tile = uvec2(pixel) / clusterTileSize();
-  return clusterIndex(uvec3(tile, sliceOfViewDepth(viewDepthFromDepth(depth))));
 }
 
 vec3 viewVector(vec3 position) {

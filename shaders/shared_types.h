@@ -91,6 +91,8 @@ using mat4 = glm::mat4;
 #define MYRIAD_BINDING_LDR_STORAGE 13         // storage image: the same, written by the final pass
 #define MYRIAD_BINDING_EDGE_PIXELS 14         // storage buffer: AntialiasEdges, then the edge pixels
 #define MYRIAD_BINDING_YUV_PLANES 15          // storage buffer: final as YCbCr 4:2:0 planes (yuv420.comp)
+#define MYRIAD_BINDING_CLUSTER_MARKS 16       // storage buffer: a bit per cluster, set where it holds
+                                              // visible geometry (clustered; FrameTargets)
 
 // The G-buffer rasterised in compute (render/visibility.h; shaders/visibility.glsl): its pipelines'
 // set 1 (their layout is set 0 = the scene, set 1 = this; not the frame's targets set).
@@ -106,7 +108,8 @@ using mat4 = glm::mat4;
 #define MYRIAD_BINDING_VISIBILITY_MATERIAL 8
 #define MYRIAD_BINDING_VISIBILITY_UV 9
 #define MYRIAD_BINDING_VISIBILITY_EMISSIVE 10
-#define MYRIAD_VISIBILITY_BINDINGS 11
+#define MYRIAD_BINDING_VISIBILITY_CLUSTER_MARKS 11  // storage uint[]: FrameTargets::clusterMarks
+#define MYRIAD_VISIBILITY_BINDINGS 12
 #define MYRIAD_VISIBILITY_NONE 0xFFFFFFFFu       // a pixel's triangle where none was drawn
 #define MYRIAD_VISIBILITY_GROUP 64               // triangles per workgroup of the visibility pass
 #define MYRIAD_VISIBILITY_SUBPIXEL_BITS 8        // vertices snap to 1/256 pixel, as raster units do
@@ -167,10 +170,9 @@ using mat4 = glm::mat4;
 #define MYRIAD_LARGE_LIGHT_GROUPS 65535u
 #define MYRIAD_CLUSTER_TILE_SLICES 8
 // The small lights' assignment (cluster_assign_binned.comp) counts a workgroup's light-cluster
-// pairs in a shared hash table of this many clusters (a power of two), probing at most this many
-// bins for a free one before taking the global atomic.
-#define MYRIAD_ASSIGN_BINS 2048u
-#define MYRIAD_ASSIGN_PROBES 32u
+// pairs in a shared table of this many clusters, indexed by their number among the frame's active
+// clusters; clusters numbered past it take a global atomic per pair.
+#define MYRIAD_ASSIGN_BINS 4096u
 
 // Workgroup sizes. The shaders' local_size and the C++ dispatch counts both use these macros, so
 // they cannot disagree; Pipelines checks at start-up that the device runs groups this large
@@ -258,7 +260,9 @@ MYRIAD_STRUCT(FrameUniforms) {
   uvec4 grid;            // x,y clusters across/down, z depth slices, w technique (render::Technique)
   uvec4 written;         // x the optional G-buffer targets this frame wrote (MYRIAD_GBUFFER_*);
                          // y the cluster grid's tile size in pixels (render/cluster_grid.h);
-                         // zw unused
+                         // z 1: the compute G-buffer's resolve marks the clusters holding
+                         // geometry (MYRIAD_BINDING_CLUSTER_MARKS; the clustered technique asks);
+                         // w unused
   vec4 slicing;          // x slices / ln(far/near), y ln(near) * x, z heat-map max, w time (s)
   vec4 environment;      // x mode (MYRIAD_ENV_*), y intensity, z background shown (0/1), w unused
   vec4 environmentRotation;  // x cos, y sin of the environment's rotation about +Y

@@ -10,6 +10,7 @@
 #include "visibility.glsl"
 #include "shading.glsl"
 #include "material_core.glsl"
+#include "cluster_grid.glsl"
 
 layout(local_size_x = MYRIAD_PIXEL_GROUP, local_size_y = MYRIAD_PIXEL_GROUP) in;
 
@@ -21,6 +22,10 @@ layout(set = MYRIAD_SET_VISIBILITY, binding = MYRIAD_BINDING_VISIBILITY_BASE_COL
 layout(set = MYRIAD_SET_VISIBILITY, binding = MYRIAD_BINDING_VISIBILITY_MATERIAL, rgba8) uniform writeonly image2D materialTarget;
 layout(set = MYRIAD_SET_VISIBILITY, binding = MYRIAD_BINDING_VISIBILITY_UV, rg16f) uniform writeonly image2D uvTarget;
 layout(set = MYRIAD_SET_VISIBILITY, binding = MYRIAD_BINDING_VISIBILITY_EMISSIVE, rgba16f) uniform writeonly image2D emissiveTarget;
+// A bit per cluster (FrameTargets::clusterMarks), all clear before this pass.
+layout(std430, set = MYRIAD_SET_VISIBILITY, binding = MYRIAD_BINDING_VISIBILITY_CLUSTER_MARKS) buffer ClusterMarkBlock {
+  uint clusterMarks[];
+};
 
 void storeTexels(ivec2 pixel, GBufferTexels t, vec2 uv) {
   uint written = frame.written.x;
@@ -50,7 +55,17 @@ void main() {
     return;
   }
   // The depth the visibility pass compared: the value the raster path's depth test kept.
-  visibleDepth[index] = uintBitsToFloat(uint(key >> 32));
+  float depth = uintBitsToFloat(uint(key >> 32));
+  visibleDepth[index] = depth;
+  if (frame.written.z != 0u && depth < 1.0) {
+    // The clustered technique's step 1 (cluster_mark.comp's pixel pass on the raster path): this
+    // pixel's cluster holds geometry. The same depth bits the depth target gets, the same
+    // arithmetic (cluster_grid.glsl) as the shading pass. Most pixels find the bit set and only
+    // read.
+    uint cluster = clusterOfPixel(pixel, depth);
+    uint bit = 1u << (cluster & 31u);
+    if ((clusterMarks[cluster >> 5u] & bit) == 0u) atomicOr(clusterMarks[cluster >> 5u], bit);
+  }
 
   TriangleRef ref = triangleRef(id);
   GpuInstance instance = instances[ref.instance];

@@ -235,6 +235,37 @@ TEST_CASE("binned and per-pair cluster assignment build the same lists and image
   CHECK(other.context->validationMessages.load() == 0);
 }
 
+TEST_CASE("clustered: clusters marked in the compute G-buffer's resolve or by the pixel pass, the same lists") {
+  // Where the G-buffer is made in compute, its resolve pass marks the clusters holding geometry
+  // (techniques/clustered.cpp, visibility_resolve.comp); a renderer made with
+  // MYRIAD_MARK_IN_GBUFFER=0 marks them from the same depth in the technique's own pixel pass.
+  // Lists, active clusters and every pixel's count must agree exactly, frame after frame (the
+  // marks are cleared by the frame that reads them).
+  Gpu& gpu = sharedGpu();
+  Gpu other = suiteWith("MYRIAD_MARK_IN_GBUFFER", "0");
+  scene::Scene s = litFloor(20000, 7);
+  gpu.setScene(s);
+  other.setScene(s);
+  gpu.renderer->setGBufferPath(render::GBufferPath::Compute);
+  other.renderer->setGBufferPath(render::GBufferPath::Compute);
+  for (uint32_t width : {160u, 96u, 160u}) {
+    render::FrameSettings f = frameSettings(Technique::Clustered, width, width * 7 / 10);
+    auto [a, countsA] = renderWithCounts(gpu, f);
+    auto [b, countsB] = renderWithCounts(other, f);
+    bool computed = false;
+    for (const render::PassTiming& p : a.passes) computed = computed || p.name == "resolve";
+    CHECK(computed);  // the scene qualifies: opaque, untextured
+    CHECK(a.culling.listEntries > 1000);
+    CHECK(a.culling.listEntries == b.culling.listEntries);
+    CHECK(a.culling.activeClusters == b.culling.activeClusters);
+    CHECK(countsA.data == countsB.data);  // every pixel's exact light count
+    CHECK(maxDifference(a.rgba, b.rgba) <= 1);
+  }
+  gpu.renderer->setGBufferPath(render::GBufferPath::Raster);
+  CHECK(gpu.context->validationMessages.load() == 0);
+  CHECK(other.context->validationMessages.load() == 0);
+}
+
 TEST_CASE("clustered shading per pixel and per subgroup: the same light counts and image") {
   // The clustered shading pass walks its tile's narrowed lists per subgroup on GPUs with subgroup
   // ballot and per pixel on CPU devices (techniques/clustered.cpp); a second renderer made with

@@ -1,5 +1,7 @@
 #include "bench/report.h"
 
+#include <string>
+
 namespace myriad::bench {
 
 namespace {
@@ -12,9 +14,11 @@ nlohmann::json summaryJson(const Summary& s) { return {{"median", s.median}, {"p
 
 void printHeader(std::FILE* out, const RunInfo& run) {
   const gpu::DeviceInfo& d = run.device;
-  std::fprintf(out, "device: %s (%s), driver %s %s, Vulkan %s, timestamp period %.3g ns\n",
+  const std::string units =
+      d.multiprocessors > 0 ? ", " + std::to_string(d.multiprocessors) + " multiprocessors" : "";
+  std::fprintf(out, "device: %s (%s), driver %s %s, Vulkan %s, timestamp period %.3g ns%s\n",
                d.name.c_str(), d.type.c_str(), d.driverName.c_str(), d.driverInfo.c_str(),
-               d.apiVersion.c_str(), d.timestampPeriodNs);
+               d.apiVersion.c_str(), d.timestampPeriodNs, units.c_str());
   std::fprintf(out, "started %s; scene %s; %u warm-up + %u timed frames (cap %.0f s); validation %s; "
                     "gbuffer %s\n",
                run.startedUtc.c_str(), run.scene.c_str(), run.plan.warmupFrames,

@@ -102,10 +102,34 @@ int findQueueFamily(VkPhysicalDevice physical) {
   return -1;
 }
 
+bool deviceExtensionAvailable(VkPhysicalDevice physical, const char* name) {
+  uint32_t count = 0;
+  vkEnumerateDeviceExtensionProperties(physical, nullptr, &count, nullptr);
+  std::vector<VkExtensionProperties> extensions(count);
+  vkEnumerateDeviceExtensionProperties(physical, nullptr, &count, extensions.data());
+  return std::any_of(extensions.begin(), extensions.end(),
+                     [&](const VkExtensionProperties& e) { return std::strcmp(e.extensionName, name) == 0; });
+}
+
 DeviceInfo describe(VkPhysicalDevice physical, uint32_t index) {
   VkPhysicalDeviceDriverProperties driver{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_DRIVER_PROPERTIES};
   VkPhysicalDeviceSubgroupProperties subgroup{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_SUBGROUP_PROPERTIES};
   subgroup.pNext = &driver;
+  // The multiprocessor count, where an extension the device has tells it (properties of a
+  // supported extension may be queried without enabling it).
+  VkPhysicalDeviceShaderSMBuiltinsPropertiesNV nvidia{
+      VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_SHADER_SM_BUILTINS_PROPERTIES_NV};
+  VkPhysicalDeviceShaderCorePropertiesAMD amd{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_SHADER_CORE_PROPERTIES_AMD};
+  const bool hasNvidia = deviceExtensionAvailable(physical, VK_NV_SHADER_SM_BUILTINS_EXTENSION_NAME);
+  const bool hasAmd = deviceExtensionAvailable(physical, VK_AMD_SHADER_CORE_PROPERTIES_EXTENSION_NAME);
+  if (hasNvidia) {
+    nvidia.pNext = subgroup.pNext;
+    subgroup.pNext = &nvidia;
+  }
+  if (hasAmd) {
+    amd.pNext = subgroup.pNext;
+    subgroup.pNext = &amd;
+  }
   VkPhysicalDeviceProperties2 props{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_PROPERTIES_2};
   props.pNext = &subgroup;
   vkGetPhysicalDeviceProperties2(physical, &props);
@@ -132,6 +156,12 @@ DeviceInfo describe(VkPhysicalDevice physical, uint32_t index) {
                                          VK_SUBGROUP_FEATURE_BALLOT_BIT | VK_SUBGROUP_FEATURE_SHUFFLE_BIT;
   info.computeSubgroupShuffle = (subgroup.supportedStages & VK_SHADER_STAGE_COMPUTE_BIT) != 0 &&
                                 (subgroup.supportedOperations & shuffle) == shuffle;
+  if (hasNvidia) {
+    info.multiprocessors = nvidia.shaderSMCount;
+  } else if (hasAmd) {
+    info.multiprocessors =
+        amd.shaderEngineCount * amd.shaderArraysPerEngineCount * amd.computeUnitsPerShaderArray;
+  }
   info.timestampPeriodNs = p.limits.timestampPeriod;
   int family = findQueueFamily(physical);
   if (family >= 0) {

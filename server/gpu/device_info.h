@@ -23,6 +23,9 @@ struct DeviceInfo {
   uint32_t maxComputeWorkGroupSizeX = 0;
   uint32_t subgroupSize = 0;
   bool computeSubgroupShuffle = false;  // compute shaders have subgroup vote, arithmetic, ballot, shuffle
+  // Streaming multiprocessors (VK_NV_shader_sm_builtins) or compute units
+  // (VK_AMD_shader_core_properties), where the driver says; 0 unknown.
+  uint32_t multiprocessors = 0;
   double timestampPeriodNs = 0.0;
   bool timestampsSupported = false;
 };

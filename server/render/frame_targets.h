@@ -61,6 +61,13 @@ struct FrameTargets {
   gpu::Buffer edges;
   // The output as YCbCr 4:2:0 planes (yuv420Layout; 8-bit targets; a 16-byte stand-in for raw).
   gpu::Buffer planes;
+  // A bit per cluster of the extent's grid (render/cluster_grid.h), set where the cluster holds
+  // visible geometry: by the compute G-buffer's resolve when the clustered technique asks
+  // (FrameUniforms.written.z), else by its own pixel pass; its numbering pass reads and clears
+  // them. Per frame slot, so a frame's G-buffer never writes what an earlier frame in flight
+  // still reads; cleared once when made (clusterMarksFresh), then by each frame's reader.
+  gpu::Buffer clusterMarks;
+  bool clusterMarksFresh = true;
   gpu::Buffer readback;  // output pixels, rows top first (RGBA, floats, or the planes)
 };
 

@@ -70,7 +70,7 @@ Pipelines::Pipelines(gpu::Context& context) : device(context.device) {
   }};
   sceneSetLayout = gpu::createDescriptorSetLayout(device, sceneBindings);
   const VkShaderStageFlags readers = VK_SHADER_STAGE_FRAGMENT_BIT | VK_SHADER_STAGE_COMPUTE_BIT;
-  std::array<VkDescriptorSetLayoutBinding, 16> targetBindings{};
+  std::array<VkDescriptorSetLayoutBinding, 17> targetBindings{};
   for (uint32_t i = 0; i <= MYRIAD_BINDING_LIGHT_COUNT; ++i) {
     targetBindings[i] = {i, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, readers, nullptr};
   }
@@ -95,6 +95,9 @@ Pipelines::Pipelines(gpu::Context& context) : device(context.device) {
   targetBindings[MYRIAD_BINDING_YUV_PLANES] = {MYRIAD_BINDING_YUV_PLANES,
                                                VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1,
                                                VK_SHADER_STAGE_COMPUTE_BIT, nullptr};
+  targetBindings[MYRIAD_BINDING_CLUSTER_MARKS] = {MYRIAD_BINDING_CLUSTER_MARKS,
+                                                  VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1,
+                                                  VK_SHADER_STAGE_COMPUTE_BIT, nullptr};
   targetSetLayout = gpu::createDescriptorSetLayout(device, targetBindings);
   std::array<VkDescriptorSetLayoutBinding, 6> cullingBindings{};
   for (uint32_t i = 0; i < cullingBindings.size(); ++i) {

@@ -371,9 +371,15 @@ void Renderer::State::writeTargetSet(FrameSlot& slot) {
   VkWriteDescriptorSet planeWrite = edgeWrite;
   planeWrite.dstBinding = MYRIAD_BINDING_YUV_PLANES;
   planeWrite.pBufferInfo = &planes;
+  // 16: the clusters the compute G-buffer marked (clustered).
+  const VkDescriptorBufferInfo marks{targets->clusterMarks.buffer, 0, VK_WHOLE_SIZE};
+  VkWriteDescriptorSet markWrite = edgeWrite;
+  markWrite.dstBinding = MYRIAD_BINDING_CLUSTER_MARKS;
+  markWrite.pBufferInfo = &marks;
   vkUpdateDescriptorSets(context.device, kBindings, writes, 0, nullptr);
   vkUpdateDescriptorSets(context.device, 1, &edgeWrite, 0, nullptr);
   vkUpdateDescriptorSets(context.device, 1, &planeWrite, 0, nullptr);
+  vkUpdateDescriptorSets(context.device, 1, &markWrite, 0, nullptr);
 }
 
 // Targets follow the output size and are rebuilt only when it changes (every frame is waited
@@ -482,7 +488,7 @@ Renderer::Renderer(gpu::Context& context) : state_(std::make_unique<State>(conte
   // Sets 0 (scene) and 1 (targets) of every frame slot; each technique allocates its own set 2.
   const auto n = static_cast<uint32_t>(slots.size());
   VkDescriptorPoolSize sizes[] = {{VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, n * 1},
-                                  {VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, n * 8},  // + the edge pixels, the YCbCr planes (set 1)
+                                  {VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, n * 9},  // + the edge pixels, the YCbCr planes, the cluster marks (set 1)
                                   {VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, n * 11},  // + the shadow maps, the LDR target
                                   {VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, n * 5}};
   VkDescriptorPoolCreateInfo poolInfo{VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO};
@@ -990,6 +996,14 @@ void Renderer::State::recordBeforeLighting(VkCommandBuffer cmd, FrameSlot& slot,
                                            const FrameSettings& settings) {
   State& s = *this;
   const Pipelines& p = s.pipelines;
+  if (slot.targets->clusterMarksFresh) {
+    // New targets: no cluster marked (later frames leave them so; FrameTargets).
+    vkCmdFillBuffer(cmd, slot.targets->clusterMarks.buffer, 0, VK_WHOLE_SIZE, 0u);
+    gpu::bufferBarrier(cmd, slot.targets->clusterMarks, VK_PIPELINE_STAGE_2_ALL_TRANSFER_BIT,
+                       VK_ACCESS_2_TRANSFER_WRITE_BIT, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
+                       VK_ACCESS_2_SHADER_STORAGE_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT);
+    slot.targets->clusterMarksFresh = false;
+  }
   if (environment) {
     const SceneEnvironment::Inputs inputs = EnvironmentPasses::inputsFor(settings, *environment);
     if (environment->built != inputs) {
@@ -1152,7 +1166,8 @@ void Renderer::State::recordFrame(FrameSlot& slot, SceneBuffers& scene,
   // Lighting leaves HDR and light counts as attachments (raster) or storage images (compute).
   const VkImageLayout lightingLayout =
       technique.record({cmd, *slot.timer, *slot.targets, scene, slot.shadingFeatures,
-                        settings.animate && technique.animatesLights()});
+                        settings.animate && technique.animatesLights(),
+                        computeGBufferFor(scene, settings)});
   recordAfterLighting(cmd, slot, scene, settings, lightingLayout);
   slot.meta = metaOf(scene, environment, settings);
   slot.meta.madeTargets = slot.madeTargets;
@@ -1215,7 +1230,8 @@ std::unique_ptr<Renderer::SplitFrame> Renderer::beginSplit(SceneId id,
   s.recordBeforeLighting(cmd, s.split, scene, environment, settings);
   frame->lightingLayout_ =
       technique.recordBeforeLights({cmd, *s.split.timer, *s.split.targets, scene, s.split.shadingFeatures,
-                                    settings.animate && technique.animatesLights()});
+                                    settings.animate && technique.animatesLights(),
+                                    s.computeGBufferFor(scene, settings)});
   s.split.timer->end(cmd);
   gpu::submitAndWait(s.context, s.split.recorder);
   addPasses(frame->passes_, s.split.timer->results());

@@ -69,7 +69,7 @@ ComputeGBuffer::ComputeGBuffer(gpu::Context& context, VkDescriptorSetLayout scen
 
   std::array<VkDescriptorSetLayoutBinding, MYRIAD_VISIBILITY_BINDINGS> bindings{};
   for (uint32_t i = 0; i < bindings.size(); ++i) {
-    const bool image = i >= MYRIAD_BINDING_VISIBILITY_NORMAL;
+    const bool image = i >= MYRIAD_BINDING_VISIBILITY_NORMAL && i <= MYRIAD_BINDING_VISIBILITY_EMISSIVE;
     bindings[i] = {i, image ? VK_DESCRIPTOR_TYPE_STORAGE_IMAGE : VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1,
                    VK_SHADER_STAGE_COMPUTE_BIT, nullptr};
   }
@@ -84,9 +84,9 @@ ComputeGBuffer::ComputeGBuffer(gpu::Context& context, VkDescriptorSetLayout scen
   resolve_ = gpu::createComputePipeline(context.device, layout_, spirv::visibility_resolve_comp);
 
   const VkDescriptorPoolSize sizes[] = {
-      {VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, slots * MYRIAD_BINDING_VISIBILITY_NORMAL},
+      {VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, slots * (MYRIAD_BINDING_VISIBILITY_NORMAL + 1)},
       {VK_DESCRIPTOR_TYPE_STORAGE_IMAGE,
-       slots * (MYRIAD_VISIBILITY_BINDINGS - MYRIAD_BINDING_VISIBILITY_NORMAL)}};
+       slots * (MYRIAD_BINDING_VISIBILITY_EMISSIVE + 1 - MYRIAD_BINDING_VISIBILITY_NORMAL)}};
   VkDescriptorPoolCreateInfo poolInfo{VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO};
   poolInfo.maxSets = slots;
   poolInfo.poolSizeCount = 2;
@@ -161,6 +161,7 @@ void ComputeGBuffer::record(VkCommandBuffer cmd, std::unique_ptr<Slot>& slot,
       {scene.vertices.buffer, 0, VK_WHOLE_SIZE}, {scene.indices.buffer, 0, VK_WHOLE_SIZE},
       {slot->draws.buffer, 0, VK_WHOLE_SIZE},    {slot->keys.buffer, 0, VK_WHOLE_SIZE},
       {slot->depth.buffer, 0, VK_WHOLE_SIZE},    {slot->large.buffer, 0, VK_WHOLE_SIZE}};
+  const VkDescriptorBufferInfo marks{t.clusterMarks.buffer, 0, VK_WHOLE_SIZE};
   const VkImageView views[] = {t.normal.view, t.baseColorStorage, t.material.view, t.uv.view,
                                t.emissive.view};
   VkDescriptorImageInfo images[std::size(views)];
@@ -170,7 +171,10 @@ void ComputeGBuffer::record(VkCommandBuffer cmd, std::unique_ptr<Slot>& slot,
     writes[i].dstSet = slot->set;
     writes[i].dstBinding = i;
     writes[i].descriptorCount = 1;
-    if (i < MYRIAD_BINDING_VISIBILITY_NORMAL) {
+    if (i == MYRIAD_BINDING_VISIBILITY_CLUSTER_MARKS) {
+      writes[i].descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
+      writes[i].pBufferInfo = &marks;
+    } else if (i < MYRIAD_BINDING_VISIBILITY_NORMAL) {
       writes[i].descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
       writes[i].pBufferInfo = &buffers[i];
     } else {
@@ -235,6 +239,9 @@ void ComputeGBuffer::record(VkCommandBuffer cmd, std::unique_ptr<Slot>& slot,
   vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, resolve_);
   vkCmdDispatch(cmd, gpu::groupCount(extent.width, MYRIAD_PIXEL_GROUP),
                 gpu::groupCount(extent.height, MYRIAD_PIXEL_GROUP), 1);
+  // The cluster marks (FrameUniforms.written.w), for the lighting's compute passes.
+  gpu::bufferBarrier(cmd, t.clusterMarks, kCompute, kReadWrite, kCompute,
+                     VK_ACCESS_2_SHADER_STORAGE_READ_BIT);
 
   // Depth: the resolved values into the depth target, as the raster path's depth test left it.
   gpu::bufferBarrier(cmd, slot->depth, kCompute, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,

@@ -1,6 +1,7 @@
 // Clustered (Olsson, Billeter, Assarsson 2012): the cluster grid (render/cluster_grid.h) gets
 // compact per-cluster light lists built on the GPU each frame, and each pixel walks its
-// cluster's list. Five steps: mark the clusters holding visible geometry, count each active
+// cluster's list. Five steps: mark the clusters holding visible geometry (the compute G-buffer's
+// resolve sets their bits where it runs) and number them, count each active
 // cluster's lights (per workgroup in shared memory, then once per cluster globally; lights
 // reaching many clusters a workgroup each), place each cluster's list (cut at the capacity,
 // overflow counted), fill the lists (timed together as "assign"), shade ("shade": each 16x16 tile first
@@ -52,11 +53,22 @@ constexpr double kListGrowth = 1.25;
 // The lists are a few MiB at most sizes; the 64 MiB default block would be mostly waste.
 constexpr VkDeviceSize kListBlockSize = 4ull << 20;
 
-// The small lights' count and fill passes (cluster_assign_binned.comp) run at most this many
-// workgroups, each taking a contiguous run of the lights: the more lights a workgroup counts, the
-// fewer global atomics its shared table leaves, down to one per cluster it touches. On the H200
-// 256 and 4,096 groups measured within 0.1 ms of 1,024 at a million lights (docs/performance.md).
-constexpr uint32_t kBinnedAssignGroups = 1024;
+// The small lights' count and fill passes (cluster_assign_binned.comp) run at most one workgroup
+// per multiprocessor of the device (DeviceInfo::multiprocessors), or this many where the driver
+// does not say, each taking a contiguous run of the lights: the more lights a workgroup counts,
+// the fewer global atomics its shared table leaves (each group flushes its table once), and the
+// flattened walk keeps every invocation busy whatever the group's share. The pass takes as long
+// as the busiest multiprocessor: on the H200 (132 SMs) 128 groups beat 64, 96, 192, 256, 512,
+// 1,024 and 2,048 with a million lights at 1080p and at 4K (docs/performance.md, issue 16 stop 16):
+// fewer leave SMs idle, more give some SMs two groups' lights.
+constexpr uint32_t kBinnedAssignGroups = 128;
+// And at least this many lights a workgroup (its steps take MYRIAD_ASSIGN_BIN_GROUP lights each;
+// a step of fewer walks their clusters side by side all the same): 10,000 lights get 128 groups,
+// not 40 (H200: assign 0.081 -> 0.064 ms at 1080p).
+constexpr uint32_t kBinnedGroupLights = 64;
+// The pair buffer holds at least this many slots, so that a few thousand lights with large boxes
+// are still recorded, not queued for the large-light passes.
+constexpr uint64_t kMinimumPairSlots = 1u << 20;
 
 // The benchmark's experiment switches below read the environment once each through these.
 bool envIs(const char* name, const char* value) {
@@ -83,14 +95,31 @@ uint64_t pairSlotsPerLight() {
 }
 constexpr uint64_t kPairWordsPerSlot = 3;  // light, cluster (or bin), rank
 
-// The shared table's bins of the binned passes: MYRIAD_ASSIGN_BINS, or MYRIAD_ASSIGN_BINS_OVERRIDE
-// (a power of two, 256 to 4096; a benchmark experiment).
+// The shared table's bins of the binned passes (active clusters counted in shared memory):
+// MYRIAD_ASSIGN_BINS, or MYRIAD_ASSIGN_BINS_OVERRIDE (256 to 4096; a benchmark experiment).
 uint32_t assignBins() {
   static const uint32_t bins = [] {
     const uint64_t n = envNumber("MYRIAD_ASSIGN_BINS_OVERRIDE");
-    return n >= 256 && n <= 4096 && (n & (n - 1)) == 0 ? uint32_t(n) : uint32_t(MYRIAD_ASSIGN_BINS);
+    return n >= 256 && n <= 4096 ? uint32_t(n) : uint32_t(MYRIAD_ASSIGN_BINS);
   }();
   return bins;
+}
+
+// The binned counting pass walks the candidates of a step's lights side by side (kFlat);
+// MYRIAD_ASSIGN_FLAT=0 has each invocation walk its own light's clusters in turn (a benchmark
+// comparison).
+bool flatWalk() {
+  return !envIs("MYRIAD_ASSIGN_FLAT", "0");
+}
+
+// Lights whose box holds more clusters than this go to the large-light passes (a workgroup each):
+// MYRIAD_LARGE_LIGHT_CLUSTERS, or MYRIAD_ASSIGN_MOST_CLUSTERS (1 to 65536; a benchmark experiment).
+uint32_t mostClustersPerLight() {
+  static const uint32_t most = [] {
+    const uint64_t n = envNumber("MYRIAD_ASSIGN_MOST_CLUSTERS");
+    return n >= 1 && n <= 65536 ? uint32_t(n) : uint32_t(MYRIAD_LARGE_LIGHT_CLUSTERS);
+  }();
+  return most;
 }
 
 // Whether the small lights are counted per workgroup in shared memory (cluster_assign_binned.comp)
@@ -114,14 +143,17 @@ bool separateAnimation() {
   return envIs("MYRIAD_ANIMATE_SEPARATE", "1");
 }
 
-// MYRIAD_ASSIGN_WALK_LARGE=1: the binned passes walk the large lights themselves, a workgroup
-// each, instead of the indirect passes of cluster_assign.comp (two dispatches and barriers fewer;
-// a benchmark experiment).
-bool walkLargeInBinned() {
-  return envIs("MYRIAD_ASSIGN_WALK_LARGE", "1");
+// Step 1 from the compute G-buffer's marks where it ran (its resolve pass reads every pixel's depth
+// anyway: a bit per cluster, then one invocation per cluster here) instead of a pass over the
+// pixels. MYRIAD_MARK_IN_GBUFFER=0 keeps the pixel pass (a benchmark comparison).
+bool markInGBuffer() {
+  static const bool on = !envIs("MYRIAD_MARK_IN_GBUFFER", "0");
+  return on;
 }
 
+// The binned passes need full subgroups with arithmetic (their scan of a step's boxes).
 bool binnedAssignFor(const gpu::DeviceInfo& device) {
+  if (!device.computeSubgroupShuffle) return false;
   if (envIs("MYRIAD_CLUSTER_ASSIGN", "atomic")) return false;
   if (envIs("MYRIAD_CLUSTER_ASSIGN", "binned")) return true;
   return !device.isCpu;
@@ -155,8 +187,10 @@ struct ClusterLists {
       : grid(g), capacity(references), lightCapacity(lights), arena(context, kListBlockSize) {
     const VkBufferUsageFlags storage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT;
     ranges = arena.createBuffer(VkDeviceSize(grid.count()) * 8, storage, gpu::MemoryUse::DeviceLocal);
-    // Two words per cluster: the cursor, then the count of pairs not recorded (clusterSpill).
-    cursors = arena.createBuffer(VkDeviceSize(grid.count()) * 8,
+    // Four words per cluster: the cursor, the count of pairs not recorded (clusterSpill), its
+    // number among the active clusters, the cluster numbered so; then the active clusters' count
+    // (shaders/cluster_cursors.glsl).
+    cursors = arena.createBuffer(VkDeviceSize(grid.count()) * 16 + 16,
                                  storage | VK_BUFFER_USAGE_TRANSFER_DST_BIT, gpu::MemoryUse::DeviceLocal);
     pairs = arena.createBuffer(pairBytes, storage, gpu::MemoryUse::DeviceLocal);
     lists = arena.createBuffer(VkDeviceSize(capacity) * 4, storage, gpu::MemoryUse::DeviceLocal);
@@ -187,13 +221,18 @@ class Clustered final : public LightingTechnique {
         shade_(setup.context.device, setup.pipelines.layout, shadeShaderFor(setup.context.info)),
         set_(setup.context, setup.pipelines), counters_(setup.context),
         binnedAssign_(binnedAssignFor(setup.context.info)),
-        animateInCount_(binnedAssign_ && !separateAnimation()),
-        walkLarge_(binnedAssign_ && walkLargeInBinned()) {
+        animateInCount_(binnedAssign_ && !separateAnimation()) {
     requireWorkgroup(setup.context, MYRIAD_SCAN_GROUP, MYRIAD_SCAN_GROUP);
     requireWorkgroup(setup.context, MYRIAD_ASSIGN_BIN_GROUP, MYRIAD_ASSIGN_BIN_GROUP);
     VkDevice device = setup.context.device;
     VkPipelineLayout layout = setup.pipelines.layout;
     mark_ = pipelines_.add(gpu::createComputePipeline(device, layout, spirv::cluster_mark_comp));
+    {
+      const VkSpecializationMapEntry entry{0, 0, sizeof(VkBool32)};
+      const VkBool32 number = VK_TRUE;
+      VkSpecializationInfo spec{1, &entry, sizeof(number), &number};
+      number_ = pipelines_.add(gpu::createComputePipeline(device, layout, spirv::cluster_mark_comp, &spec));
+    }
     scan_ = pipelines_.add(gpu::createComputePipeline(device, layout, spirv::cluster_scan_comp));
     // Alpha-blended surfaces mark their clusters from their fragments (storage writes from a
     // fragment shader): without fragmentStoresAndAtomics the forward pass tests every light.
@@ -222,15 +261,17 @@ class Clustered final : public LightingTechnique {
             gpu::createComputePipeline(device, layout, spirv::cluster_assign_comp, &spec));
       }
       // cluster_assign_binned.comp: kAssign (constant 0), its table's bins (2), kAnimate (3),
-      // kWalkLarge (4).
+      // kFlat (4), kMostClusters (5).
       const VkSpecializationMapEntry binnedEntries[] = {{0, 0, sizeof(VkBool32)},
                                                         {2, 4, sizeof(uint32_t)},
                                                         {3, 8, sizeof(VkBool32)},
-                                                        {4, 12, sizeof(VkBool32)}};
+                                                        {4, 12, sizeof(VkBool32)},
+                                                        {5, 16, sizeof(uint32_t)}};
       for (VkBool32 animate : {VK_FALSE, VK_TRUE}) {
         if (assign && animate) continue;
-        const uint32_t binnedValues[] = {assign, assignBins(), animate, VkBool32(walkLarge_)};
-        VkSpecializationInfo binnedSpec{4, binnedEntries, sizeof(binnedValues), binnedValues};
+        const uint32_t binnedValues[] = {assign, assignBins(), animate, VkBool32(flatWalk()),
+                                         mostClustersPerLight()};
+        VkSpecializationInfo binnedSpec{5, binnedEntries, sizeof(binnedValues), binnedValues};
         (assign ? assignBinned_ : animate ? countBinnedAnimated_ : countBinned_) = pipelines_.add(
             gpu::createComputePipeline(device, layout, spirv::cluster_assign_binned_comp, &binnedSpec));
       }
@@ -265,7 +306,10 @@ class Clustered final : public LightingTechnique {
     set_.write(bindings);
   }
 
-  void writeUniforms(FrameUniforms& u) const override { u.flags.w = lists_->capacity; }
+  void writeUniforms(FrameUniforms& u) const override {
+    u.flags.w = lists_->capacity;
+    u.written.z = markInGBuffer() ? 1u : 0u;  // the compute G-buffer's resolve marks clusters
+  }
 
   // On GPUs the counting pass moves the lights as it walks them: one pass over the lights fewer.
   bool animatesLights() const override { return animateInCount_; }
@@ -282,8 +326,10 @@ class Clustered final : public LightingTechnique {
     // it once here. The mark pass empties the counters and the large-light queue.
     VkPipelineStageFlags2 before = 0;
     if (!lists_->cursorsInactive) {
-      vkCmdFillBuffer(cmd, lists_->cursors.buffer, 0, VkDeviceSize(lists_->grid.count()) * 4,
-                      MYRIAD_CLUSTER_INACTIVE);
+      // Cursors, counts and numbers MYRIAD_CLUSTER_INACTIVE, no cluster numbered yet.
+      const VkDeviceSize numbered = VkDeviceSize(lists_->grid.count()) * 16;
+      vkCmdFillBuffer(cmd, lists_->cursors.buffer, 0, numbered, MYRIAD_CLUSTER_INACTIVE);
+      vkCmdFillBuffer(cmd, lists_->cursors.buffer, numbered, 4, 0);
       lists_->cursorsInactive = true;
       before = kFillStage;
     }
@@ -299,9 +345,15 @@ class Clustered final : public LightingTechnique {
                          kComputeStage, kStorageReadWrite);
     }
 
-    // 1. Mark clusters holding visible geometry.
+    // 1. Mark clusters holding visible geometry (the compute G-buffer's resolve did, or a pass
+    // over the pixels here), then number them (a cluster an invocation).
     if (assignSteps()) pass.timer.beginPass(cmd, "assign-mark");
-    dispatchPixels(cmd, mark_, t.extent, MYRIAD_PIXEL_GROUP);
+    if (!(pass.computeGBuffer && markInGBuffer())) {
+      dispatchPixels(cmd, mark_, t.extent, MYRIAD_PIXEL_GROUP);
+      gpu::memoryBarrier(cmd, kComputeStage, kStorageWrite, kComputeStage, kStorageReadWrite);
+    }
+    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, number_);
+    vkCmdDispatch(cmd, groupCount(lists_->grid.count(), MYRIAD_PIXEL_GROUP * MYRIAD_PIXEL_GROUP), 1, 1);
     gpu::memoryBarrier(cmd, kComputeStage, kStorageWrite, kComputeStage, kStorageReadWrite);
     // 1b. And those of alpha-blended surfaces in front of it (or over the background).
     if (markBlend_ != VK_NULL_HANDLE && hasBlendDraws(pass.scene)) markBlendClusters(cmd, pass);
@@ -317,12 +369,10 @@ class Clustered final : public LightingTechnique {
                          kComputeStage | VK_PIPELINE_STAGE_2_DRAW_INDIRECT_BIT |
                              (animate ? lightReaders : 0),
                          kStorageReadWrite | VK_ACCESS_2_INDIRECT_COMMAND_READ_BIT);
-      if (!walkLarge_) {
-        if (assignSteps()) pass.timer.beginPass(cmd, "assign-count-large");
-        vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, countLarge_);
-        vkCmdDispatchIndirect(cmd, lists_->large.buffer, 0);
-        gpu::memoryBarrier(cmd, kComputeStage, kStorageWrite, kComputeStage, kStorageReadWrite);
-      }
+      if (assignSteps()) pass.timer.beginPass(cmd, "assign-count-large");
+      vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, countLarge_);
+      vkCmdDispatchIndirect(cmd, lists_->large.buffer, 0);
+      gpu::memoryBarrier(cmd, kComputeStage, kStorageWrite, kComputeStage, kStorageReadWrite);
     }
     // 3. Prefix sum: list offsets, capacity cuts, counters.
     if (assignSteps()) pass.timer.beginPass(cmd, "assign-scan");
@@ -334,17 +384,15 @@ class Clustered final : public LightingTechnique {
       // 4. Fill the lists: the same split, the queue kept from step 2.
       if (assignSteps()) pass.timer.beginPass(cmd, "assign-fill");
       dispatchSmallLights(cmd, pass.scene.lightCount, assign_, assignBinned_);
-      if (!walkLarge_) {
-        // The small-light pass does not write the queue, and its list slots are not the large
-        // lights', but it holds both writable: order it before the indirect read and the large
-        // lights' pass all the same (the synchronization layer's rule).
-        gpu::memoryBarrier(cmd, kComputeStage, kStorageWrite,
-                           kComputeStage | VK_PIPELINE_STAGE_2_DRAW_INDIRECT_BIT,
-                           kStorageReadWrite | VK_ACCESS_2_INDIRECT_COMMAND_READ_BIT);
-        if (assignSteps()) pass.timer.beginPass(cmd, "assign-fill-large");
-        vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, assignLarge_);
-        vkCmdDispatchIndirect(cmd, lists_->large.buffer, 0);
-      }
+      // The small-light pass does not write the queue, and its list slots are not the large
+      // lights', but it holds both writable: order it before the indirect read and the large
+      // lights' pass all the same (the synchronization layer's rule).
+      gpu::memoryBarrier(cmd, kComputeStage, kStorageWrite,
+                         kComputeStage | VK_PIPELINE_STAGE_2_DRAW_INDIRECT_BIT,
+                         kStorageReadWrite | VK_ACCESS_2_INDIRECT_COMMAND_READ_BIT);
+      if (assignSteps()) pass.timer.beginPass(cmd, "assign-fill-large");
+      vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, assignLarge_);
+      vkCmdDispatchIndirect(cmd, lists_->large.buffer, 0);
       gpu::memoryBarrier(cmd, kComputeStage, kStorageWrite, kComputeStage,
                          VK_ACCESS_2_SHADER_STORAGE_READ_BIT);
     }
@@ -443,16 +491,20 @@ class Clustered final : public LightingTechnique {
   }
 
   // The workgroups of the binned passes for `lightCount` lights (at least one).
-  // MYRIAD_ASSIGN_GROUPS (64 to 4096) overrides kBinnedAssignGroups: a benchmark experiment.
-  // Walking the large lights themselves, the passes give each light a group while there are
-  // fewer lights than groups, so that a thousand large lights keep a thousand groups busy.
+  // MYRIAD_ASSIGN_GROUPS (64 to 4096) overrides the most (the multiprocessors or
+  // kBinnedAssignGroups) and MYRIAD_ASSIGN_GROUP_LIGHTS (16 to 65536) kBinnedGroupLights:
+  // benchmark experiments.
   uint32_t binnedGroups(uint32_t lightCount) const {
-    static const uint32_t most = [] {
-      const uint64_t n = envNumber("MYRIAD_ASSIGN_GROUPS");
-      return n >= 64 && n <= 4096 ? uint32_t(n) : kBinnedAssignGroups;
+    static const uint64_t asked = envNumber("MYRIAD_ASSIGN_GROUPS");
+    const uint32_t multiprocessors = context_.info.multiprocessors;
+    const uint32_t most = asked >= 64 && asked <= 4096 ? uint32_t(asked)
+                          : multiprocessors > 0     ? multiprocessors
+                                                    : kBinnedAssignGroups;
+    static const uint32_t groupLights = [] {
+      const uint64_t n = envNumber("MYRIAD_ASSIGN_GROUP_LIGHTS");
+      return n >= 16 && n <= 65536 ? uint32_t(n) : kBinnedGroupLights;
     }();
-    const uint32_t wanted = walkLarge_ ? lightCount : groupCount(lightCount, MYRIAD_ASSIGN_BIN_GROUP);
-    return std::clamp(wanted, 1u, most);
+    return std::clamp(groupCount(lightCount, groupLights), 1u, most);
   }
 
   // The pair buffer of cluster_assign_binned.comp for `lightCount` lights: a count and a table per
@@ -461,16 +513,19 @@ class Clustered final : public LightingTechnique {
   VkDeviceSize pairBytes(uint32_t lightCount) const {
     if (!binnedAssign_) return 4;
     const uint64_t groups = binnedGroups(lightCount);
-    const uint64_t tables = groups * (1 + 2 * uint64_t(assignBins())) * 4;
+    const uint64_t tables = groups * (1 + uint64_t(assignBins())) * 4;
     const uint64_t slotBytes = kPairWordsPerSlot * 4;
-    const uint64_t wanted = std::max<uint64_t>(lightCount, 1) * pairSlotsPerLight() * slotBytes;
+    // The floor only with the default slots: an override is there to fill the regions.
+    const uint64_t floor = envNumber("MYRIAD_ASSIGN_PAIR_SLOTS") == 0 ? kMinimumPairSlots : 1;
+    const uint64_t wanted = std::max(uint64_t(lightCount) * pairSlotsPerLight(), floor) * slotBytes;
     const uint64_t room = context_.info.maxStorageBufferRange - tables;
     return tables + std::min(wanted, room / slotBytes * slotBytes);
   }
 
   gpu::Context& context_;
   PipelineList pipelines_;
-  VkPipeline mark_ = VK_NULL_HANDLE;
+  VkPipeline mark_ = VK_NULL_HANDLE;    // cluster_mark.comp's pixel pass
+  VkPipeline number_ = VK_NULL_HANDLE;  // its numbering pass (kNumber)
   VkPipeline count_ = VK_NULL_HANDLE;
   VkPipeline scan_ = VK_NULL_HANDLE;
   VkPipeline assign_ = VK_NULL_HANDLE;
@@ -485,7 +540,6 @@ class Clustered final : public LightingTechnique {
   CullingCounters counters_;
   bool binnedAssign_;  // small lights by cluster_assign_binned.comp (else cluster_assign.comp)
   bool animateInCount_;  // animatesLights()
-  bool walkLarge_;  // the binned passes walk the large lights themselves (kWalkLarge)
   std::unique_ptr<ClusterLists> lists_;
   uint64_t listLimitBytes_ = 0;              // limitListMemory(); 0 = the device's limit
   uint32_t listStartCapacity_ = 0;           // limitListMemory(); 0 = initialCapacity()'s

@@ -39,6 +39,9 @@ struct LightingPass {
   // The lights move this frame and the technique said it moves them (animatesLights()): its
   // passes write each light's position (light_orbit.glsl) before anything reads it.
   bool animateLights = false;
+  // The G-buffer was made in compute (render/visibility.h): its resolve pass marked the clusters
+  // holding geometry in targets.clusterMarks where the uniforms asked (FrameUniforms.written.z).
+  bool computeGBuffer = false;
 };
 
 class LightingTechnique {
