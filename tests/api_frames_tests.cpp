@@ -522,6 +522,36 @@ TEST_CASE("streams: animated parts, idle re-sends, the end on DELETE, limits, st
     const double clicked = std::chrono::duration<double>(parts.back().arrived - last).count();
     MESSAGE("still ", clicked, " s after a single change that ended its interaction");
     CHECK(clicked < settled);
+
+    // The still is not held by the stream's fps limit: on a stream of 1 frame a second, the
+    // same single change shows interactive and then its still within that second (each part a
+    // 32x24 frame of milliseconds; held, the still came a second after the interactive part).
+    {
+      MultipartReader slow(server, streamPath(session, "format=jpeg&width=32&height=24&interactive=24&fps=1"),
+                           auth(session));
+      REQUIRE(slow.status() == 200);
+      REQUIRE(slow.waitFor(1, std::chrono::seconds(60)).size() == 1);
+      std::this_thread::sleep_for(std::chrono::milliseconds(1200));  // a new interaction, a new second
+      last = Clock::now();
+      res = client->Patch(sessionPath + "/camera", ending, json{{"fovY", 36.0}}.dump(),
+                          "application/json");
+      REQUIRE(res);
+      CHECK(res->status == 200);
+      std::vector<StreamPart> slowParts;
+      for (size_t n = 2;; ++n) {
+        slowParts = slow.waitFor(n, std::chrono::seconds(60));
+        REQUIRE(slowParts.size() >= n);
+        if (slowParts[n - 1].arrived > last && !isInteractive(slowParts[n - 1])) break;
+      }
+      REQUIRE(slowParts.size() >= 3);
+      const StreamPart& shownFirst = slowParts[slowParts.size() - 2];
+      CHECK(isInteractive(shownFirst));
+      CHECK(shownFirst.arrived > last);
+      const double gap =
+          std::chrono::duration<double>(slowParts.back().arrived - shownFirst.arrived).count();
+      MESSAGE("on a 1 fps stream, its still ", gap, " s after its interactive part");
+      CHECK(gap < 0.9);
+    }
     // Any other value is refused, naming the header; nothing changes.
     httplib::Headers wrong = auth(session);
     wrong.emplace("X-Myriad-Interaction", "later");

@@ -680,6 +680,81 @@ TEST_CASE("frames in flight each keep their own pixels, counters and animation t
   CHECK(gpu.context->validationMessages.load() == 0);
 }
 
+TEST_CASE("a still between smaller frames keeps its slot's targets and sun map; the idle trim keeps them") {
+  // A stream's interactive frames are smaller than its still (a quarter of each side, no sun
+  // shadows) and come between its stills: with two slots each size keeps its own targets, and
+  // the still's slot its sun map, instead of the still making 1280x720 targets anew (docs/
+  // performance.md "The drag's still"). The idle trim (RenderThread, kIdleKeepBytes) keeps the
+  // last frame's when they are small enough.
+  Gpu& gpu = sharedGpu();
+  render::Renderer& r = *gpu.renderer;
+  const scene::Scene b = sceneB();
+  const render::SceneId id = r.createScene(b);
+  render::FrameSettings still = settingsFor(b);
+  still.shadows.sun = true;
+  still.shadows.mapSize = 512;
+  still.borrowPixels = true;
+  render::FrameSettings moving = settingsFor(b);
+  moving.width = still.width / 4;
+  moving.height = still.height / 4;
+  moving.borrowPixels = true;
+  auto drewShadow = [](const render::Frame& f) {
+    return std::any_of(f.passes.begin(), f.passes.end(),
+                       [](const render::PassTiming& p) { return p.name == "shadow"; });
+  };
+  auto bytes = [](const render::Frame& f) {
+    return std::vector<uint8_t>(f.pixels().begin(), f.pixels().end());
+  };
+  r.releaseFrameMemory();
+  r.setFramesInFlight(2);
+  const render::Frame first = r.render(id, still);
+  CHECK(first.madeTargets);
+  CHECK(drewShadow(first));
+  for (int i = 0; i < 3; ++i) {
+    CAPTURE(i);
+    const render::Frame small = r.render(id, moving);
+    CHECK(small.madeTargets == (i == 0));  // its own slot, made once
+    CHECK_FALSE(drewShadow(small));
+    const render::Frame again = r.render(id, still);
+    CHECK_FALSE(again.madeTargets);
+    CHECK_FALSE(drewShadow(again));
+    CHECK(maxDifference(bytes(again), bytes(first)) <= 1);  // up to the GPU's atomics' order
+  }
+  // The interactive frames' scale changes: their slot's targets are made again (nearest in
+  // size), the still's stay.
+  render::FrameSettings larger = moving;
+  larger.width = still.width / 2;
+  larger.height = still.height / 2;
+  CHECK(r.render(id, larger).madeTargets);
+  CHECK_FALSE(r.render(id, larger).madeTargets);
+  const render::Frame afterScale = r.render(id, still);
+  CHECK_FALSE(afterScale.madeTargets);
+  CHECK_FALSE(drewShadow(afterScale));
+  // One slot: every change of size makes the targets again (what two slots avoid).
+  r.setFramesInFlight(1);
+  CHECK(r.render(id, moving).madeTargets);
+  CHECK(r.render(id, still).madeTargets);
+
+  // Idle: the last frame's slot stays when it fits keepBytes, else everything goes.
+  r.setFramesInFlight(2);
+  r.render(id, still);
+  const uint64_t held = r.gpuMemoryBytes();
+  r.releaseFrameMemory(64ull << 20);
+  CHECK(r.gpuMemoryBytes() <= held);
+  const render::Frame afterKeep = r.render(id, still);
+  CHECK_FALSE(afterKeep.madeTargets);
+  CHECK_FALSE(drewShadow(afterKeep));
+  r.releaseFrameMemory(1);  // too small to keep anything
+  const render::Frame afterTrim = r.render(id, still);
+  CHECK(afterTrim.madeTargets);
+  CHECK(drewShadow(afterTrim));
+  CHECK(maxDifference(bytes(afterTrim), bytes(first)) <= 1);
+  r.setFramesInFlight(1);
+  r.releaseFrameMemory();
+  r.destroyScene(id);
+  CHECK(gpu.context->validationMessages.load() == 0);
+}
+
 TEST_CASE("borrowed pixels: frames encoded in place equal copied ones; the memory comes back") {
   Gpu& gpu = sharedGpu();
   render::Renderer& r = *gpu.renderer;

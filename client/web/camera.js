@@ -268,7 +268,13 @@ export class CameraControl {
       clearTimeout(this.sendTimer);  // the drag's end goes now
       this.sendTimer = 0;
     }
-    const wait = this.ending ? 0 : Math.max(0, this.lastSend + SEND_INTERVAL_MS - performance.now());
+    if (this.ending) {
+      // From the pointer's release itself (or the answer before it): a zero timer waited behind
+      // whatever else the page had queued, 2-24 ms on two busy cores (docs/performance.md).
+      this.send();
+      return;
+    }
+    const wait = Math.max(0, this.lastSend + SEND_INTERVAL_MS - performance.now());
     this.sendTimer = setTimeout(() => {
       this.sendTimer = 0;
       this.send();

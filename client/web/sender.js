@@ -47,7 +47,11 @@ export class PatchSender {
       clearTimeout(this.timer);  // the interaction's end goes now
       this.timer = 0;
     }
-    const wait = this.ending ? 0 : Math.max(0, this.last + this.intervalMs - performance.now());
+    if (this.ending) {
+      this.flush();  // at once, from the release itself: a zero timer waits behind other tasks
+      return;
+    }
+    const wait = Math.max(0, this.last + this.intervalMs - performance.now());
     this.timer = setTimeout(() => {
       this.timer = 0;
       this.flush();

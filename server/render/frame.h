@@ -379,6 +379,9 @@ struct Frame {
   FrameTimes times;
   // GPU submissions the frame took: 1, or more for a frame split into slices (Renderer::SplitFrame)
   uint32_t submissions = 1;
+  // The whole frame made its slot's targets (its slot had none, or of another size or kind);
+  // false when it drew into targets an earlier frame of its size left (Renderer::beginFrame).
+  bool madeTargets = false;
   Technique technique = Technique::Clustered;
   uint32_t lightCount = 0;
   uint64_t sceneBytes = 0;  // GPU memory of the rendered scene (geometry, materials, lights)

@@ -350,7 +350,7 @@ void RenderThread::run(const gpu::ContextOptions& options, const scene::Scene& s
       if (!trimmed && !wake_.wait_for(lock, kIdleTrim,
                                       [this] { return stopping_ || !turns_.empty(); })) {
         lock.unlock();
-        renderer->releaseFrameMemory();
+        renderer->releaseFrameMemory(kIdleKeepBytes);
         gpuMemoryBytes_ = renderer->gpuMemoryBytes();
         malloc_trim(0);
         trimmed = true;

@@ -110,10 +110,17 @@ struct Renderer::State {
   };
   std::vector<std::unique_ptr<PooledReadback>> readbacks;
   // A free pooled buffer of `bytes` (made if none is and fewer than kMaxPooledReadbacks exist),
-  // marked held; null when every one is lent out. Frees the free ones of another size.
+  // marked held; null when every one is lent out. Frees the free ones of a size neither this
+  // nor one a slot's targets were last made for (and, when the pool is full, one of those).
   PooledReadback* acquireReadback(VkDeviceSize bytes);
-  // Frees the pooled buffers not lent out.
-  void trimReadbacks();
+  // Frees the pooled buffers not lent out, but one of `keep` bytes when keep > 0.
+  void trimReadbacks(VkDeviceSize keep = 0);
+  // The pooled readback size a frame of `settings` asks for (0: none, it is not lent out).
+  static VkDeviceSize readbackBytes(const FrameSettings& settings) {
+    if (!settings.borrowPixels || settings.raw) return 0;
+    return settings.yuv420Readback() ? yuv420Layout(settings.width, settings.height).bytes()
+                                     : VkDeviceSize(settings.width) * settings.height * 4;
+  }
   // The GPU's last timestamp of the previous whole frame finished (FrameTimes::gpuIdleMs).
   uint64_t lastGpuEndTick = 0;
   // Index = Technique (techniques/registry.h); destroyed before the pipeline layout they use.
@@ -151,6 +158,8 @@ struct Renderer::State {
     // The pooled buffer this frame reads back into (borrowPixels), else null: targets->readback.
     PooledReadback* readback = nullptr;
     FrameTimes times;  // what the host measured of the frame in flight
+    uint64_t lastUsed = 0;  // State::framesBegun when this slot last began a frame (0: never)
+    bool madeTargets = false;  // its last frame made its targets (Frame::madeTargets)
     // The frame in flight: what finishFrame needs besides the GPU's results (taken when it was
     // recorded, so a scene destroyed meanwhile does not matter).
     bool inFlight = false;
@@ -159,6 +168,14 @@ struct Renderer::State {
     Frame meta;  // size, technique, light count, scene bytes; no pixels
   };
   std::vector<std::unique_ptr<FrameSlot>> slots;  // kMaxFramesInFlight; framesInFlight used
+  uint64_t framesBegun = 0;  // whole frames begun so far (FrameSlot::lastUsed)
+  // The free slot (index < framesInFlight) a whole frame of `settings` goes to: one whose targets
+  // already have its size, else one that has none yet, else the one whose targets are nearest
+  // its size (then the one used least recently). So a stream that alternates sizes (its small
+  // interactive frames, whose scale changes, and its full-size still) keeps the still's targets
+  // and sun map instead of making them again for every still. framesInFlight when every slot is
+  // in flight.
+  uint32_t pickSlot(const FrameSettings& settings) const;
   FrameSlot split;
   uint32_t framesInFlight = 1;
   bool overlap = false;  // setOverlap
@@ -213,7 +230,8 @@ struct Renderer::State {
   void writeUniforms(FrameSlot& slot, const FrameSettings& settings, const SceneBuffers& scene,
                      const LightingTechnique& technique, const SunShadowFit* sunShadow,
                      const LightShadowPlan& lightShadows);
-  void ensureTargets(FrameSlot& slot, VkExtent2D extent, bool raw);
+  // True when it made them (none yet, or another size or kind).
+  bool ensureTargets(FrameSlot& slot, VkExtent2D extent, bool raw);
   // Records a whole frame into `slot` (not submitted) and fills slot.meta.
   // `waitAtStart`: the frame's first command waits for everything submitted before; otherwise
   // its lighting does (setOverlap).
@@ -366,7 +384,7 @@ void Renderer::State::writeTargetSet(FrameSlot& slot) {
 
 // Targets follow the output size and are rebuilt only when it changes (every frame is waited
 // for, so nothing is in flight here).
-void Renderer::State::ensureTargets(FrameSlot& slot, VkExtent2D extent, bool raw) {
+bool Renderer::State::ensureTargets(FrameSlot& slot, VkExtent2D extent, bool raw) {
   std::unique_ptr<FrameTargets>& targets = slot.targets;
   const bool computeWritable = computeWritableTargets();
   if (!targets || targets->extent.width != extent.width ||
@@ -375,7 +393,9 @@ void Renderer::State::ensureTargets(FrameSlot& slot, VkExtent2D extent, bool raw
     targets.reset();
     targets = std::make_unique<FrameTargets>(context, extent, raw, computeWritable);
     writeTargetSet(slot);
+    return true;
   }
+  return false;
 }
 
 void Renderer::State::writeUniforms(FrameSlot& slot, const FrameSettings& s,
@@ -577,37 +597,108 @@ uint64_t Renderer::sceneBytes(SceneId id) const {
   return state_->scene(id).bytes() + (it == state_->environments.end() ? 0 : it->second->bytes());
 }
 
-void Renderer::releaseFrameMemory() {
+uint32_t Renderer::State::pickSlot(const FrameSettings& settings) const {
+  uint32_t best = framesInFlight;
+  int bestRank = -1;
+  double bestDistance = 0.0;
+  const double pixels = double(settings.width) * settings.height;
+  for (uint32_t i = 0; i < framesInFlight; ++i) {
+    const FrameSlot& slot = *slots[i];
+    if (slot.inFlight) continue;
+    const FrameTargets* t = slot.targets.get();
+    // 2: its targets fit as they are; 1: it has none; 0: they would be made again.
+    const int rank = !t ? 1
+                     : t->extent.width == settings.width && t->extent.height == settings.height &&
+                               t->raw == settings.raw &&
+                               t->computeWritable == computeWritableTargets()
+                         ? 2
+                         : 0;
+    // Of targets made again, those nearest in size: an interactive frame whose scale changed
+    // takes the slot of the interactive frames before it, not the still's.
+    const double distance =
+        t ? std::abs(std::log(double(t->extent.width) * t->extent.height / pixels)) : 0.0;
+    const bool better =
+        best == framesInFlight || rank > bestRank ||
+        (rank == bestRank && (distance < bestDistance ||
+                              (distance == bestDistance && slot.lastUsed < slots[best]->lastUsed)));
+    if (better) {
+      best = i;
+      bestRank = rank;
+      bestDistance = distance;
+    }
+  }
+  return best;
+}
+
+void Renderer::releaseFrameMemory(uint64_t keepBytes) {
+  State& s = *state_;
   // Slots not in flight: nothing on the GPU uses their targets; the target descriptor set points
   // at freed views until ensureTargets() makes new ones and writes it again. Frames in flight,
   // and an unfinished split frame, keep their own.
-  state_->quiesce();
-  for (auto& slot : state_->slots) {
-    if (slot->inFlight) continue;
+  s.quiesce();
+  // The slot of the last whole frame may stay (keepBytes): its targets, sun map and one readback
+  // buffer of its size, when together they hold at most keepBytes.
+  State::FrameSlot* kept = nullptr;
+  VkDeviceSize keptReadback = 0;
+  if (keepBytes > 0) {
+    for (auto& slot : s.slots) {
+      if (slot->lastUsed > 0 && (!kept || slot->lastUsed > kept->lastUsed)) kept = slot.get();
+    }
+    if (kept && kept->targets) {
+      keptReadback = State::readbackBytes(kept->settings);
+      const uint64_t bytes = kept->targets->arena.bytesAllocated() +
+                             kept->shadows->gpuMemoryBytes() + keptReadback;
+      if (bytes > keepBytes) kept = nullptr;
+    } else {
+      kept = nullptr;
+    }
+  }
+  for (auto& slot : s.slots) {
+    if (slot->inFlight || slot.get() == kept) continue;
     slot->targets.reset();
     slot->shadows->release();
   }
-  if (!state_->splitBusy) {
-    state_->split.targets.reset();
-    state_->split.shadows->release();
+  if (!s.splitBusy) {
+    s.split.targets.reset();
+    s.split.shadows->release();
   }
-  state_->trimReadbacks();
+  s.trimReadbacks(kept ? keptReadback : 0);
 }
 
 Renderer::State::PooledReadback* Renderer::State::acquireReadback(VkDeviceSize bytes) {
   PooledReadback* free = nullptr;
   size_t count = 0;
+  // The sizes of the frames the slots' targets were last made for: a stream's still and its
+  // interactive frames alternate, each in its slot, and each keeps its buffer.
+  auto slotsUse = [&](VkDeviceSize size) {
+    return std::any_of(slots.begin(), slots.end(), [&](const auto& slot) {
+      return slot->targets && readbackBytes(slot->settings) == size;
+    });
+  };
   for (auto it = readbacks.begin(); it != readbacks.end();) {
     PooledReadback& r = **it;
     if (r.held.load(std::memory_order_acquire)) {
       ++count;
       ++it;
-    } else if (r.bytes != bytes) {
+    } else if (r.bytes != bytes && !slotsUse(r.bytes)) {
       it = readbacks.erase(it);  // another size: nothing uses it (frames in flight hold theirs)
+    } else if (r.bytes != bytes) {
+      ++count;
+      ++it;
     } else {
       if (!free) free = &r;
       ++count;
       ++it;
+    }
+  }
+  if (!free && count >= kMaxPooledReadbacks) {
+    // Full: a free buffer of another size goes to make room.
+    auto other = std::find_if(readbacks.begin(), readbacks.end(), [&](const auto& r) {
+      return r->bytes != bytes && !r->held.load(std::memory_order_acquire);
+    });
+    if (other != readbacks.end()) {
+      readbacks.erase(other);
+      --count;
     }
   }
   if (!free && count < kMaxPooledReadbacks) {
@@ -623,9 +714,15 @@ Renderer::State::PooledReadback* Renderer::State::acquireReadback(VkDeviceSize b
   return free;
 }
 
-void Renderer::State::trimReadbacks() {
-  std::erase_if(readbacks, [](const std::unique_ptr<PooledReadback>& r) {
-    return !r->held.load(std::memory_order_acquire);
+void Renderer::State::trimReadbacks(VkDeviceSize keep) {
+  bool keeping = keep > 0;
+  std::erase_if(readbacks, [&](const std::unique_ptr<PooledReadback>& r) {
+    if (r->held.load(std::memory_order_acquire)) return false;
+    if (keeping && r->bytes == keep) {
+      keeping = false;
+      return false;
+    }
+    return true;
   });
 }
 
@@ -724,10 +821,10 @@ uint32_t Renderer::beginFrame(SceneId id, const FrameSettings& settings) {
   checkSize(settings, maxDimension());
   s.technique(settings.technique);  // throws for an unknown technique
   SceneEnvironment* environment = s.environmentFor(id, settings);
-  uint32_t index = 0;
-  while (index < s.framesInFlight && s.slots[index]->inFlight) ++index;
+  const uint32_t index = s.pickSlot(settings);
   if (index == s.framesInFlight) throw std::logic_error("every frame slot is in flight");
   State::FrameSlot& slot = *s.slots[index];
+  slot.lastUsed = ++s.framesBegun;
   // The host may change what frames in flight use: wait for them first (Renderer's comment).
   const State::Shape shape{settings.technique, settings.width, settings.height, settings.raw,
                            scene.lightCount};
@@ -742,11 +839,8 @@ uint32_t Renderer::beginFrame(SceneId id, const FrameSettings& settings) {
   slot.times = {};
   // Borrowed pixels: a pooled buffer of their own, lent out with the frame; when every one is
   // lent out, the slot's own buffer and a copy on the render thread.
-  slot.readback = settings.borrowPixels && !settings.raw
-                      ? s.acquireReadback(settings.yuv420Readback()
-                                              ? yuv420Layout(settings.width, settings.height).bytes()
-                                              : VkDeviceSize(settings.width) * settings.height * 4)
-                      : nullptr;
+  const VkDeviceSize readbackBytes = State::readbackBytes(settings);
+  slot.readback = readbackBytes > 0 ? s.acquireReadback(readbackBytes) : nullptr;
   try {
     s.recordFrame(slot, scene, environment, settings, !s.overlap || sharesScene);
     gpu::submit(s.context, slot.recorder);
@@ -848,7 +942,7 @@ void Renderer::State::prepareFrame(FrameSlot& slot, SceneBuffers& scene,
                                    SceneEnvironment* environment, const FrameSettings& settings,
                                    LightingTechnique& technique) {
   VkExtent2D extent{settings.width, settings.height};
-  ensureTargets(slot, extent, settings.raw);
+  slot.madeTargets = ensureTargets(slot, extent, settings.raw);
   technique.prepare(extent, scene.lightCount);
   // The sun's shadow map: fitted to this scene and sun, rendered this frame when on.
   const std::optional<SunShadowFit> sunShadow = sunShadowFor(scene, settings);
@@ -1076,6 +1170,7 @@ void Renderer::State::recordFrame(FrameSlot& slot, SceneBuffers& scene,
                         computeGBufferFor(scene, settings)});
   recordAfterLighting(cmd, slot, scene, settings, lightingLayout);
   slot.meta = metaOf(scene, environment, settings);
+  slot.meta.madeTargets = slot.madeTargets;
 }
 
 Frame Renderer::State::renderOnce(FrameSlot& slot, SceneBuffers& scene,

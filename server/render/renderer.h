@@ -134,9 +134,12 @@ class Renderer {
   // GPU memory the renderer holds: every scene, the frame targets, the light lists, uniforms.
   uint64_t gpuMemoryBytes() const;
 
-  // Frees what only frames use, sized to the last output (the G-buffer, HDR and output images and
-  // the readback buffer); the next frame makes them again. Scenes are kept.
-  void releaseFrameMemory();
+  // Frees what only frames use, sized to the last output (the G-buffer, HDR and output images,
+  // the sun's shadow map and the readback buffers); the next frame makes them again. Scenes are
+  // kept. With keepBytes > 0 the slot of the last whole frame keeps its targets, sun map and one
+  // readback buffer when together they hold at most keepBytes (RenderThread's idle trim: the
+  // next still of a stream at that size does not make them again).
+  void releaseFrameMemory(uint64_t keepBytes = 0);
 
   // The largest width or height render() accepts on this device.
   uint32_t maxDimension() const;

@@ -176,7 +176,9 @@ bool StreamState::next(httplib::DataSink& sink) {
         steered ? InteractiveQuality::Motion::Steered : InteractiveQuality::Motion::Animated;
     const bool wantStill = quality && lastInteractive && !moving;
     const bool wantFrame = !hasFrame || version != shownVersion || animate || wantStill;
-    if (wantFrame && now >= nextFrameAt) {
+    // The still that ends an interaction is not held by the fps limit: it replaces the
+    // interactive part just sent (a slider's click showed one, then its still follows at once).
+    if (wantFrame && (now >= nextFrameAt || wantStill)) {
       SharedFrames::Frame frame;
       std::vector<SharedFrames::VideoFramePtr> videoFrames;
       std::string scaleText;   // the interactive frame's render scale
