@@ -159,7 +159,6 @@ struct Renderer::State {
     PooledReadback* readback = nullptr;
     FrameTimes times;  // what the host measured of the frame in flight
     uint64_t lastUsed = 0;  // State::framesBegun when this slot last began a frame (0: never)
-    bool madeTargets = false;  // its last frame made its targets (Frame::madeTargets)
     // The frame in flight: what finishFrame needs besides the GPU's results (taken when it was
     // recorded, so a scene destroyed meanwhile does not matter).
     bool inFlight = false;
@@ -230,8 +229,13 @@ struct Renderer::State {
   void writeUniforms(FrameSlot& slot, const FrameSettings& settings, const SceneBuffers& scene,
                      const LightingTechnique& technique, const SunShadowFit* sunShadow,
                      const LightShadowPlan& lightShadows);
-  // True when it made them (none yet, or another size or kind).
+  // True when it made them (none yet, or another size or kind: targetsFit).
   bool ensureTargets(FrameSlot& slot, VkExtent2D extent, bool raw);
+  // Whether `targets` serve a frame of this size and kind as they are.
+  bool targetsFit(const FrameTargets& targets, VkExtent2D extent, bool raw) const {
+    return targets.extent.width == extent.width && targets.extent.height == extent.height &&
+           targets.raw == raw && targets.computeWritable == computeWritableTargets();
+  }
   // Records a whole frame into `slot` (not submitted) and fills slot.meta.
   // `waitAtStart`: the frame's first command waits for everything submitted before; otherwise
   // its lighting does (setOverlap).
@@ -242,8 +246,9 @@ struct Renderer::State {
                    const FrameSettings& settings);
   static Frame metaOf(const SceneBuffers& scene, const SceneEnvironment* environment,
                       const FrameSettings& settings);
-  // The steps of a frame, shared by whole and split frames.
-  void prepareFrame(FrameSlot& slot, SceneBuffers& scene, SceneEnvironment* environment,
+  // The steps of a frame, shared by whole and split frames. prepareFrame: true when it made the
+  // slot's targets (Frame::madeTargets).
+  bool prepareFrame(FrameSlot& slot, SceneBuffers& scene, SceneEnvironment* environment,
                     const FrameSettings& settings, LightingTechnique& technique);
   VkCommandBuffer beginFrameCommands(FrameSlot& slot, bool waitAtStart = true);
   // Whether targets are made storage-writable: the compute G-buffer may run on this device.
@@ -386,12 +391,9 @@ void Renderer::State::writeTargetSet(FrameSlot& slot) {
 // for, so nothing is in flight here).
 bool Renderer::State::ensureTargets(FrameSlot& slot, VkExtent2D extent, bool raw) {
   std::unique_ptr<FrameTargets>& targets = slot.targets;
-  const bool computeWritable = computeWritableTargets();
-  if (!targets || targets->extent.width != extent.width ||
-      targets->extent.height != extent.height || targets->raw != raw ||
-      targets->computeWritable != computeWritable) {
+  if (!targets || !targetsFit(*targets, extent, raw)) {
     targets.reset();
-    targets = std::make_unique<FrameTargets>(context, extent, raw, computeWritable);
+    targets = std::make_unique<FrameTargets>(context, extent, raw, computeWritableTargets());
     writeTargetSet(slot);
     return true;
   }
@@ -607,12 +609,7 @@ uint32_t Renderer::State::pickSlot(const FrameSettings& settings) const {
     if (slot.inFlight) continue;
     const FrameTargets* t = slot.targets.get();
     // 2: its targets fit as they are; 1: it has none; 0: they would be made again.
-    const int rank = !t ? 1
-                     : t->extent.width == settings.width && t->extent.height == settings.height &&
-                               t->raw == settings.raw &&
-                               t->computeWritable == computeWritableTargets()
-                         ? 2
-                         : 0;
+    const int rank = !t ? 1 : targetsFit(*t, {settings.width, settings.height}, settings.raw) ? 2 : 0;
     // Of targets made again, those nearest in size: an interactive frame whose scale changed
     // takes the slot of the interactive frames before it, not the still's.
     const double distance =
@@ -677,19 +674,14 @@ Renderer::State::PooledReadback* Renderer::State::acquireReadback(VkDeviceSize b
   };
   for (auto it = readbacks.begin(); it != readbacks.end();) {
     PooledReadback& r = **it;
-    if (r.held.load(std::memory_order_acquire)) {
-      ++count;
-      ++it;
-    } else if (r.bytes != bytes && !slotsUse(r.bytes)) {
+    const bool held = r.held.load(std::memory_order_acquire);
+    if (!held && r.bytes != bytes && !slotsUse(r.bytes)) {
       it = readbacks.erase(it);  // another size: nothing uses it (frames in flight hold theirs)
-    } else if (r.bytes != bytes) {
-      ++count;
-      ++it;
-    } else {
-      if (!free) free = &r;
-      ++count;
-      ++it;
+      continue;
     }
+    if (!held && r.bytes == bytes && !free) free = &r;
+    ++count;
+    ++it;
   }
   if (!free && count >= kMaxPooledReadbacks) {
     // Full: a free buffer of another size goes to make room.
@@ -938,11 +930,11 @@ Frame Renderer::finishFrame(uint32_t index) {
 }
 
 // Fits the slot's targets and the technique's buffers to the frame; writes its uniforms and set 0.
-void Renderer::State::prepareFrame(FrameSlot& slot, SceneBuffers& scene,
+bool Renderer::State::prepareFrame(FrameSlot& slot, SceneBuffers& scene,
                                    SceneEnvironment* environment, const FrameSettings& settings,
                                    LightingTechnique& technique) {
   VkExtent2D extent{settings.width, settings.height};
-  slot.madeTargets = ensureTargets(slot, extent, settings.raw);
+  const bool madeTargets = ensureTargets(slot, extent, settings.raw);
   technique.prepare(extent, scene.lightCount);
   // The sun's shadow map: fitted to this scene and sun, rendered this frame when on.
   const std::optional<SunShadowFit> sunShadow = sunShadowFor(scene, settings);
@@ -961,6 +953,7 @@ void Renderer::State::prepareFrame(FrameSlot& slot, SceneBuffers& scene,
   writeUniforms(slot, settings, scene, technique, sunShadow ? &*sunShadow : nullptr,
                 slot.lightShadows);
   writeSceneSet(slot, scene, environment ? environment->lighting : environmentPasses->brdfLut());
+  return madeTargets;
 }
 
 namespace {
@@ -1157,7 +1150,7 @@ void Renderer::State::recordFrame(FrameSlot& slot, SceneBuffers& scene,
                                   SceneEnvironment* environment, const FrameSettings& settings,
                                   bool waitAtStart) {
   LightingTechnique& technique = this->technique(settings.technique);
-  prepareFrame(slot, scene, environment, settings, technique);
+  const bool madeTargets = prepareFrame(slot, scene, environment, settings, technique);
   VkCommandBuffer cmd = beginFrameCommands(slot, waitAtStart);
   recordBeforeLighting(cmd, slot, scene, environment, settings);
   // The technique's lists and counters are shared by frames in flight: the earlier frames are
@@ -1170,7 +1163,7 @@ void Renderer::State::recordFrame(FrameSlot& slot, SceneBuffers& scene,
                         computeGBufferFor(scene, settings)});
   recordAfterLighting(cmd, slot, scene, settings, lightingLayout);
   slot.meta = metaOf(scene, environment, settings);
-  slot.meta.madeTargets = slot.madeTargets;
+  slot.meta.madeTargets = madeTargets;
 }
 
 Frame Renderer::State::renderOnce(FrameSlot& slot, SceneBuffers& scene,
