@@ -3,6 +3,7 @@
 // faster. The camera itself lives on the server: every change is sent as PATCH camera (at most
 // ~30 a second, one request in flight, always the newest pose) and the stream shows the result.
 
+import {PatchSender} from './sender.js';
 import {add, cameraBasis, cross, dot, length, normalize, rotate, scale, sub} from './vec.js';
 
 const ORBIT_RADIANS_PER_PIXEL = 0.006;
@@ -26,11 +27,11 @@ export class CameraControl {
     this.keys = new Set();
     this.fast = false;
     this.flyFrame = 0;
-    this.sending = false;
-    this.pending = false;        // a newer pose than the one in flight
-    this.ending = false;         // the next PATCH ends the interaction (a drag released)
-    this.lastSend = 0;
-    this.sendTimer = 0;
+    // PATCH camera: one in flight, the newest pose, end() when a drag is released.
+    this.sender = new PatchSender(
+        (pose, end) => this.api.patch(this.api.sessionPath('/camera'), pose, end), SEND_INTERVAL_MS);
+    this.sender.onAnswer = (answer) => { this.camera = answer; };
+    this.sender.onProblem = (e) => this.onProblem(e);
     this.touches = new Map();    // pointerId -> {x, y} of the fingers on the view
     this.pinch = null;           // {distance, x, y} of two fingers, while they pinch or pan
     this.onClick = () => {};     // (x, y) in CSS pixels of the view, for light picking
@@ -51,7 +52,7 @@ export class CameraControl {
   // A pose from the server (session state, a PATCH answer, camera/frame). Ignored while the user
   // is moving the camera, so a late answer cannot pull the view back.
   setFromServer(camera) {
-    if (this.drag || this.keys.size || this.pending || this.sending) return;
+    if (this.drag || this.keys.size || this.sender.busy) return;
     this.camera = camera;
     this.onChange(camera);
   }
@@ -152,9 +153,7 @@ export class CameraControl {
     if (drag.moved) {
       // The pose once more, at once, saying the drag ended: the stream's still needs no settle
       // time then (X-Myriad-Interaction: end).
-      this.ending = true;
-      this.pending = true;
-      this.scheduleSend();
+      this.sender.end();
     }
     if (!drag.moved && drag.button === 0) {
       const rect = this.element.getBoundingClientRect();
@@ -252,58 +251,24 @@ export class CameraControl {
     this.update({eye: add(c.eye, move), target: add(c.target, move)});
   }
 
+  // A pose from the server replaces the one not sent yet (a model loaded, camera/frame).
+  dropPending() {
+    this.sender.drop();
+  }
+
   // A local change: shown at once in the next streamed frame after the PATCH lands.
   update(change) {
     this.camera = {...this.camera, ...change};
     this.view.noteInput();
     this.onChange(this.camera);
-    this.pending = true;
-    this.scheduleSend();
-  }
-
-  scheduleSend() {
-    if (this.sending) return;
-    if (this.sendTimer) {
-      if (!this.ending) return;
-      clearTimeout(this.sendTimer);  // the drag's end goes now
-      this.sendTimer = 0;
-    }
-    if (this.ending) {
-      // From the pointer's release itself (or the answer before it): a zero timer waited behind
-      // whatever else the page had queued, 2-24 ms on two busy cores (docs/performance.md).
-      this.send();
-      return;
-    }
-    const wait = Math.max(0, this.lastSend + SEND_INTERVAL_MS - performance.now());
-    this.sendTimer = setTimeout(() => {
-      this.sendTimer = 0;
-      this.send();
-    }, wait);
-  }
-
-  async send() {
-    if (!this.pending) return;
-    this.pending = false;
-    this.sending = true;
-    this.lastSend = performance.now();
-    const end = this.ending;
-    this.ending = false;
     const {eye, target, up} = this.camera;
-    try {
-      const answer = await this.api.patch(this.api.sessionPath('/camera'), {eye, target, up}, end);
-      if (!this.pending) this.camera = answer;
-    } catch (e) {
-      this.onProblem(e);
-    } finally {
-      this.sending = false;
-      if (this.pending) this.scheduleSend();
-    }
+    this.sender.queue({eye, target, up});
   }
 
   // POST camera/frame (the F key): the server frames the model's bounds.
   async frameModel() {
     try {
-      this.pending = false;
+      this.sender.drop();
       const camera = await this.api.post(this.api.sessionPath('/camera/frame'), {});
       this.camera = camera;
       this.view.noteInput();

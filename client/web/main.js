@@ -105,13 +105,13 @@ const model = new ModelPanel(api, {
   onLoaded: (state) => {
     model.show(state);
     camera.setModelBounds(state.model.bounds);
-    camera.pending = false;
+    camera.dropPending();
     camera.setFromServer(state.camera);
     materials.refresh();
     lights.changed(state.lights.count);
   },
   onCamera: (cam) => {
-    camera.pending = false;
+    camera.dropPending();
     camera.setFromServer(cam);
   },
 });

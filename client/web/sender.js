@@ -40,6 +40,11 @@ export class PatchSender {
     return this.inFlight || this.patch !== null;
   }
 
+  // Forgets a patch not sent yet (the server's state replaced what it would change).
+  drop() {
+    this.patch = null;
+  }
+
   schedule() {
     if (this.inFlight || !this.patch) return;
     if (this.timer) {
