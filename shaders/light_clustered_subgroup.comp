@@ -46,6 +46,8 @@ const bool kHybrid = (kVariant & MYRIAD_SHADE_HYBRID) != 0u;
 const uint kShortFrom = (kVariant & MYRIAD_SHADE_SHORT_64) != 0u ? 64u : 0u;
 const bool kNarrowOnly = (kVariant & MYRIAD_SHADE_DIAG_NARROW_ONLY) != 0u;
 const bool kNoBrdf = (kVariant & MYRIAD_SHADE_DIAG_NO_BRDF) != 0u;
+const bool kPrefetch = (kVariant & MYRIAD_SHADE_PREFETCH) != 0u;
+const bool kWordSelect = (kVariant & MYRIAD_SHADE_WORD_SELECT) != 0u;
 #define MYRIAD_NARROW_SUBGROUP
 #include "clustered_tile_narrow.glsl"  // the narrowing, shared with light_clustered.comp
 
@@ -72,6 +74,13 @@ vec3 shadeLightFrom(BrdfSurface b, Surface s, uint index, vec4 positionRadius,
   vec4 cone = MYRIAD_MAY_SPOT ? lights[index].cone : vec4(0.0, 0.0, -2.0, -1.0);
   return shadeLocalLightAt(b, s.position, positionRadius.xyz, positionRadius.w, radianceFalloff.rgb,
                            radianceFalloff.w, octahedralDecode(cone.xy), cone.z, cone.w);
+}
+
+// Word w of a ballot. Indexed by a loop's counter (ballot[w]) NVIDIA's compiler kept the ballots
+// in local memory (64 bytes a thread); selects keep them in registers.
+uint ballotWord(uvec4 ballot, uint w) {
+  if (!kWordSelect) return ballot[w];
+  return w == 0u ? ballot.x : w == 1u ? ballot.y : w == 2u ? ballot.z : ballot.w;
 }
 
 void main() {
@@ -160,15 +169,35 @@ void main() {
       // whose sphere holds the whole box reaches every pixel of the subgroup, which steps
       // through those lights together instead (as the walk for short segments does).
       bool box = kBoxAlways || count > kBallotFrom;
+      // kPrefetch: the next chunk's light is loaded while this chunk is walked (the walk waits on
+      // these dependent loads, a list entry then its light, otherwise).
+      uint nextIndex = 0u;
+      vec4 nextLight = vec4(0.0);
+      if (kPrefetch && gl_SubgroupInvocationID < count) {
+        uint j = start + gl_SubgroupInvocationID;
+        nextIndex = inShared ? tileLights[j] : clusterLights[j];
+        nextLight = lights[nextIndex].positionRadius;
+      }
       for (uint base = 0u; base < count; base += gl_SubgroupSize) {
         uint i = base + gl_SubgroupInvocationID;
         uint index = 0u;
         vec4 light = vec4(0.0);
         bool candidate = false;
         bool covers = false;
+        if (kPrefetch) {
+          index = nextIndex;
+          light = nextLight;
+          if (i + gl_SubgroupSize < count) {
+            uint j = start + i + gl_SubgroupSize;
+            nextIndex = inShared ? tileLights[j] : clusterLights[j];
+            nextLight = lights[nextIndex].positionRadius;
+          }
+        }
         if (i < count) {
-          index = inShared ? tileLights[start + i] : clusterLights[start + i];
-          light = lights[index].positionRadius;
+          if (!kPrefetch) {
+            index = inShared ? tileLights[start + i] : clusterLights[start + i];
+            light = lights[index].positionRadius;
+          }
           candidate = !box || sphereOverlapsBox(light.xyz, light.w, lo, hi);
           if (kHybrid && candidate) {
             vec3 far = max(abs(light.xyz - lo), abs(light.xyz - hi));  // the box's farthest corner
@@ -178,7 +207,7 @@ void main() {
         uvec4 together = subgroupBallot(candidate && covers);
         uvec4 apart = subgroupBallot(candidate && !covers);
         for (uint w = 0u; w * 32u < gl_SubgroupSize; ++w) {
-          uint bits = together[w];
+          uint bits = ballotWord(together, w);
           while (bits != 0u) {  // kHybrid: lights reaching the whole subgroup, every lane at once
             uint lane = w * 32u + uint(findLSB(bits));
             bits &= bits - 1u;
@@ -192,7 +221,7 @@ void main() {
               ++reached;
             }
           }
-          bits = apart[w];
+          bits = ballotWord(apart, w);
           uint near = 0u;
           while (bits != 0u) {
             uint bit = uint(findLSB(bits));
@@ -234,7 +263,7 @@ void main() {
       }
       uvec4 ballot = subgroupBallot(candidate);
       for (uint w = 0u; w * 32u < gl_SubgroupSize; ++w) {
-        uint bits = ballot[w];
+        uint bits = ballotWord(ballot, w);
         while (bits != 0u) {
           uint lane = w * 32u + uint(findLSB(bits));
           bits &= bits - 1u;

@@ -173,6 +173,8 @@ using mat4 = glm::mat4;
 #define MYRIAD_SHADE_NARROW_WORLD 0x8u           // the narrowing: the world bounds of the slice's points
 #define MYRIAD_SHADE_HYBRID 0x20u                // mask walk: lights holding the subgroup's box walked together
 #define MYRIAD_SHADE_SHORT_64 0x10u              // mask walk: segments of <= 64 lights walked per pixel
+#define MYRIAD_SHADE_PREFETCH 0x40u              // mask walk: each chunk's lights loaded during the chunk before
+#define MYRIAD_SHADE_WORD_SELECT 0x80u           // a ballot's 32-bit words picked by selects, not by index
 #define MYRIAD_SHADE_DIAG_NARROW_ONLY 0x100u     // a measurement: narrowing only (image wrong)
 #define MYRIAD_SHADE_DIAG_NO_BRDF 0x200u         // a measurement: walks and reach tests, no BRDF (image wrong)
 #define MYRIAD_SHADE_DEFAULT 0x3Bu  // mask walk, box always, world narrowing, hybrid, short per pixel

@@ -2,8 +2,11 @@
 
 #include <algorithm>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
+#include <vector>
 
+#include "gpu/pipelines.h"
 #include "gpu/vk_check.h"
 
 namespace myriad::gpu {
@@ -241,6 +244,17 @@ std::vector<VkPhysicalDevice> usablePhysicalDevices(VkInstance instance) {
   return usable;
 }
 
+bool hasDeviceExtension(VkPhysicalDevice physical, const char* name) {
+  uint32_t count = 0;
+  vkEnumerateDeviceExtensionProperties(physical, nullptr, &count, nullptr);
+  std::vector<VkExtensionProperties> extensions(count);
+  vkEnumerateDeviceExtensionProperties(physical, nullptr, &count, extensions.data());
+  for (const auto& e : extensions) {
+    if (std::strcmp(e.extensionName, name) == 0) return true;
+  }
+  return false;
+}
+
 }  // namespace
 
 int chooseDevice(const std::vector<DeviceInfo>& devices, const std::string& selector) {
@@ -354,6 +368,22 @@ std::unique_ptr<Context> createContext(const ContextOptions& options) {
   features.features.samplerAnisotropy = supported.samplerAnisotropy;
   features.features.fragmentStoresAndAtomics = supported.fragmentStoresAndAtomics;
 
+  // A diagnostic: MYRIAD_PIPELINE_STATS=1 has compute pipelines print the driver's statistics
+  // (gpu/pipelines.h, capturePipelineStatistics) where the device can say them.
+  std::vector<const char*> deviceExtensions;
+  VkPhysicalDevicePipelineExecutablePropertiesFeaturesKHR executableInfo{
+      VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_PIPELINE_EXECUTABLE_PROPERTIES_FEATURES_KHR};
+  const char* stats = std::getenv("MYRIAD_PIPELINE_STATS");
+  if (stats && std::strcmp(stats, "1") == 0 &&
+      hasDeviceExtension(context->physicalDevice,
+                         VK_KHR_PIPELINE_EXECUTABLE_PROPERTIES_EXTENSION_NAME)) {
+    deviceExtensions.push_back(VK_KHR_PIPELINE_EXECUTABLE_PROPERTIES_EXTENSION_NAME);
+    executableInfo.pipelineExecutableInfo = VK_TRUE;
+    executableInfo.pNext = features.pNext;
+    features.pNext = &executableInfo;
+    capturePipelineStatistics(true);
+  }
+
   float priority = 1.0f;
   VkDeviceQueueCreateInfo queueInfo{VK_STRUCTURE_TYPE_DEVICE_QUEUE_CREATE_INFO};
   queueInfo.queueFamilyIndex = context->queueFamily;
@@ -363,6 +393,8 @@ std::unique_ptr<Context> createContext(const ContextOptions& options) {
   deviceInfo.pNext = &features;
   deviceInfo.queueCreateInfoCount = 1;
   deviceInfo.pQueueCreateInfos = &queueInfo;
+  deviceInfo.enabledExtensionCount = static_cast<uint32_t>(deviceExtensions.size());
+  deviceInfo.ppEnabledExtensionNames = deviceExtensions.data();
   VK_CHECK(vkCreateDevice(context->physicalDevice, &deviceInfo, nullptr, &context->device));
   vkGetDeviceQueue(context->device, context->queueFamily, 0, &context->queue);
   return context;

@@ -1,8 +1,82 @@
 #include "gpu/pipelines.h"
 
+#include <cinttypes>
+#include <cstdio>
+#include <cstring>
+#include <string>
+#include <vector>
+
 #include "gpu/vk_check.h"
 
 namespace myriad::gpu {
+
+namespace {
+
+bool captureStatistics = false;
+
+// Prints what the driver says of each executable of `pipeline` (capturePipelineStatistics).
+void printStatistics(VkDevice device, VkPipeline pipeline, std::span<const uint32_t> shader,
+                     const VkSpecializationInfo* specialization) {
+  auto properties = reinterpret_cast<PFN_vkGetPipelineExecutablePropertiesKHR>(
+      vkGetDeviceProcAddr(device, "vkGetPipelineExecutablePropertiesKHR"));
+  auto statistics = reinterpret_cast<PFN_vkGetPipelineExecutableStatisticsKHR>(
+      vkGetDeviceProcAddr(device, "vkGetPipelineExecutableStatisticsKHR"));
+  if (!properties || !statistics) return;
+  std::string spec;
+  if (specialization) {
+    for (uint32_t i = 0; i < specialization->mapEntryCount; ++i) {
+      const VkSpecializationMapEntry& e = specialization->pMapEntries[i];
+      uint32_t value = 0;
+      if (e.size == 4) {
+        std::memcpy(&value, static_cast<const char*>(specialization->pData) + e.offset, 4);
+      }
+      spec += " " + std::to_string(e.constantID) + "=" + std::to_string(value);
+    }
+  }
+  VkPipelineInfoKHR info{VK_STRUCTURE_TYPE_PIPELINE_INFO_KHR};
+  info.pipeline = pipeline;
+  uint32_t count = 0;
+  if (properties(device, &info, &count, nullptr) != VK_SUCCESS) return;
+  std::vector<VkPipelineExecutablePropertiesKHR> executables(
+      count, {VK_STRUCTURE_TYPE_PIPELINE_EXECUTABLE_PROPERTIES_KHR});
+  properties(device, &info, &count, executables.data());
+  for (uint32_t i = 0; i < count; ++i) {
+    VkPipelineExecutableInfoKHR which{VK_STRUCTURE_TYPE_PIPELINE_EXECUTABLE_INFO_KHR};
+    which.pipeline = pipeline;
+    which.executableIndex = i;
+    uint32_t n = 0;
+    statistics(device, &which, &n, nullptr);
+    std::vector<VkPipelineExecutableStatisticKHR> stats(
+        n, {VK_STRUCTURE_TYPE_PIPELINE_EXECUTABLE_STATISTIC_KHR});
+    statistics(device, &which, &n, stats.data());
+    std::string line;
+    for (const auto& s : stats) {
+      char value[64];
+      switch (s.format) {
+        case VK_PIPELINE_EXECUTABLE_STATISTIC_FORMAT_BOOL32_KHR:
+          std::snprintf(value, sizeof value, "%u", s.value.b32);
+          break;
+        case VK_PIPELINE_EXECUTABLE_STATISTIC_FORMAT_INT64_KHR:
+          std::snprintf(value, sizeof value, "%" PRId64, s.value.i64);
+          break;
+        case VK_PIPELINE_EXECUTABLE_STATISTIC_FORMAT_UINT64_KHR:
+          std::snprintf(value, sizeof value, "%" PRIu64, s.value.u64);
+          break;
+        default:
+          std::snprintf(value, sizeof value, "%g", s.value.f64);
+      }
+      line += std::string("; ") + s.name + " " + value;
+    }
+    std::fprintf(stderr, "pipeline stats: %zu words%s [%s]%s\n", shader.size(), spec.c_str(),
+                 executables[i].name, line.c_str());
+  }
+}
+
+}  // namespace
+
+void capturePipelineStatistics(bool on) {
+  captureStatistics = on;
+}
 
 VkShaderModule createShaderModule(VkDevice device, std::span<const uint32_t> spirv) {
   VkShaderModuleCreateInfo info{VK_STRUCTURE_TYPE_SHADER_MODULE_CREATE_INFO};
@@ -127,10 +201,12 @@ VkPipeline createComputePipeline(VkDevice device, VkPipelineLayout layout,
   info.stage = {VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO, nullptr, 0,
                 VK_SHADER_STAGE_COMPUTE_BIT, module, "main", specialization};
   info.layout = layout;
+  if (captureStatistics) info.flags |= VK_PIPELINE_CREATE_CAPTURE_STATISTICS_BIT_KHR;
   VkPipeline pipeline = VK_NULL_HANDLE;
   VkResult result = vkCreateComputePipelines(device, VK_NULL_HANDLE, 1, &info, nullptr, &pipeline);
   vkDestroyShaderModule(device, module, nullptr);
   VK_CHECK(result);
+  if (captureStatistics) printStatistics(device, pipeline, shader, specialization);
   return pipeline;
 }
 
