@@ -9,6 +9,7 @@
 // Needs frame.glsl and compute_targets.glsl included first, and from the includer:
 //   kNarrowWorld   (bool) the box is the world-space bounds of the slice's surface points
 //                  (flat on a floor: the lights' spheres must reach down to it), else the view box
+//   kNarrowLoads   (uint, 1-4) list entries an invocation loads before testing them
 //   MYRIAD_NARROW_SUBGROUP (macro) the includer has the subgroup vote and arithmetic
 //                  extensions (kNarrowWorld's bounds are then reduced per subgroup first)
 
@@ -44,6 +45,14 @@ float fromOrderedBits(uint u) {
 bool lightMayReachTile(vec4 light, vec3 lo, vec3 hi) {
   vec3 c = kNarrowWorld ? light.xyz : (frame.view * vec4(light.xyz, 1.0)).xyz;
   return sphereOverlapsBox(c, light.w, lo, hi);
+}
+
+// Appends the light to the tile's list when it may reach the box (lightMayReachTile).
+void keepIfMayReach(uint index, vec4 light, vec3 lo, vec3 hi) {
+  if (lightMayReachTile(light, lo, hi)) {
+    uint slot = atomicAdd(used, 1u);
+    if (slot < kCapacity) tileLights[slot] = index;
+  }
 }
 
 // Called by every invocation of the workgroup (it holds barriers), with the invocation's index,
@@ -138,12 +147,27 @@ uint narrowTileLists(uint thread, bool surface, uint slice, float viewDepth, vec
       lo -= margin;
       hi += margin;
     }
-    for (uint i = thread; i < range.y; i += kThreads) {
-      uint index = clusterLights[range.x + i];
-      if (lightMayReachTile(lights[index].positionRadius, lo, hi)) {
-        uint slot = atomicAdd(used, 1u);
-        if (slot < kCapacity) tileLights[slot] = index;
-      }
+    // kNarrowLoads entries an invocation a step, all loaded before any is tested: the loads of
+    // a list entry and then its light are what the narrowing waits on.
+    for (uint i = thread; i < range.y; i += kThreads * kNarrowLoads) {
+      uint i1 = i + kThreads;
+      uint i2 = i + 2u * kThreads;
+      uint i3 = i + 3u * kThreads;
+      bool has1 = kNarrowLoads > 1u && i1 < range.y;
+      bool has2 = kNarrowLoads > 2u && i2 < range.y;
+      bool has3 = kNarrowLoads > 3u && i3 < range.y;
+      uint index0 = clusterLights[range.x + i];
+      uint index1 = has1 ? clusterLights[range.x + i1] : 0u;
+      uint index2 = has2 ? clusterLights[range.x + i2] : 0u;
+      uint index3 = has3 ? clusterLights[range.x + i3] : 0u;
+      vec4 light0 = lights[index0].positionRadius;
+      vec4 light1 = has1 ? lights[index1].positionRadius : vec4(0.0);
+      vec4 light2 = has2 ? lights[index2].positionRadius : vec4(0.0);
+      vec4 light3 = has3 ? lights[index3].positionRadius : vec4(0.0);
+      keepIfMayReach(index0, light0, lo, hi);
+      if (has1) keepIfMayReach(index1, light1, lo, hi);
+      if (has2) keepIfMayReach(index2, light2, lo, hi);
+      if (has3) keepIfMayReach(index3, light3, lo, hi);
     }
     barrier();
     if (thread == 0u) {

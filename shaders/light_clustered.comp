@@ -18,6 +18,7 @@
 #include "frame.glsl"
 #include "compute_targets.glsl"
 const bool kNarrowWorld = false;   // the view box of the tile's rectangle and depth range
+const uint kNarrowLoads = 1u;  // entries in flight per invocation: 4 was measured on the H200 only
 #include "clustered_tile_narrow.glsl"  // the narrowing, shared with the subgroup pass
 
 layout(local_size_x = MYRIAD_CLUSTER_SHADE_TILE, local_size_y = MYRIAD_CLUSTER_SHADE_TILE) in;

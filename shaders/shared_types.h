@@ -173,10 +173,13 @@ using mat4 = glm::mat4;
 #define MYRIAD_SHADE_NARROW_WORLD 0x8u           // the narrowing: the world bounds of the slice's points
 #define MYRIAD_SHADE_HYBRID 0x20u                // mask walk: lights holding the subgroup's box walked together
 #define MYRIAD_SHADE_SHORT_64 0x10u              // mask walk: segments of <= 64 lights walked per pixel
-#define MYRIAD_SHADE_PREFETCH 0x40u              // mask walk: each chunk's lights loaded during the chunk before
-#define MYRIAD_SHADE_WORD_SELECT 0x80u           // a ballot's 32-bit words picked by selects, not by index
+#define MYRIAD_SHADE_REACH_SHUFFLED 0x40u        // mask walk: a chunk's loosened squared reaches worked out once, shuffled
 #define MYRIAD_SHADE_DIAG_NARROW_ONLY 0x100u     // a measurement: narrowing only (image wrong)
 #define MYRIAD_SHADE_DIAG_NO_BRDF 0x200u         // a measurement: walks and reach tests, no BRDF (image wrong)
+#define MYRIAD_SHADE_DIAG_NO_SHORT 0x1000u       // a measurement: segments walked per pixel only counted (image wrong)
+#define MYRIAD_SHADE_DIAG_NO_TOGETHER 0x2000u    // a measurement: lights holding the box only counted (image wrong)
+#define MYRIAD_SHADE_DIAG_NO_APART 0x4000u       // a measurement: the other lights only counted (image wrong)
+#define MYRIAD_SHADE_DIAG_NO_NEAR 0x8000u        // a measurement: their near masks made, not shaded (image wrong)
 #define MYRIAD_SHADE_DEFAULT 0x3Bu  // mask walk, box always, world narrowing, hybrid, short per pixel
 // Lights whose box spans more clusters than this are assigned by a workgroup each, not a thread;
 // the indirect dispatch doing it has at most this many groups (Vulkan's guaranteed minimum).

@@ -309,44 +309,6 @@ TEST_CASE("clustered shading per pixel and per subgroup: the same light counts a
   CHECK(walk.context->validationMessages.load() == 0);
 }
 
-TEST_CASE("clustered: lists narrowed to their clusters' points before shading, the same counts and image") {
-  // cluster_narrow.comp shortens every cluster's list, in place, to the lights overlapping the
-  // bounds of its own surface points (on GPUs by default): each pixel must count the same lights.
-  Gpu& gpu = sharedGpu();
-  Gpu narrowed = suiteWith("MYRIAD_CLUSTER_NARROW", "1");
-  Gpu whole = suiteWith("MYRIAD_CLUSTER_NARROW", "0");
-  scene::Scene s = litFloor(200000, 5);
-  narrowed.setScene(s);
-  whole.setScene(s);
-  render::FrameSettings f = frameSettings(Technique::Clustered, 160, 112);
-  auto [a, countsA] = renderWithCounts(narrowed, f);
-  auto [b, countsB] = renderWithCounts(whole, f);
-  CHECK_FALSE(a.culling.overflowed());
-  f.raw = true;
-  f.target = render::Target::Position;
-  render::Frame positions = whole.render(f);
-  size_t differ = 0;
-  for (size_t i = 0; i < countsA.data.size(); i += 4) {
-    if (countsA.data[i] == countsB.data[i]) continue;
-    ++differ;
-    if (differ > 8) continue;
-    glm::vec3 p(positions.data[i], positions.data[i + 1], positions.data[i + 2]);
-    uint32_t inside = 0;
-    for (const scene::PointLight& l : s.lights) {
-      glm::vec3 d = l.position - p;
-      if (glm::dot(d, d) < l.radius * l.radius) ++inside;
-    }
-    MESSAGE("pixel " << i / 4 % f.width << "," << i / 4 / f.width << ": narrowed " << countsA.data[i]
-                     << ", whole " << countsB.data[i] << ", reference " << inside);
-  }
-  CHECK(differ == 0);
-  CHECK(countsA.data == countsB.data);
-  CHECK(maxDifference(a.rgba, b.rgba) <= 1);  // the same lights summed in another order
-  CHECK(narrowed.context->validationMessages.load() == 0);
-  CHECK(whole.context->validationMessages.load() == 0);
-  (void)gpu;
-}
-
 TEST_CASE("overflowing lists are counted and reported, never silent") {
   // 3,000 lights of radius 100 all cover every cluster and tile with geometry.
   scene::Scene s = litFloor(0, 1);

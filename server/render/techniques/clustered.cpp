@@ -181,17 +181,6 @@ uint32_t shadeVariant() {
   return static_cast<uint32_t>(envNumber("MYRIAD_CLUSTER_SHADE_VARIANT"));
 }
 
-// Whether each cluster's list is narrowed to the bounds of its own points before shading
-// (cluster_narrow.comp): on GPUs, where the subgroup pass's tiles each read their cluster's list
-// and the lists are long (docs/performance.md, issue 16 stop 17); not on CPU devices, where the
-// pixel pass's tiles are few. MYRIAD_CLUSTER_NARROW=0|1 overrides it (a benchmark switch, and
-// the tests' way to run it on lavapipe).
-bool narrowClustersFor(const gpu::DeviceInfo& device) {
-  if (envIs("MYRIAD_CLUSTER_NARROW", "0")) return false;
-  if (envIs("MYRIAD_CLUSTER_NARROW", "1")) return true;
-  return !device.isCpu;
-}
-
 // The capacity a grid of `grid` with `lightCount` lights starts with, at most `mostReferences`.
 uint32_t initialCapacity(const ClusterGrid& grid, uint32_t lightCount, uint64_t mostReferences) {
   uint64_t wanted = std::max({uint64_t(kMinimumListCapacity), uint64_t(lightCount) * kReferencesPerLight,
@@ -242,7 +231,6 @@ class Clustered final : public LightingTechnique {
                shadeVariant()),
         set_(setup.context, setup.pipelines), counters_(setup.context),
         binnedAssign_(binnedAssignFor(setup.context.info)),
-        narrowClusters_(narrowClustersFor(setup.context.info)),
         animateInCount_(binnedAssign_ && !separateAnimation()) {
     requireWorkgroup(setup.context, MYRIAD_SCAN_GROUP, MYRIAD_SCAN_GROUP);
     requireWorkgroup(setup.context, MYRIAD_ASSIGN_BIN_GROUP, MYRIAD_ASSIGN_BIN_GROUP);
@@ -256,9 +244,6 @@ class Clustered final : public LightingTechnique {
       number_ = pipelines_.add(gpu::createComputePipeline(device, layout, spirv::cluster_mark_comp, &spec));
     }
     scan_ = pipelines_.add(gpu::createComputePipeline(device, layout, spirv::cluster_scan_comp));
-    if (narrowClusters_) {
-      narrow_ = pipelines_.add(gpu::createComputePipeline(device, layout, spirv::cluster_narrow_comp));
-    }
     // Alpha-blended surfaces mark their clusters from their fragments (storage writes from a
     // fragment shader): without fragmentStoresAndAtomics the forward pass tests every light.
     if (setup.context.fragmentStores) {
@@ -418,21 +403,11 @@ class Clustered final : public LightingTechnique {
       if (assignSteps()) pass.timer.beginPass(cmd, "assign-fill-large");
       vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, assignLarge_);
       vkCmdDispatchIndirect(cmd, lists_->large.buffer, 0);
-      // Shading reads the lists; the narrowing pass (5a) rewrites them first.
-      gpu::memoryBarrier(cmd, kComputeStage, kStorageWrite, kComputeStage,
-                         narrowClusters_ ? kStorageReadWrite : VK_ACCESS_2_SHADER_STORAGE_READ_BIT);
-    }
-    // 5. Shade every pixel from its cluster's list, narrowed per tile.
-    pass.timer.beginPass(cmd, "shade");
-    // 5a. First each cluster's list to the bounds of its points (timed as shading: it is the
-    // first step of the narrowing). Not with alpha-blended draws: their surfaces, not in the
-    // depth target, read the same lists.
-    if (narrowClusters_ && lightGroups > 0 && !hasBlendDraws(pass.scene)) {
-      vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, narrow_);
-      vkCmdDispatch(cmd, lists_->grid.x, lists_->grid.y, 1);
       gpu::memoryBarrier(cmd, kComputeStage, kStorageWrite, kComputeStage,
                          VK_ACCESS_2_SHADER_STORAGE_READ_BIT);
     }
+    // 5. Shade every pixel from its cluster's list, narrowed per tile.
+    pass.timer.beginPass(cmd, "shade");
     prepareLightingTargets(cmd, t);
     dispatchPixels(cmd, shade_.get(pass.shadingFeatures), t.extent, MYRIAD_CLUSTER_SHADE_TILE);
     counters_.makeHostVisible(cmd);
@@ -563,7 +538,6 @@ class Clustered final : public LightingTechnique {
   VkPipeline number_ = VK_NULL_HANDLE;  // its numbering pass (kNumber)
   VkPipeline count_ = VK_NULL_HANDLE;
   VkPipeline scan_ = VK_NULL_HANDLE;
-  VkPipeline narrow_ = VK_NULL_HANDLE;  // cluster_narrow.comp, where narrowClusters_
   VkPipeline assign_ = VK_NULL_HANDLE;
   VkPipeline countLarge_ = VK_NULL_HANDLE;   // the queued large lights, a workgroup each
   VkPipeline assignLarge_ = VK_NULL_HANDLE;
@@ -575,7 +549,6 @@ class Clustered final : public LightingTechnique {
   CullingSet set_;
   CullingCounters counters_;
   bool binnedAssign_;  // small lights by cluster_assign_binned.comp (else cluster_assign.comp)
-  bool narrowClusters_;  // lists narrowed to their points' bounds before shading (step 5a)
   bool animateInCount_;  // animatesLights()
   std::unique_ptr<ClusterLists> lists_;
   uint64_t listLimitBytes_ = 0;              // limitListMemory(); 0 = the device's limit
