@@ -173,7 +173,6 @@ using mat4 = glm::mat4;
 #define MYRIAD_SHADE_NARROW_WORLD 0x8u           // the narrowing: the world bounds of the slice's points
 #define MYRIAD_SHADE_HYBRID 0x20u                // mask walk: lights holding the subgroup's box walked together
 #define MYRIAD_SHADE_SHORT_64 0x10u              // mask walk: segments of <= 64 lights walked per pixel
-#define MYRIAD_SHADE_REACH_SHUFFLED 0x40u        // mask walk: a chunk's loosened squared reaches worked out once, shuffled
 #define MYRIAD_SHADE_DIAG_NARROW_ONLY 0x100u     // a measurement: narrowing only (image wrong)
 #define MYRIAD_SHADE_DIAG_NO_BRDF 0x200u         // a measurement: walks and reach tests, no BRDF (image wrong)
 #define MYRIAD_SHADE_DIAG_NO_SHORT 0x1000u       // a measurement: segments walked per pixel only counted (image wrong)
