@@ -64,7 +64,7 @@ export class ViewOverlay {
       this.latencyMs = now - this.changeAt;
       this.changeAt = 0;
     }
-    this.refresh();
+    this.refreshState();
   }
 
   // Called on every camera move and every frame: the DOM is written only when something changed
@@ -75,7 +75,15 @@ export class ViewOverlay {
     if (this.status.hidden !== !text) this.status.hidden = !text;
   }
 
+  // Everything: the status line and the strip (the strip only here, on the timer: written per
+  // frame, its fps figure changed with every frame and cost the page a style, layout and paint
+  // pass each time, on the cores a CPU renderer shares with it).
   refresh() {
+    this.refreshState();
+    this.refreshStrip();
+  }
+
+  refreshState() {
     const now = performance.now();
     if (this.changeAt) {
       this.show('rendering\u2026', 'rendering');
@@ -88,6 +96,10 @@ export class ViewOverlay {
     } else {
       this.show('', 'idle');
     }
+  }
+
+  refreshStrip() {
+    const now = performance.now();
     this.frames = this.frames.filter((f) => now - f.t <= STATS_WINDOW_MS);
     const seconds = STATS_WINDOW_MS / 1000;
     const fps = this.frames.length / seconds;

@@ -89,8 +89,10 @@ export class LiveView {
       this.loading.clear();
       for (const url of this.urls.filter((u) => u !== shown)) URL.revokeObjectURL(url);
       this.urls = this.urls.filter((u) => u === shown);
-      this.status.textContent = `${this.img.naturalWidth}\u00d7${this.img.naturalHeight} JPEG` +
-                                (this.interactive || this.img.dataset.interactive ? ' (moving)' : '');
+      // Written only when it changes: each write is a style, layout and paint pass of the page.
+      const text = `${this.img.naturalWidth}\u00d7${this.img.naturalHeight} JPEG` +
+                   (this.interactive || this.img.dataset.interactive ? ' (moving)' : '');
+      if (this.status.textContent !== text) this.status.textContent = text;
     });
 
     // Drags for perf.js: on the view (the camera) and on any slider of the page.
