@@ -8,6 +8,11 @@
 
 const STATS_WINDOW_MS = 2000;   // fps and bandwidth: over the last two seconds
 const TICK_MS = 250;            // how often the waiting text and the strip refresh
+// A frame that shows the last change hides "rendering" at once only when no change came in this
+// long; else the timer's next refresh does. During a drag a move follows each frame within tens
+// of milliseconds: the line went away at every frame and came back at the next move, two style,
+// layout and paint passes a frame (on lavapipe, on the cores the server renders on).
+const CHANGES_KEEP_MS = 100;
 
 export class ViewOverlay {
   constructor(status, strip) {
@@ -16,6 +21,7 @@ export class ViewOverlay {
     this.connectingSince = 0;  // performance.now() of connect(); 0 once a frame showed
     this.changeAt = 0;         // performance.now() of the oldest change no frame shows yet
     this.changeFrame = '';     // the frame shown when that change was made
+    this.lastChangeAt = 0;     // performance.now() of the newest change
     this.lastFrame = '';       // "stream key#frame number" of the frame shown last
     this.latencyMs = null;     // the last change's input-to-frame time
     this.codec = '';
@@ -34,6 +40,7 @@ export class ViewOverlay {
 
   // Something that changes the picture happened: "rendering" at once, until a new frame shows.
   changed() {
+    this.lastChangeAt = performance.now();
     if (!this.changeAt) {
       this.changeAt = performance.now();
       this.changeFrame = this.lastFrame;
@@ -64,7 +71,7 @@ export class ViewOverlay {
       this.latencyMs = now - this.changeAt;
       this.changeAt = 0;
     }
-    this.refreshState();
+    if (now - this.lastChangeAt >= CHANGES_KEEP_MS) this.refreshState();
   }
 
   // Called on every camera move and every frame: the DOM is written only when something changed

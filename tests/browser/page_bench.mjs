@@ -24,7 +24,7 @@
 // average before and after is part of the output, because these are figures of the machine as it
 // was. Usage (scripts/bench-page.sh wraps it):
 //   node page_bench.mjs <myriad-server> [--load 2] [--drags 3] [--sliders 8] [--seconds 6]
-//                       [--json FILE] [-- server flags]
+//                       [--input clock|await] [--json FILE] [-- server flags]
 
 import {spawn} from 'node:child_process';
 import {existsSync, readFileSync, writeFileSync} from 'node:fs';
@@ -48,6 +48,9 @@ const DRAGS = Number(option('drags', 3));
 const SLIDERS = Number(option('sliders', 8));
 const SECONDS = Number(option('seconds', 6));
 const JSON_FILE = option('json', '');
+// How the mouse moves while dragging (drag() says why): 'clock' (60 Hz, not waiting for the
+// page) or 'await' (each move waits for the page, then 16 ms: the loop before stop 17).
+const INPUT = option('input', 'clock');
 if (!serverPath || !existsSync(CHROMIUM)) {
   console.error(`usage: node page_bench.mjs <myriad-server> [--load N] ... (needs ${CHROMIUM})`);
   process.exit(2);
@@ -67,7 +70,7 @@ function summary(values, digits = 1) {
 const server = await startServer(serverPath, ['--port', '0', ...serverFlags]);
 const browser = await chromium.launch({executablePath: CHROMIUM,
                                        args: ['--headless', '--no-sandbox', '--disable-gpu']});
-const result = {view: VIEW, loadAverageBefore: loadAverage(), cores: (await import('node:os')).cpus().length};
+const result = {view: VIEW, input: INPUT, loadAverageBefore: loadAverage(), cores: (await import('node:os')).cpus().length};
 let busy = [];
 try {
   // The window is the view plus the 340 px panel; fitted so the view is exactly VIEW.
@@ -155,6 +158,9 @@ try {
   // machine of stop 16/17 it made only 24-28 moves a second with the mouse over the panels,
   // where no move renders anything (load average ~2), so "dragging >= 24 fps" could not be
   // measured above about that, whatever the page and server did (docs/performance.md, stop 17).
+  // More moves cost the page more too (a pointermove handled in most of its frames, 40-45 a
+  // second here): on this machine under others' load (5), one binary gave 13-14 fps on the clock
+  // and 15-19 with --input await (the old loop, kept to compare).
   async function drag() {
     await quiet();
     await reset();
@@ -174,10 +180,15 @@ try {
     await mouse('mousePressed', at, 1);
     const start = Date.now();
     for (let i = 1; Date.now() - start < SECONDS * 1000; ++i) {
-      const due = start + (i * 1000) / 60;
-      if (due > Date.now()) await sleep(due - Date.now());
       const a = i * 0.05;
       at = {x: cx + 150 * Math.cos(a), y: cy + 80 * Math.sin(a)};
+      if (INPUT === 'await') {
+        await mouse('mouseMoved', at, 1);
+        await sleep(16);
+        continue;
+      }
+      const due = start + (i * 1000) / 60;
+      if (due > Date.now()) await sleep(due - Date.now());
       mouse('mouseMoved', at, 1).catch(() => {});
     }
     const seconds = (Date.now() - start) / 1000;
