@@ -2,6 +2,7 @@
 #extension GL_GOOGLE_include_directive : require
 #extension GL_KHR_shader_subgroup_basic : require
 #extension GL_KHR_shader_subgroup_arithmetic : require
+#extension GL_KHR_shader_subgroup_ballot : require
 // Clustered steps 2 and 4 for the small lights: each light's clusters are walked once a frame.
 //
 // Counting pass (kAssign = false; with kAnimate it moves the lights first, see below). A workgroup
@@ -44,7 +45,9 @@
 #include "cluster_assign.glsl"
 #include "light_orbit.glsl"
 
-layout(local_size_x = MYRIAD_ASSIGN_BIN_GROUP) in;
+// The workgroup's size (constant 6): MYRIAD_ASSIGN_BIN_GROUP, or what the technique asks for (a
+// benchmark experiment: more invocations a multiprocessor to hide the walk's latencies).
+layout(local_size_x = MYRIAD_ASSIGN_BIN_GROUP, local_size_x_id = 6) in;
 layout(constant_id = 0) const bool kAssign = false;
 layout(constant_id = 2) const uint kBins = MYRIAD_ASSIGN_BINS;
 // Counting pass with kAnimate: the frame's lights move here (light_orbit.glsl), each written once
@@ -52,6 +55,15 @@ layout(constant_id = 2) const uint kBins = MYRIAD_ASSIGN_BINS;
 layout(constant_id = 3) const bool kAnimate = false;
 layout(constant_id = 4) const bool kFlat = true;
 layout(constant_id = 5) const uint kMostClusters = MYRIAD_LARGE_LIGHT_CLUSTERS;
+// kCompact (kFlat only): the region holds only the pairs found, one after another (a subgroup
+// scan places them), not a slot per candidate, so the assigning pass copies only those.
+layout(constant_id = 7) const bool kCompact = false;
+// kFillTable: the assigning pass first reads, per cluster number, where its group's part of the
+// list starts into shared memory (binCount), so that a pair costs one shared read and the list
+// write instead of three dependent global reads.
+layout(constant_id = 10) const bool kFillTable = false;
+// kPrefetch (kFlat only): each step's lights are read during the step before.
+layout(constant_id = 11) const bool kPrefetch = false;
 
 layout(std430, set = MYRIAD_SET_SCENE, binding = MYRIAD_BINDING_LIGHT_ORIGINS) readonly buffer OriginBlock {
   GpuPointLight origins[];
@@ -60,18 +72,21 @@ layout(std430, set = MYRIAD_SET_SCENE, binding = MYRIAD_BINDING_LIGHTS) writeonl
   GpuPointLight movingLights[];
 };
 
-const uint kGroup = MYRIAD_ASSIGN_BIN_GROUP;
+const uint kGroup = gl_WorkGroupSize.x;
 const uint kNoLight = 0xFFFFFFFFu;  // a region slot holding no pair
 const uint kInTable = 0x80000000u;  // a recorded pair's cluster word is its cluster's number
 
-shared uint binCount[kBins];  // pairs counted per cluster number
+// Counting: pairs counted per cluster number. Assigning with kFillTable: where the group's part of
+// the number's list starts in clusterLights.
+shared uint binCount[kBins];
 shared uint regionUsed;       // without kFlat: region slots handed out (may pass the region's size)
-// kFlat: the step's lights by place p: view-space sphere, box (first x | y << 16, extent x | y <<
-// 16, first z | extent z << 16) and the end of its candidates in the step's run.
+                              // kCompact: pairs recorded
+// kFlat: the step's lights by place p: view-space sphere, box (packBox) and the end of its
+// candidates in the step's run.
 shared vec4 stepSphere[kGroup];
-shared uvec3 stepBox[kGroup];
+shared uvec2 stepBox[kGroup];
 shared uint stepEnd[kGroup];
-shared uint subgroupTotal[kGroup];
+shared uint subgroupTotal[kGroup / 4u];  // subgroups have 4 invocations or more
 
 // Where this workgroup's table and region start, and how many slots a region has (both passes
 // run the same number of workgroups).
@@ -95,10 +110,15 @@ void queueLarge(uint index) {
   atomicMax(largeQueue.groups.x, min(slot + 1u, MYRIAD_LARGE_LIGHT_GROUPS));
 }
 
-// Light `index` where it is this frame (moved and written with kAnimate).
-vec4 lightNow(uint index) {
-  if (!kAnimate) return lights[index].positionRadius;
-  vec4 light = orbitPosition(index, origins[index].positionRadius, frame.slicing.w);
+// Light `index`'s position and radius as stored: its origin with kAnimate, else where it is.
+vec4 lightStored(uint index) {
+  return kAnimate ? origins[index].positionRadius : lights[index].positionRadius;
+}
+
+// Light `index` where it is this frame, from lightStored(index) (moved and written with kAnimate).
+vec4 lightNow(uint index, vec4 stored) {
+  if (!kAnimate) return stored;
+  vec4 light = orbitPosition(index, stored, frame.slicing.w);
   movingLights[index].positionRadius = light;
   return light;
 }
@@ -121,7 +141,7 @@ void recordPair(uint s, uint size, uint index, uint cluster, uint id) {
 // Without kFlat: walks light `index`'s clusters in turn, ranking and recording each pair.
 void countLight(uint index, uint size, uint region) {
   if (index >= frame.flags.y) return;
-  vec4 light = lightNow(index);
+  vec4 light = lightNow(index, lightStored(index));
   LightClusters b;
   if (!lightClustersAt(light, b)) return;
   if (b.clusters > kMostClusters) {
@@ -147,14 +167,26 @@ void countLight(uint index, uint size, uint region) {
   }
 }
 
-// kFlat: one step of kGroup lights from `base` (indices at or past `end` are none), their
-// candidates in slots used, used + 1, ... of the region; returns the slots the step took.
-uint countStep(uint base, uint end, uint used, uint size, uint region) {
+// A box of clusters in shared memory: first x | y << 11 | z << 22, extent the same (tiles and
+// slices fewer than 2,048 and 1,024).
+uvec2 packBox(LightClusters b) {
+  return uvec2(b.first.x | (b.first.y << 11u) | (b.first.z << 22u),
+               b.extent.x | (b.extent.y << 11u) | (b.extent.z << 22u));
+}
+uvec3 unpackBox(uint word) {
+  return uvec3(word & 0x7FFu, (word >> 11u) & 0x7FFu, word >> 22u);
+}
+
+// kFlat: one step of kGroup lights from `base` (indices at or past `end` are none; the invocation's
+// own light read already, `stored`), their candidates in slots used, used + 1, ... of the region
+// (kCompact: the region's candidates only counted, the pairs found placed from regionUsed on);
+// returns the candidates the step had.
+uint countStep(uint base, uint end, vec4 stored, uint used, uint size, uint region) {
   uint p = gl_SubgroupID * gl_SubgroupSize + gl_SubgroupInvocationID;
   uint index = base + p;
   LightClusters b;
   uint n = 0u;
-  if (index < end && lightClustersAt(lightNow(index), b)) {
+  if (index < end && lightClustersAt(lightNow(index, stored), b)) {
     if (b.clusters > kMostClusters) {
       queueLarge(index);
     } else {
@@ -175,59 +207,78 @@ uint countStep(uint base, uint end, uint used, uint size, uint region) {
   stepEnd[p] = runEnd;
   if (n > 0u) {
     stepSphere[p] = vec4(b.c, b.r);
-    stepBox[p] = uvec3(b.first.x | (b.first.y << 16u), b.extent.x | (b.extent.y << 16u),
-                       b.first.z | (b.extent.z << 16u));
+    stepBox[p] = packBox(b);
     // A box past the region's end: the large-light passes take the light (its slots inside the
     // region hold no pair, below).
     if (used + runEnd > size) queueLarge(index);
   }
   barrier();
   uint light = 0u;
-  for (uint j = gl_LocalInvocationIndex; j < total; j += kGroup) {
-    // The candidate's light: the first place whose run ends after j (at or after the last found).
-    uint hi = kGroup - 1u;
-    while (light < hi) {
-      uint mid = (light + hi) >> 1u;
-      if (stepEnd[mid] > j) {
-        hi = mid;
-      } else {
-        light = mid + 1u;
+  // Every invocation takes every round (kCompact's subgroup scan wants them all).
+  for (uint round = 0u; round < total; round += kGroup) {
+    uint j = round + gl_LocalInvocationIndex;
+    uint slot = used + j;
+    bool found = false;
+    uint cluster, id;
+    if (j < total) {
+      // The candidate's light: the first place whose run ends after j (at or after the last found).
+      uint hi = kGroup - 1u;
+      while (light < hi) {
+        uint mid = (light + hi) >> 1u;
+        if (stepEnd[mid] > j) {
+          hi = mid;
+        } else {
+          light = mid + 1u;
+        }
+      }
+      uint lightEnd = stepEnd[light];
+      if (used + lightEnd <= size) {
+        uvec2 box = stepBox[light];
+        vec4 sphere = stepSphere[light];
+        LightClusters c;
+        c.c = sphere.xyz;
+        c.r = sphere.w;
+        c.first = unpackBox(box.x);
+        c.extent = unpackBox(box.y);
+        c.clusters = c.extent.x * c.extent.y * c.extent.z;
+        found = lightReachesActiveCluster(c, j - (lightEnd - c.clusters), cluster, id);
+      }
+      if (!kCompact) {
+        if (found) {
+          recordPair(region + slot, size, base + light, cluster, id);
+        } else if (slot < size) {
+          pairWords[region + slot] = kNoLight;
+        }
       }
     }
-    uint slot = used + j;
-    uint lightEnd = stepEnd[light];
-    if (used + lightEnd > size) {
-      if (slot < size) pairWords[region + slot] = kNoLight;
-      continue;
-    }
-    uvec3 box = stepBox[light];
-    vec4 sphere = stepSphere[light];
-    LightClusters c;
-    c.c = sphere.xyz;
-    c.r = sphere.w;
-    c.first = uvec3(box.x & 0xFFFFu, box.x >> 16u, box.z & 0xFFFFu);
-    c.extent = uvec3(box.y & 0xFFFFu, box.y >> 16u, box.z >> 16u);
-    c.clusters = c.extent.x * c.extent.y * c.extent.z;
-    uint i = j - (lightEnd - c.clusters);
-    uint cluster, id;
-    if (lightReachesActiveCluster(c, i, cluster, id)) {
-      recordPair(region + slot, size, base + light, cluster, id);
-    } else {
-      pairWords[region + slot] = kNoLight;
+    if (kCompact) {
+      // The pairs found this round, one after another from the group's count.
+      uint one = found ? 1u : 0u;
+      uint rank = subgroupExclusiveAdd(one);
+      uint count = subgroupAdd(one);
+      uint start = 0u;
+      if (subgroupElect() && count > 0u) start = atomicAdd(regionUsed, count);
+      start = subgroupBroadcastFirst(start);
+      if (found) recordPair(region + start + rank, size, base + light, cluster, id);
     }
   }
   barrier();  // the step's shared arrays are read before the next step writes them
   return total;
 }
 
-// Copies one recorded pair into its cluster's list (cut at the list's kept length).
-void placePair(uint s, uint size, uint table) {
+// Copies one recorded pair into its cluster's list (cut at the list's kept length); `whole`: no
+// list was cut this frame, and binCount holds where the group's part of each number's list starts.
+void placePair(uint s, uint size, uint table, bool whole) {
   uint index = pairWords[s];
   if (index == kNoLight) return;
   uint cluster = pairWords[s + size];
   uint rank = pairWords[s + 2u * size];
   if ((cluster & kInTable) != 0u) {
     uint id = cluster & ~kInTable;
+    if (whole) {
+      clusterLights[binCount[id] + rank] = index;
+      return;
+    }
     cluster = clusterCursors[activeClusterWord(id)];
     rank += pairWords[table + id];
   }
@@ -242,7 +293,17 @@ void main() {
   uint table = tableStart();
   if (kAssign) {
     uint used = min(pairWords[gl_WorkGroupID.x], size);
-    for (uint s = thread; s < used; s += kGroup) placePair(region + s, size, table);
+    // The scan counted the active clusters (the numbers in use) and the pairs its cuts dropped.
+    bool whole = kFillTable && stats.overflow.z == 0u;
+    if (whole) {
+      uint numbers = min(stats.totals.y, kBins);
+      // A number this group found no pair for holds an old start, which no pair reads.
+      for (uint id = thread; id < numbers; id += kGroup) {
+        binCount[id] = clusterRanges[clusterCursors[activeClusterWord(id)]].x + pairWords[table + id];
+      }
+      barrier();
+    }
+    for (uint s = thread; s < used; s += kGroup) placePair(region + s, size, table, whole);
     return;
   }
   // The table's numbers in use this frame.
@@ -258,10 +319,17 @@ void main() {
   uint end = min(first + share, lightCount);
   uint steps = (share + kGroup - 1u) / kGroup;
   uint used = 0u;
+  vec4 stored = vec4(0.0);
+  if (kFlat && kPrefetch && first + thread < end) stored = lightStored(first + thread);
   for (uint k = 0u; k < steps; ++k) {
     uint base = first + k * kGroup;
     if (kFlat) {
-      used += countStep(base, end, used, size, region);
+      uint index = base + thread;
+      vec4 light = stored;
+      if (!kPrefetch && index < end) light = lightStored(index);
+      // With kPrefetch the next step's light is read now and waited for only then.
+      if (kPrefetch && index + kGroup < end) stored = lightStored(index + kGroup);
+      used += countStep(base, end, light, used, size, region);
     } else {
       uint index = base + thread;
       countLight(index < end ? index : lightCount, size, region);
@@ -275,5 +343,5 @@ void main() {
     uint cluster = clusterCursors[activeClusterWord(id)];
     pairWords[table + id] = atomicAdd(clusterCursors[cluster], count);
   }
-  if (thread == 0u) pairWords[gl_WorkGroupID.x] = min(kFlat ? used : regionUsed, size);
+  if (thread == 0u) pairWords[gl_WorkGroupID.x] = min(kFlat && !kCompact ? used : regionUsed, size);
 }

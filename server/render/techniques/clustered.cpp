@@ -113,6 +113,28 @@ bool flatWalk() {
   return !envIs("MYRIAD_ASSIGN_FLAT", "0");
 }
 
+// The binned passes' workgroup size: MYRIAD_ASSIGN_BIN_GROUP, or MYRIAD_ASSIGN_BIN_GROUP_SIZE
+// (256, 512 or 1,024; a benchmark experiment: more invocations a multiprocessor).
+uint32_t binGroupSize() {
+  static const uint32_t size = [] {
+    const uint64_t n = envNumber("MYRIAD_ASSIGN_BIN_GROUP_SIZE");
+    return n == 256 || n == 512 || n == 1024 ? uint32_t(n) : uint32_t(MYRIAD_ASSIGN_BIN_GROUP);
+  }();
+  return size;
+}
+
+// Benchmark experiments of the binned passes (cluster_assign_binned.comp's kCompact, kFillTable,
+// kPrefetch): MYRIAD_ASSIGN_COMPACT=1, MYRIAD_ASSIGN_FILL_TABLE=1, MYRIAD_ASSIGN_PREFETCH=1.
+bool compactPairs() {
+  return envIs("MYRIAD_ASSIGN_COMPACT", "1");
+}
+bool fillTable() {
+  return envIs("MYRIAD_ASSIGN_FILL_TABLE", "1");
+}
+bool prefetchLights() {
+  return envIs("MYRIAD_ASSIGN_PREFETCH", "1");
+}
+
 // Lights whose box holds more clusters than this go to the large-light passes (a workgroup each):
 // MYRIAD_LARGE_LIGHT_CLUSTERS, or MYRIAD_ASSIGN_MOST_CLUSTERS (1 to 65536; a benchmark experiment).
 uint32_t mostClustersPerLight() {
@@ -233,7 +255,7 @@ class Clustered final : public LightingTechnique {
         binnedAssign_(binnedAssignFor(setup.context.info)),
         animateInCount_(binnedAssign_ && !separateAnimation()) {
     requireWorkgroup(setup.context, MYRIAD_SCAN_GROUP, MYRIAD_SCAN_GROUP);
-    requireWorkgroup(setup.context, MYRIAD_ASSIGN_BIN_GROUP, MYRIAD_ASSIGN_BIN_GROUP);
+    requireWorkgroup(setup.context, binGroupSize(), binGroupSize());
     VkDevice device = setup.context.device;
     VkPipelineLayout layout = setup.pipelines.layout;
     mark_ = pipelines_.add(gpu::createComputePipeline(device, layout, spirv::cluster_mark_comp));
@@ -271,17 +293,18 @@ class Clustered final : public LightingTechnique {
             gpu::createComputePipeline(device, layout, spirv::cluster_assign_comp, &spec));
       }
       // cluster_assign_binned.comp: kAssign (constant 0), its table's bins (2), kAnimate (3),
-      // kFlat (4), kMostClusters (5).
-      const VkSpecializationMapEntry binnedEntries[] = {{0, 0, sizeof(VkBool32)},
-                                                        {2, 4, sizeof(uint32_t)},
-                                                        {3, 8, sizeof(VkBool32)},
-                                                        {4, 12, sizeof(VkBool32)},
-                                                        {5, 16, sizeof(uint32_t)}};
+      // kFlat (4), kMostClusters (5), the workgroup size (6), kCompact (7), kFillTable (10),
+      // kPrefetch (11); 8 is frame.glsl's MYRIAD_SPEC_SHADING_FEATURES.
+      const VkSpecializationMapEntry binnedEntries[] = {
+          {0, 0, 4}, {2, 4, 4}, {3, 8, 4}, {4, 12, 4}, {5, 16, 4},
+          {6, 20, 4}, {7, 24, 4}, {10, 28, 4}, {11, 32, 4}};
       for (VkBool32 animate : {VK_FALSE, VK_TRUE}) {
         if (assign && animate) continue;
         const uint32_t binnedValues[] = {assign, assignBins(), animate, VkBool32(flatWalk()),
-                                         mostClustersPerLight()};
-        VkSpecializationInfo binnedSpec{5, binnedEntries, sizeof(binnedValues), binnedValues};
+                                         mostClustersPerLight(), binGroupSize(),
+                                         VkBool32(compactPairs()), VkBool32(fillTable()),
+                                         VkBool32(prefetchLights())};
+        VkSpecializationInfo binnedSpec{9, binnedEntries, sizeof(binnedValues), binnedValues};
         (assign ? assignBinned_ : animate ? countBinnedAnimated_ : countBinned_) = pipelines_.add(
             gpu::createComputePipeline(device, layout, spirv::cluster_assign_binned_comp, &binnedSpec));
       }
