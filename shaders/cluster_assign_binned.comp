@@ -3,6 +3,7 @@
 #extension GL_KHR_shader_subgroup_basic : require
 #extension GL_KHR_shader_subgroup_arithmetic : require
 #extension GL_KHR_shader_subgroup_ballot : require
+#extension GL_KHR_shader_subgroup_shuffle : require
 // Clustered steps 2 and 4 for the small lights: each light's clusters are walked once a frame.
 //
 // Counting pass (kAssign = false; with kAnimate it moves the lights first, see below). A workgroup
@@ -64,6 +65,9 @@ layout(constant_id = 7) const bool kCompact = false;
 layout(constant_id = 10) const bool kFillTable = false;
 // kPrefetch (kFlat only): each step's lights are read during the step before.
 layout(constant_id = 11) const bool kPrefetch = false;
+// kSubgroupWalk (kFlat, kCompact): each subgroup lays out and walks its own lights' candidates,
+// finding a candidate's light by shuffles, with no barrier of the group's between steps.
+layout(constant_id = 12) const bool kSubgroupWalk = false;
 
 layout(std430, set = MYRIAD_SET_SCENE, binding = MYRIAD_BINDING_LIGHT_ORIGINS) readonly buffer OriginBlock {
   GpuPointLight origins[];
@@ -81,6 +85,7 @@ const uint kInTable = 0x80000000u;  // a recorded pair's cluster word is its clu
 shared uint binCount[kBins];
 shared uint regionUsed;       // without kFlat: region slots handed out (may pass the region's size)
                               // kCompact: pairs recorded
+shared uint regionReserved;   // kSubgroupWalk: candidates handed out (may pass the region's size)
 // kFlat: the step's lights by place p: view-space sphere, box (packBox) and the end of its
 // candidates in the step's run.
 shared vec4 stepSphere[kGroup];
@@ -266,6 +271,61 @@ uint countStep(uint base, uint end, vec4 stored, uint used, uint size, uint regi
   return total;
 }
 
+// kSubgroupWalk: the subgroup's lights from `base` (indices at or past `end` are none; the
+// invocation's own light read already, `stored`): each reserves its box's candidates in the region
+// (a box past its end goes to the large-light passes), and the subgroup walks the candidates
+// gl_SubgroupSize at a time, recording the pairs found one after another from regionUsed.
+void countSubgroupStep(uint base, uint end, vec4 stored, uint size, uint region) {
+  uint lane = gl_SubgroupInvocationID;
+  uint index = base + lane;
+  LightClusters b;
+  uint n = 0u;
+  if (index < end && lightClustersAt(lightNow(index, stored), b)) {
+    if (b.clusters > kMostClusters) {
+      queueLarge(index);
+    } else {
+      n = b.clusters;
+    }
+  }
+  uint runEnd = subgroupInclusiveAdd(n);
+  uint total = subgroupMax(runEnd);
+  if (total == 0u) return;
+  uint reserved = 0u;
+  if (subgroupElect()) reserved = atomicAdd(regionReserved, total);
+  reserved = subgroupBroadcastFirst(reserved);
+  bool fits = reserved + runEnd <= size;
+  if (n > 0u && !fits) queueLarge(index);
+  vec4 sphere = vec4(b.c, b.r);
+  uvec2 box = packBox(b);
+  for (uint round = 0u; round < total; round += gl_SubgroupSize) {
+    uint j = round + lane;
+    // The candidate's light: the lanes whose runs end at or before j come first.
+    uint owner = 0u;
+    for (uint step = gl_SubgroupSize >> 1u; step > 0u; step >>= 1u) {
+      if (subgroupShuffle(runEnd, owner + step - 1u) <= j) owner += step;
+    }
+    uint ownerEnd = subgroupShuffle(runEnd, owner);
+    bool ownerFits = subgroupShuffle(fits, owner);
+    LightClusters c;
+    c.c = subgroupShuffle(sphere.xyz, owner);
+    c.r = subgroupShuffle(sphere.w, owner);
+    uvec2 ownerBox = subgroupShuffle(box, owner);
+    c.first = unpackBox(ownerBox.x);
+    c.extent = unpackBox(ownerBox.y);
+    c.clusters = c.extent.x * c.extent.y * c.extent.z;
+    uint cluster, id;
+    bool found = j < total && ownerFits &&
+                 lightReachesActiveCluster(c, j - (ownerEnd - c.clusters), cluster, id);
+    uint one = found ? 1u : 0u;
+    uint rank = subgroupExclusiveAdd(one);
+    uint count = subgroupAdd(one);
+    uint start = 0u;
+    if (subgroupElect() && count > 0u) start = atomicAdd(regionUsed, count);
+    start = subgroupBroadcastFirst(start);
+    if (found) recordPair(region + start + rank, size, base + owner, cluster, id);
+  }
+}
+
 // Copies one recorded pair into its cluster's list (cut at the list's kept length); `whole`: no
 // list was cut this frame, and binCount holds where the group's part of each number's list starts.
 void placePair(uint s, uint size, uint table, bool whole) {
@@ -309,7 +369,10 @@ void main() {
   // The table's numbers in use this frame.
   uint numbers = min(clusterCursors[activeCountWord()], kBins);
   for (uint id = thread; id < numbers; id += kGroup) binCount[id] = 0u;
-  if (thread == 0u) regionUsed = 0u;
+  if (thread == 0u) {
+    regionUsed = 0u;
+    regionReserved = 0u;
+  }
   barrier();
   // This group's lights: a contiguous run of an equal share, kGroup consecutive lights per step
   // (coalesced reads).
@@ -319,17 +382,23 @@ void main() {
   uint end = min(first + share, lightCount);
   uint steps = (share + kGroup - 1u) / kGroup;
   uint used = 0u;
+  // kFlat: a step's light p is subgroup p / size's invocation p % size.
+  uint p = gl_SubgroupID * gl_SubgroupSize + gl_SubgroupInvocationID;
   vec4 stored = vec4(0.0);
-  if (kFlat && kPrefetch && first + thread < end) stored = lightStored(first + thread);
+  if (kFlat && kPrefetch && first + p < end) stored = lightStored(first + p);
   for (uint k = 0u; k < steps; ++k) {
     uint base = first + k * kGroup;
     if (kFlat) {
-      uint index = base + thread;
+      uint index = base + p;
       vec4 light = stored;
       if (!kPrefetch && index < end) light = lightStored(index);
       // With kPrefetch the next step's light is read now and waited for only then.
       if (kPrefetch && index + kGroup < end) stored = lightStored(index + kGroup);
-      used += countStep(base, end, light, used, size, region);
+      if (kSubgroupWalk) {
+        countSubgroupStep(base + gl_SubgroupID * gl_SubgroupSize, end, light, size, region);
+      } else {
+        used += countStep(base, end, light, used, size, region);
+      }
     } else {
       uint index = base + thread;
       countLight(index < end ? index : lightCount, size, region);
@@ -343,5 +412,5 @@ void main() {
     uint cluster = clusterCursors[activeClusterWord(id)];
     pairWords[table + id] = atomicAdd(clusterCursors[cluster], count);
   }
-  if (thread == 0u) pairWords[gl_WorkGroupID.x] = min(kFlat && !kCompact ? used : regionUsed, size);
+  if (thread == 0u) pairWords[gl_WorkGroupID.x] = min(kFlat && !kCompact && !kSubgroupWalk ? used : regionUsed, size);
 }

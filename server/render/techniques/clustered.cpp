@@ -134,6 +134,10 @@ bool fillTable() {
 bool prefetchLights() {
   return envIs("MYRIAD_ASSIGN_PREFETCH", "1");
 }
+// MYRIAD_ASSIGN_SUBGROUP_WALK=1: each subgroup walks its own lights (kSubgroupWalk).
+bool subgroupWalk() {
+  return envIs("MYRIAD_ASSIGN_SUBGROUP_WALK", "1");
+}
 
 // Lights whose box holds more clusters than this go to the large-light passes (a workgroup each):
 // MYRIAD_LARGE_LIGHT_CLUSTERS, or MYRIAD_ASSIGN_MOST_CLUSTERS (1 to 65536; a benchmark experiment).
@@ -294,17 +298,17 @@ class Clustered final : public LightingTechnique {
       }
       // cluster_assign_binned.comp: kAssign (constant 0), its table's bins (2), kAnimate (3),
       // kFlat (4), kMostClusters (5), the workgroup size (6), kCompact (7), kFillTable (10),
-      // kPrefetch (11); 8 is frame.glsl's MYRIAD_SPEC_SHADING_FEATURES.
+      // kPrefetch (11), kSubgroupWalk (12); 8 is frame.glsl's MYRIAD_SPEC_SHADING_FEATURES.
       const VkSpecializationMapEntry binnedEntries[] = {
           {0, 0, 4}, {2, 4, 4}, {3, 8, 4}, {4, 12, 4}, {5, 16, 4},
-          {6, 20, 4}, {7, 24, 4}, {10, 28, 4}, {11, 32, 4}};
+          {6, 20, 4}, {7, 24, 4}, {10, 28, 4}, {11, 32, 4}, {12, 36, 4}};
       for (VkBool32 animate : {VK_FALSE, VK_TRUE}) {
         if (assign && animate) continue;
         const uint32_t binnedValues[] = {assign, assignBins(), animate, VkBool32(flatWalk()),
                                          mostClustersPerLight(), binGroupSize(),
                                          VkBool32(compactPairs()), VkBool32(fillTable()),
-                                         VkBool32(prefetchLights())};
-        VkSpecializationInfo binnedSpec{9, binnedEntries, sizeof(binnedValues), binnedValues};
+                                         VkBool32(prefetchLights()), VkBool32(subgroupWalk())};
+        VkSpecializationInfo binnedSpec{10, binnedEntries, sizeof(binnedValues), binnedValues};
         (assign ? assignBinned_ : animate ? countBinnedAnimated_ : countBinned_) = pipelines_.add(
             gpu::createComputePipeline(device, layout, spirv::cluster_assign_binned_comp, &binnedSpec));
       }
