@@ -382,6 +382,25 @@ void main() {
   uint end = min(first + share, lightCount);
   uint steps = (share + kGroup - 1u) / kGroup;
   uint used = 0u;
+  if (kSubgroupWalk) {
+    // The group's share split evenly among its subgroups, each taking gl_SubgroupSize
+    // consecutive lights a step, the next step's read during the step (kPrefetch).
+    uint lights = end > first ? end - first : 0u;
+    uint subShare = (lights + gl_NumSubgroups - 1u) / gl_NumSubgroups;
+    uint subFirst = first + gl_SubgroupID * subShare;
+    uint subEnd = min(subFirst + subShare, end);
+    uint lane = gl_SubgroupInvocationID;
+    vec4 stored = vec4(0.0);
+    if (kPrefetch && subFirst + lane < subEnd) stored = lightStored(subFirst + lane);
+    for (uint base = subFirst; base < subEnd; base += gl_SubgroupSize) {
+      uint index = base + lane;
+      vec4 light = stored;
+      if (!kPrefetch && index < subEnd) light = lightStored(index);
+      if (kPrefetch && index + gl_SubgroupSize < subEnd) stored = lightStored(index + gl_SubgroupSize);
+      countSubgroupStep(base, subEnd, light, size, region);
+    }
+    steps = 0u;
+  }
   // kFlat: a step's light p is subgroup p / size's invocation p % size.
   uint p = gl_SubgroupID * gl_SubgroupSize + gl_SubgroupInvocationID;
   vec4 stored = vec4(0.0);
@@ -394,11 +413,7 @@ void main() {
       if (!kPrefetch && index < end) light = lightStored(index);
       // With kPrefetch the next step's light is read now and waited for only then.
       if (kPrefetch && index + kGroup < end) stored = lightStored(index + kGroup);
-      if (kSubgroupWalk) {
-        countSubgroupStep(base + gl_SubgroupID * gl_SubgroupSize, end, light, size, region);
-      } else {
-        used += countStep(base, end, light, used, size, region);
-      }
+      used += countStep(base, end, light, used, size, region);
     } else {
       uint index = base + thread;
       countLight(index < end ? index : lightCount, size, region);
