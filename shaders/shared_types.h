@@ -196,6 +196,8 @@ using mat4 = glm::mat4;
 #define MYRIAD_FINAL_CPU_GROUP 16
 #define MYRIAD_SCAN_GROUP 256
 #define MYRIAD_SCAN_CLUSTERS_PER_THREAD 4
+// The binned assignment's least workgroup size (cluster_assign_binned.comp's default); the
+// clustered technique runs it larger where the device allows (techniques/clustered.cpp).
 #define MYRIAD_ASSIGN_BIN_GROUP 256
 
 // The view the tonemap pass writes (FrameUniforms.flags.x). render::Target's values

@@ -57,16 +57,19 @@ constexpr VkDeviceSize kListBlockSize = 4ull << 20;
 // The small lights' count and fill passes (cluster_assign_binned.comp) run at most one workgroup
 // per multiprocessor of the device (DeviceInfo::multiprocessors), or this many where the driver
 // does not say, each taking a contiguous run of the lights: the more lights a workgroup counts,
-// the fewer global atomics its shared table leaves (each group flushes its table once), and the
-// flattened walk keeps every invocation busy whatever the group's share. The pass takes as long
-// as the busiest multiprocessor: on the H200 (132 SMs) 128 groups beat 64, 96, 192, 256, 512,
-// 1,024 and 2,048 with a million lights at 1080p and at 4K (docs/performance.md, issue 16 stop 16):
-// fewer leave SMs idle, more give some SMs two groups' lights.
+// the fewer global atomics its shared table leaves (each group flushes its table once). The pass
+// takes as long as the busiest multiprocessor: on the H200 (132 SMs) 128 groups beat 64, 96, 192,
+// 256, 512, 1,024 and 2,048 with a million lights at 1080p and at 4K (docs/performance.md, issue
+// 16 stop 16): fewer leave SMs idle, more give some SMs two groups' lights.
 constexpr uint32_t kBinnedAssignGroups = 128;
-// And at least this many lights a workgroup (its steps take MYRIAD_ASSIGN_BIN_GROUP lights each;
-// a step of fewer walks their clusters side by side all the same): 10,000 lights get 128 groups,
-// not 40 (H200: assign 0.081 -> 0.064 ms at 1080p).
+// And at least this many lights a workgroup (its subgroups share them, and a subgroup of few
+// lights walks their clusters side by side all the same): 10,000 lights get 128 groups, not 40
+// (H200: assign 0.081 -> 0.064 ms at 1080p, stop 16).
 constexpr uint32_t kBinnedGroupLights = 64;
+// The binned passes' workgroups are this large where the device allows: both passes wait on
+// memory most of the time, and a group is one multiprocessor's only one. On the H200, a million
+// lights at 1080p: 256 invocations 0.239 ms, 512 0.144, 1,024 0.122 (issue 16, stop 17).
+constexpr uint32_t kBinnedGroupSize = 1024;
 // The pair buffer holds at least this many slots, so that a few thousand lights with large boxes
 // are still recorded, not queued for the large-light passes.
 constexpr uint64_t kMinimumPairSlots = 1u << 20;
@@ -82,9 +85,10 @@ uint64_t envNumber(const char* name) {
   return v ? std::strtoull(v, nullptr, 10) : 0;
 }
 
-// Pair slots (cluster_assign_binned.comp) per light: a slot for each cluster of a small light's
-// box, reached or not. A light whose box finds its workgroup's region full is walked by the
-// large-light passes instead, so fewer slots are slower, never wrong.
+// Pair slots (cluster_assign_binned.comp) per light: a light reserves a slot for each cluster of
+// its box, reached or not (its pairs are recorded one after another). A light whose box finds its
+// workgroup's region full is walked by the large-light passes instead, so fewer slots are slower,
+// never wrong.
 // MYRIAD_ASSIGN_PAIR_SLOTS (1 to 64) overrides it: a benchmark experiment, and a test's way to
 // send lights down the full region's path.
 uint64_t pairSlotsPerLight() {
@@ -106,37 +110,15 @@ uint32_t assignBins() {
   return bins;
 }
 
-// The binned counting pass walks the candidates of a step's lights side by side (kFlat);
-// MYRIAD_ASSIGN_FLAT=0 has each invocation walk its own light's clusters in turn (a benchmark
-// comparison).
-bool flatWalk() {
-  return !envIs("MYRIAD_ASSIGN_FLAT", "0");
-}
-
-// The binned passes' workgroup size: MYRIAD_ASSIGN_BIN_GROUP, or MYRIAD_ASSIGN_BIN_GROUP_SIZE
-// (256, 512 or 1,024; a benchmark experiment: more invocations a multiprocessor).
-uint32_t binGroupSize() {
-  static const uint32_t size = [] {
-    const uint64_t n = envNumber("MYRIAD_ASSIGN_BIN_GROUP_SIZE");
-    return n == 256 || n == 512 || n == 1024 ? uint32_t(n) : uint32_t(MYRIAD_ASSIGN_BIN_GROUP);
-  }();
+// The binned passes' workgroup size: kBinnedGroupSize, or the most the device runs (a power of
+// two, at least MYRIAD_ASSIGN_BIN_GROUP, which the technique requires). MYRIAD_ASSIGN_BIN_GROUP_SIZE
+// (256, 512 or 1,024, within the device's limit) overrides it: a benchmark experiment.
+uint32_t binnedGroupSize(const gpu::DeviceInfo& device) {
+  const uint32_t most = std::min(device.maxComputeWorkGroupInvocations, device.maxComputeWorkGroupSizeX);
+  const uint64_t asked = envNumber("MYRIAD_ASSIGN_BIN_GROUP_SIZE");
+  uint32_t size = asked == 256 || asked == 512 || asked == 1024 ? uint32_t(asked) : kBinnedGroupSize;
+  while (size > MYRIAD_ASSIGN_BIN_GROUP && size > most) size /= 2;
   return size;
-}
-
-// Benchmark experiments of the binned passes (cluster_assign_binned.comp's kCompact, kFillTable,
-// kPrefetch): MYRIAD_ASSIGN_COMPACT=1, MYRIAD_ASSIGN_FILL_TABLE=1, MYRIAD_ASSIGN_PREFETCH=1.
-bool compactPairs() {
-  return envIs("MYRIAD_ASSIGN_COMPACT", "1");
-}
-bool fillTable() {
-  return envIs("MYRIAD_ASSIGN_FILL_TABLE", "1");
-}
-bool prefetchLights() {
-  return envIs("MYRIAD_ASSIGN_PREFETCH", "1");
-}
-// MYRIAD_ASSIGN_SUBGROUP_WALK=1: each subgroup walks its own lights (kSubgroupWalk).
-bool subgroupWalk() {
-  return envIs("MYRIAD_ASSIGN_SUBGROUP_WALK", "1");
 }
 
 // Lights whose box holds more clusters than this go to the large-light passes (a workgroup each):
@@ -259,7 +241,7 @@ class Clustered final : public LightingTechnique {
         binnedAssign_(binnedAssignFor(setup.context.info)),
         animateInCount_(binnedAssign_ && !separateAnimation()) {
     requireWorkgroup(setup.context, MYRIAD_SCAN_GROUP, MYRIAD_SCAN_GROUP);
-    requireWorkgroup(setup.context, binGroupSize(), binGroupSize());
+    requireWorkgroup(setup.context, MYRIAD_ASSIGN_BIN_GROUP, MYRIAD_ASSIGN_BIN_GROUP);
     VkDevice device = setup.context.device;
     VkPipelineLayout layout = setup.pipelines.layout;
     mark_ = pipelines_.add(gpu::createComputePipeline(device, layout, spirv::cluster_mark_comp));
@@ -297,18 +279,14 @@ class Clustered final : public LightingTechnique {
             gpu::createComputePipeline(device, layout, spirv::cluster_assign_comp, &spec));
       }
       // cluster_assign_binned.comp: kAssign (constant 0), its table's bins (2), kAnimate (3),
-      // kFlat (4), kMostClusters (5), the workgroup size (6), kCompact (7), kFillTable (10),
-      // kPrefetch (11), kSubgroupWalk (12); 8 is frame.glsl's MYRIAD_SPEC_SHADING_FEATURES.
+      // kMostClusters (5), the workgroup's size (6).
       const VkSpecializationMapEntry binnedEntries[] = {
-          {0, 0, 4}, {2, 4, 4}, {3, 8, 4}, {4, 12, 4}, {5, 16, 4},
-          {6, 20, 4}, {7, 24, 4}, {10, 28, 4}, {11, 32, 4}, {12, 36, 4}};
+          {0, 0, 4}, {2, 4, 4}, {3, 8, 4}, {5, 12, 4}, {6, 16, 4}};
       for (VkBool32 animate : {VK_FALSE, VK_TRUE}) {
         if (assign && animate) continue;
-        const uint32_t binnedValues[] = {assign, assignBins(), animate, VkBool32(flatWalk()),
-                                         mostClustersPerLight(), binGroupSize(),
-                                         VkBool32(compactPairs()), VkBool32(fillTable()),
-                                         VkBool32(prefetchLights()), VkBool32(subgroupWalk())};
-        VkSpecializationInfo binnedSpec{10, binnedEntries, sizeof(binnedValues), binnedValues};
+        const uint32_t binnedValues[] = {assign, assignBins(), animate, mostClustersPerLight(),
+                                         binnedGroupSize(setup.context.info)};
+        VkSpecializationInfo binnedSpec{5, binnedEntries, sizeof(binnedValues), binnedValues};
         (assign ? assignBinned_ : animate ? countBinnedAnimated_ : countBinned_) = pipelines_.add(
             gpu::createComputePipeline(device, layout, spirv::cluster_assign_binned_comp, &binnedSpec));
       }
