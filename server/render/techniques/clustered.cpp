@@ -281,12 +281,14 @@ class Clustered final : public LightingTechnique {
       // cluster_assign_binned.comp: kAssign (constant 0), its table's bins (2), kAnimate (3),
       // kMostClusters (5), the workgroup's size (6).
       const VkSpecializationMapEntry binnedEntries[] = {
-          {0, 0, 4}, {2, 4, 4}, {3, 8, 4}, {5, 12, 4}, {6, 16, 4}};
+          {0, 0, 4}, {2, 4, 4}, {3, 8, 4}, {5, 12, 4}, {6, 16, 4}, {7, 20, 4}, {9, 24, 4}};
       for (VkBool32 animate : {VK_FALSE, VK_TRUE}) {
         if (assign && animate) continue;
         const uint32_t binnedValues[] = {assign, assignBins(), animate, mostClustersPerLight(),
-                                         binnedGroupSize(setup.context.info)};
-        VkSpecializationInfo binnedSpec{5, binnedEntries, sizeof(binnedValues), binnedValues};
+                                         binnedGroupSize(setup.context.info),
+                                         uint32_t(std::clamp<uint64_t>(envNumber("MYRIAD_ASSIGN_FILL_BATCH"), 1, 8)),
+                                         VkBool32(envIs("MYRIAD_ASSIGN_TEST_FIRST", "1"))};
+        VkSpecializationInfo binnedSpec{7, binnedEntries, sizeof(binnedValues), binnedValues};
         (assign ? assignBinned_ : animate ? countBinnedAnimated_ : countBinned_) = pipelines_.add(
             gpu::createComputePipeline(device, layout, spirv::cluster_assign_binned_comp, &binnedSpec));
       }
