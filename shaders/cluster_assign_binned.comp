@@ -59,10 +59,6 @@ layout(constant_id = 2) const uint kBins = MYRIAD_ASSIGN_BINS;
 // by the invocation that finds its box, instead of in light_animate.comp before.
 layout(constant_id = 3) const bool kAnimate = false;
 layout(constant_id = 5) const uint kMostClusters = MYRIAD_LARGE_LIGHT_CLUSTERS;
-// EXPERIMENT kFillBatch: the assigning pass reads this many pairs an invocation before placing them.
-layout(constant_id = 7) const uint kFillBatch = 1u;
-// EXPERIMENT kTestFirst: a candidate's cluster number is read only when the sphere reaches it.
-layout(constant_id = 9) const bool kTestFirst = false;
 
 layout(std430, set = MYRIAD_SET_SCENE, binding = MYRIAD_BINDING_LIGHT_ORIGINS) readonly buffer OriginBlock {
   GpuPointLight origins[];
@@ -75,8 +71,8 @@ const uint kGroup = gl_WorkGroupSize.x;
 const uint kInTable = 0x80000000u;  // a recorded pair's cluster word is its cluster's number
 
 shared uint binCount[kBins];  // pairs counted per cluster number
-shared uint regionReserved;  // candidates the group's subgroups reserved (may pass the region's size)
-shared uint regionUsed;      // pairs recorded
+shared uint regionReserved;   // candidates the subgroups reserved (may pass the region's size)
+shared uint regionUsed;       // pairs recorded
 
 // Where this workgroup's table and region start, and how many slots a region has (both passes
 // run the same number of workgroups).
@@ -140,7 +136,8 @@ void recordPair(uint s, uint size, uint index, uint cluster, uint id) {
 void countStep(uint base, uint end, uint size, uint region) {
   uint lane = gl_SubgroupInvocationID;
   uint index = base + lane;
-  LightClusters b;
+  // A lane without a light holds an empty box, which no candidate's search lands on.
+  LightClusters b = LightClusters(vec3(0.0), 0.0, uvec3(0u), uvec3(0u), 0u);
   uint n = 0u;
   if (index < end && lightClustersAt(lightNow(index), b)) {
     if (b.clusters > kMostClusters) {
@@ -177,19 +174,8 @@ void countStep(uint base, uint end, uint size, uint region) {
     c.extent = unpackBox(ownerBox.y);
     c.clusters = c.extent.x * c.extent.y * c.extent.z;
     uint cluster, id;
-    bool found;
-    if (kTestFirst) {
-      uvec3 at = boxCluster(c, j - (ownerEnd - c.clusters));
-      cluster = clusterIndex(at);
-      found = j < total && ownerFits && sphereReachesCluster(c, at);
-      if (found) {
-        id = clusterCursors[clusterIdWord(cluster)];
-        found = id != MYRIAD_CLUSTER_INACTIVE;
-      }
-    } else {
-      found = j < total && ownerFits &&
-              lightReachesActiveCluster(c, j - (ownerEnd - c.clusters), cluster, id);
-    }
+    bool found = j < total && ownerFits &&
+                 lightReachesActiveCluster(c, j - (ownerEnd - c.clusters), cluster, id);
     // The pairs found this round take the next slots of the region, in lane order.
     uint one = found ? 1u : 0u;
     uint before = subgroupExclusiveAdd(one);
@@ -201,6 +187,20 @@ void countStep(uint base, uint end, uint size, uint region) {
   }
 }
 
+// Copies one recorded pair into its cluster's list (cut at the list's kept length).
+void placePair(uint s, uint size, uint table) {
+  uint index = pairWords[s];
+  uint cluster = pairWords[s + size];
+  uint rank = pairWords[s + 2u * size];
+  if ((cluster & kInTable) != 0u) {
+    uint id = cluster & ~kInTable;
+    cluster = clusterCursors[activeClusterWord(id)];
+    rank += pairWords[table + id];
+  }
+  uvec2 range = clusterRanges[cluster];
+  if (rank < range.y) clusterLights[range.x + rank] = index;
+}
+
 void main() {
   uint thread = gl_LocalInvocationIndex;
   uint size = regionSize();
@@ -208,31 +208,7 @@ void main() {
   uint table = tableStart();
   if (kAssign) {
     uint used = min(pairWords[gl_WorkGroupID.x], size);
-    // kFillBatch pairs an invocation at a time, each step's reads for all of them issued before
-    // the next step's, which depend on them.
-    for (uint s0 = thread; s0 < used; s0 += kGroup * kFillBatch) {
-      uint index[8], cluster[8], rank[8];
-      uvec2 range[8];
-      for (uint k = 0u; k < kFillBatch; ++k) {
-        uint s = region + min(s0 + k * kGroup, used - 1u);
-        index[k] = pairWords[s];
-        cluster[k] = pairWords[s + size];
-        rank[k] = pairWords[s + 2u * size];
-      }
-      // A number's cluster and the group's part's start in its list.
-      for (uint k = 0u; k < kFillBatch; ++k) {
-        if ((cluster[k] & kInTable) != 0u) {
-          uint id = cluster[k] & ~kInTable;
-          cluster[k] = clusterCursors[activeClusterWord(id)];
-          rank[k] += pairWords[table + id];
-        }
-      }
-      for (uint k = 0u; k < kFillBatch; ++k) range[k] = clusterRanges[cluster[k]];
-      // Cut at the list's kept length.
-      for (uint k = 0u; k < kFillBatch; ++k) {
-        if (s0 + k * kGroup < used && rank[k] < range[k].y) clusterLights[range[k].x + rank[k]] = index[k];
-      }
-    }
+    for (uint s = thread; s < used; s += kGroup) placePair(region + s, size, table);
     return;
   }
   // The table's numbers in use this frame.

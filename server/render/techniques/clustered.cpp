@@ -110,13 +110,15 @@ uint32_t assignBins() {
   return bins;
 }
 
-// The binned passes' workgroup size: kBinnedGroupSize, or the most the device runs (a power of
-// two, at least MYRIAD_ASSIGN_BIN_GROUP, which the technique requires). MYRIAD_ASSIGN_BIN_GROUP_SIZE
-// (256, 512 or 1,024, within the device's limit) overrides it: a benchmark experiment.
+// The binned passes' workgroup size: kBinnedGroupSize, halved while the device runs no groups
+// that large (never below MYRIAD_ASSIGN_BIN_GROUP, which the technique requires).
+// MYRIAD_ASSIGN_BIN_GROUP_SIZE (256, 512 or 1,024) asks for another: a benchmark experiment.
 uint32_t binnedGroupSize(const gpu::DeviceInfo& device) {
-  const uint32_t most = std::min(device.maxComputeWorkGroupInvocations, device.maxComputeWorkGroupSizeX);
+  const uint32_t most =
+      std::min(device.maxComputeWorkGroupInvocations, device.maxComputeWorkGroupSizeX);
   const uint64_t asked = envNumber("MYRIAD_ASSIGN_BIN_GROUP_SIZE");
-  uint32_t size = asked == 256 || asked == 512 || asked == 1024 ? uint32_t(asked) : kBinnedGroupSize;
+  uint32_t size =
+      asked == 256 || asked == 512 || asked == 1024 ? uint32_t(asked) : kBinnedGroupSize;
   while (size > MYRIAD_ASSIGN_BIN_GROUP && size > most) size /= 2;
   return size;
 }
@@ -160,7 +162,8 @@ bool markInGBuffer() {
   return on;
 }
 
-// The binned passes need full subgroups with arithmetic (their scan of a step's boxes).
+// The binned passes need full subgroups with arithmetic, ballot and shuffle (their walk per
+// subgroup).
 bool binnedAssignFor(const gpu::DeviceInfo& device) {
   if (!device.computeSubgroupShuffle) return false;
   if (envIs("MYRIAD_CLUSTER_ASSIGN", "atomic")) return false;
@@ -281,14 +284,12 @@ class Clustered final : public LightingTechnique {
       // cluster_assign_binned.comp: kAssign (constant 0), its table's bins (2), kAnimate (3),
       // kMostClusters (5), the workgroup's size (6).
       const VkSpecializationMapEntry binnedEntries[] = {
-          {0, 0, 4}, {2, 4, 4}, {3, 8, 4}, {5, 12, 4}, {6, 16, 4}, {7, 20, 4}, {9, 24, 4}};
+          {0, 0, 4}, {2, 4, 4}, {3, 8, 4}, {5, 12, 4}, {6, 16, 4}};
       for (VkBool32 animate : {VK_FALSE, VK_TRUE}) {
         if (assign && animate) continue;
         const uint32_t binnedValues[] = {assign, assignBins(), animate, mostClustersPerLight(),
-                                         binnedGroupSize(setup.context.info),
-                                         uint32_t(std::clamp<uint64_t>(envNumber("MYRIAD_ASSIGN_FILL_BATCH"), 1, 8)),
-                                         VkBool32(envIs("MYRIAD_ASSIGN_TEST_FIRST", "1"))};
-        VkSpecializationInfo binnedSpec{7, binnedEntries, sizeof(binnedValues), binnedValues};
+                                         binnedGroupSize(setup.context.info)};
+        VkSpecializationInfo binnedSpec{5, binnedEntries, sizeof(binnedValues), binnedValues};
         (assign ? assignBinned_ : animate ? countBinnedAnimated_ : countBinned_) = pipelines_.add(
             gpu::createComputePipeline(device, layout, spirv::cluster_assign_binned_comp, &binnedSpec));
       }
