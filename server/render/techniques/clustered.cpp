@@ -67,8 +67,9 @@ constexpr uint32_t kBinnedAssignGroups = 128;
 // (H200: assign 0.081 -> 0.064 ms at 1080p, stop 16).
 constexpr uint32_t kBinnedGroupLights = 64;
 // The binned passes' workgroups are this large where the device allows: both passes wait on
-// memory most of the time, and a group is one multiprocessor's only one. On the H200, a million
-// lights at 1080p: 256 invocations 0.239 ms, 512 0.144, 1,024 0.122 (issue 16, stop 17).
+// memory most of the time, and a multiprocessor runs one group, so its invocations are all it has
+// to hide that with. On the H200, a million lights at 1080p, assign: 256 invocations 0.239 ms,
+// 512 0.144, 1,024 0.122 (issue 16, stop 17).
 constexpr uint32_t kBinnedGroupSize = 1024;
 // The pair buffer holds at least this many slots, so that a few thousand lights with large boxes
 // are still recorded, not queued for the large-light passes.
@@ -282,7 +283,7 @@ class Clustered final : public LightingTechnique {
             gpu::createComputePipeline(device, layout, spirv::cluster_assign_comp, &spec));
       }
       // cluster_assign_binned.comp: kAssign (constant 0), its table's bins (2), kAnimate (3),
-      // kMostClusters (5), the workgroup's size (6).
+      // kMostClusters (5), the workgroup's size (6); each a 4-byte word.
       const VkSpecializationMapEntry binnedEntries[] = {
           {0, 0, 4}, {2, 4, 4}, {3, 8, 4}, {5, 12, 4}, {6, 16, 4}};
       for (VkBool32 animate : {VK_FALSE, VK_TRUE}) {
