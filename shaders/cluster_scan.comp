@@ -16,7 +16,8 @@
 
 layout(local_size_x = MYRIAD_SCAN_GROUP) in;
 
-const uint kPerThread = MYRIAD_SCAN_CLUSTERS_PER_THREAD;
+// EXPERIMENT: clusters a thread (MYRIAD_SCAN_PER_THREAD).
+layout(constant_id = 0) const uint kPerThread = MYRIAD_SCAN_CLUSTERS_PER_THREAD;
 
 shared uint partial[MYRIAD_SCAN_GROUP];
 shared uint groupStart;
