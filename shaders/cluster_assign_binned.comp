@@ -26,8 +26,8 @@
 // subgroups never wait for each other (no barrier between the table's clearing and its flush),
 // and the workgroups are as large as the device allows (1,024 invocations), one a
 // multiprocessor: both passes wait on memory most of the time, and on the H200 a group of 256 left
-// each SM 8 warps to hide that with (issue 16, stop 17: count 0.137 -> 0.07 ms, fill 0.090 ->
-// 0.043 with a million lights at 1080p; docs/performance.md).
+// each SM 8 warps to hide that with (issue 16, stop 17: count 0.137 -> 0.068 ms, fill 0.090 ->
+// 0.039 with a million lights at 1080p; docs/performance.md).
 //
 // Assigning pass (kAssign = true, after the scan, the same number of workgroups): each workgroup
 // copies its region's pairs into the lists, nothing walked again.

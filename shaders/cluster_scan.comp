@@ -16,8 +16,7 @@
 
 layout(local_size_x = MYRIAD_SCAN_GROUP) in;
 
-// EXPERIMENT: clusters a thread (MYRIAD_SCAN_PER_THREAD).
-layout(constant_id = 0) const uint kPerThread = MYRIAD_SCAN_CLUSTERS_PER_THREAD;
+const uint kPerThread = MYRIAD_SCAN_CLUSTERS_PER_THREAD;
 
 shared uint partial[MYRIAD_SCAN_GROUP];
 shared uint groupStart;

@@ -124,12 +124,6 @@ uint32_t binnedGroupSize(const gpu::DeviceInfo& device) {
   return size;
 }
 
-// EXPERIMENT MYRIAD_SCAN_PER_THREAD (1, 2, 4, 8): clusters a thread of the scan.
-uint32_t scanPerThread() {
-  const uint64_t n = envNumber("MYRIAD_SCAN_PER_THREAD");
-  return n == 1 || n == 2 || n == 4 || n == 8 ? uint32_t(n) : MYRIAD_SCAN_CLUSTERS_PER_THREAD;
-}
-
 // Lights whose box holds more clusters than this go to the large-light passes (a workgroup each):
 // MYRIAD_LARGE_LIGHT_CLUSTERS, or MYRIAD_ASSIGN_MOST_CLUSTERS (1 to 65536; a benchmark experiment).
 uint32_t mostClustersPerLight() {
@@ -261,12 +255,7 @@ class Clustered final : public LightingTechnique {
       VkSpecializationInfo spec{1, &entry, sizeof(number), &number};
       number_ = pipelines_.add(gpu::createComputePipeline(device, layout, spirv::cluster_mark_comp, &spec));
     }
-    {
-      const VkSpecializationMapEntry entry{0, 0, 4};
-      const uint32_t perThread = scanPerThread();
-      VkSpecializationInfo spec{1, &entry, 4, &perThread};
-      scan_ = pipelines_.add(gpu::createComputePipeline(device, layout, spirv::cluster_scan_comp, &spec));
-    }
+    scan_ = pipelines_.add(gpu::createComputePipeline(device, layout, spirv::cluster_scan_comp));
     // Alpha-blended surfaces mark their clusters from their fragments (storage writes from a
     // fragment shader): without fragmentStoresAndAtomics the forward pass tests every light.
     if (setup.context.fragmentStores) {
@@ -407,7 +396,7 @@ class Clustered final : public LightingTechnique {
     // 3. Prefix sum: list offsets, capacity cuts, counters.
     if (assignSteps()) pass.timer.beginPass(cmd, "assign-scan");
     vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, scan_);
-    vkCmdDispatch(cmd, groupCount(lists_->grid.count(), MYRIAD_SCAN_GROUP * scanPerThread()),
+    vkCmdDispatch(cmd, groupCount(lists_->grid.count(), MYRIAD_SCAN_GROUP * MYRIAD_SCAN_CLUSTERS_PER_THREAD),
                   1, 1);
     gpu::memoryBarrier(cmd, kComputeStage, kStorageWrite, kComputeStage, kStorageReadWrite);
     if (lightGroups > 0) {
