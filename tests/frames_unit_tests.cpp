@@ -288,6 +288,25 @@ TEST_CASE("interactive quality: degraded while changes come, settles, scale foll
   FrameRequest tiny = service::parseStreamQuery({{"width", "2"}, {"height", "1"}}, 2048);
   CHECK(quality.degrade(tiny, Q::Motion::Steered).settings.height == 1);  // never 0 pixels
 
+  // At the smallest scales a frame's cost is not proportional to its pixels: 18 ms at 1/8 (under
+  // the 25 ms budget by more than 15%) sends it up to 3/16, 30 ms there (over by more) back down,
+  // and then it stays at 1/8 instead of alternating, each size remaking the frame targets; after
+  // kProbeFrames frames it tries 3/16 again.
+  Q small(20);
+  small.measured(Q::Motion::Steered, 0.5, milliseconds(5000));  // down to 1/8, past 1/4 only
+  small.measured(Q::Motion::Steered, 0.25, milliseconds(5000));
+  CHECK(small.scale(Q::Motion::Steered) == Q::kMinScale);
+  small.measured(Q::Motion::Steered, Q::kMinScale, milliseconds(18));
+  CHECK(small.scale(Q::Motion::Steered) == doctest::Approx(0.1875));
+  small.measured(Q::Motion::Steered, 0.1875, milliseconds(30));
+  CHECK(small.scale(Q::Motion::Steered) == Q::kMinScale);
+  for (uint32_t i = 0; i + 1 < Q::kProbeFrames; ++i) {
+    small.measured(Q::Motion::Steered, Q::kMinScale, milliseconds(18));
+    CHECK(small.scale(Q::Motion::Steered) == Q::kMinScale);
+  }
+  small.measured(Q::Motion::Steered, Q::kMinScale, milliseconds(18));
+  CHECK(small.scale(Q::Motion::Steered) == doctest::Approx(0.1875));
+
   // Animation holds half the rate (10 fps: a 50 ms budget) with a scale of its own: a frame of
   // 50 ms at 0.5 keeps 0.5 there, while the steered scale (now at its floor) is untouched.
   CHECK(quality.targetFps(Q::Motion::Animated) == 10);

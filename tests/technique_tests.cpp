@@ -309,6 +309,33 @@ TEST_CASE("clustered shading per pixel and per subgroup: the same light counts a
   CHECK(walk.context->validationMessages.load() == 0);
 }
 
+TEST_CASE("clustered shading from the whole lists: the same light counts and image as narrowed") {
+  // CPU devices shade from the clusters' whole lists while the lists are short
+  // (light_clustered_whole.comp, techniques/clustered.cpp kWholeListsUpTo): every pixel must count
+  // the same lights as after the tile's narrowing, with short lists and with 3,000 lights that
+  // each cover the whole view.
+  Gpu narrowed = suiteWith("MYRIAD_CLUSTER_SHADE", "pixel");
+  Gpu whole = suiteWith("MYRIAD_CLUSTER_SHADE", "whole");
+  scene::Scene small = litFloor(2000, 7);
+  scene::Scene huge = litFloor(0, 1);
+  for (int i = 0; i < 3000; ++i) {
+    huge.lights.push_back({glm::vec3(0.01f * i - 15.0f, 2.0f, 0.0f), 100.0f, glm::vec3(0.0005f), 1.0f, 1.0f});
+  }
+  for (const scene::Scene* s : {&small, &huge}) {
+    narrowed.setScene(*s);
+    whole.setScene(*s);
+    render::FrameSettings f = frameSettings(Technique::Clustered, 160, 112);
+    auto [a, countsA] = renderWithCounts(narrowed, f);
+    auto [b, countsB] = renderWithCounts(whole, f);
+    CHECK_FALSE(a.culling.overflowed());
+    CHECK(a.culling.listEntries == b.culling.listEntries);
+    CHECK(countsA.data == countsB.data);  // every pixel's exact light count
+    CHECK(maxDifference(a.rgba, b.rgba) <= 1);  // the same lights summed in another order
+  }
+  CHECK(narrowed.context->validationMessages.load() == 0);
+  CHECK(whole.context->validationMessages.load() == 0);
+}
+
 TEST_CASE("overflowing lists are counted and reported, never silent") {
   // 3,000 lights of radius 100 all cover every cluster and tile with geometry.
   scene::Scene s = litFloor(0, 1);

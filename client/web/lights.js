@@ -240,6 +240,10 @@ export class LightsPanel {
 
   // A ring around the selected light, re-projected whenever the camera or the view changes.
   drawOverlay() {
+    // Called on every camera move: with no light selected and no ring drawn there is nothing to
+    // do, not even reading the view's size (a forced style and layout pass when the page changed
+    // since the last frame). The canvas takes the view's size when a ring is drawn next.
+    if (!this.selected && !this.ringDrawn) return;
     const canvas = this.overlay;
     const {width, height} = this.getViewSize();
     const ratio = window.devicePixelRatio || 1;

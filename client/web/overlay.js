@@ -8,6 +8,11 @@
 
 const STATS_WINDOW_MS = 2000;   // fps and bandwidth: over the last two seconds
 const TICK_MS = 250;            // how often the waiting text and the strip refresh
+// A frame that shows the last change hides "rendering" at once only when no change came in this
+// long; else the timer's next refresh does. During a drag a move follows each frame within tens
+// of milliseconds: the line went away at every frame and came back at the next move, two style,
+// layout and paint passes a frame (on lavapipe, on the cores the server renders on).
+const CHANGES_KEEP_MS = 100;
 
 export class ViewOverlay {
   constructor(status, strip) {
@@ -16,6 +21,7 @@ export class ViewOverlay {
     this.connectingSince = 0;  // performance.now() of connect(); 0 once a frame showed
     this.changeAt = 0;         // performance.now() of the oldest change no frame shows yet
     this.changeFrame = '';     // the frame shown when that change was made
+    this.lastChangeAt = 0;     // performance.now() of the newest change
     this.lastFrame = '';       // "stream key#frame number" of the frame shown last
     this.latencyMs = null;     // the last change's input-to-frame time
     this.codec = '';
@@ -34,6 +40,7 @@ export class ViewOverlay {
 
   // Something that changes the picture happened: "rendering" at once, until a new frame shows.
   changed() {
+    this.lastChangeAt = performance.now();
     if (!this.changeAt) {
       this.changeAt = performance.now();
       this.changeFrame = this.lastFrame;
@@ -64,7 +71,7 @@ export class ViewOverlay {
       this.latencyMs = now - this.changeAt;
       this.changeAt = 0;
     }
-    this.refresh();
+    if (now - this.lastChangeAt >= CHANGES_KEEP_MS) this.refreshState();
   }
 
   // Called on every camera move and every frame: the DOM is written only when something changed
@@ -75,7 +82,15 @@ export class ViewOverlay {
     if (this.status.hidden !== !text) this.status.hidden = !text;
   }
 
+  // Everything: the status line and the strip (the strip only here, on the timer: written per
+  // frame, its fps figure changed with every frame and cost the page a style, layout and paint
+  // pass each time, on the cores a CPU renderer shares with it).
   refresh() {
+    this.refreshState();
+    this.refreshStrip();
+  }
+
+  refreshState() {
     const now = performance.now();
     if (this.changeAt) {
       this.show('rendering\u2026', 'rendering');
@@ -88,6 +103,10 @@ export class ViewOverlay {
     } else {
       this.show('', 'idle');
     }
+  }
+
+  refreshStrip() {
+    const now = performance.now();
     this.frames = this.frames.filter((f) => now - f.t <= STATS_WINDOW_MS);
     const seconds = STATS_WINDOW_MS / 1000;
     const fps = this.frames.length / seconds;

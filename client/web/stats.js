@@ -104,7 +104,20 @@ export class StatsPanel {
       row(key, typeof value === 'number' ? `${(value / 1048576).toFixed(2)} MiB` : String(value));
     }
 
+    // The same rows as last time (the usual case: a new frame's figures): only the values that
+    // changed are written, instead of a new table the page lays out and paints again twice a
+    // second, on the cores a CPU renderer shares with it.
     const body = this.table.tBodies[0];
+    const same = body.rows.length === rows.length &&
+                 rows.every((r, i) => body.rows[i].dataset.stat === r.label &&
+                                      body.rows[i].dataset.warn === String(r.warn));
+    if (same) {
+      rows.forEach(({value}, i) => {
+        const cell = body.rows[i].cells[1];
+        if (cell.textContent !== value) cell.textContent = value;
+      });
+      return;
+    }
     body.replaceChildren(...rows.map(({label, value, color, warn}) => {
       const tr = document.createElement('tr');
       const name = document.createElement('td');
@@ -119,6 +132,7 @@ export class StatsPanel {
       cell.textContent = value;
       if (warn) tr.style.color = 'var(--error)';
       tr.dataset.stat = label;
+      tr.dataset.warn = String(warn);
       tr.append(name, cell);
       return tr;
     }));

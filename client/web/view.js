@@ -75,6 +75,11 @@ export class LiveView {
     this.ready = this.chooseMode();
     this.perf = new ViewPerf();
     this.loading = new Map();       // object URL -> the shown() figures of the part it holds
+    // The newest part that came while the <img> was still loading the one before ({stream,
+    // part}): it goes to the <img> once that one has loaded (presentHeld), and a newer part
+    // replaces it. Given at once, it cancelled the load under way: on lavapipe 10-20% of a drag's
+    // parts were made into Blobs and object URLs and loaded part way, and never shown.
+    this.held = null;
     this.onConnect = () => {};      // a stream is being opened
     this.onFrame = () => {};        // ({id, bytes, codec}) a frame was delivered
     this.onInput = () => {};        // camera input: the picture is about to change
@@ -89,8 +94,16 @@ export class LiveView {
       this.loading.clear();
       for (const url of this.urls.filter((u) => u !== shown)) URL.revokeObjectURL(url);
       this.urls = this.urls.filter((u) => u === shown);
-      this.status.textContent = `${this.img.naturalWidth}\u00d7${this.img.naturalHeight} JPEG` +
-                                (this.interactive || this.img.dataset.interactive ? ' (moving)' : '');
+      // Written only when it changes: each write is a style, layout and paint pass of the page.
+      const text = `${this.img.naturalWidth}\u00d7${this.img.naturalHeight} JPEG` +
+                   (this.interactive || this.img.dataset.interactive ? ' (moving)' : '');
+      if (this.status.textContent !== text) this.status.textContent = text;
+      this.presentHeld();
+    });
+    // A part the <img> cannot decode: nothing shows it; the next part may.
+    this.img.addEventListener('error', () => {
+      this.loading.clear();
+      this.presentHeld();
     });
 
     // Drags for perf.js: on the view (the camera) and on any slider of the page.
@@ -195,6 +208,8 @@ export class LiveView {
     delete this.img.dataset.interactive;
     for (const url of this.urls) URL.revokeObjectURL(url);
     this.urls = [];
+    this.loading.clear();
+    this.held = null;
     if (this.canvas) {
       this.canvas.width = 0;  // nothing of the old session stays on screen
       delete this.canvas.dataset.stream;
@@ -338,10 +353,29 @@ export class LiveView {
     }
   }
 
+  // A part arrived: to the <img> now, or once the part it is loading has loaded (this.held).
+  show(stream, part) {
+    this.framesShown += 1;
+    this.onFrame({id: `${stream.key}#${part.headers['x-myriad-frame'] || ''}`,
+                  bytes: part.body.byteLength, codec: this.codec});
+    this.noteShown();
+    if (this.loading.size > 0) {
+      this.held = {stream, part};
+      return;
+    }
+    this.present(stream, part);
+  }
+
+  presentHeld() {
+    const held = this.held;
+    this.held = null;
+    if (held && held.stream === this.stream) this.present(held.stream, held.part);
+  }
+
   // Gives one part to the <img>. data-shown names the stream it came from, data-frame its
   // X-Myriad-Frame number and data-interactive its X-Myriad-Interactive render scale (empty for
   // a full-quality frame), for whoever inspects the page (the browser test does).
-  show(stream, part) {
+  present(stream, part) {
     const url = URL.createObjectURL(new Blob([part.body], {type: part.headers['content-type']}));
     this.urls.push(url);
     this.img.src = url;
@@ -350,10 +384,6 @@ export class LiveView {
     this.img.dataset.interactive = part.headers['x-myriad-interactive'] || '';
     this.loading.set(url, {id: `${stream.key}#${this.img.dataset.frame}`,
                            interactive: Number(this.img.dataset.interactive) || 0});
-    this.framesShown += 1;
-    this.onFrame({id: `${stream.key}#${this.img.dataset.frame}`, bytes: part.body.byteLength,
-                  codec: this.codec});
-    this.noteShown();
   }
 
   // Opens the stream again after a growing delay: a 429 (too many streams), a restarting server

@@ -41,6 +41,9 @@ void InteractiveQuality::measured(Motion motion, double usedScale, Clock::durati
   const double ms = std::chrono::duration<double, std::milli>(took).count();
   if (!(ms > 0.0) || targetFps_ == 0) return;
   const double budgetMs = kBudgetShare * 1000.0 / targetFps(motion);
+  const size_t m = index(motion);
+  auto& times = stepTimes_[m];
+  times[stepOf(usedScale)] = {ms, ++frames_[m]};
   const double ratio = budgetMs / ms;
   if (std::abs(ratio - 1.0) <= kTolerance) return;
   // Pixels go with the square of the scale; half of the way there per frame, so that one odd
@@ -49,7 +52,20 @@ void InteractiveQuality::measured(Motion motion, double usedScale, Clock::durati
   const double next = usedScale + 0.5 * (wanted - usedScale);
   double stepped = std::round(next / kScaleStep) * kScaleStep;
   if (stepped == usedScale) stepped += ratio > 1.0 ? kScaleStep : -kScaleStep;
-  scales_[index(motion)] = std::clamp(stepped, kMinScale, 1.0);
+  stepped = std::clamp(stepped, kMinScale, 1.0);
+  // Up no further than the sizes that fitted when last measured (kProbeFrames says why).
+  while (stepped > usedScale) {
+    const StepTime& known = times[stepOf(stepped)];
+    const bool recent = known.frame > 0 && frames_[m] - known.frame < kProbeFrames;
+    if (!recent || known.ms <= budgetMs * (1.0 + kTolerance)) break;
+    stepped -= kScaleStep;
+  }
+  scales_[m] = stepped;
+}
+
+size_t InteractiveQuality::stepOf(double scale) {
+  const long step = std::lround((scale - kMinScale) / kScaleStep);
+  return size_t(std::clamp<long>(step, 0, long(kSteps) - 1));
 }
 
 }  // namespace myriad::service

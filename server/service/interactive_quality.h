@@ -44,6 +44,14 @@ class InteractiveQuality {
   static constexpr double kStartScale = 0.5;
   static constexpr double kScaleStep = 1.0 / 16.0;
   static constexpr double kTolerance = 0.15;
+  // The scale goes up only to a size whose last frame, if measured in the last kProbeFrames
+  // frames of that motion, fitted the budget. A frame's cost is not proportional to its pixels at
+  // the smallest scales (on llvmpipe the G-buffer's vertex work and each pass's start are most of
+  // a 160x90 frame), so the step from the pixel model went up, the frame there was over budget
+  // and the next went down again: 160x90 and 240x135 alternated frame by frame, each remaking its
+  // slot's targets. A too slow size is tried again after kProbeFrames (~2 s at 24 fps): the
+  // machine may have become less busy.
+  static constexpr uint32_t kProbeFrames = 48;
   // An interactive frame's share of 1 / FPS: the rest is the wait for the change, the write and
   // the client's input, requests and decode. Half: on a CPU renderer a frame's wall time is all
   // of the machine's cores, and a client on the same machine (the web client on lavapipe) needs
@@ -101,6 +109,16 @@ class InteractiveQuality {
   Clock::duration settle_ = kMinSettle;
   static size_t index(Motion motion) { return motion == Motion::Animated ? 1 : 0; }
   std::array<double, 2> scales_{kStartScale, kStartScale};  // learnt per Motion
+  // The scale steps, kMinScale to 1, and what was last measured at each, per Motion.
+  static constexpr size_t kSteps = size_t((1.0 - kMinScale) / kScaleStep) + 1;
+  static_assert(kMinScale + (kSteps - 1) * kScaleStep == 1.0);
+  static size_t stepOf(double scale);
+  struct StepTime {
+    double ms = 0.0;
+    uint64_t frame = 0;  // the Motion's frame count when measured; 0: never
+  };
+  std::array<std::array<StepTime, kSteps>, 2> stepTimes_{};
+  std::array<uint64_t, 2> frames_{};  // interactive frames measured, per Motion
 };
 
 }  // namespace myriad::service

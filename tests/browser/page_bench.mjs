@@ -8,10 +8,11 @@
 //                 animatedScales the render scales of those frames (the stream holds half its
 //                 interactive rate while the lights animate)
 //   dragFps       frames shown a second while the mouse drags the camera (orbit) without a pause;
-//                 dragMovesPerS the mouse moves the page took a second (each waits for the page:
-//                 fewer than 60 when it is short of CPU), dragPatchesPerS the camera PATCHes it
-//                 sent a second (at most ~30) and dragPatchMs their median request-to-answer
-//                 time: the server renders one frame per PATCH at most
+//                 the mouse moves 60 times a second, on a clock, as a real one does (see drag());
+//                 dragMovesPerS the pointermove events the page handled a second (Chromium
+//                 merges the moves that come between two of its frames into one), dragPatchesPerS
+//                 the camera PATCHes it sent a second (at most ~30) and dragPatchMs their median
+//                 request-to-answer time: the server renders one frame per PATCH at most
 //   stillMs       from the pointer going up to the full-quality still shown
 //   sliderMs      from a slider's input event to the first new frame shown (the exposure slider,
 //                 one step at a time, a pause between)
@@ -23,7 +24,7 @@
 // average before and after is part of the output, because these are figures of the machine as it
 // was. Usage (scripts/bench-page.sh wraps it):
 //   node page_bench.mjs <myriad-server> [--load 2] [--drags 3] [--sliders 8] [--seconds 6]
-//                       [--json FILE] [-- server flags]
+//                       [--input clock|await] [--json FILE] [-- server flags]
 
 import {spawn} from 'node:child_process';
 import {existsSync, readFileSync, writeFileSync} from 'node:fs';
@@ -47,6 +48,9 @@ const DRAGS = Number(option('drags', 3));
 const SLIDERS = Number(option('sliders', 8));
 const SECONDS = Number(option('seconds', 6));
 const JSON_FILE = option('json', '');
+// How the mouse moves while dragging (drag() says why): 'clock' (60 Hz, not waiting for the
+// page) or 'await' (each move waits for the page, then 16 ms: the loop before stop 17).
+const INPUT = option('input', 'clock');
 if (!serverPath || !existsSync(CHROMIUM)) {
   console.error(`usage: node page_bench.mjs <myriad-server> [--load N] ... (needs ${CHROMIUM})`);
   process.exit(2);
@@ -66,7 +70,7 @@ function summary(values, digits = 1) {
 const server = await startServer(serverPath, ['--port', '0', ...serverFlags]);
 const browser = await chromium.launch({executablePath: CHROMIUM,
                                        args: ['--headless', '--no-sandbox', '--disable-gpu']});
-const result = {view: VIEW, loadAverageBefore: loadAverage(), cores: (await import('node:os')).cpus().length};
+const result = {view: VIEW, input: INPUT, loadAverageBefore: loadAverage(), cores: (await import('node:os')).cpus().length};
 let busy = [];
 try {
   // The window is the view plus the 340 px panel; fitted so the view is exactly VIEW.
@@ -135,31 +139,62 @@ try {
             scales: p.frames.map((f) => f.interactive || 1)};
   }
 
+  // The pointermove events the page handles, counted in the page (dragMovesPerS).
+  await page.evaluate(() => {
+    window.benchPointerMoves = 0;
+    document.getElementById('view').addEventListener('pointermove', () => ++window.benchPointerMoves);
+  });
+  // Mouse moves go in through the DevTools protocol, as an input device's would from the system.
+  const input = await context.newCDPSession(page);
+
   // One drag: the mouse goes round a circle at 60 moves a second for SECONDS, then up; the still.
+  //
+  // The moves come on a 60 Hz clock and none waits for the page to take the one before: a real
+  // mouse reports at its own rate (60-1000 Hz) whatever the page does, and Chromium merges the
+  // moves that arrive between two of its frames into one pointermove (dragMovesPerS counts those
+  // the page handled). Until stop 17 each move waited for the page to take it and then 16 ms
+  // more: a chain of round trips through node, the DevTools pipe, the browser and the renderer
+  // that capped the moves this benchmark could make, not the page's frames. On the 2-core
+  // machine of stop 16/17 it made only 24-28 moves a second with the mouse over the panels,
+  // where no move renders anything (load average ~2), so "dragging >= 24 fps" could not be
+  // measured above about that, whatever the page and server did (docs/performance.md, stop 17).
+  // More moves cost the page more too (a pointermove handled in most of its frames, 40-45 a
+  // second here): on this machine under others' load (5), one binary gave 13-14 fps on the clock
+  // and 15-19 with --input await (the old loop, kept to compare).
   async function drag() {
     await quiet();
     await reset();
     const cx = box.x + box.width / 2;
     const cy = box.y + box.height / 2;
-    await page.mouse.move(cx + 150, cy);
+    const mouse = (type, at, buttons) => input.send('Input.dispatchMouseEvent', {
+      type, ...at, button: buttons || type !== 'mouseMoved' ? 'left' : 'none', buttons,
+      clickCount: type === 'mouseMoved' ? 0 : 1});
+    let at = {x: cx + 150, y: cy};
+    await mouse('mouseMoved', at, 0);
     const before = await stats();
     await page.evaluate(() => {
       performance.setResourceTimingBufferSize(5000);
       performance.clearResourceTimings();
+      window.benchPointerMoves = 0;
     });
-    await page.mouse.down();
+    await mouse('mousePressed', at, 1);
     const start = Date.now();
-    let moves = 0;
     for (let i = 1; Date.now() - start < SECONDS * 1000; ++i) {
       const a = i * 0.05;
-      // Each move waits for the page to take it (Chromium hands pointer moves to the page once
-      // per frame it draws), so a page short of CPU gets fewer: dragMovesPerS says how many.
-      await page.mouse.move(cx + 150 * Math.cos(a), cy + 80 * Math.sin(a));
-      ++moves;
-      await sleep(16);
+      at = {x: cx + 150 * Math.cos(a), y: cy + 80 * Math.sin(a)};
+      if (INPUT === 'await') {
+        await mouse('mouseMoved', at, 1);
+        await sleep(16);
+        continue;
+      }
+      const due = start + (i * 1000) / 60;
+      if (due > Date.now()) await sleep(due - Date.now());
+      mouse('mouseMoved', at, 1).catch(() => {});
     }
     const seconds = (Date.now() - start) / 1000;
-    await page.mouse.up();
+    // Released where the last move went (after it: the protocol's messages keep their order).
+    await mouse('mouseReleased', at, 0);
+    const moves = await page.evaluate(() => window.benchPointerMoves);
     const during = await stats();
     // The camera PATCHes the page sent during the drag (one in flight, at most one per 33 ms):
     // how many a second and their request-to-answer time.

@@ -6,13 +6,15 @@
 // reaching many clusters a workgroup each), place each cluster's list (cut at the capacity,
 // overflow counted), fill the lists (timed together as "assign"), shade ("shade": each 16x16 tile first
 // narrows its clusters' lists to the lights reaching the bounds of its own pixels, in shared
-// memory, then walks them per pixel or per subgroup; shaders/cluster_*.comp, light_clustered.comp,
-// light_clustered_subgroup.comp).
+// memory, then walks them per pixel or per subgroup; on CPU devices, while the lists are short,
+// each pixel walks its cluster's whole list instead (kWholeListsUpTo); shaders/cluster_*.comp,
+// light_clustered.comp, light_clustered_whole.comp, light_clustered_subgroup.comp).
 //
 // The lists are sized from the output and the light count; when a frame overflows them and they
 // may still grow, growLists() makes them 1.25 x what the frame needed and the renderer renders
 // that frame again; the grown size is kept for later frames.
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <cstdlib>
 #include <cstring>
@@ -185,6 +187,24 @@ std::span<const uint32_t> shadeShaderFor(const gpu::DeviceInfo& device) {
   return spirv::light_clustered_comp;
 }
 
+// CPU devices shade from the clusters' whole lists, without the tile's narrowing
+// (light_clustered_whole.comp), while the longest list of the last frame reported had at most
+// this many lights. On lavapipe (2 cores, built-in scene at 1280x720, myriad-bench, stop 17): 256
+// lights, longest list 22, shade 83-85 ms whole against 114-115 narrowed; 1,024 lights, longest
+// 78: 224 against 267; 4,096 lights, longest 297: 1,263 against 875.
+constexpr uint32_t kWholeListsUpTo = 96;
+
+// Whether the technique keeps the whole-list pass: CPU devices, unless MYRIAD_CLUSTER_SHADE
+// names a pass (whole: always that one; pixel or subgroup: never).
+enum class WholeLists { Never, WhenShort, Always };
+WholeLists wholeListsFor(const gpu::DeviceInfo& device) {
+  if (envIs("MYRIAD_CLUSTER_SHADE", "whole")) return WholeLists::Always;
+  if (envIs("MYRIAD_CLUSTER_SHADE", "pixel") || envIs("MYRIAD_CLUSTER_SHADE", "subgroup")) {
+    return WholeLists::Never;
+  }
+  return device.isCpu ? WholeLists::WhenShort : WholeLists::Never;
+}
+
 // The subgroup pass's walk (MYRIAD_SHADE_* bits of shared_types.h): MYRIAD_SHADE_DEFAULT, or the
 // number in MYRIAD_CLUSTER_SHADE_VARIANT (a benchmark experiment, and technique_tests' way to run
 // the walk before stop 16, 0). Read when the technique is made.
@@ -241,6 +261,7 @@ class Clustered final : public LightingTechnique {
       : context_(setup.context), pipelines_(setup.context.device),
         shade_(setup.context.device, setup.pipelines.layout, shadeShaderFor(setup.context.info),
                shadeVariant()),
+        wholeLists_(wholeListsFor(setup.context.info)),
         set_(setup.context, setup.pipelines), counters_(setup.context),
         binnedAssign_(binnedAssignFor(setup.context.info)),
         animateInCount_(binnedAssign_ && !separateAnimation()) {
@@ -248,6 +269,10 @@ class Clustered final : public LightingTechnique {
     requireWorkgroup(setup.context, MYRIAD_ASSIGN_BIN_GROUP, MYRIAD_ASSIGN_BIN_GROUP);
     VkDevice device = setup.context.device;
     VkPipelineLayout layout = setup.pipelines.layout;
+    if (wholeLists_ != WholeLists::Never) {
+      shadeWhole_ = std::make_unique<FeaturePipelines>(device, layout,
+                                                       spirv::light_clustered_whole_comp);
+    }
     mark_ = pipelines_.add(gpu::createComputePipeline(device, layout, spirv::cluster_mark_comp));
     {
       const VkSpecializationMapEntry entry{0, 0, sizeof(VkBool32)};
@@ -415,10 +440,14 @@ class Clustered final : public LightingTechnique {
       gpu::memoryBarrier(cmd, kComputeStage, kStorageWrite, kComputeStage,
                          VK_ACCESS_2_SHADER_STORAGE_READ_BIT);
     }
-    // 5. Shade every pixel from its cluster's list, narrowed per tile.
+    // 5. Shade every pixel from its cluster's list, narrowed per tile (or whole: kWholeListsUpTo).
     pass.timer.beginPass(cmd, "shade");
     prepareLightingTargets(cmd, t);
-    dispatchPixels(cmd, shade_.get(pass.shadingFeatures), t.extent, MYRIAD_CLUSTER_SHADE_TILE);
+    const bool whole = wholeLists_ == WholeLists::Always ||
+                       (wholeLists_ == WholeLists::WhenShort &&
+                        lastLongestList_.load(std::memory_order_relaxed) <= kWholeListsUpTo);
+    FeaturePipelines& shade = whole ? *shadeWhole_ : shade_;
+    dispatchPixels(cmd, shade.get(pass.shadingFeatures), t.extent, MYRIAD_CLUSTER_SHADE_TILE);
     counters_.makeHostVisible(cmd);
     return VK_IMAGE_LAYOUT_GENERAL;
   }
@@ -432,6 +461,7 @@ class Clustered final : public LightingTechnique {
   const gpu::Buffer* counters() const override { return &counters_.stats; }
   void report(CullingReport& report, const void* counters) const override {
     CullingCounters::read(counters, report);
+    lastLongestList_.store(report.mostLightsInList, std::memory_order_relaxed);
     report.listBytes = lists_->bytes();
     report.listCapacity = lists_->capacity;
   }
@@ -554,6 +584,12 @@ class Clustered final : public LightingTechnique {
   VkPipeline countBinnedAnimated_ = VK_NULL_HANDLE;  // the same, moving the lights (kAnimate)
   VkPipeline assignBinned_ = VK_NULL_HANDLE;
   FeaturePipelines shade_;  // specialised per frame (render/shading_features.h)
+  WholeLists wholeLists_;
+  std::unique_ptr<FeaturePipelines> shadeWhole_;  // light_clustered_whole.comp, unless Never
+  // The longest list of the last frame reported (any scene; unknown at first): the whole-list
+  // pass is chosen from it, and a choice made from another scene's or an older frame's lists
+  // costs time only (both passes make the same image).
+  mutable std::atomic<uint32_t> lastLongestList_{UINT32_MAX};
   VkPipeline markBlend_ = VK_NULL_HANDLE;  // null without fragmentStoresAndAtomics
   CullingSet set_;
   CullingCounters counters_;
