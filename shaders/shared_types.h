@@ -199,7 +199,11 @@ using mat4 = glm::mat4;
 // encodings a pixel instead of 1.56 with 8x8 (10x10 tiles).
 #define MYRIAD_FINAL_CPU_GROUP 16
 #define MYRIAD_SCAN_GROUP 256
-#define MYRIAD_SCAN_CLUSTERS_PER_THREAD 4
+// One cluster a scan thread: more, smaller workgroups (64 at 1080p) finish sooner than 4 a thread
+// (H200, issue 16 stop 17: the scan 0.0077 -> 0.0059 ms at 1080p, 0.0077 -> 0.0060 at 4K).
+#define MYRIAD_SCAN_CLUSTERS_PER_THREAD 1
+// The binned assignment's least workgroup size (cluster_assign_binned.comp's default); the
+// clustered technique runs it larger where the device allows (techniques/clustered.cpp).
 #define MYRIAD_ASSIGN_BIN_GROUP 256
 
 // The view the tonemap pass writes (FrameUniforms.flags.x). render::Target's values

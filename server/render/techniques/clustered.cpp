@@ -59,16 +59,20 @@ constexpr VkDeviceSize kListBlockSize = 4ull << 20;
 // The small lights' count and fill passes (cluster_assign_binned.comp) run at most one workgroup
 // per multiprocessor of the device (DeviceInfo::multiprocessors), or this many where the driver
 // does not say, each taking a contiguous run of the lights: the more lights a workgroup counts,
-// the fewer global atomics its shared table leaves (each group flushes its table once), and the
-// flattened walk keeps every invocation busy whatever the group's share. The pass takes as long
-// as the busiest multiprocessor: on the H200 (132 SMs) 128 groups beat 64, 96, 192, 256, 512,
-// 1,024 and 2,048 with a million lights at 1080p and at 4K (docs/performance.md, issue 16 stop 16):
-// fewer leave SMs idle, more give some SMs two groups' lights.
+// the fewer global atomics its shared table leaves (each group flushes its table once). The pass
+// takes as long as the busiest multiprocessor: on the H200 (132 SMs) 128 groups beat 64, 96, 192,
+// 256, 512, 1,024 and 2,048 with a million lights at 1080p and at 4K (docs/performance.md, issue
+// 16 stop 16): fewer leave SMs idle, more give some SMs two groups' lights.
 constexpr uint32_t kBinnedAssignGroups = 128;
-// And at least this many lights a workgroup (its steps take MYRIAD_ASSIGN_BIN_GROUP lights each;
-// a step of fewer walks their clusters side by side all the same): 10,000 lights get 128 groups,
-// not 40 (H200: assign 0.081 -> 0.064 ms at 1080p).
+// And at least this many lights a workgroup (its subgroups share them, and a subgroup of few
+// lights walks their clusters side by side all the same): 10,000 lights get 128 groups, not 40
+// (H200: assign 0.081 -> 0.064 ms at 1080p, stop 16).
 constexpr uint32_t kBinnedGroupLights = 64;
+// The binned passes' workgroups are this large where the device allows: both passes wait on
+// memory most of the time, and a multiprocessor runs one group, so its invocations are all it has
+// to hide that with. On the H200, a million lights at 1080p, assign: 256 invocations 0.239 ms,
+// 512 0.144, 1,024 0.122 (issue 16, stop 17).
+constexpr uint32_t kBinnedGroupSize = 1024;
 // The pair buffer holds at least this many slots, so that a few thousand lights with large boxes
 // are still recorded, not queued for the large-light passes.
 constexpr uint64_t kMinimumPairSlots = 1u << 20;
@@ -84,9 +88,10 @@ uint64_t envNumber(const char* name) {
   return v ? std::strtoull(v, nullptr, 10) : 0;
 }
 
-// Pair slots (cluster_assign_binned.comp) per light: a slot for each cluster of a small light's
-// box, reached or not. A light whose box finds its workgroup's region full is walked by the
-// large-light passes instead, so fewer slots are slower, never wrong.
+// Pair slots (cluster_assign_binned.comp) per light: a light reserves a slot for each cluster of
+// its box, reached or not (its pairs are recorded one after another). A light whose box finds its
+// workgroup's region full is walked by the large-light passes instead, so fewer slots are slower,
+// never wrong.
 // MYRIAD_ASSIGN_PAIR_SLOTS (1 to 64) overrides it: a benchmark experiment, and a test's way to
 // send lights down the full region's path.
 uint64_t pairSlotsPerLight() {
@@ -108,11 +113,17 @@ uint32_t assignBins() {
   return bins;
 }
 
-// The binned counting pass walks the candidates of a step's lights side by side (kFlat);
-// MYRIAD_ASSIGN_FLAT=0 has each invocation walk its own light's clusters in turn (a benchmark
-// comparison).
-bool flatWalk() {
-  return !envIs("MYRIAD_ASSIGN_FLAT", "0");
+// The binned passes' workgroup size: kBinnedGroupSize, halved while the device runs no groups
+// that large (never below MYRIAD_ASSIGN_BIN_GROUP, which the technique requires).
+// MYRIAD_ASSIGN_BIN_GROUP_SIZE (256, 512 or 1,024) asks for another: a benchmark experiment.
+uint32_t binnedGroupSize(const gpu::DeviceInfo& device) {
+  const uint32_t most =
+      std::min(device.maxComputeWorkGroupInvocations, device.maxComputeWorkGroupSizeX);
+  const uint64_t asked = envNumber("MYRIAD_ASSIGN_BIN_GROUP_SIZE");
+  uint32_t size =
+      asked == 256 || asked == 512 || asked == 1024 ? uint32_t(asked) : kBinnedGroupSize;
+  while (size > MYRIAD_ASSIGN_BIN_GROUP && size > most) size /= 2;
+  return size;
 }
 
 // Lights whose box holds more clusters than this go to the large-light passes (a workgroup each):
@@ -154,7 +165,8 @@ bool markInGBuffer() {
   return on;
 }
 
-// The binned passes need full subgroups with arithmetic (their scan of a step's boxes).
+// The binned passes need full subgroups with arithmetic, ballot and shuffle (their walk per
+// subgroup).
 bool binnedAssignFor(const gpu::DeviceInfo& device) {
   if (!device.computeSubgroupShuffle) return false;
   if (envIs("MYRIAD_CLUSTER_ASSIGN", "atomic")) return false;
@@ -296,16 +308,13 @@ class Clustered final : public LightingTechnique {
             gpu::createComputePipeline(device, layout, spirv::cluster_assign_comp, &spec));
       }
       // cluster_assign_binned.comp: kAssign (constant 0), its table's bins (2), kAnimate (3),
-      // kFlat (4), kMostClusters (5).
-      const VkSpecializationMapEntry binnedEntries[] = {{0, 0, sizeof(VkBool32)},
-                                                        {2, 4, sizeof(uint32_t)},
-                                                        {3, 8, sizeof(VkBool32)},
-                                                        {4, 12, sizeof(VkBool32)},
-                                                        {5, 16, sizeof(uint32_t)}};
+      // kMostClusters (5), the workgroup's size (6); each a 4-byte word.
+      const VkSpecializationMapEntry binnedEntries[] = {
+          {0, 0, 4}, {2, 4, 4}, {3, 8, 4}, {5, 12, 4}, {6, 16, 4}};
       for (VkBool32 animate : {VK_FALSE, VK_TRUE}) {
         if (assign && animate) continue;
-        const uint32_t binnedValues[] = {assign, assignBins(), animate, VkBool32(flatWalk()),
-                                         mostClustersPerLight()};
+        const uint32_t binnedValues[] = {assign, assignBins(), animate, mostClustersPerLight(),
+                                         binnedGroupSize(setup.context.info)};
         VkSpecializationInfo binnedSpec{5, binnedEntries, sizeof(binnedValues), binnedValues};
         (assign ? assignBinned_ : animate ? countBinnedAnimated_ : countBinned_) = pipelines_.add(
             gpu::createComputePipeline(device, layout, spirv::cluster_assign_binned_comp, &binnedSpec));
