@@ -19,6 +19,9 @@ namespace {
 // frames are not counted against --max-queued-frames (render::FrameSource::Stream), so this is
 // only the render thread stopping, which the next turn of the loop sees.
 constexpr std::chrono::milliseconds kQueueFullRetry{50};
+// How often a stream whose frame renders with another submitted ahead asks whether its client is
+// still there (one poll() of its socket).
+constexpr std::chrono::milliseconds kPeerPoll{5};
 // libvpx threads per video stream: 1080p at 30 fps needs about 4 on the GPU machine's cores.
 constexpr unsigned kVideoEncoderThreads = 4;
 
@@ -110,6 +113,19 @@ struct StreamState {
       // Dropped, the session closed, or the frame failed: nobody is waiting for it.
     }
     ahead.reset();
+  }
+
+  // While `pending` renders, a client that hangs up gives up the frame submitted ahead of it:
+  // the render thread starts that one the moment `pending` is done, before this thread could see
+  // the close after writing `pending`, so a stream closed mid-frame rendered two frames for
+  // nobody. Polled, because the peer's close is not an event this thread can wait on.
+  void giveUpAheadIfPeerLeaves(const PendingSessionFrame& pending) {
+    while (ahead && pending.frame.wait_for(kPeerPoll) != std::future_status::ready) {
+      if (peer.gone()) {
+        *ahead->drop = true;
+        return;
+      }
+    }
   }
 
   bool writePart(httplib::DataSink& sink) {
@@ -216,6 +232,7 @@ bool StreamState::next(httplib::DataSink& sink) {
           if (animate && lastFrameTook >= interval) {
             ahead = submitSessionFrame(context, session, request, render::FrameSource::Stream);
           }
+          giveUpAheadIfPeerLeaves(pending);
           SessionFrame own = collectSessionFrame(context, session, pending);
           lastFrameTook = Clock::now() - pending.submitted;
           frame = {std::make_shared<const EncodedFrame>(std::move(own.encoded)), own.version, 0};
