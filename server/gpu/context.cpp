@@ -244,17 +244,6 @@ std::vector<VkPhysicalDevice> usablePhysicalDevices(VkInstance instance) {
   return usable;
 }
 
-bool hasDeviceExtension(VkPhysicalDevice physical, const char* name) {
-  uint32_t count = 0;
-  vkEnumerateDeviceExtensionProperties(physical, nullptr, &count, nullptr);
-  std::vector<VkExtensionProperties> extensions(count);
-  vkEnumerateDeviceExtensionProperties(physical, nullptr, &count, extensions.data());
-  for (const auto& e : extensions) {
-    if (std::strcmp(e.extensionName, name) == 0) return true;
-  }
-  return false;
-}
-
 }  // namespace
 
 int chooseDevice(const std::vector<DeviceInfo>& devices, const std::string& selector) {
@@ -375,7 +364,7 @@ std::unique_ptr<Context> createContext(const ContextOptions& options) {
       VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_PIPELINE_EXECUTABLE_PROPERTIES_FEATURES_KHR};
   const char* stats = std::getenv("MYRIAD_PIPELINE_STATS");
   if (stats && std::strcmp(stats, "1") == 0 &&
-      hasDeviceExtension(context->physicalDevice,
+      deviceExtensionAvailable(context->physicalDevice,
                          VK_KHR_PIPELINE_EXECUTABLE_PROPERTIES_EXTENSION_NAME)) {
     deviceExtensions.push_back(VK_KHR_PIPELINE_EXECUTABLE_PROPERTIES_EXTENSION_NAME);
     executableInfo.pipelineExecutableInfo = VK_TRUE;
