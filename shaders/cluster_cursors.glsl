@@ -29,6 +29,32 @@ uint activeClusterWord(uint id) {
 uint activeCountWord() {
   return 4u * frame.grid.x * frame.grid.y * frame.grid.z;
 }
+// After the count (word 4N) and three words of padding: each cluster's bounds of its surface
+// points, world space, as two vec4 (lo.xyz, hi.xyz; w unused), written by the numbering pass
+// (cluster_mark.comp) from the mark passes' per-slot accumulation (cluster_bounds.glsl), widened
+// for rounding, and made infinite by the blended surfaces' mark pass (their fragments are not
+// in them). The overlap test of cluster_assign.glsl reads them for active clusters only.
+layout(std430, set = MYRIAD_SET_CULLING, binding = MYRIAD_BINDING_CLUSTER_CURSORS) buffer CursorBoundsBlock {
+  vec4 clusterCursorQuads[];
+};
+uint clusterBoundsQuad(uint cluster) {
+  return frame.grid.x * frame.grid.y * frame.grid.z + 1u + 2u * cluster;
+}
+// Cluster `cluster`'s points lie in [lo, hi] (active clusters only).
+void clusterPointBounds(uint cluster, out vec3 lo, out vec3 hi) {
+  uint q = clusterBoundsQuad(cluster);
+  lo = clusterCursorQuads[q].xyz;
+  hi = clusterCursorQuads[q + 1u].xyz;
+}
+// The cluster takes every light its view box takes (a blended surface marked it).
+void unboundCluster(uint cluster) {
+  uint q = clusterBoundsQuad(cluster);
+  float inf = uintBitsToFloat(0x7F800000u);
+  if (clusterCursorQuads[q + 1u].x == inf) return;
+  clusterCursorQuads[q] = vec4(-inf);
+  clusterCursorQuads[q + 1u] = vec4(inf);
+}
+
 // Marks cluster `cluster` active (cursor 0, nothing counted), numbering it, if no pass marked it
 // yet this frame. The plain read first: most callers find it marked already.
 void markCluster(uint cluster) {

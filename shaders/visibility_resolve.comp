@@ -1,6 +1,9 @@
 #version 450
 #extension GL_GOOGLE_include_directive : require
 #extension GL_EXT_shader_explicit_arithmetic_types_int64 : require
+#extension GL_KHR_shader_subgroup_basic : require
+#extension GL_KHR_shader_subgroup_arithmetic : require
+#extension GL_KHR_shader_subgroup_ballot : require
 // The resolve pass of the G-buffer rasterised in compute: one thread per pixel. It reads the
 // pixel's key, intersects the pixel-centre ray with that triangle for perspective-correct
 // barycentrics, interpolates what gbuffer.vert passes on, evaluates the material with the raster
@@ -22,10 +25,32 @@ layout(set = MYRIAD_SET_VISIBILITY, binding = MYRIAD_BINDING_VISIBILITY_BASE_COL
 layout(set = MYRIAD_SET_VISIBILITY, binding = MYRIAD_BINDING_VISIBILITY_MATERIAL, rgba8) uniform writeonly image2D materialTarget;
 layout(set = MYRIAD_SET_VISIBILITY, binding = MYRIAD_BINDING_VISIBILITY_UV, rg16f) uniform writeonly image2D uvTarget;
 layout(set = MYRIAD_SET_VISIBILITY, binding = MYRIAD_BINDING_VISIBILITY_EMISSIVE, rgba16f) uniform writeonly image2D emissiveTarget;
-// A bit per cluster (FrameTargets::clusterMarks), all clear before this pass.
+// A bit per cluster (FrameTargets::clusterMarks), all clear before this pass, then the clusters'
+// point bounds (cluster_bounds.glsl), all empty.
 layout(std430, set = MYRIAD_SET_VISIBILITY, binding = MYRIAD_BINDING_VISIBILITY_CLUSTER_MARKS) buffer ClusterMarkBlock {
   uint clusterMarks[];
 };
+#include "cluster_bounds.glsl"
+
+// Adds the pixel's surface point to its cluster's bounds: the subgroup's points reduced per
+// cluster first (two clusters; a third and later add their points one by one), so that most
+// subgroups (8x4 pixels, mostly one cluster) take one lane's six atomics. Called by every
+// invocation of the subgroup that marks.
+void addPointBounds(uint cluster, vec3 p) {
+  float inf = uintBitsToFloat(0x7F800000u);
+  uint first = subgroupBroadcastFirst(cluster);
+  bool mine = cluster == first;
+  vec3 lo = subgroupMin(mine ? p : vec3(inf));
+  vec3 hi = subgroupMax(mine ? p : vec3(-inf));
+  if (subgroupElect()) addClusterBounds(first, lo, hi);
+  if (subgroupMin(mine ? 1u : 0u) == 1u) return;
+  uint second = subgroupMin(mine ? 0xFFFFFFFFu : cluster);
+  bool mine2 = cluster == second;
+  lo = subgroupMin(mine2 ? p : vec3(inf));
+  hi = subgroupMax(mine2 ? p : vec3(-inf));
+  if (subgroupElect()) addClusterBounds(second, lo, hi);
+  if (!mine && !mine2) addClusterBounds(cluster, p, p);
+}
 
 void storeTexels(ivec2 pixel, GBufferTexels t, vec2 uv) {
   uint written = frame.written.x;
@@ -65,6 +90,11 @@ void main() {
     uint cluster = clusterOfPixel(pixel, depth);
     uint bit = 1u << (cluster & 31u);
     if ((clusterMarks[cluster >> 5u] & bit) == 0u) atomicOr(clusterMarks[cluster >> 5u], bit);
+    // Its world position as the shading passes find it (frame.glsl's worldFromDepth, the same
+    // depth bits), for the cluster's bounds.
+    vec2 pixelNdc = (vec2(pixel) + 0.5) * frame.viewport.zw * 2.0 - 1.0;
+    vec4 world = frame.inverseViewProjection * vec4(pixelNdc, depth, 1.0);
+    addPointBounds(cluster, world.xyz / world.w);
   }
 
   TriangleRef ref = triangleRef(id);

@@ -25,6 +25,8 @@ constexpr VkFormat kStorageFormats[] = {kNormalFormat, kBaseColorStorageFormat, 
 
 bool deviceSupports(gpu::Context& context) {
   if (!context.int64Atomics) return false;
+  // The resolve reduces the clusters' point bounds per subgroup (cluster_bounds.glsl).
+  if (!context.info.computeSubgroupShuffle) return false;
   for (VkFormat format : kStorageFormats) {
     VkFormatProperties properties;
     vkGetPhysicalDeviceFormatProperties(context.physicalDevice, format, &properties);
