@@ -6,9 +6,11 @@
 #define MYRIAD_CLUSTER_ASSIGN_GLSL
 
 // Which boxes a light is tested against (techniques/clustered.cpp, MYRIAD_CLUSTER_POINT_TEST, a
-// benchmark switch): 1 the cluster's view box and its points' bounds, 0 the view box only, 2 the
-// points' bounds only. All conservative.
-layout(constant_id = 7) const uint kPointTest = 1u;
+// benchmark switch): 2 the bounds of the cluster's points only (they lie in its view box, so the
+// view box adds little: H200, a million lights at 1080p, 0.07% more list entries and assign
+// 0.007 ms less than testing both), 1 the view box and the points' bounds, 0 the view box only
+// (before stop 18). All conservative.
+layout(constant_id = 7) const uint kPointTest = 2u;
 
 // A light's view-space sphere and the box of clusters around it.
 struct LightClusters {

@@ -23,13 +23,23 @@ uint clusterBoundsWord(uint cluster) {
   return (clusters + 63u) / 64u * 2u + 6u * cluster;
 }
 
-// Adds the box [lo, hi] to cluster `cluster`'s bounds.
-void addClusterBounds(uint cluster, vec3 lo, vec3 hi) {
+uvec3 boundsKeys(vec3 v) {
+  return uvec3(boundsKey(v.x), boundsKey(v.y), boundsKey(v.z));
+}
+
+// Adds the box whose words are loWords (~boundsKey(lo)) and hiWords (boundsKey(hi)) to cluster
+// `cluster`'s bounds.
+void addClusterWords(uint cluster, uvec3 loWords, uvec3 hiWords) {
   uint w = clusterBoundsWord(cluster);
   for (uint a = 0u; a < 3u; ++a) {
-    atomicMax(clusterMarks[w + a], ~boundsKey(lo[a]));
-    atomicMax(clusterMarks[w + 3u + a], boundsKey(hi[a]));
+    atomicMax(clusterMarks[w + a], loWords[a]);
+    atomicMax(clusterMarks[w + 3u + a], hiWords[a]);
   }
+}
+
+// Adds the box [lo, hi] to cluster `cluster`'s bounds.
+void addClusterBounds(uint cluster, vec3 lo, vec3 hi) {
+  addClusterWords(cluster, ~boundsKeys(lo), boundsKeys(hi));
 }
 
 #endif

@@ -34,22 +34,35 @@ layout(std430, set = MYRIAD_SET_VISIBILITY, binding = MYRIAD_BINDING_VISIBILITY_
 
 // Adds the pixel's surface point to its cluster's bounds: the subgroup's points reduced per
 // cluster first (two clusters; a third and later add their points one by one), so that most
-// subgroups (8x4 pixels, mostly one cluster) take one lane's six atomics. Called by every
-// invocation of the subgroup that marks.
+// subgroups (8x4 pixels, mostly one cluster) take one lane's six atomics. The reductions are of
+// the bounds' words (unsigned maxima, one instruction each where the device reduces integers in
+// hardware, as NVIDIA's since sm_80), not of floats (a shuffle a step: on the H200 the float
+// version cost the resolve 0.024 ms at 1080p). kBoundsFloats (a benchmark switch,
+// MYRIAD_RESOLVE_BOUNDS_FLOATS=1) reduces the floats instead. Called by every invocation of the
+// subgroup that marks.
+layout(constant_id = 0) const bool kBoundsFloats = false;
 void addPointBounds(uint cluster, vec3 p) {
-  float inf = uintBitsToFloat(0x7F800000u);
   uint first = subgroupBroadcastFirst(cluster);
   bool mine = cluster == first;
-  vec3 lo = subgroupMin(mine ? p : vec3(inf));
-  vec3 hi = subgroupMax(mine ? p : vec3(-inf));
-  if (subgroupElect()) addClusterBounds(first, lo, hi);
+  uvec3 hiWords = boundsKeys(p);
+  uvec3 loWords = ~hiWords;
+  if (kBoundsFloats) {
+    float inf = uintBitsToFloat(0x7F800000u);
+    vec3 lo = subgroupMin(mine ? p : vec3(inf));
+    vec3 hi = subgroupMax(mine ? p : vec3(-inf));
+    if (subgroupElect()) addClusterBounds(first, lo, hi);
+  } else {
+    uvec3 lo = subgroupMax(mine ? loWords : uvec3(0u));
+    uvec3 hi = subgroupMax(mine ? hiWords : uvec3(0u));
+    if (subgroupElect()) addClusterWords(first, lo, hi);
+  }
   if (subgroupMin(mine ? 1u : 0u) == 1u) return;
   uint second = subgroupMin(mine ? 0xFFFFFFFFu : cluster);
   bool mine2 = cluster == second;
-  lo = subgroupMin(mine2 ? p : vec3(inf));
-  hi = subgroupMax(mine2 ? p : vec3(-inf));
-  if (subgroupElect()) addClusterBounds(second, lo, hi);
-  if (!mine && !mine2) addClusterBounds(cluster, p, p);
+  uvec3 lo = subgroupMax(mine2 ? loWords : uvec3(0u));
+  uvec3 hi = subgroupMax(mine2 ? hiWords : uvec3(0u));
+  if (subgroupElect()) addClusterWords(second, lo, hi);
+  if (!mine && !mine2) addClusterWords(cluster, loWords, hiWords);
 }
 
 void storeTexels(ivec2 pixel, GBufferTexels t, vec2 uv) {

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <array>
+#include <cstdlib>
 #include <cstring>
 #include <vector>
 
@@ -83,7 +84,15 @@ ComputeGBuffer::ComputeGBuffer(gpu::Context& context, VkDescriptorSetLayout scen
   VK_CHECK(vkCreatePipelineLayout(context.device, &layoutInfo, nullptr, &layout_));
   visibility_ = gpu::createComputePipeline(context.device, layout_, spirv::visibility_comp);
   tiles_ = gpu::createComputePipeline(context.device, layout_, spirv::visibility_tiles_comp);
-  resolve_ = gpu::createComputePipeline(context.device, layout_, spirv::visibility_resolve_comp);
+  {
+    // kBoundsFloats (constant 0): the clusters' point bounds reduced as floats, not as their
+    // words (MYRIAD_RESOLVE_BOUNDS_FLOATS=1, a benchmark switch; visibility_resolve.comp).
+    const char* floats = std::getenv("MYRIAD_RESOLVE_BOUNDS_FLOATS");
+    const VkBool32 value = floats && std::strcmp(floats, "1") == 0 ? VK_TRUE : VK_FALSE;
+    const VkSpecializationMapEntry entry{0, 0, sizeof(VkBool32)};
+    VkSpecializationInfo spec{1, &entry, sizeof(value), &value};
+    resolve_ = gpu::createComputePipeline(context.device, layout_, spirv::visibility_resolve_comp, &spec);
+  }
 
   const VkDescriptorPoolSize sizes[] = {
       {VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, slots * (MYRIAD_BINDING_VISIBILITY_NORMAL + 1)},

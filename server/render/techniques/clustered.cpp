@@ -165,15 +165,15 @@ bool markInGBuffer() {
   return on;
 }
 
-// The overlap test's boxes (cluster_assign.glsl's kPointTest): 1, a cluster's view box and the
-// bounds of its surface points; MYRIAD_CLUSTER_POINT_TEST=0 the view box only (the test before
-// stop 18), 2 the points' bounds only (a benchmark switch).
+// The overlap test's boxes (cluster_assign.glsl's kPointTest): 2, the bounds of a cluster's
+// surface points; MYRIAD_CLUSTER_POINT_TEST=1 those and the cluster's view box, 0 the view box
+// only (the test before stop 18): a benchmark switch.
 uint32_t pointTest() {
   static const uint32_t test = [] {
     const char* v = std::getenv("MYRIAD_CLUSTER_POINT_TEST");
-    if (!v) return 1u;
+    if (!v) return 2u;
     const uint64_t n = envNumber("MYRIAD_CLUSTER_POINT_TEST");
-    return n <= 2 ? uint32_t(n) : 1u;
+    return n <= 2 ? uint32_t(n) : 2u;
   }();
   return test;
 }
