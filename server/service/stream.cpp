@@ -19,9 +19,6 @@ namespace {
 // frames are not counted against --max-queued-frames (render::FrameSource::Stream), so this is
 // only the render thread stopping, which the next turn of the loop sees.
 constexpr std::chrono::milliseconds kQueueFullRetry{50};
-// How often a stream whose frame renders with another submitted ahead asks whether its client is
-// still there (one poll() of its socket).
-constexpr std::chrono::milliseconds kPeerPoll{5};
 // libvpx threads per video stream: 1080p at 30 fps needs about 4 on the GPU machine's cores.
 constexpr unsigned kVideoEncoderThreads = 4;
 
@@ -46,9 +43,12 @@ struct StreamState {
   Clock::time_point lastWriteAt{};
   Clock::time_point lastPartAt{};  // the last new picture's write (stats' intervalMs)
   // Frames in flight: while the lights animate and frames take longer than 1 / fps (the pipeline,
-  // not the fps limit, sets the rate), the next frame is submitted before this one is collected,
-  // so the render thread renders frame N+1 while this worker encodes and writes frame N. It shows
-  // the session as it was when submitted: an edit made meanwhile shows one frame later.
+  // not the fps limit, sets the rate), the next frame is submitted the moment this one is
+  // rendered, before it is encoded and written, so the render thread renders frame N+1 while this
+  // worker encodes and writes frame N. Never earlier: a frame submitted while N still rendered
+  // would start at once in the renderer's second slot, and a client closing on frame N would
+  // leave two frames rendering for nobody. It shows the session as it was when submitted: an edit
+  // made meanwhile shows one frame later.
   std::optional<PendingSessionFrame> ahead;
   Clock::duration lastFrameTook{};  // submit to encoded, of the last frame
 
@@ -113,19 +113,6 @@ struct StreamState {
       // Dropped, the session closed, or the frame failed: nobody is waiting for it.
     }
     ahead.reset();
-  }
-
-  // While `pending` renders, a client that hangs up gives up the frame submitted ahead of it:
-  // the render thread starts that one the moment `pending` is done, before this thread could see
-  // the close after writing `pending`, so a stream closed mid-frame rendered two frames for
-  // nobody. Polled, because the peer's close is not an event this thread can wait on.
-  void giveUpAheadIfPeerLeaves(const PendingSessionFrame& pending) {
-    while (ahead && pending.frame.wait_for(kPeerPoll) != std::future_status::ready) {
-      if (peer.gone()) {
-        *ahead->drop = true;
-        return;
-      }
-    }
   }
 
   bool writePart(httplib::DataSink& sink) {
@@ -229,10 +216,12 @@ bool StreamState::next(httplib::DataSink& sink) {
               ahead ? std::move(*ahead)
                     : submitSessionFrame(context, session, request, render::FrameSource::Stream);
           ahead.reset();
-          if (animate && lastFrameTook >= interval) {
+          pending.frame.wait();
+          // Rendered: the next one starts now and renders while this one is encoded and sent,
+          // unless the client left while it rendered.
+          if (animate && lastFrameTook >= interval && !peer.gone()) {
             ahead = submitSessionFrame(context, session, request, render::FrameSource::Stream);
           }
-          giveUpAheadIfPeerLeaves(pending);
           SessionFrame own = collectSessionFrame(context, session, pending);
           lastFrameTook = Clock::now() - pending.submitted;
           frame = {std::make_shared<const EncodedFrame>(std::move(own.encoded)), own.version, 0};

@@ -8,10 +8,10 @@
 // At most two frames in flight per stream: the next frame is rendered from the session's newest
 // state after the previous part was written, so a slow client sees fewer, newer frames and
 // nothing queues; except that while the lights animate and frames take longer than 1 / fps, the
-// frame after the next is submitted before the next is encoded, so rendering overlaps encoding
-// and writing (an edit then shows one frame later; a stream that ends gives that frame up unless
-// it already started). While nothing changes the last part is re-sent every kIdleResend, which keeps proxies
-// from timing the connection out and tells a client that just connected what the scene looks like.
+// next frame is submitted as soon as this one is rendered, before it is encoded, so rendering
+// overlaps encoding and writing (an edit then shows one frame later; a stream that ends gives
+// that frame up unless it already started). While nothing changes the last part is re-sent every
+// kIdleResend, which keeps proxies from timing the connection out and tells a client that just connected what the scene looks like.
 // With ?interactive=FPS, frames rendered while the session keeps changing are cheaper (smaller,
 // their scale chosen from measured frame times; interactive_quality.h) and marked
 // X-Myriad-Interactive, and a full-quality still follows once the session settles.
