@@ -45,8 +45,7 @@ void publishBounds(uint cluster) {
   }
   for (uint a = 0u; a < 6u; ++a) clusterMarks[w + a] = 0u;
   uint slice = cluster / (frame.grid.x * frame.grid.y);
-  float depth = 1.1 * viewDepthOfSlice(slice + 1u);
-  vec3 margin = (max(abs(lo), abs(hi)) + vec3(1.0)) * (1e-5 + 1e-6 * depth / frame.camera.y);
+  vec3 margin = boundsMargin(lo, hi, 1.1 * viewDepthOfSlice(slice + 1u));
   uint q = clusterBoundsQuad(cluster);
   clusterCursorQuads[q] = vec4(lo - margin, 0.0);
   clusterCursorQuads[q + 1u] = vec4(hi + margin, 0.0);
