@@ -41,6 +41,9 @@ layout(std430, set = MYRIAD_SET_VISIBILITY, binding = MYRIAD_BINDING_VISIBILITY_
 // MYRIAD_RESOLVE_BOUNDS_FLOATS=1) reduces the floats instead. Called by every invocation of the
 // subgroup that marks.
 layout(constant_id = 0) const bool kBoundsFloats = false;
+// kBoundsLate (MYRIAD_RESOLVE_BOUNDS_LATE=1, a benchmark switch): the bounds gathered after the
+// G-buffer's stores instead of with the mark bit, before the triangle's loads.
+layout(constant_id = 1) const bool kBoundsLate = false;
 void addPointBounds(uint cluster, vec3 p) {
   uint first = subgroupBroadcastFirst(cluster);
   bool mine = cluster == first;
@@ -63,6 +66,14 @@ void addPointBounds(uint cluster, vec3 p) {
   uvec3 hi = subgroupMax(mine2 ? hiWords : uvec3(0u));
   if (subgroupElect()) addClusterWords(second, lo, hi);
   if (!mine && !mine2) addClusterWords(cluster, loWords, hiWords);
+}
+
+// The pixel's surface point, as the shading passes find it (frame.glsl's worldFromDepth, the
+// same depth bits), added to its cluster's bounds.
+void addPixelBounds(ivec2 pixel, float depth, uint cluster) {
+  vec2 pixelNdc = (vec2(pixel) + 0.5) * frame.viewport.zw * 2.0 - 1.0;
+  vec4 world = frame.inverseViewProjection * vec4(pixelNdc, depth, 1.0);
+  addPointBounds(cluster, world.xyz / world.w);
 }
 
 void storeTexels(ivec2 pixel, GBufferTexels t, vec2 uv) {
@@ -95,19 +106,17 @@ void main() {
   // The depth the visibility pass compared: the value the raster path's depth test kept.
   float depth = uintBitsToFloat(uint(key >> 32));
   visibleDepth[index] = depth;
-  if (frame.written.z != 0u && depth < 1.0) {
+  bool marks = frame.written.z != 0u && depth < 1.0;
+  uint cluster = 0u;
+  if (marks) {
     // The clustered technique's step 1 (cluster_mark.comp's pixel pass on the raster path): this
     // pixel's cluster holds geometry. The same depth bits the depth target gets, the same
     // arithmetic (cluster_grid.glsl) as the shading pass. Most pixels find the bit set and only
     // read.
-    uint cluster = clusterOfPixel(pixel, depth);
+    cluster = clusterOfPixel(pixel, depth);
     uint bit = 1u << (cluster & 31u);
     if ((clusterMarks[cluster >> 5u] & bit) == 0u) atomicOr(clusterMarks[cluster >> 5u], bit);
-    // Its world position as the shading passes find it (frame.glsl's worldFromDepth, the same
-    // depth bits), for the cluster's bounds.
-    vec2 pixelNdc = (vec2(pixel) + 0.5) * frame.viewport.zw * 2.0 - 1.0;
-    vec4 world = frame.inverseViewProjection * vec4(pixelNdc, depth, 1.0);
-    addPointBounds(cluster, world.xyz / world.w);
+    if (!kBoundsLate) addPixelBounds(pixel, depth, cluster);
   }
 
   TriangleRef ref = triangleRef(id);
@@ -155,4 +164,5 @@ void main() {
   MaterialSample m = untexturedMaterial(materials[instance.material.x], color, normal,
                                         -side * faceNormal, side);
   storeTexels(pixel, gbufferTexels(m), uv);
+  if (kBoundsLate && marks) addPixelBounds(pixel, depth, cluster);
 }

@@ -86,11 +86,16 @@ ComputeGBuffer::ComputeGBuffer(gpu::Context& context, VkDescriptorSetLayout scen
   tiles_ = gpu::createComputePipeline(context.device, layout_, spirv::visibility_tiles_comp);
   {
     // kBoundsFloats (constant 0): the clusters' point bounds reduced as floats, not as their
-    // words (MYRIAD_RESOLVE_BOUNDS_FLOATS=1, a benchmark switch; visibility_resolve.comp).
-    const char* floats = std::getenv("MYRIAD_RESOLVE_BOUNDS_FLOATS");
-    const VkBool32 value = floats && std::strcmp(floats, "1") == 0 ? VK_TRUE : VK_FALSE;
-    const VkSpecializationMapEntry entry{0, 0, sizeof(VkBool32)};
-    VkSpecializationInfo spec{1, &entry, sizeof(value), &value};
+    // words (MYRIAD_RESOLVE_BOUNDS_FLOATS=1); kBoundsLate (1): gathered after the stores
+    // (MYRIAD_RESOLVE_BOUNDS_LATE=1). Benchmark switches; visibility_resolve.comp.
+    auto on = [](const char* name) {
+      const char* v = std::getenv(name);
+      return v && std::strcmp(v, "1") == 0 ? VK_TRUE : VK_FALSE;
+    };
+    const VkBool32 values[] = {on("MYRIAD_RESOLVE_BOUNDS_FLOATS"), on("MYRIAD_RESOLVE_BOUNDS_LATE")};
+    const VkSpecializationMapEntry entries[] = {{0, 0, sizeof(VkBool32)},
+                                                {1, sizeof(VkBool32), sizeof(VkBool32)}};
+    VkSpecializationInfo spec{2, entries, sizeof(values), values};
     resolve_ = gpu::createComputePipeline(context.device, layout_, spirv::visibility_resolve_comp, &spec);
   }
 
