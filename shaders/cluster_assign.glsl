@@ -1,6 +1,6 @@
 // The overlap test of clustered steps 2 and 4 (cluster_assign.comp, cluster_assign_binned.comp):
-// which clusters a light's sphere reaches: its view box of clusters, then each cluster's view box
-// and the bounds of the cluster's surface points. Every pass that counts or fills the lists walks a
+// which clusters a light's sphere reaches: its view box of clusters, then the bounds of each
+// active cluster's surface points (kPointTest). Every pass that counts or fills the lists walks a
 // light's clusters through these two functions, so counts and lists agree exactly.
 #ifndef MYRIAD_CLUSTER_ASSIGN_GLSL
 #define MYRIAD_CLUSTER_ASSIGN_GLSL
@@ -75,7 +75,7 @@ bool sphereReachesCluster(LightClusters b, uvec3 at) {
 }
 
 // Whether the sphere overlaps the world-space bounds of the active cluster's own surface points
-// (cluster_cursors.glsl; infinite where blended surfaces marked it). On a floor seen at a slant a
+// (cluster_cursors.glsl; its view box where blended surfaces marked it). On a floor seen at a slant a
 // cluster's view box is metres deep while its points lie in a thin slab: most lights in the box
 // float out of reach of every point (issue 16, stop 18).
 bool sphereReachesPoints(LightClusters b, uint cluster) {
