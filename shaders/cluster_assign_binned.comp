@@ -137,7 +137,7 @@ void countStep(uint base, uint end, uint size, uint region) {
   uint lane = gl_SubgroupInvocationID;
   uint index = base + lane;
   // A lane without a light holds an empty box, which no candidate's search lands on.
-  LightClusters b = LightClusters(vec3(0.0), 0.0, uvec3(0u), uvec3(0u), 0u);
+  LightClusters b = LightClusters(vec3(0.0), 0.0, vec3(0.0), uvec3(0u), uvec3(0u), 0u);
   uint n = 0u;
   if (index < end && lightClustersAt(lightNow(index), b)) {
     if (b.clusters > kMostClusters) {
@@ -169,6 +169,7 @@ void countStep(uint base, uint end, uint size, uint region) {
     LightClusters c;
     c.c = subgroupShuffle(sphere.xyz, owner);
     c.r = subgroupShuffle(sphere.w, owner);
+    c.w = subgroupShuffle(b.w, owner);
     uvec2 ownerBox = subgroupShuffle(box, owner);
     c.first = unpackBox(ownerBox.x);
     c.extent = unpackBox(ownerBox.y);

@@ -16,25 +16,79 @@
 layout(local_size_x = MYRIAD_PIXEL_GROUP, local_size_y = MYRIAD_PIXEL_GROUP) in;
 layout(constant_id = 0) const bool kNumber = false;
 
+// The mark bits, then the clusters' point bounds (cluster_bounds.glsl).
 layout(std430, set = MYRIAD_SET_TARGETS, binding = MYRIAD_BINDING_CLUSTER_MARKS) buffer ClusterMarkBlock {
   uint clusterMarks[];
 };
+#include "cluster_bounds.glsl"
 
 const uint kGroupClusters = MYRIAD_PIXEL_GROUP * MYRIAD_PIXEL_GROUP;  // whole words of bits
 
 shared uint groupMarked;
 shared uint groupFirst;
+shared uint groupCluster;    // the pixel pass: the lowest cluster among the group's pixels
+shared uint groupBounds[6];  // and its points' bounds (cluster_bounds.glsl's words)
+
+// Cluster `cluster`'s bounds for the assignment (cluster_cursors.glsl) from the mark passes'
+// words, which are zeroed for the next frame. Widened for rounding: the shading passes find each
+// point again from the same depth bits with the same arithmetic, but may round it differently
+// (contracted multiply-adds); the reconstruction's relative error grows as depth / near (the
+// w row's terms are about 1 / near, its value 1 / depth), so each side moves out by
+// (|coordinate| + 1) x (1e-5 + 1e-6 x depth / near), about 16 times that error's roundings
+// for the slice's farthest depth (and 10% beyond).
+void publishBounds(uint cluster) {
+  uint w = clusterBoundsWord(cluster);
+  vec3 lo, hi;
+  for (uint a = 0u; a < 3u; ++a) {
+    lo[a] = boundsValue(~clusterMarks[w + a]);
+    hi[a] = boundsValue(clusterMarks[w + 3u + a]);
+  }
+  for (uint a = 0u; a < 6u; ++a) clusterMarks[w + a] = 0u;
+  uint slice = cluster / (frame.grid.x * frame.grid.y);
+  vec3 margin = boundsMargin(lo, hi, 1.1 * viewDepthOfSlice(slice + 1u));
+  uint q = clusterBoundsQuad(cluster);
+  clusterCursorQuads[q] = vec4(lo - margin, 0.0);
+  clusterCursorQuads[q + 1u] = vec4(hi + margin, 0.0);
+}
 
 void main() {
   if (!kNumber) {
+    // The group's 8x8 pixels lie in one screen tile: the points of the lowest cluster among them
+    // (most often all) are reduced in shared memory, one group's six atomics; the others add
+    // theirs one by one.
+    uint thread = gl_LocalInvocationIndex;
+    if (thread == 0u) groupCluster = MYRIAD_CLUSTER_INACTIVE;
+    if (thread < 6u) groupBounds[thread] = 0u;
+    barrier();
     ivec2 pixel = ivec2(gl_GlobalInvocationID.xy);
-    if (pixel.x >= int(frame.viewport.x) || pixel.y >= int(frame.viewport.y)) return;
-    float depth = texelFetch(gbufferDepth, pixel, 0).r;
-    if (depth >= 1.0) return;
-    // Most pixels find the bit set and only read.
-    uint cluster = clusterOfPixel(pixel, depth);
-    uint bit = 1u << (cluster & 31u);
-    if ((clusterMarks[cluster >> 5u] & bit) == 0u) atomicOr(clusterMarks[cluster >> 5u], bit);
+    bool surface = pixel.x < int(frame.viewport.x) && pixel.y < int(frame.viewport.y);
+    float depth = surface ? texelFetch(gbufferDepth, pixel, 0).r : 1.0;
+    surface = surface && depth < 1.0;
+    uint cluster = MYRIAD_CLUSTER_INACTIVE;
+    vec3 p = vec3(0.0);
+    if (surface) {
+      // Most pixels find the bit set and only read.
+      cluster = clusterOfPixel(pixel, depth);
+      uint bit = 1u << (cluster & 31u);
+      if ((clusterMarks[cluster >> 5u] & bit) == 0u) atomicOr(clusterMarks[cluster >> 5u], bit);
+      p = worldFromDepth(pixel, depth);  // as the shading passes find it
+      atomicMin(groupCluster, cluster);
+    }
+    barrier();
+    if (surface) {
+      if (cluster == groupCluster) {
+        for (uint a = 0u; a < 3u; ++a) {
+          atomicMax(groupBounds[a], ~boundsKey(p[a]));
+          atomicMax(groupBounds[3u + a], boundsKey(p[a]));
+        }
+      } else {
+        addClusterBounds(cluster, p, p);
+      }
+    }
+    barrier();
+    if (thread < 6u && groupCluster != MYRIAD_CLUSTER_INACTIVE) {
+      atomicMax(clusterMarks[clusterBoundsWord(groupCluster) + thread], groupBounds[thread]);
+    }
     return;
   }
   uint thread = gl_LocalInvocationIndex;
@@ -63,4 +117,5 @@ void main() {
   clusterCursors[clusterSpill(cluster)] = 0u;
   clusterCursors[clusterIdWord(cluster)] = id;
   clusterCursors[activeClusterWord(id)] = cluster;
+  publishBounds(cluster);
 }

@@ -8,6 +8,8 @@
 
 void main() {
   uvec2 tile = uvec2(gl_FragCoord.xy) / clusterTileSize();
-  // Active and numbered, as in cluster_mark.comp.
-  markCluster(clusterIndex(uvec3(tile, sliceOfViewDepth(viewDepthFromDepth(gl_FragCoord.z)))));
+  // Active and numbered, as in cluster_mark.comp; its lights not cut to the opaque points'
+  // bounds but to its view box (cluster_cursors.glsl): these fragments are not among the points.
+  uint cluster = clusterIndex(uvec3(tile, sliceOfViewDepth(viewDepthFromDepth(gl_FragCoord.z))));
+  widenToViewBox(cluster, markCluster(cluster));
 }

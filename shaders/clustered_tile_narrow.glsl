@@ -11,7 +11,8 @@
 //                  (flat on a floor: the lights' spheres must reach down to it), else the view box
 //   kNarrowLoads   (uint, 1-4) list entries an invocation loads before testing them
 //   MYRIAD_NARROW_SUBGROUP (macro) the includer has the subgroup vote and arithmetic
-//                  extensions (kNarrowWorld's bounds are then reduced per subgroup first)
+//                  extensions (kNarrowWorld's bounds are then reduced per subgroup first), and
+//                  then kNarrowKeys (bool): reduced as orderedBits words, not floats
 
 const uint kThreads = MYRIAD_CLUSTER_SHADE_TILE * MYRIAD_CLUSTER_SHADE_TILE;
 const uint kSlices = MYRIAD_CLUSTER_TILE_SLICES;
@@ -89,7 +90,18 @@ uint narrowTileLists(uint thread, bool surface, uint slice, float viewDepth, vec
 #ifdef MYRIAD_NARROW_SUBGROUP
     // Most subgroups' pixels share a slice: their bounds reduced first, one lane's atomics.
     uint sameK = subgroupAllEqual(counted ? k : kNoSlice) ? 1u : 0u;
-    if (sameK == 1u) {
+    if (sameK == 1u && kNarrowKeys) {
+      // The words reduced (kNarrowKeys): the same bounds.
+      uvec3 keys = uvec3(orderedBits(position.x), orderedBits(position.y), orderedBits(position.z));
+      uvec3 lo = subgroupMin(keys);
+      uvec3 hi = subgroupMax(keys);
+      if (counted && subgroupElect()) {
+        for (uint a = 0u; a < 3u; ++a) {
+          atomicMin(worldLo[3u * k + a], lo[a]);
+          atomicMax(worldHi[3u * k + a], hi[a]);
+        }
+      }
+    } else if (sameK == 1u) {
       vec3 lo = subgroupMin(position);
       vec3 hi = subgroupMax(position);
       if (counted && subgroupElect()) {

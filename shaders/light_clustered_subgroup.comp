@@ -42,6 +42,11 @@ const bool kMaskWalk = (kVariant & MYRIAD_SHADE_MASK_WALK) != 0u;
 const bool kBoxAlways = (kVariant & MYRIAD_SHADE_BOX_ALWAYS) != 0u;
 const bool kNarrowWorld = (kVariant & MYRIAD_SHADE_NARROW_WORLD) != 0u;
 const bool kHybrid = (kVariant & MYRIAD_SHADE_HYBRID) != 0u;
+// The subgroups' bounds of their points (the narrowing's and each segment's box) reduced as
+// orderedBits words, unsigned (one instruction each where the device reduces integers in
+// hardware, as NVIDIA's since sm_80), not as floats (a shuffle a step). The same boxes but for
+// the sign of a zero, which no overlap test can tell apart.
+const bool kNarrowKeys = (kVariant & MYRIAD_SHADE_KEYS) != 0u;
 // The mask walk leaves segments of at most this many lights to the walk per pixel.
 const uint kShortFrom = (kVariant & MYRIAD_SHADE_SHORT_64) != 0u ? 64u : 0u;
 const bool kNarrowOnly = (kVariant & MYRIAD_SHADE_DIAG_NARROW_ONLY) != 0u;
@@ -165,8 +170,17 @@ void main() {
     // The box of the subgroup's points on this list, widened so that a light reaching one of
     // them (|light - point|^2 < radius^2, rounded) always overlaps it (rounded): 1e-5 of the
     // coordinates' size is far more than either test's rounding.
-    vec3 lo = subgroupMin(mine ? position : vec3(3.0e38));
-    vec3 hi = subgroupMax(mine ? position : vec3(-3.0e38));
+    vec3 lo, hi;
+    if (kNarrowKeys) {
+      uvec3 keys = uvec3(orderedBits(position.x), orderedBits(position.y), orderedBits(position.z));
+      uvec3 loKeys = subgroupMin(mine ? keys : uvec3(0xFFFFFFFFu));
+      uvec3 hiKeys = subgroupMax(mine ? keys : uvec3(0u));
+      lo = vec3(fromOrderedBits(loKeys.x), fromOrderedBits(loKeys.y), fromOrderedBits(loKeys.z));
+      hi = vec3(fromOrderedBits(hiKeys.x), fromOrderedBits(hiKeys.y), fromOrderedBits(hiKeys.z));
+    } else {
+      lo = subgroupMin(mine ? position : vec3(3.0e38));
+      hi = subgroupMax(mine ? position : vec3(-3.0e38));
+    }
     vec3 margin = 1e-5 * (max(abs(lo), abs(hi)) + vec3(1.0));
     lo -= margin;
     hi += margin;

@@ -179,7 +179,8 @@ using mat4 = glm::mat4;
 #define MYRIAD_SHADE_DIAG_NO_TOGETHER 0x2000u    // a measurement: lights holding the box only counted (image wrong)
 #define MYRIAD_SHADE_DIAG_NO_APART 0x4000u       // a measurement: the other lights only counted (image wrong)
 #define MYRIAD_SHADE_DIAG_NO_NEAR 0x8000u        // a measurement: their near masks made, not shaded (image wrong)
-#define MYRIAD_SHADE_DEFAULT 0x3Bu  // mask walk, box always, world narrowing, hybrid, short per pixel
+#define MYRIAD_SHADE_KEYS 0x40u                  // the subgroups' point bounds reduced as ordered words, not floats
+#define MYRIAD_SHADE_DEFAULT 0x7Bu  // mask walk, box always, world narrowing, hybrid, short per pixel, keys
 // Lights whose box spans more clusters than this are assigned by a workgroup each, not a thread;
 // the indirect dispatch doing it has at most this many groups (Vulkan's guaranteed minimum).
 #define MYRIAD_LARGE_LIGHT_CLUSTERS 64

@@ -227,7 +227,9 @@ TEST_CASE("binned and per-pair cluster assignment build the same lists and image
   auto [b, countsB] = renderWithCounts(other, f);
   MESSAGE("20,000 lights: " << a.culling.listEntries << " references in " << a.culling.activeClusters
                             << " clusters, longest " << a.culling.mostLightsInList);
-  CHECK(a.culling.listEntries > 10000);
+  // 18,277 references when lights were tested against the clusters' view boxes alone; 4,321
+  // since they are also tested against the bounds of each cluster's points (stop 18).
+  CHECK(a.culling.listEntries > 3000);
   CHECK_FALSE(a.culling.overflowed());
   CHECK(a.culling.listEntries == b.culling.listEntries);
   CHECK(a.culling.activeClusters == b.culling.activeClusters);

@@ -48,8 +48,10 @@ FrameTargets::FrameTargets(gpu::Context& context, VkExtent2D size, bool rawOutpu
                                VK_IMAGE_USAGE_STORAGE_BIT | VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT |
                                    VK_IMAGE_USAGE_TRANSFER_SRC_BIT);
   const VkDeviceSize edgePixels = raw ? 1 : VkDeviceSize(extent.width) * extent.height;
-  // Whole pairs of words: the numbering pass's workgroups take 64 clusters each.
-  clusterMarks = arena.createBuffer((VkDeviceSize(clusterGrid(extent).count()) + 63) / 64 * 8,
+  // Whole pairs of words: the numbering pass's workgroups take 64 clusters each. Then six words
+  // per cluster: the bounds of its points (shaders/cluster_bounds.glsl).
+  clusterMarks = arena.createBuffer((VkDeviceSize(clusterGrid(extent).count()) + 63) / 64 * 8 +
+                                        VkDeviceSize(clusterGrid(extent).count()) * 24,
                                     VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT,
                                     gpu::MemoryUse::DeviceLocal);
   edges = arena.createBuffer(sizeof(gpu_types::AntialiasEdges) + edgePixels * 4,

@@ -64,8 +64,10 @@ struct FrameTargets {
   // A bit per cluster of the extent's grid (render/cluster_grid.h), set where the cluster holds
   // visible geometry: by the compute G-buffer's resolve when the clustered technique asks
   // (FrameUniforms.written.z), else by its own pixel pass; its numbering pass reads and clears
-  // them. Per frame slot, so a frame's G-buffer never writes what an earlier frame in flight
-  // still reads; cleared once when made (clusterMarksFresh), then by each frame's reader.
+  // them. After the bits, six words per cluster: the world bounds of its surface points, gathered
+  // by the same passes (shaders/cluster_bounds.glsl) and read and zeroed by the numbering. Per
+  // frame slot, so a frame's G-buffer never writes what an earlier frame in flight still reads;
+  // cleared once when made (clusterMarksFresh), then by each frame's reader.
   gpu::Buffer clusterMarks;
   bool clusterMarksFresh = true;
   gpu::Buffer readback;  // output pixels, rows top first (RGBA, floats, or the planes)

@@ -165,6 +165,19 @@ bool markInGBuffer() {
   return on;
 }
 
+// The overlap test's boxes (cluster_assign.glsl's kPointTest): 2, the bounds of a cluster's
+// surface points; MYRIAD_CLUSTER_POINT_TEST=1 those and the cluster's view box, 0 the view box
+// only (the test before stop 18): a benchmark switch.
+uint32_t pointTest() {
+  static const uint32_t test = [] {
+    const char* v = std::getenv("MYRIAD_CLUSTER_POINT_TEST");
+    if (!v) return 2u;
+    const uint64_t n = envNumber("MYRIAD_CLUSTER_POINT_TEST");
+    return n <= 2 ? uint32_t(n) : 2u;
+  }();
+  return test;
+}
+
 // The binned passes need full subgroups with arithmetic, ballot and shuffle (their walk per
 // subgroup).
 bool binnedAssignFor(const gpu::DeviceInfo& device) {
@@ -230,8 +243,9 @@ struct ClusterLists {
     ranges = arena.createBuffer(VkDeviceSize(grid.count()) * 8, storage, gpu::MemoryUse::DeviceLocal);
     // Four words per cluster: the cursor, the count of pairs not recorded (clusterSpill), its
     // number among the active clusters, the cluster numbered so; then the active clusters' count
+    // (and three words' padding), then two vec4 per cluster: the bounds of its surface points
     // (shaders/cluster_cursors.glsl).
-    cursors = arena.createBuffer(VkDeviceSize(grid.count()) * 16 + 16,
+    cursors = arena.createBuffer(VkDeviceSize(grid.count()) * 48 + 16,
                                  storage | VK_BUFFER_USAGE_TRANSFER_DST_BIT, gpu::MemoryUse::DeviceLocal);
     pairs = arena.createBuffer(pairBytes, storage, gpu::MemoryUse::DeviceLocal);
     lists = arena.createBuffer(VkDeviceSize(capacity) * 4, storage, gpu::MemoryUse::DeviceLocal);
@@ -297,25 +311,27 @@ class Clustered final : public LightingTechnique {
     // cluster_assign.comp counts (kAssign = false) or fills the lists (true): one source, so both
     // passes run the identical overlap test.
     // kLarge (constant 1) picks the per-light or the per-large-light (workgroup) variant.
+    // kPointTest (7) the boxes a light is tested against (pointTest()).
     const VkSpecializationMapEntry entries[] = {{0, 0, sizeof(VkBool32)},
-                                                {1, sizeof(VkBool32), sizeof(VkBool32)}};
+                                                {1, sizeof(VkBool32), sizeof(VkBool32)},
+                                                {7, 2 * sizeof(VkBool32), sizeof(uint32_t)}};
     for (VkBool32 assign : {VK_FALSE, VK_TRUE}) {
       for (VkBool32 large : {VK_FALSE, VK_TRUE}) {
-        const VkBool32 values[] = {assign, large};
-        VkSpecializationInfo spec{2, entries, sizeof(values), values};
+        const uint32_t values[] = {assign, large, pointTest()};
+        VkSpecializationInfo spec{3, entries, sizeof(values), values};
         VkPipeline& target = assign ? (large ? assignLarge_ : assign_) : (large ? countLarge_ : count_);
         target = pipelines_.add(
             gpu::createComputePipeline(device, layout, spirv::cluster_assign_comp, &spec));
       }
       // cluster_assign_binned.comp: kAssign (constant 0), its table's bins (2), kAnimate (3),
-      // kMostClusters (5), the workgroup's size (6); each a 4-byte word.
+      // kMostClusters (5), the workgroup's size (6), kPointTest (7); each a 4-byte word.
       const VkSpecializationMapEntry binnedEntries[] = {
-          {0, 0, 4}, {2, 4, 4}, {3, 8, 4}, {5, 12, 4}, {6, 16, 4}};
+          {0, 0, 4}, {2, 4, 4}, {3, 8, 4}, {5, 12, 4}, {6, 16, 4}, {7, 20, 4}};
       for (VkBool32 animate : {VK_FALSE, VK_TRUE}) {
         if (assign && animate) continue;
         const uint32_t binnedValues[] = {assign, assignBins(), animate, mostClustersPerLight(),
-                                         binnedGroupSize(setup.context.info)};
-        VkSpecializationInfo binnedSpec{5, binnedEntries, sizeof(binnedValues), binnedValues};
+                                         binnedGroupSize(setup.context.info), pointTest()};
+        VkSpecializationInfo binnedSpec{6, binnedEntries, sizeof(binnedValues), binnedValues};
         (assign ? assignBinned_ : animate ? countBinnedAnimated_ : countBinned_) = pipelines_.add(
             gpu::createComputePipeline(device, layout, spirv::cluster_assign_binned_comp, &binnedSpec));
       }
