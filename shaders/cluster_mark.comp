@@ -15,6 +15,9 @@
 
 layout(local_size_x = MYRIAD_PIXEL_GROUP, local_size_y = MYRIAD_PIXEL_GROUP) in;
 layout(constant_id = 0) const bool kNumber = false;
+// cluster_assign.glsl's overlap test; 0 (view boxes only, CPU devices' default): no points'
+// bounds are gathered or published (techniques/clustered.cpp's pointTest says why).
+layout(constant_id = 7) const uint kPointTest = 2u;
 
 // The mark bits, then the clusters' point bounds (cluster_bounds.glsl).
 layout(std430, set = MYRIAD_SET_TARGETS, binding = MYRIAD_BINDING_CLUSTER_MARKS) buffer ClusterMarkBlock {
@@ -52,6 +55,18 @@ void publishBounds(uint cluster) {
 }
 
 void main() {
+  if (!kNumber && kPointTest == 0u) {
+    // The marks alone (as before the points' bounds).
+    ivec2 pixel = ivec2(gl_GlobalInvocationID.xy);
+    if (pixel.x >= int(frame.viewport.x) || pixel.y >= int(frame.viewport.y)) return;
+    float depth = texelFetch(gbufferDepth, pixel, 0).r;
+    if (depth >= 1.0) return;
+    // Most pixels find the bit set and only read.
+    uint cluster = clusterOfPixel(pixel, depth);
+    uint bit = 1u << (cluster & 31u);
+    if ((clusterMarks[cluster >> 5u] & bit) == 0u) atomicOr(clusterMarks[cluster >> 5u], bit);
+    return;
+  }
   if (!kNumber) {
     // The group's 8x8 pixels lie in one screen tile: the points of the lowest cluster among them
     // (most often all) are reduced in shared memory, one group's six atomics; the others add
@@ -117,5 +132,5 @@ void main() {
   clusterCursors[clusterSpill(cluster)] = 0u;
   clusterCursors[clusterIdWord(cluster)] = id;
   clusterCursors[activeClusterWord(id)] = cluster;
-  publishBounds(cluster);
+  if (kPointTest != 0u) publishBounds(cluster);
 }

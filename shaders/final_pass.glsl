@@ -15,6 +15,17 @@
 #endif
 layout(local_size_x = FINAL_GROUP, local_size_y = FINAL_GROUP) in;
 
+#ifdef MYRIAD_FINAL_CPU
+// CPU devices: the parts this pipeline runs, fixed when it is made (shared_types.h says why).
+layout(constant_id = MYRIAD_SPEC_FINAL_PARTS) const uint kFinalParts =
+    MYRIAD_FINAL_ANTIALIAS | MYRIAD_FINAL_MARKERS;
+bool markersOn() { return (kFinalParts & MYRIAD_FINAL_MARKERS) != 0u; }
+bool antialiasOn() { return (kFinalParts & MYRIAD_FINAL_ANTIALIAS) != 0u; }
+#else
+bool markersOn() { return frame.post.y != 0u; }
+bool antialiasOn() { return frame.post.x != MYRIAD_ANTIALIAS_NONE; }
+#endif
+
 #ifdef MYRIAD_RAW_OUTPUT
 layout(set = MYRIAD_SET_TARGETS, binding = MYRIAD_BINDING_OUTPUT, rgba32f) uniform writeonly image2D outputImage;
 #else
@@ -49,10 +60,27 @@ void main() {
 #else
 #include "antialias.glsl"
 
+#ifdef MYRIAD_FINAL_CPU
+// srgbEncode (shading.glsl) without pow, which llvmpipe computes as exp2(log2) with two
+// polynomials and a division: above the linear segment, the curve as a degree-5 polynomial of
+// c^(1/8) (three square roots) on [0.0031308^(1/8), 1], fitted at Chebyshev nodes. Evaluated
+// in float it is within 4.5e-7 of the exact curve (the float rounding of pow's own result is
+// 6e-8), so the 8-bit code differs from the exact curve's for about 1 value in 20,000, as a
+// float pow's does near the same boundaries.
+vec3 srgbEncodeCpu(vec3 linear) {
+  vec3 c = clamp(linear, 0.0, 1.0);
+  vec3 s = (sqrt(sqrt(sqrt(c))) - 0.74317950) * 3.8937697;
+  vec3 curve = ((((-3.7850339e-05 * s + 8.1117032e-04) * s + 2.7978225e-02) * s + 1.8216187e-01) * s +
+                4.5183468e-01) * s + 3.3725181e-01;
+  return mix(curve, 12.92 * c, lessThanEqual(c, vec3(0.0031308)));
+}
+#define srgbEncode3 srgbEncodeCpu
+#endif
+
 // The 8-bit colour of `pixel`: exposure, PBR Neutral, sRGB encoding, marker blended in.
 vec3 encodedColor(ivec2 pixel) {
   vec3 hdr = texelFetch(hdrColor, pixel, 0).rgb;
-  if (frame.post.y != 0u) hdr = withMarker(pixel, hdr);
+  if (markersOn()) hdr = withMarker(pixel, hdr);
   vec3 color = srgbEncode3(tonemapPbrNeutral(hdr * frame.camera.x));
   // The light-volumes view dims the picture so the overlay drawn next stands out.
   if (frame.flags.x == MYRIAD_VIEW_LIGHT_VOLUMES) color *= 0.5;
@@ -70,7 +98,7 @@ shared uint groupBase;
 void main() {
   ivec2 pixel = ivec2(gl_GlobalInvocationID.xy);
   bool inside = all(lessThan(pixel, ivec2(frame.viewport.xy)));
-  if (frame.post.x == MYRIAD_ANTIALIAS_NONE) {  // the same for the whole dispatch
+  if (!antialiasOn()) {  // the same for the whole dispatch
     if (inside) imageStore(outputImage, pixel, vec4(encodedColor(pixel), 1.0));
     return;
   }

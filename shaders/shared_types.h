@@ -199,6 +199,13 @@ using mat4 = glm::mat4;
 // The final pass on CPU devices (final_cpu.comp): 16x16 pixels share an 18x18 tile, 1.27 colour
 // encodings a pixel instead of 1.56 with 8x8 (10x10 tiles).
 #define MYRIAD_FINAL_CPU_GROUP 16
+// What final_cpu.comp does, bits of its specialisation constant MYRIAD_SPEC_FINAL_PARTS (one
+// pipeline per combination a frame asks for, render/passes.cpp): llvmpipe executes both sides of
+// every branch, so the marker resolve and the anti-aliasing tile cost every pixel of a frame that
+// has them off unless they are compiled out. GPUs keep one pipeline that tests the uniforms.
+#define MYRIAD_SPEC_FINAL_PARTS 10  // constant_id
+#define MYRIAD_FINAL_ANTIALIAS 0x1u
+#define MYRIAD_FINAL_MARKERS 0x2u
 #define MYRIAD_SCAN_GROUP 256
 // One cluster a scan thread: more, smaller workgroups (64 at 1080p) finish sooner than 4 a thread
 // (H200, issue 16 stop 17: the scan 0.0077 -> 0.0059 ms at 1080p, 0.0077 -> 0.0060 at 4K).

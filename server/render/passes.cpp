@@ -175,7 +175,11 @@ Pipelines::Pipelines(gpu::Context& context) : device(context.device) {
                             MYRIAD_FINAL_CPU_GROUP * MYRIAD_FINAL_CPU_GROUP &&
                         context.info.maxComputeWorkGroupSizeX >= MYRIAD_FINAL_CPU_GROUP;
   final = gpu::createComputePipeline(device, layout, cpuFinal ? spirv::final_cpu_comp : spirv::final_comp);
-  if (cpuFinal) finalGroup = MYRIAD_FINAL_CPU_GROUP;
+  if (cpuFinal) {
+    finalGroup = MYRIAD_FINAL_CPU_GROUP;
+    cpuFinal_ = true;
+    finalParts_[MYRIAD_FINAL_ANTIALIAS | MYRIAD_FINAL_MARKERS] = final;  // the default parts
+  }
   finalRaw = gpu::createComputePipeline(device, layout, spirv::final_raw_comp);
   views = gpu::createComputePipeline(device, layout, spirv::views_comp);
   viewsRaw = gpu::createComputePipeline(device, layout, spirv::views_raw_comp);
@@ -183,7 +187,22 @@ Pipelines::Pipelines(gpu::Context& context) : device(context.device) {
   yuv420 = gpu::createComputePipeline(device, layout, spirv::yuv420_comp);
 }
 
+VkPipeline Pipelines::finalFor(bool antialias, bool markers) const {
+  if (!cpuFinal_) return final;
+  const uint32_t parts = (antialias ? MYRIAD_FINAL_ANTIALIAS : 0u) | (markers ? MYRIAD_FINAL_MARKERS : 0u);
+  VkPipeline& pipeline = finalParts_[parts];
+  if (!pipeline) {
+    const VkSpecializationMapEntry entry{MYRIAD_SPEC_FINAL_PARTS, 0, sizeof(uint32_t)};
+    const VkSpecializationInfo spec{1, &entry, sizeof(parts), &parts};
+    pipeline = gpu::createComputePipeline(device, layout, spirv::final_cpu_comp, &spec);
+  }
+  return pipeline;
+}
+
 Pipelines::~Pipelines() {
+  for (VkPipeline p : finalParts_) {
+    if (p && p != final) vkDestroyPipeline(device, p, nullptr);
+  }
   for (VkPipeline p : {gbuffer, gbufferAlphaTest, gbufferUntextured, forward, forwardClustered, shadow, lightVolumeOverlay, animateLights,
                       markerSplat, final, finalRaw, views, viewsRaw, antialias, yuv420}) {
     if (p) vkDestroyPipeline(device, p, nullptr);
@@ -361,7 +380,8 @@ void recordMarkerPass(VkCommandBuffer cmd, const Pipelines& p, const FrameTarget
 }
 
 void recordFinalPass(VkCommandBuffer cmd, const Pipelines& p, const FrameTargets& t, Target target,
-                     bool markers, VkImageLayout hdrLayout, VkImageLayout lightCountLayout) {
+                     bool markers, bool antialias, VkImageLayout hdrLayout,
+                     VkImageLayout lightCountLayout) {
   constexpr VkPipelineStageFlags2 kCompute = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT;
   const bool picture = target == Target::Final || target == Target::LightVolumes;
   std::vector<ImageTransition> before = {
@@ -399,7 +419,8 @@ void recordFinalPass(VkCommandBuffer cmd, const Pipelines& p, const FrameTargets
                        VK_ACCESS_2_TRANSFER_WRITE_BIT, kCompute,
                        VK_ACCESS_2_SHADER_STORAGE_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT);
   }
-  VkPipeline pipeline = picture ? (t.raw ? p.finalRaw : p.final) : (t.raw ? p.viewsRaw : p.views);
+  VkPipeline pipeline = picture ? (t.raw ? p.finalRaw : p.finalFor(antialias, markers))
+                                : (t.raw ? p.viewsRaw : p.views);
   vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipeline);
   const uint32_t group = picture && !t.raw ? p.finalGroup : MYRIAD_PIXEL_GROUP;
   vkCmdDispatch(cmd, gpu::groupCount(t.extent.width, group), gpu::groupCount(t.extent.height, group), 1);

@@ -2,6 +2,8 @@
 // signature and its barriers, what it reads and what it writes. renderer.cpp calls them in order.
 #pragma once
 
+#include <array>
+
 #include <vulkan/vulkan.h>
 
 #include "gpu/context.h"
@@ -42,11 +44,19 @@ struct Pipelines {
   // views, each for the 8-bit and the raw (float) output; then anti-aliasing of final.
   VkPipeline final = VK_NULL_HANDLE;
   uint32_t finalGroup = MYRIAD_PIXEL_GROUP;  // its local size (MYRIAD_FINAL_CPU_GROUP on CPU devices)
+  // The 8-bit final pipeline for a frame with or without anti-aliasing and markers: `final` on
+  // GPUs (it tests the frame's uniforms); on CPU devices final_cpu.comp specialised to exactly
+  // those parts (MYRIAD_SPEC_FINAL_PARTS), made on first use (`final` is the one with both).
+  VkPipeline finalFor(bool antialias, bool markers) const;
   VkPipeline finalRaw = VK_NULL_HANDLE;
   VkPipeline views = VK_NULL_HANDLE;
   VkPipeline viewsRaw = VK_NULL_HANDLE;
   VkPipeline antialias = VK_NULL_HANDLE;
   VkPipeline yuv420 = VK_NULL_HANDLE;  // final as YCbCr 4:2:0 planes
+
+ private:
+  bool cpuFinal_ = false;
+  mutable std::array<VkPipeline, 4> finalParts_{};  // CPU devices: by MYRIAD_FINAL_* bits
 };
 
 // 1. Writes depth, normal, base colour, material, and uv and emissive where `written`
@@ -72,12 +82,13 @@ void recordMarkerPass(VkCommandBuffer cmd, const Pipelines& p, const FrameTarget
                       const SceneBuffers& scene);
 // 5. Compute, one thread per pixel. `final`/`light-volumes`: reads HDR and (with `markers`) the
 //    marker keys, writes the tonemapped picture to the output, or when the frame is anti-aliased
-//    (FrameUniforms.post.x) to the LDR target for pass 5b. Other views: reads the G-buffer or light counts, writes the output.
+//    (`antialias`, as FrameUniforms.post.x says) to the LDR target for pass 5b. Other views: reads the G-buffer or light counts, writes the output.
 //    `hdrLayout` and `lightCountLayout` are where lighting (and blending) left them (GENERAL
 //    after compute, COLOR_ATTACHMENT after volumes or the blend pass). Leaves the output in
 //    GENERAL.
 void recordFinalPass(VkCommandBuffer cmd, const Pipelines& p, const FrameTargets& t, Target target,
-                     bool markers, VkImageLayout hdrLayout, VkImageLayout lightCountLayout);
+                     bool markers, bool antialias, VkImageLayout hdrLayout,
+                     VkImageLayout lightCountLayout);
 // 5b. (final, 8-bit, antialias on) Reads the LDR target; writes the anti-aliased output.
 void recordAntialiasPass(VkCommandBuffer cmd, const Pipelines& p, const FrameTargets& t);
 // 5c. (light-volumes view) Reads depth and lights; adds each volume's coverage to the output.

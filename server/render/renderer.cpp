@@ -1066,7 +1066,8 @@ void Renderer::State::recordAfterLighting(VkCommandBuffer cmd, const FrameSlot& 
   }
   const bool antialias = settings.antialiased();  // as FrameUniforms.post.x says
   slot.timer->beginPass(cmd, "final");  // names-once: the pass, not the target
-  recordFinalPass(cmd, p, t, settings.target, settings.markers, hdrLayout, lightingLayout);
+  recordFinalPass(cmd, p, t, settings.target, settings.markers, antialias, hdrLayout,
+                  lightingLayout);
   VkImageLayout outputLayout = VK_IMAGE_LAYOUT_GENERAL;
   if (antialias) {
     slot.timer->beginPass(cmd, "antialias");

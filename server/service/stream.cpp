@@ -200,6 +200,20 @@ bool StreamState::next(httplib::DataSink& sink) {
               context, session, quality->degrade(request, motion), render::FrameSource::Stream);
           SessionFrame own = collectSessionFrame(context, session, pending);
           quality->measured(motion, scale, Clock::now() - pending.submitted);
+          // An interaction that ended while this part rendered (the drag released, the slider
+          // let go) leaves it a picture nobody needs: its still is next. Not sent, so the client
+          // does not decode it on the cores the still renders on, nor hold the still behind it.
+          bool superseded = false;
+          {
+            std::lock_guard lock(session->mutex);
+            superseded = motion == InteractiveQuality::Motion::Steered &&
+                         !session->scene.settings().animate &&
+                         session->interactionEndVersion > own.version;
+          }
+          if (superseded) {
+            lastInteractive = true;
+            continue;
+          }
           frame = {std::make_shared<const EncodedFrame>(std::move(own.encoded)), own.version, 0};
           char text[32];
           auto [end, ec] = std::to_chars(text, text + sizeof text, scale);

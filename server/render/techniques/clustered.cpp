@@ -167,15 +167,18 @@ bool markInGBuffer() {
 
 // The overlap test's boxes (cluster_assign.glsl's kPointTest): 2, the bounds of a cluster's
 // surface points; MYRIAD_CLUSTER_POINT_TEST=1 those and the cluster's view box, 0 the view box
-// only (the test before stop 18): a benchmark switch.
-uint32_t pointTest() {
-  static const uint32_t test = [] {
-    const char* v = std::getenv("MYRIAD_CLUSTER_POINT_TEST");
-    if (!v) return 2u;
+// only (the test before stop 18): a benchmark switch. CPU devices default to 0, and their mark
+// pass then gathers no bounds (cluster_mark.comp's kPointTest): on llvmpipe the gathering's
+// atomics and barriers, run for every pixel, took a 1280x720 still's assign from 8-12 ms to
+// 38-46 (docs/performance.md, stop 18), more than the shorter lists save the whole-list shading
+// (about 10 ms). The lights that reach a pixel, so the image, are the same either way.
+uint32_t pointTest(const gpu::DeviceInfo& device) {
+  static const int asked = [] {
+    if (!std::getenv("MYRIAD_CLUSTER_POINT_TEST")) return -1;
     const uint64_t n = envNumber("MYRIAD_CLUSTER_POINT_TEST");
-    return n <= 2 ? uint32_t(n) : 2u;
+    return n <= 2 ? int(n) : 2;
   }();
-  return test;
+  return asked >= 0 ? uint32_t(asked) : device.isCpu ? 0u : 2u;
 }
 
 // The binned passes need full subgroups with arithmetic, ballot and shuffle (their walk per
@@ -287,12 +290,16 @@ class Clustered final : public LightingTechnique {
       shadeWhole_ = std::make_unique<FeaturePipelines>(device, layout,
                                                        spirv::light_clustered_whole_comp);
     }
-    mark_ = pipelines_.add(gpu::createComputePipeline(device, layout, spirv::cluster_mark_comp));
     {
-      const VkSpecializationMapEntry entry{0, 0, sizeof(VkBool32)};
-      const VkBool32 number = VK_TRUE;
-      VkSpecializationInfo spec{1, &entry, sizeof(number), &number};
-      number_ = pipelines_.add(gpu::createComputePipeline(device, layout, spirv::cluster_mark_comp, &spec));
+      // cluster_mark.comp: kNumber (constant 0), kPointTest (7: no bounds gathered when 0).
+      const VkSpecializationMapEntry entries[] = {{0, 0, sizeof(VkBool32)},
+                                                  {7, sizeof(VkBool32), sizeof(uint32_t)}};
+      for (VkBool32 number : {VK_FALSE, VK_TRUE}) {
+        const uint32_t values[] = {number, pointTest(setup.context.info)};
+        VkSpecializationInfo spec{2, entries, sizeof(values), values};
+        (number ? number_ : mark_) = pipelines_.add(
+            gpu::createComputePipeline(device, layout, spirv::cluster_mark_comp, &spec));
+      }
     }
     scan_ = pipelines_.add(gpu::createComputePipeline(device, layout, spirv::cluster_scan_comp));
     // Alpha-blended surfaces mark their clusters from their fragments (storage writes from a
@@ -317,7 +324,7 @@ class Clustered final : public LightingTechnique {
                                                 {7, 2 * sizeof(VkBool32), sizeof(uint32_t)}};
     for (VkBool32 assign : {VK_FALSE, VK_TRUE}) {
       for (VkBool32 large : {VK_FALSE, VK_TRUE}) {
-        const uint32_t values[] = {assign, large, pointTest()};
+        const uint32_t values[] = {assign, large, pointTest(setup.context.info)};
         VkSpecializationInfo spec{3, entries, sizeof(values), values};
         VkPipeline& target = assign ? (large ? assignLarge_ : assign_) : (large ? countLarge_ : count_);
         target = pipelines_.add(
@@ -330,7 +337,8 @@ class Clustered final : public LightingTechnique {
       for (VkBool32 animate : {VK_FALSE, VK_TRUE}) {
         if (assign && animate) continue;
         const uint32_t binnedValues[] = {assign, assignBins(), animate, mostClustersPerLight(),
-                                         binnedGroupSize(setup.context.info), pointTest()};
+                                         binnedGroupSize(setup.context.info),
+                                         pointTest(setup.context.info)};
         VkSpecializationInfo binnedSpec{6, binnedEntries, sizeof(binnedValues), binnedValues};
         (assign ? assignBinned_ : animate ? countBinnedAnimated_ : countBinned_) = pipelines_.add(
             gpu::createComputePipeline(device, layout, spirv::cluster_assign_binned_comp, &binnedSpec));
