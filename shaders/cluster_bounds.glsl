@@ -1,12 +1,18 @@
-// The world-space bounds of each cluster's surface points, gathered by the passes that mark the
-// clusters (visibility_resolve.comp, cluster_mark.comp's pixel pass) in FrameTargets::clusterMarks
-// after the mark bits: six words per cluster, each an atomicMax, so that all-zero (the buffer's
-// state when made and after the numbering pass read it) is empty. The hi words hold
-// boundsKey(hi), the lo words ~boundsKey(lo). The numbering pass (cluster_mark.comp) turns them
-// into the cluster's bounds for the light assignment (cluster_cursors.glsl) and zeroes them.
-// Needs frame.glsl and the includer's `uint clusterMarks[]`.
+// FrameTargets::clusterMarks, written by the passes that mark the clusters
+// (visibility_resolve.comp, cluster_mark.comp's pixel pass): a bit per cluster that holds
+// geometry, then the world-space bounds of each cluster's surface points, six words per cluster,
+// each an atomicMax, so that all-zero (the buffer's state when made and after the numbering pass
+// read it) is empty. The hi words hold boundsKey(hi), the lo words ~boundsKey(lo). The numbering
+// pass (cluster_mark.comp) turns them into the cluster's bounds for the light assignment
+// (cluster_cursors.glsl) and zeroes them. Needs `frame` and the includer's `uint clusterMarks[]`.
 #ifndef MYRIAD_CLUSTER_BOUNDS_GLSL
 #define MYRIAD_CLUSTER_BOUNDS_GLSL
+
+// Sets cluster `cluster`'s mark bit (it holds geometry). Most pixels find it set and only read.
+void markClusterBit(uint cluster) {
+  uint bit = 1u << (cluster & 31u);
+  if ((clusterMarks[cluster >> 5u] & bit) == 0u) atomicOr(clusterMarks[cluster >> 5u], bit);
+}
 
 // A float's bits mapped so that unsigned order is the floats' order; never 0 for a number.
 uint boundsKey(float f) {

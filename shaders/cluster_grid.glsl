@@ -12,6 +12,15 @@ float viewDepthFromDepth(float depth) {
   return n * f / (f - depth * (f - n));
 }
 
+// World position of the pixel centre at `pixel` with depth `depth`: how the shading passes find a
+// G-buffer pixel's surface point, and the points whose bounds the mark passes gather
+// (cluster_bounds.glsl), so those bounds hold exactly the points shaded.
+vec3 worldFromDepth(ivec2 pixel, float depth) {
+  vec2 ndc = (vec2(pixel) + 0.5) * frame.viewport.zw * 2.0 - 1.0;
+  vec4 p = frame.inverseViewProjection * vec4(ndc, depth, 1.0);
+  return p.xyz / p.w;
+}
+
 // Exponential depth slices (Olsson et al. 2012): slice k spans near * (far/near)^(k/S) onwards, so
 // clusters stay roughly cubic in view space at every distance.
 uint sliceOfViewDepth(float z) {

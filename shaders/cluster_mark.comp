@@ -55,40 +55,26 @@ void publishBounds(uint cluster) {
 }
 
 void main() {
-  if (!kNumber && kPointTest == 0u) {
-    // The marks alone (as before the points' bounds).
-    ivec2 pixel = ivec2(gl_GlobalInvocationID.xy);
-    if (pixel.x >= int(frame.viewport.x) || pixel.y >= int(frame.viewport.y)) return;
-    float depth = texelFetch(gbufferDepth, pixel, 0).r;
-    if (depth >= 1.0) return;
-    // Most pixels find the bit set and only read.
-    uint cluster = clusterOfPixel(pixel, depth);
-    uint bit = 1u << (cluster & 31u);
-    if ((clusterMarks[cluster >> 5u] & bit) == 0u) atomicOr(clusterMarks[cluster >> 5u], bit);
-    return;
-  }
   if (!kNumber) {
     // The group's 8x8 pixels lie in one screen tile: the points of the lowest cluster among them
     // (most often all) are reduced in shared memory, one group's six atomics; the others add
-    // theirs one by one.
+    // theirs one by one. kPointTest 0 (a constant, so the same for the whole group): the marks
+    // alone.
     uint thread = gl_LocalInvocationIndex;
-    if (thread == 0u) groupCluster = MYRIAD_CLUSTER_INACTIVE;
-    if (thread < 6u) groupBounds[thread] = 0u;
-    barrier();
+    if (kPointTest != 0u) {
+      if (thread == 0u) groupCluster = MYRIAD_CLUSTER_INACTIVE;
+      if (thread < 6u) groupBounds[thread] = 0u;
+      barrier();
+    }
     ivec2 pixel = ivec2(gl_GlobalInvocationID.xy);
     bool surface = pixel.x < int(frame.viewport.x) && pixel.y < int(frame.viewport.y);
     float depth = surface ? texelFetch(gbufferDepth, pixel, 0).r : 1.0;
     surface = surface && depth < 1.0;
-    uint cluster = MYRIAD_CLUSTER_INACTIVE;
-    vec3 p = vec3(0.0);
-    if (surface) {
-      // Most pixels find the bit set and only read.
-      cluster = clusterOfPixel(pixel, depth);
-      uint bit = 1u << (cluster & 31u);
-      if ((clusterMarks[cluster >> 5u] & bit) == 0u) atomicOr(clusterMarks[cluster >> 5u], bit);
-      p = worldFromDepth(pixel, depth);  // as the shading passes find it
-      atomicMin(groupCluster, cluster);
-    }
+    uint cluster = surface ? clusterOfPixel(pixel, depth) : MYRIAD_CLUSTER_INACTIVE;
+    if (surface) markClusterBit(cluster);
+    if (kPointTest == 0u) return;
+    vec3 p = surface ? worldFromDepth(pixel, depth) : vec3(0.0);  // as the shading passes find it
+    if (surface) atomicMin(groupCluster, cluster);
     barrier();
     if (surface) {
       if (cluster == groupCluster) {

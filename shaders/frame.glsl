@@ -54,12 +54,8 @@ struct Surface {
   vec3 emissive;    // emitted radiance, added once (sunAndAmbient)
 };
 
-// World position of the pixel centre at `pixel` with G-buffer depth `depth`.
-vec3 worldFromDepth(ivec2 pixel, float depth) {
-  vec2 ndc = (vec2(pixel) + 0.5) * frame.viewport.zw * 2.0 - 1.0;
-  vec4 p = frame.inverseViewProjection * vec4(ndc, depth, 1.0);
-  return p.xyz / p.w;
-}
+
+#include "cluster_grid.glsl"  // worldFromDepth, and the cluster of a pixel
 
 // False where no geometry was drawn (depth still at the cleared far value).
 bool loadSurfaceWithDepth(ivec2 pixel, float depth, out Surface s) {
@@ -83,7 +79,6 @@ bool loadSurface(ivec2 pixel, out Surface s) {
   return loadSurfaceWithDepth(pixel, texelFetch(gbufferDepth, pixel, 0).r, s);
 }
 
-#include "cluster_grid.glsl"
 
 bool environmentOn() {
   return shadingFeature(MYRIAD_FEATURE_ENVIRONMENT) && frame.environment.x != float(MYRIAD_ENV_NONE);

@@ -36,44 +36,24 @@ layout(std430, set = MYRIAD_SET_VISIBILITY, binding = MYRIAD_BINDING_VISIBILITY_
 // cluster first (two clusters; a third and later add their points one by one), so that most
 // subgroups (8x4 pixels, mostly one cluster) take one lane's six atomics. The reductions are of
 // the bounds' words (unsigned maxima, one instruction each where the device reduces integers in
-// hardware, as NVIDIA's since sm_80), not of floats (a shuffle a step: on the H200 the float
-// version cost the resolve 0.024 ms at 1080p). kBoundsFloats (a benchmark switch,
-// MYRIAD_RESOLVE_BOUNDS_FLOATS=1) reduces the floats instead. Called by every invocation of the
-// subgroup that marks.
-layout(constant_id = 0) const bool kBoundsFloats = false;
-// kBoundsLate (MYRIAD_RESOLVE_BOUNDS_LATE=1, a benchmark switch): the bounds gathered after the
-// G-buffer's stores instead of with the mark bit, before the triangle's loads.
-layout(constant_id = 1) const bool kBoundsLate = false;
+// hardware, as NVIDIA's since sm_80), not of floats: on the H200 reducing floats was no faster
+// (resolve 0.179 against 0.177 ms at 1080p), nor was gathering after the G-buffer's stores
+// (0.177; issue 16, stop 18). Called by every invocation of the subgroup that marks.
 void addPointBounds(uint cluster, vec3 p) {
   uint first = subgroupBroadcastFirst(cluster);
   bool mine = cluster == first;
   uvec3 hiWords = boundsKeys(p);
   uvec3 loWords = ~hiWords;
-  if (kBoundsFloats) {
-    float inf = uintBitsToFloat(0x7F800000u);
-    vec3 lo = subgroupMin(mine ? p : vec3(inf));
-    vec3 hi = subgroupMax(mine ? p : vec3(-inf));
-    if (subgroupElect()) addClusterBounds(first, lo, hi);
-  } else {
-    uvec3 lo = subgroupMax(mine ? loWords : uvec3(0u));
-    uvec3 hi = subgroupMax(mine ? hiWords : uvec3(0u));
-    if (subgroupElect()) addClusterWords(first, lo, hi);
-  }
+  uvec3 lo = subgroupMax(mine ? loWords : uvec3(0u));
+  uvec3 hi = subgroupMax(mine ? hiWords : uvec3(0u));
+  if (subgroupElect()) addClusterWords(first, lo, hi);
   if (subgroupMin(mine ? 1u : 0u) == 1u) return;
   uint second = subgroupMin(mine ? 0xFFFFFFFFu : cluster);
   bool mine2 = cluster == second;
-  uvec3 lo = subgroupMax(mine2 ? loWords : uvec3(0u));
-  uvec3 hi = subgroupMax(mine2 ? hiWords : uvec3(0u));
+  lo = subgroupMax(mine2 ? loWords : uvec3(0u));
+  hi = subgroupMax(mine2 ? hiWords : uvec3(0u));
   if (subgroupElect()) addClusterWords(second, lo, hi);
   if (!mine && !mine2) addClusterWords(cluster, loWords, hiWords);
-}
-
-// The pixel's surface point, as the shading passes find it (frame.glsl's worldFromDepth, the
-// same depth bits), added to its cluster's bounds.
-void addPixelBounds(ivec2 pixel, float depth, uint cluster) {
-  vec2 pixelNdc = (vec2(pixel) + 0.5) * frame.viewport.zw * 2.0 - 1.0;
-  vec4 world = frame.inverseViewProjection * vec4(pixelNdc, depth, 1.0);
-  addPointBounds(cluster, world.xyz / world.w);
 }
 
 void storeTexels(ivec2 pixel, GBufferTexels t, vec2 uv) {
@@ -106,17 +86,14 @@ void main() {
   // The depth the visibility pass compared: the value the raster path's depth test kept.
   float depth = uintBitsToFloat(uint(key >> 32));
   visibleDepth[index] = depth;
-  bool marks = frame.written.z != 0u && depth < 1.0;
-  uint cluster = 0u;
-  if (marks) {
+  if (frame.written.z != 0u && depth < 1.0) {
     // The clustered technique's step 1 (cluster_mark.comp's pixel pass on the raster path): this
     // pixel's cluster holds geometry. The same depth bits the depth target gets, the same
     // arithmetic (cluster_grid.glsl) as the shading pass. Most pixels find the bit set and only
     // read.
-    cluster = clusterOfPixel(pixel, depth);
-    uint bit = 1u << (cluster & 31u);
-    if ((clusterMarks[cluster >> 5u] & bit) == 0u) atomicOr(clusterMarks[cluster >> 5u], bit);
-    if (!kBoundsLate) addPixelBounds(pixel, depth, cluster);
+    uint cluster = clusterOfPixel(pixel, depth);
+    markClusterBit(cluster);
+    addPointBounds(cluster, worldFromDepth(pixel, depth));  // the point the shading finds
   }
 
   TriangleRef ref = triangleRef(id);
@@ -164,5 +141,4 @@ void main() {
   MaterialSample m = untexturedMaterial(materials[instance.material.x], color, normal,
                                         -side * faceNormal, side);
   storeTexels(pixel, gbufferTexels(m), uv);
-  if (kBoundsLate && marks) addPixelBounds(pixel, depth, cluster);
 }

@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <array>
-#include <cstdlib>
 #include <cstring>
 #include <vector>
 
@@ -84,20 +83,7 @@ ComputeGBuffer::ComputeGBuffer(gpu::Context& context, VkDescriptorSetLayout scen
   VK_CHECK(vkCreatePipelineLayout(context.device, &layoutInfo, nullptr, &layout_));
   visibility_ = gpu::createComputePipeline(context.device, layout_, spirv::visibility_comp);
   tiles_ = gpu::createComputePipeline(context.device, layout_, spirv::visibility_tiles_comp);
-  {
-    // kBoundsFloats (constant 0): the clusters' point bounds reduced as floats, not as their
-    // words (MYRIAD_RESOLVE_BOUNDS_FLOATS=1); kBoundsLate (1): gathered after the stores
-    // (MYRIAD_RESOLVE_BOUNDS_LATE=1). Benchmark switches; visibility_resolve.comp.
-    auto on = [](const char* name) {
-      const char* v = std::getenv(name);
-      return v && std::strcmp(v, "1") == 0 ? VK_TRUE : VK_FALSE;
-    };
-    const VkBool32 values[] = {on("MYRIAD_RESOLVE_BOUNDS_FLOATS"), on("MYRIAD_RESOLVE_BOUNDS_LATE")};
-    const VkSpecializationMapEntry entries[] = {{0, 0, sizeof(VkBool32)},
-                                                {1, sizeof(VkBool32), sizeof(VkBool32)}};
-    VkSpecializationInfo spec{2, entries, sizeof(values), values};
-    resolve_ = gpu::createComputePipeline(context.device, layout_, spirv::visibility_resolve_comp, &spec);
-  }
+  resolve_ = gpu::createComputePipeline(context.device, layout_, spirv::visibility_resolve_comp);
 
   const VkDescriptorPoolSize sizes[] = {
       {VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, slots * (MYRIAD_BINDING_VISIBILITY_NORMAL + 1)},
