@@ -18,6 +18,9 @@ bool shadingFeature(uint bit) { return (kShadingFeatures & bit) != 0u; }
 layout(std430, set = MYRIAD_SET_SCENE, binding = MYRIAD_BINDING_LIGHTS) readonly buffer LightBlock {
   GpuPointLight lights[];
 };
+// The same lights as texels (shared_types.h MYRIAD_BINDING_LIGHT_TEXELS says why), for the CPU
+// devices' light loop (light_clustered_whole.comp): lightTexel, lightFromTexels.
+layout(set = MYRIAD_SET_SCENE, binding = MYRIAD_BINDING_LIGHT_TEXELS) uniform samplerBuffer lightTexels;
 
 // The environment light (shaders/environment.glsl; render/environment.cpp builds it).
 layout(std430, set = MYRIAD_SET_SCENE, binding = MYRIAD_BINDING_ENVIRONMENT) readonly buffer EnvironmentBlock {
@@ -242,12 +245,29 @@ float localShadowFactor(int slot, vec3 position, vec3 normal) {
   return lit / 9.0;
 }
 
-vec3 shadeLight(Surface s, uint index) {
-  GpuPointLight light = lights[index];
+// Member `member` (0 positionRadius, 1 radianceFalloff, 2 cone) of light `index`, from lightTexels.
+vec4 lightTexel(uint index, uint member) {
+  return texelFetch(lightTexels, int(index * MYRIAD_LIGHT_TEXELS + member));
+}
+
+GpuPointLight lightFromTexels(uint index) {
+  GpuPointLight light;
+  light.positionRadius = lightTexel(index, 0u);
+  light.radianceFalloff = lightTexel(index, 1u);
+  light.cone = lightTexel(index, 2u);
+  return light;
+}
+
+// shadeLight for a light already loaded.
+vec3 shadeLightData(Surface s, GpuPointLight light) {
   return shadeLocalLight(s.position, s.normal, normalize(frame.cameraPosition.xyz - s.position),
                          s.baseColor, s.metallic, s.roughness, light.positionRadius.xyz,
                          light.positionRadius.w, light.radianceFalloff.rgb, light.radianceFalloff.w,
                          spotDirectionOf(light), light.cone.z, light.cone.w);
+}
+
+vec3 shadeLight(Surface s, uint index) {
+  return shadeLightData(s, lights[index]);
 }
 
 // What shadeLight works out per light from the surface and the view alone, for a pass that
@@ -278,19 +298,24 @@ vec3 shadeLightShadowed(Surface s, uint index) {
   return c;
 }
 
+// Whether the surface point is inside the light's radius (its positionRadius).
+bool withinLightRadius(Surface s, vec4 positionRadius) {
+  vec3 toLight = positionRadius.xyz - s.position;
+  return dot(toLight, toLight) < positionRadius.w * positionRadius.w;
+}
+
+// lightReaches for a light already loaded, past withinLightRadius: its cone.
+bool lightDataReaches(Surface s, GpuPointLight light) {
+  return localLightReaches(s.position, light.positionRadius.xyz, light.positionRadius.w,
+                           spotDirectionOf(light), light.cone.z);
+}
+
 // Whether the light reaches the surface point at all: inside its radius and its outer cone (what
 // the light-count view counts; shadeLight is exactly 0 wherever this is false).
 // The radius test runs first on the light's first 16 bytes alone: with long lists most lights fail
 // it, and they need neither their cone nor its decoding.
 bool lightReaches(Surface s, uint index) {
-  vec4 positionRadius = lights[index].positionRadius;
-  vec3 toLight = positionRadius.xyz - s.position;
-  if (dot(toLight, toLight) >= positionRadius.w * positionRadius.w) {
-    return false;
-  }
-  GpuPointLight light = lights[index];
-  return localLightReaches(s.position, light.positionRadius.xyz, light.positionRadius.w,
-                           spotDirectionOf(light), light.cone.z);
+  return withinLightRadius(s, lights[index].positionRadius) && lightDataReaches(s, lights[index]);
 }
 
 // For the passes that sum shadeLight over a list of lights (tiled, clustered, the blend pass):

@@ -19,7 +19,7 @@ layout(location = 3) out vec2 outUv;         // RG16_SFLOAT
 layout(location = 4) out vec4 outEmissive;   // emitted radiance: RGBA16_SFLOAT
 
 void main() {
-  GpuMaterial material = materials[inMaterial];
+  GpuMaterial material = materialFromTexels(inMaterial);
   MaterialSample m = evaluateMaterial(material);
 #ifdef MYRIAD_GBUFFER_ALPHA_TEST
   // Last (the derivatives are explicit, but a discarded pixel's quad neighbours still need it).

@@ -66,10 +66,22 @@ void main() {
       uvec2 range = clusterRanges[clusterIndex(uvec3(uvec2(pixel) / clusterTileSize(), slice))];
       for (uint i = 0u; i < range.y; ++i) {
         uint index = clusterLights[range.x + i];
+#ifdef MYRIAD_SHADE_WHOLE_LISTS
+        // CPU devices: the light from its texels (shared_types.h MYRIAD_BINDING_LIGHT_TEXELS),
+        // the rest of it only within its radius, as lightReaches.
+        if (withinLightRadius(s, lightTexel(index, 0u))) {
+          GpuPointLight light = lightFromTexels(index);
+          if (lightDataReaches(s, light)) {
+            color += shadeLightData(s, light);
+            ++reached;
+          }
+        }
+#else
         if (lightReaches(s, index)) {
           color += shadeLight(s, index);
           ++reached;
         }
+#endif
       }
     }
     color = withLocalShadows(s, color);

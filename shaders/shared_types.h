@@ -29,6 +29,15 @@ using mat4 = glm::mat4;
 #define MYRIAD_BINDING_BRDF_LUT 6       // storage vec4[]: the split-sum BRDF table (x scale, y bias)
 #define MYRIAD_BINDING_SUN_SHADOW_MAP 7 // sampler2DShadow: the sun's depth from its side (D32)
 #define MYRIAD_BINDING_LIGHT_SHADOW_ATLAS 8 // sampler2DShadow: local lights' depth tiles (D32)
+// The lights and the materials again, as uniform texel buffers, one texel a vec4/uvec4 member:
+// what hot loops read on CPU devices (the whole-list light loop, the G-buffer's material).
+// llvmpipe (Mesa 22.3) loads a storage buffer one lane and one component at a time, each behind
+// two branches; a texel fetch takes its vectorised texture path. Lights are RGBA32F (all float;
+// 2-3 ms faster than RGBA32UI with uintBitsToFloat), materials RGBA32UI (their flags are integer
+// bits, which a float format could flush as denormals), read back with uintBitsToFloat.
+#define MYRIAD_BINDING_LIGHT_TEXELS 9
+#define MYRIAD_BINDING_MATERIAL_TEXELS 10
+#define MYRIAD_LIGHT_TEXELS 3  // texels of one GpuPointLight
 
 // Shadows (render/shadows.cpp). The shadow pass draws depth only, with one push constant: the
 // light's view-projection (ShadowPush).
@@ -389,6 +398,7 @@ MYRIAD_STRUCT(GpuMaterial) {
   // Per texture slot, two rows of the 2x3 KHR_texture_transform matrix: uv' = M * (uv, 1).
   vec4 uvTransform[2 * MYRIAD_TEXTURE_SLOTS];
 };
+#define MYRIAD_MATERIAL_TEXELS (4 + 2 * MYRIAD_TEXTURE_SLOTS)  // texels of one GpuMaterial
 
 #ifdef __cplusplus
 }  // namespace myriad::gpu_types

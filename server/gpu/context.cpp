@@ -150,6 +150,7 @@ DeviceInfo describe(VkPhysicalDevice physical, uint32_t index) {
   info.isCpu = p.deviceType == VK_PHYSICAL_DEVICE_TYPE_CPU;
   info.maxImageDimension2D = p.limits.maxImageDimension2D;
   info.maxStorageBufferRange = p.limits.maxStorageBufferRange;
+  info.maxTexelBufferElements = p.limits.maxTexelBufferElements;
   info.maxComputeSharedMemorySize = p.limits.maxComputeSharedMemorySize;
   info.maxComputeWorkGroupInvocations = p.limits.maxComputeWorkGroupInvocations;
   info.maxComputeWorkGroupSizeX = p.limits.maxComputeWorkGroupSize[0];

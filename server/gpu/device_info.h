@@ -18,6 +18,7 @@ struct DeviceInfo {
   bool isCpu = false;         // a software implementation (lavapipe, SwiftShader)
   uint32_t maxImageDimension2D = 0;
   uint64_t maxStorageBufferRange = 0;
+  uint64_t maxTexelBufferElements = 0;  // texels one texel-buffer view may cover
   uint32_t maxComputeSharedMemorySize = 0;
   uint32_t maxComputeWorkGroupInvocations = 0;
   uint32_t maxComputeWorkGroupSizeX = 0;

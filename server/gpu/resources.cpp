@@ -198,13 +198,29 @@ VkImageView Arena::createView(const Image& image, VkFormat format, VkImageUsageF
   return handle;
 }
 
+VkBufferView Arena::createTexelView(const Buffer& buffer, VkFormat format) {
+  VkBufferViewCreateInfo view{VK_STRUCTURE_TYPE_BUFFER_VIEW_CREATE_INFO};
+  view.buffer = buffer.buffer;
+  view.format = format;
+  view.offset = 0;
+  constexpr VkDeviceSize kTexelBytes = 16;
+  view.range = std::min(buffer.size, context_->info.maxTexelBufferElements * kTexelBytes) /
+               kTexelBytes * kTexelBytes;
+  VkBufferView handle = VK_NULL_HANDLE;
+  VK_CHECK(vkCreateBufferView(context_->device, &view, nullptr, &handle));
+  texelViews_.push_back(handle);
+  return handle;
+}
+
 void Arena::release() {
   VkDevice device = context_->device;
+  for (VkBufferView v : texelViews_) vkDestroyBufferView(device, v, nullptr);
   for (VkImageView v : views_) vkDestroyImageView(device, v, nullptr);
   for (VkImage i : images_) vkDestroyImage(device, i, nullptr);
   for (VkBuffer b : buffers_) vkDestroyBuffer(device, b, nullptr);
   for (Block& b : blocks_) vkFreeMemory(device, b.memory, nullptr);  // also unmaps
   views_.clear();
+  texelViews_.clear();
   images_.clear();
   buffers_.clear();
   blocks_.clear();

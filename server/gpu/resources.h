@@ -62,6 +62,10 @@ class Arena {
   // Another view of `image` (every mip level) in `format`, destroyed with the arena; `usage`
   // non-zero: what this view is used for (a subset of the image's usage).
   VkImageView createView(const Image& image, VkFormat format, VkImageUsageFlags usage = 0);
+  // A texel view of `buffer` (made with a texel-buffer usage) in `format`, a 16-byte format: all
+  // of it, or its first maxTexelBufferElements texels where the device allows fewer. Destroyed
+  // with the arena.
+  VkBufferView createTexelView(const Buffer& buffer, VkFormat format);
 
   // Destroys every resource and frees every block. The caller ensures the GPU is done with them.
   void release();
@@ -89,6 +93,7 @@ class Arena {
   std::vector<VkBuffer> buffers_;
   std::vector<VkImage> images_;
   std::vector<VkImageView> views_;
+  std::vector<VkBufferView> texelViews_;
 };
 
 // Index of a memory type allowed by `typeBits` with all of `required` (and `preferred` if any

@@ -47,6 +47,9 @@ static_assert(sizeof(GpuInstance) == 144 && offsetof(GpuInstance, material) == 1
 static_assert(sizeof(GpuMaterial) == 64 + 16 * 2 * MYRIAD_TEXTURE_SLOTS &&
               offsetof(GpuMaterial, metallicRoughness) == 16 && offsetof(GpuMaterial, flags) == 48 &&
               offsetof(GpuMaterial, uvTransform) == 64);
+// The texel views (MYRIAD_BINDING_LIGHT_TEXELS, _MATERIAL_TEXELS): one 16-byte texel a member.
+static_assert(sizeof(GpuPointLight) == 16 * MYRIAD_LIGHT_TEXELS &&
+              sizeof(GpuMaterial) == 16 * MYRIAD_MATERIAL_TEXELS);
 
 static_assert(uint32_t(EnvironmentMode::None) == MYRIAD_ENV_NONE);
 static_assert(uint32_t(EnvironmentMode::Sky) == MYRIAD_ENV_SKY);

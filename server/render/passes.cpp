@@ -57,7 +57,7 @@ gpu::VertexLayout surfaceVertexLayout() {
 Pipelines::Pipelines(gpu::Context& context) : device(context.device) {
   const VkShaderStageFlags all =
       VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT | VK_SHADER_STAGE_COMPUTE_BIT;
-  std::array<VkDescriptorSetLayoutBinding, 9> sceneBindings{{
+  std::array<VkDescriptorSetLayoutBinding, 11> sceneBindings{{
       {MYRIAD_BINDING_FRAME, VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1, all, nullptr},
       {MYRIAD_BINDING_LIGHTS, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, all, nullptr},
       {MYRIAD_BINDING_INSTANCES, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, all, nullptr},
@@ -67,6 +67,8 @@ Pipelines::Pipelines(gpu::Context& context) : device(context.device) {
       {MYRIAD_BINDING_BRDF_LUT, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, all, nullptr},
       {MYRIAD_BINDING_SUN_SHADOW_MAP, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, all, nullptr},
       {MYRIAD_BINDING_LIGHT_SHADOW_ATLAS, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, all, nullptr},
+      {MYRIAD_BINDING_LIGHT_TEXELS, VK_DESCRIPTOR_TYPE_UNIFORM_TEXEL_BUFFER, 1, all, nullptr},
+      {MYRIAD_BINDING_MATERIAL_TEXELS, VK_DESCRIPTOR_TYPE_UNIFORM_TEXEL_BUFFER, 1, all, nullptr},
   }};
   sceneSetLayout = gpu::createDescriptorSetLayout(device, sceneBindings);
   const VkShaderStageFlags readers = VK_SHADER_STAGE_FRAGMENT_BIT | VK_SHADER_STAGE_COMPUTE_BIT;
@@ -179,6 +181,7 @@ Pipelines::Pipelines(gpu::Context& context) : device(context.device) {
     finalGroup = MYRIAD_FINAL_CPU_GROUP;
     cpuFinal_ = true;
     finalParts_[MYRIAD_FINAL_ANTIALIAS | MYRIAD_FINAL_MARKERS] = final;  // the default parts
+    antialiasEdges = gpu::createComputePipeline(device, layout, spirv::antialias_edges_comp);
   }
   finalRaw = gpu::createComputePipeline(device, layout, spirv::final_raw_comp);
   views = gpu::createComputePipeline(device, layout, spirv::views_comp);
@@ -204,7 +207,8 @@ Pipelines::~Pipelines() {
     if (p && p != final) vkDestroyPipeline(device, p, nullptr);
   }
   for (VkPipeline p : {gbuffer, gbufferAlphaTest, gbufferUntextured, forward, forwardClustered, shadow, lightVolumeOverlay, animateLights,
-                      markerSplat, final, finalRaw, views, viewsRaw, antialias, yuv420}) {
+                      markerSplat, final, finalRaw, views, viewsRaw, antialias, antialiasEdges,
+                      yuv420}) {
     if (p) vkDestroyPipeline(device, p, nullptr);
   }
   if (layout) vkDestroyPipelineLayout(device, layout, nullptr);
@@ -434,6 +438,13 @@ void recordAntialiasPass(VkCommandBuffer cmd, const Pipelines& p, const FrameTar
                                      VK_ACCESS_2_SHADER_SAMPLED_READ_BIT, VK_IMAGE_LAYOUT_GENERAL,
                                      VK_IMAGE_LAYOUT_READ_ONLY_OPTIMAL}};
   gpu::barrier(cmd, before);
+  if (p.antialiasEdges) {
+    // CPU devices: the edge test, from the LDR target (final_pass.glsl's CPU main), which lists
+    // the edge pixels and writes the others to the output.
+    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, p.antialiasEdges);
+    vkCmdDispatch(cmd, gpu::groupCount(t.extent.width, p.finalGroup),
+                  gpu::groupCount(t.extent.height, p.finalGroup), 1);
+  }
   gpu::bufferBarrier(cmd, t.edges, kCompute, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
                      kCompute | VK_PIPELINE_STAGE_2_DRAW_INDIRECT_BIT,
                      VK_ACCESS_2_SHADER_STORAGE_READ_BIT | VK_ACCESS_2_INDIRECT_COMMAND_READ_BIT);

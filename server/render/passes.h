@@ -52,6 +52,9 @@ struct Pipelines {
   VkPipeline views = VK_NULL_HANDLE;
   VkPipeline viewsRaw = VK_NULL_HANDLE;
   VkPipeline antialias = VK_NULL_HANDLE;
+  // CPU devices: anti-aliasing's edge test as a pass of its own (antialias_edges.comp), which
+  // their final pass leaves out; null on GPUs (their final pass tests the edges).
+  VkPipeline antialiasEdges = VK_NULL_HANDLE;
   VkPipeline yuv420 = VK_NULL_HANDLE;  // final as YCbCr 4:2:0 planes
 
  private:

@@ -312,7 +312,7 @@ void Renderer::State::writeSceneSet(FrameSlot& slot, const SceneBuffers& scene,
       {environment.buffer, 0, VK_WHOLE_SIZE},
       {environmentPasses->brdfLut().buffer, 0, VK_WHOLE_SIZE},
   };
-  VkWriteDescriptorSet writes[9];
+  VkWriteDescriptorSet writes[11];
   for (uint32_t i = 0; i < 7; ++i) {
     writes[i] = {VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET};
     writes[i].dstSet = slot.sceneSet;
@@ -331,7 +331,16 @@ void Renderer::State::writeSceneSet(FrameSlot& slot, const SceneBuffers& scene,
   writes[8] = writes[7];
   writes[8].dstBinding = MYRIAD_BINDING_LIGHT_SHADOW_ATLAS;
   writes[8].pImageInfo = &lightShadowAtlas;
-  vkUpdateDescriptorSets(context.device, 9, writes, 0, nullptr);
+  writes[9] = {VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET};
+  writes[9].dstSet = slot.sceneSet;
+  writes[9].dstBinding = MYRIAD_BINDING_LIGHT_TEXELS;
+  writes[9].descriptorCount = 1;
+  writes[9].descriptorType = VK_DESCRIPTOR_TYPE_UNIFORM_TEXEL_BUFFER;
+  writes[9].pTexelBufferView = &scene.lightTexels;
+  writes[10] = writes[9];
+  writes[10].dstBinding = MYRIAD_BINDING_MATERIAL_TEXELS;
+  writes[10].pTexelBufferView = &scene.materialTexels;
+  vkUpdateDescriptorSets(context.device, 11, writes, 0, nullptr);
 }
 
 void Renderer::State::writeTargetSet(FrameSlot& slot) {
@@ -492,10 +501,11 @@ Renderer::Renderer(gpu::Context& context) : state_(std::make_unique<State>(conte
   VkDescriptorPoolSize sizes[] = {{VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, n * 1},
                                   {VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, n * 9},  // + the edge pixels, the YCbCr planes, the cluster marks (set 1)
                                   {VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, n * 11},  // + the shadow maps, the LDR target
-                                  {VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, n * 5}};
+                                  {VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, n * 5},
+                                  {VK_DESCRIPTOR_TYPE_UNIFORM_TEXEL_BUFFER, n * 2}};  // lights, materials
   VkDescriptorPoolCreateInfo poolInfo{VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO};
   poolInfo.maxSets = 2 * n;
-  poolInfo.poolSizeCount = 4;
+  poolInfo.poolSizeCount = 5;
   poolInfo.pPoolSizes = sizes;
   VK_CHECK(vkCreateDescriptorPool(device, &poolInfo, nullptr, &s.descriptorPool));
   std::vector<VkDescriptorSetLayout> layouts;

@@ -299,7 +299,17 @@ SceneBuffers::SceneBuffers(gpu::Context& context, gpu::CommandRecorder& recorder
                                gpu::MemoryUse::DeviceLocal);
   const VkBufferUsageFlags storage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | dst;
   instances = arena.createBuffer(bytes(gpuInstances), storage, gpu::MemoryUse::DeviceLocal);
-  materials = arena.createBuffer(bytes(gpuMaterials), storage, gpu::MemoryUse::DeviceLocal);
+  const uint64_t materialTexelCount = uint64_t(gpuMaterials.size()) * MYRIAD_MATERIAL_TEXELS;
+  if (materialTexelCount > context.info.maxTexelBufferElements) {
+    throw std::invalid_argument(std::to_string(gpuMaterials.size()) +
+                                " materials are more than this device's texel buffers hold (" +
+                                std::to_string(context.info.maxTexelBufferElements /
+                                               MYRIAD_MATERIAL_TEXELS) + ")");
+  }
+  materials = arena.createBuffer(bytes(gpuMaterials),
+                                 storage | VK_BUFFER_USAGE_UNIFORM_TEXEL_BUFFER_BIT,
+                                 gpu::MemoryUse::DeviceLocal);
+  materialTexels = arena.createTexelView(materials, VK_FORMAT_R32G32B32A32_UINT);
   allocateLights(lightCount);
   transfer(context, recorder, {},
            {{&vertices, 0, allVertices.data(), bytes(allVertices)},
@@ -316,10 +326,13 @@ void SceneBuffers::allocateLights(uint32_t capacity) {
   // Both are copy sources and destinations: growth copies them, restore copies origins to lights.
   const VkBufferUsageFlags usage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT |
                                    VK_BUFFER_USAGE_TRANSFER_DST_BIT | VK_BUFFER_USAGE_TRANSFER_SRC_BIT;
-  gpu::Buffer nextLights = next->createBuffer(size, usage, gpu::MemoryUse::DeviceLocal);
+  gpu::Buffer nextLights = next->createBuffer(
+      size, usage | VK_BUFFER_USAGE_UNIFORM_TEXEL_BUFFER_BIT, gpu::MemoryUse::DeviceLocal);
+  const VkBufferView nextTexels = next->createTexelView(nextLights, VK_FORMAT_R32G32B32A32_SFLOAT);
   gpu::Buffer nextOrigins = next->createBuffer(size, usage, gpu::MemoryUse::DeviceLocal);
   lightArena = std::move(next);
   lights = nextLights;
+  lightTexels = nextTexels;
   lightOrigins = nextOrigins;
   lightCapacity = capacity;
 }
@@ -369,10 +382,12 @@ void SceneBuffers::updateLights(gpu::CommandRecorder& recorder, const LightUpdat
   uint32_t capacity = static_cast<uint32_t>(std::min<uint64_t>(grown, deviceMost));
   std::unique_ptr<gpu::Arena> oldArena = std::move(lightArena);
   const gpu::Buffer oldLights = lights, oldOrigins = lightOrigins;
+  const VkBufferView oldTexels = lightTexels;
   const uint32_t oldCapacity = lightCapacity;
   auto restore = [&] {
     lightArena = std::move(oldArena);
     lights = oldLights;
+    lightTexels = oldTexels;
     lightOrigins = oldOrigins;
     lightCapacity = oldCapacity;
   };

@@ -93,6 +93,10 @@ struct SceneBuffers {
   gpu::Buffer materials;
   gpu::Buffer lights;        // where the lights are this frame (animation writes here)
   gpu::Buffer lightOrigins;  // where the scene put them
+  // `lights` (RGBA32F) and `materials` (RGBA32UI) as texel buffers (MYRIAD_BINDING_*_TEXELS),
+  // owned by the arena of the buffer they view.
+  VkBufferView lightTexels = VK_NULL_HANDLE;
+  VkBufferView materialTexels = VK_NULL_HANDLE;
   std::vector<DrawItem> draws;         // grouped by material
   std::vector<MeshLods> lods;          // per scene mesh (empty ranges: none)
   std::unique_ptr<MaterialTextures> textures;
