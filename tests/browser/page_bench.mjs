@@ -13,6 +13,7 @@
 //                 merges the moves that come between two of its frames into one), dragPatchesPerS
 //                 the camera PATCHes it sent a second (at most ~30) and dragPatchMs their median
 //                 request-to-answer time: the server renders one frame per PATCH at most
+//                 (dragServerFrames: the session's renders for each drag, its still included)
 //   stillMs       from the pointer going up to the full-quality still shown
 //   sliderMs      from a slider's input event to the first new frame shown (the exposure slider,
 //                 one step at a time, a pause between)
@@ -101,6 +102,11 @@ try {
     return r.status;
   }, {session, patch});
   const perf = () => page.evaluate(() => window.myriadPerf.toJSON());
+  // Waiting for a still: a probe as light as it gets. The whole figures (perf()), the server's
+  // stats and the resource timings are read once it has shown: read while the still rendered, they
+  // took the cores the renderer and the page use (stop 19: the drag's still 10-25 ms later).
+  const stillShown = () => until('a still', () => page.evaluate(() => window.myriadPerf.stills.length > 0),
+                                 30000).catch(() => null);
   // The server's side: frames rendered for the session so far, and the last one's size and GPU ms.
   const stats = () => page.evaluate(async (session) => {
     const r = await fetch(`/v1/sessions/${session.id}/stats`,
@@ -194,14 +200,13 @@ try {
     const seconds = (Date.now() - start) / 1000;
     // Released where the last move went (after it: the protocol's messages keep their order).
     await mouse('mouseReleased', at, 0);
+    await stillShown();
     const moves = await page.evaluate(() => window.benchPointerMoves);
-    const during = await stats();
+    const during = await stats();  // the drag's renders and its still's
     // The camera PATCHes the page sent during the drag (one in flight, at most one per 33 ms):
     // how many a second and their request-to-answer time.
     const patches = await page.evaluate(() => performance.getEntriesByType('resource')
         .filter((e) => e.name.includes('/camera')).map((e) => e.duration));
-    await until('the still after the drag', async () => (await perf()).stills.length > 0, 30000)
-        .catch(() => null);
     return {...(await perf()), serverFrames: during.frames - before.frames, lastServerFrame: during.last,
             movesPerS: moves / seconds, patchesPerS: patches.length / seconds,
             patchMs: summary(patches)?.median};
@@ -217,8 +222,7 @@ try {
       e.dispatchEvent(new Event('input', {bubbles: true}));
       e.dispatchEvent(new Event('change', {bubbles: true}));
     }, (i % 2 ? 0.5 : -0.5) + (i % 3) * 0.1);
-    await until('the slider\'s still', async () => (await perf()).stills.length > 0, 30000)
-        .catch(() => null);
+    await stillShown();
     return perf();
   }
 
