@@ -249,6 +249,13 @@ using mat4 = glm::mat4;
 #define MYRIAD_GBUFFER_UV 1u
 #define MYRIAD_GBUFFER_EMISSIVE 2u
 
+// What the compute G-buffer's resolve adds for the clustered technique (FrameUniforms.written.z,
+// bits; MYRIAD_BINDING_CLUSTER_MARKS): MARKS, the bit of each cluster holding geometry; BOUNDS,
+// the world bounds of each cluster's surface points too, where the light test reads them
+// (cluster_assign.glsl's kPointTest other than 0; CPU devices default to 0 and gather none).
+#define MYRIAD_RESOLVE_MARKS 1u
+#define MYRIAD_RESOLVE_BOUNDS 2u
+
 // What a pixel's shading may need this frame, as bits of the specialisation constant
 // MYRIAD_SPEC_SHADING_FEATURES (frame.glsl's kShadingFeatures; render/shading_features.h sets it
 // for the compute lighting passes). A pipeline specialised without a bit has that feature's code
@@ -297,8 +304,8 @@ MYRIAD_STRUCT(FrameUniforms) {
   uvec4 grid;            // x,y clusters across/down, z depth slices, w technique (render::Technique)
   uvec4 written;         // x the optional G-buffer targets this frame wrote (MYRIAD_GBUFFER_*);
                          // y the cluster grid's tile size in pixels (render/cluster_grid.h);
-                         // z 1: the compute G-buffer's resolve marks the clusters holding
-                         // geometry (MYRIAD_BINDING_CLUSTER_MARKS; the clustered technique asks);
+                         // z what the compute G-buffer's resolve does for the clustered technique
+                         // (MYRIAD_RESOLVE_*; 0 where another technique lights the frame);
                          // w unused
   vec4 slicing;          // x slices / ln(far/near), y ln(near) * x, z heat-map max, w time (s)
   vec4 environment;      // x mode (MYRIAD_ENV_*), y intensity, z background shown (0/1), w unused

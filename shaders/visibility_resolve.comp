@@ -86,14 +86,17 @@ void main() {
   // The depth the visibility pass compared: the value the raster path's depth test kept.
   float depth = uintBitsToFloat(uint(key >> 32));
   visibleDepth[index] = depth;
-  if (frame.written.z != 0u && depth < 1.0) {
+  uint clusterWork = frame.written.z;
+  if ((clusterWork & MYRIAD_RESOLVE_MARKS) != 0u && depth < 1.0) {
     // The clustered technique's step 1 (cluster_mark.comp's pixel pass on the raster path): this
     // pixel's cluster holds geometry. The same depth bits the depth target gets, the same
     // arithmetic (cluster_grid.glsl) as the shading pass. Most pixels find the bit set and only
     // read.
     uint cluster = clusterOfPixel(pixel, depth);
     markClusterBit(cluster);
-    addPointBounds(cluster, worldFromDepth(pixel, depth));  // the point the shading finds
+    if ((clusterWork & MYRIAD_RESOLVE_BOUNDS) != 0u) {
+      addPointBounds(cluster, worldFromDepth(pixel, depth));  // the point the shading finds
+    }
   }
 
   TriangleRef ref = triangleRef(id);

@@ -159,10 +159,11 @@ bool separateAnimation() {
 
 // Step 1 from the compute G-buffer's marks where it ran (its resolve pass reads every pixel's depth
 // anyway: a bit per cluster, then one invocation per cluster here) instead of a pass over the
-// pixels. MYRIAD_MARK_IN_GBUFFER=0 keeps the pixel pass (a benchmark comparison).
+// pixels. MYRIAD_MARK_IN_GBUFFER=0 keeps the pixel pass (a benchmark comparison, and
+// technique_tests' second renderer). Read when the technique is made, not once a process: a test
+// makes both renderers in one process.
 bool markInGBuffer() {
-  static const bool on = !envIs("MYRIAD_MARK_IN_GBUFFER", "0");
-  return on;
+  return !envIs("MYRIAD_MARK_IN_GBUFFER", "0");
 }
 
 // The overlap test's boxes (cluster_assign.glsl's kPointTest): 2, the bounds of a cluster's
@@ -281,7 +282,9 @@ class Clustered final : public LightingTechnique {
         wholeLists_(wholeListsFor(setup.context.info)),
         set_(setup.context, setup.pipelines), counters_(setup.context),
         binnedAssign_(binnedAssignFor(setup.context.info)),
-        animateInCount_(binnedAssign_ && !separateAnimation()) {
+        animateInCount_(binnedAssign_ && !separateAnimation()),
+        markInGBuffer_(markInGBuffer()),
+        gathersBounds_(pointTest(setup.context.info) != 0) {
     requireWorkgroup(setup.context, MYRIAD_SCAN_GROUP, MYRIAD_SCAN_GROUP);
     requireWorkgroup(setup.context, MYRIAD_ASSIGN_BIN_GROUP, MYRIAD_ASSIGN_BIN_GROUP);
     VkDevice device = setup.context.device;
@@ -376,7 +379,10 @@ class Clustered final : public LightingTechnique {
 
   void writeUniforms(FrameUniforms& u) const override {
     u.flags.w = lists_->capacity;
-    u.written.z = markInGBuffer() ? 1u : 0u;  // the compute G-buffer's resolve marks clusters
+    // The compute G-buffer's resolve marks the clusters, and gathers their points' bounds where
+    // the light test reads them.
+    u.written.z = !markInGBuffer_ ? 0u
+                  : MYRIAD_RESOLVE_MARKS | (gathersBounds_ ? MYRIAD_RESOLVE_BOUNDS : 0u);
   }
 
   // On GPUs the counting pass moves the lights as it walks them: one pass over the lights fewer.
@@ -416,7 +422,7 @@ class Clustered final : public LightingTechnique {
     // 1. Mark clusters holding visible geometry (the compute G-buffer's resolve did, or a pass
     // over the pixels here), then number them (a cluster an invocation).
     if (assignSteps()) pass.timer.beginPass(cmd, "assign-mark");
-    if (!(pass.computeGBuffer && markInGBuffer())) {
+    if (!(pass.computeGBuffer && markInGBuffer_)) {
       dispatchPixels(cmd, mark_, t.extent, MYRIAD_PIXEL_GROUP);
       gpu::memoryBarrier(cmd, kComputeStage, kStorageWrite, kComputeStage, kStorageReadWrite);
     }
@@ -619,6 +625,8 @@ class Clustered final : public LightingTechnique {
   CullingCounters counters_;
   bool binnedAssign_;  // small lights by cluster_assign_binned.comp (else cluster_assign.comp)
   bool animateInCount_;  // animatesLights()
+  bool markInGBuffer_;   // the compute G-buffer's resolve marks the clusters (markInGBuffer())
+  bool gathersBounds_;   // the light test reads the clusters' point bounds (pointTest() != 0)
   std::unique_ptr<ClusterLists> lists_;
   uint64_t listLimitBytes_ = 0;              // limitListMemory(); 0 = the device's limit
   uint32_t listStartCapacity_ = 0;           // limitListMemory(); 0 = initialCapacity()'s
