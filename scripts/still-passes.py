@@ -10,40 +10,30 @@
 import argparse
 import json
 import re
-import socket
 import statistics
 import subprocess
 import sys
+import threading
 import time
 import urllib.request
 
 
-def free_port():
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
-
-def wait_healthy(base, server):
-    for _ in range(300):
-        if server.poll() is not None:
-            sys.exit(f"still-passes: the server exited with {server.returncode}")
-        try:
-            urllib.request.urlopen(base + "/v1/health", timeout=2).read()
-            return
-        except OSError:
-            time.sleep(0.1)
-    sys.exit("still-passes: the server did not answer /v1/health within 30 s")
+def listening_port(server):
+    """The port a server started with --port 0 announces ("Myriad listening on http://...:PORT")."""
+    for line in server.stdout:
+        if "listening on" in line:
+            # The rest of its output is read and dropped, so that a full pipe never stalls it.
+            threading.Thread(target=server.stdout.read, daemon=True).start()
+            return int(line.strip().rsplit(":", 1)[1])
+    sys.exit(f"still-passes: the server exited ({server.wait()}) before it listened")
 
 
 def measure(binary, args):
     """One server, one session: the Server-Timing durations of each timed frame, by pass."""
-    port = free_port()
-    server = subprocess.Popen([binary, "--port", str(port)],
-                              stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-    base = f"http://127.0.0.1:{port}"
+    server = subprocess.Popen([binary, "--port", "0"], stdout=subprocess.PIPE,
+                              stderr=subprocess.DEVNULL, text=True)
     try:
-        wait_healthy(base, server)
+        base = f"http://127.0.0.1:{listening_port(server)}"
         created = json.load(urllib.request.urlopen(
             urllib.request.Request(base + "/v1/sessions", data=b"", method="POST")))
         width, height = args.size.split("x")
@@ -74,7 +64,8 @@ def summary(passes):
 
 
 def main():
-    parser = argparse.ArgumentParser(description=__doc__)
+    parser = argparse.ArgumentParser(
+        description="Server-Timing medians of a session's stills, binaries alternated")
     parser.add_argument("binaries", nargs="+")
     parser.add_argument("--frames", type=int, default=8)
     parser.add_argument("--warmup", type=int, default=2)

@@ -173,13 +173,10 @@ bool markInGBuffer() {
 // atomics and barriers, run for every pixel, took a 1280x720 still's assign from 8-12 ms to
 // 38-46 (docs/performance.md, stop 18), more than the shorter lists save the whole-list shading
 // (about 10 ms). The lights that reach a pixel, so the image, are the same either way.
+// Read when the technique is made, as the other switches a test sets for a second renderer.
 uint32_t pointTest(const gpu::DeviceInfo& device) {
-  static const int asked = [] {
-    if (!std::getenv("MYRIAD_CLUSTER_POINT_TEST")) return -1;
-    const uint64_t n = envNumber("MYRIAD_CLUSTER_POINT_TEST");
-    return n <= 2 ? int(n) : 2;
-  }();
-  return asked >= 0 ? uint32_t(asked) : device.isCpu ? 0u : 2u;
+  if (!std::getenv("MYRIAD_CLUSTER_POINT_TEST")) return device.isCpu ? 0u : 2u;
+  return static_cast<uint32_t>(std::min<uint64_t>(envNumber("MYRIAD_CLUSTER_POINT_TEST"), 2));
 }
 
 // The binned passes need full subgroups with arithmetic, ballot and shuffle (their walk per
@@ -284,7 +281,7 @@ class Clustered final : public LightingTechnique {
         binnedAssign_(binnedAssignFor(setup.context.info)),
         animateInCount_(binnedAssign_ && !separateAnimation()),
         markInGBuffer_(markInGBuffer()),
-        gathersBounds_(pointTest(setup.context.info) != 0) {
+        pointTest_(pointTest(setup.context.info)) {
     requireWorkgroup(setup.context, MYRIAD_SCAN_GROUP, MYRIAD_SCAN_GROUP);
     requireWorkgroup(setup.context, MYRIAD_ASSIGN_BIN_GROUP, MYRIAD_ASSIGN_BIN_GROUP);
     VkDevice device = setup.context.device;
@@ -298,7 +295,7 @@ class Clustered final : public LightingTechnique {
       const VkSpecializationMapEntry entries[] = {{0, 0, sizeof(VkBool32)},
                                                   {7, sizeof(VkBool32), sizeof(uint32_t)}};
       for (VkBool32 number : {VK_FALSE, VK_TRUE}) {
-        const uint32_t values[] = {number, pointTest(setup.context.info)};
+        const uint32_t values[] = {number, pointTest_};
         VkSpecializationInfo spec{2, entries, sizeof(values), values};
         (number ? number_ : mark_) = pipelines_.add(
             gpu::createComputePipeline(device, layout, spirv::cluster_mark_comp, &spec));
@@ -327,7 +324,7 @@ class Clustered final : public LightingTechnique {
                                                 {7, 2 * sizeof(VkBool32), sizeof(uint32_t)}};
     for (VkBool32 assign : {VK_FALSE, VK_TRUE}) {
       for (VkBool32 large : {VK_FALSE, VK_TRUE}) {
-        const uint32_t values[] = {assign, large, pointTest(setup.context.info)};
+        const uint32_t values[] = {assign, large, pointTest_};
         VkSpecializationInfo spec{3, entries, sizeof(values), values};
         VkPipeline& target = assign ? (large ? assignLarge_ : assign_) : (large ? countLarge_ : count_);
         target = pipelines_.add(
@@ -341,7 +338,7 @@ class Clustered final : public LightingTechnique {
         if (assign && animate) continue;
         const uint32_t binnedValues[] = {assign, assignBins(), animate, mostClustersPerLight(),
                                          binnedGroupSize(setup.context.info),
-                                         pointTest(setup.context.info)};
+                                         pointTest_};
         VkSpecializationInfo binnedSpec{6, binnedEntries, sizeof(binnedValues), binnedValues};
         (assign ? assignBinned_ : animate ? countBinnedAnimated_ : countBinned_) = pipelines_.add(
             gpu::createComputePipeline(device, layout, spirv::cluster_assign_binned_comp, &binnedSpec));
@@ -382,7 +379,7 @@ class Clustered final : public LightingTechnique {
     // The compute G-buffer's resolve marks the clusters, and gathers their points' bounds where
     // the light test reads them.
     u.written.z = !markInGBuffer_ ? 0u
-                  : MYRIAD_RESOLVE_MARKS | (gathersBounds_ ? MYRIAD_RESOLVE_BOUNDS : 0u);
+                  : MYRIAD_RESOLVE_MARKS | (pointTest_ != 0 ? MYRIAD_RESOLVE_BOUNDS : 0u);
   }
 
   // On GPUs the counting pass moves the lights as it walks them: one pass over the lights fewer.
@@ -626,7 +623,7 @@ class Clustered final : public LightingTechnique {
   bool binnedAssign_;  // small lights by cluster_assign_binned.comp (else cluster_assign.comp)
   bool animateInCount_;  // animatesLights()
   bool markInGBuffer_;   // the compute G-buffer's resolve marks the clusters (markInGBuffer())
-  bool gathersBounds_;   // the light test reads the clusters' point bounds (pointTest() != 0)
+  uint32_t pointTest_;   // the boxes lights are tested against (pointTest(); bounds unless 0)
   std::unique_ptr<ClusterLists> lists_;
   uint64_t listLimitBytes_ = 0;              // limitListMemory(); 0 = the device's limit
   uint32_t listStartCapacity_ = 0;           // limitListMemory(); 0 = initialCapacity()'s
