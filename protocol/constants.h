@@ -9,7 +9,8 @@
 
 namespace myriad::protocol {
 
-// Route templates; {id}, {mid} and {lid} are path segments (session id, material id, light id).
+// Route templates; {id}, {mid}, {lid}, {aid} and {oid} are path segments (session id, material id,
+// light id, asset id, object id).
 namespace routes {
 inline constexpr std::string_view kHealth = "/v1/health";
 inline constexpr std::string_view kReady = "/v1/ready";
@@ -36,6 +37,10 @@ inline constexpr std::string_view kSessionStats = "/v1/sessions/{id}/stats";
 inline constexpr std::string_view kSessionSnapshot = "/v1/sessions/{id}/snapshot";
 inline constexpr std::string_view kSessionTokens = "/v1/sessions/{id}/tokens";  // viewer tokens
 inline constexpr std::string_view kSessionLightsPick = "/v1/sessions/{id}/lights/pick";
+inline constexpr std::string_view kSessionAssets = "/v1/sessions/{id}/assets";
+inline constexpr std::string_view kSessionAsset = "/v1/sessions/{id}/assets/{aid}";
+inline constexpr std::string_view kSessionObjects = "/v1/sessions/{id}/objects";
+inline constexpr std::string_view kSessionObject = "/v1/sessions/{id}/objects/{oid}";
 inline constexpr std::string_view kOpenApi = "/v1/openapi.json";  // this API as OpenAPI 3.1
 inline constexpr std::string_view kWebRoot = "/";                 // the web client's page
 inline constexpr std::string_view kWebFile = "/web/{file}";       // and its other files
@@ -76,6 +81,14 @@ inline constexpr std::string_view kHealth = "health";
 inline constexpr std::string_view kTokenCreate = "token-create";
 inline constexpr std::string_view kTokenCreated = "token-created";
 inline constexpr std::string_view kLightPick = "light-pick";
+inline constexpr std::string_view kAsset = "asset";
+inline constexpr std::string_view kAssetsList = "assets-list";
+inline constexpr std::string_view kObject = "object";
+inline constexpr std::string_view kObjectNew = "object-new";
+inline constexpr std::string_view kObjectPatch = "object-patch";
+inline constexpr std::string_view kObjectsAdd = "objects-add";
+inline constexpr std::string_view kObjectsAdded = "objects-added";
+inline constexpr std::string_view kObjectsPage = "objects-page";
 }  // namespace schema_names
 
 // Roles of a session's tokens: the token POST /v1/sessions returns is the owner's (everything);
@@ -102,17 +115,18 @@ inline constexpr std::string_view kForbidden = "forbidden";                   //
 inline constexpr std::string_view kNotFound = "not-found";                    // 404
 inline constexpr std::string_view kMethodNotAllowed = "method-not-allowed";   // 405, Allow
 inline constexpr std::string_view kUnsupportedMediaType = "unsupported-media-type";  // 415
+inline constexpr std::string_view kConflict = "conflict";                    // 409
 inline constexpr std::string_view kModelRejected = "model-rejected";          // 422
 inline constexpr std::string_view kEnvironmentRejected = "environment-rejected";  // 422
 inline constexpr std::string_view kLimitExceeded = "limit-exceeded";          // 413/429, limit
 inline constexpr std::string_view kServerBusy = "server-busy";                // 503, Retry-After
 inline constexpr std::string_view kRenderFailed = "render-failed";            // 500
 inline constexpr std::string_view kInternalError = "internal-error";          // 500
-inline constexpr std::array<std::string_view, 15> kAll = {
+inline constexpr std::array<std::string_view, 16> kAll = {
     kInvalidParameter, kUnknownParameter, kInvalidBody,     kBadRequest,     kUnauthorized,
     kForbidden,        kNotFound,         kMethodNotAllowed, kUnsupportedMediaType,
-    kModelRejected,    kEnvironmentRejected, kLimitExceeded, kServerBusy,    kRenderFailed,
-    kInternalError};
+    kConflict,         kModelRejected,    kEnvironmentRejected, kLimitExceeded, kServerBusy,
+    kRenderFailed,     kInternalError};
 }  // namespace problems
 
 // "invalid-body" -> "https://myriad.dev/problems/invalid-body".
@@ -131,6 +145,8 @@ inline constexpr std::string_view kMaxBodyBytes = "maxBodyBytes";               
 inline constexpr std::string_view kMaxStreams = "maxStreams";                    // --max-streams
 inline constexpr std::string_view kMaxRequestsInFlight = "maxRequestsInFlight";  // --max-requests
 inline constexpr std::string_view kSessionIdleSeconds = "sessionIdleSeconds";    // --session-idle-seconds
+inline constexpr std::string_view kMaxObjectsPerSession = "maxObjectsPerSession";  // --max-objects
+inline constexpr std::string_view kMaxAssetsPerSession = "maxAssetsPerSession";    // fixed: 64
 }  // namespace limits
 
 // Headers.
@@ -162,6 +178,8 @@ namespace query {
 inline constexpr std::string_view kToken = "token";  // for <img>, which cannot send headers
 inline constexpr uint32_t kMaxLightsPageLimit = 1000;
 inline constexpr uint32_t kDefaultLightsPageLimit = 100;
+inline constexpr uint32_t kMaxObjectsPageLimit = 1000;
+inline constexpr uint32_t kDefaultObjectsPageLimit = 100;
 inline constexpr uint32_t kMinFps = 1;
 inline constexpr uint32_t kMaxFps = 240;  // a 240 Hz display; the GPU machine renders 1080p faster
 inline constexpr uint32_t kDefaultFps = 15;

@@ -89,6 +89,12 @@ json pathParameter(std::string_view name) {
   } else if (name == "lid") {
     schema = {{"$ref", componentRef("lightId")}};
     description = "A light id, as the server assigned it.";
+  } else if (name == "aid") {
+    schema = {{"$ref", componentRef("assetId")}};
+    description = "An asset id (a- and 16 hex digits of its content's SHA-256).";
+  } else if (name == "oid") {
+    schema = {{"$ref", componentRef("objectId")}};
+    description = "An object id, as the server assigned it.";
   } else if (name == "file") {
     schema = {{"type", "string"}, {"minLength", 1}};
     description = "A file of the web client.";
@@ -162,10 +168,11 @@ json problemResponse(int status) {
        "or (creating a session) not the API key."},
       {403, "forbidden: the token of another session."},
       {404,
-       "not-found: no such session (or it expired or was deleted), material, light, "
-       "library model or file."},
+       "not-found: no such session (or it expired or was deleted), material, light, asset, "
+       "object, library model or file."},
+      {409, "conflict: the asset is still in use (an object draws it or one of its materials)."},
       {413,
-       "limit-exceeded: the body, the upload or the light count is over its limit "
+       "limit-exceeded: the body, the upload, the light, object or asset count is over its limit "
        "(`limit` names it)."},
       {415, "unsupported-media-type: a body with a Content-Type this route does not take."},
       {422,

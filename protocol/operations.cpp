@@ -461,6 +461,105 @@ std::vector<Operation> buildOperations() {
                  .responses = {noContent("Removed.")},
                  .problems = kSessionProblems});
 
+  // Assets and objects: the scene the session draws.
+  const std::vector<QueryParameter> assetUploadQuery = {
+      {"filename",
+       {{"type", "string"}, {"minLength", 1}, {"maxLength", 255}, {"pattern", "^[^/]+$"}},
+       "An upload's file name, NAME.EXT: the extension names the format. Required with "
+       "application/octet-stream, refused with JSON."},
+      {"entry",
+       {{"type", "string"}, {"minLength", 1}, {"maxLength", 4096}},
+       "The model file inside a zip or multipart upload of several files."}};
+  ops.push_back({.method = "GET",
+                 .route = routes::kSessionAssets,
+                 .id = "listAssets",
+                 .tag = "Scene",
+                 .summary = "The session's assets, in the order they were added",
+                 .access = Access::Session,
+                 .responses = {json200(n::kAssetsList, "Every asset.")},
+                 .problems = kSessionProblems});
+  ops.push_back({.method = "POST",
+                 .route = routes::kSessionAssets,
+                 .id = "addAsset",
+                 .tag = "Scene",
+                 .summary = "Add an asset (a model file, a library model or the built-in scene) "
+                            "without drawing it; the same bytes again are the same asset",
+                 .access = Access::Session,
+                 .query = assetUploadQuery,
+                 .body = {{kJsonContentType, n::kModelSource},
+                          {kUploadContentType, ""},
+                          {kZipContentType, ""},
+                          {kMultipartContentType, ""}},
+                 .responses = {{201, "The new asset.", {{kJsonContentType, n::kAsset}}, {}},
+                               json200(n::kAsset, "The session already had it (the same id).")},
+                 .problems = {400, 401, 403, 404, 413, 415, 422, 503}});
+  ops.push_back({.method = "GET",
+                 .route = routes::kSessionAsset,
+                 .id = "getAsset",
+                 .tag = "Scene",
+                 .summary = "One asset",
+                 .access = Access::Session,
+                 .responses = {json200(n::kAsset, "The asset.")},
+                 .problems = kSessionProblems});
+  ops.push_back({.method = "DELETE",
+                 .route = routes::kSessionAsset,
+                 .id = "deleteAsset",
+                 .tag = "Scene",
+                 .summary = "Remove an asset no object uses",
+                 .access = Access::Session,
+                 .responses = {noContent("Removed; later assets' material ids moved down.")},
+                 .problems = {400, 401, 403, 404, 409}});
+  ops.push_back({.method = "GET",
+                 .route = routes::kSessionObjects,
+                 .id = "listObjects",
+                 .tag = "Scene",
+                 .summary = "A page of objects, in id order",
+                 .access = Access::Session,
+                 .query = {{"offset", integerFrom(0), "Objects to skip. Default 0."},
+                           {"limit", integerIn(0, query::kMaxObjectsPageLimit),
+                            "Most objects to return. Default " +
+                                std::to_string(query::kDefaultObjectsPageLimit) + "."}},
+                 .responses = {json200(n::kObjectsPage, "The page and the session's object count.")},
+                 .problems = kSessionProblems});
+  ops.push_back({.method = "POST",
+                 .route = routes::kSessionObjects,
+                 .id = "addObjects",
+                 .tag = "Scene",
+                 .summary = "Add objects: instances of assets (ids are assigned by the server)",
+                 .access = Access::Session,
+                 .body = {{kJsonContentType, n::kObjectsAdd}},
+                 .responses = {{201,
+                                "The new ids in request order, and the object count now.",
+                                {{kJsonContentType, n::kObjectsAdded}},
+                                {}}},
+                 .problems = kSessionBodyProblems});
+  ops.push_back({.method = "GET",
+                 .route = routes::kSessionObject,
+                 .id = "getObject",
+                 .tag = "Scene",
+                 .summary = "One object",
+                 .access = Access::Session,
+                 .responses = {json200(n::kObject, "The object.")},
+                 .problems = kSessionProblems});
+  ops.push_back({.method = "PATCH",
+                 .route = routes::kSessionObject,
+                 .id = "patchObject",
+                 .tag = "Scene",
+                 .summary = "Change some members of an object (a transform alone moves only it "
+                            "and its children)",
+                 .access = Access::Session,
+                 .body = {{kJsonContentType, n::kObjectPatch}},
+                 .responses = {json200(n::kObject, "The object.")},
+                 .problems = kSessionBodyProblems});
+  ops.push_back({.method = "DELETE",
+                 .route = routes::kSessionObject,
+                 .id = "deleteObject",
+                 .tag = "Scene",
+                 .summary = "Remove an object and its children",
+                 .access = Access::Session,
+                 .responses = {noContent("Removed.")},
+                 .problems = kSessionProblems});
+
   // Frames, streams, stats.
   ops.push_back(
       {.method = "GET",

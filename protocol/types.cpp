@@ -430,6 +430,7 @@ void members(Tag<Limits>, F f) {
   f("maxQueuedFrames", &Limits::maxQueuedFrames);
   f("maxSessions", &Limits::maxSessions);
   f("maxLightsPerSession", &Limits::maxLightsPerSession);
+  f("maxObjectsPerSession", &Limits::maxObjectsPerSession);
   f("maxUploadBytes", &Limits::maxUploadBytes);
   f("maxBodyBytes", &Limits::maxBodyBytes);
   f("maxStreams", &Limits::maxStreams);

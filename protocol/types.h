@@ -425,6 +425,7 @@ struct Limits {
   uint64_t maxQueuedFrames = 0;
   uint64_t maxSessions = 0;
   uint64_t maxLightsPerSession = 0;
+  uint64_t maxObjectsPerSession = 0;
   uint64_t maxUploadBytes = 0;
   uint64_t maxBodyBytes = 0;
   uint64_t maxStreams = 0;

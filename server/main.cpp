@@ -43,6 +43,7 @@ service::ApiConfig apiConfig(const service::Options& options, uint32_t maxResolu
   limits.maxQueuedFrames = renderThread.maxQueuedFrames();
   limits.maxSessions = options.maxSessions;
   limits.maxLightsPerSession = options.maxLightsPerSession;
+  limits.maxObjectsPerSession = options.maxObjectsPerSession;
   limits.maxUploadBytes = options.maxUploadBytes;
   limits.maxBodyBytes = options.maxBodyBytes;
   limits.maxStreams = options.maxStreams;

@@ -394,7 +394,7 @@ MYRIAD_STRUCT(GpuPointLight) {
 MYRIAD_STRUCT(GpuInstance) {
   mat4 model;
   mat4 normalMatrix;     // inverse-transpose of model (upper 3x3 used)
-  uvec4 material;        // x material index
+  uvec4 material;        // x material index, y the object (instance-id label; 0 none)
 };
 
 MYRIAD_STRUCT(GpuMaterial) {

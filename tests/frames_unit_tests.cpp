@@ -466,6 +466,9 @@ class PictureQueue final : public render::RenderQueue {
   std::future<void> updateMaterials(render::SceneId, std::vector<render::MaterialWrite>) override {
     return ready();
   }
+  std::future<void> updateInstances(render::SceneId, render::InstanceUpdate) override {
+    return ready();
+  }
   std::future<void> setEnvironmentImage(render::SceneId,
                                         std::shared_ptr<const scene::EnvironmentImage>) override {
     return ready();

@@ -36,6 +36,18 @@ struct LightUpdate {
   std::vector<LightWrite> writes;
 };
 
+// New world transforms for some instances of a scene (Renderer::updateInstances): an object moved.
+// The instances keep their meshes and materials; `bounds` is the whole scene's bounds after the
+// move (scene::Scene::bounds() of the moved scene: the caller keeps them per instance).
+struct InstanceWrite {
+  uint32_t index = 0;  // into scene::Scene::instances
+  glm::mat4 transform{1.0f};
+};
+struct InstanceUpdate {
+  std::vector<InstanceWrite> writes;
+  scene::Bounds bounds;
+};
+
 // One material's new factors (Renderer::updateMaterials); index < the scene's material count.
 struct MaterialWrite {
   uint32_t index = 0;

@@ -65,6 +65,8 @@ class RenderQueue {
   virtual std::future<void> destroyScene(SceneId id) = 0;
   virtual std::future<void> updateLights(SceneId id, LightUpdate update) = 0;
   virtual std::future<void> updateMaterials(SceneId id, std::vector<MaterialWrite> writes) = 0;
+  // New world transforms for some instances (an object moved): nothing else is uploaded.
+  virtual std::future<void> updateInstances(SceneId id, InstanceUpdate update) = 0;
   virtual std::future<void> setEnvironmentImage(
       SceneId id, std::shared_ptr<const scene::EnvironmentImage> image) = 0;
 

@@ -152,6 +152,12 @@ std::future<void> RenderThread::updateLights(SceneId id, LightUpdate update) {
   });
 }
 
+std::future<void> RenderThread::updateInstances(SceneId id, InstanceUpdate update) {
+  return enqueueWork<void>(id, [id, update = std::move(update)](Renderer& r) {
+    r.updateInstances(id, update);
+  });
+}
+
 std::future<void> RenderThread::updateMaterials(SceneId id,
                                                 std::vector<MaterialWrite> writes) {
   return enqueueWork<void>(id, [id, writes = std::move(writes)](Renderer& r) {

@@ -83,6 +83,7 @@ class RenderThread final : public RenderQueue {
   std::future<void> destroyScene(SceneId id) override;
   std::future<void> updateLights(SceneId id, LightUpdate update) override;
   std::future<void> updateMaterials(SceneId id, std::vector<MaterialWrite> writes) override;
+  std::future<void> updateInstances(SceneId id, InstanceUpdate update) override;
   std::future<void> setEnvironmentImage(
       SceneId id, std::shared_ptr<const scene::EnvironmentImage> image) override;
   std::future<Frame> submit(SceneId id, const FrameSettings& settings, FrameSource source,

@@ -595,6 +595,11 @@ void Renderer::updateLights(SceneId id, const LightUpdate& update) {
   state_->scene(id).updateLights(state_->recorder, update);
 }
 
+void Renderer::updateInstances(SceneId id, const InstanceUpdate& update) {
+  state_->quiesce();
+  state_->scene(id).updateInstances(state_->recorder, update);
+}
+
 void Renderer::updateMaterials(SceneId id, const std::vector<MaterialWrite>& writes) {
   state_->quiesce();
   state_->scene(id).updateMaterials(state_->recorder, writes);

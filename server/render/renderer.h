@@ -40,6 +40,8 @@ class Renderer {
   // Writes materials' base colour, metallic and roughness (names are not kept on the GPU).
   // Throws std::invalid_argument for an index past the scene's materials.
   void updateMaterials(SceneId id, const std::vector<MaterialWrite>& writes);
+  // Moves instances of scene `id` in place (SceneBuffers::updateInstances).
+  void updateInstances(SceneId id, const InstanceUpdate& update);
 
   // The equirectangular image the scene's `hdr` environment shows (at the source size,
   // scene::resampleEquirect). Kept across replaceScene; freed with the scene. The maps are

@@ -195,6 +195,21 @@ uint64_t nextGeneration() {
 
 }  // namespace
 
+GpuInstance SceneBuffers::gpuInstance(const glm::mat4& transform, uint32_t material, uint32_t object) {
+  GpuInstance g;
+  g.model = transform;
+  g.normalMatrix = glm::transpose(glm::inverse(transform));
+  g.material = glm::uvec4(material, object, 0, 0);
+  return g;
+}
+
+void SceneBuffers::place(DrawItem& draw, const glm::mat4& transform) const {
+  const glm::mat3 axes(transform);
+  draw.unitScale = std::max({glm::length(axes[0]), glm::length(axes[1]), glm::length(axes[2])});
+  draw.centre = glm::vec3(transform * glm::vec4(meshCentres_[draw.meshIndex], 1.0f));
+  draw.radius = meshRadii_[draw.meshIndex] * draw.unitScale;
+}
+
 SceneBuffers::SceneBuffers(gpu::Context& context, gpu::CommandRecorder& recorder,
                            const scene::Scene& scene, VkDescriptorSetLayout materialSetLayout)
     : context(context), generation(nextGeneration()), arena(context, kSceneBlockSize),
@@ -245,28 +260,30 @@ SceneBuffers::SceneBuffers(gpu::Context& context, gpu::CommandRecorder& recorder
   lightProxy = append(proxy);
 
   std::vector<GpuInstance> gpuInstances;
+  meshCentres_ = centres;
+  meshRadii_ = radii;
   for (uint32_t i = 0; i < scene.instances.size(); ++i) {
     const scene::Instance& instance = scene.instances[i];
     if (instance.mesh >= scene.meshes.size() || instance.material >= scene.materials.size()) {
       throw std::invalid_argument("instance " + std::to_string(i) + " refers to a missing mesh or material");
     }
-    GpuInstance g;
-    g.model = instance.transform;
-    g.normalMatrix = glm::transpose(glm::inverse(instance.transform));
-    g.material = glm::uvec4(instance.material, 0, 0, 0);
-    gpuInstances.push_back(g);
+    gpuInstances.push_back(gpuInstance(instance.transform, instance.material, instance.object));
+    instanceMaterial_.push_back(instance.material);
+    instanceMesh_.push_back(instance.mesh);
+    instanceObject_.push_back(instance.object);
     if (ranges[instance.mesh].indexCount > 0) {
-      const glm::mat3 axes(instance.transform);
-      const float unitScale =
-          std::max({glm::length(axes[0]), glm::length(axes[1]), glm::length(axes[2])});
-      draws.push_back({ranges[instance.mesh], i, instance.material,
-                       glm::vec3(instance.transform * glm::vec4(centres[instance.mesh], 1.0f)),
-                       instance.mesh, radii[instance.mesh] * unitScale, unitScale});
+      DrawItem draw{ranges[instance.mesh], i, instance.material};
+      draw.meshIndex = instance.mesh;
+      draws.push_back(draw);
+      place(draws.back(), instance.transform);
     }
   }
+  instanceCount = static_cast<uint32_t>(gpuInstances.size());
   // One descriptor set bind per material in the G-buffer pass.
   std::stable_sort(draws.begin(), draws.end(),
                    [](const DrawItem& a, const DrawItem& b) { return a.material < b.material; });
+  drawOfInstance_.assign(instanceCount, UINT32_MAX);
+  for (uint32_t d = 0; d < draws.size(); ++d) drawOfInstance_[draws[d].instance] = d;
   for (const scene::Material& m : scene.materials) {
     doubleSided.push_back(m.doubleSided ? 1 : 0);
     blend.push_back(m.alphaMode == scene::AlphaMode::blend ? 1 : 0);
@@ -481,6 +498,35 @@ void SceneBuffers::updateShadowCasters(const LightUpdate& update) {
     if (writes[w]->light.castsShadows) next.push_back({upTo, toGpu(writes[w]->light)});
   }
   shadowCasters = std::move(next);  // lights at or past the new count fell off the end
+}
+
+void SceneBuffers::updateInstances(gpu::CommandRecorder& recorder, const InstanceUpdate& update) {
+  for (const InstanceWrite& w : update.writes) {
+    if (w.index >= instanceCount) {
+      throw std::invalid_argument("instance " + std::to_string(w.index) + " is past the scene's " +
+                                  std::to_string(instanceCount) + " instances");
+    }
+    const float det = glm::determinant(glm::mat3(w.transform));
+    bool finite = std::isfinite(det) && det != 0.0f;
+    for (int c = 0; c < 4 && finite; ++c) {
+      for (int r = 0; r < 4; ++r) finite = finite && std::isfinite(w.transform[c][r]);
+    }
+    if (!finite) {
+      throw std::invalid_argument("instance " + std::to_string(w.index) +
+                                  "'s transform is not finite and invertible");
+    }
+  }
+  std::vector<GpuInstance> staged;
+  std::vector<Upload> uploads =
+      elementUploads<GpuInstance>(update.writes, instances, staged, [&](const InstanceWrite& w) {
+        return gpuInstance(w.transform, instanceMaterial_[w.index], instanceObject_[w.index]);
+      });
+  transfer(context, recorder, {}, uploads);
+  for (const InstanceWrite& w : update.writes) {
+    if (drawOfInstance_[w.index] != UINT32_MAX) place(draws[drawOfInstance_[w.index]], w.transform);
+  }
+  bounds = update.bounds;
+  generation = nextGeneration();
 }
 
 void SceneBuffers::updateMaterials(gpu::CommandRecorder& recorder,

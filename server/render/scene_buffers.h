@@ -72,6 +72,11 @@ struct SceneBuffers {
   // See LightUpdate (render/frame.h). Validates before touching anything: on
   // std::invalid_argument the scene is unchanged.
   void updateLights(gpu::CommandRecorder& recorder, const LightUpdate& update);
+  // Writes new transforms of instances in place (their draws' culling spheres follow) and takes
+  // the update's bounds; renews `generation`, since what was drawn from the old placement (the
+  // sun's shadow map) no longer holds. Throws std::invalid_argument (and changes nothing) for an
+  // index past the instances or a transform that is not finite and invertible.
+  void updateInstances(gpu::CommandRecorder& recorder, const InstanceUpdate& update);
   // Throws std::invalid_argument (and changes nothing) for an index past the materials.
   void updateMaterials(gpu::CommandRecorder& recorder, const std::vector<MaterialWrite>& writes);
 
@@ -81,10 +86,10 @@ struct SceneBuffers {
   }
 
   gpu::Context& context;
-  // Unique to this SceneBuffers among all the process makes (from 1): what was drawn from its
-  // geometry (the sun's shadow map) may be kept while it lives, since geometry, instances and
-  // draws never change in place (a new model is a new SceneBuffers).
-  const uint64_t generation;
+  // Unique among all the placements of geometry the process makes (from 1): what was drawn from
+  // the scene's geometry (the sun's shadow map) may be kept while it stays. A new model is a new
+  // SceneBuffers; moving instances in place (updateInstances) gives it a new generation too.
+  uint64_t generation;
   gpu::Arena arena;                        // geometry, instances, materials
   std::unique_ptr<gpu::Arena> lightArena;  // the two light buffers; replaced when they grow
   gpu::Buffer vertices;
@@ -98,6 +103,7 @@ struct SceneBuffers {
   VkBufferView lightTexels = VK_NULL_HANDLE;
   VkBufferView materialTexels = VK_NULL_HANDLE;
   std::vector<DrawItem> draws;         // grouped by material
+  uint32_t instanceCount = 0;
   std::vector<MeshLods> lods;          // per scene mesh (empty ranges: none)
   std::unique_ptr<MaterialTextures> textures;
   std::vector<uint8_t> doubleSided;   // per material: whether back faces are drawn
@@ -123,7 +129,19 @@ struct SceneBuffers {
   uint32_t lightFeatures() const;
 
  private:
+  static gpu_types::GpuInstance gpuInstance(const glm::mat4& transform, uint32_t material, uint32_t object);
+  // Sets a draw's culling sphere and scale for its instance's `transform`.
+  void place(DrawItem& draw, const glm::mat4& transform) const;
   void allocateLights(uint32_t capacity);
+  // What updateInstances needs to place an instance's draw again: each instance's material and
+  // mesh (the GPU instance's other members), its draw (UINT32_MAX: none, an empty mesh), and
+  // each mesh's bounding sphere in mesh units.
+  std::vector<uint32_t> instanceMaterial_;
+  std::vector<uint32_t> instanceMesh_;
+  std::vector<uint32_t> instanceObject_;
+  std::vector<uint32_t> drawOfInstance_;
+  std::vector<glm::vec3> meshCentres_;
+  std::vector<float> meshRadii_;
   void updateShadowCasters(const LightUpdate& update);
   // lightFeatures' bookkeeping: each light's kind bits (one byte a light) and how many lights
   // have each kind.

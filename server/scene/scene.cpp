@@ -8,9 +8,19 @@ Bounds Scene::bounds() const {
     // An instance naming a mesh that does not exist contributes nothing rather than faulting:
     // scenes are edited over the API and may be briefly inconsistent.
     if (instance.mesh >= meshes.size()) continue;
-    for (const Vertex& vertex : meshes[instance.mesh].vertices) {
-      result.extend(glm::vec3(instance.transform * glm::vec4(vertex.position, 1.0f)));
+    const Bounds b = transformedBounds(meshes[instance.mesh], instance.transform);
+    if (!b.empty()) {
+      result.extend(b.min);
+      result.extend(b.max);
     }
+  }
+  return result;
+}
+
+Bounds transformedBounds(const Mesh& mesh, const glm::mat4& transform) {
+  Bounds result;
+  for (const Vertex& vertex : mesh.vertices) {
+    result.extend(glm::vec3(transform * glm::vec4(vertex.position, 1.0f)));
   }
   return result;
 }

@@ -121,6 +121,9 @@ struct Instance {
   uint32_t mesh = 0;
   uint32_t material = 0;
   glm::mat4 transform{1.0f};
+  // The session object this instance belongs to (the instance-id label; 0: none, e.g. a scene
+  // made without objects).
+  uint32_t object = 0;
 };
 
 // How a local light's radiance falls off with distance d; both are exactly zero at and beyond the
@@ -221,5 +224,10 @@ struct Scene {
   // World-space bounds of every instance's transformed vertices.
   Bounds bounds() const;
 };
+
+// The bounds of `mesh`'s vertices moved by `transform`: what Scene::bounds() unites over the
+// instances (exact, not a transformed box), so that bounds kept per instance and united again
+// equal Scene::bounds() bit for bit.
+Bounds transformedBounds(const Mesh& mesh, const glm::mat4& transform);
 
 }  // namespace myriad::scene

@@ -1,5 +1,7 @@
 #include "service/api.h"
 
+#include <charconv>
+
 #include <algorithm>
 #include <cctype>
 #include <set>
@@ -80,6 +82,7 @@ nlohmann::json ApiLimits::toJson() const {
       {"maxQueuedFrames", maxQueuedFrames},
       {"maxSessions", maxSessions},
       {"maxLightsPerSession", maxLightsPerSession},
+      {"maxObjectsPerSession", maxObjectsPerSession},
       {"maxUploadBytes", maxUploadBytes},
       {"maxBodyBytes", maxBodyBytes},
       {"maxStreams", maxStreams},
@@ -456,6 +459,22 @@ SessionPtr authorizeSession(const ApiContext& context, const httplib::Request& r
   const bool reads = req.method == "GET" || req.method == "HEAD";
   return context.sessions.authorize(req.matches[1].str(), credentialsOf(req), allowQueryToken,
                                     reads ? Role::viewer : Role::owner);
+}
+
+uint64_t unsignedParameter(const httplib::Request& req, const std::string& name, uint64_t fallback,
+                           uint64_t min, uint64_t max) {
+  if (!req.has_param(name)) return fallback;
+  const std::string text = req.get_param_value(name);
+  uint64_t value = 0;
+  auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), value);
+  if (text.empty() || ec != std::errc() || end != text.data() + text.size() || value < min ||
+      value > max) {
+    throw ProblemError(invalidParameter(name, "\"" + name + "\" must be an integer from " +
+                                                  std::to_string(min) + " to " +
+                                                  std::to_string(max) + ", not " +
+                                                  quoteClientText(text) + "."));
+  }
+  return value;
 }
 
 }  // namespace myriad::service

@@ -39,6 +39,7 @@ struct ApiLimits {
   uint32_t maxQueuedFrames = 4;
   uint32_t maxSessions = 16;
   uint32_t maxLightsPerSession = 1000000;
+  uint32_t maxObjectsPerSession = 100000;
   uint64_t maxUploadBytes = 64ull << 20;
   uint64_t maxBodyBytes = 1ull << 20;
   uint32_t maxStreams = 8;
@@ -179,12 +180,29 @@ std::shared_ptr<const scene::EnvironmentImage> loadLibraryEnvironment(const ApiC
                                                                       const std::string& source);
 // A session's lights (api_lights.cpp).
 void addLightRoutes(Routes& routes, ApiContext& context);
-// All three; FRAMES registers frame, stream and stats routes next to them.
+// A session's assets and objects (api_objects.cpp).
+void addObjectRoutes(Routes& routes, ApiContext& context);
+// All four; FRAMES registers frame, stream and stats routes next to them.
 inline void addSessionApi(Routes& routes, ApiContext& context) {
   addSessionRoutes(routes, context);
   addSceneRoutes(routes, context);
   addLightRoutes(routes, context);
+  addObjectRoutes(routes, context);
 }
+
+// A model as PUT .../model and POST .../assets take it: the file itself
+// (application/octet-stream, ?filename=), a zip (?entry=), several files (multipart/form-data,
+// ?entry=) or JSON {"source": "builtin:default" | "library:NAME"}, loaded in the loader child.
+struct LoadedModel {
+  std::shared_ptr<scene::Scene> scene;
+  std::string source;   // builtin:default, library:NAME, upload:FILE
+  std::string assetId;  // assetIdOf(the bytes, or the source's name)
+  uint64_t bytes = 0;   // of the upload (0: not an upload)
+  std::optional<StoredUpload> stored;  // with --state-dir: the bytes kept for a restore
+};
+// Throws ProblemError: 400 (a bad ?filename= or ?entry=), 404 (not in the library), 413 (a JSON
+// body over maxBodyBytes), 415, 422 model-rejected, 503 (the loader busy).
+LoadedModel loadModelRequest(ApiContext& context, const httplib::Request& req);
 
 // Credentials of a request: the Authorization header and, for routes that allow it, ?token=.
 Credentials credentialsOf(const httplib::Request& req);
@@ -199,6 +217,10 @@ nlohmann::json jsonBody(const httplib::Request& req, std::string_view schemaName
 // Throws ProblemError 400 unknown-parameter for a query parameter not in `allowed`, and 400
 // invalid-parameter for one given twice.
 void checkQuery(const httplib::Request& req, std::initializer_list<std::string_view> allowed);
+// Query parameter `name` as an integer in [min, max], `fallback` when absent; 400
+// invalid-parameter naming it otherwise.
+uint64_t unsignedParameter(const httplib::Request& req, const std::string& name, uint64_t fallback,
+                           uint64_t min, uint64_t max);
 
 // Locks an open session; throws ProblemError 404 when it was closed (deleted or expired) since it
 // was authorized. Every handler that reads or edits session state takes this lock.

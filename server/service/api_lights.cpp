@@ -20,22 +20,6 @@ namespace {
 constexpr uint64_t kDefaultPageSize = 100;
 constexpr uint64_t kMaxPageSize = 1000;
 
-uint64_t unsignedParameter(const httplib::Request& req, const std::string& name, uint64_t fallback,
-                           uint64_t min, uint64_t max) {
-  if (!req.has_param(name)) return fallback;
-  const std::string text = req.get_param_value(name);
-  uint64_t value = 0;
-  auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), value);
-  if (text.empty() || ec != std::errc() || end != text.data() + text.size() || value < min ||
-      value > max) {
-    throw ProblemError(invalidParameter(name, "\"" + name + "\" must be an integer from " +
-                                                  std::to_string(min) + " to " +
-                                                  std::to_string(max) + ", not " +
-                                                  quoteClientText(text) + "."));
-  }
-  return value;
-}
-
 // Queues `update` on the session's GPU scene and records the change (session locked).
 std::future<void> queue(ApiContext& context, Session& session, render::LightUpdate update) {
   std::future<void> uploaded = context.renderThread.updateLights(session.sceneId, std::move(update));

@@ -162,7 +162,8 @@ SessionScene newSessionScene(const ApiContext& context) {
   // A session's scene (the built-in one or a model) is grounded by the sun's shadow from the
   // start; a client turns it off with PATCH .../settings {"shadows": {"sun": false}}.
   settings.shadows.sun = true;
-  return SessionScene(context.config.limits.maxLightsPerSession, settings);
+  return SessionScene(context.config.limits.maxLightsPerSession, settings,
+                      context.config.limits.maxObjectsPerSession);
 }
 
 // Gives a new session (its id not yet out, or being restored) its scene: adopts `loaded`, made
@@ -277,27 +278,10 @@ void createSession(ApiContext& context, const httplib::Request& req, httplib::Re
                source.c_str(), session->scene.lightCount());
 }
 
-void putModel(ApiContext& context, const httplib::Request& req, httplib::Response& res) {
-  SessionPtr session = authorizeSession(context, req);
-  checkQuery(req, {"filename", "lights", "entry"});
-  // Without ?lights=: generated lights are fitted to the new model, edited ones kept.
-  Adoption::Lights lights = Adoption::Lights::automatic;
-  if (req.has_param("lights")) {
-    const std::string value = req.get_param_value("lights");
-    if (value == "keep") {
-      lights = Adoption::Lights::keep;
-    } else if (value == "model") {
-      lights = Adoption::Lights::model;
-    } else if (value == "fit") {
-      lights = Adoption::Lights::fit;
-    } else {
-      throw ProblemError(invalidParameter(
-          "lights", "\"lights\" is keep (the session's lights as they are), model (the model's "
-                    "own) or fit (generated again around the model); without it, generated "
-                    "lights are fitted and edited ones kept."));
-    }
-  }
+}  // namespace
 
+// The model a PUT .../model or POST .../assets request carries, loaded (see LoadedModel).
+LoadedModel loadModelRequest(ApiContext& context, const httplib::Request& req) {
   // Loading takes from milliseconds to the loader's time limit; the session stays usable.
   const std::string type = req.get_header_value("Content-Type");
   ScenePtr scene;
@@ -363,12 +347,53 @@ void putModel(ApiContext& context, const httplib::Request& req, httplib::Respons
     }
   }
 
+  LoadedModel out;
+  // Content-addressed: an upload by its bytes (a multipart upload by its file set), a library or
+  // built-in model by its name.
+  if (source.starts_with(protocol::kUploadPrefix)) {
+    const std::string content = multipart ? loader::encodeFileSet(uploadedFiles) : req.body;
+    out.assetId = assetIdOf(content);
+    out.bytes = content.size();
+  } else {
+    out.assetId = assetIdOf(source);
+  }
+  out.scene = std::move(scene);
+  out.source = std::move(source);
+  out.stored = std::move(stored);
+  return out;
+}
+
+namespace {
+
+void putModel(ApiContext& context, const httplib::Request& req, httplib::Response& res) {
+  SessionPtr session = authorizeSession(context, req);
+  checkQuery(req, {"filename", "lights", "entry"});
+  // Without ?lights=: generated lights are fitted to the new model, edited ones kept.
+  Adoption::Lights lights = Adoption::Lights::automatic;
+  if (req.has_param("lights")) {
+    const std::string value = req.get_param_value("lights");
+    if (value == "keep") {
+      lights = Adoption::Lights::keep;
+    } else if (value == "model") {
+      lights = Adoption::Lights::model;
+    } else if (value == "fit") {
+      lights = Adoption::Lights::fit;
+    } else {
+      throw ProblemError(invalidParameter(
+          "lights", "\"lights\" is keep (the session's lights as they are), model (the model's "
+                    "own) or fit (generated again around the model); without it, generated "
+                    "lights are fitted and edited ones kept."));
+    }
+  }
+
+  LoadedModel model = loadModelRequest(context, req);
   std::future<void> replaced;
   {
     auto lock = lockOpen(*session);
-    session->persisted.model = std::move(stored);
-    std::shared_ptr<const scene::Scene> adopted =
-        session->scene.adopt(std::move(scene), source, Adoption{.lights = lights});
+    session->persisted.model = std::move(model.stored);
+    std::shared_ptr<const scene::Scene> adopted = session->scene.adopt(
+        std::move(model.scene), model.source,
+        Adoption{.lights = lights, .assetId = model.assetId, .assetBytes = model.bytes});
     // Enqueued under the lock, so light edits after this one reach the new scene.
     replaced = context.renderThread.replaceScene(session->sceneId, std::move(adopted));
     session->bump();

@@ -129,6 +129,10 @@ const std::vector<Flag>& flags() {
          o.maxLightsPerSession =
              parseUnsigned<uint32_t>("--max-lights", v, 1, kMaxLightsPerSessionLimit);
        }},
+      {"--max-objects", true,
+       [](Options& o, std::string_view v) {
+         o.maxObjectsPerSession = parseUnsigned<uint32_t>("--max-objects", v, 1, 10000000);
+       }},
       {"--max-upload-bytes", true,
        [](Options& o, std::string_view v) {
          o.maxUploadBytes = parseUnsigned<uint64_t>("--max-upload-bytes", v, 1, kMaxBytesLimit);
@@ -291,6 +295,7 @@ materials and lights (protocol/reference.md), and the stateless GET /v1/frame.
                            (default: compute where it qualifies, except on CPU devices)
   --max-sessions N         sessions open at once; more get 429 (default 16)
   --max-lights N           local lights per session; more get 413 (default 1000000)
+  --max-objects N          objects per session (POST .../objects); more get 413 (default 100000)
   --max-upload-bytes N     largest model upload (default 67108864, 64 MiB)
   --max-body-bytes N       largest JSON request body (default 1048576, 1 MiB)
   --max-streams N          open frame streams, server-wide; more get 429 (default 8)

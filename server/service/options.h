@@ -56,6 +56,7 @@ struct Options {
   // Sessions (protocol/CONTRACT.md). Each holds a GPU scene, so the count is bounded.
   uint32_t maxSessions = 16;
   uint32_t maxLightsPerSession = 1000000;
+  uint32_t maxObjectsPerSession = 100000;  // --max-objects
   uint64_t maxUploadBytes = 64ull << 20;  // PUT .../model file uploads
   uint64_t maxBodyBytes = 1ull << 20;     // every JSON body
   uint32_t maxStreams = 8;                // open GET .../stream connections, server-wide

@@ -114,6 +114,10 @@ Problem environmentRejected(std::string detail) {
               std::move(detail));
 }
 
+Problem conflict(std::string detail) {
+  return make(409, protocol::problems::kConflict, "Conflict", std::move(detail));
+}
+
 Problem notFoundDetail(std::string detail) {
   return make(404, protocol::problems::kNotFound, "Not found", std::move(detail));
 }

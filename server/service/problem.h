@@ -60,6 +60,8 @@ Problem modelRejected(std::string detail);
 Problem environmentRejected(std::string detail);
 // 404 not-found for a thing that does not exist (a session, light, material or model).
 Problem notFoundDetail(std::string detail);
+// 409 conflict: the request contradicts the session's state (an asset still in use).
+Problem conflict(std::string detail);
 
 // Client-supplied text quoted in a detail: shortened, so a huge query cannot produce a huge
 // error body.

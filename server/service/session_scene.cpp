@@ -10,6 +10,7 @@
 #include "service/problem.h"
 #include "service/session_json.h"
 #include "service/startup.h"
+#include "service/state_store.h"
 
 namespace myriad::service {
 namespace {
@@ -48,8 +49,12 @@ ModelSummary summarize(const scene::Scene& scene, std::string source) {
 
 }  // namespace
 
-SessionScene::SessionScene(uint32_t maxLights, render::SceneSettings settings)
-    : maxLights_(maxLights), settings_(std::move(settings)) {}
+SessionScene::SessionScene(uint32_t maxLights, render::SceneSettings settings, uint32_t maxObjects)
+    : maxLights_(maxLights), graph_(maxObjects), settings_(std::move(settings)) {}
+
+std::string assetIdOf(std::string_view content) {
+  return "a-" + sha256Hex(content).substr(0, 16);
+}
 
 // ---- The model.
 
@@ -62,8 +67,17 @@ std::shared_ptr<const scene::Scene> SessionScene::adopt(std::shared_ptr<scene::S
     checkLightTotal(loaded->lights.size(),
                     "The model brings " + std::to_string(loaded->lights.size()) + " lights");
   }
-  model_ = summarize(*loaded, std::move(source));
+  model_ = summarize(*loaded, source);
   materials_ = loaded->materials;
+  graph_.clear();
+  const std::string assetId =
+      adoption.assetId.empty() ? assetIdOf(source) : adoption.assetId;
+  graph_.addAsset(Asset{.id = assetId, .source = source, .bytes = adoption.assetBytes,
+                        .scene = loaded, .firstMaterial = 0});
+  SceneObject root;
+  root.name = source;
+  root.asset = assetId;
+  graph_.addObjects({root}, uint32_t(materials_.size()), "");
   camera_ = loaded->camera;
   if (adoption.lightingFromModel) settings_.takeLightingFrom(*loaded);
   // The model's directional lights join the sun unless the session keeps its lights as they are.
@@ -91,10 +105,74 @@ std::shared_ptr<const scene::Scene> SessionScene::adopt(std::shared_ptr<scene::S
     }
     case Lights::automatic:
     case Lights::keep:
-      loaded->lights = lights_;
       break;
   }
-  return loaded;
+  return flatten();
+}
+
+std::shared_ptr<scene::Scene> SessionScene::flatten() {
+  std::shared_ptr<scene::Scene> flat = graph_.flatten(materials_);
+  flat->lights = lights_;
+  model_.meshes = flat->meshes.size();
+  model_.instances = flat->instances.size();
+  model_.materials = flat->materials.size();
+  model_.bounds = graph_.bounds();
+  model_.images.clear();
+  for (const scene::Image& image : flat->images) {
+    model_.images.push_back({image.name, image.width, image.height});
+  }
+  return flat;
+}
+
+SessionScene::AssetAdded SessionScene::addAsset(std::shared_ptr<const scene::Scene> loaded,
+                                                std::string source, std::string id,
+                                                uint64_t bytes) {
+  const uint32_t first = uint32_t(materials_.size());
+  auto [asset, added] = graph_.addAsset(Asset{.id = std::move(id), .source = std::move(source),
+                                              .bytes = bytes, .scene = loaded,
+                                              .firstMaterial = first});
+  AssetAdded out{asset, added, nullptr};
+  if (added) {
+    materials_.insert(materials_.end(), loaded->materials.begin(), loaded->materials.end());
+    out.scene = flatten();
+  }
+  return out;
+}
+
+std::shared_ptr<const scene::Scene> SessionScene::removeAsset(std::string_view id) {
+  const auto [first, count] = graph_.removeAsset(id);
+  materials_.erase(materials_.begin() + first, materials_.begin() + first + count);
+  return flatten();
+}
+
+std::shared_ptr<const scene::Scene> SessionScene::addObjects(std::vector<SceneObject> objects,
+                                                             std::vector<uint32_t>* ids) {
+  std::vector<uint32_t> added =
+      graph_.addObjects(std::move(objects), uint32_t(materials_.size()), "/objects");
+  if (ids != nullptr) *ids = std::move(added);
+  return flatten();
+}
+
+SceneChange SessionScene::replaceObject(const SceneObject& next) {
+  const SceneObject before = graph_.object(next.id);
+  graph_.replaceObject(next, uint32_t(materials_.size()));
+  SceneChange change;
+  // The name and the semantic class are labels: nothing to draw differently.
+  const bool redraw = before.asset != next.asset || before.visible != next.visible ||
+                      before.parent != next.parent || before.material != next.material;
+  if (redraw) {
+    change.scene = flatten();
+  } else if (before.transform.local() != next.transform.local()) {
+    change.moved = graph_.moved(next.id);
+    model_.bounds = graph_.bounds();
+  }
+  return change;
+}
+
+std::shared_ptr<const scene::Scene> SessionScene::removeObject(uint32_t id, size_t* removed) {
+  const size_t n = graph_.removeObject(id);
+  if (removed != nullptr) *removed = n;
+  return flatten();
 }
 
 // ---- Camera and settings.

@@ -25,6 +25,7 @@
 #include "render/frame.h"
 #include "scene/environment_map.h"
 #include "scene/scene.h"
+#include "service/scene_graph.h"
 
 namespace myriad::service {
 
@@ -71,13 +72,27 @@ struct Adoption {
   std::optional<LightRecipe> recipe;
   // Take the model's sun, ambient and background (a new session); otherwise keep the session's.
   bool lightingFromModel = false;
+  // The model's asset id (SceneGraph: "a-" + hex of the SHA-256 of its bytes); empty: made from
+  // the source's name (the built-in scene, a library model).
+  std::string assetId;
+  uint64_t assetBytes = 0;
+};
+
+// The asset id of what `content` names: "a-" + the first 16 hex digits of its SHA-256.
+std::string assetIdOf(std::string_view content);
+
+// What an object edit asks of the GPU scene: either new transforms for some instances (a move
+// that changes nothing else) or the whole scene again.
+struct SceneChange {
+  std::optional<render::InstanceUpdate> moved;
+  std::shared_ptr<const scene::Scene> scene;
 };
 
 class SessionScene {
  public:
   // An empty scene (no model, no lights) that holds at most `maxLights` lights and starts from
   // `settings` (the server's default technique among them).
-  SessionScene(uint32_t maxLights, render::SceneSettings settings);
+  SessionScene(uint32_t maxLights, render::SceneSettings settings, uint32_t maxObjects = 100000);
 
   // ---- The model. Creating a session and loading a model both come through here.
 
@@ -89,6 +104,31 @@ class SessionScene {
                                             std::string source, Adoption adoption);
 
   const ModelSummary& model() const { return model_; }
+
+  // ---- Assets and objects (SceneGraph). `adopt` makes the scene one asset and one root object;
+  // these add to it. Each edit that changes what is drawn returns the change to queue.
+
+  const SceneGraph& graph() const { return graph_; }
+  // Adds `loaded` as asset `id` (or finds the same one) without drawing it: its materials join
+  // the session's (ids from its firstMaterial). `added` says whether it is new; `scene` is the
+  // scene to upload then (its materials are new), null otherwise.
+  struct AssetAdded {
+    const Asset* asset = nullptr;
+    bool added = false;
+    std::shared_ptr<const scene::Scene> scene;
+  };
+  AssetAdded addAsset(std::shared_ptr<const scene::Scene> loaded, std::string source,
+                      std::string id, uint64_t bytes);
+  // Removes an asset no object uses (409 otherwise); its materials go, and later ids move down.
+  std::shared_ptr<const scene::Scene> removeAsset(std::string_view id);
+  // SceneGraph::addObjects, and the scene to upload.
+  std::shared_ptr<const scene::Scene> addObjects(std::vector<SceneObject> objects,
+                                                 std::vector<uint32_t>* ids);
+  // Replaces object `next.id` by `next`: a change of transform alone is a move (only its and its
+  // descendants' instances are written), anything else uploads the scene.
+  SceneChange replaceObject(const SceneObject& next);
+  // Removes the object and its descendants (written to `removed` when given).
+  std::shared_ptr<const scene::Scene> removeObject(uint32_t id, size_t* removed = nullptr);
 
   // ---- Camera and settings (carried by each frame; nothing to upload).
 
@@ -143,6 +183,8 @@ class SessionScene {
 
   // What restore() asks of the GPU scene.
   struct Restored {
+    // The scene to upload first, when the snapshot's objects replaced the session's.
+    std::shared_ptr<const scene::Scene> scene;
     render::LightUpdate lights;
     std::vector<render::MaterialWrite> materials;
   };
@@ -209,7 +251,11 @@ class SessionScene {
   // new and get fresh ids (0: every light is new).
   render::LightUpdate relink(uint32_t fresh, std::optional<uint32_t> vacated = std::nullopt);
 
+  // The flat scene of the graph with the session's materials and lights; the summary follows it.
+  std::shared_ptr<scene::Scene> flatten();
+
   uint32_t maxLights_;
+  SceneGraph graph_;
   ModelSummary model_;
   std::vector<scene::Material> materials_;
   scene::Camera camera_;

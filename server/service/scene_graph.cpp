@@ -1,0 +1,378 @@
+#include "service/scene_graph.h"
+
+#include <algorithm>
+#include <charconv>
+#include <cmath>
+
+#include <glm/gtc/matrix_transform.hpp>
+
+#include "protocol/constants.h"
+#include "service/problem.h"
+
+namespace myriad::service {
+namespace {
+
+bool finite(const glm::mat4& m) {
+  for (int c = 0; c < 4; ++c) {
+    for (int r = 0; r < 4; ++r) {
+      if (!std::isfinite(m[c][r])) return false;
+    }
+  }
+  return true;
+}
+
+// A transform the renderer can use: finite, invertible (its normals need the inverse), and
+// affine (a projective bottom row would bend the mesh's bounds).
+bool usable(const glm::mat4& m) {
+  if (!finite(m)) return false;
+  if (m[0][3] != 0.0f || m[1][3] != 0.0f || m[2][3] != 0.0f || m[3][3] != 1.0f) return false;
+  const float det = glm::determinant(glm::mat3(m));
+  return std::isfinite(det) && std::abs(det) > 1e-30f;
+}
+
+void unite(scene::Bounds& into, const scene::Bounds& b) {
+  if (b.empty()) return;
+  into.extend(b.min);
+  into.extend(b.max);
+}
+
+}  // namespace
+
+glm::mat4 ObjectTransform::local() const {
+  if (matrix) return *matrix;
+  return glm::translate(glm::mat4(1.0f), translation) * glm::mat4_cast(rotation) *
+         glm::scale(glm::mat4(1.0f), scale);
+}
+
+// ---- Assets.
+
+const Asset* SceneGraph::findAsset(std::string_view id) const {
+  for (const Asset& a : assets_) {
+    if (a.id == id) return &a;
+  }
+  return nullptr;
+}
+
+const Asset& SceneGraph::asset(std::string_view id) const {
+  if (const Asset* a = findAsset(id)) return *a;
+  throw ProblemError(notFoundDetail("The session has no asset " + quoteClientText(id) +
+                                    " (GET .../assets lists them)."));
+}
+
+std::pair<const Asset*, bool> SceneGraph::addAsset(Asset asset) {
+  if (const Asset* same = findAsset(asset.id)) return {same, false};
+  if (assets_.size() >= kMaxAssets) {
+    throw ProblemError(limitExceeded(
+        413, std::string(protocol::limits::kMaxAssetsPerSession),
+        "A session holds at most " + std::to_string(kMaxAssets) +
+            " assets; delete one no object uses (DELETE .../assets/{aid}) first."));
+  }
+  asset.bounds = asset.scene->bounds();
+  assets_.push_back(std::move(asset));
+  return {&assets_.back(), true};
+}
+
+size_t SceneGraph::usersOf(const Asset& asset) const {
+  const uint32_t first = asset.firstMaterial;
+  const uint32_t end = first + uint32_t(asset.scene->materials.size());
+  return size_t(std::count_if(objects_.begin(), objects_.end(), [&](const auto& entry) {
+    const SceneObject& o = entry.second;
+    return o.asset == asset.id || (o.material && *o.material >= first && *o.material < end);
+  }));
+}
+
+std::pair<uint32_t, uint32_t> SceneGraph::removeAsset(std::string_view id) {
+  const Asset& gone = asset(id);
+  const uint32_t first = gone.firstMaterial;
+  const uint32_t count = uint32_t(gone.scene->materials.size());
+  for (const auto& [objectId, o] : objects_) {
+    if (o.asset == gone.id) {
+      throw ProblemError(conflict("Asset " + quoteClientText(id) + " is in use: object " +
+                                  std::to_string(objectId) + " draws it (" +
+                                  std::to_string(usersOf(gone)) +
+                                  " objects use it). Delete them first."));
+    }
+    if (o.material && *o.material >= first && *o.material < first + count) {
+      throw ProblemError(conflict("Asset " + quoteClientText(id) + " is in use: object " +
+                                  std::to_string(objectId) + " is drawn with its material " +
+                                  std::to_string(*o.material) + "."));
+    }
+  }
+  for (auto& [objectId, o] : objects_) {
+    if (o.material && *o.material >= first + count) *o.material -= count;
+  }
+  const auto it = std::find_if(assets_.begin(), assets_.end(),
+                               [&](const Asset& a) { return a.id == id; });
+  for (auto later = it + 1; later != assets_.end(); ++later) later->firstMaterial -= count;
+  assets_.erase(it);
+  return {first, count};
+}
+
+// ---- Objects.
+
+uint32_t SceneGraph::objectId(std::string_view segment) const {
+  uint32_t id = 0;
+  auto [end, ec] = std::from_chars(segment.data(), segment.data() + segment.size(), id);
+  if (segment.empty() || ec != std::errc() || end != segment.data() + segment.size() ||
+      !objects_.contains(id)) {
+    throw ProblemError(notFoundDetail("The session has no object " + quoteClientText(segment) +
+                                      " (GET .../objects lists them)."));
+  }
+  return id;
+}
+
+const SceneObject& SceneGraph::object(uint32_t id) const {
+  const auto it = objects_.find(id);
+  if (it == objects_.end()) {
+    throw ProblemError(notFoundDetail("The session has no object " + std::to_string(id) + "."));
+  }
+  return it->second;
+}
+
+void SceneGraph::check(const SceneObject& o, uint32_t materials,
+                       const std::map<uint32_t, SceneObject>& pending,
+                       const std::string& pointer) const {
+  if (findAsset(o.asset) == nullptr) {
+    throw ProblemError(invalidBody(pointer + "/asset", "The session has no asset " +
+                                                           quoteClientText(o.asset) +
+                                                           " (POST .../assets adds one)."));
+  }
+  const glm::mat4 local = o.transform.local();
+  if (!usable(local)) {
+    throw ProblemError(invalidBody(
+        pointer + "/transform",
+        "The transform must be finite, affine and invertible (no zero scale, a non-zero "
+        "rotation quaternion, a matrix whose last row is 0 0 0 1)."));
+  }
+  if (o.material && *o.material >= materials) {
+    throw ProblemError(invalidBody(pointer + "/material",
+                                   "The session has no material " + std::to_string(*o.material) +
+                                       " (it has " + std::to_string(materials) + ")."));
+  }
+  // The chain of parents: each must exist, none may be the object, and it may be at most
+  // kMaxDepth long.
+  size_t depth = 0;
+  for (uint32_t p = o.parent; p != 0; ++depth) {
+    if (p == o.id) {
+      throw ProblemError(invalidBody(pointer + "/parent",
+                                     "Object " + std::to_string(o.id) + " cannot be its own "
+                                     "ancestor: parent " + std::to_string(o.parent) +
+                                     " makes a cycle."));
+    }
+    if (depth >= kMaxDepth) {
+      throw ProblemError(invalidBody(pointer + "/parent",
+                                     "Objects nest at most " + std::to_string(kMaxDepth) +
+                                         " deep."));
+    }
+    const auto pendingIt = pending.find(p);
+    const SceneObject* parent = pendingIt != pending.end() ? &pendingIt->second : nullptr;
+    if (parent == nullptr) {
+      const auto it = objects_.find(p);
+      if (it != objects_.end()) parent = &it->second;
+    }
+    if (parent == nullptr) {
+      throw ProblemError(invalidBody(pointer + "/parent",
+                                     "The session has no object " + std::to_string(p) +
+                                         " to be the parent."));
+    }
+    p = parent->parent;
+  }
+}
+
+std::vector<uint32_t> SceneGraph::addObjects(std::vector<SceneObject> objects, uint32_t materials,
+                                             std::string_view pointer) {
+  if (uint64_t(objects_.size()) + objects.size() > maxObjects_) {
+    throw ProblemError(limitExceeded(
+        413, std::string(protocol::limits::kMaxObjectsPerSession),
+        "This would leave the session with " + std::to_string(objects_.size() + objects.size()) +
+            " objects; it may hold at most " + std::to_string(maxObjects_) + "."));
+  }
+  if (uint64_t(nextId_) + objects.size() >= UINT32_MAX) {
+    throw ProblemError(limitExceeded(413, std::string(protocol::limits::kMaxObjectsPerSession),
+                                     "The session has given out every object id."));
+  }
+  std::map<uint32_t, SceneObject> pending;
+  std::vector<uint32_t> ids;
+  ids.reserve(objects.size());
+  uint32_t id = nextId_;
+  for (size_t i = 0; i < objects.size(); ++i, ++id) {
+    objects[i].id = id;
+    // A parent added in the same request must come before its children.
+    if (objects[i].parent >= id) {
+      throw ProblemError(invalidBody(std::string(pointer) + "/" + std::to_string(i) + "/parent",
+                                     "The parent " + std::to_string(objects[i].parent) +
+                                         " is not an object of the session or an earlier one "
+                                         "of this request (this one gets id " +
+                                         std::to_string(id) + ")."));
+    }
+    check(objects[i], materials, pending, std::string(pointer) + "/" + std::to_string(i));
+    pending.emplace(id, objects[i]);
+    ids.push_back(id);
+  }
+  objects_.merge(pending);
+  nextId_ = id;
+  return ids;
+}
+
+void SceneGraph::replaceObject(const SceneObject& next, uint32_t materials) {
+  object(next.id);
+  check(next, materials, {}, "");
+  objects_[next.id] = next;
+}
+
+size_t SceneGraph::removeObject(uint32_t id) {
+  object(id);
+  const std::vector<uint32_t> gone = subtree(id);
+  for (uint32_t g : gone) objects_.erase(g);
+  return gone.size();
+}
+
+void SceneGraph::restoreObjects(std::vector<SceneObject> objects, uint32_t nextId,
+                                uint32_t materials, std::string_view pointer) {
+  if (objects.size() > maxObjects_) {
+    throw ProblemError(limitExceeded(
+        413, std::string(protocol::limits::kMaxObjectsPerSession),
+        "The snapshot holds " + std::to_string(objects.size()) +
+            " objects; a session may hold at most " + std::to_string(maxObjects_) + "."));
+  }
+  SceneGraph next = *this;
+  next.objects_.clear();
+  std::map<uint32_t, SceneObject> all;
+  for (size_t i = 0; i < objects.size(); ++i) {
+    const std::string at = std::string(pointer) + "/" + std::to_string(i);
+    if (objects[i].id == 0 || objects[i].id >= nextId || all.contains(objects[i].id)) {
+      throw ProblemError(invalidBody(at + "/id", "Object ids are distinct, from 1, and below "
+                                                 "the snapshot's nextObjectId."));
+    }
+    all.emplace(objects[i].id, objects[i]);
+  }
+  for (size_t i = 0; i < objects.size(); ++i) {
+    next.check(objects[i], materials, all, std::string(pointer) + "/" + std::to_string(i));
+  }
+  objects_ = std::move(all);
+  nextId_ = nextId;
+}
+
+void SceneGraph::clear() {
+  assets_.clear();
+  objects_.clear();
+  placements_.clear();
+  placed_.clear();
+  flattenedFrom_.clear();
+}
+
+std::vector<uint32_t> SceneGraph::subtree(uint32_t id) const {
+  std::unordered_map<uint32_t, std::vector<uint32_t>> children;
+  for (const auto& [childId, o] : objects_) {
+    if (o.parent != 0) children[o.parent].push_back(childId);
+  }
+  std::vector<uint32_t> out{id};
+  for (size_t i = 0; i < out.size(); ++i) {
+    const auto it = children.find(out[i]);
+    if (it != children.end()) out.insert(out.end(), it->second.begin(), it->second.end());
+  }
+  return out;
+}
+
+glm::mat4 SceneGraph::worldOf(uint32_t id) const {
+  glm::mat4 world(1.0f);
+  for (uint32_t p = id; p != 0;) {
+    const SceneObject& o = object(p);
+    world = o.transform.local() * world;
+    p = o.parent;
+  }
+  return world;
+}
+
+bool SceneGraph::shown(uint32_t id) const {
+  for (uint32_t p = id; p != 0;) {
+    const SceneObject& o = object(p);
+    if (!o.visible) return false;
+    p = o.parent;
+  }
+  return true;
+}
+
+// ---- The flat scene.
+
+std::shared_ptr<scene::Scene> SceneGraph::flatten(const std::vector<scene::Material>& materials) {
+  auto flat = std::make_shared<scene::Scene>();
+  flat->materials = materials;
+  std::unordered_map<std::string_view, const Asset*> byId;
+  std::unordered_map<std::string_view, uint32_t> meshBase;
+  flattenedFrom_.clear();
+  for (const Asset& a : assets_) {
+    byId[a.id] = &a;
+    meshBase[a.id] = uint32_t(flat->meshes.size());
+    const uint32_t imageBase = uint32_t(flat->images.size());
+    flat->meshes.insert(flat->meshes.end(), a.scene->meshes.begin(), a.scene->meshes.end());
+    flat->images.insert(flat->images.end(), a.scene->images.begin(), a.scene->images.end());
+    // The asset's materials name its own images: shift them to where its images went.
+    for (size_t m = 0; m < a.scene->materials.size(); ++m) {
+      scene::Material& material = flat->materials.at(a.firstMaterial + m);
+      for (size_t slot = 0; slot < scene::Material::kTextureSlots; ++slot) {
+        scene::TextureRef& ref = material.texture(slot);
+        if (ref.present()) ref.image += imageBase;
+      }
+    }
+    flattenedFrom_.push_back(a.scene);
+  }
+  placements_.clear();
+  placed_.clear();
+  for (const auto& [id, o] : objects_) {
+    Placement placement{uint32_t(flat->instances.size()), 0};
+    if (shown(id)) {
+      const Asset& a = *byId.at(o.asset);
+      const glm::mat4 world = worldOf(id);
+      for (const scene::Instance& inst : a.scene->instances) {
+        scene::Instance out = inst;
+        out.mesh += meshBase.at(o.asset);
+        out.material = o.material.value_or(a.firstMaterial + inst.material);
+        out.transform = world * inst.transform;
+        out.object = id;
+        const scene::Mesh* mesh =
+            inst.mesh < a.scene->meshes.size() ? &a.scene->meshes[inst.mesh] : nullptr;
+        placed_.push_back(
+            {mesh, inst.transform,
+             mesh != nullptr ? scene::transformedBounds(*mesh, out.transform) : scene::Bounds{}});
+        flat->instances.push_back(out);
+        ++placement.count;
+      }
+    }
+    placements_[id] = placement;
+  }
+  uniteBounds();
+  return flat;
+}
+
+void SceneGraph::uniteBounds() {
+  bounds_ = {};
+  for (const Placed& p : placed_) unite(bounds_, p.bounds);
+}
+
+const SceneGraph::Placement* SceneGraph::placement(uint32_t id) const {
+  const auto it = placements_.find(id);
+  return it == placements_.end() ? nullptr : &it->second;
+}
+
+void SceneGraph::placeInstances(uint32_t id, std::vector<render::InstanceWrite>* writes) {
+  const Placement* placement = this->placement(id);
+  if (placement == nullptr || placement->count == 0) return;
+  const glm::mat4 world = worldOf(id);
+  for (uint32_t i = placement->first; i < placement->first + placement->count; ++i) {
+    Placed& p = placed_[i];
+    const glm::mat4 transform = world * p.assetTransform;
+    p.bounds = p.mesh != nullptr ? scene::transformedBounds(*p.mesh, transform) : scene::Bounds{};
+    writes->push_back({i, transform});
+  }
+}
+
+render::InstanceUpdate SceneGraph::moved(uint32_t id) {
+  render::InstanceUpdate update;
+  for (uint32_t moved : subtree(id)) placeInstances(moved, &update.writes);
+  uniteBounds();
+  update.bounds = bounds_;
+  return update;
+}
+
+}  // namespace myriad::service

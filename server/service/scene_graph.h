@@ -1,0 +1,167 @@
+// A session's scene as assets and objects: what the API edits object by object, and the flat
+// scene::Scene the renderer draws made from it.
+//
+// An *asset* is what one model load makes (meshes, materials, images, the file's instances),
+// stored once per session under a content address (the same bytes uploaded twice are one asset).
+// An *object* places one asset in the world: a name, a transform relative to its parent object
+// (or the world), visibility, an optional material override and a semantic class. Objects are
+// drawn in id order; each becomes its asset's instances, moved by the object's world transform.
+//
+// Plain data and rules: no HTTP, no Vulkan, no locking (SessionScene owns one; the session's
+// mutex guards it). Client mistakes are thrown as ProblemError (404 for a missing asset or object,
+// 409 for an asset still in use, 413 past a limit, 400 naming the member); an edit that throws
+// changes nothing.
+#pragma once
+
+#include <cstdint>
+#include <map>
+#include <memory>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <unordered_map>
+#include <vector>
+
+#include <glm/glm.hpp>
+#include <glm/gtc/quaternion.hpp>
+
+#include "render/frame.h"
+#include "scene/scene.h"
+
+namespace myriad::service {
+
+// An object's transform as its client gave it: translation, rotation and scale (applied scale
+// first, then rotation, then translation, as glTF's TRS), or a whole 4x4 matrix.
+struct ObjectTransform {
+  glm::vec3 translation{0.0f};
+  glm::quat rotation{1.0f, 0.0f, 0.0f, 0.0f};  // unit (w, x, y, z in glm's constructor)
+  glm::vec3 scale{1.0f};
+  std::optional<glm::mat4> matrix;  // when given, the transform (TRS ignored)
+
+  glm::mat4 local() const;
+};
+
+struct SceneObject {
+  uint32_t id = 0;  // from 1, never reused in a session; the instance-id label of its pixels
+  std::string name;
+  std::string asset;  // an asset id
+  ObjectTransform transform;
+  bool visible = true;
+  uint32_t parent = 0;               // 0: placed in the world
+  std::optional<uint32_t> material;  // a session material id drawn instead of the asset's
+  uint32_t semantic = 0;             // the semantic class (0: none)
+};
+
+struct Asset {
+  std::string id;      // "a-" + 16 hex digits of the SHA-256 of what it was made from
+  std::string source;  // builtin, library:NAME or upload:FILE
+  uint64_t bytes = 0;  // of the upload (0 for the built-in scene and library models)
+  // Its meshes, images, instances and (as loaded) materials; lights and cameras are not used.
+  std::shared_ptr<const scene::Scene> scene;
+  uint32_t firstMaterial = 0;  // the session material id of its material 0
+  scene::Bounds bounds;        // of its instances, in its own space
+};
+
+class SceneGraph {
+ public:
+  // Most assets a session holds at once.
+  static constexpr size_t kMaxAssets = 64;
+  // Deepest chain of parents: bounds the work of placing one object.
+  static constexpr size_t kMaxDepth = 64;
+
+  explicit SceneGraph(uint32_t maxObjects = 100000) : maxObjects_(maxObjects) {}
+
+  uint32_t maxObjects() const { return maxObjects_; }
+
+  // ---- Assets, in the order they were added.
+
+  const std::vector<Asset>& assets() const { return assets_; }
+  // Throws ProblemError 404 when there is none of that id.
+  const Asset& asset(std::string_view id) const;
+  const Asset* findAsset(std::string_view id) const;
+  // Adds an asset (its materials get the session material ids from `firstMaterial` on). Returns
+  // it and whether it is new: an asset of the same id is kept as it was. Throws ProblemError 413
+  // maxAssetsPerSession past kMaxAssets.
+  std::pair<const Asset*, bool> addAsset(Asset asset);
+  // Removes an asset no object uses (ProblemError 409 otherwise, naming an object) and returns
+  // the range of session material ids it held; later assets' materials move down by its count,
+  // as do material overrides past it (an override into its range is a use: 409).
+  std::pair<uint32_t, uint32_t> removeAsset(std::string_view id);
+  // How many objects draw `id` (or override a material with one of its materials).
+  size_t usersOf(const Asset& asset) const;
+
+  // ---- Objects, by id.
+
+  const std::map<uint32_t, SceneObject>& objects() const { return objects_; }
+  // Throws ProblemError 404 when there is no such object (or `segment` is not a decimal id).
+  uint32_t objectId(std::string_view segment) const;
+  const SceneObject& object(uint32_t id) const;
+  uint32_t nextObjectId() const { return nextId_; }
+
+  // Adds objects (their `id`s are ignored and given from nextObjectId()). A parent may be an
+  // existing object or one earlier in `objects` (by the id it will get). Checks all before adding
+  // any: ProblemError 400 under `pointer`/i for a missing asset, parent or material, a transform
+  // that is not finite and invertible; 413 maxObjectsPerSession past maxObjects(). `materials`:
+  // how many session materials there are.
+  std::vector<uint32_t> addObjects(std::vector<SceneObject> objects, uint32_t materials,
+                                   std::string_view pointer);
+  // Replaces object `next.id` by `next` (same checks; a parent that is the object or one of its
+  // descendants is 400 /parent).
+  void replaceObject(const SceneObject& next, uint32_t materials);
+  // Removes the object and its descendants; returns how many.
+  size_t removeObject(uint32_t id);
+  // Takes `objects` (ids kept) and `nextId` as they are: a snapshot's. Same checks as addObjects.
+  void restoreObjects(std::vector<SceneObject> objects, uint32_t nextId, uint32_t materials,
+                      std::string_view pointer);
+  void clear();
+
+  // World transform of an object (its parents' times its own).
+  glm::mat4 worldOf(uint32_t id) const;
+  bool shown(uint32_t id) const;  // visible, and so are all its parents
+
+  // ---- What the renderer draws.
+
+  // The flat scene of every asset's meshes and images and every shown object's instances, with
+  // `materials` (the session's, in asset order) and no lights. Remembers where each object's
+  // instances went, for moved().
+  std::shared_ptr<scene::Scene> flatten(const std::vector<scene::Material>& materials);
+  // After object `id`'s transform changed (and nothing else since flatten()): the new transforms
+  // of its and its descendants' instances, and the scene's bounds now.
+  render::InstanceUpdate moved(uint32_t id);
+  // Of the last flatten() (and moved() since).
+  const scene::Bounds& bounds() const { return bounds_; }
+  // Where an object's instances are in the flat scene, and their bounds (empty when not shown).
+  struct Placement {
+    uint32_t first = 0;
+    uint32_t count = 0;
+  };
+  const Placement* placement(uint32_t id) const;
+
+ private:
+  // Checks one object against the graph plus `pending` (objects being added), for addObjects,
+  // replaceObject and restoreObjects; `pointer` is where its problems point.
+  void check(const SceneObject& object, uint32_t materials,
+             const std::map<uint32_t, SceneObject>& pending, const std::string& pointer) const;
+  std::vector<uint32_t> subtree(uint32_t id) const;  // id and its descendants, parents first
+  void placeInstances(uint32_t id, std::vector<render::InstanceWrite>* writes);
+  void uniteBounds();
+
+  uint32_t maxObjects_;
+  std::vector<Asset> assets_;
+  std::map<uint32_t, SceneObject> objects_;
+  uint32_t nextId_ = 1;
+
+  // Of the last flatten(): each object's instances, and per flat instance its asset's instance
+  // transform and its world bounds.
+  std::unordered_map<uint32_t, Placement> placements_;
+  struct Placed {
+    const scene::Mesh* mesh = nullptr;
+    glm::mat4 assetTransform{1.0f};
+    scene::Bounds bounds;
+  };
+  std::vector<Placed> placed_;
+  std::vector<std::shared_ptr<const scene::Scene>> flattenedFrom_;  // keeps placed_'s meshes alive
+  scene::Bounds bounds_;
+};
+
+}  // namespace myriad::service
