@@ -290,6 +290,7 @@ void members(Tag<Snapshot>, F f) {
   f("settings", &Snapshot::settings);
   f("materials", &Snapshot::materials);
   f("lights", &Snapshot::lights);
+  f("scene", &Snapshot::scene);
 }
 
 template <class F>

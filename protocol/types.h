@@ -13,7 +13,7 @@
 #include <string>
 #include <vector>
 
-#include <nlohmann/json_fwd.hpp>
+#include <nlohmann/json.hpp>
 
 #include "protocol/constants.h"
 
@@ -271,6 +271,10 @@ struct Snapshot {
   Settings settings;
   std::vector<Material> materials;  // by id; names as the model has them
   SnapshotLights lights;
+  // The assets (id, source) in order, the objects (object.schema.json) and nextObjectId: the
+  // scene's JSON as snapshot.schema.json has it, read and written by the service
+  // (SessionScene::snapshot, restore). Absent in snapshots from before scenes.
+  std::optional<nlohmann::json> scene;
 };
 
 // POST /v1/sessions.

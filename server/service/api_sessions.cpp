@@ -124,25 +124,41 @@ ScenePtr loadUpload(const httplib::Request& req) {
 }
 
 // Restores `snapshot` into the session (locked) and queues what the GPU scene needs.
-// The library environment image a snapshot names (settings.environment.source "library:NAME"
-// with mode hdr), loaded without any lock, unless `session` holds that very image already.
-SessionScene::EnvironmentImageSource snapshotEnvironment(const ApiContext& context,
-                                                         const protocol::Snapshot& snapshot,
-                                                         const std::string& current) {
+// What a restore of `snapshot` loads without any lock: the library environment image it names
+// (settings.environment.source "library:NAME" with mode hdr) unless it is `current`, and the
+// builtin and library assets of its scene but those of ids in `have`.
+SessionScene::SnapshotLoads snapshotEnvironment(const ApiContext& context,
+                                                const protocol::Snapshot& snapshot,
+                                                const std::string& current,
+                                                const std::vector<std::string>& have = {}) {
+  SessionScene::SnapshotLoads loads;
   const protocol::Environment& e = snapshot.settings.environment;
-  if (e.mode != protocol::environment_modes::kHdr || !e.source ||
-      !e.source->starts_with(protocol::kLibraryPrefix) || *e.source == current) {
-    return {};
+  if (e.mode == protocol::environment_modes::kHdr && e.source &&
+      e.source->starts_with(protocol::kLibraryPrefix) && *e.source != current) {
+    loads.image = loadLibraryEnvironment(context, *e.source);
+    loads.source = *e.source;
   }
-  return {loadLibraryEnvironment(context, *e.source), *e.source};
+  if (snapshot.scene) {
+    for (const nlohmann::json& a : snapshot.scene->at("assets")) {
+      const std::string id = a.at("id").get<std::string>();
+      const std::string source = a.at("source").get<std::string>();
+      if (std::find(have.begin(), have.end(), id) != have.end() ||
+          source.starts_with(protocol::kUploadPrefix) || id != assetIdOf(source)) {
+        continue;  // the session's own, or one restore() names as missing
+      }
+      loads.assets.push_back(Asset{.id = id, .source = source, .scene = loadSource(context, source)});
+    }
+  }
+  return loads;
 }
 
 std::vector<std::future<void>> queueRestore(ApiContext& context, Session& session,
                                             const protocol::Snapshot& snapshot,
                                             std::string_view pointer,
-                                            const SessionScene::EnvironmentImageSource& image = {}) {
+                                            const SessionScene::SnapshotLoads& image = {}) {
   SessionScene::Restored restored = session.scene.restore(snapshot, pointer, Clock::now(), image);
   std::vector<std::future<void>> done;
+  if (restored.scene) done.push_back(context.renderThread.replaceScene(session.sceneId, std::move(restored.scene)));
   if (image.image) done.push_back(context.renderThread.setEnvironmentImage(session.sceneId, image.image));
   done.push_back(context.renderThread.updateLights(session.sceneId, std::move(restored.lights)));
   if (!restored.materials.empty()) {
@@ -171,7 +187,7 @@ SessionScene newSessionScene(const ApiContext& context) {
 // under `pointer`).
 void populate(ApiContext& context, Session& session, ScenePtr loaded, const std::string& source,
               const protocol::Snapshot* snapshot, std::string_view pointer,
-              const SessionScene::EnvironmentImageSource& environment) {
+              const SessionScene::SnapshotLoads& environment) {
   std::shared_ptr<const scene::Scene> scene;
   {
     std::lock_guard lock(session.mutex);
@@ -226,8 +242,9 @@ SessionPtr openSession(ApiContext& context, const std::string& source,
     // Loaded without the session's lock: a library model may take the loader's whole time limit,
     // and the idle sweeper takes every session's lock in turn.
     ScenePtr loaded = loadSource(context, source);
-    const SessionScene::EnvironmentImageSource environment =
-        snapshot ? snapshotEnvironment(context, *snapshot, "") : SessionScene::EnvironmentImageSource{};
+    const SessionScene::SnapshotLoads environment =
+        snapshot ? snapshotEnvironment(context, *snapshot, "", {assetIdOf(source)})
+                 : SessionScene::SnapshotLoads{};
     populate(context, *session, std::move(loaded), source, snapshot, pointer, environment);
   } catch (...) {
     context.sessions.remove(session->id);
@@ -480,10 +497,13 @@ SessionPtr restoreStoredSession(ApiContext& context, std::string_view id,
                  stored->id.c_str(), e.what());
     return nullptr;
   }
+  // The state directory keeps the bytes of the base model only (PUT .../model), not of assets
+  // added since: the session comes back with its base model as its one object.
+  snapshot.scene.reset();
   const std::string& source = snapshot.model.source;
   ScenePtr loaded = stored->model ? loadStoredUpload(context, *stored->model)
                                   : loadSource(context, source);
-  SessionScene::EnvironmentImageSource environment;
+  SessionScene::SnapshotLoads environment;
   if (stored->environmentBlob) {
     std::optional<std::string> bytes = context.state->blob(*stored->environmentBlob);
     auto image = std::make_shared<scene::EnvironmentImage>();
@@ -571,13 +591,15 @@ void addSessionRoutes(Routes& routes, ApiContext& context) {
         const auto snapshot =
             jsonBody(req, protocol::schema_names::kSnapshot).get<protocol::Snapshot>();
         std::string current;
+        std::vector<std::string> have;
         {
           auto lock = lockOpen(*session);
           if (session->scene.environmentImage()) current = session->scene.environmentSource();
+          for (const Asset& a : session->scene.graph().assets()) have.push_back(a.id);
         }
         // Loaded without the lock (the loader may take seconds).
-        const SessionScene::EnvironmentImageSource environment =
-            snapshotEnvironment(context, snapshot, current);
+        const SessionScene::SnapshotLoads environment =
+            snapshotEnvironment(context, snapshot, current, have);
         std::vector<std::future<void>> restored;
         {
           auto lock = lockOpen(*session);

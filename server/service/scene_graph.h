@@ -114,6 +114,9 @@ class SceneGraph {
   void restoreObjects(std::vector<SceneObject> objects, uint32_t nextId, uint32_t materials,
                       std::string_view pointer);
   void clear();
+  // Replaces the asset list (a snapshot's, in its order; firstMaterial set by the caller). The
+  // objects must be restored after it (restoreObjects), which checks them against it.
+  void replaceAssets(std::vector<Asset> assets) { assets_ = std::move(assets); }
 
   // World transform of an object (its parents' times its own).
   glm::mat4 worldOf(uint32_t id) const;

@@ -327,6 +327,13 @@ protocol::Snapshot SessionScene::snapshot() const {
   out.camera = toWire(camera_);
   out.settings = toWire(settings_);
   if (environmentImage_) out.settings.environment.source = environmentSource_;
+  nlohmann::json assets = nlohmann::json::array();
+  for (const Asset& a : graph_.assets()) assets.push_back({{"id", a.id}, {"source", a.source}});
+  nlohmann::json objects = nlohmann::json::array();
+  for (const auto& [id, o] : graph_.objects()) objects.push_back(toWire(*this, o));
+  out.scene = nlohmann::json{{"assets", std::move(assets)},
+                             {"objects", std::move(objects)},
+                             {"nextObjectId", graph_.nextObjectId()}};
   out.materials.reserve(materials_.size());
   for (uint32_t id = 0; id < materials_.size(); ++id) out.materials.push_back(toWire(id, materials_[id], model_.images));
   if (recipe_) {
@@ -341,7 +348,7 @@ protocol::Snapshot SessionScene::snapshot() const {
 
 SessionScene::Restored SessionScene::restore(const protocol::Snapshot& snapshot,
                                              std::string_view pointer, Clock::time_point now,
-                                             const EnvironmentImageSource& image) {
+                                             const SnapshotLoads& image) {
   const std::string at(pointer);
   // Checks and changes a copy, so that a refusal anywhere leaves this scene as it was.
   SessionScene next = *this;
@@ -376,6 +383,7 @@ SessionScene::Restored SessionScene::restore(const protocol::Snapshot& snapshot,
   } catch (const ProblemError& e) {
     throw ProblemError(invalidBody(at + "/settings" + e.problem().pointer.value_or(""), e.problem().detail));
   }
+  if (snapshot.scene) next.restoreScene(*snapshot.scene, at + "/scene", image.assets);
   for (size_t i = 0; i < snapshot.materials.size(); ++i) {
     const protocol::Material& m = snapshot.materials[i];
     if (m.id >= next.materials_.size()) {
@@ -417,8 +425,67 @@ SessionScene::Restored SessionScene::restore(const protocol::Snapshot& snapshot,
     }
     restored.lights = next.replaceLights(list);
   }
+  if (snapshot.scene) restored.scene = next.flatten();
   *this = std::move(next);
   return restored;
+}
+
+void SessionScene::restoreScene(const nlohmann::json& scene, const std::string& at,
+                                const std::vector<Asset>& loaded) {
+  // The assets in the snapshot's order, each the session's own (with its edited materials) or
+  // one the caller loaded; their materials in the same order.
+  std::vector<Asset> assets;
+  std::vector<scene::Material> materials;
+  const nlohmann::json& list = scene.at("assets");
+  for (size_t i = 0; i < list.size(); ++i) {
+    const std::string id = list[i].at("id").get<std::string>();
+    const std::string source = list[i].at("source").get<std::string>();
+    Asset asset;
+    const scene::Material* first = nullptr;
+    if (const Asset* have = graph_.findAsset(id)) {
+      asset = *have;
+      first = materials_.data() + have->firstMaterial;
+    } else {
+      const auto it = std::find_if(loaded.begin(), loaded.end(),
+                                   [&](const Asset& a) { return a.id == id; });
+      if (it == loaded.end()) {
+        throw ProblemError(invalidBody(
+            at + "/assets/" + std::to_string(i) + "/id",
+            "The session has no asset " + quoteClientText(id) + " (" + quoteClientText(source) +
+                "): upload it first (POST .../assets), then restore the snapshot."));
+      }
+      asset = *it;
+      first = asset.scene->materials.data();
+    }
+    if (std::any_of(assets.begin(), assets.end(), [&](const Asset& a) { return a.id == id; })) {
+      throw ProblemError(invalidBody(at + "/assets/" + std::to_string(i) + "/id",
+                                     "The asset " + quoteClientText(id) + " is listed twice."));
+    }
+    asset.firstMaterial = uint32_t(materials.size());
+    materials.insert(materials.end(), first, first + asset.scene->materials.size());
+    assets.push_back(std::move(asset));
+  }
+  std::vector<SceneObject> objects;
+  const nlohmann::json& wire = scene.at("objects");
+  objects.reserve(wire.size());
+  for (size_t i = 0; i < wire.size(); ++i) {
+    SceneObject o;
+    o.id = wire[i].at("id").get<uint32_t>();
+    try {
+      applyObjectMembers(wire[i], o);
+    } catch (const ProblemError& e) {
+      throw ProblemError(invalidBody(at + "/objects/" + std::to_string(i) +
+                                         e.problem().pointer.value_or(""),
+                                     e.problem().detail));
+    }
+    objects.push_back(std::move(o));
+  }
+  SceneGraph graph = graph_;
+  graph.replaceAssets(std::move(assets));
+  graph.restoreObjects(std::move(objects), scene.at("nextObjectId").get<uint32_t>(),
+                       uint32_t(materials.size()), at + "/objects");
+  graph_ = std::move(graph);
+  materials_ = std::move(materials);
 }
 
 // ---- Materials.

@@ -195,12 +195,16 @@ class SessionScene {
   // lights member no frame can use, 413 maxLightsPerSession for too many lights.
   // `image`: the snapshot's library environment image (settings.environment.source), loaded by
   // the caller, taken with the rest (the caller then gives it to the GPU scene).
-  struct EnvironmentImageSource {
+  // What a restore needs that the caller loads without the session's lock: the snapshot's
+  // library environment image, and the builtin and library assets of its scene the session may
+  // lack (an uploaded asset must already be the session's).
+  struct SnapshotLoads {
     std::shared_ptr<const scene::EnvironmentImage> image;
     std::string source;
+    std::vector<Asset> assets;
   };
   Restored restore(const protocol::Snapshot& snapshot, std::string_view pointer,
-                   Clock::time_point now, const EnvironmentImageSource& image = {});
+                   Clock::time_point now, const SnapshotLoads& image = {});
 
   // ---- Lights. Each light has a stable id (never reused within the session) and a slot, its
   // index in the GPU's light array. Slots are dense: removing a light moves the last light into
@@ -253,6 +257,9 @@ class SessionScene {
 
   // The flat scene of the graph with the session's materials and lights; the summary follows it.
   std::shared_ptr<scene::Scene> flatten();
+  // restore()'s part for a snapshot's "scene" (pointer `at`), with the assets the caller loaded.
+  void restoreScene(const nlohmann::json& scene, const std::string& at,
+                    const std::vector<Asset>& loaded);
 
   uint32_t maxLights_;
   SceneGraph graph_;
