@@ -283,6 +283,95 @@ void members(Tag<SnapshotLights>, F f) {
 }
 
 template <class F>
+void members(Tag<Transform>, F f) {
+  f("translation", &Transform::translation);
+  f("rotation", &Transform::rotation);
+  f("scale", &Transform::scale);
+  f("matrix", &Transform::matrix);
+}
+
+template <class F>
+void members(Tag<ObjectPatch>, F f) {
+  f("name", &ObjectPatch::name);
+  f("asset", &ObjectPatch::asset);
+  f("transform", &ObjectPatch::transform);
+  f("visible", &ObjectPatch::visible);
+  f("parent", &ObjectPatch::parent);
+  f("material", &ObjectPatch::material);
+  f("semantic", &ObjectPatch::semantic);
+}
+
+template <class F>
+void members(Tag<ObjectsAdd>, F f) {
+  f("objects", &ObjectsAdd::objects);
+}
+
+template <class F>
+void members(Tag<ObjectsAdded>, F f) {
+  f("ids", &ObjectsAdded::ids);
+  f("total", &ObjectsAdded::total);
+}
+
+template <class F>
+void members(Tag<Object>, F f) {
+  f("id", &Object::id);
+  f("name", &Object::name);
+  f("asset", &Object::asset);
+  f("transform", &Object::transform);
+  f("visible", &Object::visible);
+  f("parent", &Object::parent);
+  f("material", &Object::material);
+  f("semantic", &Object::semantic);
+  f("instances", &Object::instances);
+  f("bounds", &Object::bounds);
+}
+
+template <class F>
+void members(Tag<ObjectsPage>, F f) {
+  f("total", &ObjectsPage::total);
+  f("offset", &ObjectsPage::offset);
+  f("nextObjectId", &ObjectsPage::nextObjectId);
+  f("objects", &ObjectsPage::objects);
+}
+
+template <class F>
+void members(Tag<AssetMaterials>, F f) {
+  f("first", &AssetMaterials::first);
+  f("count", &AssetMaterials::count);
+}
+
+template <class F>
+void members(Tag<Asset>, F f) {
+  f("id", &Asset::id);
+  f("source", &Asset::source);
+  f("bytes", &Asset::bytes);
+  f("meshes", &Asset::meshes);
+  f("instances", &Asset::instances);
+  f("materials", &Asset::materials);
+  f("images", &Asset::images);
+  f("bounds", &Asset::bounds);
+  f("objects", &Asset::objects);
+}
+
+template <class F>
+void members(Tag<AssetsList>, F f) {
+  f("assets", &AssetsList::assets);
+}
+
+template <class F>
+void members(Tag<SnapshotAsset>, F f) {
+  f("id", &SnapshotAsset::id);
+  f("source", &SnapshotAsset::source);
+}
+
+template <class F>
+void members(Tag<SnapshotScene>, F f) {
+  f("assets", &SnapshotScene::assets);
+  f("objects", &SnapshotScene::objects);
+  f("nextObjectId", &SnapshotScene::nextObjectId);
+}
+
+template <class F>
 void members(Tag<Snapshot>, F f) {
   f("version", &Snapshot::version);
   f("model", &Snapshot::model);
@@ -580,6 +669,17 @@ MYRIAD_MEMBERWISE_JSON(LightsPage)
 MYRIAD_MEMBERWISE_JSON(ModelSource)
 MYRIAD_MEMBERWISE_JSON(LightsRecipe)
 MYRIAD_MEMBERWISE_JSON(SnapshotLights)
+MYRIAD_MEMBERWISE_JSON(Transform)
+MYRIAD_MEMBERWISE_JSON(ObjectPatch)
+MYRIAD_MEMBERWISE_JSON(ObjectsAdd)
+MYRIAD_MEMBERWISE_JSON(ObjectsAdded)
+MYRIAD_MEMBERWISE_JSON(Object)
+MYRIAD_MEMBERWISE_JSON(ObjectsPage)
+MYRIAD_MEMBERWISE_JSON(AssetMaterials)
+MYRIAD_MEMBERWISE_JSON(Asset)
+MYRIAD_MEMBERWISE_JSON(AssetsList)
+MYRIAD_MEMBERWISE_JSON(SnapshotAsset)
+MYRIAD_MEMBERWISE_JSON(SnapshotScene)
 MYRIAD_MEMBERWISE_JSON(Snapshot)
 MYRIAD_MEMBERWISE_JSON(SessionCreate)
 MYRIAD_MEMBERWISE_JSON(ModelSummary)

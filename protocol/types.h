@@ -262,6 +262,108 @@ struct SnapshotLights {
   std::optional<std::vector<LightNew>> list;  // in the session's order
 };
 
+// A member that may be null on the wire (an object's parent or material override): null reads
+// as an empty value and writes back as null. In a patch, std::optional<Nullable<T>> tells "leave
+// it" (absent) from "clear it" (null).
+template <class T>
+struct Nullable {
+  std::optional<T> value;
+  bool operator==(const Nullable&) const = default;
+};
+template <class T>
+void to_json(nlohmann::json& j, const Nullable<T>& v) {
+  j = v.value ? nlohmann::json(*v.value) : nlohmann::json(nullptr);
+}
+template <class T>
+void from_json(const nlohmann::json& j, Nullable<T>& v) {
+  if (j.is_null()) {
+    v.value.reset();
+  } else {
+    v.value = j.get<T>();
+  }
+}
+
+// Scenes (assets and objects): defs' transform, object*.schema.json, asset*.schema.json.
+struct Transform {
+  std::optional<Vec3> translation;
+  std::optional<std::array<double, 4>> rotation;  // quaternion x, y, z, w
+  std::optional<Vec3> scale;
+  std::optional<std::array<double, 16>> matrix;   // column-major; not with the three above
+};
+
+// POST .../objects' items (asset required) and PATCH .../objects/{oid} (any subset).
+struct ObjectPatch {
+  std::optional<std::string> name;
+  std::optional<std::string> asset;
+  std::optional<Transform> transform;
+  std::optional<bool> visible;
+  std::optional<Nullable<uint64_t>> parent;
+  std::optional<Nullable<uint64_t>> material;
+  std::optional<uint64_t> semantic;
+};
+using ObjectNew = ObjectPatch;
+
+struct ObjectsAdd {
+  std::vector<ObjectNew> objects;
+};
+
+struct ObjectsAdded {
+  std::vector<uint64_t> ids;
+  uint64_t total = 0;
+};
+
+struct Object {
+  uint64_t id = 0;
+  std::string name;
+  std::string asset;
+  Transform transform;
+  bool visible = true;
+  Nullable<uint64_t> parent;
+  Nullable<uint64_t> material;
+  uint64_t semantic = 0;
+  uint64_t instances = 0;
+  std::optional<Bounds> bounds;  // absent when it draws nothing
+};
+
+struct ObjectsPage {
+  uint64_t total = 0;
+  uint64_t offset = 0;
+  uint64_t nextObjectId = 1;
+  std::vector<Object> objects;
+};
+
+struct AssetMaterials {
+  uint64_t first = 0;
+  uint64_t count = 0;
+};
+
+struct Asset {
+  std::string id;
+  std::string source;
+  uint64_t bytes = 0;
+  uint64_t meshes = 0;
+  uint64_t instances = 0;
+  AssetMaterials materials;
+  uint64_t images = 0;
+  std::optional<Bounds> bounds;
+  uint64_t objects = 0;
+};
+
+struct AssetsList {
+  std::vector<Asset> assets;
+};
+
+// A snapshot's scene: the assets by id and source, in order, every object, and the next id.
+struct SnapshotAsset {
+  std::string id;
+  std::string source;
+};
+struct SnapshotScene {
+  std::vector<SnapshotAsset> assets;
+  std::vector<Object> objects;
+  uint64_t nextObjectId = 1;
+};
+
 // GET .../snapshot: everything a session holds but the model's bytes, as one document that
 // POST /v1/sessions and PUT .../snapshot restore.
 struct Snapshot {
@@ -271,10 +373,7 @@ struct Snapshot {
   Settings settings;
   std::vector<Material> materials;  // by id; names as the model has them
   SnapshotLights lights;
-  // The assets (id, source) in order, the objects (object.schema.json) and nextObjectId: the
-  // scene's JSON as snapshot.schema.json has it, read and written by the service
-  // (SessionScene::snapshot, restore). Absent in snapshots from before scenes.
-  std::optional<nlohmann::json> scene;
+  std::optional<SnapshotScene> scene;  // absent in snapshots from before scenes
 };
 
 // POST /v1/sessions.
@@ -534,6 +633,17 @@ MYRIAD_PROTOCOL_JSON(LightsPage);
 MYRIAD_PROTOCOL_JSON(ModelSource);
 MYRIAD_PROTOCOL_JSON(LightsRecipe);
 MYRIAD_PROTOCOL_JSON(SnapshotLights);
+MYRIAD_PROTOCOL_JSON(Transform);
+MYRIAD_PROTOCOL_JSON(ObjectPatch);
+MYRIAD_PROTOCOL_JSON(ObjectsAdd);
+MYRIAD_PROTOCOL_JSON(ObjectsAdded);
+MYRIAD_PROTOCOL_JSON(Object);
+MYRIAD_PROTOCOL_JSON(ObjectsPage);
+MYRIAD_PROTOCOL_JSON(AssetMaterials);
+MYRIAD_PROTOCOL_JSON(Asset);
+MYRIAD_PROTOCOL_JSON(AssetsList);
+MYRIAD_PROTOCOL_JSON(SnapshotAsset);
+MYRIAD_PROTOCOL_JSON(SnapshotScene);
 MYRIAD_PROTOCOL_JSON(Snapshot);
 MYRIAD_PROTOCOL_JSON(SessionCreate);
 MYRIAD_PROTOCOL_JSON(ModelCamera);

@@ -76,12 +76,21 @@ const std::map<std::string, std::function<json(const json&)>, std::less<>> kRoun
     {"token-create", throughType<protocol::TokenCreate>},
     {"token-created", throughType<protocol::TokenCreated>},
     {"light-pick", throughType<protocol::LightPick>},
+    {"asset", throughType<protocol::Asset>},
+    {"assets-list", throughType<protocol::AssetsList>},
+    {"object", throughType<protocol::Object>},
+    {"object-new", throughType<protocol::ObjectNew>},
+    {"object-patch", throughType<protocol::ObjectPatch>},
+    {"objects-add", throughType<protocol::ObjectsAdd>},
+    {"objects-added", throughType<protocol::ObjectsAdded>},
+    {"objects-page", throughType<protocol::ObjectsPage>},
 };
 
 // The bodies clients send; each must reject every kind of mistake (cases.json "kind").
 const std::set<std::string> kRequestSchemas = {
     "session-create", "snapshot", "model-source", "camera",      "camera-patch", "camera-select", "settings-patch",
-    "material-patch", "light-new",    "light-patch", "lights-add",   "lights-generate", "token-create"};
+    "material-patch", "light-new",    "light-patch", "lights-add",   "lights-generate", "token-create",
+    "object-new",     "object-patch", "objects-add"};
 
 std::vector<std::string_view> bodySchemas() {
   std::vector<std::string_view> names;
@@ -94,7 +103,7 @@ std::vector<std::string_view> bodySchemas() {
 }  // namespace
 
 TEST_CASE("every schema is embedded as it is on disk and accepts its example") {
-  CHECK(bodySchemas().size() == 29);
+  CHECK(bodySchemas().size() == 37);
   for (std::string_view name : protocol::schemaNames()) {
     CAPTURE(name);
     std::string path = std::string(MYRIAD_PROTOCOL_DIR) + "/schemas/" + std::string(name) + ".schema.json";

@@ -100,6 +100,21 @@ Value parseValue(Kind kind, const std::string& text, const std::string& what,
       checkBounds(r.max, bounds, what, formatNumber(r.max));
       return r;
     }
+    case Kind::Rotation: {
+      Vec4 q = parseRotation(text, what);
+      for (double c : q) checkBounds(c, bounds, what, formatNumber(c));
+      return q;
+    }
+    case Kind::Scale: {
+      Vec3 v = parseScale(text, what);
+      for (double c : v) checkBounds(c, bounds, what, formatNumber(c));
+      return v;
+    }
+    case Kind::IdOrNone: {
+      std::optional<uint64_t> id = parseIdOrNone(text, what);
+      if (id) checkBounds(double(*id), bounds, what, text);
+      return id;
+    }
   }
   throw UsageError(what, what + ": unsupported kind of value");
 }
@@ -110,6 +125,12 @@ std::string kindHint(Kind kind) {
       return "x,y,z";
     case Kind::Range:
       return "min,max";
+    case Kind::Rotation:
+      return "x,y,z,w";
+    case Kind::Scale:
+      return "s|x,y,z";
+    case Kind::IdOrNone:
+      return "N|none";
     case Kind::OnOff:
       return "on|off";
     case Kind::Unsigned:
@@ -237,6 +258,40 @@ Interval parseRange(const std::string& text, const std::string& what) {
     throw UsageError(what, what + ": min " + parts[0] + " is above max " + parts[1]);
   }
   return r;
+}
+
+Vec4 parseRotation(const std::string& text, const std::string& what) {
+  std::vector<std::string> parts = splitComma(text);
+  if (parts.size() != 4) {
+    throw UsageError(what, what + ": expected a quaternion of four numbers x,y,z,w, got \"" +
+                               text + "\"");
+  }
+  Vec4 q{parseNumber(parts[0], what), parseNumber(parts[1], what), parseNumber(parts[2], what),
+         parseNumber(parts[3], what)};
+  if (q[0] == 0 && q[1] == 0 && q[2] == 0 && q[3] == 0) {
+    throw UsageError(what, what + ": 0,0,0,0 is no rotation (the identity is 0,0,0,1)");
+  }
+  return q;
+}
+
+Vec3 parseScale(const std::string& text, const std::string& what) {
+  std::vector<std::string> parts = splitComma(text);
+  if (parts.size() == 1) {
+    double s = parseNumber(parts[0], what);
+    return {s, s, s};
+  }
+  if (parts.size() != 3) {
+    throw UsageError(what, what + ": expected one number s or three x,y,z, got \"" + text + "\"");
+  }
+  return {parseNumber(parts[0], what), parseNumber(parts[1], what), parseNumber(parts[2], what)};
+}
+
+std::optional<uint64_t> parseIdOrNone(const std::string& text, const std::string& what) {
+  if (text == "none") return std::nullopt;
+  if (text.empty() || text.find_first_not_of("0123456789") != std::string::npos) {
+    throw UsageError(what, what + ": expected a whole number >= 0 or none, got \"" + text + "\"");
+  }
+  return parseUnsigned(text, what);
 }
 
 bool parseOnOff(const std::string& text, const std::string& what) {
@@ -453,7 +508,8 @@ std::string commandHelp(const CommandSpec& command) {
 std::string overviewHelp() {
   std::ostringstream out;
   out << "usage: myriad [--server URL] [--session-file PATH] [--json] COMMAND [ARGS]\n\n"
-         "The command-line client of myriad-server: sessions, models, camera, lights, frames.\n\n"
+         "The command-line client of myriad-server: sessions, models, assets and objects, camera,\n"
+         "lights, frames.\n\n"
          "Commands:\n";
   for (const CommandSpec& c : commandSpecs()) {
     std::string left = c.name;

@@ -16,6 +16,7 @@
 namespace myriad::cli {
 
 using Vec3 = std::array<double, 3>;
+using Vec4 = std::array<double, 4>;
 
 // `min,max`, as in `--radius 0.5,2`.
 struct Interval {
@@ -24,7 +25,8 @@ struct Interval {
 };
 
 // A parsed argument value. Which alternative an option holds follows from its Kind.
-using Value = std::variant<bool, double, uint64_t, std::string, Vec3, Interval>;
+using Value = std::variant<bool, double, uint64_t, std::string, Vec3, Interval, Vec4,
+                           std::optional<uint64_t>>;
 
 enum class Kind {
   Flag,      // no value: present or not (bool)
@@ -35,6 +37,9 @@ enum class Kind {
   OnOff,     // on|off (bool); also true|false, 1|0
   Vector,    // x,y,z: three finite numbers (Vec3)
   Range,     // min,max: two finite numbers with min <= max (Interval)
+  Rotation,  // x,y,z,w: a quaternion, four finite numbers not all 0 (Vec4)
+  Scale,     // s or x,y,z: one number for all three axes, or three (Vec3)
+  IdOrNone,  // a whole number >= 0, or none (std::optional<uint64_t>, nullopt for none)
 };
 
 // Accepted values of a number, or of each component of a vector or range.
@@ -136,6 +141,9 @@ double parseNumber(const std::string& text, const std::string& what);
 uint64_t parseUnsigned(const std::string& text, const std::string& what);
 Vec3 parseVector(const std::string& text, const std::string& what);
 Interval parseRange(const std::string& text, const std::string& what);
+Vec4 parseRotation(const std::string& text, const std::string& what);
+Vec3 parseScale(const std::string& text, const std::string& what);
+std::optional<uint64_t> parseIdOrNone(const std::string& text, const std::string& what);
 bool parseOnOff(const std::string& text, const std::string& what);
 
 }  // namespace myriad::cli

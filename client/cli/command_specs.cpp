@@ -31,6 +31,10 @@ const Bounds kSeed{0.0, 9007199254740991.0};  // 2^53-1: exact in a JSON number
 const Bounds kCoordinate{-1e6, 1e6};  // every vector component, in scene units
 const Bounds kDistance{0.0, 1e6, true};
 const Bounds kTime{0.0, 1e6, false, false, "seconds"};
+const Bounds kObjectId{1.0, 4294967294.0};    // objectId in protocol/schemas/defs.schema.json
+const Bounds kMaterialId{0.0, 4294967294.0};  // an object's material
+const Bounds kSemantic{0.0, 65535.0};
+const Bounds kObjectPage{0.0, 1000.0};  // limits of GET .../objects; 0: only the total
 
 OptionSpec option(std::string name, Kind kind, std::string help,
                   std::optional<Bounds> bounds = std::nullopt, std::string metavar = {}) {
@@ -108,6 +112,38 @@ void requireSomeOption(const Invocation& inv, const std::string& what) {
   if (inv.options.empty()) throw UsageError(inv.command->name, what);
 }
 
+// An asset id as the server makes them: "a-" and 16 lower-case hex digits.
+void checkAssetId(const std::string& id, const std::string& what) {
+  bool ok = id.size() == 18 && id.starts_with("a-") &&
+            id.find_first_not_of("0123456789abcdef", 2) == std::string::npos;
+  if (!ok) {
+    throw UsageError(what, what + ": \"" + id +
+                               "\" is not an asset id (a- and 16 hex digits; see myriad asset list)");
+  }
+}
+
+// --at, --rotate, --scale: an object's transform (TRS, as glTF), for `object add` and `move`.
+std::vector<OptionSpec> transformOptions(const std::string& missing) {
+  return {option("at", Kind::Vector, "translation, scene units (" + missing + " 0,0,0)",
+                 kCoordinate),
+          option("rotate", Kind::Rotation,
+                 "rotation quaternion as glTF, normalized by the server (" + missing +
+                     " 0,0,0,1)",
+                 kCoordinate),
+          option("scale", Kind::Scale, "one factor for every axis, or one each (" + missing + " 1)",
+                 kCoordinate)};
+}
+
+PositionalSpec objectIdPositional() {
+  PositionalSpec p = positional("OID", Kind::Unsigned, "the object id from `myriad object list`");
+  p.bounds = kObjectId;
+  return p;
+}
+
+PositionalSpec assetIdPositional(std::string name = "AID") {
+  return positional(std::move(name), Kind::Text, "the asset id from `myriad asset list` (a-...)");
+}
+
 std::vector<CommandSpec> buildSpecs() {
   std::vector<CommandSpec> specs;
 
@@ -170,6 +206,117 @@ std::vector<CommandSpec> buildSpecs() {
     }
   };
   specs.push_back(load);
+
+  // Assets: models stored in the session, each drawn by the objects that use it.
+  CommandSpec assetAdd{
+      "asset add", "add a model to the session's assets (draws nothing until an object uses it)",
+      {positional("SOURCE", Kind::Text,
+                  "a model file to upload (glTF, OBJ, ...) or a .zip of a model with its files; "
+                  "library:NAME (see `myriad models`); builtin:default")},
+      {option("entry", Kind::Text, "the model file inside SOURCE.zip, when it holds several",
+              std::nullopt, "PATH")},
+      "Prints the asset's id, for `myriad object add`. The same file or name again gives the "
+      "asset already there. A file whose name starts with library: or builtin: is given as "
+      "./NAME.",
+      {}};
+  assetAdd.check = [](const Invocation& inv) {
+    const std::string& source = std::get<std::string>(inv.positionals[0]);
+    if (source.starts_with(protocol::kLibraryPrefix) &&
+        source.size() == protocol::kLibraryPrefix.size()) {
+      throw UsageError("SOURCE", "SOURCE: library: needs the model's name (see myriad models)");
+    }
+    if (source.starts_with("builtin:") && source != protocol::kBuiltinModel) {
+      throw UsageError("SOURCE", "SOURCE: the only built-in model is " +
+                                     std::string(protocol::kBuiltinModel));
+    }
+    if (inv.has("entry") && !source.ends_with(".zip")) {
+      throw UsageError("--entry", "--entry names the model inside a SOURCE.zip");
+    }
+  };
+  specs.push_back(assetAdd);
+  specs.push_back({"asset list", "list the session's assets", {}, {}, {}, {}});
+  CommandSpec assetShow{"asset show", "one asset: its meshes, materials, bounds and users",
+                        {assetIdPositional()}, {}, {}, {}};
+  assetShow.check = [](const Invocation& inv) {
+    checkAssetId(std::get<std::string>(inv.positionals[0]), "AID");
+  };
+  specs.push_back(assetShow);
+  CommandSpec assetDelete{"asset delete", "remove an asset that no object uses",
+                          {assetIdPositional()}, {},
+                          "Refused (409) while an object draws the asset or one of its materials: "
+                          "delete those objects first. The materials of later assets move down.",
+                          {}};
+  assetDelete.check = assetShow.check;
+  specs.push_back(assetDelete);
+
+  // Objects: instances of assets, placed in the scene.
+  PositionalSpec assetOfObject = assetIdPositional("ASSET");
+  assetOfObject.help = "the asset it draws, from `myriad asset add` or `myriad asset list`";
+  std::vector<OptionSpec> objectAddOptions = {
+      option("name", Kind::Text, "a name for people (default: the asset's source)",
+             std::nullopt, "NAME")};
+  for (OptionSpec& o : transformOptions("default")) objectAddOptions.push_back(o);
+  objectAddOptions.push_back(option("parent", Kind::Unsigned,
+                                    "the object its transform is relative to (default: the world)",
+                                    kObjectId, "OID"));
+  objectAddOptions.push_back(option("material", Kind::Unsigned,
+                                    "a session material drawn instead of the asset's own",
+                                    kMaterialId, "MID"));
+  objectAddOptions.push_back(option("semantic", Kind::Unsigned,
+                                    "class for the semantic-id label (default 0: none)", kSemantic,
+                                    "K"));
+  objectAddOptions.push_back(flag("hidden", "add it hidden (`object set OID --visible true` shows it)"));
+  CommandSpec objectAdd{"object add", "place an asset in the scene as a new object",
+                        {assetOfObject}, objectAddOptions,
+                        "Prints the new object's id. The transform is applied scale first, then "
+                        "rotation, then translation (glTF's TRS).",
+                        {}};
+  objectAdd.check = [](const Invocation& inv) {
+    checkAssetId(std::get<std::string>(inv.positionals[0]), "ASSET");
+  };
+  specs.push_back(objectAdd);
+  specs.push_back({"object list", "list objects, a page at a time", {},
+                   {option("offset", Kind::Unsigned,
+                           "skip this many objects of the list (a count, not an id; default 0)"),
+                    option("limit", Kind::Unsigned, "how many (default 100)", kObjectPage)},
+                   {},
+                   {}});
+  specs.push_back({"object show", "one object: its asset, transform, visibility and bounds",
+                   {objectIdPositional()}, {}, {}, {}});
+  std::vector<OptionSpec> moveOptions = transformOptions("default: as it is; with --reset");
+  moveOptions.push_back(flag("reset", "members not given go back to the identity's"));
+  CommandSpec objectMove{"object move", "change an object's transform (its children move with it)",
+                         {objectIdPositional()}, moveOptions,
+                         "Members not given keep their values (an object placed by a matrix "
+                         "through the API gets the identity's, with a note).",
+                         {}};
+  objectMove.check = [](const Invocation& inv) {
+    requireSomeOption(inv, "\"object move\" needs at least one of --at, --rotate, --scale, --reset");
+  };
+  specs.push_back(objectMove);
+  CommandSpec objectSet{
+      "object set", "change the members given of one object", {objectIdPositional()},
+      {option("visible", Kind::OnOff, "drawn when its parents are too", std::nullopt,
+              "true|false"),
+       option("name", Kind::Text, "a name for people", std::nullopt, "NAME"),
+       option("asset", Kind::Text, "draw another asset", std::nullopt, "AID"),
+       option("parent", Kind::IdOrNone, "the object its transform is relative to; none: the world",
+              kObjectId, "OID|none"),
+       option("material", Kind::IdOrNone,
+              "a session material drawn instead of the asset's; none: the asset's own", kMaterialId,
+              "MID|none"),
+       option("semantic", Kind::Unsigned, "class for the semantic-id label (0: none)", kSemantic,
+              "K")},
+      "Hiding an object hides its children; `object move` changes the transform.",
+      {}};
+  objectSet.check = [](const Invocation& inv) {
+    requireSomeOption(inv, "\"object set\" needs at least one of --visible, --name, --asset, "
+                           "--parent, --material, --semantic");
+    if (auto asset = inv.find<std::string>("asset")) checkAssetId(*asset, "--asset");
+  };
+  specs.push_back(objectSet);
+  specs.push_back({"object delete", "remove one object and its children", {objectIdPositional()},
+                   {}, {}, {}});
 
   // Camera.
   CommandSpec camera{"camera", "show the camera, or change the members given", {},

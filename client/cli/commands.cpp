@@ -33,6 +33,8 @@ int runCommand(Context& ctx) {
   if (group("session") || name == "open") return runSessionCommand(ctx);
   if (name == "health" || name == "info" || name == "models") return runServerCommand(ctx);
   if (name == "load") return runModelCommand(ctx);
+  if (group("asset")) return runAssetCommand(ctx);
+  if (group("object")) return runObjectCommand(ctx);
   if (group("camera")) return runCameraCommand(ctx);
   if (name == "settings") return runSettingsCommand(ctx);
   if (name == "materials" || name == "material") return runMaterialCommand(ctx);

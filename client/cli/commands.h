@@ -42,10 +42,27 @@ class Context {
   std::optional<SessionRef> session_;
 };
 
+// A model to send: a file to upload (a .zip as an archive, `entry` naming the model inside), or
+// else a source name sent as JSON ("library:NAME", "builtin:default").
+struct ModelRequest {
+  std::optional<std::string> path;
+  std::string source;
+  std::optional<std::string> entry;
+};
+
+// Sends `model` with `method` to `route` (PUT .../model for `load`, POST .../assets for `asset
+// add`), `query` added to what the model needs (?filename=, ?entry=). A status of 400 or more
+// throws ApiError; so does a file that cannot be read. An upload that the server cut off before
+// answering is said to be over the server's maxUploadBytes when it is.
+HttpResponse sendModel(Context& ctx, const std::string& method, const std::string& route,
+                       const ModelRequest& model, Query query = {});
+
 // Each returns the exit status (0); failures throw ApiError, UsageError or std::runtime_error.
 int runSessionCommand(Context& ctx);   // session new|show|delete|share|unshare, open
 int runServerCommand(Context& ctx);    // health, info, models
 int runModelCommand(Context& ctx);     // load
+int runAssetCommand(Context& ctx);     // asset add|list|show|delete
+int runObjectCommand(Context& ctx);    // object add|list|show|move|set|delete
 int runCameraCommand(Context& ctx);    // camera, camera frame
 int runSettingsCommand(Context& ctx);  // settings
 int runMaterialCommand(Context& ctx);  // materials, material

@@ -1,4 +1,5 @@
-// load FILE [--entry PATH] | --library NAME | --builtin: PUT .../model.
+// load FILE [--entry PATH] | --library NAME | --builtin: PUT .../model; and sendModel, the upload
+// that `asset add` shares.
 #include <fstream>
 #include <sstream>
 
@@ -38,49 +39,57 @@ uint64_t uploadLimit(Context& ctx) {
 
 }  // namespace
 
+HttpResponse sendModel(Context& ctx, const std::string& method, const std::string& route,
+                       const ModelRequest& model, Query query) {
+  if (!model.path) {
+    protocol::ModelSource source;
+    source.source = model.source;
+    return ctx.http.sendOk(method, route, query, nlohmann::json(source).dump(),
+                           std::string(protocol::kJsonContentType));
+  }
+  // The file itself; its extension tells the server's loader the format.
+  const std::string& path = *model.path;
+  std::string name = baseName(path);
+  if (name.empty()) throw std::runtime_error(path + " is not a file");
+  std::string bytes = readFile(path);
+  query.insert(query.begin(), {"filename", name});
+  // A .zip carries the model with the files it refers to; the server finds the model inside.
+  const bool zip = name.ends_with(".zip");
+  if (model.entry) query.emplace_back("entry", *model.entry);
+  try {
+    return ctx.http.sendOk(
+        method, route, query, bytes,
+        std::string(zip ? protocol::kZipContentType : protocol::kUploadContentType));
+  } catch (const ApiError& e) {
+    if (e.status() != 0) throw;
+    // The server may close the connection before reading a body over its limit, so its 413
+    // never arrives; say so when that is the likely reason.
+    uint64_t limit = uploadLimit(ctx);
+    if (limit != 0 && bytes.size() > limit) {
+      throw ApiError(path + " has " + std::to_string(bytes.size()) +
+                     " bytes, more than this server accepts (maxUploadBytes " +
+                     std::to_string(limit) + ")");
+    }
+    throw;
+  }
+}
+
 int runModelCommand(Context& ctx) {
   const Invocation& inv = ctx.inv;
-  const std::string route = ctx.sessionRoute(protocol::routes::kSessionModel);
   Query query;
   if (inv.has("model-lights")) query.emplace_back("lights", "model");
 
-  std::string raw;
+  ModelRequest model;
   if (!inv.positionals.empty()) {
-    // The file itself; its extension tells the server's loader the format.
-    const std::string& path = std::get<std::string>(inv.positionals[0]);
-    std::string name = baseName(path);
-    if (name.empty()) throw std::runtime_error(path + " is not a file");
-    std::string bytes = readFile(path);
-    query.insert(query.begin(), {"filename", name});
-    // A .zip carries the model with the files it refers to; the server finds the model inside.
-    const bool zip = name.ends_with(".zip");
-    if (inv.has("entry")) query.emplace_back("entry", inv.get<std::string>("entry"));
-    try {
-      HttpResponse res = ctx.http.sendOk(
-          "PUT", route, query, bytes,
-          std::string(zip ? protocol::kZipContentType : protocol::kUploadContentType));
-      raw = res.body;
-    } catch (const ApiError& e) {
-      if (e.status() != 0) throw;
-      // The server may close the connection before reading a body over its limit, so its 413
-      // never arrives; say so when that is the likely reason.
-      uint64_t limit = uploadLimit(ctx);
-      if (limit != 0 && bytes.size() > limit) {
-        throw ApiError(path + " has " + std::to_string(bytes.size()) +
-                       " bytes, more than this server accepts (maxUploadBytes " +
-                       std::to_string(limit) + ")");
-      }
-      throw;
-    }
+    model.path = std::get<std::string>(inv.positionals[0]);
+    model.entry = inv.find<std::string>("entry");
   } else {
-    protocol::ModelSource source;
-    source.source = inv.has("builtin") ? std::string(protocol::kBuiltinModel)
-                                       : std::string(protocol::kLibraryPrefix) +
-                                             inv.get<std::string>("library");
-    HttpResponse res = ctx.http.sendOk("PUT", route, query, nlohmann::json(source).dump(),
-                                       std::string(protocol::kJsonContentType));
-    raw = res.body;
+    model.source = inv.has("builtin") ? std::string(protocol::kBuiltinModel)
+                                      : std::string(protocol::kLibraryPrefix) +
+                                            inv.get<std::string>("library");
   }
+  const std::string raw =
+      sendModel(ctx, "PUT", ctx.sessionRoute(protocol::routes::kSessionModel), model, query).body;
   if (ctx.json()) {
     printRaw(ctx.out, raw);
     return 0;

@@ -13,8 +13,6 @@
 namespace myriad::service {
 namespace {
 
-using nlohmann::json;
-
 // Queues a scene change on the session's GPU scene (under its lock).
 std::future<void> queue(ApiContext& context, const Session& session, SceneChange change) {
   if (change.moved) return context.renderThread.updateInstances(session.sceneId, std::move(*change.moved));
@@ -31,9 +29,9 @@ void listAssets(ApiContext& context, const httplib::Request& req, httplib::Respo
   checkQuery(req, {});
   auto lock = lockOpen(*session);
   const SceneGraph& graph = session->scene.graph();
-  json list = json::array();
-  for (const Asset& a : graph.assets()) list.push_back(toWire(graph, a));
-  sendJson(res, json{{"assets", std::move(list)}});
+  protocol::AssetsList list;
+  for (const Asset& a : graph.assets()) list.assets.push_back(toWire(graph, a));
+  sendJson(res, list);
 }
 
 void addAsset(ApiContext& context, const httplib::Request& req, httplib::Response& res) {
@@ -42,7 +40,7 @@ void addAsset(ApiContext& context, const httplib::Request& req, httplib::Respons
   // Loading takes from milliseconds to the loader's time limit; the session stays usable.
   LoadedModel model = loadModelRequest(context, req);
   std::future<void> uploaded;
-  json answer;
+  protocol::Asset answer;
   bool added = false;
   {
     auto lock = lockOpen(*session);
@@ -59,7 +57,7 @@ void addAsset(ApiContext& context, const httplib::Request& req, httplib::Respons
   res.set_header(std::string(protocol::headers::kLocation),
                  protocol::expandRoute(protocol::expandRoute(protocol::routes::kSessionAsset, "id",
                                                              session->id),
-                                       "aid", answer["id"].get<std::string>()));
+                                       "aid", answer.id));
   sendJson(res, answer, added ? 201 : 200);
 }
 
@@ -96,28 +94,29 @@ void listObjects(ApiContext& context, const httplib::Request& req, httplib::Resp
   auto lock = lockOpen(*session);
   const SceneGraph& graph = session->scene.graph();
   const auto& objects = graph.objects();
-  json page = json::array();
+  protocol::ObjectsPage page;
+  page.total = objects.size();
+  page.offset = offset;
+  page.nextObjectId = graph.nextObjectId();
   auto it = objects.begin();
   std::advance(it, std::min<uint64_t>(offset, objects.size()));
   for (uint64_t n = 0; it != objects.end() && n < limit; ++it, ++n) {
-    page.push_back(toWire(session->scene, it->second));
+    page.objects.push_back(toWire(session->scene, it->second));
   }
-  sendJson(res, json{{"total", objects.size()},
-                     {"offset", offset},
-                     {"nextObjectId", graph.nextObjectId()},
-                     {"objects", std::move(page)}});
+  sendJson(res, page);
 }
 
 void addObjects(ApiContext& context, const httplib::Request& req, httplib::Response& res) {
   SessionPtr session = authorizeSession(context, req);
   checkQuery(req, {});
-  const json body = jsonBody(req, protocol::schema_names::kObjectsAdd);
+  const auto body =
+      jsonBody(req, protocol::schema_names::kObjectsAdd).get<protocol::ObjectsAdd>();
   std::vector<SceneObject> objects;
-  objects.reserve(body["objects"].size());
-  for (size_t i = 0; i < body["objects"].size(); ++i) {
+  objects.reserve(body.objects.size());
+  for (size_t i = 0; i < body.objects.size(); ++i) {
     SceneObject o;
     try {
-      applyObjectMembers(body["objects"][i], o);
+      applyObjectPatch(body.objects[i], o);
     } catch (const ProblemError& e) {
       throw ProblemError(invalidBody("/objects/" + std::to_string(i) +
                                          e.problem().pointer.value_or(""),
@@ -142,7 +141,10 @@ void addObjects(ApiContext& context, const httplib::Request& req, httplib::Respo
     session->bump();
   }
   uploaded.get();
-  sendJson(res, json{{"ids", ids}, {"total", total}}, 201);
+  protocol::ObjectsAdded added;
+  added.ids.assign(ids.begin(), ids.end());
+  added.total = total;
+  sendJson(res, added, 201);
 }
 
 void getObject(ApiContext& context, const httplib::Request& req, httplib::Response& res) {
@@ -156,14 +158,15 @@ void getObject(ApiContext& context, const httplib::Request& req, httplib::Respon
 void patchObject(ApiContext& context, const httplib::Request& req, httplib::Response& res) {
   SessionPtr session = authorizeSession(context, req);
   checkQuery(req, {});
-  const json body = jsonBody(req, protocol::schema_names::kObjectPatch);
+  const auto patch =
+      jsonBody(req, protocol::schema_names::kObjectPatch).get<protocol::ObjectPatch>();
   std::future<void> uploaded;
-  json answer;
+  protocol::Object answer;
   {
     auto lock = lockOpen(*session);
     const SceneGraph& graph = session->scene.graph();
     SceneObject next = graph.object(graph.objectId(req.matches[2].str()));
-    applyObjectMembers(body, next);
+    applyObjectPatch(patch, next);
     uploaded = queue(context, *session, session->scene.replaceObject(next));
     session->bump();
     answer = toWire(session->scene, graph.object(next.id));

@@ -139,9 +139,9 @@ SessionScene::SnapshotLoads snapshotEnvironment(const ApiContext& context,
     loads.source = *e.source;
   }
   if (snapshot.scene) {
-    for (const nlohmann::json& a : snapshot.scene->at("assets")) {
-      const std::string id = a.at("id").get<std::string>();
-      const std::string source = a.at("source").get<std::string>();
+    for (const protocol::SnapshotAsset& a : snapshot.scene->assets) {
+      const std::string& id = a.id;
+      const std::string& source = a.source;
       if (std::find(have.begin(), have.end(), id) != have.end() ||
           source.starts_with(protocol::kUploadPrefix) || id != assetIdOf(source)) {
         continue;  // the session's own, or one restore() names as missing

@@ -11,67 +11,6 @@
 namespace myriad::service {
 namespace {
 
-using nlohmann::json;
-
-
-json vec(const float* v, size_t n) {
-  json out = json::array();
-  for (size_t i = 0; i < n; ++i) out.push_back(v[i]);
-  return out;
-}
-
-json boundsJson(const scene::Bounds& b) {
-  return {{"min", vec(&b.min.x, 3)}, {"max", vec(&b.max.x, 3)}};
-}
-
-ObjectTransform transformFromWire(const json& j) {
-  ObjectTransform t;
-  const bool trs = j.contains("translation") || j.contains("rotation") || j.contains("scale");
-  if (j.contains("matrix")) {
-    if (trs) {
-      throw ProblemError(invalidBody("/transform", "Give a transform as translation, rotation "
-                                                   "and scale, or as a matrix, not both."));
-    }
-    glm::mat4 m(1.0f);
-    const json& a = j["matrix"];
-    for (int i = 0; i < 16; ++i) m[i / 4][i % 4] = a[i].get<float>();
-    t.matrix = m;
-    return t;
-  }
-  if (j.contains("translation")) {
-    const json& a = j["translation"];
-    t.translation = glm::vec3(a[0].get<float>(), a[1].get<float>(), a[2].get<float>());
-  }
-  if (j.contains("rotation")) {
-    const json& a = j["rotation"];
-    // glTF's order x, y, z, w; glm's constructor takes w first.
-    glm::quat q(a[3].get<float>(), a[0].get<float>(), a[1].get<float>(), a[2].get<float>());
-    const float length = glm::length(q);
-    if (!(length > 1e-6f) || !std::isfinite(length)) {
-      throw ProblemError(invalidBody("/transform/rotation",
-                                     "The rotation quaternion must not be [0, 0, 0, 0]."));
-    }
-    // A unit quaternion (as GET answers give it back) is kept as sent.
-    t.rotation = std::abs(length - 1.0f) <= 1e-6f ? q : q / length;
-  }
-  if (j.contains("scale")) {
-    const json& a = j["scale"];
-    t.scale = glm::vec3(a[0].get<float>(), a[1].get<float>(), a[2].get<float>());
-  }
-  return t;
-}
-
-json transformToWire(const ObjectTransform& t) {
-  if (t.matrix) return {{"matrix", vec(&(*t.matrix)[0][0], 16)}};
-  return {{"translation", vec(&t.translation.x, 3)},
-          {"rotation", {t.rotation.x, t.rotation.y, t.rotation.z, t.rotation.w}},
-          {"scale", vec(&t.scale.x, 3)}};
-}
-
-}  // namespace
-
-namespace {
-
 // The double whose shortest decimal form is the float's: 0.1f goes out as 0.1, not as
 // 0.10000000149011612 (what the float holds exactly), so values read back as they were sent.
 double wire(float value) {
@@ -306,60 +245,111 @@ protocol::SessionState stateOf(const Session& session, int64_t expiresInSeconds)
   return state;
 }
 
-// The members of an object-new or object-patch body onto `o` (a patch: only those present).
-void applyObjectMembers(const nlohmann::json& j, SceneObject& o) {
-  if (j.contains("name")) o.name = j["name"].get<std::string>();
-  if (j.contains("asset")) o.asset = j["asset"].get<std::string>();
-  if (j.contains("transform")) o.transform = transformFromWire(j["transform"]);
-  if (j.contains("visible")) o.visible = j["visible"].get<bool>();
-  if (j.contains("parent")) o.parent = j["parent"].is_null() ? 0 : j["parent"].get<uint32_t>();
-  if (j.contains("material")) {
-    o.material = j["material"].is_null() ? std::nullopt
-                                          : std::optional<uint32_t>(j["material"].get<uint32_t>());
-  }
-  if (j.contains("semantic")) o.semantic = j["semantic"].get<uint32_t>();
-}
+// ---- Scenes: objects and assets.
 
-nlohmann::json toWire(const SessionScene& scene, const SceneObject& o) {
-  const SceneGraph& graph = scene.graph();
-  json out = {{"id", o.id},
-              {"name", o.name},
-              {"asset", o.asset},
-              {"transform", transformToWire(o.transform)},
-              {"visible", o.visible},
-              {"parent", o.parent == 0 ? json(nullptr) : json(o.parent)},
-              {"material", o.material ? json(*o.material) : json(nullptr)},
-              {"semantic", o.semantic}};
-  const SceneGraph::Placement* placement = graph.placement(o.id);
-  out["instances"] = placement != nullptr ? placement->count : 0;
-  if (placement != nullptr && placement->count > 0) {
-    // The world bounds of its instances, from the asset's bounds moved by its world transform.
-    const Asset& asset = graph.asset(o.asset);
-    if (!asset.bounds.empty()) {
-      const glm::mat4 world = graph.worldOf(o.id);
-      scene::Bounds b;
-      for (int corner = 0; corner < 8; ++corner) {
-        const glm::vec3 p((corner & 1) ? asset.bounds.max.x : asset.bounds.min.x,
-                          (corner & 2) ? asset.bounds.max.y : asset.bounds.min.y,
-                          (corner & 4) ? asset.bounds.max.z : asset.bounds.min.z);
-        b.extend(glm::vec3(world * glm::vec4(p, 1.0f)));
-      }
-      out["bounds"] = boundsJson(b);
-    }
+namespace {
+
+// The world box of `box` (in some space) moved by `m`: the box of its eight corners.
+scene::Bounds movedBox(const scene::Bounds& box, const glm::mat4& m) {
+  scene::Bounds out;
+  for (int corner = 0; corner < 8; ++corner) {
+    const glm::vec3 p((corner & 1) ? box.max.x : box.min.x, (corner & 2) ? box.max.y : box.min.y,
+                      (corner & 4) ? box.max.z : box.min.z);
+    out.extend(glm::vec3(m * glm::vec4(p, 1.0f)));
   }
   return out;
 }
 
-nlohmann::json toWire(const SceneGraph& graph, const Asset& a) {
-  json out = {{"id", a.id},
-              {"source", a.source},
-              {"bytes", a.bytes},
-              {"meshes", a.scene->meshes.size()},
-              {"instances", a.scene->instances.size()},
-              {"materials", {{"first", a.firstMaterial}, {"count", a.scene->materials.size()}}},
-              {"images", a.scene->images.size()},
-              {"objects", graph.usersOf(a)}};
-  if (!a.bounds.empty()) out["bounds"] = boundsJson(a.bounds);
+}  // namespace
+
+ObjectTransform fromWire(const protocol::Transform& t) {
+  ObjectTransform out;
+  if (t.matrix) {
+    if (t.translation || t.rotation || t.scale) {
+      throw ProblemError(invalidBody("/transform", "Give a transform as translation, rotation "
+                                                   "and scale, or as a matrix, not both."));
+    }
+    glm::mat4 m(1.0f);
+    for (int i = 0; i < 16; ++i) m[i / 4][i % 4] = float((*t.matrix)[i]);
+    out.matrix = m;
+    return out;
+  }
+  if (t.translation) out.translation = fromWire(*t.translation);
+  if (t.rotation) {
+    const auto& r = *t.rotation;
+    // glTF's order x, y, z, w; glm's constructor takes w first.
+    const glm::quat q{float(r[3]), float(r[0]), float(r[1]), float(r[2])};
+    const float length = glm::length(q);
+    if (!(length > 1e-6f) || !std::isfinite(length)) {
+      throw ProblemError(invalidBody("/transform/rotation",
+                                     "The rotation quaternion must not be [0, 0, 0, 0]."));
+    }
+    // A unit quaternion (as answers give it back) is kept as sent.
+    out.rotation = std::abs(length - 1.0f) <= 1e-6f ? q : q / length;
+  }
+  if (t.scale) out.scale = fromWire(*t.scale);
+  return out;
+}
+
+protocol::Transform toWire(const ObjectTransform& t) {
+  protocol::Transform out;
+  if (t.matrix) {
+    std::array<double, 16> m{};
+    for (int i = 0; i < 16; ++i) m[i] = (*t.matrix)[i / 4][i % 4];
+    out.matrix = m;
+    return out;
+  }
+  out.translation = toWire(t.translation);
+  out.rotation = std::array<double, 4>{t.rotation.x, t.rotation.y, t.rotation.z, t.rotation.w};
+  out.scale = toWire(t.scale);
+  return out;
+}
+
+void applyObjectPatch(const protocol::ObjectPatch& patch, SceneObject& o) {
+  if (patch.name) o.name = *patch.name;
+  if (patch.asset) o.asset = *patch.asset;
+  if (patch.transform) o.transform = fromWire(*patch.transform);
+  if (patch.visible) o.visible = *patch.visible;
+  // The schema bounds ids to uint32.
+  if (patch.parent) o.parent = uint32_t(patch.parent->value.value_or(0));
+  if (patch.material) {
+    o.material = patch.material->value ? std::optional<uint32_t>(uint32_t(*patch.material->value))
+                                       : std::nullopt;
+  }
+  if (patch.semantic) o.semantic = uint32_t(*patch.semantic);
+}
+
+protocol::Object toWire(const SessionScene& scene, const SceneObject& o) {
+  const SceneGraph& graph = scene.graph();
+  protocol::Object out;
+  out.id = o.id;
+  out.name = o.name;
+  out.asset = o.asset;
+  out.transform = toWire(o.transform);
+  out.visible = o.visible;
+  if (o.parent != 0) out.parent.value = o.parent;
+  if (o.material) out.material.value = *o.material;
+  out.semantic = o.semantic;
+  const SceneGraph::Placement* placement = graph.placement(o.id);
+  out.instances = placement != nullptr ? placement->count : 0;
+  if (out.instances > 0) {
+    const Asset& asset = graph.asset(o.asset);
+    if (!asset.bounds.empty()) out.bounds = toWire(movedBox(asset.bounds, graph.worldOf(o.id)));
+  }
+  return out;
+}
+
+protocol::Asset toWire(const SceneGraph& graph, const Asset& a) {
+  protocol::Asset out;
+  out.id = a.id;
+  out.source = a.source;
+  out.bytes = a.bytes;
+  out.meshes = a.scene->meshes.size();
+  out.instances = a.scene->instances.size();
+  out.materials = {a.firstMaterial, a.scene->materials.size()};
+  out.images = a.scene->images.size();
+  if (!a.bounds.empty()) out.bounds = toWire(a.bounds);
+  out.objects = graph.usersOf(a);
   return out;
 }
 

@@ -47,12 +47,13 @@ scene::Bounds fromWire(const protocol::Bounds& bounds);
 // SessionState of `session` (whose mutex the caller holds).
 protocol::SessionState stateOf(const Session& session, int64_t expiresInSeconds);
 
-// Objects and assets (scene_graph.h) on the wire: object.schema.json and asset.schema.json.
-// applyObjectMembers sets the members an object-new or object-patch body (already checked
-// against its schema) names; ProblemError 400 for a transform with both TRS and a matrix, or a
-// zero rotation quaternion, pointing under /transform.
-void applyObjectMembers(const nlohmann::json& body, SceneObject& object);
-nlohmann::json toWire(const SessionScene& scene, const SceneObject& object);
-nlohmann::json toWire(const SceneGraph& graph, const Asset& asset);
+// Objects and assets (scene_graph.h) on the wire. fromWire(Transform) throws ProblemError 400
+// for a transform with both TRS and a matrix (pointer /transform) or a zero rotation quaternion
+// (/transform/rotation); applyObjectPatch sets the members a patch (or a new object) names.
+ObjectTransform fromWire(const protocol::Transform& transform);
+protocol::Transform toWire(const ObjectTransform& transform);
+void applyObjectPatch(const protocol::ObjectPatch& patch, SceneObject& object);
+protocol::Object toWire(const SessionScene& scene, const SceneObject& object);
+protocol::Asset toWire(const SceneGraph& graph, const Asset& asset);
 
 }  // namespace myriad::service

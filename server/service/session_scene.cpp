@@ -327,13 +327,10 @@ protocol::Snapshot SessionScene::snapshot() const {
   out.camera = toWire(camera_);
   out.settings = toWire(settings_);
   if (environmentImage_) out.settings.environment.source = environmentSource_;
-  nlohmann::json assets = nlohmann::json::array();
-  for (const Asset& a : graph_.assets()) assets.push_back({{"id", a.id}, {"source", a.source}});
-  nlohmann::json objects = nlohmann::json::array();
-  for (const auto& [id, o] : graph_.objects()) objects.push_back(toWire(*this, o));
-  out.scene = nlohmann::json{{"assets", std::move(assets)},
-                             {"objects", std::move(objects)},
-                             {"nextObjectId", graph_.nextObjectId()}};
+  protocol::SnapshotScene& scene = out.scene.emplace();
+  for (const Asset& a : graph_.assets()) scene.assets.push_back({a.id, a.source});
+  for (const auto& [id, o] : graph_.objects()) scene.objects.push_back(toWire(*this, o));
+  scene.nextObjectId = graph_.nextObjectId();
   out.materials.reserve(materials_.size());
   for (uint32_t id = 0; id < materials_.size(); ++id) out.materials.push_back(toWire(id, materials_[id], model_.images));
   if (recipe_) {
@@ -430,16 +427,15 @@ SessionScene::Restored SessionScene::restore(const protocol::Snapshot& snapshot,
   return restored;
 }
 
-void SessionScene::restoreScene(const nlohmann::json& scene, const std::string& at,
+void SessionScene::restoreScene(const protocol::SnapshotScene& scene, const std::string& at,
                                 const std::vector<Asset>& loaded) {
   // The assets in the snapshot's order, each the session's own (with its edited materials) or
   // one the caller loaded; their materials in the same order.
   std::vector<Asset> assets;
   std::vector<scene::Material> materials;
-  const nlohmann::json& list = scene.at("assets");
-  for (size_t i = 0; i < list.size(); ++i) {
-    const std::string id = list[i].at("id").get<std::string>();
-    const std::string source = list[i].at("source").get<std::string>();
+  for (size_t i = 0; i < scene.assets.size(); ++i) {
+    const std::string& id = scene.assets[i].id;
+    const std::string& source = scene.assets[i].source;
     Asset asset;
     const scene::Material* first = nullptr;
     if (const Asset* have = graph_.findAsset(id)) {
@@ -466,13 +462,15 @@ void SessionScene::restoreScene(const nlohmann::json& scene, const std::string& 
     assets.push_back(std::move(asset));
   }
   std::vector<SceneObject> objects;
-  const nlohmann::json& wire = scene.at("objects");
-  objects.reserve(wire.size());
-  for (size_t i = 0; i < wire.size(); ++i) {
+  objects.reserve(scene.objects.size());
+  for (size_t i = 0; i < scene.objects.size(); ++i) {
+    const protocol::Object& wire = scene.objects[i];
     SceneObject o;
-    o.id = wire[i].at("id").get<uint32_t>();
+    o.id = uint32_t(wire.id);  // the schema bounds ids to uint32
     try {
-      applyObjectMembers(wire[i], o);
+      applyObjectPatch({wire.name, wire.asset, wire.transform, wire.visible, wire.parent,
+                        wire.material, wire.semantic},
+                       o);
     } catch (const ProblemError& e) {
       throw ProblemError(invalidBody(at + "/objects/" + std::to_string(i) +
                                          e.problem().pointer.value_or(""),
@@ -482,7 +480,7 @@ void SessionScene::restoreScene(const nlohmann::json& scene, const std::string& 
   }
   SceneGraph graph = graph_;
   graph.replaceAssets(std::move(assets));
-  graph.restoreObjects(std::move(objects), scene.at("nextObjectId").get<uint32_t>(),
+  graph.restoreObjects(std::move(objects), uint32_t(scene.nextObjectId),
                        uint32_t(materials.size()), at + "/objects");
   graph_ = std::move(graph);
   materials_ = std::move(materials);

@@ -258,7 +258,7 @@ class SessionScene {
   // The flat scene of the graph with the session's materials and lights; the summary follows it.
   std::shared_ptr<scene::Scene> flatten();
   // restore()'s part for a snapshot's "scene" (pointer `at`), with the assets the caller loaded.
-  void restoreScene(const nlohmann::json& scene, const std::string& at,
+  void restoreScene(const protocol::SnapshotScene& scene, const std::string& at,
                     const std::vector<Asset>& loaded);
 
   uint32_t maxLights_;

@@ -32,7 +32,7 @@ bool contains(const std::string& text, const std::string& part) {
 }  // namespace
 
 TEST_CASE("every command in the table has help that names its options") {
-  CHECK(commandSpecs().size() == 26);
+  CHECK(commandSpecs().size() == 36);
   for (const CommandSpec& c : commandSpecs()) {
     INFO(c.name);
     std::string help = commandHelp(c);
@@ -263,6 +263,161 @@ TEST_CASE("load: exactly one source") {
   CHECK(contains(usageError({"load", "a.glb", "--builtin"}).what(), "only one of"));
 }
 
+TEST_CASE("asset add: a file, library:NAME or builtin:default; --entry only with a .zip") {
+  Invocation file = parse({"asset", "add", "models/spider.obj"});
+  REQUIRE(file.command != nullptr);
+  CHECK(file.command->name == "asset add");
+  CHECK(std::get<std::string>(file.positionals.at(0)) == "models/spider.obj");
+  CHECK(std::get<std::string>(parse({"asset", "add", "library:helmet.glb"}).positionals.at(0)) ==
+        "library:helmet.glb");
+  CHECK(std::get<std::string>(parse({"asset", "add", "builtin:default"}).positionals.at(0)) ==
+        "builtin:default");
+  CHECK(parse({"asset", "add", "m.zip", "--entry", "a/b.gltf"}).get<std::string>("entry") ==
+        "a/b.gltf");
+
+  UsageError none = usageError({"asset", "add"});
+  CHECK(none.argument() == "SOURCE");
+  CHECK(none.command() == "asset add");
+  CHECK(contains(none.what(), "\"asset add\" needs SOURCE"));
+  UsageError entry = usageError({"asset", "add", "m.obj", "--entry", "x.obj"});
+  CHECK(entry.argument() == "--entry");
+  CHECK(contains(entry.what(), "inside a SOURCE.zip"));
+  CHECK(usageError({"asset", "add", "library:"}).argument() == "SOURCE");
+  UsageError builtin = usageError({"asset", "add", "builtin:cube"});
+  CHECK(builtin.argument() == "SOURCE");
+  CHECK(contains(builtin.what(), "the only built-in model is builtin:default"));
+  CHECK(usageError({"asset", "add", "a.obj", "b.obj"}).argument() == "b.obj");
+  CHECK(usageError({"asset", "add", "a.obj", "--at", "1,2,3"}).argument() == "--at");
+}
+
+TEST_CASE("asset show and delete take an asset id") {
+  const char* id = "a-0123456789abcdef";
+  CHECK(std::get<std::string>(parse({"asset", "show", id}).positionals.at(0)) == id);
+  CHECK(parse({"asset", "delete", id}).command->name == "asset delete");
+  CHECK(parse({"asset", "list"}).command->name == "asset list");
+  for (const char* bad : {"a-0123", "0123456789abcdef", "a-0123456789ABCDEF",
+                          "a-0123456789abcdefa", "a-0123456789abcdeg", "3"}) {
+    INFO(bad);
+    UsageError e = usageError({"asset", "show", bad});
+    CHECK(e.argument() == "AID");
+    CHECK(e.command() == "asset show");
+    CHECK(contains(e.what(), "is not an asset id (a- and 16 hex digits"));
+    CHECK(usageError({"asset", "delete", bad}).argument() == "AID");
+  }
+  CHECK(usageError({"asset", "delete"}).argument() == "AID");
+  UsageError group = usageError({"asset"});
+  CHECK(group.what() == std::string("\"asset\" needs a subcommand: add, list, show, delete"));
+  CHECK(contains(usageError({"asset", "rm", id}).what(), "unknown subcommand \"asset rm\""));
+}
+
+TEST_CASE("object add: asset, name, transform, parent, semantic, hidden") {
+  Invocation add = parse({"object", "add", "a-0123456789abcdef", "--name", "spider 1", "--at",
+                          "1,-2,3.5", "--rotate", "0,0.7071,0,0.7071", "--scale", "2",
+                          "--parent", "4", "--semantic", "65535", "--hidden", "--material", "0"});
+  REQUIRE(add.command != nullptr);
+  CHECK(add.command->name == "object add");
+  CHECK(std::get<std::string>(add.positionals.at(0)) == "a-0123456789abcdef");
+  CHECK(add.get<std::string>("name") == "spider 1");
+  CHECK(add.get<Vec3>("at") == Vec3{1, -2, 3.5});
+  CHECK(add.get<Vec4>("rotate") == Vec4{0, 0.7071, 0, 0.7071});
+  CHECK(add.get<Vec3>("scale") == Vec3{2, 2, 2});  // one factor: every axis
+  CHECK(add.get<uint64_t>("parent") == 4);
+  CHECK(add.get<uint64_t>("semantic") == 65535);
+  CHECK(add.get<uint64_t>("material") == 0);
+  CHECK(add.has("hidden"));
+  CHECK(parse({"object", "add", "a-0123456789abcdef", "--scale", "1,2,-3"}).get<Vec3>("scale") ==
+        Vec3{1, 2, -3});
+  Invocation bare = parse({"object", "add", "a-0123456789abcdef"});
+  CHECK(bare.options.empty());
+
+  CHECK(usageError({"object", "add"}).argument() == "ASSET");
+  CHECK(usageError({"object", "add", "spider.obj"}).argument() == "ASSET");
+  const char* a = "a-0123456789abcdef";
+  UsageError rotate3 = usageError({"object", "add", a, "--rotate", "0,1,0"});
+  CHECK(rotate3.argument() == "--rotate");
+  CHECK(contains(rotate3.what(), "expected a quaternion of four numbers x,y,z,w"));
+  UsageError rotate0 = usageError({"object", "add", a, "--rotate", "0,0,0,0"});
+  CHECK(contains(rotate0.what(), "0,0,0,0 is no rotation"));
+  CHECK(usageError({"object", "add", a, "--rotate", "0,0,0,nan"}).argument() == "--rotate");
+  UsageError scale2 = usageError({"object", "add", a, "--scale", "1,2"});
+  CHECK(scale2.argument() == "--scale");
+  CHECK(contains(scale2.what(), "expected one number s or three x,y,z"));
+  CHECK(usageError({"object", "add", a, "--scale", "2e6"}).argument() == "--scale");
+  CHECK(usageError({"object", "add", a, "--at", "0,1e7,0"}).argument() == "--at");
+  CHECK(usageError({"object", "add", a, "--parent", "0"}).argument() == "--parent");
+  CHECK(usageError({"object", "add", a, "--parent", "4294967295"}).argument() == "--parent");
+  CHECK(contains(usageError({"object", "add", a, "--semantic", "65536"}).what(),
+                 "from 0 to 65535"));
+  CHECK(usageError({"object", "add", a, "--hidden=yes"}).argument() == "--hidden");
+  CHECK(usageError({"object", "add", a, "--visible", "false"}).argument() == "--visible");
+}
+
+TEST_CASE("object list, show, move, set, delete") {
+  CHECK(parse({"object", "list", "--offset", "5", "--limit", "1000"}).get<uint64_t>("limit") ==
+        1000);
+  CHECK(usageError({"object", "list", "--limit", "1001"}).argument() == "--limit");
+  CHECK(std::get<uint64_t>(parse({"object", "show", "7"}).positionals.at(0)) == 7);
+  CHECK(usageError({"object", "show", "0"}).argument() == "OID");
+  CHECK(usageError({"object", "show", "x"}).argument() == "OID");
+  CHECK(usageError({"object", "delete"}).argument() == "OID");
+  CHECK(std::get<uint64_t>(parse({"object", "delete", "4294967294"}).positionals.at(0)) ==
+        4294967294ull);
+
+  Invocation move = parse({"object", "move", "3", "--at", "0,1,0"});
+  CHECK(move.command->name == "object move");
+  CHECK(move.get<Vec3>("at") == Vec3{0, 1, 0});
+  CHECK_FALSE(move.has("scale"));
+  CHECK(parse({"object", "move", "3", "--reset"}).has("reset"));
+  UsageError moveNothing = usageError({"object", "move", "3"});
+  CHECK(moveNothing.argument() == "object move");
+  CHECK(contains(moveNothing.what(), "needs at least one of --at, --rotate, --scale, --reset"));
+  CHECK(usageError({"object", "move", "3", "--visible", "true"}).argument() == "--visible");
+
+  Invocation set = parse({"object", "set", "3", "--visible", "false", "--parent", "none",
+                          "--material", "12", "--name", "n", "--semantic", "2"});
+  CHECK(set.get<bool>("visible") == false);
+  CHECK(set.get<std::optional<uint64_t>>("parent") == std::nullopt);
+  CHECK(set.get<std::optional<uint64_t>>("material") == std::optional<uint64_t>(12));
+  CHECK(parse({"object", "set", "3", "--visible", "true"}).get<bool>("visible"));
+  CHECK(parse({"object", "set", "3", "--parent", "9"}).get<std::optional<uint64_t>>("parent") ==
+        std::optional<uint64_t>(9));
+  CHECK(parse({"object", "set", "3", "--material", "none"})
+            .get<std::optional<uint64_t>>("material") == std::nullopt);
+  UsageError setNothing = usageError({"object", "set", "3"});
+  CHECK(setNothing.argument() == "object set");
+  CHECK(contains(setNothing.what(), "needs at least one of --visible"));
+  CHECK(usageError({"object", "set", "3", "--visible", "maybe"}).argument() == "--visible");
+  CHECK(usageError({"object", "set", "3", "--parent", "0"}).argument() == "--parent");
+  UsageError parentWord = usageError({"object", "set", "3", "--parent", "world"});
+  CHECK(parentWord.argument() == "--parent");
+  CHECK(contains(parentWord.what(), "expected a whole number >= 0 or none"));
+  CHECK(usageError({"object", "set", "3", "--asset", "spider"}).argument() == "--asset");
+  CHECK(usageError({"object", "set", "3", "--at", "1,2,3"}).argument() == "--at");
+
+  UsageError group = usageError({"object"});
+  CHECK(group.what() ==
+        std::string("\"object\" needs a subcommand: add, list, show, move, set, delete"));
+}
+
+TEST_CASE("asset and object help") {
+  std::string add = commandHelp(*findCommand("object add"));
+  CHECK(add.starts_with("usage: myriad object add ASSET [--name NAME] [--at x,y,z] "
+                        "[--rotate x,y,z,w] [--scale s|x,y,z] [--parent OID]"));
+  CHECK(contains(add, "(from 1 to 4294967294)"));
+  CHECK(contains(add, "(from 0 to 65535)"));
+  std::string set = commandHelp(*findCommand("object set"));
+  CHECK(contains(set, "--visible true|false"));
+  CHECK(contains(set, "--parent OID|none"));
+  CHECK(contains(set, "--material MID|none"));
+  CHECK(contains(commandHelp(*findCommand("asset add")),
+                 "usage: myriad asset add SOURCE [--entry PATH]"));
+  CHECK(contains(commandHelp(*findCommand("asset delete")), "Refused (409)"));
+  CHECK(contains(overviewHelp(), "  asset add SOURCE "));
+  CHECK(contains(overviewHelp(), "  object move OID "));
+  CHECK(parse({"help", "object", "move"}).command->name == "object move");
+  CHECK(parse({"object", "add", "--help"}).help);  // no ASSET needed for help
+}
+
 TEST_CASE("frame and stream: output required, formats, sizes, quality, fps") {
   Invocation frame = parse({"frame", "--target", "normal", "--format", "raw", "--width", "64",
                             "--height", "48", "-o", "-"});
@@ -298,5 +453,16 @@ TEST_CASE("value parsers on their own") {
   CHECK(parseOnOff("true", "s"));
   CHECK_FALSE(parseOnOff("0", "s"));
   CHECK(parseRange("-1,1", "r").min == -1.0);
+  CHECK(parseRotation("0,0,0,1", "q") == Vec4{0, 0, 0, 1});
+  CHECK_THROWS_AS(parseRotation("0,0,1", "q"), UsageError);
+  CHECK_THROWS_AS(parseRotation("0,0,0,0", "q"), UsageError);
+  CHECK(parseScale("0.5", "s") == Vec3{0.5, 0.5, 0.5});
+  CHECK(parseScale("1,2,3", "s") == Vec3{1, 2, 3});
+  CHECK_THROWS_AS(parseScale("1,2,3,4", "s"), UsageError);
+  CHECK_THROWS_AS(parseScale("", "s"), UsageError);
+  CHECK(parseIdOrNone("none", "p") == std::nullopt);
+  CHECK(parseIdOrNone("0", "p") == std::optional<uint64_t>(0));
+  CHECK_THROWS_AS(parseIdOrNone("None", "p"), UsageError);
+  CHECK_THROWS_AS(parseIdOrNone("-1", "p"), UsageError);
   CHECK_THROWS_AS(parseRange("1,2,3", "r"), UsageError);
 }

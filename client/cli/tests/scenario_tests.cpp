@@ -495,3 +495,133 @@ TEST_CASE("session new with the server's API key: flag, environment, and the 401
   CHECK(exit->cleanExit());
   fs::remove_all(dir);
 }
+
+TEST_CASE("assets and objects: add, place, move, a delete refused while used, clean up") {
+  REQUIRE(fs::exists(kModel));
+  ServerProcess server({});
+  REQUIRE(server.start() == ServerProcess::Start::Listening);
+  char pattern[] = "/tmp/myriad-cli-objects-XXXXXX";
+  REQUIRE(mkdtemp(pattern) != nullptr);
+  const fs::path dir = pattern;
+  const std::string sessionFile = (dir / "session").string();
+  const std::map<std::string, std::string> env = {
+      {"MYRIAD_SERVER", server.url()}, {"MYRIAD_SESSION", ""}, {"MYRIAD_API_KEY", ""}};
+  auto myriad = [&](std::vector<std::string> args) {
+    args.insert(args.begin(), {"--session-file", sessionFile});
+    CliResult r = runCli(args, env);
+    MESSAGE("myriad ", args[2], " ", args.size() > 3 ? args[3] : "", " -> exit ", r.exitCode,
+            r.err.empty() ? "" : ", stderr: " + r.err);
+    return r;
+  };
+  auto jsonOf = [](const CliResult& r) {
+    INFO("stdout: ", r.out, " stderr: ", r.err);
+    REQUIRE(r.exitCode == 0);
+    return json::parse(r.out);
+  };
+  REQUIRE(myriad({"session", "new"}).exitCode == 0);
+  // The session's model (builtin:default) is one asset drawn by one object already.
+  const json assetsBefore = jsonOf(myriad({"asset", "list", "--json"}));
+  const size_t assetCount = assetsBefore["assets"].size();
+  const uint64_t objectCount = jsonOf(myriad({"object", "list", "--json"}))["total"];
+
+  // asset add: a new asset (201), then the same bytes again (200): the same id.
+  CliResult added = myriad({"asset", "add", kModel});
+  REQUIRE(added.exitCode == 0);
+  std::smatch match;
+  REQUIRE(std::regex_match(added.out, match,
+                           std::regex("added asset (a-[0-9a-f]{16}) \\(upload:spider\\.obj: "
+                                      "[1-9][0-9]* meshes, [1-9][0-9]* instances, .*\\)\n")));
+  const std::string assetId = match[1];
+  CliResult again = myriad({"asset", "add", kModel});
+  CHECK(again.exitCode == 0);
+  CHECK(again.out.starts_with("asset " + assetId + " was already in the session (upload:spider.obj: "));
+  CliResult assetList = myriad({"asset", "list"});
+  CHECK(assetList.out.starts_with("ID "));
+  CHECK(std::regex_search(assetList.out, std::regex("\n" + assetId + " +upload:spider\\.obj +")));
+  json asset = jsonOf(myriad({"asset", "show", assetId, "--json"}));
+  CHECK(asset["id"] == assetId);
+  CHECK(asset["source"] == "upload:spider.obj");
+  CHECK(asset["objects"] == 0);
+  CHECK(asset["bytes"] == fs::file_size(kModel));
+  CHECK(jsonOf(myriad({"asset", "list", "--json"}))["assets"].size() == assetCount + 1);
+
+  // object add with --at and --scale; list shows it with its translation and scale.
+  CliResult placed = myriad({"object", "add", assetId, "--name", "spider", "--at", "1,2,3",
+                             "--scale", "2"});
+  REQUIRE(placed.exitCode == 0);
+  REQUIRE(std::regex_match(placed.out, match, std::regex("added object ([0-9]+) \\(([0-9]+) objects\\)\n")));
+  const std::string oid = match[1];
+  CHECK(std::stoull(match[2]) == objectCount + 1);
+  CliResult objects = myriad({"object", "list"});
+  CHECK(objects.exitCode == 0);
+  CHECK(objects.out.starts_with("ID "));
+  CHECK(std::regex_search(objects.out, std::regex("\n" + oid + " +spider +" + assetId +
+                                                  " +1, 2, 3 +2 +yes +- +[1-9][0-9]*\n")));
+  CHECK(objects.out.ends_with(std::to_string(objectCount + 1) + " of " +
+                              std::to_string(objectCount + 1) + " objects\n"));
+  json shown = jsonOf(myriad({"object", "show", oid, "--json"}));
+  CHECK(shown["asset"] == assetId);
+  CHECK(shown["transform"]["translation"] == json::array({1.0, 2.0, 3.0}));
+  CHECK(shown["transform"]["scale"] == json::array({2.0, 2.0, 2.0}));
+  CHECK(shown["instances"].get<int>() > 0);
+  REQUIRE(shown.contains("bounds"));
+  CHECK(myriad({"asset", "show", assetId}).out.find("objects    1 use it") != std::string::npos);
+
+  // object move: the translation changes, the scale given before stays; the bounds follow.
+  CliResult moved = myriad({"object", "move", oid, "--at", "-4,0,5"});
+  REQUIRE(moved.exitCode == 0);
+  CHECK(moved.out.find("translation  -4, 0, 5\n") != std::string::npos);
+  CHECK(moved.out.find("scale        2, 2, 2\n") != std::string::npos);
+  json movedJson = jsonOf(myriad({"object", "show", oid, "--json"}));
+  CHECK(movedJson["transform"]["translation"] == json::array({-4.0, 0.0, 5.0}));
+  CHECK(movedJson["transform"]["scale"] == json::array({2.0, 2.0, 2.0}));
+  for (int axis : {0, 1, 2}) {
+    const double shift = std::array<double, 3>{-5.0, -2.0, 2.0}[axis];
+    CHECK(movedJson["bounds"]["min"][axis].get<double>() ==
+          doctest::Approx(shown["bounds"]["min"][axis].get<double>() + shift).epsilon(1e-4));
+  }
+  const fs::path png = dir / "objects.png";
+  CHECK(myriad({"frame", "--width", "64", "--height", "48", "-o", png.string()}).exitCode == 0);
+  CHECK(fs::file_size(png) > 8);
+
+  // The asset cannot go while the object draws it: the server's 409 detail, on one line.
+  CliResult refused = myriad({"asset", "delete", assetId});
+  checkOneLineError(refused, "(409 conflict)");
+  CHECK(refused.err.find("is in use: object " + oid + " draws it") != std::string::npos);
+  CHECK(refused.out.empty());
+  CHECK(jsonOf(myriad({"asset", "list", "--json"}))["assets"].size() == assetCount + 1);
+
+  // object set: hidden, it draws nothing.
+  CliResult hidden = myriad({"object", "set", oid, "--visible", "false", "--semantic", "7"});
+  CHECK(hidden.exitCode == 0);
+  CHECK(hidden.out.find("visible      no\n") != std::string::npos);
+  json hiddenJson = jsonOf(myriad({"object", "show", oid, "--json"}));
+  CHECK(hiddenJson["visible"] == false);
+  CHECK(hiddenJson["semantic"] == 7);
+  CHECK(hiddenJson["instances"] == 0);
+
+  // Usage mistakes are caught before a request: exit 2.
+  CHECK(myriad({"object", "add", "spider.obj"}).exitCode == 2);
+  CHECK(myriad({"object", "move", oid}).exitCode == 2);
+  CHECK(myriad({"asset", "delete", "a-123"}).exitCode == 2);
+  checkOneLineError(myriad({"object", "show", "999999"}), "(404 not-found)");
+
+  // object delete, then the asset goes too.
+  CliResult objectDeleted = myriad({"object", "delete", oid});
+  CHECK(objectDeleted.exitCode == 0);
+  CHECK(objectDeleted.out == "deleted object " + oid + " (and its children, if any)\n");
+  checkOneLineError(myriad({"object", "show", oid}), "(404 not-found)");
+  CHECK(jsonOf(myriad({"object", "list", "--json"}))["total"] == objectCount);
+  CliResult assetDeleted = myriad({"asset", "delete", assetId});
+  CHECK(assetDeleted.exitCode == 0);
+  CHECK(assetDeleted.out == "deleted asset " + assetId + "\n");
+  checkOneLineError(myriad({"asset", "show", assetId}), "(404 not-found)");
+  CHECK(jsonOf(myriad({"asset", "list", "--json"})) == assetsBefore);
+
+  CHECK(myriad({"session", "delete"}).exitCode == 0);
+  CHECK(jsonOf(myriad({"info", "--json"}))["validation"]["messages"] == 0);
+  auto exit = server.stop();
+  REQUIRE(exit.has_value());
+  CHECK(exit->cleanExit());
+  fs::remove_all(dir);
+}

@@ -64,6 +64,15 @@ TEST_CASE("a problem becomes '<detail> (<status> <type name>)'") {
   CHECK(describeErrorResponse(400, "application/problem+json", "{not json") ==
         "{not json (400 Bad Request)");
   CHECK(describeErrorResponse(418, "text/plain", "teapot") == "teapot (418)");
+
+  // An asset still in use: the server's detail and the problem's type.
+  std::string conflict = R"({"type":"https://myriad.dev/problems/conflict","title":"Conflict",)"
+                         R"("status":409,"detail":"Asset \"a-0123456789abcdef\" is in use: )"
+                         R"(object 1 draws it (1 objects use it). Delete them first."})";
+  CHECK(describeErrorResponse(409, "application/problem+json", conflict) ==
+        "Asset \"a-0123456789abcdef\" is in use: object 1 draws it (1 objects use it). Delete "
+        "them first. (409 conflict)");
+  CHECK(describeErrorResponse(409, "text/plain", "busy") == "busy (409 Conflict)");
 }
 
 TEST_CASE("oneLine keeps an error on one line and short") {

@@ -1,0 +1,334 @@
+// Scenes of many objects against the real server (lavapipe, validation on): assets, objects, a
+// move that changes only the moved object's pixels, parents, deletes and 409s, snapshots, and
+// hostile object requests (service/scene_graph.h, api_objects.cpp).
+#include <doctest/doctest.h>
+
+#include <algorithm>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "api_client.h"
+#include "encode/png.h"
+#include "server_process.h"
+
+using myriad::test::ApiClient;
+using myriad::test::checkProblem;
+using myriad::test::createSession;
+using myriad::test::Reply;
+using myriad::test::ServerProcess;
+using myriad::test::TestSession;
+using nlohmann::json;
+
+namespace {
+
+namespace fs = std::filesystem;
+
+constexpr const char* kSpider = "/usr/share/assimp/models/OBJ/spider.obj";
+constexpr const char* kBox = "/usr/share/assimp/models/glTF2/BoxTextured-glTF-Binary/BoxTextured.glb";
+
+std::string readFile(const fs::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  return std::string(std::istreambuf_iterator<char>(in), {});
+}
+
+fs::path helmetGlb() {
+  const char* env = std::getenv("MYRIAD_TEST_ASSETS_DIR");
+  return fs::path(env != nullptr ? env : MYRIAD_TEST_ASSETS_DIR) / "DamagedHelmet" /
+         "DamagedHelmet.glb";
+}
+
+void requireListening(const ServerProcess& server) {
+  INFO(server.stderrText());
+  REQUIRE(server.start() == ServerProcess::Start::Listening);
+}
+
+// POST .../assets with a file; REQUIREs 201 and returns the asset.
+json addAsset(ApiClient& api, const TestSession& s, const fs::path& file) {
+  Reply r = api.post(s.path() + "/assets?filename=" + file.filename().string(), readFile(file),
+                     s.token, "application/octet-stream");
+  INFO(r.body.substr(0, 400));
+  REQUIRE(r.status == 201);
+  return r.json;
+}
+
+std::vector<uint32_t> addObjects(ApiClient& api, const TestSession& s, const json& objects) {
+  Reply r = api.post(s.path() + "/objects", json{{"objects", objects}}.dump(), s.token);
+  INFO(r.body.substr(0, 400));
+  REQUIRE(r.status == 201);
+  return r.json.at("ids").get<std::vector<uint32_t>>();
+}
+
+json at(double x, double y, double z, double scale = 1.0) {
+  return {{"translation", {x, y, z}}, {"scale", {scale, scale, scale}}};
+}
+
+// A frame of the session as decoded pixels: no antialiasing (an edge pass would reach one pixel
+// past an object's silhouette), no markers.
+myriad::encode::DecodedImage frame(ApiClient& api, const TestSession& s, int width = 192,
+                                   int height = 108) {
+  Reply r = api.get(s.path() + "/frame?format=png&width=" + std::to_string(width) +
+                        "&height=" + std::to_string(height),
+                    s.token);
+  INFO(r.body.substr(0, 300));
+  REQUIRE(r.status == 200);
+  return myriad::encode::decodePng(
+      std::span(reinterpret_cast<const uint8_t*>(r.body.data()), r.body.size()));
+}
+
+// The pixels where two frames differ.
+std::vector<bool> differing(const myriad::encode::DecodedImage& a,
+                            const myriad::encode::DecodedImage& b) {
+  REQUIRE(a.rgba.size() == b.rgba.size());
+  std::vector<bool> out(a.rgba.size() / 4);
+  for (size_t p = 0; p < out.size(); ++p) {
+    out[p] = !std::equal(a.rgba.begin() + p * 4, a.rgba.begin() + p * 4 + 4, b.rgba.begin() + p * 4);
+  }
+  return out;
+}
+
+size_t count(const std::vector<bool>& mask) { return size_t(std::count(mask.begin(), mask.end(), true)); }
+
+// A session that shows only what objects cover: no sun shadow (a moved object's shadow falls on
+// others), no local lights' markers, no antialiasing.
+void plainSettings(ApiClient& api, const TestSession& s) {
+  REQUIRE(api.patch(s.path() + "/settings",
+                    R"({"markers": false, "antialias": "none", "shadows": {"sun": false}})", s.token)
+              .status == 200);
+}
+
+}  // namespace
+
+TEST_CASE("scene: three assets and 1,000 objects; a move changes only that object's pixels") {
+  ServerProcess server({"--lights", "16"});
+  requireListening(server);
+  ApiClient api(server);
+  TestSession s = createSession(api);
+  plainSettings(api, s);
+
+  // The session starts as one asset (the built-in scene) and one root object.
+  Reply assets = api.get(s.path() + "/assets", s.token);
+  REQUIRE(assets.status == 200);
+  REQUIRE(assets.json.at("assets").size() == 1);
+  CHECK(assets.json["assets"][0]["source"] == "builtin:default");
+  Reply objects = api.get(s.path() + "/objects", s.token);
+  REQUIRE(objects.status == 200);
+  CHECK(objects.json.at("total") == 1);
+  CHECK(objects.json["objects"][0]["id"] == 1);
+  CHECK(objects.json["objects"][0]["parent"].is_null());
+  // Hide the built-in scene: what remains is ours.
+  REQUIRE(api.patch(s.path() + "/objects/1", R"({"visible": false})", s.token).status == 200);
+
+  const json spider = addAsset(api, s, kSpider);
+  const json box = addAsset(api, s, kBox);
+  CHECK(spider.at("id").get<std::string>().starts_with("a-"));
+  CHECK(spider.at("bytes") == fs::file_size(kSpider));
+  CHECK(spider.at("objects") == 0);
+  // Content-addressed: the same bytes again are the same asset (200, not a second one).
+  Reply again = api.post(s.path() + "/assets?filename=again.obj", readFile(kSpider), s.token,
+                         "application/octet-stream");
+  CHECK(again.status == 200);
+  CHECK(again.json.at("id") == spider.at("id"));
+  const bool haveHelmet = fs::exists(helmetGlb());
+  json helmet;
+  if (haveHelmet) {
+    helmet = addAsset(api, s, helmetGlb());
+  } else {
+    MESSAGE("DamagedHelmet not found at ", helmetGlb().string(), ": two assets instead of three");
+  }
+  CHECK(api.get(s.path() + "/assets", s.token).json.at("assets").size() == (haveHelmet ? 4u : 3u));
+
+  // 1,000 objects on a 40 x 25 grid in front of the camera, in one request, all three assets.
+  json grid = json::array();
+  for (int i = 0; i < 1000; ++i) {
+    const double x = -6.0 + 0.3 * (i % 40), z = -6.0 + 0.45 * (i / 40);
+    if (haveHelmet && i % 100 == 0) {
+      grid.push_back({{"asset", helmet["id"]}, {"transform", at(x, 0.3, z, 0.15)}});
+    } else if (i % 2 == 0) {
+      grid.push_back({{"asset", box["id"]}, {"transform", at(x, 0.1, z, 0.2)}, {"semantic", 2}});
+    } else {
+      grid.push_back({{"asset", spider["id"]}, {"transform", at(x, 0.1, z, 0.002)}, {"semantic", 3}});
+    }
+  }
+  const std::vector<uint32_t> ids = addObjects(api, s, grid);
+  REQUIRE(ids.size() == 1000);
+  CHECK(ids.front() == 2);
+  CHECK(ids.back() == 1001);
+  Reply page = api.get(s.path() + "/objects?offset=1&limit=3", s.token);
+  REQUIRE(page.status == 200);
+  CHECK(page.json.at("total") == 1001);
+  CHECK(page.json.at("nextObjectId") == 1002);
+  REQUIRE(page.json.at("objects").size() == 3);
+  CHECK(page.json["objects"][0]["id"] == 2);
+
+  // The camera looks at the grid's middle from above.
+  REQUIRE(api.put(s.path() + "/camera",
+                  R"({"eye": [0, 4, 6], "target": [0, 0, -1], "up": [0, 1, 0], "fovY": 50, "near": 0.1, "far": 50})",
+                  s.token)
+              .status == 200);
+  const auto before = frame(api, s);
+
+  // One box in view, hidden and shown: where it draws.
+  const uint32_t moved = ids[20 * 40 + 20];  // a box (even index) near the middle
+  const std::string movedPath = s.path() + "/objects/" + std::to_string(moved);
+  REQUIRE(api.patch(movedPath, R"({"visible": false})", s.token).status == 200);
+  const auto hidden = frame(api, s);
+  const std::vector<bool> footprintBefore = differing(before, hidden);
+  REQUIRE(count(footprintBefore) > 20);
+  REQUIRE(api.patch(movedPath, R"({"visible": true})", s.token).status == 200);
+  CHECK(differing(before, frame(api, s)) == std::vector<bool>(footprintBefore.size(), false));
+
+  // The move: a transform PATCH writes only its instances. Only pixels it covered before or
+  // covers now change; every other pixel is byte-identical.
+  const json original = api.get(movedPath, s.token).json;
+  json target = original["transform"];
+  target["translation"][0] = target["translation"][0].get<double>() + 0.4;
+  Reply patched = api.patch(movedPath, json{{"transform", target}}.dump(), s.token);
+  REQUIRE(patched.status == 200);
+  CHECK(patched.json["transform"]["translation"][0].get<double>() ==
+        doctest::Approx(original["transform"]["translation"][0].get<double>() + 0.4));
+  const auto after = frame(api, s);
+  REQUIRE(api.patch(movedPath, R"({"visible": false})", s.token).status == 200);
+  const std::vector<bool> footprintAfter = differing(after, frame(api, s));
+  REQUIRE(api.patch(movedPath, R"({"visible": true})", s.token).status == 200);
+  // Showing it again uploads the whole scene: the in-place move drew the same picture.
+  const auto reuploaded = frame(api, s);
+  CHECK(after.rgba == reuploaded.rgba);
+  const std::vector<bool> changed = differing(before, after);
+  size_t outside = 0;
+  for (size_t p = 0; p < changed.size(); ++p) {
+    if (changed[p] && !footprintBefore[p] && !footprintAfter[p]) ++outside;
+  }
+  CHECK(count(changed) > 0);
+  CHECK(outside == 0);
+
+  // Parents: a child follows its parent's move; hiding the parent hides it.
+  const std::vector<uint32_t> family = addObjects(
+      api, s,
+      json::array({{{"asset", box["id"]}, {"name", "parent"}, {"transform", at(0, 2, -1, 0.3)}},
+                   {{"asset", box["id"]}, {"name", "child"}, {"parent", 1002},
+                    {"transform", at(2, 0, 0)}}}));
+  REQUIRE(family == std::vector<uint32_t>{1002, 1003});
+  const std::string parentPath = s.path() + "/objects/1002";
+  const std::string childPath = s.path() + "/objects/1003";
+  const json childBefore = api.get(childPath, s.token).json;
+  CHECK(childBefore.at("parent") == 1002);
+  REQUIRE(api.patch(parentPath, json{{"transform", at(1, 2, -1, 0.3)}}.dump(), s.token).status == 200);
+  const json childAfter = api.get(childPath, s.token).json;
+  CHECK(childAfter["bounds"]["min"][0].get<double>() ==
+        doctest::Approx(childBefore["bounds"]["min"][0].get<double>() + 1.0).epsilon(1e-4));
+  CHECK(childAfter["bounds"]["min"][1].get<double>() ==
+        doctest::Approx(childBefore["bounds"]["min"][1].get<double>()).epsilon(1e-4));
+  REQUIRE(api.patch(parentPath, R"({"visible": false})", s.token).status == 200);
+  CHECK(api.get(childPath, s.token).json.at("instances") == 0);
+  REQUIRE(api.patch(parentPath, R"({"visible": true})", s.token).status == 200);
+  CHECK(api.get(childPath, s.token).json.at("instances") == 1);
+
+  // A snapshot restores the same frame, byte for byte, onto a session that has the uploads.
+  // (One light added: a snapshot lists the lights then. A built-in session's generated lights
+  // restore through the generator around the model, not the built-in scene's own layout.)
+  REQUIRE(api.post(s.path() + "/lights",
+                   R"({"lights": [{"position": [0, 1, -1], "radius": 3, "color": [1, 0.8, 0.6], "intensity": 3, "falloff": 1}]})",
+                   s.token)
+              .status == 201);
+  Reply snapshot = api.get(s.path() + "/snapshot", s.token);
+  REQUIRE(snapshot.status == 200);
+  REQUIRE(snapshot.json.contains("scene"));
+  CHECK(snapshot.json["scene"]["objects"].size() == 1003);
+  TestSession copy = createSession(api);
+  addAsset(api, copy, kBox);  // uploaded in another order: the snapshot's order wins
+  addAsset(api, copy, kSpider);
+  if (haveHelmet) addAsset(api, copy, helmetGlb());
+  Reply restored = api.put(copy.path() + "/snapshot", snapshot.body, copy.token);
+  INFO(restored.body.substr(0, 400));
+  REQUIRE(restored.status == 200);
+  CHECK(api.get(copy.path() + "/snapshot", copy.token).json == snapshot.json);
+  CHECK(frame(api, copy).rgba == frame(api, s).rgba);
+  // Without the uploads, the snapshot names the asset it lacks.
+  checkProblem(api.post("/v1/sessions", json{{"snapshot", snapshot.json}}.dump()), 400,
+               "invalid-body", "missing upload", "/snapshot/scene/assets/1/id");
+
+  // Deletes: an asset in use is 409 naming an object; a parent's delete takes its children.
+  checkProblem(api.del(s.path() + "/assets/" + box["id"].get<std::string>(), s.token), 409,
+               "conflict", "asset in use");
+  REQUIRE(api.del(parentPath, s.token).status == 204);
+  checkProblem(api.get(childPath, s.token), 404, "not-found", "child deleted with its parent");
+  CHECK(api.get(s.path() + "/objects?limit=0", s.token).json.at("total") == 1001);
+  // An unused asset goes; later assets' materials move down.
+  const json lone =
+      addAsset(api, s, "/usr/share/assimp/models/glTF2/BoxTextured-glTF-Embedded/BoxTextured.gltf");
+  CHECK(lone.at("objects") == 0);
+  REQUIRE(api.del(s.path() + "/assets/" + lone["id"].get<std::string>(), s.token).status == 204);
+  checkProblem(api.get(s.path() + "/assets/" + lone["id"].get<std::string>(), s.token), 404,
+               "not-found", "deleted asset");
+  CHECK(myriad::test::validationMessages(api) == 0);
+  std::optional<myriad::test::ExitStatus> status = server.stop();
+  REQUIRE(status.has_value());
+  CHECK(status->cleanExit());
+}
+
+TEST_CASE("scene: hostile object requests are 4xx naming the member; the server keeps serving") {
+  ServerProcess server({"--lights", "4", "--max-objects", "50"});
+  requireListening(server);
+  ApiClient api(server);
+  TestSession s = createSession(api);
+  TestSession other = createSession(api);
+  const std::string builtin = api.get(s.path() + "/assets", s.token).json["assets"][0]["id"];
+  const std::string objects = s.path() + "/objects";
+  auto add = [&](const json& object) {
+    return api.post(objects, json{{"objects", json::array({object})}}.dump(), s.token);
+  };
+  // Zero scale, a zero quaternion, a singular or projective matrix, numbers past the schema.
+  checkProblem(add({{"asset", builtin}, {"transform", {{"scale", {0, 1, 1}}}}}), 400,
+               "invalid-body", "zero scale", "/objects/0/transform");
+  checkProblem(add({{"asset", builtin}, {"transform", {{"rotation", {0, 0, 0, 0}}}}}), 400,
+               "invalid-body", "zero quaternion", "/objects/0/transform/rotation");
+  checkProblem(add({{"asset", builtin},
+                    {"transform", {{"matrix", {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 1, 0, 0, 0, 1}}}}}),
+               400, "invalid-body", "projective matrix", "/objects/0/transform");
+  checkProblem(add({{"asset", builtin},
+                    {"transform", {{"matrix", {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1}},
+                                   {"scale", {1, 1, 1}}}}}),
+               400, "invalid-body", "matrix and TRS", "/objects/0/transform");
+  checkProblem(add({{"asset", builtin}, {"transform", {{"translation", {1e300, 0, 0}}}}}), 400,
+               "invalid-body", "huge translation", "/objects/0/transform/translation/0");
+  // A missing asset, parent or material.
+  checkProblem(add({{"asset", "a-0000000000000000"}}), 400, "invalid-body", "missing asset",
+               "/objects/0/asset");
+  checkProblem(add({{"asset", builtin}, {"parent", 77}}), 400, "invalid-body", "missing parent",
+               "/objects/0/parent");
+  checkProblem(add({{"asset", builtin}, {"material", 100000}}), 400, "invalid-body",
+               "missing material", "/objects/0/material");
+  // A cycle of parents: 2 under 1, then 1 under 2.
+  REQUIRE(add({{"asset", builtin}, {"parent", 1}}).status == 201);
+  checkProblem(api.patch(objects + "/1", R"({"parent": 2})", s.token), 400, "invalid-body",
+               "cycle", "/parent");
+  checkProblem(api.patch(objects + "/1", R"({"parent": 1})", s.token), 400, "invalid-body",
+               "own parent", "/parent");
+  // Too many: 10,001 in one request is the schema's 400; past --max-objects, 413 naming it.
+  json many = json::array();
+  for (int i = 0; i < 10001; ++i) many.push_back({{"asset", builtin}});
+  checkProblem(api.post(objects, json{{"objects", many}}.dump(), s.token), 400, "invalid-body",
+               "10,001 objects", "/objects");
+  many.erase(many.begin() + 49, many.end());
+  checkProblem(api.post(objects, json{{"objects", many}}.dump(), s.token), 413, "limit-exceeded",
+               "past --max-objects", std::nullopt, "maxObjectsPerSession");
+  // Ids that are not objects, and another session's token.
+  checkProblem(api.get(objects + "/abc", s.token), 404, "not-found", "not an id");
+  checkProblem(api.get(objects + "/99999999999", s.token), 404, "not-found", "past uint32");
+  checkProblem(api.get(objects + "/1", other.token), 403, "forbidden", "other session's token");
+  checkProblem(api.del(s.path() + "/assets/a-0000000000000000", s.token), 404, "not-found",
+               "missing asset");
+  // Nothing changed, and both sessions still render.
+  CHECK(api.get(objects, s.token).json.at("total") == 2);
+  CHECK(api.get(s.path() + "/frame?width=64&height=36", s.token).status == 200);
+  CHECK(api.get(other.path() + "/frame?width=64&height=36", other.token).status == 200);
+  CHECK(myriad::test::validationMessages(api) == 0);
+  std::optional<myriad::test::ExitStatus> status = server.stop();
+  REQUIRE(status.has_value());
+  CHECK(status->cleanExit());
+}
