@@ -41,6 +41,7 @@ inline constexpr std::string_view kSessionAssets = "/v1/sessions/{id}/assets";
 inline constexpr std::string_view kSessionAsset = "/v1/sessions/{id}/assets/{aid}";
 inline constexpr std::string_view kSessionObjects = "/v1/sessions/{id}/objects";
 inline constexpr std::string_view kSessionObject = "/v1/sessions/{id}/objects/{oid}";
+inline constexpr std::string_view kSessionLabels = "/v1/sessions/{id}/labels";
 inline constexpr std::string_view kOpenApi = "/v1/openapi.json";  // this API as OpenAPI 3.1
 inline constexpr std::string_view kWebRoot = "/";                 // the web client's page
 inline constexpr std::string_view kWebFile = "/web/{file}";       // and its other files
@@ -89,6 +90,7 @@ inline constexpr std::string_view kObjectPatch = "object-patch";
 inline constexpr std::string_view kObjectsAdd = "objects-add";
 inline constexpr std::string_view kObjectsAdded = "objects-added";
 inline constexpr std::string_view kObjectsPage = "objects-page";
+inline constexpr std::string_view kLabels = "labels";
 }  // namespace schema_names
 
 // Roles of a session's tokens: the token POST /v1/sessions returns is the owner's (everything);
@@ -158,6 +160,12 @@ inline constexpr std::string_view kWidth = "X-Myriad-Width";          // raw
 inline constexpr std::string_view kHeight = "X-Myriad-Height";        // raw
 inline constexpr std::string_view kTarget = "X-Myriad-Target";        // raw
 inline constexpr std::string_view kTechnique = "X-Myriad-Technique";  // every frame
+// Every frame: the camera's pinhole intrinsics and near/far, and its pose (reference.md "Camera
+// of a frame"), as JSON.
+inline constexpr std::string_view kIntrinsics = "X-Myriad-Intrinsics";
+inline constexpr std::string_view kPose = "X-Myriad-Pose";
+inline constexpr std::string_view kDepth = "X-Myriad-Depth";  // raw depth: "z" or "distance"
+inline constexpr std::string_view kDtype = "X-Myriad-Dtype";  // raw: "float32", or "uint32" (labels)
 inline constexpr std::string_view kFrameSequence = "X-Myriad-Frame";  // each stream part
 // A stream part rendered while the session changes (?interactive=): its render scale ("0.5")
 inline constexpr std::string_view kInteractive = "X-Myriad-Interactive";
@@ -179,6 +187,8 @@ inline constexpr std::string_view kToken = "token";  // for <img>, which cannot 
 inline constexpr uint32_t kMaxLightsPageLimit = 1000;
 inline constexpr uint32_t kDefaultLightsPageLimit = 100;
 inline constexpr uint32_t kMaxObjectsPageLimit = 1000;
+// GET .../frame?depth=z|distance: raw depth's convention.
+inline constexpr std::string_view kDepthConvention = "depth";  // names-once: a query parameter
 inline constexpr uint32_t kDefaultObjectsPageLimit = 100;
 inline constexpr uint32_t kMinFps = 1;
 inline constexpr uint32_t kMaxFps = 240;  // a 240 Hz display; the GPU machine renders 1080p faster
@@ -266,9 +276,10 @@ inline constexpr std::string_view kFxaa = "fxaa";  // a luminance-edge post-proc
 inline constexpr std::array kAntialiasModes = {antialias_modes::kNone, antialias_modes::kFxaa};
 // What a frame shows: ?target=, GET /v1/info "targets", X-Myriad-Target. In render::Target's order
 // (which the shaders' MYRIAD_VIEW_* values follow): the final image, then G-buffer and debug views.
-inline constexpr std::array<std::string_view, 13> kTargets = {
-    "final", "albedo",        "normal",      "position", "uv",       "metallic", "roughness",
-    "depth", "light-volumes", "light-count", "clusters", "emissive", "occlusion"};
+inline constexpr std::array<std::string_view, 16> kTargets = {
+    "final",     "albedo",      "normal",        "position",   "uv",          "metallic",
+    "roughness", "depth",       "light-volumes", "light-count", "clusters",   "emissive",
+    "occlusion", "instance-id", "semantic-id",   "material-id"};
 inline constexpr std::array<std::string_view, 3> kFormats = {"png", "jpeg", "raw"};
 // A material's texture slots (GET .../materials/{mid} "textures"[].slot), in the order of
 // scene::Material::texture and of the shaders' MYRIAD_BINDING_TEXTURE_* bindings.

@@ -131,6 +131,17 @@ json headerObject(std::string_view name) {
       {headers::kHeight, {"integer", "raw frames: the image height in pixels."}},
       {headers::kChannels, {"string", "raw frames: the channel names, comma-separated, in order."}},
       {headers::kTarget, {"string", "raw frames: the target."}},
+      {headers::kIntrinsics,
+       {"string", "JSON {fx, fy, cx, cy, width, height, near, far}: the pinhole intrinsics in "
+                  "pixels (OpenCV convention: u = fx x/z + cx, v = fy y/z + cy, (0, 0) the "
+                  "top-left corner of the image) and the clip planes."}},
+      {headers::kPose,
+       {"string", "JSON {worldFromCamera: 4 rows of 4}: camera space (x right, y down, z "
+                  "forward) to world space."}},
+      {headers::kDepth, {"string", "raw depth: its convention, z or distance."}},
+      {headers::kDtype,
+       {"string", "raw frames: the values' type, float32, or uint32 for the label targets "
+                  "(instance-id, semantic-id, material-id)."}},
       {headers::kRetryAfter, {"integer", "Seconds to wait before retrying."}},
       {headers::kAllow, {"string", "The methods the route allows."}},
       {headers::kLocation, {"string", "The new session's URL."}},

@@ -55,7 +55,8 @@ Response frameResponse() {
           "channels interleaved as X-Myriad-Channels names them.",
           {{kPngContentType, ""}, {kJpegContentType, ""}, {kRawContentType, ""}},
           {headers::kServerTiming, headers::kTechnique, headers::kWidth, headers::kHeight,
-           headers::kChannels, headers::kTarget}};
+           headers::kChannels, headers::kTarget, headers::kIntrinsics, headers::kPose,
+           headers::kDepth, headers::kDtype}};
 }
 
 Response json200(std::string_view schema, std::string_view description) {
@@ -560,6 +561,21 @@ std::vector<Operation> buildOperations() {
                  .responses = {noContent("Removed.")},
                  .problems = kSessionProblems});
 
+  ops.push_back({.method = "GET",
+                 .route = routes::kSessionLabels,
+                 .id = "getLabels",
+                 .tag = "Scene",
+                 .summary = "Per visible object of one frame: its pixels, 2D box, semantic class "
+                            "and 3D box, with the frame's camera",
+                 .access = Access::SessionOrQueryToken,
+                 .query = {width(),
+                           height(),
+                           {"time",
+                            {{"type", "number"}, {"minimum", 0}, {"maximum", 1e6}},
+                            "Animation time in seconds. Default: the session's clock."}},
+                 .responses = {json200(n::kLabels, "The frame's objects and camera.")},
+                 .problems = {400, 401, 403, 404, 500, 503}});
+
   // Frames, streams, stats.
   ops.push_back(
       {.method = "GET",
@@ -575,7 +591,11 @@ std::vector<Operation> buildOperations() {
                  quality(),
                  {"time",
                   {{"type", "number"}, {"minimum", 0}, {"maximum", 1e6}},
-                  "Animation time in seconds (with animate on). Default: the session's clock."}},
+                  "Animation time in seconds (with animate on). Default: the session's clock."},
+                 {query::kDepthConvention,
+                  {{"type", "string"}, {"enum", {"z", "distance"}}},
+                  "With target=depth and format=raw: z (metres along the view axis, the default) "
+                  "or distance (metres to the camera centre)."}},
        .responses = {frameResponse()},
        .problems = {400, 401, 403, 404, 500, 503}});
   ops.push_back(

@@ -359,6 +359,36 @@ void members(Tag<AssetsList>, F f) {
 }
 
 template <class F>
+void members(Tag<FrameIntrinsics>, F f) {
+  f("fx", &FrameIntrinsics::fx);
+  f("fy", &FrameIntrinsics::fy);
+  f("cx", &FrameIntrinsics::cx);
+  f("cy", &FrameIntrinsics::cy);
+  f("width", &FrameIntrinsics::width);
+  f("height", &FrameIntrinsics::height);
+  f("near", &FrameIntrinsics::near);
+  f("far", &FrameIntrinsics::far);
+}
+
+template <class F>
+void members(Tag<ObjectLabel>, F f) {
+  f("id", &ObjectLabel::id);
+  f("semantic", &ObjectLabel::semantic);
+  f("pixels", &ObjectLabel::pixels);
+  f("box", &ObjectLabel::box);
+  f("bounds", &ObjectLabel::bounds);
+}
+
+template <class F>
+void members(Tag<Labels>, F f) {
+  f("width", &Labels::width);
+  f("height", &Labels::height);
+  f("intrinsics", &Labels::intrinsics);
+  f("worldFromCamera", &Labels::worldFromCamera);
+  f("objects", &Labels::objects);
+}
+
+template <class F>
 void members(Tag<SnapshotAsset>, F f) {
   f("id", &SnapshotAsset::id);
   f("source", &SnapshotAsset::source);
@@ -678,6 +708,9 @@ MYRIAD_MEMBERWISE_JSON(ObjectsPage)
 MYRIAD_MEMBERWISE_JSON(AssetMaterials)
 MYRIAD_MEMBERWISE_JSON(Asset)
 MYRIAD_MEMBERWISE_JSON(AssetsList)
+MYRIAD_MEMBERWISE_JSON(FrameIntrinsics)
+MYRIAD_MEMBERWISE_JSON(ObjectLabel)
+MYRIAD_MEMBERWISE_JSON(Labels)
 MYRIAD_MEMBERWISE_JSON(SnapshotAsset)
 MYRIAD_MEMBERWISE_JSON(SnapshotScene)
 MYRIAD_MEMBERWISE_JSON(Snapshot)

@@ -353,6 +353,27 @@ struct AssetsList {
   std::vector<Asset> assets;
 };
 
+// GET .../labels.
+struct FrameIntrinsics {
+  double fx = 0, fy = 0, cx = 0, cy = 0;
+  uint64_t width = 0, height = 0;
+  double near = 0, far = 0;
+};
+struct ObjectLabel {
+  uint64_t id = 0;
+  uint64_t semantic = 0;
+  uint64_t pixels = 0;
+  std::array<uint64_t, 4> box{};  // [x0, y0, x1, y1)
+  std::optional<Bounds> bounds;
+};
+struct Labels {
+  uint64_t width = 0;
+  uint64_t height = 0;
+  FrameIntrinsics intrinsics;
+  std::array<std::array<double, 4>, 4> worldFromCamera{};  // rows
+  std::vector<ObjectLabel> objects;
+};
+
 // A snapshot's scene: the assets by id and source, in order, every object, and the next id.
 struct SnapshotAsset {
   std::string id;
@@ -642,6 +663,9 @@ MYRIAD_PROTOCOL_JSON(ObjectsPage);
 MYRIAD_PROTOCOL_JSON(AssetMaterials);
 MYRIAD_PROTOCOL_JSON(Asset);
 MYRIAD_PROTOCOL_JSON(AssetsList);
+MYRIAD_PROTOCOL_JSON(FrameIntrinsics);
+MYRIAD_PROTOCOL_JSON(ObjectLabel);
+MYRIAD_PROTOCOL_JSON(Labels);
 MYRIAD_PROTOCOL_JSON(SnapshotAsset);
 MYRIAD_PROTOCOL_JSON(SnapshotScene);
 MYRIAD_PROTOCOL_JSON(Snapshot);

@@ -14,6 +14,7 @@ layout(location = 2) out vec2 outUv;
 layout(location = 3) flat out uint outMaterial;
 layout(location = 4) out vec4 outTangent;
 layout(location = 5) out vec4 outColor;
+layout(location = 6) flat out uvec2 outLabels;  // object, semantic class (labels.frag)
 
 // One draw per instance; firstInstance carries the instance index into gl_InstanceIndex.
 void main() {
@@ -26,5 +27,6 @@ void main() {
   // Tangents follow the surface, so they transform with the model matrix (not the normal matrix).
   outTangent = vec4(mat3(instance.model) * inTangent.xyz, inTangent.w);
   outColor = inColor;
+  outLabels = instance.material.yz;
   gl_Position = frame.viewProjection * world;
 }

@@ -394,7 +394,8 @@ MYRIAD_STRUCT(GpuPointLight) {
 MYRIAD_STRUCT(GpuInstance) {
   mat4 model;
   mat4 normalMatrix;     // inverse-transpose of model (upper 3x3 used)
-  uvec4 material;        // x material index, y the object (instance-id label; 0 none)
+  uvec4 material;        // x material index, y its object (instance-id label; 0 none), z the
+                         // object's semantic class (semantic-id label)
 };
 
 MYRIAD_STRUCT(GpuMaterial) {

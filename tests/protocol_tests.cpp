@@ -84,6 +84,7 @@ const std::map<std::string, std::function<json(const json&)>, std::less<>> kRoun
     {"objects-add", throughType<protocol::ObjectsAdd>},
     {"objects-added", throughType<protocol::ObjectsAdded>},
     {"objects-page", throughType<protocol::ObjectsPage>},
+    {"labels", throughType<protocol::Labels>},
 };
 
 // The bodies clients send; each must reject every kind of mistake (cases.json "kind").
@@ -103,7 +104,7 @@ std::vector<std::string_view> bodySchemas() {
 }  // namespace
 
 TEST_CASE("every schema is embedded as it is on disk and accepts its example") {
-  CHECK(bodySchemas().size() == 37);
+  CHECK(bodySchemas().size() == 38);
   for (std::string_view name : protocol::schemaNames()) {
     CAPTURE(name);
     std::string path = std::string(MYRIAD_PROTOCOL_DIR) + "/schemas/" + std::string(name) + ".schema.json";

@@ -4,7 +4,9 @@
 #include <doctest/doctest.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <string>
@@ -206,6 +208,38 @@ TEST_CASE("scene: three assets and 1,000 objects; a move changes only that objec
   CHECK(count(changed) > 0);
   CHECK(outside == 0);
 
+  // Labels of the same view: the moved box's pixels are exactly where hiding it changed the
+  // picture (no shadows, no antialiasing), and its 2D box is theirs.
+  Reply labels = api.get(s.path() + "/labels?width=192&height=108", s.token);
+  REQUIRE(labels.status == 200);
+  const json* mine = nullptr;
+  for (const json& l : labels.json.at("objects")) {
+    if (l.at("id") == moved) mine = &l;
+  }
+  REQUIRE(mine != nullptr);
+  CHECK((*mine)["pixels"] == count(footprintAfter));
+  CHECK((*mine)["semantic"] == 2);
+  uint32_t x0 = 192, y0 = 108, x1 = 0, y1 = 0;
+  for (size_t p = 0; p < footprintAfter.size(); ++p) {
+    if (!footprintAfter[p]) continue;
+    const uint32_t x = uint32_t(p % 192), y = uint32_t(p / 192);
+    x0 = std::min(x0, x), y0 = std::min(y0, y), x1 = std::max(x1, x + 1), y1 = std::max(y1, y + 1);
+  }
+  CHECK((*mine)["box"] == json::array({x0, y0, x1, y1}));
+  CHECK((*mine)["bounds"] == api.get(movedPath, s.token).json["bounds"]);
+  // The raw instance-id frame says the same, pixel for pixel.
+  Reply idFrame = api.get(s.path() + "/frame?target=instance-id&format=raw&width=192&height=108", s.token);
+  REQUIRE(idFrame.status == 200);
+  CHECK(idFrame.header("X-Myriad-Dtype") == "uint32");
+  REQUIRE(idFrame.body.size() == footprintAfter.size() * 4);
+  size_t agree = 0;
+  for (size_t p = 0; p < footprintAfter.size(); ++p) {
+    uint32_t id = 0;
+    std::memcpy(&id, idFrame.body.data() + p * 4, 4);
+    agree += (id == moved) == bool(footprintAfter[p]) ? 1 : 0;
+  }
+  CHECK(agree == footprintAfter.size());
+
   // Parents: a child follows its parent's move; hiding the parent hides it.
   const std::vector<uint32_t> family = addObjects(
       api, s,
@@ -327,6 +361,103 @@ TEST_CASE("scene: hostile object requests are 4xx naming the member; the server 
   CHECK(api.get(objects, s.token).json.at("total") == 2);
   CHECK(api.get(s.path() + "/frame?width=64&height=36", s.token).status == 200);
   CHECK(api.get(other.path() + "/frame?width=64&height=36", other.token).status == 200);
+  CHECK(myriad::test::validationMessages(api) == 0);
+  std::optional<myriad::test::ExitStatus> status = server.stop();
+  REQUIRE(status.has_value());
+  CHECK(status->cleanExit());
+}
+
+namespace {
+
+// A raw frame's float32 values.
+std::vector<float> rawFloats(const Reply& r) {
+  std::vector<float> out(r.body.size() / 4);
+  std::memcpy(out.data(), r.body.data(), out.size() * 4);
+  return out;
+}
+
+}  // namespace
+
+TEST_CASE("scene: every frame carries its camera; world positions project onto their pixels") {
+  ServerProcess server({"--lights", "4"});
+  requireListening(server);
+  ApiClient api(server);
+  TestSession s = createSession(api);
+  // An off-axis, tilted view with a non-default field of view and a wide frame.
+  REQUIRE(api.put(s.path() + "/camera",
+                  R"({"eye": [3.5, 2.5, 4.0], "target": [-0.5, 0.3, -1.0], "up": [0.1, 1, 0], "fovY": 40, "near": 0.1, "far": 40})",
+                  s.token)
+              .status == 200);
+  const int width = 160, height = 90;
+  const std::string size = "&width=" + std::to_string(width) + "&height=" + std::to_string(height);
+  Reply png = api.get(s.path() + "/frame?format=png" + size, s.token);
+  REQUIRE(png.status == 200);
+  const json k = json::parse(png.header("X-Myriad-Intrinsics"));
+  const json pose = json::parse(png.header("X-Myriad-Pose"))["worldFromCamera"];
+  CHECK(k["width"] == width);
+  CHECK(k["height"] == height);
+  CHECK(k["near"].get<double>() == doctest::Approx(0.1));
+  CHECK(k["far"].get<double>() == doctest::Approx(40));
+  CHECK(k["cx"].get<double>() == doctest::Approx(80));
+  CHECK(k["fy"].get<double>() == doctest::Approx(45.0 / std::tan(20.0 * 3.14159265358979 / 180.0)));
+  // The pose's translation is the eye; its third column (camera +z) looks at the target.
+  CHECK(pose[0][3].get<double>() == doctest::Approx(3.5));
+  CHECK(pose[2][3].get<double>() == doctest::Approx(4.0));
+
+  Reply position = api.get(s.path() + "/frame?format=raw&target=position" + size, s.token);
+  Reply z = api.get(s.path() + "/frame?format=raw&target=depth" + size, s.token);
+  Reply distance = api.get(s.path() + "/frame?format=raw&target=depth&depth=distance" + size, s.token);
+  REQUIRE(position.status == 200);
+  REQUIRE(z.status == 200);
+  REQUIRE(distance.status == 200);
+  CHECK(z.header("X-Myriad-Depth") == "z");
+  CHECK(distance.header("X-Myriad-Depth") == "distance");
+  CHECK(json::parse(position.header("X-Myriad-Intrinsics")) == k);
+  const std::vector<float> p = rawFloats(position), zs = rawFloats(z), ds = rawFloats(distance);
+  REQUIRE(p.size() == size_t(width * height * 3));
+  REQUIRE(zs.size() == size_t(width * height));
+  REQUIRE(ds.size() == zs.size());
+  double R[3][3], t[3];
+  for (int r = 0; r < 3; ++r) {
+    t[r] = pose[r][3].get<double>();
+    for (int c = 0; c < 3; ++c) R[r][c] = pose[r][c].get<double>();
+  }
+  const double fx = k["fx"], fy = k["fy"], cx = k["cx"], cy = k["cy"];
+  size_t surfaces = 0, offPixel = 0, offZ = 0, offDistance = 0;
+  double worstPixel = 0.0;
+  for (int y = 0; y < height; ++y) {
+    for (int x = 0; x < width; ++x) {
+      const size_t i = size_t(y) * width + x;
+      REQUIRE(std::isfinite(zs[i]));
+      REQUIRE(std::isfinite(ds[i]));
+      if (zs[i] >= 40.0f) {
+        CHECK(ds[i] == zs[i]);  // no surface: far in both conventions
+        continue;
+      }
+      ++surfaces;
+      // Camera space = R^T (P - t) (the pose is a rotation and a translation).
+      const double d[3] = {p[i * 3] - t[0], p[i * 3 + 1] - t[1], p[i * 3 + 2] - t[2]};
+      double c[3];
+      for (int a = 0; a < 3; ++a) c[a] = R[0][a] * d[0] + R[1][a] * d[1] + R[2][a] * d[2];
+      const double u = fx * c[0] / c[2] + cx, v = fy * c[1] / c[2] + cy;
+      const double miss = std::max(std::abs(u - (x + 0.5)), std::abs(v - (y + 0.5)));
+      worstPixel = std::max(worstPixel, miss);
+      if (miss > 0.05) ++offPixel;
+      if (std::abs(c[2] - zs[i]) > 1e-4 * zs[i]) ++offZ;
+      const double length = std::sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+      if (std::abs(length - ds[i]) > 1e-4 * length) ++offDistance;
+    }
+  }
+  INFO("worst reprojection error: ", worstPixel, " px");
+  CHECK(surfaces > size_t(width * height / 2));
+  CHECK(offPixel == 0);
+  CHECK(offZ == 0);
+  CHECK(offDistance == 0);
+  // depth= is for raw depth only.
+  checkProblem(api.get(s.path() + "/frame?format=png&target=depth&depth=distance", s.token), 400,
+               "invalid-parameter", "depth with png", std::nullopt, std::nullopt, "depth");
+  checkProblem(api.get(s.path() + "/frame?format=raw&target=depth&depth=metres", s.token), 400,
+               "invalid-parameter", "unknown convention", std::nullopt, std::nullopt, "depth");
   CHECK(myriad::test::validationMessages(api) == 0);
   std::optional<myriad::test::ExitStatus> status = server.stop();
   REQUIRE(status.has_value());

@@ -4,6 +4,7 @@
 import {Api, SessionLostError} from './api.js';
 import {CameraControl, isTyping} from './camera.js';
 import {LightsPanel} from './lights.js';
+import {ObjectsPanel} from './objects.js';
 import {MaterialPanel, ModelPanel, SettingsPanel} from './panels.js';
 import {StatsPanel} from './stats.js';
 import {ViewOverlay} from './overlay.js';
@@ -109,14 +110,23 @@ const model = new ModelPanel(api, {
     camera.setFromServer(state.camera);
     materials.refresh();
     lights.changed(state.lights.count);
+    objects.refresh();
   },
   onCamera: (cam) => {
     camera.dropPending();
     camera.setFromServer(cam);
   },
 });
-// A model file, a .zip, several files or a folder dropped on the view loads like a pick.
-model.acceptDrops($('view'));
+// The outliner: objects and assets; a model added becomes one more object (and its materials).
+const objects = new ObjectsPanel(api, {
+  onProblem: showProblem,
+  onInfo: showInfo,
+  onAssetsChanged: () => materials.refresh(),
+});
+// A model file, a .zip, several files or a folder dropped on the view is added to the scene as a
+// new object at the view's centre; with Shift it replaces the scene, as the Model panel's pick.
+model.acceptDrops($('view'), (files, paths, event) =>
+    event.shiftKey ? model.upload(files, paths) : objects.addModel(files, paths));
 
 // --- the session ----------------------------------------------------------------------------
 
@@ -131,6 +141,7 @@ function startSession(state) {
   settings.show(state.settings);
   materials.refresh();
   lights.changed(state.lights.count);
+  objects.refresh();
   model.refreshLibrary();
   view.restart();
   stats.start();

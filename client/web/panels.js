@@ -102,28 +102,13 @@ export class ModelPanel {
     if (name) this.load({source: `library:${name}`});
   }
 
-  // One file goes as itself (a .zip as an archive); several (a multi-file pick, a folder, a drop)
-  // as multipart/form-data, each under the path the model uses for it, so the server finds the
-  // model among them and resolves its .bin, .mtl and images. Every path is relative to the
-  // folder picked or dropped (its own name dropped), as the model's own references are.
+  // One file, several, or a folder: replaces the session's model (PUT .../model).
   async upload(files, paths = files.map(relativePath)) {
     if (!files.length) return;
-    const total = files.reduce((sum, f) => sum + f.size, 0);
-    const shown = files.length === 1 ? files[0].name : `${files.length} files`;
-    this.onInfo(`Uploading ${shown} (${(total / 1024).toFixed(0)} KiB)...`);
+    this.onInfo(`Uploading ${describeFiles(files)}...`);
     try {
-      const lights = this.lightsQuery() || {};
-      let options;
-      if (files.length === 1) {
-        const zip = files[0].name.toLowerCase().endsWith('.zip');
-        options = {body: files[0], query: {filename: files[0].name, ...lights},
-                   contentType: zip ? 'application/zip' : 'application/octet-stream'};
-      } else {
-        const form = new FormData();
-        files.forEach((file, i) => form.append('files', file, paths[i]));
-        options = {body: form, query: lights};  // fetch sets the multipart boundary
-      }
-      const state = await this.api.request('PUT', this.api.sessionPath('/model'), options);
+      const state = await this.api.request('PUT', this.api.sessionPath('/model'),
+                                           modelUpload(files, paths, this.lightsQuery()));
       this.onInfo(null);
       this.onLoaded(state);
     } catch (e) {
@@ -131,8 +116,10 @@ export class ModelPanel {
     }
   }
 
-  // Files dropped on `element` upload like a pick; dropped folders are walked.
-  acceptDrops(element) {
+  // Files dropped on `element` go to `handle(files, paths, event)` (default: upload, as a pick);
+  // dropped folders are walked. A drop without file entries (a page's synthetic DataTransfer)
+  // takes its plain file list.
+  acceptDrops(element, handle = (files, paths) => this.upload(files, paths)) {
     element.addEventListener('dragover', (event) => event.preventDefault());
     element.addEventListener('drop', async (event) => {
       event.preventDefault();
@@ -140,16 +127,43 @@ export class ModelPanel {
           .map((item) => item.webkitGetAsEntry && item.webkitGetAsEntry()).filter(Boolean);
       const found = [];
       for (const entry of entries) await collectFiles(entry, '', found);
+      if (!entries.length) {
+        for (const file of event.dataTransfer.files) found.push({file, path: file.name});
+      }
+      if (!found.length) return;
       // A single dropped folder: paths inside it, as its model refers to them.
       const folder = entries.length === 1 && entries[0].isDirectory ? `${entries[0].name}/` : '';
-      await this.upload(found.map((f) => f.file),
-                        found.map((f) => f.path.startsWith(folder) ? f.path.slice(folder.length) : f.path));
+      await handle(found.map((f) => f.file),
+                   found.map((f) => f.path.startsWith(folder) ? f.path.slice(folder.length) : f.path),
+                   event);
     });
   }
 }
 
+// "spider.obj (12 KiB)", "3 files (80 KiB)": what an upload sends, for progress messages.
+export function describeFiles(files) {
+  const total = files.reduce((sum, f) => sum + f.size, 0);
+  return `${files.length === 1 ? files[0].name : `${files.length} files`} (${(total / 1024).toFixed(0)} KiB)`;
+}
+
+// The request options that send a model: one file goes as itself (a .zip as an archive); several
+// (a multi-file pick, a folder, a drop) as multipart/form-data, each under the path the model
+// uses for it, so the server finds the model among them and resolves its .bin, .mtl and images.
+// Every path is relative to the folder picked or dropped (its own name dropped), as the model's
+// own references are. PUT .../model and POST .../assets take the same bodies.
+export function modelUpload(files, paths = files.map(relativePath), query) {
+  if (files.length === 1) {
+    const zip = files[0].name.toLowerCase().endsWith('.zip');
+    return {body: files[0], query: {filename: files[0].name, ...query},
+            contentType: zip ? 'application/zip' : 'application/octet-stream'};
+  }
+  const form = new FormData();
+  files.forEach((file, i) => form.append('files', file, paths[i]));
+  return {body: form, query};  // fetch sets the multipart boundary
+}
+
 // A picked file's path inside the picked folder (without the folder's own name), else its name.
-function relativePath(file) {
+export function relativePath(file) {
   const path = file.webkitRelativePath || '';
   const slash = path.indexOf('/');
   return slash >= 0 ? path.slice(slash + 1) : file.name;

@@ -41,3 +41,55 @@ export function project(camera, point, width, height) {
   const ndcY = (dot(d, up) * f) / depth;
   return {x: (ndcX * 0.5 + 0.5) * width, y: (0.5 - ndcY * 0.5) * height, depth};
 }
+
+// ---- Rotations for the object editor: Euler angles in degrees, applied about x, then y, then
+// z (fixed axes: R = Rz Ry Rx), and the API's quaternions [x, y, z, w].
+
+const RADIANS = Math.PI / 180;
+
+// The quaternion of rotations by euler[0], [1], [2] degrees about x, then y, then z.
+export function eulerToQuat(euler) {
+  const [cx, cy, cz] = euler.map((a) => Math.cos((a * RADIANS) / 2));
+  const [sx, sy, sz] = euler.map((a) => Math.sin((a * RADIANS) / 2));
+  return [sx * cy * cz - cx * sy * sz,
+          cx * sy * cz + sx * cy * sz,
+          cx * cy * sz - sx * sy * cz,
+          cx * cy * cz + sx * sy * sz];
+}
+
+// A rotation matrix as rows (r[row][column]) of the unit quaternion [x, y, z, w].
+export function quatToRows([x, y, z, w]) {
+  const n = Math.hypot(x, y, z, w) || 1;
+  [x, y, z, w] = [x / n, y / n, z / n, w / n];
+  return [[1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+          [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+          [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]];
+}
+
+// The Euler degrees (as eulerToQuat takes them) of a rotation matrix given as rows.
+export function rowsToEuler(r) {
+  const y = Math.asin(Math.max(-1, Math.min(1, -r[2][0])));
+  if (Math.abs(r[2][0]) > 0.999999) {
+    // Gimbal lock: only x - z (or x + z) is defined; x is taken as 0.
+    return [0, y / RADIANS, Math.atan2(-r[0][1], r[1][1]) / RADIANS];
+  }
+  return [Math.atan2(r[2][1], r[2][2]) / RADIANS, y / RADIANS, Math.atan2(r[1][0], r[0][0]) / RADIANS];
+}
+
+// A transform as the API gives it (TRS, or a column-major matrix without shear) as
+// {translation, rotation (quaternion), scale, euler (degrees)}.
+export function transformParts(transform) {
+  if (!transform.matrix) {
+    const rotation = transform.rotation || [0, 0, 0, 1];
+    return {translation: transform.translation || [0, 0, 0], rotation,
+            scale: transform.scale || [1, 1, 1], euler: rowsToEuler(quatToRows(rotation))};
+  }
+  const m = transform.matrix;
+  const column = (c) => [m[4 * c], m[4 * c + 1], m[4 * c + 2]];
+  const scaleOf = [0, 1, 2].map((c) => length(column(c)) || 1);
+  // A mirroring matrix: one negative scale (on x) keeps the rest a rotation.
+  if (dot(cross(column(0), column(1)), column(2)) < 0) scaleOf[0] = -scaleOf[0];
+  const rows = [0, 1, 2].map((r) => [0, 1, 2].map((c) => m[4 * c + r] / scaleOf[c]));
+  const euler = rowsToEuler(rows);
+  return {translation: [m[12], m[13], m[14]], rotation: eulerToQuat(euler), scale: scaleOf, euler};
+}

@@ -70,11 +70,25 @@ enum class Target : uint32_t {
   Clusters,    // the clustered technique's depth slices, one colour each
   Emissive,    // emitted radiance (emissive factor x strength x texture)
   Occlusion,   // the material's ambient occlusion (1 where it has none)
+  // Labels: per pixel, the nearest opaque or alpha-tested surface's object id (0: none), its
+  // object's semantic class, its material id. Drawn by their own pass (recordLabelPass) against
+  // the G-buffer's depth and always read back raw: FrameSettings::raw must be set, and
+  // Frame::data then holds four uint32 bit patterns a pixel (object, semantic, material, 1 where
+  // a surface is; all 0 elsewhere), to be read with std::bit_cast, never as floats.
+  InstanceId,
+  SemanticId,
+  MaterialId,
 };
+
+// Whether `target` is one of the label targets (InstanceId, SemanticId, MaterialId).
+inline bool isLabel(Target target) {
+  return target == Target::InstanceId || target == Target::SemanticId ||
+         target == Target::MaterialId;
+}
 
 // The names are the protocol's, defined once there.
 inline constexpr const auto& kTargetNames = protocol::kTargets;
-static_assert(kTargetNames.size() == static_cast<size_t>(Target::Occlusion) + 1);
+static_assert(kTargetNames.size() == static_cast<size_t>(Target::MaterialId) + 1);
 
 inline std::string_view targetName(Target t) { return kTargetNames[static_cast<uint32_t>(t)]; }
 
@@ -308,6 +322,10 @@ inline std::vector<std::string_view> rawChannels(Target target) {
     case Target::Clusters: return {"slice", "tile_x", "tile_y"};
     case Target::Emissive: return {"r", "g", "b"};  // emitted radiance, before exposure
     case Target::Occlusion: return {"occlusion"};  // names-once: a channel, named as its target
+    // Labels: raw is one uint32 a pixel (the service picks the channel; rawLabelChannel).
+    case Target::InstanceId: return {"object"};
+    case Target::SemanticId: return {"semantic"};
+    case Target::MaterialId: return {"material"};
   }
   return {};
 }

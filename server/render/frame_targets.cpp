@@ -67,4 +67,10 @@ FrameTargets::FrameTargets(gpu::Context& context, VkExtent2D size, bool rawOutpu
                                 VK_BUFFER_USAGE_TRANSFER_DST_BIT, gpu::MemoryUse::Readback);
 }
 
+void FrameTargets::ensureLabels() {
+  if (labels.image != VK_NULL_HANDLE) return;
+  labels = arena.createImage2D(extent, kLabelFormat,
+                               VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT);
+}
+
 }  // namespace myriad::render

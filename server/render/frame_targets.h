@@ -32,6 +32,9 @@ inline constexpr VkFormat kMarkerKeyFormat = VK_FORMAT_R32_UINT;
 // The tonemapped final image before anti-aliasing: sRGB-encoded colour and its luma in alpha,
 // the form the anti-aliasing pass compares and blends (storage write, linear-filtered reads).
 inline constexpr VkFormat kLdrFormat = VK_FORMAT_R8G8B8A8_UNORM;
+// The label pass's target: object id, semantic class, material id, 1 where a surface is. The same
+// 16 bytes a pixel as kRawOutputFormat, so it is read back through the raw readback buffer.
+inline constexpr VkFormat kLabelFormat = VK_FORMAT_R32G32B32A32_UINT;
 
 struct FrameTargets {
   // `raw`: the output holds float values (kRawOutputFormat) instead of an 8-bit image.
@@ -56,6 +59,10 @@ struct FrameTargets {
   gpu::Image markerKeys;
   gpu::Image ldr;     // final, tonemapped, before anti-aliasing (kLdrFormat)
   gpu::Image output;  // written by compute (storage); the light-volumes overlay blends onto it
+  // The label pass's target (kLabelFormat): made by ensureLabels() for the first label frame of
+  // raw targets, kept with them (16 bytes a pixel only for sessions that ask for labels).
+  gpu::Image labels;
+  void ensureLabels();
   // AntialiasEdges, then a uint per pixel: the pixels the final pass lists for anti-aliasing (a
   // header and one pixel for raw targets, which never anti-alias, so the binding always holds one).
   gpu::Buffer edges;

@@ -139,6 +139,16 @@ Pipelines::Pipelines(gpu::Context& context) : device(context.device) {
   gbufferAlphaTest = gpu::createGraphicsPipeline(device, layout, d);
   d.fragmentShader = spirv::gbuffer_untextured_frag;
   gbufferUntextured = gpu::createGraphicsPipeline(device, layout, d);
+  // Labels: the same vertex stage (the same positions, bit for bit, so EQUAL finds the surface
+  // the G-buffer kept), one uint target, the G-buffer depth tested and kept.
+  {
+    gpu::GraphicsPipelineDesc l = d;
+    l.fragmentShader = spirv::labels_frag;
+    l.colorFormats = {kLabelFormat};
+    l.depthWrite = false;
+    l.depthCompare = VK_COMPARE_OP_EQUAL;
+    labels = gpu::createGraphicsPipeline(device, layout, l);
+  }
 
   // Alpha-blended surfaces: the G-buffer's vertex stage, one HDR target blended `over`, the
   // G-buffer depth tested and kept.
@@ -206,7 +216,7 @@ Pipelines::~Pipelines() {
   for (VkPipeline p : finalParts_) {
     if (p && p != final) vkDestroyPipeline(device, p, nullptr);
   }
-  for (VkPipeline p : {gbuffer, gbufferAlphaTest, gbufferUntextured, forward, forwardClustered, shadow, lightVolumeOverlay, animateLights,
+  for (VkPipeline p : {gbuffer, gbufferAlphaTest, gbufferUntextured, labels, forward, forwardClustered, shadow, lightVolumeOverlay, animateLights,
                       markerSplat, final, finalRaw, views, viewsRaw, antialias, antialiasEdges,
                       yuv420}) {
     if (p) vkDestroyPipeline(device, p, nullptr);
@@ -280,6 +290,7 @@ void recordGBufferPass(VkCommandBuffer cmd, const Pipelines& p, const FrameTarge
         vkCmdSetCullMode(cmd, scene.doubleSided[bound] ? VK_CULL_MODE_NONE : VK_CULL_MODE_BACK_BIT);
       }
       const MeshRange mesh = detail.range(scene, draw);
+      if (mesh.indexCount == 0) continue;  // outside the view
       vkCmdDrawIndexed(cmd, mesh.indexCount, 1, mesh.firstIndex, mesh.vertexOffset, draw.instance);
     }
   }
@@ -467,6 +478,51 @@ void recordLightVolumeOverlayPass(VkCommandBuffer cmd, const Pipelines& p, const
   vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, p.lightVolumeOverlay);
   drawLightProxies(cmd, scene);
   vkCmdEndRendering(cmd);
+}
+
+void recordLabelPass(VkCommandBuffer cmd, const Pipelines& p, const FrameTargets& t,
+                     const SceneBuffers& scene, const MeshDetail& detail) {
+  const ImageTransition before[] = {
+      {&t.labels, VK_PIPELINE_STAGE_2_COPY_BIT, VK_ACCESS_2_NONE,
+       VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT, VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT,
+       VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL}};
+  gpu::barrier(cmd, before);
+  VkRenderingAttachmentInfo color = colorAttachment(t.labels, VK_ATTACHMENT_LOAD_OP_CLEAR);
+  color.clearValue.color.uint32[0] = color.clearValue.color.uint32[1] = 0;
+  color.clearValue.color.uint32[2] = color.clearValue.color.uint32[3] = 0;
+  const VkRenderingAttachmentInfo depth = readOnlyDepth(t.depth);
+  beginRendering(cmd, t.extent, std::span(&color, 1), &depth);
+  bindGeometry(cmd, scene);
+  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, p.labels);
+  uint32_t cull = UINT32_MAX;
+  for (const DrawItem& draw : scene.draws) {
+    if (scene.blend[draw.material]) continue;  // not in the G-buffer: no label
+    const uint32_t mode = scene.doubleSided[draw.material] ? 0u : 1u;
+    if (mode != cull) {
+      cull = mode;
+      vkCmdSetCullMode(cmd, mode == 0 ? VK_CULL_MODE_NONE : VK_CULL_MODE_BACK_BIT);
+    }
+    const MeshRange mesh = detail.range(scene, draw);
+    if (mesh.indexCount == 0) continue;  // outside the view
+    vkCmdDrawIndexed(cmd, mesh.indexCount, 1, mesh.firstIndex, mesh.vertexOffset, draw.instance);
+  }
+  vkCmdEndRendering(cmd);
+}
+
+void recordLabelReadback(VkCommandBuffer cmd, const FrameTargets& t, const gpu::Buffer& readback) {
+  const ImageTransition before[] = {
+      {&t.labels, VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT,
+       VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT, VK_PIPELINE_STAGE_2_COPY_BIT,
+       VK_ACCESS_2_TRANSFER_READ_BIT, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL,
+       VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL}};
+  gpu::barrier(cmd, before);
+  VkBufferImageCopy region{};
+  region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
+  region.imageExtent = {t.extent.width, t.extent.height, 1};
+  vkCmdCopyImageToBuffer(cmd, t.labels.image, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL,
+                         readback.buffer, 1, &region);
+  gpu::bufferBarrier(cmd, readback, VK_PIPELINE_STAGE_2_COPY_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT,
+                     VK_PIPELINE_STAGE_2_HOST_BIT, VK_ACCESS_2_HOST_READ_BIT);
 }
 
 void recordReadback(VkCommandBuffer cmd, const FrameTargets& t, VkImageLayout outputLayout,

@@ -32,6 +32,8 @@ struct Pipelines {
   VkPipeline gbuffer = VK_NULL_HANDLE;           // opaque materials
   VkPipeline gbufferAlphaTest = VK_NULL_HANDLE;  // alphaMode MASK: may discard
   VkPipeline gbufferUntextured = VK_NULL_HANDLE;  // opaque materials without any texture
+  // The label pass (recordLabelPass): gbuffer.vert + labels.frag, depth EQUAL, read-only depth.
+  VkPipeline labels = VK_NULL_HANDLE;
   // Alpha-blended surfaces (recordBlendPass): every light tested, or the clustered lists.
   VkPipeline forward = VK_NULL_HANDLE;
   VkPipeline forwardClustered = VK_NULL_HANDLE;
@@ -74,6 +76,14 @@ void recordGBufferPass(VkCommandBuffer cmd, const Pipelines& p, const FrameTarge
 //    from the clustered lists when `clusterLists` (the technique bound them as set 2 at the
 //    graphics bind point), else every light is tested. `hdrLayout`: where lighting left HDR
 //    (GENERAL after compute, COLOR_ATTACHMENT after volumes); returns HDR's layout after it (COLOR_ATTACHMENT, or `hdrLayout` when nothing is blended).
+// The label pass, right after the raster G-buffer pass (depth read-only): every opaque and
+// alpha-tested draw again with labels.frag, depth EQUAL, the same versions of the meshes
+// (`detail`), into t.labels (ensureLabels), cleared to 0; left ready for recordLabelReadback.
+void recordLabelPass(VkCommandBuffer cmd, const Pipelines& p, const FrameTargets& t,
+                     const SceneBuffers& scene, const MeshDetail& detail);
+// Copies t.labels into `readback` (16 bytes a pixel, as raw output).
+void recordLabelReadback(VkCommandBuffer cmd, const FrameTargets& t, const gpu::Buffer& readback);
+
 VkImageLayout recordBlendPass(VkCommandBuffer cmd, const Pipelines& p, const FrameTargets& t,
                               const SceneBuffers& scene, const glm::mat4& view,
                               VkImageLayout hdrLayout, bool clusterLists);

@@ -23,6 +23,8 @@ struct Hit {
   glm::vec3 normal{0.0f, 1.0f, 0.0f};
   glm::vec2 uv{0.0f};
   uint32_t material = 0;
+  uint32_t object = 0;
+  uint32_t semantic = 0;
 };
 
 struct Triangle {
@@ -30,6 +32,8 @@ struct Triangle {
   glm::vec3 n[3];
   glm::vec2 uv[3];
   uint32_t material;
+  uint32_t object = 0;
+  uint32_t semantic = 0;
 };
 
 std::vector<Triangle> worldTriangles(const scene::Scene& scene) {
@@ -46,6 +50,8 @@ std::vector<Triangle> worldTriangles(const scene::Scene& scene) {
         t.uv[k] = v.uv;
       }
       t.material = instance.material;
+      t.object = instance.object;
+      t.semantic = instance.semantic;
       triangles.push_back(t);
     }
   }
@@ -81,6 +87,8 @@ void intersect(const Triangle& tri, glm::vec3 origin, glm::vec3 dir, Hit& best) 
   best.normal = n;
   best.uv = w * tri.uv[0] + u * tri.uv[1] + v * tri.uv[2];
   best.material = tri.material;
+  best.object = tri.object;
+  best.semantic = tri.semantic;
 }
 
 // Whether any triangle crosses the ray from `origin` along `dir` (unit) at 0 < t < `reach`: the
@@ -181,10 +189,35 @@ EnvironmentMaps buildEnvironmentMaps(const FrameSettings& s, const scene::Enviro
   return maps;
 }
 
+std::vector<glm::uvec4> referenceLabels(const scene::Scene& scene, const FrameSettings& s) {
+  const std::vector<Triangle> triangles = worldTriangles(scene);
+  const float aspect = float(s.width) / float(s.height);
+  const glm::mat4 viewProjection =
+      scene::projectionMatrix(s.camera, aspect) * scene::viewMatrix(s.camera);
+  const glm::mat4 inverse = glm::inverse(viewProjection);
+  std::vector<glm::uvec4> labels(size_t(s.width) * s.height, glm::uvec4(0));
+  for (uint32_t y = 0; y < s.height; ++y) {
+    for (uint32_t x = 0; x < s.width; ++x) {
+      const glm::vec2 ndc((x + 0.5f) / s.width * 2.0f - 1.0f, (y + 0.5f) / s.height * 2.0f - 1.0f);
+      const glm::vec4 nearPoint = inverse * glm::vec4(ndc, 0.0f, 1.0f);
+      const glm::vec4 farPoint = inverse * glm::vec4(ndc, 1.0f, 1.0f);
+      const glm::vec3 origin = glm::vec3(nearPoint) / nearPoint.w;
+      const glm::vec3 dir = glm::normalize(glm::vec3(farPoint) / farPoint.w - origin);
+      Hit hit;
+      for (const Triangle& tri : triangles) intersect(tri, origin, dir, hit);
+      if (hit.t == std::numeric_limits<float>::max()) continue;
+      const glm::vec4 clip = viewProjection * glm::vec4(hit.position, 1.0f);
+      if (clip.z / clip.w > 1.0f) continue;  // beyond the far plane
+      labels[size_t(y) * s.width + x] = glm::uvec4(hit.object, hit.semantic, hit.material, 1u);
+    }
+  }
+  return labels;
+}
+
 std::vector<uint8_t> renderReference(const scene::Scene& scene, const FrameSettings& s,
                                      const scene::EnvironmentImage* environmentImage) {
   if (s.target == Target::LightVolumes || s.target == Target::LightCount ||
-      s.target == Target::Clusters) {
+      s.target == Target::Clusters || isLabel(s.target)) {
     throw std::invalid_argument("the reference renderer draws no light-volumes, light-count or "
                                 "clusters view");
   }
@@ -332,6 +365,9 @@ std::vector<uint8_t> renderReference(const scene::Scene& scene, const FrameSetti
                         : glm::vec3(0.0f);
           break;
         case Target::Occlusion: color = glm::vec3(found ? 1.0f : 0.0f); break;
+        case Target::InstanceId:
+        case Target::SemanticId:
+        case Target::MaterialId:  // referenceLabels
         case Target::LightVolumes:
         case Target::LightCount:
         case Target::Clusters: break;

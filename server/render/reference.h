@@ -23,6 +23,10 @@ namespace myriad::render {
 std::vector<uint8_t> renderReference(const scene::Scene& scene, const FrameSettings& settings,
                                      const scene::EnvironmentImage* environmentImage = nullptr);
 
+// The labels of each pixel centre's first hit (rows top first): object, semantic class, material,
+// 1; all 0 where the ray meets nothing before the far plane. What the label pass must give.
+std::vector<glm::uvec4> referenceLabels(const scene::Scene& scene, const FrameSettings& settings);
+
 // The environment's maps as the GPU builds them (for tests): the source pyramid, the lighting maps
 // (SH9 header + specular levels) and the BRDF table, vec4 each, in the GPU buffers' layout.
 struct EnvironmentMaps {

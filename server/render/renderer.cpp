@@ -258,6 +258,8 @@ struct Renderer::State {
   // Whether this frame's G-buffer is made in compute (the path asks for it and the frame qualifies).
   bool computeGBufferFor(const SceneBuffers& scene, const FrameSettings& settings) const {
     if (!computeWritableTargets()) return false;
+    // Labels test against the depth the raster pass writes with the same vertex stage.
+    if (isLabel(settings.target)) return false;
     if (gbufferPath == GBufferPath::Auto && context.info.type == "cpu") return false;
     return computeGBuffer.qualifies(scene, {settings.width, settings.height});
   }
@@ -765,6 +767,14 @@ uint32_t Renderer::maxDimension() const { return state_->context.info.maxImageDi
 
 namespace {
 
+// Label frames are read back raw (Target::InstanceId's comment).
+void checkLabels(const FrameSettings& settings) {
+  if (isLabel(settings.target) && !settings.raw) {
+    throw std::invalid_argument("a label target (" + std::string(targetName(settings.target)) +
+                                ") is read back raw: FrameSettings::raw must be set");
+  }
+}
+
 void checkSize(const FrameSettings& settings, uint32_t maxDimension) {
   if (settings.width == 0 || settings.height == 0 || settings.width > maxDimension ||
       settings.height > maxDimension) {
@@ -826,6 +836,7 @@ uint32_t Renderer::beginFrame(SceneId id, const FrameSettings& settings) {
   State& s = *state_;
   SceneBuffers& scene = s.scene(id);
   checkSize(settings, maxDimension());
+  checkLabels(settings);
   s.technique(settings.technique);  // throws for an unknown technique
   SceneEnvironment* environment = s.environmentFor(id, settings);
   const uint32_t index = s.pickSlot(settings);
@@ -950,6 +961,7 @@ bool Renderer::State::prepareFrame(FrameSlot& slot, SceneBuffers& scene,
                                    LightingTechnique& technique) {
   VkExtent2D extent{settings.width, settings.height};
   const bool madeTargets = ensureTargets(slot, extent, settings.raw);
+  if (isLabel(settings.target)) slot.targets->ensureLabels();
   technique.prepare(extent, scene.lightCount);
   // The sun's shadow map: fitted to this scene and sun, rendered this frame when on.
   const std::optional<SunShadowFit> sunShadow = sunShadowFor(scene, settings);
@@ -1059,6 +1071,10 @@ void Renderer::State::recordBeforeLighting(VkCommandBuffer cmd, FrameSlot& slot,
     slot.timer->beginPass(cmd, "gbuffer");
     recordGBufferPass(cmd, p, *slot.targets, scene, gbufferWrites(settings, scene),
                       MeshDetail::of(settings));
+    if (isLabel(settings.target)) {
+      slot.timer->beginPass(cmd, "labels");
+      recordLabelPass(cmd, p, *slot.targets, scene, MeshDetail::of(settings));
+    }
   }
 }
 
@@ -1069,6 +1085,13 @@ void Renderer::State::recordAfterLighting(VkCommandBuffer cmd, const FrameSlot& 
   State& s = *this;
   const Pipelines& p = s.pipelines;
   const FrameTargets& t = *slot.targets;
+  if (isLabel(settings.target)) {
+    // The label pass drew everything a label frame shows; its image is the output.
+    slot.timer->beginPass(cmd, "readback");
+    recordLabelReadback(cmd, t, slot.readback ? slot.readback->buffer : t.readback);
+    slot.timer->end(cmd);
+    return;
+  }
   VkImageLayout hdrLayout = lightingLayout;
   if (hasBlendDraws(scene)) {
     slot.timer->beginPass(cmd, "blend");
@@ -1219,6 +1242,7 @@ std::unique_ptr<Renderer::SplitFrame> Renderer::beginSplit(SceneId id,
   s.quiesce();  // its parts are waited for one by one; frames in flight go first
   SceneBuffers& scene = s.scene(id);
   checkSize(settings, maxDimension());
+  checkLabels(settings);
   LightingTechnique& technique = s.technique(settings.technique);
   if (!technique.splitsByLights()) {
     throw std::logic_error(std::string(techniqueName(settings.technique)) + " frames do not split");

@@ -10,6 +10,7 @@
 #include <utility>
 
 #include "render/gpu_types.h"
+#include "scene/camera.h"
 #include "render/light_packing.h"
 #include "scene/primitives.h"
 
@@ -153,6 +154,19 @@ std::vector<Upload> elementUploads(const std::vector<Write>& writes, const gpu::
 
 MeshDetail MeshDetail::of(const FrameSettings& settings) {
   MeshDetail detail;
+  // Gribb and Hartmann's planes from the rows of the view-projection (Vulkan's depth 0..1: the
+  // near plane is row 2 alone). Normalised so that a sphere's radius compares in world units.
+  const float aspect = float(settings.width) / float(std::max(settings.height, 1u));
+  const glm::mat4 m = glm::transpose(scene::projectionMatrix(settings.camera, aspect) *
+                                     scene::viewMatrix(settings.camera));
+  const glm::vec4 planes[6] = {m[3] + m[0], m[3] - m[0], m[3] + m[1],
+                               m[3] - m[1], m[2],        m[3] - m[2]};
+  detail.cull = true;
+  for (int i = 0; i < 6; ++i) {
+    const float length = glm::length(glm::vec3(planes[i]));
+    if (!(length > 0.0f) || !std::isfinite(length)) detail.cull = false;
+    detail.planes[size_t(i)] = planes[i] / length;
+  }
   if (!(settings.geometryErrorPixels > 0.0f)) return detail;
   detail.maxErrorPixels = settings.geometryErrorPixels;
   detail.eye = settings.camera.eye;
@@ -163,6 +177,13 @@ MeshDetail MeshDetail::of(const FrameSettings& settings) {
 }
 
 MeshRange MeshDetail::range(const SceneBuffers& scene, const DrawItem& draw) const {
+  if (cull) {
+    for (const glm::vec4& plane : planes) {
+      if (glm::dot(glm::vec3(plane), draw.centre) + plane.w < -draw.radius) {
+        return {draw.mesh.firstIndex, 0, draw.mesh.vertexOffset};  // wholly outside: not drawn
+      }
+    }
+  }
   if (!(maxErrorPixels > 0.0f) || draw.meshIndex >= scene.lods.size()) return draw.mesh;
   const MeshLods& lods = scene.lods[draw.meshIndex];
   if (lods.ranges.empty()) return draw.mesh;
@@ -195,11 +216,12 @@ uint64_t nextGeneration() {
 
 }  // namespace
 
-GpuInstance SceneBuffers::gpuInstance(const glm::mat4& transform, uint32_t material, uint32_t object) {
+GpuInstance SceneBuffers::gpuInstance(const glm::mat4& transform, uint32_t material, uint32_t object,
+                                      uint32_t semantic) {
   GpuInstance g;
   g.model = transform;
   g.normalMatrix = glm::transpose(glm::inverse(transform));
-  g.material = glm::uvec4(material, object, 0, 0);
+  g.material = glm::uvec4(material, object, semantic, 0);
   return g;
 }
 
@@ -267,10 +289,12 @@ SceneBuffers::SceneBuffers(gpu::Context& context, gpu::CommandRecorder& recorder
     if (instance.mesh >= scene.meshes.size() || instance.material >= scene.materials.size()) {
       throw std::invalid_argument("instance " + std::to_string(i) + " refers to a missing mesh or material");
     }
-    gpuInstances.push_back(gpuInstance(instance.transform, instance.material, instance.object));
+    gpuInstances.push_back(
+        gpuInstance(instance.transform, instance.material, instance.object, instance.semantic));
     instanceMaterial_.push_back(instance.material);
     instanceMesh_.push_back(instance.mesh);
     instanceObject_.push_back(instance.object);
+    instanceSemantic_.push_back(instance.semantic);
     if (ranges[instance.mesh].indexCount > 0) {
       DrawItem draw{ranges[instance.mesh], i, instance.material};
       draw.meshIndex = instance.mesh;
@@ -519,7 +543,8 @@ void SceneBuffers::updateInstances(gpu::CommandRecorder& recorder, const Instanc
   std::vector<GpuInstance> staged;
   std::vector<Upload> uploads =
       elementUploads<GpuInstance>(update.writes, instances, staged, [&](const InstanceWrite& w) {
-        return gpuInstance(w.transform, instanceMaterial_[w.index], instanceObject_[w.index]);
+        return gpuInstance(w.transform, instanceMaterial_[w.index], instanceObject_[w.index],
+                           instanceSemantic_[w.index]);
       });
   transfer(context, recorder, {}, uploads);
   for (const InstanceWrite& w : update.writes) {

@@ -46,11 +46,18 @@ struct MeshLods {
 // Which version of each mesh the G-buffer pass draws for a frame: the full meshes, or where the
 // frame allows it (FrameSettings::geometryErrorPixels > 0) the coarsest version whose error,
 // projected at the draw's nearest point to the eye, covers at most that many pixels.
+// Also which draws the frame shows at all: a draw whose bounding sphere lies wholly outside the
+// camera's frustum gets an empty range (indexCount 0; the passes skip it), so a scene of 100,000
+// objects costs the G-buffer what is in view.
 struct MeshDetail {
   float maxErrorPixels = 0.0f;  // 0: the full meshes
   glm::vec3 eye{0.0f};
   float pixelsAtUnitDistance = 0.0f;  // height / (2 tan(fovY / 2))
   float nearPlane = 0.0f;
+  // The frustum's six planes (world space, inside where dot(plane, (p, 1)) >= 0); `cull` false
+  // (a default MeshDetail): every draw is drawn.
+  std::array<glm::vec4, 6> planes{};
+  bool cull = false;
 
   static MeshDetail of(const FrameSettings& settings);
   MeshRange range(const SceneBuffers& scene, const DrawItem& draw) const;
@@ -129,7 +136,8 @@ struct SceneBuffers {
   uint32_t lightFeatures() const;
 
  private:
-  static gpu_types::GpuInstance gpuInstance(const glm::mat4& transform, uint32_t material, uint32_t object);
+  static gpu_types::GpuInstance gpuInstance(const glm::mat4& transform, uint32_t material,
+                                            uint32_t object, uint32_t semantic);
   // Sets a draw's culling sphere and scale for its instance's `transform`.
   void place(DrawItem& draw, const glm::mat4& transform) const;
   void allocateLights(uint32_t capacity);
@@ -139,6 +147,7 @@ struct SceneBuffers {
   std::vector<uint32_t> instanceMaterial_;
   std::vector<uint32_t> instanceMesh_;
   std::vector<uint32_t> instanceObject_;
+  std::vector<uint32_t> instanceSemantic_;
   std::vector<uint32_t> drawOfInstance_;
   std::vector<glm::vec3> meshCentres_;
   std::vector<float> meshRadii_;

@@ -47,6 +47,20 @@ glm::mat4 projectionMatrix(const Camera& camera, float aspect) {
   return projection;
 }
 
+Intrinsics intrinsicsOf(const Camera& camera, uint32_t width, uint32_t height) {
+  // projectionMatrix's field of view, clamped the same way.
+  const float fovY = glm::radians(std::clamp(camera.fovYDegrees, 1.0f, 179.0f));
+  const float focal = 0.5f * float(height) / std::tan(0.5f * fovY);
+  return {focal, focal, 0.5f * float(width), 0.5f * float(height)};
+}
+
+glm::mat4 worldFromCamera(const Camera& camera) {
+  // The view matrix looks down -Z with +Y up (OpenGL's axes); OpenCV's flip Y and Z.
+  return glm::inverse(viewMatrix(camera)) *
+         glm::mat4(glm::vec4(1, 0, 0, 0), glm::vec4(0, -1, 0, 0), glm::vec4(0, 0, -1, 0),
+                   glm::vec4(0, 0, 0, 1));
+}
+
 Camera frameBounds(const Bounds& bounds, float fovYDegrees, float aspect) {
   return frameBounds(bounds, kDefaultTowardsEye, fovYDegrees, aspect);
 }

@@ -124,6 +124,7 @@ struct Instance {
   // The session object this instance belongs to (the instance-id label; 0: none, e.g. a scene
   // made without objects).
   uint32_t object = 0;
+  uint32_t semantic = 0;  // its object's semantic class (the semantic-id label)
 };
 
 // How a local light's radiance falls off with distance d; both are exactly zero at and beyond the

@@ -22,7 +22,8 @@ const std::string kCorsExposeHeaders = [] {
   namespace h = protocol::headers;
   std::string list;
   for (std::string_view name : {h::kServerTiming, h::kRetryAfter, h::kTechnique, h::kChannels,
-                                h::kWidth, h::kHeight, h::kTarget, h::kFrameSequence}) {
+                                h::kWidth, h::kHeight, h::kTarget, h::kFrameSequence, h::kIntrinsics,
+                                h::kPose, h::kDepth, h::kDtype}) {
     list += (list.empty() ? "" : ", ") + std::string(name);
   }
   return list;

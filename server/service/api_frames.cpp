@@ -2,7 +2,10 @@
 // client. Workers parse, wait for the render thread and encode; they never touch Vulkan.
 #include "service/api_frames.h"
 
+#include <algorithm>
 #include <chrono>
+#include <cstring>
+#include <map>
 #include <cstdio>
 #include <future>
 #include <optional>
@@ -14,6 +17,7 @@
 #include "render/render_queue.h"
 #include "service/peer_watch.h"
 #include "service/session_frames.h"
+#include "service/session_json.h"
 #include "web_assets.h"
 
 namespace myriad::service {
@@ -114,6 +118,69 @@ void handleSessionFrame(const ApiContext& context, FrameServices& frames,
   sendFrame(res, std::move(frame.encoded));
 }
 
+// GET .../labels: an instance-id frame of the session's camera, summed per object.
+void handleLabels(const ApiContext& context, FrameServices& frames, const httplib::Request& req,
+                  httplib::Response& res) {
+  SessionPtr session = authorizeSession(context, req, /*allowQueryToken=*/true);
+  checkQuery(req, {"width", "height", "time", "token"});
+  FrameRequest request = parsedQuery(
+      [&] { return parseSessionFrameQuery(req.params, context.config.limits.maxResolution); });
+  request.settings.target = render::Target::InstanceId;
+  request.settings.raw = true;
+  request.format = ImageFormat::Raw;
+  const SessionFrameContext frameContext{context.renderThread, frames.stats, frames.metrics,
+                                         nullptr, false, false};
+  SessionFrame frame = withFrameProblems("labels of " + session->id, [&] {
+    PendingSessionFrame pending =
+        submitSessionFrame(frameContext, session, request, render::FrameSource::Request);
+    return collectSessionFrame(frameContext, session, pending);
+  });
+  const EncodedFrame& encoded = frame.encoded;
+  const uint32_t width = request.settings.width, height = request.settings.height;
+  if (encoded.body.size() != size_t(width) * height * 4) {
+    throw ProblemError(renderFailed("The label frame has the wrong size."));
+  }
+  protocol::Labels labels;
+  labels.width = width;
+  labels.height = height;
+  for (const auto& [name, value] : encoded.headers) {
+    if (name == protocol::headers::kIntrinsics) {
+      labels.intrinsics = nlohmann::json::parse(value).get<protocol::FrameIntrinsics>();
+    } else if (name == protocol::headers::kPose) {
+      nlohmann::json::parse(value).at("worldFromCamera").get_to(labels.worldFromCamera);
+    }
+  }
+  // Per object id: pixels and the box they span.
+  std::map<uint32_t, protocol::ObjectLabel> byId;
+  for (uint32_t y = 0; y < height; ++y) {
+    for (uint32_t x = 0; x < width; ++x) {
+      uint32_t id = 0;
+      std::memcpy(&id, encoded.body.data() + (size_t(y) * width + x) * 4, 4);
+      if (id == 0) continue;
+      auto [it, fresh] = byId.try_emplace(id);
+      protocol::ObjectLabel& l = it->second;
+      if (fresh) l = {id, 0, 0, {x, y, x + 1, y + 1}, std::nullopt};
+      ++l.pixels;
+      l.box = {std::min<uint64_t>(l.box[0], x), std::min<uint64_t>(l.box[1], y),
+               std::max<uint64_t>(l.box[2], x + 1), std::max<uint64_t>(l.box[3], y + 1)};
+    }
+  }
+  {
+    // The semantic class and 3D box as the session has them now (an object deleted since the
+    // frame rendered is left out).
+    auto lock = lockOpen(*session);
+    const SceneGraph& graph = session->scene.graph();
+    for (auto& [id, l] : byId) {
+      if (!graph.objects().contains(id)) continue;
+      const protocol::Object wire = toWire(session->scene, graph.object(id));
+      l.semantic = wire.semantic;
+      l.bounds = wire.bounds;
+      labels.objects.push_back(l);
+    }
+  }
+  sendJson(res, labels);
+}
+
 void handleStream(ApiContext& context, FrameServices& frames, const httplib::Request& req,
                   httplib::Response& res) {
   SessionPtr session = authorizeSession(context, req, /*allowQueryToken=*/true);
@@ -207,6 +274,10 @@ void addFrameRoutes(Routes& routes, ApiContext& context, FrameServices& frames) 
         handleStream(context, frames, req, res);
       },
       streamOptions);
+  routes.add("GET", r::kSessionLabels,
+             [&](const httplib::Request& req, httplib::Response& res) {
+               handleLabels(context, frames, req, res);
+             });
   routes.add("GET", r::kSessionStats,
              [&](const httplib::Request& req, httplib::Response& res) {
                handleStats(context, frames, req, res);

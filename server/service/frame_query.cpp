@@ -171,7 +171,9 @@ void parseOutput(const QueryParams& params, uint32_t maxRes,
     }
     request.format = *format;
   }
-  settings.raw = request.format == ImageFormat::Raw;
+  // Label targets are always read back raw (render::Target::InstanceId); their PNG and JPEG are
+  // false-colour pictures made by the encoder.
+  settings.raw = request.format == ImageFormat::Raw || render::isLabel(settings.target);
 
   if (const std::string* text = single(params, "quality")) {
     request.quality = static_cast<int>(parseBoundedInteger(
@@ -198,6 +200,17 @@ FrameRequest parseSessionFrameQuery(const QueryParams& params, uint32_t maxResol
                                         quoteClientText(*text) + ".");
     }
     request.time = *time;
+  }
+  if (const std::string* text = single(params, std::string(protocol::query::kDepthConvention))) {
+    if (*text != "z" && *text != "distance") {
+      throw FrameQueryError(std::string(protocol::query::kDepthConvention), "depth is z (along the view axis) or distance (to the "
+                                     "camera centre), got " + quoteClientText(*text) + ".");
+    }
+    if (request.settings.target != render::Target::Depth || request.format != ImageFormat::Raw) {
+      throw FrameQueryError(std::string(protocol::query::kDepthConvention), "depth= chooses the convention of raw depth: it goes with "
+                                     "target=depth and format=raw.");
+    }
+    request.depthDistance = *text == "distance";
   }
   return request;
 }
@@ -230,6 +243,10 @@ FrameRequest parseStreamQuery(const QueryParams& params, uint32_t maxResolution)
                             "codec=vp9) or leave bitrate out.");
     }
     return request;
+  }
+  if (render::isLabel(request.settings.target)) {
+    throw FrameQueryError("target", "The label targets (instance-id, semantic-id, material-id) "
+                                    "stream as images (JPEG or PNG, false colour), not as video.");
   }
   VideoStreamRequest video;
   std::string names;

@@ -330,6 +330,7 @@ std::shared_ptr<scene::Scene> SceneGraph::flatten(const std::vector<scene::Mater
         out.material = o.material.value_or(a.firstMaterial + inst.material);
         out.transform = world * inst.transform;
         out.object = id;
+        out.semantic = o.semantic;
         const scene::Mesh* mesh =
             inst.mesh < a.scene->meshes.size() ? &a.scene->meshes[inst.mesh] : nullptr;
         placed_.push_back(

@@ -6,7 +6,13 @@
 #include <optional>
 #include <stdexcept>
 
+#include <bit>
+#include <cmath>
+
+#include <nlohmann/json.hpp>
+
 #include "protocol/constants.h"
+#include "scene/camera.h"
 
 #include "encode/jpeg.h"
 #include "encode/png.h"
@@ -29,7 +35,123 @@ std::string joined(const std::vector<std::string_view>& names) {
 
 }  // namespace
 
+namespace {
+
+// A label frame's chosen label per pixel (Frame::data holds uint32 bit patterns: object,
+// semantic, material, covered).
+std::vector<uint32_t> labelsOf(const render::Frame& frame, render::Target target) {
+  const size_t component = target == render::Target::InstanceId   ? 0
+                           : target == render::Target::SemanticId ? 1
+                                                                  : 2;
+  const size_t pixels = size_t(frame.width) * frame.height;
+  if (frame.data.size() < pixels * 4) throw std::invalid_argument("label frame too small");
+  std::vector<uint32_t> out(pixels);
+  for (size_t i = 0; i < pixels; ++i) out[i] = std::bit_cast<uint32_t>(frame.data[i * 4 + component]);
+  return out;
+}
+
+// A label as a colour anyone can tell from its neighbours: 0 black, others a hash of the value
+// (bright, saturated), the same colour for the same value in every frame.
+std::vector<uint8_t> falseColour(const std::vector<uint32_t>& labels) {
+  std::vector<uint8_t> rgba(labels.size() * 4);
+  for (size_t i = 0; i < labels.size(); ++i) {
+    uint32_t h = labels[i];
+    uint8_t* px = &rgba[i * 4];
+    px[3] = 255;
+    if (h == 0) {
+      px[0] = px[1] = px[2] = 0;
+      continue;
+    }
+    // A 32-bit integer hash (xorshift-multiply), then each channel in 64..255.
+    h ^= h >> 16;
+    h *= 0x7feb352dU;
+    h ^= h >> 15;
+    h *= 0x846ca68bU;
+    h ^= h >> 16;
+    for (int c = 0; c < 3; ++c) px[c] = uint8_t(64 + ((h >> (c * 8)) & 0xff) * 191 / 255);
+  }
+  return rgba;
+}
+
+}  // namespace
+
+std::vector<std::pair<std::string, std::string>> cameraHeaders(const scene::Camera& camera,
+                                                               uint32_t width, uint32_t height) {
+  const scene::Intrinsics k = scene::intrinsicsOf(camera, width, height);
+  const nlohmann::json intrinsics = {{"fx", k.fx},         {"fy", k.fy},
+                                     {"cx", k.cx},         {"cy", k.cy},
+                                     {"width", width},     {"height", height},
+                                     {"near", camera.nearPlane}, {"far", camera.farPlane}};
+  const glm::mat4 pose = scene::worldFromCamera(camera);
+  nlohmann::json rows = nlohmann::json::array();
+  for (int r = 0; r < 4; ++r) rows.push_back({pose[0][r], pose[1][r], pose[2][r], pose[3][r]});
+  return {{std::string(protocol::headers::kIntrinsics), intrinsics.dump()},
+          {std::string(protocol::headers::kPose), nlohmann::json{{"worldFromCamera", rows}}.dump()}};
+}
+
+EncodedFrame encodeLabels(const render::Frame& frame, const FrameRequest& request) {
+  EncodedFrame out;
+  const auto start = std::chrono::steady_clock::now();
+  const render::Target target = request.settings.target;
+  const std::vector<uint32_t> labels = labelsOf(frame, target);
+  switch (request.format) {
+    case ImageFormat::Raw: {
+      // Little-endian uint32, as the readback holds them (every Vulkan host Myriad runs on is).
+      out.body.assign(reinterpret_cast<const char*>(labels.data()), labels.size() * 4);
+      out.contentType = protocol::kRawContentType;
+      out.headers.emplace_back(protocol::headers::kWidth, std::to_string(frame.width));
+      out.headers.emplace_back(protocol::headers::kHeight, std::to_string(frame.height));
+      out.headers.emplace_back(protocol::headers::kChannels, joined(render::rawChannels(target)));
+      out.headers.emplace_back(protocol::headers::kTarget, std::string(render::targetName(target)));
+      out.headers.emplace_back(protocol::headers::kDtype, "uint32");
+      break;
+    }
+    case ImageFormat::Png: {
+      const std::vector<uint8_t> png =
+          encode::encodePng(frame.width, frame.height, falseColour(labels));
+      out.body.assign(reinterpret_cast<const char*>(png.data()), png.size());
+      out.contentType = protocol::kPngContentType;
+      break;
+    }
+    case ImageFormat::Jpeg: {
+      const std::vector<uint8_t> jpeg =
+          encode::encodeJpeg(falseColour(labels), frame.width, frame.height, request.quality);
+      out.body.assign(reinterpret_cast<const char*>(jpeg.data()), jpeg.size());
+      out.contentType = protocol::kJpegContentType;
+      break;
+    }
+  }
+  out.encodeMs = Milliseconds(std::chrono::steady_clock::now() - start).count();
+  out.headers.emplace_back(protocol::headers::kServerTiming,
+                           formatServerTiming(frame.passes, out.encodeMs, nullptr, frame.queueMs));
+  out.headers.emplace_back(protocol::headers::kTechnique,
+                           std::string(render::techniqueName(frame.technique)));
+  for (auto& header : cameraHeaders(request.settings.camera, frame.width, frame.height)) {
+    out.headers.push_back(std::move(header));
+  }
+  return out;
+}
+
+std::vector<float> depthAsDistance(const render::Frame& frame, const scene::Camera& camera) {
+  // The depth view holds z (metres along the view axis), or `far` where there is no surface.
+  // Along the ray through a pixel's centre, distance = z * |(u - cx) / fx, (v - cy) / fy, 1|.
+  const scene::Intrinsics k = scene::intrinsicsOf(camera, frame.width, frame.height);
+  // 4 floats a pixel, as Frame::data (packRaw keeps the first).
+  std::vector<float> out(size_t(frame.width) * frame.height * 4, 0.0f);
+  for (uint32_t y = 0; y < frame.height; ++y) {
+    const float dy = (float(y) + 0.5f - k.cy) / k.fy;
+    for (uint32_t x = 0; x < frame.width; ++x) {
+      const size_t i = size_t(y) * frame.width + x;
+      const float z = frame.data[i * 4];
+      const float dx = (float(x) + 0.5f - k.cx) / k.fx;
+      out[i * 4] = z >= camera.farPlane ? z : z * std::sqrt(1.0f + dx * dx + dy * dy);
+    }
+  }
+  return out;
+}
+
 EncodedFrame encodeFrame(const render::Frame& frame, const FrameRequest& request) {
+  if (render::isLabel(request.settings.target)) return encodeLabels(frame, request);
   EncodedFrame out;
   const auto start = std::chrono::steady_clock::now();
   switch (request.format) {
@@ -60,14 +182,22 @@ EncodedFrame encodeFrame(const render::Frame& frame, const FrameRequest& request
     }
     case ImageFormat::Raw: {
       const render::Target target = request.settings.target;
-      std::vector<uint8_t> raw = encode::packRaw(frame.width, frame.height, frame.data,
-                                                 render::rawChannels(target).size());
+      std::vector<uint8_t> raw =
+          request.depthDistance
+              ? encode::packRaw(frame.width, frame.height,
+                                depthAsDistance(frame, request.settings.camera), 1)
+              : encode::packRaw(frame.width, frame.height, frame.data,
+                                render::rawChannels(target).size());
       out.body.assign(reinterpret_cast<const char*>(raw.data()), raw.size());
       out.contentType = protocol::kRawContentType;
       out.headers.emplace_back(protocol::headers::kWidth, std::to_string(frame.width));
       out.headers.emplace_back(protocol::headers::kHeight, std::to_string(frame.height));
       out.headers.emplace_back(protocol::headers::kChannels, joined(render::rawChannels(target)));
       out.headers.emplace_back(protocol::headers::kTarget, std::string(render::targetName(target)));
+      out.headers.emplace_back(protocol::headers::kDtype, "float32");
+      if (target == render::Target::Depth) {
+        out.headers.emplace_back(protocol::headers::kDepth, request.depthDistance ? "distance" : "z");
+      }
       break;
     }
   }
@@ -78,6 +208,9 @@ EncodedFrame encodeFrame(const render::Frame& frame, const FrameRequest& request
       protocol::headers::kServerTiming, formatServerTiming(frame.passes, out.encodeMs, culled ? &frame.culling : nullptr,
                                                           frame.queueMs));
   out.headers.emplace_back(protocol::headers::kTechnique, std::string(render::techniqueName(frame.technique)));
+  for (auto& header : cameraHeaders(request.settings.camera, frame.width, frame.height)) {
+    out.headers.push_back(std::move(header));
+  }
   if (frame.culling.overflowed()) {
     std::fprintf(stderr, "myriad-server: WARNING: light lists overflowed, lights are missing from "
                          "this frame: %s\n", describeCulling(frame.culling).c_str());

@@ -35,6 +35,16 @@ struct EncodedFrame {
 // std::invalid_argument or an encoder's error when the frame does not match its settings.
 EncodedFrame encodeFrame(const render::Frame& frame, const FrameRequest& request);
 
+// A label frame (render::isLabel): raw, one little-endian uint32 a pixel (X-Myriad-Dtype: uint32);
+// PNG or JPEG, a false-colour picture of the labels (0 black).
+EncodedFrame encodeLabels(const render::Frame& frame, const FrameRequest& request);
+// X-Myriad-Intrinsics and X-Myriad-Pose of a width x height frame through `camera`.
+std::vector<std::pair<std::string, std::string>> cameraHeaders(const scene::Camera& camera,
+                                                               uint32_t width, uint32_t height);
+// A raw depth frame's z values (frame.data, 4 floats a pixel) as distances to the camera centre,
+// in the same layout (the distance first of each pixel's 4 floats).
+std::vector<float> depthAsDistance(const render::Frame& frame, const scene::Camera& camera);
+
 // The last frame of every open session, for GET .../stats, and where the time of its recent
 // frames went (stats' `pipeline`: medians over the last kPipelineWindow frames of the last
 // frame's size). Thread-safe.

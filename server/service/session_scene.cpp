@@ -157,9 +157,10 @@ SceneChange SessionScene::replaceObject(const SceneObject& next) {
   const SceneObject before = graph_.object(next.id);
   graph_.replaceObject(next, uint32_t(materials_.size()));
   SceneChange change;
-  // The name and the semantic class are labels: nothing to draw differently.
+  // The name is nobody's pixels; the semantic class is (the semantic-id label).
   const bool redraw = before.asset != next.asset || before.visible != next.visible ||
-                      before.parent != next.parent || before.material != next.material;
+                      before.parent != next.parent || before.material != next.material ||
+                      before.semantic != next.semantic;
   if (redraw) {
     change.scene = flatten();
   } else if (before.transform.local() != next.transform.local()) {

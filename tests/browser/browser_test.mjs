@@ -1,6 +1,7 @@
 // The web client in a real browser (Debian's Chromium, headless, driven by playwright-core)
 // against the real myriad-server with validation layers: the stream shows frames, a drag moves
-// the camera, panels change materials and lights through the API, a textured model's material
+// the camera, panels change materials and lights through the API, the outliner adds a dropped
+// model as an object at the view's centre and moves, hides and deletes it, a textured model's material
 // panel lists its textures and factors as the API does, every target gives its own
 // picture, the screenshot button's PNG is the frame the API returns, errors are readable, a
 // lost session can be replaced, and neither console errors nor validation messages appear.
@@ -173,6 +174,163 @@ try {
     check(state.status === 200, `GET session: ${state.status}`);
   });
 
+  await step('outliner: a dropped model is added at the view\'s centre, moved, hidden, deleted; Shift+drop replaces', async () => {
+    const get = async (path) => (await api('GET', `/v1/sessions/${sessionId}${path}`, {token})).body;
+    const listed = (selector) => page.$$eval(selector, (items) => items.map((li) => li.dataset.id));
+    const near = (a, b, what) => check(a.length === b.length && a.every((v, i) => Math.abs(v - b[i]) < 1e-4),
+                                       `${what}: ${JSON.stringify(a)}, expected ${JSON.stringify(b)}`);
+    // A new session: its one object (the built-in scene, id 1) and its one asset, as the API says.
+    await until('object 1 in the outliner', async () => (await listed('#object-list li')).join() === '1');
+    check((await page.textContent('#object-list li[data-id="1"] button.name')) === '#1 builtin:default',
+          `object 1 shows "${await page.textContent('#object-list li[data-id="1"]')}"`);
+    const [builtin] = (await get('/assets')).assets;
+    check((await listed('#asset-list li')).join() === builtin.id, 'the asset list is not the API\'s');
+    check((await page.textContent(`#asset-list li[data-id="${builtin.id}"] [data-objects]`)) === '1 object',
+          'the built-in asset does not show its 1 object');
+    const withoutSpider = await settled();
+    const camera = await stableCamera();
+
+    // spider.obj dropped on the view (a synthetic drop of the file's bytes): a new asset and a new
+    // object at the camera's target; the built-in scene stays.
+    const drop = (name, shiftKey = false) => page.evaluate(([b64, name, shiftKey]) => {
+      const bytes = Uint8Array.from(atob(b64), (c) => c.charCodeAt(0));
+      const data = new DataTransfer();
+      data.items.add(new File([bytes], name));
+      const view = document.getElementById('view');
+      for (const type of ['dragover', 'drop']) {
+        view.dispatchEvent(new DragEvent(type, {dataTransfer: data, bubbles: true, cancelable: true, shiftKey}));
+      }
+    }, [readFileSync(`${MODELS}/${name}`).toString('base64'), name, shiftKey]);
+    await drop('spider.obj');
+    const ids = await until('a second object in the outliner', async () => {
+      const now = await listed('#object-list li');
+      return now.length === 2 ? now : null;
+    });
+    const oid = Number(ids[1]);
+    check(ids[0] === '1' && oid > 1, `the outliner lists objects ${ids}`);
+    const page1 = await get('/objects');
+    check(page1.total === 2 && page1.objects.map((o) => o.id).join() === `1,${oid}`,
+          `GET objects lists ${page1.objects.map((o) => o.id)}`);
+    const added = page1.objects[1];
+    const asset = (await get('/assets')).assets.find((a) => a.id === added.asset);
+    check(asset && asset.source === 'upload:spider.obj' && asset.objects === 1 && asset.id !== builtin.id,
+          `the new object's asset ${JSON.stringify(asset)}`);
+    check(added.name === 'upload:spider.obj' && added.visible && added.instances === asset.instances,
+          `the new object ${JSON.stringify(added)}`);
+    near(added.transform.translation, camera.target, 'the new object\'s translation (the camera target)');
+    near(added.transform.rotation, [0, 0, 0, 1], 'the new object\'s rotation');
+    near(added.transform.scale, [1, 1, 1], 'the new object\'s scale');
+    check((await get('')).model.source === 'builtin:default', 'the drop replaced the model');
+    check((await page.textContent(`#object-list li[data-id="${oid}"] button.name`)) ===
+          `#${oid} upload:spider.obj`, 'the new object\'s name in the outliner');
+    await until('the spider asset with its 1 object in the outliner', async () =>
+        (await page.textContent(`#asset-list li[data-id="${asset.id}"] [data-objects]`).catch(() => '')) === '1 object');
+
+    // It is selected: the editor shows its transform; edits there PATCH it.
+    await until('the editor on the new object', async () =>
+        (await page.isVisible('#object-editor')) &&
+        (await page.textContent('#object-editor-title')) === `Object #${oid}: upload:spider.obj`);
+    const fields = async (prefix) => Promise.all(['x', 'y', 'z'].map(async (a) =>
+        Number(await page.inputValue(`#object-${prefix}${a}`))));
+    near(await fields('t'), camera.target.map((v) => +v.toFixed(4)), 'the translation fields');
+    near(await fields('r'), [0, 0, 0], 'the rotation fields');
+    near(await fields('s'), [1, 1, 1], 'the scale fields');
+    check(await page.isChecked('#object-scale-uniform'), 'a uniform scale is not shown as uniform');
+    const object = async () => (await get(`/objects/${oid}`));
+    // The spider is some 150 m long: a uniform 0.02 makes it 3 m, typed in one scale field.
+    await page.fill('#object-sy', '0.02');
+    await page.press('#object-sy', 'Tab');
+    await until('GET objects/{oid} to show scale 0.02', async () =>
+        (await object()).transform.scale.every((v) => Math.abs(v - 0.02) < 1e-6));
+    near(await fields('s'), [0.02, 0.02, 0.02], 'the scale fields after a uniform edit');
+    const moved = [camera.target[0] + 1.5, camera.target[1] + 0.5, camera.target[2] - 0.25];
+    await page.fill('#object-tx', String(moved[0]));
+    await page.press('#object-tx', 'Tab');
+    await page.fill('#object-ty', String(moved[1]));
+    await page.press('#object-ty', 'Tab');
+    await page.fill('#object-tz', String(moved[2]));
+    await page.press('#object-tz', 'Tab');
+    await until('GET objects/{oid} to show the new translation', async () => {
+      const t = (await object()).transform.translation;
+      return t.every((v, i) => Math.abs(v - moved[i]) < 1e-4);
+    });
+    // 90 degrees about y: the quaternion [0, sin 45, 0, cos 45].
+    await page.fill('#object-ry', '90');
+    await page.press('#object-ry', 'Tab');
+    const turned = await until('GET objects/{oid} to show the rotation', async () => {
+      const o = await object();
+      return Math.abs(o.transform.rotation[1] - Math.SQRT1_2) < 1e-5 ? o : null;
+    });
+    near(turned.transform.rotation, [0, Math.SQRT1_2, 0, Math.SQRT1_2], 'the rotation of 90 degrees about y');
+    near(turned.transform.translation, moved, 'the translation after the rotation edit');
+    near(turned.transform.scale, [0.02, 0.02, 0.02], 'the scale after the rotation edit');
+    // Its world bounds moved with it: their centre is near the new translation (the spider's
+    // own centre is off its origin by (-17, -2, -10) m, 0.02 of that here).
+    const centre = turned.bounds.min.map((v, i) => (v + turned.bounds.max[i]) / 2);
+    check(centre.every((v, i) => Math.abs(v - moved[i]) < 1), `world bounds centre ${centre}`);
+    const withSpider = await changedFrom('the picture with the spider', withoutSpider);
+
+    // Hidden with its box: the server draws none of its instances, and the picture is the one
+    // without it again; shown again, it comes back.
+    const box = `#object-list li[data-id="${oid}"] input[type=checkbox]`;
+    check(await page.isChecked(box), 'the shown box of a visible object is unchecked');
+    await page.uncheck(box);
+    await until('GET objects/{oid} to say hidden', async () => {
+      const o = await object();
+      return !o.visible && o.instances === 0;
+    });
+    const hidden = await changedFrom('the picture with the spider hidden', withSpider);
+    check(!changed(hidden, withoutSpider), `hidden, the picture differs from the one before the drop by ` +
+          `${difference(hidden, withoutSpider).toFixed(2)} (cell ${largestCellDifference(hidden, withoutSpider).toFixed(1)})`);
+    await page.check(box);
+    await until('GET objects/{oid} to say visible', async () => (await object()).visible);
+    await changedFrom('the picture with the spider shown again', hidden);
+
+    // Its asset cannot go while the object uses it: the page shows the server's 409 detail.
+    expectedHttpErrors = /status of 409/;
+    await page.click(`#asset-list li[data-id="${asset.id}"] button.remove`);
+    await until('the 409 message', async () => (await page.isVisible('#message')) &&
+        (await page.textContent('#message-text')).includes('409'));
+    const text = await page.textContent('#message-text');
+    check(text.includes('in use') && text.includes(`object ${oid}`), `message "${text}"`);
+    expectedHttpErrors = null;
+    await page.click('#message-close');
+    check((await get('/assets')).assets.length === 2, 'the refused DELETE removed the asset');
+
+    // The object deleted from its row, then its asset: the outliner and the API are back to one each.
+    await page.click(`#object-list li[data-id="${oid}"] button.remove`);
+    await until('the outliner without the object', async () => (await listed('#object-list li')).join() === '1');
+    check((await api('GET', `/v1/sessions/${sessionId}/objects/${oid}`, {token})).status === 404,
+          'GET objects/{oid} after the delete');
+    check((await get('/objects')).total === 1, 'objects left after the delete');
+    check(await page.isHidden('#object-editor'), 'the editor stays for a deleted object');
+    await until('the asset with no object', async () =>
+        (await page.textContent(`#asset-list li[data-id="${asset.id}"] [data-objects]`)) === '0 objects');
+    await page.click(`#asset-list li[data-id="${asset.id}"] button.remove`);
+    await until('the asset list without the spider', async () =>
+        (await listed('#asset-list li')).join() === builtin.id);
+    check((await get('/assets')).assets.map((a) => a.id).join() === builtin.id, 'GET assets after the delete');
+    picture = await changedFrom('the picture without the spider', withSpider);
+    check(!changed(picture, withoutSpider), 'the picture after the deletes is not the one before the drop');
+
+    // Shift+drop replaces the scene (PUT .../model), as the Model panel's pick; the outliner follows.
+    await drop('box.obj', true);
+    await until('the box as the session\'s model', async () =>
+        (await page.textContent('#model-summary')).startsWith('upload:box.obj'));
+    const boxObjects = (await get('/objects')).objects;
+    check(boxObjects.length === 1 && boxObjects[0].name === 'upload:box.obj',
+          `GET objects after the replace: ${JSON.stringify(boxObjects)}`);
+    const boxAssets = (await get('/assets')).assets;
+    await until('the outliner to list the box\'s object and the assets', async () =>
+        (await listed('#object-list li')).join() === String(boxObjects[0].id) &&
+        (await listed('#asset-list li')).join() === boxAssets.map((a) => a.id).join());
+    picture = await changedFrom('the box', picture);
+    await page.click('#model-builtin');
+    await until('the built-in scene in the summary', async () =>
+        (await page.textContent('#model-summary')).startsWith('builtin:default'));
+    picture = await changedFrom('the built-in scene again', picture);
+  });
+
   let draggedEye = null;
   await step('a drag moves the camera and the picture (a second, distinct frame)', async () => {
     const before = (await api('GET', `/v1/sessions/${sessionId}/camera`, {token})).body;
@@ -274,7 +432,13 @@ try {
     await page.fill('#light-inner', '20');
     await page.fill('#light-outer', '30');
     await page.selectOption('#light-attenuation', 'inverse-square');
+    // The page refills the editor from the PATCH's answer: the next edit waits for that, or the
+    // refill can undo it before it is applied.
+    const answered = page.waitForResponse((r) => r.request().method() === 'PATCH' &&
+                                                 r.url().endsWith(`/lights/${light.id}`));
     await page.click('#light-apply');
+    await (await answered).finished();
+    await page.evaluate(() => new Promise((done) => requestAnimationFrame(done)));
     editedLight = await until('GET lights/{id} to show the spot', async () => {
       const l = (await api('GET', `/v1/sessions/${sessionId}/lights/${light.id}`, {token})).body;
       return l.type === 'spot' && l.attenuation === 'inverse-square' &&
@@ -393,6 +557,14 @@ try {
   await step('every target from /v1/info gives its own picture', async () => {
     const {targets} = (await api('GET', '/v1/info')).body;
     check(targets.length >= 2, 'fewer than two targets');
+    // The label views of a scene of one object differ only once it has a class.
+    const [root] = (await api('GET', `/v1/sessions/${sessionId}/objects`, {token})).body.objects;
+    const rootPath = `/v1/sessions/${sessionId}/objects/${root.id}`;
+    const classed = await api('PATCH', rootPath, {token, json: {semantic: 4}});
+    check(classed.status === 200, `PATCH object ${root.id}: ${classed.status}`);
+    for (const label of ['instance-id', 'semantic-id', 'material-id']) {
+      check(targets.includes(label), `${label} is not in /v1/info's targets`);
+    }
     const seen = [];
     for (const target of targets) {
       await page.selectOption('#target', target);
@@ -406,6 +578,8 @@ try {
       seen.push({target, sig: shown});
     }
     await page.selectOption('#target', 'final');
+    check((await api('PATCH', rootPath, {token, json: {semantic: 0}})).status === 200,
+          `PATCH object ${root.id} back`);
     picture = await until('the final stream again', async () => {
       const now = await settled();
       return now.src.includes('target=final&') ? now : null;
