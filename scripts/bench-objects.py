@@ -8,9 +8,10 @@ Starts SERVER (a myriad-server binary, or a command line such as ".devpack/run.s
     grid in view, LIGHTS generated lights; WIDTHxHEIGHT frames of the default technique, GPU pass
     times from Server-Timing after WARMUP frames: the median of FRAMES frames (the sum of the
     passes, and each pass).
- 2. patch: MOVE_OBJECTS objects in all (added 10,000 a request); then, REPEATS times, a PATCH of
-    one object's transform followed by a PNG frame: the wall time from sending the PATCH to the
-    frame's last byte (loopback), median and p90; and the PATCH's own answer time.
+ 2. patch: in a second session, MOVE_OBJECTS objects of a MOVE_ASSET_TRIANGLES-triangle sphere
+    (added 10,000 a request); then, REPEATS times, a PATCH of one object's transform followed by a
+    PNG frame of PATCH_SIZE: the wall time from sending the PATCH to the frame's last byte
+    (loopback), median and p90; and the PATCH's own answer time.
 
 Prints one JSON object (and writes it to --json). Everything is the server's default path except
 what the arguments name.
@@ -105,11 +106,13 @@ def main():
     p.add_argument("--objects", type=int, default=10000)
     p.add_argument("--asset-triangles", type=int, default=10000)
     p.add_argument("--lights", type=int, default=1000000)
+    p.add_argument("--light-radius", type=float, nargs=2, default=[0.25, 1.0])
     p.add_argument("--width", type=int, default=1920)
     p.add_argument("--height", type=int, default=1080)
     p.add_argument("--warmup", type=int, default=5)
     p.add_argument("--frames", type=int, default=20)
     p.add_argument("--move-objects", type=int, default=100000)
+    p.add_argument("--move-asset-triangles", type=int, default=500)
     p.add_argument("--repeats", type=int, default=30)
     p.add_argument("--patch-size", default="320x180", help="the frame after each PATCH")
     p.add_argument("--server-arg", action="append", default=[], help="passed to the server")
@@ -124,18 +127,18 @@ def main():
         _, _, body = request("GET", server.url + "/v1/info")
         info = json.loads(body)
         result["device"] = info["device"]
-        _, _, body = request("POST", server.url + "/v1/sessions", body={})
-        created = json.loads(body)
-        sid, token = created["id"], created["token"]
-        base = f"{server.url}/v1/sessions/{sid}"
-        request("PATCH", base + "/objects/1", token, {"visible": False})
-        obj, triangles = sphere_obj(a.asset_triangles)
-        _, _, body = request("POST", base + "/assets?filename=sphere.obj", token, obj.encode(),
-                             "application/octet-stream")
-        asset = json.loads(body)["id"]
-        result["assetTriangles"] = triangles
+        def session(triangles):
+            _, _, body = request("POST", server.url + "/v1/sessions", body={})
+            created = json.loads(body)
+            base = f"{server.url}/v1/sessions/{created['id']}"
+            token = created["token"]
+            request("PATCH", base + "/objects/1", token, {"visible": False})
+            obj, made = sphere_obj(triangles)
+            _, _, body = request("POST", base + "/assets?filename=sphere.obj", token, obj.encode(),
+                                 "application/octet-stream")
+            return base, token, json.loads(body)["id"], made
 
-        def add(count, spacing):
+        def add(base, token, asset, count, spacing):
             side = math.ceil(math.sqrt(count))
             t0 = time.perf_counter()
             for first in range(0, count, 10000):
@@ -146,14 +149,18 @@ def main():
             return time.perf_counter() - t0
 
         # 1. Frame time.
+        base, token, asset, result["assetTriangles"] = session(a.asset_triangles)
         side = math.ceil(math.sqrt(a.objects))
-        result["addObjectsSeconds"] = add(a.objects, 1.2)
+        result["addObjectsSeconds"] = add(base, token, asset, a.objects, 1.2)
         extent = 1.2 * side
         request("PUT", base + "/camera", token, {"eye": [0, extent * 0.6, extent * 0.35],
                                                   "target": [0, 0, -extent * 0.45], "up": [0, 1, 0],
                                                   "fovY": 60, "near": 0.1, "far": extent * 3})
         if a.lights:
-            request("POST", base + "/lights/generate", token, {"count": a.lights, "seed": 7})
+            # Radii as the objects' spacing (1.2 m), not the generator's default (a share of the
+            # whole scene's diagonal: 7 to 25 m over a 120 m grid, every pixel in thousands).
+            request("POST", base + "/lights/generate", token,
+                    {"count": a.lights, "seed": 7, "radius": a.light_radius})
         passes = []
         for i in range(a.warmup + a.frames):
             _, headers, _ = request("GET", f"{base}/frame?format=jpeg&width={a.width}&height={a.height}", token)
@@ -167,20 +174,26 @@ def main():
             "passesMsMedian": {n: statistics.median(f.get(n, 0.0) for f in passes) for n in passes[0]},
         }
         # 2. A PATCH among many objects to the next frame's bytes.
+        base, token, asset, result["moveAssetTriangles"] = session(a.move_asset_triangles)
         request("DELETE", base + "/lights", token)
-        result["addMoreObjectsSeconds"] = add(a.move_objects - a.objects, 1.2) if a.move_objects > a.objects else 0
+        result["addMoveObjectsSeconds"] = add(base, token, asset, a.move_objects, 1.2)
+        side = math.ceil(math.sqrt(a.move_objects))
+        request("PUT", base + "/camera", token, {"eye": [0, 20, 15], "target": [0, 0, -10],
+                                                  "up": [0, 1, 0], "fovY": 60, "near": 0.1,
+                                                  "far": 2.0 * side})
         w, h = a.patch_size.split("x")
         for _ in range(3):
             request("GET", f"{base}/frame?format=png&width={w}&height={h}", token)
-        walls, patches = [], []
-        target = 2 + a.objects // 2
+        walls, patches, after = [], [], []
+        target = 2 + side // 2  # in the first row, in view
         for i in range(a.repeats):
             t0 = time.perf_counter()
             request("PATCH", f"{base}/objects/{target}", token,
                     {"transform": {"translation": [0.1 * (i % 7), 0.5 + 0.05 * (i % 5), -1.0]}})
             t1 = time.perf_counter()
-            request("GET", f"{base}/frame?format=png&width={w}&height={h}", token)
+            _, headers, _ = request("GET", f"{base}/frame?format=png&width={w}&height={h}", token)
             t2 = time.perf_counter()
+            after.append(server_timing(headers.get("Server-Timing", "")))
             patches.append((t1 - t0) * 1000)
             walls.append((t2 - t0) * 1000)
         walls.sort()
@@ -189,6 +202,7 @@ def main():
             "patchToFrameMsMedian": statistics.median(walls),
             "patchToFrameMsP90": walls[int(0.9 * (len(walls) - 1))],
             "patchMsMedian": statistics.median(patches),
+            "framePassesMsMedian": {n: statistics.median(f.get(n, 0.0) for f in after) for n in after[0]},
         }
     finally:
         server.stop()
