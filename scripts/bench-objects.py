@@ -119,7 +119,7 @@ def main():
     p.add_argument("--json", help="also write the result here")
     a = p.parse_args()
 
-    server = Server(a.server.split(), ["--max-lights", str(max(a.lights, 1)),
+    server = Server(a.server.split(), ["--max-lights", str(max(a.lights, 100000)),
                                        "--max-objects", str(max(a.objects, a.move_objects) + 1),
                                        "--max-body-bytes", str(64 << 20)] + a.server_arg)
     result = {"command": " ".join(sys.argv), "date": time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime())}

@@ -191,3 +191,47 @@ TEST_CASE("labels: a box's projected corners bound its pixels in the id mask") {
   }
   CHECK(gpu.context->validationMessages.load() == 0);
 }
+
+TEST_CASE("labels: the objects of one asset drawn as instanced draws keep their own ids") {
+  // 36 boxes of one mesh and one material, one after another in the instance buffer: the G-buffer,
+  // shadow and label passes draw them as one instanced draw (render::InstancedDraws). Each box
+  // must still be itself: its own transform (where the reference sees it) and its own id.
+  Gpu& gpu = sharedGpu();
+  scene::Scene s;
+  s.meshes.push_back(scene::makeCube());
+  s.materials.push_back({"box", glm::vec3(0.6f), 0.0f, 0.5f});
+  for (uint32_t i = 0; i < 36; ++i) {
+    const glm::vec3 at(-2.5f + float(i % 6), 0.3f * float(i % 3), -2.5f + float(i / 6));
+    scene::Instance box{0, 0, glm::scale(glm::translate(glm::mat4(1.0f), at), glm::vec3(0.6f))};
+    box.object = 100 + i;
+    box.semantic = i % 5;
+    s.instances.push_back(box);
+  }
+  gpu.setScene(s);
+  render::FrameSettings f = labelFrame(render::Target::InstanceId);
+  f.camera.eye = glm::vec3(0.5f, 6.0f, 5.0f);
+  f.camera.target = glm::vec3(0.0f, 0.0f, -0.5f);
+  const std::vector<glm::uvec4> labels = labelsOf(gpu.render(f));
+  const std::vector<glm::uvec4> reference = render::referenceLabels(s, f);
+  size_t mismatches = 0, interior = 0;
+  std::vector<uint32_t> seen;
+  for (uint32_t y = 1; y + 1 < kHeight; ++y) {
+    for (uint32_t x = 1; x + 1 < kWidth; ++x) {
+      const size_t i = size_t(y) * kWidth + x;
+      if (labels[i].x != 0 && std::find(seen.begin(), seen.end(), labels[i].x) == seen.end()) {
+        seen.push_back(labels[i].x);
+      }
+      if (labels[i] == reference[i]) continue;
+      ++mismatches;
+      bool edge = false;
+      for (int dy = -1; dy <= 1; ++dy) {
+        for (int dx = -1; dx <= 1; ++dx) edge = edge || reference[i + dy * int(kWidth) + dx].x != reference[i].x;
+      }
+      if (!edge) ++interior;
+    }
+  }
+  INFO("mismatches: ", mismatches);
+  CHECK(interior == 0);
+  CHECK(seen.size() == 36);
+  CHECK(gpu.context->validationMessages.load() == 0);
+}

@@ -269,6 +269,7 @@ void recordGBufferPass(VkCommandBuffer cmd, const Pipelines& p, const FrameTarge
   // writes depth only after it runs). Draws come grouped by material (SceneBuffers sorts them):
   // one texture set and one cull mode per group.
   // Opaque materials without textures draw with gbufferUntextured (gbuffer.glsl says why).
+  InstancedDraws draws(cmd);
   for (const bool alphaTest : {false, true}) {
     VkPipeline pipelineBound = VK_NULL_HANDLE;
     uint32_t bound = UINT32_MAX;
@@ -279,10 +280,12 @@ void recordGBufferPass(VkCommandBuffer cmd, const Pipelines& p, const FrameTarge
                                   : scene.textured[draw.material] ? p.gbuffer
                                                                   : p.gbufferUntextured;
       if (pipeline != pipelineBound) {
+        draws.flush();
         vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline);
         pipelineBound = pipeline;
       }
       if (draw.material != bound) {
+        draws.flush();
         bound = draw.material;
         VkDescriptorSet set = scene.textures->set(bound);
         vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, p.layout,
@@ -291,8 +294,9 @@ void recordGBufferPass(VkCommandBuffer cmd, const Pipelines& p, const FrameTarge
       }
       const MeshRange mesh = detail.range(scene, draw);
       if (mesh.indexCount == 0) continue;  // outside the view
-      vkCmdDrawIndexed(cmd, mesh.indexCount, 1, mesh.firstIndex, mesh.vertexOffset, draw.instance);
+      draws.add(mesh, draw.instance);
     }
+    draws.flush();
   }
   vkCmdEndRendering(cmd);
 
@@ -480,6 +484,28 @@ void recordLightVolumeOverlayPass(VkCommandBuffer cmd, const Pipelines& p, const
   vkCmdEndRendering(cmd);
 }
 
+namespace {
+
+// Copies the whole of `image` (last written at `writer` with `written`, in `layout`) into
+// `readback`, rows top first, and makes it visible to the host.
+void copyToReadback(VkCommandBuffer cmd, const gpu::Image& image, VkExtent2D extent,
+                    VkPipelineStageFlags2 writer, VkAccessFlags2 written, VkImageLayout layout,
+                    const gpu::Buffer& readback) {
+  const ImageTransition before[] = {{&image, writer, written, VK_PIPELINE_STAGE_2_COPY_BIT,
+                                     VK_ACCESS_2_TRANSFER_READ_BIT, layout,
+                                     VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL}};
+  gpu::barrier(cmd, before);
+  VkBufferImageCopy region{};
+  region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
+  region.imageExtent = {extent.width, extent.height, 1};
+  vkCmdCopyImageToBuffer(cmd, image.image, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, readback.buffer,
+                         1, &region);
+  gpu::bufferBarrier(cmd, readback, VK_PIPELINE_STAGE_2_COPY_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT,
+                     VK_PIPELINE_STAGE_2_HOST_BIT, VK_ACCESS_2_HOST_READ_BIT);
+}
+
+}  // namespace
+
 void recordLabelPass(VkCommandBuffer cmd, const Pipelines& p, const FrameTargets& t,
                      const SceneBuffers& scene, const MeshDetail& detail) {
   const ImageTransition before[] = {
@@ -495,53 +521,38 @@ void recordLabelPass(VkCommandBuffer cmd, const Pipelines& p, const FrameTargets
   bindGeometry(cmd, scene);
   vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, p.labels);
   uint32_t cull = UINT32_MAX;
+  InstancedDraws draws(cmd);
   for (const DrawItem& draw : scene.draws) {
     if (scene.blend[draw.material]) continue;  // not in the G-buffer: no label
     const uint32_t mode = scene.doubleSided[draw.material] ? 0u : 1u;
     if (mode != cull) {
+      draws.flush();
       cull = mode;
       vkCmdSetCullMode(cmd, mode == 0 ? VK_CULL_MODE_NONE : VK_CULL_MODE_BACK_BIT);
     }
     const MeshRange mesh = detail.range(scene, draw);
     if (mesh.indexCount == 0) continue;  // outside the view
-    vkCmdDrawIndexed(cmd, mesh.indexCount, 1, mesh.firstIndex, mesh.vertexOffset, draw.instance);
+    draws.add(mesh, draw.instance);
   }
+  draws.flush();
   vkCmdEndRendering(cmd);
 }
 
 void recordLabelReadback(VkCommandBuffer cmd, const FrameTargets& t, const gpu::Buffer& readback) {
-  const ImageTransition before[] = {
-      {&t.labels, VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT,
-       VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT, VK_PIPELINE_STAGE_2_COPY_BIT,
-       VK_ACCESS_2_TRANSFER_READ_BIT, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL,
-       VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL}};
-  gpu::barrier(cmd, before);
-  VkBufferImageCopy region{};
-  region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
-  region.imageExtent = {t.extent.width, t.extent.height, 1};
-  vkCmdCopyImageToBuffer(cmd, t.labels.image, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL,
-                         readback.buffer, 1, &region);
-  gpu::bufferBarrier(cmd, readback, VK_PIPELINE_STAGE_2_COPY_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT,
-                     VK_PIPELINE_STAGE_2_HOST_BIT, VK_ACCESS_2_HOST_READ_BIT);
+  copyToReadback(cmd, t.labels, t.extent, VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT,
+                 VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL,
+                 readback);
 }
 
 void recordReadback(VkCommandBuffer cmd, const FrameTargets& t, VkImageLayout outputLayout,
                     const gpu::Buffer& readback) {
   const bool storage = outputLayout == VK_IMAGE_LAYOUT_GENERAL;
-  const ImageTransition before[] = {
-      {&t.output,
-       storage ? VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT : VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT,
-       storage ? VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT : VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT,
-       VK_PIPELINE_STAGE_2_COPY_BIT, VK_ACCESS_2_TRANSFER_READ_BIT, outputLayout,
-       VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL}};
-  gpu::barrier(cmd, before);
-  VkBufferImageCopy region{};
-  region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
-  region.imageExtent = {t.extent.width, t.extent.height, 1};
-  vkCmdCopyImageToBuffer(cmd, t.output.image, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL,
-                         readback.buffer, 1, &region);
-  gpu::bufferBarrier(cmd, readback, VK_PIPELINE_STAGE_2_COPY_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT,
-                     VK_PIPELINE_STAGE_2_HOST_BIT, VK_ACCESS_2_HOST_READ_BIT);
+  copyToReadback(cmd, t.output, t.extent,
+                 storage ? VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT
+                         : VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT,
+                 storage ? VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT
+                         : VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT,
+                 outputLayout, readback);
 }
 
 void recordYuv420Readback(VkCommandBuffer cmd, const Pipelines& p, const FrameTargets& t,

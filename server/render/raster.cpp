@@ -96,4 +96,23 @@ gpu::GraphicsPipelineDesc lightVolumeDesc(const gpu::Context& context) {
   return d;
 }
 
+void InstancedDraws::add(const MeshRange& range, uint32_t instance) {
+  if (count_ > 0 && range.firstIndex == range_.firstIndex && range.indexCount == range_.indexCount &&
+      range.vertexOffset == range_.vertexOffset && instance == first_ + count_) {
+    ++count_;
+    return;
+  }
+  flush();
+  range_ = range;
+  first_ = instance;
+  count_ = 1;
+}
+
+void InstancedDraws::flush() {
+  if (count_ == 0) return;
+  vkCmdDrawIndexed(cmd_, range_.indexCount, count_, range_.firstIndex, range_.vertexOffset, first_);
+  count_ = 0;
+  ++draws_;
+}
+
 }  // namespace myriad::render

@@ -26,6 +26,31 @@ void beginRendering(VkCommandBuffer cmd, VkExtent2D extent,
 
 void bindGeometry(VkCommandBuffer cmd, const SceneBuffers& scene);
 
+// Records draws of the scene's instances as few instanced draws: consecutive draws of the same
+// index range whose instances follow each other (the objects of one asset, placed one after
+// another in the instance buffer by SceneGraph::flatten) become one vkCmdDrawIndexed with
+// instanceCount > 1; gl_InstanceIndex still names each instance. The same pixels as one draw
+// each: the instances are drawn in the same order. Call flush() before any state change (a
+// pipeline, a descriptor set, a cull mode) and before the rendering ends.
+class InstancedDraws {
+ public:
+  explicit InstancedDraws(VkCommandBuffer cmd) : cmd_(cmd) {}
+  ~InstancedDraws() { flush(); }
+  InstancedDraws(const InstancedDraws&) = delete;
+  InstancedDraws& operator=(const InstancedDraws&) = delete;
+
+  void add(const MeshRange& range, uint32_t instance);
+  void flush();
+  uint32_t draws() const { return draws_; }  // vkCmdDrawIndexed calls so far
+
+ private:
+  VkCommandBuffer cmd_;
+  MeshRange range_{};
+  uint32_t first_ = 0;
+  uint32_t count_ = 0;
+  uint32_t draws_ = 0;
+};
+
 // Every vertex attribute (position, normal, uv, tangent, colour): what gbuffer.vert reads, for the
 // G-buffer pass and every pass that rasterises the scene's surfaces with it.
 gpu::VertexLayout surfaceVertexLayout();

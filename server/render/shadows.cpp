@@ -70,10 +70,8 @@ void beginShadowRendering(VkCommandBuffer cmd, const Pipelines& p, const SceneBu
 // Every instance casts, whatever its material: both faces (a single-sided wall still blocks the
 // light), and alpha-masked cut-outs cast as solid (no fragment shader).
 void drawCasters(VkCommandBuffer cmd, const SceneBuffers& scene) {
-  for (const DrawItem& draw : scene.draws) {
-    vkCmdDrawIndexed(cmd, draw.mesh.indexCount, 1, draw.mesh.firstIndex, draw.mesh.vertexOffset,
-                     draw.instance);
-  }
+  InstancedDraws draws(cmd);
+  for (const DrawItem& draw : scene.draws) draws.add(draw.mesh, draw.instance);
 }
 
 // Ends the rendering; `map` becomes readable by the lighting passes.
