@@ -34,7 +34,12 @@ void checkAccepted(const service::FrameRequest& request, uint32_t maxResolution)
   require(uint32_t(s.technique) < render::kTechniqueNames.size(), "unknown technique");
   require(request.quality >= 1 && request.quality <= 100, "quality outside [1, 100]");
   require(request.fps >= 1 && request.fps <= service::kMaxStreamFps, "fps outside [1, max]");
-  require(s.raw == (request.format == service::ImageFormat::Raw), "raw and format disagree");
+  // Label targets are read back raw whatever the format (render::Target::InstanceId).
+  require(s.raw == (request.format == service::ImageFormat::Raw || render::isLabel(s.target)),
+          "raw and format disagree");
+  require(!request.depthDistance ||
+              (s.target == render::Target::Depth && request.format == service::ImageFormat::Raw),
+          "depth=distance outside raw depth");
   require(!request.time || std::isfinite(*request.time), "time not finite");
   require(std::isfinite(s.exposure), "exposure not finite");
   const auto& c = s.camera;

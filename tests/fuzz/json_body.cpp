@@ -141,6 +141,15 @@ constexpr Body kBodies[] = {
     {names::kTokenCreate, convert<protocol::TokenCreate>},
     {names::kTokenCreated, convert<protocol::TokenCreated>},
     {names::kLightPick, convert<protocol::LightPick>},
+    {names::kAsset, convert<protocol::Asset>},
+    {names::kAssetsList, convert<protocol::AssetsList>},
+    {names::kObject, convert<protocol::Object>},
+    {names::kObjectNew, convert<protocol::ObjectNew>},
+    {names::kObjectPatch, convert<protocol::ObjectPatch>},
+    {names::kObjectsAdd, convert<protocol::ObjectsAdd>},
+    {names::kObjectsAdded, convert<protocol::ObjectsAdded>},
+    {names::kObjectsPage, convert<protocol::ObjectsPage>},
+    {names::kLabels, convert<protocol::Labels>},
 };
 constexpr size_t kBodyCount = sizeof kBodies / sizeof kBodies[0];
 
