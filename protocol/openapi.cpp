@@ -139,6 +139,7 @@ json headerObject(std::string_view name) {
        {"string", "JSON {worldFromCamera: 4 rows of 4}: camera space (x right, y down, z "
                   "forward) to world space."}},
       {headers::kDepth, {"string", "raw depth: its convention, z or distance."}},
+      {headers::kSpace, {"string", "raw position and normal: their axes, world or camera."}},
       {headers::kDtype,
        {"string", "raw frames: the values' type, float32, or uint32 for the label targets "
                   "(instance-id, semantic-id, material-id)."}},

@@ -56,7 +56,7 @@ Response frameResponse() {
           {{kPngContentType, ""}, {kJpegContentType, ""}, {kRawContentType, ""}},
           {headers::kServerTiming, headers::kTechnique, headers::kWidth, headers::kHeight,
            headers::kChannels, headers::kTarget, headers::kIntrinsics, headers::kPose,
-           headers::kDepth, headers::kDtype}};
+           headers::kDepth, headers::kDtype, headers::kSpace}};
 }
 
 Response json200(std::string_view schema, std::string_view description) {
@@ -595,7 +595,11 @@ std::vector<Operation> buildOperations() {
                  {query::kDepthConvention,
                   {{"type", "string"}, {"enum", {"z", "distance"}}},
                   "With target=depth and format=raw: z (metres along the view axis, the default) "
-                  "or distance (metres to the camera centre)."}},
+                  "or distance (metres to the camera centre)."},
+                 {query::kSpace,
+                  {{"type", "string"}, {"enum", {"world", "camera"}}},
+                  "With target=position or normal and format=raw: world (the default) or camera "
+                  "space (x right, y down, z forward: X-Myriad-Pose's axes)."}},
        .responses = {frameResponse()},
        .problems = {400, 401, 403, 404, 500, 503}});
   ops.push_back(

@@ -448,6 +448,35 @@ TEST_CASE("scene: every frame carries its camera; world positions project onto t
       if (std::abs(length - ds[i]) > 1e-4 * length) ++offDistance;
     }
   }
+  // The same positions and normals in camera space (?space=camera): R^T (P - t) and R^T n, and
+  // the camera-space z is the depth.
+  Reply cameraPosition = api.get(s.path() + "/frame?format=raw&target=position&space=camera" + size, s.token);
+  Reply worldNormal = api.get(s.path() + "/frame?format=raw&target=normal" + size, s.token);
+  Reply cameraNormal = api.get(s.path() + "/frame?format=raw&target=normal&space=camera" + size, s.token);
+  REQUIRE(cameraPosition.status == 200);
+  REQUIRE(cameraNormal.status == 200);
+  CHECK(cameraPosition.header("X-Myriad-Space") == "camera");
+  CHECK(worldNormal.header("X-Myriad-Space") == "world");
+  const std::vector<float> cp = rawFloats(cameraPosition), wn = rawFloats(worldNormal),
+                           cn = rawFloats(cameraNormal);
+  REQUIRE(cp.size() == p.size());
+  REQUIRE(cn.size() == wn.size());
+  size_t offCamera = 0, offNormal = 0;
+  for (size_t i = 0; i < zs.size(); ++i) {
+    if (zs[i] >= 40.0f) continue;
+    const double d[3] = {p[i * 3] - t[0], p[i * 3 + 1] - t[1], p[i * 3 + 2] - t[2]};
+    for (int a = 0; a < 3; ++a) {
+      const double c = R[0][a] * d[0] + R[1][a] * d[1] + R[2][a] * d[2];
+      const double n = R[0][a] * wn[i * 3] + R[1][a] * wn[i * 3 + 1] + R[2][a] * wn[i * 3 + 2];
+      if (std::abs(cp[i * 3 + a] - c) > 1e-4 * (1.0 + std::abs(c))) ++offCamera;
+      if (std::abs(cn[i * 3 + a] - n) > 1e-5) ++offNormal;
+    }
+    if (std::abs(cp[i * 3 + 2] - zs[i]) > 1e-4 * zs[i]) ++offCamera;
+  }
+  CHECK(offCamera == 0);
+  CHECK(offNormal == 0);
+  checkProblem(api.get(s.path() + "/frame?format=raw&target=depth&space=camera", s.token), 400,
+               "invalid-parameter", "space with depth", std::nullopt, std::nullopt, "space");
   INFO("worst reprojection error: ", worstPixel, " px");
   CHECK(surfaces > size_t(width * height / 2));
   CHECK(offPixel == 0);

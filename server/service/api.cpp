@@ -23,7 +23,7 @@ const std::string kCorsExposeHeaders = [] {
   std::string list;
   for (std::string_view name : {h::kServerTiming, h::kRetryAfter, h::kTechnique, h::kChannels,
                                 h::kWidth, h::kHeight, h::kTarget, h::kFrameSequence, h::kIntrinsics,
-                                h::kPose, h::kDepth, h::kDtype}) {
+                                h::kPose, h::kDepth, h::kDtype, h::kSpace}) {
     list += (list.empty() ? "" : ", ") + std::string(name);
   }
   return list;

@@ -212,6 +212,19 @@ FrameRequest parseSessionFrameQuery(const QueryParams& params, uint32_t maxResol
     }
     request.depthDistance = *text == "distance";
   }
+  if (const std::string* text = single(params, std::string(protocol::query::kSpace))) {
+    const std::string name(protocol::query::kSpace);
+    if (*text != "world" && *text != "camera") {
+      throw FrameQueryError(name, "space is world or camera, got " + quoteClientText(*text) + ".");
+    }
+    const render::Target t = request.settings.target;
+    if ((t != render::Target::Position && t != render::Target::Normal) ||
+        request.format != ImageFormat::Raw) {
+      throw FrameQueryError(name, "space= chooses the axes of raw position and normal: it goes "
+                                  "with target=position or target=normal and format=raw.");
+    }
+    request.cameraSpace = *text == "camera";
+  }
   return request;
 }
 

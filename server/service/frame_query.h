@@ -23,9 +23,9 @@ inline constexpr std::array<std::string_view, 12> kFrameParameters = {
     "target", "width",   "height", "format",  "quality", "eye",
     "look_at", "fov",    "markers", "exposure", "technique", "antialias"};
 // GET /v1/sessions/{id}/frame: camera and settings come from the session.
-inline constexpr std::array<std::string_view, 8> kSessionFrameParameters = {
+inline constexpr std::array<std::string_view, 9> kSessionFrameParameters = {
     "target", "format", "width", "height", "quality", "time", protocol::query::kDepthConvention,
-    "token"};
+    protocol::query::kSpace, "token"};
 // GET /v1/sessions/{id}/stream.
 inline constexpr std::array<std::string_view, 10> kStreamParameters = {
     "target", "format",  "fps",   "width",       "height",
@@ -63,6 +63,9 @@ struct FrameRequest {
   std::optional<double> time;         // session frames: animation time asked for, in seconds
   // Session frames, raw depth only: metres to the camera centre instead of along the view axis.
   bool depthDistance = false;
+  // Session frames, raw position and normal only: in camera space (OpenCV axes, the frame's
+  // X-Myriad-Pose) instead of world space.
+  bool cameraSpace = false;
   uint32_t fps = kDefaultStreamFps;   // streams only
   std::optional<VideoStreamRequest> video;  // streams with codec= only: video, not images
   // Streams only: frames a second to hold while the session changes (interactive_quality.h);

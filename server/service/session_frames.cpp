@@ -132,6 +132,24 @@ EncodedFrame encodeLabels(const render::Frame& frame, const FrameRequest& reques
   return out;
 }
 
+std::vector<float> inCameraSpace(const render::Frame& frame, const scene::Camera& camera,
+                                 bool points) {
+  // World to camera: R^T (p - t) for points, R^T n for directions (the pose is rigid).
+  const glm::mat4 cameraFromWorld = glm::inverse(scene::worldFromCamera(camera));
+  std::vector<float> out(frame.data.size(), 0.0f);
+  const size_t pixels = size_t(frame.width) * frame.height;
+  for (size_t i = 0; i < pixels && i * 4 + 3 < frame.data.size(); ++i) {
+    const glm::vec3 v(frame.data[i * 4], frame.data[i * 4 + 1], frame.data[i * 4 + 2]);
+    // Where nothing is, the views hold zeros: left zero, not moved to the eye.
+    const bool empty = v == glm::vec3(0.0f);
+    const glm::vec3 c = empty ? v : glm::vec3(cameraFromWorld * glm::vec4(v, points ? 1.0f : 0.0f));
+    out[i * 4] = c.x;
+    out[i * 4 + 1] = c.y;
+    out[i * 4 + 2] = c.z;
+  }
+  return out;
+}
+
 std::vector<float> depthAsDistance(const render::Frame& frame, const scene::Camera& camera) {
   // The depth view holds z (metres along the view axis), or `far` where there is no surface.
   // Along the ray through a pixel's centre, distance = z * |(u - cx) / fx, (v - cy) / fy, 1|.
@@ -186,6 +204,11 @@ EncodedFrame encodeFrame(const render::Frame& frame, const FrameRequest& request
           request.depthDistance
               ? encode::packRaw(frame.width, frame.height,
                                 depthAsDistance(frame, request.settings.camera), 1)
+          : request.cameraSpace
+              ? encode::packRaw(frame.width, frame.height,
+                                inCameraSpace(frame, request.settings.camera,
+                                              target == render::Target::Position),
+                                3)
               : encode::packRaw(frame.width, frame.height, frame.data,
                                 render::rawChannels(target).size());
       out.body.assign(reinterpret_cast<const char*>(raw.data()), raw.size());
@@ -195,6 +218,9 @@ EncodedFrame encodeFrame(const render::Frame& frame, const FrameRequest& request
       out.headers.emplace_back(protocol::headers::kChannels, joined(render::rawChannels(target)));
       out.headers.emplace_back(protocol::headers::kTarget, std::string(render::targetName(target)));
       out.headers.emplace_back(protocol::headers::kDtype, "float32");
+      if (target == render::Target::Position || target == render::Target::Normal) {
+        out.headers.emplace_back(protocol::headers::kSpace, request.cameraSpace ? "camera" : "world");
+      }
       if (target == render::Target::Depth) {
         out.headers.emplace_back(protocol::headers::kDepth, request.depthDistance ? "distance" : "z");
       }

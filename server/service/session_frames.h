@@ -41,6 +41,10 @@ EncodedFrame encodeLabels(const render::Frame& frame, const FrameRequest& reques
 // X-Myriad-Intrinsics and X-Myriad-Pose of a width x height frame through `camera`.
 std::vector<std::pair<std::string, std::string>> cameraHeaders(const scene::Camera& camera,
                                                                uint32_t width, uint32_t height);
+// A raw position or normal frame (frame.data, 4 floats a pixel, world space) in camera space
+// (scene::worldFromCamera's axes): `points` for positions, else directions. Zero stays zero.
+std::vector<float> inCameraSpace(const render::Frame& frame, const scene::Camera& camera,
+                                 bool points);
 // A raw depth frame's z values (frame.data, 4 floats a pixel) as distances to the camera centre,
 // in the same layout (the distance first of each pixel's 4 floats).
 std::vector<float> depthAsDistance(const render::Frame& frame, const scene::Camera& camera);

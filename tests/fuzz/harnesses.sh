@@ -84,6 +84,16 @@ fuzz_triage_model() {
     if ! grep -qE '^ +#0 ' <<<"$replay"; then
       replay=$("$binary" -runs=1 -timeout=25 "$input" 2>&1)
     fi
+    # A timeout's alarm lands wherever the loop is. Landing in code built without frame pointers
+    # (libstdc++'s string growth, called by Assimp's SMD importer), the fast unwinder stops there
+    # and the stack shows no Assimp frame (seen in CI-like runs: "crashes outside Assimp: #4 ...
+    # _M_replace", "#6 ... __do_dyncast").
+    # Each replay's alarm lands elsewhere in the loop: up to three more (12 s each, the slow
+    # unwinder) until one shows the Assimp frames.
+    for _ in 1 2 3; do
+      if [[ $input != */timeout-* ]] || grep -q 'libassimp\.so' <<<"$replay"; then break; fi
+      replay=$(ASAN_OPTIONS="$ASAN_OPTIONS:fast_unwind_on_fatal=0" "$binary" -runs=1 -timeout=12 "$input" 2>&1)
+    done
     if [[ $input == */timeout-* ]] && ! grep -q 'ERROR: libFuzzer: timeout' <<<"$replay"; then
       # Under 25 s when run alone: the machine was busy (the timeout is wall-clock time).
       echo "fuzz_model: $input does not time out when replayed; set aside in $artifacts/slow"
