@@ -128,7 +128,26 @@ glm::vec3 storeNormal(glm::vec3 n) {
 
 uint8_t toByte(float x) { return static_cast<uint8_t>(std::round(glm::clamp(x, 0.0f, 1.0f) * 255.0f)); }
 
+// The ray through pixel (x, y)'s centre: from the near plane towards the far plane's point.
+struct PixelRay {
+  glm::vec3 origin;
+  glm::vec3 dir;  // unit
+  glm::vec3 far;  // the far plane's point
+};
+PixelRay pixelRay(const glm::mat4& inverseViewProjection, uint32_t x, uint32_t y, uint32_t width,
+                  uint32_t height) {
+  const glm::vec2 ndc((x + 0.5f) / width * 2.0f - 1.0f, (y + 0.5f) / height * 2.0f - 1.0f);
+  const glm::vec4 nearPoint = inverseViewProjection * glm::vec4(ndc, 0.0f, 1.0f);
+  const glm::vec4 farPoint = inverseViewProjection * glm::vec4(ndc, 1.0f, 1.0f);
+  PixelRay ray;
+  ray.origin = glm::vec3(nearPoint) / nearPoint.w;
+  ray.far = glm::vec3(farPoint) / farPoint.w;
+  ray.dir = glm::normalize(ray.far - ray.origin);
+  return ray;
+}
+
 }  // namespace
+
 
 GpuPointLight packLight(const scene::PointLight& l) {
   const bool inverseSquare = l.attenuation == scene::Attenuation::InverseSquare;
@@ -198,13 +217,9 @@ std::vector<glm::uvec4> referenceLabels(const scene::Scene& scene, const FrameSe
   std::vector<glm::uvec4> labels(size_t(s.width) * s.height, glm::uvec4(0));
   for (uint32_t y = 0; y < s.height; ++y) {
     for (uint32_t x = 0; x < s.width; ++x) {
-      const glm::vec2 ndc((x + 0.5f) / s.width * 2.0f - 1.0f, (y + 0.5f) / s.height * 2.0f - 1.0f);
-      const glm::vec4 nearPoint = inverse * glm::vec4(ndc, 0.0f, 1.0f);
-      const glm::vec4 farPoint = inverse * glm::vec4(ndc, 1.0f, 1.0f);
-      const glm::vec3 origin = glm::vec3(nearPoint) / nearPoint.w;
-      const glm::vec3 dir = glm::normalize(glm::vec3(farPoint) / farPoint.w - origin);
+      const PixelRay ray = pixelRay(inverse, x, y, s.width, s.height);
       Hit hit;
-      for (const Triangle& tri : triangles) intersect(tri, origin, dir, hit);
+      for (const Triangle& tri : triangles) intersect(tri, ray.origin, ray.dir, hit);
       if (hit.t == std::numeric_limits<float>::max()) continue;
       const glm::vec4 clip = viewProjection * glm::vec4(hit.position, 1.0f);
       if (clip.z / clip.w > 1.0f) continue;  // beyond the far plane
@@ -259,11 +274,9 @@ std::vector<uint8_t> renderReference(const scene::Scene& scene, const FrameSetti
   std::vector<uint8_t> image(size_t(s.width) * s.height * 4);
   for (uint32_t y = 0; y < s.height; ++y) {
     for (uint32_t x = 0; x < s.width; ++x) {
-      glm::vec2 ndc((x + 0.5f) / s.width * 2.0f - 1.0f, (y + 0.5f) / s.height * 2.0f - 1.0f);
-      glm::vec4 nearPoint = inverse * glm::vec4(ndc, 0.0f, 1.0f);
-      glm::vec4 farPoint = inverse * glm::vec4(ndc, 1.0f, 1.0f);
-      glm::vec3 origin = glm::vec3(nearPoint) / nearPoint.w;
-      glm::vec3 dir = glm::normalize(glm::vec3(farPoint) / farPoint.w - origin);
+      const PixelRay ray = pixelRay(inverse, x, y, s.width, s.height);
+      const glm::vec3 origin = ray.origin;
+      const glm::vec3 dir = ray.dir;
       Hit hit;
       for (const Triangle& tri : triangles) intersect(tri, origin, dir, hit);
       bool found = hit.t < std::numeric_limits<float>::max();
@@ -287,7 +300,7 @@ std::vector<uint8_t> renderReference(const scene::Scene& scene, const FrameSetti
         case Target::Final: {
           glm::vec3 hdr = half3(s.background);
           if (!found && environmentOn && s.environment.background) {
-            glm::vec3 d = glm::normalize(glm::vec3(farPoint) / farPoint.w - s.camera.eye);
+            glm::vec3 d = glm::normalize(ray.far - s.camera.eye);
             hdr = half3(shading::environmentBackground(d, rotationCos, rotationSin,
                                                        s.environment.intensity));
           }
