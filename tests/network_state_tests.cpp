@@ -1,0 +1,2 @@
+// Filled in by issue 31 work.
+#include <doctest/doctest.h>
