@@ -1,0 +1,16 @@
+// What a route handler may ask of the HTTP connection it is answering on (service/http_server.cpp
+// owns connections; it reads each request head itself, with bounds, before a worker runs it).
+#pragma once
+
+#include <chrono>
+
+namespace myriad::service::connection {
+
+// A client that takes no byte of the response for this long loses the connection (the write
+// fails, as if it had gone). Applies to the calling worker's current connection until its
+// response is written; a long-lived stream sets a short limit so a reader that stopped reading
+// frees its slot. Default: kDefaultWriteStall. Outside a request (a unit test) it does nothing.
+inline constexpr std::chrono::milliseconds kDefaultWriteStall{30000};
+void setWriteStallLimit(std::chrono::milliseconds limit);
+
+}  // namespace myriad::service::connection
