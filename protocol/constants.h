@@ -145,10 +145,13 @@ inline constexpr std::string_view kMaxLightsPerSession = "maxLightsPerSession"; 
 inline constexpr std::string_view kMaxUploadBytes = "maxUploadBytes";            // --max-upload-bytes
 inline constexpr std::string_view kMaxBodyBytes = "maxBodyBytes";                // --max-body-bytes
 inline constexpr std::string_view kMaxStreams = "maxStreams";                    // --max-streams
+inline constexpr std::string_view kMaxStreamsPerSession = "maxStreamsPerSession";  // --max-streams-per-session
 inline constexpr std::string_view kMaxRequestsInFlight = "maxRequestsInFlight";  // --max-requests
 inline constexpr std::string_view kSessionIdleSeconds = "sessionIdleSeconds";    // --session-idle-seconds
 inline constexpr std::string_view kMaxObjectsPerSession = "maxObjectsPerSession";  // --max-objects
 inline constexpr std::string_view kMaxAssetsPerSession = "maxAssetsPerSession";    // fixed: 64
+inline constexpr std::string_view kMaxFrameSeconds = "maxFrameSeconds";            // --max-frame-seconds
+inline constexpr std::string_view kMaxMemoryBytes = "maxMemoryBytes";              // --max-memory
 }  // namespace limits
 
 // Headers.

@@ -554,6 +554,9 @@ void members(Tag<Limits>, F f) {
   f("maxUploadBytes", &Limits::maxUploadBytes);
   f("maxBodyBytes", &Limits::maxBodyBytes);
   f("maxStreams", &Limits::maxStreams);
+  f("maxStreamsPerSession", &Limits::maxStreamsPerSession);
+  f("maxMemoryBytes", &Limits::maxMemoryBytes);
+  f("maxFrameSeconds", &Limits::maxFrameSeconds);
   f("maxRequestsInFlight", &Limits::maxRequestsInFlight);
   f("sessionIdleSeconds", &Limits::sessionIdleSeconds);
 }

@@ -553,8 +553,11 @@ struct Limits {
   uint64_t maxUploadBytes = 0;
   uint64_t maxBodyBytes = 0;
   uint64_t maxStreams = 0;
+  std::optional<uint64_t> maxStreamsPerSession;  // absent from servers before it existed
   uint64_t maxRequestsInFlight = 0;
   uint64_t sessionIdleSeconds = 0;
+  std::optional<uint64_t> maxMemoryBytes;  // absent from servers before it existed
+  std::optional<uint64_t> maxFrameSeconds;  // likewise
 };
 
 struct DeviceSummary {

@@ -14,6 +14,7 @@
 #include <vector>
 
 #include <pthread.h>
+#include <sys/resource.h>
 
 #include "gpu/context.h"
 #include "loader/library.h"
@@ -22,10 +23,34 @@
 #include "scene/model_loader.h"
 #include "service/batch.h"
 #include "service/http_server.h"
+#include "service/memory_budget.h"
 #include "service/options.h"
 #include "service/startup.h"
 
 namespace {
+
+// Raises the open-file limit to what the system allows, so --max-connections can be honoured; the
+// connection cap stays below it, with room for model files, the GPU driver and the state
+// directory, and a smaller one is said.
+uint32_t descriptorsFor(uint32_t maxConnections) {
+  constexpr rlim_t kReserved = 256;
+  rlimit limit{};
+  if (getrlimit(RLIMIT_NOFILE, &limit) != 0) return maxConnections;
+  if (limit.rlim_cur < limit.rlim_max) {
+    limit.rlim_cur = limit.rlim_max;
+    setrlimit(RLIMIT_NOFILE, &limit);
+    getrlimit(RLIMIT_NOFILE, &limit);
+  }
+  if (limit.rlim_cur == RLIM_INFINITY || limit.rlim_cur >= maxConnections + kReserved) {
+    return maxConnections;
+  }
+  const auto allowed = static_cast<uint32_t>(std::max<rlim_t>(limit.rlim_cur, 2 * kReserved) - kReserved);
+  std::fprintf(stderr,
+               "myriad-server: --max-connections %u is more than the open-file limit allows; "
+               "using %u\n",
+               maxConnections, allowed);
+  return allowed;
+}
 
 using namespace myriad;
 
@@ -47,8 +72,12 @@ service::ApiConfig apiConfig(const service::Options& options, uint32_t maxResolu
   limits.maxUploadBytes = options.maxUploadBytes;
   limits.maxBodyBytes = options.maxBodyBytes;
   limits.maxStreams = options.maxStreams;
+  limits.maxStreamsPerSession = options.maxStreamsPerSession;
   limits.maxRequestsInFlight = options.maxRequestsInFlight;
   limits.sessionIdleSeconds = options.sessionIdleSeconds;
+  limits.maxFrameSeconds = options.maxFrameSeconds;
+  limits.maxMemoryBytes =
+      options.maxMemoryBytes != 0 ? options.maxMemoryBytes : service::defaultMemoryLimit();
   api.apiKey = options.apiKey;
   // The environment keeps the key out of `ps` output; the flag wins when both are given.
   if (const char* key = std::getenv("MYRIAD_API_KEY"); !api.apiKey && key && *key) api.apiKey = key;
@@ -81,6 +110,7 @@ int run(const service::Options& options, const sigset_t& shutdownSignals) {
   } catch (const std::exception& e) {
     return fail(std::string("cannot start the renderer: ") + e.what());
   }
+  renderThread->setFrameBudgetMilliseconds(1000.0 * options.maxFrameSeconds);
   const render::DeviceSummary& device = renderThread->device();
   std::fprintf(stderr, "myriad-server: rendering on %s\n", service::describeDevice(device).c_str());
   if (device.isCpu) {
@@ -97,6 +127,9 @@ int run(const service::Options& options, const sigset_t& shutdownSignals) {
   config.host = options.host;
   config.port = options.port;
   config.threads = options.threads;
+  config.connections.maxConnections = descriptorsFor(options.maxConnections);
+  config.connections.maxConnectionsPerClient = options.maxConnectionsPerClient;
+  config.connections.headTimeout = std::chrono::seconds(options.headerTimeoutSeconds);
   config.maxResolution = std::min(options.maxResolution, renderThread->maxDimension());
   config.validation = options.validate;
   config.technique = options.technique;
@@ -112,7 +145,11 @@ int run(const service::Options& options, const sigset_t& shutdownSignals) {
   std::unique_ptr<service::StateStore> state;
   if (options.stateDir) {
     try {
-      state = std::make_unique<service::StateStore>(*options.stateDir);
+      // Read back no larger than this server writes: a file over that was not written by it.
+      state = std::make_unique<service::StateStore>(
+          *options.stateDir,
+          service::stateLimitsFor(options.maxUploadBytes, options.maxLightsPerSession,
+                                  options.maxObjectsPerSession));
     } catch (const std::exception& e) {
       return fail(e.what());
     }

@@ -400,7 +400,10 @@ TEST_CASE("GET /v1/frame: format and quality") {
 }
 
 TEST_CASE("streams: animated parts, idle re-sends, the end on DELETE, limits, stats, metrics") {
-  ServerProcess server({"--lights", "64", "--max-streams", "2"});
+  // One session may hold both places (the per-session share is tested in network_streams), so
+  // that the same session's third stream meets the server's limit and replaces its oldest.
+  ServerProcess server(
+      {"--lights", "64", "--max-streams", "2", "--max-streams-per-session", "2"});
   REQUIRE(server.start() == ServerProcess::Start::Listening);
   auto client = clientFor(server);
   ApiClient api(server);

@@ -195,6 +195,17 @@ TEST_CASE("metrics exposition: counters per route template, cumulative histogram
   CHECK(text.find("myriad_frame_seconds_bucket{le=\"+Inf\"} 3\n") != std::string::npos);
   CHECK(text.find("myriad_frame_seconds_count 3\n") != std::string::npos);
   CHECK(text.find("myriad_frame_seconds_sum 100.2") != std::string::npos);
+  // The queue wait: its own histogram, the same buckets; nothing observed yet.
+  CHECK(text.find("# TYPE myriad_frame_queue_seconds histogram\n") != std::string::npos);
+  CHECK(text.find("myriad_frame_queue_seconds_count 0\n") != std::string::npos);
+  metrics.observeQueueWait(0.04);
+  metrics.observeQueueWait(1.5);
+  const std::string waits = metrics.exposition({3, 1, 4096, 0});
+  CHECK(waits.find("myriad_frame_queue_seconds_bucket{le=\"0.05\"} 1\n") != std::string::npos);
+  CHECK(waits.find("myriad_frame_queue_seconds_bucket{le=\"2.5\"} 2\n") != std::string::npos);
+  CHECK(waits.find("myriad_frame_queue_seconds_count 2\n") != std::string::npos);
+  CHECK(waits.find("myriad_frame_queue_seconds_sum 1.54") != std::string::npos);
+  CHECK(waits.find("myriad_frame_seconds_count 3\n") != std::string::npos);
   CHECK(text.find("myriad_sessions 3\n") != std::string::npos);
   CHECK(text.find("myriad_streams 1\n") != std::string::npos);
   CHECK(text.find("myriad_gpu_memory_bytes 4096\n") != std::string::npos);
@@ -209,6 +220,18 @@ TEST_CASE("stream parts: the contract's framing") {
   CHECK(service::multipartPart("image/png", std::string(3, '\0'), 8, false) ==
         std::string("Content-Type: image/png\r\nContent-Length: 3\r\nX-Myriad-Frame: 8\r\n\r\n") +
             std::string(3, '\0') + "\r\n--myriad-frame\r\n");
+}
+
+TEST_CASE("stream parts: a stream that ends for a reason says it in a last problem part") {
+  const service::Problem revoked = service::unauthorized("Revoked.");
+  const std::string body = service::toBody(revoked);
+  CHECK(body.find(R"("detail":"Revoked.")") != std::string::npos);
+  CHECK(service::problemPart(revoked, false) ==
+        "Content-Type: application/problem+json\r\nContent-Length: " +
+            std::to_string(body.size()) + "\r\n\r\n" + body + "\r\n--myriad-frame\r\n");
+  // Before any frame: the opening boundary too.
+  CHECK(service::problemPart(revoked, true) ==
+        "--myriad-frame\r\n" + service::problemPart(revoked, false));
 }
 
 TEST_CASE("stream parts: an interactive part names its render scale") {
@@ -350,6 +373,43 @@ TEST_CASE("stream registry: maxStreams places, a session's newest replaces its o
   CHECK_FALSE(registry.open(session));
   fromOther.reset();
   CHECK(registry.count() == 0);
+}
+
+TEST_CASE("stream registry: a session holds at most its share; the server's limit still replaces") {
+  using Refusal = service::StreamRegistry::Refusal;
+  service::StreamRegistry registry(4);
+  auto greedy = std::make_shared<service::Session>("s-0123456789abcdef", std::string(64, 'a'));
+  auto other = std::make_shared<service::Session>("s-fedcba9876543210", std::string(64, 'b'));
+  auto third = std::make_shared<service::Session>("s-00112233445566ff", std::string(64, 'c'));
+  Refusal refusal = Refusal::stopping;
+  auto first = registry.open(greedy, 2, {}, &refusal);
+  CHECK(refusal == Refusal::none);
+  auto second = registry.open(greedy, 2, {}, &refusal);
+  REQUIRE(first);
+  REQUIRE(second);
+  // Its share taken, with places left on the server: refused, and nothing of its own replaced.
+  CHECK_FALSE(registry.open(greedy, 2, {}, &refusal));
+  CHECK(refusal == Refusal::maxStreamsPerSession);
+  CHECK_FALSE(first->replaced());
+  CHECK(registry.count() == 2);
+  // Another session still gets its places.
+  auto fromOther = registry.open(other, 2, {}, &refusal);
+  CHECK(fromOther);
+  CHECK(refusal == Refusal::none);
+  auto fromThird = registry.open(third, 2, {}, &refusal);
+  CHECK(fromThird);
+  CHECK(registry.count() == 4);
+  // Full: a session with a stream replaces its own oldest (within its share), others get 429.
+  auto replacing = registry.open(other, 2, {}, &refusal);
+  REQUIRE(replacing);
+  CHECK(fromOther->replaced());
+  CHECK(registry.count() == 4);
+  auto newcomer = std::make_shared<service::Session>("s-ffeeddccbbaa9988", std::string(64, 'd'));
+  CHECK_FALSE(registry.open(newcomer, 2, {}, &refusal));
+  CHECK(refusal == Refusal::maxStreams);
+  registry.shutdown();
+  CHECK_FALSE(registry.open(newcomer, 2, {}, &refusal));
+  CHECK(refusal == Refusal::stopping);
 }
 
 TEST_CASE("encodeFrame: raw frames carry their size, channels and target; images their type") {

@@ -524,22 +524,39 @@ TEST_CASE("start-up failures are one sentence and a non-zero exit") {
   requireCleanStop(first);
 }
 
-TEST_CASE("http: a client that never finishes its request holds a shutdown no longer than --shutdown-grace") {
-  ServerProcess server({"--lights", "8", "--shutdown-grace", "2"});
-  requireListening(server);
-  // A request whose headers never end: one header line a second (slowloris), on its own thread.
+namespace {
+int connectLoopback(int port) {
   const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
   REQUIRE(fd >= 0);
   sockaddr_in address{};
   address.sin_family = AF_INET;
-  address.sin_port = htons(uint16_t(server.port()));
+  address.sin_port = htons(uint16_t(port));
   ::inet_pton(AF_INET, "127.0.0.1", &address.sin_addr);
   REQUIRE(::connect(fd, reinterpret_cast<sockaddr*>(&address), sizeof address) == 0);
+  return fd;
+}
+}  // namespace
+
+TEST_CASE("http: a client that never finishes its request holds a shutdown no longer than --shutdown-grace") {
+  ServerProcess server({"--lights", "8", "--shutdown-grace", "2"});
+  requireListening(server);
+  // Two slow clients, each on its own thread, a line or a byte a second: one whose head never
+  // ends (slowloris: it never reaches a worker, so it holds nothing), one whose body never ends
+  // (a worker reads it: the request is in flight, and the grace bounds the wait for it).
+  const int slowHead = connectLoopback(server.port());
+  const int slowBody = connectLoopback(server.port());
+  REQUIRE(slowHead >= 0);
+  REQUIRE(slowBody >= 0);
   std::atomic<bool> done{false};
   std::thread slow([&] {
     std::string line = "GET /v1/health HTTP/1.1\r\nHost: x\r\n";
+    const std::string post =
+        "POST /v1/sessions HTTP/1.1\r\nHost: x\r\nContent-Type: application/json\r\n"
+        "Content-Length: 1000\r\n\r\n{";
+    ::send(slowBody, post.data(), post.size(), MSG_NOSIGNAL);
     for (int i = 0; !done && i < 120; ++i) {
-      if (::send(fd, line.data(), line.size(), MSG_NOSIGNAL) < 0) break;
+      ::send(slowHead, line.data(), line.size(), MSG_NOSIGNAL);
+      ::send(slowBody, " ", 1, MSG_NOSIGNAL);
       line = "X-Slow-" + std::to_string(i) + ": 1\r\n";
       std::this_thread::sleep_for(std::chrono::seconds(1));
     }
@@ -552,7 +569,8 @@ TEST_CASE("http: a client that never finishes its request holds a shutdown no lo
       std::chrono::duration<double>(std::chrono::steady_clock::now() - signalled).count();
   done = true;
   slow.join();
-  ::close(fd);
+  ::close(slowHead);
+  ::close(slowBody);
   INFO("server stderr:\n", server.stderrText());
   REQUIRE(status.has_value());
   CHECK(status->describe() == "exit 0");
@@ -599,17 +617,6 @@ TEST_CASE("http: three requests on one kept-alive connection take about as long 
 }
 
 namespace {
-
-int connectLoopback(int port) {
-  const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
-  REQUIRE(fd >= 0);
-  sockaddr_in address{};
-  address.sin_family = AF_INET;
-  address.sin_port = htons(uint16_t(port));
-  ::inet_pton(AF_INET, "127.0.0.1", &address.sin_addr);
-  REQUIRE(::connect(fd, reinterpret_cast<sockaddr*>(&address), sizeof address) == 0);
-  return fd;
-}
 
 struct ChunkedUpload {
   uint64_t sentBytes = 0;    // body bytes the server took before it answered or closed

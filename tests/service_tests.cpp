@@ -99,6 +99,7 @@ TEST_CASE("options: defaults") {
   CHECK(o.maxUploadBytes == 64ull << 20);
   CHECK(o.maxBodyBytes == 1ull << 20);
   CHECK(o.maxStreams == 8);
+  CHECK(o.maxStreamsPerSession == 4);
   CHECK(o.maxRequestsInFlight == 64);
   CHECK(o.sessionIdleSeconds == 600);
   CHECK_FALSE(o.modelsDir.has_value());
@@ -128,6 +129,9 @@ TEST_CASE("options: every flag, in both spellings") {
   CHECK(o.technique == render::Technique::Tiled);
   CHECK(parse({}).technique == render::Technique::Clustered);
   CHECK(parse({"--technique=volumes"}).technique == render::Technique::Volumes);
+  CHECK(parse({}).maxFrameSeconds == 120);
+  CHECK(parse({"--max-frame-seconds", "0"}).maxFrameSeconds == 0);
+  CHECK(parse({"--max-frame-seconds=40"}).maxFrameSeconds == 40);
   CHECK(parse({}).framesInFlight == 2);
   CHECK(parse({"--frames-in-flight", "1"}).framesInFlight == 1);
   CHECK(parse({"--frames-in-flight=4"}).framesInFlight == 4);
@@ -153,6 +157,12 @@ TEST_CASE("options: session limits, library, key and CORS") {
   CHECK(o.maxUploadBytes == 4096);
   CHECK(o.maxBodyBytes == 2048);
   CHECK(o.maxStreams == 2);
+  CHECK(o.maxStreamsPerSession == 1);  // half of --max-streams, rounded up
+  CHECK(parse({"--max-streams", "5"}).maxStreamsPerSession == 3);
+  CHECK(parse({"--max-streams", "0"}).maxStreamsPerSession == 1);
+  CHECK(parse({"--max-streams-per-session", "6", "--max-streams", "2"}).maxStreamsPerSession == 6);
+  CHECK(usageErrorOf({"--max-streams-per-session", "0"}).find("--max-streams-per-session") !=
+        std::string::npos);
   CHECK(o.maxRequestsInFlight == 5);
   CHECK(o.sessionIdleSeconds == 1);
   CHECK(o.modelsDir == std::optional<std::string>("/srv/models"));
@@ -212,10 +222,11 @@ TEST_CASE("options: usage lists every flag") {
   std::string text = service::usage();
   for (const char* flag :
        {"--host", "--port", "--device", "--validate", "--model", "--lights", "--seed",
-        "--max-resolution", "--threads", "--max-queued-frames", "--frames-in-flight",
+        "--max-resolution", "--threads", "--max-queued-frames", "--max-frame-seconds",
+        "--frames-in-flight",
         "--overlap-frames", "--max-sessions", "--max-lights",
-        "--max-upload-bytes", "--max-body-bytes", "--max-streams", "--max-requests",
-        "--session-idle-seconds", "--models", "--api-key", "--cors-origin", "--help"}) {
+        "--max-upload-bytes", "--max-body-bytes", "--max-streams", "--max-streams-per-session",
+        "--max-requests", "--session-idle-seconds", "--models", "--api-key", "--cors-origin", "--help"}) {
     CHECK(text.find(flag) != std::string::npos);
   }
 }

@@ -33,7 +33,10 @@ void printInfo(std::ostream& out, const protocol::Info& info) {
                            std::to_string(l.sessionIdleSeconds) + " s at most"},
       {"max lights", std::to_string(l.maxLightsPerSession) + " per session"},
       {"max upload", formatBytes(l.maxUploadBytes)},
-      {"max streams", std::to_string(l.maxStreams)},
+      {"max streams", std::to_string(l.maxStreams) +
+                          (l.maxStreamsPerSession
+                               ? ", " + std::to_string(*l.maxStreamsPerSession) + " per session"
+                               : std::string())},
   });
 }
 

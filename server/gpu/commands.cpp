@@ -1,5 +1,8 @@
 #include "gpu/commands.h"
 
+#include <algorithm>
+#include <numeric>
+
 #include "gpu/vk_check.h"
 
 namespace myriad::gpu {
@@ -25,6 +28,26 @@ void barrier(VkCommandBuffer cmd, std::span<const ImageTransition> transitions) 
   dependency.imageMemoryBarrierCount = static_cast<uint32_t>(barriers.size());
   dependency.pImageMemoryBarriers = barriers.data();
   vkCmdPipelineBarrier2(cmd, &dependency);
+}
+
+void dispatchGroupRange(VkCommandBuffer cmd, uint32_t groupsX, uint32_t groupsY, uint32_t first,
+                        uint32_t count) {
+  const uint64_t total = uint64_t(groupsX) * groupsY;
+  if (groupsX == 0 || first >= total) return;
+  const uint32_t end = static_cast<uint32_t>(std::min<uint64_t>(uint64_t(first) + count, total));
+  uint32_t at = first;
+  if (at % groupsX != 0) {  // the rest of a row begun
+    const uint32_t row = at / groupsX;
+    const uint32_t x = at % groupsX;
+    const uint32_t n = std::min(groupsX - x, end - at);
+    vkCmdDispatchBase(cmd, x, row, 0, n, 1, 1);
+    at += n;
+  }
+  if (const uint32_t rows = (end - at) / groupsX; rows > 0) {  // whole rows
+    vkCmdDispatchBase(cmd, 0, at / groupsX, 0, groupsX, rows, 1);
+    at += rows * groupsX;
+  }
+  if (at < end) vkCmdDispatchBase(cmd, 0, at / groupsX, 0, end - at, 1, 1);  // a row begun
 }
 
 void bufferBarrier(VkCommandBuffer cmd, const Buffer& buffer, VkPipelineStageFlags2 srcStage,
@@ -57,6 +80,58 @@ void memoryBarrier(VkCommandBuffer cmd, VkPipelineStageFlags2 srcStage, VkAccess
   dependency.memoryBarrierCount = 1;
   dependency.pMemoryBarriers = &b;
   vkCmdPipelineBarrier2(cmd, &dependency);
+}
+
+ScatteredGroups::ScatteredGroups(uint32_t groupsX, uint32_t groupsY, uint32_t block)
+    : groupsX_(groupsX), groupsY_(groupsY), block_(std::max(1u, std::min(block, std::max(groupsX, 1u)))) {
+  blocksPerRow_ = (groupsX_ + block_ - 1) / block_;
+  blocks_ = blocksPerRow_ * groupsY_;
+  stride_ = 1;
+  if (blocks_ > 2) {
+    stride_ = std::max(1u, uint32_t(double(blocks_) * 0.6180339887));
+    while (std::gcd(stride_, blocks_) != 1) ++stride_;
+  }
+}
+
+void ScatteredGroups::blockAt(uint32_t b, uint32_t& x, uint32_t& y, uint32_t& length) const {
+  const uint32_t block = uint32_t(uint64_t(b) * stride_ % blocks_);
+  y = block / blocksPerRow_;
+  x = block % blocksPerRow_ * block_;
+  length = std::min(block_, groupsX_ - x);
+}
+
+std::vector<std::pair<uint32_t, uint32_t>> ScatteredGroups::order() const {
+  std::vector<std::pair<uint32_t, uint32_t>> all;
+  all.reserve(groups());
+  for (uint32_t b = 0; b < blocks_; ++b) {
+    uint32_t x = 0;
+    uint32_t y = 0;
+    uint32_t length = 0;
+    blockAt(b, x, y, length);
+    for (uint32_t i = 0; i < length; ++i) all.emplace_back(x + i, y);
+  }
+  return all;
+}
+
+void ScatteredGroups::dispatch(VkCommandBuffer cmd, uint32_t first, uint32_t count) const {
+  // Find the block holding `first`, then one dispatch per block (or part of one) in the range.
+  uint32_t b = 0;
+  uint32_t x = 0;
+  uint32_t y = 0;
+  uint32_t length = 0;
+  uint32_t skip = first;
+  for (; b < blocks_; ++b) {
+    blockAt(b, x, y, length);
+    if (skip < length) break;
+    skip -= length;
+  }
+  for (; b < blocks_ && count > 0; ++b) {
+    if (skip == 0) blockAt(b, x, y, length);
+    const uint32_t n = std::min(length - skip, count);
+    vkCmdDispatchBase(cmd, x + skip, y, 0, n, 1, 1);
+    count -= n;
+    skip = 0;
+  }
 }
 
 CommandRecorder createCommandRecorder(Context& context) {
@@ -134,6 +209,8 @@ void PassTimer::reset(VkCommandBuffer cmd) {
 void PassTimer::beginPass(VkCommandBuffer cmd, const char* name) {
   if (!pool_ || off_ || written_ + 1 >= capacity_) return;
   if (frameOnly_ && written_ > 0) return;
+  // The pass that runs already, recorded on (a technique's step recorded in ranges): no mark.
+  if (!names_.empty() && names_.back() == name) return;
   // Frame boundaries only: the first timestamp at the top of the pipe waits for nothing, so the
   // frame's work may start while earlier frames' still runs (--overlap-frames).
   vkCmdWriteTimestamp2(cmd,

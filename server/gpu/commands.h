@@ -4,6 +4,7 @@
 
 #include <span>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <vulkan/vulkan.h>
@@ -44,6 +45,39 @@ void memoryBarrier(VkCommandBuffer cmd, VkPipelineStageFlags2 srcStage, VkAccess
 inline uint32_t groupCount(uint32_t items, uint32_t groupSize) {
   return (items + groupSize - 1) / groupSize;
 }
+
+// Workgroups [first, first + count) of a groupsX x groupsY grid, numbered row by row, dispatched
+// with their own workgroup ids (vkCmdDispatchBase: at most three dispatches, a part row, whole
+// rows, a part row). The bound compute pipeline must allow a base (createComputePipeline's do).
+// A pass over pixels recorded this way in several submissions equals the pass recorded whole.
+void dispatchGroupRange(VkCommandBuffer cmd, uint32_t groupsX, uint32_t groupsY, uint32_t first,
+                        uint32_t count);
+
+// The workgroups of a groupsX x groupsY pass over pixels in an order that spreads any run of them
+// over the whole image: blocks of `block` workgroups along a row, the blocks visited with a
+// stride coprime with their count (about 0.618 of it). A split frame shades ranges of this order,
+// so that the cost of the first ranges predicts the rest (in raster order a run of sky tiles
+// costs a thousandth of a run of long light lists below it). Any set of ranges covering
+// [0, groups()) dispatches every workgroup exactly once, as the pass recorded whole does.
+class ScatteredGroups {
+ public:
+  ScatteredGroups(uint32_t groupsX, uint32_t groupsY, uint32_t block);
+  uint32_t groups() const { return groupsX_ * groupsY_; }
+  // Every workgroup (x, y), in the order.
+  std::vector<std::pair<uint32_t, uint32_t>> order() const;
+  // Dispatches workgroups [first, first + count) of the order (one dispatch per block touched).
+  void dispatch(VkCommandBuffer cmd, uint32_t first, uint32_t count) const;
+
+ private:
+  uint32_t groupsX_;
+  uint32_t groupsY_;
+  uint32_t block_;
+  uint32_t blocksPerRow_;
+  uint32_t blocks_;
+  uint32_t stride_;  // coprime with blocks_
+  // The block at position `b` of the order: its first workgroup and its length.
+  void blockAt(uint32_t b, uint32_t& x, uint32_t& y, uint32_t& length) const;
+};
 
 // A primary command buffer, re-recorded every frame, and the fence its submission signals.
 struct CommandRecorder {

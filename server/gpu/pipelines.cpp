@@ -201,6 +201,9 @@ VkPipeline createComputePipeline(VkDevice device, VkPipelineLayout layout,
   info.stage = {VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO, nullptr, 0,
                 VK_SHADER_STAGE_COMPUTE_BIT, module, "main", specialization};
   info.layout = layout;
+  // Any compute pass may be recorded in ranges of its workgroups (a split frame's bounded
+  // submissions, render/renderer.h): vkCmdDispatchBase with a non-zero base needs this flag.
+  info.flags |= VK_PIPELINE_CREATE_DISPATCH_BASE_BIT;
   if (captureStatistics) info.flags |= VK_PIPELINE_CREATE_CAPTURE_STATISTICS_BIT_KHR;
   VkPipeline pipeline = VK_NULL_HANDLE;
   VkResult result = vkCreateComputePipelines(device, VK_NULL_HANDLE, 1, &info, nullptr, &pipeline);

@@ -8,6 +8,7 @@
 #include <memory>
 #include <optional>
 #include <span>
+#include <stdexcept>
 #include <string>
 #include <string_view>
 #include <utility>
@@ -405,7 +406,10 @@ struct Frame {
   // channels hold per target is rawChannels(target).
   std::vector<float> data;
   std::vector<PassTiming> passes;
-  double queueMs = 0.0;  // how long the frame waited in the render queue before rendering began
+  // How long the frame waited before its work began: from its submission to the render queue to
+  // the start of its first GPU work, including the time behind other frames' submissions
+  // (frames in flight, another frame's split parts), not only the render thread's queue.
+  double queueMs = 0.0;
   FrameTimes times;
   // GPU submissions the frame took: 1, or more for a frame split into slices (Renderer::SplitFrame)
   uint32_t submissions = 1;
@@ -422,6 +426,21 @@ struct Frame {
     uint32_t requested = 0;        // lights asking for one whose light reaches into the view
     uint32_t dropped = 0;          // of those, past maxShadowedLights: shaded unshadowed
   } lightShadows;
+};
+
+// A frame stopped because, its parts together, it took or would take the renderer longer than
+// the per-frame budget (Renderer::setFrameBudgetMilliseconds). The service answers it as 413
+// limit-exceeded naming the budget; a smaller frame, fewer lights or another technique fit.
+class FrameBudgetError : public std::runtime_error {
+ public:
+  FrameBudgetError(const std::string& what, double budgetMs, double elapsedMs, double projectedMs)
+      : std::runtime_error(what),
+        budgetMs(budgetMs),
+        elapsedMs(elapsedMs),
+        projectedMs(projectedMs) {}
+  double budgetMs;     // the budget
+  double elapsedMs;    // what the frame's parts took before it stopped
+  double projectedMs;  // what the whole frame was estimated to take then
 };
 
 }  // namespace myriad::render

@@ -398,11 +398,26 @@ void recordMarkerPass(VkCommandBuffer cmd, const Pipelines& p, const FrameTarget
   gpu::barrier(cmd, resolve);
 }
 
+VkExtent2D finalPassGroups(const Pipelines& p, const FrameTargets& t, Target target) {
+  const bool picture = target == Target::Final || target == Target::LightVolumes;
+  const uint32_t group = picture && !t.raw ? p.finalGroup : MYRIAD_PIXEL_GROUP;
+  return {gpu::groupCount(t.extent.width, group), gpu::groupCount(t.extent.height, group)};
+}
+
 void recordFinalPass(VkCommandBuffer cmd, const Pipelines& p, const FrameTargets& t, Target target,
                      bool markers, bool antialias, VkImageLayout hdrLayout,
-                     VkImageLayout lightCountLayout) {
+                     VkImageLayout lightCountLayout, uint32_t first, uint32_t count) {
   constexpr VkPipelineStageFlags2 kCompute = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT;
   const bool picture = target == Target::Final || target == Target::LightVolumes;
+  const VkPipeline pipeline = picture ? (t.raw ? p.finalRaw : p.finalFor(antialias, markers))
+                                      : (t.raw ? p.viewsRaw : p.views);
+  const VkExtent2D groups = finalPassGroups(p, t, target);
+  if (first > 0) {
+    // A later range of a split frame's pass: the first range made the layouts and the edge list.
+    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipeline);
+    gpu::dispatchGroupRange(cmd, groups.width, groups.height, first, count);
+    return;
+  }
   std::vector<ImageTransition> before = {
       writtenToSampled(t.hdr, hdrLayout),
       writtenToSampled(t.lightCount, lightCountLayout),
@@ -438,11 +453,8 @@ void recordFinalPass(VkCommandBuffer cmd, const Pipelines& p, const FrameTargets
                        VK_ACCESS_2_TRANSFER_WRITE_BIT, kCompute,
                        VK_ACCESS_2_SHADER_STORAGE_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT);
   }
-  VkPipeline pipeline = picture ? (t.raw ? p.finalRaw : p.finalFor(antialias, markers))
-                                : (t.raw ? p.viewsRaw : p.views);
   vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipeline);
-  const uint32_t group = picture && !t.raw ? p.finalGroup : MYRIAD_PIXEL_GROUP;
-  vkCmdDispatch(cmd, gpu::groupCount(t.extent.width, group), gpu::groupCount(t.extent.height, group), 1);
+  gpu::dispatchGroupRange(cmd, groups.width, groups.height, 0, count);
 }
 
 void recordAntialiasPass(VkCommandBuffer cmd, const Pipelines& p, const FrameTargets& t) {

@@ -98,10 +98,14 @@ void recordMarkerPass(VkCommandBuffer cmd, const Pipelines& p, const FrameTarget
 //    (`antialias`, as FrameUniforms.post.x says) to the LDR target for pass 5b. Other views: reads the G-buffer or light counts, writes the output.
 //    `hdrLayout` and `lightCountLayout` are where lighting (and blending) left them (GENERAL
 //    after compute, COLOR_ATTACHMENT after volumes or the blend pass). Leaves the output in
-//    GENERAL.
+//    GENERAL. `first` and `count` select workgroups of the pass (finalPassGroups, row by row) for
+//    a split frame; the first range makes the layouts and empties the edge list.
 void recordFinalPass(VkCommandBuffer cmd, const Pipelines& p, const FrameTargets& t, Target target,
                      bool markers, bool antialias, VkImageLayout hdrLayout,
-                     VkImageLayout lightCountLayout);
+                     VkImageLayout lightCountLayout, uint32_t first = 0,
+                     uint32_t count = UINT32_MAX);
+// The final pass's workgroups (across and down).
+VkExtent2D finalPassGroups(const Pipelines& p, const FrameTargets& t, Target target);
 // 5b. (final, 8-bit, antialias on) Reads the LDR target; writes the anti-aliased output.
 void recordAntialiasPass(VkCommandBuffer cmd, const Pipelines& p, const FrameTargets& t);
 // 5c. (light-volumes view) Reads depth and lights; adds each volume's coverage to the output.

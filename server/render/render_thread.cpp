@@ -193,18 +193,26 @@ std::future<Frame> RenderThread::submit(SceneId id, const FrameSettings& setting
         // Not started yet: a whole frame, or the first submission of a split one.
         const bool split = r.shouldSplit(id, settings);
         if (split && r.splitBusy()) return Step::Blocked;
-        pending->waitedMs = std::chrono::duration<double, std::milli>(
-                                std::chrono::steady_clock::now() - pending->queued)
-                                .count();
         if (split) {
           finishAll(r);  // the parts are waited for: answer the frames in flight first
+          // Its work begins now, on an idle GPU.
+          pending->waitedMs = pending->msSinceQueued(std::chrono::steady_clock::now());
+          r.setFrameBudgetMilliseconds(frameBudgetMs_.load());
           pending->split = r.beginSplit(id, settings);
           return Step::More;
         }
         // A whole frame: into a free slot (the oldest in flight finished first when none is).
         if (!r.canBegin()) finishOldest(r);
-        const uint32_t slot = r.beginFrame(id, settings);
-        inFlight_.push_back({slot, pending, counted, std::chrono::steady_clock::now()});
+        InFlight frame;
+        frame.pending = pending;
+        frame.counted = counted;
+        frame.begun = std::chrono::steady_clock::now();
+        frame.behind = !inFlight_.empty();
+        // Until its GPU work begins: now, or when the frames ahead of it are done (finishOldest).
+        pending->waitedMs = pending->msSinceQueued(frame.begun);
+        frame.slot = r.beginFrame(id, settings);
+        frame.submitted = std::chrono::steady_clock::now();
+        inFlight_.push_back(std::move(frame));
         if (framesInFlight_ == 1) finishOldest(r);  // the serial path
         return Step::InFlight;
       }
@@ -234,7 +242,14 @@ std::future<Frame> RenderThread::submit(SceneId id, const FrameSettings& setting
 void RenderThread::finishOldest(Renderer& renderer) {
   InFlight frame = std::move(inFlight_.front());
   inFlight_.pop_front();
+  // A frame submitted behind others began on the GPU when the one before it was seen done (the
+  // render thread looks between its turns, and waits for it before any split part or edit).
+  if (frame.behind && lastFrameDone_ > frame.begun) {
+    frame.pending->waitedMs = frame.pending->msSinceQueued(lastFrameDone_);
+  }
   try {
+    renderer.waitFrame(frame.slot, UINT64_MAX);
+    lastFrameDone_ = std::chrono::steady_clock::now();
     Frame result = renderer.finishFrame(frame.slot);
     result.queueMs = frame.pending->waitedMs;
     result.times.submitToAnswerMs = std::chrono::duration<double, std::milli>(

@@ -8,11 +8,14 @@
 // submitted); the thread takes the head of each scene's queue in turn (round-robin), so a scene
 // with many frames waiting (several streams, a burst of requests) delays another scene's frame by
 // at most one frame of each other scene, not by its whole backlog. A frame the renderer would
-// hold the GPU with for longer than Renderer::kSliceMilliseconds (volumes with many lights) is
-// split into submissions of about that length, and each is one turn: other scenes' frames run
-// between them (Renderer::SplitFrame; one split frame at a time, a second waits its turn while
-// others pass it). destroyScene drops its scene's frames still waiting or split (their futures
-// get std::invalid_argument) instead of rendering them for nobody.
+// hold the GPU with for longer than Renderer::kWholeFrameMilliseconds (any technique and size:
+// many lights, many pixels) is split into submissions of about Renderer::kSliceMilliseconds,
+// and each is one turn: other scenes' frames run between them (Renderer::SplitFrame; one split
+// frame at a time, a second waits its turn while others pass it); one over the frame budget
+// (setFrameBudgetMilliseconds) fails with FrameBudgetError. destroyScene drops its scene's frames
+// still waiting or split (their futures get std::invalid_argument) instead of rendering them for
+// nobody. A frame's queueMs ends where its work begins: its first part, or, behind frames in
+// flight, when the last of them was seen done.
 //
 // Frames in flight: a whole frame's turn records and submits it into a free frame slot of the
 // renderer (Renderer::beginFrame) without waiting, and the thread goes on to the next turn; the
@@ -90,6 +93,10 @@ class RenderThread final : public RenderQueue {
                             std::shared_ptr<const std::atomic<bool>> drop) override;
   using RenderQueue::submit;  // submit(settings): the default scene
   uint64_t gpuMemoryBytes() const override { return gpuMemoryBytes_.load(); }
+  // The most renderer time one frame may take (Renderer::setFrameBudgetMilliseconds; 0, the
+  // default: no limit). A frame over it fails with FrameBudgetError. Any thread, any time: frames
+  // split from then on use it.
+  void setFrameBudgetMilliseconds(double milliseconds) { frameBudgetMs_ = milliseconds; }
   // Renders the frames already queued, then releases the renderer and the device on the render
   // thread and joins it. Idempotent.
   void stop() override;
@@ -125,13 +132,20 @@ class RenderThread final : public RenderQueue {
     std::chrono::steady_clock::time_point queued = std::chrono::steady_clock::now();
     double waitedMs = -1.0;  // until the frame started
     std::unique_ptr<Renderer::SplitFrame> split;
+    // Milliseconds from `queued` to `t`.
+    double msSinceQueued(std::chrono::steady_clock::time_point t) const {
+      return std::chrono::duration<double, std::milli>(t - queued).count();
+    }
   };
   // A frame submitted and not finished (render thread only).
   struct InFlight {
     uint32_t slot = 0;
     std::shared_ptr<PendingFrame> pending;
     bool counted = false;
+    std::chrono::steady_clock::time_point begun;      // when its turn began recording it
     std::chrono::steady_clock::time_point submitted;  // when beginFrame returned
+    // Other frames were in flight ahead of it: its GPU work began when the one before it ended.
+    bool behind = false;
   };
   // Finishes the oldest frame in flight: reads it back and keeps its promise. Render thread.
   void finishOldest(Renderer& renderer);
@@ -157,6 +171,10 @@ class RenderThread final : public RenderQueue {
   const GpuTimestamps timestamps_;
   const GBufferPath gbuffer_;
   std::deque<InFlight> inFlight_;  // oldest first; the render thread's alone
+  // When the render thread saw the last frame it finished done on the GPU (render thread only):
+  // where the GPU work of a frame submitted behind it began (its queue wait ends there).
+  std::chrono::steady_clock::time_point lastFrameDone_;
+  std::atomic<double> frameBudgetMs_{0.0};
   SceneId defaultScene_ = 0;
   std::atomic<uint64_t> gpuMemoryBytes_{0};
   // Points into the context the render thread owns; valid from start-up until stop().

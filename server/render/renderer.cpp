@@ -5,6 +5,7 @@
 #include <chrono>
 #include <thread>
 #include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <optional>
 #include <stdexcept>
@@ -52,13 +53,39 @@ uint32_t gbufferWrites(const FrameSettings& s, const SceneBuffers& scene) {
   return written;
 }
 
-// Split frames (Renderer::SplitFrame): the fewest lights a range draws, and the first range of a
-// frame when no light pass has been measured yet (about 0.4 s at 160x90 on lavapipe, where a
-// light costs 0.05-0.09 ms).
-constexpr uint32_t kMinRangeLights = 256;
-constexpr uint32_t kFirstRangeLights = 4096;
-// Without a measurement, frames with more lights than this are split (the first range measures).
+// Split frames (Renderer::SplitFrame). A frame of a scene not measured yet (no frame of it with
+// that technique and about as many lights) splits when it has more lights than this, more pixels
+// than this, or more pixels x lights: on lavapipe (2 cores) a 1920x1080 frame of the built-in
+// scene's 256 lights takes about 0.5 s, 4096x4096 of 8 lights 3 s, 320x180 of a million
+// clustered lights a minute. Splitting a frame that did not need it costs a few submissions.
 constexpr uint32_t kUnmeasuredSplitLights = 65536;
+constexpr double kUnmeasuredSplitPixels = 2560.0 * 1440.0;
+constexpr double kUnmeasuredSplitPixelLights = 1920.0 * 1080.0 * 1024.0;
+// A measured frame's cost is taken as valid for frames of its scene and technique with between
+// half and twice its lights (cost ~ pixels x lights reaching them; fewer lights are not assumed
+// cheaper, more are scaled up).
+constexpr double kCostLightsRange = 2.0;
+// The first range of a step with many units, before any of them was measured: this fraction of
+// its units (at least one). Small: a light volume at 1920x1080 took 4.4 ms on lavapipe, and 1/1024
+// of a million of them held the queue for 4.3 s; 15 of them 66 ms, and the next range is sized
+// from that.
+constexpr uint32_t kFirstRangeShare = 65536;
+// A range weighs at most this many times the step's previous one, for units alike and not
+// (LightingTechnique::Step::unitsAlike): a few units measured cheap do not let the next range
+// take the rest of the step at once. Tiles differ most: a 16x16 tile of sky took 14 ms on
+// lavapipe beside a million clustered lights, one of the floor below it 160-900 ms.
+constexpr double kRangeGrowthAlike = 8.0;
+constexpr double kRangeGrowthUnlike = 2.0;
+// A step's ranges project the rest of it (for the frame budget) once one took this share of a
+// slice: shorter ones are mostly the part's own overhead (a submission, a barrier, a wait).
+constexpr double kWellMeasured = 0.25;
+// How far a step's cost estimate falls after a cheaper range (runSplitPart), for units alike
+// (the first ranges' part overhead fades in a few parts) and not (a costly tile keeps the
+// estimate up for several parts).
+constexpr double kEstimateDecayAlike = 0.5;
+constexpr double kEstimateDecayUnlike = 0.9;
+// A split frame projected past the frame budget stops once it has taken this share of it.
+constexpr double kProjectAfterShare = 0.1;
 
 // Readback buffers lent out with frames (FrameSettings::borrowPixels), at most: the frames in
 // flight plus those being encoded (one per stream or waiting request). Past it a frame is copied
@@ -94,6 +121,9 @@ struct Renderer::State {
     for (FrameSlot* slot : allSlots()) {
       slot->shadows = std::make_unique<ShadowMaps>(c);
       slot->timer = std::make_unique<gpu::PassTimer>(c, kMaxTimedPasses);
+    }
+    for (const auto& technique : techniques) {
+      splitTechniques.push_back(technique->splitInstance({c, pipelines}));
     }
   }
 
@@ -203,11 +233,26 @@ struct Renderer::State {
     }
   }
   bool splitBusy = false;
-  // The last measured cost of one light of a technique that splits (volumes), in milliseconds,
-  // and the output pixels it was measured at (0: not measured yet).
-  double msPerLight = 0.0;
-  double msPerLightPixels = 0.0;
   double sliceMs = kSliceMilliseconds;
+  double wholeFrameMs = kWholeFrameMilliseconds;
+  double frameBudgetMs = 0.0;  // setFrameBudgetMilliseconds; 0: none
+  // What the last frame of each scene cost (a whole frame's GPU time, a split frame's parts'
+  // host time), for estimateMilliseconds; forgotten when the scene is replaced or destroyed.
+  struct FrameCost {
+    Technique technique = Technique::Clustered;
+    double pixels = 0.0;
+    uint32_t lights = 0;
+    double ms = 0.0;
+  };
+  std::unordered_map<SceneId, FrameCost> costs;
+  // The split frame's instance of each technique (LightingTechnique::splitInstance; null: the
+  // technique's own serves it too). Index = Technique.
+  std::vector<std::unique_ptr<LightingTechnique>> splitTechniques;
+  LightingTechnique& splitTechnique(Technique t) {
+    LightingTechnique& own = technique(t);
+    const auto index = static_cast<size_t>(t);
+    return index < splitTechniques.size() && splitTechniques[index] ? *splitTechniques[index] : own;
+  }
   std::unordered_map<SceneId, std::unique_ptr<SceneBuffers>> scenes;
   // The BRDF table and the passes that build environments (created after the recorder).
   std::unique_ptr<EnvironmentPasses> environmentPasses;
@@ -265,13 +310,31 @@ struct Renderer::State {
   }
   void recordBeforeLighting(VkCommandBuffer cmd, FrameSlot& slot, SceneBuffers& scene,
                             SceneEnvironment* environment, const FrameSettings& settings);
+  // The passes after the lighting, as steps a split frame records in parts: the forward ones
+  // (blend, markers), the final pass (its workgroups in ranges), anti-aliasing with the overlay
+  // and the counters' copy, the readback. Units of each step for this frame (0: not recorded).
+  enum AfterStep : uint32_t { kForward, kFinal, kAntialias, kReadback, kAfterSteps };
+  uint32_t afterUnits(AfterStep step, const FrameSlot& slot, const SceneBuffers& scene,
+                      const FrameSettings& settings) const;
+  // Layouts the after-lighting steps hand on.
+  struct AfterLayouts {
+    VkImageLayout lighting;  // where the lighting left hdr and lightCount
+    VkImageLayout hdr;       // hdr after the blend pass
+    VkImageLayout output = VK_IMAGE_LAYOUT_GENERAL;  // the output after the overlay pass
+  };
+  void recordAfterStep(VkCommandBuffer cmd, const FrameSlot& slot, SceneBuffers& scene,
+                       const FrameSettings& settings, LightingTechnique& technique,
+                       AfterLayouts& layouts, AfterStep step, uint32_t first, uint32_t count);
+  // Every after-lighting step whole, then the timer's end.
   void recordAfterLighting(VkCommandBuffer cmd, const FrameSlot& slot, SceneBuffers& scene,
-                           const FrameSettings& settings, VkImageLayout lightingLayout);
+                           const FrameSettings& settings, LightingTechnique& technique,
+                           VkImageLayout lightingLayout);
+  // Records and submits the split frame's next part (ranges of its steps up to about a slice)
+  // and waits for it; reads the lists' counters after the step that completes them.
+  void runSplitPart(SplitFrame& frame);
   // After the slot's last submission completed: its pixels, timings and counters, with `meta`.
   Frame readFrame(const FrameSlot& slot, const Frame& meta, const FrameSettings& settings,
                   LightingTechnique& technique);
-  // The estimated milliseconds of the lights of `lightCount` at `pixels` (0: not measured).
-  double estimateLightsMs(uint32_t lightCount, double pixels) const;
 };
 
 SceneBuffers& Renderer::State::scene(SceneId id) {
@@ -544,6 +607,7 @@ Renderer::~Renderer() {
     slot->visibility.reset();
     gpu::destroyCommandRecorder(s.context, slot->recorder);
   }
+  s.splitTechniques.clear();
   s.techniques.clear();
   s.scenes.clear();
   s.environments.clear();
@@ -571,6 +635,7 @@ void Renderer::replaceScene(SceneId id, const scene::Scene& scene) {
   auto buffers = std::make_unique<SceneBuffers>(s.context, s.recorder, scene,
                                                 s.pipelines.materialSetLayout);
   s.scenes[id] = std::move(buffers);
+  s.costs.erase(id);  // another model: another cost
 }
 
 void Renderer::destroyScene(SceneId id) {
@@ -579,6 +644,7 @@ void Renderer::destroyScene(SceneId id) {
   s.quiesce();
   s.scenes.erase(id);
   s.environments.erase(id);
+  s.costs.erase(id);
 }
 
 void Renderer::setEnvironmentImage(SceneId id, std::shared_ptr<const scene::EnvironmentImage> image) {
@@ -754,6 +820,9 @@ uint64_t Renderer::gpuMemoryBytes() const {
     if (slot->visibility) total += slot->visibility->arena.bytesAllocated();
   }
   for (const auto& technique : s.techniques) total += technique->gpuMemoryBytes();
+  for (const auto& technique : s.splitTechniques) {
+    if (technique) total += technique->gpuMemoryBytes();
+  }
   for (const auto& readback : s.readbacks) total += readback->arena->bytesAllocated();
   return total;
 }
@@ -761,6 +830,9 @@ uint64_t Renderer::gpuMemoryBytes() const {
 void Renderer::limitListMemory(uint64_t bytes, uint64_t startBytes) {
   state_->quiesce();
   for (const auto& technique : state_->techniques) technique->limitListMemory(bytes, startBytes);
+  for (const auto& technique : state_->splitTechniques) {
+    if (technique) technique->limitListMemory(bytes, startBytes);
+  }
 }
 
 uint32_t Renderer::maxDimension() const { return state_->context.info.maxImageDimension2D; }
@@ -930,13 +1002,12 @@ Frame Renderer::finishFrame(uint32_t index) {
     }
     s.lastGpuEndTick = std::max(s.lastGpuEndTick, slot.timer->lastTick());
   }
-  if (technique.splitsByLights() && frame.lightCount > 0) {
-    // What a light costs, for shouldSplit: the lights pass's GPU time.
-    for (const PassTiming& pass : frame.passes) {
-      if (pass.name != "lights") continue;
-      s.msPerLight = pass.milliseconds / frame.lightCount;
-      s.msPerLightPixels = pixelsOf(settings);
-    }
+  if (s.scenes.contains(slot.scene)) {
+    // What the frame cost, for shouldSplit: its GPU time (without timestamps, what the host
+    // recorded and waited for).
+    const double ms = frame.times.gpuMs >= 0.0 ? frame.times.gpuMs
+                                               : frame.times.recordMs + frame.times.fenceWaitMs;
+    s.costs[slot.scene] = {settings.technique, pixelsOf(settings), frame.lightCount, ms};
   }
   if (s.scenes.contains(slot.scene) && technique.growLists(frame.culling)) {
     // The lists are reallocated: nothing in flight may use them.
@@ -1078,60 +1149,100 @@ void Renderer::State::recordBeforeLighting(VkCommandBuffer cmd, FrameSlot& slot,
   }
 }
 
-// blend (alpha-BLEND draws), markers, final, antialias, overlay, readback; then the timer's end.
+uint32_t Renderer::State::afterUnits(AfterStep step, const FrameSlot& slot,
+                                     const SceneBuffers& scene,
+                                     const FrameSettings& settings) const {
+  // A label frame: the label pass drew everything it shows; its image is the output.
+  const bool label = isLabel(settings.target);
+  switch (step) {
+    case kForward:
+      return !label && (hasBlendDraws(scene) || settings.markers) ? 1u : 0u;
+    case kFinal: {
+      if (label) return 0;
+      const VkExtent2D groups = finalPassGroups(pipelines, *slot.targets, settings.target);
+      return groups.width * groups.height;
+    }
+    case kAntialias:
+      return label ? 0u : 1u;
+    default:
+      return 1;
+  }
+}
+
+// blend (alpha-BLEND draws), markers | final | antialias, overlay, the counters' copy | readback.
+void Renderer::State::recordAfterStep(VkCommandBuffer cmd, const FrameSlot& slot,
+                                      SceneBuffers& scene, const FrameSettings& settings,
+                                      LightingTechnique& technique, AfterLayouts& layouts,
+                                      AfterStep step, uint32_t first, uint32_t count) {
+  const Pipelines& p = pipelines;
+  const FrameTargets& t = *slot.targets;
+  const bool antialias = settings.antialiased();  // as FrameUniforms.post.x says
+  switch (step) {
+    case kForward:
+      if (hasBlendDraws(scene)) {
+        slot.timer->beginPass(cmd, "blend");
+        layouts.hdr = recordBlendPass(cmd, p, t, scene, scene::viewMatrix(settings.camera),
+                                      layouts.hdr, technique.bindForwardLights(cmd));
+      }
+      if (settings.markers) {
+        slot.timer->beginPass(cmd, "markers");
+        recordMarkerPass(cmd, p, t, scene);
+      }
+      break;
+    case kFinal:
+      slot.timer->beginPass(cmd, "final");  // names-once: the pass, not the target
+      recordFinalPass(cmd, p, t, settings.target, settings.markers, antialias, layouts.hdr,
+                      layouts.lighting, first, count);
+      break;
+    case kAntialias:
+      if (antialias) {
+        slot.timer->beginPass(cmd, "antialias");
+        recordAntialiasPass(cmd, p, t);
+      }
+      if (settings.target == Target::LightVolumes && !settings.raw) {
+        slot.timer->beginPass(cmd, "overlay");
+        recordLightVolumeOverlayPass(cmd, p, t, scene);
+        layouts.output = VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL;
+      }
+      if (const gpu::Buffer* counters = technique.counters()) {
+        // The frame's own copy of the culling counters: the next frame in flight resets the
+        // technique's (record() made them readable by a copy).
+        const VkBufferCopy region{0, 0, sizeof(CullingStats)};
+        vkCmdCopyBuffer(cmd, counters->buffer, slot.counters.buffer, 1, &region);
+        gpu::bufferBarrier(cmd, slot.counters, VK_PIPELINE_STAGE_2_COPY_BIT,
+                           VK_ACCESS_2_TRANSFER_WRITE_BIT, VK_PIPELINE_STAGE_2_HOST_BIT,
+                           VK_ACCESS_2_HOST_READ_BIT);
+      }
+      break;
+    case kReadback: {
+      const gpu::Buffer& readback = slot.readback ? slot.readback->buffer : t.readback;
+      if (isLabel(settings.target)) {
+        slot.timer->beginPass(cmd, "readback");
+        recordLabelReadback(cmd, t, readback);
+      } else if (settings.yuv420Readback()) {
+        slot.timer->beginPass(cmd, "yuv");
+        recordYuv420Readback(cmd, pipelines, t, readback);
+      } else {
+        slot.timer->beginPass(cmd, "readback");
+        recordReadback(cmd, t, layouts.output, readback);
+      }
+      break;
+    }
+    default:
+      throw std::logic_error("no step " + std::to_string(step) + " after the lighting");
+  }
+}
+
 void Renderer::State::recordAfterLighting(VkCommandBuffer cmd, const FrameSlot& slot,
                                           SceneBuffers& scene, const FrameSettings& settings,
+                                          LightingTechnique& technique,
                                           VkImageLayout lightingLayout) {
-  State& s = *this;
-  const Pipelines& p = s.pipelines;
-  const FrameTargets& t = *slot.targets;
-  if (isLabel(settings.target)) {
-    // The label pass drew everything a label frame shows; its image is the output.
-    slot.timer->beginPass(cmd, "readback");
-    recordLabelReadback(cmd, t, slot.readback ? slot.readback->buffer : t.readback);
-    slot.timer->end(cmd);
-    return;
-  }
-  VkImageLayout hdrLayout = lightingLayout;
-  if (hasBlendDraws(scene)) {
-    slot.timer->beginPass(cmd, "blend");
-    hdrLayout = recordBlendPass(cmd, p, t, scene, scene::viewMatrix(settings.camera), hdrLayout,
-                                s.technique(settings.technique).bindForwardLights(cmd));
-  }
-  if (settings.markers) {
-    slot.timer->beginPass(cmd, "markers");
-    recordMarkerPass(cmd, p, t, scene);
-  }
-  const bool antialias = settings.antialiased();  // as FrameUniforms.post.x says
-  slot.timer->beginPass(cmd, "final");  // names-once: the pass, not the target
-  recordFinalPass(cmd, p, t, settings.target, settings.markers, antialias, hdrLayout,
-                  lightingLayout);
-  VkImageLayout outputLayout = VK_IMAGE_LAYOUT_GENERAL;
-  if (antialias) {
-    slot.timer->beginPass(cmd, "antialias");
-    recordAntialiasPass(cmd, p, t);
-  }
-  if (settings.target == Target::LightVolumes && !settings.raw) {
-    slot.timer->beginPass(cmd, "overlay");
-    recordLightVolumeOverlayPass(cmd, p, t, scene);
-    outputLayout = VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL;
-  }
-  if (const gpu::Buffer* counters = s.technique(settings.technique).counters()) {
-    // The frame's own copy of the culling counters: the next frame in flight resets the
-    // technique's (record() made them readable by a copy).
-    const VkBufferCopy region{0, 0, sizeof(CullingStats)};
-    vkCmdCopyBuffer(cmd, counters->buffer, slot.counters.buffer, 1, &region);
-    gpu::bufferBarrier(cmd, slot.counters, VK_PIPELINE_STAGE_2_COPY_BIT,
-                       VK_ACCESS_2_TRANSFER_WRITE_BIT, VK_PIPELINE_STAGE_2_HOST_BIT,
-                       VK_ACCESS_2_HOST_READ_BIT);
-  }
-  const gpu::Buffer& readback = slot.readback ? slot.readback->buffer : t.readback;
-  if (settings.yuv420Readback()) {
-    slot.timer->beginPass(cmd, "yuv");
-    recordYuv420Readback(cmd, s.pipelines, t, readback);
-  } else {
-    slot.timer->beginPass(cmd, "readback");
-    recordReadback(cmd, t, outputLayout, readback);
+  AfterLayouts layouts{lightingLayout, lightingLayout};
+  for (uint32_t step = 0; step < kAfterSteps; ++step) {
+    const uint32_t units = afterUnits(AfterStep(step), slot, scene, settings);
+    if (units > 0) {
+      recordAfterStep(cmd, slot, scene, settings, technique, layouts, AfterStep(step), 0, units);
+    }
   }
   slot.timer->end(cmd);
 }
@@ -1200,7 +1311,7 @@ void Renderer::State::recordFrame(FrameSlot& slot, SceneBuffers& scene,
       technique.record({cmd, *slot.timer, *slot.targets, scene, slot.shadingFeatures,
                         settings.animate && technique.animatesLights(),
                         computeGBufferFor(scene, settings)});
-  recordAfterLighting(cmd, slot, scene, settings, lightingLayout);
+  recordAfterLighting(cmd, slot, scene, settings, technique, lightingLayout);
   slot.meta = metaOf(scene, environment, settings);
   slot.meta.madeTargets = madeTargets;
 }
@@ -1212,28 +1323,64 @@ Frame Renderer::State::renderOnce(FrameSlot& slot, SceneBuffers& scene,
   return readFrame(slot, slot.meta, settings, this->technique(settings.technique));
 }
 
-double Renderer::State::estimateLightsMs(uint32_t lightCount, double pixels) const {
-  if (msPerLight <= 0.0) return 0.0;
-  // Larger outputs cost more per light (more covered pixels); smaller ones are not assumed
-  // cheaper (the vertex work per light stays).
-  return double(lightCount) * msPerLight * std::max(1.0, pixels / msPerLightPixels);
+double Renderer::estimateMilliseconds(SceneId id, const FrameSettings& settings) const {
+  const State& s = *state_;
+  const SceneBuffers& scene = s.scene(id);
+  const auto it = s.costs.find(id);
+  if (it == s.costs.end() || it->second.technique != settings.technique) return -1.0;
+  const State::FrameCost& cost = it->second;
+  const double lights = std::max(1.0, double(scene.lightCount));
+  const double measuredLights = std::max(1.0, double(cost.lights));
+  if (lights > measuredLights * kCostLightsRange || lights * kCostLightsRange < measuredLights) {
+    return -1.0;
+  }
+  // Linear in the pixels; more lights than measured scale it up, fewer are not assumed cheaper.
+  return cost.ms * pixelsOf(settings) / std::max(1.0, cost.pixels) *
+         std::max(1.0, lights / measuredLights);
 }
 
 bool Renderer::shouldSplit(SceneId id, const FrameSettings& settings) const {
-  State& s = *state_;
-  const SceneBuffers& scene = s.scene(id);
-  if (!s.technique(settings.technique).splitsByLights()) return false;
-  if (scene.lightCount <= kMinRangeLights) return false;
-  const double estimate = s.estimateLightsMs(scene.lightCount, pixelsOf(settings));
-  if (estimate <= 0.0) return scene.lightCount > kUnmeasuredSplitLights;
-  return estimate > s.sliceMs;
+  const State& s = *state_;
+  const double estimate = estimateMilliseconds(id, settings);
+  if (estimate >= 0.0) return estimate > s.wholeFrameMs;
+  const double lights = double(s.scene(id).lightCount);
+  const double pixels = pixelsOf(settings);
+  return lights > kUnmeasuredSplitLights || pixels > kUnmeasuredSplitPixels ||
+         pixels * lights > kUnmeasuredSplitPixelLights;
 }
 
 bool Renderer::splitBusy() const { return state_->splitBusy; }
 
-void Renderer::setSliceMilliseconds(double milliseconds) { state_->sliceMs = milliseconds; }
+void Renderer::setSliceMilliseconds(double milliseconds) {
+  state_->sliceMs = milliseconds;
+  state_->wholeFrameMs = 2.0 * milliseconds;
+}
+
+void Renderer::setFrameBudgetMilliseconds(double milliseconds) {
+  state_->frameBudgetMs = std::max(0.0, milliseconds);
+}
 
 Renderer::SplitFrame::~SplitFrame() { renderer_.state_->splitBusy = false; }
+
+double Renderer::SplitFrame::Step::weightOf(uint32_t first, uint32_t count) const {
+  if (weights.empty()) return double(count);
+  double sum = 0.0;
+  const size_t end = std::min<size_t>(weights.size(), size_t(first) + count);
+  for (size_t i = first; i < end; ++i) sum += weights[i];
+  return sum;
+}
+
+double Renderer::SplitFrame::projectedMilliseconds() const {
+  double rest = 0.0;
+  for (size_t i = step_; i < steps_.size(); ++i) {
+    const Step& st = steps_[i];
+    const uint32_t first = i == step_ ? nextUnit_ : 0;
+    // Not measured (or only in ranges too short to tell): not counted.
+    if (!st.measuredWell || first >= st.units) continue;
+    rest += st.msPerWeight * st.weightOf(first, st.units - first);
+  }
+  return elapsedMs_ + rest;
+}
 
 std::unique_ptr<Renderer::SplitFrame> Renderer::beginSplit(SceneId id,
                                                            const FrameSettings& settings) {
@@ -1243,79 +1390,261 @@ std::unique_ptr<Renderer::SplitFrame> Renderer::beginSplit(SceneId id,
   SceneBuffers& scene = s.scene(id);
   checkSize(settings, maxDimension());
   checkLabels(settings);
-  LightingTechnique& technique = s.technique(settings.technique);
-  if (!technique.splitsByLights()) {
-    throw std::logic_error(std::string(techniqueName(settings.technique)) + " frames do not split");
-  }
+  LightingTechnique& technique = s.splitTechnique(settings.technique);
   SceneEnvironment* environment = s.environmentFor(id, settings);
   std::unique_ptr<SplitFrame> frame(new SplitFrame(*this, id, settings));
   s.splitBusy = true;  // until `frame` is destroyed
 
-  const double estimate = s.estimateLightsMs(scene.lightCount, pixelsOf(settings));
-  frame->rangeLights_ =
-      estimate > 0.0 ? std::clamp(uint32_t(s.sliceMs / (estimate / scene.lightCount)),
-                                  kMinRangeLights, std::max(scene.lightCount, kMinRangeLights))
-                     : kFirstRangeLights;
-
-  // The first submission: everything before the first light.
   s.prepareFrame(s.split, scene, environment, settings, technique);
-  VkCommandBuffer cmd = s.beginFrameCommands(s.split);
-  s.recordBeforeLighting(cmd, s.split, scene, environment, settings);
-  frame->lightingLayout_ =
-      technique.recordBeforeLights({cmd, *s.split.timer, *s.split.targets, scene, s.split.shadingFeatures,
-                                    settings.animate && technique.animatesLights(),
-                                    s.computeGBufferFor(scene, settings)});
-  s.split.timer->end(cmd);
-  gpu::submitAndWait(s.context, s.split.recorder);
-  addPasses(frame->passes_, s.split.timer->results());
-  ++frame->submissions_;
-  frame->lit_ = scene.lightCount == 0;
+  // The steps, recorded in order: everything before the lighting (one unit), the technique's
+  // steps, the passes after it. Scene, environment and technique stay as they are until the
+  // frame ends (the render thread runs no edit of its scene meanwhile).
+  State* state = &s;
+  SplitFrame* f = frame.get();
+  SplitFrame::Step before;
+  before.units = 1;
+  before.record = [state, &scene, environment, f](VkCommandBuffer cmd, uint32_t, uint32_t) {
+    state->recordBeforeLighting(cmd, state->split, scene, environment, f->settings_);
+  };
+  frame->steps_.push_back(std::move(before));
+  frame->firstLightingStep_ = frame->steps_.size();
+  const bool computeGBuffer = s.computeGBufferFor(scene, settings);
+  const bool animate = settings.animate && technique.animatesLights();
+  auto lightingPass = [state, &scene, computeGBuffer, animate](VkCommandBuffer cmd) {
+    LightingPass pass{cmd, *state->split.timer, *state->split.targets, scene,
+                      state->split.shadingFeatures, animate, computeGBuffer};
+    pass.split = true;
+    return pass;
+  };
+  const std::vector<LightingTechnique::Step> lighting = technique.steps(lightingPass(VK_NULL_HANDLE));
+  for (uint32_t i = 0; i < lighting.size(); ++i) {
+    SplitFrame::Step step;
+    step.units = step.declaredUnits = lighting[i].units;
+    step.lightingStep = int(i);
+    step.listsBuilt = technique.listsBuiltAfter(i);
+    step.unitsAlike = lighting[i].unitsAlike;
+    const char* name = lighting[i].name;
+    step.record = [state, &technique, lightingPass, name, i](VkCommandBuffer cmd, uint32_t first,
+                                                             uint32_t count) {
+      const LightingPass pass = lightingPass(cmd);
+      pass.timer.beginPass(cmd, name);
+      technique.recordStep(pass, i, first, count);
+    };
+    frame->steps_.push_back(std::move(step));
+  }
+  frame->lightingLayout_ = frame->hdrLayout_ = technique.lightingLayout();
+  for (uint32_t i = 0; i < State::kAfterSteps; ++i) {
+    const auto after = State::AfterStep(i);
+    SplitFrame::Step step;
+    step.units = s.afterUnits(after, s.split, scene, settings);
+    step.record = [state, &scene, &technique, f, after](VkCommandBuffer cmd, uint32_t first,
+                                                        uint32_t count) {
+      State::AfterLayouts layouts{f->lightingLayout_, f->hdrLayout_, f->outputLayout_};
+      state->recordAfterStep(cmd, state->split, scene, f->settings_, technique, layouts, after,
+                             first, count);
+      f->hdrLayout_ = layouts.hdr;
+      f->outputLayout_ = layouts.output;
+    };
+    frame->steps_.push_back(std::move(step));
+  }
+  // The first submission: everything before the lighting.
+  s.runSplitPart(*frame);
   return frame;
+}
+
+void Renderer::State::runSplitPart(SplitFrame& frame) {
+  using Step = SplitFrame::Step;
+  const auto partStart = std::chrono::steady_clock::now();
+  quiesce();
+  // The slot's sets, uniforms and targets are as beginSplit left them: whole frames use their own.
+  VkCommandBuffer cmd = beginFrameCommands(split);
+  struct Range {
+    Step* step;
+    double weight;
+    double plannedMs;  // 0: not measured yet
+  };
+  std::vector<Range> ranges;
+  double plannedMs = 0.0;
+  bool end = false;
+  while (!end && frame.step_ < frame.steps_.size()) {
+    Step& st = frame.steps_[frame.step_];
+    if (frame.nextUnit_ >= st.units) {
+      ++frame.step_;
+      frame.nextUnit_ = 0;
+      continue;
+    }
+    if (!st.weighed) {
+      // The technique's weights read what the steps before this one made: they must have run.
+      if (!ranges.empty() && st.units > 1) break;
+      if (st.lightingStep >= 0 && st.units > 1) {
+        const LightingTechnique& technique = splitTechnique(frame.settings_.technique);
+        st.units = technique.unitsWithWork(uint32_t(st.lightingStep), st.units);
+        st.weights = technique.unitWeights(uint32_t(st.lightingStep), split.targets->extent);
+        if (st.weights.size() != st.units) st.weights.clear();
+      }
+      st.weighed = true;
+      if (frame.nextUnit_ >= st.units) continue;  // nothing to do after all
+    }
+    const uint32_t remaining = st.units - frame.nextUnit_;
+    uint32_t count = 0;
+    if (st.msPerWeight > 0.0) {
+      // As many units as fit in what is left of the slice, weighing at most kRangeGrowth times
+      // the last range.
+      const double room = sliceMs - plannedMs;
+      const double most = std::max(st.lastRangeWeight, 1.0) *
+                          (st.unitsAlike ? kRangeGrowthAlike : kRangeGrowthUnlike);
+      if (st.weights.empty()) {
+        count = uint32_t(std::clamp(std::floor(std::min(room / st.msPerWeight, most)), 0.0,
+                                    double(remaining)));
+      } else {
+        double sum = 0.0;
+        while (count < remaining) {
+          const double w = st.weights[frame.nextUnit_ + count];
+          if ((sum + w) * st.msPerWeight > room || sum + w > most) break;
+          sum += w;
+          ++count;
+        }
+      }
+      if (count == 0) {
+        if (!ranges.empty()) break;
+        count = 1;  // one unit over the slice: it cannot be cut finer
+      }
+    } else {
+      // Not measured yet: alone in its part (a pass of unknown cost, or a first range small
+      // enough to measure: a kFirstRangeShare of the step's weight).
+      if (!ranges.empty()) break;
+      if (st.weights.empty()) {
+        count = std::min(remaining, std::max(1u, st.units / kFirstRangeShare));
+      } else {
+        const double share = st.weightOf(frame.nextUnit_, remaining) / kFirstRangeShare;
+        double sum = 0.0;
+        while (count < remaining && (count == 0 || sum < share)) {
+          sum += st.weights[frame.nextUnit_ + count];
+          ++count;
+        }
+      }
+    }
+    st.record(cmd, frame.nextUnit_, count);
+    const double weight = st.weightOf(frame.nextUnit_, count);
+    ranges.push_back({&st, weight, st.msPerWeight * weight});
+    plannedMs += st.msPerWeight * weight;
+    st.lastRange = count;
+    st.lastRangeWeight = weight;
+    frame.nextUnit_ += count;
+    // Measured alone; and a step continues in the next part (its next range sized from this one).
+    if (st.msPerWeight <= 0.0 || frame.nextUnit_ < st.units) end = true;
+    if (frame.nextUnit_ >= st.units) {
+      // After the lists are built the host reads their counters before anything shades.
+      if (st.listsBuilt) end = true;
+      ++frame.step_;
+      frame.nextUnit_ = 0;
+    }
+  }
+  split.timer->end(cmd);
+  gpu::submitAndWait(context, split.recorder);
+  const double ms = Milliseconds(std::chrono::steady_clock::now() - partStart).count();
+  frame.elapsedMs_ += ms;
+  ++frame.submissions_;
+  addPasses(frame.passes_, split.timer->results());
+
+  // What each range cost: the part's time shared by the ranges' estimates (those not measured
+  // yet share what the others did not take). An estimate rises to a costlier measurement at
+  // once and falls by half a part at most, or a tenth where units differ (tiles of sky and of
+  // long lists: a range sized from the cheapest ones would hold the queue for many slices).
+  double known = 0.0;
+  size_t unknown = 0;
+  for (const Range& r : ranges) {
+    if (r.plannedMs > 0.0) {
+      known += r.plannedMs;
+    } else {
+      ++unknown;
+    }
+  }
+  const double scale = known > 0.0 && unknown == 0 ? ms / known : 1.0;
+  const double leftover = unknown > 0 ? std::max(ms - known, 0.0) / double(unknown) : 0.0;
+  for (const Range& r : ranges) {
+    const double weight = std::max(r.weight, 1e-6);
+    const double measured =
+        r.plannedMs > 0.0 ? r.step->msPerWeight * scale : std::max(leftover, 0.001) / weight;
+    r.step->msPerWeight = r.step->msPerWeight <= 0.0
+                              ? measured
+                              : std::max(measured, (r.step->unitsAlike ? kEstimateDecayAlike
+                                                                       : kEstimateDecayUnlike) *
+                                                       r.step->msPerWeight);
+    r.step->measuredWell = r.step->measuredWell || measured * weight >= kWellMeasured * sliceMs;
+  }
+
+  // The lists are complete: when they overflowed and may grow, the lighting starts again with
+  // larger ones (a frame with lights missing is never the answer while memory allows).
+  const bool listsDone = !ranges.empty() && ranges.back().step->listsBuilt &&
+                         frame.nextUnit_ == 0;
+  if (listsDone) {
+    LightingTechnique& technique = splitTechnique(frame.settings_.technique);
+    if (const gpu::Buffer* counters = technique.counters()) {
+      CullingReport report;
+      technique.report(report, counters->mapped);
+      if (technique.growLists(report)) {
+        SceneBuffers& scene = this->scene(frame.scene_);
+        const VkExtent2D extent = split.targets->extent;
+        try {
+          technique.prepare(extent, scene.lightCount);
+        } catch (const gpu::VulkanError&) {
+          technique.growthFailed();  // out of memory for them: the lists of before, once more
+          technique.prepare(extent, scene.lightCount);
+        }
+        // The lists' capacity is in the uniforms.
+        const std::optional<SunShadowFit> sun = sunShadowFor(scene, frame.settings_);
+        writeUniforms(split, frame.settings_, scene, technique, sun ? &*sun : nullptr,
+                      split.lightShadows);
+        frame.listsGrew_ = true;
+        frame.step_ = frame.firstLightingStep_;
+        frame.nextUnit_ = 0;
+        for (size_t i = frame.firstLightingStep_; i < frame.steps_.size(); ++i) {
+          frame.steps_[i].weighed = false;
+          frame.steps_[i].weights.clear();
+          if (frame.steps_[i].lightingStep >= 0) frame.steps_[i].units = frame.steps_[i].declaredUnits;
+        }
+      }
+    }
+  }
 }
 
 std::optional<Frame> Renderer::continueSplit(SplitFrame& frame) {
   State& s = *state_;
   const FrameSettings& settings = frame.settings_;
   SceneBuffers& scene = s.scene(frame.scene_);
-  LightingTechnique& technique = s.technique(settings.technique);
+  LightingTechnique& technique = s.splitTechnique(settings.technique);
   SceneEnvironment* environment = s.environmentFor(frame.scene_, settings);
-  s.quiesce();
-  // The slot's sets, uniforms and targets are as beginSplit left them: whole frames use their own.
-  VkCommandBuffer cmd = s.beginFrameCommands(s.split);
-  if (!frame.lit_) {
-    const uint32_t first = frame.nextLight_;
-    const uint32_t count = std::min(frame.rangeLights_, scene.lightCount - first);
-    technique.recordLightRange({cmd, *s.split.timer, *s.split.targets, scene, s.split.shadingFeatures}, first, count);
-    s.split.timer->end(cmd);
-    const auto start = std::chrono::steady_clock::now();
-    gpu::submitAndWait(s.context, s.split.recorder);
-    const double ms =
-        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
-    addPasses(frame.passes_, s.split.timer->results());
-    ++frame.submissions_;
-    frame.nextLight_ = first + count;
-    frame.lit_ = frame.nextLight_ >= scene.lightCount;
-    // The next range takes about a slice at what this one cost per light (host time: what the
-    // queue was held for).
-    const double perLight = std::max(ms, 0.001) / count;
-    s.msPerLight = perLight;
-    s.msPerLightPixels = pixelsOf(settings);
-    frame.rangeLights_ = std::clamp(uint32_t(std::min(s.sliceMs / perLight, 4.0e9)),
-                                    kMinRangeLights, std::max(scene.lightCount, kMinRangeLights));
-    return std::nullopt;
+  if (s.frameBudgetMs > 0.0) {
+    // Over the budget, or projected past it by its parts measured so far once it has taken a
+    // share of it (the first parts' estimates are rough, and a frame is not refused on them).
+    const double projected = frame.projectedMilliseconds();
+    const bool projectedOver = frame.elapsedMs_ >= kProjectAfterShare * s.frameBudgetMs &&
+                               projected > s.frameBudgetMs;
+    if (frame.elapsedMs_ > s.frameBudgetMs || projectedOver) {
+      char detail[256];
+      std::snprintf(detail, sizeof detail,
+                    "the frame would take the renderer about %.1f s (%.1f s of it taken in %u "
+                    "parts), over the budget of %.1f s a frame",
+                    projected / 1000.0, frame.elapsedMs_ / 1000.0, frame.submissions_,
+                    s.frameBudgetMs / 1000.0);
+      throw FrameBudgetError(detail, s.frameBudgetMs, frame.elapsedMs_, projected);
+    }
   }
-  s.recordAfterLighting(cmd, s.split, scene, settings, frame.lightingLayout_);
-  gpu::submitAndWait(s.context, s.split.recorder);
-  ++frame.submissions_;
+  s.runSplitPart(frame);
+  while (frame.step_ < frame.steps_.size() &&
+         frame.nextUnit_ >= frame.steps_[frame.step_].units) {
+    ++frame.step_;
+    frame.nextUnit_ = 0;
+  }
+  if (frame.step_ < frame.steps_.size()) return std::nullopt;
   Frame result = s.readFrame(s.split, State::metaOf(scene, environment, settings), settings,
                              technique);
-  addPasses(frame.passes_, [&] {
-    std::vector<std::pair<std::string, double>> last;
-    for (const PassTiming& pass : result.passes) last.emplace_back(pass.name, pass.milliseconds);
-    return last;
-  }());
   result.passes = frame.passes_;
   result.submissions = frame.submissions_;
+  result.culling.listsGrew = frame.listsGrew_;
+  s.costs[frame.scene_] = {settings.technique, pixelsOf(settings), scene.lightCount,
+                           frame.elapsedMs_};
   return result;
 }
 

@@ -6,6 +6,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <optional>
 #include <vector>
@@ -103,28 +104,46 @@ class Renderer {
   // as render() always did. A frame whose scene was destroyed meanwhile keeps what it rendered.
   Frame finishFrame(uint32_t slot);
 
-  // Frames too long for one submission. A GPU submission cannot be preempted, so a frame whose
-  // lighting would hold the queue for more than kSliceMilliseconds is recorded as several
-  // submissions of about that length, each waited for: the passes before lighting, then the
-  // lights in ranges (sized from the time the previous range took), then the passes after it.
-  // The caller (the render thread) runs other scenes' frames and edits between them. A split
-  // frame has its own targets, uniforms and descriptor sets, so whole frames rendered meanwhile
-  // leave it untouched; only one split frame exists at a time. Its scene must not be edited,
-  // replaced or destroyed until it finishes or is dropped (the render thread queues a scene's
-  // tasks behind its frame). Only techniques whose lighting is a sum over independently drawn
-  // lights split (volumes); the others render whole.
+  // Frames too long for one submission. A GPU submission cannot be preempted, so a frame
+  // estimated to hold the queue for more than kWholeFrameMilliseconds is recorded as a sequence
+  // of submissions of about kSliceMilliseconds each, every one waited for: the passes before the
+  // lighting, then the technique's lighting steps in ranges of their units (volumes: lights;
+  // tiled: tiles; clustered: its assignment's passes over the lights in ranges, the rest whole,
+  // then its shading in ranges of tiles), then the passes after it (the final pass in ranges of
+  // its workgroups, anti-aliasing, the readback). Each range is sized from what the ones before it
+  // cost (LightingTechnique::unitWeights says where units differ). The caller (the render thread)
+  // runs other scenes' frames and edits between them. A split frame has its own targets,
+  // uniforms, descriptor sets and technique instance (lists, counters), so whole frames rendered
+  // meanwhile leave it untouched; only one split frame exists at a time. Its scene must not be
+  // edited, replaced or destroyed until it finishes or is dropped (the render thread queues a
+  // scene's tasks behind its frame). Its image equals the frame rendered whole (the same commands,
+  // in the same order, cut between submissions).
   class SplitFrame;
   static constexpr double kSliceMilliseconds = 200.0;
-  // The slice (default kSliceMilliseconds); tests make it tiny to split small frames.
+  // Frames estimated under this render whole (frames in flight, no waits between parts): the
+  // longest a whole frame is expected to hold the queue for others. A frame not measured yet is
+  // estimated from its pixels and lights (shouldSplit).
+  static constexpr double kWholeFrameMilliseconds = 400.0;
+  // The slice (default kSliceMilliseconds); tests make it tiny to split small frames. The whole
+  // frame bound follows it (twice the slice).
   void setSliceMilliseconds(double milliseconds);
-  // Whether render(id, settings) is estimated to take longer than a slice and can be split.
+  // The most host time one split frame may take, its parts together (0: no limit, the default).
+  // A frame that has taken it, or whose measured parts say it will, stops with
+  // FrameBudgetError (render/frame.h) at its next part.
+  void setFrameBudgetMilliseconds(double milliseconds);
+  // Whether render(id, settings) is estimated to take longer than a whole frame may.
   bool shouldSplit(SceneId id, const FrameSettings& settings) const;
+  // What render(id, settings) is estimated to take, in milliseconds: from the last frame of the
+  // scene with that technique (scaled by the pixels), or -1 when it has none with about as many
+  // lights.
+  double estimateMilliseconds(SceneId id, const FrameSettings& settings) const;
   // True while a split frame is unfinished (and not dropped).
   bool splitBusy() const;
   // Starts a split frame and runs its first submission. Throws what render() throws, and
   // std::logic_error while another split frame is unfinished.
   std::unique_ptr<SplitFrame> beginSplit(SceneId id, const FrameSettings& settings);
   // Runs the next submission of `frame`; after the last one, returns the frame (read back).
+  // Throws FrameBudgetError once the frame is over the budget (setFrameBudgetMilliseconds).
   std::optional<Frame> continueSplit(SplitFrame& frame);
 
   // Every method taking a SceneId throws std::invalid_argument for an id that is not (or no
@@ -167,21 +186,49 @@ class Renderer::SplitFrame {
   SplitFrame& operator=(const SplitFrame&) = delete;
 
   uint32_t submissions() const { return submissions_; }  // run so far
-  uint32_t lightsDone() const { return nextLight_; }
+  // Host time its submissions took so far (recording, submitting, waiting), in milliseconds.
+  double elapsedMilliseconds() const { return elapsedMs_; }
+  // What the whole frame is estimated to take from its parts measured so far (at least elapsed).
+  double projectedMilliseconds() const;
 
  private:
   friend class Renderer;
   SplitFrame(Renderer& renderer, SceneId scene, const FrameSettings& settings)
       : renderer_(renderer), scene_(scene), settings_(settings) {}
 
+  // One step of the frame: `units` that may be recorded in ranges, [first, first + count).
+  struct Step {
+    uint32_t units = 0;
+    uint32_t declaredUnits = 0;  // `units` before the technique said how many have work
+    std::function<void(VkCommandBuffer cmd, uint32_t first, uint32_t count)> record;
+    // Relative costs of the units (empty: alike), known once the steps before it ran.
+    std::vector<float> weights;
+    bool weighed = false;     // `weights` asked for (after the step before it ran)
+    int lightingStep = -1;    // the technique's step it records, or -1
+    bool listsBuilt = false;  // the technique's lists are complete after it
+    bool unitsAlike = true;   // LightingTechnique::Step::unitsAlike
+    double msPerWeight = 0.0;  // measured (0: not yet); a unit weighs 1 without weights
+    uint32_t lastRange = 0;    // units in its last range
+    double lastRangeWeight = 0.0;  // and their weight
+    // A range of it took a good share of a slice: its cost is not mostly a part's overhead, and
+    // may project what its other units take (projectedMilliseconds).
+    bool measuredWell = false;
+    double weightOf(uint32_t first, uint32_t count) const;
+  };
+
   Renderer& renderer_;
   SceneId scene_;
   FrameSettings settings_;
-  uint32_t nextLight_ = 0;    // the first light of the next range
-  uint32_t rangeLights_ = 0;  // lights in the next range
-  bool lit_ = false;          // every light drawn: the next submission is the last
+  std::vector<Step> steps_;
+  size_t step_ = 0;       // the next step to record
+  uint32_t nextUnit_ = 0;  // its next unit
+  size_t firstLightingStep_ = 0;
   VkImageLayout lightingLayout_ = VK_IMAGE_LAYOUT_UNDEFINED;  // where the lighting leaves hdr
+  VkImageLayout hdrLayout_ = VK_IMAGE_LAYOUT_UNDEFINED;       // after the blend pass
+  VkImageLayout outputLayout_ = VK_IMAGE_LAYOUT_GENERAL;      // after the overlay pass
   uint32_t submissions_ = 0;
+  double elapsedMs_ = 0.0;
+  bool listsGrew_ = false;
   std::vector<PassTiming> passes_;  // summed by name over the submissions
 };
 

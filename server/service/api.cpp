@@ -9,9 +9,15 @@
 #include "protocol/constants.h"
 #include "protocol/operations.h"
 #include "protocol/validate.h"
+#include "service/connection.h"
 
 namespace myriad::service {
 namespace {
+
+// A glTF folder with its buffers and textures is tens of files; thousands of parts is not an upload.
+constexpr size_t kMaxMultipartParts = 4096;
+// What one part costs to hold beyond its bytes (its map node and strings), counted against the limit.
+constexpr uint64_t kPartOverheadBytes = 256;
 
 // What a browser may send and read across origins: the token, JSON bodies, and the headers that
 // carry timings and frame metadata.
@@ -43,6 +49,21 @@ std::string mediaType(std::string_view contentType) {
   while (!type.empty() && type.back() == ' ') type.remove_suffix(1);
   while (!type.empty() && type.front() == ' ') type.remove_prefix(1);
   return lowercase(type);
+}
+
+// What a body costs in memory at its peak (memory_budget.h): its announced length (a chunked
+// one: the route's limit, all it may reach) times what a byte becomes: a JSON document and the
+// values made from it, or an upload's copies and loaded scene.
+uint64_t bodyMemoryCost(const httplib::Request& req, const RouteOptions& options) {
+  uint64_t bytes = options.maxBodyBytes;
+  if (req.has_header("Content-Length")) {
+    try {
+      bytes = std::min<uint64_t>(bytes, std::stoull(req.get_header_value("Content-Length")));
+    } catch (const std::exception&) {
+    }
+  }
+  const bool json = mediaType(req.get_header_value("Content-Type")) == protocol::kJsonContentType;
+  return bytes * (json ? memory_cost::kJsonBodyFactor : memory_cost::kUploadFactor);
 }
 
 // "/v1/sessions/{id}/lights/{lid}" -> "/v1/sessions/([^/]+)/lights/([^/]+)".
@@ -87,8 +108,11 @@ nlohmann::json ApiLimits::toJson() const {
       {"maxUploadBytes", maxUploadBytes},
       {"maxBodyBytes", maxBodyBytes},
       {"maxStreams", maxStreams},
+      {std::string(protocol::limits::kMaxStreamsPerSession), maxStreamsPerSession},
       {"maxRequestsInFlight", maxRequestsInFlight},
       {"sessionIdleSeconds", sessionIdleSeconds},
+      {std::string(protocol::limits::kMaxMemoryBytes), maxMemoryBytes},
+      {std::string(protocol::limits::kMaxFrameSeconds), maxFrameSeconds},
   };
 }
 
@@ -181,11 +205,22 @@ void Routes::add(std::string_view method, std::string_view routeTemplate, Handle
   // Bodies are read here, not by httplib, so that they are counted as they arrive and cut at the
   // route's limit: httplib 0.11 reads a chunked body (no Content-Length; the route table refuses
   // an oversized one before routing) whole into memory, however large.
+  const bool createsSession = routeTemplate == protocol::routes::kSessions;
   httplib::Server::HandlerWithContentReader reading =
-      [serve, options](const httplib::Request& req, httplib::Response& res,
-                       const httplib::ContentReader& reader) {
+      [this, serve, options, createsSession](const httplib::Request& req, httplib::Response& res,
+                                             const httplib::ContentReader& reader) {
         std::shared_ptr<httplib::Request> withBody;
+        MemoryBudget::Reservation memory;  // held until the handler has answered
         serve(req, res, [&]() -> const httplib::Request& {
+          // The credentials are checked before a byte of the body is read: refusing an
+          // unauthenticated upload costs neither memory nor time (the connection closes with the
+          // body unread). The handler checks them again, with the body, as for any request.
+          if (createsSession) {
+            requireApiKey(context_, req);
+          } else if (req.matches.size() > 1) {
+            authorizeSession(context_, req);
+          }
+          memory = reserveMemory(context_, bodyMemoryCost(req, options), "this request's body");
           withBody = readBounded(req, res, reader, options);
           return *withBody;
         });
@@ -210,17 +245,30 @@ std::shared_ptr<httplib::Request> Routes::readBounded(const httplib::Request& re
   auto withBody = std::make_shared<httplib::Request>(req);
   uint64_t received = 0;
   bool overLimit = false;
+  bool tooManyParts = false;
   auto count = [&](size_t n) {
     received += n;
     if (received > options.maxBodyBytes) overLimit = true;
     return !overLimit;
   };
   bool complete = false;
+  connection::setBodyLimit(options.maxBodyBytes);
   if (req.is_multipart_form_data()) {
-    // As httplib's own reader does: each part's headers, then its content appended to it.
+    // As httplib's own reader does: each part's headers, then its content appended to it. A
+    // part's headers count against the limit as well as its content (with what a part costs
+    // to hold), so a body of millions of empty parts is cut like any other large body.
     httplib::MultipartFormDataMap::iterator current = withBody->files.end();
+    size_t parts = 0;
     complete = reader(
         [&](const httplib::MultipartFormData& part) {
+          if (++parts > kMaxMultipartParts) {
+            tooManyParts = true;
+            return false;
+          }
+          if (!count(kPartOverheadBytes + part.name.size() + part.filename.size() +
+                     part.content_type.size())) {
+            return false;
+          }
           current = withBody->files.emplace(part.name, part);
           return true;
         },
@@ -235,6 +283,13 @@ std::shared_ptr<httplib::Request> Routes::readBounded(const httplib::Request& re
       withBody->body.append(data, n);
       return true;
     });
+  }
+  if (tooManyParts) {
+    res.set_header("Connection", "close");
+    throw ProblemError(limitExceeded(
+        413, options.bodyLimitName,
+        "The multipart body has more than " + std::to_string(kMaxMultipartParts) +
+            " parts; the rest was not read."));
   }
   if (overLimit) {
     // What is still on its way is never read: the connection closes after this answer.
@@ -452,6 +507,23 @@ std::unique_lock<std::mutex> lockOpen(Session& session) {
                                       " was deleted or expired during this request."));
   }
   return lock;
+}
+
+MemoryBudget::Reservation reserveMemory(const ApiContext& context, uint64_t bytes,
+                                        std::string_view what) {
+  if (context.memory == nullptr) return {};
+  return context.memory->reserve(bytes, what);
+}
+
+void requireApiKey(const ApiContext& context, const httplib::Request& req) {
+  if (!context.config.apiKey) return;
+  std::optional<std::string> key;
+  const std::string authorization(protocol::headers::kAuthorization);
+  if (req.has_header(authorization)) key = bearerToken(req.get_header_value(authorization));
+  if (!key || !constantTimeEquals(*key, *context.config.apiKey)) {
+    throw ProblemError(unauthorized(
+        "This server needs its API key to create a session: Authorization: Bearer <key>."));
+  }
 }
 
 SessionPtr authorizeSession(const ApiContext& context, const httplib::Request& req,

@@ -21,6 +21,8 @@
 
 #include "protocol/types.h"
 #include "render/frame.h"
+#include "service/http_connections.h"
+#include "service/memory_budget.h"
 #include "service/problem.h"
 #include "service/session.h"
 
@@ -43,8 +45,11 @@ struct ApiLimits {
   uint64_t maxUploadBytes = 64ull << 20;
   uint64_t maxBodyBytes = 1ull << 20;
   uint32_t maxStreams = 8;
+  uint32_t maxStreamsPerSession = 4;  // one session's share of maxStreams (stream_registry.h)
   uint32_t maxRequestsInFlight = 64;
   uint32_t sessionIdleSeconds = 600;
+  uint64_t maxMemoryBytes = 0;  // --max-memory (memory_budget.h); 0 = none
+  uint32_t maxFrameSeconds = 0;  // --max-frame-seconds: a frame's GPU work past it is 413; 0 = none
 
   nlohmann::json toJson() const;
 };
@@ -72,11 +77,21 @@ struct ApiContext {
   SessionManager& sessions;
   loader::ModelLibrary* models = nullptr;  // null without --models
   StateStore* state = nullptr;             // null without --state-dir
+  MemoryBudget* memory = nullptr;          // --max-memory; null in unit tests (no limit)
+  // What the connection layer has done (GET /metrics); empty in unit tests.
+  std::function<ConnectionCounts()> connectionCounts;
 };
 
+// Reserves `bytes` of the memory budget for `what` (memory_budget.h): a held reservation, or the
+// 413/503 problem thrown. Without a budget, an empty reservation.
+MemoryBudget::Reservation reserveMemory(const ApiContext& context, uint64_t bytes,
+                                        std::string_view what);
+
 // With --state-dir: the session `id` from its state file, open again with `token` (checked
-// against the stored hash: 403 otherwise); null when there is no such file. Loads its model and
-// environment as an upload or creation would (422 when the model no longer loads).
+// against the stored hash: 403 otherwise); null when there is no such file, or when the file is
+// refused (reported on stderr, naming the file and why): not a record, a snapshot the API would
+// refuse, a model or environment that no longer loads. Loads its model and environment as an
+// upload or creation would; a busy loader (503) or no room for a session (429) is thrown.
 SessionPtr restoreStoredSession(ApiContext& context, std::string_view id, const std::string& token);
 
 // A new session holding `snapshot` (its model built-in or from the library), made as
@@ -225,6 +240,9 @@ uint64_t unsignedParameter(const httplib::Request& req, const std::string& name,
 // Locks an open session; throws ProblemError 404 when it was closed (deleted or expired) since it
 // was authorized. Every handler that reads or edits session state takes this lock.
 std::unique_lock<std::mutex> lockOpen(Session& session);
+
+// With --api-key: throws the 401 problem unless the request carries the key as a bearer token.
+void requireApiKey(const ApiContext& context, const httplib::Request& req);
 
 // The authorized session named by the route's first {id} segment (req.matches[1]).
 // Throws ProblemError (401/403/404).

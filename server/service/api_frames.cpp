@@ -6,6 +6,7 @@
 #include <chrono>
 #include <cstring>
 #include <map>
+#include <cstdint>
 #include <cstdio>
 #include <future>
 #include <optional>
@@ -15,6 +16,7 @@
 
 #include "protocol/constants.h"
 #include "render/render_queue.h"
+#include "service/connection.h"
 #include "service/peer_watch.h"
 #include "service/session_frames.h"
 #include "service/session_json.h"
@@ -60,12 +62,29 @@ auto withFrameProblems(const std::string& what, Deliver deliver) -> decltype(del
   } catch (const render::FrameDroppedError& e) {
     // Only for a client that went away: nobody reads this answer.
     throw ProblemError(serverBusy(std::string("The frame was dropped: ") + e.what()));
+  } catch (const render::FrameBudgetError& e) {
+    // Not transient: the same frame costs the same. Fewer pixels or lights, or another
+    // technique, fit.
+    throw ProblemError(limitExceeded(
+        413, std::string(protocol::limits::kMaxFrameSeconds),
+        std::string("The frame was stopped: ") + e.what() +
+            " (maxFrameSeconds); ask for fewer pixels or lights, or another technique."));
   } catch (const ProblemError&) {
     throw;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "myriad-server: %s failed: %s\n", what.c_str(), e.what());
     throw ProblemError(renderFailed(std::string("The renderer failed: ") + e.what()));
   }
+}
+
+// A frame's memory at its peak (memory_budget.h): its targets, readback and encoded copies.
+MemoryBudget::Reservation reserveFrame(const ApiContext& context, const FrameRequest& request) {
+  const render::FrameSettings& s = request.settings;
+  const uint64_t perPixel = s.raw ? memory_cost::kRawFrameBytesPerPixel
+                                  : memory_cost::kEncodedFrameBytesPerPixel;
+  return reserveMemory(context, uint64_t(s.width) * s.height * perPixel + memory_cost::kFrameFixedBytes,
+                       "a " + std::to_string(s.width) + "x" + std::to_string(s.height) +
+                           (s.raw ? " raw" : "") + " frame");
 }
 
 void sendFrame(httplib::Response& res, EncodedFrame&& encoded) {
@@ -86,6 +105,7 @@ void handleBuiltinFrame(const ApiContext& context, FrameServices& frames,
   settings.sun = frames.builtinLighting.sun;
   settings.ambient = frames.builtinLighting.ambient;
   settings.background = frames.builtinLighting.background;
+  const MemoryBudget::Reservation memory = reserveFrame(context, request);
 
   DeliveredFrame delivered = withFrameProblems("frame", [&] {
     return deliverFrame(context.renderThread, frames.metrics, context.renderThread.defaultScene(),
@@ -102,6 +122,7 @@ void handleSessionFrame(const ApiContext& context, FrameServices& frames,
   const SessionFrameContext frameContext{context.renderThread, frames.stats, frames.metrics,
                                          nullptr, context.config.borrowPixels,
                                          context.config.yuvJpeg};
+  const MemoryBudget::Reservation memory = reserveFrame(context, request);
   SessionFrame frame = withFrameProblems("frame of " + session->id, [&] {
     PendingSessionFrame pending =
         submitSessionFrame(frameContext, session, request, render::FrameSource::Request);
@@ -181,21 +202,61 @@ void handleLabels(const ApiContext& context, FrameServices& frames, const httpli
   sendJson(res, labels);
 }
 
+// The token a stream's request carried, read as authorize() reads it (the header wins), and, for
+// a viewer token, its hash and expiry: the stream ends when that token stops working.
+StreamCredential streamCredential(const httplib::Request& req, const Session& session,
+                                  Role role) {
+  StreamCredential credential;
+  if (role == Role::owner) return credential;
+  const Credentials presented = credentialsOf(req);
+  const std::optional<std::string> token = presented.authorization
+                                               ? bearerToken(*presented.authorization)
+                                               : presented.queryToken;
+  if (!token) return credential;  // authorize() admitted none; not reached
+  credential.viewerHash = sha256Hex(*token);
+  std::lock_guard lock(session.mutex);
+  for (const ViewerToken& viewer : session.viewerTokens) {
+    if (constantTimeEquals(viewer.hash, credential.viewerHash)) {
+      credential.expiresAtUnix = viewer.expiresAtUnix;
+    }
+  }
+  // Revoked since authorize() (expiresAtUnix 0): the stream's first turn ends it as revoked.
+  if (credential.expiresAtUnix == 0) credential.expiresAtUnix = INT64_MAX;
+  return credential;
+}
+
 void handleStream(ApiContext& context, FrameServices& frames, const httplib::Request& req,
                   httplib::Response& res) {
-  SessionPtr session = authorizeSession(context, req, /*allowQueryToken=*/true);
+  Role role = Role::owner;
+  SessionPtr session = context.sessions.authorize(req.matches[1].str(), credentialsOf(req),
+                                                  /*allowQueryToken=*/true, Role::viewer, &role);
   FrameRequest request = parsedQuery(
       [&] { return parseStreamQuery(req.params, context.config.limits.maxResolution); });
-  std::unique_ptr<StreamRegistry::Slot> slot = frames.streams.open(session);
-  if (!slot) {
-    if (frames.streams.stopping()) {
+  const uint32_t share = context.config.limits.maxStreamsPerSession;
+  StreamRegistry::Refusal refusal = StreamRegistry::Refusal::none;
+  PeerWatch peer(req.local_addr, req.local_port, req.remote_addr, req.remote_port);
+  std::unique_ptr<StreamRegistry::Slot> slot = frames.streams.open(session, share, peer, &refusal);
+  switch (refusal) {
+    case StreamRegistry::Refusal::none:
+      break;
+    case StreamRegistry::Refusal::stopping:
       throw ProblemError(serverBusy("The server is shutting down."));
-    }
-    throw ProblemError(limitExceeded(
-        429, "maxStreams",
-        "This server already serves " + std::to_string(frames.streams.maxStreams()) +
-            " streams, its limit (--max-streams); close one or retry later."));
+    case StreamRegistry::Refusal::maxStreamsPerSession:
+      throw ProblemError(limitExceeded(
+          429, std::string(protocol::limits::kMaxStreamsPerSession),
+          "The session " + quoteClientText(session->id) + " already has " +
+              std::to_string(share) +
+              " streams open, its share of the server's (--max-streams-per-session); close one "
+              "or retry later."));
+    case StreamRegistry::Refusal::maxStreams:
+      throw ProblemError(limitExceeded(
+          429, "maxStreams",
+          "This server already serves " + std::to_string(frames.streams.maxStreams()) +
+              " streams, its limit (--max-streams); close one or retry later."));
   }
+  // A reader that stops reading must not keep its place: its writes fail after this long without
+  // progress, which ends the stream (stream.h).
+  connection::setWriteStallLimit(kStreamWriteStall);
   res.set_header("Cache-Control", "no-store");
   std::string contentType(protocol::kStreamContentType);
   if (request.video) {
@@ -203,13 +264,13 @@ void handleStream(ApiContext& context, FrameServices& frames, const httplib::Req
     res.set_header(std::string(protocol::headers::kVideoCodec),
                    std::string(encode::webCodecsName(request.video->codec)));
   }
+  StreamCredential credential = streamCredential(req, *session, role);
   res.set_chunked_content_provider(
       contentType,
       makeStreamProvider({context.renderThread, frames.stats, frames.metrics, &frames.shared,
                           context.config.borrowPixels, context.config.yuvJpeg},
-                         frames.streams,
-                         std::move(slot), std::move(session), std::move(request),
-                         PeerWatch(req.local_addr, req.local_port, req.remote_addr, req.remote_port)));
+                         frames.streams, std::move(slot), std::move(session), std::move(request),
+                         peer, std::move(credential)));
 }
 
 void handleStats(const ApiContext& context, FrameServices& frames, const httplib::Request& req,
@@ -238,6 +299,19 @@ void handleMetrics(const ApiContext& context, FrameServices& frames, const httpl
   gauges.videoEncodes = frames.shared.videoEncodeCount();
   gauges.videoEncoders = frames.shared.videoChannelCount();
   gauges.videoResyncs = frames.shared.videoResyncCount();
+  if (context.connectionCounts) {
+    const ConnectionCounts connections = context.connectionCounts();
+    gauges.connectionsOpen = connections.open;
+    gauges.connectionsAccepted = connections.accepted;
+    gauges.connectionsRefused = connections.refusedAtCap;
+    gauges.connectionsEvicted = connections.evicted;
+    gauges.headTimeouts = connections.headTimeouts;
+    gauges.headsRefused = connections.headRefused;
+  }
+  if (context.memory != nullptr) {
+    gauges.memoryReservedBytes = context.memory->reserved();
+    gauges.memoryLimitBytes = context.memory->limit();
+  }
   res.set_content(frames.metrics.exposition(gauges), std::string(protocol::kMetricsContentType));
 }
 

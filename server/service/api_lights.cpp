@@ -142,7 +142,11 @@ void generate(ApiContext& context, const httplib::Request& req, httplib::Respons
     generation.maxIntensity = float(request.intensity->max);
   }
   if (request.falloff) generation.falloff = float(*request.falloff);
-  // Generated outside the lock: a million lights take a moment.
+  // Generated outside the lock: a million lights take a moment, and hundreds of megabytes on
+  // their way to the GPU (held until the upload is done).
+  const MemoryBudget::Reservation memory =
+      reserveMemory(context, request.count * memory_cost::kGeneratedLightBytes,
+                    std::to_string(request.count) + " generated lights");
   const std::vector<scene::PointLight> lights = scene::generateLights(generation);
 
   protocol::LightsGenerated generated;

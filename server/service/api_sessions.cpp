@@ -7,6 +7,7 @@
 #include "loader/loader.h"
 #include "protocol/constants.h"
 #include "protocol/types.h"
+#include "protocol/validate.h"
 #include "scene/builtin_scene.h"
 #include "service/api.h"
 #include "render/render_queue.h"
@@ -215,17 +216,24 @@ void populate(ApiContext& context, Session& session, ScenePtr loaded, const std:
 
 // The model a stored upload was made from, loaded again (in the loader child, as at upload).
 ScenePtr loadStoredUpload(const ApiContext& context, const StoredUpload& upload) {
-  std::optional<std::string> bytes = context.state->blob(upload.blob);
+  std::string why;
+  std::optional<std::string> bytes = context.state->blob(upload.blob, &why);
   if (!bytes) {
-    throw ProblemError(modelRejected("The session's uploaded model is missing from the state "
-                                     "directory; upload it again."));
+    throw ProblemError(modelRejected("The session's uploaded model " + upload.blob +
+                                     " is unusable in the state directory: " + why + "."));
   }
   switch (upload.kind) {
     case StoredUpload::Kind::zip:
       return loadOrProblem(
           [&] { return loader::loadModelArchive(*bytes, upload.filename, upload.entry); });
     case StoredUpload::Kind::files: {
-      const scene::MemoryFiles files = loader::decodeFileSet(*bytes, "stored upload", {});
+      // A blob that is no file set is the stored upload's fault: a 422 like a load's.
+      scene::MemoryFiles files;
+      try {
+        files = loader::decodeFileSet(*bytes, "stored upload", {});
+      } catch (const scene::ModelLoadError& e) {
+        throw ProblemError(modelRejected(e.what()));
+      }
       return loadOrProblem([&] { return loader::loadModelFiles(files, upload.entry); });
     }
     case StoredUpload::Kind::file:
@@ -255,15 +263,7 @@ SessionPtr openSession(ApiContext& context, const std::string& source,
 
 void createSession(ApiContext& context, const httplib::Request& req, httplib::Response& res) {
   checkQuery(req, {});
-  if (context.config.apiKey) {
-    std::optional<std::string> key;
-    const std::string authorization(protocol::headers::kAuthorization);
-    if (req.has_header(authorization)) key = bearerToken(req.get_header_value(authorization));
-    if (!key || !constantTimeEquals(*key, *context.config.apiKey)) {
-      throw ProblemError(unauthorized(
-          "This server needs its API key to create a session: Authorization: Bearer <key>."));
-    }
-  }
+  requireApiKey(context, req);
   const protocol::SessionCreate body =
       jsonBody(req, protocol::schema_names::kSessionCreate, "{}").get<protocol::SessionCreate>();
   const std::optional<protocol::Snapshot>& snapshot = body.snapshot;
@@ -447,6 +447,8 @@ void createToken(ApiContext& context, const httplib::Request& req, httplib::Resp
     }
     tokens.push_back({sha256Hex(created.token), now + int64_t(ttl)});
     session->persisted.tokensChanged = true;
+    // A token pushed out ends the streams opened with it (stream.h); nothing else changed.
+    session->changed.notify_all();
   }
   sendJson(res, created, 201);
 }
@@ -458,6 +460,9 @@ void revokeTokens(ApiContext& context, const httplib::Request& req, httplib::Res
     auto lock = lockOpen(*session);
     session->viewerTokens.clear();
     session->persisted.tokensChanged = true;
+    // Streams opened with these tokens wake and end at once, not at their next frame or re-send.
+    // Not a bump(): the picture did not change.
+    session->changed.notify_all();
   }
   res.status = 204;
 }
@@ -472,6 +477,67 @@ SessionPtr createSessionFromSnapshot(ApiContext& context, const protocol::Snapsh
   }
   return openSession(context, snapshot.model.source, &snapshot, "/snapshot");
 }
+
+namespace {
+
+// The rest of restoreStoredSession(): `stored`, its snapshot checked, made a session again.
+// Throws ProblemError; leaves no session behind when it does.
+SessionPtr restoreSnapshot(ApiContext& context, const StoredSession& stored,
+                           protocol::Snapshot snapshot, const std::string& ownerToken) {
+  // The state directory keeps the bytes of the base model only (PUT .../model), not of assets
+  // added since: the session comes back with its base model as its one object.
+  snapshot.scene.reset();
+  const std::string& source = snapshot.model.source;
+  ScenePtr loaded = stored.model ? loadStoredUpload(context, *stored.model)
+                                 : loadSource(context, source);
+  SessionScene::SnapshotLoads environment;
+  if (stored.environmentBlob) {
+    std::string why;
+    std::optional<std::string> bytes = context.state->blob(*stored.environmentBlob, &why);
+    constexpr size_t kImageBytes =
+        size_t(scene::kEnvironmentWidth) * scene::kEnvironmentHeight * 3 * sizeof(float);
+    if (bytes && bytes->size() != kImageBytes) why = "it is not a decoded environment image";
+    if (!why.empty()) {
+      throw ProblemError(notFoundDetail("The session's environment image " +
+                                        *stored.environmentBlob + " is unusable: " + why + "."));
+    }
+    auto image = std::make_shared<scene::EnvironmentImage>();
+    image->rgb.resize(bytes->size() / sizeof(float));
+    std::memcpy(image->rgb.data(), bytes->data(), bytes->size());
+    environment = {std::move(image), snapshot.settings.environment.source.value_or("")};
+  } else {
+    environment = snapshotEnvironment(context, snapshot, "");
+  }
+  SessionPtr session = context.sessions.createWithIdentity(
+      std::string(stored.id), ownerToken, stored.tokenHash, newSessionScene(context));
+  try {
+    populate(context, *session, std::move(loaded), source, &snapshot, "", environment);
+  } catch (...) {
+    context.sessions.remove(session->id);
+    throw;
+  }
+  {
+    std::lock_guard lock(session->mutex);
+    session->persisted.model = stored.model;
+    session->persisted.environmentBlob = stored.environmentBlob;
+    // The ids the lights had: a client that added light 17 still finds it under 17.
+    if (!stored.lightIds.empty() &&
+        !session->scene.restoreLightIds(stored.lightIds, stored.nextLightId)) {
+      std::fprintf(stderr, "myriad-server: state: session %s: stored light ids do not fit; "
+                   "the lights have new ids\n", session->id.c_str());
+    }
+    // A write between populate() and here lacked these: the next one is complete.
+    session->persisted.savedVersion = UINT64_MAX;
+    for (const StoredSession::Viewer& v : stored.viewers) {
+      session->viewerTokens.push_back({v.tokenHash, v.expiresAtUnix});
+    }
+  }
+  std::fprintf(stderr, "myriad-server: session %s restored from the state directory (%s)\n",
+               session->id.c_str(), source.c_str());
+  return session;
+}
+
+}  // namespace
 
 SessionPtr restoreStoredSession(ApiContext& context, std::string_view id,
                                 const std::string& token) {
@@ -489,60 +555,33 @@ SessionPtr restoreStoredSession(ApiContext& context, std::string_view id,
     throw ProblemError(forbidden("The token is not the token of the session " +
                                  quoteClientText(id) + "."));
   }
+  // The stored snapshot is checked as a posted one is (jsonBody: the schema, then the types);
+  // the rules across members run in populate(), as for POST /v1/sessions {"snapshot"}.
   protocol::Snapshot snapshot;
   try {
+    if (auto error = protocol::validate(protocol::schema_names::kSnapshot, stored->snapshot)) {
+      throw std::runtime_error("/snapshot" + error->pointer + ": " + error->message);
+    }
     snapshot = stored->snapshot.get<protocol::Snapshot>();
   } catch (const std::exception& e) {
-    std::fprintf(stderr, "myriad-server: state: session %s has an unreadable snapshot (%s)\n",
-                 stored->id.c_str(), e.what());
+    context.state->refuse(id, e.what(), true);
     return nullptr;
   }
-  // The state directory keeps the bytes of the base model only (PUT .../model), not of assets
-  // added since: the session comes back with its base model as its one object.
-  snapshot.scene.reset();
-  const std::string& source = snapshot.model.source;
-  ScenePtr loaded = stored->model ? loadStoredUpload(context, *stored->model)
-                                  : loadSource(context, source);
-  SessionScene::SnapshotLoads environment;
-  if (stored->environmentBlob) {
-    std::optional<std::string> bytes = context.state->blob(*stored->environmentBlob);
-    auto image = std::make_shared<scene::EnvironmentImage>();
-    if (bytes && bytes->size() == size_t(scene::kEnvironmentWidth) * scene::kEnvironmentHeight *
-                                      3 * sizeof(float)) {
-      image->rgb.resize(bytes->size() / sizeof(float));
-      std::memcpy(image->rgb.data(), bytes->data(), bytes->size());
-      environment = {std::move(image), snapshot.settings.environment.source.value_or("")};
-    }
-  } else {
-    environment = snapshotEnvironment(context, snapshot, "");
-  }
-  SessionPtr session = context.sessions.createWithIdentity(
-      std::string(id), owner ? token : std::string(), stored->tokenHash, newSessionScene(context));
   try {
-    populate(context, *session, std::move(loaded), source, &snapshot, "", environment);
-  } catch (...) {
-    context.sessions.remove(session->id);
-    throw;
+    return restoreSnapshot(context, *stored, std::move(snapshot), owner ? token : std::string());
+  } catch (const ProblemError& e) {
+    // What the file holds does not restore (a rule across members, more lights than this
+    // server's limit, a model that no longer loads): the session is not found, as without the
+    // file. The server's own state (a busy loader, no room for a session, a failure) is answered
+    // as it is. A load may succeed later (the library or a blob mended): not remembered.
+    const int status = e.problem().status;
+    if (status == 429 || status >= 500) throw;
+    const std::string pointer = e.problem().pointer.value_or("");
+    context.state->refuse(id, pointer.empty() ? e.problem().detail
+                                              : pointer + ": " + e.problem().detail,
+                          status == 400 || status == 413);
+    return nullptr;
   }
-  {
-    std::lock_guard lock(session->mutex);
-    session->persisted.model = stored->model;
-    session->persisted.environmentBlob = stored->environmentBlob;
-    // The ids the lights had: a client that added light 17 still finds it under 17.
-    if (!stored->lightIds.empty() &&
-        !session->scene.restoreLightIds(stored->lightIds, stored->nextLightId)) {
-      std::fprintf(stderr, "myriad-server: state: session %s: stored light ids do not fit; "
-                   "the lights have new ids\n", session->id.c_str());
-    }
-    // A write between populate() and here lacked these: the next one is complete.
-    session->persisted.savedVersion = UINT64_MAX;
-    for (const StoredSession::Viewer& v : stored->viewers) {
-      session->viewerTokens.push_back({v.tokenHash, v.expiresAtUnix});
-    }
-  }
-  std::fprintf(stderr, "myriad-server: session %s restored from the state directory (%s)\n",
-               session->id.c_str(), source.c_str());
-  return session;
 }
 
 void addSessionRoutes(Routes& routes, ApiContext& context) {

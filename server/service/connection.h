@@ -3,6 +3,7 @@
 #pragma once
 
 #include <chrono>
+#include <cstdint>
 
 namespace myriad::service::connection {
 
@@ -12,5 +13,10 @@ namespace myriad::service::connection {
 // frees its slot. Default: kDefaultWriteStall. Outside a request (a unit test) it does nothing.
 inline constexpr std::chrono::milliseconds kDefaultWriteStall{30000};
 void setWriteStallLimit(std::chrono::milliseconds limit);
+
+// The most body bytes the current request may send, as the route allows, enforced on the raw
+// bytes as they are read (framing included, with room for it), so a parser's own buffers (a
+// multipart part's headers, a chunk-size line) cannot grow past it.
+void setBodyLimit(uint64_t bytes);
 
 }  // namespace myriad::service::connection

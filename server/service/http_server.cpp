@@ -24,10 +24,6 @@
 namespace myriad::service {
 namespace {
 
-// An idle keep-alive connection holds a worker until this expires, and shutdown waits for it, so
-// it is short: reconnecting on loopback or a LAN costs far less than a stalled shutdown.
-constexpr time_t kKeepAliveSeconds = 2;
-
 // A 4096x4096 frame is tens of MiB of PNG; a slow client must still be able to take it.
 constexpr time_t kWriteTimeoutSeconds = 30;
 
@@ -71,7 +67,8 @@ struct HttpServer::State {
   HttpConfig config;
   render::RenderQueue& renderThread;
   SceneSummary scene;
-  httplib::Server server;
+  BoundedHttpServer server;
+  MemoryBudget memory;
   SessionManager sessions;
   ApiContext api;
   Routes routes;
@@ -85,11 +82,27 @@ struct HttpServer::State {
   State(const HttpConfig& c, render::RenderQueue& r)
       : config(c),
         renderThread(r),
+        server(connectionLimits(c), isProbe),
+        memory(c.api.limits.maxMemoryBytes),
         sessions(c.api.limits.maxSessions, std::chrono::seconds(c.api.limits.sessionIdleSeconds),
                  [&r](Session& session) { releaseScene(r, session); }),
-        api{c.api, r, sessions, c.models, c.state},
+        api{c.api, r, sessions, c.models, c.state, &memory},
         routes(server, api),
         frames(c.api.limits.maxStreams) {}
+
+  static ConnectionLimits connectionLimits(const HttpConfig& c) {
+    ConnectionLimits limits = c.connections;
+    limits.workers = c.threads;
+    return limits;
+  }
+
+  // Load balancers' and monitors' requests: served by workers of their own, so they answer
+  // however many requests wait for the others.
+  static bool isProbe(const http::RequestHead& head) {
+    namespace r = protocol::routes;
+    return (head.method == "GET" || head.method == "HEAD") &&
+           (head.path == r::kHealth || head.path == r::kReady || head.path == r::kMetrics);
+  }
 
   // A closed session's GPU scene, destroyed before the DELETE (or expiry) finishes.
   static void releaseScene(render::RenderQueue& renderThread, Session& session) {
@@ -176,6 +189,7 @@ HttpServer::HttpServer(const HttpConfig& config, render::RenderQueue& renderThre
                        const scene::Scene& scene)
     : state_(std::make_unique<State>(config, renderThread)) {
   State& s = *state_;
+  s.api.connectionCounts = [&s] { return s.server.counts(); };
   s.frames.builtinLighting.takeLightingFrom(scene);
   s.frames.builtinDefaults = FrameDefaults{scene.camera, scene.bounds(), config.maxResolution,
                                           config.technique};
@@ -198,13 +212,10 @@ HttpServer::HttpServer(const HttpConfig& config, render::RenderQueue& renderThre
   }
 
   httplib::Server& server = s.server;
-  const uint32_t threads = config.threads;
-  server.new_task_queue = [threads] { return new httplib::ThreadPool(threads); };
   // The route table refuses bodies over each route's own limit from Content-Length; this bounds
   // what httplib reads of a body sent without one.
   server.set_payload_max_length(
       std::max(config.api.limits.maxUploadBytes, config.api.limits.maxBodyBytes));
-  server.set_keep_alive_timeout(kKeepAliveSeconds);
   server.set_write_timeout(kWriteTimeoutSeconds, 0);
   // httplib writes a response's headers and body as two writes. With Nagle's algorithm on, the
   // body waits for the ACK of the headers, which a kept-alive client delays by up to 40 ms (its
@@ -267,6 +278,7 @@ HttpServer::HttpServer(const HttpConfig& config, render::RenderQueue& renderThre
       s.persister->flush();
     }
     if (!nodeName.empty()) res.set_header(std::string(protocol::headers::kNode), nodeName);
+    BoundedHttpServer::markClosing(res);
   });
   server.set_logger(logRequest);
 
@@ -324,6 +336,7 @@ uint16_t HttpServer::bind() {
     throw std::runtime_error("cannot listen on " + config.host + ":" + std::to_string(config.port) +
                              " (" + reason + ").");
   }
+  state_->server.widenBacklog();
   return static_cast<uint16_t>(port);
 }
 

@@ -9,6 +9,7 @@
 #include <string>
 
 #include "service/api.h"
+#include "service/http_connections.h"
 #include "render/render_queue.h"
 
 namespace myriad::service {
@@ -17,6 +18,9 @@ struct HttpConfig {
   std::string host;
   uint16_t port = 0;  // 0 = any free port
   uint32_t threads = 8;
+  // Bounds on connections and request heads (service/http_connections.h); `threads` sets its
+  // workers.
+  ConnectionLimits connections;
   uint32_t maxResolution = 4096;  // already capped by the renderer's maximum
   bool validation = false;
   render::Technique technique = render::Technique::Clustered;  // unless a request names one

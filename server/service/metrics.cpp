@@ -32,6 +32,13 @@ void family(std::string& out, std::string_view name, std::string_view type,
   out += "# TYPE " + std::string(name) + " " + std::string(type) + "\n";
 }
 
+// A family of one unlabelled sample.
+void single(std::string& out, std::string_view name, std::string_view type, std::string_view help,
+            uint64_t value) {
+  family(out, name, type, help);
+  out += std::string(name) + " " + std::to_string(value) + "\n";
+}
+
 }  // namespace
 
 void Metrics::countRequest(std::string_view routeTemplate, int status) {
@@ -39,17 +46,47 @@ void Metrics::countRequest(std::string_view routeTemplate, int status) {
   ++requests_[{std::string(routeTemplate), status}];
 }
 
-void Metrics::observeFrame(double seconds) {
+namespace {
+
+// Adds one observation to a histogram of Metrics::kFrameBuckets.
+void observe(std::array<uint64_t, Metrics::kFrameBuckets.size()>& buckets, uint64_t& count,
+             double& sum, double seconds) {
   if (!std::isfinite(seconds) || seconds < 0.0) seconds = 0.0;
-  std::lock_guard lock(mutex_);
-  for (size_t i = 0; i < kFrameBuckets.size(); ++i) {
-    if (seconds <= kFrameBuckets[i]) {
-      ++frameBucketCounts_[i];
+  for (size_t i = 0; i < Metrics::kFrameBuckets.size(); ++i) {
+    if (seconds <= Metrics::kFrameBuckets[i]) {
+      ++buckets[i];
       break;
     }
   }
-  ++frameCount_;
-  frameSecondsSum_ += seconds;
+  ++count;
+  sum += seconds;
+}
+
+// A histogram of Metrics::kFrameBuckets in the exposition format.
+void histogram(std::string& out, std::string_view name,
+               const std::array<uint64_t, Metrics::kFrameBuckets.size()>& buckets,
+               uint64_t count, double sum) {
+  uint64_t cumulative = 0;
+  for (size_t i = 0; i < Metrics::kFrameBuckets.size(); ++i) {
+    cumulative += buckets[i];
+    out += std::string(name) + "_bucket{le=\"" + number(Metrics::kFrameBuckets[i]) + "\"} " +
+           std::to_string(cumulative) + "\n";
+  }
+  out += std::string(name) + "_bucket{le=\"+Inf\"} " + std::to_string(count) + "\n";
+  out += std::string(name) + "_sum " + number(sum) + "\n";
+  out += std::string(name) + "_count " + std::to_string(count) + "\n";
+}
+
+}  // namespace
+
+void Metrics::observeFrame(double seconds) {
+  std::lock_guard lock(mutex_);
+  observe(frameBucketCounts_, frameCount_, frameSecondsSum_, seconds);
+}
+
+void Metrics::observeQueueWait(double seconds) {
+  std::lock_guard lock(mutex_);
+  observe(queueBucketCounts_, queueCount_, queueSecondsSum_, seconds);
 }
 
 uint64_t Metrics::requests(std::string_view routeTemplate, int status) const {
@@ -71,38 +108,55 @@ std::string Metrics::exposition(const MetricGauges& gauges) const {
 
   family(out, "myriad_frame_seconds", "histogram",
          "Time to deliver one frame: render queue, GPU, readback and encoding.");
-  uint64_t cumulative = 0;
-  for (size_t i = 0; i < kFrameBuckets.size(); ++i) {
-    cumulative += frameBucketCounts_[i];
-    out += "myriad_frame_seconds_bucket{le=\"" + number(kFrameBuckets[i]) + "\"} " +
-           std::to_string(cumulative) + "\n";
-  }
-  out += "myriad_frame_seconds_bucket{le=\"+Inf\"} " + std::to_string(frameCount_) + "\n";
-  out += "myriad_frame_seconds_sum " + number(frameSecondsSum_) + "\n";
-  out += "myriad_frame_seconds_count " + std::to_string(frameCount_) + "\n";
+  histogram(out, "myriad_frame_seconds", frameBucketCounts_, frameCount_, frameSecondsSum_);
+  family(out, "myriad_frame_queue_seconds", "histogram",
+         "Time a frame waited before its work began: the render queue and other frames' GPU "
+         "submissions ahead of it (a heavy frame's bounded parts included).");
+  histogram(out, "myriad_frame_queue_seconds", queueBucketCounts_, queueCount_, queueSecondsSum_);
 
-  family(out, "myriad_sessions", "gauge", "Sessions open now.");
-  out += "myriad_sessions " + std::to_string(gauges.sessions) + "\n";
-  family(out, "myriad_streams", "gauge", "Frame streams open now.");
-  out += "myriad_streams " + std::to_string(gauges.streams) + "\n";
-  family(out, "myriad_stream_frames_shared_total", "counter",
-         "Stream parts sent from a frame another stream of the session rendered (no render).");
-  out += "myriad_stream_frames_shared_total " + std::to_string(gauges.sharedStreamFrames) + "\n";
-  family(out, "myriad_video_encodes_total", "counter",
-         "Frames encoded for video streams (one encode however many viewers share it).");
-  out += "myriad_video_encodes_total " + std::to_string(gauges.videoEncodes) + "\n";
-  family(out, "myriad_video_encoders", "gauge",
-         "Video encoders open now: one per session, target, size, codec, bitrate and fps streamed.");
-  out += "myriad_video_encoders " + std::to_string(gauges.videoEncoders) + "\n";
-  family(out, "myriad_video_resyncs_total", "counter",
-         "Video stream clients that fell behind and skipped to a key frame (each lowers the bitrate).");
-  out += "myriad_video_resyncs_total " + std::to_string(gauges.videoResyncs) + "\n";
-  family(out, "myriad_gpu_memory_bytes", "gauge",
-         "GPU memory held for scenes, lights and light lists.");
-  out += "myriad_gpu_memory_bytes " + std::to_string(gauges.gpuMemoryBytes) + "\n";
-  family(out, "myriad_validation_messages_total", "counter",
-         "Vulkan validation messages since start-up (0 unless --validate).");
-  out += "myriad_validation_messages_total " + std::to_string(gauges.validationMessages) + "\n";
+  single(out, "myriad_sessions", "gauge", "Sessions open now.",
+         gauges.sessions);
+  single(out, "myriad_streams", "gauge", "Frame streams open now.",
+         gauges.streams);
+  single(out, "myriad_stream_frames_shared_total", "counter",
+         "Stream parts sent from a frame another stream of the session rendered (no render).",
+         gauges.sharedStreamFrames);
+  single(out, "myriad_video_encodes_total", "counter",
+         "Frames encoded for video streams (one encode however many viewers share it).",
+         gauges.videoEncodes);
+  single(out, "myriad_video_encoders", "gauge",
+         "Video encoders open now: one per session, target, size, codec, bitrate and fps streamed.",
+         gauges.videoEncoders);
+  single(out, "myriad_video_resyncs_total", "counter",
+         "Video stream clients that fell behind and skipped to a key frame (each lowers the bitrate).",
+         gauges.videoResyncs);
+  single(out, "myriad_connections", "gauge", "HTTP connections open now (waiting or in a request).",
+         gauges.connectionsOpen);
+  single(out, "myriad_connections_accepted_total", "counter", "HTTP connections accepted.",
+         gauges.connectionsAccepted);
+  single(out, "myriad_connections_refused_total", "counter",
+         "Connections answered 503 at --max-connections(-per-client) with none waiting to give way.",
+         gauges.connectionsRefused);
+  single(out, "myriad_connections_evicted_total", "counter",
+         "Idle or half-sent connections closed at a connection cap for a newer one.",
+         gauges.connectionsEvicted);
+  single(out, "myriad_request_head_timeouts_total", "counter",
+         "Request heads not sent whole within --header-timeout (408).",
+         gauges.headTimeouts);
+  single(out, "myriad_request_heads_refused_total", "counter",
+         "Request heads refused before any route ran: malformed, or over a line or size bound.",
+         gauges.headsRefused);
+  single(out, "myriad_memory_reserved_bytes", "gauge",
+         "Memory reserved now by requests in progress against --max-memory.",
+         gauges.memoryReservedBytes);
+  single(out, "myriad_memory_limit_bytes", "gauge", "--max-memory (0: none).",
+         gauges.memoryLimitBytes);
+  single(out, "myriad_gpu_memory_bytes", "gauge",
+         "GPU memory held for scenes, lights and light lists.",
+         gauges.gpuMemoryBytes);
+  single(out, "myriad_validation_messages_total", "counter",
+         "Vulkan validation messages since start-up (0 unless --validate).",
+         gauges.validationMessages);
   return out;
 }
 

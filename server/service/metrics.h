@@ -22,6 +22,15 @@ struct MetricGauges {
   uint64_t videoEncodes = 0;        // frames encoded by video streams' shared encoders
   uint64_t videoEncoders = 0;       // video stream encoders open now (one per channel)
   uint64_t videoResyncs = 0;        // video viewers that fell behind and skipped to a key frame
+  // The connection layer (service/http_connections.h) and the memory budget.
+  uint64_t connectionsOpen = 0;
+  uint64_t connectionsAccepted = 0;
+  uint64_t connectionsRefused = 0;   // 503 at a cap, nothing waiting to give way
+  uint64_t connectionsEvicted = 0;   // waiting ones closed for newer ones at a cap
+  uint64_t headTimeouts = 0;         // 408
+  uint64_t headsRefused = 0;         // 400, 414, 431, 501, 505 before any handler
+  uint64_t memoryReservedBytes = 0;
+  uint64_t memoryLimitBytes = 0;
 };
 
 class Metrics {
@@ -37,6 +46,9 @@ class Metrics {
 
   // One frame delivered: from submission to the renderer to encoded bytes.
   void observeFrame(double seconds);
+  // And how long it waited before its work began (render::Frame::queueMs: behind other frames'
+  // submissions included), the same buckets.
+  void observeQueueWait(double seconds);
 
   // The text/plain; version=0.0.4 body.
   std::string exposition(const MetricGauges& gauges) const;
@@ -50,6 +62,9 @@ class Metrics {
   std::array<uint64_t, kFrameBuckets.size()> frameBucketCounts_{};  // not cumulative
   uint64_t frameCount_ = 0;
   double frameSecondsSum_ = 0.0;
+  std::array<uint64_t, kFrameBuckets.size()> queueBucketCounts_{};  // not cumulative
+  uint64_t queueCount_ = 0;
+  double queueSecondsSum_ = 0.0;
 };
 
 // Served as protocol::kMetricsContentType.

@@ -1,5 +1,6 @@
 #include "service/options.h"
 
+#include <algorithm>
 #include <charconv>
 #include <functional>
 #include <limits>
@@ -31,6 +32,32 @@ T parseUnsigned(std::string_view flag, std::string_view text, T min, T max) {
                      " to " + std::to_string(max) + ", not \"" + std::string(text) + "\".");
   }
   return value;
+}
+
+// A byte count with an optional binary or decimal suffix: "1073741824", "1GiB", "512MiB", "2G".
+uint64_t parseBytes(std::string_view flag, std::string_view text, uint64_t min, uint64_t max) {
+  static constexpr std::pair<std::string_view, uint64_t> kSuffixes[] = {
+      {"KiB", 1ull << 10}, {"MiB", 1ull << 20}, {"GiB", 1ull << 30}, {"TiB", 1ull << 40},
+      {"K", 1000ull},      {"M", 1000000ull},   {"G", 1000000000ull}, {"T", 1000000000000ull}};
+  uint64_t unit = 1;
+  std::string_view digits = text;
+  for (const auto& [suffix, scale] : kSuffixes) {
+    if (text.size() > suffix.size() && text.ends_with(suffix)) {
+      digits = text.substr(0, text.size() - suffix.size());
+      unit = scale;
+      break;
+    }
+  }
+  uint64_t value = 0;
+  const char* end = digits.data() + digits.size();
+  auto [ptr, ec] = std::from_chars(digits.data(), end, value);
+  if (digits.empty() || ec != std::errc() || ptr != end || value > max / unit ||
+      value * unit < min || value * unit > max) {
+    throw UsageError(std::string(flag) + " expects a byte count from " + std::to_string(min) +
+                     " to " + std::to_string(max) + " (suffixes KiB, MiB, GiB), not \"" +
+                     std::string(text) + "\".");
+  }
+  return value * unit;
 }
 
 struct Flag {
@@ -86,10 +113,27 @@ const std::vector<Flag>& flags() {
        [](Options& o, std::string_view v) {
          o.threads = parseUnsigned<uint32_t>("--threads", v, 1, kMaxThreads);
        }},
+      {"--max-connections", true,
+       [](Options& o, std::string_view v) {
+         o.maxConnections = parseUnsigned<uint32_t>("--max-connections", v, 16, kMaxCountLimit);
+       }},
+      {"--max-connections-per-client", true,
+       [](Options& o, std::string_view v) {
+         o.maxConnectionsPerClient =
+             parseUnsigned<uint32_t>("--max-connections-per-client", v, 1, kMaxCountLimit);
+       }},
+      {"--header-timeout", true,
+       [](Options& o, std::string_view v) {
+         o.headerTimeoutSeconds = parseUnsigned<uint32_t>("--header-timeout", v, 1, 600);
+       }},
       {"--max-queued-frames", true,
        [](Options& o, std::string_view v) {
          o.maxQueuedFrames =
              parseUnsigned<uint32_t>("--max-queued-frames", v, 0, kMaxQueuedFramesLimit);
+       }},
+      {"--max-frame-seconds", true,
+       [](Options& o, std::string_view v) {
+         o.maxFrameSeconds = parseUnsigned<uint32_t>("--max-frame-seconds", v, 0, 86400);
        }},
       {"--frames-in-flight", true,
        [](Options& o, std::string_view v) {
@@ -133,6 +177,10 @@ const std::vector<Flag>& flags() {
        [](Options& o, std::string_view v) {
          o.maxObjectsPerSession = parseUnsigned<uint32_t>("--max-objects", v, 1, 10000000);
        }},
+      {"--max-memory", true,
+       [](Options& o, std::string_view v) {
+         o.maxMemoryBytes = parseBytes("--max-memory", v, 64ull << 20, 1ull << 50);
+       }},
       {"--max-upload-bytes", true,
        [](Options& o, std::string_view v) {
          o.maxUploadBytes = parseUnsigned<uint64_t>("--max-upload-bytes", v, 1, kMaxBytesLimit);
@@ -144,6 +192,11 @@ const std::vector<Flag>& flags() {
       {"--max-streams", true,
        [](Options& o, std::string_view v) {
          o.maxStreams = parseUnsigned<uint32_t>("--max-streams", v, 0, kMaxCountLimit);
+       }},
+      {"--max-streams-per-session", true,
+       [](Options& o, std::string_view v) {
+         o.maxStreamsPerSession =
+             parseUnsigned<uint32_t>("--max-streams-per-session", v, 1, kMaxCountLimit);
        }},
       {"--max-requests", true,
        [](Options& o, std::string_view v) {
@@ -251,6 +304,9 @@ Options parseOptions(std::span<const std::string_view> args) {
     }
     flag->apply(options, *inlineValue);
   }
+  if (options.maxStreamsPerSession == 0) {
+    options.maxStreamsPerSession = std::max(1u, (options.maxStreams + 1) / 2);
+  }
   return options;
 }
 
@@ -276,8 +332,20 @@ materials and lights (protocol/reference.md), and the stateless GET /v1/frame.
                            the device)
   --threads N              HTTP worker threads (default 32; keep well above --max-streams plus
                            --max-queued-frames: each stream and waiting frame holds one)
+  --max-memory BYTES       what requests may take the process to (1GiB, 512MiB, ...): larger
+                           bodies, frames and light generations wait, then 503 + Retry-After,
+                           or 413 when one could never fit (default: the cgroup's memory.max,
+                           else 3/4 of RAM)
+  --max-connections N      open connections (default 4096); at the limit the longest-waiting
+                           idle or half-sent one is closed for a new one, else 503
+  --max-connections-per-client N
+                           the same, from one address (default 512)
+  --header-timeout S       seconds a request's head may take to arrive whole; 408 after
+                           (default 10)
   --max-queued-frames N    frame requests that may wait for the renderer; more get
                            503 + Retry-After (default 4)
+  --max-frame-seconds S    renderer time one frame may take, its parts together; a frame
+                           over it gets 413 (default 120; 0: no limit)
   --frames-in-flight N     frames the renderer keeps submitted to the GPU at once, 1-4: the
                            next is recorded while the GPU renders (default 2; 1: serial)
   --overlap-frames         let frames of different sessions overlap on the GPU (the next
@@ -299,6 +367,8 @@ materials and lights (protocol/reference.md), and the stateless GET /v1/frame.
   --max-upload-bytes N     largest model upload (default 67108864, 64 MiB)
   --max-body-bytes N       largest JSON request body (default 1048576, 1 MiB)
   --max-streams N          open frame streams, server-wide; more get 429 (default 8)
+  --max-streams-per-session N  streams one session may hold; more get 429 (default half of
+                           --max-streams, rounded up)
   --max-requests N         requests handled at once; more get 429 (default 64)
   --session-idle-seconds S a session unused for S seconds is deleted (default 600)
   --shutdown-grace S       after SIGTERM/SIGINT, answer what finishes within S seconds, then exit

@@ -30,9 +30,20 @@ struct Options {
   // long as it runs, so this must stay well above maxStreams + maxQueuedFrames + 1 for other
   // requests to stay answerable with every stream open and the render queue full.
   uint32_t threads = 32;
+  // Connections (service/http_connections.h): open in all and from one address (the longest-waiting
+  // idle or partial one gives way to a new one at the cap), and how long a request head may take.
+  uint32_t maxConnections = 4096;
+  uint32_t maxConnectionsPerClient = 512;
+  uint32_t headerTimeoutSeconds = 10;
   // Frame requests allowed to wait for the render thread (besides the one rendering); more get
   // 503 + Retry-After. Each waiting frame holds a worker thread and, later, its pixels in memory.
   uint32_t maxQueuedFrames = 4;
+  // The renderer time one frame may take, its bounded submissions together (render::Renderer's
+  // split frames); a frame that took it, or whose parts measured so far say it will, is refused
+  // with 413 limit-exceeded (maxFrameSeconds). 0: no limit. On lavapipe (2 cores) a 1920x1080
+  // frame takes about 0.5 s and 4096x4096 3 s; 320x180 of a million clustered lights over a
+  // minute, 1920x1080 of a million light volumes many minutes.
+  uint32_t maxFrameSeconds = 120;
   // Frames the render thread keeps in flight on the GPU (render::Renderer's frame slots, 1..4):
   // it records and submits the next frame while the GPU renders and the previous one is read
   // back. 1: the serial path (submit, wait, read back, then the next).
@@ -57,9 +68,15 @@ struct Options {
   uint32_t maxSessions = 16;
   uint32_t maxLightsPerSession = 1000000;
   uint32_t maxObjectsPerSession = 100000;  // --max-objects
+  // --max-memory (service/memory_budget.h); 0 until given: the cgroup's limit or 3/4 of RAM.
+  uint64_t maxMemoryBytes = 0;
   uint64_t maxUploadBytes = 64ull << 20;  // PUT .../model file uploads
   uint64_t maxBodyBytes = 1ull << 20;     // every JSON body
   uint32_t maxStreams = 8;                // open GET .../stream connections, server-wide
+  // Streams one session may hold, so that one client or one shared viewer link cannot take every
+  // place. 0 until parseOptions resolves it: given, or half of maxStreams rounded up (at least
+  // 1), which leaves the other half to at least one other session.
+  uint32_t maxStreamsPerSession = 0;
   uint32_t maxRequestsInFlight = 64;      // requests being handled at once (429 beyond)
   uint32_t sessionIdleSeconds = 600;      // a session unused this long is deleted
   // After SIGINT/SIGTERM: requests that finish within this many seconds are answered; then the

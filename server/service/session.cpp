@@ -194,7 +194,7 @@ SessionPtr SessionManager::authorize(std::string_view id, const Credentials& cre
     // Another server wrote (or deleted) this session since: the copy here is out of date.
     std::fprintf(stderr, "myriad-server: session %s changed on another server; reloading it\n",
                  session->id.c_str());
-    removeIf(id, session);
+    removeIf(id, session, Session::CloseReason::reloaded);
     session = nullptr;
   }
   if (!session && restorer_) {
@@ -248,9 +248,12 @@ SessionPtr SessionManager::authorize(std::string_view id, const Credentials& cre
   return session;
 }
 
-bool SessionManager::remove(std::string_view id) { return removeIf(id, nullptr); }
+bool SessionManager::remove(std::string_view id, Session::CloseReason reason) {
+  return removeIf(id, nullptr, reason);
+}
 
-bool SessionManager::removeIf(std::string_view id, const SessionPtr& expected) {
+bool SessionManager::removeIf(std::string_view id, const SessionPtr& expected,
+                              Session::CloseReason reason) {
   SessionPtr session;
   {
     std::lock_guard lock(mutex_);
@@ -263,6 +266,7 @@ bool SessionManager::removeIf(std::string_view id, const SessionPtr& expected) {
   {
     std::lock_guard lock(session->mutex);
     session->closed = true;
+    session->closedBecause = reason;
     session->changed.notify_all();
   }
   if (release_) release_(*session);
@@ -275,7 +279,7 @@ void SessionManager::closeAll() {
     std::lock_guard lock(mutex_);
     for (const auto& [id, session] : sessions_) ids.push_back(id);
   }
-  for (const std::string& id : ids) remove(id);
+  for (const std::string& id : ids) remove(id, Session::CloseReason::shutdown);
 }
 
 size_t SessionManager::count() const {
@@ -305,7 +309,7 @@ size_t SessionManager::sweepExpired() {
   }
   size_t removed = 0;
   for (const std::string& id : expired) {
-    if (remove(id)) {
+    if (remove(id, Session::CloseReason::expired)) {
       std::fprintf(stderr, "myriad-server: session %s expired after %lld s idle\n", id.c_str(),
                    static_cast<long long>(idleTimeout_.count()));
       ++removed;

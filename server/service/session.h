@@ -76,8 +76,11 @@ struct Session {
   // The version of the last change its client said ends an interaction (X-Myriad-Interaction:
   // end): an interactive stream sends the still for it without waiting to see changes stop.
   uint64_t interactionEndVersion = 0;
-  // Set when the session is deleted, expired or the server stops; streams end when they see it.
+  // Set when the session is deleted, expired or the server stops; streams end when they see it,
+  // and an image stream's last part says why (`closedBecause`).
+  enum class CloseReason { deleted, expired, reloaded, shutdown };
   bool closed = false;
+  CloseReason closedBecause = CloseReason::deleted;
 
   // With --state-dir: what the state file needs beyond the snapshot (the bytes behind an uploaded
   // model or environment) and the version last written (StatePersister writes when it moved).
@@ -173,11 +176,12 @@ class SessionManager {
                        bool allowQueryToken = false, Role needed = Role::owner,
                        Role* role = nullptr);
 
-  // Closes the session (streams wake and end), releases its GPU scene and forgets it. False when
-  // there was no such session.
-  bool remove(std::string_view id);
+  // Closes the session (streams wake and end, told `reason`), releases its GPU scene and forgets
+  // it. False when there was no such session.
+  bool remove(std::string_view id, Session::CloseReason reason = Session::CloseReason::deleted);
   // remove(), only while `id` is still `expected` (not a copy restored since).
-  bool removeIf(std::string_view id, const SessionPtr& expected);
+  bool removeIf(std::string_view id, const SessionPtr& expected,
+                Session::CloseReason reason = Session::CloseReason::deleted);
 
   // Closes every session (server shutdown): streams end; GPU scenes are released.
   void closeAll();

@@ -371,6 +371,7 @@ DeliveredFrame deliverFrame(render::RenderQueue& renderThread, Metrics& metrics,
   delivered.encoded = encodeFrame(delivered.frame, request);
   metrics.observeFrame(
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
+  metrics.observeQueueWait(delivered.frame.queueMs / 1000.0);
   return delivered;
 }
 
@@ -426,6 +427,7 @@ SessionFrame collectSessionFrame(const SessionFrameContext& context, const Sessi
   delivered.frame.borrowed.reset();
   context.metrics.observeFrame(
       std::chrono::duration<double>(Clock::now() - pending.submitted).count());
+  context.metrics.observeQueueWait(delivered.frame.queueMs / 1000.0);
   context.stats.record(session, delivered.frame, pending.rendered.settings.target,
                        delivered.encoded.encodeMs, waitMs);
   SessionFrame result;

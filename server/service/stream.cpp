@@ -31,6 +31,7 @@ struct StreamState {
   FrameRequest request;
   Clock::duration interval;  // 1 / fps
   PeerWatch peer;            // the client's connection
+  StreamCredential credential;  // the token it was opened with
 
   bool hasFrame = false;
   uint64_t shownVersion = 0;  // the session version of the last frame
@@ -128,6 +129,84 @@ struct StreamState {
     return write(sink, multipartPart(contentType, image, sequence, !wroteAny, interactiveScale));
   }
 
+  // Why a stream ends without its client asking.
+  enum class End {
+    none,            // it goes on
+    quietly,         // replaced, shutdown, or its session reloaded: no part says why
+    sessionDeleted,  // the rest end with a problem part
+    sessionExpired,
+    viewerRevoked,
+    viewerExpired,
+  };
+
+  // Whether the stream must end now, given the wall clock in Unix seconds. session->mutex held.
+  End endNow(int64_t nowUnix) const {
+    if (!slot || registry.stopping() || slot->replaced()) return End::quietly;
+    if (session->closed) {
+      switch (session->closedBecause) {
+        case Session::CloseReason::deleted: return End::sessionDeleted;
+        case Session::CloseReason::expired: return End::sessionExpired;
+        // Reloaded: the copy another server wrote answers the client's next stream. Shutdown:
+        // the client cannot do anything with a reason.
+        case Session::CloseReason::reloaded:
+        case Session::CloseReason::shutdown: return End::quietly;
+      }
+    }
+    if (credential.viewerHash.empty()) return End::none;
+    for (const ViewerToken& viewer : session->viewerTokens) {
+      if (!constantTimeEquals(viewer.hash, credential.viewerHash)) continue;
+      return viewer.expiresAtUnix > nowUnix ? End::none : End::viewerExpired;
+    }
+    // Gone from the session: revoked, or dropped by a newer token after it expired.
+    return credential.expiresAtUnix > nowUnix ? End::viewerRevoked : End::viewerExpired;
+  }
+
+  // When a viewer token's stream must wake to end, on the steady clock its waits use (the token's
+  // expiry is wall-clock time, as authorize() compares it).
+  Clock::time_point viewerExpiry() const {
+    // Further off than the next re-send it changes no wait (and cannot overflow the clock).
+    if (credential.expiresAtUnix - unixNow() > kIdleResend.count() + 1) {
+      return Clock::time_point::max();
+    }
+    const auto left = std::chrono::system_clock::from_time_t(time_t(credential.expiresAtUnix)) -
+                      std::chrono::system_clock::now();
+    return Clock::now() + std::chrono::duration_cast<Clock::duration>(left);
+  }
+
+  Problem problemOf(End end) const {
+    const std::string id = quoteClientText(session->id);
+    const std::string askOwner = "; ask the session's owner for a new one.";
+    switch (end) {
+      case End::sessionDeleted:
+        return notFoundDetail("The session " + id + " was deleted.");
+      case End::sessionExpired:
+        return notFoundDetail("The session " + id + " expired: it was unused for longer than the "
+                              "server's idle limit (sessionIdleSeconds).");
+      case End::viewerRevoked:
+        return unauthorized("The viewer link to " + id + " was revoked" + askOwner);
+      case End::viewerExpired:
+        return unauthorized("The viewer link to " + id + " expired" + askOwner);
+      case End::none:
+      case End::quietly:
+        break;
+    }
+    return internalError("The stream of " + id + " ended.");
+  }
+
+  // Ends the response: an image stream's last part says why (when `end` has a reason), then the
+  // terminating chunk, so the client sees a complete body and end of file; by then the stream's
+  // place is free (a client that sees its stream end may open another at once). Returns false,
+  // the provider's "nothing more". Called without session->mutex (write() takes it).
+  bool finish(httplib::DataSink& sink, End end) {
+    if (!video && end != End::none && end != End::quietly) {
+      if (!write(sink, problemPart(problemOf(end), !wroteAny))) return false;
+    }
+    settleAhead();
+    slot.reset();
+    sink.done();
+    return false;
+  }
+
   // One provider call: waits for something to send, sends one part, returns. False ends the
   // response (after done() when it ends cleanly) and closes the connection.
   bool next(httplib::DataSink& sink);
@@ -135,22 +214,18 @@ struct StreamState {
 
 bool StreamState::next(httplib::DataSink& sink) {
   for (;;) {
-    bool closed = false;
+    End ending = End::none;
     bool animate = false;
     uint64_t version = 0;
     bool ended = false;  // the newest change ends its interaction (X-Myriad-Interaction: end)
     {
       std::lock_guard lock(session->mutex);
-      closed = session->closed;
+      ending = endNow(unixNow());
       animate = session->scene.settings().animate;
       version = session->version;
       ended = session->interactionEndVersion == version;
     }
-    if (closed || registry.stopping() || slot->replaced()) {
-      // The terminating chunk, then close: the client sees a complete body and end of file.
-      sink.done();
-      return false;
-    }
+    if (ending != End::none) return finish(sink, ending);
     // A client that hung up gets no more frames: without this check, the frame after the close
     // (and often one more: the first write to a closed peer succeeds) was rendered for nobody.
     if (peer.gone()) return false;
@@ -244,8 +319,12 @@ bool StreamState::next(httplib::DataSink& sink) {
         nextFrameAt = now + kQueueFullRetry;
         continue;
       } catch (const ProblemError&) {
-        sink.done();  // the session closed while the frame rendered
-        return false;
+        // The session closed while the frame rendered: said as at the top of the loop.
+        {
+          std::lock_guard lock(session->mutex);
+          ending = endNow(unixNow());
+        }
+        return finish(sink, ending == End::none ? End::quietly : ending);
       } catch (const std::exception& e) {
         std::fprintf(stderr, "myriad-server: stream of %s ended: frame failed: %s\n",
                      session->id.c_str(), e.what());
@@ -280,66 +359,20 @@ bool StreamState::next(httplib::DataSink& sink) {
     if (hasFrame && now - lastWriteAt >= kIdleResend) return writePart(sink);
 
     // Nothing to send yet: sleep until the fps limit allows the wanted frame, the re-send is due,
-    // or the session changes or closes (or shutdown notifies), whichever comes first.
+    // the viewer token expires, or the session changes, closes or loses the token (or shutdown
+    // notifies), whichever comes first.
     Clock::time_point deadline = hasFrame ? lastWriteAt + kIdleResend : now + kIdleResend;
     if (wantFrame) deadline = std::min(deadline, nextFrameAt);
     if (quality && lastInteractive) deadline = std::min(deadline, quality->settlesAt());
+    if (!credential.viewerHash.empty()) deadline = std::min(deadline, viewerExpiry());
     std::unique_lock lock(session->mutex);
     session->changed.wait_until(lock, deadline, [&] {
-      return session->closed || registry.stopping() || slot->replaced() ||
-             session->version != version;
+      return session->version != version || endNow(unixNow()) != End::none;
     });
   }
 }
 
 }  // namespace
-
-StreamRegistry::Slot::Slot(StreamRegistry& registry, SessionPtr session)
-    : registry_(registry), session_(std::move(session)) {}
-
-StreamRegistry::Slot::~Slot() {
-  std::lock_guard lock(registry_.mutex_);
-  registry_.open_.remove(this);
-}
-
-std::unique_ptr<StreamRegistry::Slot> StreamRegistry::open(SessionPtr session) {
-  std::lock_guard lock(mutex_);
-  if (stopping_) return nullptr;
-  if (liveCount() >= maxStreams_) {
-    auto oldest = std::find_if(open_.begin(), open_.end(), [&](const Slot* slot) {
-      return !slot->replaced() && slot->session_ == session;
-    });
-    if (oldest == open_.end()) return nullptr;
-    (*oldest)->replaced_ = true;
-    // As in shutdown: the stream is either before its check (and sees the flag) or waiting.
-    { std::lock_guard sessionLock(session->mutex); }
-    session->changed.notify_all();
-  }
-  auto slot = std::make_unique<Slot>(*this, std::move(session));
-  open_.push_back(slot.get());
-  return slot;
-}
-
-uint32_t StreamRegistry::count() const {
-  std::lock_guard lock(mutex_);
-  return liveCount();
-}
-
-uint32_t StreamRegistry::liveCount() const {
-  return static_cast<uint32_t>(
-      std::count_if(open_.begin(), open_.end(), [](const Slot* slot) { return !slot->replaced(); }));
-}
-
-void StreamRegistry::shutdown() {
-  std::lock_guard lock(mutex_);
-  stopping_ = true;
-  // Taking each session's mutex after setting the flag means a stream is either before its
-  // predicate check (and sees the flag) or already waiting (and gets the notification).
-  for (const Slot* slot : open_) {
-    { std::lock_guard sessionLock(slot->session_->mutex); }
-    slot->session_->changed.notify_all();
-  }
-}
 
 std::string multipartPart(std::string_view contentType, std::string_view image, uint64_t sequence,
                           bool first, std::string_view interactiveScale) {
@@ -355,6 +388,17 @@ std::string multipartPart(std::string_view contentType, std::string_view image, 
   }
   part.append("\r\n");
   part.append(image);
+  part.append("\r\n--").append(protocol::kStreamBoundary).append("\r\n");
+  return part;
+}
+
+std::string problemPart(const Problem& problem, bool first) {
+  const std::string body = toBody(problem);
+  std::string part;
+  if (first) part.append("--").append(protocol::kStreamBoundary).append("\r\n");
+  part.append("Content-Type: ").append(protocol::kProblemContentType).append("\r\n");
+  part.append("Content-Length: ").append(std::to_string(body.size())).append("\r\n\r\n");
+  part.append(body);
   part.append("\r\n--").append(protocol::kStreamBoundary).append("\r\n");
   return part;
 }
@@ -383,11 +427,12 @@ httplib::ContentProviderWithoutLength makeStreamProvider(const SessionFrameConte
                                                          StreamRegistry& registry,
                                                          std::unique_ptr<StreamRegistry::Slot> slot,
                                                          SessionPtr session, FrameRequest request,
-                                                         PeerWatch peer) {
+                                                         PeerWatch peer,
+                                                         StreamCredential credential) {
   auto state = std::make_shared<StreamState>(StreamState{
       context, registry, std::move(slot), std::move(session), request,
       std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(1.0 / request.fps)),
-      peer});
+      peer, std::move(credential)});
   if (state->request.video) {
     encode::VideoSettings video;
     video.codec = state->request.video->codec;
@@ -407,7 +452,12 @@ httplib::ContentProviderWithoutLength makeStreamProvider(const SessionFrameConte
   if (state->request.interactiveFps > 0) state->quality.emplace(state->request.interactiveFps);
   return [state](size_t /*offset*/, httplib::DataSink& sink) {
     const bool more = state->next(sink);
-    if (!more) state->settleAhead();
+    if (!more) {
+      state->settleAhead();
+      // The place goes back the moment the stream ends (a failed write included: a stalled
+      // reader's frees it for the next stream), not whenever the HTTP layer destroys the response.
+      state->slot.reset();
+    }
     return more;
   };
 }

@@ -16,8 +16,13 @@
 // their scale chosen from measured frame times; interactive_quality.h) and marked
 // X-Myriad-Interactive, and a full-quality still follows once the session settles.
 // A stream ends when the client goes away (seen before each frame is rendered, through PeerWatch,
-// or when a write fails), the session closes (deleted or
-// expired), or the server shuts down (StreamRegistry::shutdown wakes every waiting stream).
+// or when a write fails: a client that takes no byte for kStreamWriteStall fails the write), the
+// session closes (deleted or expired), the viewer token it was opened with is revoked or expires,
+// or the server shuts down (StreamRegistry::shutdown wakes every waiting stream). Each of these
+// wakes a waiting stream at once (a revocation notifies the session's condition variable; a
+// token's expiry is one of the wait's deadlines), so it ends within the frame it is rendering.
+// An image stream that ends because its session or token did sends a last part first, an
+// application/problem+json saying why; a video stream just ends (its chunks have no kind for it).
 #pragma once
 
 #include <httplib.h>
@@ -37,59 +42,24 @@
 #include "service/peer_watch.h"
 #include "service/session.h"
 #include "service/session_frames.h"
+#include "service/stream_registry.h"
 
 namespace myriad::service {
 
 // The boundary and Content-Type are protocol::kStreamBoundary and protocol::kStreamContentType.
 inline constexpr std::chrono::seconds kIdleResend{2};
+// A stream's client that takes no byte of a part for this long loses the stream (its write fails;
+// connection::setWriteStallLimit), so a reader that stopped reading gives its place back within
+// 5 s of its buffers filling. A live reader on a slow link still takes some bytes every few
+// seconds; single frames keep connection::kDefaultWriteStall, since a big PNG takes a while.
+inline constexpr std::chrono::seconds kStreamWriteStall{3};
 
-// The open streams: the maxStreams limit, the myriad_streams gauge, and shutdown.
-//
-// At the limit, a new stream of a session replaces that session's oldest stream instead of being
-// refused: a page that switches target or size opens a new stream and drops the old one, but the
-// server learns that the old one's client is gone only at its next write (up to kIdleResend
-// later), so a quick succession of switches would otherwise meet 429. Only a session's own
-// stream is ever replaced; other sessions still get 429 at the limit.
-class StreamRegistry {
- public:
-  explicit StreamRegistry(uint32_t maxStreams) : maxStreams_(maxStreams) {}
-
-  // Held by an open stream; releases its place when destroyed.
-  class Slot {
-   public:
-    Slot(StreamRegistry& registry, SessionPtr session);
-    ~Slot();
-    Slot(const Slot&) = delete;
-    Slot& operator=(const Slot&) = delete;
-
-    // A newer stream of the same session took this one's place: end after the current part.
-    bool replaced() const { return replaced_.load(); }
-
-   private:
-    friend class StreamRegistry;
-    StreamRegistry& registry_;
-    SessionPtr session_;
-    std::atomic<bool> replaced_{false};
-  };
-
-  // A place for a stream of `session`, or null when maxStreams streams of other sessions are
-  // open or the server is shutting down.
-  std::unique_ptr<Slot> open(SessionPtr session);
-
-  uint32_t maxStreams() const { return maxStreams_; }
-  uint32_t count() const;  // streams open and not replaced
-  bool stopping() const { return stopping_.load(); }
-
-  // Every stream ends after the part it is writing; new ones are refused. Idempotent.
-  void shutdown();
-
- private:
-  uint32_t liveCount() const;  // streams not replaced; mutex_ held
-
-  const uint32_t maxStreams_;
-  mutable std::mutex mutex_;
-  std::list<Slot*> open_;  // oldest first, so shutdown can wake them and a session's oldest is found
-  std::atomic<bool> stopping_{false};
+// The token a stream was opened with. The owner's ends only with its session; a viewer token's
+// stream also ends when that token is revoked (DELETE .../tokens, or pushed out by newer ones)
+// or expires.
+struct StreamCredential {
+  std::string viewerHash;      // the viewer token's SHA-256 (ViewerToken::hash); "": the owner's
+  int64_t expiresAtUnix = 0;   // the viewer token's expiry when the stream opened
 };
 
 // The chunked content provider of one stream. `slot` is held until the response is destroyed.
@@ -97,7 +67,8 @@ httplib::ContentProviderWithoutLength makeStreamProvider(const SessionFrameConte
                                                          StreamRegistry& registry,
                                                          std::unique_ptr<StreamRegistry::Slot> slot,
                                                          SessionPtr session, FrameRequest request,
-                                                         PeerWatch peer);
+                                                         PeerWatch peer,
+                                                         StreamCredential credential = {});
 
 // A video stream's chunk header (protocol::video_chunk gives the layout).
 struct VideoChunk {
@@ -119,5 +90,10 @@ std::string videoChunk(const VideoChunk& header, std::string_view payload);
 // `interactiveScale` (not empty: an interactive frame) becomes its X-Myriad-Interactive header.
 std::string multipartPart(std::string_view contentType, std::string_view image, uint64_t sequence,
                           bool first, std::string_view interactiveScale = {});
+
+// The last part of an image stream that ended for `problem` (application/problem+json, no
+// X-Myriad-Frame), framed as every other part: a reader that splits on boundaries has it at once,
+// and the end of the body follows.
+std::string problemPart(const Problem& problem, bool first);
 
 }  // namespace myriad::service

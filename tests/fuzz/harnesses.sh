@@ -4,8 +4,8 @@
 fuzz_dir=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
 
 # Fast ones first; fuzz_model (Assimp on every input) last.
-fuzz_harnesses=(fuzz_json_body fuzz_frame_query fuzz_scene_wire fuzz_cli_multipart
-                fuzz_upload_files fuzz_hdr fuzz_texture fuzz_model)
+fuzz_harnesses=(fuzz_json_body fuzz_frame_query fuzz_http_request fuzz_scene_wire
+                fuzz_cli_multipart fuzz_upload_files fuzz_hdr fuzz_texture fuzz_model)
 
 # libFuzzer options of one harness beyond the common ones: its dictionary, and the largest input
 # it generates (bodies and queries are small; models and archives are not).
@@ -13,6 +13,7 @@ fuzz_options() {
   case $1 in
     fuzz_json_body) echo "-dict=$fuzz_dir/json.dict -max_len=8192" ;;
     fuzz_frame_query) echo "-dict=$fuzz_dir/frame_query.dict -max_len=4096" ;;
+    fuzz_http_request) echo "-dict=$fuzz_dir/http.dict -max_len=4096" ;;
     fuzz_scene_wire) echo "-dict=$fuzz_dir/scene_wire.dict -max_len=262144" ;;
     fuzz_cli_multipart) echo "-dict=$fuzz_dir/multipart.dict -max_len=8192" ;;
     fuzz_upload_files) echo "-dict=$fuzz_dir/upload_files.dict -max_len=262144" ;;

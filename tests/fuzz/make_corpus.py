@@ -86,6 +86,35 @@ def frame_queries(out):
     return count * 4
 
 
+def http_requests(out):
+    d = out / "fuzz_http_request"
+    boundary = b"XyZ"
+    part = (b"--XyZ\r\nContent-Disposition: form-data; name=\"f\"; filename=\"a.obj\"\r\n"
+            b"Content-Type: application/octet-stream\r\n\r\nv 0 0 0\r\n--XyZ--\r\n")
+    requests = [
+        b"GET /g HTTP/1.1\r\nHost: x\r\n\r\n",
+        b"\r\nGET /g?a=1&b=2 HTTP/1.0\r\nConnection: keep-alive\r\n\r\n",
+        b"POST /u HTTP/1.1\r\nHost: x\r\nContent-Length: 2\r\n\r\n{}",
+        b"POST /u HTTP/1.1\r\nTransfer-Encoding: chunked\r\n\r\n2;x=y\r\n{}\r\n0\r\nT: 1\r\n\r\n",
+        b"POST /u HTTP/1.1\r\nContent-Type: multipart/form-data; boundary=" + boundary +
+        b"\r\nContent-Length: " + str(len(part)).encode() + b"\r\n\r\n" + part,
+        b"POST /u HTTP/1.1\r\nContent-Type: multipart/form-data; boundary=XyZ\r\n"
+        b"Transfer-Encoding: chunked\r\n\r\n" + b"%x" % len(part) + b"\r\n" + part + b"\r\n0\r\n\r\n",
+        b"GET /g HTTP/1.1\r\nContent-Length: 5\r\n\r\nGET /u HTTP/1.1\r\n\r\n",
+        b"POST /u HTTP/1.1\r\nContent-Length: 4\r\nTransfer-Encoding: chunked\r\n\r\n0\r\n\r\n",
+        b"GET /g HTTP/1.1\r\nX: a\r\n folded\r\n\r\n",
+        b"GET " + b"/a" * 200 + b" HTTP/1.1\r\n\r\n",
+        b"GET /g HTTP/1.1\r\n" + b"X-A: 1\r\n" * 12 + b"\r\n",
+        b"OPTIONS * HTTP/1.1\r\nRange: bytes=0-1\r\nExpect: 100-continue\r\n\r\n",
+    ]
+    count = 0
+    for request in requests:
+        for piece in (0, 1, 7):
+            write(d, "r%02d-%d" % (count, piece), bytes([piece]) + request)
+        count += 1
+    return count * 3
+
+
 def wire_scenes(build, out):
     # invalid/ holds files that do not load (one asks Assimp for gigabytes): no scene to encode.
     models = [p for p in sorted(MODELS.glob("*/*")) if p.suffix.lower() in
@@ -282,6 +311,7 @@ def main():
     counts = {
         "fuzz_json_body": json_bodies(out),
         "fuzz_frame_query": frame_queries(out),
+        "fuzz_http_request": http_requests(out),
         "fuzz_scene_wire": wire_scenes(build, out),
         "fuzz_cli_multipart": multipart_streams(out),
         "fuzz_upload_files": upload_files(out, large),

@@ -19,6 +19,10 @@
 #include <cstdlib>
 #include <cstring>
 #include <memory>
+#include <stdexcept>
+#include <string>
+#include <utility>
+#include <vector>
 
 #include "embedded_shaders.h"
 #include "gpu/commands.h"
@@ -238,10 +242,18 @@ uint32_t initialCapacity(const ClusterGrid& grid, uint32_t lightCount, uint64_t 
 // The grid's buffers, recreated together when the grid or the capacity changes.
 struct ClusterLists {
   ClusterLists(gpu::Context& context, const ClusterGrid& g, uint32_t references, uint32_t lights,
-               VkDeviceSize pairBytes)
+               VkDeviceSize pairBytes, bool readableRanges)
       : grid(g), capacity(references), lightCapacity(lights), arena(context, kListBlockSize) {
     const VkBufferUsageFlags storage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT;
-    ranges = arena.createBuffer(VkDeviceSize(grid.count()) * 8, storage, gpu::MemoryUse::DeviceLocal);
+    ranges = arena.createBuffer(VkDeviceSize(grid.count()) * 8,
+                                storage | (readableRanges ? VK_BUFFER_USAGE_TRANSFER_SRC_BIT : 0),
+                                gpu::MemoryUse::DeviceLocal);
+    if (readableRanges) {
+      rangesCopy = arena.createBuffer(ranges.size, VK_BUFFER_USAGE_TRANSFER_DST_BIT,
+                                      gpu::MemoryUse::Readback);
+      largeCopy = arena.createBuffer(sizeof(LargeLightQueue), VK_BUFFER_USAGE_TRANSFER_DST_BIT,
+                                     gpu::MemoryUse::Readback);
+    }
     // Four words per cluster: the cursor, the count of pairs not recorded (clusterSpill), its
     // number among the active clusters, the cluster numbered so; then the active clusters' count
     // (and three words' padding), then two vec4 per cluster: the bounds of its surface points
@@ -252,7 +264,8 @@ struct ClusterLists {
     lists = arena.createBuffer(VkDeviceSize(capacity) * 4, storage, gpu::MemoryUse::DeviceLocal);
     large = arena.createBuffer(sizeof(LargeLightQueue) + VkDeviceSize(std::max(lightCapacity, 1u)) * 4,
                                storage | VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT |
-                                   VK_BUFFER_USAGE_TRANSFER_DST_BIT,
+                                   VK_BUFFER_USAGE_TRANSFER_DST_BIT |
+                                   (readableRanges ? VK_BUFFER_USAGE_TRANSFER_SRC_BIT : 0),
                                gpu::MemoryUse::DeviceLocal);
   }
 
@@ -267,41 +280,45 @@ struct ClusterLists {
   gpu::Buffer lists;    // uint per light reference
   gpu::Buffer large;    // LargeLightQueue, then a uint per queued light
   gpu::Buffer pairs;    // the binned passes' recorded pairs (one word when they do not run)
+  // The split frame's: host-readable copies of `ranges` once the lists are built, and of the
+  // large lights' queue header once they are counted (unitsWithWork).
+  gpu::Buffer rangesCopy;
+  gpu::Buffer largeCopy;
   bool cursorsInactive = false;  // the cursors hold MYRIAD_CLUSTER_INACTIVE (after the first frame)
 };
 
-class Clustered final : public LightingTechnique {
- public:
-  explicit Clustered(const TechniqueSetup& setup)
-      : context_(setup.context), pipelines_(setup.context.device),
-        shade_(setup.context.device, setup.pipelines.layout, shadeShaderFor(setup.context.info),
-               shadeVariant()),
-        wholeLists_(wholeListsFor(setup.context.info)),
-        set_(setup.context, setup.pipelines), counters_(setup.context),
-        binnedAssign_(binnedAssignFor(setup.context.info)),
-        animateInCount_(binnedAssign_ && !separateAnimation()),
-        markInGBuffer_(markInGBuffer()),
-        pointTest_(pointTest(setup.context.info)) {
+// The pipelines of the technique, and the choices made with them: made once, shared by the
+// whole frames' instance and the split frame's (Clustered::splitInstance).
+struct ClusteredPipelines {
+  explicit ClusteredPipelines(const TechniqueSetup& setup)
+      : list(setup.context.device),
+        shade(setup.context.device, setup.pipelines.layout, shadeShaderFor(setup.context.info),
+              shadeVariant()),
+        wholeLists(wholeListsFor(setup.context.info)),
+        binnedAssign(binnedAssignFor(setup.context.info)),
+        animateInCount(binnedAssign && !separateAnimation()),
+        marksFromGBuffer(markInGBuffer()),
+        pointTestMode(pointTest(setup.context.info)) {
     requireWorkgroup(setup.context, MYRIAD_SCAN_GROUP, MYRIAD_SCAN_GROUP);
     requireWorkgroup(setup.context, MYRIAD_ASSIGN_BIN_GROUP, MYRIAD_ASSIGN_BIN_GROUP);
     VkDevice device = setup.context.device;
     VkPipelineLayout layout = setup.pipelines.layout;
-    if (wholeLists_ != WholeLists::Never) {
-      shadeWhole_ = std::make_unique<FeaturePipelines>(device, layout,
-                                                       spirv::light_clustered_whole_comp);
+    if (wholeLists != WholeLists::Never) {
+      shadeWhole = std::make_unique<FeaturePipelines>(device, layout,
+                                                      spirv::light_clustered_whole_comp);
     }
     {
       // cluster_mark.comp: kNumber (constant 0), kPointTest (7: no bounds gathered when 0).
       const VkSpecializationMapEntry entries[] = {{0, 0, sizeof(VkBool32)},
                                                   {7, sizeof(VkBool32), sizeof(uint32_t)}};
-      for (VkBool32 number : {VK_FALSE, VK_TRUE}) {
-        const uint32_t values[] = {number, pointTest_};
+      for (VkBool32 numbering : {VK_FALSE, VK_TRUE}) {
+        const uint32_t values[] = {numbering, pointTestMode};
         VkSpecializationInfo spec{2, entries, sizeof(values), values};
-        (number ? number_ : mark_) = pipelines_.add(
+        (numbering ? number : mark) = list.add(
             gpu::createComputePipeline(device, layout, spirv::cluster_mark_comp, &spec));
       }
     }
-    scan_ = pipelines_.add(gpu::createComputePipeline(device, layout, spirv::cluster_scan_comp));
+    scan = list.add(gpu::createComputePipeline(device, layout, spirv::cluster_scan_comp));
     // Alpha-blended surfaces mark their clusters from their fragments (storage writes from a
     // fragment shader): without fragmentStoresAndAtomics the forward pass tests every light.
     if (setup.context.fragmentStores) {
@@ -313,7 +330,7 @@ class Clustered final : public LightingTechnique {
       d.depthTest = true;
       d.depthCompare = VK_COMPARE_OP_LESS;  // as the forward pass: its fragments are these
       d.cullMode = VK_CULL_MODE_NONE;       // both faces: a superset of what it draws
-      markBlend_ = pipelines_.add(gpu::createGraphicsPipeline(device, layout, d));
+      markBlend = list.add(gpu::createGraphicsPipeline(device, layout, d));
     }
     // cluster_assign.comp counts (kAssign = false) or fills the lists (true): one source, so both
     // passes run the identical overlap test.
@@ -322,12 +339,12 @@ class Clustered final : public LightingTechnique {
     const VkSpecializationMapEntry entries[] = {{0, 0, sizeof(VkBool32)},
                                                 {1, sizeof(VkBool32), sizeof(VkBool32)},
                                                 {7, 2 * sizeof(VkBool32), sizeof(uint32_t)}};
-    for (VkBool32 assign : {VK_FALSE, VK_TRUE}) {
+    for (VkBool32 filling : {VK_FALSE, VK_TRUE}) {
       for (VkBool32 large : {VK_FALSE, VK_TRUE}) {
-        const uint32_t values[] = {assign, large, pointTest_};
+        const uint32_t values[] = {filling, large, pointTestMode};
         VkSpecializationInfo spec{3, entries, sizeof(values), values};
-        VkPipeline& target = assign ? (large ? assignLarge_ : assign_) : (large ? countLarge_ : count_);
-        target = pipelines_.add(
+        VkPipeline& target = filling ? (large ? assignLarge : assign) : (large ? countLarge : count);
+        target = list.add(
             gpu::createComputePipeline(device, layout, spirv::cluster_assign_comp, &spec));
       }
       // cluster_assign_binned.comp: kAssign (constant 0), its table's bins (2), kAnimate (3),
@@ -335,16 +352,46 @@ class Clustered final : public LightingTechnique {
       const VkSpecializationMapEntry binnedEntries[] = {
           {0, 0, 4}, {2, 4, 4}, {3, 8, 4}, {5, 12, 4}, {6, 16, 4}, {7, 20, 4}};
       for (VkBool32 animate : {VK_FALSE, VK_TRUE}) {
-        if (assign && animate) continue;
-        const uint32_t binnedValues[] = {assign, assignBins(), animate, mostClustersPerLight(),
+        if (filling && animate) continue;
+        const uint32_t binnedValues[] = {filling, assignBins(), animate, mostClustersPerLight(),
                                          binnedGroupSize(setup.context.info),
-                                         pointTest_};
+                                         pointTestMode};
         VkSpecializationInfo binnedSpec{6, binnedEntries, sizeof(binnedValues), binnedValues};
-        (assign ? assignBinned_ : animate ? countBinnedAnimated_ : countBinned_) = pipelines_.add(
+        (filling ? assignBinned : animate ? countBinnedAnimated : countBinned) = list.add(
             gpu::createComputePipeline(device, layout, spirv::cluster_assign_binned_comp, &binnedSpec));
       }
     }
   }
+
+  PipelineList list;
+  VkPipeline mark = VK_NULL_HANDLE;    // cluster_mark.comp's pixel pass
+  VkPipeline number = VK_NULL_HANDLE;  // its numbering pass (kNumber)
+  VkPipeline count = VK_NULL_HANDLE;
+  VkPipeline scan = VK_NULL_HANDLE;
+  VkPipeline assign = VK_NULL_HANDLE;
+  VkPipeline countLarge = VK_NULL_HANDLE;   // the queued large lights, a workgroup each
+  VkPipeline assignLarge = VK_NULL_HANDLE;
+  VkPipeline countBinned = VK_NULL_HANDLE;  // cluster_assign_binned.comp
+  VkPipeline countBinnedAnimated = VK_NULL_HANDLE;  // the same, moving the lights (kAnimate)
+  VkPipeline assignBinned = VK_NULL_HANDLE;
+  FeaturePipelines shade;  // specialised per frame (render/shading_features.h)
+  WholeLists wholeLists;
+  std::unique_ptr<FeaturePipelines> shadeWhole;  // light_clustered_whole.comp, unless Never
+  VkPipeline markBlend = VK_NULL_HANDLE;  // null without fragmentStoresAndAtomics
+  bool binnedAssign;  // small lights by cluster_assign_binned.comp (else cluster_assign.comp)
+  bool animateInCount;  // animatesLights()
+  bool marksFromGBuffer;  // the compute G-buffer's resolve marks the clusters (markInGBuffer())
+  uint32_t pointTestMode;  // the boxes lights are tested against (pointTest(); bounds unless 0)
+  // The longest list of the last frame reported (any scene, either instance; unknown at first):
+  // the whole-list pass is chosen from it, and a choice made from another scene's or an older
+  // frame's lists costs time only (both passes make the same image).
+  std::atomic<uint32_t> lastLongestList{UINT32_MAX};
+};
+
+class Clustered final : public LightingTechnique {
+ public:
+  explicit Clustered(const TechniqueSetup& setup)
+      : Clustered(setup, std::make_shared<ClusteredPipelines>(setup)) {}
 
   // The lists follow the output size, the light count and what they grew to; they are rebuilt
   // only when those change. Sessions' scenes take turns: lists that hold what this frame wants,
@@ -362,7 +409,8 @@ class Clustered final : public LightingTechnique {
                       lists_->capacity <= mostReferences && lists_->lightCapacity >= lightCount;
     if (keep) return;
     lists_.reset();
-    lists_ = std::make_unique<ClusterLists>(context_, grid, capacity, lightCount, pairBytes(lightCount));
+    lists_ = std::make_unique<ClusterLists>(context_, grid, capacity, lightCount,
+                                            pairBytes(lightCount), forSplit_);
     const CullingSet::Binding bindings[] = {
         {MYRIAD_BINDING_CLUSTER_RANGES, &lists_->ranges},
         {MYRIAD_BINDING_CLUSTER_LIGHTS, &lists_->lists},
@@ -378,109 +426,227 @@ class Clustered final : public LightingTechnique {
     u.flags.w = lists_->capacity;
     // The compute G-buffer's resolve marks the clusters, and gathers their points' bounds where
     // the light test reads them.
-    u.written.z = !markInGBuffer_ ? 0u
-                  : MYRIAD_RESOLVE_MARKS | (pointTest_ != 0 ? MYRIAD_RESOLVE_BOUNDS : 0u);
+    u.written.z = !p_->marksFromGBuffer
+                      ? 0u
+                      : MYRIAD_RESOLVE_MARKS | (p_->pointTestMode != 0 ? MYRIAD_RESOLVE_BOUNDS : 0u);
   }
 
   // On GPUs the counting pass moves the lights as it walks them: one pass over the lights fewer.
-  bool animatesLights() const override { return animateInCount_; }
+  bool animatesLights() const override { return p_->animateInCount; }
 
   // Reads the G-buffer and lights; builds the cluster lists (mark, count, scan, assign), then
-  // writes HDR and light counts (GENERAL layout) and the counters.
-  VkImageLayout record(const LightingPass& pass) override {
+  // writes HDR and light counts (GENERAL layout) and the counters. Timed as two parts, "assign"
+  // (steps 1-4, building the lists) and "shade" (step 5), or step by step (assignSteps()).
+  // The passes over lights (per-light counting and filling) and the shading (a workgroup per
+  // 16x16 tile) may be recorded in ranges; the rest is whole.
+  enum StepIndex : uint32_t { kMark, kCount, kCountLarge, kScan, kFill, kFillLarge, kShade };
+  std::vector<Step> steps(const LightingPass& pass) const override {
+    const bool detail = assignSteps();
+    const uint32_t lights = pass.scene.lightCount;
+    // The large lights' passes: one indirect dispatch, or in parts ranges of its groups.
+    const uint32_t largeLights = lights == 0 ? 0u : pass.split ? MYRIAD_LARGE_LIGHT_GROUPS : 1u;
+    const uint32_t smallLights =
+        lights == 0 ? 0u : p_->binnedAssign ? 1u : groupCount(lights, MYRIAD_LIGHTS_PER_GROUP);
+    return {{"assign", 1},
+            {detail ? "assign-count" : "assign", smallLights},
+            {detail ? "assign-count-large" : "assign", largeLights},
+            {detail ? "assign-scan" : "assign", 1},
+            {detail ? "assign-fill" : "assign", smallLights},
+            {detail ? "assign-fill-large" : "assign", largeLights},
+            {"shade", shadeTiles(pass.targets.extent), false}};
+  }
+
+  void recordStep(const LightingPass& pass, uint32_t step, uint32_t first,
+                  uint32_t count) override {
     VkCommandBuffer cmd = pass.cmd;
     const FrameTargets& t = pass.targets;
-    // Two timed parts: "assign" (steps 1-4, building the lists) and "shade" (step 5).
-    pass.timer.beginPass(cmd, "assign");
+    const ClusteredPipelines& p = *p_;
     set_.bind(cmd);
-    // Every cluster starts inactive: the last frame's scan left the cursors so, and new lists get
-    // it once here. The mark pass empties the counters and the large-light queue.
-    VkPipelineStageFlags2 before = 0;
-    if (!lists_->cursorsInactive) {
-      // Cursors, counts and numbers MYRIAD_CLUSTER_INACTIVE, no cluster numbered yet.
-      const VkDeviceSize numbered = VkDeviceSize(lists_->grid.count()) * 16;
-      vkCmdFillBuffer(cmd, lists_->cursors.buffer, 0, numbered, MYRIAD_CLUSTER_INACTIVE);
-      vkCmdFillBuffer(cmd, lists_->cursors.buffer, numbered, 4, 0);
-      lists_->cursorsInactive = true;
-      before = kFillStage;
-    }
-    // Moving the lights here: their readers before in the frame (none today) finish first; the
-    // last frame's are behind the renderer's barrier before the lighting.
     const bool animate = pass.animateLights && pass.scene.lightCount > 0;
     const VkPipelineStageFlags2 lightReaders = VK_PIPELINE_STAGE_2_VERTEX_SHADER_BIT |
                                                VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT | kComputeStage;
-    if (animate) before |= lightReaders;
-    if (before != 0) {
-      gpu::memoryBarrier(cmd, before,
-                         (before & kFillStage) != 0 ? VK_ACCESS_2_TRANSFER_WRITE_BIT : VK_ACCESS_2_NONE,
-                         kComputeStage, kStorageReadWrite);
+    switch (step) {
+      case kMark: {
+        copiesRecorded_ = {};  // this frame's copies of the queue and the ranges: none yet
+        // Every cluster starts inactive: the last frame's scan left the cursors so, and new lists
+        // get it once here. The mark pass empties the counters and the large-light queue.
+        VkPipelineStageFlags2 before = 0;
+        if (!lists_->cursorsInactive) {
+          // Cursors, counts and numbers MYRIAD_CLUSTER_INACTIVE, no cluster numbered yet.
+          const VkDeviceSize numbered = VkDeviceSize(lists_->grid.count()) * 16;
+          vkCmdFillBuffer(cmd, lists_->cursors.buffer, 0, numbered, MYRIAD_CLUSTER_INACTIVE);
+          vkCmdFillBuffer(cmd, lists_->cursors.buffer, numbered, 4, 0);
+          lists_->cursorsInactive = true;
+          before = kFillStage;
+        }
+        // Moving the lights here: their readers before in the frame (none today) finish first;
+        // the last frame's are behind the renderer's barrier before the lighting.
+        if (animate) before |= lightReaders;
+        if (before != 0) {
+          gpu::memoryBarrier(cmd, before,
+                             (before & kFillStage) != 0 ? VK_ACCESS_2_TRANSFER_WRITE_BIT
+                                                        : VK_ACCESS_2_NONE,
+                             kComputeStage, kStorageReadWrite);
+        }
+        // 1. Mark clusters holding visible geometry (the compute G-buffer's resolve did, or a
+        // pass over the pixels here), then number them (a cluster an invocation).
+        if (assignSteps()) pass.timer.beginPass(cmd, "assign-mark");
+        if (!(pass.computeGBuffer && p.marksFromGBuffer)) {
+          dispatchPixels(cmd, p.mark, t.extent, MYRIAD_PIXEL_GROUP);
+          gpu::memoryBarrier(cmd, kComputeStage, kStorageWrite, kComputeStage, kStorageReadWrite);
+        }
+        vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, p.number);
+        vkCmdDispatch(cmd, groupCount(lists_->grid.count(), MYRIAD_PIXEL_GROUP * MYRIAD_PIXEL_GROUP),
+                      1, 1);
+        gpu::memoryBarrier(cmd, kComputeStage, kStorageWrite, kComputeStage, kStorageReadWrite);
+        // 1b. And those of alpha-blended surfaces in front of it (or over the background).
+        if (p.markBlend != VK_NULL_HANDLE && hasBlendDraws(pass.scene)) markBlendClusters(cmd, pass);
+        break;
+      }
+      case kCount:
+        // 2. Count each active cluster's lights: small lights a thread each, queueing the large
+        // ones, then the queue a workgroup per light (an indirect dispatch of the queue's length).
+        dispatchSmallLights(cmd, pass.scene.lightCount, p.count,
+                            animate ? p.countBinnedAnimated : p.countBinned, first, count);
+        // With the lights moved, their later readers too (markers' vertex and the blend pass's
+        // fragment shaders).
+        gpu::memoryBarrier(cmd, kComputeStage, kStorageWrite,
+                           kComputeStage | VK_PIPELINE_STAGE_2_DRAW_INDIRECT_BIT |
+                               (animate ? lightReaders : 0),
+                           kStorageReadWrite | VK_ACCESS_2_INDIRECT_COMMAND_READ_BIT);
+        // A split frame reads how many large lights were queued (unitsWithWork).
+        if (pass.split && first + count >= steps(pass)[kCount].units &&
+            lists_->largeCopy.buffer != VK_NULL_HANDLE) {
+          gpu::bufferBarrier(cmd, lists_->large, kComputeStage, kStorageWrite,
+                             VK_PIPELINE_STAGE_2_COPY_BIT, VK_ACCESS_2_TRANSFER_READ_BIT);
+          const VkBufferCopy region{0, 0, sizeof(LargeLightQueue)};
+          vkCmdCopyBuffer(cmd, lists_->large.buffer, lists_->largeCopy.buffer, 1, &region);
+          gpu::bufferBarrier(cmd, lists_->largeCopy, VK_PIPELINE_STAGE_2_COPY_BIT,
+                             VK_ACCESS_2_TRANSFER_WRITE_BIT, VK_PIPELINE_STAGE_2_HOST_BIT,
+                             VK_ACCESS_2_HOST_READ_BIT);
+          copiesRecorded_.queue = true;
+        }
+        break;
+      case kCountLarge:
+        dispatchLargeLights(cmd, pass, p.countLarge, first, count);
+        gpu::memoryBarrier(cmd, kComputeStage, kStorageWrite, kComputeStage, kStorageReadWrite);
+        break;
+      case kScan:
+        // 3. Prefix sum: list offsets, capacity cuts, counters.
+        vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, p.scan);
+        vkCmdDispatch(cmd,
+                      groupCount(lists_->grid.count(), MYRIAD_SCAN_GROUP * MYRIAD_SCAN_CLUSTERS_PER_THREAD),
+                      1, 1);
+        gpu::memoryBarrier(cmd, kComputeStage, kStorageWrite, kComputeStage, kStorageReadWrite);
+        break;
+      case kFill:
+        // 4. Fill the lists: the same split, the queue kept from step 2.
+        dispatchSmallLights(cmd, pass.scene.lightCount, p.assign, p.assignBinned, first, count);
+        // The small-light pass does not write the queue, and its list slots are not the large
+        // lights', but it holds both writable: order it before the indirect read and the large
+        // lights' pass all the same (the synchronization layer's rule).
+        gpu::memoryBarrier(cmd, kComputeStage, kStorageWrite,
+                           kComputeStage | VK_PIPELINE_STAGE_2_DRAW_INDIRECT_BIT,
+                           kStorageReadWrite | VK_ACCESS_2_INDIRECT_COMMAND_READ_BIT);
+        break;
+      case kFillLarge:
+        dispatchLargeLights(cmd, pass, p.assignLarge, first, count);
+        gpu::memoryBarrier(cmd, kComputeStage, kStorageWrite, kComputeStage,
+                           VK_ACCESS_2_SHADER_STORAGE_READ_BIT);
+        // The lists are complete: a split frame reads the overflow before it shades from them,
+        // and the lists' lengths to size its ranges of tiles (unitWeights).
+        if (pass.split) {
+          counters_.makeHostVisible(cmd);
+          if (lists_->rangesCopy.buffer != VK_NULL_HANDLE) {
+            gpu::bufferBarrier(cmd, lists_->ranges, kComputeStage, kStorageWrite,
+                               VK_PIPELINE_STAGE_2_COPY_BIT, VK_ACCESS_2_TRANSFER_READ_BIT);
+            const VkBufferCopy region{0, 0, lists_->ranges.size};
+            vkCmdCopyBuffer(cmd, lists_->ranges.buffer, lists_->rangesCopy.buffer, 1, &region);
+            gpu::bufferBarrier(cmd, lists_->rangesCopy, VK_PIPELINE_STAGE_2_COPY_BIT,
+                               VK_ACCESS_2_TRANSFER_WRITE_BIT, VK_PIPELINE_STAGE_2_HOST_BIT,
+                               VK_ACCESS_2_HOST_READ_BIT);
+            copiesRecorded_.ranges = true;
+          }
+        }
+        break;
+      case kShade: {
+        // 5. Shade every pixel from its cluster's list, narrowed per tile (or whole:
+        // kWholeListsUpTo).
+        if (first == 0) prepareLightingTargets(cmd, t);
+        const bool whole = p.wholeLists == WholeLists::Always ||
+                           (p.wholeLists == WholeLists::WhenShort &&
+                            p_->lastLongestList.load(std::memory_order_relaxed) <= kWholeListsUpTo);
+        FeaturePipelines& shade = whole ? *p_->shadeWhole : p_->shade;
+        vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, shade.get(pass.shadingFeatures));
+        if (pass.split) {
+          // Ranges of tiles spread over the image (unitWeights weighs them in this order).
+          scatteredTiles(t.extent, MYRIAD_CLUSTER_SHADE_TILE).dispatch(cmd, first, count);
+        } else {
+          gpu::dispatchGroupRange(cmd, groupCount(t.extent.width, MYRIAD_CLUSTER_SHADE_TILE),
+                                  groupCount(t.extent.height, MYRIAD_CLUSTER_SHADE_TILE), first,
+                                  count);
+        }
+        if (first + count >= shadeTiles(t.extent)) counters_.makeHostVisible(cmd);
+        break;
+      }
+      default:
+        throw std::logic_error("clustered lighting has no step " + std::to_string(step));
     }
+  }
 
-    // 1. Mark clusters holding visible geometry (the compute G-buffer's resolve did, or a pass
-    // over the pixels here), then number them (a cluster an invocation).
-    if (assignSteps()) pass.timer.beginPass(cmd, "assign-mark");
-    if (!(pass.computeGBuffer && markInGBuffer_)) {
-      dispatchPixels(cmd, mark_, t.extent, MYRIAD_PIXEL_GROUP);
-      gpu::memoryBarrier(cmd, kComputeStage, kStorageWrite, kComputeStage, kStorageReadWrite);
+  VkImageLayout lightingLayout() const override { return VK_IMAGE_LAYOUT_GENERAL; }
+
+  // The split frame's own lists, counters and set 2; the pipelines are shared.
+  std::unique_ptr<LightingTechnique> splitInstance(const TechniqueSetup& setup) override {
+    auto instance = std::unique_ptr<Clustered>(new Clustered(setup, p_));
+    instance->forSplit_ = true;
+    instance->listLimitBytes_ = listLimitBytes_;
+    instance->listStartCapacity_ = listStartCapacity_;
+    return instance;
+  }
+
+  // After the large lights' fill every list is complete (or cut at the capacity).
+  bool listsBuiltAfter(uint32_t step) const override { return step == kFillLarge; }
+
+  // The large lights' passes: a workgroup a queued light (looping when there are more). The
+  // fill keeps one, so that the step that completes the lists always runs (listsBuiltAfter).
+  uint32_t unitsWithWork(uint32_t step, uint32_t units) const override {
+    if ((step != kCountLarge && step != kFillLarge) || !copiesRecorded_.queue) return units;
+    LargeLightQueue queue;
+    std::memcpy(&queue, lists_->largeCopy.mapped, sizeof(queue));
+    const uint32_t queued = std::min(units, queue.queued.x);
+    return step == kFillLarge ? std::max(queued, 1u) : queued;
+  }
+
+  // A shading tile costs about its pixels times the lights each walks: the longest list of the
+  // clusters above it (any slice; its pixels' slices are not known here), plus a pixel's own
+  // work (worth a few lights). From the split frame's copy of the lists' ranges.
+  std::vector<float> unitWeights(uint32_t step, VkExtent2D extent) const override {
+    if (step != kShade || !copiesRecorded_.ranges) return {};
+    constexpr float kPixelWork = 4.0f;
+    const ClusterGrid& g = lists_->grid;
+    const auto* ranges = static_cast<const uint32_t*>(lists_->rangesCopy.mapped);
+    std::vector<uint32_t> longest(size_t(g.x) * g.y, 0);
+    for (uint32_t z = 0; z < g.slices; ++z) {
+      for (uint32_t i = 0; i < g.x * g.y; ++i) {
+        const uint32_t kept = ranges[2 * (size_t(z) * g.x * g.y + i) + 1];
+        if (kept != MYRIAD_CLUSTER_INACTIVE) longest[i] = std::max(longest[i], kept);
+      }
     }
-    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, number_);
-    vkCmdDispatch(cmd, groupCount(lists_->grid.count(), MYRIAD_PIXEL_GROUP * MYRIAD_PIXEL_GROUP), 1, 1);
-    gpu::memoryBarrier(cmd, kComputeStage, kStorageWrite, kComputeStage, kStorageReadWrite);
-    // 1b. And those of alpha-blended surfaces in front of it (or over the background).
-    if (markBlend_ != VK_NULL_HANDLE && hasBlendDraws(pass.scene)) markBlendClusters(cmd, pass);
-    uint32_t lightGroups = groupCount(pass.scene.lightCount, MYRIAD_LIGHTS_PER_GROUP);
-    if (lightGroups > 0) {
-      // 2. Count each active cluster's lights: small lights a thread each, queueing the large
-      // ones, then the queue a workgroup per light (an indirect dispatch of the queue's length).
-      if (assignSteps()) pass.timer.beginPass(cmd, "assign-count");
-      dispatchSmallLights(cmd, pass.scene.lightCount, count_, animate ? countBinnedAnimated_ : countBinned_);
-      // With the lights moved, their later readers too (markers' vertex and the blend pass's
-      // fragment shaders).
-      gpu::memoryBarrier(cmd, kComputeStage, kStorageWrite,
-                         kComputeStage | VK_PIPELINE_STAGE_2_DRAW_INDIRECT_BIT |
-                             (animate ? lightReaders : 0),
-                         kStorageReadWrite | VK_ACCESS_2_INDIRECT_COMMAND_READ_BIT);
-      if (assignSteps()) pass.timer.beginPass(cmd, "assign-count-large");
-      vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, countLarge_);
-      vkCmdDispatchIndirect(cmd, lists_->large.buffer, 0);
-      gpu::memoryBarrier(cmd, kComputeStage, kStorageWrite, kComputeStage, kStorageReadWrite);
+    const uint32_t clusterTile = clusterTileSize();
+    const std::vector<std::pair<uint32_t, uint32_t>> order =
+        scatteredTiles(extent, MYRIAD_CLUSTER_SHADE_TILE).order();
+    std::vector<float> weights(order.size());
+    for (size_t i = 0; i < order.size(); ++i) {
+      const uint32_t cx = std::min(order[i].first * MYRIAD_CLUSTER_SHADE_TILE / clusterTile, g.x - 1);
+      const uint32_t cy = std::min(order[i].second * MYRIAD_CLUSTER_SHADE_TILE / clusterTile, g.y - 1);
+      weights[i] = kPixelWork + float(longest[size_t(cy) * g.x + cx]);
     }
-    // 3. Prefix sum: list offsets, capacity cuts, counters.
-    if (assignSteps()) pass.timer.beginPass(cmd, "assign-scan");
-    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, scan_);
-    vkCmdDispatch(cmd, groupCount(lists_->grid.count(), MYRIAD_SCAN_GROUP * MYRIAD_SCAN_CLUSTERS_PER_THREAD),
-                  1, 1);
-    gpu::memoryBarrier(cmd, kComputeStage, kStorageWrite, kComputeStage, kStorageReadWrite);
-    if (lightGroups > 0) {
-      // 4. Fill the lists: the same split, the queue kept from step 2.
-      if (assignSteps()) pass.timer.beginPass(cmd, "assign-fill");
-      dispatchSmallLights(cmd, pass.scene.lightCount, assign_, assignBinned_);
-      // The small-light pass does not write the queue, and its list slots are not the large
-      // lights', but it holds both writable: order it before the indirect read and the large
-      // lights' pass all the same (the synchronization layer's rule).
-      gpu::memoryBarrier(cmd, kComputeStage, kStorageWrite,
-                         kComputeStage | VK_PIPELINE_STAGE_2_DRAW_INDIRECT_BIT,
-                         kStorageReadWrite | VK_ACCESS_2_INDIRECT_COMMAND_READ_BIT);
-      if (assignSteps()) pass.timer.beginPass(cmd, "assign-fill-large");
-      vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, assignLarge_);
-      vkCmdDispatchIndirect(cmd, lists_->large.buffer, 0);
-      gpu::memoryBarrier(cmd, kComputeStage, kStorageWrite, kComputeStage,
-                         VK_ACCESS_2_SHADER_STORAGE_READ_BIT);
-    }
-    // 5. Shade every pixel from its cluster's list, narrowed per tile (or whole: kWholeListsUpTo).
-    pass.timer.beginPass(cmd, "shade");
-    prepareLightingTargets(cmd, t);
-    const bool whole = wholeLists_ == WholeLists::Always ||
-                       (wholeLists_ == WholeLists::WhenShort &&
-                        lastLongestList_.load(std::memory_order_relaxed) <= kWholeListsUpTo);
-    FeaturePipelines& shade = whole ? *shadeWhole_ : shade_;
-    dispatchPixels(cmd, shade.get(pass.shadingFeatures), t.extent, MYRIAD_CLUSTER_SHADE_TILE);
-    counters_.makeHostVisible(cmd);
-    return VK_IMAGE_LAYOUT_GENERAL;
+    return weights;
   }
 
   bool bindForwardLights(VkCommandBuffer cmd) const override {
-    if (markBlend_ == VK_NULL_HANDLE) return false;
+    if (p_->markBlend == VK_NULL_HANDLE) return false;
     set_.bindGraphics(cmd);
     return true;
   }
@@ -488,7 +654,7 @@ class Clustered final : public LightingTechnique {
   const gpu::Buffer* counters() const override { return &counters_.stats; }
   void report(CullingReport& report, const void* counters) const override {
     CullingCounters::read(counters, report);
-    lastLongestList_.store(report.mostLightsInList, std::memory_order_relaxed);
+    p_->lastLongestList.store(report.mostLightsInList, std::memory_order_relaxed);
     report.listBytes = lists_->bytes();
     report.listCapacity = lists_->capacity;
   }
@@ -528,16 +694,38 @@ class Clustered final : public LightingTechnique {
   }
 
  private:
-  // The small lights' count or fill pass: per light (`perLight`, one thread each) or per
-  // workgroup run (`binned`), as binnedAssign_ says.
+  Clustered(const TechniqueSetup& setup, std::shared_ptr<ClusteredPipelines> pipelines)
+      : context_(setup.context), p_(std::move(pipelines)), set_(setup.context, setup.pipelines),
+        counters_(setup.context) {}
+
+  // Workgroups of the shading pass (a 16x16 tile each).
+  static uint32_t shadeTiles(VkExtent2D e) {
+    return groupCount(e.width, MYRIAD_CLUSTER_SHADE_TILE) *
+           groupCount(e.height, MYRIAD_CLUSTER_SHADE_TILE);
+  }
+
+  // The large lights' count or fill pass: an indirect dispatch of the queue's groups, or in a
+  // split frame groups [first, first + count) of the most it may have (dispatch base).
+  void dispatchLargeLights(VkCommandBuffer cmd, const LightingPass& pass, VkPipeline pipeline,
+                           uint32_t first, uint32_t count) const {
+    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipeline);
+    if (pass.split) {
+      gpu::dispatchGroupRange(cmd, MYRIAD_LARGE_LIGHT_GROUPS, 1, first, count);
+    } else {
+      vkCmdDispatchIndirect(cmd, lists_->large.buffer, 0);
+    }
+  }
+
+  // The small lights' count or fill pass: per light (`perLight`, one thread each; workgroups
+  // [first, first + count) of them) or per workgroup run (`binned`, whole), as binnedAssign says.
   void dispatchSmallLights(VkCommandBuffer cmd, uint32_t lightCount, VkPipeline perLight,
-                           VkPipeline binned) const {
-    if (binnedAssign_) {
+                           VkPipeline binned, uint32_t first, uint32_t count) const {
+    if (p_->binnedAssign) {
       vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, binned);
       vkCmdDispatch(cmd, binnedGroups(lightCount), 1, 1);
     } else {
       vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, perLight);
-      vkCmdDispatch(cmd, groupCount(lightCount, MYRIAD_LIGHTS_PER_GROUP), 1, 1);
+      gpu::dispatchGroupRange(cmd, groupCount(lightCount, MYRIAD_LIGHTS_PER_GROUP), 1, first, count);
     }
   }
 
@@ -548,7 +736,7 @@ class Clustered final : public LightingTechnique {
     gpu::memoryBarrier(cmd, kComputeStage, kStorageWrite, fragment, kStorageReadWrite);
     VkRenderingAttachmentInfo depth = readOnlyDepth(pass.targets.depth);
     beginRendering(cmd, pass.targets.extent, {}, &depth);
-    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, markBlend_);
+    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, p_->markBlend);
     set_.bindGraphics(cmd);
     bindGeometry(cmd, pass.scene);
     for (const DrawItem& draw : pass.scene.draws) {
@@ -587,7 +775,7 @@ class Clustered final : public LightingTechnique {
   // workgroup, then pairSlotsPerLight() slots per light (within the device's storage range). The
   // lists are kept for fewer lights: the passes then run fewer groups, whose regions are larger.
   VkDeviceSize pairBytes(uint32_t lightCount) const {
-    if (!binnedAssign_) return 4;
+    if (!p_->binnedAssign) return 4;
     const uint64_t groups = binnedGroups(lightCount);
     const uint64_t tables = groups * (1 + uint64_t(assignBins())) * 4;
     const uint64_t slotBytes = kPairWordsPerSlot * 4;
@@ -599,31 +787,16 @@ class Clustered final : public LightingTechnique {
   }
 
   gpu::Context& context_;
-  PipelineList pipelines_;
-  VkPipeline mark_ = VK_NULL_HANDLE;    // cluster_mark.comp's pixel pass
-  VkPipeline number_ = VK_NULL_HANDLE;  // its numbering pass (kNumber)
-  VkPipeline count_ = VK_NULL_HANDLE;
-  VkPipeline scan_ = VK_NULL_HANDLE;
-  VkPipeline assign_ = VK_NULL_HANDLE;
-  VkPipeline countLarge_ = VK_NULL_HANDLE;   // the queued large lights, a workgroup each
-  VkPipeline assignLarge_ = VK_NULL_HANDLE;
-  VkPipeline countBinned_ = VK_NULL_HANDLE;  // cluster_assign_binned.comp
-  VkPipeline countBinnedAnimated_ = VK_NULL_HANDLE;  // the same, moving the lights (kAnimate)
-  VkPipeline assignBinned_ = VK_NULL_HANDLE;
-  FeaturePipelines shade_;  // specialised per frame (render/shading_features.h)
-  WholeLists wholeLists_;
-  std::unique_ptr<FeaturePipelines> shadeWhole_;  // light_clustered_whole.comp, unless Never
-  // The longest list of the last frame reported (any scene; unknown at first): the whole-list
-  // pass is chosen from it, and a choice made from another scene's or an older frame's lists
-  // costs time only (both passes make the same image).
-  mutable std::atomic<uint32_t> lastLongestList_{UINT32_MAX};
-  VkPipeline markBlend_ = VK_NULL_HANDLE;  // null without fragmentStoresAndAtomics
+  std::shared_ptr<ClusteredPipelines> p_;
   CullingSet set_;
   CullingCounters counters_;
-  bool binnedAssign_;  // small lights by cluster_assign_binned.comp (else cluster_assign.comp)
-  bool animateInCount_;  // animatesLights()
-  bool markInGBuffer_;   // the compute G-buffer's resolve marks the clusters (markInGBuffer())
-  uint32_t pointTest_;   // the boxes lights are tested against (pointTest(); bounds unless 0)
+  bool forSplit_ = false;  // the split frame's instance (splitInstance): keeps rangesCopy
+  // What the frame being recorded copied for the host so far (the split frame's instance; the
+  // copies are read once the part that made them completed).
+  struct {
+    bool queue = false;   // largeCopy, after the count
+    bool ranges = false;  // rangesCopy, after the fill
+  } copiesRecorded_;
   std::unique_ptr<ClusterLists> lists_;
   uint64_t listLimitBytes_ = 0;              // limitListMemory(); 0 = the device's limit
   uint32_t listStartCapacity_ = 0;           // limitListMemory(); 0 = initialCapacity()'s

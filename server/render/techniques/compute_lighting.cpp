@@ -1,5 +1,6 @@
 #include "render/techniques/compute_lighting.h"
 
+#include <algorithm>
 #include <cstring>
 #include <stdexcept>
 #include <string>
@@ -121,6 +122,13 @@ void prepareLightingTargets(VkCommandBuffer cmd, const FrameTargets& t) {
 void dispatchPixels(VkCommandBuffer cmd, VkPipeline pipeline, VkExtent2D extent, uint32_t group) {
   vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipeline);
   vkCmdDispatch(cmd, gpu::groupCount(extent.width, group), gpu::groupCount(extent.height, group), 1);
+}
+
+gpu::ScatteredGroups scatteredTiles(VkExtent2D extent, uint32_t group) {
+  const uint32_t x = gpu::groupCount(extent.width, group);
+  const uint32_t y = gpu::groupCount(extent.height, group);
+  constexpr uint32_t kMostBlocks = 4096;
+  return gpu::ScatteredGroups(x, y, std::max(2u, gpu::groupCount(x * y, kMostBlocks)));
 }
 
 }  // namespace myriad::render

@@ -8,6 +8,7 @@
 
 #include <vulkan/vulkan.h>
 
+#include "gpu/commands.h"
 #include "gpu/context.h"
 #include "gpu/resources.h"
 #include "render/frame.h"
@@ -78,5 +79,11 @@ void prepareLightingTargets(VkCommandBuffer cmd, const FrameTargets& t);
 
 // Binds `pipeline` and dispatches one workgroup per `group` x `group` pixels of `extent`.
 void dispatchPixels(VkCommandBuffer cmd, VkPipeline pipeline, VkExtent2D extent, uint32_t group);
+
+// The order a split frame shades the tiles (`group` x `group` pixels) of `extent` in
+// (gpu::ScatteredGroups): blocks of at least two tiles (a CPU device runs a dispatch's
+// workgroups on its threads: one tile a dispatch would leave all but one of them idle), at most
+// 4096 blocks (one dispatch each).
+gpu::ScatteredGroups scatteredTiles(VkExtent2D extent, uint32_t group);
 
 }  // namespace myriad::render

@@ -5,6 +5,7 @@
 #pragma once
 
 #include <cstdint>
+#include <memory>
 #include <vector>
 
 #include <vulkan/vulkan.h>
@@ -42,6 +43,9 @@ struct LightingPass {
   // The G-buffer was made in compute (render/visibility.h): its resolve pass marked the clusters
   // holding geometry in targets.clusterMarks where the uniforms asked (FrameUniforms.written.z).
   bool computeGBuffer = false;
+  // Recorded in parts (Renderer::SplitFrame): what the renderer reads between them is made
+  // host-readable where it is complete (listsBuiltAfter).
+  bool split = false;
 };
 
 class LightingTechnique {
@@ -62,8 +66,16 @@ class LightingTechnique {
   // graphics and compute); writes every pixel of hdr and lightCount, whose previous contents are
   // discarded, and leaves both in the returned layout: GENERAL after compute storage writes,
   // COLOR_ATTACHMENT_OPTIMAL after raster writes. Anything the host reads afterwards (report(), counters())
-  // gets its barrier here.
-  virtual VkImageLayout record(const LightingPass& pass) = 0;
+  // gets its barrier here. Every step of steps() whole, in order.
+  VkImageLayout record(const LightingPass& pass) {
+    const std::vector<Step> all = steps(pass);
+    for (uint32_t i = 0; i < all.size(); ++i) {
+      if (all[i].units == 0) continue;
+      pass.timer.beginPass(pass.cmd, all[i].name);
+      recordStep(pass, i, 0, all[i].units);
+    }
+    return lightingLayout();
+  }
 
   // Whether record() moves animated lights itself (LightingPass::animateLights), in a pass that
   // reads the lights anyway; false (the default): the renderer's animate pass moves them first.
@@ -78,17 +90,63 @@ class LightingTechnique {
     return false;
   }
 
-  // Lighting that is a sum over independently drawn lights may be recorded in ranges of lights,
-  // each range in its own submission (Renderer::SplitFrame). recordBeforeLights records what
-  // record() does before the first light (every pixel of hdr and lightCount written);
-  // recordLightRange adds lights [first, first + count). Both leave hdr and lightCount in the
-  // layout record() returns, which recordBeforeLights returns.
-  virtual bool splitsByLights() const { return false; }
-  virtual VkImageLayout recordBeforeLights(const LightingPass& pass) { return record(pass); }
-  virtual void recordLightRange(const LightingPass& pass, uint32_t first, uint32_t count) {
-    (void)pass;
-    (void)first;
-    (void)count;
+  // The lighting in parts (Renderer::SplitFrame): a fixed sequence of steps, each of `units`
+  // (lights, or workgroups of pixels) that may be recorded in ranges, each range in a submission
+  // of its own with other frames' work between them. A step's ranges in order make exactly the
+  // commands of the step recorded whole, and record() is every step whole, in order, so a frame
+  // split into parts is the frame recorded in one submission.
+  struct Step {
+    const char* name;  // the timed pass (its ranges add up under one name)
+    uint32_t units;    // 0: nothing to record this frame; 1: recorded whole
+    // The units cost about the same (lights, workgroups of a pass over every pixel alike): the
+    // ranges may grow fast from the first ones measured. False: they differ in ways nobody
+    // measured (tiles of sky and of long light lists): ranges grow slowly, and a costly unit
+    // keeps the estimate up for several parts.
+    bool unitsAlike = true;
+  };
+  virtual std::vector<Step> steps(const LightingPass& pass) const = 0;
+  // Records units [first, first + count) of `step`. `pass.cmd` may be a command buffer of its
+  // own (sets 0 and 1 bound, everything submitted before it complete and visible): the step binds
+  // what else it needs. Its first range begins the step (clears, layouts), its last ends it
+  // (barriers to the next step, counters made readable).
+  virtual void recordStep(const LightingPass& pass, uint32_t step, uint32_t first,
+                          uint32_t count) = 0;
+  // The layout the lighting leaves hdr and lightCount in (what record() returns).
+  virtual VkImageLayout lightingLayout() const = 0;
+
+  // An instance for the renderer's one split frame: the same pipelines, its own lists, counters
+  // and set 2, so the whole frames rendered between the split frame's parts leave them as its
+  // earlier parts wrote them. Null (the default): the technique keeps nothing between steps that
+  // another frame would overwrite; the split frame uses this instance.
+  virtual std::unique_ptr<LightingTechnique> splitInstance(const TechniqueSetup& setup) {
+    (void)setup;
+    return nullptr;
+  }
+  // Whether the lists the steps before and including `step` built are complete once it ran: a
+  // split frame then reads the counters (made host-readable at that step's end when
+  // LightingPass::split) and, when the lists overflowed and grow (growLists), records the lighting
+  // again from its first step, before any pixel was shaded from them.
+  virtual bool listsBuiltAfter(uint32_t step) const {
+    (void)step;
+    return false;
+  }
+  // How many of the `units` of `step` that steps() gave have work, once every step before it ran
+  // (a split frame asks when the step begins a part; what the host reads was made readable by
+  // an earlier step with LightingPass::split): the units from there on are not recorded.
+  // Clustered's large lights' passes: as many as were queued. Default: all of them.
+  virtual uint32_t unitsWithWork(uint32_t step, uint32_t units) const {
+    (void)step;
+    return units;
+  }
+  // What each unit of `step` costs relative to the others, once every step before it ran (a
+  // split frame asks when the step begins a part; what the host reads was made readable by an
+  // earlier step with LightingPass::split). Empty (the default): its units cost about the same.
+  // A split frame sizes its ranges by them: a tile of sky and a tile of long light lists differ
+  // a thousandfold.
+  virtual std::vector<float> unitWeights(uint32_t step, VkExtent2D extent) const {
+    (void)step;
+    (void)extent;
+    return {};
   }
 
   // The host-readable buffer its shaders count into (a CullingStats), or null. The renderer

@@ -3,6 +3,8 @@
 // one dispatch (shaders/light_tiled.comp). Its lists live in shared memory; on the GPU it holds
 // only the culling counters.
 #include <memory>
+#include <utility>
+#include <vector>
 
 #include "embedded_shaders.h"
 #include "gpu/commands.h"
@@ -19,25 +21,47 @@ namespace {
 class Tiled final : public LightingTechnique {
  public:
   explicit Tiled(const TechniqueSetup& setup)
-      : shade_(setup.context.device, setup.pipelines.layout, spirv::light_tiled_comp),
-        set_(setup.context, setup.pipelines), counters_(setup.context) {
+      : Tiled(setup, std::make_shared<FeaturePipelines>(setup.context.device,
+                                                        setup.pipelines.layout,
+                                                        spirv::light_tiled_comp)) {
     requireWorkgroup(setup.context, MYRIAD_TILE_SIZE * MYRIAD_TILE_SIZE, MYRIAD_TILE_SIZE);
-    const CullingSet::Binding bindings[] = {{MYRIAD_BINDING_CULLING_STATS, &counters_.stats}};
-    set_.write(bindings);
   }
 
   // Reads the G-buffer and lights; writes HDR and light counts (GENERAL layout) and the counters.
-  VkImageLayout record(const LightingPass& pass) override {
+  // One step of a workgroup per tile: each tile culls every light on its own, so any range of
+  // tiles can be shaded in a submission of its own (the counters add up across them).
+  std::vector<Step> steps(const LightingPass& pass) const override {
+    return {{"lighting", tiles(pass.targets.extent), false}};
+  }
+
+  void recordStep(const LightingPass& pass, uint32_t step, uint32_t first,
+                  uint32_t count) override {
+    (void)step;
     VkCommandBuffer cmd = pass.cmd;
-    pass.timer.beginPass(cmd, "lighting");
     set_.bind(cmd);
-    counters_.reset(cmd);
-    gpu::memoryBarrier(cmd, kFillStage, VK_ACCESS_2_TRANSFER_WRITE_BIT, kComputeStage,
-                       kStorageReadWrite);
-    prepareLightingTargets(cmd, pass.targets);
-    dispatchPixels(cmd, shade_.get(pass.shadingFeatures), pass.targets.extent, MYRIAD_TILE_SIZE);
-    counters_.makeHostVisible(cmd);
-    return VK_IMAGE_LAYOUT_GENERAL;
+    if (first == 0) {
+      counters_.reset(cmd);
+      gpu::memoryBarrier(cmd, kFillStage, VK_ACCESS_2_TRANSFER_WRITE_BIT, kComputeStage,
+                         kStorageReadWrite);
+      prepareLightingTargets(cmd, pass.targets);
+    }
+    const VkExtent2D e = pass.targets.extent;
+    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, shade_->get(pass.shadingFeatures));
+    if (pass.split) {
+      // Ranges of tiles spread over the image: each costs what the ones measured before it did.
+      scatteredTiles(e, MYRIAD_TILE_SIZE).dispatch(cmd, first, count);
+    } else {
+      gpu::dispatchGroupRange(cmd, gpu::groupCount(e.width, MYRIAD_TILE_SIZE),
+                              gpu::groupCount(e.height, MYRIAD_TILE_SIZE), first, count);
+    }
+    if (first + count >= tiles(e)) counters_.makeHostVisible(cmd);
+  }
+
+  VkImageLayout lightingLayout() const override { return VK_IMAGE_LAYOUT_GENERAL; }
+
+  // The split frame's own counters (and set 2 naming them); the pipelines are shared.
+  std::unique_ptr<LightingTechnique> splitInstance(const TechniqueSetup& setup) override {
+    return std::unique_ptr<LightingTechnique>(new Tiled(setup, shade_));
   }
 
   const gpu::Buffer* counters() const override { return &counters_.stats; }
@@ -48,7 +72,18 @@ class Tiled final : public LightingTechnique {
   uint64_t gpuMemoryBytes() const override { return counters_.arena.bytesAllocated(); }
 
  private:
-  FeaturePipelines shade_;  // specialised per frame (render/shading_features.h)
+  Tiled(const TechniqueSetup& setup, std::shared_ptr<FeaturePipelines> shade)
+      : shade_(std::move(shade)), set_(setup.context, setup.pipelines), counters_(setup.context) {
+    const CullingSet::Binding bindings[] = {{MYRIAD_BINDING_CULLING_STATS, &counters_.stats}};
+    set_.write(bindings);
+  }
+
+  static uint32_t tiles(VkExtent2D e) {
+    return gpu::groupCount(e.width, MYRIAD_TILE_SIZE) * gpu::groupCount(e.height, MYRIAD_TILE_SIZE);
+  }
+
+  // Specialised per frame (render/shading_features.h); shared with the split frame's instance.
+  std::shared_ptr<FeaturePipelines> shade_;
   CullingSet set_;
   CullingCounters counters_;
 };

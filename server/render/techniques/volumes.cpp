@@ -31,26 +31,22 @@ class Volumes final : public LightingTechnique {
     volumes_ = pipelines_.add(gpu::createGraphicsPipeline(device, setup.pipelines.layout, d));
   }
 
-  VkImageLayout record(const LightingPass& pass) override {
-    recordBeforeLights(pass);
-    recordLightRange(pass, 0, pass.scene.lightCount);
-    return VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL;
+  // Two steps: the sun (every pixel), then the lights. Each light is one instance of the proxy,
+  // added by blending: any range of them can be drawn in a submission of its own.
+  std::vector<Step> steps(const LightingPass& pass) const override {
+    return {{"sun", 1}, {"lights", pass.scene.lightCount}};
   }
 
-  // Each light is one instance of the proxy, added by blending: any range of them can be drawn
-  // in a submission of its own.
-  bool splitsByLights() const override { return true; }
-
-  VkImageLayout recordBeforeLights(const LightingPass& pass) override {
-    pass.timer.beginPass(pass.cmd, "sun");
-    recordSun(pass.cmd, pass.targets);
-    return VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL;
+  void recordStep(const LightingPass& pass, uint32_t step, uint32_t first,
+                  uint32_t count) override {
+    if (step == 0) {
+      recordSun(pass.cmd, pass.targets);
+    } else {
+      recordLights(pass.cmd, pass.targets, pass.scene, first, count);
+    }
   }
 
-  void recordLightRange(const LightingPass& pass, uint32_t first, uint32_t count) override {
-    pass.timer.beginPass(pass.cmd, "lights");
-    recordLights(pass.cmd, pass.targets, pass.scene, first, count);
-  }
+  VkImageLayout lightingLayout() const override { return VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL; }
 
  private:
   // Reads the G-buffer; writes sun + ambient (or the background) into every HDR pixel and zero
