@@ -50,8 +50,11 @@ void assign(uint index, uint first, uint step, bool queueLarge) {
 
 void main() {
   if (kLarge) {
-    // Every group walks queued lights group, group + groups, ...: uniform per group.
-    for (uint q = gl_WorkGroupID.x; q < largeQueue.queued.x; q += gl_NumWorkGroups.x) {
+    // Every group walks queued lights group, group + MYRIAD_LARGE_LIGHT_GROUPS, ...: uniform per
+    // group. The stride is the most groups the indirect dispatch has (it has fewer only when
+    // the queue is shorter, and then each group walks one light), not gl_NumWorkGroups: a split
+    // frame dispatches ranges of these groups in submissions of their own (dispatch base).
+    for (uint q = gl_WorkGroupID.x; q < largeQueue.queued.x; q += MYRIAD_LARGE_LIGHT_GROUPS) {
       assign(largeLights[q], gl_LocalInvocationID.x, MYRIAD_LIGHTS_PER_GROUP, false);
     }
   } else {
