@@ -1,9 +1,12 @@
 #!/usr/bin/env bash
-# Issue 18's page benchmark (tests/browser/page_bench.mjs): the web client in headless Chromium
-# against a fresh myriad-server, view 1280x720, built-in scene, JPEG stream with interactive
-# quality; measured in the page (client/web/perf.js): animated fps, fps while dragging the
-# camera, release-to-still, slider change-to-shown and release-to-still; first as the machine is,
-# then with LOAD busy processes (`yes`, one core each; default 2) running beside it. Prints JSON.
+# The page benchmark (tests/browser/page_bench.mjs): the web client in headless Chromium against a
+# fresh myriad-server, view 1280x720, built-in scene, on the page as it opens by default (no query
+# string: VP9 through WebCodecs) and on the JPEG stream (?stream=jpeg, also what the page falls
+# back to without WebCodecs; --paths default,jpeg,fallback adds the fallback itself), both
+# reported; measured in the page (client/web/perf.js): animated fps, fps while dragging the
+# camera and the drag's render scales, release-to-still, slider change-to-shown and
+# release-to-still; first as the machine is, then with LOAD busy processes (`yes`, one core each;
+# default 2) running beside it. Prints JSON.
 # Not a test (it asserts nothing): run it on a machine otherwise idle and say what else ran.
 # Usage: scripts/bench-page.sh [myriad-server binary] [page_bench options] [-- server flags]
 #   e.g. scripts/bench-page.sh build/release/server/myriad-server --load 2 --json /tmp/page.json

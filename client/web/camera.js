@@ -1,5 +1,7 @@
 // Camera input. Orbit: left drag turns the eye around the target, the wheel zooms, right or
-// middle drag pans; on a touch screen one finger orbits, two pinch to zoom and drag to pan. Fly: hold the right button to look around, WASD to move, Q/E down/up, Shift
+// middle drag pans; on a touch screen one finger orbits, two pinch to zoom and drag to pan; from
+// the keyboard (the view focused) the arrow keys orbit (with Shift they pan) and + / - zoom. Fly:
+// hold the right button to look around (or the arrow keys), WASD to move, Q/E down/up, Shift
 // faster. The camera itself lives on the server: every change is sent as PATCH camera (at most
 // ~30 a second, one request in flight, always the newest pose) and the stream shows the result.
 
@@ -14,6 +16,11 @@ const SEND_INTERVAL_MS = 33;         // ~30 PATCHes a second at most
 const CLICK_SLOP_PX = 4;             // a press that moved less than this is a click
 const FAST_FACTOR = 4;               // Shift in fly mode
 const FLY_KEYS = new Set(['KeyW', 'KeyA', 'KeyS', 'KeyD', 'KeyQ', 'KeyE']);
+// The view's keys: an arrow press (or each auto-repeat, ~30 a second) moves as a drag of this many
+// pixels would; + / - zoom as a wheel notch does.
+const KEY_STEP_PX = 12;
+const KEY_ZOOM = Math.exp(100 * ZOOM_PER_WHEEL_UNIT);
+const ARROWS = {ArrowLeft: [-1, 0], ArrowRight: [1, 0], ArrowUp: [0, -1], ArrowDown: [0, 1]};
 
 export class CameraControl {
   constructor(api, element, view) {
@@ -44,6 +51,11 @@ export class CameraControl {
     element.addEventListener('pointerup', (e) => this.pointerUp(e));
     element.addEventListener('pointercancel', (e) => this.pointerUp(e));
     element.addEventListener('wheel', (e) => this.wheel(e), {passive: false});
+    element.addEventListener('keydown', (e) => this.viewKey(e));
+    element.addEventListener('keyup', (e) => {
+      // The last key of a keyboard move released: its still at once, as a drag's release.
+      if (e.key in ARROWS || ['+', '=', '-', '_'].includes(e.key)) this.sender.end();
+    });
     window.addEventListener('keydown', (e) => this.keyDown(e));
     window.addEventListener('keyup', (e) => this.keyUp(e));
     window.addEventListener('blur', () => this.keys.clear());
@@ -213,6 +225,26 @@ export class CameraControl {
     const polar = Math.acos(Math.min(1, Math.max(-1, dot(pitched, up))));
     if (polar > MIN_POLAR && polar < Math.PI - MIN_POLAR) forward = pitched;
     this.update({target: add(c.eye, scale(forward, distance))});
+  }
+
+  // Keys on the focused view: arrows orbit (Shift: pan; fly: look), + / - zoom. A key held
+  // repeats, and each repeat is one more change, sent as a drag's are.
+  viewKey(e) {
+    if (!this.camera || e.ctrlKey || e.metaKey || e.altKey || e.target !== this.element) return;
+    const arrow = ARROWS[e.key];
+    if (arrow) {
+      const [dx, dy] = arrow.map((a) => a * KEY_STEP_PX);
+      if (this.mode === 'fly') this.look(dx, dy);
+      else if (e.shiftKey) this.pan(-dx, -dy);
+      else this.orbit(dx, dy);
+    } else if (e.key === '+' || e.key === '=') {
+      this.zoomBy(1 / KEY_ZOOM);
+    } else if (e.key === '-' || e.key === '_') {
+      this.zoomBy(KEY_ZOOM);
+    } else {
+      return;
+    }
+    e.preventDefault();
   }
 
   keyDown(e) {

@@ -5,14 +5,21 @@
 // looks among all of them (a session may hold a million).
 
 import {hexToLinear, linearToHex} from './color.js';
-import {fmt} from './panels.js';
-import {project} from './vec.js';
+import {fmt, whileBusy} from './panels.js';
+import {length, project, sub} from './vec.js';
 
 const $ = (id) => document.getElementById(id);
 const PAGE_SIZE = 50;
 const PICK_RADIUS_PX = 8;    // how far (CSS pixels) from a marker a click still selects it
 const DEGREES = 180 / Math.PI;  // the editor shows cone angles in degrees; the API takes radians
 const HALF_PI = Math.PI / 2;
+// Fitted ranges (the "Fit ranges" box): radii as fractions of the model's diagonal (the built-in
+// scene's 256 lights reach 1 to 3 m of its 34 m diagonal), for up to FIT_COUNT lights; more get
+// smaller reach, by the cube root of the ratio, so that a point is reached by about as many
+// lights whatever the count (100,000 lights of the reach of 256 washed the scene white).
+const FIT_RADIUS = [0.03, 0.09];
+const FIT_COUNT = 256;
+const SHOWN_DIGITS = 4;  // decimals the editor's fields show (the light keeps all of its own)
 
 export class LightsPanel {
   constructor(api, {onProblem, onInfo, getCamera, getViewSize, getFrameSize, overlay}) {
@@ -27,18 +34,46 @@ export class LightsPanel {
     this.total = 0;
     this.page = [];
     this.selected = null;            // a Light
+    this.shownVectors = {};          // field id -> the value it shows, rounded, of the light's own
     this.ringDrawn = false;          // the overlay canvas holds a ring
+    this.diagonal = 0;               // the model's bounding-box diagonal (fitted ranges)
 
-    $('gen-lights').addEventListener('click', () => this.generate());
-    $('delete-lights').addEventListener('click', () => this.deleteAll());
+    $('gen-lights').addEventListener('click', () =>
+        whileBusy($('gen-lights'), 'Generating\u2026', () => this.generate()));
+    $('delete-lights').addEventListener('click', () =>
+        whileBusy($('delete-lights'), 'Deleting\u2026', () => this.deleteAll()));
+    $('gen-count').addEventListener('input', () => this.fitRanges());
+    $('gen-fit').addEventListener('change', () => this.fitRanges());
+    // A range typed in is the user's: fitting stops until the box is ticked again.
+    for (const id of ['gen-radius-min', 'gen-radius-max']) {
+      $(id).addEventListener('input', () => { $('gen-fit').checked = false; });
+    }
     $('lights-prev').addEventListener('click', () => this.showPage(this.offset - PAGE_SIZE));
     $('lights-next').addEventListener('click', () => this.showPage(this.offset + PAGE_SIZE));
     $('light-editor').addEventListener('submit', (e) => {
       e.preventDefault();
-      this.applyEdit();
+      whileBusy($('light-apply'), 'Applying\u2026', () => this.applyEdit());
     });
-    $('light-delete').addEventListener('click', () => this.deleteSelected());
+    $('light-delete').addEventListener('click', () =>
+        whileBusy($('light-delete'), 'Deleting\u2026', () => this.deleteSelected()));
     $('light-type').addEventListener('change', () => this.showCone());
+  }
+
+  // The model's bounds (a new model, a new session): fitted ranges follow its size.
+  setModelBounds(bounds) {
+    const d = bounds ? length(sub(bounds.max, bounds.min)) : 0;
+    this.diagonal = Number.isFinite(d) && d > 0 ? d : 0;
+    this.fitRanges();
+  }
+
+  // The radius range for the count and the model (FIT_RADIUS), while "Fit ranges" is ticked.
+  fitRanges() {
+    const count = $('gen-count').valueAsNumber;
+    if (!$('gen-fit').checked || !this.diagonal || !(count > 0)) return;
+    const k = Math.min(1, Math.cbrt(FIT_COUNT / count));
+    const [min, max] = FIT_RADIUS.map((f) => Number((f * this.diagonal * k).toPrecision(3)));
+    $('gen-radius-min').value = String(min);
+    $('gen-radius-max').value = String(max);
   }
 
   numberField(id) {
@@ -114,11 +149,18 @@ export class LightsPanel {
       const swatch = document.createElement('span');
       swatch.className = 'swatch';
       swatch.style.background = linearToHex(light.color);
-      const text = document.createElement('span');
+      // A button: the list is used from the keyboard too (Tab, Enter).
+      const text = document.createElement('button');
+      text.type = 'button';
+      text.className = 'name';
       text.textContent = `#${light.id} ${light.type === 'spot' ? 'spot ' : ''}${fmt(light.position)} r=${+light.radius.toFixed(3)}`;
+      text.setAttribute('aria-pressed', String(light.id === this.selected?.id));
       item.append(swatch, text);
       item.classList.toggle('selected', light.id === this.selected?.id);
-      item.addEventListener('click', () => this.select(light));
+      item.addEventListener('click', () => {
+        this.select(light);
+        this.revealEditor();
+      });
       return item;
     }));
   }
@@ -126,19 +168,21 @@ export class LightsPanel {
   select(light) {
     this.selected = light;
     for (const item of $('light-list').children) {
-      item.classList.toggle('selected', Number(item.dataset.id) === light?.id);
+      const on = Number(item.dataset.id) === light?.id;
+      item.classList.toggle('selected', on);
+      item.querySelector('button.name')?.setAttribute('aria-pressed', String(on));
     }
     $('light-editor').hidden = !light;
     if (light) {
       $('light-editor-title').textContent = `Light #${light.id}`;
-      [$('light-x').value, $('light-y').value, $('light-z').value] = light.position;
+      this.showVector(['light-x', 'light-y', 'light-z'], light.position);
       $('light-color').value = linearToHex(light.color);
       $('light-radius').value = light.radius;
       $('light-intensity').value = light.intensity;
       $('light-falloff').value = light.falloff;
       $('light-attenuation').value = light.attenuation;
       $('light-type').value = light.type;
-      [$('light-dx').value, $('light-dy').value, $('light-dz').value] = light.direction;
+      this.showVector(['light-dx', 'light-dy', 'light-dz'], light.direction);
       $('light-inner').value = +(light.innerConeAngle * DEGREES).toFixed(4);
       $('light-outer').value = +(light.outerConeAngle * DEGREES).toFixed(4);
       $('light-shadows').checked = light.castsShadows === true;
@@ -147,13 +191,38 @@ export class LightsPanel {
     this.drawOverlay();
   }
 
+  // A vector in three fields, rounded to SHOWN_DIGITS so that it fits; the full value is each
+  // field's tooltip, and a field left as shown sends the light's own value back (vectorField).
+  showVector(ids, values) {
+    ids.forEach((id, i) => {
+      const shown = String(+values[i].toFixed(SHOWN_DIGITS));
+      $(id).value = shown;
+      $(id).title = String(values[i]);
+      this.shownVectors[id] = {shown, value: values[i]};
+    });
+  }
+
+  vectorField(ids) {
+    return ids.map((id) => {
+      const known = this.shownVectors[id];
+      return known && $(id).value === known.shown ? known.value : this.numberField(id);
+    });
+  }
+
+  // The editor where it can be seen (its section open, scrolled into the panel's view).
+  revealEditor() {
+    const section = $('light-editor').closest('details');
+    if (section) section.open = true;
+    $('light-editor').scrollIntoView({block: 'nearest'});
+  }
+
   async applyEdit() {
     const light = this.selected;
     if (!light) return;
     let patch;
     try {
       patch = {
-        position: ['light-x', 'light-y', 'light-z'].map((id) => this.numberField(id)),
+        position: this.vectorField(['light-x', 'light-y', 'light-z']),
         color: hexToLinear($('light-color').value),
         radius: this.numberField('light-radius'),
         intensity: this.numberField('light-intensity'),
@@ -163,7 +232,7 @@ export class LightsPanel {
         castsShadows: $('light-shadows').checked,
       };
       if (patch.type === 'spot') {
-        patch.direction = ['light-dx', 'light-dy', 'light-dz'].map((id) => this.numberField(id));
+        patch.direction = this.vectorField(['light-dx', 'light-dy', 'light-dz']);
         // Radians on the wire; the server refuses inner >= outer, naming the member.
         patch.innerConeAngle = Math.min(this.numberField('light-inner') / DEGREES, HALF_PI);
         patch.outerConeAngle = Math.min(this.numberField('light-outer') / DEGREES, HALF_PI);
@@ -233,9 +302,7 @@ export class LightsPanel {
     }
     if (!answer.light) return;
     this.select(answer.light);
-    const section = $('light-editor').closest('details');
-    if (section) section.open = true;
-    $('light-editor').scrollIntoView({block: 'nearest'});
+    this.revealEditor();
   }
 
   // A ring around the selected light, re-projected whenever the camera or the view changes.

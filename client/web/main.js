@@ -7,7 +7,7 @@ import {LightsPanel} from './lights.js';
 import {ObjectsPanel} from './objects.js';
 import {MaterialPanel, ModelPanel, SettingsPanel} from './panels.js';
 import {StatsPanel} from './stats.js';
-import {ViewOverlay} from './overlay.js';
+import {ViewHint, ViewOverlay} from './overlay.js';
 import {LiveView} from './view.js';
 
 const $ = (id) => document.getElementById(id);
@@ -26,6 +26,7 @@ function showMessage(text, {info = false, newSession = false, apiKey = false,
   messageIsUnreachable = unreachable;
   messageIsStream = false;
   $('message').hidden = false;
+  delete $('message').dataset.reason;
   $('message').classList.toggle('info', info);
   $('message-text').textContent = text;
   $('new-session').hidden = !newSession;
@@ -44,15 +45,24 @@ function showInfo(text) {
 function showProblem(error) {
   if (error.stale) return;  // an answer about the previous session
   if (error instanceof SessionLostError) {
-    sessionLost(error.message);
+    sessionLost(error.message, error);
     return;
   }
   showMessage(error.message || String(error), {unreachable: error.status === 0});
 }
 
-function sessionLost(text) {
+function sessionLost(text, error = null) {
   view.stop();
   stats.stop();
+  // A page opened from a link whose token no longer opens the session (revoked or expired): the
+  // session itself may well be there; only its owner can give a new link.
+  if (api.linked && error?.status === 401) {
+    const revoked = /revoked/i.test(error.problem?.detail || '');
+    showMessage(`This link ${revoked ? 'was revoked' : 'no longer works (revoked or expired)'}: ` +
+                "ask the session's owner for a new one.", {newSession: true});
+    $('message').dataset.reason = 'link-revoked';
+    return;
+  }
   showMessage(`${text}\nSettings, lights and the model of that session are gone with it.`,
               {newSession: true});
 }
@@ -65,9 +75,13 @@ window.myriadPerf = view.perf;
 // The status line and stats strip on the view: "rendering" from the moment of a change (an edit
 // sent, camera input) until a new frame shows; fps, latency, bandwidth and codec of the stream.
 const overlay = new ViewOverlay($('view-state'), $('stats-strip'));
+const hint = new ViewHint($('view-hint'));
 view.onConnect = () => overlay.connect();
 view.onFrame = (frame) => overlay.frame(frame);
-view.onInput = () => overlay.changed();
+view.onInput = () => {
+  overlay.changed();
+  hint.used();
+};
 api.onChange = () => overlay.changed();
 api.onChangeFailed = () => overlay.cancelChange();
 view.onProblem = (error) => {
@@ -75,12 +89,18 @@ view.onProblem = (error) => {
   messageIsStream = !(error instanceof SessionLostError) && !$('message').hidden;
 };
 view.onRecovered = () => { if (messageIsStream) hideMessage(); };
+// The page measured that video cannot hold its rate here and took the JPEG stream: said once.
+view.onPathChange = (why) => {
+  showInfo(`The view now uses the JPEG stream: ${why}.`);
+  setTimeout(() => showInfo(null), 8000);
+};
 
 const camera = new CameraControl(api, $('view'), view);
 camera.onProblem = showProblem;
 
 const viewSize = () => ({width: $('view').clientWidth, height: $('view').clientHeight});
-const frameSize = () => ({width: $('stream').naturalWidth, height: $('stream').naturalHeight});
+// The size of the frame shown, from the stream's own metadata (the same on every path).
+const frameSize = () => view.frameSize();
 const lights = new LightsPanel(api, {
   onProblem: showProblem, onInfo: showInfo, getCamera: () => camera.camera,
   getViewSize: viewSize, getFrameSize: frameSize, overlay: $('markers-overlay'),
@@ -106,6 +126,7 @@ const model = new ModelPanel(api, {
   onLoaded: (state) => {
     model.show(state);
     camera.setModelBounds(state.model.bounds);
+    lights.setModelBounds(state.model.bounds);
     camera.dropPending();
     camera.setFromServer(state.camera);
     materials.refresh();
@@ -122,6 +143,7 @@ const objects = new ObjectsPanel(api, {
   onProblem: showProblem,
   onInfo: showInfo,
   onAssetsChanged: () => materials.refresh(),
+  onCount: (count) => hint.setObjects(count),
 });
 // A model file, a .zip, several files or a folder dropped on the view is added to the scene as a
 // new object at the view's centre; with Shift it replaces the scene, as the Model panel's pick.
@@ -137,6 +159,7 @@ function startSession(state) {
       (api.linked ? ': opened from a link; a view-only link watches but cannot change it' : '');
   model.show(state);
   camera.setModelBounds(state.model.bounds);
+  lights.setModelBounds(state.model.bounds);
   camera.setFromServer(state.camera);
   settings.show(state.settings);
   materials.refresh();
@@ -174,6 +197,8 @@ async function boot() {
     }));
     settings.setTechniques(info.techniques || []);
     if (info.limits?.maxResolution) view.maxResolution = info.limits.maxResolution;
+    view.isCpu = info.device?.isCpu === true;
+    view.restoreLearnt(info.device?.name || '');
   } catch (e) {
     showMessage(`${e.message}\nReload the page once the server runs.`);
     return;
@@ -234,9 +259,11 @@ function setCameraMode(mode) {
   $('view-status').textContent = `${mode} camera`;
 }
 
-function toggleHelp(show = $('help').hidden) {
-  $('help').hidden = !show;
-  if (show) $('help-close').focus();
+// The help is a modal <dialog>: the page behind it is inert and focus stays inside until it
+// closes (Escape, its button, a click beside it); focus then returns where it was.
+function toggleHelp(show = !$('help').open) {
+  if (show && !$('help').open) $('help').showModal();
+  else if (!show && $('help').open) $('help').close();
 }
 
 // Share: a view-only link (a viewer token) to this session, copied where the browser allows.
@@ -257,6 +284,22 @@ async function share() {
   }
 }
 
+// Revoke: every view-only link of the session stops working (DELETE .../tokens); the pages
+// opened with them say so.
+async function revokeLinks() {
+  if (!api.hasSession) return;
+  const button = $('revoke');
+  button.disabled = true;
+  try {
+    await api.delete(api.sessionPath('/tokens'));
+    showInfo('Every view-only link to this session was revoked; Share makes a new one.');
+  } catch (e) {
+    showProblem(e);
+  } finally {
+    button.disabled = false;
+  }
+}
+
 $('share').addEventListener('click', share);
 $('new-session').addEventListener('click', newSession);
 $('api-key-label').addEventListener('submit', (e) => {
@@ -273,16 +316,13 @@ $('copy-camera-curl').addEventListener('click', () => camera.camera && copyText(
 $('help-button').addEventListener('click', () => toggleHelp(true));
 $('help-close').addEventListener('click', () => toggleHelp(false));
 $('help').addEventListener('click', (e) => { if (e.target === $('help')) toggleHelp(false); });
+$('revoke').addEventListener('click', revokeLinks);
 
 window.addEventListener('keydown', (e) => {
-  if (e.key === 'Escape' && !$('help').hidden) {
-    toggleHelp(false);
-    return;
-  }
   if (isTyping(e) || e.ctrlKey || e.metaKey || e.altKey) return;
   if (e.key === '?') {
     toggleHelp();
-  } else if (!$('help').hidden || !api.hasSession) {
+  } else if ($('help').open || !api.hasSession) {
     return;
   } else if (e.code === 'KeyF') {
     camera.frameModel();

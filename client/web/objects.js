@@ -4,7 +4,7 @@
 // uses can be deleted. A model file added here (or dropped on the view) becomes a new asset and
 // a new object at the view's centre, the camera's target; the scene around it stays.
 
-import {describeFiles, modelUpload, relativePath} from './panels.js';
+import {describeFiles, modelUpload, relativePath} from './upload.js';
 import {eulerToQuat, transformParts} from './vec.js';
 
 const $ = (id) => document.getElementById(id);
@@ -26,8 +26,9 @@ function removeButton(label, onClick) {
 }
 
 export class ObjectsPanel {
-  constructor(api, {onProblem, onInfo, onAssetsChanged}) {
+  constructor(api, {onProblem, onInfo, onAssetsChanged, onCount = () => {}}) {
     this.api = api;
+    this.onCount = onCount;                  // (objects in the scene) after each refresh
     this.onProblem = onProblem;
     this.onInfo = onInfo;                    // (text) progress shown to the user
     this.onAssetsChanged = onAssetsChanged;  // () after an asset (and its materials) came or went
@@ -63,6 +64,7 @@ export class ObjectsPanel {
       this.objects = page.objects;
       this.total = page.total;
       this.assets = assets;
+      this.onCount(this.total);
       if (!this.objects.some((o) => o.id === this.selected)) this.selected = null;
       this.render();
       this.showEditor();

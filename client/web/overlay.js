@@ -126,3 +126,38 @@ export class ViewOverlay {
     }
   }
 }
+
+// A one-line hint on the view for someone who has not used it yet: what dragging, the wheel and
+// the keys do, shown until the camera first moves; on an empty scene (no objects) what fills it,
+// shown until something does.
+const HINT_TEXT = 'Drag to orbit \u00b7 right-drag to pan \u00b7 wheel or +/\u2212 to zoom \u00b7 ' +
+                  'arrow keys orbit \u00b7 ? for help';
+const EMPTY_TEXT = 'The scene is empty: drop a model file here, or use Upload in the Model panel.';
+
+export class ViewHint {
+  constructor(element) {
+    this.element = element;
+    this.moved = false;
+    this.empty = false;
+    this.render();
+  }
+
+  // The camera moved: the user has found the view.
+  used() {
+    if (this.moved) return;
+    this.moved = true;
+    this.render();
+  }
+
+  setObjects(count) {
+    this.empty = count === 0;
+    this.render();
+  }
+
+  render() {
+    const text = this.empty ? EMPTY_TEXT : this.moved ? '' : HINT_TEXT;
+    if (this.element.textContent !== text) this.element.textContent = text;
+    this.element.hidden = !text;
+    this.element.dataset.state = this.empty ? 'empty' : 'hint';
+  }
+}

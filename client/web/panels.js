@@ -4,9 +4,29 @@
 
 import {hexToLinear, linearToHex, splitStrength} from './color.js';
 import {PatchSender} from './sender.js';
+import {chooseEntry, collectFiles, describeFiles, entryChoices, modelUpload, relativePath,
+        uploadProblem} from './upload.js';
 
 const $ = (id) => document.getElementById(id);
 const round = (x, digits = 4) => Math.round(x * 10 ** digits) / 10 ** digits;
+
+// Runs `work` with `button` marked busy: aria-busy and aria-disabled (it keeps the keyboard focus,
+// which `disabled` would drop), its label saying what goes on, and a second press ignored. The
+// result of `work`, or undefined when the button was busy already.
+export async function whileBusy(button, label, work) {
+  if (button.getAttribute('aria-busy') === 'true') return undefined;
+  const text = button.textContent;
+  button.setAttribute('aria-busy', 'true');
+  button.setAttribute('aria-disabled', 'true');
+  if (label) button.textContent = label;
+  try {
+    return await work();
+  } finally {
+    button.removeAttribute('aria-busy');
+    button.removeAttribute('aria-disabled');
+    button.textContent = text;
+  }
+}
 
 function fillSelect(select, items, selected) {
   select.replaceChildren(...items.map(({value, label}) => {
@@ -33,8 +53,10 @@ export class ModelPanel {
         input.value = '';  // choosing the same files again loads them again
       });
     }
-    $('model-library-load').addEventListener('click', () => this.loadLibrary());
-    $('model-builtin').addEventListener('click', () => this.load({source: 'builtin:default'}));
+    $('model-library-load').addEventListener('click', () =>
+        whileBusy($('model-library-load'), 'Loading\u2026', () => this.loadLibrary()));
+    $('model-builtin').addEventListener('click', () =>
+        whileBusy($('model-builtin'), 'Loading\u2026', () => this.load({source: 'builtin:default'})));
     $('model-camera-use').addEventListener('click', () => this.useCamera());
   }
 
@@ -81,8 +103,10 @@ export class ModelPanel {
     }
   }
 
+  // What happens to the lights (?lights=): by default they are generated again around the new
+  // model (fit), as many as there were, rather than left where the old model was.
   lightsQuery() {
-    return $('model-lights').checked ? {lights: 'model'} : undefined;
+    return {lights: $('model-lights').value || 'fit'};
   }
 
   async load(json) {
@@ -102,17 +126,26 @@ export class ModelPanel {
     if (name) this.load({source: `library:${name}`});
   }
 
-  // One file, several, or a folder: replaces the session's model (PUT .../model).
-  async upload(files, paths = files.map(relativePath)) {
+  // One file, several, or a folder: replaces the session's model (PUT .../model). An upload that
+  // holds several models asks which one (a dialog), then goes again naming it (?entry=).
+  async upload(files, paths = files.map(relativePath), entry = '') {
     if (!files.length) return;
     this.onInfo(`Uploading ${describeFiles(files)}...`);
+    const query = {...this.lightsQuery(), ...(entry ? {entry} : {})};
     try {
       const state = await this.api.request('PUT', this.api.sessionPath('/model'),
-                                           modelUpload(files, paths, this.lightsQuery()));
+                                           modelUpload(files, paths, query));
       this.onInfo(null);
       this.onLoaded(state);
     } catch (e) {
-      this.onProblem(e);
+      const choices = entry ? [] : entryChoices(e, paths);
+      if (choices.length > 1) {
+        this.onInfo(null);
+        const chosen = await chooseEntry(choices);
+        if (chosen) await this.upload(files, paths, chosen);
+        return;
+      }
+      this.onProblem(uploadProblem(e));
     }
   }
 
@@ -137,49 +170,6 @@ export class ModelPanel {
                    found.map((f) => f.path.startsWith(folder) ? f.path.slice(folder.length) : f.path),
                    event);
     });
-  }
-}
-
-// "spider.obj (12 KiB)", "3 files (80 KiB)": what an upload sends, for progress messages.
-export function describeFiles(files) {
-  const total = files.reduce((sum, f) => sum + f.size, 0);
-  return `${files.length === 1 ? files[0].name : `${files.length} files`} (${(total / 1024).toFixed(0)} KiB)`;
-}
-
-// The request options that send a model: one file goes as itself (a .zip as an archive); several
-// (a multi-file pick, a folder, a drop) as multipart/form-data, each under the path the model
-// uses for it, so the server finds the model among them and resolves its .bin, .mtl and images.
-// Every path is relative to the folder picked or dropped (its own name dropped), as the model's
-// own references are. PUT .../model and POST .../assets take the same bodies.
-export function modelUpload(files, paths = files.map(relativePath), query) {
-  if (files.length === 1) {
-    const zip = files[0].name.toLowerCase().endsWith('.zip');
-    return {body: files[0], query: {filename: files[0].name, ...query},
-            contentType: zip ? 'application/zip' : 'application/octet-stream'};
-  }
-  const form = new FormData();
-  files.forEach((file, i) => form.append('files', file, paths[i]));
-  return {body: form, query};  // fetch sets the multipart boundary
-}
-
-// A picked file's path inside the picked folder (without the folder's own name), else its name.
-export function relativePath(file) {
-  const path = file.webkitRelativePath || '';
-  const slash = path.indexOf('/');
-  return slash >= 0 ? path.slice(slash + 1) : file.name;
-}
-
-// Every file under a dropped FileSystemEntry, with its path from the drop.
-async function collectFiles(entry, prefix, out) {
-  if (entry.isFile) {
-    out.push({file: await new Promise((ok, fail) => entry.file(ok, fail)), path: prefix + entry.name});
-    return;
-  }
-  const reader = entry.createReader();
-  for (;;) {
-    const batch = await new Promise((ok, fail) => reader.readEntries(ok, fail));
-    if (!batch.length) return;
-    for (const child of batch) await collectFiles(child, `${prefix}${entry.name}/`, out);
   }
 }
 
@@ -337,6 +327,9 @@ export class SettingsPanel {
     $('exposure').addEventListener('input', (e) =>
         this.edit({exposure: round(2 ** Number(e.target.value))}));
     $('markers').addEventListener('change', (e) => this.edit({markers: e.target.checked}));
+    $('sun-shadows').addEventListener('change', (e) => this.edit({shadows: {sun: e.target.checked}}));
+    $('shadow-map-size').addEventListener('change', (e) =>
+        this.edit({shadows: {mapSize: Number(e.target.value)}}));
     $('antialias').addEventListener('change', (e) =>
         this.edit({antialias: e.target.checked ? 'fxaa' : 'none'}));
     $('animate').addEventListener('change', (e) => this.edit({animate: e.target.checked}));
@@ -402,6 +395,10 @@ export class SettingsPanel {
     $('ambient-strength').value = ambient.strength;
     $('exposure').value = Math.log2(s.exposure);
     $('markers').checked = s.markers;
+    $('sun-shadows').checked = s.shadows?.sun === true;
+    $('sun-shadows').disabled = !s.shadows;
+    if (s.shadows?.mapSize) $('shadow-map-size').value = String(s.shadows.mapSize);
+    $('shadow-map-size').disabled = !s.shadows?.sun;
     $('antialias').checked = s.antialias !== 'none';
     $('animate').checked = s.animate;
     $('technique').value = s.technique;

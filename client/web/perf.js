@@ -15,16 +15,19 @@ function push(list, value) {
 
 export class ViewPerf {
   constructor() {
+    this.onDrag = () => {};  // (drag figures) at each release: the view learns its scale from them
     this.reset();
   }
 
   // Forgets every figure (a benchmark starts a measurement with it).
   reset() {
     this.frames = [];    // {t, id, interactive (render scale or 0), width, height}: shown frames
-    this.drags = [];     // {ms, frames, interactiveFrames, fps}: one per drag, at its release
+    // {ms, frames, interactiveFrames, fps, inputs, spanMs}: one per drag, at its release; inputs
+    // are the changes it made, spanMs the time from its first picture to its last
+    this.drags = [];
     this.changes = [];   // ms from a change to the first new frame shown after it
     this.stills = [];    // ms from a release to the first full-quality frame shown after it
-    this.drag = null;    // the drag going on: {start, frames, interactiveFrames}
+    this.drag = null;    // the drag going on: {start, frames, interactiveFrames, inputs, first, last}
     this.changeAt = 0;   // performance.now() of the oldest change no frame shows yet
     this.changeFrame = '';
     this.releaseAt = 0;  // performance.now() of the last release whose still has not shown
@@ -33,12 +36,13 @@ export class ViewPerf {
 
   // A pointer went down on the view or a slider: a drag starts.
   dragStart() {
-    this.drag = {start: performance.now(), frames: 0, interactiveFrames: 0};
+    this.drag = {start: performance.now(), frames: 0, interactiveFrames: 0, inputs: 0, first: 0, last: 0};
     this.releaseAt = 0;
   }
 
   // Something that changes the picture happened (camera input, a slider moved).
   change() {
+    if (this.drag) this.drag.inputs += 1;
     if (!this.changeAt) {
       this.changeAt = performance.now();
       this.changeFrame = this.lastFrame;
@@ -51,9 +55,13 @@ export class ViewPerf {
     const now = performance.now();
     if (this.drag) {
       const ms = now - this.drag.start;
-      push(this.drags, {ms, frames: this.drag.frames, interactiveFrames: this.drag.interactiveFrames,
-                        fps: ms > 0 ? (1000 * this.drag.frames) / ms : 0});
+      const d = this.drag;
+      const drag = {ms, frames: d.frames, interactiveFrames: d.interactiveFrames,
+                    fps: ms > 0 ? (1000 * d.frames) / ms : 0, inputs: d.inputs,
+                    spanMs: d.frames > 1 ? d.last - d.first : 0};
+      push(this.drags, drag);
       this.drag = null;
+      this.onDrag(drag);
     }
     this.releaseAt = now;
   }
@@ -66,6 +74,8 @@ export class ViewPerf {
     this.lastFrame = id;
     push(this.frames, {t, id, interactive, width, height});
     if (this.drag) {
+      if (!this.drag.frames) this.drag.first = t;
+      this.drag.last = t;
       this.drag.frames += 1;
       if (interactive) this.drag.interactiveFrames += 1;
     }

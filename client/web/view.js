@@ -7,14 +7,25 @@
 // that feels like (window.myriadPerf).
 //
 // A video stream keeps its size (its encoder's), so in video mode the page itself asks for a
-// half-size stream while the camera moves and ~300 ms after the input stops for the full size.
+// smaller stream while the camera moves and ~300 ms after the input stops for the full size.
+// Either way the scale is learnt from the page's own measured frames (adaptive.js): the largest
+// that holds the rate. The stream is asked for in device pixels, capped by what the renderer can
+// deliver (a CPU renderer gets CSS pixels, at most about 1280x800).
+//
+// Whatever carries the frames, what the view shows is described by the stream's own metadata
+// (this.frame: size, sequence, render scale; a video chunk's header, an image part's headers and
+// its JPEG header), never read back from the element that shows it: picking, the overlay's
+// "rendering" state, the stats strip and perf.js read it the same way on every path. Each
+// stream opened has a serial number of its own, so a new stream's first frame (its sequence
+// starts again at 1) is never taken for a re-send of the last stream's.
 //
 // Video: where the browser decodes it (WebCodecs, in a secure context), the stream is VP9 video
 // (?codec=vp9, protocol/reference.md "Video streams") decoded into a <canvas id="video"> over the
 // <img>: far fewer bytes than JPEG at the same size (docs/performance.md). The page falls back to the JPEG stream where
-// VideoDecoder is missing or cannot decode it, and when the page's address says ?stream=jpeg
-// (?stream=vp8 asks for VP8). #view's data-codec says which is in use (vp8, vp9 or jpeg) and
-// data-codec-why why JPEG was chosen.
+// VideoDecoder is missing or cannot decode it, when the page's address says ?stream=jpeg
+// (?stream=vp8 asks for VP8), and once it measured that video cannot hold the rate here even at
+// its smallest interaction scale (adaptive.js; remembered per renderer). #view's data-codec says
+// which is in use (vp8, vp9 or jpeg) and data-codec-why why JPEG was chosen.
 //
 // Why fetch and not <img src=stream>: an <img> shows a part only once the next part's headers
 // arrive (so a still stayed one part, up to the server's 2 s re-send, behind), gives no event
@@ -22,17 +33,21 @@
 // the token in the URL. Here each part is shown as soon as its last byte is in, a stream that
 // ends or goes silent is reopened, and the token travels in the Authorization header.
 
-import {ApiError, SessionLostError} from './api.js';
+import {LearntInteraction, streamSize} from './adaptive.js';
+import {ApiError, SessionLostError, problemMessage} from './api.js';
+import {ImagePresenter} from './image.js';
 import {MultipartReader, multipartBoundary} from './multipart.js';
 import {ViewPerf} from './perf.js';
 import {VideoChunkReader, VideoPlayer, videoSupport} from './video.js';
 
 const FULL_QUALITY = 90;
 const INTERACTIVE_QUALITY = 60;
-const INTERACTIVE_SCALE = 0.5;  // video: of each side, a quarter of the pixels while moving
 const SETTLE_MS = 300;          // video: input pause after which the full-quality view returns
-// JPEG: the frames a second the server holds while the scene changes (?interactive=).
-const INTERACTIVE_FPS = 24;
+// JPEG: a newly learnt ?interactive= takes a new stream, opened once the view has been still this
+// long (never in the middle of a drag).
+const ADAPT_IDLE_MS = 1000;
+// Video: the animation's rate is judged over this long, once it has run this long.
+const ANIMATION_WINDOW_MS = 3000;
 const RESIZE_DEBOUNCE_MS = 200;
 const STREAM_FPS = 30;
 const MIN_SIDE = 16;
@@ -58,12 +73,23 @@ export class LiveView {
     this.status = status;
     this.target = 'final';
     this.maxResolution = 4096;
+    this.isCpu = false;        // the renderer is a CPU (lavapipe): streamSize() caps the pixels
     this.interactive = false;
+    // What the view shows now, from the stream's metadata: {width, height, sequence, interactive
+    // (render scale, 0 for full quality), id}; null before the first picture.
+    this.frame = null;
+    this.serial = 0;           // streams opened so far: each one's frame ids carry its own
+    // JPEG's ?interactive=, video's interaction scale, and the path, as learnt (adaptive.js).
+    this.learnt = new LearntInteraction(globalThis.localStorage);
+    this.adaptTimer = 0;
+    this.lastInputAt = 0;      // performance.now() of the last camera input
+    this.onPathChange = () => {};   // (why) the page took the JPEG stream instead of video
+    this.animatingSince = 0;        // video: when the pictures began to show animated lights
+    this.animationCheckedAt = 0;
     this.settleTimer = 0;
     this.retryDelayMs = FIRST_RETRY_MS;
     this.retryTimer = 0;
-    this.stream = null;        // {key, abort} of the open stream
-    this.urls = [];            // object URLs of parts given to the <img>, oldest first
+    this.stream = null;        // {key, serial, abort} of the open stream
     this.onProblem = () => {};      // (ApiError) => void
     this.onRecovered = () => {};    // a part shows again after onProblem
     this.troubled = false;          // onProblem was called and no part has shown since
@@ -74,37 +100,12 @@ export class LiveView {
     this.framesShown = 0;           // pictures shown so far
     this.ready = this.chooseMode();
     this.perf = new ViewPerf();
-    this.loading = new Map();       // object URL -> the shown() figures of the part it holds
-    // The newest part that came while the <img> was still loading the one before ({stream,
-    // part}): it goes to the <img> once that one has loaded (presentHeld), and a newer part
-    // replaces it. Given at once, it cancelled the load under way: on lavapipe 10-20% of a drag's
-    // parts were made into Blobs and object URLs and loaded part way, and never shown.
-    this.held = null;
+    this.perf.onDrag = (drag) => this.learn(drag);
+    // The JPEG path's <img>: each part given to it, and told back once it shows.
+    this.images = new ImagePresenter(img, (figures) => this.imageShown(figures));
     this.onConnect = () => {};      // a stream is being opened
     this.onFrame = () => {};        // ({id, bytes, codec}) a frame was delivered
     this.onInput = () => {};        // camera input: the picture is about to change
-
-    this.img.addEventListener('load', () => {
-      // The newest part shows: the parts before it are no longer needed.
-      const shown = this.img.src;
-      const figures = this.loading.get(shown);
-      if (figures) {
-        this.perf.shown({...figures, width: this.img.naturalWidth, height: this.img.naturalHeight});
-      }
-      this.loading.clear();
-      for (const url of this.urls.filter((u) => u !== shown)) URL.revokeObjectURL(url);
-      this.urls = this.urls.filter((u) => u === shown);
-      // Written only when it changes: each write is a style, layout and paint pass of the page.
-      const text = `${this.img.naturalWidth}\u00d7${this.img.naturalHeight} JPEG` +
-                   (this.interactive || this.img.dataset.interactive ? ' (moving)' : '');
-      if (this.status.textContent !== text) this.status.textContent = text;
-      this.presentHeld();
-    });
-    // A part the <img> cannot decode: nothing shows it; the next part may.
-    this.img.addEventListener('error', () => {
-      this.loading.clear();
-      this.presentHeld();
-    });
 
     // Drags for perf.js: on the view (the camera) and on any slider of the page.
     const isSlider = (e) => e.target instanceof HTMLInputElement && e.target.type === 'range';
@@ -149,26 +150,79 @@ export class LiveView {
     this.element.dataset.codecWhy = why;
   }
 
-  // The full-quality size: the element's size in device pixels, scaled down to the server's
-  // maxResolution on the longer side.
+  // The full-quality size: the element's size in device pixels, capped by what the renderer can
+  // deliver (adaptive.js streamSize) and by the server's maxResolution on the longer side.
   fullSize() {
-    const ratio = window.devicePixelRatio || 1;
-    let width = Math.max(MIN_SIDE, Math.round(this.element.clientWidth * ratio));
-    let height = Math.max(MIN_SIDE, Math.round(this.element.clientHeight * ratio));
-    const scale = Math.min(1, this.maxResolution / Math.max(width, height));
-    width = Math.max(1, Math.floor(width * scale));
-    height = Math.max(1, Math.floor(height * scale));
-    return {width, height};
+    return streamSize(this.element.clientWidth, this.element.clientHeight, {
+      ratio: window.devicePixelRatio || 1, isCpu: this.isCpu, maxSide: this.maxResolution,
+      minSide: MIN_SIDE});
+  }
+
+  // The size of the frames shown now (the stream's own metadata), {width: 0, height: 0} before
+  // the first: what a click on the view is a pixel of.
+  frameSize() {
+    return this.frame ? {width: this.frame.width, height: this.frame.height} : {width: 0, height: 0};
   }
 
   streamParams() {
     const full = this.fullSize();
     if (!this.interactive || this.mode !== 'video') return {...full, quality: FULL_QUALITY};
+    const scale = this.learnt.scale.scale;
     return {
-      width: Math.max(MIN_SIDE, Math.round(full.width * INTERACTIVE_SCALE)),
-      height: Math.max(MIN_SIDE, Math.round(full.height * INTERACTIVE_SCALE)),
+      width: Math.max(MIN_SIDE, Math.round(full.width * scale)),
+      height: Math.max(MIN_SIDE, Math.round(full.height * scale)),
       quality: INTERACTIVE_QUALITY,
     };
+  }
+
+  // The learnt figures of an earlier page on the same renderer (see adaptive.js); where video
+  // could not hold the rate there, the JPEG stream from the start.
+  restoreLearnt(device) {
+    this.learnt.restore(device);
+    if (this.learnt.path !== 'jpeg') return;
+    if (this.mode) this.useJpeg(this.learnt.why);
+    else this.ready = this.ready.then(() => this.useJpeg(this.learnt.why));
+  }
+
+  // Video could not hold the rate here: the JPEG stream instead, and why (#view's data-codec-why)
+  // unless the page's address asked for a codec (?stream=vp9 stays video).
+  useJpeg(why) {
+    if (this.mode !== 'video' || new URLSearchParams(globalThis.location?.search || '').has('stream')) {
+      return false;
+    }
+    this.mode = 'jpeg';
+    this.codec = 'jpeg';
+    this.interactive = false;
+    clearTimeout(this.settleTimer);
+    this.canvas.remove();
+    this.canvas = null;
+    this.element.dataset.codec = 'jpeg';
+    this.element.dataset.codecWhy = why;
+    if (this.stream) {
+      this.close();
+      this.restart();
+    }
+    return true;
+  }
+
+  // A drag ended (perf.js's figures): the interactive scale learns from the rate it held.
+  // JPEG: a new ?interactive= takes a new stream, opened once the view is still.
+  learn(drag) {
+    const {changed, jpeg} = this.learnt.learn(this.mode, drag);
+    if (jpeg && this.useJpeg(jpeg)) {
+      this.onPathChange(jpeg);
+      return;
+    }
+    if (!changed || this.mode === 'video') return;  // the next interaction's stream takes it
+    const reopen = () => {
+      if (this.perf.drag || performance.now() - this.lastInputAt < ADAPT_IDLE_MS) {
+        this.adaptTimer = setTimeout(reopen, ADAPT_IDLE_MS);
+        return;
+      }
+      this.restart();
+    };
+    clearTimeout(this.adaptTimer);
+    this.adaptTimer = setTimeout(reopen, ADAPT_IDLE_MS);
   }
 
   // (Re)opens the stream when what it should show changed; the old one is closed first.
@@ -183,16 +237,17 @@ export class LiveView {
     const query = this.mode === 'video'
         ? {target: this.target, codec: this.codec, fps: STREAM_FPS, width: p.width, height: p.height}
         : {target: this.target, format: 'jpeg', fps: STREAM_FPS,
-           width: p.width, height: p.height, quality: p.quality, interactive: INTERACTIVE_FPS};
+           width: p.width, height: p.height, quality: p.quality, interactive: this.learnt.rate.fps};
     // The stream's address without the token (data-stream: what the view asks for now).
     const key = `${this.api.sessionPath('/stream')}?${new URLSearchParams(query)}`;
     // The same stream, open or waiting for its retry: nothing to do (and the retry stays due).
     if (this.stream && this.stream.key === key) return;
     clearTimeout(this.retryTimer);
     this.close();
-    const stream = {key, abort: new AbortController()};
+    this.serial += 1;
+    const stream = {key, serial: this.serial, abort: new AbortController()};
     this.stream = stream;
-    this.img.dataset.stream = key;
+    this.images.img.dataset.stream = key;
     if (this.canvas) this.canvas.dataset.stream = key;
     this.onConnect();
     this.read(stream, query);
@@ -201,15 +256,8 @@ export class LiveView {
   stop() {
     clearTimeout(this.retryTimer);
     this.close();
-    this.img.removeAttribute('src');
-    delete this.img.dataset.stream;
-    delete this.img.dataset.shown;
-    delete this.img.dataset.frame;
-    delete this.img.dataset.interactive;
-    for (const url of this.urls) URL.revokeObjectURL(url);
-    this.urls = [];
-    this.loading.clear();
-    this.held = null;
+    this.images.clear();
+    this.frame = null;
     if (this.canvas) {
       this.canvas.width = 0;  // nothing of the old session stays on screen
       delete this.canvas.dataset.stream;
@@ -231,6 +279,7 @@ export class LiveView {
   // Called on every camera input. JPEG: the server makes the frames cheaper while the camera
   // moves. Video: smaller frames now, the full-quality view once input pauses.
   noteInput() {
+    this.lastInputAt = performance.now();
     this.onInput();
     this.perf.change();
     if (this.mode !== 'video') return;
@@ -281,8 +330,16 @@ export class LiveView {
         this.bytesReceived += value.length;
         const got = parts.feed(value);
         if (!got.length) continue;
-        // Images: only the newest part matters. Video: the player has each chunk already.
-        if (!video) this.show(stream, got[got.length - 1]);
+        // Images: only the newest part matters. Video: the player has each chunk already. A
+        // problem part is the last: the session or the link is gone (said, no retry).
+        if (!video) {
+          const last = got[got.length - 1];
+          if (/problem\+json/.test(last.headers['content-type'] || '')) {
+            this.endedBy(stream, last);
+            break;
+          }
+          this.show(stream, last);
+        }
         const now = performance.now();
         if (lastPart) longestGap = Math.max(longestGap, now - lastPart);
         lastPart = now;
@@ -304,6 +361,21 @@ export class LiveView {
       this.status.textContent = 'The stream stopped; reconnecting.';
       this.retryLater(stream);
     }
+  }
+
+  // An image stream's last part said why it ended (a deleted or expired session, a revoked or
+  // expired viewer link): said as a refused request would be, and the stream is not reopened.
+  endedBy(stream, part) {
+    let problem = null;
+    try {
+      problem = JSON.parse(new TextDecoder().decode(part.body));
+    } catch {
+      // Unreadable: reopening the stream will say why in its answer.
+    }
+    const status = Number(problem?.status) || 0;
+    if (status !== 401 && status !== 404) return;
+    this.close();
+    this.onProblem(new SessionLostError(status, problem, problemMessage(status, problem)));
   }
 
   // A video stream's reader: chunks in, each handed to a decoder that draws on the canvas. A
@@ -333,16 +405,34 @@ export class LiveView {
     this.canvas.dataset.shown = stream.key;
     this.canvas.dataset.frame = String(chunk.sequence);
     this.framesShown += 1;
-    // The half-size stream of a moving camera counts as interactive, at its scale.
+    // The smaller stream of a moving camera counts as interactive, at its scale.
     const fullWidth = this.fullSize().width;
-    this.perf.shown({id: `${stream.key}#${chunk.sequence}`,
-                     interactive: chunk.width < fullWidth ? chunk.width / fullWidth : 0,
-                     width: chunk.width, height: chunk.height});
-    this.onFrame({id: `${stream.key}#${chunk.sequence}`, bytes: chunk.payload.byteLength,
-                  codec: this.codec});
+    const id = frameId(stream, chunk.sequence);
+    this.frame = {id, width: chunk.width, height: chunk.height, sequence: chunk.sequence,
+                  interactive: chunk.width < fullWidth ? chunk.width / fullWidth : 0};
+    this.perf.shown(this.frame);
+    this.onFrame({id, bytes: chunk.payload.byteLength, codec: this.codec});
+    this.checkAnimation(chunk);
     this.status.textContent = `${chunk.width}\u00d7${chunk.height} ${this.codec.toUpperCase()}` +
                               (this.interactive ? ' (moving)' : '');
     this.noteShown();
+  }
+
+  // A picture of animated lights (its chunk's animation time is above 0): once they have been
+  // shown for ANIMATION_WINDOW_MS without input, the rate they were shown at is judged, once a
+  // second (adaptive.js: video that cannot keep up gives way to the JPEG stream).
+  checkAnimation(chunk) {
+    const now = performance.now();
+    if (!(chunk.time > 0)) {
+      this.animatingSince = 0;
+      return;
+    }
+    if (!this.animatingSince) this.animatingSince = now;
+    const since = Math.max(this.animatingSince, this.lastInputAt);
+    if (this.interactive || now - since < ANIMATION_WINDOW_MS || now - this.animationCheckedAt < 1000) return;
+    this.animationCheckedAt = now;
+    const why = this.learnt.animated(this.mode, this.perf.fps(ANIMATION_WINDOW_MS));
+    if (why && this.useJpeg(why)) this.onPathChange(why);
   }
 
   noteShown() {
@@ -353,37 +443,22 @@ export class LiveView {
     }
   }
 
-  // A part arrived: to the <img> now, or once the part it is loading has loaded (this.held).
+  // A part arrived: to the <img> (image.js), as the stream's frame `frameId`.
   show(stream, part) {
     this.framesShown += 1;
-    this.onFrame({id: `${stream.key}#${part.headers['x-myriad-frame'] || ''}`,
-                  bytes: part.body.byteLength, codec: this.codec});
+    const id = frameId(stream, part.headers['x-myriad-frame'] || '');
+    this.onFrame({id, bytes: part.body.byteLength, codec: this.codec});
     this.noteShown();
-    if (this.loading.size > 0) {
-      this.held = {stream, part};
-      return;
-    }
-    this.present(stream, part);
+    this.images.show(stream, part, id, () => this.stream === stream);
   }
 
-  presentHeld() {
-    const held = this.held;
-    this.held = null;
-    if (held && held.stream === this.stream) this.present(held.stream, held.part);
-  }
-
-  // Gives one part to the <img>. data-shown names the stream it came from, data-frame its
-  // X-Myriad-Frame number and data-interactive its X-Myriad-Interactive render scale (empty for
-  // a full-quality frame), for whoever inspects the page (the browser test does).
-  present(stream, part) {
-    const url = URL.createObjectURL(new Blob([part.body], {type: part.headers['content-type']}));
-    this.urls.push(url);
-    this.img.src = url;
-    this.img.dataset.shown = stream.key;
-    this.img.dataset.frame = part.headers['x-myriad-frame'] || '';
-    this.img.dataset.interactive = part.headers['x-myriad-interactive'] || '';
-    this.loading.set(url, {id: `${stream.key}#${this.img.dataset.frame}`,
-                           interactive: Number(this.img.dataset.interactive) || 0});
+  // A part shows in the <img> (its figures from the stream's metadata).
+  imageShown(figures) {
+    this.frame = figures;
+    this.perf.shown(figures);
+    // Written only when it changes: each write is a style, layout and paint pass of the page.
+    const text = `${figures.width}\u00d7${figures.height} JPEG${figures.interactive ? ' (moving)' : ''}`;
+    if (this.status.textContent !== text) this.status.textContent = text;
   }
 
   // Opens the stream again after a growing delay: a 429 (too many streams), a restarting server
@@ -397,4 +472,11 @@ export class LiveView {
     }, this.retryDelayMs);
     this.retryDelayMs = Math.min(this.retryDelayMs * 2, LAST_RETRY_MS);
   }
+}
+
+// A frame's name for the overlay and perf.js: the stream it came in (its serial: every stream
+// opened is a new one, even at the same address) and its X-Myriad-Frame sequence (a re-send
+// keeps it).
+function frameId(stream, sequence) {
+  return `${stream.serial}:${stream.key}#${sequence}`;
 }

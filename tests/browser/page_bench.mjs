@@ -1,7 +1,15 @@
 // Issue 18's page benchmark: what the web client feels like, measured inside the page by its own
 // instrumentation (client/web/perf.js, window.myriadPerf), in Debian's Chromium (headless,
 // playwright-core) against a real myriad-server, with the view 1280x720 device pixels on the
-// session's built-in scene and the JPEG stream (?stream=jpeg, the adaptive one).
+// session's built-in scene, on each of the page's delivery paths (--paths, default both):
+//   default   the page as it opens, no query string (VP9 through WebCodecs where Chromium has
+//             it, which Debian's has on localhost)
+//   jpeg      ?stream=jpeg: the multipart JPEG stream (what the page falls back to without
+//             WebCodecs)
+//   fallback  the page as it opens with WebCodecs removed (VideoDecoder deleted before the page
+//             runs): the JPEG stream chosen by the page itself
+// Each path gets a fresh browser context (nothing learnt by an earlier page: client/web/adaptive.js
+// keeps its learnt interactive scale in localStorage) and a new session.
 //
 // Measured, idle and then with `--load N` busy processes (`yes`, one core each) running beside:
 //   animatedFps   frames shown a second of the animated scene (animate on), nobody touching it;
@@ -25,7 +33,7 @@
 // average before and after is part of the output, because these are figures of the machine as it
 // was. Usage (scripts/bench-page.sh wraps it):
 //   node page_bench.mjs <myriad-server> [--load 2] [--drags 3] [--sliders 8] [--seconds 6]
-//                       [--input clock|await] [--json FILE] [-- server flags]
+//                       [--paths default,jpeg] [--input clock|await] [--json FILE] [-- server flags]
 
 import {spawn} from 'node:child_process';
 import {existsSync, readFileSync, writeFileSync} from 'node:fs';
@@ -52,6 +60,14 @@ const JSON_FILE = option('json', '');
 // How the mouse moves while dragging (drag() says why): 'clock' (60 Hz, not waiting for the
 // page) or 'await' (each move waits for the page, then 16 ms: the loop before stop 17).
 const INPUT = option('input', 'clock');
+const PATHS = option('paths', 'default,jpeg').split(',').filter(Boolean);
+const PATH_QUERY = {default: '', jpeg: '?stream=jpeg', fallback: ''};
+for (const path of PATHS) {
+  if (!(path in PATH_QUERY)) {
+    console.error(`page_bench: unknown path "${path}" (default, jpeg, fallback)`);
+    process.exit(2);
+  }
+}
 if (!serverPath || !existsSync(CHROMIUM)) {
   console.error(`usage: node page_bench.mjs <myriad-server> [--load N] ... (needs ${CHROMIUM})`);
   process.exit(2);
@@ -71,29 +87,32 @@ function summary(values, digits = 1) {
 const server = await startServer(serverPath, ['--port', '0', ...serverFlags]);
 const browser = await chromium.launch({executablePath: CHROMIUM,
                                        args: ['--headless', '--no-sandbox', '--disable-gpu']});
-const result = {view: VIEW, input: INPUT, loadAverageBefore: loadAverage(), cores: (await import('node:os')).cpus().length};
+const result = {view: VIEW, input: INPUT, loadAverageBefore: loadAverage(), cores: (await import('node:os')).cpus().length,
+                paths: {}};
 let busy = [];
-try {
+
+// One path's figures: idle, then with LOAD busy processes.
+async function benchPath(path) {
+  const out = {};
   // The window is the view plus the 340 px panel; fitted so the view is exactly VIEW.
   const context = await browser.newContext({viewport: {width: VIEW.width + 340, height: VIEW.height},
                                             deviceScaleFactor: 1});
+  if (path === 'fallback') await context.addInitScript(() => { delete window.VideoDecoder; });
   const page = await context.newPage();
-  await page.goto(`${server.url}/?stream=jpeg`);
+  await page.goto(`${server.url}/${PATH_QUERY[path]}`);
   const view = await page.evaluate(() => ({width: document.getElementById('view').clientWidth,
                                            height: document.getElementById('view').clientHeight}));
   if (view.width !== VIEW.width || view.height !== VIEW.height) {
     await page.setViewportSize({width: VIEW.width + 340 + (VIEW.width - view.width),
                                 height: VIEW.height + (VIEW.height - view.height)});
   }
-  const shownSize = () => page.evaluate(() => {
-    const img = document.getElementById('stream');
-    return img.complete && img.naturalWidth ? {width: img.naturalWidth, height: img.naturalHeight,
-                                               interactive: img.dataset.interactive} : null;
-  });
+  // The frame shown last, as the page describes it from the stream's metadata (any path).
+  const shownSize = () => page.evaluate(() => window.myriadPerf.frames.at(-1) || null);
   await until('a full-size frame', async () => {
     const s = await shownSize();
     return s && s.width === VIEW.width && s.height === VIEW.height && !s.interactive;
   }, 120000);
+  out.codec = await page.getAttribute('#view', 'data-codec');
   const session = await page.evaluate(() => JSON.parse(localStorage.getItem('myriad.session')));
   const settings = (patch) => page.evaluate(async ({session, patch}) => {
     const r = await fetch(`/v1/sessions/${session.id}/settings`, {
@@ -207,7 +226,8 @@ try {
     // how many a second and their request-to-answer time.
     const patches = await page.evaluate(() => performance.getEntriesByType('resource')
         .filter((e) => e.name.includes('/camera')).map((e) => e.duration));
-    return {...(await perf()), serverFrames: during.frames - before.frames, lastServerFrame: during.last,
+    return {...(await perf()), codec: await page.getAttribute('#view', 'data-codec'),
+            serverFrames: during.frames - before.frames, lastServerFrame: during.last,
             movesPerS: moves / seconds, patchesPerS: patches.length / seconds,
             patchMs: summary(patches)?.median};
   }
@@ -236,6 +256,10 @@ try {
     const drags = [];
     for (let i = 0; i < DRAGS; ++i) drags.push(await drag());
     out.dragFps = summary(drags.map((p) => p.drags[0]?.fps));
+    // Each drag in order, with the path it ran on (the default path may take the JPEG stream
+    // once it measured that video cannot hold the rate: adaptive.js).
+    out.dragEach = drags.map((p) => ({codec: p.codec, fps: Math.round((p.drags[0]?.fps || 0) * 10) / 10,
+                                      stillMs: Math.round(p.stills[0] || NaN)}));
     out.dragServerFrames = drags.map((p) => p.serverFrames);
     out.dragMovesPerS = summary(drags.map((p) => p.movesPerS));
     out.dragPatchesPerS = summary(drags.map((p) => p.patchesPerS));
@@ -249,17 +273,28 @@ try {
     for (let i = 0; i < SLIDERS; ++i) sliders.push(await slider(i));
     out.sliderMs = summary(sliders.map((p) => p.changes[0]));
     out.sliderStillMs = summary(sliders.map((p) => p.stills[0]));
+    // What the page learnt meanwhile (adaptive.js): the JPEG stream's ?interactive= and the
+    // video path's interaction scale.
+    out.learnt = await page.evaluate(() => JSON.parse(localStorage.getItem('myriad.interactive') || 'null'));
     out.loadAverageEnd = loadAverage();
-    console.log(`${label}: ${JSON.stringify(out)}`);
+    console.log(`${path} path, ${label}: ${JSON.stringify(out)}`);
     return out;
   }
 
-  result.idle = await measureAll('without added load', true);
+  out.idle = await measureAll('without added load', true);
   if (LOAD > 0) {
     busy = Array.from({length: LOAD}, () => spawn('yes', [], {stdio: ['ignore', 'ignore', 'ignore']}));
     await sleep(1000);
-    result.loaded = {busyProcesses: LOAD, ...(await measureAll(`with ${LOAD} busy processes`, true))};
+    out.loaded = {busyProcesses: LOAD, ...(await measureAll(`with ${LOAD} busy processes`, true))};
+    for (const p of busy) p.kill();
+    busy = [];
   }
+  await context.close();
+  return out;
+}
+
+try {
+  for (const path of PATHS) result.paths[path] = await benchPath(path);
 } finally {
   for (const p of busy) p.kill();
   await browser.close();
