@@ -34,6 +34,7 @@ inline constexpr std::string_view kSessionLightsGenerate = "/v1/sessions/{id}/li
 inline constexpr std::string_view kSessionFrame = "/v1/sessions/{id}/frame";
 inline constexpr std::string_view kSessionStream = "/v1/sessions/{id}/stream";
 inline constexpr std::string_view kSessionStats = "/v1/sessions/{id}/stats";
+inline constexpr std::string_view kSessionEvents = "/v1/sessions/{id}/events";  // text/event-stream
 inline constexpr std::string_view kSessionSnapshot = "/v1/sessions/{id}/snapshot";
 inline constexpr std::string_view kSessionTokens = "/v1/sessions/{id}/tokens";  // viewer tokens
 inline constexpr std::string_view kSessionLightsPick = "/v1/sessions/{id}/lights/pick";
@@ -146,6 +147,8 @@ inline constexpr std::string_view kMaxUploadBytes = "maxUploadBytes";           
 inline constexpr std::string_view kMaxBodyBytes = "maxBodyBytes";                // --max-body-bytes
 inline constexpr std::string_view kMaxStreams = "maxStreams";                    // --max-streams
 inline constexpr std::string_view kMaxStreamsPerSession = "maxStreamsPerSession";  // --max-streams-per-session
+inline constexpr std::string_view kMaxEventStreamsPerSession = "maxEventStreamsPerSession";  // fixed: 6
+inline constexpr std::string_view kMaxEventStreams = "maxEventStreams";  // fixed: 12
 inline constexpr std::string_view kMaxRequestsInFlight = "maxRequestsInFlight";  // --max-requests
 inline constexpr std::string_view kSessionIdleSeconds = "sessionIdleSeconds";    // --session-idle-seconds
 inline constexpr std::string_view kMaxObjectsPerSession = "maxObjectsPerSession";  // --max-objects
@@ -226,6 +229,8 @@ inline constexpr uint8_t kKeepAlive = 3;  // no payload: nothing changed (sent e
 }  // namespace video_chunk
 
 inline constexpr std::string_view kStreamBoundary = "myriad-frame";
+// GET .../events: Server-Sent Events of the session's version.
+inline constexpr std::string_view kEventStreamContentType = "text/event-stream";
 inline constexpr std::string_view kStreamContentType = "multipart/x-mixed-replace; boundary=myriad-frame";
 inline constexpr std::string_view kJsonContentType = "application/json";
 inline constexpr std::string_view kProblemContentType = "application/problem+json";

@@ -641,6 +641,24 @@ std::vector<Operation> buildOperations() {
                       {{kStreamContentType, ""}, {kVideoStreamContentType, ""}},
                       {headers::kVideoCodec}}},
        .problems = {400, 401, 403, 404, 429, 503}});
+  ops.push_back(
+      {.method = "GET",
+       .route = routes::kSessionEvents,
+       .id = "getSessionEvents",
+       .tag = "Streams",
+       .summary = "Server-Sent Events: the session's version now and whenever it changes",
+       .access = Access::SessionOrQueryToken,
+       .responses = {{200,
+                      "text/event-stream: `event: version` with data {\"version\": N, \"role\": "
+                      "\"owner\" or \"viewer\"} (the token's) on open "
+                      "and on every change of the session, a `: keep-alive` comment every 15 s, "
+                      "and a last `event: end` with data {\"reason\": \"deleted\", \"expired\" "
+                      "or \"revoked\"} when the session closes or the viewer token is revoked or "
+                      "expires. Takes no stream slot; at most 16 per session "
+                      "(maxEventStreamsPerSession).",
+                      {{kEventStreamContentType, ""}},
+                      {}}},
+       .problems = {401, 403, 404, 429, 503}});
   ops.push_back({.method = "GET",
                  .route = routes::kSessionStats,
                  .id = "getSessionStats",

@@ -557,6 +557,8 @@ void members(Tag<Limits>, F f) {
   f("maxStreamsPerSession", &Limits::maxStreamsPerSession);
   f("maxMemoryBytes", &Limits::maxMemoryBytes);
   f("maxFrameSeconds", &Limits::maxFrameSeconds);
+  f("maxEventStreamsPerSession", &Limits::maxEventStreamsPerSession);
+  f("maxEventStreams", &Limits::maxEventStreams);
   f("maxRequestsInFlight", &Limits::maxRequestsInFlight);
   f("sessionIdleSeconds", &Limits::sessionIdleSeconds);
 }

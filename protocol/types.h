@@ -558,6 +558,8 @@ struct Limits {
   uint64_t sessionIdleSeconds = 0;
   std::optional<uint64_t> maxMemoryBytes;  // absent from servers before it existed
   std::optional<uint64_t> maxFrameSeconds;  // likewise
+  std::optional<uint64_t> maxEventStreamsPerSession;  // likewise
+  std::optional<uint64_t> maxEventStreams;  // likewise
 };
 
 struct DeviceSummary {

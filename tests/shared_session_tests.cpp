@@ -1,6 +1,8 @@
 // Shared sessions over loopback against the real server: viewer tokens (read and watch, never
 // change; kept hashed; surviving a restart), two streams of one session sharing their renders
-// (counted), and picking a light by its marker among all of a session's lights.
+// (counted), picking a light by its marker among all of a session's lights, and the event stream
+// (GET .../events: each version to owner and viewer, at most 6 a session and 12 a server, ended
+// with a reason on revoke and delete).
 #include <doctest/doctest.h>
 #include <httplib.h>
 
@@ -9,6 +11,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <memory>
 #include <regex>
 #include <set>
 #include <span>
@@ -36,6 +39,8 @@ using myriad::test::StreamPart;
 using myriad::test::VideoChunk;
 using myriad::test::VideoReader;
 using myriad::test::bearer;
+using myriad::test::ChunkParser;
+using myriad::test::ChunkReader;
 namespace fs = std::filesystem;
 using Clock = std::chrono::steady_clock;
 
@@ -402,4 +407,108 @@ TEST_CASE("shared sessions: the pick route finds the light under a marker among 
                "invalid-parameter", "x text", std::nullopt, std::nullopt, "x");
   checkProblem(api.get(s.path() + "/lights/pick?x=1&y=1&z=2&" + size, s.token), 400,
                "unknown-parameter", "z", std::nullopt, std::nullopt, "z");
+}
+
+// GET .../events: Server-Sent Events split into events (text up to each blank line).
+namespace {
+
+ChunkParser<std::string> eventParser() {
+  return [](std::string_view bytes, std::vector<std::string>& out) {
+    size_t used = 0;
+    for (size_t end; (end = bytes.find("\n\n", used)) != std::string_view::npos; used = end + 2) {
+      out.emplace_back(bytes.substr(used, end - used));
+    }
+    return used;
+  };
+}
+
+class EventReader : public ChunkReader<std::string> {
+ public:
+  EventReader(const ServerProcess& server, std::string path, httplib::Headers headers = {})
+      : ChunkReader(server, std::move(path), std::move(headers), eventParser()) {}
+};
+
+uint64_t versionOf(const std::string& event) {
+  std::smatch m;
+  REQUIRE(std::regex_search(event, m, std::regex(R"(data: \{"version": ([0-9]+))")));
+  return std::stoull(m[1]);
+}
+
+}  // namespace
+
+TEST_CASE("shared sessions: the event stream says each version to owner and viewer, ends on revoke and delete") {
+  ServerProcess server({"--lights", "8"});
+  requireListening(server);
+  ApiClient api(server);
+  TestSession s = createSession(api);
+  Reply minted = api.post(s.path() + "/tokens", R"({"role": "viewer"})", s.token);
+  REQUIRE(minted.status == 201);
+  const std::string viewer = minted.json.at("token").get<std::string>();
+
+  EventReader owner(server, s.path() + "/events", bearer(s.token));
+  EventReader watcher(server, s.path() + "/events?token=" + viewer);
+  REQUIRE(owner.status() == 200);
+  REQUIRE(watcher.status() == 200);
+  const std::vector<std::string> ownerFirst = owner.waitFor(1, std::chrono::seconds(10));
+  const std::vector<std::string> watcherFirst = watcher.waitFor(1, std::chrono::seconds(10));
+  REQUIRE(ownerFirst.size() >= 1);
+  REQUIRE(watcherFirst.size() >= 1);
+  CHECK(std::regex_match(ownerFirst[0],
+                         std::regex(R"(event: version\ndata: \{"version": [0-9]+, "role": "owner"\})")));
+  CHECK(std::regex_match(watcherFirst[0],
+                         std::regex(R"(event: version\ndata: \{"version": [0-9]+, "role": "viewer"\})")));
+  const uint64_t before = versionOf(ownerFirst[0]);
+
+  // An edit: both hear of the new version at once.
+  const auto editAt = std::chrono::steady_clock::now();
+  REQUIRE(api.patch(s.path() + "/settings", R"({"exposure": 2})", s.token).status == 200);
+  const std::vector<std::string> seen = watcher.waitFor(2, std::chrono::seconds(10));
+  const auto tookMs = std::chrono::duration_cast<std::chrono::milliseconds>(
+                          std::chrono::steady_clock::now() - editAt).count();
+  REQUIRE(seen.size() >= 2);
+  CHECK(versionOf(seen[1]) > before);
+  REQUIRE(owner.waitFor(2, std::chrono::seconds(10)).size() >= 2);
+  MESSAGE("the viewer's event came ", tookMs, " ms after the edit was sent");
+  CHECK(tookMs < 500);
+
+  // At most 6 a session: the 7th is 429 naming the limit; at most 12 on the server: another
+  // session's 7th stream there is 429 naming that one; closing them frees their places.
+  {
+    std::vector<std::unique_ptr<EventReader>> more;
+    for (int i = 0; i < 4; ++i) {
+      more.push_back(std::make_unique<EventReader>(server, s.path() + "/events", bearer(s.token)));
+      REQUIRE(more.back()->status() == 200);
+    }
+    Reply refused = api.get(s.path() + "/events", s.token);
+    CHECK(refused.status == 429);
+    CHECK(refused.body.find("maxEventStreamsPerSession") != std::string::npos);
+    TestSession other = createSession(api);
+    for (int i = 0; i < 6; ++i) {
+      more.push_back(
+          std::make_unique<EventReader>(server, other.path() + "/events", bearer(other.token)));
+      REQUIRE(more.back()->status() == 200);
+    }
+    TestSession third = createSession(api);
+    Reply serverFull = api.get(third.path() + "/events", third.token);
+    CHECK(serverFull.status == 429);
+    CHECK(serverFull.body.find("\"maxEventStreams\"") != std::string::npos);
+  }
+  // The 10 closed (their streams notice within a second).
+  bool reopened = false;
+  for (int attempt = 0; attempt < 30 && !reopened; ++attempt) {
+    EventReader again(server, s.path() + "/events", bearer(s.token));
+    reopened = again.status() == 200;
+    if (!reopened) std::this_thread::sleep_for(std::chrono::milliseconds(200));
+  }
+  CHECK(reopened);
+
+  // Revoking the link ends the viewer's stream with a reason; the owner's goes on.
+  REQUIRE(api.del(s.path() + "/tokens", s.token).status == 204);
+  REQUIRE(watcher.waitForEnd(std::chrono::seconds(5)));
+  CHECK(watcher.items().back() == "event: end\ndata: {\"reason\": \"revoked\"}");
+  CHECK(api.get(s.path() + "/events?token=" + viewer).status == 401);
+  // Deleting the session ends the owner's.
+  REQUIRE(api.del(s.path(), s.token).status == 204);
+  REQUIRE(owner.waitForEnd(std::chrono::seconds(5)));
+  CHECK(owner.items().back() == "event: end\ndata: {\"reason\": \"deleted\"}");
 }

@@ -51,18 +51,25 @@ function showProblem(error) {
   showMessage(error.message || String(error), {unreachable: error.status === 0});
 }
 
-function sessionLost(text, error = null) {
+// A page opened from a link whose token no longer opens the session (revoked or expired): the
+// session itself may well be there; only its owner can give a new link.
+function linkEnded(revoked) {
   view.stop();
   stats.stop();
-  // A page opened from a link whose token no longer opens the session (revoked or expired): the
-  // session itself may well be there; only its owner can give a new link.
+  closeEvents();
+  showMessage(`This link ${revoked ? 'was revoked' : 'no longer works (revoked or expired)'}: ` +
+              "ask the session's owner for a new one.", {newSession: true});
+  $('message').dataset.reason = 'link-revoked';
+}
+
+function sessionLost(text, error = null) {
   if (api.linked && error?.status === 401) {
-    const revoked = /revoked/i.test(error.problem?.detail || '');
-    showMessage(`This link ${revoked ? 'was revoked' : 'no longer works (revoked or expired)'}: ` +
-                "ask the session's owner for a new one.", {newSession: true});
-    $('message').dataset.reason = 'link-revoked';
+    linkEnded(/revoked/i.test(error.problem?.detail || ''));
     return;
   }
+  view.stop();
+  stats.stop();
+  closeEvents();
   showMessage(`${text}\nSettings, lights and the model of that session are gone with it.`,
               {newSession: true});
 }
@@ -82,7 +89,10 @@ view.onInput = () => {
   overlay.changed();
   hint.used();
 };
-api.onChange = () => overlay.changed();
+api.onChange = () => {
+  overlay.changed();
+  lastOwnEdit = performance.now();
+};
 api.onChangeFailed = () => overlay.cancelChange();
 view.onProblem = (error) => {
   showProblem(error);
@@ -152,6 +162,150 @@ model.acceptDrops($('view'), (files, paths, event) =>
 
 // --- the session ----------------------------------------------------------------------------
 
+// Every page of a session (the owner's tabs and its viewers' pages) keeps its controls in sync
+// through GET .../events (Server-Sent Events of the session's version): on each new version it
+// reloads the session's state into the panels. A page's own edits also come back as versions: it
+// waits until it has been quiet for OWN_EDIT_QUIET_MS (a drag sends many), then syncs once.
+const OWN_EDIT_QUIET_MS = 400;
+let events = null;         // the EventSource of this session, or null
+let eventsEnded = false;   // the session or the link ended: no new EventSource
+let seenVersion = null;    // the version the controls show
+let lastOwnEdit = -Infinity;
+let syncRunning = false;
+let syncQueued = false;
+let syncTimer = 0;
+let readOnly = false;      // a viewer's page: panels show, nothing edits
+const readOnlyChanged = new Set();  // the controls read-only mode disabled or hid
+
+// What a viewer's page keeps usable in the panels: help, screenshot, copying the camera, paging
+// and selecting in lists, and the page's own choices (target, camera mode, material shown).
+const VIEW_OK = '#help-button, #screenshot, #copy-camera-json, #copy-camera-curl, #lights-prev, ' +
+    '#lights-next, #objects-refresh, #light-list button, #object-list button.name, #target, ' +
+    '#camera-mode, #material';
+
+function applyReadOnly() {
+  document.body.classList.toggle('read-only', readOnly);
+  $('view-only-note').hidden = !readOnly;
+  if (!readOnly) return;
+  for (const el of $('panels').querySelectorAll('input, select, textarea, button')) {
+    if (el.matches(VIEW_OK)) continue;
+    // Only what changes is written, so the observer below does not wake itself.
+    if (el.tagName === 'BUTTON') {
+      if (!el.hidden) { el.hidden = true; readOnlyChanged.add(el); }
+    } else if (!el.disabled) {
+      el.disabled = true;
+      readOnlyChanged.add(el);
+    }
+  }
+}
+
+function setReadOnly(value) {
+  if (value === readOnly) return;
+  readOnly = value;
+  if (!value) {
+    for (const el of readOnlyChanged) {
+      if (el.tagName === 'BUTTON') el.hidden = false;
+      else el.disabled = false;
+    }
+    readOnlyChanged.clear();
+  }
+  applyReadOnly();
+}
+// Panels that re-render (lists, editors) or re-enable a control get read-only again.
+new MutationObserver(() => { if (readOnly) applyReadOnly(); }).observe($('panels'), {
+  childList: true, subtree: true, attributes: true, attributeFilter: ['disabled', 'hidden']});
+
+async function syncControls() {
+  const session = api.session;
+  if (!session) return;
+  let state;
+  try {
+    state = await api.get(api.sessionPath());
+  } catch (e) {
+    showProblem(e);
+    return;
+  }
+  if (api.session !== session) return;
+  settings.show(state.settings);
+  camera.setFromServer(state.camera);
+  model.show(state);
+  if (state.lights.count !== lights.total) lights.changed(state.lights.count);
+  else lights.showPage(lights.offset || 0);
+  materials.refresh();
+  objects.refresh();
+  applyReadOnly();
+}
+
+function scheduleSync() {
+  clearTimeout(syncTimer);
+  const wait = lastOwnEdit + OWN_EDIT_QUIET_MS - performance.now();
+  if (wait > 0) {
+    syncTimer = setTimeout(scheduleSync, wait);
+    return;
+  }
+  if (syncRunning) {
+    syncQueued = true;
+    return;
+  }
+  syncRunning = true;
+  syncControls().finally(() => {
+    syncRunning = false;
+    if (syncQueued) {
+      syncQueued = false;
+      scheduleSync();
+    }
+  });
+}
+
+function closeEvents() {
+  eventsEnded = true;
+  clearTimeout(syncTimer);
+  events?.close();
+  events = null;
+}
+
+function openEvents() {
+  events?.close();
+  events = null;
+  eventsEnded = false;
+  seenVersion = null;
+  const session = api.session;
+  if (!session) return;
+  const source = new EventSource(
+      `${api.sessionPath('/events')}?token=${encodeURIComponent(session.token)}`);
+  events = source;
+  source.addEventListener('version', (e) => {
+    if (events !== source) return;
+    const data = JSON.parse(e.data);
+    setReadOnly(data.role === 'viewer');
+    if (seenVersion !== null && data.version !== seenVersion) scheduleSync();
+    seenVersion = data.version;
+  });
+  source.addEventListener('end', (e) => {
+    source.close();
+    if (events !== source) return;
+    events = null;
+    let reason = '';
+    try {
+      reason = JSON.parse(e.data).reason;
+    } catch {
+      // no reason given
+    }
+    // A session deleted or expired is said by the view's stream and the next request (with
+    // the server's own words and status); a revoked or expired link is said here.
+    eventsEnded = true;
+    if (readOnly && (reason === 'revoked' || reason === 'expired')) linkEnded(reason === 'revoked');
+  });
+  // Refused (429, 401) or the server went away for good: try again later, once.
+  source.addEventListener('error', () => {
+    if (events !== source || source.readyState !== EventSource.CLOSED) return;
+    events = null;
+    setTimeout(() => {
+      if (!events && !eventsEnded && api.session === session) openEvents();
+    }, 5000);
+  });
+}
+
 function startSession(state) {
   hideMessage();
   $('session-label').textContent = api.linked ? `${api.session.id} (shared link)` : api.session.id;
@@ -168,11 +322,14 @@ function startSession(state) {
   model.refreshLibrary();
   view.restart();
   stats.start();
+  setReadOnly(false);
+  openEvents();
 }
 
 async function newSession() {
   if ($('api-key').value) api.apiKey = $('api-key').value;
   api.forgetSession();
+  closeEvents();
   try {
     startSession(await api.createSession());
   } catch (e) {

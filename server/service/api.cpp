@@ -10,6 +10,7 @@
 #include "protocol/operations.h"
 #include "protocol/validate.h"
 #include "service/connection.h"
+#include "service/stream.h"
 
 namespace myriad::service {
 namespace {
@@ -113,6 +114,8 @@ nlohmann::json ApiLimits::toJson() const {
       {"sessionIdleSeconds", sessionIdleSeconds},
       {std::string(protocol::limits::kMaxMemoryBytes), maxMemoryBytes},
       {std::string(protocol::limits::kMaxFrameSeconds), maxFrameSeconds},
+      {std::string(protocol::limits::kMaxEventStreamsPerSession), kMaxEventStreamsPerSession},
+      {std::string(protocol::limits::kMaxEventStreams), kMaxEventStreams},
   };
 }
 

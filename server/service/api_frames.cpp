@@ -273,6 +273,42 @@ void handleStream(ApiContext& context, FrameServices& frames, const httplib::Req
                          peer, std::move(credential)));
 }
 
+// GET .../events: Server-Sent Events of the session's version (stream.h). No stream slot; at most
+// kMaxEventStreamsPerSession per session, since each holds a worker thread.
+void handleEvents(ApiContext& context, FrameServices& frames, const httplib::Request& req,
+                  httplib::Response& res) {
+  Role role = Role::owner;
+  SessionPtr session = context.sessions.authorize(req.matches[1].str(), credentialsOf(req),
+                                                  /*allowQueryToken=*/true, Role::viewer, &role);
+  checkQuery(req, {protocol::query::kToken});
+  StreamCredential credential = streamCredential(req, *session, role);
+  if (frames.streams.stopping()) throw ProblemError(serverBusy("The server is shutting down."));
+  {
+    std::lock_guard lock(session->mutex);
+    if (session->eventStreams >= kMaxEventStreamsPerSession) {
+      throw ProblemError(limitExceeded(
+          429, std::string(protocol::limits::kMaxEventStreamsPerSession),
+          "The session " + quoteClientText(session->id) + " already has " +
+              std::to_string(kMaxEventStreamsPerSession) +
+              " event streams open, the most it may; close one or retry later."));
+    }
+    if (!frames.streams.takeEventPlace(kMaxEventStreams)) {
+      throw ProblemError(limitExceeded(
+          429, std::string(protocol::limits::kMaxEventStreams),
+          "This server already serves " + std::to_string(kMaxEventStreams) +
+              " event streams, the most it may; retry later (the page works without one)."));
+    }
+    ++session->eventStreams;
+  }
+  // Counted from here; the provider gives the place back when the stream ends.
+  connection::setWriteStallLimit(std::chrono::seconds(3));
+  res.set_header("Cache-Control", "no-store");
+  PeerWatch peer(req.local_addr, req.local_port, req.remote_addr, req.remote_port);
+  res.set_chunked_content_provider(
+      std::string(protocol::kEventStreamContentType),
+      makeEventStreamProvider(std::move(session), frames.streams, peer, std::move(credential)));
+}
+
 void handleStats(const ApiContext& context, FrameServices& frames, const httplib::Request& req,
                  httplib::Response& res) {
   SessionPtr session = authorizeSession(context, req);
@@ -346,6 +382,12 @@ void addFrameRoutes(Routes& routes, ApiContext& context, FrameServices& frames) 
       "GET", r::kSessionStream,
       [&](const httplib::Request& req, httplib::Response& res) {
         handleStream(context, frames, req, res);
+      },
+      streamOptions);
+  routes.add(
+      "GET", r::kSessionEvents,
+      [&](const httplib::Request& req, httplib::Response& res) {
+        handleEvents(context, frames, req, res);
       },
       streamOptions);
   routes.add("GET", r::kSessionLabels,

@@ -71,6 +71,9 @@ struct Session {
   // dropped whenever one is added. `tokensChanged` tells the state persister to write them.
   std::vector<ViewerToken> viewerTokens;
 
+  // Event streams open on it (GET .../events; at most kMaxEventStreamsPerSession).
+  uint32_t eventStreams = 0;
+
   // Bumped (under `mutex`) on every change that can alter a frame; streams compare it.
   uint64_t version = 0;
   // The version of the last change its client said ends an interaction (X-Myriad-Interaction:

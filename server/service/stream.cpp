@@ -130,35 +130,12 @@ struct StreamState {
   }
 
   // Why a stream ends without its client asking.
-  enum class End {
-    none,            // it goes on
-    quietly,         // replaced, shutdown, or its session reloaded: no part says why
-    sessionDeleted,  // the rest end with a problem part
-    sessionExpired,
-    viewerRevoked,
-    viewerExpired,
-  };
+  using End = StreamEnd;
 
   // Whether the stream must end now, given the wall clock in Unix seconds. session->mutex held.
   End endNow(int64_t nowUnix) const {
     if (!slot || registry.stopping() || slot->replaced()) return End::quietly;
-    if (session->closed) {
-      switch (session->closedBecause) {
-        case Session::CloseReason::deleted: return End::sessionDeleted;
-        case Session::CloseReason::expired: return End::sessionExpired;
-        // Reloaded: the copy another server wrote answers the client's next stream. Shutdown:
-        // the client cannot do anything with a reason.
-        case Session::CloseReason::reloaded:
-        case Session::CloseReason::shutdown: return End::quietly;
-      }
-    }
-    if (credential.viewerHash.empty()) return End::none;
-    for (const ViewerToken& viewer : session->viewerTokens) {
-      if (!constantTimeEquals(viewer.hash, credential.viewerHash)) continue;
-      return viewer.expiresAtUnix > nowUnix ? End::none : End::viewerExpired;
-    }
-    // Gone from the session: revoked, or dropped by a newer token after it expired.
-    return credential.expiresAtUnix > nowUnix ? End::viewerRevoked : End::viewerExpired;
+    return credentialEndNow(*session, credential, nowUnix);
   }
 
   // When a viewer token's stream must wake to end, on the steady clock its waits use (the token's
@@ -374,6 +351,27 @@ bool StreamState::next(httplib::DataSink& sink) {
 
 }  // namespace
 
+StreamEnd credentialEndNow(const Session& session, const StreamCredential& credential,
+                           int64_t nowUnix) {
+  if (session.closed) {
+    switch (session.closedBecause) {
+      case Session::CloseReason::deleted: return StreamEnd::sessionDeleted;
+      case Session::CloseReason::expired: return StreamEnd::sessionExpired;
+      // Reloaded: the copy another server wrote answers the client's next stream. Shutdown:
+      // the client cannot do anything with a reason.
+      case Session::CloseReason::reloaded:
+      case Session::CloseReason::shutdown: return StreamEnd::quietly;
+    }
+  }
+  if (credential.viewerHash.empty()) return StreamEnd::none;
+  for (const ViewerToken& viewer : session.viewerTokens) {
+    if (!constantTimeEquals(viewer.hash, credential.viewerHash)) continue;
+    return viewer.expiresAtUnix > nowUnix ? StreamEnd::none : StreamEnd::viewerExpired;
+  }
+  // Gone from the session: revoked, or dropped by a newer token after it expired.
+  return credential.expiresAtUnix > nowUnix ? StreamEnd::viewerRevoked : StreamEnd::viewerExpired;
+}
+
 std::string multipartPart(std::string_view contentType, std::string_view image, uint64_t sequence,
                           bool first, std::string_view interactiveScale) {
   std::string part;
@@ -460,6 +458,111 @@ httplib::ContentProviderWithoutLength makeStreamProvider(const SessionFrameConte
     }
     return more;
   };
+}
+
+namespace {
+
+// One event stream's state, used only by the worker serving it.
+struct EventStreamState {
+  SessionPtr session;
+  const StreamRegistry& registry;
+  PeerWatch peer;
+  StreamCredential credential;
+  bool sentAny = false;
+  uint64_t sentVersion = 0;
+  Clock::time_point lastWriteAt = Clock::now();
+  bool counted = false;  // holds one of session->eventStreams (set once in its shared_ptr)
+
+  void release() {
+    if (!counted) return;
+    counted = false;
+    registry.giveEventPlace();
+    std::lock_guard lock(session->mutex);
+    if (session->eventStreams > 0) --session->eventStreams;
+  }
+  ~EventStreamState() { release(); }
+
+  // data: {"version": N, "role": "owner" | "viewer"} (the role of the token it was opened with:
+  // a page opened from a link learns from it whether it may edit).
+  std::string versionEvent(uint64_t version) const {
+    const std::string_view role =
+        credential.viewerHash.empty() ? protocol::roles::kOwner : protocol::roles::kViewer;
+    return "event: version\ndata: {\"version\": " + std::to_string(version) + ", \"role\": \"" +
+           std::string(role) + "\"}\n\n";
+  }
+
+  static const char* reasonOf(StreamEnd end) {
+    switch (end) {
+      case StreamEnd::sessionDeleted: return "deleted";
+      case StreamEnd::sessionExpired:
+      case StreamEnd::viewerExpired: return "expired";
+      case StreamEnd::viewerRevoked: return "revoked";
+      case StreamEnd::none:
+      case StreamEnd::quietly: break;
+    }
+    return nullptr;
+  }
+
+  bool write(httplib::DataSink& sink, const std::string& bytes) {
+    lastWriteAt = Clock::now();
+    return sink.write(bytes.data(), bytes.size());
+  }
+
+  bool finish(httplib::DataSink& sink, StreamEnd end) {
+    if (const char* reason = reasonOf(end)) {
+      write(sink, std::string("event: end\ndata: {\"reason\": \"") + reason + "\"}\n\n");
+    }
+    release();
+    sink.done();
+    return false;
+  }
+
+  // One provider call: waits (at most kEventPoll) and writes what is due.
+  bool next(httplib::DataSink& sink) {
+    StreamEnd ending = StreamEnd::none;
+    uint64_t version = 0;
+    {
+      std::unique_lock lock(session->mutex);
+      if (sentAny) {
+        const Clock::time_point deadline =
+            std::min(Clock::now() + kEventPoll, lastWriteAt + kEventKeepAlive);
+        session->changed.wait_until(lock, deadline, [&] {
+          return session->version != sentVersion || registry.stopping() ||
+                 credentialEndNow(*session, credential, unixNow()) != StreamEnd::none;
+        });
+      }
+      ending = credentialEndNow(*session, credential, unixNow());
+      version = session->version;
+    }
+    if (registry.stopping()) ending = StreamEnd::quietly;
+    if (ending != StreamEnd::none) return finish(sink, ending);
+    if (peer.gone()) {
+      release();
+      return false;
+    }
+    if (!sentAny || version != sentVersion) {
+      sentAny = true;
+      sentVersion = version;
+      if (!write(sink, versionEvent(version))) return release(), false;
+      return true;
+    }
+    if (Clock::now() - lastWriteAt >= kEventKeepAlive) {
+      if (!write(sink, ": keep-alive\n\n")) return release(), false;
+    }
+    return true;
+  }
+};
+
+}  // namespace
+
+httplib::ContentProviderWithoutLength makeEventStreamProvider(SessionPtr session,
+                                                              const StreamRegistry& registry,
+                                                              PeerWatch peer,
+                                                              StreamCredential credential) {
+  auto state = std::make_shared<EventStreamState>(
+      EventStreamState{std::move(session), registry, peer, std::move(credential)});
+  state->counted = true;
+  return [state](size_t /*offset*/, httplib::DataSink& sink) { return state->next(sink); };
 }
 
 }  // namespace myriad::service

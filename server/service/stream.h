@@ -62,6 +62,22 @@ struct StreamCredential {
   int64_t expiresAtUnix = 0;   // the viewer token's expiry when the stream opened
 };
 
+// Why a stream (or an event stream) must end, as far as its session and token say.
+enum class StreamEnd {
+  none,            // it goes on
+  quietly,         // replaced, shutdown, or its session reloaded: no part says why
+  sessionDeleted,  // the rest end saying why
+  sessionExpired,
+  viewerRevoked,
+  viewerExpired,
+};
+
+// Whether a stream of `session` opened with `credential` must end now, given the wall clock in
+// Unix seconds: the session closed, or the viewer token was revoked or expired. session.mutex
+// held. Image streams, video streams and event streams all end by this one check.
+StreamEnd credentialEndNow(const Session& session, const StreamCredential& credential,
+                           int64_t nowUnix);
+
 // The chunked content provider of one stream. `slot` is held until the response is destroyed.
 httplib::ContentProviderWithoutLength makeStreamProvider(const SessionFrameContext& context,
                                                          StreamRegistry& registry,
@@ -69,6 +85,28 @@ httplib::ContentProviderWithoutLength makeStreamProvider(const SessionFrameConte
                                                          SessionPtr session, FrameRequest request,
                                                          PeerWatch peer,
                                                          StreamCredential credential = {});
+
+// GET /v1/sessions/{id}/events: Server-Sent Events of the session's version. On open an
+// `event: version` with `data: {"version": N, "role": "owner" | "viewer"}`, then one each time the version changes, a
+// `: keep-alive` comment every kEventKeepAlive while nothing does; it ends when the session closes
+// or the viewer token it was opened with is revoked or expires (credentialEndNow), with a last
+// `event: end` whose data says {"reason": "deleted" | "expired" | "revoked"}, and quietly on
+// shutdown or when its client goes away (looked at every kEventPoll). It takes no stream slot but
+// holds a worker thread for its life: at most kMaxEventStreamsPerSession per session
+// (Session::eventStreams counts them; protocol::limits::kMaxEventStreamsPerSession names it).
+inline constexpr std::chrono::seconds kEventKeepAlive{15};
+inline constexpr std::chrono::seconds kEventPoll{1};
+inline constexpr uint32_t kMaxEventStreamsPerSession = 6;
+// And server-wide: with the default 32 workers, 8 frame streams and 4 queued frames, 12 event
+// streams leave workers for every other request.
+inline constexpr uint32_t kMaxEventStreams = 12;
+
+// The provider of one event stream. The caller counted it in session->eventStreams; the provider
+// gives the place back when the stream ends; it ends quietly once `registry` is stopping.
+httplib::ContentProviderWithoutLength makeEventStreamProvider(SessionPtr session,
+                                                              const StreamRegistry& registry,
+                                                              PeerWatch peer,
+                                                              StreamCredential credential);
 
 // A video stream's chunk header (protocol::video_chunk gives the layout).
 struct VideoChunk {

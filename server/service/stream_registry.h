@@ -62,6 +62,17 @@ class StreamRegistry {
   uint32_t count() const;  // streams open and not replaced
   bool stopping() const { return stopping_.load(); }
 
+  // Event streams (GET .../events) server-wide: each holds a worker thread for its life, so they
+  // are capped below the workers, beside the frame streams' slots. False when `max` are open.
+  bool takeEventPlace(uint32_t max) const {
+    uint32_t open = eventStreams_.load();
+    while (open < max) {
+      if (eventStreams_.compare_exchange_weak(open, open + 1)) return true;
+    }
+    return false;
+  }
+  void giveEventPlace() const { eventStreams_.fetch_sub(1); }
+
   // Every stream ends after the part it is writing; new ones are refused. Idempotent.
   void shutdown();
 
@@ -72,6 +83,7 @@ class StreamRegistry {
   void reclaimGone();  // replaces the streams whose client hung up
 
   const uint32_t maxStreams_;
+  mutable std::atomic<uint32_t> eventStreams_{0};
   mutable std::mutex mutex_;
   // Oldest first, so shutdown can wake them and a session's oldest is found.
   std::list<Slot*> open_;

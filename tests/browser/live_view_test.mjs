@@ -3,8 +3,10 @@
 // stats strip reads fps, latency, bandwidth and codec; after a short drag on a slow scene
 // "rendering" clears on the first new picture, and the latency figure and perf.js count it, on
 // the JPEG path and on the page's default (VP9) path; a view-only link opens the same session in
-// a second page, which sees the owner's edits and whose own edit is refused on the view, and
-// Revoke links makes that page say its link no longer works; two pages on the VP9 stream of one
+// a second page, which sees the owner's edits, shows its panels read-only (inputs disabled,
+// editing buttons hidden, a "view-only link" note), has the owner's exposure edit in its control
+// within 500 ms (GET .../events, whose first event this test also reads), and whose own edit is
+// refused on the view, and Revoke links makes that page say "this link was revoked"; two pages on the VP9 stream of one
 // session (owner and viewer) see each edit from one render and one encode (GET .../stats frames,
 // /metrics myriad_video_encodes_total and myriad_video_encoders); with 100,000 lights, on the page
 // as it opens (VP9, no query string), a click on a marker of a light past the first 1,000 selects
@@ -308,7 +310,7 @@ try {
     }
   });
 
-  await step('a view-only link: both pages see an edit; the viewer\'s edit is 403, said on the view; Revoke links ends it, said on the viewer\'s page', async () => {
+  await step('a view-only link: read-only panels; both pages see an edit, the viewer\'s control within 500 ms; the viewer\'s edit is 403, said on the view; Revoke links ends it, said on the viewer\'s page', async () => {
     const minted = await api('POST', `/v1/sessions/${session.id}/tokens`,
                              {token: session.token, json: {role: 'viewer'}});
     check(minted.status === 201, `POST tokens: ${minted.status}`);
@@ -322,10 +324,51 @@ try {
           'the link replaced the stored session');
     const label = await viewer.textContent('#session-label');
     check(label.includes(session.id), `the viewer shows session "${label}"`);
-    // The owner changes the scene: both pictures follow.
+    // The viewer's panels are read-only: inputs disabled, editing buttons hidden, a note says so
+    // (the page learns its role from GET .../events).
+    await until('the viewer\'s panels to turn read-only', () => viewer.evaluate(() =>
+        document.getElementById('exposure').disabled &&
+        !document.getElementById('view-only-note').hidden));
+    const readOnly = await viewer.evaluate(() => ({
+      note: document.getElementById('view-only-note').textContent,
+      enabledInputs: [...document.querySelectorAll('#panels input, #panels textarea')]
+          .filter((e) => !e.disabled).map((e) => e.id || e.type),
+      shownEditing: ['share', 'revoke', 'gen-lights', 'delete-lights', 'light-apply',
+                     'model-library-load', 'frame-model']
+          .filter((id) => !document.getElementById(id).hidden),
+    }));
+    check(/view-only link/i.test(readOnly.note), `the note says "${readOnly.note}"`);
+    check(readOnly.enabledInputs.length === 0,
+          `the viewer's inputs still enabled: ${readOnly.enabledInputs.join(', ')}`);
+    check(readOnly.shownEditing.length === 0,
+          `the viewer's editing buttons still shown: ${readOnly.shownEditing.join(', ')}`);
+    check(!(await owner.evaluate(() => document.getElementById('exposure').disabled)),
+          'the owner\'s exposure is disabled');
+    // The protocol: the event stream says the version and the token's role.
+    const events = await fetch(`${base}/v1/sessions/${session.id}/events?token=${minted.body.token}`);
+    check(events.status === 200 && events.headers.get('content-type') === 'text/event-stream',
+          `GET events: ${events.status} ${events.headers.get('content-type')}`);
+    const reader = events.body.getReader();
+    const first = new TextDecoder().decode((await reader.read()).value);
+    await reader.cancel();
+    check(/^event: version\ndata: \{"version": \d+, "role": "viewer"\}\n\n/.test(first),
+          `the first event: ${JSON.stringify(first)}`);
+    // The owner changes the scene: both pictures follow, and the viewer's exposure control within
+    // 500 ms of the edit (GET .../events, then the session's state).
+    const exposureShown = (page) => page.waitForFunction(
+        () => Number(document.getElementById('exposure').value) === 2,  // log2 of exposure 4
+        null, {polling: 5, timeout: 5000});
+    const editStart = performance.now();
+    const viewerShows = exposureShown(viewer).then(() => performance.now() - editStart);
+    const ownerShows = exposureShown(owner).then(() => performance.now() - editStart);
     const edited = await api('PATCH', `/v1/sessions/${session.id}/settings`,
-                             {token: session.token, json: {exposure: 3}});
+                             {token: session.token, json: {exposure: 4}});
     check(edited.status === 200, `PATCH settings: ${edited.status}`);
+    const viewerSyncMs = await viewerShows;
+    const ownerSyncMs = await ownerShows;
+    console.log(`     exposure control updated: viewer ${Math.round(viewerSyncMs)} ms, ` +
+                `owner\'s page ${Math.round(ownerSyncMs)} ms after the edit was sent`);
+    check(viewerSyncMs <= 500, `the viewer's control took ${Math.round(viewerSyncMs)} ms`);
     await frameOf(owner, ownerBefore);
     await frameOf(viewer, viewerBefore);
     // The viewer tries to zoom: refused, and the page says so on the view.
@@ -352,7 +395,7 @@ try {
         (await viewer.getAttribute('#message', 'data-reason')) === 'link-revoked' &&
         await viewer.textContent('#message-text'), 15000);
     console.log(`     viewer after revoke: "${revoked}"`);
-    check(/link/.test(revoked) && /revoked/.test(revoked) && !/session is gone/.test(revoked),
+    check(/this link was revoked/i.test(revoked) && !/session is gone/.test(revoked),
           `the viewer's page says "${revoked}"`);
     check((await api('GET', `/v1/sessions/${session.id}`, {token: minted.body.token})).status === 401,
           'the viewer token still opens the session');

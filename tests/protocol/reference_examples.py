@@ -19,13 +19,14 @@ BOX_GLB = "/usr/share/assimp/models/glTF2/BoxTextured-glTF-Binary/BoxTextured.gl
 BOX_GLTF = "/usr/share/assimp/models/glTF2/BoxTextured-glTF-Embedded/BoxTextured.gltf"
 BOX_TEXTURED_GLTF = "/usr/share/assimp/models/glTF2/BoxTextured-glTF/BoxTextured.gltf"
 
-# Prepended to every block: a curl that fails on HTTP errors, and ends streams after 3 s (a stream
+# Prepended to every block: a curl that fails on HTTP errors, and ends streams (.../stream,
+# .../events) after 3 s (a stream
 # that was cut off by --max-time but delivered bytes is a success).
 PRELUDE = r'''
 set -euo pipefail
 curl() {
   local args=("$@") is_stream=false
-  for a in "${args[@]}"; do [[ "$a" == */stream* ]] && is_stream=true; done
+  for a in "${args[@]}"; do [[ "$a" == */stream* || "$a" == */events* ]] && is_stream=true; done
   if $is_stream; then
     local rc=0
     command curl -sS --fail-with-body --max-time 3 "${args[@]}" || rc=$?
