@@ -88,6 +88,14 @@ TestSession createSession(ApiClient& api, const std::string& body, const std::st
   return session;
 }
 
+std::string mintViewer(ApiClient& api, const TestSession& session, std::optional<int> ttlSeconds) {
+  nlohmann::json body = {{"role", "viewer"}};
+  if (ttlSeconds) body["ttlSeconds"] = *ttlSeconds;
+  Reply minted = api.post(session.path() + "/tokens", body.dump(), session.token);
+  REQUIRE(minted.status == 201);
+  return minted.json.at("token").get<std::string>();
+}
+
 void checkProblem(const Reply& reply, int status, const std::string& typeName,
                   const std::string& context, std::optional<std::string> pointer,
                   std::optional<std::string> limit, std::optional<std::string> parameter) {

@@ -68,6 +68,11 @@ struct TestSession {
 TestSession createSession(ApiClient& api, const std::string& body = "{}",
                           const std::string& apiKey = "");
 
+// A viewer token of `session` (POST .../tokens), valid for `ttlSeconds` or the server's default;
+// REQUIREs the 201.
+std::string mintViewer(ApiClient& api, const TestSession& session,
+                       std::optional<int> ttlSeconds = std::nullopt);
+
 // CHECKs a problem response: status, content type, type name (the last segment of the type URI),
 // and, when given, `pointer`, `parameter` and `limit`.
 void checkProblem(const Reply& reply, int status, const std::string& typeName,

@@ -49,6 +49,19 @@ scene::Scene floorScene(glm::vec3 colour) {
   return s;
 }
 
+// The floor under `count` generated lights of radius 0.3-1.2 above it: a frame heavy enough to
+// split when the slice is made small.
+scene::Scene floorWithLights(uint32_t count) {
+  scene::Scene s = floorScene(glm::vec3(0.5f, 0.5f, 0.45f));
+  scene::LightGeneration g;
+  g.count = count;
+  g.bounds = {glm::vec3(-4.0f, 0.1f, -5.0f), glm::vec3(4.0f, 1.0f, 2.0f)};
+  g.minRadius = 0.3f;
+  g.maxRadius = 1.2f;
+  s.lights = scene::generateLights(g);
+  return s;
+}
+
 // A warm floor lit by two lights.
 scene::Scene sceneA() {
   scene::Scene s = floorScene(glm::vec3(0.6f, 0.4f, 0.3f));
@@ -551,13 +564,7 @@ TEST_CASE("a random run of light edits leaves the GPU matching the scene the edi
 TEST_CASE("a split frame equals the whole frame, with other scenes' frames between its parts") {
   Gpu& gpu = sharedGpu();
   render::Renderer& r = *gpu.renderer;
-  scene::Scene heavy = floorScene(glm::vec3(0.5f, 0.5f, 0.45f));
-  scene::LightGeneration g;
-  g.count = 3000;
-  g.bounds = {glm::vec3(-4.0f, 0.1f, -5.0f), glm::vec3(4.0f, 1.0f, 2.0f)};
-  g.minRadius = 0.3f;
-  g.maxRadius = 1.2f;
-  heavy.lights = scene::generateLights(g);
+  const scene::Scene heavy = floorWithLights(3000);
   const scene::Scene other = sceneB();
   const render::SceneId heavyId = r.createScene(heavy);
   const render::SceneId otherId = r.createScene(other);
@@ -624,13 +631,7 @@ TEST_CASE("split tiled and clustered frames equal their whole frames, counters i
   // (the same technique, other lights, another size) leave them alone.
   Gpu& gpu = sharedGpu();
   render::Renderer& r = *gpu.renderer;
-  scene::Scene heavy = floorScene(glm::vec3(0.5f, 0.5f, 0.45f));
-  scene::LightGeneration g;
-  g.count = 600;
-  g.bounds = {glm::vec3(-4.0f, 0.1f, -5.0f), glm::vec3(4.0f, 1.0f, 2.0f)};
-  g.minRadius = 0.3f;
-  g.maxRadius = 1.2f;
-  heavy.lights = scene::generateLights(g);
+  const scene::Scene heavy = floorWithLights(600);
   const scene::Scene other = sceneB();
   const render::SceneId heavyId = r.createScene(heavy);
   const render::SceneId otherId = r.createScene(other);

@@ -37,6 +37,7 @@ using myriad::test::VideoReader;
 using myriad::test::bearer;
 using myriad::test::checkProblem;
 using myriad::test::createSession;
+using myriad::test::mintViewer;
 using Clock = std::chrono::steady_clock;
 
 namespace {
@@ -57,15 +58,6 @@ double secondsSince(Clock::time_point start) {
 void requireListening(const ServerProcess& server) {
   INFO(server.stderrText());
   REQUIRE(server.start() == ServerProcess::Start::Listening);
-}
-
-// A viewer token of `session`, valid for `ttlSeconds`.
-std::string mintViewer(ApiClient& api, const TestSession& session, int ttlSeconds) {
-  Reply minted = api.post(session.path() + "/tokens",
-                          json{{"role", "viewer"}, {"ttlSeconds", ttlSeconds}}.dump(),
-                          session.token);
-  REQUIRE(minted.status == 201);
-  return minted.json.at("token").get<std::string>();
 }
 
 // Waits for a reader's end; the seconds from `since`, or nullopt when it did not end.

@@ -34,6 +34,7 @@ using myriad::test::ServerProcess;
 using myriad::test::TestSession;
 using myriad::test::checkProblem;
 using myriad::test::createSession;
+using myriad::test::mintViewer;
 using myriad::test::MultipartReader;
 using myriad::test::StreamPart;
 using myriad::test::VideoChunk;
@@ -195,9 +196,7 @@ TEST_CASE("shared sessions: an owner's and a viewer's stream of one session rend
   requireListening(server);
   ApiClient api(server);
   TestSession s = createSession(api);
-  Reply minted = api.post(s.path() + "/tokens", R"({"role": "viewer"})", s.token);
-  REQUIRE(minted.status == 201);
-  const std::string viewer = minted.json.at("token").get<std::string>();
+  const std::string viewer = mintViewer(api, s);
   const std::string query = "/stream?format=jpeg&fps=10&width=96&height=64";
   const uint64_t framesBefore = statsOf(api, s).at("frames").get<uint64_t>();
 
@@ -232,9 +231,7 @@ TEST_CASE("shared sessions: an owner's and a viewer's VP9 stream share one rende
   requireListening(server);
   ApiClient api(server);
   TestSession s = createSession(api);
-  Reply minted = api.post(s.path() + "/tokens", R"({"role": "viewer"})", s.token);
-  REQUIRE(minted.status == 201);
-  const std::string viewer = minted.json.at("token").get<std::string>();
+  const std::string viewer = mintViewer(api, s);
   const std::string query = "/stream?codec=vp9&fps=10&width=96&height=64&bitrate=600";
   const auto bytesOf = [](const std::string& text) {
     return std::span<const uint8_t>(reinterpret_cast<const uint8_t*>(text.data()), text.size());
@@ -441,9 +438,7 @@ TEST_CASE("shared sessions: the event stream says each version to owner and view
   requireListening(server);
   ApiClient api(server);
   TestSession s = createSession(api);
-  Reply minted = api.post(s.path() + "/tokens", R"({"role": "viewer"})", s.token);
-  REQUIRE(minted.status == 201);
-  const std::string viewer = minted.json.at("token").get<std::string>();
+  const std::string viewer = mintViewer(api, s);
 
   EventReader owner(server, s.path() + "/events", bearer(s.token));
   EventReader watcher(server, s.path() + "/events?token=" + viewer);
