@@ -180,9 +180,12 @@ TEST_CASE("shared sessions: a viewer token reads and watches, cannot change; kep
     checkProblem(api.patch(s.path() + "/settings", R"({"exposure": 2})", viewer), 403,
                  "forbidden", "viewer after restart");
     CHECK(api.patch(s.path() + "/settings", R"({"exposure": 2})", s.token).status == 200);
-    // Revoked: the viewer's next request is 401.
     CHECK(api.del(s.path() + "/tokens", s.token).status == 204);
-    checkProblem(api.get(s.path(), viewer), 401, "unauthorized", "revoked");
+    // Revoked: the viewer's next request is 401 and says so (the page tells its user the link
+    // was revoked, not only that it no longer works).
+    const Reply gone = api.get(s.path(), viewer);
+    checkProblem(gone, 401, "unauthorized", "revoked");
+    CHECK(gone.body.find("was revoked") != std::string::npos);
     CHECK(api.get(s.path(), s.token).status == 200);
     const auto stopped = server.stop();
     REQUIRE(stopped.has_value());

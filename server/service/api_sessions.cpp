@@ -458,6 +458,11 @@ void revokeTokens(ApiContext& context, const httplib::Request& req, httplib::Res
   checkQuery(req, {});
   {
     auto lock = lockOpen(*session);
+    std::vector<std::string>& revoked = session->revokedViewerHashes;
+    for (const ViewerToken& v : session->viewerTokens) revoked.push_back(v.hash);
+    if (revoked.size() > protocol::kMaxViewerTokens) {
+      revoked.erase(revoked.begin(), revoked.end() - protocol::kMaxViewerTokens);
+    }
     session->viewerTokens.clear();
     session->persisted.tokensChanged = true;
     // Streams opened with these tokens wake and end at once, not at their next frame or re-send.

@@ -212,6 +212,7 @@ SessionPtr SessionManager::authorize(std::string_view id, const Credentials& cre
   if (!constantTimeEquals(session->tokenHash, hash)) {
     bool viewer = false;
     bool expired = false;
+    bool revoked = false;
     {
       std::lock_guard lock(session->mutex);
       const int64_t now = unixNow();
@@ -219,8 +220,15 @@ SessionPtr SessionManager::authorize(std::string_view id, const Credentials& cre
         if (!constantTimeEquals(v.hash, hash)) continue;
         (v.expiresAtUnix > now ? viewer : expired) = true;
       }
+      for (const std::string& gone : session->revokedViewerHashes) {
+        if (constantTimeEquals(gone, hash)) revoked = true;
+      }
     }
     if (!viewer) {
+      if (revoked) {
+        throw ProblemError(unauthorized("The viewer link to " + quoteClientText(id) +
+                                        " was revoked; ask the session's owner for a new one."));
+      }
       if (expired) {
         throw ProblemError(unauthorized("This viewer token of " + quoteClientText(id) +
                                         " has expired; ask the session's owner for a new one."));

@@ -70,6 +70,9 @@ struct Session {
   // Viewer tokens (POST .../tokens), by hash; at most protocol::kMaxViewerTokens, expired ones
   // dropped whenever one is added. `tokensChanged` tells the state persister to write them.
   std::vector<ViewerToken> viewerTokens;
+  // Hashes of the viewer tokens DELETE .../tokens revoked (the latest kMaxViewerTokens, in memory
+  // only): their 401 says "revoked", not just "not a token", so a viewer's page can tell its user.
+  std::vector<std::string> revokedViewerHashes;
 
   // Event streams open on it (GET .../events; at most kMaxEventStreamsPerSession).
   uint32_t eventStreams = 0;
