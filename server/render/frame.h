@@ -49,6 +49,27 @@ struct InstanceUpdate {
   scene::Bounds bounds;
 };
 
+// A skinned or morphed instance posed at one time (scene/animation.h evaluates it): what the GPU
+// pre-pass deforms its mesh's vertices by before the G-buffer, shadow and pick passes read them.
+struct InstancePose {
+  uint32_t instance = 0;  // index into scene::Scene::instances
+  // Skinning matrices, one per joint of the instance's skin: the asset's space from the mesh's
+  // bind space (world_asset(joint) * inverseBind). Empty: not skinned. The posed vertex is then
+  // moved by the instance's transform as any other.
+  std::vector<glm::mat4> joints;
+  // One weight per morph target of its mesh (empty: the mesh's default weights).
+  std::vector<float> morphWeights;
+};
+
+// A whole scene posed at `time`: node-animated instances' transforms and skinned or morphed
+// instances' poses. A frame that carries one (FrameSettings::pose) is drawn in exactly that pose,
+// so the same time gives the same bytes.
+struct ScenePose {
+  double time = 0.0;
+  std::vector<InstanceWrite> transforms;
+  std::vector<InstancePose> poses;
+};
+
 // One material's new factors (Renderer::updateMaterials); index < the scene's material count.
 struct MaterialWrite {
   uint32_t index = 0;
@@ -262,6 +283,8 @@ struct FrameSettings : SceneSettings {
   scene::Camera camera;
   Target target = Target::Final;
   double time = 0.0;        // animation time in seconds (lights move only with `animate`)
+  // The scene's pose at `time` (null: as last drawn; a scene without animation never has one).
+  std::shared_ptr<const ScenePose> pose;
   uint32_t heatMapMax = 0;  // light-count view: count shown as the hottest colour (0 = auto)
   bool raw = false;         // return the view's float values (Frame::data), not an image
   // The 8-bit pixels stay in the renderer's readback memory (Frame::borrowed) instead of being

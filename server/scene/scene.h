@@ -9,6 +9,7 @@
 #include <vector>
 
 #include <glm/glm.hpp>
+#include <glm/gtc/quaternion.hpp>
 
 namespace myriad::scene {
 
@@ -32,10 +33,31 @@ struct MeshLod {
   float error = 0.0f;
 };
 
+// One glTF morph target of a mesh: per-vertex displacements added, times the target's weight, to
+// the mesh's rest vertices. Each list is empty (the target does not move that attribute) or holds
+// one entry per vertex of the mesh.
+struct MorphTarget {
+  std::string name;
+  std::vector<glm::vec3> positions;
+  std::vector<glm::vec3> normals;
+  std::vector<glm::vec3> tangents;  // xyz of the tangent; the sign (w) is not morphed
+};
+
 struct Mesh {
   std::string name;
   std::vector<Vertex> vertices;
   std::vector<uint32_t> indices;  // triangle list, counter-clockwise front faces
+  // Skinning (glTF JOINTS_0 / WEIGHTS_0): per vertex up to four joints, as indices into the
+  // Skin::joints of the skin its instance uses, and their weights (summing to 1). Both empty
+  // for a mesh that is not skinned, else one entry per vertex.
+  std::vector<glm::uvec4> joints;
+  std::vector<glm::vec4> weights;
+  // Morph targets (glTF mesh.primitives[].targets) and the mesh's default weights (mesh.weights,
+  // one per target; zeros where the file gives none).
+  std::vector<MorphTarget> morphTargets;
+  std::vector<float> morphWeights;
+  bool skinned() const { return !joints.empty(); }
+  bool morphed() const { return !morphTargets.empty(); }
   // Coarser versions, finest first (empty for most meshes: the procedural sphere has them).
   std::vector<MeshLod> lods;
 };
@@ -125,6 +147,48 @@ struct Instance {
   // made without objects).
   uint32_t object = 0;
   uint32_t semantic = 0;  // its object's semantic class (the semantic-id label)
+  // The model node it hangs from (index into Scene::nodes; -1: none, its transform is fixed).
+  // An animated node's instances move with it (scene/animation.h).
+  int32_t node = -1;
+  // The skin deforming its mesh (index into Scene::skins; -1: none). A skinned instance's
+  // vertices are placed by its joints, not by its node (glTF 2.0 skins): `transform` then only
+  // places the asset (the object's world transform).
+  int32_t skin = -1;
+};
+
+// A model file's node (glTF 2.0 nodes), kept so animation can move it. Its local transform is
+// translation * rotation * scale (a node given as a matrix is decomposed on load).
+struct Node {
+  std::string name;
+  int32_t parent = -1;  // index into Scene::nodes, always lower than this node's (parents first)
+  glm::vec3 translation{0.0f};
+  glm::quat rotation{1.0f, 0.0f, 0.0f, 0.0f};  // unit (glm: w, x, y, z)
+  glm::vec3 scale{1.0f};
+};
+
+// A glTF skin: the nodes acting as its joints and their inverse bind matrices (one each).
+struct Skin {
+  std::string name;
+  std::vector<uint32_t> joints;  // indices into Scene::nodes
+  std::vector<glm::mat4> inverseBind;
+};
+
+// A glTF animation: channels, each a sampler driving one property of one node.
+enum class AnimationPath : uint8_t { translation, rotation, scale, weights };
+enum class Interpolation : uint8_t { step, linear, cubicSpline };
+struct AnimationChannel {
+  uint32_t node = 0;  // index into Scene::nodes (weights: the morph weights of its meshes)
+  AnimationPath path = AnimationPath::translation;
+  Interpolation interpolation = Interpolation::linear;
+  std::vector<float> times;  // seconds, strictly increasing
+  // Per key: 3 floats (translation, scale), 4 (rotation, x y z w as glTF) or one per morph target
+  // (weights); cubic spline keys hold in-tangent, value, out-tangent, in that order.
+  std::vector<float> values;
+};
+struct Animation {
+  std::string name;
+  float duration = 0.0f;  // the last key time over its channels
+  std::vector<AnimationChannel> channels;
 };
 
 // How a local light's radiance falls off with distance d; both are exactly zero at and beyond the
@@ -218,6 +282,10 @@ struct Scene {
   std::vector<Sun> extraSuns;  // at most kMaxExtraSuns more directional lights (a model's)
   uint32_t droppedSuns = 0;    // the model's directional lights past kMaxExtraSuns, not used
   std::vector<ModelCamera> cameras;  // the model file's cameras, in the file's order
+  // The file's node tree, skins and animations (empty for formats and files without them).
+  std::vector<Node> nodes;
+  std::vector<Skin> skins;
+  std::vector<Animation> animations;
   glm::vec3 ambient{0.03f, 0.035f, 0.045f};
   glm::vec3 background{0.02f, 0.025f, 0.035f};
   Camera camera;  // the default view (frames the scene)
