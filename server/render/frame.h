@@ -449,6 +449,10 @@ struct Frame {
     uint32_t requested = 0;        // lights asking for one whose light reaches into the view
     uint32_t dropped = 0;          // of those, past maxShadowedLights: shaded unshadowed
   } lightShadows;
+  // What the frame did with the sun's shadow map: none (sun shadows off), kept (it held this
+  // scene already), repaired (drawn again under a few moved objects only) or drawn whole.
+  enum class SunMap : uint8_t { none, kept, repaired, drawn };
+  SunMap sunMap = SunMap::none;
 };
 
 // A frame stopped because, its parts together, it took or would take the renderer longer than

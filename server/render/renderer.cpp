@@ -180,6 +180,7 @@ struct Renderer::State {
     std::unique_ptr<ShadowMaps> shadows;
     // Which local lights have a shadow map this frame, and their tiles (prepareFrame plans it).
     LightShadowPlan lightShadows;
+    Frame::SunMap sunMap = Frame::SunMap::none;  // what this frame did with the sun's map
     // What this frame's shading may need (writeUniforms: render/shading_features.h).
     uint32_t shadingFeatures = MYRIAD_FEATURES_ALL;
     gpu::CommandRecorder recorder;            // its command buffer and fence
@@ -1120,11 +1121,18 @@ void Renderer::State::recordBeforeLighting(VkCommandBuffer cmd, FrameSlot& slot,
   if (const std::optional<SunShadowFit> sunShadow = sunShadowFor(scene, settings)) {
     // Drawn again only when the scene or the fit changed (ShadowMaps::sunHolds): not for a camera
     // move, a light, material or slider change, or animated lights.
+    // After a few objects moved, only the texels under their old and new places (repairSun).
+    slot.sunMap = Frame::SunMap::kept;
     if (!slot.shadows->sunHolds(scene, sunShadow->viewProjection)) {
       slot.timer->beginPass(cmd, "shadow");
-      slot.shadows->recordSun(cmd, p, scene, sunShadow->viewProjection);
+      slot.sunMap = Frame::SunMap::repaired;
+      if (!slot.shadows->repairSun(cmd, p, scene, sunShadow->viewProjection)) {
+        slot.shadows->recordSun(cmd, p, scene, sunShadow->viewProjection);
+        slot.sunMap = Frame::SunMap::drawn;
+      }
     }
   } else {
+    slot.sunMap = Frame::SunMap::none;
     slot.shadows->recordSunUnused(cmd);
   }
   if (!slot.lightShadows.empty()) {
@@ -1291,6 +1299,7 @@ Frame Renderer::State::readFrame(const FrameSlot& slot, const Frame& meta,
   technique.report(frame.culling, technique.counters() ? slot.counters.mapped : nullptr);
   frame.lightShadows = {slot.lightShadows.lights, slot.lightShadows.requested,
                         slot.lightShadows.dropped};
+  frame.sunMap = slot.sunMap;
   return frame;
 }
 

@@ -547,11 +547,29 @@ void SceneBuffers::updateInstances(gpu::CommandRecorder& recorder, const Instanc
                            instanceSemantic_[w.index]);
       });
   transfer(context, recorder, {}, uploads);
+  Moves moved{generation, {}};
   for (const InstanceWrite& w : update.writes) {
-    if (drawOfInstance_[w.index] != UINT32_MAX) place(draws[drawOfInstance_[w.index]], w.transform);
+    if (drawOfInstance_[w.index] == UINT32_MAX) continue;
+    DrawItem& draw = draws[drawOfInstance_[w.index]];
+    moved.spheres.emplace_back(draw.centre, draw.radius);
+    place(draw, w.transform);
+    moved.spheres.emplace_back(draw.centre, draw.radius);
   }
+  if (moves.size() == kMoveHistory) moves.erase(moves.begin());
+  moves.push_back(std::move(moved));
   bounds = update.bounds;
   generation = nextGeneration();
+}
+
+std::optional<std::vector<glm::vec4>> SceneBuffers::movedSince(uint64_t earlier,
+                                                                 size_t limit) const {
+  std::vector<glm::vec4> spheres;
+  for (auto it = moves.rbegin(); it != moves.rend(); ++it) {
+    spheres.insert(spheres.end(), it->spheres.begin(), it->spheres.end());
+    if (spheres.size() > limit) return std::nullopt;
+    if (it->from == earlier) return spheres;
+  }
+  return std::nullopt;
 }
 
 void SceneBuffers::updateMaterials(gpu::CommandRecorder& recorder,

@@ -6,6 +6,7 @@
 
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <vector>
 
 #include "gpu/commands.h"
@@ -97,6 +98,19 @@ struct SceneBuffers {
   // the scene's geometry (the sun's shadow map) may be kept while it stays. A new model is a new
   // SceneBuffers; moving instances in place (updateInstances) gives it a new generation too.
   uint64_t generation;
+  // Where instances moved (updateInstances), latest last: per update, the generation it left and
+  // the world-space bounding spheres (centre, radius) of each moved draw's old and new place. What
+  // was drawn from an older generation (the sun's map) can then be repaired where they were and
+  // are, instead of drawn again whole (ShadowMaps::repairSun). At most kMoveHistory updates.
+  struct Moves {
+    uint64_t from = 0;
+    std::vector<glm::vec4> spheres;
+  };
+  static constexpr size_t kMoveHistory = 16;
+  std::vector<Moves> moves;
+  // The spheres moved since `earlier` (a generation this scene had), or nothing when the history
+  // no longer reaches back to it or more than `limit` spheres moved since.
+  std::optional<std::vector<glm::vec4>> movedSince(uint64_t earlier, size_t limit) const;
   gpu::Arena arena;                        // geometry, instances, materials
   std::unique_ptr<gpu::Arena> lightArena;  // the two light buffers; replaced when they grow
   gpu::Buffer vertices;

@@ -3,7 +3,9 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <optional>
 
+#include <glm/gtc/matrix_access.hpp>
 #include <glm/gtc/matrix_transform.hpp>
 
 #include "gpu/commands.h"
@@ -273,6 +275,91 @@ void ShadowMaps::recordSun(VkCommandBuffer cmd, const Pipelines& p, const SceneB
   sunReadable_ = true;
   sunScene_ = scene.generation;
   sunViewProjection_ = viewProjection;
+}
+
+namespace {
+
+// The texels of a `size`-wide map under a world-space sphere (centre, radius) seen through the
+// orthographic `viewProjection`, grown by two texels (rasterisation rounding): x0, y0, x1, y1.
+glm::ivec4 texelsUnder(const glm::mat4& viewProjection, glm::vec4 sphere, uint32_t size) {
+  const glm::vec4 clip = viewProjection * glm::vec4(glm::vec3(sphere), 1.0f);
+  // An orthographic map: a world length along a row of the matrix scales by that row's length.
+  const glm::vec2 reach{sphere.w * glm::length(glm::vec3(glm::row(viewProjection, 0))),
+                        sphere.w * glm::length(glm::vec3(glm::row(viewProjection, 1)))};
+  const glm::vec2 lo = (glm::vec2(clip) - reach) * 0.5f + 0.5f;
+  const glm::vec2 hi = (glm::vec2(clip) + reach) * 0.5f + 0.5f;
+  const float texels = float(size);
+  return {int(std::floor(lo.x * texels)) - 2, int(std::floor(lo.y * texels)) - 2,
+          int(std::ceil(hi.x * texels)) + 2, int(std::ceil(hi.y * texels)) + 2};
+}
+
+bool overlaps(const glm::ivec4& a, const glm::ivec4& b) {
+  return a.x < b.z && b.x < a.z && a.y < b.w && b.y < a.w;
+}
+
+// Most moved spheres a repair takes, and the largest share of the map it redraws: past either,
+// drawing the map whole costs about the same.
+constexpr size_t kMaxRepairSpheres = 256;
+constexpr double kMaxRepairShare = 0.25;
+
+}  // namespace
+
+bool ShadowMaps::repairSun(VkCommandBuffer cmd, const Pipelines& p, const SceneBuffers& scene,
+                           const glm::mat4& viewProjection) {
+  if (!sunReadable_ || sunScene_ == 0 || sunViewProjection_ != viewProjection) return false;
+  const std::optional<std::vector<glm::vec4>> moved =
+      scene.movedSince(sunScene_, kMaxRepairSpheres);
+  if (!moved) return false;
+  const uint32_t size = sun_.extent.width;
+  const int limit = int(size);
+  glm::ivec4 rect{limit, limit, 0, 0};
+  for (const glm::vec4& sphere : *moved) {
+    const glm::ivec4 under = texelsUnder(viewProjection, sphere, size);
+    rect = {std::min(rect.x, under.x), std::min(rect.y, under.y), std::max(rect.z, under.z),
+            std::max(rect.w, under.w)};
+  }
+  rect = glm::clamp(rect, glm::ivec4(0), glm::ivec4(limit));
+  if (rect.x >= rect.z || rect.y >= rect.w) {  // nothing moved within the map
+    sunScene_ = scene.generation;
+    return true;
+  }
+  const double share = double(rect.z - rect.x) * double(rect.w - rect.y) / (double(size) * size);
+  if (share > kMaxRepairShare) return false;
+
+  // Keep the map's contents: from the lighting's reads back to a depth attachment, loaded.
+  const gpu::ImageTransition before[] = {
+      {&sun_, kShadowReaders, VK_ACCESS_2_NONE,
+       VK_PIPELINE_STAGE_2_EARLY_FRAGMENT_TESTS_BIT | VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT,
+       VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_READ_BIT | VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT,
+       VK_IMAGE_LAYOUT_READ_ONLY_OPTIMAL, VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL}};
+  gpu::barrier(cmd, before);
+  VkRenderingAttachmentInfo depth{VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO};
+  depth.imageView = sun_.view;
+  depth.imageLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
+  depth.loadOp = VK_ATTACHMENT_LOAD_OP_LOAD;
+  depth.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
+  beginRendering(cmd, sun_.extent, {}, &depth);
+  const VkRect2D scissor{{rect.x, rect.y}, {uint32_t(rect.z - rect.x), uint32_t(rect.w - rect.y)}};
+  VkClearAttachment clear{VK_IMAGE_ASPECT_DEPTH_BIT, 0, {}};
+  clear.clearValue.depthStencil = {1.0f, 0};
+  const VkClearRect clearRect{scissor, 0, 1};
+  vkCmdClearAttachments(cmd, 1, &clear, 1, &clearRect);
+  vkCmdSetScissor(cmd, 0, 1, &scissor);
+  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, p.shadow);
+  bindGeometry(cmd, scene);
+  gpu_types::ShadowPush push{viewProjection};
+  vkCmdPushConstants(cmd, p.layout, VK_SHADER_STAGE_VERTEX_BIT, 0, sizeof(push), &push);
+  {
+    InstancedDraws draws(cmd);
+    for (const DrawItem& draw : scene.draws) {
+      if (overlaps(rect, texelsUnder(viewProjection, glm::vec4(draw.centre, draw.radius), size))) {
+        draws.add(draw.mesh, draw.instance);
+      }
+    }
+  }
+  endShadowRendering(cmd, sun_);
+  sunScene_ = scene.generation;
+  return true;
 }
 
 bool ShadowMaps::sunHolds(const SceneBuffers& scene, const glm::mat4& viewProjection) const {

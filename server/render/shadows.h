@@ -85,6 +85,13 @@ class ShadowMaps {
   // not the camera) into this image. Then the frame skips the pass: the map is unchanged and
   // still readable, and nothing has written it since.
   bool sunHolds(const SceneBuffers& scene, const glm::mat4& viewProjection) const;
+  // The "shadow" pass made incremental: when the map holds an earlier generation of this scene
+  // drawn with this `viewProjection`, and only a few instances moved since (SceneBuffers::
+  // movedSince), clears and draws again only the texels under their old and new places (one
+  // scissor rectangle around them, with only the casters reaching into it), which leaves the map
+  // as recordSun would draw it. Returns false, recording nothing, when it cannot (then recordSun).
+  bool repairSun(VkCommandBuffer cmd, const Pipelines& p, const SceneBuffers& scene,
+                 const glm::mat4& viewProjection);
 
   // The local lights' atlas: ensureAtlas before the descriptors are written (a new size is a new
   // image), or ensureAtlasPlaceholder (1x1) when no light has a map this frame; recordLights draws
