@@ -377,6 +377,7 @@ void members(Tag<ObjectLabel>, F f) {
   f("pixels", &ObjectLabel::pixels);
   f("box", &ObjectLabel::box);
   f("bounds", &ObjectLabel::bounds);
+  f("totalPixels", &ObjectLabel::totalPixels);
 }
 
 template <class F>

@@ -365,6 +365,7 @@ struct ObjectLabel {
   uint64_t pixels = 0;
   std::array<uint64_t, 4> box{};  // [x0, y0, x1, y1)
   std::optional<Bounds> bounds;
+  std::optional<uint64_t> totalPixels;  // with nothing in front of it (scene/coverage.h)
 };
 struct Labels {
   uint64_t width = 0;

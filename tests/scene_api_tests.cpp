@@ -9,6 +9,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -491,4 +492,59 @@ TEST_CASE("scene: every frame carries its camera; world positions project onto t
   std::optional<myriad::test::ExitStatus> status = server.stop();
   REQUIRE(status.has_value());
   CHECK(status->cleanExit());
+}
+
+// A label's total pixels: what the object covers with nothing in front. Measured against the GPU
+// itself: the partly hidden box's total equals (within pixels whose centres lie on an edge, where
+// the CPU's float rasteriser and the GPU's fixed point may choose differently) its visible pixels
+// once the box in front is hidden.
+TEST_CASE("labels: total pixels are what an object covers alone; visible never exceeds them") {
+  ServerProcess server({"--lights", "4"});
+  requireListening(server);
+  ApiClient api(server);
+  TestSession s = createSession(api);
+  plainSettings(api, s);
+  REQUIRE(api.patch(s.path() + "/objects/1", R"({"visible": false})", s.token).status == 200);
+  const json box = addAsset(api, s, kBox);
+  // B behind, A in front and to the left: A hides part of B.
+  const std::vector<uint32_t> ids = addObjects(
+      api, s, json::array({{{"asset", box["id"]}, {"transform", at(0.0, 0.0, -1.0)}},
+                           {{"asset", box["id"]}, {"transform", at(-0.6, 0.0, 0.5, 0.8)}}}));
+  REQUIRE(ids.size() == 2);
+  const uint32_t behind = ids[0], front = ids[1];
+  REQUIRE(api.put(s.path() + "/camera",
+                  R"({"eye": [0, 0.8, 4], "target": [0, 0, -0.5], "up": [0, 1, 0], "fovY": 50, "near": 0.1, "far": 50})",
+                  s.token)
+              .status == 200);
+  auto labelsOf = [&] {
+    Reply r = api.get(s.path() + "/labels?width=320&height=240", s.token);
+    INFO(r.body.substr(0, 400));
+    REQUIRE(r.status == 200);
+    std::map<uint32_t, json> byId;
+    for (const json& l : r.json.at("objects")) byId[l.at("id").get<uint32_t>()] = l;
+    return byId;
+  };
+  auto both = labelsOf();
+  REQUIRE(both.contains(behind));
+  REQUIRE(both.contains(front));
+  const uint64_t behindVisible = both[behind]["pixels"], behindTotal = both[behind]["totalPixels"];
+  const uint64_t frontVisible = both[front]["pixels"], frontTotal = both[front]["totalPixels"];
+  MESSAGE("behind: ", behindVisible, " of ", behindTotal, "; front: ", frontVisible, " of ", frontTotal);
+  CHECK(behindVisible + 500 < behindTotal);  // A hides a good part of B
+  // Edge pixels: about one per pixel of outline, at most.
+  const auto close = [](uint64_t gpu, uint64_t cpu) {
+    const double outline = 4.0 * std::sqrt(double(gpu));
+    return std::abs(double(gpu) - double(cpu)) <= 0.5 * outline;
+  };
+  CHECK(close(frontVisible, frontTotal));  // nothing is in front of A
+  REQUIRE(api.patch(s.path() + "/objects/" + std::to_string(front), R"({"visible": false})", s.token)
+              .status == 200);
+  auto alone = labelsOf();
+  REQUIRE(alone.contains(behind));
+  CHECK_FALSE(alone.contains(front));
+  const uint64_t behindAlone = alone[behind]["pixels"];
+  MESSAGE("behind alone: ", behindAlone, " (CPU total ", alone[behind]["totalPixels"].get<uint64_t>(), ")");
+  CHECK(close(behindAlone, behindTotal));
+  CHECK(alone[behind]["totalPixels"] == behindTotal);  // its own coverage did not change
+  for (const auto& [id, l] : both) CHECK(l["pixels"].get<uint64_t>() <= l["totalPixels"].get<uint64_t>());
 }

@@ -16,6 +16,7 @@
 
 #include "protocol/constants.h"
 #include "render/render_queue.h"
+#include "scene/coverage.h"
 #include "service/connection.h"
 #include "service/peer_watch.h"
 #include "service/session_frames.h"
@@ -139,6 +140,19 @@ void handleSessionFrame(const ApiContext& context, FrameServices& frames,
   sendFrame(res, std::move(frame.encoded));
 }
 
+// The image a label frame was taken through, from its intrinsics and pose.
+scene::PinholeView pinholeViewOf(const protocol::Labels& labels) {
+  glm::mat4 worldFromCamera(1.0f);
+  for (int row = 0; row < 4; ++row) {
+    for (int column = 0; column < 4; ++column) {
+      worldFromCamera[column][row] = float(labels.worldFromCamera[row][column]);
+    }
+  }
+  const protocol::FrameIntrinsics& k = labels.intrinsics;
+  return {glm::inverse(worldFromCamera), float(k.fx), float(k.fy), float(k.cx), float(k.cy),
+          float(k.near), float(k.far), uint32_t(labels.width), uint32_t(labels.height)};
+}
+
 // GET .../labels: an instance-id frame of the session's camera, summed per object.
 void handleLabels(const ApiContext& context, FrameServices& frames, const httplib::Request& req,
                   httplib::Response& res) {
@@ -189,13 +203,22 @@ void handleLabels(const ApiContext& context, FrameServices& frames, const httpli
   {
     // The semantic class and 3D box as the session has them now (an object deleted since the
     // frame rendered is left out).
+    // With each its total pixels: its meshes rasterised alone on the CPU through the frame's
+    // own intrinsics and pose (scene/coverage.h), within a triangle budget.
     auto lock = lockOpen(*session);
     const SceneGraph& graph = session->scene.graph();
+    scene::CoverageCounter coverage(pinholeViewOf(labels));
     for (auto& [id, l] : byId) {
       if (!graph.objects().contains(id)) continue;
       const protocol::Object wire = toWire(session->scene, graph.object(id));
       l.semantic = wire.semantic;
       l.bounds = wire.bounds;
+      bool counted = true;
+      for (const SceneGraph::PlacedMesh& placed : graph.placedMeshes(id)) {
+        counted = counted && coverage.add(*placed.mesh, placed.transform);
+      }
+      const uint64_t total = coverage.take();
+      if (counted) l.totalPixels = std::max(total, l.pixels);
       labels.objects.push_back(l);
     }
   }

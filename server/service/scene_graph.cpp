@@ -375,6 +375,17 @@ void SceneGraph::placeInstances(uint32_t id, std::vector<render::InstanceWrite>*
   }
 }
 
+std::vector<SceneGraph::PlacedMesh> SceneGraph::placedMeshes(uint32_t id) const {
+  std::vector<PlacedMesh> meshes;
+  const Placement* placement = this->placement(id);
+  if (placement == nullptr) return meshes;
+  const glm::mat4 world = worldOf(id);
+  for (uint32_t i = placement->first; i < placement->first + placement->count; ++i) {
+    if (placed_[i].mesh != nullptr) meshes.push_back({placed_[i].mesh, world * placed_[i].assetTransform});
+  }
+  return meshes;
+}
+
 render::InstanceUpdate SceneGraph::moved(uint32_t id) {
   render::InstanceUpdate update;
   for (uint32_t moved : subtree(id)) placeInstances(moved, &update.writes);

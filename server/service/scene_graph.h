@@ -139,6 +139,13 @@ class SceneGraph {
     uint32_t count = 0;
   };
   const Placement* placement(uint32_t id) const;
+  // An object's meshes as the last flatten() placed them (world transforms; rest pose), for
+  // what the CPU measures of it (the labels' total pixels). Empty when it is not shown.
+  struct PlacedMesh {
+    const scene::Mesh* mesh = nullptr;
+    glm::mat4 transform{1.0f};
+  };
+  std::vector<PlacedMesh> placedMeshes(uint32_t id) const;
 
  private:
   // Checks one object against the graph plus `pending` (objects being added), for addObjects,
