@@ -4,7 +4,7 @@
 # string: VP9 through WebCodecs) and on the JPEG stream (?stream=jpeg, also what the page falls
 # back to without WebCodecs; --paths default,jpeg,fallback adds the fallback itself), both
 # reported; measured in the page (client/web/perf.js): animated fps, fps while dragging the
-# camera and the drag's render scales, release-to-still, slider change-to-shown and
+# camera and the drag's render scales, input to first new picture, release-to-still, slider change-to-shown and
 # release-to-still; first as the machine is, then with LOAD busy processes (`yes`, one core each;
 # default 2) running beside it. Prints JSON.
 # Not a test (it asserts nothing): run it on a machine otherwise idle and say what else ran.

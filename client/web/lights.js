@@ -137,6 +137,25 @@ export class LightsPanel {
     }
   }
 
+  // Another page (or a script) changed the session: the open editor shows the light as it is
+  // now, or closes when it is gone; not while the user is typing in it (their edit wins).
+  async refreshSelected() {
+    const id = this.selected?.id;
+    if (id === undefined || $('light-editor').contains(document.activeElement)) return;
+    let fresh = this.page.find((l) => l.id === id);
+    if (!fresh) {
+      try {
+        fresh = await this.api.get(this.api.sessionPath(`/lights/${id}`));
+      } catch (e) {
+        if (e.status !== 404) return this.onProblem(e);
+        fresh = null;
+      }
+    }
+    if (this.selected?.id !== id) return;  // the user chose another meanwhile
+    if (!fresh) this.select(null);
+    else if (JSON.stringify(fresh) !== JSON.stringify(this.selected)) this.select(fresh);
+  }
+
   renderList() {
     const last = Math.min(this.total, this.offset + this.page.length);
     $('lights-summary').textContent = `${this.total} lights`;

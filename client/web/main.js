@@ -230,7 +230,7 @@ async function syncControls() {
   camera.setFromServer(state.camera);
   model.show(state);
   if (state.lights.count !== lights.total) lights.changed(state.lights.count);
-  else lights.showPage(lights.offset || 0);
+  else lights.showPage(lights.offset || 0).then(() => lights.refreshSelected());
   materials.refresh();
   objects.refresh();
   applyReadOnly();

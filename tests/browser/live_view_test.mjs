@@ -409,6 +409,28 @@ try {
     await viewerContext.close();
   });
 
+  await step('an open light editor follows an edit made elsewhere (another page, a script)', async () => {
+    const first = await until('the light list', async () =>
+        (await owner.locator('#light-list li').count()) > 0 &&
+        Number(await owner.getAttribute('#light-list li >> nth=0', 'data-id')));
+    await owner.click(`#light-list li[data-id="${first}"] button.name`);
+    await until('the editor', () => owner.isVisible('#light-editor'));
+    await owner.evaluate(() => document.activeElement?.blur());
+    const before = Number(await owner.inputValue('#light-intensity'));
+    const intensity = before === 7.25 ? 3.5 : 7.25;
+    const edited = await api('PATCH', `/v1/sessions/${session.id}/lights/${first}`,
+                             {token: session.token, json: {intensity}});
+    check(edited.status === 200, `PATCH light: ${edited.status}`);
+    const start = performance.now();
+    await until('the editor to show the new intensity', async () =>
+        Number(await owner.inputValue('#light-intensity')) === intensity, 5000);
+    console.log(`     editor showed intensity ${intensity} ${Math.round(performance.now() - start)} ms after the edit`);
+    // Deleted elsewhere: the editor closes.
+    check((await api('DELETE', `/v1/sessions/${session.id}/lights/${first}`,
+                     {token: session.token})).status === 204, 'DELETE light');
+    await until('the editor to close', async () => !(await owner.isVisible('#light-editor')), 5000);
+  });
+
   await step('two pages on the VP9 stream of one session (one a viewer): both see each edit, rendered and encoded once for both', async () => {
     // A session of its own, so that only these two pages' streams render for it.
     const created = await api('POST', '/v1/sessions', {json: {}});

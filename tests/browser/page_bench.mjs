@@ -268,6 +268,11 @@ async function benchPath(path) {
     out.dragInteractiveShare = summary(drags.map(
         (p) => p.drags[0] ? p.drags[0].interactiveFrames / Math.max(1, p.drags[0].frames) : NaN), 2);
     out.stillMs = summary(drags.map((p) => p.stills[0]));
+    // Input to first new picture: each drag's first camera move to the first frame shown after
+    // it (perf.js `changes`), and every move's during the drags (a move made while a frame is
+    // on its way waits for the one after: the figure a user feels as lag).
+    out.inputToPictureMs = summary(drags.map((p) => p.changes[0]));
+    out.inputToPictureAllMs = summary(drags.flatMap((p) => p.changes));
     out.scales = summary(drags.flatMap((p) => p.frames.filter((f) => f.interactive).map((f) => f.interactive)), 4);
     const sliders = [];
     for (let i = 0; i < SLIDERS; ++i) sliders.push(await slider(i));
