@@ -36,6 +36,10 @@ test_packages=(
   nginx                    # the front CTest runs deploy/nginx/myriad.conf (as the test's user)
   openssl                  # the front CTest makes its self-signed TLS certificate
   python3-yaml             # the k8s CTest parses the manifests
+  # python_client: client/python pip-installed offline into a venv (--system-site-packages,
+  # --no-build-isolation), its pytest suite reading frames with numpy and Pillow
+  python3-venv python3-pip python3-setuptools python3-wheel
+  python3-numpy python3-pil python3-pytest
 )
 # npm installs the browser test's playwright-core. Only where no npm exists: NodeSource's nodejs
 # bundles its own and conflicts with Debian's npm package.
