@@ -43,6 +43,8 @@ inline constexpr std::string_view kSessionAsset = "/v1/sessions/{id}/assets/{aid
 inline constexpr std::string_view kSessionObjects = "/v1/sessions/{id}/objects";
 inline constexpr std::string_view kSessionObject = "/v1/sessions/{id}/objects/{oid}";
 inline constexpr std::string_view kSessionLabels = "/v1/sessions/{id}/labels";
+// The scene clock: play, pause, seek, rate of the objects' animation clips.
+inline constexpr std::string_view kSessionClock = "/v1/sessions/{id}/clock";
 inline constexpr std::string_view kOpenApi = "/v1/openapi.json";  // this API as OpenAPI 3.1
 inline constexpr std::string_view kWebRoot = "/";                 // the web client's page
 inline constexpr std::string_view kWebFile = "/web/{file}";       // and its other files
@@ -92,6 +94,8 @@ inline constexpr std::string_view kObjectsAdd = "objects-add";
 inline constexpr std::string_view kObjectsAdded = "objects-added";
 inline constexpr std::string_view kObjectsPage = "objects-page";
 inline constexpr std::string_view kLabels = "labels";
+inline constexpr std::string_view kClock = "clock";
+inline constexpr std::string_view kClockPatch = "clock-patch";
 }  // namespace schema_names
 
 // Roles of a session's tokens: the token POST /v1/sessions returns is the owner's (everything);
@@ -155,6 +159,7 @@ inline constexpr std::string_view kMaxObjectsPerSession = "maxObjectsPerSession"
 inline constexpr std::string_view kMaxAssetsPerSession = "maxAssetsPerSession";    // fixed: 64
 inline constexpr std::string_view kMaxFrameSeconds = "maxFrameSeconds";            // --max-frame-seconds
 inline constexpr std::string_view kMaxMemoryBytes = "maxMemoryBytes";              // --max-memory
+inline constexpr std::string_view kMaxFrameTargets = "maxFrameTargets";  // fixed: query::kMaxFrameTargets
 }  // namespace limits
 
 // Headers.
@@ -174,6 +179,13 @@ inline constexpr std::string_view kDepth = "X-Myriad-Depth";  // raw depth: "z" 
 inline constexpr std::string_view kDtype = "X-Myriad-Dtype";  // raw: "float32", or "uint32" (labels)
 inline constexpr std::string_view kSpace = "X-Myriad-Space";  // raw position, normal: "world" or "camera"
 inline constexpr std::string_view kFrameSequence = "X-Myriad-Frame";  // each stream part
+// Session frames: the animation time shown (seconds) and the session version shown.
+inline constexpr std::string_view kFrameTime = "X-Myriad-Time";
+inline constexpr std::string_view kFrameVersion = "X-Myriad-Version";
+// format=png16 of depth: metres per unit of the 16-bit values (0.001: millimetres).
+inline constexpr std::string_view kDepthScale = "X-Myriad-Depth-Scale";
+// format=npz and exr: the targets the file holds, in order ("final,depth,normal").
+inline constexpr std::string_view kTargets = "X-Myriad-Targets";
 // A stream part rendered while the session changes (?interactive=): its render scale ("0.5")
 inline constexpr std::string_view kInteractive = "X-Myriad-Interactive";
 // On a change (PUT/PATCH camera, PATCH settings or a material): "end" says it is the last of an
@@ -198,6 +210,13 @@ inline constexpr uint32_t kMaxObjectsPageLimit = 1000;
 inline constexpr std::string_view kDepthConvention = "depth";  // names-once: a query parameter
 // GET .../frame?space=world|camera: raw position and normal in world or camera space.
 inline constexpr std::string_view kSpace = "space";
+// GET .../frame?target=a,b,c (format npz or exr): at most this many targets, each once.
+inline constexpr size_t kMaxFrameTargets = 8;
+// GET .../frame?compression= (PNG: encode/png.h) and ?precision= (EXR float channels).
+inline constexpr std::string_view kCompression = "compression";
+inline constexpr std::string_view kPrecision = "precision";
+inline constexpr std::array<std::string_view, 3> kPngCompressions = {"none", "fast", "small"};
+inline constexpr std::array<std::string_view, 2> kExrPrecisions = {"float", "half"};
 inline constexpr uint32_t kDefaultObjectsPageLimit = 100;
 inline constexpr uint32_t kMinFps = 1;
 inline constexpr uint32_t kMaxFps = 240;  // a 240 Hz display; the GPU machine renders 1080p faster
@@ -208,6 +227,10 @@ inline constexpr uint32_t kMinBitrateKbps = 50;     // video streams' bitrate, k
 // Streams: ?interactive=N, the frames a second to hold while the session changes (0: off).
 inline constexpr uint32_t kMaxInteractiveFps = 60;
 inline constexpr uint32_t kMaxBitrateKbps = 100000;
+// GET .../frame?time=T and the scene clock's time: seconds from 0 to this.
+inline constexpr double kMaxFrameTime = 1e6;
+// The scene clock's rate: clock seconds per wall second, -kMaxClockRate..kMaxClockRate.
+inline constexpr double kMaxClockRate = 64.0;
 }  // namespace query
 
 // Video streams (GET .../stream?codec=): the codecs, and for each (same order) the codec string
@@ -241,6 +264,8 @@ inline constexpr std::string_view kRadianceContentType = "image/vnd.radiance";  
 inline constexpr std::string_view kRawContentType = "application/octet-stream";
 inline constexpr std::string_view kPngContentType = "image/png";
 inline constexpr std::string_view kJpegContentType = "image/jpeg";
+inline constexpr std::string_view kNpyContentType = "application/x-npy";
+inline constexpr std::string_view kExrContentType = "image/x-exr";
 // GET /metrics: the Prometheus text exposition format, version 0.0.4.
 inline constexpr std::string_view kMetricsContentType = "text/plain; version=0.0.4; charset=utf-8";
 inline constexpr std::string_view kBuiltinModel = "builtin:default";
@@ -287,11 +312,14 @@ inline constexpr std::string_view kFxaa = "fxaa";  // a luminance-edge post-proc
 inline constexpr std::array kAntialiasModes = {antialias_modes::kNone, antialias_modes::kFxaa};
 // What a frame shows: ?target=, GET /v1/info "targets", X-Myriad-Target. In render::Target's order
 // (which the shaders' MYRIAD_VIEW_* values follow): the final image, then G-buffer and debug views.
-inline constexpr std::array<std::string_view, 16> kTargets = {
+inline constexpr std::array<std::string_view, 17> kTargets = {
     "final",     "albedo",      "normal",        "position",   "uv",          "metallic",
     "roughness", "depth",       "light-volumes", "light-count", "clusters",   "emissive",
-    "occlusion", "instance-id", "semantic-id",   "material-id"};
-inline constexpr std::array<std::string_view, 3> kFormats = {"png", "jpeg", "raw"};
+    "occlusion", "instance-id", "semantic-id",   "material-id", "motion"};
+// Frame formats: png16 (16-bit grey: depth and the ids), npy (NumPy), exr (OpenEXR), npz
+// (several targets, NumPy's zip of .npy files); reference.md "Frame formats".
+inline constexpr std::array<std::string_view, 7> kFormats = {"png", "jpeg", "raw", "png16",
+                                                             "npy", "exr", "npz"};
 // A material's texture slots (GET .../materials/{mid} "textures"[].slot), in the order of
 // scene::Material::texture and of the shaders' MYRIAD_BINDING_TEXTURE_* bindings.
 inline constexpr std::array<std::string_view, 5> kTextureSlots = {

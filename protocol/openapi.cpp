@@ -143,6 +143,12 @@ json headerObject(std::string_view name) {
       {headers::kDtype,
        {"string", "raw frames: the values' type, float32, or uint32 for the label targets "
                   "(instance-id, semantic-id, material-id)."}},
+      {headers::kTargets,
+       {"string", "npz and exr frames: the targets the file holds, comma-separated, in order."}},
+      {headers::kFrameTime, {"number", "Session frames: the animation time shown, in seconds."}},
+      {headers::kFrameVersion, {"integer", "Session frames: the session version shown."}},
+      {headers::kDepthScale,
+       {"number", "png16 depth: metres per unit of its 16-bit values (0.001: millimetres)."}},
       {headers::kRetryAfter, {"integer", "Seconds to wait before retrying."}},
       {headers::kAllow, {"string", "The methods the route allows."}},
       {headers::kLocation, {"string", "The new session's URL."}},

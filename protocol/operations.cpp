@@ -40,8 +40,17 @@ QueryParameter height() {
 }
 QueryParameter frameFormat() {
   return {"format", component("format"),
-          "png (8-bit RGBA), jpeg, or raw (little-endian float32, see the X-Myriad-* headers). "
-          "Default png."};
+          "png (8-bit), jpeg, or raw (little-endian float32, see the X-Myriad-* headers); session "
+          "frames also png16 (16-bit grey: depth, ids), npy, exr and npz (reference.md \"Frame "
+          "formats\"). Default png."};
+}
+QueryParameter compression() {
+  return {query::kCompression,
+          {{"type", "string"},
+           {"enum", {query::kPngCompressions[0], query::kPngCompressions[1],
+                     query::kPngCompressions[2]}}},
+          "PNG compression: none (stored), fast or small; every choice decodes to the same "
+          "pixels. Default fast."};
 }
 QueryParameter quality() {
   return {"quality", integerIn(query::kMinQuality, query::kMaxQuality),
@@ -52,11 +61,15 @@ QueryParameter quality() {
 Response frameResponse() {
   return {200,
           "The frame. raw: width x height x N little-endian float32 values, rows top first, "
-          "channels interleaved as X-Myriad-Channels names them.",
-          {{kPngContentType, ""}, {kJpegContentType, ""}, {kRawContentType, ""}},
+          "channels interleaved as X-Myriad-Channels names them; npy, npz (a zip of .npy files "
+          "with K and world_from_camera) and exr (OpenEXR, the targets as layers): reference.md "
+          "\"Frame formats\".",
+          {{kPngContentType, ""}, {kJpegContentType, ""}, {kRawContentType, ""},
+           {kNpyContentType, ""}, {kExrContentType, ""}, {kZipContentType, ""}},
           {headers::kServerTiming, headers::kTechnique, headers::kWidth, headers::kHeight,
            headers::kChannels, headers::kTarget, headers::kIntrinsics, headers::kPose,
-           headers::kDepth, headers::kDtype, headers::kSpace}};
+           headers::kDepth, headers::kDtype, headers::kSpace, headers::kTargets,
+           headers::kFrameTime, headers::kFrameVersion, headers::kDepthScale}};
 }
 
 Response json200(std::string_view schema, std::string_view description) {
@@ -116,6 +129,7 @@ std::vector<Operation> buildOperations() {
                  height(),
                  frameFormat(),
                  quality(),
+                 compression(),
                  {"eye",
                   {{"type", "string"}},
                   "Camera position x,y,z: three finite numbers, each within +-1e6. Default: the "
@@ -562,6 +576,24 @@ std::vector<Operation> buildOperations() {
                  .problems = kSessionProblems});
 
   ops.push_back({.method = "GET",
+                 .route = routes::kSessionClock,
+                 .id = "getClock",
+                 .tag = "Scene",
+                 .summary = "The scene clock: the time the objects' animation clips play at",
+                 .access = Access::Session,
+                 .responses = {json200(n::kClock, "The clock now.")},
+                 .problems = kSessionProblems});
+  ops.push_back({.method = "PATCH",
+                 .route = routes::kSessionClock,
+                 .id = "patchClock",
+                 .tag = "Scene",
+                 .summary = "Play, pause, seek or change the rate of the scene clock",
+                 .access = Access::Session,
+                 .body = {{kJsonContentType, n::kClockPatch}},
+                 .responses = {json200(n::kClock, "The clock after the change.")},
+                 .problems = kSessionBodyProblems});
+
+  ops.push_back({.method = "GET",
                  .route = routes::kSessionLabels,
                  .id = "getLabels",
                  .tag = "Scene",
@@ -584,14 +616,25 @@ std::vector<Operation> buildOperations() {
        .tag = "Frames",
        .summary = "One frame of the session's scene, with its camera and settings",
        .access = Access::SessionOrQueryToken,
-       .query = {target(),
+       .query = {{"target",
+                  {{"type", "string"}},
+                  "What to render: final or a G-buffer or debug view (GET /v1/info lists them); "
+                  "with format npz or exr, a comma-separated list of up to " +
+                      std::to_string(query::kMaxFrameTargets) +
+                      " (maxFrameTargets), each once: one render, every target read back from "
+                      "it. Default final."},
                  frameFormat(),
                  width(),
                  height(),
                  quality(),
+                 compression(),
+                 {query::kPrecision,
+                  {{"type", "string"}, {"enum", {query::kExrPrecisions[0], query::kExrPrecisions[1]}}},
+                  "EXR float channels: float (32-bit) or half. Default float."},
                  {"time",
                   {{"type", "number"}, {"minimum", 0}, {"maximum", 1e6}},
-                  "Animation time in seconds (with animate on). Default: the session's clock."},
+                  "Animation time in seconds: the objects' clips (the scene clock's time) and the "
+                  "lights' animation. Default: the session's clocks."},
                  {query::kDepthConvention,
                   {{"type", "string"}, {"enum", {"z", "distance"}}},
                   "With target=depth and format=raw: z (metres along the view axis, the default) "
@@ -599,7 +642,28 @@ std::vector<Operation> buildOperations() {
                  {query::kSpace,
                   {{"type", "string"}, {"enum", {"world", "camera"}}},
                   "With target=position or normal and format=raw: world (the default) or camera "
-                  "space (x right, y down, z forward: X-Myriad-Pose's axes)."}},
+                  "space (x right, y down, z forward: X-Myriad-Pose's axes)."},
+                 {"eye",
+                  {{"type", "string"}},
+                  "A camera for this frame only (the session's stays as it is): its position "
+                  "x,y,z, three finite numbers within +-1e6. Default: the session camera's."},
+                 {"look_at",
+                  {{"type", "string"}},
+                  "This frame's point looked at, x,y,z, different from the eye. Default: the "
+                  "session camera's target."},
+                 {"up",
+                  {{"type", "string"}},
+                  "This frame's up direction x,y,z (not the zero vector). Default: the session "
+                  "camera's."},
+                 {"fov",
+                  {{"type", "number"}, {"exclusiveMinimum", 0}, {"exclusiveMaximum", 180}},
+                  "This frame's vertical field of view in degrees. Default: the session camera's."},
+                 {"near",
+                  {{"type", "number"}, {"exclusiveMinimum", 0}, {"maximum", 1e6}},
+                  "This frame's near plane in metres, below far. Default: the session camera's."},
+                 {"far",
+                  {{"type", "number"}, {"exclusiveMinimum", 0}, {"maximum", 1e6}},
+                  "This frame's far plane in metres, above near. Default: the session camera's."}},
        .responses = {frameResponse()},
        .problems = {400, 401, 403, 404, 500, 503}});
   ops.push_back(

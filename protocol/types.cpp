@@ -299,6 +299,33 @@ void members(Tag<ObjectPatch>, F f) {
   f("parent", &ObjectPatch::parent);
   f("material", &ObjectPatch::material);
   f("semantic", &ObjectPatch::semantic);
+  f("animation", &ObjectPatch::animation);
+  f("node", &ObjectPatch::node);
+  f("nodeName", &ObjectPatch::nodeName);
+}
+
+template <class F>
+void members(Tag<ObjectAnimation>, F f) {
+  f("clip", &ObjectAnimation::clip);
+  f("clipName", &ObjectAnimation::clipName);
+  f("loop", &ObjectAnimation::loop);
+  f("duration", &ObjectAnimation::duration);
+  f("clips", &ObjectAnimation::clips);
+}
+
+template <class F>
+void members(Tag<Clock>, F f) {
+  f("time", &Clock::time);
+  f("playing", &Clock::playing);
+  f("rate", &Clock::rate);
+  f("duration", &Clock::duration);
+}
+
+template <class F>
+void members(Tag<ClockPatch>, F f) {
+  f("time", &ClockPatch::time);
+  f("playing", &ClockPatch::playing);
+  f("rate", &ClockPatch::rate);
 }
 
 template <class F>
@@ -324,6 +351,9 @@ void members(Tag<Object>, F f) {
   f("semantic", &Object::semantic);
   f("instances", &Object::instances);
   f("bounds", &Object::bounds);
+  f("animation", &Object::animation);
+  f("node", &Object::node);
+  f("nodeName", &Object::nodeName);
 }
 
 template <class F>
@@ -560,6 +590,7 @@ void members(Tag<Limits>, F f) {
   f("maxFrameSeconds", &Limits::maxFrameSeconds);
   f("maxEventStreamsPerSession", &Limits::maxEventStreamsPerSession);
   f("maxEventStreams", &Limits::maxEventStreams);
+  f("maxFrameTargets", &Limits::maxFrameTargets);
   f("maxRequestsInFlight", &Limits::maxRequestsInFlight);
   f("sessionIdleSeconds", &Limits::sessionIdleSeconds);
 }
@@ -717,7 +748,11 @@ MYRIAD_MEMBERWISE_JSON(AssetsList)
 MYRIAD_MEMBERWISE_JSON(FrameIntrinsics)
 MYRIAD_MEMBERWISE_JSON(ObjectLabel)
 MYRIAD_MEMBERWISE_JSON(Labels)
+MYRIAD_MEMBERWISE_JSON(Clock)
+MYRIAD_MEMBERWISE_JSON(ClockPatch)
 MYRIAD_MEMBERWISE_JSON(SnapshotAsset)
+
+MYRIAD_MEMBERWISE_JSON(ObjectAnimation)
 MYRIAD_MEMBERWISE_JSON(SnapshotScene)
 MYRIAD_MEMBERWISE_JSON(Snapshot)
 MYRIAD_MEMBERWISE_JSON(SessionCreate)

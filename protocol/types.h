@@ -291,6 +291,29 @@ struct Transform {
   std::optional<std::array<double, 16>> matrix;   // column-major; not with the three above
 };
 
+// defs' objectAnimation: the clip an object plays (clip: an index, null for the rest pose; or
+// clipName) and whether it loops. Responses also carry the duration and the asset's clip count.
+struct ObjectAnimation {
+  std::optional<Nullable<uint64_t>> clip;  // absent: unchanged (a patch) or the default, clip 0
+  std::optional<std::string> clipName;
+  std::optional<bool> loop;
+  std::optional<double> duration;
+  std::optional<uint64_t> clips;
+};
+
+// GET .../clock and PATCH .../clock (clock*.schema.json).
+struct Clock {
+  double time = 0.0;
+  bool playing = true;
+  double rate = 1.0;
+  double duration = 0.0;
+};
+struct ClockPatch {
+  std::optional<double> time;
+  std::optional<bool> playing;
+  std::optional<double> rate;
+};
+
 // POST .../objects' items (asset required) and PATCH .../objects/{oid} (any subset).
 struct ObjectPatch {
   std::optional<std::string> name;
@@ -300,6 +323,9 @@ struct ObjectPatch {
   std::optional<Nullable<uint64_t>> parent;
   std::optional<Nullable<uint64_t>> material;
   std::optional<uint64_t> semantic;
+  std::optional<ObjectAnimation> animation;
+  std::optional<Nullable<uint64_t>> node;  // an asset node by index; null: the whole asset
+  std::optional<std::string> nodeName;     // or by name (the first of that name)
 };
 using ObjectNew = ObjectPatch;
 
@@ -323,6 +349,9 @@ struct Object {
   uint64_t semantic = 0;
   uint64_t instances = 0;
   std::optional<Bounds> bounds;  // absent when it draws nothing
+  std::optional<ObjectAnimation> animation;  // present for an asset with animation clips
+  std::optional<uint64_t> node;              // present for an object of one asset node
+  std::optional<std::string> nodeName;
 };
 
 struct ObjectsPage {
@@ -561,6 +590,7 @@ struct Limits {
   std::optional<uint64_t> maxFrameSeconds;  // likewise
   std::optional<uint64_t> maxEventStreamsPerSession;  // likewise
   std::optional<uint64_t> maxEventStreams;  // likewise
+  std::optional<uint64_t> maxFrameTargets;  // likewise
 };
 
 struct DeviceSummary {
@@ -661,6 +691,9 @@ MYRIAD_PROTOCOL_JSON(ModelSource);
 MYRIAD_PROTOCOL_JSON(LightsRecipe);
 MYRIAD_PROTOCOL_JSON(SnapshotLights);
 MYRIAD_PROTOCOL_JSON(Transform);
+MYRIAD_PROTOCOL_JSON(ObjectAnimation);
+MYRIAD_PROTOCOL_JSON(Clock);
+MYRIAD_PROTOCOL_JSON(ClockPatch);
 MYRIAD_PROTOCOL_JSON(ObjectPatch);
 MYRIAD_PROTOCOL_JSON(ObjectsAdd);
 MYRIAD_PROTOCOL_JSON(ObjectsAdded);

@@ -18,6 +18,10 @@ build_packages=(
   libcpp-httplib-dev
   nlohmann-json3-dev
   libpng-dev
+  libdeflate-dev           # PNG frames' deflate (server/encode/png_writer.cpp)
+  zlib1g-dev               # PNG strips deflated in parallel, the npz's CRC-32
+  libopenexr-dev           # format=exr (server/encode/exr.cpp) and the formats CTest's reader
+  libspng-dev              # myriad-png-bench's libspng row (server/bench/png_bench.cpp)
   libturbojpeg0-dev        # JPEG frames and streams (TurboJPEG API)
   libvpx-dev               # VP8/VP9 video streams (libvpx, BSD), and their decoder in tests and bench
   libzip-dev               # zip uploads of a model with its files, read in the loader child

@@ -132,6 +132,52 @@ using mat4 = glm::mat4;
 // edge functions of 8192-pixel frames stay far inside 64-bit integers.
 #define MYRIAD_VISIBILITY_GUARD_BAND 16.0
 
+// Skinning and morphing (render/skinning.h, shaders/skinning.comp): the pre-pass's own set 0.
+// The posed vertices live in the scene's vertex buffer after its meshes, one region per posed
+// instance, so every pass that reads vertices reads them by the draw's vertexOffset alone.
+#define MYRIAD_SKIN_BINDING_VERTICES 0    // storage float[]: the scene's vertices (scene::Vertex,
+                                          // 16 floats), read (rest) and written (posed regions)
+#define MYRIAD_SKIN_BINDING_INFLUENCES 1  // storage uvec4[]: per skinned rest vertex its joints,
+                                          // then its weights (float bits)
+#define MYRIAD_SKIN_BINDING_MORPHS 2      // storage float[]: morph displacements, 3 floats a vertex
+#define MYRIAD_SKIN_BINDING_TARGETS 3     // storage uvec4[]: per morph target where its positions,
+                                          // normals, tangents start in MORPHS (NONE: not moved)
+#define MYRIAD_SKIN_BINDING_JOBS 4        // storage SkinJob[]: one per posed instance
+#define MYRIAD_SKIN_BINDING_POSE 5        // storage vec4[]: joint matrices (3 rows each), weights
+#define MYRIAD_SKIN_BINDING_PREVIOUS 6    // storage vec4[]: previous-time positions (motion)
+#define MYRIAD_SKIN_BINDINGS 7
+#define MYRIAD_SKIN_GROUP 64              // vertices per workgroup
+#define MYRIAD_SKIN_NONE 0xFFFFFFFFu
+#define MYRIAD_VERTEX_FLOATS 16           // scene::Vertex: position 0, normal 3, uv 6, tangent 8, colour 12
+
+// One posed instance's work: its mesh's rest vertices deformed into its region.
+MYRIAD_STRUCT(SkinJob) {
+  uvec4 vertices;  // x first rest vertex, y vertex count, z first posed vertex (both in the
+                   // scene's vertex buffer), w first previous position (MYRIAD_SKIN_BINDING_PREVIOUS)
+  uvec4 skin;      // x first influence pair (NONE: not skinned), y first joint row (vec4 index
+                   // into POSE), z joint count, w unused
+  uvec4 morph;     // x first target (TARGETS), y target count, z first weight (float index into
+                   // POSE), w unused
+};
+// The pre-pass's push constant: x 0 = write posed vertices, 1 = previous positions only; y the
+// first job of the dispatch (workgroup y counts from it).
+MYRIAD_STRUCT(SkinPush) {
+  uvec4 mode;
+};
+
+// The motion pass (render/motion.h, shaders/motion.vert): its own set 1 beside the scene's set 0.
+#define MYRIAD_SET_MOTION 1
+#define MYRIAD_MOTION_BINDING_INSTANCES 0  // storage GpuInstance[]: the previous time's placements
+#define MYRIAD_MOTION_BINDING_VERTICES 1   // storage uvec4[] per instance: x first previous
+                                           // position (NONE: the vertex did not deform), y its
+                                           // first posed vertex
+#define MYRIAD_MOTION_BINDING_PREVIOUS 2   // storage vec4[]: previous-time positions (asset space)
+#define MYRIAD_MOTION_BINDINGS 3
+MYRIAD_STRUCT(MotionPush) {
+  mat4 previousViewProjection;
+  uvec4 flags;  // x 1: per-instance vertex records are bound (posed scene); y 1: raw output
+};
+
 // Descriptor set 2: light culling. Each compute technique binds its own set of this layout
 // (server/render/techniques/) and writes the bindings its shaders use.
 #define MYRIAD_SET_CULLING 2

@@ -343,7 +343,8 @@ TEST_CASE("session frames: every target in png, jpeg and raw; depth and normals 
     checkProblem(frame({{"time", "-1"}}), 400, "invalid-parameter", "time");
     checkProblem(frame({{"width", "0"}}), 400, "invalid-parameter", "width");
     checkProblem(frame({{"target", "bogus"}}), 400, "invalid-parameter", "target");
-    checkProblem(frame({{"eye", "1,2,3"}}), 400, "unknown-parameter", "eye");
+    // The session has its own exposure (settings): GET /v1/frame's is not a session frame's.
+    checkProblem(frame({{"exposure", "2"}}), 400, "unknown-parameter", "exposure");
     checkProblem(frame({{"format", "png"}, {"format", "jpeg"}}), 400, "invalid-parameter",
                  "format");
     checkProblem(client->Get("/v1/sessions/" + session.id + "/frame"), 401, "unauthorized");
@@ -1121,4 +1122,55 @@ TEST_CASE("streams: 8 animated streams of 8 sessions each get within 20% of thei
   std::optional<myriad::test::ExitStatus> status = server.stop();
   REQUIRE(status.has_value());
   CHECK(status->cleanExit());
+}
+
+// A camera for one frame (?eye=&look_at=&up=&fov=&near=&far=): the same picture as the session
+// camera set to it, the session's camera untouched, the pose header this frame's; bad values 400
+// naming the parameter.
+TEST_CASE("session frames: a camera for one frame leaves the session's as it was") {
+  ServerProcess server({"--lights", "32"});
+  REQUIRE(server.start() == ServerProcess::Start::Listening);
+  ApiClient api(server);
+  TestSession s = createSession(api);
+  const json before = api.get(s.path() + "/camera", s.token).json;
+  const std::string view = "eye=2.5,1.5,3&look_at=0,0.4,0&up=0,1,0&fov=40&near=0.2&far=60";
+  const std::string size = "&width=160&height=90&format=png";
+  Reply once = api.get(s.path() + "/frame?" + view + size, s.token);
+  INFO(once.body.substr(0, 300));
+  REQUIRE(once.status == 200);
+  CHECK(api.get(s.path() + "/camera", s.token).json == before);
+  // The same camera set on the session: the same bytes, the same pose.
+  Reply set = api.put(s.path() + "/camera",
+                      R"({"eye": [2.5, 1.5, 3], "target": [0, 0.4, 0], "up": [0, 1, 0], "fovY": 40, "near": 0.2, "far": 60})",
+                      s.token);
+  REQUIRE(set.status == 200);
+  Reply sessionCamera = api.get(s.path() + "/frame?" + size.substr(1), s.token);
+  REQUIRE(sessionCamera.status == 200);
+  CHECK(sessionCamera.body == once.body);
+  CHECK(sessionCamera.header("X-Myriad-Pose") == once.header("X-Myriad-Pose"));
+  CHECK(sessionCamera.header("X-Myriad-Intrinsics") == once.header("X-Myriad-Intrinsics"));
+  // Only the eye: the rest from the session's camera (now the one above): the same frame.
+  CHECK(api.get(s.path() + "/frame?eye=2.5,1.5,3" + size, s.token).body == once.body);
+  // And a different eye is a different picture whose pose says so.
+  Reply other = api.get(s.path() + "/frame?eye=-3,2,1" + size, s.token);
+  REQUIRE(other.status == 200);
+  CHECK(other.body != once.body);
+  CHECK(json::parse(other.header("X-Myriad-Pose"))["worldFromCamera"][0][3].get<double>() ==
+        doctest::Approx(-3.0));
+
+  checkProblem(api.get(s.path() + "/frame?eye=0,0.4,0&look_at=0,0.4,0" + size, s.token), 400,
+               "invalid-parameter", "eye on look_at", std::nullopt, std::nullopt, "look_at");
+  checkProblem(api.get(s.path() + "/frame?near=5&far=1" + size, s.token), 400,
+               "invalid-parameter", "near past far", std::nullopt, std::nullopt, "far");
+  checkProblem(api.get(s.path() + "/frame?near=80" + size, s.token), 400, "invalid-parameter",
+               "near past the session's far", std::nullopt, std::nullopt, "near");
+  checkProblem(api.get(s.path() + "/frame?fov=0" + size, s.token), 400, "invalid-parameter",
+               "fov 0", std::nullopt, std::nullopt, "fov");
+  checkProblem(api.get(s.path() + "/frame?up=0,0,0" + size, s.token), 400, "invalid-parameter",
+               "zero up", std::nullopt, std::nullopt, "up");
+  checkProblem(api.get(s.path() + "/frame?eye=1,nan,2" + size, s.token), 400, "invalid-parameter",
+               "NaN eye", std::nullopt, std::nullopt, "eye");
+  checkProblem(api.get(s.path() + "/frame?far=1e9" + size, s.token), 400, "invalid-parameter",
+               "far 1e9", std::nullopt, std::nullopt, "far");
+  CHECK(validationMessages(api) == 0);
 }

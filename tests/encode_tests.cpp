@@ -2,7 +2,11 @@
 // close to the source; raw packing is exact, byte for byte.
 #include <doctest/doctest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <span>
+#include <utility>
+#include <vector>
 #include <cstring>
 #include <memory>
 #include <thread>
@@ -11,6 +15,8 @@
 #include <turbojpeg.h>
 
 #include "encode/jpeg.h"
+#include "encode/png.h"
+#include "encode/png_writer.h"
 #include "encode/raw.h"
 #include "render/frame.h"
 
@@ -250,4 +256,93 @@ TEST_CASE("JPEG from YCbCr 4:2:0 planes: strips decode to one encoding's pixels;
   rejects(y, w, h, 1000, 80, "strides 1000");
   rejects(y, 0, h, yStride, 80, "JPEG size 0x731");
   rejects(y, w, h, yStride, 0, "JPEG quality 0");
+}
+
+namespace {
+
+// A picture with what rendered frames have (gradients, hard edges, noise), `alpha` everywhere.
+std::vector<uint8_t> pngTestPicture(uint32_t w, uint32_t h, uint8_t alpha) {
+  std::vector<uint8_t> rgba(size_t(w) * h * 4);
+  uint32_t noise = 12345;
+  for (uint32_t y = 0; y < h; ++y) {
+    for (uint32_t x = 0; x < w; ++x) {
+      noise = noise * 1664525u + 1013904223u;
+      uint8_t* p = &rgba[(size_t(y) * w + x) * 4];
+      p[0] = uint8_t(x * 255 / std::max(1u, w - 1));
+      p[1] = uint8_t((x / 7 + y / 5) % 2 ? 200 : 30);
+      p[2] = uint8_t(noise >> 24);
+      p[3] = alpha;
+    }
+  }
+  return rgba;
+}
+
+}  // namespace
+
+TEST_CASE("PNG writer: every filter, level and thread count decodes to the same pixels") {
+  using myriad::encode::PngFilter;
+  for (auto [w, h] : {std::pair{1u, 1u}, std::pair{7u, 3u}, std::pair{1280u, 720u}}) {
+    for (uint8_t alpha : {uint8_t(255), uint8_t(128)}) {
+      const std::vector<uint8_t> rgba = pngTestPicture(w, h, alpha);
+      for (PngFilter filter : {PngFilter::None, PngFilter::Sub, PngFilter::Up, PngFilter::Average,
+                               PngFilter::Paeth}) {
+        for (int level : {0, 1, 6}) {
+          for (unsigned threads : {1u, 4u}) {
+            CAPTURE(w);
+            CAPTURE(int(alpha));
+            CAPTURE(int(filter));
+            CAPTURE(level);
+            CAPTURE(threads);
+            const std::vector<uint8_t> png = myriad::encode::writePng(
+                w, h, myriad::encode::PngPixels::Rgba8, rgba, {level, filter, threads});
+            // Opaque pictures are written as RGB (colour type 2), others as RGBA (6).
+            CHECK(png[25] == (alpha == 255 ? 2 : 6));
+            const myriad::encode::DecodedImage decoded = myriad::encode::decodePng(png);
+            CHECK(decoded.width == w);
+            CHECK(decoded.height == h);
+            CHECK(decoded.rgba == rgba);
+          }
+        }
+      }
+    }
+  }
+}
+
+TEST_CASE("PNG writer: 16-bit grey keeps every value and its text; bad sizes are refused") {
+  const uint32_t w = 300, h = 257;
+  std::vector<uint16_t> values(size_t(w) * h);
+  for (size_t i = 0; i < values.size(); ++i) values[i] = uint16_t(i * 2654435761u >> 7);
+  values[0] = 0;
+  values[1] = 65535;
+  for (unsigned threads : {1u, 3u}) {
+    myriad::encode::PngSettings settings{1, myriad::encode::PngFilter::Paeth, threads};
+    const std::vector<uint8_t> png = myriad::encode::writePng(
+        w, h, myriad::encode::PngPixels::Grey16,
+        {reinterpret_cast<const uint8_t*>(values.data()), values.size() * 2}, settings,
+        {{"DepthScale", "0.001 m per unit"}});
+    uint32_t dw = 0, dh = 0;
+    myriad::encode::PngText text;
+    CHECK(myriad::encode::decodePngGrey16(png, dw, dh, &text) == values);
+    CHECK(dw == w);
+    CHECK(dh == h);
+    REQUIRE(text.size() == 1);
+    CHECK(text[0].first == "DepthScale");
+    CHECK(text[0].second == "0.001 m per unit");
+  }
+  for (myriad::encode::PngCompression c : myriad::encode::kPngCompressions) {
+    const std::vector<uint8_t> rgba = pngTestPicture(64, 48, 255);
+    CHECK(myriad::encode::decodePng(myriad::encode::encodePng(64, 48, rgba, c)).rgba == rgba);
+    CHECK(myriad::encode::parsePngCompression(myriad::encode::pngCompressionName(c)) == c);
+  }
+  CHECK_FALSE(myriad::encode::parsePngCompression("99"));
+  const std::vector<uint8_t> few(10);
+  CHECK_THROWS_AS(myriad::encode::writePng(4, 4, myriad::encode::PngPixels::Rgba8, few, {}),
+                  std::invalid_argument);
+  CHECK_THROWS_AS(myriad::encode::writePng(0, 4, myriad::encode::PngPixels::Rgba8, {}, {}),
+                  std::invalid_argument);
+  // libdeflate's levels end at 12.
+  CHECK_THROWS_AS(myriad::encode::writePng(1, 1, myriad::encode::PngPixels::Rgba8,
+                                           std::span<const uint8_t>(few.data(), 4),
+                                           {13, myriad::encode::PngFilter::Sub, 1}),
+                  std::invalid_argument);
 }

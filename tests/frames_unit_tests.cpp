@@ -89,7 +89,12 @@ TEST_CASE("session frame query: defaults, formats, time, token") {
       {{{"time", "2e6"}}, "time"},
       {{{"width", "4096"}}, "width"},
       {{{"fps", "10"}}, "fps", true},
-      {{{"eye", "1,2,3"}}, "eye", true},
+      {{{"look_at", "1,2"}}, "look_at"},  // a camera for one frame: checked like GET /v1/frame's
+      {{{"up", "0,nan,1"}}, "up"},
+      {{{"fov", "180"}}, "fov"},
+      {{{"near", "0"}}, "near"},
+      {{{"far", "-1"}}, "far"},
+      {{{"look", "1,2,3"}}, "look", true},
       {{{"time", "1"}, {"time", "2"}}, "time"},
   };
   for (const Case& c : cases) {

@@ -85,13 +85,15 @@ const std::map<std::string, std::function<json(const json&)>, std::less<>> kRoun
     {"objects-added", throughType<protocol::ObjectsAdded>},
     {"objects-page", throughType<protocol::ObjectsPage>},
     {"labels", throughType<protocol::Labels>},
+    {"clock", throughType<protocol::Clock>},
+    {"clock-patch", throughType<protocol::ClockPatch>},
 };
 
 // The bodies clients send; each must reject every kind of mistake (cases.json "kind").
 const std::set<std::string> kRequestSchemas = {
     "session-create", "snapshot", "model-source", "camera",      "camera-patch", "camera-select", "settings-patch",
     "material-patch", "light-new",    "light-patch", "lights-add",   "lights-generate", "token-create",
-    "object-new",     "object-patch", "objects-add"};
+    "object-new",     "object-patch", "objects-add", "clock-patch"};
 
 std::vector<std::string_view> bodySchemas() {
   std::vector<std::string_view> names;
@@ -104,7 +106,7 @@ std::vector<std::string_view> bodySchemas() {
 }  // namespace
 
 TEST_CASE("every schema is embedded as it is on disk and accepts its example") {
-  CHECK(bodySchemas().size() == 38);
+  CHECK(bodySchemas().size() == 40);
   for (std::string_view name : protocol::schemaNames()) {
     CAPTURE(name);
     std::string path = std::string(MYRIAD_PROTOCOL_DIR) + "/schemas/" + std::string(name) + ".schema.json";

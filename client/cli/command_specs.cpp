@@ -31,6 +31,7 @@ const Bounds kSeed{0.0, 9007199254740991.0};  // 2^53-1: exact in a JSON number
 const Bounds kCoordinate{-1e6, 1e6};  // every vector component, in scene units
 const Bounds kDistance{0.0, 1e6, true};
 const Bounds kTime{0.0, 1e6, false, false, "seconds"};
+const Bounds kRate{-protocol::query::kMaxClockRate, protocol::query::kMaxClockRate};
 const Bounds kObjectId{1.0, 4294967294.0};    // objectId in protocol/schemas/defs.schema.json
 const Bounds kMaterialId{0.0, 4294967294.0};  // an object's material
 const Bounds kSemantic{0.0, 65535.0};
@@ -429,18 +430,23 @@ std::vector<CommandSpec> buildSpecs() {
   std::vector<OptionSpec> frameSize = {
       option("width", Kind::Unsigned, "pixels, at most the server's maxResolution", kAtLeastOne),
       option("height", Kind::Unsigned, "pixels", kAtLeastOne)};
-  CommandSpec frame{"frame", "render one frame of the session to a file",
-                    {},
-                    {option("target", Kind::Text, "final (default) or a G-buffer or debug view; see "
-                                                  "`myriad info`",
-                            std::nullopt, "T"),
-                     choice("format", protocol::kFormats, "image format (default png)"),
-                     frameSize[0], frameSize[1],
-                     option("quality", Kind::Unsigned, "JPEG quality", kQuality),
-                     option("time", Kind::Number, "animation time with --animate on", kTime),
-                     output("file to write; - for standard output")},
-                    "raw is little-endian float32; its channel names and size are printed.",
-                    {}};
+  CommandSpec frame{
+      "frame",
+      "render one frame of the session to a file",
+      {},
+      {option("target", Kind::Text,
+              "final (default) or a G-buffer or debug view; see "
+              "`myriad info`",
+              std::nullopt, "T"),
+       choice("format", protocol::kFormats, "image format (default png)"), frameSize[0],
+       frameSize[1], option("quality", Kind::Unsigned, "JPEG quality", kQuality),
+       option("time", Kind::Number,
+              "animation time in seconds: the objects' clips and the lights "
+              "(default: the session's clocks)",
+              kTime),
+       output("file to write; - for standard output")},
+      "raw is little-endian float32; its channel names and size are printed.",
+      {}};
   specs.push_back(frame);
   specs.push_back({"stream", "save frames of the session's live JPEG stream",
                    {},
@@ -458,6 +464,16 @@ std::vector<CommandSpec> buildSpecs() {
                    {}});
   specs.push_back({"stats", "timings of the last frame, light and GPU memory figures", {}, {}, {},
                    {}});
+  // The scene clock (GET/PATCH .../clock).
+  specs.push_back(
+      {"clock",
+       "show the scene clock that objects' animation clips play on, or change it",
+       {},
+       {option("play", Kind::OnOff, "play (on) or pause (off)", std::nullopt, "on|off"),
+        option("time", Kind::Number, "seek: the clock's new time", kTime),
+        option("rate", Kind::Number, "clock seconds per second (negative: backwards)", kRate, "R")},
+       "Without options, prints the clock. Frames without --time show the scene at its time.",
+       {}});
   return specs;
 }
 

@@ -40,6 +40,7 @@ int runCommand(Context& ctx) {
   if (name == "materials" || name == "material") return runMaterialCommand(ctx);
   if (group("lights")) return runLightsCommand(ctx);
   if (name == "frame" || name == "stream" || name == "stats") return runFrameCommand(ctx);
+  if (name == "clock") return runClockCommand(ctx);
   throw std::logic_error("no handler for the command \"" + name + "\"");
 }
 

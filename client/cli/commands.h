@@ -68,6 +68,7 @@ int runSettingsCommand(Context& ctx);  // settings
 int runMaterialCommand(Context& ctx);  // materials, material
 int runLightsCommand(Context& ctx);    // lights ...
 int runFrameCommand(Context& ctx);     // frame, stream, stats
+int runClockCommand(Context& ctx);     // clock
 
 // Picks the group by the command's name.
 int runCommand(Context& ctx);

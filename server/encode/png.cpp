@@ -1,126 +1,145 @@
 #include "encode/png.h"
 
+#include "protocol/constants.h"
+
 #include <png.h>
 
 #include <csetjmp>
 #include <cstdio>
+#include <cstring>
 #include <limits>
 #include <new>
 #include <string>
 
 namespace myriad::encode {
+
+// ?compression= (png.h). Measured on a 1920x1080 `final` frame of the built-in scene with
+// myriad-png-bench (docs/performance.md "PNG encoding"): libpng at zlib level 3 with SUB, the
+// encoder before, spent about 3x as long as libdeflate at level 1 with SUB for a larger file;
+// zlib's streaming deflate is most of libpng's time whatever the filter, and libspng (zlib too)
+// is no faster at the same level. So `fast`, the default, is libdeflate level 1 + SUB (rendered
+// frames are smooth horizontal gradients between hard edges, which SUB predicts well, and SUB
+// costs one subtraction a byte; PAETH and UP were no smaller at level 1 and slower). `small`
+// spends 3-4x the time at level 6 for a file about a tenth smaller; `none` stores the rows
+// (deflate level 0): the fastest, four fifths of the raw size, for loopback where bytes are free.
+// Levels 9 and up cost over 10x for a few percent more.
+PngSettings pngSettings(PngCompression c) {
+  switch (c) {
+    case PngCompression::None: return {0, PngFilter::None};
+    case PngCompression::Fast: return {1, PngFilter::Sub};
+    case PngCompression::Small: return {6, PngFilter::Sub};
+  }
+  return {1, PngFilter::Sub};
+}
+
+std::string_view pngCompressionName(PngCompression c) {
+  return protocol::query::kPngCompressions[static_cast<size_t>(c)];
+}
+
+std::optional<PngCompression> parsePngCompression(std::string_view name) {
+  for (PngCompression c : kPngCompressions) {
+    if (pngCompressionName(c) == name) return c;
+  }
+  return std::nullopt;
+}
+
+std::vector<uint8_t> encodePng(uint32_t width, uint32_t height, std::span<const uint8_t> rgba,
+                               PngCompression compression) {
+  return writePng(width, height, PngPixels::Rgba8, rgba, pngSettings(compression));
+}
+
+std::vector<uint8_t> encodePngGrey16(uint32_t width, uint32_t height,
+                                     std::span<const uint16_t> values, PngCompression compression,
+                                     const PngText& text) {
+  return writePng(width, height, PngPixels::Grey16,
+                  {reinterpret_cast<const uint8_t*>(values.data()), values.size_bytes()},
+                  pngSettings(compression), text);
+}
+
 namespace {
 
-// Frames are encoded per request on a worker thread, so encoder CPU time is response latency.
-// Measured on a 1280x720 `final` frame of the built-in scene (libpng 1.6.39, -O2, one core of the
-// 2-core dev machine, SUB filter): zlib level 1 gives 694 KB in 28 ms, level 3 642 KB in 56 ms,
-// level 6 511 KB in 149 ms. Level 3 buys 7% over level 1 for a cost still small beside the frame's
-// render time (0.6 s on lavapipe, debug build); level 6's further 20% is not worth nearly 3x the
-// time on loopback or a LAN, where the bytes cost less than the CPU.
-constexpr int kZlibLevel = 3;
-
-// One fixed filter instead of libpng's adaptive choice: in the same measurement SUB alone gave
-// the smallest file of every filter set on the final frame (642 KB; adaptive over all five 649 KB
-// at 30% more time, since it trial-filters each row five ways), and stayed within 12% of the best
-// on normal and depth views. Rendered images are smooth horizontal gradients between hard edges,
-// which is what SUB predicts well.
-constexpr int kFilters = PNG_FILTER_SUB;
-
-// PNG stores sizes as 31-bit unsigned integers.
-constexpr uint32_t kMaxPngDimension = 0x7fffffffu;
-
-struct WriteTarget {
-  std::vector<uint8_t>* bytes;
-  char error[256];
+struct ReadSource {
+  std::span<const uint8_t> bytes;
+  size_t offset = 0;
+  char error[256] = {};
 };
 
-// libpng reports failure by calling this, which must not return: it records the message and
-// jumps back to the setjmp in writeImage().
-[[noreturn]] void onPngError(png_structp png, png_const_charp message) {
-  auto* target = static_cast<WriteTarget*>(png_get_error_ptr(png));
-  std::snprintf(target->error, sizeof target->error, "%s", message);
+[[noreturn]] void onReadError(png_structp png, png_const_charp message) {
+  auto* source = static_cast<ReadSource*>(png_get_error_ptr(png));
+  std::snprintf(source->error, sizeof source->error, "%s", message);
   png_longjmp(png, 1);
 }
 
-// Warnings concern ancillary chunks, which we do not write; they are not worth a log line per
-// frame.
-void onPngWarning(png_structp, png_const_charp) {}
+void onReadWarning(png_structp, png_const_charp) {}
 
-void appendBytes(png_structp png, png_bytep data, size_t length) {
-  auto* target = static_cast<WriteTarget*>(png_get_io_ptr(png));
-  bool appended = true;
-  try {
-    target->bytes->insert(target->bytes->end(), data, data + length);
-  } catch (const std::bad_alloc&) {
-    appended = false;
-  }
-  // A C++ exception must not unwind through libpng's C frames, so the failure goes back through
-  // libpng's own error path instead, outside the catch block.
-  if (!appended) png_error(png, "out of memory");
+void readBytes(png_structp png, png_bytep data, size_t length) {
+  auto* source = static_cast<ReadSource*>(png_get_io_ptr(png));
+  if (source->bytes.size() - source->offset < length) png_error(png, "PNG is truncated");
+  std::memcpy(data, source->bytes.data() + source->offset, length);
+  source->offset += length;
 }
 
-// Without a flush callback libpng would fflush() the io pointer as a FILE*.
-void flushNothing(png_structp) {}
+struct PngReader {
+  png_structp png = nullptr;
+  png_infop info = nullptr;
+  ~PngReader() { png_destroy_read_struct(&png, &info, nullptr); }
+};
 
-// Every libpng call that can fail is made here, after setjmp. libpng reports errors by longjmp
-// back to this frame, which is only sound because no object with a destructor lives between the
-// setjmp and those calls, and no local changed after setjmp is read after the jump.
-bool writeImage(png_structp png, png_infop info, uint32_t width, uint32_t height, png_bytepp rows) {
+// The header, after setjmp. libpng reports errors by longjmp back to this frame, which is only
+// sound because no object with a destructor lives between the setjmp and the libpng calls.
+bool readHeader(png_structp png, png_infop info, png_uint_32* width, png_uint_32* height,
+                int* depth, int* colour) {
   if (setjmp(png_jmpbuf(png))) return false;
-  png_set_IHDR(png, info, width, height, 8, PNG_COLOR_TYPE_RGB_ALPHA, PNG_INTERLACE_NONE,
-               PNG_COMPRESSION_TYPE_DEFAULT, PNG_FILTER_TYPE_DEFAULT);
-  png_set_compression_level(png, kZlibLevel);
-  png_set_filter(png, PNG_FILTER_TYPE_BASE, kFilters);
-  png_write_info(png, info);
-  png_write_image(png, rows);
-  png_write_end(png, nullptr);
+  png_read_info(png, info);
+  int interlace = 0;
+  png_get_IHDR(png, info, width, height, depth, colour, &interlace, nullptr, nullptr);
   return true;
 }
 
-// Owns the libpng write structures; lives in encodePng(), outside the frames longjmp crosses.
-struct PngWriter {
-  png_structp png = nullptr;
-  png_infop info = nullptr;
-  ~PngWriter() { png_destroy_write_struct(&png, &info); }
-};
+bool readRows(png_structp png, png_infop info, png_bytepp rows) {
+  if (setjmp(png_jmpbuf(png))) return false;
+  png_set_swap(png);  // 16-bit samples to the host's (little-endian) order
+  png_read_image(png, rows);
+  png_read_end(png, info);
+  return true;
+}
 
 }  // namespace
 
-std::vector<uint8_t> encodePng(uint32_t width, uint32_t height, std::span<const uint8_t> rgba) {
-  if (width == 0 || height == 0 || width > kMaxPngDimension || height > kMaxPngDimension) {
-    throw std::invalid_argument("encodePng: image size " + std::to_string(width) + "x" +
-                                std::to_string(height) + " is outside PNG's 1..2^31-1 range");
+std::vector<uint16_t> decodePngGrey16(std::span<const uint8_t> bytes, uint32_t& width,
+                                      uint32_t& height, PngText* text) {
+  ReadSource source{bytes};
+  PngReader reader;
+  reader.png = png_create_read_struct(PNG_LIBPNG_VER_STRING, &source, onReadError, onReadWarning);
+  if (!reader.png) throw PngError("PNG decoding failed: out of memory");
+  reader.info = png_create_info_struct(reader.png);
+  if (!reader.info) throw PngError("PNG decoding failed: out of memory");
+  png_set_read_fn(reader.png, &source, readBytes);
+  png_uint_32 w = 0, h = 0;
+  int depth = 0, colour = 0;
+  if (!readHeader(reader.png, reader.info, &w, &h, &depth, &colour)) {
+    throw PngError(std::string("not a valid PNG: ") + source.error);
   }
-  const size_t stride = size_t(width) * 4;
-  if (rgba.size() != stride * height) {
-    throw std::invalid_argument("encodePng: " + std::to_string(rgba.size()) +
-                                " bytes of pixels for a " + std::to_string(width) + "x" +
-                                std::to_string(height) + " RGBA8 image");
+  if (depth != 16 || colour != PNG_COLOR_TYPE_GRAY) {
+    throw PngError("not a 16-bit greyscale PNG (bit depth " + std::to_string(depth) +
+                   ", colour type " + std::to_string(colour) + ")");
   }
-
-  // libpng's row pointers are non-const for historical reasons; writing only reads through them.
-  std::vector<png_bytep> rows(height);
-  for (uint32_t y = 0; y < height; ++y) {
-    rows[y] = const_cast<png_bytep>(rgba.data() + stride * y);
+  std::vector<uint16_t> values(size_t(w) * h);
+  std::vector<png_bytep> rows(h);
+  for (png_uint_32 y = 0; y < h; ++y) rows[y] = reinterpret_cast<png_bytep>(&values[size_t(y) * w]);
+  if (!readRows(reader.png, reader.info, rows.data())) {
+    throw PngError(std::string("not a valid PNG: ") + source.error);
   }
-
-  std::vector<uint8_t> bytes;
-  // Rendered frames typically compress to a fifth of their raw size or less; one reservation
-  // avoids most of the regrowth copies.
-  bytes.reserve(rgba.size() / 4 + 1024);
-  WriteTarget target{&bytes, {}};
-
-  PngWriter writer;
-  writer.png = png_create_write_struct(PNG_LIBPNG_VER_STRING, &target, onPngError, onPngWarning);
-  if (writer.png == nullptr) throw PngError("PNG encoding failed: out of memory");
-  writer.info = png_create_info_struct(writer.png);
-  if (writer.info == nullptr) throw PngError("PNG encoding failed: out of memory");
-  png_set_write_fn(writer.png, &target, appendBytes, flushNothing);
-
-  if (!writeImage(writer.png, writer.info, width, height, rows.data())) {
-    throw PngError(std::string("PNG encoding failed: ") + target.error);
+  if (text) {
+    png_textp chunks = nullptr;
+    const int count = png_get_text(reader.png, reader.info, &chunks, nullptr);
+    for (int i = 0; i < count; ++i) {
+      text->emplace_back(chunks[i].key, std::string(chunks[i].text, chunks[i].text_length));
+    }
   }
-  return bytes;
+  width = w;
+  height = h;
+  return values;
 }
 
 DecodedImage decodePng(std::span<const uint8_t> png) {

@@ -6,6 +6,7 @@
 #include <cstring>
 #include <type_traits>
 
+#include "scene/animation.h"
 #include "scene/image_decode.h"
 
 namespace myriad::loader {
@@ -25,6 +26,13 @@ constexpr size_t kInstanceBytes = 2 * 4 + 16 * 4;
 constexpr size_t kLightBytes = 16 * 4;
 constexpr size_t kMinCameraBytes = 4 + 4 + 4 * 4 + 9 * 4;
 constexpr uint32_t kMaxWireCameras = 65536;
+constexpr size_t kNodeBytes = 4 + 4 + 10 * 4;  // empty name, parent, TRS
+constexpr size_t kMinSkinBytes = 4 + 4;
+constexpr size_t kJointBytes = 4 + 16 * 4;
+constexpr size_t kSkinVertexBytes = 8 * 4;
+constexpr size_t kMinMorphTargetBytes = 4 + 1 + 4;
+constexpr size_t kMinAnimationBytes = 4 + 4 + 4;
+constexpr size_t kMinChannelBytes = 4 + 2 + 4 + 4;
 
 static_assert(std::endian::native == std::endian::little, "the wire format is little-endian");
 
@@ -57,6 +65,64 @@ class Writer {
 };
 
 [[noreturn]] void reject(const std::string& what) { throw SceneWireError(what); }
+
+template <typename T>
+void putArray(Writer& w, const std::vector<T>& values) {
+  static_assert(std::is_trivially_copyable_v<T>);
+  const size_t at = w.bytes().size();
+  w.bytes().resize(at + values.size() * sizeof(T));
+  if (!values.empty()) std::memcpy(w.bytes().data() + at, values.data(), values.size() * sizeof(T));
+}
+
+// The node tree, every instance's node and skin, skins, each mesh's joints, weights and morph
+// targets, and the animations (after the images, see scene_wire.h).
+void encodeAnimation(const scene::Scene& scene, Writer& w) {
+  w.put(uint32_t(scene.nodes.size()));
+  for (const scene::Node& n : scene.nodes) {
+    w.putName(n.name);
+    w.put(n.parent), w.put(n.translation);
+    w.put(n.rotation.x), w.put(n.rotation.y), w.put(n.rotation.z), w.put(n.rotation.w);
+    w.put(n.scale);
+  }
+  for (const scene::Instance& i : scene.instances) w.put(i.node), w.put(i.skin);
+  w.put(uint32_t(scene.skins.size()));
+  for (const scene::Skin& skin : scene.skins) {
+    w.putName(skin.name);
+    w.put(uint32_t(skin.joints.size()));
+    for (size_t j = 0; j < skin.joints.size(); ++j)
+      w.put(skin.joints[j]), w.put(skin.inverseBind[j]);
+  }
+  for (const scene::Mesh& mesh : scene.meshes) {
+    w.put(uint32_t(mesh.skinned() ? 1 : 0));
+    if (mesh.skinned()) {
+      for (size_t v = 0; v < mesh.vertices.size(); ++v) {
+        w.put(mesh.joints[v].x), w.put(mesh.joints[v].y), w.put(mesh.joints[v].z),
+            w.put(mesh.joints[v].w);
+        w.put(mesh.weights[v]);
+      }
+    }
+    w.put(uint32_t(mesh.morphTargets.size()));
+    for (size_t t = 0; t < mesh.morphTargets.size(); ++t) {
+      const scene::MorphTarget& target = mesh.morphTargets[t];
+      w.putName(target.name);
+      w.put(uint8_t((target.positions.empty() ? 0 : 1) | (target.normals.empty() ? 0 : 2) |
+                    (target.tangents.empty() ? 0 : 4)));
+      putArray(w, target.positions), putArray(w, target.normals), putArray(w, target.tangents);
+      w.put(t < mesh.morphWeights.size() ? mesh.morphWeights[t] : 0.0f);
+    }
+  }
+  w.put(uint32_t(scene.animations.size()));
+  for (const scene::Animation& a : scene.animations) {
+    w.putName(a.name);
+    w.put(a.duration);
+    w.put(uint32_t(a.channels.size()));
+    for (const scene::AnimationChannel& c : a.channels) {
+      w.put(c.node), w.put(uint8_t(c.path)), w.put(uint8_t(c.interpolation));
+      w.put(uint32_t(c.times.size())), putArray(w, c.times);
+      w.put(uint32_t(c.values.size())), putArray(w, c.values);
+    }
+  }
+}
 
 }  // namespace
 
@@ -161,6 +227,13 @@ class Reader {
     return value;
   }
   size_t remaining() const { return bytes_.size() - at_; }
+  // `n` floats, each finite (the count checked against the bytes first).
+  std::vector<float> floats(uint32_t n, const char* what) {
+    count(n, 4, what);
+    std::vector<float> out(n);
+    for (float& v : out) v = finite(what);
+    return out;
+  }
 
  private:
   void need(size_t n) {
@@ -170,6 +243,110 @@ class Reader {
   std::string_view bytes_;
   size_t at_ = 0;
 };
+
+}  // namespace
+
+namespace {
+
+// encodeAnimation's counterpart: every count against the bytes left, then the rules of
+// scene::checkAnimationData (indices, parents first: no cycle, limits, finite keys).
+void decodeAnimation(Reader& r, scene::Scene& scene) {
+  const uint32_t nodeCount = r.count(r.get<uint32_t>(), kNodeBytes, "nodes");
+  if (nodeCount > scene::kMaxNodes) reject("more nodes than the limit");
+  scene.nodes.resize(nodeCount);
+  for (scene::Node& n : scene.nodes) {
+    n.name = r.name();
+    n.parent = r.get<int32_t>();
+    n.translation = r.vec3("a node's translation");
+    const glm::vec4 q = r.vec4("a node's rotation");
+    n.rotation = glm::quat(q.w, q.x, q.y, q.z);
+    if (std::abs(glm::length(q) - 1.0f) > 1e-3f)
+      reject("a node rotation that is not a unit quaternion");
+    n.scale = r.vec3("a node's scale");
+  }
+  for (scene::Instance& i : scene.instances) {
+    i.node = r.get<int32_t>();
+    i.skin = r.get<int32_t>();
+  }
+  const uint32_t skinCount = r.count(r.get<uint32_t>(), kMinSkinBytes, "skins");
+  if (skinCount > scene::kMaxSkins) reject("more skins than the limit");
+  scene.skins.resize(skinCount);
+  for (scene::Skin& skin : scene.skins) {
+    skin.name = r.name();
+    const uint32_t joints = r.count(r.get<uint32_t>(), kJointBytes, "joints");
+    if (joints > scene::kMaxJointsPerSkin) reject("a skin with more joints than the limit");
+    for (uint32_t j = 0; j < joints; ++j) {
+      skin.joints.push_back(r.get<uint32_t>());
+      skin.inverseBind.push_back(r.mat4("an inverse bind matrix"));
+    }
+  }
+  size_t morphVectors = 0;
+  for (scene::Mesh& mesh : scene.meshes) {
+    const uint32_t skinned = r.get<uint32_t>();
+    if (skinned > 1) reject("a mesh's skinned flag out of range");
+    const size_t n = mesh.vertices.size();
+    if (skinned == 1) {
+      if (uint64_t(n) * kSkinVertexBytes > r.remaining())
+        reject("more joint weights than the bytes can hold");
+      mesh.joints.resize(n);
+      mesh.weights.resize(n);
+      for (size_t v = 0; v < n; ++v) {
+        const uint32_t a = r.get<uint32_t>(), b = r.get<uint32_t>(), c = r.get<uint32_t>(),
+                       d = r.get<uint32_t>();
+        mesh.joints[v] = {a, b, c, d};
+        mesh.weights[v] = r.vec4("a skin weight");
+      }
+    }
+    const uint32_t targets = r.count(r.get<uint32_t>(), kMinMorphTargetBytes, "morph targets");
+    if (targets > scene::kMaxMorphTargets) reject("a mesh with more morph targets than the limit");
+    for (uint32_t t = 0; t < targets; ++t) {
+      scene::MorphTarget target;
+      target.name = r.name();
+      const uint8_t flags = r.small("a morph target's attributes", 8);
+      for (int bit = 0; bit < 3; ++bit) {
+        if (!(flags & (1 << bit))) continue;
+        morphVectors += n;
+        if (morphVectors > scene::kMaxMorphVectors)
+          reject("more morph displacements than the limit");
+        if (uint64_t(n) * 12 > r.remaining())
+          reject("more morph displacements than the bytes can hold");
+        std::vector<glm::vec3>& list = bit == 0   ? target.positions
+                                       : bit == 1 ? target.normals
+                                                  : target.tangents;
+        list.resize(n);
+        for (glm::vec3& v : list) v = r.vec3("a morph displacement");
+      }
+      mesh.morphTargets.push_back(std::move(target));
+      mesh.morphWeights.push_back(r.finite("a morph weight"));
+    }
+  }
+  const uint32_t animationCount = r.count(r.get<uint32_t>(), kMinAnimationBytes, "animations");
+  if (animationCount > scene::kMaxAnimations) reject("more animations than the limit");
+  size_t channels = 0, floats = 0;
+  scene.animations.resize(animationCount);
+  for (scene::Animation& a : scene.animations) {
+    a.name = r.name();
+    a.duration = r.finite("an animation's duration");
+    const uint32_t channelCount = r.count(r.get<uint32_t>(), kMinChannelBytes, "channels");
+    channels += channelCount;
+    if (channels > scene::kMaxAnimationChannels) reject("more animation channels than the limit");
+    a.channels.resize(channelCount);
+    for (scene::AnimationChannel& c : a.channels) {
+      c.node = r.get<uint32_t>();
+      c.path = scene::AnimationPath(r.small("an animation path", 4));
+      c.interpolation = scene::Interpolation(r.small("an interpolation", 3));
+      const uint32_t keys = r.get<uint32_t>();
+      floats += keys;
+      if (floats > scene::kMaxAnimationFloats) reject("more animation keys than the limit");
+      c.times = r.floats(keys, "an animation key time");
+      const uint32_t values = r.get<uint32_t>();
+      floats += values;
+      if (floats > scene::kMaxAnimationFloats) reject("more animation keys than the limit");
+      c.values = r.floats(values, "an animation key value");
+    }
+  }
+  if (const std::optional<std::string> problem = scene::checkAnimationData(scene)) reject(*problem);
+}
 
 }  // namespace
 
@@ -242,6 +419,7 @@ std::string encodeScene(const scene::Scene& scene) {
     w.put(uint32_t(image.rgba.size()));
     w.bytes().append(reinterpret_cast<const char*>(image.rgba.data()), image.rgba.size());
   }
+  encodeAnimation(scene, w);
   const uint64_t body = w.bytes().size() - kHeaderBytes;
   std::memcpy(w.bytes().data() + kHeaderBytes - 8, &body, 8);
   return std::move(w.bytes());
@@ -468,6 +646,7 @@ scene::Scene decodeScene(std::string_view bytes) {
     image.rgba.assign(pixels.begin(), pixels.end());
     scene.images.push_back(std::move(image));
   }
+  decodeAnimation(r, scene);
   if (r.remaining() != 0) reject("bytes after the end of the scene");
   return scene;
 }

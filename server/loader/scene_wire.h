@@ -18,6 +18,15 @@
 //         u32 cameras, each u32 nameBytes, name, u32 perspective, yfov, aspectRatio, znear, zfar,
 //                    position (3 f32), direction (3), up (3)
 //         images:    u32 nameBytes, name, u32 width, u32 height, u32 bytes, RGBA8 pixels
+//         u32 nodes, each u32 nameBytes, name, i32 parent, translation (3 f32),
+//                    rotation (4: x y z w), scale (3)
+//         per instance: i32 node, i32 skin
+//         u32 skins, each u32 nameBytes, name, u32 joints, per joint u32 node, inverse bind (16
+//         f32) per mesh:  u32 skinned, if 1 per vertex 4 u32 joints, 4 f32 weights; u32 morph
+//                    targets, each u32 nameBytes, name, u8 attributes (1 positions, 2 normals,
+//                    4 tangents), per attribute one vec3 (3 f32) per vertex, f32 default weight
+//         u32 animations, each u32 nameBytes, name, f32 duration, u32 channels, each u32 node,
+//                    u8 path, u8 interpolation, u32 keys, times (f32), u32 values, values (f32)
 #pragma once
 
 #include <stdexcept>
@@ -28,7 +37,9 @@
 
 namespace myriad::loader {
 
-inline constexpr uint32_t kSceneWireVersion = 3;  // 2: lights' type, attenuation, cone; 3: materials' textures, images
+// 2: lights' type, attenuation, cone; 3: materials' textures, images; 4: nodes, skins, morph
+// targets, animations
+inline constexpr uint32_t kSceneWireVersion = 4;
 
 // The bytes were not a scene this version of the server wrote: what() says what was wrong.
 struct SceneWireError : std::runtime_error {

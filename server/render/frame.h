@@ -70,6 +70,9 @@ struct ScenePose {
   std::vector<InstancePose> poses;
 };
 
+// The time between a motion frame and its previous time, in seconds (one frame at 30 Hz).
+inline constexpr double kMotionInterval = 1.0 / 30.0;
+
 // One material's new factors (Renderer::updateMaterials); index < the scene's material count.
 struct MaterialWrite {
   uint32_t index = 0;
@@ -100,6 +103,11 @@ enum class Target : uint32_t {
   InstanceId,
   SemanticId,
   MaterialId,
+  // Screen-space motion in pixels from the previous time (FrameSettings::previousCamera,
+  // previousPose) to the frame's: a surface's pixel now minus its pixel then (x right, y down),
+  // for camera, instance, skin and morph motion alike (render/motion.h). Raw: dx, dy, 1 where a
+  // surface is (else all 0), 0; 8-bit: a false-colour picture. Drawn against the raster G-buffer.
+  Motion,
 };
 
 // Whether `target` is one of the label targets (InstanceId, SemanticId, MaterialId).
@@ -108,9 +116,12 @@ inline bool isLabel(Target target) {
          target == Target::MaterialId;
 }
 
+// FrameSettings::alsoRead holds at most this many targets (a frame reads at most 8 with its own).
+inline constexpr size_t kMaxExtraTargets = 7;
+
 // The names are the protocol's, defined once there.
 inline constexpr const auto& kTargetNames = protocol::kTargets;
-static_assert(kTargetNames.size() == static_cast<size_t>(Target::MaterialId) + 1);
+static_assert(kTargetNames.size() == static_cast<size_t>(Target::Motion) + 1);
 
 inline std::string_view targetName(Target t) { return kTargetNames[static_cast<uint32_t>(t)]; }
 
@@ -285,6 +296,12 @@ struct FrameSettings : SceneSettings {
   double time = 0.0;        // animation time in seconds (lights move only with `animate`)
   // The scene's pose at `time` (null: as last drawn; a scene without animation never has one).
   std::shared_ptr<const ScenePose> pose;
+  // The motion target's previous time (Target::Motion; other targets ignore both): the camera
+  // and the pose then (the service passes the pose at T - kMotionInterval, so ?time=T's motion
+  // is exact and deterministic, and the camera of the session's previous frame). No previous
+  // camera: the frame's own; no previous pose: every instance and deformed mesh as now.
+  std::optional<scene::Camera> previousCamera;
+  std::shared_ptr<const ScenePose> previousPose;
   uint32_t heatMapMax = 0;  // light-count view: count shown as the hottest colour (0 = auto)
   bool raw = false;         // return the view's float values (Frame::data), not an image
   // The 8-bit pixels stay in the renderer's readback memory (Frame::borrowed) instead of being
@@ -299,12 +316,35 @@ struct FrameSettings : SceneSettings {
   // projects to at most this many pixels (a stream's interactive frames: fewer triangles for
   // llvmpipe's vertex work). 0: always the full meshes (every still, every GET frame).
   float geometryErrorPixels = 0.0f;
+  // A multi-target frame (GET .../frame?target=a,b,c): views read back raw from this same render
+  // after `target`'s own readback, each into Frame::extras (render/extra_targets.h). Not `target`
+  // itself, not `final` or `light-volumes` (pictures of the lighting: only as `target`), each
+  // once; label targets share one readback (Frame::labels, unless `target` is a label: then
+  // Frame::data holds them). At most kMaxExtraTargets.
+  std::vector<Target> alsoRead;
 
   bool yuv420Readback() const { return yuv420 && target == Target::Final && !raw; }
 
   FrameSettings& takeLightingFrom(const scene::Scene& scene) {
     SceneSettings::takeLightingFrom(scene);
     return *this;
+  }
+
+  // The frame draws the label pass: `target` or one of alsoRead is a label.
+  bool drawsLabels() const {
+    if (isLabel(target)) return true;
+    for (Target t : alsoRead) {
+      if (isLabel(t)) return true;
+    }
+    return false;
+  }
+  // The frame reads `t`'s G-buffer values: it is `target` or one of alsoRead.
+  bool reads(Target t) const {
+    if (t == target) return true;
+    for (Target a : alsoRead) {
+      if (a == t) return true;
+    }
+    return false;
   }
 
   // Anti-aliasing filters the 8-bit `final` image only: never raw values or another view.
@@ -350,6 +390,7 @@ inline std::vector<std::string_view> rawChannels(Target target) {
     case Target::InstanceId: return {"object"};
     case Target::SemanticId: return {"semantic"};
     case Target::MaterialId: return {"material"};
+    case Target::Motion: return {"dx", "dy"};  // pixels, from the previous time to this one
   }
   return {};
 }
@@ -428,6 +469,15 @@ struct Frame {
   // With FrameSettings::raw: 4 floats per pixel, rows top first, instead of `rgba`. What the
   // channels hold per target is rawChannels(target).
   std::vector<float> data;
+  // FrameSettings::alsoRead's views (not labels), in its order: 4 floats a pixel, as `data`.
+  struct TargetValues {
+    Target target = Target::Depth;
+    std::vector<float> data;
+  };
+  std::vector<TargetValues> extras;
+  // With a label in FrameSettings::alsoRead (and `target` not a label): the label pass's four
+  // uint32 bit patterns a pixel, as `data` holds them for a label target.
+  std::vector<float> labels;
   std::vector<PassTiming> passes;
   // How long the frame waited before its work began: from its submission to the render queue to
   // the start of its first GPU work, including the time behind other frames' submissions

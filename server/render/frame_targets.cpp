@@ -16,7 +16,7 @@ constexpr VkDeviceSize kTargetBlockSize = 4ull << 20;
 FrameTargets::FrameTargets(gpu::Context& context, VkExtent2D size, bool rawOutput,
                            bool computeWritable_)
     : extent(size), raw(rawOutput), computeWritable(computeWritable_),
-      arena(context, kTargetBlockSize) {
+      arena(context, kTargetBlockSize), context_(&context) {
   const VkImageUsageFlags gbufferUsage =
       VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_SAMPLED_BIT;
   const VkImageUsageFlags computeUsage = computeWritable ? VK_IMAGE_USAGE_STORAGE_BIT : 0;
@@ -71,6 +71,21 @@ void FrameTargets::ensureLabels() {
   if (labels.image != VK_NULL_HANDLE) return;
   labels = arena.createImage2D(extent, kLabelFormat,
                                VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT);
+}
+
+void FrameTargets::ensureExtras(uint32_t regions) {
+  if (!raw && extraOutput.image == VK_NULL_HANDLE) {
+    extraOutput = arena.createImage2D(extent, kRawOutputFormat,
+                                      VK_IMAGE_USAGE_STORAGE_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT);
+  }
+  if (regions <= extraRegions) return;
+  // Nothing in flight uses the old buffer: the slot is being prepared for its next frame.
+  extraReadback = {};
+  extraArena.reset();
+  extraArena = std::make_unique<gpu::Arena>(*context_, regionBytes() * regions);
+  extraReadback = extraArena->createBuffer(regionBytes() * regions, VK_BUFFER_USAGE_TRANSFER_DST_BIT,
+                                           gpu::MemoryUse::Readback);
+  extraRegions = regions;
 }
 
 }  // namespace myriad::render

@@ -4,6 +4,8 @@
 
 #include <vulkan/vulkan.h>
 
+#include <memory>
+
 #include "gpu/context.h"
 #include "gpu/resources.h"
 
@@ -78,6 +80,25 @@ struct FrameTargets {
   gpu::Buffer clusterMarks;
   bool clusterMarksFresh = true;
   gpu::Buffer readback;  // output pixels, rows top first (RGBA, floats, or the planes)
+
+  // A multi-target frame's (FrameSettings::alsoRead; render/extra_targets.h): `regions` raw
+  // views of 16 bytes a pixel, one after another in `extraReadback` (its own arena, made again
+  // larger when a frame needs more regions), and, for an 8-bit main output, `extraOutput`
+  // (kRawOutputFormat) the raw views are written to instead of `output`. Made on first use, kept
+  // with the targets.
+  void ensureExtras(uint32_t regions);
+  gpu::Image extraOutput;
+  std::unique_ptr<gpu::Arena> extraArena;
+  gpu::Buffer extraReadback;
+  uint32_t extraRegions = 0;
+  VkDeviceSize regionBytes() const { return VkDeviceSize(extent.width) * extent.height * 16; }
+  // Memory of everything above and the extras.
+  VkDeviceSize bytesAllocated() const {
+    return arena.bytesAllocated() + (extraArena ? extraArena->bytesAllocated() : 0);
+  }
+
+ private:
+  gpu::Context* context_;
 };
 
 }  // namespace myriad::render

@@ -381,6 +381,7 @@ std::vector<uint8_t> renderReference(const scene::Scene& scene, const FrameSetti
         case Target::InstanceId:
         case Target::SemanticId:
         case Target::MaterialId:  // referenceLabels
+        case Target::Motion:
         case Target::LightVolumes:
         case Target::LightCount:
         case Target::Clusters: break;

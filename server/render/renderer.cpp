@@ -17,12 +17,15 @@
 #include "render/cluster_grid.h"
 #include "render/compute_passes.h"
 #include "render/environment.h"
+#include "render/extra_targets.h"
 #include "render/frame_targets.h"
 #include "render/gpu_types.h"
+#include "render/motion.h"
 #include "render/passes.h"
 #include "render/scene_buffers.h"
 #include "render/shading_features.h"
 #include "render/shadows.h"
+#include "render/skinning.h"
 #include "render/visibility.h"
 #include "render/techniques/registry.h"
 #include "render/techniques/technique.h"
@@ -48,8 +51,8 @@ constexpr VkDeviceSize kUniformBlockSize = 64ull << 10;
 // emission for the emissive view and wherever a material emits.
 uint32_t gbufferWrites(const FrameSettings& s, const SceneBuffers& scene) {
   uint32_t written = 0;
-  if (s.target == Target::Uv) written |= MYRIAD_GBUFFER_UV;
-  if (s.target == Target::Emissive || scene.anyEmission()) written |= MYRIAD_GBUFFER_EMISSIVE;
+  if (s.reads(Target::Uv)) written |= MYRIAD_GBUFFER_UV;
+  if (s.reads(Target::Emissive) || scene.anyEmission()) written |= MYRIAD_GBUFFER_EMISSIVE;
   return written;
 }
 
@@ -116,6 +119,7 @@ struct Renderer::State {
   explicit State(gpu::Context& c)
       : context(c), pipelines(c), techniques(createTechniques({c, pipelines})),
         computeGBuffer(c, pipelines.sceneSetLayout, kMaxFramesInFlight + 1),
+        skinning(c), motion(c, pipelines.sceneSetLayout, kMaxFramesInFlight + 1),
         uniformArena(c, kUniformBlockSize) {
     for (uint32_t i = 0; i < kMaxFramesInFlight; ++i) slots.push_back(std::make_unique<FrameSlot>());
     for (FrameSlot* slot : allSlots()) {
@@ -156,6 +160,11 @@ struct Renderer::State {
   // Index = Technique (techniques/registry.h); destroyed before the pipeline layout they use.
   std::vector<std::unique_ptr<LightingTechnique>> techniques;
   ComputeGBuffer computeGBuffer;  // GBufferPath::Compute (render/visibility.h)
+  SkinningPass skinning;          // skinned and morphed instances (render/skinning.h)
+  MotionPass motion;              // Target::Motion (render/motion.h)
+  // Applies the frame's pose (and a motion frame's previous pose) to its scene where they differ
+  // from what it holds, after the frames in flight finished with it.
+  void applyPoses(SceneBuffers& scene, const FrameSettings& settings);
   GBufferPath gbufferPath = GBufferPath::Raster;
   gpu::Arena uniformArena;
   gpu::CommandRecorder recorder;  // scene uploads and edits (frames have their slot's)
@@ -171,6 +180,9 @@ struct Renderer::State {
     gpu::Buffer uniforms;
     VkDescriptorSet sceneSet = VK_NULL_HANDLE;
     VkDescriptorSet targetSet = VK_NULL_HANDLE;  // set 2 (light culling) is each technique's own
+    // targetSet with the output binding on targets->extraOutput: a multi-target frame's raw
+    // views when its own output is 8-bit (render/extra_targets.h).
+    VkDescriptorSet rawTargetSet = VK_NULL_HANDLE;
     // Sized for the frame being drawn, rebuilt when that changes.
     std::unique_ptr<FrameTargets> targets;
     // The compute G-buffer's buffers and set (when a frame of this slot took that path).
@@ -272,6 +284,8 @@ struct Renderer::State {
                                                   const FrameSettings& settings);
   SceneEnvironment* environmentFor(SceneId id, const FrameSettings& settings);
   void writeTargetSet(FrameSlot& slot);
+  // rawTargetSet: targetSet's descriptors, the output binding on targets->extraOutput.
+  void writeRawTargetSet(FrameSlot& slot);
   void writeUniforms(FrameSlot& slot, const FrameSettings& settings, const SceneBuffers& scene,
                      const LightingTechnique& technique, const SunShadowFit* sunShadow,
                      const LightShadowPlan& lightShadows);
@@ -305,7 +319,8 @@ struct Renderer::State {
   bool computeGBufferFor(const SceneBuffers& scene, const FrameSettings& settings) const {
     if (!computeWritableTargets()) return false;
     // Labels test against the depth the raster pass writes with the same vertex stage.
-    if (isLabel(settings.target)) return false;
+    if (settings.drawsLabels()) return false;
+    if (settings.target == Target::Motion) return false;  // the same: depth EQUAL
     if (gbufferPath == GBufferPath::Auto && context.info.type == "cpu") return false;
     return computeGBuffer.qualifies(scene, {settings.width, settings.height});
   }
@@ -462,6 +477,29 @@ void Renderer::State::writeTargetSet(FrameSlot& slot) {
   vkUpdateDescriptorSets(context.device, 1, &markWrite, 0, nullptr);
 }
 
+void Renderer::State::writeRawTargetSet(FrameSlot& slot) {
+  std::vector<VkCopyDescriptorSet> copies;
+  for (uint32_t binding = 0; binding <= MYRIAD_BINDING_CLUSTER_MARKS; ++binding) {
+    if (binding == MYRIAD_BINDING_OUTPUT) continue;
+    VkCopyDescriptorSet copy{VK_STRUCTURE_TYPE_COPY_DESCRIPTOR_SET};
+    copy.srcSet = slot.targetSet;
+    copy.srcBinding = binding;
+    copy.dstSet = slot.rawTargetSet;
+    copy.dstBinding = binding;
+    copy.descriptorCount = 1;
+    copies.push_back(copy);
+  }
+  const VkDescriptorImageInfo output{VK_NULL_HANDLE, slot.targets->extraOutput.view,
+                                     VK_IMAGE_LAYOUT_GENERAL};
+  VkWriteDescriptorSet write{VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET};
+  write.dstSet = slot.rawTargetSet;
+  write.dstBinding = MYRIAD_BINDING_OUTPUT;
+  write.descriptorCount = 1;
+  write.descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_IMAGE;
+  write.pImageInfo = &output;
+  vkUpdateDescriptorSets(context.device, 1, &write, uint32_t(copies.size()), copies.data());
+}
+
 // Targets follow the output size and are rebuilt only when it changes (every frame is waited
 // for, so nothing is in flight here).
 bool Renderer::State::ensureTargets(FrameSlot& slot, VkExtent2D extent, bool raw) {
@@ -545,8 +583,11 @@ Renderer::Renderer(gpu::Context& context) : state_(std::make_unique<State>(conte
   VkDevice device = context.device;
   const std::vector<State::FrameSlot*> slots = s.allSlots();
   for (State::FrameSlot* slot : slots) {
+    // Transfer destination: a multi-target frame rewrites its view index on the GPU timeline
+    // between its views (render/extra_targets.h).
     slot->uniforms = s.uniformArena.createBuffer(
-        sizeof(FrameUniforms), VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT, gpu::MemoryUse::Upload);
+        sizeof(FrameUniforms), VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT,
+        gpu::MemoryUse::Upload);
     slot->counters = s.uniformArena.createBuffer(
         sizeof(CullingStats), VK_BUFFER_USAGE_TRANSFER_DST_BIT, gpu::MemoryUse::Readback);
     slot->recorder = gpu::createCommandRecorder(context);
@@ -562,15 +603,16 @@ Renderer::Renderer(gpu::Context& context) : state_(std::make_unique<State>(conte
   samplerInfo.magFilter = samplerInfo.minFilter = VK_FILTER_LINEAR;
   VK_CHECK(vkCreateSampler(device, &samplerInfo, nullptr, &s.linearSampler));
 
-  // Sets 0 (scene) and 1 (targets) of every frame slot; each technique allocates its own set 2.
+  // Sets 0 (scene) and 1 (targets, twice: rawTargetSet) of every frame slot; each technique
+  // allocates its own set 2.
   const auto n = static_cast<uint32_t>(slots.size());
   VkDescriptorPoolSize sizes[] = {{VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, n * 1},
-                                  {VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, n * 9},  // + the edge pixels, the YCbCr planes, the cluster marks (set 1)
-                                  {VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, n * 11},  // + the shadow maps, the LDR target
-                                  {VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, n * 5},
+                                  {VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, n * 12},  // + the edge pixels, the YCbCr planes, the cluster marks (set 1, twice)
+                                  {VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, n * 22},  // + the shadow maps, the LDR target
+                                  {VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, n * 10},
                                   {VK_DESCRIPTOR_TYPE_UNIFORM_TEXEL_BUFFER, n * 2}};  // lights, materials
   VkDescriptorPoolCreateInfo poolInfo{VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO};
-  poolInfo.maxSets = 2 * n;
+  poolInfo.maxSets = 3 * n;
   poolInfo.poolSizeCount = 5;
   poolInfo.pPoolSizes = sizes;
   VK_CHECK(vkCreateDescriptorPool(device, &poolInfo, nullptr, &s.descriptorPool));
@@ -578,16 +620,18 @@ Renderer::Renderer(gpu::Context& context) : state_(std::make_unique<State>(conte
   for (uint32_t i = 0; i < n; ++i) {
     layouts.push_back(s.pipelines.sceneSetLayout);
     layouts.push_back(s.pipelines.targetSetLayout);
+    layouts.push_back(s.pipelines.targetSetLayout);
   }
   VkDescriptorSetAllocateInfo alloc{VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO};
   alloc.descriptorPool = s.descriptorPool;
-  alloc.descriptorSetCount = 2 * n;
+  alloc.descriptorSetCount = 3 * n;
   alloc.pSetLayouts = layouts.data();
-  std::vector<VkDescriptorSet> sets(2 * n);
+  std::vector<VkDescriptorSet> sets(3 * n);
   VK_CHECK(vkAllocateDescriptorSets(device, &alloc, sets.data()));
   for (uint32_t i = 0; i < n; ++i) {
-    slots[i]->sceneSet = sets[2 * i];
-    slots[i]->targetSet = sets[2 * i + 1];
+    slots[i]->sceneSet = sets[3 * i];
+    slots[i]->targetSet = sets[3 * i + 1];
+    slots[i]->rawTargetSet = sets[3 * i + 2];
   }
 }
 
@@ -727,7 +771,7 @@ void Renderer::releaseFrameMemory(uint64_t keepBytes) {
     }
     if (kept && kept->targets) {
       keptReadback = State::readbackBytes(kept->settings);
-      const uint64_t bytes = kept->targets->arena.bytesAllocated() +
+      const uint64_t bytes = kept->targets->bytesAllocated() +
                              kept->shadows->gpuMemoryBytes() + keptReadback;
       if (bytes > keepBytes) kept = nullptr;
     } else {
@@ -816,7 +860,7 @@ uint64_t Renderer::gpuMemoryBytes() const {
   for (const auto& [id, env] : s.environments) total += env->bytes();
   total += s.environmentPasses->gpuMemoryBytes();
   for (const State::FrameSlot* slot : const_cast<State&>(s).allSlots()) {
-    if (slot->targets) total += slot->targets->arena.bytesAllocated();
+    if (slot->targets) total += slot->targets->bytesAllocated();
     total += slot->shadows->gpuMemoryBytes();
     if (slot->visibility) total += slot->visibility->arena.bytesAllocated();
   }
@@ -840,8 +884,14 @@ uint32_t Renderer::maxDimension() const { return state_->context.info.maxImageDi
 
 namespace {
 
-// Label frames are read back raw (Target::InstanceId's comment).
+// Label frames are read back raw (Target::InstanceId's comment). Motion is drawn into the
+// frame's own output (render/motion.h): never one of a multi-target frame's extras.
 void checkLabels(const FrameSettings& settings) {
+  if (std::find(settings.alsoRead.begin(), settings.alsoRead.end(), Target::Motion) !=
+      settings.alsoRead.end()) {
+    throw std::invalid_argument("motion is drawn into the frame's output: it is read as the "
+                                "frame's target, not among alsoRead");
+  }
   if (isLabel(settings.target) && !settings.raw) {
     throw std::invalid_argument("a label target (" + std::string(targetName(settings.target)) +
                                 ") is read back raw: FrameSettings::raw must be set");
@@ -1032,8 +1082,13 @@ bool Renderer::State::prepareFrame(FrameSlot& slot, SceneBuffers& scene,
                                    SceneEnvironment* environment, const FrameSettings& settings,
                                    LightingTechnique& technique) {
   VkExtent2D extent{settings.width, settings.height};
+  applyPoses(scene, settings);  // before anything reads the scene's bounds or draws
   const bool madeTargets = ensureTargets(slot, extent, settings.raw);
-  if (isLabel(settings.target)) slot.targets->ensureLabels();
+  if (settings.drawsLabels()) slot.targets->ensureLabels();
+  if (const ExtraRegions extras = extraRegionsOf(settings); extras.count > 0) {
+    slot.targets->ensureExtras(extras.count);
+    if (!settings.raw) writeRawTargetSet(slot);
+  }
   technique.prepare(extent, scene.lightCount);
   // The sun's shadow map: fitted to this scene and sun, rendered this frame when on.
   const std::optional<SunShadowFit> sunShadow = sunShadowFor(scene, settings);
@@ -1107,6 +1162,14 @@ void Renderer::State::recordBeforeLighting(VkCommandBuffer cmd, FrameSlot& slot,
     }
   }
 
+  // Skinned and morphed instances posed (when the pose changed), before anything draws them.
+  if (const bool previous = settings.target == Target::Motion && settings.previousPose != nullptr;
+      SkinningPass::needed(scene, previous)) {
+    skinning.record(cmd, scene, previous, *slot.timer);
+    // It bound its own layout's set; the frame's go back.
+    VkDescriptorSet sets[] = {slot.sceneSet, slot.targetSet};
+    vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, p.layout, 0, 2, sets, 0, nullptr);
+  }
   if (settings.animate) {
     // Or the lighting technique moves them, while it walks them (LightingPass::animateLights).
     if (!s.technique(settings.technique).animatesLights()) {
@@ -1150,18 +1213,42 @@ void Renderer::State::recordBeforeLighting(VkCommandBuffer cmd, FrameSlot& slot,
     slot.timer->beginPass(cmd, "gbuffer");
     recordGBufferPass(cmd, p, *slot.targets, scene, gbufferWrites(settings, scene),
                       MeshDetail::of(settings));
-    if (isLabel(settings.target)) {
+    if (settings.drawsLabels()) {
       slot.timer->beginPass(cmd, "labels");
       recordLabelPass(cmd, p, *slot.targets, scene, MeshDetail::of(settings));
     }
+    if (settings.target == Target::Motion) {
+      slot.timer->beginPass(cmd, "motion");  // names-once: the pass, not the target
+      const scene::Camera& previous = settings.previousCamera.value_or(settings.camera);
+      const float aspect = float(settings.width) / float(settings.height);
+      motion.record(cmd, *slot.targets, scene, slot.sceneSet,
+                    scene::projectionMatrix(previous, aspect) * scene::viewMatrix(previous),
+                    settings.previousPose != nullptr, MeshDetail::of(settings));
+      // Its layout is not the frame's: the frame's sets go back.
+      VkDescriptorSet sets[] = {slot.sceneSet, slot.targetSet};
+      vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, p.layout, 0, 2, sets, 0, nullptr);
+    }
+  }
+}
+
+void Renderer::State::applyPoses(SceneBuffers& scene, const FrameSettings& settings) {
+  if (settings.pose && scene.poseDiffers(*settings.pose)) {
+    quiesce();
+    scene.applyPose(recorder, settings.pose);
+  }
+  if (settings.target == Target::Motion && settings.previousPose &&
+      scene.previousDiffers(*settings.previousPose)) {
+    quiesce();
+    scene.applyPrevious(recorder, settings.previousPose);
   }
 }
 
 uint32_t Renderer::State::afterUnits(AfterStep step, const FrameSlot& slot,
                                      const SceneBuffers& scene,
                                      const FrameSettings& settings) const {
-  // A label frame: the label pass drew everything it shows; its image is the output.
-  const bool label = isLabel(settings.target);
+  // A label frame: the label pass drew everything it shows; its image is the output. The
+  // motion pass, likewise, drew the output.
+  const bool label = isLabel(settings.target) || settings.target == Target::Motion;
   switch (step) {
     case kForward:
       return !label && (hasBlendDraws(scene) || settings.markers) ? 1u : 0u;
@@ -1232,7 +1319,20 @@ void Renderer::State::recordAfterStep(VkCommandBuffer cmd, const FrameSlot& slot
         recordYuv420Readback(cmd, pipelines, t, readback);
       } else {
         slot.timer->beginPass(cmd, "readback");
-        recordReadback(cmd, t, layouts.output, readback);
+        recordReadback(cmd, t,
+                       settings.target == Target::Motion ? VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL
+                                                         : layouts.output,
+                       readback);
+      }
+      if (!settings.alsoRead.empty()) {
+        // A multi-target frame: its other targets from this same render.
+        slot.timer->beginPass(cmd, "extra-targets");
+        uint32_t hostFlags[4];
+        std::memcpy(hostFlags,
+                    static_cast<const uint8_t*>(slot.uniforms.mapped) + offsetof(FrameUniforms, flags),
+                    sizeof hostFlags);
+        recordExtraTargets(cmd, p, t, settings, slot.uniforms, offsetof(FrameUniforms, flags),
+                           hostFlags, p.layout, slot.rawTargetSet);
       }
       break;
     }
@@ -1290,6 +1390,7 @@ Frame Renderer::State::readFrame(const FrameSlot& slot, const Frame& meta,
     frame.rgba.resize(bytes);
     std::memcpy(frame.rgba.data(), t.readback.mapped, frame.rgba.size());
   }
+  readExtraTargets(t, settings, frame);
   frame.times.copyMs = Milliseconds(std::chrono::steady_clock::now() - copyStart).count();
   for (auto& [name, ms] : slot.timer->results()) frame.passes.push_back({name, ms});
   if (slot.timer->lastTick() > slot.timer->firstTick()) {

@@ -192,7 +192,10 @@ MeshRange MeshDetail::range(const SceneBuffers& scene, const DrawItem& draw) con
   const float nearest = std::max(glm::length(draw.centre - eye) - draw.radius, nearPlane);
   const float pixelsPerUnit = draw.unitScale * pixelsAtUnitDistance / nearest;
   const int lod = scene::coarsestLodWithin(lods.errors, pixelsPerUnit, maxErrorPixels);
-  return lod < 0 ? draw.mesh : lods.ranges[static_cast<size_t>(lod)];
+  if (lod < 0) return draw.mesh;
+  MeshRange coarser = lods.ranges[static_cast<size_t>(lod)];
+  coarser.vertexOffset = draw.mesh.vertexOffset;  // a posed instance's own region
+  return coarser;
 }
 
 float circumscribeScale(const scene::Mesh& mesh) {
@@ -280,6 +283,16 @@ SceneBuffers::SceneBuffers(gpu::Context& context, gpu::CommandRecorder& recorder
   float scale = circumscribeScale(proxy);
   for (scene::Vertex& v : proxy.vertices) v.position *= scale;
   lightProxy = append(proxy);
+  // Skinned and morphed instances: a region each after the meshes (render/skinning.h).
+  posing = planPosing(context, scene, ranges, allVertices);
+  if (posing && allVertices.size() * sizeof(scene::Vertex) > context.info.maxStorageBufferRange) {
+    // The pre-pass reads and writes them through one storage-buffer range.
+    throw std::invalid_argument(
+        "the scene's vertices with its posed copies (" +
+        std::to_string(allVertices.size() * sizeof(scene::Vertex)) +
+        " bytes) are more than this device's storage buffers reach (" +
+        std::to_string(context.info.maxStorageBufferRange) + ")");
+  }
 
   std::vector<GpuInstance> gpuInstances;
   meshCentres_ = centres;
@@ -308,6 +321,18 @@ SceneBuffers::SceneBuffers(gpu::Context& context, gpu::CommandRecorder& recorder
                    [](const DrawItem& a, const DrawItem& b) { return a.material < b.material; });
   drawOfInstance_.assign(instanceCount, UINT32_MAX);
   for (uint32_t d = 0; d < draws.size(); ++d) drawOfInstance_[draws[d].instance] = d;
+  if (posing) {
+    // A posed instance's draws read its own region, whichever version of the mesh they draw.
+    for (const ScenePosing::Posed& p : posing->posed) {
+      if (drawOfInstance_[p.instance] == UINT32_MAX) continue;
+      DrawItem& draw = draws[drawOfInstance_[p.instance]];
+      draw.mesh.vertexOffset = static_cast<int32_t>(p.firstPosed);
+      // Culled by where the rest pose (node tree, default weights) puts it, not the bind space.
+      const glm::vec4 sphere = posing->posedSphere(p, posing->restPose);
+      draw.centre = glm::vec3(scene.instances[p.instance].transform * glm::vec4(glm::vec3(sphere), 1.0f));
+      draw.radius = sphere.w * draw.unitScale;
+    }
+  }
   for (const scene::Material& m : scene.materials) {
     doubleSided.push_back(m.doubleSided ? 1 : 0);
     blend.push_back(m.alphaMode == scene::AlphaMode::blend ? 1 : 0);
@@ -328,6 +353,8 @@ SceneBuffers::SceneBuffers(gpu::Context& context, gpu::CommandRecorder& recorder
   }
   setLightKinds(lightCount, nullptr, &gpuLights);
   bounds = scene.bounds();
+  restBounds_ = bounds;
+  if (posing) bounds = poseBounds();  // grown by where the rest pose puts the posed draws
 
   auto bytes = [](const auto& v) { return VkDeviceSize(v.size() * sizeof(v[0])); };
   const VkBufferUsageFlags dst = VK_BUFFER_USAGE_TRANSFER_DST_BIT;
@@ -339,7 +366,9 @@ SceneBuffers::SceneBuffers(gpu::Context& context, gpu::CommandRecorder& recorder
                                    VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | dst,
                                gpu::MemoryUse::DeviceLocal);
   const VkBufferUsageFlags storage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | dst;
-  instances = arena.createBuffer(bytes(gpuInstances), storage, gpu::MemoryUse::DeviceLocal);
+  // A copy source too: a motion frame's previous placements start as a copy (render/skinning.h).
+  instances = arena.createBuffer(bytes(gpuInstances), storage | VK_BUFFER_USAGE_TRANSFER_SRC_BIT,
+                                 gpu::MemoryUse::DeviceLocal);
   const uint64_t materialTexelCount = uint64_t(gpuMaterials.size()) * MYRIAD_MATERIAL_TEXELS;
   if (materialTexelCount > context.info.maxTexelBufferElements) {
     throw std::invalid_argument(std::to_string(gpuMaterials.size()) +
@@ -359,6 +388,7 @@ SceneBuffers::SceneBuffers(gpu::Context& context, gpu::CommandRecorder& recorder
             {&materials, 0, gpuMaterials.data(), bytes(gpuMaterials)},
             {&lights, 0, gpuLights.data(), bytes(gpuLights)},
             {&lightOrigins, 0, gpuLights.data(), bytes(gpuLights)}});
+  if (posing) uploadPosing(*posing, arena, recorder);
 }
 
 void SceneBuffers::allocateLights(uint32_t capacity) {
@@ -557,7 +587,28 @@ void SceneBuffers::updateInstances(gpu::CommandRecorder& recorder, const Instanc
   }
   if (moves.size() == kMoveHistory) moves.erase(moves.begin());
   moves.push_back(std::move(moved));
+  if (posing && !posing->posed.empty()) {
+    for (const InstanceWrite& w : update.writes) {
+      const uint32_t k = posing->posedOf[w.index];
+      if (k == MYRIAD_SKIN_NONE) continue;
+      posing->transforms[k] = w.transform;
+      if (drawOfInstance_[w.index] == UINT32_MAX) continue;
+      // Its sphere is the deformed mesh's, not the rest mesh's place() gave it.
+      DrawItem& draw = draws[drawOfInstance_[w.index]];
+      const glm::vec4 sphere = posing->posedSphere(
+          posing->posed[k], posing->lastPose ? posing->poseContent(*posing->lastPose) : posing->restPose);
+      draw.centre = glm::vec3(w.transform * glm::vec4(glm::vec3(sphere), 1.0f));
+      draw.radius = sphere.w * draw.unitScale;
+      if (!moves.empty()) moves.back().spheres.emplace_back(draw.centre, draw.radius);
+    }
+  }
   bounds = update.bounds;
+  generation = nextGeneration();
+}
+
+void SceneBuffers::geometryMoved(std::vector<glm::vec4> spheres) {
+  if (moves.size() == kMoveHistory) moves.erase(moves.begin());
+  moves.push_back({generation, std::move(spheres)});
   generation = nextGeneration();
 }
 

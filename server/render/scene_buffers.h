@@ -13,6 +13,7 @@
 #include "gpu/context.h"
 #include "gpu/resources.h"
 #include "render/frame.h"
+#include "render/skinning.h"
 #include "render/textures.h"
 #include "scene/scene.h"
 #include "shared_types.h"
@@ -85,12 +86,32 @@ struct SceneBuffers {
   // sun's shadow map) no longer holds. Throws std::invalid_argument (and changes nothing) for an
   // index past the instances or a transform that is not finite and invertible.
   void updateInstances(gpu::CommandRecorder& recorder, const InstanceUpdate& update);
+  // Poses (render/skinning.h). Whether `pose` differs from the one last applied; applyPose
+  // applies it: node transforms as updateInstances does, joint matrices and morph weights
+  // uploaded for the next frame's pre-pass, the deformed draws' culling spheres and the bounds
+  // grown to hold them. The caller waited for frames in flight. Throws std::invalid_argument
+  // (and changes nothing) for a pose that does not fit the scene.
+  bool poseDiffers(const ScenePose& pose) const;
+  void applyPose(gpu::CommandRecorder& recorder, std::shared_ptr<const ScenePose> pose);
+  // The same for a motion frame's previous pose (render/motion.h): the previous placements of
+  // every instance (this frame's, with `previous`'s transforms over them) and, for deformed
+  // instances, their previous positions (written by the next pre-pass).
+  bool previousDiffers(const ScenePose& previous) const;
+  void applyPrevious(gpu::CommandRecorder& recorder, std::shared_ptr<const ScenePose> previous);
+  // Skinned and morphed instances (render/skinning.h): null for a scene with none (and no
+  // motion frame's previous pose).
+  std::unique_ptr<ScenePosing> posing;
+  // Records that deformed draws moved (their old and new spheres, as `moves` holds them) and
+  // renews `generation`.
+  void geometryMoved(std::vector<glm::vec4> spheres);
+
   // Throws std::invalid_argument (and changes nothing) for an index past the materials.
   void updateMaterials(gpu::CommandRecorder& recorder, const std::vector<MaterialWrite>& writes);
 
   // GPU memory this scene holds.
   uint64_t bytes() const {
-    return arena.bytesAllocated() + lightArena->bytesAllocated() + textures->bytes();
+    return arena.bytesAllocated() + lightArena->bytesAllocated() + textures->bytes() +
+           (posing && posing->motionArena ? posing->motionArena->bytesAllocated() : 0);
   }
 
   gpu::Context& context;
@@ -150,6 +171,8 @@ struct SceneBuffers {
   uint32_t lightFeatures() const;
 
  private:
+  scene::Bounds restBounds_;  // the scene's bounds as built (poseBounds grows them)
+  scene::Bounds poseBounds() const;
   static gpu_types::GpuInstance gpuInstance(const glm::mat4& transform, uint32_t material,
                                             uint32_t object, uint32_t semantic);
   // Sets a draw's culling sphere and scale for its instance's `transform`.

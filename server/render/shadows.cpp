@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdio>
 #include <optional>
 
 #include <glm/gtc/matrix_access.hpp>
@@ -312,10 +313,10 @@ constexpr double kMaxRepairShare = 0.25;
 
 bool ShadowMaps::repairSun(VkCommandBuffer cmd, const Pipelines& p, const SceneBuffers& scene,
                            const glm::mat4& viewProjection) {
-  if (!sunReadable_ || sunScene_ == 0 || sunViewProjection_ != viewProjection) return false;
+  if (!sunReadable_ || sunScene_ == 0 || sunViewProjection_ != viewProjection) { fprintf(stderr, "DEBUG repair: readable %d scene %lu vp %d\n", int(sunReadable_), (unsigned long)sunScene_, int(sunViewProjection_ == viewProjection)); return false; }
   const std::optional<std::vector<glm::vec4>> moved =
       scene.movedSince(sunScene_, kMaxRepairSpheres);
-  if (!moved) return false;
+  if (!moved) { fprintf(stderr, "DEBUG repair: no history from %lu (moves %zu)\n", (unsigned long)sunScene_, scene.moves.size()); return false; }
   const uint32_t size = sun_.extent.width;
   const int limit = int(size);
   glm::ivec4 rect{limit, limit, 0, 0};
@@ -330,7 +331,7 @@ bool ShadowMaps::repairSun(VkCommandBuffer cmd, const Pipelines& p, const SceneB
     return true;
   }
   const double share = double(rect.z - rect.x) * double(rect.w - rect.y) / (double(size) * size);
-  if (share > kMaxRepairShare) return false;
+  if (share > kMaxRepairShare) { fprintf(stderr, "DEBUG repair: share %f\n", share); return false; }
 
   // Keep the map's contents: from the lighting's reads back to a depth attachment, loaded.
   const gpu::ImageTransition before[] = {

@@ -20,9 +20,12 @@
 #include <assimp/scene.h>
 #include <assimp/Importer.hpp>
 
+#include "scene/animation.h"
 #include "scene/camera.h"
+#include "scene/gltf_animation.h"
 #include "scene/image_decode.h"
 #include "scene/memory_files.h"
+#include "scene/model_animation.h"
 
 namespace myriad::scene {
 
@@ -53,7 +56,8 @@ constexpr float kMaxSunIntensity = 1000.0f;  // settings.schema.json's sun inten
 // - FindInvalidData: deletes meshes with NaN/inf positions. It runs before the spatial sorts of the
 //   two steps below, whose comparisons assume finite keys.
 // - GenSmoothNormals: only where the file has none.
-// - JoinIdenticalVertices: indexed meshes; OBJ and others arrive unwelded.
+// - JoinIdenticalVertices: indexed meshes; OBJ and others arrive unwelded. Not for models with
+//   skins or morph targets (convertImport says why).
 // - FlipUVs: uv origin at the top left, as Vulkan addresses images (and as glTF stores them).
 constexpr unsigned kPostProcess = aiProcess_Triangulate | aiProcess_SortByPType |
                                   aiProcess_FindDegenerates | aiProcess_FindInvalidData |
@@ -485,7 +489,8 @@ void readMaterialExtras(const aiMaterial& source, bool gltf, ImageCollector& ima
 
 // Copies the triangles of `source` whose corners are all finite and in range, keeping only the
 // vertices they use: an unreferenced NaN vertex would otherwise still poison the bounds.
-Mesh convertMesh(const aiMesh& source, size_t index) {
+// `sourceOf` receives, per kept vertex, the source vertex it came from (for skins and morphs).
+Mesh convertMesh(const aiMesh& source, size_t index, detail::SourceVertices& sourceOf) {
   Mesh mesh;
   mesh.name =
       source.mName.length > 0 ? std::string(source.mName.C_Str()) : "mesh " + std::to_string(index);
@@ -545,6 +550,7 @@ Mesh convertMesh(const aiMesh& source, size_t index) {
           }
         }
         mesh.vertices.push_back(vertex);
+        sourceOf.push_back(i);
         needsNormal.push_back(!normalOk);
       }
       mesh.indices.push_back(remap[i]);
@@ -609,7 +615,7 @@ class Flattener {
     }
   }
 
-  void visit(const aiNode& node, const glm::mat4& parent, int depth) {
+  void visit(const aiNode& node, const glm::mat4& parent, int depth, int32_t parentNode = -1) {
     if (depth > kMaxNodeDepth) {
       fail(name_, "its node hierarchy is deeper than " + std::to_string(kMaxNodeDepth) +
                       " levels (a cycle?)");
@@ -621,6 +627,8 @@ class Flattener {
     // A non-finite transform (a NaN rotation, an overflowing scale) would put NaNs into the bounds
     // and the camera; what hangs below it is skipped instead.
     const bool placeable = isFinite(transform);
+    const int32_t nodeIndex = addNode(node, parentNode);
+    nodeWorld_.push_back(transform);
 
     if (placeable && node.mMeshes != nullptr) {
       for (unsigned k = 0; k < node.mNumMeshes; ++k) {
@@ -634,8 +642,13 @@ class Flattener {
         if (scene_.instances.size() >= kMaxInstances) {
           fail(name_, "it places more than " + std::to_string(kMaxInstances) + " mesh instances");
         }
-        scene_.instances.push_back(
-            {mesh, materialFor(source_.mMeshes[sourceMesh]->mMaterialIndex), transform});
+        Instance instance{mesh, materialFor(source_.mMeshes[sourceMesh]->mMaterialIndex),
+                          transform};
+        instance.node = nodeIndex;
+        // A skinned mesh is placed by its joints (glTF 2.0: the node's own transform is not
+        // applied); its instance only places the model. finishAnimation() gives it its skin.
+        if (scene_.meshes[mesh].skinned()) instance.transform = glm::mat4(1.0f);
+        scene_.instances.push_back(instance);
       }
     }
 
@@ -644,7 +657,8 @@ class Flattener {
 
     if (node.mChildren != nullptr) {
       for (unsigned c = 0; c < node.mNumChildren; ++c) {
-        if (node.mChildren[c] != nullptr) visit(*node.mChildren[c], transform, depth + 1);
+        if (node.mChildren[c] != nullptr)
+          visit(*node.mChildren[c], transform, depth + 1, nodeIndex);
       }
     }
   }
@@ -652,7 +666,85 @@ class Flattener {
   // One entry per scene light: whether its radius came from the file rather than a guess.
   const std::vector<bool>& radiusFromFile() const { return radiusFromFile_; }
 
+  // After visit(): skinned instances get their skins (one per distinct joint list and inverse
+  // bind matrices), and the file's animations are read against the node tree (for glTF, from
+  // the file itself: `gltf`). Past a limit or a rule of scene/animation.h the model is refused,
+  // naming it.
+  void finishAnimation(const detail::GltfFile* gltf) {
+    std::string reason;
+    std::vector<int32_t> skinOfMesh(scene_.meshes.size(), -1);
+    for (unsigned m = 0; m < meshIndex_.size(); ++m) {
+      const uint32_t mesh = meshIndex_[m];
+      if (mesh >= scene_.meshes.size() || !scene_.meshes[mesh].skinned()) continue;
+      Skin skin;
+      if (!detail::readSkin(*source_.mMeshes[m], nodesByName_, skin, reason)) {
+        // A bone naming no node (Assimp's X importer does this): the mesh is drawn unskinned,
+        // placed by its node as before skins were read, rather than refused.
+        scene_.meshes[mesh].joints.clear();
+        scene_.meshes[mesh].weights.clear();
+        for (Instance& instance : scene_.instances) {
+          if (instance.mesh == mesh && instance.node >= 0) {
+            instance.transform = nodeWorld_[size_t(instance.node)];
+          }
+        }
+        continue;
+      }
+      int32_t index = -1;
+      for (size_t s = 0; s < scene_.skins.size() && index < 0; ++s) {
+        if (scene_.skins[s].joints == skin.joints &&
+            scene_.skins[s].inverseBind == skin.inverseBind) {
+          index = int32_t(s);
+        }
+      }
+      if (index < 0) {
+        if (scene_.skins.size() >= kMaxSkins) {
+          fail(name_, "it has more than " + std::to_string(kMaxSkins) + " skins");
+        }
+        skin.name = "skin " + std::to_string(scene_.skins.size());
+        index = int32_t(scene_.skins.size());
+        scene_.skins.push_back(std::move(skin));
+      }
+      skinOfMesh[mesh] = index;
+    }
+    for (Instance& instance : scene_.instances) instance.skin = skinOfMesh[instance.mesh];
+    if (!detail::readAnimations(source_, nodesByName_, scene_, scene_.animations, reason)) {
+      fail(name_, reason);
+    }
+    if (gltf != nullptr) {
+      if (const std::optional<std::string> refused = detail::readGltfAnimations(*gltf, scene_)) {
+        fail(name_, *refused);
+      }
+    }
+    if (const std::optional<std::string> problem = checkAnimationData(scene_))
+      fail(name_, *problem);
+  }
+
  private:
+  // Keeps `node` in Scene::nodes (its transform as translation, rotation, scale: a sheared or
+  // non-finite matrix keeps what decomposes, or identity), parents before children.
+  int32_t addNode(const aiNode& source, int32_t parent) {
+    if (scene_.nodes.size() >= kMaxNodes) {
+      fail(name_, "it has more than " + std::to_string(kMaxNodes) + " nodes");
+    }
+    Node node;
+    node.name = source.mName.C_Str();
+    node.parent = parent;
+    aiVector3D scale, position;
+    aiQuaternion rotation;
+    source.mTransformation.Decompose(scale, rotation, position);
+    const glm::quat q(rotation.w, rotation.x, rotation.y, rotation.z);
+    if (isFinite(scale) && isFinite(position) && std::isfinite(q.w + q.x + q.y + q.z) &&
+        glm::length(q) > 1e-12f) {
+      node.translation = {position.x, position.y, position.z};
+      node.rotation = glm::normalize(q);
+      node.scale = {scale.x, scale.y, scale.z};
+    }
+    const int32_t index = int32_t(scene_.nodes.size());
+    nodesByName_.emplace(node.name, uint32_t(index));
+    scene_.nodes.push_back(std::move(node));
+    return index;
+  }
+
   static constexpr uint32_t kUnconverted = UINT32_MAX;
   static constexpr uint32_t kNoTriangles = UINT32_MAX - 1;
 
@@ -660,7 +752,14 @@ class Flattener {
   uint32_t meshFor(unsigned sourceMesh) {
     uint32_t& index = meshIndex_[sourceMesh];
     if (index == kUnconverted) {
-      Mesh mesh = convertMesh(*source_.mMeshes[sourceMesh], sourceMesh);
+      const aiMesh& source = *source_.mMeshes[sourceMesh];
+      detail::SourceVertices sourceOf;
+      Mesh mesh = convertMesh(source, sourceMesh, sourceOf);
+      std::string reason;
+      if (!detail::readSkinWeights(source, sourceOf, mesh, reason) ||
+          !detail::readMorphTargets(source, sourceOf, mesh, reason)) {
+        fail(name_, reason);
+      }
       if (mesh.indices.empty()) {
         index = kNoTriangles;
       } else {
@@ -821,6 +920,8 @@ class Flattener {
   std::vector<Sun> suns_;
   uint32_t defaultMaterial_ = kUnconverted;
   size_t visits_ = 0;
+  std::unordered_multimap<std::string, uint32_t> nodesByName_;
+  std::vector<glm::mat4> nodeWorld_;  // per node, its world transform as loaded
   std::vector<bool> radiusFromFile_;
 };
 
@@ -854,6 +955,19 @@ void fitLightFalloff(Scene& scene, const std::vector<bool>& radiusGiven, float s
   }
 }
 
+// A whole file through the importer's IOSystem (so confined as Assimp's own reads), or nothing.
+std::optional<std::string> readThrough(Assimp::IOSystem& io, const std::string& path) {
+  if (!io.Exists(path.c_str())) return std::nullopt;
+  std::unique_ptr<Assimp::IOStream, std::function<void(Assimp::IOStream*)>> stream(
+      io.Open(path.c_str(), "rb"), [&io](Assimp::IOStream* s) { io.Close(s); });
+  if (!stream) return std::nullopt;
+  std::string bytes(stream->FileSize(), '\0');
+  if (!bytes.empty() && stream->Read(bytes.data(), 1, bytes.size()) != bytes.size()) {
+    return std::nullopt;
+  }
+  return bytes;
+}
+
 bool isGltf(const std::string& name) {
   const std::string extension = lowerExtension(std::filesystem::path(name).extension().string());
   return extension == "gltf" || extension == "glb";
@@ -862,7 +976,8 @@ bool isGltf(const std::string& name) {
 // Turns what Assimp read (`raw`: validated, not yet post-processed) into a Scene. Images are read
 // through `io` (null: none can be), relative to `directory` (a path `io` understands).
 Scene convertImport(Assimp::Importer& importer, const aiScene* raw, const std::string& name,
-                    Assimp::IOSystem* io, const std::string& directory) {
+                    Assimp::IOSystem* io, const std::string& directory,
+                    const detail::GltfFile* gltf) {
   bool anyTriangles = false;
   bool anyNonFinite = false;
   for (unsigned m = 0; raw->mMeshes != nullptr && m < raw->mNumMeshes; ++m) {
@@ -876,7 +991,16 @@ Scene convertImport(Assimp::Importer& importer, const aiScene* raw, const std::s
   }
   const std::string nonFinite = "its meshes have non-finite (NaN or infinite) vertex positions";
   const std::string noTriangles = "it contains no triangle meshes";
-  const aiScene* source = importer.ApplyPostProcessing(kPostProcess);
+  // Assimp 5.2's JoinIdenticalVertices merges vertices that differ only in their bone weights
+  // or morph displacements (a seam's two sides then bend or morph together): a model with skins
+  // or morph targets keeps its vertices as the file has them (glTF's are indexed already).
+  bool anyDeforming = false;
+  for (unsigned m = 0; raw->mMeshes != nullptr && m < raw->mNumMeshes && !anyDeforming; ++m) {
+    const aiMesh* mesh = raw->mMeshes[m];
+    anyDeforming = mesh != nullptr && (mesh->mNumBones > 0 || mesh->mNumAnimMeshes > 0);
+  }
+  const aiScene* source = importer.ApplyPostProcessing(
+      anyDeforming ? kPostProcess & ~unsigned(aiProcess_JoinIdenticalVertices) : kPostProcess);
   if (source == nullptr) {
     // Assimp's reason here is "No meshes remaining" whether it dropped points, lines, degenerate
     // triangles or non-finite meshes; what was seen before post-processing says which.
@@ -895,6 +1019,7 @@ Scene convertImport(Assimp::Importer& importer, const aiScene* raw, const std::s
   Flattener flattener(*source, name, scene);
   if (source->mRootNode != nullptr) flattener.visit(*source->mRootNode, glm::mat4(1.0f), 0);
   flattener.finish();
+  flattener.finishAnimation(isGltf(name) ? gltf : nullptr);
 
   if (scene.instances.empty()) {
     fail(name, anyNonFinite ? nonFinite : noTriangles, Kind::empty);
@@ -918,7 +1043,15 @@ Scene convertImport(Assimp::Importer& importer, const aiScene* raw, const std::s
   }
   dropUnusedMaterials(scene);
   fitLightFalloff(scene, flattener.radiusFromFile(), glm::length(size));
-  scene.camera = frameBounds(bounds);
+  // Framed as drawn: skinned meshes placed by their joints at rest, not in their bind space.
+  if (animated(scene)) {
+    const Bounds posed = posedBounds(scene, -1, 0.0, false);
+    const glm::vec3 posedSize = posed.size();
+    const bool usable = !posed.empty() && std::isfinite(glm::length(posedSize));
+    scene.camera = frameBounds(usable ? posed : bounds);
+  } else {
+    scene.camera = frameBounds(bounds);
+  }
   return scene;
 }
 
@@ -939,8 +1072,16 @@ Scene loadModel(const std::filesystem::path& path) {
   // validation first (indices in range, counts consistent), then the steps above.
   const aiScene* raw = importer.ReadFile(absolute.string(), aiProcess_ValidateDataStructure);
   if (raw == nullptr) fail(name, importer.GetErrorString());
-  return convertImport(importer, raw, name, importer.GetIOHandler(),
-                       absolute.parent_path().string());
+  Assimp::IOSystem* io = importer.GetIOHandler();
+  const std::string folder = absolute.parent_path().string();
+  // The file again for its animations' samplers (gltf_animation.h), only when it has some.
+  const std::string own = isGltf(name) && raw->mNumAnimations > 0
+                              ? readThrough(*io, absolute.string()).value_or("")
+                              : "";
+  const detail::GltfFile gltf{
+      own, lowerExtension(absolute.extension().string()) == "glb",
+      [io, folder](const std::string& uri) { return readThrough(*io, folder + "/" + uri); }};
+  return convertImport(importer, raw, name, io, folder, &gltf);
 }
 
 Scene loadModelFromMemory(std::string_view bytes, std::string_view filename) {
@@ -973,7 +1114,8 @@ Scene loadModelFromMemory(std::string_view bytes, std::string_view filename) {
     }
     fail(name, importer.GetErrorString());
   }
-  return convertImport(importer, raw, name, nullptr, "");
+  const detail::GltfFile gltf{bytes, hint == "glb", nullptr};
+  return convertImport(importer, raw, name, nullptr, "", &gltf);
 }
 
 Scene loadModelFromFiles(const MemoryFiles& files, std::string_view entry) {
@@ -998,7 +1140,14 @@ Scene loadModelFromFiles(const MemoryFiles& files, std::string_view entry) {
     fail(name, importer.GetErrorString());
   }
   const std::string folder = std::filesystem::path(std::string(entry)).parent_path().generic_string();
-  return convertImport(importer, raw, name, importer.GetIOHandler(), folder);
+  const detail::GltfFile gltf{
+      *bytes, lowerExtension(std::filesystem::path(entry).extension().string()) == "glb",
+      [&files, folder](const std::string& uri) -> std::optional<std::string> {
+        const std::string* member = findMember(files, folder.empty() ? uri : folder + "/" + uri);
+        if (member == nullptr) return std::nullopt;
+        return *member;
+      }};
+  return convertImport(importer, raw, name, importer.GetIOHandler(), folder, &gltf);
 }
 
 bool isSupportedModelExtension(std::string_view extension) {

@@ -116,6 +116,7 @@ nlohmann::json ApiLimits::toJson() const {
       {std::string(protocol::limits::kMaxFrameSeconds), maxFrameSeconds},
       {std::string(protocol::limits::kMaxEventStreamsPerSession), kMaxEventStreamsPerSession},
       {std::string(protocol::limits::kMaxEventStreams), kMaxEventStreams},
+      {std::string(protocol::limits::kMaxFrameTargets), protocol::query::kMaxFrameTargets},
   };
 }
 

@@ -81,11 +81,16 @@ auto withFrameProblems(const std::string& what, Deliver deliver) -> decltype(del
 // A frame's memory at its peak (memory_budget.h): its targets, readback and encoded copies.
 MemoryBudget::Reservation reserveFrame(const ApiContext& context, const FrameRequest& request) {
   const render::FrameSettings& s = request.settings;
-  const uint64_t perPixel = s.raw ? memory_cost::kRawFrameBytesPerPixel
-                                  : memory_cost::kEncodedFrameBytesPerPixel;
+  // A multi-target frame: each target read back besides the frame's own costs a raw frame's
+  // (its readback region, the frame's copy, its array and its share of the body).
+  const uint64_t perPixel = (s.raw ? memory_cost::kRawFrameBytesPerPixel
+                                   : memory_cost::kEncodedFrameBytesPerPixel) +
+                            s.alsoRead.size() * memory_cost::kRawFrameBytesPerPixel;
+  const std::string targets =
+      s.alsoRead.empty() ? "" : " " + std::to_string(s.alsoRead.size() + 1) + "-target";
   return reserveMemory(context, uint64_t(s.width) * s.height * perPixel + memory_cost::kFrameFixedBytes,
                        "a " + std::to_string(s.width) + "x" + std::to_string(s.height) +
-                           (s.raw ? " raw" : "") + " frame");
+                           (s.raw ? " raw" : "") + targets + " frame");
 }
 
 void sendFrame(httplib::Response& res, EncodedFrame&& encoded) {

@@ -7,6 +7,7 @@
 
 #include "protocol/constants.h"
 #include "render/render_queue.h"
+#include "scene/animation.h"
 #include "service/api.h"
 #include "service/session_json.h"
 
@@ -20,6 +21,43 @@ std::future<void> queue(ApiContext& context, const Session& session, SceneChange
   std::promise<void> none;
   none.set_value();
   return none.get_future();
+}
+
+// An animation clip asked for by name (animation.clipName, which wins over clip): its index in
+// the object's asset (400 naming `pointer`/animation/clipName when the asset has none of that
+// name). By index or null, applyObjectPatch already set it.
+void resolveClip(const protocol::ObjectPatch& patch, const SceneGraph& graph, SceneObject& o,
+                 const std::string& pointer) {
+  if (!patch.animation || !patch.animation->clipName) return;
+  const std::string& name = *patch.animation->clipName;
+  const Asset* asset = graph.findAsset(o.asset);
+  if (asset == nullptr) return;  // SceneGraph's checks name the missing asset
+  const int clip = scene::findClip(*asset->scene, name);
+  if (clip < 0) {
+    throw ProblemError(invalidBody(pointer + "/animation/clipName",
+                                   "Asset " + quoteClientText(o.asset) + " has no animation clip " +
+                                       quoteClientText(name) + " (it has " +
+                                       std::to_string(asset->scene->animations.size()) + ")."));
+  }
+  o.clip = clip;
+}
+
+// A node asked for by name (nodeName, which wins over node): the first node of that name in the
+// object's asset (400 naming `pointer`/nodeName when there is none).
+void resolveNode(const protocol::ObjectPatch& patch, const SceneGraph& graph, SceneObject& o,
+                 const std::string& pointer) {
+  if (!patch.nodeName) return;
+  const Asset* asset = graph.findAsset(o.asset);
+  if (asset == nullptr) return;
+  const auto& nodes = asset->scene->nodes;
+  const auto it = std::find_if(nodes.begin(), nodes.end(),
+                               [&](const scene::Node& n) { return n.name == *patch.nodeName; });
+  if (it == nodes.end()) {
+    throw ProblemError(invalidBody(pointer + "/nodeName",
+                                   "Asset " + quoteClientText(o.asset) + " has no node named " +
+                                       quoteClientText(*patch.nodeName) + "."));
+  }
+  o.node = int32_t(it - nodes.begin());
 }
 
 // ---- Assets.
@@ -129,6 +167,12 @@ void addObjects(ApiContext& context, const httplib::Request& req, httplib::Respo
   size_t total = 0;
   {
     auto lock = lockOpen(*session);
+    for (size_t i = 0; i < objects.size(); ++i) {
+      resolveNode(body.objects[i], session->scene.graph(), objects[i],
+                  "/objects/" + std::to_string(i));
+      resolveClip(body.objects[i], session->scene.graph(), objects[i],
+                  "/objects/" + std::to_string(i));
+    }
     for (SceneObject& o : objects) {
       if (o.name.empty()) {
         const Asset* a = session->scene.graph().findAsset(o.asset);
@@ -167,6 +211,8 @@ void patchObject(ApiContext& context, const httplib::Request& req, httplib::Resp
     const SceneGraph& graph = session->scene.graph();
     SceneObject next = graph.object(graph.objectId(req.matches[2].str()));
     applyObjectPatch(patch, next);
+    resolveNode(patch, graph, next, "");
+    resolveClip(patch, graph, next, "");
     uploaded = queue(context, *session, session->scene.replaceObject(next));
     session->bump();
     answer = toWire(session->scene, graph.object(next.id));
@@ -189,6 +235,33 @@ void deleteObject(ApiContext& context, const httplib::Request& req, httplib::Res
   res.status = 204;
 }
 
+// ---- The scene clock.
+
+protocol::Clock toWire(const SessionScene::SceneClock& c) {
+  return {c.time, c.playing, c.rate, c.duration};
+}
+
+void getClock(ApiContext& context, const httplib::Request& req, httplib::Response& res) {
+  SessionPtr session = authorizeSession(context, req);
+  checkQuery(req, {});
+  auto lock = lockOpen(*session);
+  sendJson(res, toWire(session->scene.clock(Clock::now())));
+}
+
+void patchClock(ApiContext& context, const httplib::Request& req, httplib::Response& res) {
+  SessionPtr session = authorizeSession(context, req);
+  checkQuery(req, {});
+  const auto patch = jsonBody(req, protocol::schema_names::kClockPatch).get<protocol::ClockPatch>();
+  protocol::Clock answer;
+  {
+    auto lock = lockOpen(*session);
+    answer = toWire(session->scene.patchClock(patch.playing, patch.time, patch.rate, Clock::now()));
+    // Streams and shared pages see the change as any other edit (a paused clock stops them).
+    session->bump();
+  }
+  sendJson(res, answer);
+}
+
 }  // namespace
 
 void addObjectRoutes(Routes& routes, ApiContext& context) {
@@ -205,6 +278,8 @@ void addObjectRoutes(Routes& routes, ApiContext& context) {
   routes.add("GET", protocol::routes::kSessionObject, bind(getObject));
   routes.add("PATCH", protocol::routes::kSessionObject, bind(patchObject));
   routes.add("DELETE", protocol::routes::kSessionObject, bind(deleteObject));
+  routes.add("GET", protocol::routes::kSessionClock, bind(getClock));
+  routes.add("PATCH", protocol::routes::kSessionClock, bind(patchClock));
 }
 
 }  // namespace myriad::service

@@ -10,11 +10,18 @@
 //     "cameras": [CAMERA, ...],           // the camera path: frame i is rendered from cameras[i]
 //     "frame": "width=640&height=360&format=png",  // GET .../frame's query (target, format, width,
 //                                                  // height, quality, time)
-//     "framesPerIndex": 10                // index I renders frames I*K .. I*K+K-1 (those that exist)
+//     "framesPerIndex": 10,               // index I renders frames I*K .. I*K+K-1 (those that exist)
+//     "targets": {"final": "png", "depth": "exr", "instance-id": "png16"}   // optional: a dataset
 //   }
 //
-// Frames go to DIR/frame-NNNNNN.EXT (EXT png, jpg or raw; NNNNNN the frame's number on the path),
-// each written atomically, so a retried pod rewrites whole files only.
+// Without "targets": frames go to DIR/frame-NNNNNN.EXT (EXT png, jpg, raw, npy, exr or npz;
+// NNNNNN the frame's number on the path), each written atomically, so a retried pod rewrites
+// whole files only. With "targets" (each target's format: final png or npy; depth and the ids
+// png16, npy or exr; the other targets npy or exr): each frame is ONE render whose targets are
+// written as DIR/<target>_<NNNNN>.<ext> (NNNNN the frame's number, 5 digits; ext png, npy or
+// exr), and DIR/metadata.json lists every frame written so far (the dataset layout, docs/deploy.md
+// "Datasets"; the Python client's writer makes the same): merged under a lock on
+// DIR/metadata.json.lock, so the indices of a job may write one directory together.
 #pragma once
 
 #include <cstdint>

@@ -128,23 +128,85 @@ uint32_t parseBoundedInteger(std::string_view name, const std::string& text, uin
   return static_cast<uint32_t>(value);
 }
 
-// The parameters every frame route shares: target, width, height, format, quality. Formats
-// outside `formats` are rejected; `request.format` holds the route's default on entry.
+std::string joinedTargets(const std::vector<render::Target>& targets) {
+  std::string text;
+  for (render::Target t : targets) text += (text.empty() ? "" : ",") + std::string(render::targetName(t));
+  return text;
+}
+
+std::string targetNames() {
+  std::string names;
+  for (std::string_view name : render::kTargetNames) {
+    names += (names.empty() ? "" : ", ") + std::string(name);
+  }
+  return names;
+}
+
+// ?target=: one name, or (session frames, `list`) a comma-separated list of up to
+// protocol::query::kMaxFrameTargets names, each once.
+std::vector<render::Target> parseTargets(const std::string& text, bool list) {
+  std::vector<render::Target> targets;
+  std::string_view rest = text;
+  const size_t most = protocol::query::kMaxFrameTargets;
+  if (list) {
+    // Counted before anything is parsed, so a long list costs nothing.
+    const size_t count = size_t(std::count(text.begin(), text.end(), ',')) + 1;
+    if (count > most) {
+      throw FrameQueryError("target", "target lists " + std::to_string(count) +
+                                          " targets; a frame reads back at most " +
+                                          std::to_string(most) + " (maxFrameTargets).");
+    }
+  }
+  while (true) {
+    const size_t comma = list ? rest.find(',') : std::string_view::npos;
+    const std::string name(rest.substr(0, comma));
+    std::optional<render::Target> target = render::parseTarget(name);
+    if (!target) {
+      const std::string what = comma == std::string_view::npos && targets.empty()
+                                   ? "target " + quoteClientText(text)
+                                   : "target " + quoteClientText(name) + " in " +
+                                         quoteClientText(text);
+      throw FrameQueryError("target", what + " is not one of: " + targetNames() + ".");
+    }
+    if (std::find(targets.begin(), targets.end(), *target) != targets.end()) {
+      throw FrameQueryError("target", "target " + quoteClientText(text) + " names " + name +
+                                          " more than once.");
+    }
+    targets.push_back(*target);
+    if (comma == std::string_view::npos) break;
+    rest = rest.substr(comma + 1);
+  }
+  return targets;
+}
+
+// Which of several targets the frame renders as its own (the rest are read back after it):
+// final when asked (its 8-bit picture is the frame's own output), else the first that is not a
+// label (the views pass then leaves the G-buffer as the extras read it), else the first.
+render::Target mainTarget(const std::vector<render::Target>& targets) {
+  for (render::Target t : targets) {
+    if (t == render::Target::Final) return t;
+  }
+  for (render::Target t : targets) {
+    if (!render::isLabel(t)) return t;
+  }
+  return targets.front();
+}
+
+// The parameters every frame route shares: target, width, height, format, quality, compression,
+// precision. Formats outside `formats` are rejected; `request.format` holds the route's default
+// on entry. `targetList`: ?target= may list several (session frames).
 template <size_t N>
 void parseOutput(const QueryParams& params, uint32_t maxRes,
-                 const std::array<ImageFormat, N>& formats, FrameRequest& request) {
+                 const std::array<ImageFormat, N>& formats, FrameRequest& request,
+                 bool targetList = false) {
   render::FrameSettings& settings = request.settings;
   if (const std::string* text = single(params, "target")) {
-    std::optional<render::Target> target = render::parseTarget(*text);
-    if (!target) {
-      std::string names;
-      for (std::string_view name : render::kTargetNames) {
-        names += (names.empty() ? "" : ", ") + std::string(name);
-      }
-      throw FrameQueryError("target",
-                            "target " + quoteClientText(*text) + " is not one of: " + names + ".");
-    }
-    settings.target = *target;
+    request.targets = parseTargets(*text, targetList);
+  }
+  settings.target = mainTarget(request.targets);
+  settings.alsoRead.clear();
+  for (render::Target t : request.targets) {
+    if (t != settings.target) settings.alsoRead.push_back(t);
   }
 
   // The default size is 720p, shrunk with its aspect ratio kept when the server's maximum is
@@ -171,14 +233,82 @@ void parseOutput(const QueryParams& params, uint32_t maxRes,
     }
     request.format = *format;
   }
-  // Label targets are always read back raw (render::Target::InstanceId); their PNG and JPEG are
-  // false-colour pictures made by the encoder.
-  settings.raw = request.format == ImageFormat::Raw || render::isLabel(settings.target);
+  const bool several = request.targets.size() > 1;
+  const ImageFormat format = request.format;
+  if (several && format != ImageFormat::Npz && format != ImageFormat::Exr) {
+    throw FrameQueryError("format", "format " + std::string(formatName(format)) +
+                                        " holds one target; several targets (target=" +
+                                        joinedTargets(request.targets) +
+                                        ") come as format=npz or format=exr.");
+  }
+  if (several) {
+    for (render::Target t : request.targets) {
+      if (t == render::Target::LightVolumes) {
+        throw FrameQueryError("target", "light-volumes is a picture of the lights over the "
+                                        "final image; ask for it as the only target.");
+      }
+      if (t == render::Target::Motion) {
+        throw FrameQueryError("target", "motion is drawn by its own pass into the frame's "
+                                        "output; ask for it as the only target.");
+      }
+    }
+  }
+  if (format == ImageFormat::Png16 && settings.target != render::Target::Depth &&
+      !render::isLabel(settings.target)) {
+    throw FrameQueryError("format", "format png16 (16-bit grey) holds depth or an id target "
+                                    "(instance-id, semantic-id, material-id), not " +
+                                        std::string(render::targetName(settings.target)) + ".");
+  }
+  // What is read back raw (float values, or labels' uint32s): everything but an 8-bit picture.
+  // npy and npz keep `final` as its 8-bit sRGB picture (uint8 HxWx3, as numpy users expect of
+  // an image); exr holds linear HDR radiance for it.
+  switch (format) {
+    case ImageFormat::Png:
+    case ImageFormat::Jpeg:
+      // Label targets are always read back raw (render::Target::InstanceId); their PNG and JPEG
+      // are false-colour pictures made by the encoder.
+      settings.raw = render::isLabel(settings.target);
+      break;
+    case ImageFormat::Npy:
+    case ImageFormat::Npz:
+      settings.raw = settings.target != render::Target::Final;
+      break;
+    case ImageFormat::Raw:
+    case ImageFormat::Png16:
+    case ImageFormat::Exr:
+      settings.raw = true;
+      break;
+  }
 
   if (const std::string* text = single(params, "quality")) {
     request.quality = static_cast<int>(parseBoundedInteger(
         "quality", *text, protocol::query::kMinQuality, protocol::query::kMaxQuality,
         "the JPEG quality"));
+  }
+  if (const std::string* text = single(params, std::string(protocol::query::kCompression))) {
+    std::optional<encode::PngCompression> c = encode::parsePngCompression(*text);
+    if (!c) {
+      std::string names;
+      for (std::string_view n : protocol::query::kPngCompressions) {
+        names += (names.empty() ? "" : ", ") + std::string(n);
+      }
+      throw FrameQueryError(std::string(protocol::query::kCompression),
+                            "compression (PNG) must be one of " + names + ", got " +
+                                quoteClientText(*text) + ".");
+    }
+    request.compression = *c;
+  }
+  if (const std::string* text = single(params, std::string(protocol::query::kPrecision))) {
+    const auto& names = protocol::query::kExrPrecisions;
+    if (*text == names[0]) {
+      request.precision = encode::ExrPrecision::Float;
+    } else if (*text == names[1]) {
+      request.precision = encode::ExrPrecision::Half;
+    } else {
+      throw FrameQueryError(std::string(protocol::query::kPrecision),
+                            "precision (EXR) must be " + std::string(names[0]) + " or " +
+                                std::string(names[1]) + ", got " + quoteClientText(*text) + ".");
+    }
   }
 }
 
@@ -188,11 +318,75 @@ render::FrameSettings parseFrameQuery(const QueryParams& params, const FrameDefa
   return parseFrameRequest(params, defaults).settings;
 }
 
+void CameraOverride::applyTo(scene::Camera& camera) const {
+  if (eye) camera.eye = *eye;
+  if (lookAt) camera.target = *lookAt;
+  if (fov) camera.fovYDegrees = *fov;
+  if (near) camera.nearPlane = *near;
+  if (far) camera.farPlane = *far;
+  if (glm::length(camera.target - camera.eye) < kMinViewDistance) {
+    const char* culprit = lookAt ? "look_at" : "eye";
+    throw FrameQueryError(culprit, std::string(culprit) + " must differ from the eye position; the "
+                                   "camera would have no view direction.");
+  }
+  if (up && glm::length(*up) < kMinViewDistance) {
+    throw FrameQueryError("up", "up must be a direction, not the zero vector.");
+  }
+  camera.up = upFor(camera.eye, camera.target, up ? *up : camera.up);
+  if (!(camera.nearPlane < camera.farPlane)) {
+    const char* culprit = far ? "far" : "near";
+    throw FrameQueryError(culprit, "near (" + std::to_string(camera.nearPlane) +
+                                       ") must be below far (" + std::to_string(camera.farPlane) +
+                                       ").");
+  }
+}
+
+namespace {
+
+// ?eye=&look_at=&up=&fov=&near=&far= of a session frame, each checked on its own (applyTo checks
+// them together with the session's camera).
+CameraOverride parseCameraOverride(const QueryParams& params) {
+  CameraOverride camera;
+  if (const std::string* text = single(params, "eye")) camera.eye = parseVector("eye", *text);
+  if (const std::string* text = single(params, "look_at")) camera.lookAt = parseVector("look_at", *text);
+  if (const std::string* text = single(params, "up")) camera.up = parseVector("up", *text);
+  if (const std::string* text = single(params, "fov")) {
+    std::optional<float> fov = parseFloat(*text);
+    if (!fov || *fov <= 0.0f || *fov >= 180.0f) {
+      throw FrameQueryError("fov", "fov must be a vertical field of view in degrees, above 0 and "
+                                   "below 180, got " + quoteClientText(*text) + ".");
+    }
+    camera.fov = *fov;
+  }
+  for (const char* name : {"near", "far"}) {
+    if (const std::string* text = single(params, name)) {
+      std::optional<float> plane = parseFloat(*text);
+      if (!plane || !std::isfinite(*plane) || *plane <= 0.0f || *plane > kMaxCoordinate) {
+        throw FrameQueryError(name, std::string(name) + " must be a distance in metres above 0 and "
+                                    "at most 1e6, got " + quoteClientText(*text) + ".");
+      }
+      (std::string_view(name) == "near" ? camera.near : camera.far) = *plane;
+    }
+  }
+  return camera;
+}
+
+}  // namespace
+
 FrameRequest parseSessionFrameQuery(const QueryParams& params, uint32_t maxResolution) {
   checkNames(params, kSessionFrameParameters, protocol::routes::kSessionFrame);
   FrameRequest request;
+  request.camera = parseCameraOverride(params);
   parseOutput(params, maxResolution,
-              std::array{ImageFormat::Png, ImageFormat::Jpeg, ImageFormat::Raw}, request);
+              std::array{ImageFormat::Png, ImageFormat::Jpeg, ImageFormat::Raw, ImageFormat::Png16,
+                         ImageFormat::Npy, ImageFormat::Exr, ImageFormat::Npz},
+              request, /*targetList=*/true);
+  // depth= and space= convert float values: formats that carry them.
+  const bool floats = request.format == ImageFormat::Raw || request.format == ImageFormat::Npy ||
+                      request.format == ImageFormat::Exr || request.format == ImageFormat::Npz;
+  auto asks = [&](render::Target t) {
+    return std::find(request.targets.begin(), request.targets.end(), t) != request.targets.end();
+  };
   if (const std::string* text = single(params, "time")) {
     std::optional<float> time = parseFloat(*text);
     if (!time || *time < 0.0f || *time > kMaxAnimationSeconds) {
@@ -206,9 +400,9 @@ FrameRequest parseSessionFrameQuery(const QueryParams& params, uint32_t maxResol
       throw FrameQueryError(std::string(protocol::query::kDepthConvention), "depth is z (along the view axis) or distance (to the "
                                      "camera centre), got " + quoteClientText(*text) + ".");
     }
-    if (request.settings.target != render::Target::Depth || request.format != ImageFormat::Raw) {
-      throw FrameQueryError(std::string(protocol::query::kDepthConvention), "depth= chooses the convention of raw depth: it goes with "
-                                     "target=depth and format=raw.");
+    if (!asks(render::Target::Depth) || !floats) {
+      throw FrameQueryError(std::string(protocol::query::kDepthConvention), "depth= chooses the convention of float depth: it goes with "
+                                     "target=depth and format=raw, npy, exr or npz.");
     }
     request.depthDistance = *text == "distance";
   }
@@ -217,11 +411,10 @@ FrameRequest parseSessionFrameQuery(const QueryParams& params, uint32_t maxResol
     if (*text != "world" && *text != "camera") {
       throw FrameQueryError(name, "space is world or camera, got " + quoteClientText(*text) + ".");
     }
-    const render::Target t = request.settings.target;
-    if ((t != render::Target::Position && t != render::Target::Normal) ||
-        request.format != ImageFormat::Raw) {
-      throw FrameQueryError(name, "space= chooses the axes of raw position and normal: it goes "
-                                  "with target=position or target=normal and format=raw.");
+    if ((!asks(render::Target::Position) && !asks(render::Target::Normal)) || !floats) {
+      throw FrameQueryError(name, "space= chooses the axes of float position and normal: it goes "
+                                  "with target=position or target=normal and format=raw, npy, "
+                                  "exr or npz.");
     }
     request.cameraSpace = *text == "camera";
   }

@@ -11,6 +11,8 @@
 #include <string_view>
 #include <vector>
 
+#include "encode/arrays.h"
+#include "encode/png.h"
 #include "encode/video.h"
 #include "protocol/constants.h"
 #include "render/frame.h"
@@ -19,21 +21,25 @@
 namespace myriad::service {
 
 // GET /v1/frame (stateless, the built-in scene).
-inline constexpr std::array<std::string_view, 12> kFrameParameters = {
+inline constexpr std::array<std::string_view, 13> kFrameParameters = {
     "target", "width",   "height", "format",  "quality", "eye",
-    "look_at", "fov",    "markers", "exposure", "technique", "antialias"};
+    "look_at", "fov",    "markers", "exposure", "technique", "antialias",
+    protocol::query::kCompression};
 // GET /v1/sessions/{id}/frame: camera and settings come from the session.
-inline constexpr std::array<std::string_view, 9> kSessionFrameParameters = {
+// eye, look_at, up, fov, near, far: a camera for this frame only (CameraOverride).
+inline constexpr std::array<std::string_view, 17> kSessionFrameParameters = {
     "target", "format", "width", "height", "quality", "time", protocol::query::kDepthConvention,
-    protocol::query::kSpace, "token"};
+    protocol::query::kSpace, "token", protocol::query::kCompression, protocol::query::kPrecision,
+    "eye", "look_at", "up", "fov", "near", "far"};
 // GET /v1/sessions/{id}/stream.
 inline constexpr std::array<std::string_view, 10> kStreamParameters = {
     "target", "format",  "fps",   "width",       "height",
     "quality", "codec", "bitrate", "interactive", "token"};
 
 // How a frame's pixels are sent; in the order of protocol::kFormats, which names them.
-enum class ImageFormat { Png, Jpeg, Raw };
-static_assert(protocol::kFormats.size() == 3);
+// Png16: 16-bit grey (depth, ids); Npy, Exr, Npz: arrays (reference.md "Frame formats").
+enum class ImageFormat { Png, Jpeg, Raw, Png16, Npy, Exr, Npz };
+static_assert(protocol::kFormats.size() == 7);
 inline std::string_view formatName(ImageFormat f) {
   return protocol::kFormats[static_cast<size_t>(f)];
 }
@@ -56,9 +62,31 @@ struct VideoStreamRequest {
 };
 
 // What a frame request asks for: the render settings and how to encode the result.
+// Session frames: a camera for one frame (?eye=&look_at=&up=&fov=&near=&far=), over the
+// session's own, which stays as it was: what a camera path rendered by several requests at once
+// needs (each request its own view, none waiting for another's camera PATCH). A member left out
+// keeps the session camera's.
+struct CameraOverride {
+  std::optional<glm::vec3> eye, lookAt, up;
+  std::optional<float> fov, near, far;
+  bool any() const { return eye || lookAt || up || fov || near || far; }
+  // `camera` with the members given; throws FrameQueryError naming the parameter when the result
+  // has no view direction (eye on look_at) or near is not below far.
+  void applyTo(scene::Camera& camera) const;
+};
+
 struct FrameRequest {
   render::FrameSettings settings;  // settings.raw is set for ImageFormat::Raw
+  CameraOverride camera;           // session frames only
   ImageFormat format = ImageFormat::Png;
+  // Every target asked for, in the order asked (?target=a,b,c; one for a single target):
+  // settings.target is one of them (final when asked, else the first view), settings.alsoRead
+  // the rest (render::FrameSettings::alsoRead).
+  std::vector<render::Target> targets{render::Target::Final};
+  encode::PngCompression compression = encode::PngCompression::Fast;  // png, png16
+  encode::ExrPrecision precision = encode::ExrPrecision::Float;       // exr
+  // Session frames: the session version the frame shows (submitSessionFrame sets it).
+  std::optional<uint64_t> version;
   int quality = kDefaultJpegQuality;  // JPEG only; accepted (and checked) but unused otherwise
   std::optional<double> time;         // session frames: animation time asked for, in seconds
   // Session frames, raw depth only: metres to the camera centre instead of along the view axis.

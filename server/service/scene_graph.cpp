@@ -3,10 +3,12 @@
 #include <algorithm>
 #include <charconv>
 #include <cmath>
+#include <map>
 
 #include <glm/gtc/matrix_transform.hpp>
 
 #include "protocol/constants.h"
+#include "scene/animation.h"
 #include "service/problem.h"
 
 namespace myriad::service {
@@ -68,6 +70,7 @@ std::pair<const Asset*, bool> SceneGraph::addAsset(Asset asset) {
             " assets; delete one no object uses (DELETE .../assets/{aid}) first."));
   }
   asset.bounds = asset.scene->bounds();
+  asset.animated = scene::animated(*asset.scene);
   assets_.push_back(std::move(asset));
   return {&assets_.back(), true};
 }
@@ -136,6 +139,25 @@ void SceneGraph::check(const SceneObject& o, uint32_t materials,
     throw ProblemError(invalidBody(pointer + "/asset", "The session has no asset " +
                                                            quoteClientText(o.asset) +
                                                            " (POST .../assets adds one)."));
+  }
+  const size_t clips = findAsset(o.asset)->scene->animations.size();
+  const size_t nodes = findAsset(o.asset)->scene->nodes.size();
+  if (o.node >= 0 && size_t(o.node) >= nodes) {
+    throw ProblemError(invalidBody(
+        pointer + "/node", "Asset " + quoteClientText(o.asset) + " has " + std::to_string(nodes) +
+                               " nodes; there is no node " + std::to_string(o.node) + "."));
+  }
+  if (o.clip >= 0 && size_t(o.clip) >= std::max<size_t>(clips, 1)) {
+    throw ProblemError(
+        invalidBody(pointer + "/animation/clip",
+                    "Asset " + quoteClientText(o.asset) + " has " + std::to_string(clips) +
+                        " animation clips; there is no clip " + std::to_string(o.clip) + "."));
+  }
+  if (o.node >= 0 && !usable(nodeSubtree(*findAsset(o.asset)->scene, o.node).second)) {
+    throw ProblemError(
+        invalidBody(pointer + "/node", "Node " + std::to_string(o.node) + " of asset " +
+                                           quoteClientText(o.asset) +
+                                           " cannot be placed: its rest transform is singular."));
   }
   const glm::mat4 local = o.transform.local();
   if (!usable(local)) {
@@ -306,11 +328,23 @@ std::shared_ptr<scene::Scene> SceneGraph::flatten(const std::vector<scene::Mater
   auto flat = std::make_shared<scene::Scene>();
   flat->materials = materials;
   std::unordered_map<std::string_view, const Asset*> byId;
-  std::unordered_map<std::string_view, uint32_t> meshBase;
+  std::unordered_map<std::string_view, uint32_t> meshBase, nodeBase, skinBase;
   flattenedFrom_.clear();
   for (const Asset& a : assets_) {
     byId[a.id] = &a;
     meshBase[a.id] = uint32_t(flat->meshes.size());
+    // Nodes and skins (what the renderer's rest pose reads), moved to where they go.
+    const int32_t firstNode = int32_t(flat->nodes.size());
+    nodeBase[a.id] = uint32_t(firstNode);
+    skinBase[a.id] = uint32_t(flat->skins.size());
+    for (scene::Node node : a.scene->nodes) {
+      if (node.parent >= 0) node.parent += firstNode;
+      flat->nodes.push_back(std::move(node));
+    }
+    for (scene::Skin skin : a.scene->skins) {
+      for (uint32_t& joint : skin.joints) joint += uint32_t(firstNode);
+      flat->skins.push_back(std::move(skin));
+    }
     const uint32_t imageBase = uint32_t(flat->images.size());
     flat->meshes.insert(flat->meshes.end(), a.scene->meshes.begin(), a.scene->meshes.end());
     flat->images.insert(flat->images.end(), a.scene->images.begin(), a.scene->images.end());
@@ -326,22 +360,41 @@ std::shared_ptr<scene::Scene> SceneGraph::flatten(const std::vector<scene::Mater
   }
   placements_.clear();
   placed_.clear();
+  // Per (asset, node) of node objects: the asset instances below the node, and the inverse of
+  // the node's rest world transform.
+  std::map<std::pair<const Asset*, int32_t>, std::pair<std::vector<uint32_t>, glm::mat4>> subtrees;
   for (const auto& [id, o] : objects_) {
-    Placement placement{uint32_t(flat->instances.size()), 0};
+    Placement placement{uint32_t(flat->instances.size()), 0, {}, glm::mat4(1.0f)};
     if (shown(id)) {
       const Asset& a = *byId.at(o.asset);
       const glm::mat4 world = worldOf(id);
-      for (const scene::Instance& inst : a.scene->instances) {
+      const bool ofNode = o.node >= 0 && size_t(o.node) < a.scene->nodes.size();
+      if (ofNode) {
+        auto it = subtrees.find({&a, o.node});
+        if (it == subtrees.end())
+          it = subtrees.emplace(std::make_pair(&a, o.node), nodeSubtree(*a.scene, o.node)).first;
+        placement.assetInstances = it->second.first;
+        placement.fromNode = it->second.second;
+      }
+      for (uint32_t k = 0; k < a.scene->instances.size(); ++k) {
+        if (ofNode && !std::binary_search(placement.assetInstances.begin(),
+                                          placement.assetInstances.end(), k)) {
+          continue;
+        }
+        const scene::Instance& inst = a.scene->instances[k];
         scene::Instance out = inst;
         out.mesh += meshBase.at(o.asset);
+        if (out.node >= 0) out.node += int32_t(nodeBase.at(o.asset));
+        if (out.skin >= 0) out.skin += int32_t(skinBase.at(o.asset));
         out.material = o.material.value_or(a.firstMaterial + inst.material);
-        out.transform = world * inst.transform;
+        const glm::mat4 assetTransform = placement.fromNode * inst.transform;
+        out.transform = world * assetTransform;
         out.object = id;
         out.semantic = o.semantic;
         const scene::Mesh* mesh =
             inst.mesh < a.scene->meshes.size() ? &a.scene->meshes[inst.mesh] : nullptr;
         placed_.push_back(
-            {mesh, inst.transform,
+            {mesh, assetTransform,
              mesh != nullptr ? scene::transformedBounds(*mesh, out.transform) : scene::Bounds{}});
         flat->instances.push_back(out);
         ++placement.count;
@@ -353,9 +406,52 @@ std::shared_ptr<scene::Scene> SceneGraph::flatten(const std::vector<scene::Mater
   return flat;
 }
 
+std::pair<std::vector<uint32_t>, glm::mat4> SceneGraph::nodeSubtree(const scene::Scene& asset,
+                                                                    int32_t node) {
+  // Parents come first (scene::Node::parent), so one pass marks every node below `node`.
+  std::vector<uint8_t> below(asset.nodes.size(), 0);
+  below[size_t(node)] = 1;
+  for (size_t i = size_t(node) + 1; i < asset.nodes.size(); ++i) {
+    const int32_t parent = asset.nodes[i].parent;
+    below[i] = parent >= 0 && size_t(parent) < i && below[size_t(parent)];
+  }
+  std::vector<uint32_t> instances;
+  for (uint32_t k = 0; k < asset.instances.size(); ++k) {
+    const int32_t n = asset.instances[k].node;
+    if (n >= 0 && size_t(n) < below.size() && below[size_t(n)]) instances.push_back(k);
+  }
+  glm::mat4 rest(1.0f);
+  for (int32_t n = node; n >= 0; n = asset.nodes[size_t(n)].parent) {
+    rest = scene::localMatrix(asset.nodes[size_t(n)]) * rest;
+  }
+  return {std::move(instances), glm::inverse(rest)};
+}
+
+bool SceneGraph::playing() const {
+  if (std::none_of(assets_.begin(), assets_.end(),
+                   [](const Asset& a) { return !a.scene->animations.empty(); })) {
+    return false;
+  }
+  for (const auto& [id, o] : objects_) {
+    if (o.clip < 0) continue;
+    const Asset* a = findAsset(o.asset);
+    if (a != nullptr && !a->scene->animations.empty() && shown(id)) return true;
+  }
+  return false;
+}
+
 void SceneGraph::uniteBounds() {
   bounds_ = {};
   for (const Placed& p : placed_) unite(bounds_, p.bounds);
+}
+
+scene::Bounds SceneGraph::drawnBounds(uint32_t id) const {
+  scene::Bounds out;
+  const Placement* p = placement(id);
+  for (uint32_t i = 0; p != nullptr && i < p->count && p->first + i < placed_.size(); ++i) {
+    unite(out, placed_[p->first + i].bounds);
+  }
+  return out;
 }
 
 const SceneGraph::Placement* SceneGraph::placement(uint32_t id) const {

@@ -50,6 +50,15 @@ struct SceneObject {
   uint32_t parent = 0;               // 0: placed in the world
   std::optional<uint32_t> material;  // a session material id drawn instead of the asset's
   uint32_t semantic = 0;             // the semantic class (0: none)
+  // Which of its asset's animations it plays on the session's clock (an index into the asset's
+  // Scene::animations; -1: none, the rest pose) and whether the clip loops or holds its last
+  // key. Assets without animations ignore both.
+  int32_t clip = 0;
+  bool loop = true;
+  // The asset node it instances (index into the asset's Scene::nodes; -1: the whole asset): it
+  // then draws the instances of that node and of the nodes below it, placed relative to the
+  // node (its transform takes the place of the node's rest world transform in the asset).
+  int32_t node = -1;
 };
 
 struct Asset {
@@ -60,6 +69,7 @@ struct Asset {
   std::shared_ptr<const scene::Scene> scene;
   uint32_t firstMaterial = 0;  // the session material id of its material 0
   scene::Bounds bounds;        // of its instances, in its own space
+  bool animated = false;       // scene::animated(): it has skins, morph targets or animations
 };
 
 class SceneGraph {
@@ -133,12 +143,21 @@ class SceneGraph {
   render::InstanceUpdate moved(uint32_t id);
   // Of the last flatten() (and moved() since).
   const scene::Bounds& bounds() const { return bounds_; }
+  // Whether some shown object of an animated asset plays a clip (frames then move with the clock).
+  bool playing() const;
   // Where an object's instances are in the flat scene, and their bounds (empty when not shown).
   struct Placement {
     uint32_t first = 0;
     uint32_t count = 0;
+    // An object of one asset node: the asset instances it draws (ascending), the flat
+    // instances first.. in that order, and the inverse of the node's rest world transform,
+    // which places them relative to the node. Empty and identity for a whole asset.
+    std::vector<uint32_t> assetInstances;
+    glm::mat4 fromNode{1.0f};
   };
   const Placement* placement(uint32_t id) const;
+  // The world bounds of the instances object `id` draws now (empty when it draws none).
+  scene::Bounds drawnBounds(uint32_t id) const;
   // An object's meshes as the last flatten() placed them (world transforms; rest pose), for
   // what the CPU measures of it (the labels' total pixels). Empty when it is not shown.
   struct PlacedMesh {
@@ -153,6 +172,10 @@ class SceneGraph {
   void check(const SceneObject& object, uint32_t materials,
              const std::map<uint32_t, SceneObject>& pending, const std::string& pointer) const;
   std::vector<uint32_t> subtree(uint32_t id) const;  // id and its descendants, parents first
+  // The instances of `asset` at or below node `node` (ascending) and the inverse of the node's
+  // rest world transform (Placement).
+  static std::pair<std::vector<uint32_t>, glm::mat4> nodeSubtree(const scene::Scene& asset,
+                                                                 int32_t node);
   void placeInstances(uint32_t id, std::vector<render::InstanceWrite>* writes);
   void uniteBounds();
 

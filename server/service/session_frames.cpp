@@ -14,9 +14,11 @@
 #include "protocol/constants.h"
 #include "scene/camera.h"
 
+#include "encode/arrays.h"
 #include "encode/jpeg.h"
 #include "encode/png.h"
 #include "encode/raw.h"
+#include "service/frame_arrays.h"
 #include "service/interactive_quality.h"
 
 namespace myriad::service {
@@ -108,7 +110,7 @@ EncodedFrame encodeLabels(const render::Frame& frame, const FrameRequest& reques
     }
     case ImageFormat::Png: {
       const std::vector<uint8_t> png =
-          encode::encodePng(frame.width, frame.height, falseColour(labels));
+          encode::encodePng(frame.width, frame.height, falseColour(labels), request.compression);
       out.body.assign(reinterpret_cast<const char*>(png.data()), png.size());
       out.contentType = protocol::kPngContentType;
       break;
@@ -120,6 +122,8 @@ EncodedFrame encodeLabels(const render::Frame& frame, const FrameRequest& reques
       out.contentType = protocol::kJpegContentType;
       break;
     }
+    default:
+      throw std::logic_error("encodeLabels: not an image format");
   }
   out.encodeMs = Milliseconds(std::chrono::steady_clock::now() - start).count();
   out.headers.emplace_back(protocol::headers::kServerTiming,
@@ -132,14 +136,14 @@ EncodedFrame encodeLabels(const render::Frame& frame, const FrameRequest& reques
   return out;
 }
 
-std::vector<float> inCameraSpace(const render::Frame& frame, const scene::Camera& camera,
-                                 bool points) {
+std::vector<float> inCameraSpace(std::span<const float> data, uint32_t width, uint32_t height,
+                                 const scene::Camera& camera, bool points) {
   // World to camera: R^T (p - t) for points, R^T n for directions (the pose is rigid).
   const glm::mat4 cameraFromWorld = glm::inverse(scene::worldFromCamera(camera));
-  std::vector<float> out(frame.data.size(), 0.0f);
-  const size_t pixels = size_t(frame.width) * frame.height;
-  for (size_t i = 0; i < pixels && i * 4 + 3 < frame.data.size(); ++i) {
-    const glm::vec3 v(frame.data[i * 4], frame.data[i * 4 + 1], frame.data[i * 4 + 2]);
+  std::vector<float> out(data.size(), 0.0f);
+  const size_t pixels = size_t(width) * height;
+  for (size_t i = 0; i < pixels && i * 4 + 3 < data.size(); ++i) {
+    const glm::vec3 v(data[i * 4], data[i * 4 + 1], data[i * 4 + 2]);
     // Where nothing is, the views hold zeros: left zero, not moved to the eye.
     const bool empty = v == glm::vec3(0.0f);
     const glm::vec3 c = empty ? v : glm::vec3(cameraFromWorld * glm::vec4(v, points ? 1.0f : 0.0f));
@@ -150,17 +154,19 @@ std::vector<float> inCameraSpace(const render::Frame& frame, const scene::Camera
   return out;
 }
 
-std::vector<float> depthAsDistance(const render::Frame& frame, const scene::Camera& camera) {
+std::vector<float> depthAsDistance(std::span<const float> data, uint32_t width, uint32_t height,
+                                   const scene::Camera& camera) {
   // The depth view holds z (metres along the view axis), or `far` where there is no surface.
   // Along the ray through a pixel's centre, distance = z * |(u - cx) / fx, (v - cy) / fy, 1|.
-  const scene::Intrinsics k = scene::intrinsicsOf(camera, frame.width, frame.height);
+  const scene::Intrinsics k = scene::intrinsicsOf(camera, width, height);
+  if (data.size() < size_t(width) * height * 4) throw std::invalid_argument("depth frame too small");
   // 4 floats a pixel, as Frame::data (packRaw keeps the first).
-  std::vector<float> out(size_t(frame.width) * frame.height * 4, 0.0f);
-  for (uint32_t y = 0; y < frame.height; ++y) {
+  std::vector<float> out(size_t(width) * height * 4, 0.0f);
+  for (uint32_t y = 0; y < height; ++y) {
     const float dy = (float(y) + 0.5f - k.cy) / k.fy;
-    for (uint32_t x = 0; x < frame.width; ++x) {
-      const size_t i = size_t(y) * frame.width + x;
-      const float z = frame.data[i * 4];
+    for (uint32_t x = 0; x < width; ++x) {
+      const size_t i = size_t(y) * width + x;
+      const float z = data[i * 4];
       const float dx = (float(x) + 0.5f - k.cx) / k.fx;
       out[i * 4] = z >= camera.farPlane ? z : z * std::sqrt(1.0f + dx * dx + dy * dy);
     }
@@ -168,13 +174,122 @@ std::vector<float> depthAsDistance(const render::Frame& frame, const scene::Came
   return out;
 }
 
+namespace {
+
+const char* dtypeName(encode::Dtype d) {
+  switch (d) {
+    case encode::Dtype::F4: return "float32";
+    case encode::Dtype::U4: return "uint32";
+    case encode::Dtype::U1: return "uint8";
+    case encode::Dtype::F8: return "float64";
+  }
+  return "uint8";
+}
+
+// png16, npy, exr and npz: the frame's targets as values (frame_arrays.h).
+EncodedFrame encodeArrays(const render::Frame& frame, const FrameRequest& request) {
+  EncodedFrame out;
+  const auto start = std::chrono::steady_clock::now();
+  // png16 and npy hold one target: the first asked (a batch writes each target of one frame
+  // with a request naming it alone, the frame's own target staying as rendered).
+  const render::Target target = request.targets.front();
+  const scene::Camera& camera = request.settings.camera;
+  auto bodyOf = [&out](auto&& bytes) {
+    out.body.assign(reinterpret_cast<const char*>(bytes.data()), bytes.size());
+  };
+  std::vector<std::string_view> names;
+  for (render::Target t : request.targets) names.push_back(render::targetName(t));
+  switch (request.format) {
+    case ImageFormat::Png16: {
+      std::vector<uint16_t> values;
+      encode::PngText text;
+      if (target == render::Target::Depth) {
+        const double scale = depthScale(camera);
+        values = depthAsUint16(frame, request, scale);
+        char number[32];
+        std::snprintf(number, sizeof number, "%.9g", scale);
+        out.headers.emplace_back(protocol::headers::kDepthScale, number);
+        text.emplace_back("DepthScale", std::string(number) + " m per unit; 0: no surface");
+      } else {
+        values = labelsAsUint16(frame, request, target);
+      }
+      bodyOf(encode::encodePngGrey16(frame.width, frame.height, values, request.compression, text));
+      out.contentType = protocol::kPngContentType;
+      out.headers.emplace_back(protocol::headers::kTarget, std::string(render::targetName(target)));
+      out.headers.emplace_back(protocol::headers::kDtype, "uint16");
+      break;
+    }
+    case ImageFormat::Npy: {
+      const encode::Array array = targetArray(frame, request, target);
+      out.body = encode::writeNpy(array);
+      out.contentType = protocol::kNpyContentType;
+      out.headers.emplace_back(protocol::headers::kTarget, std::string(render::targetName(target)));
+      out.headers.emplace_back(protocol::headers::kDtype, dtypeName(array.dtype));
+      break;
+    }
+    case ImageFormat::Exr:
+    case ImageFormat::Npz: {
+      std::vector<encode::Array> arrays;
+      for (render::Target t : request.targets) arrays.push_back(targetArray(frame, request, t));
+      if (request.format == ImageFormat::Exr) {
+        const std::string version = request.version ? std::to_string(*request.version) : "";
+        out.body = encode::writeExr(arrays, request.precision,
+                                    exrMetadata(camera, frame.width, frame.height,
+                                                request.settings.time, version));
+        out.contentType = protocol::kExrContentType;
+      } else {
+        arrays.push_back(intrinsicsArray(camera, frame.width, frame.height));
+        arrays.push_back(poseArray(camera));
+        out.body = encode::writeNpz(arrays);
+        out.contentType = protocol::kZipContentType;
+      }
+      out.headers.emplace_back(protocol::headers::kTargets, joined(names));
+      break;
+    }
+    default:
+      throw std::logic_error("encodeArrays: not an array format");
+  }
+  out.encodeMs = Milliseconds(std::chrono::steady_clock::now() - start).count();
+  out.headers.emplace_back(protocol::headers::kWidth, std::to_string(frame.width));
+  out.headers.emplace_back(protocol::headers::kHeight, std::to_string(frame.height));
+  auto asks = [&](render::Target t) {
+    return std::find(request.targets.begin(), request.targets.end(), t) != request.targets.end();
+  };
+  if (request.format != ImageFormat::Png16 && asks(render::Target::Depth)) {
+    out.headers.emplace_back(protocol::headers::kDepth, request.depthDistance ? "distance" : "z");
+  }
+  if (asks(render::Target::Position) || asks(render::Target::Normal)) {
+    out.headers.emplace_back(protocol::headers::kSpace, request.cameraSpace ? "camera" : "world");
+  }
+  const bool culled = frame.technique != render::Technique::Volumes;
+  out.headers.emplace_back(protocol::headers::kServerTiming,
+                           formatServerTiming(frame.passes, out.encodeMs,
+                                              culled ? &frame.culling : nullptr, frame.queueMs));
+  out.headers.emplace_back(protocol::headers::kTechnique,
+                           std::string(render::techniqueName(frame.technique)));
+  for (auto& header : cameraHeaders(camera, frame.width, frame.height)) {
+    out.headers.push_back(std::move(header));
+  }
+  return out;
+}
+
+}  // namespace
+
 EncodedFrame encodeFrame(const render::Frame& frame, const FrameRequest& request) {
+  switch (request.format) {
+    case ImageFormat::Png16:
+    case ImageFormat::Npy:
+    case ImageFormat::Exr:
+    case ImageFormat::Npz: return encodeArrays(frame, request);
+    default: break;
+  }
   if (render::isLabel(request.settings.target)) return encodeLabels(frame, request);
   EncodedFrame out;
   const auto start = std::chrono::steady_clock::now();
   switch (request.format) {
     case ImageFormat::Png: {
-      std::vector<uint8_t> png = encode::encodePng(frame.width, frame.height, frame.pixels());
+      std::vector<uint8_t> png =
+          encode::encodePng(frame.width, frame.height, frame.pixels(), request.compression);
       out.body.assign(reinterpret_cast<const char*>(png.data()), png.size());
       out.contentType = protocol::kPngContentType;
       break;
@@ -203,10 +318,13 @@ EncodedFrame encodeFrame(const render::Frame& frame, const FrameRequest& request
       std::vector<uint8_t> raw =
           request.depthDistance
               ? encode::packRaw(frame.width, frame.height,
-                                depthAsDistance(frame, request.settings.camera), 1)
+                                depthAsDistance(frame.data, frame.width, frame.height,
+                                                request.settings.camera),
+                                1)
           : request.cameraSpace
               ? encode::packRaw(frame.width, frame.height,
-                                inCameraSpace(frame, request.settings.camera,
+                                inCameraSpace(frame.data, frame.width, frame.height,
+                                              request.settings.camera,
                                               target == render::Target::Position),
                                 3)
               : encode::packRaw(frame.width, frame.height, frame.data,
@@ -226,6 +344,8 @@ EncodedFrame encodeFrame(const render::Frame& frame, const FrameRequest& request
       }
       break;
     }
+    default:
+      throw std::logic_error("encodeFrame: an array format");
   }
   out.encodeMs = Milliseconds(std::chrono::steady_clock::now() - start).count();
 
@@ -385,6 +505,13 @@ PendingSessionFrame submitSessionFrame(const SessionFrameContext& context, const
     if (session->closed) throw ProblemError(notFoundDetail("Session " + session->id + " is gone."));
     pending.rendered.settings =
         session->scene.frameSettings(request.settings, request.time, Clock::now());
+    if (request.camera.any()) {
+      try {
+        request.camera.applyTo(pending.rendered.settings.camera);
+      } catch (const FrameQueryError& e) {
+        throw ProblemError(invalidParameter(e.parameter(), e.what()));
+      }
+    }
     pending.rendered.settings.borrowPixels = context.borrowPixels;
     // A JPEG with subsampled chroma: converted to YCbCr 4:2:0 on the GPU, read back at 1.5
     // bytes a pixel, encoded from the planes (the same picture: gpu CTest "YCbCr frames").
@@ -400,6 +527,7 @@ PendingSessionFrame submitSessionFrame(const SessionFrameContext& context, const
     }
     sceneId = static_cast<render::SceneId>(session->sceneId);
     pending.version = session->version;
+    pending.rendered.version = session->version;
   }
   pending.submitted = Clock::now();
   pending.frame =
@@ -432,6 +560,13 @@ SessionFrame collectSessionFrame(const SessionFrameContext& context, const Sessi
                        delivered.encoded.encodeMs, waitMs);
   SessionFrame result;
   result.encoded = std::move(delivered.encoded);
+  {
+    char time[32];
+    std::snprintf(time, sizeof time, "%.17g", pending.rendered.settings.time);
+    result.encoded.headers.emplace_back(protocol::headers::kFrameTime, time);
+    result.encoded.headers.emplace_back(protocol::headers::kFrameVersion,
+                                        std::to_string(pending.version));
+  }
   result.version = pending.version;
   result.time = pending.rendered.settings.time;
   return result;

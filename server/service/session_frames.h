@@ -9,6 +9,7 @@
 #include <map>
 #include <memory>
 #include <mutex>
+#include <span>
 #include <string>
 #include <utility>
 #include <vector>
@@ -43,11 +44,12 @@ std::vector<std::pair<std::string, std::string>> cameraHeaders(const scene::Came
                                                                uint32_t width, uint32_t height);
 // A raw position or normal frame (frame.data, 4 floats a pixel, world space) in camera space
 // (scene::worldFromCamera's axes): `points` for positions, else directions. Zero stays zero.
-std::vector<float> inCameraSpace(const render::Frame& frame, const scene::Camera& camera,
-                                 bool points);
+std::vector<float> inCameraSpace(std::span<const float> data, uint32_t width, uint32_t height,
+                                 const scene::Camera& camera, bool points);
 // A raw depth frame's z values (frame.data, 4 floats a pixel) as distances to the camera centre,
 // in the same layout (the distance first of each pixel's 4 floats).
-std::vector<float> depthAsDistance(const render::Frame& frame, const scene::Camera& camera);
+std::vector<float> depthAsDistance(std::span<const float> data, uint32_t width, uint32_t height,
+                                   const scene::Camera& camera);
 
 // The last frame of every open session, for GET .../stats, and where the time of its recent
 // frames went (stats' `pipeline`: medians over the last kPipelineWindow frames of the last

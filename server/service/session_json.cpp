@@ -317,6 +317,14 @@ void applyObjectPatch(const protocol::ObjectPatch& patch, SceneObject& o) {
                                        : std::nullopt;
   }
   if (patch.semantic) o.semantic = uint32_t(*patch.semantic);
+  // A node by index or null here; by name (nodeName) the route resolves it against the asset
+  // (api_objects.cpp, which sees the session's assets).
+  if (patch.node) o.node = patch.node->value ? int32_t(*patch.node->value) : -1;
+  // A clip likewise: by index (the schema bounds it to 1023) or null here, by clipName there.
+  if (patch.animation) {
+    if (patch.animation->loop) o.loop = *patch.animation->loop;
+    if (const auto& clip = patch.animation->clip) o.clip = clip->value ? int32_t(*clip->value) : -1;
+  }
 }
 
 protocol::Object toWire(const SessionScene& scene, const SceneObject& o) {
@@ -334,7 +342,30 @@ protocol::Object toWire(const SessionScene& scene, const SceneObject& o) {
   out.instances = placement != nullptr ? placement->count : 0;
   if (out.instances > 0) {
     const Asset& asset = graph.asset(o.asset);
-    if (!asset.bounds.empty()) out.bounds = toWire(movedBox(asset.bounds, graph.worldOf(o.id)));
+    if (o.node >= 0) {
+      // Part of the asset: the bounds of what it draws.
+      if (const scene::Bounds b = graph.drawnBounds(o.id); !b.empty()) out.bounds = toWire(b);
+    } else if (!asset.bounds.empty()) {
+      out.bounds = toWire(movedBox(asset.bounds, graph.worldOf(o.id)));
+    }
+  }
+  if (const Asset* asset = graph.findAsset(o.asset);
+      asset != nullptr && o.node >= 0 && size_t(o.node) < asset->scene->nodes.size()) {
+    out.node = uint64_t(o.node);
+    out.nodeName = asset->scene->nodes[size_t(o.node)].name;
+  }
+  if (const Asset* asset = graph.findAsset(o.asset);
+      asset != nullptr && !asset->scene->animations.empty()) {
+    const auto& clips = asset->scene->animations;
+    protocol::ObjectAnimation& animation = out.animation.emplace();
+    animation.loop = o.loop;
+    animation.clips = clips.size();
+    animation.clip = protocol::Nullable<uint64_t>{};
+    if (o.clip >= 0 && size_t(o.clip) < clips.size()) {
+      animation.clip->value = uint64_t(o.clip);
+      animation.clipName = clips[size_t(o.clip)].name;
+      animation.duration = clips[size_t(o.clip)].duration;
+    }
   }
   return out;
 }

@@ -1,5 +1,10 @@
 #include "service/session_scene.h"
 
+#include <map>
+#include <tuple>
+
+#include "scene/animation.h"
+
 #include <algorithm>
 #include <charconv>
 #include <cmath>
@@ -160,7 +165,8 @@ SceneChange SessionScene::replaceObject(const SceneObject& next) {
   // The name is nobody's pixels; the semantic class is (the semantic-id label).
   const bool redraw = before.asset != next.asset || before.visible != next.visible ||
                       before.parent != next.parent || before.material != next.material ||
-                      before.semantic != next.semantic;
+                      before.semantic != next.semantic || before.node != next.node;
+  // A change of clip or loop needs no upload: every frame carries its pose.
   if (redraw) {
     change.scene = flatten();
   } else if (before.transform.local() != next.transform.local()) {
@@ -317,7 +323,119 @@ render::FrameSettings SessionScene::frameSettings(const render::FrameSettings& r
   frame.camera = camera_;
   frame.animate = settings_.animate || time.has_value();
   frame.time = time.value_or(animationSeconds(now));
+  // The objects' pose: at ?time= exactly when given, else where the scene clock is.
+  frame.pose = poseAt(time.value_or(clockSeconds(now)));
+  if (frame.target == render::Target::Motion) {
+    // The motion target's previous time, render::kMotionInterval earlier (not before 0): the pose
+    // then, so ?time=T's motion is exact and the same on every call; the previous frame's camera.
+    const double t = time.value_or(clock(now).time);
+    frame.previousPose = poseAt(std::max(0.0, t - render::kMotionInterval));
+    frame.previousCamera = lastFrameCamera_.value_or(camera_);
+  }
+  lastFrameCamera_ = camera_;
   return frame;
+}
+
+// ---- The scene clock and poses.
+
+double SessionScene::clockSeconds(Clock::time_point now) const {
+  double t = clockSeconds_;
+  if (clockPlaying_) t += clockRate_ * std::chrono::duration<double>(now - clockAnchor_).count();
+  // Kept within what a frame's ?time= accepts, whatever the rate and uptime.
+  return std::clamp(t, 0.0, protocol::query::kMaxFrameTime);
+}
+
+SessionScene::SceneClock SessionScene::clock(Clock::time_point now) const {
+  SceneClock out;
+  out.playing = clockPlaying_;
+  out.rate = clockRate_;
+  out.time = clockSeconds(now);
+  std::unordered_map<std::string_view, const Asset*> withClips;
+  for (const Asset& a : graph_.assets()) {
+    if (!a.scene->animations.empty()) withClips.emplace(a.id, &a);
+  }
+  if (withClips.empty()) return out;
+  for (const auto& [id, o] : graph_.objects()) {
+    const auto found = withClips.find(o.asset);
+    if (found == withClips.end() || o.clip < 0 || !graph_.shown(id)) continue;
+    const auto& clips = found->second->scene->animations;
+    if (size_t(o.clip) < clips.size()) {
+      out.duration = std::max(out.duration, double(clips[size_t(o.clip)].duration));
+    }
+  }
+  return out;
+}
+
+SessionScene::SceneClock SessionScene::patchClock(std::optional<bool> playing,
+                                                  std::optional<double> time,
+                                                  std::optional<double> rate,
+                                                  Clock::time_point now) {
+  // Re-anchored at now first, so a change of rate or a pause keeps the time it reached.
+  clockSeconds_ = clockSeconds(now);
+  clockAnchor_ = now;
+  if (time) clockSeconds_ = *time;
+  if (rate) clockRate_ = *rate;
+  if (playing) clockPlaying_ = *playing;
+  return clock(now);
+}
+
+bool SessionScene::moving() const {
+  return settings_.animate || (clockPlaying_ && clockRate_ != 0.0 && graph_.playing());
+}
+
+std::shared_ptr<const render::ScenePose> SessionScene::poseAt(double seconds) const {
+  std::shared_ptr<render::ScenePose> pose;
+  // Most scenes have nothing to pose: one look at the assets, not at every object.
+  std::unordered_map<std::string_view, const Asset*> animatedAssets;
+  for (const Asset& a : graph_.assets()) {
+    if (a.animated) animatedAssets.emplace(a.id, &a);
+  }
+  if (animatedAssets.empty()) return pose;
+  // Objects of one asset playing one clip the same way share one evaluation.
+  std::map<std::tuple<const Asset*, int32_t, bool>, std::vector<scene::PosedInstance>> evaluated;
+  for (const auto& [id, o] : graph_.objects()) {
+    const auto found = animatedAssets.find(o.asset);
+    if (found == animatedAssets.end()) continue;
+    const Asset* a = found->second;
+    const SceneGraph::Placement* placement = graph_.placement(id);
+    if (placement == nullptr || placement->count == 0) continue;
+    if (!pose) {
+      pose = std::make_shared<render::ScenePose>();
+      pose->time = seconds;
+    }
+    const int32_t clip = o.clip < int32_t(a->scene->animations.size()) ? o.clip : -1;
+    const auto key = std::make_tuple(a, clip, o.loop);
+    auto it = evaluated.find(key);
+    if (it == evaluated.end()) {
+      it = evaluated.emplace(key, scene::poseInstances(*a->scene, clip, seconds, o.loop)).first;
+    }
+    std::optional<glm::mat4> world;
+    const std::vector<uint32_t>& subset = placement->assetInstances;  // a node object's
+    for (const scene::PosedInstance& posed : it->second) {
+      uint32_t offset = posed.instance;
+      if (!subset.empty()) {
+        const auto at = std::lower_bound(subset.begin(), subset.end(), posed.instance);
+        if (at == subset.end() || *at != posed.instance) continue;
+        offset = uint32_t(at - subset.begin());
+      }
+      if (offset >= placement->count) continue;
+      const uint32_t flat = placement->first + offset;
+      if (posed.transform) {
+        if (!world) world = graph_.worldOf(id) * placement->fromNode;
+        const glm::mat4 placed = *world * *posed.transform;
+        // An object's scale times a node's can overflow: that instance keeps its last place.
+        bool finite = true;
+        for (int c = 0; c < 4; ++c) {
+          for (int r = 0; r < 4; ++r) finite = finite && std::isfinite(placed[c][r]);
+        }
+        if (finite) pose->transforms.push_back({flat, placed});
+      }
+      if (!posed.joints.empty() || !posed.morphWeights.empty()) {
+        pose->poses.push_back({flat, posed.joints, posed.morphWeights});
+      }
+    }
+  }
+  return pose;
 }
 
 // ---- Snapshots.
@@ -469,9 +587,10 @@ void SessionScene::restoreScene(const protocol::SnapshotScene& scene, const std:
     SceneObject o;
     o.id = uint32_t(wire.id);  // the schema bounds ids to uint32
     try {
-      applyObjectPatch({wire.name, wire.asset, wire.transform, wire.visible, wire.parent,
-                        wire.material, wire.semantic},
-                       o);
+      applyObjectPatch(
+          {wire.name, wire.asset, wire.transform, wire.visible, wire.parent, wire.material,
+           wire.semantic, wire.animation, protocol::Nullable<uint64_t>{wire.node}, std::nullopt},
+          o);
     } catch (const ProblemError& e) {
       throw ProblemError(invalidBody(at + "/objects/" + std::to_string(i) +
                                          e.problem().pointer.value_or(""),

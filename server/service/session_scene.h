@@ -162,6 +162,27 @@ class SessionScene {
   // Seconds of animation at `now` (0 when not animating).
   double animationSeconds(Clock::time_point now) const;
 
+  // ---- The scene clock: the time at which objects play their assets' animation clips
+  // (SceneObject::clip, loop). Separate from the lights' `animate` clock. It runs from the
+  // session's start at rate 1; play, pause, seek and rate re-anchor it, so the time never jumps.
+  struct SceneClock {
+    double time = 0.0;  // seconds now
+    bool playing = true;
+    double rate = 1.0;      // clock seconds per wall second
+    double duration = 0.0;  // the longest clip a shown object plays (0: nothing plays)
+  };
+  SceneClock clock(Clock::time_point now) const;
+  double clockSeconds(Clock::time_point now) const;  // clock(now).time, without the duration
+  // Any subset: playing (play/pause), time (seek), rate. Applied at `now`.
+  SceneClock patchClock(std::optional<bool> playing, std::optional<double> time,
+                        std::optional<double> rate, Clock::time_point now);
+  // Whether frames change with time alone: the lights animate, or the clock plays a clip.
+  bool moving() const;
+  // The scene posed at clock time `seconds`: node-animated instances' transforms (each object's
+  // world transform times its node's animated one) and skinned or morphed instances' joints and
+  // weights, in the flat scene's instance indices. Null when nothing in the scene is animated.
+  std::shared_ptr<const render::ScenePose> poseAt(double seconds) const;
+
   // The frame the session shows at `now`: `request`'s own choices (size, target, raw...) with the
   // session's camera and settings. `time` (a request's ?time=) shows the lights where the
   // animation has them then, animating or not; without it, where the session's clock has them.
@@ -266,11 +287,20 @@ class SessionScene {
   ModelSummary model_;
   std::vector<scene::Material> materials_;
   scene::Camera camera_;
+  // The camera of the session's last frame (frameSettings, under the session's lock): a motion
+  // frame's previous camera, so a camera moved between two frames shows as motion; unmoved, it
+  // is the camera itself.
+  mutable std::optional<scene::Camera> lastFrameCamera_;
   render::SceneSettings settings_;
   bool environmentChosen_ = false;  // the client chose the environment (see adopt)
   std::shared_ptr<const scene::EnvironmentImage> environmentImage_;
   std::string environmentSource_;
   Clock::time_point animationStart_ = Clock::now();
+  // The scene clock: clockSeconds_ at clockAnchor_, advancing at clockRate_ while playing.
+  double clockSeconds_ = 0.0;
+  Clock::time_point clockAnchor_ = Clock::now();
+  bool clockPlaying_ = true;
+  double clockRate_ = 1.0;
 
   // lights_[slot] has id ids_[slot]; slotOfId_ maps back. Kept together by the light methods.
   std::vector<scene::PointLight> lights_;

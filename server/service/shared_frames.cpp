@@ -19,7 +19,7 @@ struct SessionNow {
 };
 SessionNow sessionNow(Session& session) {
   std::lock_guard sessionLock(session.mutex);
-  return {session.version, session.scene.settings().animate};
+  return {session.version, session.scene.moving()};
 }
 
 }  // namespace

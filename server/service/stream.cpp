@@ -198,7 +198,7 @@ bool StreamState::next(httplib::DataSink& sink) {
     {
       std::lock_guard lock(session->mutex);
       ending = endNow(unixNow());
-      animate = session->scene.settings().animate;
+      animate = session->scene.moving();  // lights animate or the scene clock plays a clip
       version = session->version;
       ended = session->interactionEndVersion == version;
     }

@@ -3,8 +3,10 @@
 //
 // Input: the bytes of a reply body.
 // Promises checked: decodeScene throws only SceneWireError; a scene it accepts has every index in
-// range, every number finite, names of at most kMaxWireNameBytes bytes of printable UTF-8, and
-// survives encode -> decode unchanged.
+// range, every number finite, names of at most kMaxWireNameBytes bytes of printable UTF-8,
+// animation data within scene/animation.h's rules and posable, and survives encode -> decode
+// unchanged.
+#include <algorithm>
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
@@ -13,6 +15,7 @@
 
 #include "fuzz_support.h"
 #include "loader/scene_wire.h"
+#include "scene/animation.h"
 
 namespace loader = myriad::loader;
 namespace scene = myriad::scene;
@@ -79,6 +82,18 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     return 0;
   }
   checkScene(decoded);
+  // Animation data the decoder accepted keeps scene/animation.h's rules, and posing it (clips
+  // and the rest pose, looped past their ends) neither faults nor leaves an index unchecked.
+  require(!scene::checkAnimationData(decoded), "accepted animation data that breaks the rules");
+  for (int clip = -1; clip < int(std::min<size_t>(decoded.animations.size(), 3)); ++clip) {
+    for (const scene::PosedInstance& posed : scene::poseInstances(decoded, clip, 1.37, true)) {
+      require(posed.instance < decoded.instances.size(), "a pose of an instance not there");
+      const scene::Instance& instance = decoded.instances[posed.instance];
+      if (instance.mesh < decoded.meshes.size() && decoded.meshes[instance.mesh].vertices.size() <= 4096) {
+        scene::poseVertices(decoded.meshes[instance.mesh], posed.joints, posed.morphWeights);
+      }
+    }
+  }
   // What the decoder accepted, the encoder writes back in a form the decoder accepts again.
   const std::string again = loader::encodeScene(decoded);
   require(loader::encodeScene(loader::decodeScene(again)) == again, "encode/decode not stable");

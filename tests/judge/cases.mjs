@@ -12,10 +12,13 @@
 // run and rendered only with --pending; once it passes, drop the mark.
 
 import {readFileSync} from 'node:fs';
+import {animatedColumnGlb, morphCubeGltf} from './animated_fixtures.mjs';
 import {blendGlb, checkerGlb, maskGlb, normalMapGlb, spheresGlb, spotGlb} from './fixtures.mjs';
 
 const HELMET = '/work/shared/assets/DamagedHelmet/DamagedHelmet.glb';
 const BOX_TEXTURED = '/usr/share/assimp/models/glTF2/BoxTextured-glTF-Binary/BoxTextured.glb';
+
+const SIMPLE_SKIN = '/usr/share/assimp/models/glTF2/simple_skin/simple_skin.gltf';
 
 const sun = (direction, intensity, color = [1, 0.97, 0.92]) => ({direction, color, intensity});
 const camera = (eye, target, fovY, near, far) => ({eye, target, up: [0, 1, 0], fovY, near, far});
@@ -70,6 +73,25 @@ export const CASES = [
    width: 192, height: 144, camera: camera([0.5, 0.3, 4], [0, 0, -0.3], 45, 0.5, 20),
    sun: sun([-0.3, -0.5, -1], 3),
    lights: [{type: 'point', position: [0.2, 0.4, 1.2], color: [1, 0.9, 0.8], intensity: 3, range: 3}]},
+  // Animation (issue 29): each model at three times of its first clip (`time`: Myriad's
+  // GET .../frame?time=T, three.js's AnimationMixer.setTime(T)), looped in both.
+  ...[0.6, 1.9, 3.4].map((time) => ({
+    name: `morph-cube-${time}`, file: 'AnimatedMorphCube.gltf', bytes: () => morphCubeGltf(), time,
+    what: `glTF sample AnimatedMorphCube (two morph targets with normals and tangents, weights animated) at ${time} s`,
+    width: 192, height: 160, camera: camera([3, 2.5, 5], [0, 0.3, 0], 40, 0.5, 30),
+    sun: sun([-0.4, -0.8, -0.5], 3)})),
+  ...[1.0, 2.2, 4.1].map((time) => ({
+    name: `simple-skin-${time}`, file: 'simple_skin.gltf', bytes: () => readFileSync(SIMPLE_SKIN), time,
+    what: `assimp-testmodels glTF2/simple_skin (two joints, a rotation channel) at ${time} s`,
+    width: 160, height: 192, camera: camera([0, 1, 4], [0, 1, 0], 45, 0.5, 30),
+    // Lit by the sun alone: ?time= also moves a session's local lights (their own animation).
+    // The strip turns in its plane, so its motion shows at its outline only.
+    sun: sun([-0.3, -0.5, -1], 3)})),
+  ...[0.5, 1.3, 1.9].map((time) => ({
+    name: `column-${time}`, file: 'column.glb', bytes: () => animatedColumnGlb(), time,
+    what: `a generated column: skinned (two joints, CUBICSPLINE bend), morphed (STEP weights) on a node-animated plinth (LINEAR) at ${time} s`,
+    width: 192, height: 192, camera: camera([0.3, 1.3, 5], [0.1, 0.9, 0], 40, 0.5, 30),
+    sun: sun([-0.4, -0.6, -0.7], 3)})),
   {name: 'spot-light', file: 'spot.glb', bytes: () => spotGlb(),
    what: 'a floor and a ball lit only by the file\'s spot light and point light (inverse-square, range)',
    width: 224, height: 160, camera: camera([0, 3.5, 6.5], [0, 0.3, 0], 45, 0.5, 30),

@@ -45,6 +45,10 @@ const SENSITIVITY = [
   ['normal-map', 'the bumps 20% flatter', {normalScale: 0.8}],
   ['alpha-blend', 'every blended surface 15% more opaque', {opacity: 1.15}],
   ['alpha-blend', 'the blended surfaces drawn in the file\'s order (nearest first), not back to front', {fileOrder: true}],
+  ['morph-cube-1.9', 'the animation 0.1 s later', {timeOffset: 0.1}],
+  ['simple-skin-2.2', 'the animation 0.25 s later', {timeOffset: 0.25}],
+  ['column-1.3', 'the animation 0.1 s later', {timeOffset: 0.1}],
+  ['column-0.5', 'the STEP morph weights interpolated linearly', {stepAsLinear: true}],
 ];
 
 const args = process.argv.slice(2);
@@ -129,7 +133,8 @@ async function renderMyriad(c) {
     await api('PATCH', `${s}/settings`, {token, json: settings});
     const lights = (await api('GET', `${s}/lights`, {token})).json();
     const frame = async (target) => {
-      const r = await api('GET', `${s}/frame?target=${target}&format=raw&width=${c.width}&height=${c.height}`, {token});
+      const time = c.time !== undefined ? `&time=${c.time}` : '';
+      const r = await api('GET', `${s}/frame?target=${target}&format=raw&width=${c.width}&height=${c.height}${time}`, {token});
       return floats(r.bytes);
     };
     return {final: await frame('final'), depth: await frame('depth'), lights, camera};
@@ -154,7 +159,7 @@ try {
     args: ['--headless', '--no-sandbox', '--use-angle=swiftshader', '--enable-unsafe-swiftshader'],
   });
   const TYPES = {'.js': 'text/javascript', '.mjs': 'text/javascript', '.html': 'text/html',
-                 '.glb': 'model/gltf-binary'};
+                 '.glb': 'model/gltf-binary', '.gltf': 'model/gltf+json'};
 
   async function openPage(mode) {
     const page = await browser.newPage();
@@ -187,7 +192,7 @@ try {
 
   async function renderThree(page, c, perturb) {
     const spec = {model: `${ORIGIN}/models/${encodeURIComponent(c.file)}`, width: c.width, height: c.height,
-                  camera: myriad.get(c.name).camera, sun: c.sun, lights: c.lights || [], perturb,
+                  camera: myriad.get(c.name).camera, sun: c.sun, lights: c.lights || [], perturb, time: c.time,
                   anisotropy: myriadAnisotropy};
     const result = await page.evaluate((s) => window.renderCase(s), spec);
     return {rgba: floats(Buffer.from(result.rgba, 'base64')), lights: result.lights, revision: result.revision,

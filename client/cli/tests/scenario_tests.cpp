@@ -625,3 +625,35 @@ TEST_CASE("assets and objects: add, place, move, a delete refused while used, cl
   CHECK(exit->cleanExit());
   fs::remove_all(dir);
 }
+
+TEST_CASE("clock: shown, paused at a time, played at a rate; out-of-range rates refused") {
+  ServerProcess server({});
+  REQUIRE(server.start() == ServerProcess::Start::Listening);
+  char pattern[] = "/tmp/myriad-cli-clock-XXXXXX";
+  REQUIRE(mkdtemp(pattern) != nullptr);
+  const fs::path dir = pattern;
+  const std::string sessionFile = (dir / "session").string();
+  const std::map<std::string, std::string> env = {
+      {"MYRIAD_SERVER", server.url()}, {"MYRIAD_SESSION", ""}, {"MYRIAD_API_KEY", ""}};
+  auto myriad = [&](std::vector<std::string> args) {
+    args.insert(args.begin(), {"--session-file", sessionFile});
+    return runCli(args, env);
+  };
+  REQUIRE(myriad({"session", "new"}).exitCode == 0);
+  CliResult shown = myriad({"clock"});
+  REQUIRE(shown.exitCode == 0);
+  CHECK(std::regex_search(shown.out, std::regex("^time +[0-9.e+-]+ s\nplaying +yes\nrate +1\n")));
+  CliResult paused = myriad({"clock", "--play", "off", "--time", "1.5"});
+  REQUIRE(paused.exitCode == 0);
+  CHECK(paused.out.starts_with("time          1.5 s\nplaying       no\n"));
+  const json clock = json::parse(myriad({"--json", "clock"}).out);
+  CHECK(clock["time"] == 1.5);
+  CHECK(clock["playing"] == false);
+  CliResult fast = myriad({"clock", "--rate", "-2", "--play", "on"});
+  REQUIRE(fast.exitCode == 0);
+  CHECK(fast.out.find("rate          -2\n") != std::string::npos);
+  CliResult bad = myriad({"clock", "--rate", "100"});
+  CHECK(bad.exitCode == 2);
+  CHECK(bad.err.find("--rate") != std::string::npos);
+  fs::remove_all(dir);
+}
