@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
-#include <cstdio>
 #include <optional>
 
 #include <glm/gtc/matrix_access.hpp>
@@ -49,20 +48,22 @@ float hash01(uint32_t v) {
 
 float luminance(glm::vec3 c) { return 0.2126f * c.r + 0.7152f * c.g + 0.0722f * c.b; }
 
-// Opens a depth-only rendering that clears `map` (the previous frame's lighting sampled it; its
-// contents are rewritten whole), with the shadow pipeline and the scene's geometry bound.
+// Opens a depth-only rendering on `map` (the previous frame's lighting sampled it) with the
+// shadow pipeline and the scene's geometry bound: cleared and rewritten whole, or with `keep`
+// (a repair, ShadowMaps::repairSun) its contents loaded as they are.
 void beginShadowRendering(VkCommandBuffer cmd, const Pipelines& p, const SceneBuffers& scene,
-                          const gpu::Image& map) {
+                          const gpu::Image& map, bool keep = false) {
   const gpu::ImageTransition before[] = {
       {&map, kShadowReaders, VK_ACCESS_2_NONE,
        VK_PIPELINE_STAGE_2_EARLY_FRAGMENT_TESTS_BIT | VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT,
        VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_READ_BIT | VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT,
-       VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL}};
+       keep ? VK_IMAGE_LAYOUT_READ_ONLY_OPTIMAL : VK_IMAGE_LAYOUT_UNDEFINED,
+       VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL}};
   gpu::barrier(cmd, before);
   VkRenderingAttachmentInfo depth{VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO};
   depth.imageView = map.view;
   depth.imageLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
-  depth.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
+  depth.loadOp = keep ? VK_ATTACHMENT_LOAD_OP_LOAD : VK_ATTACHMENT_LOAD_OP_CLEAR;
   depth.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
   depth.clearValue.depthStencil = {1.0f, 0};
   beginRendering(cmd, map.extent, {}, &depth);
@@ -313,10 +314,10 @@ constexpr double kMaxRepairShare = 0.25;
 
 bool ShadowMaps::repairSun(VkCommandBuffer cmd, const Pipelines& p, const SceneBuffers& scene,
                            const glm::mat4& viewProjection) {
-  if (!sunReadable_ || sunScene_ == 0 || sunViewProjection_ != viewProjection) { fprintf(stderr, "DEBUG repair: readable %d scene %lu vp %d\n", int(sunReadable_), (unsigned long)sunScene_, int(sunViewProjection_ == viewProjection)); return false; }
+  if (!sunReadable_ || sunScene_ == 0 || sunViewProjection_ != viewProjection) return false;
   const std::optional<std::vector<glm::vec4>> moved =
       scene.movedSince(sunScene_, kMaxRepairSpheres);
-  if (!moved) { fprintf(stderr, "DEBUG repair: no history from %lu (moves %zu)\n", (unsigned long)sunScene_, scene.moves.size()); return false; }
+  if (!moved) return false;
   const uint32_t size = sun_.extent.width;
   const int limit = int(size);
   glm::ivec4 rect{limit, limit, 0, 0};
@@ -331,29 +332,15 @@ bool ShadowMaps::repairSun(VkCommandBuffer cmd, const Pipelines& p, const SceneB
     return true;
   }
   const double share = double(rect.z - rect.x) * double(rect.w - rect.y) / (double(size) * size);
-  if (share > kMaxRepairShare) { fprintf(stderr, "DEBUG repair: share %f\n", share); return false; }
+  if (share > kMaxRepairShare) return false;
 
-  // Keep the map's contents: from the lighting's reads back to a depth attachment, loaded.
-  const gpu::ImageTransition before[] = {
-      {&sun_, kShadowReaders, VK_ACCESS_2_NONE,
-       VK_PIPELINE_STAGE_2_EARLY_FRAGMENT_TESTS_BIT | VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT,
-       VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_READ_BIT | VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT,
-       VK_IMAGE_LAYOUT_READ_ONLY_OPTIMAL, VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL}};
-  gpu::barrier(cmd, before);
-  VkRenderingAttachmentInfo depth{VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO};
-  depth.imageView = sun_.view;
-  depth.imageLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
-  depth.loadOp = VK_ATTACHMENT_LOAD_OP_LOAD;
-  depth.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
-  beginRendering(cmd, sun_.extent, {}, &depth);
+  beginShadowRendering(cmd, p, scene, sun_, /*keep=*/true);
   const VkRect2D scissor{{rect.x, rect.y}, {uint32_t(rect.z - rect.x), uint32_t(rect.w - rect.y)}};
   VkClearAttachment clear{VK_IMAGE_ASPECT_DEPTH_BIT, 0, {}};
   clear.clearValue.depthStencil = {1.0f, 0};
   const VkClearRect clearRect{scissor, 0, 1};
   vkCmdClearAttachments(cmd, 1, &clear, 1, &clearRect);
   vkCmdSetScissor(cmd, 0, 1, &scissor);
-  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, p.shadow);
-  bindGeometry(cmd, scene);
   gpu_types::ShadowPush push{viewProjection};
   vkCmdPushConstants(cmd, p.layout, VK_SHADER_STAGE_VERTEX_BIT, 0, sizeof(push), &push);
   {
