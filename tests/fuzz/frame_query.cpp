@@ -34,12 +34,27 @@ void checkAccepted(const service::FrameRequest& request, uint32_t maxResolution)
   require(uint32_t(s.technique) < render::kTechniqueNames.size(), "unknown technique");
   require(request.quality >= 1 && request.quality <= 100, "quality outside [1, 100]");
   require(request.fps >= 1 && request.fps <= service::kMaxStreamFps, "fps outside [1, max]");
-  // Label targets are read back raw whatever the format (render::Target::InstanceId).
-  require(s.raw == (request.format == service::ImageFormat::Raw || render::isLabel(s.target)),
-          "raw and format disagree");
-  require(!request.depthDistance ||
-              (s.target == render::Target::Depth && request.format == service::ImageFormat::Raw),
-          "depth=distance outside raw depth");
+  // What is read back raw: label targets whatever the format (render::Target::InstanceId);
+  // every target for raw, png16 and exr; all but final's 8-bit picture for npy and npz.
+  using F = service::ImageFormat;
+  const bool floats = request.format == F::Raw || request.format == F::Npy ||
+                      request.format == F::Npz || request.format == F::Exr;
+  const bool rawExpected =
+      render::isLabel(s.target) || request.format == F::Raw || request.format == F::Png16 ||
+      request.format == F::Exr ||
+      ((request.format == F::Npy || request.format == F::Npz) && s.target != render::Target::Final);
+  require(s.raw == rawExpected, "raw and format disagree");
+  require(!request.targets.empty(), "no target");
+  const auto asked = [&](render::Target t) {
+    for (render::Target x : request.targets) if (x == t) return true;
+    return false;
+  };
+  require(asked(s.target), "settings.target is not one of the targets asked for");
+  require(!request.depthDistance || (asked(render::Target::Depth) && floats),
+          "depth=distance outside float depth");
+  require(!request.cameraSpace ||
+              ((asked(render::Target::Position) || asked(render::Target::Normal)) && floats),
+          "space=camera outside float position or normal");
   require(!request.time || std::isfinite(*request.time), "time not finite");
   require(std::isfinite(s.exposure), "exposure not finite");
   const auto& c = s.camera;

@@ -150,6 +150,8 @@ constexpr Body kBodies[] = {
     {names::kObjectsAdded, convert<protocol::ObjectsAdded>},
     {names::kObjectsPage, convert<protocol::ObjectsPage>},
     {names::kLabels, convert<protocol::Labels>},
+    {names::kClock, convert<protocol::Clock>},
+    {names::kClockPatch, convert<protocol::ClockPatch>},
 };
 constexpr size_t kBodyCount = sizeof kBodies / sizeof kBodies[0];
 
