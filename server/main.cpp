@@ -102,9 +102,9 @@ int run(const service::Options& options, const sigset_t& shutdownSignals) {
   std::unique_ptr<render::RenderThread> renderThread;
   try {
     renderThread = std::make_unique<render::RenderThread>(
-        gpu::ContextOptions{options.validate, options.device}, scene, options.maxQueuedFrames,
-        options.framesInFlight, options.overlapFrames, options.gpuTimestamps,
-        options.gbuffer);
+        gpu::ContextOptions{options.validate, options.device, options.tuning.pipelineStatistics},
+        scene, options.maxQueuedFrames, options.framesInFlight, options.overlapFrames,
+        options.gpuTimestamps, options.gbuffer, options.tuning);
   } catch (const gpu::NoDeviceError& e) {
     return fail(e.what());
   } catch (const std::exception& e) {

@@ -5,7 +5,7 @@
 #ifndef MYRIAD_CLUSTER_ASSIGN_GLSL
 #define MYRIAD_CLUSTER_ASSIGN_GLSL
 
-// Which boxes a light is tested against (techniques/clustered.cpp, MYRIAD_CLUSTER_POINT_TEST, a
+// Which boxes a light is tested against (techniques/clustered.cpp, --tune point-test, a
 // benchmark switch): 2 the bounds of the cluster's points only (they lie in its view box, so the
 // view box adds little: H200, a million lights at 1080p, 0.07% more list entries and assign
 // 0.007 ms less than testing both), 1 the view box and the points' bounds, 0 the view box only

@@ -317,7 +317,7 @@ bool lightDataReaches(Surface s, GpuPointLight light) {
 // it, and they need neither their cone nor its decoding.
 // (Its radius test is written out, not withinLightRadius: through the negated form the H200's
 // 10,000-light shade pass took 0.427 ms at 1080p and 1.536 at 4K, against 0.413 and 1.472 written
-// out, alternated in one run; server/bench/results/2026-12-03-h200-stop20.)
+// out, alternated in one run; bench/results/2026-12-03-h200-stop20.)
 bool lightReaches(Surface s, uint index) {
   vec4 positionRadius = lights[index].positionRadius;
   vec3 toLight = positionRadius.xyz - s.position;

@@ -36,7 +36,7 @@
 #include "compute_targets.glsl"
 
 // How this pipeline narrows and walks (MYRIAD_SHADE_* bits of shared_types.h): the technique
-// sets MYRIAD_SHADE_DEFAULT, or MYRIAD_CLUSTER_SHADE_VARIANT's number (a benchmark experiment).
+// sets MYRIAD_SHADE_DEFAULT, or --tune shade-variant's number (a benchmark experiment).
 layout(constant_id = MYRIAD_SPEC_SHADE_VARIANT) const uint kVariant = MYRIAD_SHADE_DEFAULT;
 const bool kMaskWalk = (kVariant & MYRIAD_SHADE_MASK_WALK) != 0u;
 const bool kBoxAlways = (kVariant & MYRIAD_SHADE_BOX_ALWAYS) != 0u;

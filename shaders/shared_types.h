@@ -221,7 +221,7 @@ MYRIAD_STRUCT(MotionPush) {
 #define MYRIAD_CLUSTER_TILE_LIGHTS 2048
 // How light_clustered_subgroup.comp walks, bits of its specialisation constant
 // MYRIAD_SPEC_SHADE_VARIANT (techniques/clustered.cpp sets MYRIAD_SHADE_DEFAULT unless the
-// benchmark's MYRIAD_CLUSTER_SHADE_VARIANT asks for others; docs/performance.md).
+// benchmark's --tune shade-variant asks for others, render/tuning.h; bench/history/).
 #define MYRIAD_SPEC_SHADE_VARIANT 9               // constant_id
 #define MYRIAD_SHADE_MASK_WALK 0x1u              // every pixel shades its own mask of a chunk's lights
 #define MYRIAD_SHADE_BOX_ALWAYS 0x2u             // the mask walk tests the subgroup's box on every segment

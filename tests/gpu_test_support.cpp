@@ -16,10 +16,15 @@ render::Frame GpuSuite::render(render::FrameSettings f) {
   return renderer->render(scene, f);
 }
 
-GpuSuite createGpuSuite() {
+render::Tuning& suiteTuning() {
+  static render::Tuning tuning;
+  return tuning;
+}
+
+GpuSuite createGpuSuite(const render::Tuning& tuning) {
   GpuSuite g;
   g.context = gpu::createContext({.validation = true, .device = ""});
-  g.renderer = std::make_unique<render::Renderer>(*g.context);
+  g.renderer = std::make_unique<render::Renderer>(*g.context, tuning);
   return g;
 }
 

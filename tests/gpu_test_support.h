@@ -22,8 +22,12 @@ struct GpuSuite {
   render::Frame render(render::FrameSettings f);
 };
 
-// A context with validation on and a renderer; a suite keeps it in a function-local static, as
-// creating instances per test would dominate the run time.
-GpuSuite createGpuSuite();
+// The knobs every suite's renderer is made with unless a test names its own: defaults, or what
+// the binary's --tune flags set (tests/gpu_main.cpp).
+render::Tuning& suiteTuning();
+
+// A context with validation on and a renderer made with `tuning`; a suite keeps it in a
+// function-local static, as creating instances per test would dominate the run time.
+GpuSuite createGpuSuite(const render::Tuning& tuning = suiteTuning());
 
 }  // namespace myriad::test

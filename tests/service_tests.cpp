@@ -218,6 +218,52 @@ TEST_CASE("options: bad flags and values are one sentence naming the flag") {
   }
 }
 
+TEST_CASE("options: --tune sets the renderer's knobs, repeatably, and refuses what it does not know") {
+  // render/tuning.h: one interface for myriad-server and the bench binaries (issue 37).
+  CHECK(parse({}).tuning == render::Tuning{});
+  const Options o = parse({"--tune", "assign=atomic", "--tune=shade=pixel", "--tune", "point-test=2",
+                           "--tune", "cluster-tile=32", "--tune", "shade-variant=0x3",
+                           "--tune", "assign-steps=on", "--tune", "mark-in-gbuffer=off",
+                           "--tune", "pipeline-stats=1", "--tune", "assign-pair-slots=4"});
+  CHECK(o.tuning.assign == render::AssignPath::PerPair);
+  CHECK(o.tuning.shade == render::ShadePass::Pixel);
+  CHECK(o.tuning.pointTest == 2u);
+  CHECK(o.tuning.clusterTile == 32);
+  CHECK(o.tuning.shadeVariant == 3);
+  CHECK(o.tuning.assignSteps);
+  CHECK_FALSE(o.tuning.markInGBuffer);
+  CHECK(o.tuning.pipelineStatistics);
+  CHECK(o.tuning.assignPairSlots == 4u);
+  CHECK(parse({"--tune", "cluster-slices=48", "--tune", "cluster-slices=64"}).tuning.clusterSlices == 64);
+  struct Case {
+    std::string_view tune;
+    std::string mention;
+  };
+  const std::vector<Case> cases = {
+      {"bogus=1", "unknown key \"bogus\""},
+      {"cluster-tile=48", "cluster-tile expects 16, 32 or 64, not \"48\""},
+      {"cluster-slices=8", "cluster-slices expects a number from 16 to 128"},
+      {"assign=sometimes", "assign expects auto, atomic or binned"},
+      {"assign-group-size=300", "assign-group-size"},
+      {"point-test=3", "point-test"},
+      {"assign-steps=maybe", "assign-steps expects on or off"},
+      {"shade=volumes", "shade expects auto, pixel, subgroup or whole"},
+      {"shade-variant=x", "shade-variant"},
+      {"assign-bins=", "assign-bins"},
+      {"cluster-tile", "key=value"},
+      {"=32", "key=value"},
+  };
+  for (const Case& c : cases) {
+    const std::string error = usageErrorOf({"--tune", c.tune});
+    INFO("--tune ", c.tune, ": ", error);
+    CHECK(error.find(c.mention) != std::string::npos);
+    CHECK(error.back() == '.');
+    CHECK(error.find('\n') == std::string::npos);
+  }
+  CHECK(usageErrorOf({"--tune"}).find("--tune") != std::string::npos);
+  CHECK(service::usage().find("assign-steps=on|off") != std::string::npos);
+}
+
 TEST_CASE("options: usage lists every flag") {
   std::string text = service::usage();
   for (const char* flag :
@@ -226,7 +272,8 @@ TEST_CASE("options: usage lists every flag") {
         "--frames-in-flight",
         "--overlap-frames", "--max-sessions", "--max-lights",
         "--max-upload-bytes", "--max-body-bytes", "--max-streams", "--max-streams-per-session",
-        "--max-requests", "--session-idle-seconds", "--models", "--api-key", "--cors-origin", "--help"}) {
+        "--max-requests", "--session-idle-seconds", "--models", "--api-key", "--cors-origin", "--tune",
+        "--help"}) {
     CHECK(text.find(flag) != std::string::npos);
   }
 }

@@ -81,16 +81,12 @@ render::FrameSettings frameSettings(Technique technique, uint32_t w = 96, uint32
   return f;
 }
 
-// A second suite made while the environment variable `name` says `value`: the same renderer
-// taking the technique's other way (techniques/clustered.cpp reads it when it is created).
-Gpu suiteWith(const char* name, const char* value, const char* name2 = nullptr,
-              const char* value2 = nullptr) {
-  setenv(name, value, 1);
-  if (name2) setenv(name2, value2, 1);
-  Gpu other = test::createGpuSuite();
-  unsetenv(name);
-  if (name2) unsetenv(name2);
-  return other;
+// A second suite made with the suites' knobs plus `tunes` (each a --tune key=value,
+// render/tuning.h): the same renderer taking the technique's other way.
+Gpu suiteWith(std::initializer_list<const char*> tunes) {
+  render::Tuning tuning = test::suiteTuning();
+  for (const char* tune : tunes) render::applyTune(tuning, tune);
+  return test::createGpuSuite(tuning);
 }
 
 // A frame and the same frame's raw light-count target (lights reaching each pixel).
@@ -109,6 +105,43 @@ ImageAndCounts renderWithCounts(Gpu& gpu, render::FrameSettings f) {
 }
 
 }  // namespace
+
+TEST_CASE("tuning: the knobs resolve per device, and a device without subgroups keeps its paths") {
+  // render/tuning.h: defaults that depend on the device are resolved once, from its properties.
+  gpu::DeviceInfo gpuDevice;
+  gpuDevice.computeSubgroupShuffle = true;
+  gpuDevice.multiprocessors = 132;
+  gpuDevice.maxComputeWorkGroupInvocations = gpuDevice.maxComputeWorkGroupSizeX = 1024;
+  const render::Tuning onGpu = render::resolveTuning({}, gpuDevice);
+  CHECK(onGpu.assign == render::AssignPath::Binned);
+  CHECK(onGpu.shade == render::ShadePass::Subgroup);
+  CHECK(onGpu.pointTest == 2u);
+  CHECK(onGpu.assignGroups == 132u);
+  CHECK(onGpu.assignGroupSize == 1024);
+
+  gpu::DeviceInfo cpuDevice = gpuDevice;
+  cpuDevice.isCpu = true;
+  cpuDevice.multiprocessors = 0;
+  cpuDevice.maxComputeWorkGroupInvocations = 512;
+  const render::Tuning onCpu = render::resolveTuning({}, cpuDevice);
+  CHECK(onCpu.assign == render::AssignPath::PerPair);
+  CHECK(onCpu.shade == render::ShadePass::WholeWhenShort);
+  CHECK(onCpu.pointTest == 0u);
+  CHECK(onCpu.assignGroups == 128u);
+  CHECK(onCpu.assignGroupSize == 512);  // halved to what the device runs
+
+  // What --tune asked wins where the device can run it, not where it cannot.
+  render::Tuning asked;
+  render::applyTune(asked, "assign=binned");
+  render::applyTune(asked, "shade=subgroup");
+  render::applyTune(asked, "point-test=1");
+  CHECK(render::resolveTuning(asked, cpuDevice).assign == render::AssignPath::Binned);
+  CHECK(render::resolveTuning(asked, cpuDevice).pointTest == 1u);
+  gpu::DeviceInfo noSubgroups = gpuDevice;
+  noSubgroups.computeSubgroupShuffle = false;
+  CHECK(render::resolveTuning(asked, noSubgroups).assign == render::AssignPath::PerPair);
+  CHECK(render::resolveTuning(asked, noSubgroups).shade == render::ShadePass::Pixel);
+}
 
 TEST_CASE("volumes, tiled and clustered give the same image within 1/255, matching the reference") {
   Gpu& gpu = sharedGpu();
@@ -215,10 +248,10 @@ TEST_CASE("light-count target is exact at sampled pixels with 200,000 lights") {
 TEST_CASE("binned and per-pair cluster assignment build the same lists and image") {
   // The clustered technique counts small lights per workgroup in shared memory on GPUs and with a
   // global atomic per light-cluster pair on CPU devices (techniques/clustered.cpp); a second
-  // renderer made with MYRIAD_CLUSTER_ASSIGN set to the other way must agree exactly.
+  // renderer made with --tune assign set to the other way must agree exactly.
   Gpu& gpu = sharedGpu();
   const bool cpu = gpu.context->info.isCpu;
-  Gpu other = suiteWith("MYRIAD_CLUSTER_ASSIGN", cpu ? "binned" : "atomic");
+  Gpu other = suiteWith({cpu ? "assign=binned" : "assign=atomic"});
   scene::Scene s = litFloor(20000, 7);
   gpu.setScene(s);
   other.setScene(s);
@@ -243,11 +276,11 @@ TEST_CASE("binned and per-pair cluster assignment build the same lists and image
 TEST_CASE("clustered: clusters marked in the compute G-buffer's resolve or by the pixel pass, the same lists") {
   // Where the G-buffer is made in compute, its resolve pass marks the clusters holding geometry
   // (techniques/clustered.cpp, visibility_resolve.comp); a renderer made with
-  // MYRIAD_MARK_IN_GBUFFER=0 marks them from the same depth in the technique's own pixel pass.
+  // --tune mark-in-gbuffer=off marks them from the same depth in the technique's own pixel pass.
   // Lists, active clusters and every pixel's count must agree exactly, frame after frame (the
   // marks are cleared by the frame that reads them).
   Gpu& gpu = sharedGpu();
-  Gpu other = suiteWith("MYRIAD_MARK_IN_GBUFFER", "0");
+  Gpu other = suiteWith({"mark-in-gbuffer=off"});
   scene::Scene s = litFloor(20000, 7);
   gpu.setScene(s);
   other.setScene(s);
@@ -274,15 +307,15 @@ TEST_CASE("clustered: clusters marked in the compute G-buffer's resolve or by th
 TEST_CASE("clustered shading per pixel and per subgroup: the same light counts and image") {
   // The clustered shading pass walks its tile's narrowed lists per subgroup on GPUs with subgroup
   // ballot and per pixel on CPU devices (techniques/clustered.cpp); a second renderer made with
-  // MYRIAD_CLUSTER_SHADE set to the other walk must count the same lights at every pixel. Twice:
+  // --tune shade set to the other walk must count the same lights at every pixel. Twice:
   // 20,000 small lights, and 3,000 that each cover the whole view, which overflow what a tile can
   // narrow into shared memory (its pixels then walk their clusters' whole lists).
   Gpu& gpu = sharedGpu();
   if (!gpu.context->info.computeSubgroupShuffle) return;
-  Gpu other = suiteWith("MYRIAD_CLUSTER_SHADE", gpu.context->info.isCpu ? "subgroup" : "pixel");
-  // And the subgroup pass's walk before issue 16's stop 16 (MYRIAD_CLUSTER_SHADE_VARIANT=0, a
+  Gpu other = suiteWith({gpu.context->info.isCpu ? "shade=subgroup" : "shade=pixel"});
+  // And the subgroup pass's walk before issue 16's stop 16 (--tune shade-variant=0, a
   // benchmark switch): a light a step for every pixel of a short segment, by ballot beyond.
-  Gpu walk = suiteWith("MYRIAD_CLUSTER_SHADE", "subgroup", "MYRIAD_CLUSTER_SHADE_VARIANT", "0");
+  Gpu walk = suiteWith({"shade=subgroup", "shade-variant=0"});
   scene::Scene small = litFloor(20000, 7);
   scene::Scene huge = litFloor(0, 1);
   for (int i = 0; i < 3000; ++i) {
@@ -316,8 +349,8 @@ TEST_CASE("clustered shading from the whole lists: the same light counts and ima
   // (light_clustered_whole.comp, techniques/clustered.cpp kWholeListsUpTo): every pixel must count
   // the same lights as after the tile's narrowing, with short lists and with 3,000 lights that
   // each cover the whole view.
-  Gpu narrowed = suiteWith("MYRIAD_CLUSTER_SHADE", "pixel");
-  Gpu whole = suiteWith("MYRIAD_CLUSTER_SHADE", "whole");
+  Gpu narrowed = suiteWith({"shade=pixel"});
+  Gpu whole = suiteWith({"shade=whole"});
   scene::Scene small = litFloor(2000, 7);
   scene::Scene huge = litFloor(0, 1);
   for (int i = 0; i < 3000; ++i) {

@@ -38,13 +38,15 @@ void writeJson(const std::string& path, const bench::RunInfo& run,
 }
 
 int run(const bench::Options& options, const std::string& commandLine) {
-  auto context = gpu::createContext({.validation = options.validate, .device = options.device});
+  auto context = gpu::createContext({.validation = options.validate,
+                                     .device = options.device,
+                                     .pipelineStatistics = options.tuning.pipelineStatistics});
   if (!context->info.timestampsSupported) {
     std::fprintf(stderr, "myriad-bench: %s has no timestamp queries on its queue; nothing to time.\n",
                  context->info.name.c_str());
     return 1;
   }
-  render::Renderer renderer(*context);
+  render::Renderer renderer(*context, options.tuning);
   renderer.setGBufferPath(options.gbuffer);
   render::SceneId sceneId = 0;
   bench::RunInfo info;
@@ -109,6 +111,7 @@ int main(int argc, char** argv) {
     bench::Options options = bench::parseOptions(args);
     if (options.help) {
       std::fputs(bench::kUsage, stdout);
+      std::fputs(render::tuningKeys(), stdout);
       return 0;
     }
     return run(options, commandLine);

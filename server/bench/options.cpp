@@ -60,6 +60,7 @@ const char* const kUsage =
     "                    [--sun-shadows 256|512|1024|2048|4096]\n"
     "                    [--shadowed-lights N [--shadowed-kind point|spot]]\n"
     "                    [--model PATH [--textures on|off]] [--gbuffer raster|compute|auto]\n"
+    "                    [--tune KEY=VALUE]...\n"
     "Renders animated frames for every light count x technique, timing each pass with GPU\n"
     "timestamp queries after warm-up, and prints medians and 90th percentiles.\n"
     "defaults: 1920x1080, lights 1000,10000,100000,1000000, every technique,\n"
@@ -80,7 +81,9 @@ const char* const kUsage =
     "every one given a map each frame, timed as the \"light-shadows\" pass; --shadowed-kind spot\n"
     "makes them spots (one tile each) instead of point lights (six tiles, a cube).\n"
     "--model PATH renders a model file (loaded in this process) from its framing camera, with\n"
-    "lights around it; --textures off strips its textures (the same geometry, factors only).\n";
+    "lights around it; --textures off strips its textures (the same geometry, factors only).\n"
+    "--tune KEY=VALUE (repeatable) sets one of the renderer's knobs (render/tuning.h), as on\n"
+    "myriad-server; the run's \"command\" records it. Keys:\n";
 
 Options parseOptions(const std::vector<std::string>& args) {
   Options o;
@@ -179,6 +182,12 @@ Options parseOptions(const std::vector<std::string>& args) {
         throw UsageError("--gbuffer expects raster, compute or auto, not \"" + std::string(name) + "\".");
       }
       o.gbuffer = *path;
+    } else if (flag == "--tune") {
+      try {
+        render::applyTune(o.tuning, value());
+      } catch (const render::TuningError& e) {
+        throw UsageError(e.what());
+      }
     } else if (flag == "--validate") {
       o.validate = true;
     } else if (flag == "--device") {

@@ -9,6 +9,7 @@
 #include "bench/bench_scene.h"
 #include "bench/measure.h"
 #include "render/frame.h"
+#include "render/tuning.h"
 
 namespace myriad::bench {
 
@@ -34,6 +35,7 @@ struct Options {
   bool validate = false;
   std::string device;
   render::GBufferPath gbuffer = render::GBufferPath::Raster;  // --gbuffer
+  render::Tuning tuning;  // --tune key=value, repeatable (render/tuning.h)
   bool help = false;
 };
 

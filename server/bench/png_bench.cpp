@@ -108,6 +108,7 @@ int main(int argc, char** argv) {
   uint32_t width = 1920, height = 1080;
   int reps = 7;
   std::string device, jsonPath, only;
+  render::Tuning tuning;  // --tune key=value, repeatable (render/tuning.h)
   for (int i = 1; i < argc; ++i) {
     const std::string arg = argv[i];
     auto value = [&]() -> std::string {
@@ -120,9 +121,18 @@ int main(int argc, char** argv) {
     else if (arg == "--device") device = value();
     else if (arg == "--json") jsonPath = value();
     else if (arg == "--only") only = value();
-    else {
+    else if (arg == "--tune") {
+      try {
+        render::applyTune(tuning, value());
+      } catch (const render::TuningError& e) {
+        std::fprintf(stderr, "myriad-png-bench: %s\n", e.what());
+        return 2;
+      }
+    } else {
       std::fprintf(stderr, "usage: myriad-png-bench [--width W] [--height H] [--reps N] "
-                           "[--device NAME] [--json FILE] [--only ENCODER]\n");
+                           "[--device NAME] [--json FILE] [--only ENCODER] "
+                           "[--tune KEY=VALUE]...\n%s",
+                   render::tuningKeys());
       return 2;
     }
   }
@@ -130,9 +140,10 @@ int main(int argc, char** argv) {
   std::vector<uint8_t> rgba;
   std::string deviceName;
   {
-    auto context = gpu::createContext({.validation = false, .device = device});
+    auto context = gpu::createContext(
+        {.validation = false, .device = device, .pipelineStatistics = tuning.pipelineStatistics});
     deviceName = context->info.name;
-    render::Renderer renderer(*context);
+    render::Renderer renderer(*context, tuning);
     const scene::Scene scene = scene::makeBuiltinScene();
     const render::SceneId id = renderer.createScene(scene);
     render::FrameSettings settings;

@@ -36,6 +36,7 @@ struct Options {
   std::string device;
   bool validate = false;
   std::string json;
+  render::Tuning tuning;  // --tune key=value, repeatable (render/tuning.h)
 };
 
 constexpr uint32_t kAround = 40;  // vertices around a ring
@@ -160,6 +161,7 @@ Options parse(int argc, char** argv) {
     else if (flag == "--device") o.device = value();
     else if (flag == "--json") o.json = value();
     else if (flag == "--validate") o.validate = true;
+    else if (flag == "--tune") render::applyTune(o.tuning, value());
     else throw std::invalid_argument("unknown flag " + std::string(flag) + ".");
   }
   return o;
@@ -182,12 +184,14 @@ int main(int argc, char** argv) {
     return 2;
   }
   try {
-    auto context = gpu::createContext({.validation = o.validate, .device = o.device});
+    auto context = gpu::createContext({.validation = o.validate,
+                                       .device = o.device,
+                                       .pipelineStatistics = o.tuning.pipelineStatistics});
     if (!context->info.timestampsSupported) {
       std::fprintf(stderr, "myriad-skin-bench: %s has no timestamp queries.\n", context->info.name.c_str());
       return 1;
     }
-    render::Renderer renderer(*context);
+    render::Renderer renderer(*context, o.tuning);
     const scene::Scene scene = crowd(o);
     const uint32_t verticesEach = uint32_t(scene.meshes[0].vertices.size());
     const render::SceneId id = renderer.createScene(scene);

@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Markdown tables from myriad-bench JSON files (for docs/performance.md).
 
-    python3 server/bench/summarize.py results/*.json
+    python3 server/bench/summarize.py bench/results/DIR/*.json
 """
 import json
 import sys

@@ -358,13 +358,12 @@ std::unique_ptr<Context> createContext(const ContextOptions& options) {
   features.features.samplerAnisotropy = supported.samplerAnisotropy;
   features.features.fragmentStoresAndAtomics = supported.fragmentStoresAndAtomics;
 
-  // A diagnostic: MYRIAD_PIPELINE_STATS=1 has compute pipelines print the driver's statistics
+  // A diagnostic: options.pipelineStatistics has compute pipelines print the driver's statistics
   // (gpu/pipelines.h, capturePipelineStatistics) where the device can say them.
   std::vector<const char*> deviceExtensions;
   VkPhysicalDevicePipelineExecutablePropertiesFeaturesKHR executableInfo{
       VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_PIPELINE_EXECUTABLE_PROPERTIES_FEATURES_KHR};
-  const char* stats = std::getenv("MYRIAD_PIPELINE_STATS");
-  if (stats && std::strcmp(stats, "1") == 0 &&
+  if (options.pipelineStatistics &&
       deviceExtensionAvailable(context->physicalDevice,
                          VK_KHR_PIPELINE_EXECUTABLE_PROPERTIES_EXTENSION_NAME)) {
     deviceExtensions.push_back(VK_KHR_PIPELINE_EXECUTABLE_PROPERTIES_EXTENSION_NAME);

@@ -17,6 +17,10 @@ namespace myriad::gpu {
 struct ContextOptions {
   bool validation = false;  // enable VK_LAYER_KHRONOS_validation and count its messages
   std::string device;       // "" = best available; else an index or a substring of the name
+  // A diagnostic: compute pipelines print the driver's statistics (registers, local and shared
+  // memory) where the device has VK_KHR_pipeline_executable_properties (pipelines.h,
+  // capturePipelineStatistics). Set by `--tune pipeline-stats=on` (render/tuning.h).
+  bool pipelineStatistics = false;
 };
 
 // No usable Vulkan 1.3 device, or --device matched none. The message is one actionable sentence.

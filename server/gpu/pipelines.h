@@ -43,8 +43,8 @@ VkPipeline createComputePipeline(VkDevice device, VkPipelineLayout layout,
                                  std::span<const uint32_t> shader,
                                  const VkSpecializationInfo* specialization = nullptr);
 
-// A diagnostic (MYRIAD_PIPELINE_STATS=1 in the environment, where the device has
-// VK_KHR_pipeline_executable_properties; createContext decides): compute pipelines made after
+// A diagnostic (ContextOptions::pipelineStatistics, `--tune pipeline-stats=on`, where the device
+// has VK_KHR_pipeline_executable_properties; createContext decides): compute pipelines made after
 // this print the driver's statistics of their code (registers, spills, ...) to stderr, with the
 // SPIR-V's size and specialisation to tell them apart.
 void capturePipelineStatistics(bool on);

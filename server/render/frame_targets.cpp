@@ -14,7 +14,7 @@ constexpr VkDeviceSize kTargetBlockSize = 4ull << 20;
 }  // namespace
 
 FrameTargets::FrameTargets(gpu::Context& context, VkExtent2D size, bool rawOutput,
-                           bool computeWritable_)
+                           const ClusterGrid& clusters, bool computeWritable_)
     : extent(size), raw(rawOutput), computeWritable(computeWritable_),
       arena(context, kTargetBlockSize), context_(&context) {
   const VkImageUsageFlags gbufferUsage =
@@ -50,8 +50,8 @@ FrameTargets::FrameTargets(gpu::Context& context, VkExtent2D size, bool rawOutpu
   const VkDeviceSize edgePixels = raw ? 1 : VkDeviceSize(extent.width) * extent.height;
   // Whole pairs of words: the numbering pass's workgroups take 64 clusters each. Then six words
   // per cluster: the bounds of its points (shaders/cluster_bounds.glsl).
-  clusterMarks = arena.createBuffer((VkDeviceSize(clusterGrid(extent).count()) + 63) / 64 * 8 +
-                                        VkDeviceSize(clusterGrid(extent).count()) * 24,
+  clusterMarks = arena.createBuffer((VkDeviceSize(clusters.count()) + 63) / 64 * 8 +
+                                        VkDeviceSize(clusters.count()) * 24,
                                     VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT,
                                     gpu::MemoryUse::DeviceLocal);
   edges = arena.createBuffer(sizeof(gpu_types::AntialiasEdges) + edgePixels * 4,

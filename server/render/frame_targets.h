@@ -8,6 +8,7 @@
 
 #include "gpu/context.h"
 #include "gpu/resources.h"
+#include "render/cluster_grid.h"
 
 namespace myriad::render {
 
@@ -43,7 +44,9 @@ struct FrameTargets {
   // `computeWritable`: the G-buffer may also be written by compute (render/visibility.h): its
   // colour targets are storage images too (base colour through a UNORM view) and depth a copy
   // destination. Only then: storage may cost a GPU its render-target compression.
-  FrameTargets(gpu::Context& context, VkExtent2D extent, bool raw, bool computeWritable = false);
+  // `clusters`: the cluster grid of `extent` (render/cluster_grid.h), for the cluster marks.
+  FrameTargets(gpu::Context& context, VkExtent2D extent, bool raw, const ClusterGrid& clusters,
+               bool computeWritable = false);
 
   VkExtent2D extent;
   bool raw;

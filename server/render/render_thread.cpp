@@ -47,12 +47,14 @@ DeviceSummary summarize(const gpu::DeviceInfo& d) {
 
 RenderThread::RenderThread(const gpu::ContextOptions& options, const scene::Scene& scene,
                            uint32_t maxQueuedFrames, uint32_t framesInFlight,
-                           bool overlapFrames, GpuTimestamps timestamps, GBufferPath gbuffer)
+                           bool overlapFrames, GpuTimestamps timestamps, GBufferPath gbuffer,
+                           const Tuning& tuning)
     : maxQueuedFrames_(maxQueuedFrames),
       framesInFlight_(std::clamp(framesInFlight, 1u, Renderer::kMaxFramesInFlight)),
       overlapFrames_(overlapFrames),
       timestamps_(timestamps),
-      gbuffer_(gbuffer) {
+      gbuffer_(gbuffer),
+      tuning_(tuning) {
   std::promise<void> ready;
   std::future<void> started = ready.get_future();
   thread_ = std::thread([this, &options, &scene, &ready] { run(options, scene, ready); });
@@ -324,7 +326,7 @@ void RenderThread::run(const gpu::ContextOptions& options, const scene::Scene& s
     context = gpu::createContext(options);
     std::fprintf(stderr, "myriad-server: readback memory: %s\n",
                  gpu::describeMemoryUse(*context, gpu::MemoryUse::Readback).c_str());
-    renderer = std::make_unique<Renderer>(*context);
+    renderer = std::make_unique<Renderer>(*context, tuning_);
     renderer->setFramesInFlight(framesInFlight_);
     renderer->setOverlap(overlapFrames_);
     renderer->setGpuTimestamps(timestamps_);

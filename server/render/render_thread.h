@@ -54,7 +54,7 @@ inline constexpr std::chrono::seconds kIdleTrim{2};
 // What the idle trim keeps: the last frame's targets, sun map and readback buffer when together
 // they are at most this (a 1920x1080 frame's are about 150 MB), so that a stream's next still
 // after a pause does not make them again (on a CPU device, first touching new memory cost a
-// 1280x720 still tens of ms: docs/performance.md); a larger frame's go back.
+// 1280x720 still tens of ms: bench/history/performance-2026-11-to-12.md); a larger frame's go back.
 inline constexpr uint64_t kIdleKeepBytes = 192ull << 20;
 
 class RenderThread final : public RenderQueue {
@@ -64,11 +64,12 @@ class RenderThread final : public RenderQueue {
   // submitted; rethrows whatever start-up threw on the thread (gpu::NoDeviceError among others).
   // `framesInFlight`: frame slots (1..Renderer::kMaxFramesInFlight, clamped).
   // `overlapFrames`: Renderer::setOverlap. `timestamps`: Renderer::setGpuTimestamps.
-  // `gbuffer`: Renderer::setGBufferPath.
+  // `gbuffer`: Renderer::setGBufferPath. `tuning`: the renderer's knobs (render/tuning.h; its
+  // pipelineStatistics is the context's, options.pipelineStatistics).
   RenderThread(const gpu::ContextOptions& options, const scene::Scene& scene,
                uint32_t maxQueuedFrames, uint32_t framesInFlight = kDefaultFramesInFlight,
                bool overlapFrames = false, GpuTimestamps timestamps = GpuTimestamps::Passes,
-               GBufferPath gbuffer = GBufferPath::Raster);
+               GBufferPath gbuffer = GBufferPath::Raster, const Tuning& tuning = {});
   static constexpr uint32_t kDefaultFramesInFlight = 2;
   ~RenderThread() override;
   RenderThread(const RenderThread&) = delete;
@@ -170,6 +171,7 @@ class RenderThread final : public RenderQueue {
   const bool overlapFrames_;
   const GpuTimestamps timestamps_;
   const GBufferPath gbuffer_;
+  const Tuning tuning_;
   std::deque<InFlight> inFlight_;  // oldest first; the render thread's alone
   // When the render thread saw the last frame it finished done on the GPU (render thread only):
   // where the GPU work of a frame submitted behind it began (its queue wait ends there).

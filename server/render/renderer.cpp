@@ -38,7 +38,7 @@ namespace {
 // environment (when rebuilt), animate, shadow, light-shadows, gbuffer (or visibility + resolve),
 // the technique's (sun + lights, lighting, or assign + shade), blend, markers, final, antialias,
 // overlay, readback: room for a technique of three passes, or clustered's assignment timed step
-// by step (MYRIAD_ASSIGN_STEPS, techniques/clustered.cpp: seven).
+// by step (--tune assign-steps=on, techniques/clustered.cpp: seven).
 constexpr uint32_t kMaxTimedPasses = 20;
 
 // The light-count view's hottest colour when the request leaves it to us.
@@ -116,8 +116,9 @@ void addPasses(std::vector<PassTiming>& passes,
 }  // namespace
 
 struct Renderer::State {
-  explicit State(gpu::Context& c)
-      : context(c), pipelines(c), techniques(createTechniques({c, pipelines})),
+  State(gpu::Context& c, const Tuning& asked)
+      : context(c), tuning(resolveTuning(asked, c.info)), pipelines(c),
+        techniques(createTechniques({c, pipelines, tuning})),
         computeGBuffer(c, pipelines.sceneSetLayout, kMaxFramesInFlight + 1),
         skinning(c), motion(c, pipelines.sceneSetLayout, kMaxFramesInFlight + 1),
         uniformArena(c, kUniformBlockSize) {
@@ -127,11 +128,12 @@ struct Renderer::State {
       slot->timer = std::make_unique<gpu::PassTimer>(c, kMaxTimedPasses);
     }
     for (const auto& technique : techniques) {
-      splitTechniques.push_back(technique->splitInstance({c, pipelines}));
+      splitTechniques.push_back(technique->splitInstance({c, pipelines, tuning}));
     }
   }
 
   gpu::Context& context;
+  const Tuning tuning;  // resolved for the device (render/tuning.h)
   Pipelines pipelines;
   // A host-visible buffer a frame's pixels are read back into and lent out with the frame
   // (FrameSettings::borrowPixels): `held` from the frame's recording until its BorrowedPixels is
@@ -506,7 +508,8 @@ bool Renderer::State::ensureTargets(FrameSlot& slot, VkExtent2D extent, bool raw
   std::unique_ptr<FrameTargets>& targets = slot.targets;
   if (!targets || !targetsFit(*targets, extent, raw)) {
     targets.reset();
-    targets = std::make_unique<FrameTargets>(context, extent, raw, computeWritableTargets());
+    targets = std::make_unique<FrameTargets>(context, extent, raw, clusterGrid(extent, tuning),
+                                             computeWritableTargets());
     writeTargetSet(slot);
     return true;
   }
@@ -543,9 +546,9 @@ void Renderer::State::writeUniforms(FrameSlot& slot, const FrameSettings& s,
   u.boundsMin = glm::vec4(bounds.empty() ? glm::vec3(0.0f) : bounds.min, 0.0f);
   u.boundsMax = glm::vec4(bounds.empty() ? glm::vec3(1.0f) : bounds.max, 0.0f);
   u.flags = glm::uvec4(static_cast<uint32_t>(s.target), scene.lightCount, s.raw ? 1 : 0, 0);
-  u.written = glm::uvec4(gbufferWrites(s, scene), clusterTileSize(), 0, 0);
+  u.written = glm::uvec4(gbufferWrites(s, scene), tuning.clusterTile, 0, 0);
   // The cluster grid: the clustered technique's, and the clusters view's whatever the technique.
-  const ClusterGrid g = clusterGrid({s.width, s.height});
+  const ClusterGrid g = clusterGrid({s.width, s.height}, tuning);
   u.grid = glm::uvec4(g.x, g.y, g.slices, static_cast<uint32_t>(s.technique));
   float slicesPerLog = float(g.slices) / std::log(s.camera.farPlane / s.camera.nearPlane);
   u.slicing = glm::vec4(slicesPerLog, std::log(s.camera.nearPlane) * slicesPerLog,
@@ -578,7 +581,8 @@ void Renderer::State::writeUniforms(FrameSlot& slot, const FrameSettings& s,
   std::memcpy(slot.uniforms.mapped, &u, sizeof(u));
 }
 
-Renderer::Renderer(gpu::Context& context) : state_(std::make_unique<State>(context)) {
+Renderer::Renderer(gpu::Context& context, const Tuning& tuning)
+    : state_(std::make_unique<State>(context, tuning)) {
   State& s = *state_;
   VkDevice device = context.device;
   const std::vector<State::FrameSlot*> slots = s.allSlots();

@@ -13,6 +13,7 @@
 
 #include "gpu/context.h"
 #include "render/frame.h"
+#include "render/tuning.h"
 #include "scene/environment_map.h"
 #include "scene/scene.h"
 
@@ -20,7 +21,8 @@ namespace myriad::render {
 
 class Renderer {
  public:
-  explicit Renderer(gpu::Context& context);
+  // `tuning`: the knobs (render/tuning.h), resolved here once for the context's device.
+  explicit Renderer(gpu::Context& context, const Tuning& tuning = {});
   ~Renderer();
   Renderer(const Renderer&) = delete;
   Renderer& operator=(const Renderer&) = delete;

@@ -164,6 +164,14 @@ const std::vector<Flag>& flags() {
          }
          o.gbuffer = *path;
        }},
+      {"--tune", true,
+       [](Options& o, std::string_view v) {
+         try {
+           render::applyTune(o.tuning, v);
+         } catch (const render::TuningError& e) {
+           throw UsageError(e.what());
+         }
+       }},
       {"--max-sessions", true,
        [](Options& o, std::string_view v) {
          o.maxSessions = parseUnsigned<uint32_t>("--max-sessions", v, 1, kMaxCountLimit);
@@ -361,7 +369,9 @@ materials and lights (protocol/reference.md), and the stateless GET /v1/frame.
                            compute shaders where the scene's materials are opaque and untextured
                            and the device has 64-bit atomics; raster elsewhere) or auto
                            (default: compute where it qualifies, except on CPU devices)
-  --max-sessions N         sessions open at once; more get 429 (default 16)
+  --tune KEY=VALUE         set one of the renderer's tuning knobs (repeatable; render/tuning.h,
+                           benchmarks and diagnostics; the defaults are the product's):
+)" + std::string(render::tuningKeys()) + R"(  --max-sessions N         sessions open at once; more get 429 (default 16)
   --max-lights N           local lights per session; more get 413 (default 1000000)
   --max-objects N          objects per session (POST .../objects); more get 413 (default 100000)
   --max-upload-bytes N     largest model upload (default 67108864, 64 MiB)

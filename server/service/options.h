@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "render/frame.h"
+#include "render/tuning.h"
 
 namespace myriad::service {
 
@@ -64,6 +65,8 @@ struct Options {
   // GPU (on the H200 the floor scene's G-buffer took 0.24 ms instead of 1.34 at 1080p, 0.81
   // instead of 5.31 at 4K; docs/performance.md), raster on CPU devices, where raster is cheaper.
   render::GBufferPath gbuffer = render::GBufferPath::Auto;
+  // The renderer's knobs (render/tuning.h), from repeatable --tune key=value flags.
+  render::Tuning tuning;
   // Sessions (protocol/CONTRACT.md). Each holds a GPU scene, so the count is bounded.
   uint32_t maxSessions = 16;
   uint32_t maxLightsPerSession = 1000000;

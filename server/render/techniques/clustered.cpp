@@ -16,7 +16,6 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
-#include <cstdlib>
 #include <cstring>
 #include <memory>
 #include <stdexcept>
@@ -48,7 +47,7 @@ constexpr uint32_t kReferencesPerLight = 8;
 constexpr uint32_t kMinimumListCapacity = 1u << 18;
 // References per cluster of the whole grid. Per light alone is not enough when the lights are
 // dense or the output large: on the H200 the lists overflowed at 3840x2160 with 10,000 and
-// 100,000 floor lights and at 1920x1080 in the built-in scene with 10,000 (docs/performance.md),
+// 100,000 floor lights and at 1920x1080 in the built-in scene with 10,000 (bench/history/),
 // needing 400-450 references per active cluster. About 4-5% of clusters hold geometry in those
 // views, so 32 per grid cluster leaves 650-800 per active one: 2 MiB at 1080p, 8 MiB at 4K.
 constexpr uint32_t kReferencesPerCluster = 32;
@@ -65,7 +64,7 @@ constexpr VkDeviceSize kListBlockSize = 4ull << 20;
 // does not say, each taking a contiguous run of the lights: the more lights a workgroup counts,
 // the fewer global atomics its shared table leaves (each group flushes its table once). The pass
 // takes as long as the busiest multiprocessor: on the H200 (132 SMs) 128 groups beat 64, 96, 192,
-// 256, 512, 1,024 and 2,048 with a million lights at 1080p and at 4K (docs/performance.md, issue
+// 256, 512, 1,024 and 2,048 with a million lights at 1080p and at 4K (bench/history/, issue
 // 16 stop 16): fewer leave SMs idle, more give some SMs two groups' lights.
 constexpr uint32_t kBinnedAssignGroups = 128;
 // And at least this many lights a workgroup (its subgroups share them, and a subgroup of few
@@ -81,128 +80,70 @@ constexpr uint32_t kBinnedGroupSize = 1024;
 // are still recorded, not queued for the large-light passes.
 constexpr uint64_t kMinimumPairSlots = 1u << 20;
 
-// The benchmark's experiment switches below read the environment once each through these.
-bool envIs(const char* name, const char* value) {
-  const char* v = std::getenv(name);
-  return v && std::strcmp(v, value) == 0;
-}
-// The environment variable `name` as a number, or 0 when unset or not one.
-uint64_t envNumber(const char* name) {
-  const char* v = std::getenv(name);
-  return v ? std::strtoull(v, nullptr, 10) : 0;
-}
+// The knobs below (render/tuning.h, set by --tune) arrive resolved for the device in
+// TechniqueSetup::tuning; the comments say why each default is what it is.
 
 // Pair slots (cluster_assign_binned.comp) per light: a light reserves a slot for each cluster of
 // its box, reached or not (its pairs are recorded one after another). A light whose box finds its
 // workgroup's region full is walked by the large-light passes instead, so fewer slots are slower,
-// never wrong.
-// MYRIAD_ASSIGN_PAIR_SLOTS (1 to 64) overrides it: a benchmark experiment, and a test's way to
-// send lights down the full region's path.
-uint64_t pairSlotsPerLight() {
-  static const uint64_t slots = [] {
-    const uint64_t n = envNumber("MYRIAD_ASSIGN_PAIR_SLOTS");
-    return n >= 1 && n <= 64 ? n : uint64_t(8);
-  }();
-  return slots;
+// never wrong. --tune assign-pair-slots=1..64 overrides it: a benchmark experiment, and a test's
+// way to send lights down the full region's path.
+constexpr uint64_t kPairSlotsPerLight = 8;
+uint64_t pairSlotsPerLight(const Tuning& tuning) {
+  return tuning.assignPairSlots ? *tuning.assignPairSlots : kPairSlotsPerLight;
 }
 constexpr uint64_t kPairWordsPerSlot = 3;  // light, cluster (or bin), rank
 
-// The shared table's bins of the binned passes (active clusters counted in shared memory):
-// MYRIAD_ASSIGN_BINS, or MYRIAD_ASSIGN_BINS_OVERRIDE (256 to 4096; a benchmark experiment).
-uint32_t assignBins() {
-  static const uint32_t bins = [] {
-    const uint64_t n = envNumber("MYRIAD_ASSIGN_BINS_OVERRIDE");
-    return n >= 256 && n <= 4096 ? uint32_t(n) : uint32_t(MYRIAD_ASSIGN_BINS);
-  }();
-  return bins;
-}
-
-// The binned passes' workgroup size: kBinnedGroupSize, halved while the device runs no groups
-// that large (never below MYRIAD_ASSIGN_BIN_GROUP, which the technique requires).
-// MYRIAD_ASSIGN_BIN_GROUP_SIZE (256, 512 or 1,024) asks for another: a benchmark experiment.
-uint32_t binnedGroupSize(const gpu::DeviceInfo& device) {
-  const uint32_t most =
-      std::min(device.maxComputeWorkGroupInvocations, device.maxComputeWorkGroupSizeX);
-  const uint64_t asked = envNumber("MYRIAD_ASSIGN_BIN_GROUP_SIZE");
-  uint32_t size =
-      asked == 256 || asked == 512 || asked == 1024 ? uint32_t(asked) : kBinnedGroupSize;
-  while (size > MYRIAD_ASSIGN_BIN_GROUP && size > most) size /= 2;
-  return size;
-}
-
-// Lights whose box holds more clusters than this go to the large-light passes (a workgroup each):
-// MYRIAD_LARGE_LIGHT_CLUSTERS, or MYRIAD_ASSIGN_MOST_CLUSTERS (1 to 65536; a benchmark experiment).
-uint32_t mostClustersPerLight() {
-  static const uint32_t most = [] {
-    const uint64_t n = envNumber("MYRIAD_ASSIGN_MOST_CLUSTERS");
-    return n >= 1 && n <= 65536 ? uint32_t(n) : uint32_t(MYRIAD_LARGE_LIGHT_CLUSTERS);
-  }();
-  return most;
-}
+// The binned passes' shared-table bins (active clusters counted in shared memory):
+// tuning.assignBins, MYRIAD_ASSIGN_BINS unless --tune assign-bins says otherwise.
+// The binned passes' workgroup size: tuning.assignGroupSize (kBinnedGroupSize's 1,024 unless
+// --tune assign-group-size asks for 256 or 512), halved by resolveTuning() while the device runs
+// no groups that large (never below MYRIAD_ASSIGN_BIN_GROUP, which the technique requires).
+static_assert(Tuning{}.assignGroupSize == kBinnedGroupSize);
+static_assert(Tuning{}.assignGroupLights == kBinnedGroupLights);
+// Lights whose box holds more clusters than tuning.assignMostClusters (MYRIAD_LARGE_LIGHT_CLUSTERS
+// unless --tune assign-most-clusters says otherwise) go to the large-light passes.
 
 // Whether the small lights are counted per workgroup in shared memory (cluster_assign_binned.comp)
 // or with one global atomic per light-cluster pair (cluster_assign.comp). Binned on GPUs, where
 // the busiest cluster's per-pair atomics were serialised; per pair on CPU devices, where atomics
 // are cheap and binned's third walk of every light doubled lavapipe's assignment of 10,000
-// built-in lights (docs/performance.md). MYRIAD_CLUSTER_ASSIGN=atomic|binned overrides it (the
-// benchmark compares the two; technique_tests holds them to the same lists).
-// MYRIAD_ASSIGN_STEPS=1: the benchmark times the assignment's steps apart ("assign" then holds
+// built-in lights (bench/history/). --tune assign=atomic|binned overrides it (the benchmark
+// compares the two; technique_tests holds them to the same lists); the binned passes need full
+// subgroups with arithmetic, ballot and shuffle (their walk per subgroup), so without them
+// resolveTuning() keeps the per-pair path.
+// --tune assign-steps=on: the benchmark times the assignment's steps apart ("assign" then holds
 // the buffer clears only; "assign-mark", "-count", "-count-large", "-scan", "-fill",
-// "-fill-large" the rest). A diagnostic: the
-// extra timestamps wait for the work before them.
-bool assignSteps() {
-  static const bool on = envIs("MYRIAD_ASSIGN_STEPS", "1");
-  return on;
-}
-
-// MYRIAD_ANIMATE_SEPARATE=1: the binned counting pass leaves moving the lights to the renderer's
+// "-fill-large" the rest). A diagnostic: the extra timestamps wait for the work before them.
+// --tune animate-separate=on: the binned counting pass leaves moving the lights to the renderer's
 // animate pass (light_animate.comp), as the per-pair path always does (a benchmark comparison).
-bool separateAnimation() {
-  return envIs("MYRIAD_ANIMATE_SEPARATE", "1");
-}
-
-// Step 1 from the compute G-buffer's marks where it ran (its resolve pass reads every pixel's depth
-// anyway: a bit per cluster, then one invocation per cluster here) instead of a pass over the
-// pixels. MYRIAD_MARK_IN_GBUFFER=0 keeps the pixel pass (a benchmark comparison, and
-// technique_tests' second renderer). Read when the technique is made, not once a process: a test
-// makes both renderers in one process.
-bool markInGBuffer() {
-  return !envIs("MYRIAD_MARK_IN_GBUFFER", "0");
-}
-
+// Step 1 from the compute G-buffer's marks where it ran (its resolve pass reads every pixel's
+// depth anyway: a bit per cluster, then one invocation per cluster here) instead of a pass over
+// the pixels. --tune mark-in-gbuffer=off keeps the pixel pass (a benchmark comparison, and
+// technique_tests' second renderer).
 // The overlap test's boxes (cluster_assign.glsl's kPointTest): 2, the bounds of a cluster's
-// surface points; MYRIAD_CLUSTER_POINT_TEST=1 those and the cluster's view box, 0 the view box
-// only (the test before stop 18): a benchmark switch. CPU devices default to 0, and their mark
-// pass then gathers no bounds (cluster_mark.comp's kPointTest): on llvmpipe the gathering's
-// atomics and barriers, run for every pixel, took a 1280x720 still's assign from 8-12 ms to
-// 38-46 (docs/performance.md, stop 18), more than the shorter lists save the whole-list shading
-// (about 10 ms). The lights that reach a pixel, so the image, are the same either way.
-// Read when the technique is made, as the other switches a test sets for a second renderer.
-uint32_t pointTest(const gpu::DeviceInfo& device) {
-  if (!std::getenv("MYRIAD_CLUSTER_POINT_TEST")) return device.isCpu ? 0u : 2u;
-  return static_cast<uint32_t>(std::min<uint64_t>(envNumber("MYRIAD_CLUSTER_POINT_TEST"), 2));
-}
-
-// The binned passes need full subgroups with arithmetic, ballot and shuffle (their walk per
-// subgroup).
-bool binnedAssignFor(const gpu::DeviceInfo& device) {
-  if (!device.computeSubgroupShuffle) return false;
-  if (envIs("MYRIAD_CLUSTER_ASSIGN", "atomic")) return false;
-  if (envIs("MYRIAD_CLUSTER_ASSIGN", "binned")) return true;
-  return !device.isCpu;
-}
+// surface points; --tune point-test=1 those and the cluster's view box, 0 the view box only (the
+// test before stop 18). CPU devices default to 0, and their mark pass then gathers no bounds
+// (cluster_mark.comp's kPointTest): on llvmpipe the gathering's atomics and barriers, run for
+// every pixel, took a 1280x720 still's assign from 8-12 ms to 38-46 (bench/history/, stop 18),
+// more than the shorter lists save the whole-list shading (about 10 ms). The lights that reach a
+// pixel, so the image, are the same either way.
 
 // The shading pass: each subgroup walking its tile's narrowed lists together
 // (light_clustered_subgroup.comp) where compute shaders have the subgroup operations it needs,
 // else each pixel on its own (light_clustered.comp; CPU devices too: on lavapipe the subgroup walk
-// was slower). MYRIAD_CLUSTER_SHADE=pixel|subgroup overrides it (the benchmark compares the two;
+// was slower). --tune shade=pixel|subgroup|whole overrides it (the benchmark compares them;
 // technique_tests holds them to the same light counts).
-std::span<const uint32_t> shadeShaderFor(const gpu::DeviceInfo& device) {
-  if (envIs("MYRIAD_CLUSTER_SHADE", "pixel") || !device.computeSubgroupShuffle) {
-    return spirv::light_clustered_comp;
+std::span<const uint32_t> shadeShaderFor(const Tuning& tuning, const gpu::DeviceInfo& device) {
+  switch (tuning.shade) {
+    case ShadePass::Subgroup:
+      return spirv::light_clustered_subgroup_comp;
+    case ShadePass::Whole:  // the pass for lists too long, as the device would choose it
+      return device.computeSubgroupShuffle && !device.isCpu ? spirv::light_clustered_subgroup_comp
+                                                            : spirv::light_clustered_comp;
+    default:
+      return spirv::light_clustered_comp;
   }
-  if (envIs("MYRIAD_CLUSTER_SHADE", "subgroup") || !device.isCpu) return spirv::light_clustered_subgroup_comp;
-  return spirv::light_clustered_comp;
 }
 
 // CPU devices shade from the clusters' whole lists, without the tile's narrowing
@@ -212,24 +153,18 @@ std::span<const uint32_t> shadeShaderFor(const gpu::DeviceInfo& device) {
 // 78: 224 against 267; 4,096 lights, longest 297: 1,263 against 875.
 constexpr uint32_t kWholeListsUpTo = 96;
 
-// Whether the technique keeps the whole-list pass: CPU devices, unless MYRIAD_CLUSTER_SHADE
-// names a pass (whole: always that one; pixel or subgroup: never).
+// Whether the technique keeps the whole-list pass: CPU devices (ShadePass::WholeWhenShort),
+// unless --tune shade names a pass (whole: always that one; pixel or subgroup: never).
 enum class WholeLists { Never, WhenShort, Always };
-WholeLists wholeListsFor(const gpu::DeviceInfo& device) {
-  if (envIs("MYRIAD_CLUSTER_SHADE", "whole")) return WholeLists::Always;
-  if (envIs("MYRIAD_CLUSTER_SHADE", "pixel") || envIs("MYRIAD_CLUSTER_SHADE", "subgroup")) {
-    return WholeLists::Never;
-  }
-  return device.isCpu ? WholeLists::WhenShort : WholeLists::Never;
+WholeLists wholeListsFor(const Tuning& tuning) {
+  if (tuning.shade == ShadePass::Whole) return WholeLists::Always;
+  if (tuning.shade == ShadePass::WholeWhenShort) return WholeLists::WhenShort;
+  return WholeLists::Never;
 }
 
-// The subgroup pass's walk (MYRIAD_SHADE_* bits of shared_types.h): MYRIAD_SHADE_DEFAULT, or the
-// number in MYRIAD_CLUSTER_SHADE_VARIANT (a benchmark experiment, and technique_tests' way to run
-// the walk before stop 16, 0). Read when the technique is made.
-uint32_t shadeVariant() {
-  if (!std::getenv("MYRIAD_CLUSTER_SHADE_VARIANT")) return MYRIAD_SHADE_DEFAULT;
-  return static_cast<uint32_t>(envNumber("MYRIAD_CLUSTER_SHADE_VARIANT"));
-}
+// The subgroup pass's walk (MYRIAD_SHADE_* bits of shared_types.h): tuning.shadeVariant,
+// MYRIAD_SHADE_DEFAULT unless --tune shade-variant asks for another (a benchmark experiment, and
+// technique_tests' way to run the walk before stop 16, 0).
 
 // The capacity a grid of `grid` with `lightCount` lights starts with, at most `mostReferences`.
 uint32_t initialCapacity(const ClusterGrid& grid, uint32_t lightCount, uint64_t mostReferences) {
@@ -291,14 +226,15 @@ struct ClusterLists {
 // whole frames' instance and the split frame's (Clustered::splitInstance).
 struct ClusteredPipelines {
   explicit ClusteredPipelines(const TechniqueSetup& setup)
-      : list(setup.context.device),
-        shade(setup.context.device, setup.pipelines.layout, shadeShaderFor(setup.context.info),
-              shadeVariant()),
-        wholeLists(wholeListsFor(setup.context.info)),
-        binnedAssign(binnedAssignFor(setup.context.info)),
-        animateInCount(binnedAssign && !separateAnimation()),
-        marksFromGBuffer(markInGBuffer()),
-        pointTestMode(pointTest(setup.context.info)) {
+      : tuning(setup.tuning),
+        list(setup.context.device),
+        shade(setup.context.device, setup.pipelines.layout,
+              shadeShaderFor(tuning, setup.context.info), tuning.shadeVariant),
+        wholeLists(wholeListsFor(tuning)),
+        binnedAssign(tuning.assign == AssignPath::Binned),
+        animateInCount(binnedAssign && !tuning.animateSeparate),
+        marksFromGBuffer(tuning.markInGBuffer),
+        pointTestMode(tuning.pointTest.value_or(0)) {
     requireWorkgroup(setup.context, MYRIAD_SCAN_GROUP, MYRIAD_SCAN_GROUP);
     requireWorkgroup(setup.context, MYRIAD_ASSIGN_BIN_GROUP, MYRIAD_ASSIGN_BIN_GROUP);
     VkDevice device = setup.context.device;
@@ -353,8 +289,8 @@ struct ClusteredPipelines {
           {0, 0, 4}, {2, 4, 4}, {3, 8, 4}, {5, 12, 4}, {6, 16, 4}, {7, 20, 4}};
       for (VkBool32 animate : {VK_FALSE, VK_TRUE}) {
         if (filling && animate) continue;
-        const uint32_t binnedValues[] = {filling, assignBins(), animate, mostClustersPerLight(),
-                                         binnedGroupSize(setup.context.info),
+        const uint32_t binnedValues[] = {filling, tuning.assignBins, animate,
+                                         tuning.assignMostClusters, tuning.assignGroupSize,
                                          pointTestMode};
         VkSpecializationInfo binnedSpec{6, binnedEntries, sizeof(binnedValues), binnedValues};
         (filling ? assignBinned : animate ? countBinnedAnimated : countBinned) = list.add(
@@ -363,6 +299,7 @@ struct ClusteredPipelines {
     }
   }
 
+  const Tuning tuning;  // resolved for the device (render/tuning.h)
   PipelineList list;
   VkPipeline mark = VK_NULL_HANDLE;    // cluster_mark.comp's pixel pass
   VkPipeline number = VK_NULL_HANDLE;  // its numbering pass (kNumber)
@@ -380,8 +317,8 @@ struct ClusteredPipelines {
   VkPipeline markBlend = VK_NULL_HANDLE;  // null without fragmentStoresAndAtomics
   bool binnedAssign;  // small lights by cluster_assign_binned.comp (else cluster_assign.comp)
   bool animateInCount;  // animatesLights()
-  bool marksFromGBuffer;  // the compute G-buffer's resolve marks the clusters (markInGBuffer())
-  uint32_t pointTestMode;  // the boxes lights are tested against (pointTest(); bounds unless 0)
+  bool marksFromGBuffer;  // the compute G-buffer's resolve marks the clusters (mark-in-gbuffer)
+  uint32_t pointTestMode;  // the boxes lights are tested against (point-test; bounds unless 0)
   // The longest list of the last frame reported (any scene, either instance; unknown at first):
   // the whole-list pass is chosen from it, and a choice made from another scene's or an older
   // frame's lists costs time only (both passes make the same image).
@@ -399,7 +336,7 @@ class Clustered final : public LightingTechnique {
   // in turn do not reallocate them every frame.
   void prepare(VkExtent2D extent, uint32_t lightCount) override {
     const uint64_t mostReferences = maxListBytes() / sizeof(uint32_t);
-    const ClusterGrid grid = clusterGrid(extent);
+    const ClusterGrid grid = clusterGrid(extent, p_->tuning);
     uint32_t capacity = initialCapacity(grid, lightCount, mostReferences);
     if (listStartCapacity_ > 0) capacity = listStartCapacity_;
     capacity = static_cast<uint32_t>(
@@ -436,12 +373,12 @@ class Clustered final : public LightingTechnique {
 
   // Reads the G-buffer and lights; builds the cluster lists (mark, count, scan, assign), then
   // writes HDR and light counts (GENERAL layout) and the counters. Timed as two parts, "assign"
-  // (steps 1-4, building the lists) and "shade" (step 5), or step by step (assignSteps()).
+  // (steps 1-4, building the lists) and "shade" (step 5), or step by step (assign-steps).
   // The passes over lights (per-light counting and filling) and the shading (a workgroup per
   // 16x16 tile) may be recorded in ranges; the rest is whole.
   enum StepIndex : uint32_t { kMark, kCount, kCountLarge, kScan, kFill, kFillLarge, kShade };
   std::vector<Step> steps(const LightingPass& pass) const override {
-    const bool detail = assignSteps();
+    const bool detail = p_->tuning.assignSteps;
     const uint32_t lights = pass.scene.lightCount;
     // The large lights' passes: one indirect dispatch, or in parts ranges of its groups.
     const uint32_t largeLights = lights == 0 ? 0u : pass.split ? MYRIAD_LARGE_LIGHT_GROUPS : 1u;
@@ -490,7 +427,7 @@ class Clustered final : public LightingTechnique {
         }
         // 1. Mark clusters holding visible geometry (the compute G-buffer's resolve did, or a
         // pass over the pixels here), then number them (a cluster an invocation).
-        if (assignSteps()) pass.timer.beginPass(cmd, "assign-mark");
+        if (p.tuning.assignSteps) pass.timer.beginPass(cmd, "assign-mark");
         if (!(pass.computeGBuffer && p.marksFromGBuffer)) {
           dispatchPixels(cmd, p.mark, t.extent, MYRIAD_PIXEL_GROUP);
           gpu::memoryBarrier(cmd, kComputeStage, kStorageWrite, kComputeStage, kStorageReadWrite);
@@ -633,7 +570,7 @@ class Clustered final : public LightingTechnique {
         if (kept != MYRIAD_CLUSTER_INACTIVE) longest[i] = std::max(longest[i], kept);
       }
     }
-    const uint32_t clusterTile = clusterTileSize();
+    const uint32_t clusterTile = p_->tuning.clusterTile;
     const std::vector<std::pair<uint32_t, uint32_t>> order =
         scatteredTiles(extent, MYRIAD_CLUSTER_SHADE_TILE).order();
     std::vector<float> weights(order.size());
@@ -754,34 +691,29 @@ class Clustered final : public LightingTechnique {
     return listLimitBytes_ > 0 ? std::min(listLimitBytes_, device) : device;
   }
 
-  // The workgroups of the binned passes for `lightCount` lights (at least one).
-  // MYRIAD_ASSIGN_GROUPS (64 to 4096) overrides the most (the multiprocessors or
-  // kBinnedAssignGroups) and MYRIAD_ASSIGN_GROUP_LIGHTS (16 to 65536) kBinnedGroupLights:
-  // benchmark experiments.
+  // The workgroups of the binned passes for `lightCount` lights (at least one): at most
+  // tuning.assignGroups (the multiprocessors or kBinnedAssignGroups), each taking at least
+  // tuning.assignGroupLights (kBinnedGroupLights); --tune assign-groups and assign-group-lights
+  // are benchmark experiments.
   uint32_t binnedGroups(uint32_t lightCount) const {
-    static const uint64_t asked = envNumber("MYRIAD_ASSIGN_GROUPS");
-    const uint32_t multiprocessors = context_.info.multiprocessors;
-    const uint32_t most = asked >= 64 && asked <= 4096 ? uint32_t(asked)
-                          : multiprocessors > 0     ? multiprocessors
-                                                    : kBinnedAssignGroups;
-    static const uint32_t groupLights = [] {
-      const uint64_t n = envNumber("MYRIAD_ASSIGN_GROUP_LIGHTS");
-      return n >= 16 && n <= 65536 ? uint32_t(n) : kBinnedGroupLights;
-    }();
-    return std::clamp(groupCount(lightCount, groupLights), 1u, most);
+    const Tuning& tuning = p_->tuning;
+    const uint32_t most = tuning.assignGroups.value_or(kBinnedAssignGroups);
+    return std::clamp(groupCount(lightCount, tuning.assignGroupLights), 1u, most);
   }
 
   // The pair buffer of cluster_assign_binned.comp for `lightCount` lights: a count and a table per
-  // workgroup, then pairSlotsPerLight() slots per light (within the device's storage range). The
+  // workgroup, then pairSlotsPerLight(tuning) slots per light (within the device's storage range). The
   // lists are kept for fewer lights: the passes then run fewer groups, whose regions are larger.
   VkDeviceSize pairBytes(uint32_t lightCount) const {
     if (!p_->binnedAssign) return 4;
     const uint64_t groups = binnedGroups(lightCount);
-    const uint64_t tables = groups * (1 + uint64_t(assignBins())) * 4;
+    const Tuning& tuning = p_->tuning;
+    const uint64_t tables = groups * (1 + uint64_t(tuning.assignBins)) * 4;
     const uint64_t slotBytes = kPairWordsPerSlot * 4;
     // The floor only with the default slots: an override is there to fill the regions.
-    const uint64_t floor = envNumber("MYRIAD_ASSIGN_PAIR_SLOTS") == 0 ? kMinimumPairSlots : 1;
-    const uint64_t wanted = std::max(uint64_t(lightCount) * pairSlotsPerLight(), floor) * slotBytes;
+    const uint64_t floor = tuning.assignPairSlots ? 1 : kMinimumPairSlots;
+    const uint64_t wanted =
+        std::max(uint64_t(lightCount) * pairSlotsPerLight(tuning), floor) * slotBytes;
     const uint64_t room = context_.info.maxStorageBufferRange - tables;
     return tables + std::min(wanted, room / slotBytes * slotBytes);
   }

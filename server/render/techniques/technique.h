@@ -17,15 +17,18 @@
 #include "render/gpu_types.h"
 #include "render/passes.h"
 #include "render/scene_buffers.h"
+#include "render/tuning.h"
 #include "shared_types.h"
 
 namespace myriad::render {
 
-// What a technique is built from: the device, and the frame's shared pipeline layout (sets 0-2;
-// set 2, light culling, is the technique's to fill: see compute_lighting.h).
+// What a technique is built from: the device, the frame's shared pipeline layout (sets 0-2;
+// set 2, light culling, is the technique's to fill: see compute_lighting.h), and the knobs
+// resolved for the device (render/tuning.h).
 struct TechniqueSetup {
   gpu::Context& context;
   const Pipelines& pipelines;
+  const Tuning& tuning;
 };
 
 // One frame's lighting: where to record, the timer for its passes, what it reads and writes.
