@@ -5,8 +5,11 @@ import {Api, SessionLostError} from './api.js';
 import {CameraControl, isTyping} from './camera.js';
 import {LightsPanel} from './lights.js';
 import {ObjectsPanel} from './objects.js';
+import {ObjectHandle} from './handle.js';
 import {MaterialPanel, ModelPanel, SettingsPanel} from './panels.js';
+import {ReadOnlyMode} from './readonly.js';
 import {StatsPanel} from './stats.js';
+import {TimelinePanel} from './timeline.js';
 import {ViewHint, ViewOverlay} from './overlay.js';
 import {LiveView} from './view.js';
 
@@ -115,9 +118,15 @@ const lights = new LightsPanel(api, {
   onProblem: showProblem, onInfo: showInfo, getCamera: () => camera.camera,
   getViewSize: viewSize, getFrameSize: frameSize, overlay: $('markers-overlay'),
 });
-camera.onChange = () => lights.drawOverlay();
+camera.onChange = () => {
+  lights.drawOverlay();
+  handle.place();
+};
 camera.onClick = (x, y) => lights.pick(x, y);
-new ResizeObserver(() => lights.drawOverlay()).observe($('view'));
+new ResizeObserver(() => {
+  lights.drawOverlay();
+  handle.place();
+}).observe($('view'));
 
 const materials = new MaterialPanel(api, {onProblem: showProblem});
 const settings = new SettingsPanel(api, {
@@ -154,7 +163,15 @@ const objects = new ObjectsPanel(api, {
   onInfo: showInfo,
   onAssetsChanged: () => materials.refresh(),
   onCount: (count) => hint.setObjects(count),
+  onSelected: (object) => handle.show(object),
+  onAnimationsChanged: () => timeline.refresh(),
 });
+// The selected object's move and turn handles on the view; the scene clock's timeline.
+const handle = new ObjectHandle(api, $('object-handle'), {
+  getCamera: () => camera.camera, getViewSize: viewSize,
+  onAnswer: (object) => objects.replace(object), onProblem: showProblem,
+});
+const timeline = new TimelinePanel(api, {onProblem: showProblem});
 // A model file, a .zip, several files or a folder dropped on the view is added to the scene as a
 // new object at the view's centre; with Shift it replaces the scene, as the Model panel's pick.
 model.acceptDrops($('view'), (files, paths, event) =>
@@ -174,46 +191,7 @@ let lastOwnEdit = -Infinity;
 let syncRunning = false;
 let syncQueued = false;
 let syncTimer = 0;
-let readOnly = false;      // a viewer's page: panels show, nothing edits
-const readOnlyChanged = new Set();  // the controls read-only mode disabled or hid
-
-// What a viewer's page keeps usable in the panels: help, screenshot, copying the camera, paging
-// and selecting in lists, and the page's own choices (target, camera mode, material shown).
-const VIEW_OK = '#help-button, #screenshot, #copy-camera-json, #copy-camera-curl, #lights-prev, ' +
-    '#lights-next, #objects-refresh, #light-list button, #object-list button.name, #target, ' +
-    '#camera-mode, #material';
-
-function applyReadOnly() {
-  document.body.classList.toggle('read-only', readOnly);
-  $('view-only-note').hidden = !readOnly;
-  if (!readOnly) return;
-  for (const el of $('panels').querySelectorAll('input, select, textarea, button')) {
-    if (el.matches(VIEW_OK)) continue;
-    // Only what changes is written, so the observer below does not wake itself.
-    if (el.tagName === 'BUTTON') {
-      if (!el.hidden) { el.hidden = true; readOnlyChanged.add(el); }
-    } else if (!el.disabled) {
-      el.disabled = true;
-      readOnlyChanged.add(el);
-    }
-  }
-}
-
-function setReadOnly(value) {
-  if (value === readOnly) return;
-  readOnly = value;
-  if (!value) {
-    for (const el of readOnlyChanged) {
-      if (el.tagName === 'BUTTON') el.hidden = false;
-      else el.disabled = false;
-    }
-    readOnlyChanged.clear();
-  }
-  applyReadOnly();
-}
-// Panels that re-render (lists, editors) or re-enable a control get read-only again.
-new MutationObserver(() => { if (readOnly) applyReadOnly(); }).observe($('panels'), {
-  childList: true, subtree: true, attributes: true, attributeFilter: ['disabled', 'hidden']});
+const readOnly = new ReadOnlyMode($('panels'), $('view-only-note'));
 
 async function syncControls() {
   const session = api.session;
@@ -233,7 +211,7 @@ async function syncControls() {
   else lights.showPage(lights.offset || 0).then(() => lights.refreshSelected());
   materials.refresh();
   objects.refresh();
-  applyReadOnly();
+  readOnly.apply();
 }
 
 function scheduleSync() {
@@ -277,7 +255,7 @@ function openEvents() {
   source.addEventListener('version', (e) => {
     if (events !== source) return;
     const data = JSON.parse(e.data);
-    setReadOnly(data.role === 'viewer');
+    readOnly.set(data.role === 'viewer');
     if (seenVersion !== null && data.version !== seenVersion) scheduleSync();
     seenVersion = data.version;
   });
@@ -294,7 +272,7 @@ function openEvents() {
     // A session deleted or expired is said by the view's stream and the next request (with
     // the server's own words and status); a revoked or expired link is said here.
     eventsEnded = true;
-    if (readOnly && (reason === 'revoked' || reason === 'expired')) linkEnded(reason === 'revoked');
+    if (readOnly.on && (reason === 'revoked' || reason === 'expired')) linkEnded(reason === 'revoked');
   });
   // Refused (429, 401) or the server went away for good: try again later, once.
   source.addEventListener('error', () => {
@@ -322,7 +300,7 @@ function startSession(state) {
   model.refreshLibrary();
   view.restart();
   stats.start();
-  setReadOnly(false);
+  readOnly.set(false);
   openEvents();
 }
 

@@ -2,7 +2,8 @@
 // assets (GET .../assets). An object can be selected, shown or hidden, moved, turned and scaled
 // (its transform: translation, rotation as Euler degrees, scale) and deleted; an asset no object
 // uses can be deleted. A model file added here (or dropped on the view) becomes a new asset and
-// a new object at the view's centre, the camera's target; the scene around it stays.
+// a new object at the view's centre, the camera's target; the scene around it stays. An object of
+// an asset with animation clips plays one of them (or none) on the scene clock, looped or not.
 
 import {describeFiles, modelUpload, relativePath} from './upload.js';
 import {eulerToQuat, transformParts} from './vec.js';
@@ -26,9 +27,13 @@ function removeButton(label, onClick) {
 }
 
 export class ObjectsPanel {
-  constructor(api, {onProblem, onInfo, onAssetsChanged, onCount = () => {}}) {
+  constructor(api, {onProblem, onInfo, onAssetsChanged, onCount = () => {}, onSelected = () => {},
+                     onAnimationsChanged = () => {}}) {
     this.api = api;
     this.onCount = onCount;                  // (objects in the scene) after each refresh
+    this.onSelected = onSelected;            // (the selected object or null) whenever it is shown
+    // () after a refresh or a clip edit: what the scene clock plays may have changed.
+    this.onAnimationsChanged = onAnimationsChanged;
     this.onProblem = onProblem;
     this.onInfo = onInfo;                    // (text) progress shown to the user
     this.onAssetsChanged = onAssetsChanged;  // () after an asset (and its materials) came or went
@@ -54,6 +59,8 @@ export class ObjectsPanel {
       }
     }
     $('object-delete').addEventListener('click', () => this.deleteObject(this.selected));
+    $('object-clip').addEventListener('change', () => this.editAnimation());
+    $('object-loop').addEventListener('change', () => this.editAnimation());
   }
 
   async refresh() {
@@ -68,6 +75,7 @@ export class ObjectsPanel {
       if (!this.objects.some((o) => o.id === this.selected)) this.selected = null;
       this.render();
       this.showEditor();
+      this.onAnimationsChanged();
     } catch (e) {
       this.onProblem(e);
     }
@@ -140,8 +148,9 @@ export class ObjectsPanel {
     }));
   }
 
+  // The selected object's name again unselects it (a toggle, as its aria-pressed says).
   select(id) {
-    this.selected = id;
+    this.selected = id === this.selected ? null : id;
     this.render();
     this.showEditor();
   }
@@ -151,6 +160,7 @@ export class ObjectsPanel {
   showEditor(all = false) {
     const o = this.objects.find((x) => x.id === this.selected);
     $('object-editor').hidden = !o;
+    this.onSelected(o || null);
     if (!o || this.pending) return;
     $('object-editor-title').textContent = `Object #${o.id}: ${o.name}`;
     this.parts = transformParts(o.transform);
@@ -163,6 +173,40 @@ export class ObjectsPanel {
     }
     const [sx, sy, sz] = this.parts.scale;
     $('object-scale-uniform').checked = sx === sy && sy === sz;
+    this.showAnimation(o.animation);
+  }
+
+  // The clip choice, for an object whose asset has clips: none (the rest pose) or one by index
+  // (the API names only the one playing).
+  showAnimation(animation) {
+    const clips = Math.min(animation?.clips || 0, 1024);
+    $('object-animation').hidden = clips === 0;
+    if (!clips) return;
+    const choices = [new Option('none (rest pose)', '')];
+    for (let i = 0; i < clips; ++i) {
+      const playing = i === animation.clip;
+      const name = playing && animation.clipName ? ` ${animation.clipName}` : '';
+      const length = playing && animation.duration !== undefined
+          ? ` (${round(animation.duration)} s)` : '';
+      choices.push(new Option(`${i}${name}${length}`, String(i)));
+    }
+    $('object-clip').replaceChildren(...choices);
+    $('object-clip').value = animation.clip === null ? '' : String(animation.clip);
+    $('object-loop').checked = animation.loop !== false;
+  }
+
+  async editAnimation() {
+    const id = this.selected;
+    if (!id || this.partsOf !== id) return;
+    const clip = $('object-clip').value;
+    const animation = {clip: clip === '' ? null : Number(clip), loop: $('object-loop').checked};
+    try {
+      this.replace(await this.api.patch(this.api.sessionPath(`/objects/${id}`), {animation}, true));
+    } catch (e) {
+      this.onProblem(e);
+      this.showEditor(true);
+    }
+    this.onAnimationsChanged();
   }
 
   // One field changed: that part of the transform from the fields, the others as they are (a

@@ -93,3 +93,18 @@ export function transformParts(transform) {
   const euler = rowsToEuler(rows);
   return {translation: [m[12], m[13], m[14]], rotation: eulerToQuat(euler), scale: scaleOf, euler};
 }
+
+// The quaternion product a * b: the rotation b, then a.
+export function quatMultiply([ax, ay, az, aw], [bx, by, bz, bw]) {
+  return [aw * bx + ax * bw + ay * bz - az * by,
+          aw * by - ax * bz + ay * bw + az * bx,
+          aw * bz + ax * by - ay * bx + az * bw,
+          aw * bw - ax * bx - ay * by - az * bz];
+}
+
+// The quaternion of a turn by `angle` radians about `axis` (any length but zero).
+export function axisAngleQuat(axis, angle) {
+  const [x, y, z] = normalize(axis);
+  const s = Math.sin(angle / 2);
+  return [x * s, y * s, z * s, Math.cos(angle / 2)];
+}
