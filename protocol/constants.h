@@ -123,17 +123,18 @@ inline constexpr std::string_view kNotFound = "not-found";                    //
 inline constexpr std::string_view kMethodNotAllowed = "method-not-allowed";   // 405, Allow
 inline constexpr std::string_view kUnsupportedMediaType = "unsupported-media-type";  // 415
 inline constexpr std::string_view kConflict = "conflict";                    // 409
+inline constexpr std::string_view kPreconditionFailed = "precondition-failed";  // 412, ETag
 inline constexpr std::string_view kModelRejected = "model-rejected";          // 422
 inline constexpr std::string_view kEnvironmentRejected = "environment-rejected";  // 422
 inline constexpr std::string_view kLimitExceeded = "limit-exceeded";          // 413/429, limit
 inline constexpr std::string_view kServerBusy = "server-busy";                // 503, Retry-After
 inline constexpr std::string_view kRenderFailed = "render-failed";            // 500
 inline constexpr std::string_view kInternalError = "internal-error";          // 500
-inline constexpr std::array<std::string_view, 16> kAll = {
+inline constexpr std::array<std::string_view, 17> kAll = {
     kInvalidParameter, kUnknownParameter, kInvalidBody,     kBadRequest,     kUnauthorized,
     kForbidden,        kNotFound,         kMethodNotAllowed, kUnsupportedMediaType,
-    kConflict,         kModelRejected,    kEnvironmentRejected, kLimitExceeded, kServerBusy,
-    kRenderFailed,     kInternalError};
+    kConflict,         kPreconditionFailed, kModelRejected, kEnvironmentRejected,
+    kLimitExceeded,    kServerBusy,       kRenderFailed,    kInternalError};
 }  // namespace problems
 
 // "invalid-body" -> "https://myriad.dev/problems/invalid-body".
@@ -198,6 +199,13 @@ inline constexpr std::string_view kServerTiming = "Server-Timing";
 inline constexpr std::string_view kRetryAfter = "Retry-After";
 inline constexpr std::string_view kAllow = "Allow";
 inline constexpr std::string_view kLocation = "Location";  // 201: the new session's URL
+// Session resources: the session's version as an entity tag (every answer of a session route);
+// If-Match on an edit makes it conditional (412 precondition-failed when the session changed).
+inline constexpr std::string_view kETag = "ETag";
+inline constexpr std::string_view kIfMatch = "If-Match";
+// Every response: the request's id, the client's own (1-128 of A-Z a-z 0-9 . _ : -) or one made
+// for it; the access log names it.
+inline constexpr std::string_view kRequestId = "X-Request-Id";
 }  // namespace headers
 
 // Query parameters with meaning on both sides.

@@ -152,6 +152,10 @@ json headerObject(std::string_view name) {
       {headers::kRetryAfter, {"integer", "Seconds to wait before retrying."}},
       {headers::kAllow, {"string", "The methods the route allows."}},
       {headers::kLocation, {"string", "The new session's URL."}},
+      {headers::kETag,
+       {"string", "Session routes: the session's version as an entity tag, as this answer saw it "
+                  "(after the edit, for an edit). Send it as If-Match to make an edit "
+                  "conditional."}},
       {headers::kVideoCodec,
        {"string", "Video streams: the codec string for WebCodecs' VideoDecoder (vp8, "
                   "vp09.00.10.08)."}},
@@ -189,6 +193,9 @@ json problemResponse(int status) {
        "not-found: no such session (or it expired or was deleted), material, light, asset, "
        "object, library model or file."},
       {409, "conflict: the asset is still in use (an object draws it or one of its materials)."},
+      {412,
+       "precondition-failed: If-Match names no longer the session's version (ETag); the "
+       "answer's ETag is the current one. Nothing was changed."},
       {413,
        "limit-exceeded: the body, the upload, the light, object or asset count is over its limit "
        "(`limit` names it)."},
@@ -228,8 +235,25 @@ json security(Access access) {
   return nullptr;
 }
 
+// A route under /v1/sessions/{id}: its answers carry the session's ETag, its edits take If-Match.
+bool sessionResource(const Operation& op) {
+  return op.route.starts_with(std::string(routes::kSessions) + "/{id}");
+}
+
 json operationObject(const Operation& op) {
   json out = {{"operationId", op.id}, {"tags", {op.tag}}, {"summary", op.summary}};
+  const bool conditional = sessionResource(op) && op.method != "GET";
+  if (conditional) {
+    out["parameters"].push_back(
+        {{"name", headers::kIfMatch},
+         {"in", "header"},
+         {"required", false},
+         {"description",
+          "An ETag of this session (or *): the edit applies only while the session is at that "
+          "version, else 412 precondition-failed. Without it the edit applies to the latest "
+          "version."},
+         {"schema", {{"type", "string"}}}});
+  }
   if (!op.query.empty()) {
     json parameters = json::array();
     for (const QueryParameter& p : op.query) {
@@ -239,7 +263,7 @@ json operationObject(const Operation& op) {
                             {"description", p.description},
                             {"schema", p.schema}});
     }
-    out["parameters"] = parameters;
+    for (json& p : parameters) out["parameters"].push_back(std::move(p));
   }
   if (!op.body.empty()) {
     out["requestBody"] = {{"required", op.bodyRequired}, {"content", content(op.body)}};
@@ -251,9 +275,17 @@ json operationObject(const Operation& op) {
     for (std::string_view header : r.headers) {
       response["headers"][std::string(header)] = headerObject(header);
     }
+    if (sessionResource(op) && r.status < 300) {
+      response["headers"][std::string(headers::kETag)] = headerObject(headers::kETag);
+    }
     responses[std::to_string(r.status)] = response;
   }
   for (int status : op.problems) responses[std::to_string(status)] = problemResponse(status);
+  if (conditional) {
+    json precondition = problemResponse(412);
+    precondition["headers"][std::string(headers::kETag)] = headerObject(headers::kETag);
+    responses["412"] = precondition;
+  }
   responses["default"] = {
       {"description",
        "Any other problem (RFC 9457; see protocol/reference.md, Errors): 405 with Allow for "

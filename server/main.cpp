@@ -157,6 +157,7 @@ int run(const service::Options& options, const sigset_t& shutdownSignals) {
     config.stateRetention = std::chrono::hours(options.stateRetentionHours);
   }
   config.nodeId = options.nodeId;
+  config.jsonAccessLog = options.jsonAccessLog;
   config.api = apiConfig(options, config.maxResolution, *renderThread);
   if (options.batchSpec) {
     // No HTTP: the session code renders the job's frames, then the process exits.

@@ -160,7 +160,7 @@ const OptionSpec* findOption(const CommandSpec& command, const std::string& name
   return nullptr;
 }
 
-// Handles --server, --session-file, --json, -h/--help. Returns how many arguments it used (0 when
+// Handles --server, --session-file, --if-match, --json, -h/--help. Returns how many arguments it used (0 when
 // `args[i]` is not a global option).
 size_t takeGlobal(const std::vector<std::string>& args, size_t i, Invocation& inv) {
   const std::string& arg = args[i];
@@ -186,7 +186,7 @@ size_t takeGlobal(const std::vector<std::string>& args, size_t i, Invocation& in
     inv.global.json = true;
     return 1;
   }
-  if (name == "--server" || name == "--session-file") {
+  if (name == "--server" || name == "--session-file" || name == "--if-match") {
     std::string value;
     size_t used = 1;
     if (inlineValue) {
@@ -196,12 +196,15 @@ size_t takeGlobal(const std::vector<std::string>& args, size_t i, Invocation& in
       used = 2;
     } else {
       throw UsageError(name, name + " needs a value (" +
-                                 (name == "--server" ? "a URL such as http://127.0.0.1:8080"
-                                                     : "a file path") +
+                                 (name == "--server"     ? "a URL such as http://127.0.0.1:8080"
+                                  : name == "--if-match" ? "an ETag such as \"12-0a1b2c3d\""
+                                                         : "a file path") +
                                  ")");
     }
     if (value.empty()) throw UsageError(name, name + ": the value is empty");
-    (name == "--server" ? inv.global.server : inv.global.sessionFile) = value;
+    (name == "--server"     ? inv.global.server
+     : name == "--if-match" ? inv.global.ifMatch
+                            : inv.global.sessionFile) = value;
     return used;
   }
   return 0;
@@ -500,14 +503,15 @@ std::string commandHelp(const CommandSpec& command) {
     line(left, help);
   }
   if (!command.notes.empty()) out << "\n" << command.notes << "\n";
-  out << "\nGlobal options: --server URL, --session-file PATH, --json, -h/--help"
+  out << "\nGlobal options: --server URL, --session-file PATH, --if-match ETAG, --json, -h/--help"
          " (see myriad --help).\n";
   return out.str();
 }
 
 std::string overviewHelp() {
   std::ostringstream out;
-  out << "usage: myriad [--server URL] [--session-file PATH] [--json] COMMAND [ARGS]\n\n"
+  out << "usage: myriad [--server URL] [--session-file PATH] [--if-match ETAG] [--json] COMMAND "
+         "[ARGS]\n\n"
          "The command-line client of myriad-server: sessions, models, assets and objects, camera,\n"
          "lights, frames.\n\n"
          "Commands:\n";
@@ -522,6 +526,9 @@ std::string overviewHelp() {
          "  --session-file PATH     where `session new` keeps id:token (default\n"
          "                          $XDG_STATE_HOME/myriad/session or ~/.local/state/myriad/session);\n"
          "                          env MYRIAD_SESSION=id:token wins over the file\n"
+         "  --if-match ETAG         edit only while the session is at that version (its ETag,\n"
+         "                          the ETag header of any of its answers, e.g. curl -i);\n"
+         "                          else the server refuses (412) and nothing changes\n"
          "  --json                  print the server's JSON responses as they come\n"
          "  -h, --help              help (after a command: that command's help;\n"
          "                          `myriad help COMMAND` says the same)\n"

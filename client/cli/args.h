@@ -87,6 +87,9 @@ struct GlobalOptions {
   std::optional<std::string> server;       // --server URL
   std::optional<std::string> sessionFile;  // --session-file PATH
   bool json = false;                       // --json: print the server's JSON as it came
+  // --if-match TAG: every edit is conditional on the session still being at that ETag (a 412,
+  // exit status 1, when it is not); see protocol/reference.md "Conditional edits".
+  std::optional<std::string> ifMatch;
 };
 
 struct Invocation {

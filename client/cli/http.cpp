@@ -94,13 +94,18 @@ HttpResponse HttpClient::send(const std::string& method, const std::string& path
   addBearer(req);
   req.headers.emplace("Accept", std::string(protocol::kJsonContentType) + ", " +
                                     std::string(protocol::kProblemContentType) + ", */*");
+  if (ifMatch_ && method != "GET") req.headers.emplace(protocol::headers::kIfMatch, *ifMatch_);
   if (!contentType.empty()) {
     req.headers.emplace("Content-Type", contentType);
     req.body = body;
   }
   httplib::Result result = client_->send(req);
   if (!result) failTransport(int(result.error()));
-  return toResponse(result.value());
+  HttpResponse response = toResponse(result.value());
+  if (std::string tag = response.header(std::string(protocol::headers::kETag)); !tag.empty()) {
+    lastETag_ = std::move(tag);
+  }
+  return response;
 }
 
 HttpResponse HttpClient::sendOk(const std::string& method, const std::string& path,

@@ -55,6 +55,12 @@ class HttpClient {
 
   const ServerUrl& url() const { return url_; }
   void setBearer(std::string token) { bearer_ = std::move(token); }
+  // Sent as If-Match with every request but GET while set (protocol/reference.md "Conditional
+  // edits"); std::nullopt: edits apply to the session's latest version.
+  void setIfMatch(std::optional<std::string> tag) { ifMatch_ = std::move(tag); }
+  const std::optional<std::string>& ifMatch() const { return ifMatch_; }
+  // The ETag of the last answer that had one ("" before any): the session's version it saw.
+  const std::string& lastETag() const { return lastETag_; }
 
   // Sends the request and returns the response whatever its status; throws ApiError when no
   // response came (connection refused, timeout).
@@ -86,6 +92,8 @@ class HttpClient {
 
   ServerUrl url_;
   std::optional<std::string> bearer_;
+  std::optional<std::string> ifMatch_;
+  std::string lastETag_;
   std::unique_ptr<httplib::Client> client_;
 };
 

@@ -55,6 +55,7 @@ int main(int argc, char** argv) {
 
   try {
     HttpClient http(url);
+    http.setIfMatch(inv.global.ifMatch);
     Context ctx(inv, http, std::cout, std::cerr);
     int status = runCommand(ctx);
     std::cout.flush();

@@ -168,24 +168,39 @@ int list(Context& ctx) {
 }
 
 // PATCH the transform: the members given, the others as they are (GET first) unless --reset.
+// The read and the write are one edit: the PATCH carries the GET's ETag as If-Match, and a 412
+// (someone changed the session in between) reads again, at most kMoveAttempts times, so a
+// member another client just set is never written back with its old value.
 int move(Context& ctx) {
+  constexpr int kMoveAttempts = 3;
   const Invocation& inv = ctx.inv;
   const uint64_t id = objectId(ctx);
-  Trs trs;
-  if (!inv.has("reset")) {
-    // Not printed under --json: the PATCH's answer is the result.
-    json current = ctx.http.sendJson("GET", objectRoute(ctx, id));
-    if (std::optional<Trs> was = trsOf(current)) {
-      trs = *was;
-    } else if (!(inv.has("at") && inv.has("rotate") && inv.has("scale"))) {
-      ctx.err << "myriad: note: object " << id
-              << " was placed by a matrix; the members not given are the identity's\n";
+  const std::optional<std::string> userTag = ctx.http.ifMatch();
+  for (int attempt = 1;; ++attempt) {
+    Trs trs;
+    if (!inv.has("reset")) {
+      // Not printed under --json: the PATCH's answer is the result.
+      json current = ctx.http.sendJson("GET", objectRoute(ctx, id));
+      if (std::optional<Trs> was = trsOf(current)) {
+        trs = *was;
+      } else if (!(inv.has("at") && inv.has("rotate") && inv.has("scale"))) {
+        ctx.err << "myriad: note: object " << id
+                << " was placed by a matrix; the members not given are the identity's\n";
+      }
+      // --if-match given: the user's version is the condition, and a 412 is theirs to handle.
+      if (!userTag) ctx.http.setIfMatch(ctx.http.lastETag());
+    }
+    applyTransform(inv, trs);
+    try {
+      json object = ctx.call("PATCH", objectRoute(ctx, id), json{{"transform", toWire(trs)}});
+      ctx.http.setIfMatch(userTag);
+      if (!ctx.json()) printObject(ctx.out, object);
+      return 0;
+    } catch (const ApiError& e) {
+      ctx.http.setIfMatch(userTag);
+      if (e.status() != 412 || userTag || inv.has("reset") || attempt == kMoveAttempts) throw;
     }
   }
-  applyTransform(inv, trs);
-  json object = ctx.call("PATCH", objectRoute(ctx, id), json{{"transform", toWire(trs)}});
-  if (!ctx.json()) printObject(ctx.out, object);
-  return 0;
 }
 
 int set(Context& ctx) {

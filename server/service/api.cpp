@@ -4,7 +4,10 @@
 
 #include <algorithm>
 #include <cctype>
+#include <cstdio>
+#include <random>
 #include <set>
+#include <utility>
 
 #include "protocol/constants.h"
 #include "protocol/operations.h"
@@ -24,18 +27,80 @@ constexpr uint64_t kPartOverheadBytes = 256;
 // carry timings and frame metadata.
 const std::string kCorsAllowHeaders =
     std::string(protocol::headers::kAuthorization) + ", Content-Type, " +
-    std::string(protocol::headers::kInteraction);
+    std::string(protocol::headers::kInteraction) + ", " + std::string(protocol::headers::kIfMatch);
 const std::string kCorsExposeHeaders = [] {
   namespace h = protocol::headers;
   std::string list;
   for (std::string_view name : {h::kServerTiming, h::kRetryAfter, h::kTechnique, h::kChannels,
                                 h::kWidth, h::kHeight, h::kTarget, h::kFrameSequence, h::kIntrinsics,
-                                h::kPose, h::kDepth, h::kDtype, h::kSpace}) {
+                                h::kPose, h::kDepth, h::kDtype, h::kSpace, h::kETag,
+                                h::kRequestId}) {
     list += (list.empty() ? "" : ", ") + std::string(name);
   }
   return list;
 }();
 constexpr const char* kCorsMaxAgeSeconds = "600";
+
+// The request a worker thread serves while its handler runs (Routes::add's `serve` sets it):
+// what lockOpen needs to honour If-Match and to answer the ETag, without every handler passing
+// the request down. httplib runs a handler on one thread, start to end; a stream's content
+// provider runs after it, with no scope.
+struct RequestScope {
+  httplib::Response& res;
+  bool edits = false;  // any method but GET and HEAD
+  std::optional<std::string> ifMatch;  // the header as sent
+  // The session version this request last held the lock at (SessionLock's release): a later
+  // lockOpen of the same request refuses a session someone else changed in between.
+  std::optional<uint64_t> seenVersion;
+};
+thread_local RequestScope* tRequest = nullptr;
+
+// This process's part of every entity tag (entityTag): random, so that a session restored by
+// another process (a restart, another node) never matches a tag its former copy gave out.
+const std::string kInstanceTag = [] {
+  std::random_device random;
+  char text[9];
+  std::snprintf(text, sizeof text, "%08x", static_cast<unsigned>(random()));
+  return std::string(text);
+}();
+
+// Does If-Match's value (`*`, or a comma-separated list of entity tags, RFC 9110 13.1.1) name
+// `tag`? Weak tags (W/"...") never match: If-Match compares strongly.
+bool ifMatchNames(std::string_view header, std::string_view tag) {
+  size_t start = 0;
+  while (start <= header.size()) {
+    size_t end = header.find(',', start);
+    if (end == std::string_view::npos) end = header.size();
+    std::string_view item = header.substr(start, end - start);
+    while (!item.empty() && (item.front() == ' ' || item.front() == '\t')) item.remove_prefix(1);
+    while (!item.empty() && (item.back() == ' ' || item.back() == '\t')) item.remove_suffix(1);
+    if (item == "*" || item == tag) return true;
+    start = end + 1;
+  }
+  return false;
+}
+
+// One ETag header, the latest (httplib's set_header adds another).
+void setEntityTag(httplib::Response& res, const std::string& tag) {
+  const std::string name(protocol::headers::kETag);
+  res.headers.erase(name);
+  res.set_header(name, tag);
+}
+
+// 412 for an edit whose If-Match names not `session` as it is now; with the lock held.
+void checkPrecondition(const RequestScope& scope, const Session& session) {
+  if (!scope.edits || !scope.ifMatch) return;
+  const std::string tag = entityTag(session);
+  const bool changedMeanwhile = scope.seenVersion && *scope.seenVersion != session.version;
+  if (!changedMeanwhile && (scope.seenVersion || ifMatchNames(*scope.ifMatch, tag))) return;
+  setEntityTag(scope.res, tag);
+  throw ProblemError(preconditionFailed(
+      "The session is no longer at the version this edit's If-Match names (" +
+      scope.ifMatch->substr(0, 200) + ")" +
+      (changedMeanwhile ? ": another request changed it while this one ran" : "") +
+      "; it is now at ETag " + tag + ". Read it again (GET) and retry with that ETag, or send "
+      "the edit without If-Match to apply it to the latest version."));
+}
 
 std::string lowercase(std::string_view text) {
   std::string out(text);
@@ -156,7 +221,8 @@ void Routes::add(std::string_view method, std::string_view routeTemplate, Handle
 
   // Everything but reading the body: the in-flight limit, the form refusal, problems. Called with
   // the body already read (and bounded) by the caller.
-  auto serve = [this, handler = std::move(handler), options](const httplib::Request& req,
+  auto serve = [this, handler = std::move(handler), options,
+                routeTemplate = std::string(routeTemplate)](const httplib::Request& req,
                                                               httplib::Response& res,
                                                               const auto& readBody) {
     struct InFlight {
@@ -177,7 +243,25 @@ void Routes::add(std::string_view method, std::string_view routeTemplate, Handle
         return;
       }
     }
+    RequestScope scope{.res = res,
+                       .edits = req.method != "GET" && req.method != "HEAD",
+                       .ifMatch = std::nullopt,
+                       .seenVersion = std::nullopt};
+    const std::string ifMatch(protocol::headers::kIfMatch);
+    if (req.has_header(ifMatch)) scope.ifMatch = req.get_header_value(ifMatch);
+    struct Scoped {
+      explicit Scoped(RequestScope* s) { tRequest = s; }
+      ~Scoped() { tRequest = nullptr; }
+    } scoped(&scope);
     try {
+      // A conditional edit of a session: refused before its body is read when already stale.
+      // (The handler's lockOpen checks again, under the lock its edit holds.)
+      if (scope.edits && scope.ifMatch && req.matches.size() > 1 &&
+          routeTemplate.starts_with(std::string(protocol::routes::kSessions) + "/")) {
+        SessionPtr session = authorizeSession(context_, req);
+        (void)lockOpen(*session);
+        scope.seenVersion.reset();
+      }
       const httplib::Request& withBody = readBody();
       // httplib reads a form body into req.params, where it would pass for a query string; no
       // route takes a form (curl -d sends one unless told the type).
@@ -504,13 +588,32 @@ Credentials credentialsOf(const httplib::Request& req) {
   return credentials;
 }
 
-std::unique_lock<std::mutex> lockOpen(Session& session) {
-  std::unique_lock lock(session.mutex);
+SessionLock::SessionLock(Session& session) : session_(&session), lock_(session.mutex) {}
+
+SessionLock::SessionLock(SessionLock&& other) noexcept
+    : session_(std::exchange(other.session_, nullptr)), lock_(std::move(other.lock_)) {}
+
+SessionLock::~SessionLock() {
+  if (session_ == nullptr || !lock_.owns_lock() || tRequest == nullptr) return;
+  tRequest->seenVersion = session_->version;
+  setEntityTag(tRequest->res, entityTag(*session_));
+}
+
+SessionLock lockOpen(Session& session) {
+  SessionLock lock(session);
   if (session.closed) {
     throw ProblemError(notFoundDetail("The session " + quoteClientText(session.id) +
                                       " was deleted or expired during this request."));
   }
+  if (tRequest != nullptr) checkPrecondition(*tRequest, session);
   return lock;
+}
+
+std::string entityTag(const Session& session) {
+  // Appended piece by piece (GCC 12 warns falsely, -Wrestrict, on "\"" + std::string).
+  std::string tag(1, '"');
+  tag.append(std::to_string(session.version)).append(1, '-').append(kInstanceTag).append(1, '"');
+  return tag;
 }
 
 MemoryBudget::Reservation reserveMemory(const ApiContext& context, uint64_t bytes,

@@ -237,9 +237,34 @@ void checkQuery(const httplib::Request& req, std::initializer_list<std::string_v
 uint64_t unsignedParameter(const httplib::Request& req, const std::string& name, uint64_t fallback,
                            uint64_t min, uint64_t max);
 
+// A session's mutex as a handler holds it (lockOpen). While held, what the request saw is the
+// session at `version`; on release it answers that version as the response's ETag, and a later
+// lockOpen of the same request checks nothing else changed the session in between.
+class SessionLock {
+ public:
+  explicit SessionLock(Session& session);
+  ~SessionLock();
+  SessionLock(SessionLock&& other) noexcept;
+  SessionLock(const SessionLock&) = delete;
+  SessionLock& operator=(const SessionLock&) = delete;
+  SessionLock& operator=(SessionLock&&) = delete;
+
+ private:
+  Session* session_;
+  std::unique_lock<std::mutex> lock_;
+};
+
 // Locks an open session; throws ProblemError 404 when it was closed (deleted or expired) since it
 // was authorized. Every handler that reads or edits session state takes this lock.
-std::unique_lock<std::mutex> lockOpen(Session& session);
+// Optimistic concurrency: for an edit (any method but GET and HEAD) carrying If-Match, throws
+// ProblemError 412 precondition-failed unless the session is still at a version the header names
+// (its ETag, or `*`) - checked under the lock, so the edit that follows applies to exactly that
+// version. Without If-Match an edit applies to the latest version.
+SessionLock lockOpen(Session& session);
+
+// The session's version as an entity tag (quoted): the version and this server process's
+// instance, so a tag from before a restart or from another node never matches a restored copy.
+std::string entityTag(const Session& session);
 
 // With --api-key: throws the 401 problem unless the request carries the key as a bearer token.
 void requireApiKey(const ApiContext& context, const httplib::Request& req);

@@ -344,7 +344,7 @@ void handleStats(const ApiContext& context, FrameServices& frames, const httplib
   uint64_t lightCount = 0;
   bool animated = false;
   {
-    std::unique_lock lock = lockOpen(*session);
+    auto lock = lockOpen(*session);
     lightCount = session->scene.lightCount();
     animated = session->scene.settings().animate;
   }

@@ -3,12 +3,17 @@
 #include <httplib.h>
 #include <sys/socket.h>
 
+#include <algorithm>
 #include <array>
 #include <atomic>
+#include <cctype>
 #include <cerrno>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <ctime>
+#include <random>
 #include <stdexcept>
 #include <string_view>
 #include <thread>
@@ -54,9 +59,77 @@ Problem problemForStatus(int status, const httplib::Request& req, const ApiLimit
   }
 }
 
-void logRequest(const httplib::Request& req, const httplib::Response& res) {
-  std::string line = req.method + " " + req.path + " -> " + std::to_string(res.status) + " (" +
-                     std::to_string(res.body.size()) + " bytes)\n";
+// The access log (--log-format). The request's start and id are per worker thread: httplib
+// serves a request on one thread from routing to the log line.
+struct RequestTrace {
+  std::chrono::steady_clock::time_point start;
+  bool started = false;
+};
+thread_local RequestTrace tTrace;
+
+// A client's X-Request-Id is kept when it is 1-128 of [A-Za-z0-9._:-] (safe in logs and
+// headers); anything else is replaced by one made here.
+bool acceptableRequestId(std::string_view id) {
+  if (id.empty() || id.size() > 128) return false;
+  return std::all_of(id.begin(), id.end(), [](char c) {
+    return std::isalnum(static_cast<unsigned char>(c)) || c == '.' || c == '_' || c == ':' ||
+           c == '-';
+  });
+}
+
+std::string newRequestId() {
+  static std::atomic<uint64_t> counter{0};
+  static const uint64_t process = std::random_device{}();
+  char text[40];
+  std::snprintf(text, sizeof text, "%08llx-%012llx",
+                static_cast<unsigned long long>(process & 0xffffffffu),
+                static_cast<unsigned long long>(counter.fetch_add(1) + 1));
+  return text;
+}
+
+std::string utcNow() {
+  const auto now = std::chrono::system_clock::now();
+  const std::time_t seconds = std::chrono::system_clock::to_time_t(now);
+  const auto millis =
+      std::chrono::duration_cast<std::chrono::milliseconds>(now.time_since_epoch()).count() % 1000;
+  std::tm utc{};
+  gmtime_r(&seconds, &utc);
+  char text[32];
+  std::snprintf(text, sizeof text, "%04d-%02d-%02dT%02d:%02d:%02d.%03dZ", utc.tm_year + 1900,
+                utc.tm_mon + 1, utc.tm_mday, utc.tm_hour, utc.tm_min, utc.tm_sec, int(millis));
+  return text;
+}
+
+// One line per request, written once it was answered (a stream: once it ended, so latencyMs is
+// its duration). Never the query string, headers or body: no token reaches the log. `route` is
+// the template ("/v1/sessions/{id}/camera"; "unmatched" for none), `session` the id in the path.
+void logRequest(const httplib::Request& req, const httplib::Response& res, const Routes& routes,
+                bool json, const std::string& node) {
+  std::string line;
+  const std::string route = routes.routeOf(req.path, req.method);
+  if (json) {
+    nlohmann::json entry = {{"time", utcNow()},
+                            {"requestId", res.get_header_value(std::string(protocol::headers::kRequestId))},
+                            {"method", req.method},
+                            {"route", route},
+                            {"status", res.status},
+                            {"bytes", res.body.size()}};
+    if (route.starts_with(std::string(protocol::routes::kSession)) && req.matches.size() > 1) {
+      entry["session"] = req.matches[1].str();
+    }
+    if (tTrace.started) {
+      entry["latencyMs"] =
+          std::round(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() -
+                                                               tTrace.start).count() * 1000.0) /
+          1000.0;
+    }
+    if (!node.empty()) entry["node"] = node;
+    line = entry.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace) + "\n";
+  } else {
+    line = req.method + " " + route + " -> " +
+           std::to_string(res.status) + " (" + std::to_string(res.body.size()) + " bytes)\n";
+  }
+  tTrace.started = false;
   // One write per line keeps lines from concurrent workers whole.
   std::fwrite(line.data(), 1, line.size(), stderr);
 }
@@ -232,6 +305,7 @@ HttpServer::HttpServer(const HttpConfig& config, render::RenderQueue& renderThre
   // Unknown paths, wrong methods (405 with Allow), preflights and oversized bodies are answered
   // before routing and before the body is read.
   server.set_pre_routing_handler([&s](const httplib::Request& req, httplib::Response& res) {
+    tTrace = {std::chrono::steady_clock::now(), true};
     return s.routes.answerBeforeRouting(req, res) ? httplib::Server::HandlerResponse::Handled
                                                   : httplib::Server::HandlerResponse::Unhandled;
   });
@@ -278,9 +352,15 @@ HttpServer::HttpServer(const HttpConfig& config, render::RenderQueue& renderThre
       s.persister->flush();
     }
     if (!nodeName.empty()) res.set_header(std::string(protocol::headers::kNode), nodeName);
+    const std::string requestId(protocol::headers::kRequestId);
+    const std::string given = req.get_header_value(requestId);
+    res.set_header(requestId, acceptableRequestId(given) ? given : newRequestId());
     BoundedHttpServer::markClosing(res);
   });
-  server.set_logger(logRequest);
+  server.set_logger([&s, nodeName, json = config.jsonAccessLog](const httplib::Request& req,
+                                                               const httplib::Response& res) {
+    logRequest(req, res, s.routes, json, nodeName);
+  });
 
   namespace r = protocol::routes;
   RouteOptions health;

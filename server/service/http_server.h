@@ -33,6 +33,8 @@ struct HttpConfig {
   std::chrono::seconds stateRetention{std::chrono::hours(24 * 7)};
   // --node-id: session ids start with it and every response names it (X-Myriad-Node).
   std::optional<uint32_t> nodeId;
+  // The access log's form (--log-format): JSON lines (AccessLog in http_server.cpp), else text.
+  bool jsonAccessLog = true;
 };
 
 // What GET /v1/info reports about the scene; counted once at start-up.

@@ -238,6 +238,13 @@ const std::vector<Flag>& flags() {
        [](Options& o, std::string_view v) {
          o.nodeId = parseUnsigned<uint32_t>("--node-id", v, 0, 255);
        }},
+      {"--log-format", true,
+       [](Options& o, std::string_view v) {
+         if (v != "json" && v != "text") {
+           throw UsageError("--log-format expects json or text, not \"" + std::string(v) + "\".");
+         }
+         o.jsonAccessLog = v == "json";
+       }},
       {"--batch", true,
        [](Options& o, std::string_view v) {
          if (v.empty()) throw UsageError("--batch expects a job spec file.");
@@ -392,6 +399,9 @@ materials and lights (protocol/reference.md), and the stateless GET /v1/frame.
   --node-id N              this server's number (0-255) among several behind one front
                            (docs/deploy.md): session ids start with it, responses name it in
                            X-Myriad-Node
+  --log-format json|text   the access log on stderr: one JSON object per request (default:
+                           time, requestId, method, route, session, status, bytes, latencyMs,
+                           node) or one short text line
   --batch SPEC             render frames of a job spec (a snapshot and a camera path) without
                            HTTP, then exit (docs/deploy.md "Batch rendering")
   --index I                the batch index: frames I*K .. I*K+K-1 of the path (default: the

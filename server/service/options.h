@@ -93,6 +93,9 @@ struct Options {
   // start with it ("s-" + 2 hex digits of N + 14 random ones) so the front routes a session's
   // requests to the node that made it, and every response names the node (X-Myriad-Node).
   std::optional<uint32_t> nodeId;
+  // --log-format: one JSON object per request on stderr (json, the default) or the short line
+  // "METHOD PATH -> STATUS (N bytes)" (text).
+  bool jsonAccessLog = true;
   // --batch SPEC [--index I] [--out DIR]: render index I's frames of a job spec and exit
   // (service/batch.h); no HTTP. Without --index, the environment's JOB_COMPLETION_INDEX (a
   // Kubernetes Indexed Job's), else 0.

@@ -118,6 +118,11 @@ Problem conflict(std::string detail) {
   return make(409, protocol::problems::kConflict, "Conflict", std::move(detail));
 }
 
+Problem preconditionFailed(std::string detail) {
+  return make(412, protocol::problems::kPreconditionFailed, "Precondition failed",
+              std::move(detail));
+}
+
 Problem notFoundDetail(std::string detail) {
   return make(404, protocol::problems::kNotFound, "Not found", std::move(detail));
 }

@@ -62,6 +62,8 @@ Problem environmentRejected(std::string detail);
 Problem notFoundDetail(std::string detail);
 // 409 conflict: the request contradicts the session's state (an asset still in use).
 Problem conflict(std::string detail);
+// 412: an If-Match that names no longer the session's version (api.h lockOpen).
+Problem preconditionFailed(std::string detail);
 
 // Client-supplied text quoted in a detail: shortened, so a huge query cannot produce a huge
 // error body.

@@ -580,6 +580,13 @@ TEST_CASE("assets and objects: add, place, move, a delete refused while used, cl
     CHECK(movedJson["bounds"]["min"][axis].get<double>() ==
           doctest::Approx(shown["bounds"]["min"][axis].get<double>() + shift).epsilon(1e-4));
   }
+  // --if-match: an edit conditional on a version the session is not at changes nothing (412).
+  CliResult stale = myriad({"--if-match", "\"0-00000000\"", "object", "move", oid, "--at", "9,9,9"});
+  checkOneLineError(stale, "(412 precondition-failed)");
+  CHECK(jsonOf(myriad({"object", "show", oid, "--json"}))["transform"]["translation"] ==
+        json::array({-4.0, 0.0, 5.0}));
+  CHECK(myriad({"--if-match", "*", "object", "move", oid, "--at", "-4,0,5"}).exitCode == 0);
+
   const fs::path png = dir / "objects.png";
   CHECK(myriad({"frame", "--width", "64", "--height", "48", "-o", png.string()}).exitCode == 0);
   CHECK(fs::file_size(png) > 8);
