@@ -7,6 +7,7 @@
 #include <future>
 #include <map>
 #include <memory>
+#include <sstream>
 #include <string>
 #include <thread>
 #include <vector>
@@ -171,6 +172,30 @@ TEST_CASE("GET /v1/frame takes format and quality") {
   CHECK(request.settings.camera.fovYDegrees == doctest::Approx(45.0f));
   CHECK(service::parseFrameRequest({{"format", "raw"}}, defaults).settings.raw);
   CHECK(failureOf([&] { service::parseFrameRequest({{"time", "1"}}, defaults); }).unknown);
+}
+
+TEST_CASE("metrics exposition: with --node-id every series carries node, comments do not") {
+  service::Metrics metrics;
+  metrics.countRequest("/v1/health", 200);
+  metrics.observeFrame(0.2);
+  metrics.setNodeLabel("7");
+  const std::string text = metrics.exposition({3, 1, 4096, 0});
+  INFO(text);
+  CHECK(text.find("myriad_http_requests_total{node=\"7\",route=\"/v1/health\",status=\"200\"} 1\n") !=
+        std::string::npos);
+  CHECK(text.find("myriad_frame_seconds_bucket{node=\"7\",le=\"0.25\"} 1\n") != std::string::npos);
+  CHECK(text.find("myriad_frame_seconds_count{node=\"7\"} 1\n") != std::string::npos);
+  CHECK(text.find("myriad_sessions{node=\"7\"} 3\n") != std::string::npos);
+  CHECK(text.find("# TYPE myriad_sessions gauge\n") != std::string::npos);
+  // Every sample line has it.
+  std::istringstream lines(text);
+  size_t samples = 0;
+  for (std::string line; std::getline(lines, line);) {
+    if (line.empty() || line.front() == '#') continue;
+    ++samples;
+    CHECK_MESSAGE(line.find("{node=\"7\"") != std::string::npos, line);
+  }
+  CHECK(samples > 20);
 }
 
 TEST_CASE("metrics exposition: counters per route template, cumulative histogram, gauges") {

@@ -89,10 +89,14 @@ export class Api {
   }
 
   // One request. `path` starting with "/v1/sessions/" carries the session token. Returns the
-  // parsed JSON, null for 204, or the Response itself when `raw` is set.
+  // parsed JSON, null for 204, or the Response itself when `raw` is set; with `tagged`,
+  // {body, etag}: the JSON and the session version it shows (ETag). `ifMatch`: an ETag the edit
+  // is conditional on (412 precondition-failed when the session moved on; reference.md
+  // "Conditional edits").
   async request(method, path, {json, body, contentType, query, signal, raw = false, auth = true,
-                               headers: extra = {}} = {}) {
+                               headers: extra = {}, ifMatch, tagged = false} = {}) {
     const headers = {...extra};
+    if (ifMatch) headers['If-Match'] = ifMatch;
     let payload = body;
     if (json !== undefined) {
       payload = JSON.stringify(json);
@@ -124,8 +128,8 @@ export class Api {
       throw error;
     }
     if (raw) return response;
-    if (response.status === 204) return null;
-    return response.json();
+    const parsed = response.status === 204 ? null : await response.json();
+    return tagged ? {body: parsed, etag: response.headers.get('ETag')} : parsed;
   }
 
   // 401: the token no longer fits. 403: the token of another session, or a viewer's token asked

@@ -206,6 +206,8 @@ export class LightsPanel {
       $('light-outer').value = +(light.outerConeAngle * DEGREES).toFixed(4);
       $('light-shadows').checked = light.castsShadows === true;
       this.showCone();
+      this.shownFields = {};
+      for (const id of Object.values(LightsPanel.FIELDS).flat()) this.shownFields[id] = this.fieldValue(id);
     }
     this.drawOverlay();
   }
@@ -235,6 +237,26 @@ export class LightsPanel {
     $('light-editor').scrollIntoView({block: 'nearest'});
   }
 
+  // What each member of a light is edited in: a member is sent only when one of its fields no
+  // longer shows what select() put there.
+  static FIELDS = {
+    position: ['light-x', 'light-y', 'light-z'], color: ['light-color'],
+    radius: ['light-radius'], intensity: ['light-intensity'], falloff: ['light-falloff'],
+    attenuation: ['light-attenuation'], type: ['light-type'], castsShadows: ['light-shadows'],
+    direction: ['light-dx', 'light-dy', 'light-dz'], innerConeAngle: ['light-inner'],
+    outerConeAngle: ['light-outer'],
+  };
+
+  fieldValue(id) {
+    const field = $(id);
+    return field.type === 'checkbox' ? String(field.checked) : field.value;
+  }
+
+  // Apply sends the members the user changed, and only over the light as the editor showed it:
+  // the light is read again with the session's ETag, a member changed elsewhere meanwhile (by
+  // another page or a script) stops the edit (the editor then shows the light as it is, and says
+  // so), and the PATCH is conditional on that ETag (If-Match), so nothing lands between the read
+  // and the write unseen. A 412 from an unrelated edit (the camera moved) reads again.
   async applyEdit() {
     const light = this.selected;
     if (!light) return;
@@ -260,10 +282,35 @@ export class LightsPanel {
       this.onProblem(e);
       return;
     }
+    for (const member of Object.keys(patch)) {
+      const fields = LightsPanel.FIELDS[member];
+      if (fields.every((id) => this.fieldValue(id) === this.shownFields[id])) delete patch[member];
+    }
+    if (Object.keys(patch).length === 0) return;
+    const path = this.api.sessionPath(`/lights/${light.id}`);
     try {
-      const updated = await this.api.patch(this.api.sessionPath(`/lights/${light.id}`), patch);
-      this.replace(updated);
-      this.select(updated);
+      for (let attempt = 1; ; ++attempt) {
+        const {body: current, etag} = await this.api.request('GET', path, {tagged: true});
+        const changedElsewhere = Object.keys(patch).filter(
+            (member) => JSON.stringify(current[member]) !== JSON.stringify(light[member]));
+        if (changedElsewhere.length) {
+          this.replace(current);
+          this.select(current);
+          this.onProblem(new Error(
+              `Light #${light.id} was changed elsewhere while you edited it ` +
+              `(${changedElsewhere.join(', ')}): your change was not applied; the editor shows ` +
+              'the light as it is now.'));
+          return;
+        }
+        try {
+          const updated = await this.api.request('PATCH', path, {json: patch, ifMatch: etag});
+          this.replace(updated);
+          this.select(updated);
+          return;
+        } catch (e) {
+          if (e.status !== 412 || attempt === 3) throw e;
+        }
+      }
     } catch (e) {
       this.onProblem(e);
     }

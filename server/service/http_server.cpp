@@ -344,6 +344,7 @@ HttpServer::HttpServer(const HttpConfig& config, render::RenderQueue& renderThre
   // it answered.
   const std::string nodeName =
       config.nodeId ? std::to_string(*config.nodeId) : std::string();
+  s.frames.metrics.setNodeLabel(nodeName);
   server.set_post_routing_handler([&s, nodeName](const httplib::Request& req,
                                                  httplib::Response& res) {
     s.frames.metrics.countRequest(s.routes.routeOf(req.path, req.method), res.status);

@@ -95,6 +95,40 @@ uint64_t Metrics::requests(std::string_view routeTemplate, int status) const {
   return it == requests_.end() ? 0 : it->second;
 }
 
+namespace {
+
+// `exposition` with name="value" added to every sample line (comments untouched): first among
+// a series' labels, or as its only label.
+std::string withLabel(std::string_view exposition, std::string_view name, std::string_view value) {
+  const std::string label = std::string(name) + "=\"" + labelValue(value) + "\"";
+  std::string out;
+  out.reserve(exposition.size() + exposition.size() / 8);
+  size_t start = 0;
+  while (start < exposition.size()) {
+    size_t end = exposition.find('\n', start);
+    if (end == std::string_view::npos) end = exposition.size();
+    std::string_view line = exposition.substr(start, end - start);
+    if (line.empty() || line.front() == '#') {
+      out += line;
+    } else {
+      const size_t split = line.find_first_of("{ ");
+      out += line.substr(0, split);
+      if (split != std::string_view::npos && line[split] == '{') {
+        out += "{" + label + (line[split + 1] == '}' ? "" : ",");
+        out += line.substr(split + 1);
+      } else {
+        out += "{" + label + "}";
+        if (split != std::string_view::npos) out += line.substr(split);
+      }
+    }
+    if (end < exposition.size()) out += '\n';
+    start = end + 1;
+  }
+  return out;
+}
+
+}  // namespace
+
 std::string Metrics::exposition(const MetricGauges& gauges) const {
   std::string out;
   std::lock_guard lock(mutex_);
@@ -157,7 +191,7 @@ std::string Metrics::exposition(const MetricGauges& gauges) const {
   single(out, "myriad_validation_messages_total", "counter",
          "Vulkan validation messages since start-up (0 unless --validate).",
          gauges.validationMessages);
-  return out;
+  return node_.empty() ? out : withLabel(out, "node", node_);
 }
 
 }  // namespace myriad::service

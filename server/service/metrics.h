@@ -53,10 +53,15 @@ class Metrics {
   // The text/plain; version=0.0.4 body.
   std::string exposition(const MetricGauges& gauges) const;
 
+  // A label every series carries (--node-id: node="N"), so that the series of several servers
+  // scraped through one front stay apart. Set before serving.
+  void setNodeLabel(std::string node) { node_ = std::move(node); }
+
   // The count so far for one route and status (tests and logs).
   uint64_t requests(std::string_view routeTemplate, int status) const;
 
  private:
+  std::string node_;  // "" = no node label
   mutable std::mutex mutex_;
   std::map<std::pair<std::string, int>, uint64_t> requests_;
   std::array<uint64_t, kFrameBuckets.size()> frameBucketCounts_{};  // not cumulative

@@ -431,6 +431,48 @@ try {
     await until('the editor to close', async () => !(await owner.isVisible('#light-editor')), 5000);
   });
 
+  await step('the light editor never overwrites an edit made elsewhere: a member changed meanwhile stops it, others are kept', async () => {
+    // The session's first light as the server has it (the list may still show one just deleted).
+    const page = (await api('GET', `/v1/sessions/${session.id}/lights?offset=0&limit=1`,
+                            {token: session.token})).body;
+    const id = page.lights[0].id;
+    const path = `/v1/sessions/${session.id}/lights/${id}`;
+    // The list is redrawn as the session's events arrive: click whichever button is there now.
+    await until(`the editor of light ${id}`, async () => {
+      await owner.evaluate((lid) =>
+          document.querySelector(`#light-list li[data-id="${lid}"] button.name`)?.click(), id);
+      return await owner.isVisible('#light-editor') &&
+             (await owner.textContent('#light-editor-title')) === `Light #${id}`;
+    });
+    const shown = (await api('GET', path, {token: session.token})).body;
+    // The user types an intensity (the focused editor is not refilled); meanwhile a script sets
+    // the same member and the colour. Apply: refused on the page, the script's values stay.
+    await owner.fill('#light-intensity', '123');
+    const script = {intensity: 77, color: [0.1, 0.9, 0.2]};
+    check((await api('PATCH', path, {token: session.token, json: script})).status === 200,
+          'the script\'s PATCH');
+    await owner.click('#light-apply');
+    await until('the page to say the light changed elsewhere', async () =>
+        ((await owner.textContent('body')) || '').includes('was changed elsewhere'), 5000);
+    const kept = (await api('GET', path, {token: session.token})).body;
+    check(kept.intensity === 77, `the script's intensity was overwritten: ${kept.intensity}`);
+    const near = (a, b) => a.length === b.length && a.every((v, i) => Math.abs(v - b[i]) < 1e-6);
+    check(near(kept.color, script.color), `the script's colour was overwritten: ${kept.color}`);
+    check(Number(await owner.inputValue('#light-intensity')) === 77, 'the editor does not show the light as it is');
+    // A member the user did not touch, changed elsewhere meanwhile, is not sent back: the user's
+    // radius lands and the script's new colour stays.
+    await owner.fill('#light-radius', String(shown.radius + 1));
+    check((await api('PATCH', path, {token: session.token, json: {color: [0.9, 0.1, 0.1]}})).status === 200,
+          'the second script PATCH');
+    await owner.click('#light-apply');
+    const both = await until('the radius applied', async () => {
+      const l = (await api('GET', path, {token: session.token})).body;
+      return Math.abs(l.radius - (shown.radius + 1)) < 1e-4 ? l : null;  // float32 on the server
+    }, 5000);
+    check(near(both.color, [0.9, 0.1, 0.1]), `the colour was overwritten: ${both.color}`);
+    check(both.intensity === 77, 'the intensity changed');
+  });
+
   await step('two pages on the VP9 stream of one session (one a viewer): both see each edit, rendered and encoded once for both', async () => {
     // A session of its own, so that only these two pages' streams render for it.
     const created = await api('POST', '/v1/sessions', {json: {}});
