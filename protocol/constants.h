@@ -242,10 +242,18 @@ inline constexpr double kMaxClockRate = 64.0;
 }  // namespace query
 
 // Video streams (GET .../stream?codec=): the codecs, and for each (same order) the codec string
-// WebCodecs' VideoDecoder takes for it (VP9: profile 0, level 1.0, 8 bits).
-inline constexpr std::array<std::string_view, 2> kVideoCodecs = {"vp8", "vp9"};
+// WebCodecs' VideoDecoder takes for it (VP9: profile 0, level 1.0, 8 bits; H.264: this prefix,
+// Constrained Baseline, then the level in hex, which depends on size and fps).
+inline constexpr std::array<std::string_view, 3> kVideoCodecs = {"vp8", "vp9", "h264"};
 inline constexpr std::array<std::string_view, 2> kWebCodecsCodecs = {"vp8", "vp09.00.10.08"};
+inline constexpr std::string_view kWebCodecsH264Prefix = "avc1.42C0";
 inline constexpr std::string_view kVideoStreamContentType = "application/x-myriad-video";
+// ?container=: how a video stream's frames are framed (same order as encode::VideoContainer):
+// Myriad's own chunks (the default for vp8 and vp9), live WebM (vp8, vp9) or fragmented MP4
+// (h264, its default), with their Content-Types (kVideoStreamContentType for "myriad").
+inline constexpr std::array<std::string_view, 3> kVideoContainers = {"myriad", "webm", "mp4"};
+inline constexpr std::string_view kWebmContentType = "video/webm";
+inline constexpr std::string_view kMp4ContentType = "video/mp4";
 // The body of a video stream: chunks, each a header of kHeaderBytes then `payload bytes` of the
 // codec's bitstream (one frame). The header, little-endian:
 //   0 u32 payload bytes   4 u8 kind   5..7 zero   8 u16 width   10 u16 height

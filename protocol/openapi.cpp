@@ -157,8 +157,8 @@ json headerObject(std::string_view name) {
                   "(after the edit, for an edit). Send it as If-Match to make an edit "
                   "conditional."}},
       {headers::kVideoCodec,
-       {"string", "Video streams: the codec string for WebCodecs' VideoDecoder (vp8, "
-                  "vp09.00.10.08)."}},
+       {"string", "Video streams: the codec string for WebCodecs' VideoDecoder and Media "
+                  "Source Extensions (vp8, vp09.00.10.08, avc1.42C0 and the H.264 level in hex)."}},
   };
   auto it = known.find(name);
   if (it == known.end()) {

@@ -683,9 +683,18 @@ std::vector<Operation> buildOperations() {
                  height(),
                  quality(),
                  {"codec",
-                  {{"type", "string"}, {"enum", {kVideoCodecs[0], kVideoCodecs[1]}}},
+                  {{"type", "string"},
+                   {"enum", {kVideoCodecs[0], kVideoCodecs[1], kVideoCodecs[2]}}},
                   "A video stream in this codec instead of images (format and quality are then "
-                  "refused). Default: images."},
+                  "refused; h264: even width and height). Default: images."},
+                 {"container",
+                  {{"type", "string"},
+                   {"enum", {kVideoContainers[0], kVideoContainers[1], kVideoContainers[2]}}},
+                  "Video streams: how the frames are framed. myriad: Myriad's own chunks "
+                  "(vp8, vp9); webm: live WebM (vp8, vp9), video/webm; mp4: fragmented MP4 "
+                  "(h264), video/mp4. webm and mp4 play in any player (ffmpeg, VLC, a video "
+                  "element through Media Source Extensions). Default myriad for vp8 and vp9, mp4 "
+                  "for h264; any other pair is refused."},
                  {"bitrate", integerIn(query::kMinBitrateKbps, query::kMaxBitrateKbps),
                   "Video streams: the target bitrate in kbit/s. Default 0.1 bit per pixel per "
                   "frame at the stream's size and fps."},
@@ -700,9 +709,14 @@ std::vector<Operation> buildOperations() {
                       "Content-Length and X-Myriad-Frame (its sequence number; a re-send keeps "
                       "it), and X-Myriad-Interactive (its render scale) when it is an interactive "
                       "frame. With codec: application/x-myriad-video, chunks of a 48-byte header "
-                      "and one frame of the codec's bitstream; X-Myriad-Codec names the WebCodecs "
-                      "codec string.",
-                      {{kStreamContentType, ""}, {kVideoStreamContentType, ""}},
+                      "and one frame of the codec's bitstream; with container=webm, video/webm "
+                      "(live WebM); with container=mp4, video/mp4 (fragmented MP4). "
+                      "X-Myriad-Codec names the WebCodecs (and Media Source Extensions) codec "
+                      "string.",
+                      {{kStreamContentType, ""},
+                       {kVideoStreamContentType, ""},
+                       {kWebmContentType, ""},
+                       {kMp4ContentType, ""}},
                       {headers::kVideoCodec}}},
        .problems = {400, 401, 403, 404, 429, 503}});
   ops.push_back(

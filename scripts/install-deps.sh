@@ -24,6 +24,7 @@ build_packages=(
   libspng-dev              # myriad-png-bench's libspng row (server/bench/png_bench.cpp)
   libturbojpeg0-dev        # JPEG frames and streams (TurboJPEG API)
   libvpx-dev               # VP8/VP9 video streams (libvpx, BSD), and their decoder in tests and bench
+  libopenh264-dev          # H.264 video streams (codec=h264: OpenH264, BSD), and its decoder in tests
   libzip-dev               # zip uploads of a model with its files, read in the loader child
   libstb-dev               # stb_image's header: .hdr environment images, decoded in the loader child
   libssl-dev               # libcrypto: SHA-256 of session tokens in --state-dir
@@ -32,6 +33,7 @@ build_packages=(
 test_packages=(
   assimp-testmodels        # /usr/share/assimp/models: real (and deliberately broken) models
   curl
+  ffmpeg                   # video_players: ffmpeg/ffprobe open the WebM and MP4 streams by URL
   chromium                 # the browser test's headless browser (never a downloaded one)
   nodejs                   # runs the browser test (tests/browser, playwright-core)
   python3-jsonschema       # protocol-differential: a second JSON Schema validator to agree with ours

@@ -144,7 +144,7 @@ TEST_CASE("stream query: codec makes a video stream with a bitrate; image member
     std::string says;
   };
   const Case cases[] = {
-      {{{"codec", "h264"}}, "codec", "is not one of: vp8, vp9"},
+      {{{"codec", "av1"}}, "codec", "is not one of: vp8, vp9, h264"},
       {{{"codec", "vp8"}, {"format", "jpeg"}}, "format", "takes bitrate instead"},
       {{{"codec", "vp9"}, {"quality", "80"}}, "quality", "takes bitrate instead"},
       {{{"codec", "vp8"}, {"bitrate", "49"}}, "bitrate", "from 50 to 100000"},

@@ -142,7 +142,8 @@ TEST_CASE("video streams: key frame first, PNG-close pictures, edits as deltas, 
   }
 
   // Bad requests are problems naming the parameter.
-  for (auto [query, parameter] : {std::pair{"codec=h264", "codec"},
+  for (auto [query, parameter] : {std::pair{"codec=av1", "codec"},
+                                  std::pair{"codec=h264&container=webm", "container"},
                                   std::pair{"codec=vp8&format=jpeg", "format"},
                                   std::pair{"codec=vp8&bitrate=10", "bitrate"}}) {
     myriad::test::Reply reply = api.get(videoPath(session, query), session.token);

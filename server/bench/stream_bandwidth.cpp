@@ -313,6 +313,11 @@ json measureVideo(const Options& o, Api& api, const std::string& base, const std
     }
   }
   if (!known) throw Fail("unknown codec " + codecName);
+  if (codec == encode::VideoCodec::H264) {
+    // Its stream is fragmented MP4 (container=mp4), not the chunks this bench reads.
+    throw Fail("h264 streams come only as fragmented MP4; this bench reads Myriad's chunks "
+               "(vp8, vp9)");
+  }
   encode::VideoDecoder decoder(codec);
   std::vector<Chunk> chunks;
   std::vector<double> decodeMs;

@@ -10,6 +10,7 @@
 #include <limits>
 #include <string>
 
+#include "encode/h264.h"
 #include "protocol/constants.h"
 
 namespace myriad::encode {
@@ -31,8 +32,15 @@ std::string_view videoCodecName(VideoCodec codec) {
   return protocol::kVideoCodecs[static_cast<size_t>(codec)];
 }
 
-std::string_view webCodecsName(VideoCodec codec) {
-  return protocol::kWebCodecsCodecs[static_cast<size_t>(codec)];
+std::string webCodecsName(VideoCodec codec, uint32_t width, uint32_t height, uint32_t fps,
+                          uint32_t kbps) {
+  if (codec != VideoCodec::H264) {
+    return std::string(protocol::kWebCodecsCodecs[static_cast<size_t>(codec)]);
+  }
+  // profile_idc 66, constraint_set0 and set1 (Constrained Baseline), then the level.
+  static constexpr char kHex[] = "0123456789ABCDEF";
+  const uint8_t level = h264Level(width, height, fps, kbps);
+  return std::string(protocol::kWebCodecsH264Prefix) + kHex[level >> 4] + kHex[level & 15];
 }
 
 void rgbaToI420(std::span<const uint8_t> rgba, uint32_t width, uint32_t height, uint8_t* y,
@@ -132,6 +140,10 @@ VideoEncoder::VideoEncoder(const VideoSettings& settings)
   if (settings.threads < 1 || settings.threads > 16) {
     throw std::invalid_argument("video encoder threads must be 1 to 16");
   }
+  if (settings.codec == VideoCodec::H264) {
+    h264_ = std::make_unique<H264Encoder>(settings);
+    return;
+  }
   const bool vp8 = settings.codec == VideoCodec::Vp8;
   vpx_codec_iface_t* iface = vp8 ? vpx_codec_vp8_cx() : vpx_codec_vp9_cx();
   vpx_codec_enc_cfg_t cfg{};
@@ -203,6 +215,11 @@ void VideoEncoder::setBitrate(uint32_t kbps) {
   if (kbps < 1 || kbps > 1000000) {
     throw std::invalid_argument("video bitrate must be 1 to 1,000,000 kbit/s");
   }
+  if (h264_) {
+    h264_->setBitrate(kbps);
+    settings_.bitrateKbps = kbps;
+    return;
+  }
   vpx_codec_enc_cfg_t cfg = impl_->config;
   cfg.rc_target_bitrate = kbps;
   if (vpx_codec_enc_config_set(&impl_->codec, &cfg) != VPX_CODEC_OK) {
@@ -219,6 +236,7 @@ VideoPacket VideoEncoder::encode(std::span<const uint8_t> rgba, uint64_t timesta
     throw std::invalid_argument("video frame has " + std::to_string(rgba.size()) +
                                 " bytes, expected " + std::to_string(expected));
   }
+  if (h264_) return h264_->encode(rgba, timestampMs, forceKey);
   vpx_image_t& image = impl_->image;
   rgbaToI420(rgba, settings_.width, settings_.height, image.planes[VPX_PLANE_Y],
              image.stride[VPX_PLANE_Y], image.planes[VPX_PLANE_U], image.stride[VPX_PLANE_U],
@@ -257,6 +275,10 @@ struct VideoDecoder::Impl {
 };
 
 VideoDecoder::VideoDecoder(VideoCodec codec) : impl_(std::make_unique<Impl>()) {
+  if (codec == VideoCodec::H264) {
+    h264_ = std::make_unique<H264Decoder>();
+    return;
+  }
   vpx_codec_iface_t* iface = codec == VideoCodec::Vp8 ? vpx_codec_vp8_dx() : vpx_codec_vp9_dx();
   vpx_codec_dec_cfg_t cfg{};
   cfg.threads = 1;  // libvpx's VP8 decoder threads spin-wait: on a busy machine one is faster
@@ -269,6 +291,7 @@ VideoDecoder::VideoDecoder(VideoCodec codec) : impl_(std::make_unique<Impl>()) {
 VideoDecoder::~VideoDecoder() = default;
 
 VideoDecoder::Picture VideoDecoder::decode(std::span<const uint8_t> packet) {
+  if (h264_) return h264_->decode(packet);
   if (vpx_codec_decode(&impl_->codec, packet.data(), static_cast<unsigned>(packet.size()), nullptr,
                        0) != VPX_CODEC_OK) {
     throw VideoError(vpxMessage(&impl_->codec, "libvpx could not decode a packet"));

@@ -1,5 +1,6 @@
-// Video encoding of rendered frames for GET .../stream?codec= (libvpx: VP8 and VP9), and the
-// matching decoder that tests and the stream benchmark use to look at what a client would see.
+// Video encoding of rendered frames for GET .../stream?codec= (libvpx: VP8 and VP9; OpenH264:
+// H.264, in h264.cpp), and the matching decoder that tests and the stream benchmark use to look
+// at what a client would see.
 // Plain CPU code: an encoder belongs to one video channel (service/shared_frames.h: the streams
 // of a session asking for the same video) and runs on the HTTP worker of whichever of its streams
 // makes the frame, one at a time (libvpx adds its own threads); never on the render thread.
@@ -14,26 +15,31 @@
 
 namespace myriad::encode {
 
-// libvpx refused a configuration or failed to encode/decode.
+// libvpx (or OpenH264) refused a configuration or failed to encode/decode.
 class VideoError : public std::runtime_error {
  public:
   using std::runtime_error::runtime_error;
 };
 
 // In the order of protocol::kVideoCodecs, which names them.
-enum class VideoCodec { Vp8, Vp9 };
+enum class VideoCodec { Vp8, Vp9, H264 };
+
+class H264Encoder;
+class H264Decoder;
 
 struct VideoSettings {
   VideoCodec codec = VideoCodec::Vp8;
-  uint32_t width = 0;   // 2..16,383 (libvpx's limit)
+  uint32_t width = 0;   // 2..16,383 (libvpx's limit); H264: even, at most 36,864 macroblocks
   uint32_t height = 0;  // 2..16,383
   uint32_t fps = 30;    // the expected rate: sizes the rate control's buffer and key frame spacing
   uint32_t bitrateKbps = 4000;  // the target bitrate (constant bitrate rate control)
-  uint32_t threads = 4;         // libvpx worker threads, 1..16
+  uint32_t threads = 4;         // encoder threads (H264: as many slices), 1..16
 };
 
 struct VideoPacket {
-  std::vector<uint8_t> data;  // one frame of the codec's bitstream (VP9: one superframe)
+  // One frame of the codec's bitstream (VP9: one superframe; H264: Annex B NAL units with start
+  // codes, SPS and PPS first in a key frame's).
+  std::vector<uint8_t> data;
   bool key = false;           // a key frame: decodable without anything before it
 };
 
@@ -64,7 +70,8 @@ class VideoEncoder {
  private:
   struct Impl;
   VideoSettings settings_;
-  std::unique_ptr<Impl> impl_;
+  std::unique_ptr<Impl> impl_;           // libvpx (VP8, VP9)
+  std::unique_ptr<H264Encoder> h264_;    // OpenH264 (H264)
 };
 
 // Decodes the packets of one stream back to RGBA8 (alpha 255) with the inverse of the encoder's
@@ -88,12 +95,24 @@ class VideoDecoder {
  private:
   struct Impl;
   std::unique_ptr<Impl> impl_;
+  std::unique_ptr<H264Decoder> h264_;
 };
 
-// protocol::kVideoCodecs' name of `codec` ("vp8", "vp9"), and the codec string WebCodecs'
-// VideoDecoder.configure takes for this encoder's output (protocol::kWebCodecsCodecs).
+// protocol::kVideoCodecs' name of `codec` ("vp8", "vp9", "h264"), and the codec string WebCodecs'
+// VideoDecoder.configure (and Media Source Extensions' codecs=) takes for this encoder's output
+// at that size, rate and bitrate: protocol::kWebCodecsCodecs' for VP8 and VP9; for H264
+// "avc1.42C0LL", Constrained Baseline at level LL (hex level_idc: h264Level's, which the encoder
+// writes).
 std::string_view videoCodecName(VideoCodec codec);
-std::string_view webCodecsName(VideoCodec codec);
+std::string webCodecsName(VideoCodec codec, uint32_t width, uint32_t height, uint32_t fps,
+                          uint32_t kbps);
+
+// The smallest H.264 level (level_idc: 10 = 1.0 ... 52 = 5.2) whose frame size (MaxFS) holds
+// width x height, whose macroblock rate (MaxMBPS) holds it at fps and whose bitrate (MaxBR, which
+// OpenH264 holds the target to) holds kbps; 0 when no level up to 5.2 holds the frame size (more
+// than 36,864 macroblocks: 4096x2304). A rate above 5.2's still gets 5.2 (decoders play it; only
+// the rate is out of the level's bound).
+uint8_t h264Level(uint32_t width, uint32_t height, uint32_t fps, uint32_t kbps);
 
 // The colour conversions, exposed for tests: BT.601 studio range, chroma the mean of each 2x2
 // block (odd sizes: the last row/column alone). Planes are tightly packed: Y width*height, U and V

@@ -288,9 +288,15 @@ void handleStream(ApiContext& context, FrameServices& frames, const httplib::Req
   res.set_header("Cache-Control", "no-store");
   std::string contentType(protocol::kStreamContentType);
   if (request.video) {
-    contentType = protocol::kVideoStreamContentType;
+    switch (request.video->container) {
+      case encode::VideoContainer::Myriad: contentType = protocol::kVideoStreamContentType; break;
+      case encode::VideoContainer::Webm: contentType = protocol::kWebmContentType; break;
+      case encode::VideoContainer::Mp4: contentType = protocol::kMp4ContentType; break;
+    }
     res.set_header(std::string(protocol::headers::kVideoCodec),
-                   std::string(encode::webCodecsName(request.video->codec)));
+                   encode::webCodecsName(request.video->codec, request.settings.width,
+                                         request.settings.height, request.fps,
+                                         request.video->bitrateKbps));
   }
   StreamCredential credential = streamCredential(req, *session, role);
   res.set_chunked_content_provider(

@@ -442,11 +442,13 @@ FrameRequest parseStreamQuery(const QueryParams& params, uint32_t maxResolution)
                                 *codecText + ") keeps its size, so leave interactive out.");
     }
   }
+  const std::string* containerText = single(params, "container");
   if (!codecText) {
-    if (bitrateText) {
-      throw FrameQueryError("bitrate",
-                            "bitrate applies to video streams; name a codec (codec=vp8 or "
-                            "codec=vp9) or leave bitrate out.");
+    if (bitrateText || containerText) {
+      const char* name = bitrateText ? "bitrate" : "container";
+      throw FrameQueryError(name, std::string(name) +
+                                      " applies to video streams; name a codec (codec=vp8, vp9 "
+                                      "or h264) or leave " + name + " out.");
     }
     return request;
   }
@@ -479,6 +481,42 @@ FrameRequest parseStreamQuery(const QueryParams& params, uint32_t maxResolution)
                              std::pair{"height", request.settings.height}}) {
     if (value < 2) {
       throw FrameQueryError(name, std::string(name) + " of a video stream must be at least 2.");
+    }
+  }
+  video.container = video.codec == encode::VideoCodec::H264 ? encode::VideoContainer::Mp4
+                                                            : encode::VideoContainer::Myriad;
+  if (containerText) {
+    std::string containers;
+    bool knownContainer = false;
+    for (size_t i = 0; i < protocol::kVideoContainers.size(); ++i) {
+      if (protocol::kVideoContainers[i] == *containerText) {
+        video.container = static_cast<encode::VideoContainer>(i);
+        knownContainer = true;
+      }
+      containers += (containers.empty() ? "" : ", ") + std::string(protocol::kVideoContainers[i]);
+    }
+    if (!knownContainer) {
+      throw FrameQueryError("container", "container " + quoteClientText(*containerText) +
+                                             " is not one of: " + containers + ".");
+    }
+  }
+  if (!encode::containerCarries(video.container, video.codec)) {
+    throw FrameQueryError(
+        "container", "container=" + std::string(encode::videoContainerName(video.container)) +
+                         " does not carry " + *codecText +
+                         ": myriad and webm carry vp8 and vp9, mp4 carries h264.");
+  }
+  if (video.codec == encode::VideoCodec::H264) {
+    for (auto [name, value] : {std::pair{"width", request.settings.width},
+                               std::pair{"height", request.settings.height}}) {
+      if (value % 2 != 0) {
+        throw FrameQueryError(name, std::string(name) + " of an h264 stream must be even.");
+      }
+    }
+    if (encode::h264Level(request.settings.width, request.settings.height, request.fps, 0) == 0) {
+      throw FrameQueryError("width", "an h264 stream's frame is at most 36,864 macroblocks of "
+                                     "16x16 (H.264 level 5.2: 4096x2304); ask a smaller width "
+                                     "and height.");
     }
   }
   if (bitrateText) {

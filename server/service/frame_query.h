@@ -14,6 +14,7 @@
 #include "encode/arrays.h"
 #include "encode/png.h"
 #include "encode/video.h"
+#include "encode/video_container.h"
 #include "protocol/constants.h"
 #include "render/frame.h"
 #include "scene/scene.h"
@@ -32,9 +33,9 @@ inline constexpr std::array<std::string_view, 17> kSessionFrameParameters = {
     protocol::query::kSpace, "token", protocol::query::kCompression, protocol::query::kPrecision,
     "eye", "look_at", "up", "fov", "near", "far"};
 // GET /v1/sessions/{id}/stream.
-inline constexpr std::array<std::string_view, 10> kStreamParameters = {
+inline constexpr std::array<std::string_view, 11> kStreamParameters = {
     "target", "format",  "fps",   "width",       "height",
-    "quality", "codec", "bitrate", "interactive", "token"};
+    "quality", "codec", "bitrate", "interactive", "token", "container"};
 
 // How a frame's pixels are sent; in the order of protocol::kFormats, which names them.
 // Png16: 16-bit grey (depth, ids); Npy, Exr, Npz: arrays (reference.md "Frame formats").
@@ -59,6 +60,9 @@ inline constexpr double kDefaultVideoBitsPerPixel = 0.1;
 struct VideoStreamRequest {
   encode::VideoCodec codec = encode::VideoCodec::Vp8;
   uint32_t bitrateKbps = 0;
+  // How the frames are framed (?container=): per stream, so streams of one channel (one encoder)
+  // may each use their own. Default Myriad for vp8/vp9, Mp4 for h264.
+  encode::VideoContainer container = encode::VideoContainer::Myriad;
 };
 
 // What a frame request asks for: the render settings and how to encode the result.
@@ -142,9 +146,10 @@ render::FrameSettings parseFrameQuery(const QueryParams& params, const FrameDefa
 FrameRequest parseSessionFrameQuery(const QueryParams& params, uint32_t maxResolution);
 
 // GET /v1/sessions/{id}/stream: as a session frame, without time, with fps; format png or jpeg
-// (default jpeg). With codec (vp8, vp9): a video stream at `bitrate` kbit/s (default
-// kDefaultVideoBitsPerPixel), at least 2x2 pixels, and format and quality are refused (they
-// describe images). interactive: 0 to protocol::query::kMaxInteractiveFps (image streams only).
+// (default jpeg). With codec (vp8, vp9, h264): a video stream at `bitrate` kbit/s (default
+// kDefaultVideoBitsPerPixel), at least 2x2 pixels (h264: even sizes, at most level 5.2's frame),
+// and format and quality are refused (they describe images); container (myriad, webm, mp4) only
+// with codec, and only one that carries it (myriad and webm: vp8, vp9; mp4: h264). interactive: 0 to protocol::query::kMaxInteractiveFps (image streams only).
 FrameRequest parseStreamQuery(const QueryParams& params, uint32_t maxResolution);
 
 // The Server-Timing header value: one metric per GPU pass, then the CPU PNG encode, then (when

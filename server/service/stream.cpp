@@ -65,6 +65,9 @@ struct StreamState {
   std::optional<SharedFrames::VideoViewer> video;
   std::unique_ptr<SharedFrames> ownShared;  // the channels when context.shared is null
   VideoChunk chunk;  // the header of the last chunk written
+  // ?container=webm|mp4: the stream's own writer of a standard container (its header, then its
+  // frames from its first key frame, timed from 0), instead of chunks. Null: Myriad's chunks.
+  std::unique_ptr<encode::ContainerWriter> container;
 
   SharedFrames& shared() { return context.shared ? *context.shared : *ownShared; }
 
@@ -90,6 +93,12 @@ struct StreamState {
                   const std::vector<SharedFrames::VideoFramePtr>& frames) {
     std::string bytes;
     for (const SharedFrames::VideoFramePtr& frame : frames) {
+      if (container) {
+        const auto* data = reinterpret_cast<const uint8_t*>(frame->payload.data());
+        bytes += container->frame({data, frame->payload.size()}, frame->key, frame->timestampUs);
+        ++sequence;
+        continue;
+      }
       chunk.kind = frame->key ? protocol::video_chunk::kKey : protocol::video_chunk::kDelta;
       chunk.width = frame->width;
       chunk.height = frame->height;
@@ -119,7 +128,9 @@ struct StreamState {
   bool writePart(httplib::DataSink& sink) {
     if (video) {
       // A video stream re-sends no picture (a delta frame only decodes once): a keep-alive
-      // chunk says the stream is alive and nothing changed.
+      // chunk says the stream is alive and nothing changed; in a standard container, bytes
+      // every player skips (a WebM Void element, an MP4 free box).
+      if (container) return write(sink, container->keepAlive());
       VideoChunk keepAlive = chunk;
       keepAlive.kind = protocol::video_chunk::kKeepAlive;
       keepAlive.timestampUs = microsecondsSince(video->channel->startedAt);
@@ -446,6 +457,10 @@ httplib::ContentProviderWithoutLength makeStreamProvider(const SessionFrameConte
                                kVideoEncoderThreads);
     if (state->context.shared == nullptr) state->ownShared = std::make_unique<SharedFrames>();
     state->video = state->shared().joinVideo(state->session, state->request, video);
+    if (state->request.video->container != encode::VideoContainer::Myriad) {
+      state->container = encode::makeContainerWriter(state->request.video->container, video.codec,
+                                                     video.width, video.height, video.fps);
+    }
   }
   if (state->request.interactiveFps > 0) state->quality.emplace(state->request.interactiveFps);
   return [state](size_t /*offset*/, httplib::DataSink& sink) {

@@ -4,6 +4,9 @@
 // stream joins its session's video channel for that video (SharedFrames: one encoder shared by
 // every stream asking for the same target, size, codec, bitrate and fps, freed with the last);
 // its first chunk is a key frame; idle re-sends become keep-alive chunks without a picture.
+// With container=webm|mp4 the stream frames the same packets in a standard container instead
+// (encode::ContainerWriter, its own per stream: the header with its first key frame, time from
+// 0), and idle re-sends become bytes every player skips.
 //
 // At most two frames in flight per stream: the next frame is rendered from the session's newest
 // state after the previous part was written, so a slow client sees fewer, newer frames and
