@@ -302,6 +302,7 @@ void members(Tag<ObjectPatch>, F f) {
   f("animation", &ObjectPatch::animation);
   f("node", &ObjectPatch::node);
   f("nodeName", &ObjectPatch::nodeName);
+  f("subtree", &ObjectPatch::subtree);
 }
 
 template <class F>
@@ -354,6 +355,7 @@ void members(Tag<Object>, F f) {
   f("animation", &Object::animation);
   f("node", &Object::node);
   f("nodeName", &Object::nodeName);
+  f("subtree", &Object::subtree);
 }
 
 template <class F>
@@ -381,6 +383,7 @@ void members(Tag<Asset>, F f) {
   f("images", &Asset::images);
   f("bounds", &Asset::bounds);
   f("objects", &Asset::objects);
+  f("ignoredExtensions", &Asset::ignoredExtensions);
 }
 
 template <class F>
@@ -417,6 +420,13 @@ void members(Tag<Labels>, F f) {
   f("intrinsics", &Labels::intrinsics);
   f("worldFromCamera", &Labels::worldFromCamera);
   f("objects", &Labels::objects);
+  f("classes", &Labels::classes);
+}
+
+template <class F>
+void members(Tag<SemanticClass>, F f) {
+  f("name", &SemanticClass::name);
+  f("id", &SemanticClass::id);
 }
 
 template <class F>
@@ -430,6 +440,7 @@ void members(Tag<SnapshotScene>, F f) {
   f("assets", &SnapshotScene::assets);
   f("objects", &SnapshotScene::objects);
   f("nextObjectId", &SnapshotScene::nextObjectId);
+  f("classes", &SnapshotScene::classes);
 }
 
 template <class F>
@@ -458,6 +469,7 @@ void members(Tag<ModelSummary>, F f) {
   f("bounds", &ModelSummary::bounds);
   f("cameras", &ModelSummary::cameras);
   f("lights", &ModelSummary::lights);
+  f("ignoredExtensions", &ModelSummary::ignoredExtensions);
 }
 
 template <class F>
@@ -751,6 +763,7 @@ MYRIAD_MEMBERWISE_JSON(Labels)
 MYRIAD_MEMBERWISE_JSON(Clock)
 MYRIAD_MEMBERWISE_JSON(ClockPatch)
 MYRIAD_MEMBERWISE_JSON(SnapshotAsset)
+MYRIAD_MEMBERWISE_JSON(SemanticClass)
 
 MYRIAD_MEMBERWISE_JSON(ObjectAnimation)
 MYRIAD_MEMBERWISE_JSON(SnapshotScene)
@@ -781,6 +794,15 @@ MYRIAD_MEMBERWISE_JSON(Problem)
 #undef MYRIAD_MEMBERWISE_JSON
 
 // The types whose JSON nests members in objects of their own, or is an array.
+
+void to_json(json& j, const Semantic& v) { j = v.name ? json(*v.name) : json(v.id); }
+void from_json(const json& j, Semantic& v) {
+  if (j.is_string()) {
+    v = {0, j.get<std::string>()};
+  } else {
+    v = {j.get<uint64_t>(), std::nullopt};
+  }
+}
 
 void to_json(json& j, const Range& v) { j = json::array({v.min, v.max}); }
 void from_json(const json& j, Range& v) {

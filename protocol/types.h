@@ -314,6 +314,23 @@ struct ClockPatch {
   std::optional<double> rate;
 };
 
+// defs' semantic: an object's semantic class as its client gave it, a small integer (0: none) or
+// a class name, which the session maps to a class id of its own (first use takes the lowest id no
+// class and no object's integer holds; SemanticClass). What was given reads back as given.
+struct Semantic {
+  uint64_t id = 0;
+  std::optional<std::string> name;  // a class name: written as the string, `id` unused
+  bool operator==(const Semantic&) const = default;
+};
+void to_json(nlohmann::json& j, const Semantic& v);
+void from_json(const nlohmann::json& j, Semantic& v);
+
+// defs' semanticClass: one class name and the id the session gave it (labels, snapshots).
+struct SemanticClass {
+  std::string name;
+  uint64_t id = 0;
+};
+
 // POST .../objects' items (asset required) and PATCH .../objects/{oid} (any subset).
 struct ObjectPatch {
   std::optional<std::string> name;
@@ -322,10 +339,11 @@ struct ObjectPatch {
   std::optional<bool> visible;
   std::optional<Nullable<uint64_t>> parent;
   std::optional<Nullable<uint64_t>> material;
-  std::optional<uint64_t> semantic;
+  std::optional<Semantic> semantic;
   std::optional<ObjectAnimation> animation;
   std::optional<Nullable<uint64_t>> node;  // an asset node by index; null: the whole asset
   std::optional<std::string> nodeName;     // or by name (the first of that name)
+  std::optional<bool> subtree;  // with a node: also the nodes below it (default) or its own only
 };
 using ObjectNew = ObjectPatch;
 
@@ -346,12 +364,13 @@ struct Object {
   bool visible = true;
   Nullable<uint64_t> parent;
   Nullable<uint64_t> material;
-  uint64_t semantic = 0;
+  Semantic semantic;
   uint64_t instances = 0;
   std::optional<Bounds> bounds;  // absent when it draws nothing
   std::optional<ObjectAnimation> animation;  // present for an asset with animation clips
   std::optional<uint64_t> node;              // present for an object of one asset node
   std::optional<std::string> nodeName;
+  std::optional<bool> subtree;               // present with node
 };
 
 struct ObjectsPage {
@@ -376,6 +395,7 @@ struct Asset {
   uint64_t images = 0;
   std::optional<Bounds> bounds;
   uint64_t objects = 0;
+  std::optional<std::vector<std::string>> ignoredExtensions;  // as ModelSummary's
 };
 
 struct AssetsList {
@@ -402,6 +422,7 @@ struct Labels {
   FrameIntrinsics intrinsics;
   std::array<std::array<double, 4>, 4> worldFromCamera{};  // rows
   std::vector<ObjectLabel> objects;
+  std::optional<std::vector<SemanticClass>> classes;  // the session's class names, by id
 };
 
 // A snapshot's scene: the assets by id and source, in order, every object, and the next id.
@@ -413,6 +434,7 @@ struct SnapshotScene {
   std::vector<SnapshotAsset> assets;
   std::vector<Object> objects;
   uint64_t nextObjectId = 1;
+  std::optional<std::vector<SemanticClass>> classes;  // by id; absent in older snapshots
 };
 
 // GET .../snapshot: everything a session holds but the model's bytes, as one document that
@@ -463,6 +485,8 @@ struct ModelSummary {
   Bounds bounds;
   std::vector<ModelCamera> cameras;
   std::optional<ModelLights> lights;  // the server always sends it
+  // glTF extensions the file uses that the server does not honour; absent when none.
+  std::optional<std::vector<std::string>> ignoredExtensions;
 };
 
 // POST .../camera/select.
@@ -705,6 +729,7 @@ MYRIAD_PROTOCOL_JSON(AssetsList);
 MYRIAD_PROTOCOL_JSON(FrameIntrinsics);
 MYRIAD_PROTOCOL_JSON(ObjectLabel);
 MYRIAD_PROTOCOL_JSON(Labels);
+MYRIAD_PROTOCOL_JSON(SemanticClass);
 MYRIAD_PROTOCOL_JSON(SnapshotAsset);
 MYRIAD_PROTOCOL_JSON(SnapshotScene);
 MYRIAD_PROTOCOL_JSON(Snapshot);

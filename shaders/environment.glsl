@@ -332,23 +332,30 @@ vec2 brdfLut(float nDotV, float roughness) {
 // so rough metals keep the energy single scattering loses, and diffuse gets what the specular
 // lobe leaves. (c, s) rotate world directions into the environment; `intensity` scales it;
 // `occlusion` (1 = none) darkens it all, as glTF's occlusion applies to indirect light only.
-vec3 shadeEnvironment(vec3 N, vec3 V, vec3 baseColor, float metallic, float roughness,
-                      float occlusion, float c, float s, float intensity) {
-  vec3 diffuseColor = mix(baseColor, vec3(0.0f), metallic);
-  vec3 F0 = mix(vec3(0.04f), baseColor, metallic);
+// shadeEnvironment for a surface given by its diffuse colour and its Fresnel at normal (F0) and
+// grazing (F90) incidence: KHR_materials_specular's F90 scales the split sum's second term.
+vec3 shadeEnvironmentWith(vec3 N, vec3 V, vec3 diffuseColor, vec3 F0, vec3 F90, float roughness,
+                          float occlusion, float c, float s, float intensity) {
   float nDotV = clamp(dot(N, V), 0.0f, 1.0f);
   float rough = clamp(roughness, 0.0f, 1.0f);
   vec3 R = N * (2.0f * dot(N, V)) - V;
   vec3 irradiance = environmentIrradiance(rotateAboutY(N, c, -s));
   vec3 prefiltered = environmentSpecular(rotateAboutY(R, c, -s), rough);
   vec2 ab = brdfLut(nDotV, rough);
-  vec3 kS = F0 + (max(vec3(1.0f - rough), F0) - F0) * pow(1.0f - nDotV, 5.0f);
-  vec3 FssEss = kS * ab.x + vec3(ab.y);
+  vec3 kS = F0 + (max(vec3(1.0f - rough) * F90, F0) - F0) * pow(1.0f - nDotV, 5.0f);
+  vec3 FssEss = kS * ab.x + F90 * ab.y;
   float Ems = clamp(1.0f - (ab.x + ab.y), 0.0f, 1.0f);
-  vec3 Favg = F0 + (vec3(1.0f) - F0) * (1.0f / 21.0f);
+  vec3 Favg = F0 + (F90 - F0) * (1.0f / 21.0f);
   vec3 FmsEms = FssEss * Favg * Ems / max(vec3(1.0f) - Favg * Ems, vec3(1e-4f));
   vec3 kD = diffuseColor * max(vec3(1.0f) - FssEss - FmsEms, vec3(0.0f));
   return (prefiltered * FssEss + (FmsEms + kD) * irradiance) * (intensity * occlusion);
+}
+
+vec3 shadeEnvironment(vec3 N, vec3 V, vec3 baseColor, float metallic, float roughness,
+                      float occlusion, float c, float s, float intensity) {
+  return shadeEnvironmentWith(N, V, mix(baseColor, vec3(0.0f), metallic),
+                              mix(vec3(0.04f), baseColor, metallic), vec3(1.0f), roughness,
+                              occlusion, c, s, intensity);
 }
 #endif
 

@@ -30,6 +30,9 @@ void main() {
   s.roughness = clamp(m.roughness, 0.0, 1.0);
   s.occlusion = clamp(m.occlusion, 0.0, 1.0);
   s.emissive = m.emissive;
+  s.reflectance = m.reflectance;
+  s.dielectricF0 = m.dielectricF0;
+  s.specular = m.specular;
   vec3 color = sunAndAmbient(s);
 #ifdef MYRIAD_FORWARD_CLUSTERED
   uvec2 tile = uvec2(gl_FragCoord.xy) / clusterTileSize();

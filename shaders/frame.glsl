@@ -55,6 +55,9 @@ struct Surface {
   float roughness;
   float occlusion;  // the material's ambient occlusion: scales ambient and environment light only
   vec3 emissive;    // emitted radiance, added once (sunAndAmbient)
+  float reflectance;  // scales all reflected light: 1 the glTF BRDF, 0 an unlit material's none
+  float dielectricF0;  // the dielectric's Fresnel at normal incidence: 0.04 at glTF's ior 1.5
+  float specular;      // and at grazing incidence (KHR_materials_specular's factor, else 1)
 };
 
 
@@ -68,18 +71,42 @@ bool loadSurfaceWithDepth(ivec2 pixel, float depth, out Surface s) {
   s.position = worldFromDepth(pixel, depth);
   s.normal = octahedralDecode(texelFetch(gbufferNormal, pixel, 0).rg);
   s.baseColor = texelFetch(gbufferBaseColor, pixel, 0).rgb;  // sRGB format: sampled as linear
-  vec3 material = texelFetch(gbufferMaterial, pixel, 0).rgb;
+  vec4 material = texelFetch(gbufferMaterial, pixel, 0);
   s.metallic = material.x;
   s.roughness = material.y;
   s.occlusion = material.z;
-  s.emissive = shadingFeature(MYRIAD_FEATURE_EMISSIVE) && (frame.written.x & MYRIAD_GBUFFER_EMISSIVE) != 0u
-                   ? texelFetch(gbufferEmissive, pixel, 0).rgb
-                   : vec3(0.0);
+  s.specular = material.w;
+  // The emissive target, where a material needs it, carries the dielectric's F0 less glTF's 0.04
+  // in alpha (0, exactly, for most materials: a frame that writes the target for another reason
+  // shades them bit for bit as one that does not), -1 for an unlit surface (material_core.glsl's
+  // gbufferTexels).
+  vec4 emissive = shadingFeature(MYRIAD_FEATURE_EMISSIVE) && (frame.written.x & MYRIAD_GBUFFER_EMISSIVE) != 0u
+                      ? texelFetch(gbufferEmissive, pixel, 0)
+                      : vec4(0.0);
+  s.emissive = emissive.rgb;
+  s.reflectance = emissive.a < -0.5 ? 0.0 : 1.0;
+  s.dielectricF0 = max(emissive.a + 0.04, 0.0);
   return true;
 }
 
 bool loadSurface(ivec2 pixel, out Surface s) {
   return loadSurfaceWithDepth(pixel, texelFetch(gbufferDepth, pixel, 0).r, s);
+}
+
+// What shadeLight works out per light from the surface and the view alone, for a pass that
+// shades many lights at one point (shadeLightAt).
+BrdfSurface brdfSurfaceOf(Surface s) {
+  BrdfSurface b = brdfSurface(s.normal, normalize(frame.cameraPosition.xyz - s.position),
+                              s.baseColor, s.metallic, s.roughness);
+  // The dielectric's Fresnel from its F0 and F90 (KHR_materials_ior and _specular: glTF's 0.04
+  // and 1 by default, which leave b as it is); the metal's is its base colour to 1. Then the
+  // reflectance scales what the surface reflects (brdfCosineAt is linear in F0, 1 - F0 and the
+  // diffuse term): 0 for an unlit surface.
+  b.F0 = mix(vec3(s.dielectricF0), s.baseColor, s.metallic) * s.reflectance;
+  b.oneMinusF0 = mix(vec3(s.specular), vec3(1.0), s.metallic) * s.reflectance - b.F0;
+  b.diffuseColor *= s.reflectance;
+  b.diffuseOverPi *= s.reflectance;
+  return b;
 }
 
 
@@ -124,24 +151,22 @@ float sunShadowFactor(vec3 position, vec3 normal) {
 // occlusion, and the surface's own emission. Every technique calls this, so they agree exactly;
 // the C++ reference makes the same calls.
 vec3 sunAndAmbient(Surface s) {
-  vec3 V = normalize(frame.cameraPosition.xyz - s.position);
+  BrdfSurface b = brdfSurfaceOf(s);
   vec3 sun = frame.sunColor.rgb * (frame.sunDirection.w * sunShadowFactor(s.position, s.normal));
-  vec3 color;
+  vec3 color = brdfCosineAt(b, frame.sunDirection.xyz) * sun;
   if (!environmentOn()) {
-    color = shadeSunAndAmbient(s.normal, V, s.baseColor, s.metallic, s.roughness,
-                               frame.sunDirection.xyz, sun, frame.ambient.rgb * s.occlusion);
+    // The BRDF's hemispherical integral under constant radiance, roughly (shadeSunAndAmbient).
+    color += frame.ambient.rgb * s.occlusion * (b.diffuseColor + b.F0);
   } else {
-    color = shadeSunAndAmbient(s.normal, V, s.baseColor, s.metallic, s.roughness,
-                               frame.sunDirection.xyz, sun, vec3(0.0)) +
-            shadeEnvironment(s.normal, V, s.baseColor, s.metallic, s.roughness, s.occlusion,
-                             frame.environmentRotation.x, frame.environmentRotation.y,
-                             frame.environment.y);
+    color += shadeEnvironmentWith(b.N, b.V, b.diffuseColor, b.F0, b.F0 + b.oneMinusF0, s.roughness,
+                                  s.occlusion, frame.environmentRotation.x,
+                                  frame.environmentRotation.y, frame.environment.y);
   }
   // A model's directional lights besides the sun (intensity 0: none).
   for (int i = 0; i < MYRIAD_MAX_EXTRA_SUNS && shadingFeature(MYRIAD_FEATURE_EXTRA_SUNS); ++i) {
     if (frame.extraSunDirection[i].w > 0.0) {
-      color += brdfCosine(s.normal, V, frame.extraSunDirection[i].xyz, s.baseColor, s.metallic,
-                          s.roughness) * (frame.extraSunColor[i].rgb * frame.extraSunDirection[i].w);
+      color += brdfCosineAt(b, frame.extraSunDirection[i].xyz) *
+               (frame.extraSunColor[i].rgb * frame.extraSunDirection[i].w);
     }
   }
   return color + s.emissive;
@@ -260,21 +285,14 @@ GpuPointLight lightFromTexels(uint index) {
 
 // shadeLight for a light already loaded.
 vec3 shadeLightData(Surface s, GpuPointLight light) {
-  return shadeLocalLight(s.position, s.normal, normalize(frame.cameraPosition.xyz - s.position),
-                         s.baseColor, s.metallic, s.roughness, light.positionRadius.xyz,
-                         light.positionRadius.w, light.radianceFalloff.rgb, light.radianceFalloff.w,
-                         spotDirectionOf(light), light.cone.z, light.cone.w);
+  return shadeLocalLightAt(brdfSurfaceOf(s), s.position, light.positionRadius.xyz,
+                           light.positionRadius.w, light.radianceFalloff.rgb,
+                           light.radianceFalloff.w, spotDirectionOf(light), light.cone.z,
+                           light.cone.w);
 }
 
 vec3 shadeLight(Surface s, uint index) {
   return shadeLightData(s, lights[index]);
-}
-
-// What shadeLight works out per light from the surface and the view alone, for a pass that
-// shades many lights at one point (shadeLightAt).
-BrdfSurface brdfSurfaceOf(Surface s) {
-  return brdfSurface(s.normal, normalize(frame.cameraPosition.xyz - s.position), s.baseColor,
-                     s.metallic, s.roughness);
 }
 
 // shadeLight with brdfSurfaceOf(s) worked out once: b.

@@ -14,7 +14,7 @@
 
 layout(location = 0) out vec2 outNormal;     // octahedral, RG16_SNORM
 layout(location = 1) out vec4 outBaseColor;  // RGBA8_SRGB
-layout(location = 2) out vec4 outMaterial;   // metallic, roughness, occlusion: RGBA8_UNORM
+layout(location = 2) out vec4 outMaterial;   // metallic, roughness, occlusion, specular: RGBA8_UNORM
 layout(location = 3) out vec2 outUv;         // RG16_SFLOAT
 layout(location = 4) out vec4 outEmissive;   // emitted radiance: RGBA16_SFLOAT
 

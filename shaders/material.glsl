@@ -126,7 +126,7 @@ MaterialSample evaluateMaterial(GpuMaterial material) {
   if (hasTexture(material, MYRIAD_BINDING_TEXTURE_EMISSIVE)) {
     m.emissive *= sampleSlot(emissiveTexture, material, MYRIAD_BINDING_TEXTURE_EMISSIVE).rgb;
   }
-  return m;
+  return withUnlit(material, m);
 }
 
 #endif

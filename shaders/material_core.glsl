@@ -13,6 +13,9 @@ struct MaterialSample {
   float roughness;
   float occlusion;
   vec3 emissive;   // emitted radiance
+  float reflectance;  // 1: the glTF BRDF reflects light; 0: none (unlit, emission only)
+  float dielectricF0;  // the dielectric's Fresnel at normal incidence (0.04 at ior 1.5)
+  float specular;      // the dielectric's Fresnel at grazing incidence (KHR_materials_specular)
 };
 
 // `color`: the interpolated vertex colour; `normal`: the interpolated normal (world space);
@@ -33,6 +36,21 @@ MaterialSample untexturedMaterial(GpuMaterial material, vec4 color, vec3 normal,
   m.roughness = material.metallicRoughness.y;
   m.occlusion = 1.0;
   m.emissive = material.emissive.rgb;
+  m.reflectance = 1.0;
+  m.dielectricF0 = uintBitsToFloat(material.flags.y);
+  m.specular = uintBitsToFloat(material.flags.z);
+  return m;
+}
+
+// KHR_materials_unlit, once the base colour is final (textures, vertex colour): the surface shows
+// its base colour as it is, lit by nothing. It is stored as emission with no reflectance, so that
+// every lighting technique and the forward pass show it without a branch of their own; the
+// G-buffer keeps the base colour for the data views.
+MaterialSample withUnlit(GpuMaterial material, MaterialSample m) {
+  if ((material.flags.x & MYRIAD_MATERIAL_UNLIT) != 0u) {
+    m.emissive = max(m.baseColor.rgb, vec3(0.0));
+    m.reflectance = 0.0;
+  }
   return m;
 }
 
@@ -41,16 +59,17 @@ MaterialSample untexturedMaterial(GpuMaterial material, vec4 color, vec3 normal,
 struct GBufferTexels {
   vec2 normal;     // octahedral
   vec4 baseColor;
-  vec4 material;   // metallic, roughness, occlusion, 1
-  vec4 emissive;
+  vec4 material;   // metallic, roughness, occlusion, specular (F90)
+  vec4 emissive;   // emission, then the dielectric's F0 less glTF's 0.04 (so that the default
+                   // is exact in half float), or -1 for an unlit surface
 };
 
 GBufferTexels gbufferTexels(MaterialSample m) {
   GBufferTexels t;
   t.normal = octahedralEncode(m.normal);
   t.baseColor = vec4(clamp(m.baseColor.rgb, 0.0, 1.0), 1.0);
-  t.material = vec4(clamp(vec3(m.metallic, m.roughness, m.occlusion), 0.0, 1.0), 1.0);
-  t.emissive = vec4(m.emissive, 1.0);
+  t.material = clamp(vec4(m.metallic, m.roughness, m.occlusion, m.specular), 0.0, 1.0);
+  t.emissive = vec4(m.emissive, m.reflectance > 0.0 ? m.dielectricF0 - 0.04 : -1.0);
   return t;
 }
 

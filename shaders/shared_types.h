@@ -204,6 +204,7 @@ MYRIAD_STRUCT(MotionPush) {
 #define MYRIAD_MATERIAL_ALPHA_MASK 0x100u    // alphaMode MASK: fragments below the cutoff dropped
 #define MYRIAD_MATERIAL_ALPHA_BLEND 0x200u   // alphaMode BLEND
 #define MYRIAD_MATERIAL_DOUBLE_SIDED 0x400u  // back faces drawn, their normal flipped
+#define MYRIAD_MATERIAL_UNLIT 0x800u         // KHR_materials_unlit: emits its base colour, reflects nothing
 
 // Tiled: 16x16-pixel tiles, one workgroup each; a tile's list lives in shared memory.
 #define MYRIAD_TILE_SIZE 16
@@ -448,7 +449,9 @@ MYRIAD_STRUCT(GpuMaterial) {
   vec4 baseColor;          // linear rgb, a alpha factor
   vec4 metallicRoughness;  // x metallic, y perceptual roughness, z normal scale, w occlusion strength
   vec4 emissive;           // rgb emissive factor x emissive strength, w alpha cutoff
-  uvec4 flags;             // x MYRIAD_MATERIAL_* and texture-slot bits
+  uvec4 flags;             // x MYRIAD_MATERIAL_* and texture-slot bits, y the dielectric's F0
+                           // (float bits: KHR_materials_ior x _specular), z its F90 (float bits:
+                           // KHR_materials_specular's factor)
   // Per texture slot, two rows of the 2x3 KHR_texture_transform matrix: uv' = M * (uv, 1).
   vec4 uvTransform[2 * MYRIAD_TEXTURE_SLOTS];
 };

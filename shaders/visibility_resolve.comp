@@ -141,7 +141,8 @@ void main() {
   float side = dot(faceNormal, frame.cameraPosition.xyz - p[0]) > 0.0 ? 1.0 : -1.0;
   // The raster path's fallback normal is cross(dFdx(position), dFdy(position)), which points
   // away from the viewer on either side (y runs down the screen).
-  MaterialSample m = untexturedMaterial(materials[instance.material.x], color, normal,
-                                        -side * faceNormal, side);
+  GpuMaterial material = materials[instance.material.x];
+  MaterialSample m = withUnlit(material, untexturedMaterial(material, color, normal,
+                                                            -side * faceNormal, side));
   storeTexels(pixel, gbufferTexels(m), uv);
 }

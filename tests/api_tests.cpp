@@ -1248,6 +1248,46 @@ TEST_CASE("api: --state-dir: a session survives a restart, token and upload incl
   fs::remove_all(stateDir);
 }
 
+TEST_CASE("api: the model summary names the glTF extensions the server ignores") {
+  // A triangle whose material uses KHR_materials_sheen (not honoured) and
+  // KHR_materials_emissive_strength (honoured), with a made-up extension listed as used.
+  const std::string gltf = R"({
+    "asset": {"version": "2.0"},
+    "extensionsUsed": ["KHR_materials_emissive_strength", "KHR_materials_sheen", "EXT_made_up"],
+    "scene": 0,
+    "scenes": [{"nodes": [0]}],
+    "nodes": [{"name": "triangle", "mesh": 0}],
+    "materials": [{"name": "velvet", "emissiveFactor": [1, 0, 0],
+                   "extensions": {"KHR_materials_sheen": {"sheenColorFactor": [1, 1, 1]},
+                                  "KHR_materials_emissive_strength": {"emissiveStrength": 3}}}],
+    "meshes": [{"primitives": [{"attributes": {"POSITION": 0}, "material": 0}]}],
+    "buffers": [{"byteLength": 36, "uri":
+      "data:application/octet-stream;base64,AAAAAAAAAAAAAAAAAACAPwAAAAAAAAAAAAAAAAAAgD8AAAAA"}],
+    "bufferViews": [{"buffer": 0, "byteLength": 36}],
+    "accessors": [{"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3",
+                   "min": [0, 0, 0], "max": [1, 1, 0]}]
+  })";
+  ServerProcess server({"--lights", "4"});
+  requireListening(server);
+  ApiClient api(server);
+  TestSession s = createSession(api);
+  Reply loaded = api.put(s.path() + "/model?filename=velvet.gltf", gltf, s.token,
+                         "application/octet-stream");
+  REQUIRE(loaded.status == 200);
+  CHECK(loaded.json.at("model").at("ignoredExtensions") ==
+        json{"EXT_made_up", "KHR_materials_sheen"});
+  // GET says the same; the material's strength was read (3, not Assimp's 1).
+  CHECK(api.get(s.path(), s.token).json.at("model").at("ignoredExtensions") ==
+        json{"EXT_made_up", "KHR_materials_sheen"});
+  const json materials = api.get(s.path() + "/materials", s.token).json.at("materials");
+  REQUIRE(materials.size() == 1);
+  CHECK(materials[0].at("emissiveStrength") == 3.0);
+  // A model that uses only what is honoured lists nothing.
+  Reply builtin = api.put(s.path() + "/model", R"({"source": "builtin:default"})", s.token);
+  REQUIRE(builtin.status == 200);
+  CHECK(!builtin.json.at("model").contains("ignoredExtensions"));
+}
+
 TEST_CASE("api: a glTF file's point, spot and directional lights and its cameras; a camera selected") {
   // A triangle lit by a point light, a spot light and two directional lights; two cameras.
   const std::string gltf = R"({

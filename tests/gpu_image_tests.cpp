@@ -185,6 +185,26 @@ TEST_CASE("spheres of every metallic and roughness match the reference") {
   CHECK(c.pixelsOver <= c.pixels / 200);
 }
 
+TEST_CASE("unlit, ior and specular materials (glTF extensions) match the reference") {
+  scene::Scene s = floorScene();
+  s.meshes.push_back(scene::makeSphere(48, 24));
+  // KHR_materials_unlit (a metal: reflection would show), ior 1.2 and 2.0, specular 0.3.
+  for (int i = 0; i < 4; ++i) {
+    scene::Material m{"sphere", glm::vec3(0.15f, 0.2f, 0.3f), 0.0f, 0.3f};
+    if (i == 0) m.unlit = true, m.metallic = 1.0f, m.baseColor = glm::vec3(0.9f, 0.5f, 0.2f);
+    if (i == 1) m.ior = 1.2f;
+    if (i == 2) m.ior = 2.0f;
+    if (i == 3) m.specular = 0.3f;
+    s.materials.push_back(m);
+    glm::mat4 t = glm::translate(glm::mat4(1.0f), glm::vec3(-2.4f + 1.6f * i, 0.6f, 0.0f));
+    s.instances.push_back({1, uint32_t(s.materials.size() - 1), glm::scale(t, glm::vec3(0.6f))});
+  }
+  s.lights = {{glm::vec3(0.0f, 1.8f, 1.5f), 4.0f, glm::vec3(1.0f), 6.0f, 1.0f}};
+  s.sun.intensity = 1.5f;
+  Comparison c = renderAndCompare(s, settingsFor(lookingDownAtFloor(), render::Target::Final, 128, 80), 2);
+  CHECK(c.pixelsOver <= c.pixels / 200);
+}
+
 TEST_CASE("normal target equals the analytic normal: floor (0,1,0) and a tilted plane") {
   scene::Scene s = floorScene();
   Gpu& gpu = sharedGpu();

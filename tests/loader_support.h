@@ -67,6 +67,9 @@ inline void requireSameScene(const scene::Scene& a, const scene::Scene& b) {
     CHECK(a.materials[i].alphaMode == b.materials[i].alphaMode);
     CHECK(a.materials[i].alphaCutoff == b.materials[i].alphaCutoff);
     CHECK(a.materials[i].doubleSided == b.materials[i].doubleSided);
+    CHECK(a.materials[i].unlit == b.materials[i].unlit);
+    CHECK(a.materials[i].ior == b.materials[i].ior);
+    CHECK(a.materials[i].specular == b.materials[i].specular);
     // Textures by what they show, not by index or name (an image embedded in a .glb is "*N",
     // the same image beside a .gltf has its file name, and they may be found in another order).
     for (size_t slot = 0; slot < scene::Material::kTextureSlots; ++slot) {
@@ -107,6 +110,7 @@ inline void requireSameScene(const scene::Scene& a, const scene::Scene& b) {
     CHECK(a.extraSuns[i].intensity == b.extraSuns[i].intensity);
   }
   CHECK(a.droppedSuns == b.droppedSuns);
+  CHECK(a.ignoredExtensions == b.ignoredExtensions);
   REQUIRE(a.cameras.size() == b.cameras.size());
   for (size_t i = 0; i < a.cameras.size(); ++i) {
     CHECK(a.cameras[i].name == b.cameras[i].name);

@@ -228,6 +228,17 @@ TEST_CASE("network state: tampered records are refused with a log line and answe
       [](json& r) { r["upload"]["filename"] = "../../box.glb"; });
   add("an upload blob that is no key", uploaded, uploadedToken, "/upload/blob",
       [](json& r) { r["upload"]["blob"] = "../../etc/passwd"; });
+  // The uploads behind a scene's other assets: each checked as the model's.
+  add("assets of the wrong type", uploaded, uploadedToken, "/assets is not an array",
+      [](json& r) { r["assets"] = "many"; });
+  add("65 asset uploads", uploaded, uploadedToken, "/assets holds more than", [](json& r) {
+    r["assets"] = json::array();
+    for (int i = 0; i < 65; ++i) r["assets"].push_back(r["upload"]);
+  });
+  add("an asset upload kind that is none", uploaded, uploadedToken, "/assets/0/kind",
+      [](json& r) { r["assets"] = json::array({r["upload"]}); r["assets"][0]["kind"] = "bogus"; });
+  add("an asset upload blob that is no key", uploaded, uploadedToken, "/assets/0/blob",
+      [](json& r) { r["assets"] = json::array({r["upload"]}); r["assets"][0]["blob"] = 17; });
   add("an environment blob that is no key", plain, plainToken, "/environmentBlob",
       [](json& r) { r["environmentBlob"] = 17; });
   // What the blobs hold is tried again at the next request: a blob may be mended (an upload of

@@ -12,6 +12,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "scene/animation.h"
 #include "service/problem.h"
 #include "service/session_scene.h"
 
@@ -601,3 +602,118 @@ TEST_CASE("session scene: a model's directional lights join the sun unless its l
 }
 
 }  // namespace myriad
+
+namespace myriad {
+namespace {
+
+// A quad "body" at (-1, 1, 0) with a child "arm" two units to its right, as a loader makes it
+// (instances placed by their nodes' rest world transforms). `armScale`: the arm node's scale.
+std::shared_ptr<scene::Scene> parentChild(float armScale = 1.0f) {
+  auto s = model(0, 1);
+  scene::Mesh quad;
+  for (glm::vec2 p : {glm::vec2(-0.5f, -0.5f), glm::vec2(0.5f, -0.5f), glm::vec2(0.5f, 0.5f),
+                      glm::vec2(-0.5f, 0.5f)}) {
+    scene::Vertex v;
+    v.position = glm::vec3(p, 0.0f);
+    quad.vertices.push_back(v);
+  }
+  quad.indices = {0, 1, 2, 0, 2, 3};
+  s->meshes.push_back(quad);
+  scene::Node body;
+  body.name = "body";
+  body.translation = glm::vec3(-1.0f, 1.0f, 0.0f);
+  scene::Node arm;
+  arm.name = "arm";
+  arm.parent = 0;
+  arm.translation = glm::vec3(2.0f, 0.0f, 0.0f);
+  arm.scale = glm::vec3(armScale);
+  s->nodes = {body, arm};
+  scene::Instance b{0, 0, scene::localMatrix(body)};
+  b.node = 0;
+  scene::Instance a{0, 0, scene::localMatrix(body) * scene::localMatrix(arm)};
+  a.node = 1;
+  s->instances = {b, a};
+  return s;
+}
+
+}  // namespace
+}  // namespace myriad
+
+TEST_CASE("session scene: a model's node tree becomes one object per node; one that cannot stays whole") {
+  using namespace myriad;
+  SessionScene scene(8, render::SceneSettings{});
+  std::shared_ptr<const scene::Scene> flat =
+      scene.adopt(parentChild(), "upload:tree.gltf", Adoption{.assetId = "a-0000000000000001"});
+  const auto& objects = scene.graph().objects();
+  REQUIRE(objects.size() == 2);
+  const service::SceneObject& root = objects.at(1);
+  const service::SceneObject& arm = objects.at(2);
+  CHECK(root.name == "upload:tree.gltf");
+  CHECK(root.parent == 0);
+  CHECK(root.node == 0);
+  CHECK_FALSE(root.subtree);
+  CHECK(arm.name == "arm");
+  CHECK(arm.parent == 1);
+  CHECK(arm.transform.translation == glm::vec3(2.0f, 0.0f, 0.0f));
+  // Unedited, each instance is where the file put it.
+  REQUIRE(flat->instances.size() == 2);
+  CHECK(flat->instances[0].object == 1);
+  CHECK(flat->instances[1].object == 2);
+  CHECK(glm::vec3(flat->instances[1].transform[3]) == glm::vec3(1.0f, 1.0f, 0.0f));
+  // Moving the root moves the arm's instance, written in place.
+  service::SceneObject moved = root;
+  moved.transform.translation = glm::vec3(0.0f, 1.0f, 0.0f);
+  const service::SceneChange change = scene.replaceObject(moved);
+  REQUIRE(change.moved.has_value());
+  REQUIRE(change.moved->writes.size() == 2);
+  CHECK(glm::vec3(change.moved->writes[1].transform[3]) == glm::vec3(2.0f, 1.0f, 0.0f));
+
+  // An arm scaled to zero cannot be an object (no inverse): the model is one object.
+  scene.adopt(parentChild(0.0f), "upload:flat.gltf", Adoption{.assetId = "a-0000000000000002"});
+  REQUIRE(scene.graph().objects().size() == 1);
+  CHECK(scene.graph().objects().begin()->second.node == -1);
+  CHECK(scene.graph().objects().begin()->first == 3);
+}
+
+TEST_CASE("session scene: semantic class names take the lowest free ids and keep them") {
+  using namespace myriad;
+  SessionScene scene(8, render::SceneSettings{});
+  scene.adopt(model(0, 1), "builtin:default", Adoption{});
+  const std::string asset = scene.graph().assets().front().id;
+  auto object = [&](std::string name, uint32_t integer) {
+    service::SceneObject o;
+    o.asset = asset;
+    o.semanticClass = std::move(name);
+    o.semantic = integer;
+    return o;
+  };
+  std::vector<uint32_t> ids;
+  scene.addObjects({object("car", 0), object("", 1), object("person", 0), object("car", 0)}, &ids);
+  const auto& objects = scene.graph().objects();
+  CHECK(objects.at(ids[0]).semantic == 2);  // 1 is an integer of the same request
+  CHECK(objects.at(ids[2]).semantic == 3);
+  CHECK(objects.at(ids[3]).semantic == 2);
+  CHECK(scene.semanticClasses().size() == 2);
+  // A name keeps its id when no object uses it; a refused edit allocates nothing.
+  service::SceneObject next = objects.at(ids[2]);
+  next.semanticClass.clear();
+  next.semantic = 0;
+  scene.replaceObject(next);
+  next.semanticClass = "tree";
+  next.parent = 999;  // no such object: refused
+  CHECK_THROWS_AS(scene.replaceObject(next), ProblemError);
+  CHECK(scene.semanticClasses().size() == 2);
+  next.parent = 0;
+  scene.replaceObject(next);
+  CHECK(scene.graph().object(ids[2]).semantic == 4);
+  // A snapshot brings its names back, and names its objects use that it lacks get new ids.
+  const protocol::Snapshot snapshot = scene.snapshot();
+  REQUIRE(snapshot.scene->classes.has_value());
+  CHECK(snapshot.scene->classes->size() == 3);
+  CHECK(snapshot.scene->objects[1].semantic.name == std::optional<std::string>("car"));
+  next.semanticClass = "bus";
+  scene.replaceObject(next);
+  scene.restore(snapshot, "", Clock::now());
+  CHECK(scene.graph().object(ids[2]).semantic == 4);
+  CHECK(scene.graph().classes().size() == 3);
+}

@@ -407,3 +407,108 @@ TEST_CASE("textures: KHR_texture_transform and samplers arrive as the file gives
   }
   CHECK(checked == 7);
 }
+
+namespace {
+
+// Two triangles whose materials use extensions Assimp 5.2.5 does not read: the loader reads them
+// from the file. The first node draws the file's second material, so Assimp meets the materials
+// in the other order (it orders them as met); one material is unnamed.
+std::string extensionsGltf() {
+  const std::string pixel = onePixelPngUri();
+  std::string gltf = triangleGltf({pixel, pixel, pixel, pixel, pixel});
+  auto replace = [&](const std::string& from, const std::string& to) {
+    const size_t at = gltf.find(from);
+    REQUIRE(at != std::string::npos);
+    gltf.replace(at, from.size(), to);
+  };
+  auto transform = [](const char* offset, const char* rotation, const char* scale,
+                      const char* texCoord = "") {
+    return std::string(",\"extensions\":{\"KHR_texture_transform\":{\"offset\":") + offset +
+           ",\"rotation\":" + rotation + ",\"scale\":" + scale + texCoord + "}}";
+  };
+  // Every slot of the textured material gets its own transform.
+  replace("\"baseColorTexture\":{\"index\":0}",
+          "\"baseColorTexture\":{\"index\":0" + transform("[0.5,0.25]", "0.5", "[2,2]") + "}");
+  replace("\"emissiveTexture\":{\"index\":1}",
+          "\"emissiveTexture\":{\"index\":1" + transform("[0.1,0.2]", "0", "[3,0.5]") + "}");
+  replace("\"normalTexture\":{\"index\":2}",
+          "\"normalTexture\":{\"index\":2" + transform("[0,0.75]", "-1", "[1.5,1.5]") + "}");
+  replace("\"occlusionTexture\":{\"index\":3}",
+          "\"occlusionTexture\":{\"index\":3" + transform("[0.3,0]", "0.25", "[1,1]") + "}");
+  replace("\"metallicRoughnessTexture\":{\"index\":4}",
+          "\"metallicRoughnessTexture\":{\"index\":4" +
+              transform("[0,0]", "0", "[4,4]", ",\"texCoord\":1") + "}");
+  replace("{\"pbrMetallicRoughness\":",
+          "{\"name\":\"textured\",\"emissiveFactor\":[1,0.5,0.25],\"extensions\":{"
+          "\"KHR_materials_emissive_strength\":{\"emissiveStrength\":5},"
+          "\"KHR_materials_sheen\":{\"sheenColorFactor\":[1,1,1]},"
+          "\"KHR_materials_ior\":{\"ior\":1.8},\"KHR_materials_specular\":{\"specularFactor\":0.5}},"
+          "\"pbrMetallicRoughness\":");
+  // A second, unnamed and unlit material on a second mesh, drawn by the first node.
+  replace("\"materials\":[{", "\"materials\":[{\"pbrMetallicRoughness\":{\"baseColorFactor\":"
+          "[0.2,0.4,0.6,1]},\"extensions\":{\"KHR_materials_unlit\":{}}},{");
+  replace("\"material\":0}]}", "\"material\":1}]},{\"primitives\":[{\"attributes\":"
+          "{\"POSITION\":0,\"TEXCOORD_0\":1},\"material\":0}]}");
+  replace("\"nodes\":[{\"mesh\":0}]", "\"nodes\":[{\"mesh\":0},{\"mesh\":1,\"translation\":[2,0,0]}]");
+  replace("\"scenes\":[{\"nodes\":[0]}]", "\"scenes\":[{\"nodes\":[0,1]}]");
+  replace("{\"asset\":{\"version\":\"2.0\"},",
+          "{\"asset\":{\"version\":\"2.0\"},\"extensionsUsed\":[\"KHR_materials_sheen\","
+          "\"KHR_materials_emissive_strength\",\"KHR_texture_transform\",\"KHR_materials_unlit\","
+          "\"EXT_made_up\"],");
+  return gltf;
+}
+
+}  // namespace
+
+TEST_CASE("textures: glTF material extensions Assimp does not read arrive from the file") {
+  const scene::Scene scene = loader::loadModelBytes(extensionsGltf(), "extensions.gltf");
+  REQUIRE(scene.materials.size() == 2);
+  const scene::Material* textured = nullptr;
+  const scene::Material* unlit = nullptr;
+  for (const scene::Material& m : scene.materials) (m.name == "textured" ? textured : unlit) = &m;
+  REQUIRE(textured != nullptr);
+  REQUIRE(unlit != nullptr);
+  // KHR_materials_emissive_strength.
+  CHECK(textured->emissiveStrength == 5.0f);
+  CHECK(textured->emissive == glm::vec3(1.0f, 0.5f, 0.25f));
+  CHECK(!textured->unlit);
+  // KHR_materials_ior and KHR_materials_specular's factor (not listed in extensionsUsed: read anyway).
+  CHECK(textured->ior == 1.8f);
+  CHECK(textured->specular == 0.5f);
+  CHECK(unlit->ior == 1.5f);
+  CHECK(unlit->specular == 1.0f);
+  // KHR_materials_unlit, on the unnamed material (its factors tell it apart).
+  CHECK(unlit->unlit);
+  CHECK(unlit->emissiveStrength == 1.0f);
+  CHECK(unlit->baseColor.b == doctest::Approx(0.6f));
+  // KHR_texture_transform on every slot, each its own (a texCoord of 1 is sampled with set 0: the
+  // only one vertices carry).
+  struct Expected {
+    const scene::TextureRef& ref;
+    glm::vec2 offset;
+    float rotation;
+    glm::vec2 scale;
+  };
+  const Expected expected[] = {
+      {textured->baseColorTexture, {0.5f, 0.25f}, 0.5f, {2.0f, 2.0f}},
+      {textured->emissiveTexture, {0.1f, 0.2f}, 0.0f, {3.0f, 0.5f}},
+      {textured->normalTexture, {0.0f, 0.75f}, -1.0f, {1.5f, 1.5f}},
+      {textured->occlusionTexture, {0.3f, 0.0f}, 0.25f, {1.0f, 1.0f}},
+      {textured->metallicRoughnessTexture, {0.0f, 0.0f}, 0.0f, {4.0f, 4.0f}},
+  };
+  for (const Expected& e : expected) {
+    REQUIRE(e.ref.present());
+    CHECK(e.ref.offset.x == doctest::Approx(e.offset.x));
+    CHECK(e.ref.offset.y == doctest::Approx(e.offset.y));
+    CHECK(e.ref.rotation == doctest::Approx(e.rotation));
+    CHECK(e.ref.scale.x == doctest::Approx(e.scale.x));
+    CHECK(e.ref.scale.y == doctest::Approx(e.scale.y));
+    CHECK(e.ref.texCoord == 0);
+  }
+  // What the file uses and Myriad does not honour, by name, sorted.
+  CHECK(scene.ignoredExtensions == std::vector<std::string>{"EXT_made_up", "KHR_materials_sheen"});
+  // In this process too (the child's scene went over the wire).
+  const scene::Scene local = scene::loadModelFromMemory(extensionsGltf(), "extensions.gltf");
+  CHECK(local.ignoredExtensions == scene.ignoredExtensions);
+  CHECK(test::noChildren());
+}

@@ -92,7 +92,10 @@ void printObject(std::ostream& out, const json& o) {
   fields.push_back({"visible", o.at("visible").get<bool>() ? "yes" : "no"});
   fields.push_back({"parent", o.at("parent").is_null() ? "none (the world)" : idOrDash(o.at("parent"))});
   fields.push_back({"material", material.is_null() ? "the asset's own" : idOrDash(material)});
-  fields.push_back({"semantic", std::to_string(o.at("semantic").get<uint64_t>())});
+  // An integer class, or a class name (the session maps it to an id: GET .../labels lists them).
+  const json& semantic = o.at("semantic");
+  fields.push_back({"semantic", semantic.is_string() ? semantic.get<std::string>()
+                                                     : std::to_string(semantic.get<uint64_t>())});
   fields.push_back({"instances", std::to_string(o.at("instances").get<uint64_t>())});
   if (o.contains("bounds")) {
     const json& b = o.at("bounds");

@@ -26,6 +26,7 @@ constexpr size_t kInstanceBytes = 2 * 4 + 16 * 4;
 constexpr size_t kLightBytes = 16 * 4;
 constexpr size_t kMinCameraBytes = 4 + 4 + 4 * 4 + 9 * 4;
 constexpr uint32_t kMaxWireCameras = 65536;
+constexpr uint32_t kMaxWireIgnoredExtensions = 64;
 constexpr size_t kNodeBytes = 4 + 4 + 10 * 4;  // empty name, parent, TRS
 constexpr size_t kMinSkinBytes = 4 + 4;
 constexpr size_t kJointBytes = 4 + 16 * 4;
@@ -372,7 +373,7 @@ std::string encodeScene(const scene::Scene& scene) {
     w.put(m.baseColor), w.put(m.metallic), w.put(m.roughness);
     w.put(m.alpha), w.put(m.emissive), w.put(m.emissiveStrength), w.put(m.normalScale);
     w.put(m.occlusionStrength), w.put(uint8_t(m.alphaMode)), w.put(m.alphaCutoff);
-    w.put(uint8_t(m.doubleSided));
+    w.put(uint8_t(m.doubleSided)), w.put(uint8_t(m.unlit)), w.put(m.ior), w.put(m.specular);
     for (size_t slot = 0; slot < scene::Material::kTextureSlots; ++slot) {
       const scene::TextureRef& t = m.texture(slot);
       w.put(t.image);
@@ -406,6 +407,8 @@ std::string encodeScene(const scene::Scene& scene) {
     w.put(sun.direction), w.put(sun.color), w.put(sun.intensity);
   }
   w.put(scene.droppedSuns);
+  w.put(uint32_t(scene.ignoredExtensions.size()));
+  for (const std::string& name : scene.ignoredExtensions) w.putName(name);
   w.put(uint32_t(scene.cameras.size()));
   for (const scene::ModelCamera& c : scene.cameras) {
     w.putName(c.name);
@@ -487,6 +490,9 @@ scene::Scene decodeScene(std::string_view bytes) {
     m.alphaMode = scene::AlphaMode(r.small("an alpha mode", 3));
     m.alphaCutoff = r.inRange("an alpha cutoff", 0.0f, 1.0f);
     m.doubleSided = r.small("a double-sided flag", 2) != 0;
+    m.unlit = r.small("an unlit flag", 2) != 0;
+    m.ior = r.inRange("an index of refraction", 1.0f, 10.0f);
+    m.specular = r.inRange("a specular factor", 0.0f, 1.0f);
     for (size_t slot = 0; slot < scene::Material::kTextureSlots; ++slot) {
       scene::TextureRef& t = m.texture(slot);
       t.image = r.get<uint32_t>();
@@ -599,6 +605,9 @@ scene::Scene decodeScene(std::string_view bytes) {
     scene.extraSuns.push_back(sun);
   }
   scene.droppedSuns = r.get<uint32_t>();
+  const uint32_t ignoredCount = r.count(r.get<uint32_t>(), 4, "ignored extensions");
+  if (ignoredCount > kMaxWireIgnoredExtensions) reject("more ignored extensions than the limit");
+  for (uint32_t i = 0; i < ignoredCount; ++i) scene.ignoredExtensions.push_back(r.name());
   const uint32_t cameraCount = r.count(r.get<uint32_t>(), kMinCameraBytes, "cameras");
   if (cameraCount > kMaxWireCameras) reject("more than " + std::to_string(kMaxWireCameras) + " cameras");
   scene.cameras.reserve(cameraCount);

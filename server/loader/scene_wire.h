@@ -5,7 +5,8 @@
 //   body: sun (7 f32), ambient (3), background (3), camera (12)
 //         materials: u32 nameBytes, name, baseColor (3 f32), metallic, roughness, alpha,
 //                    emissive (3), emissiveStrength, normalScale, occlusionStrength,
-//                    u8 alphaMode, f32 alphaCutoff, u8 doubleSided, then 5 textures (baseColor,
+//                    u8 alphaMode, f32 alphaCutoff, u8 doubleSided, u8 unlit, f32 ior,
+//                    f32 specular, then 5 textures (baseColor,
 //                    metallicRoughness, normal, occlusion, emissive): u32 image (~0 = none),
 //                    u8 wrapS, wrapT, magFilter, minFilter, mipmaps, mipmapFilter,
 //                    offset (2 f32), scale (2), rotation, u32 texCoord
@@ -14,7 +15,8 @@
 //         instances: u32 mesh, u32 material, transform (16 f32, column-major)
 //         lights:    position (3 f32), radius, color (3), intensity, falloff, u32 type,
 //                    u32 attenuation, direction (3 f32), innerConeAngle, outerConeAngle
-//         u32 extra suns, each direction (3 f32), color (3), intensity; u32 dropped suns
+//         u32 extra suns, each direction (3 f32), color (3), intensity; u32 dropped suns;
+//         u32 ignored glTF extensions, each u32 nameBytes, name
 //         u32 cameras, each u32 nameBytes, name, u32 perspective, yfov, aspectRatio, znear, zfar,
 //                    position (3 f32), direction (3), up (3)
 //         images:    u32 nameBytes, name, u32 width, u32 height, u32 bytes, RGBA8 pixels
@@ -38,8 +40,8 @@
 namespace myriad::loader {
 
 // 2: lights' type, attenuation, cone; 3: materials' textures, images; 4: nodes, skins, morph
-// targets, animations
-inline constexpr uint32_t kSceneWireVersion = 4;
+// targets, animations; 5: materials' unlit flag, ior and specular factor, ignored glTF extensions
+inline constexpr uint32_t kSceneWireVersion = 5;
 
 // The bytes were not a scene this version of the server wrote: what() says what was wrong.
 struct SceneWireError : std::runtime_error {

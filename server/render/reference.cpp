@@ -295,7 +295,16 @@ std::vector<uint8_t> renderReference(const scene::Scene& scene, const FrameSetti
       const float roughness = quantizeUnorm8(material.roughness);
       // Textures are not sampled here (the reference is for the shading and the culling): a
       // material's own factors, with occlusion 1 as for a material without an occlusion map.
-      const glm::vec3 emissive = half3(material.emissive * material.emissiveStrength);
+      // An unlit material (KHR_materials_unlit) emits its base colour and reflects nothing
+      // (material_core.glsl's withUnlit).
+      const glm::vec3 emissive = material.unlit ? half3(material.baseColor)
+                                                : half3(material.emissive * material.emissiveStrength);
+      const float reflectance = material.unlit ? 0.0f : 1.0f;
+      // The dielectric's Fresnel at normal and grazing incidence (KHR_materials_ior, _specular),
+      // as frame.glsl's brdfSurfaceOf applies them.
+      const float iorRatio = (material.ior - 1.0f) / (material.ior + 1.0f);
+      const float dielectricF0 = std::min(iorRatio * iorRatio, 1.0f) * material.specular;
+      const float specular = quantizeUnorm8(material.specular);
       switch (s.target) {
         case Target::Final: {
           glm::vec3 hdr = half3(s.background);
@@ -311,21 +320,23 @@ std::vector<uint8_t> renderReference(const scene::Scene& scene, const FrameSetti
                 occluded(triangles, hit.position + hit.normal * shadowEpsilon, sunDirection)) {
               sunRadiance = glm::vec3(0.0f);
             }
-            glm::vec3 sunAndAmbient;
+            shading::BrdfSurface b = shading::brdfSurface(normal, V, baseColor, metallic, roughness);
+            b.F0 = glm::mix(glm::vec3(dielectricF0), baseColor, metallic) * reflectance;
+            b.oneMinusF0 = glm::mix(glm::vec3(specular), glm::vec3(1.0f), metallic) * reflectance - b.F0;
+            b.diffuseColor *= reflectance;
+            b.diffuseOverPi *= reflectance;
+            glm::vec3 sunAndAmbient = shading::brdfCosineAt(b, sunDirection) * sunRadiance;
             if (!environmentOn) {
-              sunAndAmbient = shading::shadeSunAndAmbient(normal, V, baseColor, metallic, roughness,
-                                                          sunDirection, sunRadiance, s.ambient);
+              sunAndAmbient += s.ambient * (b.diffuseColor + b.F0);
             } else {
-              sunAndAmbient = shading::shadeSunAndAmbient(normal, V, baseColor, metallic, roughness,
-                                                          sunDirection, sunRadiance, glm::vec3(0.0f)) +
-                              shading::shadeEnvironment(normal, V, baseColor, metallic, roughness,
-                                                        1.0f, rotationCos, rotationSin,
-                                                        s.environment.intensity);
+              sunAndAmbient += shading::shadeEnvironmentWith(normal, V, b.diffuseColor, b.F0,
+                                                             b.F0 + b.oneMinusF0, roughness, 1.0f,
+                                                             rotationCos, rotationSin,
+                                                             s.environment.intensity);
             }
             for (const scene::Sun& extra : s.extraSuns) {
               if (extra.intensity > 0.0f) {
-                sunAndAmbient += shading::brdfCosine(normal, V, -glm::normalize(extra.direction),
-                                                     baseColor, metallic, roughness) *
+                sunAndAmbient += shading::brdfCosineAt(b, -glm::normalize(extra.direction)) *
                                  (extra.color * extra.intensity);
               }
             }
@@ -333,10 +344,10 @@ std::vector<uint8_t> renderReference(const scene::Scene& scene, const FrameSetti
             hdr = half3(sunAndAmbient + emissive);
             for (size_t i = 0; i < lights.size(); ++i) {
               const GpuPointLight& l = lights[i];
-              glm::vec3 c = shading::shadeLocalLight(
-                  hit.position, normal, V, baseColor, metallic, roughness, glm::vec3(l.positionRadius),
-                  l.positionRadius.w, glm::vec3(l.radianceFalloff), l.radianceFalloff.w,
-                  spotDirectionOf(l), l.cone.z, l.cone.w);
+              glm::vec3 c = shading::shadeLocalLightAt(
+                  b, hit.position, glm::vec3(l.positionRadius), l.positionRadius.w,
+                  glm::vec3(l.radianceFalloff), l.radianceFalloff.w, spotDirectionOf(l), l.cone.z,
+                  l.cone.w);
               if (shadowed[i] && c != glm::vec3(0.0f)) {
                 const glm::vec3 toLight = glm::vec3(l.positionRadius) - hit.position;
                 const float distance = glm::length(toLight);

@@ -1,6 +1,7 @@
 #include "render/scene_buffers.h"
 
 #include <algorithm>
+#include <bit>
 #include <atomic>
 #include <cmath>
 #include <cstring>
@@ -88,9 +89,20 @@ void transfer(gpu::Context& context, gpu::CommandRecorder& recorder,
 
 GpuPointLight toGpu(const scene::PointLight& l) { return packLight(l); }
 
-// Emission is factor x strength (x texture): zero whenever the factor or the strength is.
+// The dielectric's reflectance at normal incidence: KHR_materials_ior's ((ior-1)/(ior+1))^2 (0.04
+// at glTF's 1.5) times KHR_materials_specular's factor.
+float dielectricF0(const scene::Material& m) {
+  const float r = (m.ior - 1.0f) / (m.ior + 1.0f);
+  return std::min(r * r, 1.0f) * m.specular;
+}
+
+// Whether the material needs the emissive target: emission is factor x strength (x texture),
+// zero whenever the factor or the strength is; an unlit material emits its base colour
+// (material_core.glsl's withUnlit); and the target's alpha carries a dielectric F0 other than
+// glTF's 0.04 (frame.glsl's loadSurfaceWithDepth).
 bool emitsLight(const scene::Material& m) {
-  return m.emissiveStrength != 0.0f && m.emissive != glm::vec3(0.0f);
+  return m.unlit || (m.emissiveStrength != 0.0f && m.emissive != glm::vec3(0.0f)) ||
+         m.ior != 1.5f || m.specular != 1.0f;
 }
 
 bool hasTexture(const scene::Material& m) {
@@ -117,7 +129,9 @@ GpuMaterial toGpu(const scene::Material& m) {
   if (m.alphaMode == scene::AlphaMode::mask) flags |= MYRIAD_MATERIAL_ALPHA_MASK;
   if (m.alphaMode == scene::AlphaMode::blend) flags |= MYRIAD_MATERIAL_ALPHA_BLEND;
   if (m.doubleSided) flags |= MYRIAD_MATERIAL_DOUBLE_SIDED;
-  g.flags = glm::uvec4(flags, 0, 0, 0);
+  if (m.unlit) flags |= MYRIAD_MATERIAL_UNLIT;
+  g.flags = glm::uvec4(flags, std::bit_cast<uint32_t>(dielectricF0(m)),
+                       std::bit_cast<uint32_t>(m.specular), 0);
   return g;
 }
 

@@ -23,6 +23,7 @@
 #include "scene/animation.h"
 #include "scene/camera.h"
 #include "scene/gltf_animation.h"
+#include "scene/gltf_materials.h"
 #include "scene/image_decode.h"
 #include "scene/memory_files.h"
 #include "scene/model_animation.h"
@@ -1036,6 +1037,18 @@ Scene convertImport(Assimp::Importer& importer, const aiScene* raw, const std::s
       }
     }
   }
+  // What Assimp does not read of a glTF's materials, from the file itself (gltf_materials.h).
+  if (isGltf(name) && gltf != nullptr) {
+    std::vector<std::string> assimpNames;
+    for (unsigned i = 0; i < source->mNumMaterials && i < scene.materials.size(); ++i) {
+      aiString materialName;
+      const bool named = source->mMaterials[i] != nullptr &&
+                         source->mMaterials[i]->Get(AI_MATKEY_NAME, materialName) == AI_SUCCESS;
+      assimpNames.push_back(named ? std::string(materialName.C_Str()) : std::string());
+    }
+    detail::readGltfMaterialExtensions(*gltf, assimpNames, scene.materials,
+                                       scene.ignoredExtensions);
+  }
   const Bounds bounds = scene.bounds();
   const glm::vec3 size = bounds.size();
   if (!std::isfinite(size.x + size.y + size.z) || !std::isfinite(glm::length(size))) {
@@ -1074,10 +1087,9 @@ Scene loadModel(const std::filesystem::path& path) {
   if (raw == nullptr) fail(name, importer.GetErrorString());
   Assimp::IOSystem* io = importer.GetIOHandler();
   const std::string folder = absolute.parent_path().string();
-  // The file again for its animations' samplers (gltf_animation.h), only when it has some.
-  const std::string own = isGltf(name) && raw->mNumAnimations > 0
-                              ? readThrough(*io, absolute.string()).value_or("")
-                              : "";
+  // The file again for what Assimp does not read: its material extensions (gltf_materials.h)
+  // and its animations' samplers (gltf_animation.h).
+  const std::string own = isGltf(name) ? readThrough(*io, absolute.string()).value_or("") : "";
   const detail::GltfFile gltf{
       own, lowerExtension(absolute.extension().string()) == "glb",
       [io, folder](const std::string& uri) { return readThrough(*io, folder + "/" + uri); }};

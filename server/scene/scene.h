@@ -119,6 +119,10 @@ struct Material {
   AlphaMode alphaMode = AlphaMode::opaque;
   float alphaCutoff = 0.5f;         // MASK: fragments with alpha below it are not drawn
   bool doubleSided = true;          // false: back faces culled (formats that do not say: true)
+  bool unlit = false;               // KHR_materials_unlit: base colour is the output, unlit
+  float ior = 1.5f;                 // KHR_materials_ior: the dielectric's F0, ((ior-1)/(ior+1))^2
+  float specular = 1.0f;            // KHR_materials_specular's specularFactor: scales the
+                                    // dielectric's reflection (F0 and F90)
   TextureRef baseColorTexture;          // sRGB, RGBA: colour and alpha
   TextureRef metallicRoughnessTexture;  // linear: B metallic, G roughness
   TextureRef normalTexture;             // linear: tangent-space normal
@@ -282,6 +286,9 @@ struct Scene {
   std::vector<Sun> extraSuns;  // at most kMaxExtraSuns more directional lights (a model's)
   uint32_t droppedSuns = 0;    // the model's directional lights past kMaxExtraSuns, not used
   std::vector<ModelCamera> cameras;  // the model file's cameras, in the file's order
+  // The glTF extensions the file uses that Myriad does not honour (sorted; the model summary
+  // lists them): what the picture may lack.
+  std::vector<std::string> ignoredExtensions;
   // The file's node tree, skins and animations (empty for formats and files without them).
   std::vector<Node> nodes;
   std::vector<Skin> skins;

@@ -213,10 +213,11 @@ void handleLabels(const ApiContext& context, FrameServices& frames, const httpli
     auto lock = lockOpen(*session);
     const SceneGraph& graph = session->scene.graph();
     scene::CoverageCounter coverage(pinholeViewOf(labels));
+    labels.classes = session->scene.semanticClasses();
     for (auto& [id, l] : byId) {
       if (!graph.objects().contains(id)) continue;
       const protocol::Object wire = toWire(session->scene, graph.object(id));
-      l.semantic = wire.semantic;
+      l.semantic = graph.object(id).semantic;  // a class name's id
       l.bounds = wire.bounds;
       bool counted = true;
       for (const SceneGraph::PlacedMesh& placed : graph.placedMeshes(id)) {

@@ -85,6 +85,8 @@ void addAsset(ApiContext& context, const httplib::Request& req, httplib::Respons
     SessionScene::AssetAdded result = session->scene.addAsset(
         std::move(model.scene), model.source, model.assetId, model.bytes);
     added = result.added;
+    // With --state-dir: the bytes kept, so that a restored session has the asset again.
+    if (model.stored) session->persisted.assets.insert_or_assign(model.assetId, *model.stored);
     if (result.scene) {
       uploaded = context.renderThread.replaceScene(session->sceneId, std::move(result.scene));
       session->bump();

@@ -186,9 +186,12 @@ SessionScene newSessionScene(const ApiContext& context) {
 // Gives a new session (its id not yet out, or being restored) its scene: adopts `loaded`, made
 // from `source`, creates the GPU scene and, with a snapshot, restores the rest (problems point
 // under `pointer`).
+// `assetId` and `assetBytes`: the model's asset as Adoption has them (an upload's, by its bytes;
+// empty: by the source's name).
 void populate(ApiContext& context, Session& session, ScenePtr loaded, const std::string& source,
               const protocol::Snapshot* snapshot, std::string_view pointer,
-              const SessionScene::SnapshotLoads& environment) {
+              const SessionScene::SnapshotLoads& environment, const std::string& assetId = {},
+              uint64_t assetBytes = 0) {
   std::shared_ptr<const scene::Scene> scene;
   {
     std::lock_guard lock(session.mutex);
@@ -200,7 +203,9 @@ void populate(ApiContext& context, Session& session, ScenePtr loaded, const std:
     scene = session.scene.adopt(std::move(loaded), source,
                                 Adoption{.lights = Adoption::Lights::model,
                                          .recipe = recipe,
-                                         .lightingFromModel = true});
+                                         .lightingFromModel = true,
+                                         .assetId = assetId,
+                                         .assetBytes = assetBytes});
   }
   const render::SceneId sceneId = context.renderThread.createScene(scene).get();
   std::vector<std::future<void>> restored;
@@ -215,13 +220,16 @@ void populate(ApiContext& context, Session& session, ScenePtr loaded, const std:
 }
 
 // The model a stored upload was made from, loaded again (in the loader child, as at upload).
-ScenePtr loadStoredUpload(const ApiContext& context, const StoredUpload& upload) {
+// `size`: where to write how many bytes the upload has, when given.
+ScenePtr loadStoredUpload(const ApiContext& context, const StoredUpload& upload,
+                          uint64_t* size = nullptr) {
   std::string why;
   std::optional<std::string> bytes = context.state->blob(upload.blob, &why);
   if (!bytes) {
     throw ProblemError(modelRejected("The session's uploaded model " + upload.blob +
                                      " is unusable in the state directory: " + why + "."));
   }
+  if (size != nullptr) *size = bytes->size();
   switch (upload.kind) {
     case StoredUpload::Kind::zip:
       return loadOrProblem(
@@ -489,12 +497,36 @@ namespace {
 // Throws ProblemError; leaves no session behind when it does.
 SessionPtr restoreSnapshot(ApiContext& context, const StoredSession& stored,
                            protocol::Snapshot snapshot, const std::string& ownerToken) {
-  // The state directory keeps the bytes of the base model only (PUT .../model), not of assets
-  // added since: the session comes back with its base model as its one object.
-  snapshot.scene.reset();
   const std::string& source = snapshot.model.source;
-  ScenePtr loaded = stored.model ? loadStoredUpload(context, *stored.model)
+  uint64_t modelBytes = 0;
+  ScenePtr loaded = stored.model ? loadStoredUpload(context, *stored.model, &modelBytes)
                                  : loadSource(context, source);
+  // The model's asset as the session had it (an upload by its bytes), so that the snapshot's
+  // scene finds it.
+  const std::string modelAsset = stored.model ? assetIdOfBlob(stored.model->blob) : std::string();
+  // The snapshot scene's other uploaded assets, from the uploads the record keeps. A record
+  // without one of them (written before assets were kept) restores as it did then: the model
+  // as its one object.
+  std::vector<Asset> uploaded;
+  if (snapshot.scene) {
+    for (const protocol::SnapshotAsset& a : snapshot.scene->assets) {
+      if (!a.source.starts_with(protocol::kUploadPrefix) || a.id == modelAsset) continue;
+      const auto upload = std::find_if(stored.assets.begin(), stored.assets.end(),
+                                       [&](const StoredUpload& u) {
+                                         return assetIdOfBlob(u.blob) == a.id;
+                                       });
+      if (upload == stored.assets.end()) {
+        std::fprintf(stderr, "myriad-server: state: session %s: the bytes of asset %s are not "
+                     "kept; restored with its model alone\n", stored.id.c_str(), a.id.c_str());
+        snapshot.scene.reset();
+        uploaded.clear();
+        break;
+      }
+      uint64_t bytes = 0;
+      ScenePtr scene = loadStoredUpload(context, *upload, &bytes);
+      uploaded.push_back(Asset{.id = a.id, .source = a.source, .bytes = bytes, .scene = scene});
+    }
+  }
   SessionScene::SnapshotLoads environment;
   if (stored.environmentBlob) {
     std::string why;
@@ -509,14 +541,20 @@ SessionPtr restoreSnapshot(ApiContext& context, const StoredSession& stored,
     auto image = std::make_shared<scene::EnvironmentImage>();
     image->rgb.resize(bytes->size() / sizeof(float));
     std::memcpy(image->rgb.data(), bytes->data(), bytes->size());
-    environment = {std::move(image), snapshot.settings.environment.source.value_or("")};
+    // The snapshot's library assets (builtin, library:NAME) besides; not its environment again.
+    const std::string current = snapshot.settings.environment.source.value_or("");
+    environment = snapshotEnvironment(context, snapshot, current, {assetIdOf(source)});
+    environment.image = std::move(image);
+    environment.source = current;
   } else {
-    environment = snapshotEnvironment(context, snapshot, "");
+    environment = snapshotEnvironment(context, snapshot, "", {assetIdOf(source)});
   }
+  for (Asset& a : uploaded) environment.assets.push_back(std::move(a));
   SessionPtr session = context.sessions.createWithIdentity(
       std::string(stored.id), ownerToken, stored.tokenHash, newSessionScene(context));
   try {
-    populate(context, *session, std::move(loaded), source, &snapshot, "", environment);
+    populate(context, *session, std::move(loaded), source, &snapshot, "", environment, modelAsset,
+             modelBytes);
   } catch (...) {
     context.sessions.remove(session->id);
     throw;
@@ -524,6 +562,9 @@ SessionPtr restoreSnapshot(ApiContext& context, const StoredSession& stored,
   {
     std::lock_guard lock(session->mutex);
     session->persisted.model = stored.model;
+    for (const StoredUpload& u : stored.assets) {
+      session->persisted.assets.insert_or_assign(assetIdOfBlob(u.blob), u);
+    }
     session->persisted.environmentBlob = stored.environmentBlob;
     // The ids the lights had: a client that added light 17 still finds it under 17.
     if (!stored.lightIds.empty() &&

@@ -211,6 +211,16 @@ struct HttpServer::State {
       session->persisted.tokensChanged = false;
       stored.snapshot = session->scene.snapshot();
       stored.model = session->persisted.model;
+      // The uploads behind the scene's uploaded assets but the model's (those deleted since are
+      // forgotten here).
+      std::map<std::string, StoredUpload>& uploads = session->persisted.assets;
+      const SceneGraph& graph = session->scene.graph();
+      std::erase_if(uploads, [&](const auto& entry) { return !graph.findAsset(entry.first); });
+      for (const auto& [assetId, upload] : uploads) {
+        if (!stored.model || assetIdOfBlob(stored.model->blob) != assetId) {
+          stored.assets.push_back(upload);
+        }
+      }
       stored.environmentBlob = session->persisted.environmentBlob;
       stored.lightIds = session->scene.lightIds();
       stored.nextLightId = session->scene.nextLightId();

@@ -32,6 +32,18 @@ bool usable(const glm::mat4& m) {
   return std::isfinite(det) && std::abs(det) > 1e-30f;
 }
 
+// A node's rest world transform in its asset (its parents' local transforms times its own).
+glm::mat4 restWorld(const scene::Scene& asset, int32_t node) {
+  glm::mat4 rest(1.0f);
+  for (int32_t n = node; n >= 0; n = asset.nodes[size_t(n)].parent) {
+    rest = scene::localMatrix(asset.nodes[size_t(n)]) * rest;
+  }
+  return rest;
+}
+
+// The largest semantic class id (the semantic-id target's classes are 16-bit).
+constexpr uint32_t kMaxSemantic = 65535;
+
 void unite(scene::Bounds& into, const scene::Bounds& b) {
   if (b.empty()) return;
   into.extend(b.min);
@@ -153,7 +165,8 @@ void SceneGraph::check(const SceneObject& o, uint32_t materials,
                     "Asset " + quoteClientText(o.asset) + " has " + std::to_string(clips) +
                         " animation clips; there is no clip " + std::to_string(o.clip) + "."));
   }
-  if (o.node >= 0 && !usable(nodeSubtree(*findAsset(o.asset)->scene, o.node).second)) {
+  // Only the rest transform: O(depth), so a node tree of thousands of objects checks quickly.
+  if (o.node >= 0 && !usable(glm::inverse(restWorld(*findAsset(o.asset)->scene, o.node)))) {
     throw ProblemError(
         invalidBody(pointer + "/node", "Node " + std::to_string(o.node) + " of asset " +
                                            quoteClientText(o.asset) +
@@ -231,6 +244,9 @@ std::vector<uint32_t> SceneGraph::addObjects(std::vector<SceneObject> objects, u
     pending.emplace(id, objects[i]);
     ids.push_back(id);
   }
+  std::vector<SceneObject*> added;
+  for (auto& [pendingId, o] : pending) added.push_back(&o);
+  assignClasses(std::move(added), pointer, true);
   objects_.merge(pending);
   nextId_ = id;
   return ids;
@@ -239,7 +255,54 @@ std::vector<uint32_t> SceneGraph::addObjects(std::vector<SceneObject> objects, u
 void SceneGraph::replaceObject(const SceneObject& next, uint32_t materials) {
   object(next.id);
   check(next, materials, {}, "");
-  objects_[next.id] = next;
+  SceneObject taken = next;
+  assignClasses({&taken}, "", false);
+  objects_[next.id] = std::move(taken);
+}
+
+void SceneGraph::assignClasses(std::vector<SceneObject*> objects, std::string_view pointer,
+                               bool indexed) {
+  if (std::none_of(objects.begin(), objects.end(),
+                   [](const SceneObject* o) { return !o->semanticClass.empty(); })) {
+    return;
+  }
+  // Ids taken: every class's, and every integer an object (kept or coming) was given.
+  std::vector<bool> used(kMaxSemantic + 1, false);
+  used[0] = true;
+  for (const auto& [name, id] : classes_) used[std::min(id, kMaxSemantic)] = true;
+  std::vector<uint32_t> coming;  // an object being replaced counts as it will be
+  for (const SceneObject* o : objects) coming.push_back(o->id);
+  std::sort(coming.begin(), coming.end());
+  for (const auto& [id, o] : objects_) {
+    if (o.semanticClass.empty() && !std::binary_search(coming.begin(), coming.end(), id)) {
+      used[std::min(o.semantic, kMaxSemantic)] = true;
+    }
+  }
+  for (const SceneObject* o : objects) {
+    if (o->semanticClass.empty()) used[std::min(o->semantic, kMaxSemantic)] = true;
+  }
+  std::map<std::string, uint32_t, std::less<>> classes = classes_;
+  uint32_t next = 1;
+  for (size_t i = 0; i < objects.size(); ++i) {
+    SceneObject& o = *objects[i];
+    if (o.semanticClass.empty()) continue;
+    if (const auto it = classes.find(o.semanticClass); it != classes.end()) {
+      o.semantic = it->second;
+      continue;
+    }
+    while (next <= kMaxSemantic && used[next]) ++next;
+    if (next > kMaxSemantic) {
+      throw ProblemError(invalidBody(
+          std::string(pointer) + (indexed ? "/" + std::to_string(i) : "") + "/semantic",
+          "The session has no semantic class id left for " + quoteClientText(o.semanticClass) +
+              ": every id from 1 to " + std::to_string(kMaxSemantic) +
+              " is a class or an object's integer."));
+    }
+    used[next] = true;
+    classes.emplace(o.semanticClass, next);
+    o.semantic = next;
+  }
+  classes_ = std::move(classes);
 }
 
 size_t SceneGraph::removeObject(uint32_t id) {
@@ -250,7 +313,9 @@ size_t SceneGraph::removeObject(uint32_t id) {
 }
 
 void SceneGraph::restoreObjects(std::vector<SceneObject> objects, uint32_t nextId,
-                                uint32_t materials, std::string_view pointer) {
+                                uint32_t materials, std::string_view pointer,
+                                const std::vector<std::pair<std::string, uint32_t>>& classes,
+                                std::string_view classesPointer) {
   if (objects.size() > maxObjects_) {
     throw ProblemError(limitExceeded(
         413, std::string(protocol::limits::kMaxObjectsPerSession),
@@ -271,8 +336,29 @@ void SceneGraph::restoreObjects(std::vector<SceneObject> objects, uint32_t nextI
   for (size_t i = 0; i < objects.size(); ++i) {
     next.check(objects[i], materials, all, std::string(pointer) + "/" + std::to_string(i));
   }
+  // The snapshot's classes as they were (a name keeps its id); names objects give that it does
+  // not list get ids as new names do.
+  std::map<std::string, uint32_t, std::less<>> names;
+  std::vector<bool> ids(kMaxSemantic + 1, false);
+  for (size_t i = 0; i < classes.size(); ++i) {
+    const auto& [name, id] = classes[i];
+    if (name.empty() || id == 0 || id > kMaxSemantic || ids[id] || names.contains(name)) {
+      throw ProblemError(invalidBody(
+          std::string(classesPointer) + "/" + std::to_string(i),
+          "Semantic classes have distinct non-empty names and distinct ids from 1 to " +
+              std::to_string(kMaxSemantic) + "."));
+    }
+    ids[id] = true;
+    names.emplace(name, id);
+  }
+  next.objects_.clear();
+  next.classes_ = std::move(names);
+  std::vector<SceneObject*> restored;
+  for (auto& [id, o] : all) restored.push_back(&o);
+  next.assignClasses(std::move(restored), pointer, true);
   objects_ = std::move(all);
   nextId_ = nextId;
+  classes_ = std::move(next.classes_);
 }
 
 void SceneGraph::clear() {
@@ -363,24 +449,38 @@ std::shared_ptr<scene::Scene> SceneGraph::flatten(const std::vector<scene::Mater
   // Per (asset, node) of node objects: the asset instances below the node, and the inverse of
   // the node's rest world transform.
   std::map<std::pair<const Asset*, int32_t>, std::pair<std::vector<uint32_t>, glm::mat4>> subtrees;
+  std::unordered_map<const Asset*, std::vector<std::vector<uint32_t>>> ownInstances;
   for (const auto& [id, o] : objects_) {
     Placement placement{uint32_t(flat->instances.size()), 0, {}, glm::mat4(1.0f)};
     if (shown(id)) {
       const Asset& a = *byId.at(o.asset);
       const glm::mat4 world = worldOf(id);
       const bool ofNode = o.node >= 0 && size_t(o.node) < a.scene->nodes.size();
-      if (ofNode) {
+      if (ofNode && !o.subtree) {
+        // A node's own instances: an index per asset, built once, so a tree of thousands of
+        // node objects costs one pass over its instances.
+        auto it = ownInstances.find(&a);
+        if (it == ownInstances.end()) {
+          std::vector<std::vector<uint32_t>> own(a.scene->nodes.size());
+          for (uint32_t k = 0; k < a.scene->instances.size(); ++k) {
+            const int32_t n = a.scene->instances[k].node;
+            if (n >= 0 && size_t(n) < own.size()) own[size_t(n)].push_back(k);
+          }
+          it = ownInstances.emplace(&a, std::move(own)).first;
+        }
+        placement.assetInstances = it->second[size_t(o.node)];
+        placement.fromNode = glm::inverse(restWorld(*a.scene, o.node));
+      } else if (ofNode) {
         auto it = subtrees.find({&a, o.node});
         if (it == subtrees.end())
           it = subtrees.emplace(std::make_pair(&a, o.node), nodeSubtree(*a.scene, o.node)).first;
         placement.assetInstances = it->second.first;
         placement.fromNode = it->second.second;
       }
-      for (uint32_t k = 0; k < a.scene->instances.size(); ++k) {
-        if (ofNode && !std::binary_search(placement.assetInstances.begin(),
-                                          placement.assetInstances.end(), k)) {
-          continue;
-        }
+      const uint32_t drawn =
+          ofNode ? uint32_t(placement.assetInstances.size()) : uint32_t(a.scene->instances.size());
+      for (uint32_t j = 0; j < drawn; ++j) {
+        const uint32_t k = ofNode ? placement.assetInstances[j] : j;
         const scene::Instance& inst = a.scene->instances[k];
         scene::Instance out = inst;
         out.mesh += meshBase.at(o.asset);
@@ -420,11 +520,45 @@ std::pair<std::vector<uint32_t>, glm::mat4> SceneGraph::nodeSubtree(const scene:
     const int32_t n = asset.instances[k].node;
     if (n >= 0 && size_t(n) < below.size() && below[size_t(n)]) instances.push_back(k);
   }
-  glm::mat4 rest(1.0f);
-  for (int32_t n = node; n >= 0; n = asset.nodes[size_t(n)].parent) {
-    rest = scene::localMatrix(asset.nodes[size_t(n)]) * rest;
+  return {std::move(instances), glm::inverse(restWorld(asset, node))};
+}
+
+std::vector<SceneObject> nodeTreeObjects(const Asset& asset, uint32_t firstId,
+                                         const std::string& rootName, size_t room) {
+  const scene::Scene& a = *asset.scene;
+  const size_t nodes = a.nodes.size();
+  if (nodes < 2 || nodes > std::min(kMaxTreeObjects, room) || !a.skins.empty()) return {};
+  std::vector<uint8_t> drawn(nodes, 0);
+  for (const scene::Instance& inst : a.instances) {
+    if (inst.node < 0 || size_t(inst.node) >= nodes) return {};  // an instance of no node
+    drawn[size_t(inst.node)] = 1;
   }
-  return {std::move(instances), glm::inverse(rest)};
+  if (std::count(drawn.begin(), drawn.end(), 1) < 2) return {};
+  std::vector<SceneObject> out;
+  out.reserve(nodes);
+  for (size_t n = 0; n < nodes; ++n) {
+    const scene::Node& node = a.nodes[n];
+    // Parents come first; one root only (node 0), so the tree hangs from one object.
+    if ((n == 0) != (node.parent < 0) || node.parent >= int32_t(n)) return {};
+    SceneObject o;
+    o.id = firstId + uint32_t(n);
+    o.name = n == 0 ? rootName : node.name;
+    // Names are at most 256 characters (object.schema.json): cut on a UTF-8 character boundary.
+    if (o.name.size() > 256) {
+      size_t cut = 256;
+      while (cut > 0 && (static_cast<unsigned char>(o.name[cut]) & 0xC0) == 0x80) --cut;
+      o.name.resize(cut);
+    }
+    o.asset = asset.id;
+    o.transform.translation = node.translation;
+    o.transform.rotation = node.rotation;
+    o.transform.scale = node.scale;
+    o.parent = n == 0 ? 0 : firstId + uint32_t(node.parent);
+    o.node = int32_t(n);
+    o.subtree = false;
+    out.push_back(std::move(o));
+  }
+  return out;
 }
 
 bool SceneGraph::playing() const {

@@ -49,7 +49,10 @@ struct SceneObject {
   bool visible = true;
   uint32_t parent = 0;               // 0: placed in the world
   std::optional<uint32_t> material;  // a session material id drawn instead of the asset's
-  uint32_t semantic = 0;             // the semantic class (0: none)
+  // The semantic class id (0: none); given as a class name (`semanticClass` not empty), the id
+  // the graph maps that name to (SceneGraph::classes), set by the graph when it takes the object.
+  uint32_t semantic = 0;
+  std::string semanticClass;
   // Which of its asset's animations it plays on the session's clock (an index into the asset's
   // Scene::animations; -1: none, the rest pose) and whether the clip loops or holds its last
   // key. Assets without animations ignore both.
@@ -59,6 +62,9 @@ struct SceneObject {
   // then draws the instances of that node and of the nodes below it, placed relative to the
   // node (its transform takes the place of the node's rest world transform in the asset).
   int32_t node = -1;
+  // With a node: whether it draws the nodes below the node too (true), or the node's own
+  // instances only (false: a node tree as objects, each node its own object; nodeTreeObjects).
+  bool subtree = true;
 };
 
 struct Asset {
@@ -71,6 +77,16 @@ struct Asset {
   scene::Bounds bounds;        // of its instances, in its own space
   bool animated = false;       // scene::animated(): it has skins, morph targets or animations
 };
+
+// The objects that make `asset`'s node tree addressable (PUT .../model): one per node, in node
+// order (ids from `firstId`), each drawing that node's own instances (subtree false) with the
+// node's local transform, under the object of its parent node; the root node's object is named
+// `rootName`. Empty when the tree is not worth it or cannot be split: fewer than two nodes with
+// instances, more than kMaxTreeObjects nodes (or `room`), more than one root, or skins (a skinned
+// mesh is placed by its joints, not by its node).
+inline constexpr size_t kMaxTreeObjects = 4096;
+std::vector<SceneObject> nodeTreeObjects(const Asset& asset, uint32_t firstId,
+                                         const std::string& rootName, size_t room);
 
 class SceneGraph {
  public:
@@ -120,9 +136,15 @@ class SceneGraph {
   void replaceObject(const SceneObject& next, uint32_t materials);
   // Removes the object and its descendants; returns how many.
   size_t removeObject(uint32_t id);
-  // Takes `objects` (ids kept) and `nextId` as they are: a snapshot's. Same checks as addObjects.
+  // Takes `objects` (ids kept), `nextId` and `classes` (name -> id) as they are: a snapshot's.
+  // Same checks as addObjects; a class listed twice (name or id) is 400 under `classesPointer`.
   void restoreObjects(std::vector<SceneObject> objects, uint32_t nextId, uint32_t materials,
-                      std::string_view pointer);
+                      std::string_view pointer,
+                      const std::vector<std::pair<std::string, uint32_t>>& classes = {},
+                      std::string_view classesPointer = "");
+  // The session's semantic class names and their ids. A name's id stays for the session's life
+  // (a model load or the deletion of every object using it keeps it); a snapshot brings its own.
+  const std::map<std::string, uint32_t, std::less<>>& classes() const { return classes_; }
   void clear();
   // Replaces the asset list (a snapshot's, in its order; firstMaterial set by the caller). The
   // objects must be restored after it (restoreObjects), which checks them against it.
@@ -176,6 +198,12 @@ class SceneGraph {
   // rest world transform (Placement).
   static std::pair<std::vector<uint32_t>, glm::mat4> nodeSubtree(const scene::Scene& asset,
                                                                  int32_t node);
+  // Gives the objects whose semantic is a class name their class id, adding names not yet
+  // known (the lowest id from 1 that no class and no object's integer, nor one of `objects`',
+  // holds). Throws ProblemError 400 naming its /semantic when every id is taken; changes
+  // nothing then.
+  // `indexed`: the objects are a request's list (pointer/i); otherwise one object (pointer).
+  void assignClasses(std::vector<SceneObject*> objects, std::string_view pointer, bool indexed);
   void placeInstances(uint32_t id, std::vector<render::InstanceWrite>* writes);
   void uniteBounds();
 
@@ -183,6 +211,7 @@ class SceneGraph {
   std::vector<Asset> assets_;
   std::map<uint32_t, SceneObject> objects_;
   uint32_t nextId_ = 1;
+  std::map<std::string, uint32_t, std::less<>> classes_;
 
   // Of the last flatten(): each object's instances, and per flat instance its asset's instance
   // transform and its world bounds.

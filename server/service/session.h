@@ -92,6 +92,8 @@ struct Session {
   // model or environment) and the version last written (StatePersister writes when it moved).
   struct Persisted {
     std::optional<StoredUpload> model;
+    // Uploaded assets (POST .../assets) by asset id; a write keeps those the scene still holds.
+    std::map<std::string, StoredUpload> assets;
     std::optional<std::string> environmentBlob;
     uint64_t savedVersion = UINT64_MAX;
     bool tokensChanged = false;  // viewer tokens added or revoked since the last write

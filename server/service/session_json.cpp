@@ -238,6 +238,15 @@ protocol::SessionState stateOf(const Session& session, int64_t expiresInSeconds)
   }
   state.model.lights = protocol::ModelLights{model.pointLights, model.spotLights,
                                              model.directionalLights, model.directionalDropped};
+  // The model's asset (the first of its source; gone when the scene API removed it) says which
+  // of the file's glTF extensions were ignored.
+  for (const Asset& asset : scene.graph().assets()) {
+    if (asset.source != model.source || !asset.scene) continue;
+    if (!asset.scene->ignoredExtensions.empty()) {
+      state.model.ignoredExtensions = asset.scene->ignoredExtensions;
+    }
+    break;
+  }
   state.camera = toWire(scene.camera());
   state.settings = toWire(scene);
   state.lightCount = scene.lightCount();
@@ -316,7 +325,12 @@ void applyObjectPatch(const protocol::ObjectPatch& patch, SceneObject& o) {
     o.material = patch.material->value ? std::optional<uint32_t>(uint32_t(*patch.material->value))
                                        : std::nullopt;
   }
-  if (patch.semantic) o.semantic = uint32_t(*patch.semantic);
+  // A class name gets its id when the graph takes the object (SceneGraph::assignClasses).
+  if (patch.semantic) {
+    o.semanticClass = patch.semantic->name.value_or("");
+    if (!patch.semantic->name) o.semantic = uint32_t(patch.semantic->id);
+  }
+  if (patch.subtree) o.subtree = *patch.subtree;
   // A node by index or null here; by name (nodeName) the route resolves it against the asset
   // (api_objects.cpp, which sees the session's assets).
   if (patch.node) o.node = patch.node->value ? int32_t(*patch.node->value) : -1;
@@ -337,7 +351,8 @@ protocol::Object toWire(const SessionScene& scene, const SceneObject& o) {
   out.visible = o.visible;
   if (o.parent != 0) out.parent.value = o.parent;
   if (o.material) out.material.value = *o.material;
-  out.semantic = o.semantic;
+  out.semantic = o.semanticClass.empty() ? protocol::Semantic{o.semantic, std::nullopt}
+                                         : protocol::Semantic{0, o.semanticClass};
   const SceneGraph::Placement* placement = graph.placement(o.id);
   out.instances = placement != nullptr ? placement->count : 0;
   if (out.instances > 0) {
@@ -353,6 +368,7 @@ protocol::Object toWire(const SessionScene& scene, const SceneObject& o) {
       asset != nullptr && o.node >= 0 && size_t(o.node) < asset->scene->nodes.size()) {
     out.node = uint64_t(o.node);
     out.nodeName = asset->scene->nodes[size_t(o.node)].name;
+    out.subtree = o.subtree;
   }
   if (const Asset* asset = graph.findAsset(o.asset);
       asset != nullptr && !asset->scene->animations.empty()) {
@@ -381,6 +397,7 @@ protocol::Asset toWire(const SceneGraph& graph, const Asset& a) {
   out.images = a.scene->images.size();
   if (!a.bounds.empty()) out.bounds = toWire(a.bounds);
   out.objects = graph.usersOf(a);
+  if (!a.scene->ignoredExtensions.empty()) out.ignoredExtensions = a.scene->ignoredExtensions;
   return out;
 }
 

@@ -79,10 +79,27 @@ std::shared_ptr<const scene::Scene> SessionScene::adopt(std::shared_ptr<scene::S
       adoption.assetId.empty() ? assetIdOf(source) : adoption.assetId;
   graph_.addAsset(Asset{.id = assetId, .source = source, .bytes = adoption.assetBytes,
                         .scene = loaded, .firstMaterial = 0});
-  SceneObject root;
-  root.name = source;
-  root.asset = assetId;
-  graph_.addObjects({root}, uint32_t(materials_.size()), "");
+  // A model of several nodes with meshes comes as its node tree of objects under one root object
+  // (each part addressable and movable, its children moving with it); otherwise as one object.
+  std::vector<SceneObject> tree = nodeTreeObjects(*graph_.findAsset(assetId),
+                                                  graph_.nextObjectId(), source,
+                                                  graph_.maxObjects());
+  bool placed = false;
+  if (!tree.empty()) {
+    // A tree an object may not be (a node scaled to zero, a chain deeper than objects nest) is
+    // refused whole, changing nothing: the model is then one object, as any other.
+    try {
+      graph_.addObjects(std::move(tree), uint32_t(materials_.size()), "");
+      placed = true;
+    } catch (const ProblemError&) {
+    }
+  }
+  if (!placed) {
+    SceneObject root;
+    root.name = source;
+    root.asset = assetId;
+    graph_.addObjects({root}, uint32_t(materials_.size()), "");
+  }
   camera_ = loaded->camera;
   if (adoption.lightingFromModel) settings_.takeLightingFrom(*loaded);
   // The model's directional lights join the sun unless the session keeps its lights as they are.
@@ -165,7 +182,8 @@ SceneChange SessionScene::replaceObject(const SceneObject& next) {
   // The name is nobody's pixels; the semantic class is (the semantic-id label).
   const bool redraw = before.asset != next.asset || before.visible != next.visible ||
                       before.parent != next.parent || before.material != next.material ||
-                      before.semantic != next.semantic || before.node != next.node;
+                      before.semantic != graph_.object(next.id).semantic ||
+                      before.node != next.node || before.subtree != next.subtree;
   // A change of clip or loop needs no upload: every frame carries its pose.
   if (redraw) {
     change.scene = flatten();
@@ -440,6 +458,14 @@ std::shared_ptr<const render::ScenePose> SessionScene::poseAt(double seconds) co
 
 // ---- Snapshots.
 
+std::vector<protocol::SemanticClass> SessionScene::semanticClasses() const {
+  std::vector<protocol::SemanticClass> out;
+  out.reserve(graph_.classes().size());
+  for (const auto& [name, id] : graph_.classes()) out.push_back({name, id});
+  std::sort(out.begin(), out.end(), [](const auto& a, const auto& b) { return a.id < b.id; });
+  return out;
+}
+
 protocol::Snapshot SessionScene::snapshot() const {
   protocol::Snapshot out;
   out.model.source = model_.source;
@@ -450,6 +476,7 @@ protocol::Snapshot SessionScene::snapshot() const {
   for (const Asset& a : graph_.assets()) scene.assets.push_back({a.id, a.source});
   for (const auto& [id, o] : graph_.objects()) scene.objects.push_back(toWire(*this, o));
   scene.nextObjectId = graph_.nextObjectId();
+  scene.classes = semanticClasses();
   out.materials.reserve(materials_.size());
   for (uint32_t id = 0; id < materials_.size(); ++id) out.materials.push_back(toWire(id, materials_[id], model_.images));
   if (recipe_) {
@@ -570,6 +597,9 @@ void SessionScene::restoreScene(const protocol::SnapshotScene& scene, const std:
                 "): upload it first (POST .../assets), then restore the snapshot."));
       }
       asset = *it;
+      // What SceneGraph::addAsset works out for an asset it takes.
+      asset.bounds = asset.scene->bounds();
+      asset.animated = scene::animated(*asset.scene);
       first = asset.scene->materials.data();
     }
     if (std::any_of(assets.begin(), assets.end(), [&](const Asset& a) { return a.id == id; })) {
@@ -589,7 +619,8 @@ void SessionScene::restoreScene(const protocol::SnapshotScene& scene, const std:
     try {
       applyObjectPatch(
           {wire.name, wire.asset, wire.transform, wire.visible, wire.parent, wire.material,
-           wire.semantic, wire.animation, protocol::Nullable<uint64_t>{wire.node}, std::nullopt},
+           wire.semantic, wire.animation, protocol::Nullable<uint64_t>{wire.node}, std::nullopt,
+           wire.subtree},
           o);
     } catch (const ProblemError& e) {
       throw ProblemError(invalidBody(at + "/objects/" + std::to_string(i) +
@@ -600,8 +631,14 @@ void SessionScene::restoreScene(const protocol::SnapshotScene& scene, const std:
   }
   SceneGraph graph = graph_;
   graph.replaceAssets(std::move(assets));
+  std::vector<std::pair<std::string, uint32_t>> classes;
+  if (scene.classes) {
+    for (const protocol::SemanticClass& c : *scene.classes) {
+      classes.emplace_back(c.name, uint32_t(c.id));  // the schema bounds ids to 1..65535
+    }
+  }
   graph.restoreObjects(std::move(objects), uint32_t(scene.nextObjectId),
-                       uint32_t(materials.size()), at + "/objects");
+                       uint32_t(materials.size()), at + "/objects", classes, at + "/classes");
   graph_ = std::move(graph);
   materials_ = std::move(materials);
 }

@@ -201,6 +201,8 @@ class SessionScene {
   // ---- Snapshots: the whole state but the model's bytes, as one document.
 
   protocol::Snapshot snapshot() const;
+  // The semantic class names objects were given and their ids, by id (labels, snapshots).
+  std::vector<protocol::SemanticClass> semanticClasses() const;
 
   // What restore() asks of the GPU scene.
   struct Restored {

@@ -180,14 +180,21 @@ const char* kindName(StoredUpload::Kind kind) {
   return "file";
 }
 
+nlohmann::json toJson(const StoredUpload& u) {
+  return {{"kind", kindName(u.kind)},
+          {"filename", u.filename},
+          {"entry", u.entry},
+          {"blob", u.blob}};
+}
+
 nlohmann::json toJson(const StoredSession& s) {
   nlohmann::json j = {{"format", 1}, {"id", s.id}, {"tokenSha256", s.tokenHash},
                       {"snapshot", s.snapshot}};
-  if (s.model) {
-    j["upload"] = {{"kind", kindName(s.model->kind)},
-                   {"filename", s.model->filename},
-                   {"entry", s.model->entry},
-                   {"blob", s.model->blob}};
+  if (s.model) j["upload"] = toJson(*s.model);
+  if (!s.assets.empty()) {
+    nlohmann::json assets = nlohmann::json::array();
+    for (const StoredUpload& u : s.assets) assets.push_back(toJson(u));
+    j["assets"] = std::move(assets);
   }
   if (s.environmentBlob) j["environmentBlob"] = *s.environmentBlob;
   if (!s.lightIds.empty()) {
@@ -239,6 +246,30 @@ std::string keyMember(const nlohmann::json& j, const char* name, std::string_vie
   return key;
 }
 
+// An upload of a record (its model's, or one of its assets'), checked member by member.
+StoredUpload uploadFromJson(const nlohmann::json& u, const std::string& at) {
+  if (!u.is_object()) throw std::runtime_error(at + " is not an object");
+  StoredUpload upload;
+  const std::string kind = stringMember(u, "kind", at);
+  if (kind == "zip") {
+    upload.kind = StoredUpload::Kind::zip;
+  } else if (kind == "files") {
+    upload.kind = StoredUpload::Kind::files;
+  } else if (kind == "file") {
+    upload.kind = StoredUpload::Kind::file;
+  } else {
+    throw std::runtime_error(at + "/kind is not file, zip or files");
+  }
+  upload.filename = stringMember(u, "filename", at);
+  // As ?filename= is checked on upload (api_sessions.cpp uploadFilename).
+  if (upload.filename.size() > 255 || upload.filename.find_first_of("/\\") != std::string::npos) {
+    throw std::runtime_error(at + "/filename is not a file name of at most 255 bytes");
+  }
+  upload.entry = stringMember(u, "entry", at);
+  upload.blob = keyMember(u, "blob", at);
+  return upload;
+}
+
 // A session file's record, each member checked as a request's would be: its type, its range, the
 // counts the server's limits allow. The snapshot is only checked to be an object here; the
 // restore checks it against the protocol's schema, as the API checks a posted one. Throws
@@ -251,28 +282,17 @@ StoredSession fromJson(const nlohmann::json& j, const StateLimits& limits) {
   s.tokenHash = keyMember(j, "tokenSha256", "");
   s.snapshot = member(j, "snapshot", "");
   if (!s.snapshot.is_object()) throw std::runtime_error("/snapshot is not an object");
-  if (j.contains("upload")) {
-    const nlohmann::json& u = j.at("upload");
-    if (!u.is_object()) throw std::runtime_error("/upload is not an object");
-    StoredUpload upload;
-    const std::string kind = stringMember(u, "kind", "/upload");
-    if (kind == "zip") {
-      upload.kind = StoredUpload::Kind::zip;
-    } else if (kind == "files") {
-      upload.kind = StoredUpload::Kind::files;
-    } else if (kind == "file") {
-      upload.kind = StoredUpload::Kind::file;
-    } else {
-      throw std::runtime_error("/upload/kind is not file, zip or files");
+  if (j.contains("upload")) s.model = uploadFromJson(j.at("upload"), "/upload");
+  if (j.contains("assets")) {
+    const nlohmann::json& assets = j.at("assets");
+    if (!assets.is_array()) throw std::runtime_error("/assets is not an array");
+    if (assets.size() > limits.assets) {
+      throw std::runtime_error("/assets holds more than the " + std::to_string(limits.assets) +
+                               " assets a session may have");
     }
-    upload.filename = stringMember(u, "filename", "/upload");
-    // As ?filename= is checked on upload (api_sessions.cpp uploadFilename).
-    if (upload.filename.size() > 255 || upload.filename.find_first_of("/\\") != std::string::npos) {
-      throw std::runtime_error("/upload/filename is not a file name of at most 255 bytes");
+    for (size_t i = 0; i < assets.size(); ++i) {
+      s.assets.push_back(uploadFromJson(assets[i], "/assets/" + std::to_string(i)));
     }
-    upload.entry = stringMember(u, "entry", "/upload");
-    upload.blob = keyMember(u, "blob", "/upload");
-    s.model = std::move(upload);
   }
   if (j.contains("environmentBlob")) s.environmentBlob = keyMember(j, "environmentBlob", "");
   if (j.contains("lightIds")) {
@@ -316,7 +336,7 @@ StoredSession fromJson(const nlohmann::json& j, const StateLimits& limits) {
   return s;
 }
 
-// The blob keys a session file names (upload, environment), without building its snapshot,
+// The blob keys a session file names (upload, assets, environment), without building its snapshot,
 // which is most of the file and names none. Nothing for a file that is not JSON.
 void collectBlobNames(std::string_view text, std::set<std::string>& named) {
   const nlohmann::json j = nlohmann::json::parse(
@@ -333,6 +353,14 @@ void collectBlobNames(std::string_view text, std::set<std::string>& named) {
   }
   if (auto e = j.find("environmentBlob"); e != j.end() && e->is_string()) {
     named.insert(e->get<std::string>());
+  }
+  if (auto assets = j.find("assets"); assets != j.end() && assets->is_array()) {
+    for (const nlohmann::json& u : *assets) {
+      if (!u.is_object()) continue;
+      if (auto blob = u.find("blob"); blob != u.end() && blob->is_string()) {
+        named.insert(blob->get<std::string>());
+      }
+    }
   }
 }
 

@@ -3,7 +3,8 @@
 // server (or another server sharing DIR) restores a session on its first request.
 //
 //   DIR/sessions/<id>.json   one StoredSession, replaced atomically (temporary file, fsync, rename)
-//   DIR/blobs/<sha256>       uploaded model bytes and decoded environment images, by content
+//   DIR/blobs/<sha256>       uploaded model and asset bytes and decoded environment images, by
+//                            content
 //
 // The token itself is never written: a restore needs a request that carries it, and checks it
 // against the hash. Deleting a session removes its file; idle expiry only frees memory (the file
@@ -47,11 +48,21 @@ struct StoredUpload {
   std::string blob;      // key of the bytes (files: the loader's file-set encoding)
 };
 
+// The asset id of an upload stored under `blob`: the id the session gave it (assetIdOf() of the
+// same bytes, "a-" + the first 16 hex digits of their SHA-256, which is the blob's key).
+inline std::string assetIdOfBlob(std::string_view blob) {
+  return "a-" + std::string(blob.substr(0, 16));
+}
+
 struct StoredSession {
   std::string id;
   std::string tokenHash;   // sha256Hex(token)
-  nlohmann::json snapshot; // protocol::Snapshot
+  // protocol::Snapshot: with its scene (assets by id and source, objects, semantic classes).
+  nlohmann::json snapshot;
   std::optional<StoredUpload> model;        // when the snapshot's model was uploaded
+  // The uploads behind the snapshot scene's other uploaded assets (POST .../assets), each the
+  // asset assetIdOfBlob(blob); a restore loads them again before it restores the scene.
+  std::vector<StoredUpload> assets;
   std::optional<std::string> environmentBlob;  // an uploaded environment, decoded floats
   // The lights' ids in the snapshot's order and the next id (a snapshot lists lights without
   // ids; a restored session keeps them). Empty lightIds: none stored.
@@ -71,6 +82,7 @@ struct StateLimits {
   uint64_t recordBytes = 256ull << 20;  // DIR/sessions/<id>.json
   uint64_t blobBytes = 64ull << 20;     // DIR/blobs/<sha256>
   uint64_t lightIds = 1000000;          // ids in a record's lightIds (a session's lights at most)
+  uint64_t assets = 64;                 // uploads in a record's assets (SceneGraph::kMaxAssets)
 };
 
 // The limits that fit a server with these API limits (--max-upload-bytes, --max-lights,

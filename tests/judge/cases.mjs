@@ -13,7 +13,8 @@
 
 import {readFileSync} from 'node:fs';
 import {animatedColumnGlb, morphCubeGltf} from './animated_fixtures.mjs';
-import {blendGlb, checkerGlb, maskGlb, normalMapGlb, spheresGlb, spotGlb} from './fixtures.mjs';
+import {blendGlb, checkerGlb, emissiveStrengthGlb, iorSpecularGlb, maskGlb, normalMapGlb, spheresGlb,
+        spotGlb, textureTransformGlb, unlitGlb} from './fixtures.mjs';
 
 const HELMET = '/work/shared/assets/DamagedHelmet/DamagedHelmet.glb';
 const BOX_TEXTURED = '/usr/share/assimp/models/glTF2/BoxTextured-glTF-Binary/BoxTextured.glb';
@@ -96,4 +97,21 @@ export const CASES = [
    what: 'a floor and a ball lit only by the file\'s spot light and point light (inverse-square, range)',
    width: 224, height: 160, camera: camera([0, 3.5, 6.5], [0, 0.3, 0], 45, 0.5, 30),
    sun: sun([0, -1, 0], 0)},
+  // glTF material extensions read from the file (issue 36).
+  {name: 'emissive-strength', file: 'emissive-strength.glb', bytes: () => emissiveStrengthGlb(),
+   what: 'KHR_materials_emissive_strength: a sphere (factor x 4) and a quad (emissive texture x factor x 2.5) glowing beside a lit sphere',
+   width: 256, height: 128, camera: camera([0, 0.3, 6], [0, 0, 0], 35, 1, 30),
+   sun: sun([-0.4, -0.6, -0.7], 1)},
+  {name: 'texture-transform', file: 'texture-transform.glb', bytes: () => textureTransformGlb(),
+   what: 'KHR_texture_transform on every slot (base colour, metallic-roughness, normal, occlusion, emissive) of a quad (tangents generated) and a sphere (tangents from the file)',
+   width: 384, height: 240, camera: camera([0, 0.4, 5.5], [0, 0, 0], 40, 0.5, 20),
+   sun: sun([-0.5, -0.6, -0.8], 3)},
+  {name: 'unlit', file: 'unlit.glb', bytes: () => unlitGlb(),
+   what: 'KHR_materials_unlit: a textured quad and a (metallic, smooth) sphere showing their base colour, beside a lit sphere, under the sun',
+   width: 256, height: 128, camera: camera([0, 0.3, 6], [0, 0, 0], 35, 1, 30),
+   sun: sun([-0.4, -0.6, -0.7], 3)},
+  {name: 'ior-specular', file: 'ior-specular.glb', bytes: () => iorSpecularGlb(),
+   what: 'KHR_materials_ior and KHR_materials_specular (factor): five dark glossy dielectric spheres whose F0 and F90 they set, under the sun',
+   width: 320, height: 96, camera: camera([0, 1, 11], [0, 0, 0], 28, 1, 40),
+   sun: sun([-0.3, -0.5, -0.8], 3)},
 ];

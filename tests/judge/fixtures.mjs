@@ -354,3 +354,147 @@ export function blendGlb() {
   b.node({name: 'far', mesh: b.mesh(quad(), tint), translation: [-0.35, -0.2, -0.3], scale: [1.8, 1.5, 1]});
   return b.glb();
 }
+
+// ---- material extensions (issue 36) ----
+
+// RGB: smooth stripes and a ramp, so that where a texture transform moves the texture shows
+// plainly and magnified filtering has no hard edge to round differently.
+function waveTexture(size, [r0, g0, b0], [r1, g1, b1]) {
+  const pixels = new Uint8Array(size * size * 3);
+  for (let y = 0; y < size; ++y) {
+    for (let x = 0; x < size; ++x) {
+      const u = (x + 0.5) / size;
+      const v = (y + 0.5) / size;
+      const t = 0.5 + 0.5 * Math.sin(2 * Math.PI * (2 * u + v));
+      const i = (y * size + x) * 3;
+      pixels[i] = Math.round(255 * (r0 + (r1 - r0) * t));
+      pixels[i + 1] = Math.round(255 * (g0 + (g1 - g0) * t * v));
+      pixels[i + 2] = Math.round(255 * (b0 + (b1 - b0) * (1 - t)));
+    }
+  }
+  return writePng(size, size, 3, pixels);
+}
+
+// Metallic-roughness: roughness (G) in smooth bands along u, metallic (B) along v.
+function metallicRoughnessTexture(size) {
+  const pixels = new Uint8Array(size * size * 3);
+  for (let y = 0; y < size; ++y) {
+    for (let x = 0; x < size; ++x) {
+      const u = (x + 0.5) / size;
+      const v = (y + 0.5) / size;
+      const i = (y * size + x) * 3;
+      pixels[i] = 255;
+      pixels[i + 1] = Math.round(255 * (0.25 + 0.6 * (0.5 + 0.5 * Math.cos(2 * Math.PI * u))));
+      pixels[i + 2] = Math.round(255 * (0.5 + 0.5 * Math.sin(2 * Math.PI * v)));
+    }
+  }
+  return writePng(size, size, 3, pixels);
+}
+
+// KHR_materials_emissive_strength: a sphere glowing with its emissive factor times 4 and a quad
+// whose emissive texture (times a factor) is scaled by 2.5, beside a plain lit sphere, under a
+// weak sun (the emission dominates: values above 1 in the linear image).
+export function emissiveStrengthGlb() {
+  const b = new GltfBuilder();
+  b.json.extensionsUsed = ['KHR_materials_emissive_strength'];
+  const glow = b.material({name: 'glow', emissiveFactor: [0.6, 0.3, 0.1],
+                           extensions: {KHR_materials_emissive_strength: {emissiveStrength: 4}},
+                           pbrMetallicRoughness: {baseColorFactor: [0.2, 0.2, 0.2, 1], metallicFactor: 0,
+                                                  roughnessFactor: 0.6}});
+  const panel = b.material({name: 'panel', emissiveFactor: [0.5, 0.7, 1.0],
+                            emissiveTexture: {index: b.image(waveTexture(64, [0.1, 0.2, 0.9], [0.9, 0.8, 0.1]))},
+                            extensions: {KHR_materials_emissive_strength: {emissiveStrength: 2.5}},
+                            pbrMetallicRoughness: {baseColorFactor: [0.1, 0.1, 0.1, 1], metallicFactor: 0,
+                                                   roughnessFactor: 0.8}});
+  const plain = b.material({name: 'plain', pbrMetallicRoughness: {baseColorFactor: [0.7, 0.7, 0.7, 1],
+                                                                  metallicFactor: 0, roughnessFactor: 0.5}});
+  b.node({name: 'glow', mesh: b.mesh(sphere(48, 32, false), glow), translation: [-1.8, 0, 0], scale: [0.8, 0.8, 0.8]});
+  b.node({name: 'panel', mesh: b.mesh(quad(), panel), scale: [1.8, 1.8, 1]});
+  b.node({name: 'plain', mesh: b.mesh(sphere(48, 32, false), plain), translation: [1.8, 0, 0], scale: [0.8, 0.8, 0.8]});
+  return b.glb();
+}
+
+// KHR_texture_transform on every slot of one material: base colour (offset and rotation),
+// metallic-roughness (scale), normal (offset, rotation and uniform scale), occlusion (offset) and
+// emissive (non-uniform scale and offset), on a quad and a sphere. The maps are small enough to be
+// magnified even where a transform scales them up (minified, two GPUs' mip choices differ).
+export function textureTransformGlb() {
+  const b = new GltfBuilder();
+  b.json.extensionsUsed = ['KHR_texture_transform'];
+  const transform = (offset, rotation, scale) => ({KHR_texture_transform: {offset, rotation, scale}});
+  const material = b.material({
+    name: 'transformed', emissiveFactor: [0.35, 0.3, 0.25],
+    pbrMetallicRoughness: {
+      baseColorTexture: {index: b.image(waveTexture(64, [0.9, 0.2, 0.1], [0.2, 0.8, 0.9])),
+                         extensions: transform([0.3, -0.2], 0.6, [1, 1])},
+      metallicRoughnessTexture: {index: b.image(metallicRoughnessTexture(32)),
+                                 extensions: transform([0, 0], 0, [2, 1.5])},
+      metallicFactor: 0.5, roughnessFactor: 1},
+    normalTexture: {index: b.image(bumpNormalMap(64)), scale: 1,
+                    extensions: transform([0.125, 0.1], -0.4, [1.5, 1.5])},
+    occlusionTexture: {index: b.image(waveTexture(32, [1, 1, 1], [0.3, 0.3, 0.3])),
+                       extensions: transform([0.5, 0.25], 0, [1, 1])},
+    emissiveTexture: {index: b.image(waveTexture(32, [0, 0, 0.2], [0.8, 0.5, 0])),
+                      extensions: transform([0.2, 0.4], 0, [3, 0.5])}});
+  b.node({name: 'quad', mesh: b.mesh(quad(), material), translation: [-1.1, 0, 0], scale: [2, 2, 1],
+          rotation: rotation([0, 1, 0], 20)});
+  b.node({name: 'sphere', mesh: b.mesh(sphere(48, 32, true), material), translation: [1.2, 0, 0]});
+  return b.glb();
+}
+
+// KHR_materials_unlit: a textured quad and a plain sphere that show their base colour unlit, and
+// a lit sphere of the same colour for contrast, under the sun.
+export function unlitGlb() {
+  const b = new GltfBuilder();
+  b.json.extensionsUsed = ['KHR_materials_unlit'];
+  const unlit = {KHR_materials_unlit: {}};
+  const poster = b.material({name: 'poster', extensions: unlit,
+                             pbrMetallicRoughness: {baseColorTexture: {index: b.image(waveTexture(64, [0.9, 0.3, 0.1], [0.1, 0.5, 0.9]))},
+                                                    baseColorFactor: [1, 0.9, 0.8, 1], metallicFactor: 0,
+                                                    roughnessFactor: 0.9}});
+  const flat = b.material({name: 'flat', extensions: unlit,
+                           pbrMetallicRoughness: {baseColorFactor: [0.2, 0.6, 0.3, 1], metallicFactor: 1,
+                                                  roughnessFactor: 0.2}});
+  const lit = b.material({name: 'lit', pbrMetallicRoughness: {baseColorFactor: [0.2, 0.6, 0.3, 1],
+                                                              metallicFactor: 0, roughnessFactor: 0.4}});
+  b.node({name: 'poster', mesh: b.mesh(quad(), poster), translation: [0, 0, -0.5], scale: [1.8, 1.8, 1]});
+  b.node({name: 'flat', mesh: b.mesh(sphere(48, 32, false), flat), translation: [-1.6, 0, 0], scale: [0.7, 0.7, 0.7]});
+  b.node({name: 'lit', mesh: b.mesh(sphere(48, 32, false), lit), translation: [1.6, 0, 0], scale: [0.7, 0.7, 0.7]});
+  return b.glb();
+}
+
+// A sphere whose material uses KHR_materials_sheen (which Myriad does not honour): the model
+// summary must name it.
+export function sheenGlb() {
+  const b = new GltfBuilder();
+  b.json.extensionsUsed = ['KHR_materials_sheen'];
+  const velvet = b.material({name: 'velvet', extensions: {KHR_materials_sheen: {sheenColorFactor: [1, 0.3, 0.3],
+                                                                               sheenRoughnessFactor: 0.5}},
+                             pbrMetallicRoughness: {baseColorFactor: [0.3, 0.05, 0.1, 1], metallicFactor: 0,
+                                                    roughnessFactor: 0.8}});
+  b.node({name: 'ball', mesh: b.mesh(sphere(24, 16, false), velvet)});
+  return b.glb();
+}
+
+// KHR_materials_ior and KHR_materials_specular (its factor): four dark, glossy dielectric spheres
+// whose reflection of the sun is set by them (ior 1.2, ior 2.0, specular 0.3, ior 1.8 with
+// specular 0.5), glTF's default spec (ior 1.5) on a fifth.
+export function iorSpecularGlb() {
+  const b = new GltfBuilder();
+  b.json.extensionsUsed = ['KHR_materials_ior', 'KHR_materials_specular'];
+  const variants = [
+    {name: 'ior-1.2', extensions: {KHR_materials_ior: {ior: 1.2}}},
+    {name: 'ior-2.0', extensions: {KHR_materials_ior: {ior: 2.0}}},
+    {name: 'default'},
+    {name: 'specular-0.3', extensions: {KHR_materials_specular: {specularFactor: 0.3}}},
+    {name: 'ior-1.8-specular-0.5', extensions: {KHR_materials_ior: {ior: 1.8},
+                                                KHR_materials_specular: {specularFactor: 0.5}}},
+  ];
+  const geometry = sphere(48, 32, false);
+  variants.forEach((v, i) => {
+    const material = b.material({...v, pbrMetallicRoughness: {baseColorFactor: [0.08, 0.1, 0.15, 1],
+                                                              metallicFactor: 0, roughnessFactor: 0.3}});
+    b.node({name: v.name, mesh: b.mesh(geometry, material), translation: [(i - 2) * 2.2, 0, 0]});
+  });
+  return b.glb();
+}

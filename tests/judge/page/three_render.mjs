@@ -94,7 +94,10 @@ async function renderCase(spec) {
   // degrees added, range: scale of every light's range, coneRadians: added to every spot's outer
   // cone (the inner one kept), normalScale: scale of every normal map's x and y (-1: bumps become
   // dents, as a flipped tangent frame makes them), opacity: scale of every transparent (BLEND)
-  // material's opacity, fileOrder: transparent surfaces drawn in the file's order, not sorted}.
+  // material's opacity, fileOrder: transparent surfaces drawn in the file's order, not sorted,
+  // emissiveStrength: 0 for KHR_materials_emissive_strength ignored (intensity 1), noTextureTransform:
+  // every map's KHR_texture_transform ignored, iorSpecular: false for KHR_materials_ior and
+  // _specular ignored}.
   const perturb = {light: 1, sunDegrees: 0, roughness: 1, fovY: 0, range: 1, coneRadians: 0, normalScale: 1,
                    opacity: 1, fileOrder: false, ...(spec.perturb || {})};
   let order = 0;
@@ -103,6 +106,20 @@ async function renderCase(spec) {
     if (o.material?.normalMap && perturb.normalScale !== 1) o.material.normalScale.multiplyScalar(perturb.normalScale);
     if (o.material?.transparent && perturb.opacity !== 1) o.material.opacity = Math.min(1, o.material.opacity * perturb.opacity);
     if (o.isMesh && perturb.fileOrder) o.renderOrder = order++;  // draw in the file's order, unsorted
+    if (o.material && perturb.emissiveStrength === 0) o.material.emissiveIntensity = 1;
+    if (o.material?.isMeshPhysicalMaterial && perturb.iorSpecular === false) {
+      o.material.ior = 1.5;
+      o.material.specularIntensity = 1;
+    }
+    for (const key of ['map', 'normalMap', 'roughnessMap', 'metalnessMap', 'emissiveMap', 'aoMap']) {
+      const t = o.material?.[key];
+      if (t && perturb.noTextureTransform) {
+        t.offset.set(0, 0);
+        t.repeat.set(1, 1);
+        t.rotation = 0;
+        t.matrixAutoUpdate = true;  // GLTFLoader sets the matrix itself where there is a rotation
+      }
+    }
   });
   // Texture filtering as Myriad samples (the glTF leaves anisotropy to the renderer): spec.anisotropy
   // (Myriad's, from its device: 16x anisotropic on a GPU where the sampler is linear and mipmapped,
