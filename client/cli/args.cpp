@@ -1,5 +1,6 @@
 #include "args.h"
 
+#include <algorithm>
 #include <cerrno>
 #include <cmath>
 #include <cstdlib>
@@ -115,6 +116,18 @@ Value parseValue(Kind kind, const std::string& text, const std::string& what,
       if (id) checkBounds(double(*id), bounds, what, text);
       return id;
     }
+    case Kind::NumberOrName: {
+      if (!text.empty() && std::all_of(text.begin(), text.end(),
+                                       [](char c) { return c >= '0' && c <= '9'; })) {
+        uint64_t v = parseUnsigned(text, what);
+        checkBounds(double(v), bounds, what, text);
+        return v;
+      }
+      if (text.empty() || text.size() > 64) {
+        throw UsageError(what, what + ": a number or a name of 1 to 64 characters");
+      }
+      return text;
+    }
   }
   throw UsageError(what, what + ": unsupported kind of value");
 }
@@ -131,6 +144,8 @@ std::string kindHint(Kind kind) {
       return "s|x,y,z";
     case Kind::IdOrNone:
       return "N|none";
+    case Kind::NumberOrName:
+      return "N|NAME";
     case Kind::OnOff:
       return "on|off";
     case Kind::Unsigned:

@@ -40,6 +40,9 @@ enum class Kind {
   Rotation,  // x,y,z,w: a quaternion, four finite numbers not all 0 (Vec4)
   Scale,     // s or x,y,z: one number for all three axes, or three (Vec3)
   IdOrNone,  // a whole number >= 0, or none (std::optional<uint64_t>, nullopt for none)
+  // A whole number within bounds (uint64_t), or else a name of 1-64 characters (std::string):
+  // an object's semantic class.
+  NumberOrName,
 };
 
 // Accepted values of a number, or of each component of a vector or range.

@@ -263,9 +263,9 @@ std::vector<CommandSpec> buildSpecs() {
   objectAddOptions.push_back(option("material", Kind::Unsigned,
                                     "a session material drawn instead of the asset's own",
                                     kMaterialId, "MID"));
-  objectAddOptions.push_back(option("semantic", Kind::Unsigned,
-                                    "class for the semantic-id label (default 0: none)", kSemantic,
-                                    "K"));
+  objectAddOptions.push_back(option("semantic", Kind::NumberOrName,
+                                    "class for the semantic-id label: a number (default 0: none) "
+                                    "or a name the session gives an id", kSemantic, "K|NAME"));
   objectAddOptions.push_back(flag("hidden", "add it hidden (`object set OID --visible true` shows it)"));
   CommandSpec objectAdd{"object add", "place an asset in the scene as a new object",
                         {assetOfObject}, objectAddOptions,
@@ -306,8 +306,9 @@ std::vector<CommandSpec> buildSpecs() {
        option("material", Kind::IdOrNone,
               "a session material drawn instead of the asset's; none: the asset's own", kMaterialId,
               "MID|none"),
-       option("semantic", Kind::Unsigned, "class for the semantic-id label (0: none)", kSemantic,
-              "K")},
+       option("semantic", Kind::NumberOrName,
+              "class for the semantic-id label: a number (0: none) or a name", kSemantic,
+              "K|NAME")},
       "Hiding an object hides its children; `object move` changes the transform.",
       {}};
   objectSet.check = [](const Invocation& inv) {

@@ -121,6 +121,13 @@ void applyTransform(const Invocation& inv, Trs& trs) {
   if (auto scale = inv.find<Vec3>("scale")) trs.scale = *scale;
 }
 
+// --semantic: a class number, or a class name the session gives an id (reference.md, Scene).
+json semanticOf(const Invocation& inv) {
+  const Value& value = inv.options.at("semantic");
+  if (const auto* number = std::get_if<uint64_t>(&value)) return *number;
+  return std::get<std::string>(value);
+}
+
 int add(Context& ctx) {
   const Invocation& inv = ctx.inv;
   json object = {{"asset", std::get<std::string>(inv.positionals[0])}};
@@ -133,7 +140,7 @@ int add(Context& ctx) {
   if (inv.has("hidden")) object["visible"] = false;
   if (auto parent = inv.find<uint64_t>("parent")) object["parent"] = *parent;
   if (auto material = inv.find<uint64_t>("material")) object["material"] = *material;
-  if (auto semantic = inv.find<uint64_t>("semantic")) object["semantic"] = *semantic;
+  if (inv.has("semantic")) object["semantic"] = semanticOf(inv);
   json added = ctx.call("POST", ctx.sessionRoute(protocol::routes::kSessionObjects),
                         json{{"objects", json::array({object})}});
   if (!ctx.json()) {
@@ -212,7 +219,7 @@ int set(Context& ctx) {
   if (auto visible = inv.find<bool>("visible")) patch["visible"] = *visible;
   if (auto name = inv.find<std::string>("name")) patch["name"] = *name;
   if (auto asset = inv.find<std::string>("asset")) patch["asset"] = *asset;
-  if (auto semantic = inv.find<uint64_t>("semantic")) patch["semantic"] = *semantic;
+  if (inv.has("semantic")) patch["semantic"] = semanticOf(inv);
   // none: null, the world or the asset's own materials.
   for (const char* member : {"parent", "material"}) {
     if (auto value = inv.find<std::optional<uint64_t>>(member)) {

@@ -348,6 +348,11 @@ TEST_CASE("object add: asset, name, transform, parent, semantic, hidden") {
   CHECK(usageError({"object", "add", a, "--parent", "4294967295"}).argument() == "--parent");
   CHECK(contains(usageError({"object", "add", a, "--semantic", "65536"}).what(),
                  "from 0 to 65535"));
+  // A class name instead of a number: sent as the string.
+  CHECK(parse({"object", "add", a, "--semantic", "car"}).get<std::string>("semantic") == "car");
+  const std::string longName(65, 'x');
+  CHECK(usageError({"object", "add", a, "--semantic", longName.c_str()}).argument() ==
+        "--semantic");
   CHECK(usageError({"object", "add", a, "--hidden=yes"}).argument() == "--hidden");
   CHECK(usageError({"object", "add", a, "--visible", "false"}).argument() == "--visible");
 }

@@ -605,6 +605,12 @@ TEST_CASE("assets and objects: add, place, move, a delete refused while used, cl
   json hiddenJson = jsonOf(myriad({"object", "show", oid, "--json"}));
   CHECK(hiddenJson["visible"] == false);
   CHECK(hiddenJson["semantic"] == 7);
+  // A class by name: the server keeps the name on the object and gives it an id for the labels.
+  CliResult named = myriad({"object", "set", oid, "--semantic", "spider"});
+  CHECK(named.exitCode == 0);
+  CHECK(named.out.find("semantic     spider\n") != std::string::npos);
+  CHECK(jsonOf(myriad({"object", "show", oid, "--json"}))["semantic"] == "spider");
+  CHECK(myriad({"object", "set", oid, "--semantic", "7"}).exitCode == 0);
   CHECK(hiddenJson["instances"] == 0);
 
   // Usage mistakes are caught before a request: exit 2.
