@@ -259,8 +259,8 @@ void Routes::add(std::string_view method, std::string_view routeTemplate, Handle
       if (scope.edits && scope.ifMatch && req.matches.size() > 1 &&
           routeTemplate.starts_with(std::string(protocol::routes::kSessions) + "/")) {
         SessionPtr session = authorizeSession(context_, req);
-        (void)lockOpen(*session);
-        scope.seenVersion.reset();
+        std::lock_guard lock(session->mutex);
+        checkPrecondition(scope, *session);
       }
       const httplib::Request& withBody = readBody();
       // httplib reads a form body into req.params, where it would pass for a query string; no
