@@ -25,38 +25,13 @@ import re
 import shutil
 import subprocess
 import sys
-import tempfile
 import time
+
+from server_script import Server, check, request
 
 WIDTH, HEIGHT, FPS, FRAMES = 320, 180, 15, 12
 STREAMS = (("webm", "codec=vp9&container=webm", "vp9", "video/webm"),
            ("mp4", "codec=h264&container=mp4", "h264", "video/mp4"))
-failures = []
-
-
-def check(condition, message):
-    if not condition:
-        failures.append(message)
-        print("FAIL: " + message, flush=True)
-    return condition
-
-
-def request(port, method, path, body=None, token=None):
-    c = http.client.HTTPConnection("127.0.0.1", port, timeout=60)
-    headers = {}
-    if token:
-        headers["Authorization"] = "Bearer " + token
-    data = None
-    if body is not None:
-        data = json.dumps(body).encode()
-        headers["Content-Type"] = "application/json"
-    c.request(method, path, body=data, headers=headers)
-    r = c.getresponse()
-    payload = r.read()
-    c.close()
-    return r.status, dict(r.getheaders()), payload
-
-
 def ffmpeg_frames(url, frames, out):
     """Decodes `frames` frames of `url` into rgb24 rawvideo at `out`: (ffmpeg's stderr, seconds)."""
     started = time.monotonic()
@@ -80,17 +55,11 @@ def main():
     if shutil.which("ffmpeg") is None:
         print("SKIP: ffmpeg is missing (scripts/install-deps.sh --with-test-tools)")
         return 77
-    server = sys.argv[1]
-    started = time.monotonic()
-    work = tempfile.mkdtemp(prefix="myriad-players-")
-    process = subprocess.Popen([server, "--host", "127.0.0.1", "--port", "0", "--lights", "8",
-                                "--validate"], stdout=subprocess.PIPE,
-                               stderr=open(os.path.join(work, "server.log"), "wb"))
+    server = Server(sys.argv[1], "myriad-players-")
+    work, port = server.work, server.port
     try:
-        m = re.search(r"listening on http://127\.0\.0\.1:(\d+)", process.stdout.readline().decode())
-        if not check(m is not None, "the server did not start"):
+        if port is None:
             return 1
-        port = int(m.group(1))
         base = f"http://127.0.0.1:{port}"
         size = f"width={WIDTH}&height={HEIGHT}&fps={FPS}"
         frame_bytes = WIDTH * HEIGHT * 3
@@ -186,21 +155,8 @@ def main():
         messages = json.loads(body)["validation"]["messages"]
         check(messages == 0, f"the server logged {messages} validation messages")
     finally:
-        process.terminate()
-        try:
-            check(process.wait(30) == 0, "the server did not exit 0 on SIGTERM")
-        except subprocess.TimeoutExpired:
-            process.kill()
-        if failures:
-            with open(os.path.join(work, "server.log"), "rb") as f:
-                print("--- server stderr (end) ---\n" + f.read()[-3000:].decode(errors="replace"))
-        shutil.rmtree(work, ignore_errors=True)
-    print(f"total {time.monotonic() - started:.1f} s")
-    if failures:
-        print(f"{len(failures)} failure(s)")
-        return 1
-    print("PASS")
-    return 0
+        server.stop()
+    return server.verdict()
 
 
 if __name__ == "__main__":

@@ -11,70 +11,36 @@ frame 4 only, index 3 none; a spec with a bad camera is refused with a sentence 
 
 Usage: batch_test.py MYRIAD_SERVER. Exit 0 pass, 1 fail.
 """
-import http.client
 import json
 import os
-import re
-import shutil
 import subprocess
 import sys
-import tempfile
 import time
 
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
+from server_script import Server, check, request  # noqa: E402 (tests/server_script.py)
+
 QUERY = "width=64&height=48&format=png"
-failures = []
-
-
-def check(condition, message):
-    if not condition:
-        failures.append(message)
-        print("FAIL: " + message, flush=True)
-    return condition
-
-
-def request(port, method, path, body=None, token=None):
-    c = http.client.HTTPConnection("127.0.0.1", port, timeout=120)
-    headers = {}
-    if token:
-        headers["Authorization"] = "Bearer " + token
-    data = None
-    if body is not None:
-        data = json.dumps(body).encode()
-        headers["Content-Type"] = "application/json"
-    elif method in ("POST", "PUT", "PATCH"):
-        data = b""
-    c.request(method, path, body=data, headers=headers)
-    r = c.getresponse()
-    payload = r.read()
-    c.close()
-    return r.status, payload
-
-
 def main():
     server = sys.argv[1]
-    started = time.monotonic()
-    work = tempfile.mkdtemp(prefix="myriad-batch-")
-    process = subprocess.Popen([server, "--host", "127.0.0.1", "--port", "0", "--lights", "8",
-                                "--validate"], stdout=subprocess.PIPE,
-                               stderr=open(os.path.join(work, "server.log"), "wb"))
+    running = Server(server, "myriad-batch-")
+    work, port = running.work, running.port
     try:
-        m = re.search(r"listening on http://127\.0\.0\.1:(\d+)", process.stdout.readline().decode())
-        if not check(m is not None, "the server did not start"):
+        if port is None:
             return 1
-        port = int(m.group(1))
 
-        status, body = request(port, "POST", "/v1/sessions")
+        status, _, body = request(port, "POST", "/v1/sessions")
         check(status == 201, f"POST /v1/sessions -> {status}")
         created = json.loads(body)
         path, token = "/v1/sessions/" + created["id"], created["token"]
         light = {"position": [0.5, 1.2, 0.8], "radius": 5, "color": [1, 0.4, 0.2], "intensity": 6,
                  "falloff": 1}
-        status, _ = request(port, "POST", path + "/lights", {"lights": [light]}, token)
+        status, _, _ = request(port, "POST", path + "/lights", {"lights": [light]}, token)
         check(status == 201, f"POST lights -> {status}")
-        status, _ = request(port, "PATCH", path + "/materials/0",
+        status, _, _ = request(port, "PATCH", path + "/materials/0",
                             {"baseColor": [0.2, 0.7, 0.9], "roughness": 0.35}, token)
         check(status == 200, f"PATCH material -> {status}")
-        status, body = request(port, "GET", path + "/snapshot", None, token)
+        status, _, body = request(port, "GET", path + "/snapshot", None, token)
         check(status == 200, f"GET snapshot -> {status}")
         snapshot = json.loads(body)
 
@@ -103,14 +69,14 @@ def main():
               f"indices 0 and 1 wrote {sorted(os.listdir(out))}")
 
         # The same frames through the HTTP API, from the same snapshot.
-        status, body = request(port, "POST", "/v1/sessions", {"snapshot": snapshot})
+        status, _, body = request(port, "POST", "/v1/sessions", {"snapshot": snapshot})
         check(status == 201, f"POST /v1/sessions with the snapshot -> {status}")
         restored = json.loads(body)
         rpath, rtoken = "/v1/sessions/" + restored["id"], restored["token"]
         for i in range(4):
-            status, _ = request(port, "PUT", rpath + "/camera", cameras[i], rtoken)
+            status, _, _ = request(port, "PUT", rpath + "/camera", cameras[i], rtoken)
             check(status == 200, f"PUT camera {i} -> {status}")
-            status, frame = request(port, "GET", f"{rpath}/frame?{QUERY}", None, rtoken)
+            status, _, frame = request(port, "GET", f"{rpath}/frame?{QUERY}", None, rtoken)
             check(status == 200, f"GET frame {i} -> {status}")
             with open(os.path.join(out, f"frame-{i:06d}.png"), "rb") as f:
                 batch = f.read()
@@ -137,21 +103,8 @@ def main():
         check(r.returncode == 1 and "/cameras/0/fovY" in r.stderr,
               f"bad spec: exit {r.returncode}, stderr {r.stderr[-500:]!r}")
     finally:
-        process.terminate()
-        try:
-            check(process.wait(30) == 0, "the server did not exit 0 on SIGTERM")
-        except subprocess.TimeoutExpired:
-            process.kill()
-        if failures:
-            with open(os.path.join(work, "server.log"), "rb") as f:
-                print("--- server stderr (end) ---\n" + f.read()[-3000:].decode(errors="replace"))
-        shutil.rmtree(work, ignore_errors=True)
-    print(f"total {time.monotonic() - started:.1f} s")
-    if failures:
-        print(f"{len(failures)} failure(s)")
-        return 1
-    print("PASS")
-    return 0
+        running.stop()
+    return running.verdict()
 
 
 if __name__ == "__main__":
