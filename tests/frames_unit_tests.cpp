@@ -371,6 +371,15 @@ TEST_CASE("interactive quality: degraded while changes come, settles, scale foll
   CHECK(quality.scale(Q::Motion::Animated) == doctest::Approx(0.375));
   CHECK(quality.scale(Q::Motion::Steered) == Q::kMinScale);
   CHECK(quality.degrade(full, Q::Motion::Animated).settings.width == 480);
+  // 4% over the budget: a steered frame keeps its scale; an animated one holds the budget as a
+  // ceiling and steps down, and does not go back up while the larger scale's last frame missed.
+  Q steered(20);
+  steered.measured(Q::Motion::Steered, 0.5, milliseconds(26));  // 25 ms budget, 4% over
+  CHECK(steered.scale(Q::Motion::Steered) == Q::kStartScale);
+  quality.measured(Q::Motion::Animated, 0.375, milliseconds(52));
+  CHECK(quality.scale(Q::Motion::Animated) == doctest::Approx(0.3125));
+  quality.measured(Q::Motion::Animated, 0.3125, milliseconds(38));  // 1.32x under, but 0.375 missed
+  CHECK(quality.scale(Q::Motion::Animated) == doctest::Approx(0.3125));
 }
 
 TEST_CASE("stream registry: maxStreams places, a session's newest replaces its oldest, none after shutdown") {

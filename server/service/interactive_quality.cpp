@@ -45,7 +45,10 @@ void InteractiveQuality::measured(Motion motion, double usedScale, Clock::durati
   auto& times = stepTimes_[m];
   times[stepOf(usedScale)] = {ms, ++frames_[m]};
   const double ratio = budgetMs / ms;
-  if (std::abs(ratio - 1.0) <= kTolerance) return;
+  // Steered frames keep their scale within kTolerance of the budget either way; animated ones
+  // hold it as a ceiling (the header says why): any frame over it steps down.
+  const double over = motion == Motion::Animated ? 0.0 : kTolerance;
+  if (ratio >= 1.0 - over && ratio <= 1.0 + kTolerance) return;
   // Pixels go with the square of the scale; half of the way there per frame, so that one odd
   // frame (another session's frame in between, a busy core) does not swing it to a bound.
   const double wanted = usedScale * std::sqrt(ratio);
@@ -57,7 +60,7 @@ void InteractiveQuality::measured(Motion motion, double usedScale, Clock::durati
   while (stepped > usedScale) {
     const StepTime& known = times[stepOf(stepped)];
     const bool recent = known.frame > 0 && frames_[m] - known.frame < kProbeFrames;
-    if (!recent || known.ms <= budgetMs * (1.0 + kTolerance)) break;
+    if (!recent || known.ms <= budgetMs * (1.0 + over)) break;
     stepped -= kScaleStep;
   }
   scales_[m] = stepped;
