@@ -193,6 +193,27 @@ def test_labels_and_stats(session):
     assert stats["frames"] >= 1 and stats["frame"]["width"] == 32
 
 
+def test_semantic_classes_name_the_ids_of_the_semantic_target(session):
+    others = [o["id"] for o in session.all_objects() if o["visible"]]
+    for oid in others:
+        session.patch_object(oid, visible=False)
+    asset = session.assets()[0]["id"]
+    ids = session.add_objects([{"asset": asset, "semantic": "car"},
+                               {"asset": asset, "semantic": "tree", "visible": False}])
+    try:
+        classes = session.semantic_classes()
+        assert {"car", "tree"} <= set(classes) and classes["car"] != classes["tree"]
+        assert session.object(ids[0])["semantic"] == "car"  # an object reads back its name
+        # The only visible object is the car: the semantic-id target holds its class id and 0.
+        mask = session.frame(["semantic-id"], 32, 24)["semantic-id"]
+        assert set(np.unique(mask).tolist()) == {0, classes["car"]}
+    finally:
+        for oid in ids:
+            session.delete_object(oid)
+        for oid in others:
+            session.patch_object(oid, visible=True)
+
+
 def test_events_and_stream(session):
     first = next(session.events(max_events=1))
     assert first["event"] == "version" and first["role"] == "owner"

@@ -384,6 +384,14 @@ class Session:
         return self._json("GET", "/labels", query={"width": width, "height": height,
                                                    "time": time})
 
+    @route("GET /v1/sessions/{id}/labels")
+    def semantic_classes(self) -> Dict[str, int]:
+        """The session's semantic class names and the ids the ``semantic-id`` target holds for
+        them (an object given a class name as its ``semantic`` keeps that id): ``{"car": 1}``.
+        Read from a 1x1 labels answer, which lists every class whatever is in view."""
+        labels = self._json("GET", "/labels", query={"width": 1, "height": 1})
+        return {c["name"]: c["id"] for c in labels.get("classes", [])}
+
     # Camera ------------------------------------------------------------------------------------
 
     @route("GET /v1/sessions/{id}/camera")
