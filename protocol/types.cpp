@@ -303,6 +303,7 @@ void members(Tag<ObjectPatch>, F f) {
   f("node", &ObjectPatch::node);
   f("nodeName", &ObjectPatch::nodeName);
   f("subtree", &ObjectPatch::subtree);
+  f("tree", &ObjectPatch::tree);
 }
 
 template <class F>

@@ -344,6 +344,7 @@ struct ObjectPatch {
   std::optional<Nullable<uint64_t>> node;  // an asset node by index; null: the whole asset
   std::optional<std::string> nodeName;     // or by name (the first of that name)
   std::optional<bool> subtree;  // with a node: also the nodes below it (default) or its own only
+  std::optional<bool> tree;     // POST only: the asset's node tree as objects under this one
 };
 using ObjectNew = ObjectPatch;
 

@@ -341,6 +341,69 @@ TEST_CASE("scene: a glTF node tree is one object per node under one root; a pare
   CHECK(myriad::test::validationMessages(api) == 0);
 }
 
+TEST_CASE("scene: POST .../objects with tree makes an asset's node tree of objects, placed and labelled as asked") {
+  ServerProcess server({"--lights", "4"});
+  requireListening(server);
+  ApiClient api(server);
+  TestSession s = createSession(api);
+  plainScene(api, s);
+  REQUIRE(api.del(s.path() + "/objects/1", s.token).status == 204);  // the built-in scene
+  const std::string aid = addAsset(api, s, parentChildModel(), "tree.gltf")["id"];
+
+  // One item, two objects: the root node's ("body", the item's name and class) and its child's.
+  const std::vector<uint32_t> ids =
+      addObjects(api, s, json::array({{{"asset", aid}, {"tree", true}, {"name", "robot"},
+                                       {"semantic", "robot"}}}));
+  REQUIRE(ids == std::vector<uint32_t>{2, 3});
+  const json root = api.get(s.path() + "/objects/2", s.token).json;
+  const json arm = api.get(s.path() + "/objects/3", s.token).json;
+  CHECK(root["name"] == "robot");
+  CHECK(root["nodeName"] == "body");
+  CHECK(root["parent"].is_null());
+  CHECK(root["transform"]["translation"] == json{-1.0, 1.0, 0.0});  // the node's own, kept
+  CHECK(arm["nodeName"] == "arm");
+  CHECK(arm["parent"] == 2);
+  CHECK(root["semantic"] == "robot");
+  CHECK(arm["semantic"] == "robot");
+  CHECK(arm["bounds"]["min"] == json{0.5, 0.5, 0.0});
+  const std::vector<uint32_t> first = rawIds(api, s, "instance-id");
+  const auto [bodyColumn, bodyPixels] = columnOf(first, 2);
+  const auto [armColumn, armPixels] = columnOf(first, 3);
+  REQUIRE(bodyPixels > 50);
+  REQUIRE(armPixels > 50);
+  CHECK(armColumn > bodyColumn);
+
+  // A second tree moved 0.5 to the right: on top of the root node's own transform, so both of
+  // its objects land 0.5 right of the first tree's (bounds, and about 8.6 px on screen).
+  const std::vector<uint32_t> moved = addObjects(
+      api, s, json::array({{{"asset", aid}, {"tree", true},
+                            {"transform", {{"translation", {0.5, 0, 0}}}}}}));
+  REQUIRE(moved == std::vector<uint32_t>{4, 5});
+  CHECK(api.get(s.path() + "/objects/4", s.token).json["bounds"]["min"] == json{-1.0, 0.5, 0.0});
+  CHECK(api.get(s.path() + "/objects/5", s.token).json["bounds"]["min"] == json{1.0, 0.5, 0.0});
+  REQUIRE(api.patch(s.path() + "/objects/2", R"({"visible": false})", s.token).status == 200);
+  const std::vector<uint32_t> second = rawIds(api, s, "instance-id");
+  CHECK(columnOf(second, 2).second == 0);
+  CHECK(columnOf(second, 3).second == 0);  // hidden with its root
+  CHECK(columnOf(second, 4).first - bodyColumn == doctest::Approx(8.6).epsilon(0.12));
+  CHECK(columnOf(second, 5).first - armColumn == doctest::Approx(8.6).epsilon(0.12));
+
+  // Refused, nothing added: with a node; an asset of one drawn node; and a later item's bad
+  // parent is blamed on that item (1), not on its place among the objects the tree made (2).
+  const std::string box = addAsset(api, s, readFile(kBox), "box.glb")["id"];
+  const auto refused = [&](const json& items, const std::string& pointer) {
+    Reply r = api.post(s.path() + "/objects", json{{"objects", items}}.dump(), s.token);
+    INFO(r.body.substr(0, 400));
+    checkProblem(r, 400, "invalid-body", "POST .../objects", pointer);
+  };
+  refused(json::array({{{"asset", aid}, {"tree", true}, {"node", 0}}}), "/objects/0/tree");
+  refused(json::array({{{"asset", box}, {"tree", true}}}), "/objects/0/tree");
+  refused(json::array({{{"asset", aid}, {"tree", true}}, {{"asset", aid}, {"parent", 999}}}),
+          "/objects/1/parent");
+  CHECK(api.get(s.path() + "/objects", s.token).json["total"] == 4);
+  CHECK(myriad::test::validationMessages(api) == 0);
+}
+
 TEST_CASE("scene: semantic classes by name map to stable ids in labels, targets and snapshots") {
   ServerProcess server({"--lights", "4", "--max-objects", "50"});
   requireListening(server);

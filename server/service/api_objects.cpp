@@ -60,6 +60,70 @@ void resolveNode(const protocol::ObjectPatch& patch, const SceneGraph& graph, Sc
   o.node = int32_t(it - nodes.begin());
 }
 
+// An item asked as its asset's node tree (`tree`: true): the tree's objects from `firstId` on
+// (nodeTreeObjects, as PUT .../model makes them), the item's own members on the root node's
+// object (its transform on top of the root node's own), its class, material and clip on every
+// one. Any other item is itself.
+std::vector<SceneObject> treeOf(const protocol::ObjectPatch& item, SceneObject o,
+                                const SceneGraph& graph, uint32_t firstId, size_t pending,
+                                const std::string& pointer) {
+  if (!item.tree.value_or(false)) return {std::move(o)};
+  if (o.node >= 0) {
+    throw ProblemError(invalidBody(pointer + "/tree",
+                                   "tree makes objects of the whole asset's node tree: it is not "
+                                   "given with node or nodeName."));
+  }
+  const Asset* asset = graph.findAsset(o.asset);
+  if (asset == nullptr) return {std::move(o)};  // SceneGraph::addObjects names the asset
+  const size_t used = graph.objects().size() + pending;
+  const size_t room = graph.maxObjects() > used ? graph.maxObjects() - used : 0;
+  std::vector<SceneObject> tree = nodeTreeObjects(*asset, firstId, o.name, room);
+  if (tree.empty()) {
+    throw ProblemError(invalidBody(
+        pointer + "/tree",
+        "Asset " + quoteClientText(o.asset) + " (" + std::to_string(asset->scene->nodes.size()) +
+            " nodes) makes no node tree of objects: that needs at least two nodes with meshes, "
+            "no skins, and no more nodes than the " + std::to_string(room) +
+            " objects the session has room for."));
+  }
+  SceneObject& root = tree.front();
+  const glm::mat4 own = root.transform.local();
+  const glm::mat4 asked = o.transform.local();
+  if (asked != glm::mat4(1.0f)) {
+    if (own == glm::mat4(1.0f)) {
+      root.transform = o.transform;
+    } else {
+      root.transform = ObjectTransform{};
+      root.transform.matrix = asked * own;
+    }
+  }
+  root.parent = o.parent;
+  root.visible = o.visible;
+  for (SceneObject& part : tree) {
+    part.material = o.material;
+    part.semantic = o.semantic;
+    part.semanticClass = o.semanticClass;
+    part.clip = o.clip;
+    part.loop = o.loop;
+  }
+  return tree;
+}
+
+// A problem SceneGraph::addObjects blamed on `/objects/N...`, N counting placed objects, told of
+// the request's item N came from (a tree item places several).
+Problem renumberedItem(Problem problem, const std::vector<size_t>& itemOf) {
+  constexpr std::string_view kPrefix = "/objects/";
+  if (!problem.pointer || !problem.pointer->starts_with(kPrefix)) return problem;
+  const std::string& pointer = *problem.pointer;
+  size_t end = kPrefix.size();
+  while (end < pointer.size() && pointer[end] >= '0' && pointer[end] <= '9') ++end;
+  if (end == kPrefix.size() || end - kPrefix.size() > 9) return problem;
+  const size_t placed = std::stoul(pointer.substr(kPrefix.size(), end - kPrefix.size()));
+  if (placed >= itemOf.size()) return problem;
+  problem.pointer = std::string(kPrefix) + std::to_string(itemOf[placed]) + pointer.substr(end);
+  return problem;
+}
+
 // ---- Assets.
 
 void listAssets(ApiContext& context, const httplib::Request& req, httplib::Response& res) {
@@ -181,8 +245,25 @@ void addObjects(ApiContext& context, const httplib::Request& req, httplib::Respo
         if (a != nullptr) o.name = a->source;
       }
     }
-    uploaded = context.renderThread.replaceScene(
-        session->sceneId, session->scene.addObjects(std::move(objects), &ids));
+    std::vector<SceneObject> placed;
+    std::vector<size_t> itemOf;  // placed object -> the request's item it came from
+    placed.reserve(objects.size());
+    for (size_t i = 0; i < objects.size(); ++i) {
+      const SceneGraph& graph = session->scene.graph();
+      for (SceneObject& o : treeOf(body.objects[i], std::move(objects[i]), graph,
+                                   graph.nextObjectId() + uint32_t(placed.size()), placed.size(),
+                                   "/objects/" + std::to_string(i))) {
+        placed.push_back(std::move(o));
+        itemOf.push_back(i);
+      }
+    }
+    std::shared_ptr<const scene::Scene> scene;
+    try {
+      scene = session->scene.addObjects(std::move(placed), &ids);
+    } catch (const ProblemError& e) {
+      throw ProblemError(renumberedItem(e.problem(), itemOf));
+    }
+    uploaded = context.renderThread.replaceScene(session->sceneId, std::move(scene));
     total = session->scene.graph().objects().size();
     session->bump();
   }
