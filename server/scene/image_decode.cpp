@@ -1,8 +1,9 @@
 // PNG through libpng's simplified API and JPEG through TurboJPEG: both already linked by the server
 // for its own output (server/encode), both read the header alone first (png_image_begin_read_*,
 // tjDecompressHeader3), so the size is checked before anything is decoded, and both report errors
-// by return value rather than by aborting. Debian's stb_image would be one more package doing
-// the same with less-exercised decoders.
+// by return value rather than by aborting; stb_image's decoders of those two are less exercised.
+// The formats neither reads (TGA, BMP, GIF) go to stb_image (image_decode_stb.h), header first
+// as well.
 #include "scene/image_decode.h"
 
 #include <png.h>
@@ -11,8 +12,10 @@
 #include <algorithm>
 #include <cstring>
 #include <memory>
+#include <optional>
 #include <string>
 
+#include "scene/image_decode_stb.h"
 #include "scene/model_loader.h"
 
 namespace myriad::scene {
@@ -25,7 +28,12 @@ using Kind = ModelLoadError::Kind;
   throw ModelLoadError(sentence, kind);
 }
 
-std::string quoted(std::string_view name) { return "'" + std::string(name) + "'"; }
+std::string quoted(std::string_view name) {
+  std::string out(1, '\'');
+  out.append(name);
+  out += '\'';
+  return out;
+}
 
 std::string mebibytes(uint64_t bytes) { return std::to_string(bytes >> 20) + " MiB"; }
 
@@ -118,7 +126,12 @@ Image decodeImage(std::string_view bytes, std::string_view name, const ImageLimi
     return decodeJpeg(bytes, name, limits, budgetBytes);
   }
   if (bytes.empty()) refuse("the image " + quoted(name) + " is empty", Kind::parse);
-  refuse("the image " + quoted(name) + " is neither PNG nor JPEG (the formats this server decodes)",
+  if (const std::optional<StbHeader> header = stbHeader(bytes)) {
+    checkSize(header->width, header->height, name, limits, budgetBytes);
+    return stbDecode(bytes, name, *header);
+  }
+  refuse("the image " + quoted(name) +
+             " is none of PNG, JPEG, TGA, BMP and GIF (the formats this server decodes)",
          Kind::unsupported);
 }
 

@@ -1,4 +1,4 @@
-// Decoding a model's texture images (PNG, JPEG) from untrusted bytes. Runs only in the loader child
+// Decoding a model's texture images (PNG, JPEG, TGA, BMP, GIF) from untrusted bytes. Runs only in the loader child
 // (loader/child.cpp), under its memory and CPU limits, but bounds its own work first: the size is
 // read from the image's header and checked against the limits before a pixel is decoded or a byte
 // reserved, so a 30,000 x 30,000 PNG of a few hundred bytes is refused without allocating.
@@ -20,7 +20,8 @@ struct ImageLimits {
   uint32_t maxImages = 256;                    // distinct images one model uses
 };
 
-// Decodes a PNG or JPEG (told apart by their signatures) to RGBA8, rows top first, no colour
+// Decodes a PNG or JPEG (told apart by their signatures), else a TGA, BMP or GIF's first frame
+// (stb_image's readers, which know their own headers) to RGBA8, rows top first, no colour
 // conversion (base colour maps stay sRGB-encoded, data maps linear: the renderer picks the view).
 // `budgetBytes` is what is left of ImageLimits::maxDecodedBytes for this model; `name` names the
 // image in messages. Throws ModelLoadError: Kind::tooLarge over a dimension or the budget,

@@ -10,8 +10,8 @@ that no corpus binaries live in the repository. One directory per harness under 
   fuzz_cli_multipart  frame streams as the server sends them
   fuzz_upload_files   zip archives and file sets of real models with the files they refer to
   fuzz_hdr            Radiance .hdr files: flat and run-length encoded scanlines, XYZE, tiny, cut short
-  fuzz_texture        the PNG and JPEG textures of /usr/share/assimp/models under 200 KB, and a
-                      few cut short or with a huge header size
+  fuzz_texture        the PNG, JPEG, TGA, BMP and GIF textures of /usr/share/assimp/models
+                      under 200 KB, a few cut short or with a huge header size, tiny GIF and TGA, a PSD (refused)
   fuzz_model          small models of /usr/share/assimp/models per format, zips of multi-file
                       models, and with --large also bigger ones and DamagedHelmet (geometry)
 
@@ -284,7 +284,7 @@ def hdr_files(out):
 def textures(out):
     d = out / "fuzz_texture"
     count = 0
-    for pattern in ("*.png", "*.jpg", "*.jpeg", "*.JPG"):
+    for pattern in ("*.png", "*.jpg", "*.jpeg", "*.JPG", "*.tga", "*.bmp", "*.gif", "*.psd"):
         for path in sorted(MODELS.rglob(pattern)):
             data = path.read_bytes()
             if len(data) > 200 * 1024:
@@ -300,7 +300,15 @@ def textures(out):
     png = (b"\x89PNG\r\n\x1a\n" + struct.pack(">I", 13) + ihdr +
            struct.pack(">I", zlib.crc32(ihdr) & 0xFFFFFFFF))
     write(d, "huge-header.png", png)
-    return count + 1
+    # The formats stb_image reads (image_decode_stb.cpp), tiny: a 2 x 1 GIF (two colours, LZW
+    # codes clear 0 1 end), a run-length TGA, and a raw-plane RGB PSD (refused: no PSD reader).
+    write(d, "two.gif", b"GIF89a\x02\x00\x01\x00\x80\x00\x00\xff\x00\x00\x00\x00\xff"
+                        b"\x2c\x00\x00\x00\x00\x02\x00\x01\x00\x00\x02\x02\x44\x0a\x00\x3b")
+    write(d, "two.psd", b"8BPS" + struct.pack(">H6xHIIHH", 1, 3, 1, 2, 8, 3) + bytes(12) +
+                        b"\x00\x00" + bytes([10, 11, 20, 21, 30, 31]))
+    write(d, "rle.tga", bytes([0, 0, 10] + [0] * 9) + struct.pack("<HHBB", 2, 1, 24, 0) +
+                        b"\x81\x10\x20\x30")
+    return count + 4
 
 
 def main():

@@ -1,5 +1,6 @@
 // The texture decoder the loader child runs on a model's images (server/scene/image_decode.h:
-// PNG through libpng's simplified API, JPEG through libturbojpeg), with limits small enough that
+// PNG through libpng's simplified API, JPEG through libturbojpeg, TGA, BMP and GIF through
+// stb_image), with limits small enough that
 // libFuzzer's inputs reach them, as real models reach the real ones.
 //
 // Input: the bytes of one image file.
