@@ -2,7 +2,8 @@
 #extension GL_GOOGLE_include_directive : require
 // Tiled deferred lighting (Andersson 2011; Lauritzen 2010) in one dispatch: each 16x16 workgroup
 // finds its tile's depth range, culls every light against the tile's frustum into shared memory,
-// then shades its pixels (sun + ambient + the tile's lights) into the HDR target.
+// then shades its pixels (sun + ambient + the tile's lights) into the HDR target; a tile with
+// more lights than its list holds shades them a full list at a time, dropping none.
 #include "frame.glsl"
 #include "compute_targets.glsl"
 
@@ -10,8 +11,12 @@ layout(local_size_x = MYRIAD_TILE_SIZE, local_size_y = MYRIAD_TILE_SIZE) in;
 
 shared uint tileMinDepthBits;
 shared uint tileMaxDepthBits;
-shared uint tileLightCount;
+shared uint tileLightCount;  // in tileLights now
+shared uint tileLightTotal;  // culled into the tile's lists so far
 shared uint tileLights[MYRIAD_TILE_MAX_LIGHTS];
+#if MYRIAD_TILE_MAX_LIGHTS < MYRIAD_TILE_SIZE * MYRIAD_TILE_SIZE
+#error "a tile's list must hold at least one batch of lights (one per invocation)"
+#endif
 
 // Direction through an NDC point in view space (the camera looks down -z).
 vec3 viewRay(vec2 ndc) {
@@ -26,6 +31,7 @@ void main() {
     tileMinDepthBits = floatBitsToUint(1.0);
     tileMaxDepthBits = 0u;
     tileLightCount = 0u;
+    tileLightTotal = 0u;
   }
   barrier();
 
@@ -56,8 +62,15 @@ void main() {
     if (dot(planes[i], centre) < 0.0) planes[i] = -planes[i];
   }
 
+  // Lights are culled 256 at a time (one per invocation) into the tile's list; before a batch
+  // that might not fit, the list so far is shaded and emptied, so a tile of any light count
+  // drops none: its pixels add up every light that reaches them, a list at a time.
+  const uint kBatch = MYRIAD_TILE_SIZE * MYRIAD_TILE_SIZE;
   uint lightCount = frame.flags.y;
-  for (uint base = 0u; base < lightCount; base += MYRIAD_TILE_SIZE * MYRIAD_TILE_SIZE) {
+  vec3 color = onScreen ? backgroundRadiance(pixel) : vec3(0.0);
+  if (hasSurface) color = sunAndAmbient(s);
+  uint reached = 0u;
+  for (uint base = 0u; base < lightCount; base += kBatch) {
     uint index = base + local;
     if (tileHasSurface && index < lightCount) {
       vec4 light = lights[index].positionRadius;
@@ -66,36 +79,34 @@ void main() {
       // Conservative: a sphere touching the tile's frustum between its depths is kept.
       bool inside = -c.z + r > zNear && -c.z - r < zFar;
       for (int i = 0; i < 4; ++i) inside = inside && dot(planes[i], c) > -r;
-      if (inside) {
-        uint slot = atomicAdd(tileLightCount, 1u);
-        if (slot < MYRIAD_TILE_MAX_LIGHTS) tileLights[slot] = index;
+      if (inside) tileLights[atomicAdd(tileLightCount, 1u)] = index;
+    }
+    barrier();
+    // The same for every invocation: read between two barriers (the next batch adds to it).
+    uint listed = tileLightCount;
+    barrier();
+    if (base + kBatch >= lightCount || listed + kBatch > MYRIAD_TILE_MAX_LIGHTS) {
+      if (hasSurface) {
+        for (uint i = 0u; i < listed; ++i) {
+          uint light = tileLights[i];
+          if (lightReaches(s, light)) {
+            color += shadeLight(s, light);
+            ++reached;
+          }
+        }
       }
+      barrier();  // every invocation has read the list before it is emptied
+      if (local == 0u) {
+        tileLightTotal += listed;
+        tileLightCount = 0u;
+      }
+      barrier();
     }
   }
-  barrier();
 
-  uint listed = min(tileLightCount, uint(MYRIAD_TILE_MAX_LIGHTS));
-  if (local == 0 && tileHasSurface) {
-    atomicMax(stats.totals.z, tileLightCount);
-    if (tileLightCount > MYRIAD_TILE_MAX_LIGHTS) {
-      atomicAdd(stats.overflow.x, 1u);
-      atomicAdd(stats.overflow.y, tileLightCount - MYRIAD_TILE_MAX_LIGHTS);
-    }
-  }
+  if (local == 0u && tileHasSurface) atomicMax(stats.totals.z, tileLightTotal);
   if (!onScreen) return;
-  vec3 color = backgroundRadiance(pixel);
-  uint reached = 0u;
-  if (hasSurface) {
-    color = sunAndAmbient(s);
-    for (uint i = 0u; i < listed; ++i) {
-      uint index = tileLights[i];
-      if (lightReaches(s, index)) {
-        color += shadeLight(s, index);
-        ++reached;
-      }
-    }
-    color = withLocalShadows(s, color);
-  }
+  if (hasSurface) color = withLocalShadows(s, color);
   imageStore(hdrOut, pixel, vec4(color, 1.0));
   imageStore(lightCountOut, pixel, vec4(float(reached)));
 }
