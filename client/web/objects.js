@@ -164,6 +164,7 @@ export class ObjectsPanel {
     if (!o || this.pending) return;
     $('object-editor-title').textContent = `Object #${o.id}: ${o.name}`;
     this.parts = transformParts(o.transform);
+    this.baseTransform = o.transform;  // what the fields show, as the server sent it
     this.partsOf = o.id;
     for (const [part, prefix] of Object.entries(FIELDS)) {
       AXES.forEach((axis, i) => {
@@ -230,10 +231,14 @@ export class ObjectsPanel {
     // typed must be the one that stays.
     this.edits = this.edits.then(async () => {
       try {
-        const object = await this.api.patch(this.api.sessionPath(`/objects/${id}`),
-                                            {transform: {translation, rotation, scale}}, true);
-        --this.pending;
+        // Over the transform the fields were made from: the server's, as the editor last showed
+        // it or as the edit before this one left it.
+        const object = await this.patchTransform(id, this.baseTransform,
+                                                 {translation, rotation, scale});
+        this.baseTransform = object.transform;
         this.replace(object);
+        --this.pending;
+        this.showEditor();
       } catch (e) {
         --this.pending;
         this.onProblem(e);
@@ -241,6 +246,29 @@ export class ObjectsPanel {
       }
     });
     await this.edits;
+  }
+
+  // The whole transform, but only over the one the editor showed: the object is read again with
+  // the session's ETag, and a transform changed elsewhere meanwhile (another page, a script, an
+  // event not yet seen here) stops the edit, which says so (the fields then show the object as it
+  // is); the PATCH is conditional on that ETag (If-Match), so nothing lands between the read and
+  // the write unseen. A 412 from an unrelated edit reads again. The object as the server has it.
+  async patchTransform(id, shown, transform) {
+    const path = this.api.sessionPath(`/objects/${id}`);
+    for (let attempt = 1; ; ++attempt) {
+      const {body: current, etag} = await this.api.request('GET', path, {tagged: true});
+      if (shown && JSON.stringify(current.transform) !== JSON.stringify(shown)) {
+        this.replace(current);
+        throw new Error(`Object #${id} was moved elsewhere while you edited it: your change was ` +
+                        'not applied; the fields show the object as it is now.');
+      }
+      try {
+        return await this.api.request('PATCH', path, {
+          json: {transform}, ifMatch: etag, headers: {'X-Myriad-Interaction': 'end'}});
+      } catch (e) {
+        if (e.status !== 412 || attempt === 3) throw e;
+      }
+    }
   }
 
   async setVisible(id, visible) {

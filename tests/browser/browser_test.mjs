@@ -326,6 +326,21 @@ try {
     near(turned.transform.rotation, [0, Math.SQRT1_2, 0, Math.SQRT1_2], 'the rotation of 90 degrees about y');
     near(turned.transform.translation, moved, 'the translation after the rotation edit');
     near(turned.transform.scale, [0.02, 0.02, 0.02], 'the scale after the rotation edit');
+    // Moved elsewhere (a script, as another page would): the editor shows the move, and an edit
+    // typed afterwards lands over it (its conditional PATCH keeps the script's translation).
+    const elsewhere = [moved[0] - 0.75, moved[1], moved[2] + 0.5];
+    check((await api('PATCH', `/v1/sessions/${sessionId}/objects/${oid}`,
+                     {token, json: {transform: {translation: elsewhere}}})).status === 200,
+          'the script\'s PATCH of the object');
+    await until('the editor to show the move made elsewhere', async () =>
+        (await fields('t')).every((v, i) => Math.abs(v - elsewhere[i]) < 1e-4));
+    await page.fill('#object-sy', '0.03');
+    await page.press('#object-sy', 'Tab');
+    const both = await until('GET objects/{oid} to show scale 0.03', async () => {
+      const o = await object();
+      return o.transform.scale.every((v) => Math.abs(v - 0.03) < 1e-6) ? o : null;
+    });
+    near(both.transform.translation, elsewhere, 'the translation made elsewhere, after the scale edit');
     // Its world bounds moved with it: their centre is near the new translation (the spider's
     // own centre is off its origin by (-17, -2, -10) m, 0.02 of that here).
     const centre = turned.bounds.min.map((v, i) => (v + turned.bounds.max[i]) / 2);
