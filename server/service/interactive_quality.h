@@ -55,9 +55,10 @@ class InteractiveQuality {
   // Animated frames come back to back, so the stream shows about 1 / frame time: a scale held
   // within kTolerance around the budget showed the rate within 15% around it, half the time
   // below (the page's animated 11.8 fps against its 12 on lavapipe, docs/performance.md). So
-  // for animation the budget is a ceiling: a frame over it steps the scale down, and a scale is
-  // tried again upwards only where its last frame fitted (kProbeFrames); the rate then stays at
-  // or above the target, at a scale about a step smaller.
+  // for animation the budget is a ceiling on a frame's cost as shown (its render and encode plus
+  // the write and the loop's turn before it: stream.cpp measures both): a frame over it steps
+  // the scale down, and a scale is tried again upwards only where its last frame fitted
+  // (kProbeFrames); the rate then stays at or above the target, at a scale about a step smaller.
   // An interactive frame's share of 1 / FPS: the rest is the wait for the change, the write and
   // the client's input, requests and decode. Half: on a CPU renderer a frame's wall time is all
   // of the machine's cores, and a client on the same machine (the web client on lavapipe) needs

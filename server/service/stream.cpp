@@ -58,6 +58,10 @@ struct StreamState {
   std::optional<InteractiveQuality> quality;
   uint64_t seenVersion = 0;      // the session version last seen, to time its changes
   bool lastInteractive = false;  // the last frame sent was an interactive one
+  // When the last animated interactive frame was collected: the next one's cost as the viewer
+  // sees it adds the time from there to its submission (the write, the loop), since animated
+  // frames follow each other with nothing to wait for. Unset after any other frame.
+  std::optional<Clock::time_point> animatedCollectedAt;
   std::string interactiveScale;  // its render scale, as its part's X-Myriad-Interactive says
 
   // Video streams (request.video): the stream's place in its SharedFrames channel, whose encoder
@@ -254,6 +258,7 @@ bool StreamState::next(httplib::DataSink& sink) {
         // which a shared render cannot (it would keep each stream's own frames in flight).
         // Video streams always share (their channel's encoder needs every frame in order).
         const bool pipelined = animate && (ahead || lastFrameTook >= interval);
+        if (!moving || motion != InteractiveQuality::Motion::Animated) animatedCollectedAt.reset();
         if (moving) {
           // A cheaper frame of the stream's own (its size is its own, so it is not shared); a
           // full frame submitted ahead is given up first (it would arrive slow and full).
@@ -262,7 +267,16 @@ bool StreamState::next(httplib::DataSink& sink) {
           PendingSessionFrame pending = submitSessionFrame(
               context, session, quality->degrade(request, motion), render::FrameSource::Stream);
           SessionFrame own = collectSessionFrame(context, session, pending);
-          quality->measured(motion, scale, Clock::now() - pending.submitted);
+          const Clock::time_point collected = Clock::now();
+          Clock::duration cost = collected - pending.submitted;
+          // A gap longer than the frame itself is the fps limit's wait, not the write: left out.
+          if (motion == InteractiveQuality::Motion::Animated && animatedCollectedAt &&
+              pending.submitted - *animatedCollectedAt < cost) {
+            cost += pending.submitted - *animatedCollectedAt;
+          }
+          quality->measured(motion, scale, cost);
+          animatedCollectedAt.reset();
+          if (motion == InteractiveQuality::Motion::Animated) animatedCollectedAt = collected;
           // An interaction that ended while this part rendered (the drag released, the slider
           // let go) leaves it a picture nobody needs: its still is next. Not sent, so the client
           // does not decode it on the cores the still renders on, nor hold the still behind it.
