@@ -17,7 +17,8 @@
 // 8x4-pixel block (8: 4x2).
 //
 // Then each subgroup walks its pixels' segments one at a time, the pixels of that segment
-// together, in one of two ways (kVariant: MYRIAD_SHADE_* bits, docs/performance.md, "stop 16"):
+// together, in one of two ways (kVariant: MYRIAD_SHADE_* bits; bench/history/
+// performance-2026-11-to-12.md, "stop 16"):
 // - per pixel, a light a step, every lane the same light: short segments (kShortFrom);
 // - the mask walk: chunks of a subgroup's size, a light per lane, tested against the box of the
 //   subgroup's surface points; lights holding the whole box reach every pixel and are stepped
@@ -65,8 +66,8 @@ const uint kNarrowLoads = 4u;
 layout(local_size_x = MYRIAD_CLUSTER_SHADE_TILE * MYRIAD_CLUSTER_SHADE_TILE) in;
 
 // kVariant without kMaskWalk: segments longer than this the subgroup walks by ballot over the
-// union (on the H200 ballot from 0 / 128 / 256 / never: docs/performance.md, "clustered shading
-// walked per subgroup").
+// union (on the H200 ballot from 0 / 128 / 256 / never: bench/history/
+// performance-2026-11-to-12.md, "clustered shading walked per subgroup").
 const uint kBallotFrom = 256u;
 
 // lightReaches and shadeLightAt for light `index` whose position and radius the caller holds

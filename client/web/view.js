@@ -62,7 +62,7 @@ const LAST_RETRY_MS = 10000;
 // The video codecs the page can ask for, with the WebCodecs codec string of the server's encoder.
 const VIDEO_CODECS = {vp8: 'vp8', vp9: 'vp09.00.10.08'};
 // VP9: better pictures than VP8 at the same bitrate, and an encoder whose threads do not spin
-// (docs/performance.md, "Stream bandwidth").
+// (bench/history/performance-2026-11-to-12.md, "Stream bandwidth").
 const DEFAULT_CODEC = 'vp9';
 
 export class LiveView {

@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
-# The live view's bandwidth, encode time, quality and latency (docs/performance.md, "Stream
-# bandwidth"): starts myriad-server on a free port, runs myriad-stream-bandwidth against it (JPEG, then
-# VP8 and VP9 streams of one session with N animated lights) and prints the bench's JSON.
+# The live view's bandwidth, encode time, quality and latency (bench/history/
+# performance-2026-11-to-12.md, "Stream bandwidth"): starts myriad-server on a free port, runs
+# myriad-stream-bandwidth against it (JPEG, then VP8 and VP9 streams of one session with N
+# animated lights) and prints the bench's JSON.
 #
 #   server/bench/stream_bandwidth.sh SERVER_COMMAND BENCH_COMMAND [bench options...]
 #   e.g. server/bench/stream_bandwidth.sh build/release/server/myriad-server \

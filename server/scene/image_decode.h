@@ -12,7 +12,7 @@
 
 namespace myriad::scene {
 
-// The limits every model's images are held to (docs/ARCHITECTURE.md, "Loader limits"). Over one,
+// The limits every model's images are held to (docs/ARCHITECTURE.md, "Texture images"). Over one,
 // the model is refused with a ModelLoadError of Kind::tooLarge naming the limit (a 422 problem).
 struct ImageLimits {
   uint32_t maxDimension = 8192;                // width and height, each

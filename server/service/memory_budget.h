@@ -3,7 +3,7 @@
 // and readback, a million generated lights) reserves its estimated peak first. A reservation
 // waits while others' would take the process past the limit and fails with 503 + Retry-After when
 // they do not finish in time, or with 413 when it could never fit. The estimates come from
-// measured peaks (docs/performance.md, "Memory of one request"); the process's resident memory
+// measured peaks (docs/ARCHITECTURE.md, "Host memory"); the process's resident memory
 // now, read at each reservation, covers what the estimates leave out (scenes, caches), so a
 // session's kept memory counts against everyone's room.
 #pragma once

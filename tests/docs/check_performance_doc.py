@@ -110,6 +110,49 @@ def problems(root):
             if doc.get("transcribed_from_history") is not True or missing:
                 out.append(f"bench/results/transcribed/{name}: needs \"transcribed_from_history\": "
                            f"true and date, device, command, source (missing: {missing})")
+    out.extend(section_citations(root))
+    return out
+
+
+# A code comment citing a section of a document by name (`docs/performance.md, "PNG encoding"`):
+# the document must have it, as a heading (or, in ARCHITECTURE.md, a bold lead-in), so that a
+# figure moved to bench/history/ is not cited where it no longer is.
+CITATION = re.compile(r'((?:docs|bench/history)/[\w.-]+\.md)[,:]?\s*"([^"\n]+)"')
+CITING = ("server", "client", "tests", "scripts", "shaders")
+SOURCE = (".cpp", ".h", ".js", ".mjs", ".py", ".sh", ".comp", ".glsl", ".txt")
+
+
+def section_citations(root):
+    out, names = [], {}
+    for top in CITING:
+        for base, dirs, files in os.walk(os.path.join(root, top)):
+            dirs[:] = [d for d in dirs if d not in ("node_modules", "__pycache__")]
+            for name in files:
+                if not name.endswith(SOURCE):
+                    continue
+                path = os.path.join(base, name)
+                try:
+                    with open(path, encoding="utf-8") as f:
+                        text = f.read()
+                except (OSError, UnicodeDecodeError):
+                    continue
+                # Comments wrap: a citation may run over a line break and the comment marker.
+                flat = re.sub(r"\n\s*(//|#|\*)?\s*", " ", text)
+                for doc, section in CITATION.findall(flat):
+                    if doc not in names:
+                        try:
+                            with open(os.path.join(root, doc), encoding="utf-8") as f:
+                                body = f.read()
+                        except OSError:
+                            body = None
+                        names[doc] = None if body is None else [
+                            l.lower() for l in body.split("\n")
+                            if l.startswith("#") or l.lstrip("- ").startswith("**")]
+                    rel = os.path.relpath(path, root)
+                    if names[doc] is None:
+                        out.append(f"{rel}: cites {doc}, which does not exist")
+                    elif not any(section.lower() in l for l in names[doc]):
+                        out.append(f"{rel}: cites {doc} \"{section}\", which has no such section")
     return out
 
 
