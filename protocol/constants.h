@@ -326,6 +326,15 @@ inline constexpr std::string_view kNone = environment_modes::kNone;  // the imag
 inline constexpr std::string_view kFxaa = "fxaa";  // a luminance-edge post-process (compute)
 }  // namespace antialias_modes
 inline constexpr std::array kAntialiasModes = {antialias_modes::kNone, antialias_modes::kFxaa};
+// How local lights cast shadows (settings "shadows.local"): render::LocalShadows is an index
+// into kLocalShadowModes; defs.schema.json's localShadows enum mirrors it.
+namespace local_shadow_modes {
+inline constexpr std::string_view kNone = environment_modes::kNone;  // local lights unshadowed
+inline constexpr std::string_view kMaps = "maps";  // the budgeted shadow maps (maxShadowedLights)
+inline constexpr std::string_view kStochastic = "stochastic";  // every light: sampled, ray traced
+}  // namespace local_shadow_modes
+inline constexpr std::array kLocalShadowModes = {local_shadow_modes::kNone, local_shadow_modes::kMaps,
+                                                 local_shadow_modes::kStochastic};
 // What a frame shows: ?target=, GET /v1/info "targets", X-Myriad-Target. In render::Target's order
 // (which the shaders' MYRIAD_VIEW_* values follow): the final image, then G-buffer and debug views.
 inline constexpr std::array<std::string_view, 17> kTargets = {

@@ -108,6 +108,7 @@ void patchMembers(Tag<ShadowsPatch>, F f) {
   f("sun", &Shadows::sun, &ShadowsPatch::sun);
   f("mapSize", &Shadows::mapSize, &ShadowsPatch::mapSize);
   f("maxShadowedLights", &Shadows::maxShadowedLights, &ShadowsPatch::maxShadowedLights);
+  f("local", &Shadows::local, &ShadowsPatch::local);
 }
 
 template <class F>

@@ -78,12 +78,16 @@ struct Shadows {
   // Local lights asking for shadows that get a map in a frame, at most. The server always sends
   // it; a body may leave it out (a snapshot from before local shadows): the default then.
   std::optional<uint32_t> maxShadowedLights;
+  // local_shadow_modes:: "none" | "maps" | "stochastic". The server always sends it; a body may
+  // leave it out (a snapshot from before it): "maps" then.
+  std::optional<std::string> local;
 };
 
 struct ShadowsPatch {
   std::optional<bool> sun;
   std::optional<uint32_t> mapSize;
   std::optional<uint32_t> maxShadowedLights;
+  std::optional<std::string> local;
 };
 
 struct Settings {

@@ -372,7 +372,13 @@ MYRIAD_STRUCT(FrameUniforms) {
   // The shadowed lights' indices into the light buffer, four per uvec4 (slot i: [i / 4][i % 4]).
   uvec4 shadowedLightIndex[MYRIAD_MAX_SHADOWED_LIGHTS / 4];
   GpuLightShadow lightShadow[MYRIAD_MAX_SHADOWED_LIGHTS];
+  // Stochastic local shadows (render/stochastic_shadows.h): x the frame's random seed, y the
+  // candidates a pixel draws (tuning), z MYRIAD_STOCHASTIC_* bits (0: off), w the shadow ray's
+  // offset off the surface (float bits, world units).
+  uvec4 stochastic;
 };
+#define MYRIAD_STOCHASTIC_ON 1u
+#define MYRIAD_STOCHASTIC_TRACE_SUN 2u  // the sun casts shadows: traced too (no map is drawn)
 
 // The shadow pass's push constant: world -> the light's clip space.
 MYRIAD_STRUCT(ShadowPush) {

@@ -1400,6 +1400,15 @@ TEST_CASE("api: lights ask for shadows; maxShadowedLights is bounded; stats name
   Reply patched = api.patch(settings, R"({"shadows": {"maxShadowedLights": 1}})", s.token);
   REQUIRE(patched.status == 200);
   CHECK(patched.json["shadows"]["maxShadowedLights"] == 1);
+  // shadows.local: maps by default; a name of local_shadow_modes, or a 400 naming the member.
+  CHECK(current.json["shadows"]["local"] == "maps");
+  checkProblem(api.patch(settings, R"({"shadows": {"local": "raytraced"}})", s.token), 400,
+               "invalid-body", "raytraced", std::string("/shadows/local"));
+  Reply traced = api.patch(settings, R"({"shadows": {"local": "stochastic"}})", s.token);
+  REQUIRE(traced.status == 200);
+  CHECK(traced.json["shadows"]["local"] == "stochastic");
+  CHECK(traced.json["shadows"]["maxShadowedLights"] == 1);
+  REQUIRE(api.patch(settings, R"({"shadows": {"local": "maps"}})", s.token).status == 200);
 
   // Three lights over the scene's centre, two asking; the brighter of those gets the one map.
   const json lights = {

@@ -349,6 +349,11 @@ TEST_CASE("constants agree with the schemas") {
   const json& antialias = protocol::schema("defs")["$defs"]["antialias"]["enum"];
   REQUIRE(antialias.size() == protocol::kAntialiasModes.size());
   for (size_t i = 0; i < antialias.size(); ++i) CHECK(antialias[i] == protocol::kAntialiasModes[i]);
+  const json& localShadows = protocol::schema("defs")["$defs"]["localShadows"]["enum"];
+  REQUIRE(localShadows.size() == protocol::kLocalShadowModes.size());
+  for (size_t i = 0; i < localShadows.size(); ++i) {
+    CHECK(localShadows[i] == protocol::kLocalShadowModes[i]);
+  }
 
   for (std::string_view name : protocol::problems::kAll) {
     std::string uri = protocol::problemTypeUri(name);

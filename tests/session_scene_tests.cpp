@@ -717,3 +717,32 @@ TEST_CASE("session scene: semantic class names take the lowest free ids and keep
   CHECK(scene.graph().object(ids[2]).semantic == 4);
   CHECK(scene.graph().classes().size() == 3);
 }
+
+namespace myriad {
+
+TEST_CASE("session scene: shadows.local is maps by default, patched by name, checked") {
+  service::SessionScene scene(5, {});
+  const service::Clock::time_point t0 = service::Clock::now();
+  CHECK(scene.settings().shadows.local == render::LocalShadows::Maps);
+  protocol::SettingsPatch bad;
+  bad.shadows = protocol::ShadowsPatch{};
+  bad.shadows->local = "raytraced";
+  try {
+    scene.patchSettings(bad, t0);
+    FAIL("no problem for an unknown shadows.local");
+  } catch (const service::ProblemError& e) {
+    CHECK(e.problem().status == 400);
+    CHECK(e.problem().pointer == "/shadows/local");
+  }
+  CHECK(scene.settings().shadows.local == render::LocalShadows::Maps);
+  protocol::SettingsPatch patch;
+  patch.shadows = protocol::ShadowsPatch{};
+  patch.shadows->local = "stochastic";
+  scene.patchSettings(patch, t0);
+  CHECK(scene.settings().shadows.local == render::LocalShadows::Stochastic);
+  CHECK(scene.settings().shadows.maxShadowedLights == render::kDefaultShadowedLights);  // kept
+  CHECK(scene.frameSettings(render::FrameSettings{}, std::nullopt, t0).shadows.local ==
+        render::LocalShadows::Stochastic);
+}
+
+}  // namespace myriad

@@ -38,6 +38,8 @@ render::FrameSettings frameSettings(const scene::Scene& scene, render::Technique
                                 std::cos(a) * d.z - std::sin(a) * d.x);
   }
   f.shadows.maxShadowedLights = plan.shadowedLights;
+  f.shadows.local = plan.localShadows;
+  f.sampleIndex = frameIndex;
   return f;
 }
 
@@ -47,7 +49,7 @@ double lightingMilliseconds(const render::Frame& frame) {
   double ms = 0.0;
   for (const auto& pass : frame.passes) {
     if (pass.name == "sun" || pass.name == "lights" || pass.name == "lighting" ||
-        pass.name == "assign" || pass.name == "shade") {
+        pass.name == "assign" || pass.name == "shade" || pass.name == "shadow-rays") {
       ms += pass.milliseconds;
     }
   }
@@ -133,6 +135,13 @@ ConfigResult measure(render::Renderer& renderer, gpu::Context& context, render::
     const auto lights = static_cast<uint32_t>(std::lround(counts.data[i]));
     r.pairs += lights;
     r.mostLightsAtPixel = std::max(r.mostLightsAtPixel, lights);
+    r.shadowRays += lights > 0 ? 1 : 0;  // a light sampled: one shadow ray
+  }
+  if (!render::tracesLocalShadows(countSettings)) r.shadowRays = 0;
+  for (const PassSummary& p : r.passes) {
+    if (p.name == "shadow-rays" && p.ms.median > 0.0) {
+      r.raysPerSecond = double(r.shadowRays) / (p.ms.median * 1e-3);
+    }
   }
   if (r.lightingMs.median > 0.0) {
     r.pairsPerSecond = double(r.pairs) / (r.lightingMs.median * 1e-3);

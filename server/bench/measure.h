@@ -43,6 +43,11 @@ struct Plan {
   // size is a quarter of sunShadowMap (2048 when the sun has none: 512-texel tiles).
   uint32_t shadowedLights = 0;
   bool shadowedSpots = false;  // spot lights (one tile each), else point lights (six)
+  // How local lights cast shadows (--local-shadows). Stochastic: the BVH's build or refit is
+  // timed as "bvh-build" / "bvh-refit" in frames that run it (every frame with --tune
+  // bvh-update=rebuild or refit; else only the first warm-up frame builds it, the geometry being
+  // still), the shading step as "shadow-rays"; each frame draws another sample (sampleIndex).
+  render::LocalShadows localShadows = render::LocalShadows::Maps;
 };
 
 struct Summary {
@@ -86,6 +91,12 @@ struct ConfigResult {
   uint32_t mostLightsAtPixel = 0;
   double pairsPerSecond = 0.0;   // pairs / median lighting time
   double ceilingFraction = 0.0;  // pairsPerSecond / kH200PairsPerSecondCeiling
+
+  // Stochastic local shadows: the shadow rays one frame traces (a ray for each pixel with a
+  // light sampled: at most, as a light facing away is not traced) and those per second of the
+  // median "shadow-rays" pass, which also resamples the lights (so a lower bound of the trace's).
+  uint64_t shadowRays = 0;
+  double raysPerSecond = 0.0;
 
   uint32_t validationMessages = 0;  // new validation messages during this configuration
 };

@@ -59,6 +59,7 @@ const char* const kUsage =
     "                    [--antialias none|fxaa]\n"
     "                    [--sun-shadows 256|512|1024|2048|4096]\n"
     "                    [--shadowed-lights N [--shadowed-kind point|spot]]\n"
+    "                    [--local-shadows none|maps|stochastic]\n"
     "                    [--model PATH [--textures on|off]] [--gbuffer raster|compute|auto]\n"
     "                    [--tune KEY=VALUE]...\n"
     "Renders animated frames for every light count x technique, timing each pass with GPU\n"
@@ -80,6 +81,11 @@ const char* const kUsage =
     "--shadowed-lights N (0-16) adds N lights asking for shadows over the scene (besides --lights),\n"
     "every one given a map each frame, timed as the \"light-shadows\" pass; --shadowed-kind spot\n"
     "makes them spots (one tile each) instead of point lights (six tiles, a cube).\n"
+    "--local-shadows stochastic shadows every local light (clustered technique only): a BVH of the\n"
+    "scene built in compute (\"bvh-build\" / \"bvh-refit\"; every frame with --tune\n"
+    "bvh-update=rebuild or refit, else once) and one shadow ray a pixel (\"shadow-rays\"); the\n"
+    "report adds the rays a frame and rays/s (default maps: as --shadowed-lights says). With\n"
+    "--sun-shadows the sun is traced too (a ray a lit pixel more, not counted; no \"shadow\" pass).\n"
     "--model PATH renders a model file (loaded in this process) from its framing camera, with\n"
     "lights around it; --textures off strips its textures (the same geometry, factors only).\n"
     "--tune KEY=VALUE (repeatable) sets one of the renderer's knobs (render/tuning.h), as on\n"
@@ -164,6 +170,14 @@ Options parseOptions(const std::vector<std::string>& args) {
         throw UsageError("--shadowed-kind expects point or spot, not \"" + std::string(kind) + "\".");
       }
       o.plan.shadowedSpots = kind == "spot";
+    } else if (flag == "--local-shadows") {
+      std::string_view name = value();
+      const std::optional<render::LocalShadows> mode = render::parseLocalShadows(name);
+      if (!mode) {
+        throw UsageError("--local-shadows expects none, maps or stochastic, not \"" +
+                         std::string(name) + "\".");
+      }
+      o.plan.localShadows = *mode;
     } else if (flag == "--markers") {
       o.plan.markers = true;
     } else if (flag == "--antialias") {

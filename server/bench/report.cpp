@@ -56,6 +56,10 @@ void printResult(std::FILE* out, const ConfigResult& r) {
     std::fprintf(out, " %s %.3f/%.3f", p.name.c_str(), p.ms.median, p.ms.p90);
   }
   std::fprintf(out, "; wall %.2f ms\n", r.wallMs.median);
+  if (r.shadowRays > 0) {
+    std::fprintf(out, "    shadow rays: %llu a frame, %.3g rays/s over the shadow-rays pass\n",
+                 static_cast<unsigned long long>(r.shadowRays), r.raysPerSecond);
+  }
   if (r.framesOverflowed > 0) {
     std::fprintf(out,
                  "    OVERFLOW in %u of %u frames: up to %u tiles over capacity, %u tile and %u "
@@ -102,6 +106,10 @@ nlohmann::json toJson(const RunInfo& run, const std::vector<ConfigResult>& resul
     c["pairs_per_second"] = r.pairsPerSecond;
     c["fraction_of_h200_ceiling"] = r.ceilingFraction;
     c["validation_messages"] = r.validationMessages;
+    if (r.shadowRays > 0) {
+      c["shadow_rays"] = r.shadowRays;
+      c["shadow_rays_per_second"] = r.raysPerSecond;
+    }
     configs.push_back(std::move(c));
   }
   return {

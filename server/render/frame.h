@@ -242,6 +242,21 @@ struct EnvironmentSettings {
   bool background = false;  // show the environment where no geometry is (else `background`)
 };
 
+// How local lights cast shadows; the index into protocol::kLocalShadowModes.
+enum class LocalShadows : uint32_t { None = 0, Maps, Stochastic };
+static_assert(protocol::kLocalShadowModes.size() == 3);
+
+inline std::string_view localShadowsName(LocalShadows m) {
+  return protocol::kLocalShadowModes.at(static_cast<uint32_t>(m));
+}
+
+inline std::optional<LocalShadows> parseLocalShadows(std::string_view name) {
+  for (uint32_t i = 0; i < protocol::kLocalShadowModes.size(); ++i) {
+    if (protocol::kLocalShadowModes[i] == name) return static_cast<LocalShadows>(i);
+  }
+  return std::nullopt;
+}
+
 // Shadows (render/shadows.h). Off by default at this level, so frames and tests that do not ask
 // for them stay as they were; sessions turn the sun's on for their scenes (service/session_scene).
 struct ShadowSettings {
@@ -250,6 +265,10 @@ struct ShadowSettings {
   // Local lights asking for shadows (scene::PointLight::castsShadows) that get a map this frame,
   // at most: 0..MYRIAD_MAX_SHADOWED_LIGHTS (kMaxShadowedLights); the rest are unshadowed.
   uint32_t maxShadowedLights = 4;  // kDefaultShadowedLights
+  // How local lights cast shadows (protocol::local_shadow_modes; render/stochastic_shadows.h):
+  // None, Maps (the budgeted maps above, as before) or Stochastic (every light: a light sampled
+  // per pixel from its cluster list, one shadow ray through the scene's BVH).
+  LocalShadows local = LocalShadows::Maps;
 };
 
 // The most maxShadowedLights may be (shaders/shared_types.h MYRIAD_MAX_SHADOWED_LIGHTS; the
@@ -302,6 +321,10 @@ struct FrameSettings : SceneSettings {
   // camera: the frame's own; no previous pose: every instance and deformed mesh as now.
   std::optional<scene::Camera> previousCamera;
   std::shared_ptr<const ScenePose> previousPose;
+  // Stochastic local shadows (ShadowSettings::local): which sample of the pixel's estimate this
+  // frame draws. The same index gives the same image; frames averaged over indices 0..N-1
+  // converge to the exact shadows (tests/stochastic_shadow_tests.cpp).
+  uint32_t sampleIndex = 0;
   uint32_t heatMapMax = 0;  // light-count view: count shown as the hottest colour (0 = auto)
   bool raw = false;         // return the view's float values (Frame::data), not an image
   // The 8-bit pixels stay in the renderer's readback memory (Frame::borrowed) instead of being
@@ -352,6 +375,13 @@ struct FrameSettings : SceneSettings {
     return antialias != Antialias::None && target == Target::Final && !raw;
   }
 };
+
+// Whether a frame traces every local light's shadow (render/stochastic_shadows.h): stochastic
+// with the clustered technique, whose cluster lists the lights are drawn from; the other
+// techniques shade stochastic as maps.
+inline bool tracesLocalShadows(const FrameSettings& s) {
+  return s.shadows.local == LocalShadows::Stochastic && s.technique == Technique::Clustered;
+}
 
 // What light culling did this frame. Nothing is dropped silently: a list that overflowed its
 // capacity is counted here (and reported in stats, Server-Timing and the log).

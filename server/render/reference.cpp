@@ -230,7 +230,8 @@ std::vector<glm::uvec4> referenceLabels(const scene::Scene& scene, const FrameSe
 }
 
 std::vector<uint8_t> renderReference(const scene::Scene& scene, const FrameSettings& s,
-                                     const scene::EnvironmentImage* environmentImage) {
+                                     const scene::EnvironmentImage* environmentImage,
+                                     std::vector<glm::vec3>* radiance) {
   if (s.target == Target::LightVolumes || s.target == Target::LightCount ||
       s.target == Target::Clusters || isLabel(s.target)) {
     throw std::invalid_argument("the reference renderer draws no light-volumes, light-count or "
@@ -261,6 +262,8 @@ std::vector<uint8_t> renderReference(const scene::Scene& scene, const FrameSetti
       if (scene.lights[i].castsShadows) casters.push_back({i, lights[i]});
     }
     for (uint32_t index : planLightShadows(casters, s).lights) shadowed[index] = 1;
+    // Stochastic shadows converge to every light's exact shadow: a ray per light per pixel.
+    if (tracesLocalShadows(s)) std::fill(shadowed.begin(), shadowed.end(), uint8_t(1));
   }
   const bool environmentOn = s.environment.mode != EnvironmentMode::None;
   EnvironmentMaps maps;
@@ -272,6 +275,7 @@ std::vector<uint8_t> renderReference(const scene::Scene& scene, const FrameSetti
   shading::environmentArrays = {maps.source.data(), maps.lighting.data(), maps.lut.data()};
 
   std::vector<uint8_t> image(size_t(s.width) * s.height * 4);
+  if (radiance) radiance->assign(size_t(s.width) * s.height, glm::vec3(0.0f));
   for (uint32_t y = 0; y < s.height; ++y) {
     for (uint32_t x = 0; x < s.width; ++x) {
       const PixelRay ray = pixelRay(inverse, x, y, s.width, s.height);
@@ -366,6 +370,7 @@ std::vector<uint8_t> renderReference(const scene::Scene& scene, const FrameSetti
             throw std::domain_error("reference: non-finite radiance at pixel (" +
                                     std::to_string(x) + ", " + std::to_string(y) + ")");
           }
+          if (radiance) (*radiance)[size_t(y) * s.width + x] = hdr;
           color = shading::srgbEncode3(shading::tonemapPbrNeutral(hdr * s.exposure));
           break;
         }

@@ -20,8 +20,11 @@ namespace myriad::render {
 // passes run (shaders/environment.glsl: same sizes, same sample pattern, same bilinear taps);
 // `hdr` takes `environmentImage` (the image given to Renderer::setEnvironmentImage) and throws
 // std::invalid_argument without one.
+// `radiance`, when given (target final): each pixel's HDR radiance before exposure and tone
+// mapping, rows top first (what a raw final frame holds): for tests that average frames.
 std::vector<uint8_t> renderReference(const scene::Scene& scene, const FrameSettings& settings,
-                                     const scene::EnvironmentImage* environmentImage = nullptr);
+                                     const scene::EnvironmentImage* environmentImage = nullptr,
+                                     std::vector<glm::vec3>* radiance = nullptr);
 
 // The labels of each pixel centre's first hit (rows top first): object, semantic class, material,
 // 1; all 0 where the ray meets nothing before the far plane. What the label pass must give.

@@ -26,6 +26,7 @@
 #include "render/shading_features.h"
 #include "render/shadows.h"
 #include "render/skinning.h"
+#include "render/stochastic_shadows.h"
 #include "render/visibility.h"
 #include "render/techniques/registry.h"
 #include "render/techniques/technique.h"
@@ -39,7 +40,7 @@ namespace {
 // the technique's (sun + lights, lighting, or assign + shade), blend, markers, final, antialias,
 // overlay, readback: room for a technique of three passes, or clustered's assignment timed step
 // by step (--tune assign-steps=on, techniques/clustered.cpp: seven).
-constexpr uint32_t kMaxTimedPasses = 20;
+constexpr uint32_t kMaxTimedPasses = 24;  // + bvh-build or bvh-refit
 
 // The light-count view's hottest colour when the request leaves it to us.
 constexpr uint32_t kDefaultHeatMapMax = 64;
@@ -121,6 +122,7 @@ struct Renderer::State {
         techniques(createTechniques({c, pipelines, tuning})),
         computeGBuffer(c, pipelines.sceneSetLayout, kMaxFramesInFlight + 1),
         skinning(c), motion(c, pipelines.sceneSetLayout, kMaxFramesInFlight + 1),
+        stochastic(c, pipelines, tuning),
         uniformArena(c, kUniformBlockSize) {
     for (uint32_t i = 0; i < kMaxFramesInFlight; ++i) slots.push_back(std::make_unique<FrameSlot>());
     for (FrameSlot* slot : allSlots()) {
@@ -164,6 +166,7 @@ struct Renderer::State {
   ComputeGBuffer computeGBuffer;  // GBufferPath::Compute (render/visibility.h)
   SkinningPass skinning;          // skinned and morphed instances (render/skinning.h)
   MotionPass motion;              // Target::Motion (render/motion.h)
+  StochasticShadows stochastic;   // settings.shadows.local stochastic (render/stochastic_shadows.h)
   // Applies the frame's pose (and a motion frame's previous pose) to its scene where they differ
   // from what it holds, after the frames in flight finished with it.
   void applyPoses(SceneBuffers& scene, const FrameSettings& settings);
@@ -577,6 +580,7 @@ void Renderer::State::writeUniforms(FrameSlot& slot, const FrameSettings& s,
     }
   }
   technique.writeUniforms(u);
+  stochastic.writeUniforms(u, s, scene);
   slot.shadingFeatures = shadingFeatures(u, scene);
   std::memcpy(slot.uniforms.mapped, &u, sizeof(u));
 }
@@ -869,6 +873,7 @@ uint64_t Renderer::gpuMemoryBytes() const {
     if (slot->visibility) total += slot->visibility->arena.bytesAllocated();
   }
   for (const auto& technique : s.techniques) total += technique->gpuMemoryBytes();
+  total += s.stochastic.gpuMemoryBytes();
   for (const auto& technique : s.splitTechniques) {
     if (technique) total += technique->gpuMemoryBytes();
   }
@@ -922,6 +927,7 @@ std::optional<SunShadowFit> Renderer::State::sunShadowFor(const SceneBuffers& sc
   if (!settings.shadows.sun || settings.sun.intensity <= 0.0f || scene.draws.empty()) {
     return std::nullopt;
   }
+  if (tracesLocalShadows(settings)) return std::nullopt;  // traced instead (stochastic_shadows.h)
   return fitSunShadow(scene.bounds, settings.sun.direction, settings.shadows.mapSize);
 }
 
@@ -1174,6 +1180,12 @@ void Renderer::State::recordBeforeLighting(VkCommandBuffer cmd, FrameSlot& slot,
     VkDescriptorSet sets[] = {slot.sceneSet, slot.targetSet};
     vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, p.layout, 0, 2, sets, 0, nullptr);
   }
+  if (StochasticShadows::wanted(settings)) {
+    // The BVH of the posed triangles, for the shadow rays of the lighting.
+    stochastic.recordBvh(cmd, scene, *slot.timer);
+    VkDescriptorSet sets[] = {slot.sceneSet, slot.targetSet};
+    vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, p.layout, 0, 2, sets, 0, nullptr);
+  }
   if (settings.animate) {
     // Or the lighting technique moves them, while it walks them (LightingPass::animateLights).
     if (!s.technique(settings.technique).animatesLights()) {
@@ -1421,10 +1433,11 @@ void Renderer::State::recordFrame(FrameSlot& slot, SceneBuffers& scene,
   // done with them (their lighting, blend pass and counter copy) before this one resets them.
   if (!waitAtStart) waitForEarlier(cmd);
   // Lighting leaves HDR and light counts as attachments (raster) or storage images (compute).
-  const VkImageLayout lightingLayout =
-      technique.record({cmd, *slot.timer, *slot.targets, scene, slot.shadingFeatures,
-                        settings.animate && technique.animatesLights(),
-                        computeGBufferFor(scene, settings)});
+  LightingPass lighting{cmd, *slot.timer, *slot.targets, scene, slot.shadingFeatures,
+                       settings.animate && technique.animatesLights(),
+                       computeGBufferFor(scene, settings)};
+  if (StochasticShadows::wanted(settings)) lighting.stochastic = &stochastic;
+  const VkImageLayout lightingLayout = technique.record(lighting);
   recordAfterLighting(cmd, slot, scene, settings, technique, lightingLayout);
   slot.meta = metaOf(scene, environment, settings);
   slot.meta.madeTargets = madeTargets;
@@ -1524,10 +1537,12 @@ std::unique_ptr<Renderer::SplitFrame> Renderer::beginSplit(SceneId id,
   frame->firstLightingStep_ = frame->steps_.size();
   const bool computeGBuffer = s.computeGBufferFor(scene, settings);
   const bool animate = settings.animate && technique.animatesLights();
-  auto lightingPass = [state, &scene, computeGBuffer, animate](VkCommandBuffer cmd) {
+  const bool traced = StochasticShadows::wanted(settings);
+  auto lightingPass = [state, &scene, computeGBuffer, animate, traced](VkCommandBuffer cmd) {
     LightingPass pass{cmd, *state->split.timer, *state->split.targets, scene,
                       state->split.shadingFeatures, animate, computeGBuffer};
     pass.split = true;
+    if (traced) pass.stochastic = &state->stochastic;
     return pass;
   };
   const std::vector<LightingTechnique::Step> lighting = technique.steps(lightingPass(VK_NULL_HANDLE));

@@ -111,6 +111,8 @@ LightShadowPlan planLightShadows(const std::vector<ShadowCaster>& casters,
                                  const FrameSettings& settings) {
   LightShadowPlan plan;
   if (casters.empty()) return plan;
+  // Only `maps` draws maps (and `stochastic` where it falls back to them: tracesLocalShadows).
+  if (settings.shadows.local == LocalShadows::None || tracesLocalShadows(settings)) return plan;
   const uint32_t limit = std::min(settings.shadows.maxShadowedLights, uint32_t(MYRIAD_MAX_SHADOWED_LIGHTS));
   const glm::mat4 viewProjection =
       scene::projectionMatrix(settings.camera, float(settings.width) / float(settings.height)) *

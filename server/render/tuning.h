@@ -30,6 +30,13 @@ enum class AssignPath : uint8_t {
            // cluster's per-pair atomics were serialised
 };
 
+// When the stochastic shadows' BVH (render/bvh.h) is built again (render/stochastic_shadows.cpp).
+enum class BvhUpdate : uint8_t {
+  Auto,     // rebuilt for a new scene or triangle count, refitted when its geometry moved
+  Rebuild,  // rebuilt every frame (the benchmark times the whole build)
+  Refit,    // refitted every frame (the benchmark times the refit)
+};
+
 // Which pass shades the clustered technique's pixels (techniques/clustered.cpp).
 enum class ShadePass : uint8_t {
   Auto,            // resolved: Subgroup on GPUs with subgroup shuffle, WholeWhenShort on CPUs
@@ -99,6 +106,15 @@ struct Tuning {
   // are measurements that make wrong images.
   uint32_t shadeVariant = 0x7B;
 
+  // --- Stochastic local shadows (render/stochastic_shadows.h) ---
+  // bvh-update: auto, rebuild or refit (every frame: what the benchmark times). Auto.
+  BvhUpdate bvhUpdate = BvhUpdate::Auto;
+  // stochastic-candidates: M, the candidates a pixel resamples its shadow ray's light from, 1 to
+  // 256: each light of a cluster list of L is one with probability min(1, M / L), so a list no
+  // longer than M is taken whole (every light weighed by its unshadowed light: the noise is the
+  // shadows' alone). 32: the built-in scene's lists are shorter; a million lights' are thinned.
+  uint32_t stochasticCandidates = 32;
+
   // --- The device (gpu/context.cpp) ---
   // pipeline-stats: compute pipelines print the driver's statistics (registers, local and shared
   // memory) where the device has VK_KHR_pipeline_executable_properties. A diagnostic. Off.
@@ -135,6 +151,8 @@ inline const char* tuningKeys() {
          "    point-test=0|1|2                 light test boxes (2 on GPUs, 0 on CPU devices)\n"
          "    shade=auto|pixel|subgroup|whole  clustered shading pass (auto: by device)\n"
          "    shade-variant=N                  subgroup walk bits, MYRIAD_SHADE_* (0x7B)\n"
+         "    bvh-update=auto|rebuild|refit    stochastic shadows' BVH: when it is built (auto)\n"
+         "    stochastic-candidates=1..256     lights a pixel resamples its shadow ray's from (32)\n"
          "    pipeline-stats=on|off            print compute pipelines' driver statistics (off)\n";
 }
 
@@ -224,6 +242,13 @@ inline void applyTune(Tuning& tuning, std::string_view keyValue) {
     else refuse(key, "auto, pixel, subgroup or whole", value);
   } else if (key == "shade-variant") {
     tuning.shadeVariant = number(key, value, 0, UINT32_MAX);
+  } else if (key == "bvh-update") {
+    if (value == "auto") tuning.bvhUpdate = BvhUpdate::Auto;
+    else if (value == "rebuild") tuning.bvhUpdate = BvhUpdate::Rebuild;
+    else if (value == "refit") tuning.bvhUpdate = BvhUpdate::Refit;
+    else refuse(key, "auto, rebuild or refit", value);
+  } else if (key == "stochastic-candidates") {
+    tuning.stochasticCandidates = number(key, value, 1, 256);
   } else if (key == "pipeline-stats") {
     tuning.pipelineStatistics = onOff(key, value);
   } else {

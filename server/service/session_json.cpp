@@ -73,6 +73,7 @@ protocol::Settings toWire(const render::SceneSettings& s) {
   out.shadows.sun = s.shadows.sun;
   out.shadows.mapSize = s.shadows.mapSize;
   out.shadows.maxShadowedLights = s.shadows.maxShadowedLights;
+  out.shadows.local = std::string(render::localShadowsName(s.shadows.local));
   return out;
 }
 
@@ -93,6 +94,15 @@ render::EnvironmentMode environmentModeFromWire(std::string_view name) {
 render::Antialias antialiasFromWire(std::string_view name) {
   std::optional<render::Antialias> mode = render::parseAntialias(name);
   if (!mode) throw ProblemError(invalidBody("/antialias", "\"antialias\" must be none or fxaa."));
+  return *mode;
+}
+
+render::LocalShadows localShadowsFromWire(std::string_view name) {
+  std::optional<render::LocalShadows> mode = render::parseLocalShadows(name);
+  if (!mode) {
+    throw ProblemError(
+        invalidBody("/shadows/local", "\"local\" must be none, maps or stochastic."));
+  }
   return *mode;
 }
 

@@ -25,6 +25,7 @@ render::Technique techniqueFromWire(std::string_view name);
 protocol::Settings toWire(const SessionScene& scene);
 // Throws ProblemError 400 (/antialias) for a name that is no anti-aliasing mode.
 render::Antialias antialiasFromWire(std::string_view name);
+render::LocalShadows localShadowsFromWire(std::string_view name);
 // Throws ProblemError 400 (/environment/mode) for a name that is no environment mode.
 render::EnvironmentMode environmentModeFromWire(std::string_view name);
 

@@ -313,6 +313,7 @@ const render::SceneSettings& SessionScene::patchSettings(const protocol::Setting
     if (patch.shadows->maxShadowedLights) {
       s.shadows.maxShadowedLights = std::min(*patch.shadows->maxShadowedLights, render::kMaxShadowedLights);
     }
+    if (patch.shadows->local) s.shadows.local = localShadowsFromWire(*patch.shadows->local);
   }
   if (s.animate && !settings_.animate) animationStart_ = now;
   if (patch.environment && patch.environment->mode) environmentChosen_ = true;
@@ -520,7 +521,8 @@ SessionScene::Restored SessionScene::restore(const protocol::Snapshot& snapshot,
                                                     environment.rotation, environment.background};
   settings.shadows = protocol::ShadowsPatch{
       snapshot.settings.shadows.sun, snapshot.settings.shadows.mapSize,
-      snapshot.settings.shadows.maxShadowedLights.value_or(render::kDefaultShadowedLights)};
+      snapshot.settings.shadows.maxShadowedLights.value_or(render::kDefaultShadowedLights),
+      snapshot.settings.shadows.local.value_or(std::string(protocol::local_shadow_modes::kMaps))};
   try {
     next.patchSettings(settings, now);
   } catch (const ProblemError& e) {

@@ -29,6 +29,7 @@
 #include "render/cluster_grid.h"
 #include "render/raster.h"
 #include "render/shading_features.h"
+#include "render/stochastic_shadows.h"
 #include "render/techniques/compute_lighting.h"
 #include "render/techniques/technique.h"
 #include "shared_types.h"
@@ -390,7 +391,7 @@ class Clustered final : public LightingTechnique {
             {detail ? "assign-scan" : "assign", 1},
             {detail ? "assign-fill" : "assign", smallLights},
             {detail ? "assign-fill-large" : "assign", largeLights},
-            {"shade", shadeTiles(pass.targets.extent), false}};
+            {pass.stochastic ? "shadow-rays" : "shade", shadeTiles(pass.targets.extent), false}};
   }
 
   void recordStep(const LightingPass& pass, uint32_t step, uint32_t first,
@@ -514,7 +515,12 @@ class Clustered final : public LightingTechnique {
                            (p.wholeLists == WholeLists::WhenShort &&
                             p_->lastLongestList.load(std::memory_order_relaxed) <= kWholeListsUpTo);
         FeaturePipelines& shade = whole ? *p_->shadeWhole : p_->shade;
-        vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, shade.get(pass.shadingFeatures));
+        if (pass.stochastic) {
+          // Stochastic local shadows: the same tiles, each pixel one shadow ray.
+          pass.stochastic->bindShade(cmd, pass.shadingFeatures);
+        } else {
+          vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, shade.get(pass.shadingFeatures));
+        }
         if (pass.split) {
           // Ranges of tiles spread over the image (unitWeights weighs them in this order).
           scatteredTiles(t.extent, MYRIAD_CLUSTER_SHADE_TILE).dispatch(cmd, first, count);

@@ -22,6 +22,8 @@
 
 namespace myriad::render {
 
+class StochasticShadows;  // render/stochastic_shadows.h
+
 // What a technique is built from: the device, the frame's shared pipeline layout (sets 0-2;
 // set 2, light culling, is the technique's to fill: see compute_lighting.h), and the knobs
 // resolved for the device (render/tuning.h).
@@ -49,6 +51,9 @@ struct LightingPass {
   // Recorded in parts (Renderer::SplitFrame): what the renderer reads between them is made
   // host-readable where it is complete (listsBuiltAfter).
   bool split = false;
+  // Stochastic local shadows (render/stochastic_shadows.h): the technique's shading step binds
+  // this pass instead of its own (the clustered technique; null: shade as usual).
+  const StochasticShadows* stochastic = nullptr;
 };
 
 class LightingTechnique {
