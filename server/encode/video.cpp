@@ -17,6 +17,19 @@ namespace myriad::encode {
 namespace {
 
 constexpr uint32_t kMaxDimension = 16383;
+// Defaults of VideoSettings' speed and bufferMs, measured (myriad-video-settings-bench; the
+// figures are in docs/ARCHITECTURE.md, "Encoder settings"):
+// VP8 speed 10 of 16 (realtime): about half the bits of speed 16 at the same quality for a
+// rendered scene, still well below a frame interval at 1080p on 4 threads.
+constexpr int kVp8Speed = 10;
+// VP9 speed 8 (realtime speeds are 5..9): 6 and 7 gave 0.2-0.3 dB more for the same time at
+// 640x360 on 1 thread, 9 the same quality and time; 8 is where the H200 figures were taken.
+constexpr int kVp9Speed = 8;
+// A 200 ms buffer (it was 1 s): the rate control lets frames run up to the buffer ahead of the
+// bitrate, so on a link at the cap a 1 s buffer queued 350-400 ms of frames (median delay at
+// 640x360 VP9, 1.5 Mbit/s), 200 ms queues 110 ms, at the same mean PSNR (45.4 against 45.2 dB);
+// 100 ms starves the first key frame (32.7 dB against 35.9).
+constexpr uint32_t kDefaultBufferMs = 200;
 
 uint8_t clampByte(int value) { return static_cast<uint8_t>(std::clamp(value, 0, 255)); }
 
@@ -166,14 +179,15 @@ VideoEncoder::VideoEncoder(const VideoSettings& settings)
   cfg.rc_max_quantizer = 56;
   cfg.rc_undershoot_pct = 50;
   cfg.rc_overshoot_pct = 50;
-  cfg.rc_buf_sz = 1000;  // ms
-  cfg.rc_buf_initial_sz = 500;
-  cfg.rc_buf_optimal_sz = 600;
+  const uint32_t bufferMs = settings.bufferMs != 0 ? settings.bufferMs : kDefaultBufferMs;
+  cfg.rc_buf_sz = bufferMs;
+  cfg.rc_buf_initial_sz = bufferMs / 2;
+  cfg.rc_buf_optimal_sz = bufferMs * 3 / 5;
   // Key frames come on request (a new stream, a decoder that lost its place); one every 10 s
   // besides bounds how long a damaged picture could last.
   cfg.kf_mode = VPX_KF_AUTO;
   cfg.kf_min_dist = 0;
-  cfg.kf_max_dist = settings.fps * 10;
+  cfg.kf_max_dist = settings.keyInterval != 0 ? settings.keyInterval : settings.fps * 10;
   if (vpx_codec_enc_init(&impl_->codec, iface, &cfg, 0) != VPX_CODEC_OK) {
     std::string message = vpxMessage(&impl_->codec, "libvpx refused the encoder settings");
     throw VideoError(message);
@@ -182,16 +196,16 @@ VideoEncoder::VideoEncoder(const VideoSettings& settings)
   impl_->config = cfg;
   vpx_codec_ctx_t* ctx = &impl_->codec;
   if (vp8) {
-    // Speed 10 of 16 (realtime): about half the bits of speed 16 at the same quality for a
-    // rendered scene, still well below a frame interval at 1080p on 4 threads.
-    vpx_codec_control(ctx, VP8E_SET_CPUUSED, 10);
+    vpx_codec_control(ctx, VP8E_SET_CPUUSED,
+                      settings.speed != VideoSettings::kDefaultSpeed ? settings.speed : kVp8Speed);
     int partitions = 0;
     while ((2u << partitions) <= settings.threads && partitions < 3) ++partitions;
     vpx_codec_control(ctx, VP8E_SET_TOKEN_PARTITIONS, partitions);
     vpx_codec_control(ctx, VP8E_SET_NOISE_SENSITIVITY, 0);
     vpx_codec_control(ctx, VP8E_SET_MAX_INTRA_BITRATE_PCT, 300);
   } else {
-    vpx_codec_control(ctx, VP8E_SET_CPUUSED, 8);  // realtime speeds are 5..9
+    vpx_codec_control(ctx, VP8E_SET_CPUUSED,
+                      settings.speed != VideoSettings::kDefaultSpeed ? settings.speed : kVp9Speed);
     vpx_codec_control(ctx, VP9E_SET_ROW_MT, 1);
     int tiles = 0;  // log2 of tile columns: one per thread, each at least 256 pixels wide
     while ((2u << tiles) <= settings.threads && (settings.width >> (tiles + 1)) >= 256) ++tiles;
@@ -200,6 +214,12 @@ VideoEncoder::VideoEncoder(const VideoSettings& settings)
     vpx_codec_control(ctx, VP9E_SET_COLOR_SPACE, VPX_CS_BT_601);
     vpx_codec_control(ctx, VP9E_SET_COLOR_RANGE, VPX_CR_STUDIO_RANGE);
     vpx_codec_control(ctx, VP8E_SET_MAX_INTRA_BITRATE_PCT, 300);
+    // And a delta frame at most 3 frames' worth of the bitrate, as far as the quantizer range
+    // allows: a change of the whole picture (the sun switched on) made 15 KB delta frames at
+    // 300 kbit/s (400 ms of the link each, at 320x180; myriad-net-probe behind a cap), so an
+    // edit waited for the one before it; capped, 5-6 KB. The change comes at a coarser quality
+    // first and sharpens over the next frames.
+    vpx_codec_control(ctx, VP9E_SET_MAX_INTER_BITRATE_PCT, 300);
   }
   if (vpx_img_alloc(&impl_->image, VPX_IMG_FMT_I420, settings.width, settings.height, 16) ==
       nullptr) {

@@ -34,6 +34,17 @@ struct VideoSettings {
   uint32_t fps = 30;    // the expected rate: sizes the rate control's buffer and key frame spacing
   uint32_t bitrateKbps = 4000;  // the target bitrate (constant bitrate rate control)
   uint32_t threads = 4;         // encoder threads (H264: as many slices), 1..16
+  // The speed/quality trade: libvpx's cpu-used (VP8 -16..16, VP9's realtime 5..9), OpenH264's
+  // complexity mode (0 low, 1 medium, 2 high). kDefaultSpeed: the codec's chosen default
+  // (video.cpp says how it was chosen: measured by myriad-video-settings-bench).
+  static constexpr int kDefaultSpeed = -100;
+  int speed = kDefaultSpeed;
+  // Frames between automatic key frames (key frames also come on request); 0: fps * 10.
+  uint32_t keyInterval = 0;
+  // The rate control's buffer in ms (libvpx rc_buf_sz; OpenH264 has none to set): how far a
+  // frame's size may run ahead of the bitrate, and so how much a big frame can delay the next
+  // ones on a link at the cap. 0: the default (video.cpp).
+  uint32_t bufferMs = 0;
 };
 
 struct VideoPacket {

@@ -370,6 +370,17 @@ void handleMetrics(const ApiContext& context, FrameServices& frames, const httpl
   gauges.videoEncodes = frames.shared.videoEncodeCount();
   gauges.videoEncoders = frames.shared.videoChannelCount();
   gauges.videoResyncs = frames.shared.videoResyncCount();
+  gauges.videoEncodersCreated = frames.shared.videoEncodersCreated();
+  gauges.videoEncodersFreed = frames.shared.videoEncodersFreed();
+  const encode::EncodePool::Stats pool = frames.encodePool.stats();
+  gauges.encodeThreads = pool.threads;
+  gauges.encodeQueued = pool.queued;
+  gauges.encodeRunning = pool.running;
+  gauges.encodeBuckets = encode::EncodePool::kBuckets;
+  gauges.encodeBucketCounts = pool.buckets;
+  gauges.encodeJobs = pool.jobs;
+  gauges.encodeSecondsSum = pool.secondsSum;
+  gauges.encodeWaitSecondsSum = pool.waitSecondsSum;
   if (context.connectionCounts) {
     const ConnectionCounts connections = context.connectionCounts();
     gauges.connectionsOpen = connections.open;

@@ -16,11 +16,16 @@ namespace myriad::service {
 
 // What these routes keep between requests; owned by the HTTP server, outliving every request.
 struct FrameServices {
-  explicit FrameServices(uint32_t maxStreams) : streams(maxStreams) {}
+  // `encodeThreads` 0: the host's hardware threads.
+  explicit FrameServices(uint32_t maxStreams, uint32_t encodeThreads = 0)
+      : streams(maxStreams), encodePool(encodeThreads), shared(&encodePool) {}
 
   Metrics metrics;
   FrameStatsBook stats;
   StreamRegistry streams;
+  // Every video stream's encodes, fair between sessions (encode/encode_pool.h). Before `shared`:
+  // its channels encode on it.
+  encode::EncodePool encodePool;
   SharedFrames shared;  // streams of one session share renders
   FrameDefaults builtinDefaults;          // GET /v1/frame: the built-in scene's camera and bounds
   render::FrameSettings builtinLighting;  // its sun, ambient and background

@@ -1,6 +1,10 @@
 #include "service/peer_watch.h"
 
 #include <dirent.h>
+#include <linux/sockios.h>
+#include <netinet/in.h>
+#include <netinet/tcp.h>
+#include <sys/ioctl.h>
 #include <netdb.h>
 #include <poll.h>
 #include <sys/socket.h>
@@ -61,6 +65,20 @@ bool PeerWatch::gone() const {
   // end of file on kernels that report it as POLLIN alone.
   char byte;
   return recv(fd_, &byte, 1, MSG_PEEK | MSG_DONTWAIT) == 0;
+}
+
+int64_t PeerWatch::unacknowledged() const {
+  if (fd_ < 0) return -1;
+  int bytes = 0;
+  return ioctl(fd_, SIOCOUTQ, &bytes) == 0 ? int64_t(bytes) : -1;
+}
+
+uint32_t PeerWatch::roundTripUs() const {
+  if (fd_ < 0) return 0;
+  tcp_info info{};
+  socklen_t length = sizeof info;
+  if (getsockopt(fd_, IPPROTO_TCP, TCP_INFO, &info, &length) != 0) return 0;
+  return info.tcpi_rtt;
 }
 
 }  // namespace myriad::service

@@ -7,6 +7,7 @@
 // address pair) and asks the kernel whether the peer has hung up.
 #pragma once
 
+#include <cstdint>
 #include <string>
 
 namespace myriad::service {
@@ -23,6 +24,13 @@ class PeerWatch {
   // True once the peer has closed its side or reset the connection. Never blocks. Valid while the
   // connection is open: httplib closes the socket only after the response's provider returns.
   bool gone() const;
+
+  // Bytes written to the connection that the peer has not acknowledged yet (SIOCOUTQ: sent and
+  // in flight, or still queued in the kernel); -1 when unknown. A stream learns from it how far
+  // behind its client is (stream.h, "Delivery").
+  int64_t unacknowledged() const;
+  // The connection's smoothed round-trip time in microseconds (TCP_INFO), 0 when unknown.
+  uint32_t roundTripUs() const;
 
  private:
   int fd_ = -1;

@@ -1,6 +1,10 @@
 #include "service/shared_frames.h"
 
+#include <malloc.h>
+
 #include <algorithm>
+#include <functional>
+#include <future>
 #include <utility>
 
 #include "protocol/constants.h"
@@ -8,6 +12,8 @@
 namespace myriad::service {
 namespace {
 
+// How often a video frame waiting for the renderer looks whether its client left.
+constexpr std::chrono::milliseconds kGonePoll{10};
 // An entry no stream asked for in this long goes (its frame with it).
 constexpr std::chrono::seconds kUnusedEntry{10};
 
@@ -117,8 +123,14 @@ SharedFrames::VideoViewer SharedFrames::joinVideo(const SessionPtr& session,
       if (std::shared_ptr<VideoChannel> channel = it->second.lock()) return {channel};
     }
   }
-  // A new encoder (libvpx allocates its buffers here): made without the lock.
-  auto made = std::make_shared<VideoChannel>(key, settings);
+  // A new channel, made without the lock; its encoder comes with its first encode. On the pool,
+  // the encoder's threads come from the pool's size and the channels already open.
+  encode::VideoSettings chosen = settings;
+  if (pool_ != nullptr) {
+    chosen.threads = encode::encoderThreadsFor(settings.codec, settings.width, settings.height,
+                                               pool_->threads(), videoChannelCount());
+  }
+  auto made = std::make_shared<VideoChannel>(key, chosen, encoderCounts_);
   std::lock_guard lock(mutex_);
   std::weak_ptr<VideoChannel>& slot = channels_[key];
   if (std::shared_ptr<VideoChannel> raced = slot.lock()) return {raced};  // another joined first
@@ -164,7 +176,7 @@ void SharedFrames::wantKey(VideoChannel& channel, VideoViewer& viewer, Clock::ti
 
 std::vector<SharedFrames::VideoFramePtr> SharedFrames::nextVideo(
     const SessionFrameContext& context, const SessionPtr& session, const FrameRequest& request,
-    VideoViewer& viewer, Clock::duration maxAge) {
+    VideoViewer& viewer, Clock::duration maxAge, const std::function<bool()>& gone) {
   VideoChannel& channel = *viewer.channel;
   const size_t backlog = maxVideoBacklog(request.fps);
   std::unique_lock lock(mutex_);
@@ -209,15 +221,31 @@ std::vector<SharedFrames::VideoFramePtr> SharedFrames::nextVideo(
     SessionFrame frame;
     try {
       const FrameEncoder encode = [&](const render::Frame& f) {
+        // Rendered for a client that left meanwhile, and nobody else: no encode (and, for a
+        // stream's first frame, no encoder).
+        if (gone && viewer.channel.use_count() == 1 && gone()) throw ViewerGone();
         const auto start = Clock::now();
         made->timestampUs = static_cast<uint64_t>(
             std::chrono::duration_cast<std::chrono::microseconds>(start - channel.startedAt)
                 .count());
-        encode::VideoPacket packet = channel.encoder.encode(f.pixels(), made->timestampUs / 1000, forceKey);
+        encode::VideoPacket packet;
+        Clock::time_point began = start;  // the encode's own start, after its turn came
+        const std::function<void()> job = [&] {
+          began = Clock::now();
+          packet = channel.encode(f.pixels(), made->timestampUs / 1000, forceKey);
+        };
+        if (pool_ != nullptr) {
+          // In the session's turn on the shared pool, holding as many of its cores as the
+          // encoder has threads; this worker waits (the frame's pixels stay where they are).
+          pool_->run(session->id, channel.encoder.settings().threads, job);
+        } else {
+          job();
+        }
         EncodedFrame out;
         out.body.assign(reinterpret_cast<const char*>(packet.data.data()), packet.data.size());
         out.contentType = protocol::kVideoStreamContentType;
-        out.encodeMs = std::chrono::duration<double, std::milli>(Clock::now() - start).count();
+        // The encode itself: the wait for its turn is myriad_encode_wait_seconds_total's.
+        out.encodeMs = std::chrono::duration<double, std::milli>(Clock::now() - began).count();
         made->key = packet.key;
         made->width = f.width;
         made->height = f.height;
@@ -227,7 +255,22 @@ std::vector<SharedFrames::VideoFramePtr> SharedFrames::nextVideo(
       if (channel.encoder.settings().bitrateKbps != kbps) channel.encoder.setBitrate(kbps);
       PendingSessionFrame pending =
           submitSessionFrame(context, session, request, render::FrameSource::Stream);
-      frame = collectSessionFrame(context, session, pending, &encode);
+      if (gone) {
+        // A client that leaves while its frame waits for the renderer gives the frame up (not
+        // rendered unless it started): a client opening and dropping streams costs no renders
+        // that other sessions' frames would wait behind.
+        while (pending.frame.wait_for(kGonePoll) != std::future_status::ready) {
+          if (viewer.channel.use_count() == 1 && gone()) {
+            *pending.drop = true;
+            break;
+          }
+        }
+      }
+      try {
+        frame = collectSessionFrame(context, session, pending, &encode);
+      } catch (const render::FrameDroppedError&) {
+        throw ViewerGone();
+      }
     } catch (...) {
       lock.lock();
       channel.rendering = false;
@@ -266,6 +309,28 @@ std::vector<SharedFrames::VideoFramePtr> SharedFrames::nextVideo(
     // Still too far behind (its own frame was not a key frame: the request came during it).
     wantKey(channel, viewer, Clock::now());
   }
+}
+
+void SharedFrames::capVideoBitrate(VideoViewer& viewer, uint32_t kbps) {
+  VideoChannel& channel = *viewer.channel;
+  std::lock_guard lock(mutex_);
+  const uint32_t floor = std::max(1u, channel.askedKbps / 4);
+  const auto capped = static_cast<uint32_t>(uint64_t(kbps) * 85 / 100);
+  if (capped >= channel.targetKbps) return;
+  channel.targetKbps = std::max(floor, capped);
+  const Clock::time_point now = Clock::now();
+  channel.lastDown = now;
+  channel.lastStep = now;
+}
+
+SharedFrames::VideoChannel::FreedNotice::~FreedNotice() {
+  if (!made) return;
+  counts->freed.fetch_add(1);
+  // glibc keeps what a freed encoder gave back (libvpx's frame buffers and tables, megabytes)
+  // in its arenas rather than return it: 100 VP9 streams opened and dropped left 290 MiB more
+  // resident for good (hostile_players CTest). Trimming here returns it; it takes well under a
+  // millisecond, once per encoder.
+  malloc_trim(0);
 }
 
 uint64_t SharedFrames::videoEncodeCount() const {

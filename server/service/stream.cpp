@@ -5,10 +5,13 @@
 #include <charconv>
 #include <cstdio>
 #include <cstring>
+#include <deque>
+#include <limits>
 #include <optional>
 #include <thread>
 #include <utility>
 
+#include "encode/encode_pool.h"
 #include "service/interactive_quality.h"
 #include "service/shared_frames.h"
 
@@ -19,8 +22,14 @@ namespace {
 // frames are not counted against --max-queued-frames (render::FrameSource::Stream), so this is
 // only the render thread stopping, which the next turn of the loop sees.
 constexpr std::chrono::milliseconds kQueueFullRetry{50};
-// libvpx threads per video stream: 1080p at 30 fps needs about 4 on the GPU machine's cores.
-constexpr unsigned kVideoEncoderThreads = 4;
+
+// At most this many writes are remembered for delivery (a client that acknowledges nothing
+// for longer is stalled long before).
+constexpr size_t kMaxUnackedWrites = 256;
+// How often a stream whose client is behind looks again.
+constexpr std::chrono::milliseconds kStreamLagPoll{20};
+// How long a client must be behind before its link's rate is measured (and used).
+constexpr std::chrono::milliseconds kStreamRateWindow{500};
 
 // Everything one stream carries from part to part. Used only by the worker serving the stream.
 struct StreamState {
@@ -73,6 +82,20 @@ struct StreamState {
   // frames from its first key frame, timed from 0), instead of chunks. Null: Myriad's chunks.
   std::unique_ptr<encode::ContainerWriter> container;
 
+  // Delivery (stream.h): what the client has taken of what was written, from the kernel's count
+  // of unacknowledged bytes (PeerWatch::unacknowledged).
+  struct Written {
+    uint64_t end;  // `written` after this write
+    Clock::time_point at;
+  };
+  std::deque<Written> unacked;  // writes not wholly acknowledged, oldest first (bounded)
+  uint64_t written = 0;         // bytes written to the connection, HTTP chunk framing included
+  uint64_t acked = 0;           // of which the client acknowledged
+  Clock::time_point progressAt = Clock::now();  // when `acked` last grew (or the stream opened)
+  // While the client is behind: the acknowledged bytes and time when it fell behind, for its
+  // link's rate (a video channel's bitrate is capped to it).
+  std::optional<std::pair<Clock::time_point, uint64_t>> behindSince;
+
   SharedFrames& shared() { return context.shared ? *context.shared : *ownShared; }
 
   bool write(httplib::DataSink& sink, const std::string& bytes) {
@@ -84,7 +107,48 @@ struct StreamState {
       std::lock_guard lock(session->mutex);
       session->lastUsed = lastWriteAt;
     }
-    return sink.write(bytes.data(), bytes.size());
+    const bool ok = sink.write(bytes.data(), bytes.size());
+    // httplib frames each write as one HTTP chunk: hex size, CRLF, the bytes, CRLF.
+    size_t hexDigits = 1;
+    for (size_t n = bytes.size(); n >= 16; n /= 16) ++hexDigits;
+    written += bytes.size() + hexDigits + 4;
+    if (unacked.size() >= kMaxUnackedWrites) unacked.pop_front();
+    unacked.push_back({written, Clock::now()});
+    return ok;
+  }
+
+  // How long the oldest write the client has not wholly acknowledged has waited (zero when all
+  // was taken, or the connection is unknown), and whether it made no progress for
+  // kStreamWriteStall with bytes outstanding (a reader that stopped, or takes a byte now and
+  // then: neither opens the TCP window). Updates `acked` and `progressAt`.
+  struct Lag {
+    Clock::duration behind{};
+    bool stalled = false;
+  };
+  Lag clientLag(Clock::time_point now) {
+    const int64_t outstanding = peer.unacknowledged();
+    if (outstanding < 0) return {};
+    const uint64_t took = written - std::min<uint64_t>(written, uint64_t(outstanding));
+    if (took > acked || outstanding == 0) {
+      acked = std::max(acked, took);
+      progressAt = now;
+    }
+    while (!unacked.empty() && unacked.front().end <= acked) unacked.pop_front();
+    if (unacked.empty() || outstanding == 0) return {};
+    return {now - unacked.front().at, now - progressAt >= kStreamWriteStall};
+  }
+
+  // The lag a client may run behind before its stream stops making frames for it: kStreamLag
+  // plus twice the connection's round trip (a frame is acknowledged a round trip after it left).
+  // The least round trip seen: the smoothed one includes the queue at a capped link, which a
+  // lag limit that grew with it would let grow without bound.
+  uint32_t minRoundTripUs = std::numeric_limits<uint32_t>::max();
+  Clock::duration lagLimit() {
+    if (const uint32_t rtt = peer.roundTripUs(); rtt > 0) {
+      minRoundTripUs = std::min(minRoundTripUs, rtt);
+    }
+    const uint32_t rtt = minRoundTripUs == std::numeric_limits<uint32_t>::max() ? 0 : minRoundTripUs;
+    return kStreamLag + 2 * std::chrono::microseconds(rtt);
   }
 
   static uint64_t microsecondsSince(Clock::time_point start) {
@@ -246,6 +310,38 @@ bool StreamState::next(httplib::DataSink& sink) {
         steered ? InteractiveQuality::Motion::Steered : InteractiveQuality::Motion::Animated;
     const bool wantStill = quality && lastInteractive && !moving;
     const bool wantFrame = !hasFrame || version != shownVersion || animate || wantStill;
+    // Delivery: a client more than lagLimit() behind gets no new frame until it catches up (the
+    // newest state then, not the ones it missed: nothing queues in the kernel's buffers either),
+    // and one that took nothing for kStreamWriteStall with bytes outstanding loses the stream
+    // (its place and encoder go back). While behind, its link's rate is measured; a video
+    // stream's channel bitrate is capped to it.
+    const Lag lag = clientLag(now);
+    if (lag.stalled) {
+      std::fprintf(stderr, "myriad-server: stream of %s ended: its client took no byte for %lld s\n",
+                   session->id.c_str(), static_cast<long long>(kStreamWriteStall.count()));
+      return false;
+    }
+    const bool behind = wroteAny && lag.behind > lagLimit();
+    if (behind && !behindSince) {
+      behindSince.emplace(now, acked);
+    } else if (behind && video && now - behindSince->first >= kStreamRateWindow) {
+      const double seconds = std::chrono::duration<double>(now - behindSince->first).count();
+      const double kbps = double(acked - behindSince->second) * 8.0 / 1000.0 / seconds;
+      // Nothing taken meanwhile is a pause (or a client about to stall), not a link's rate.
+      if (acked > behindSince->second) shared().capVideoBitrate(*video, static_cast<uint32_t>(kbps));
+      behindSince.emplace(now, acked);
+    } else if (!behind) {
+      behindSince.reset();
+    }
+    if (wantFrame && behind) {
+      // A frame rendered ahead would be stale by the time the client caught up: given up.
+      settleAhead();
+      std::unique_lock lock(session->mutex);
+      session->changed.wait_until(lock, now + kStreamLagPoll, [&] {
+        return endNow(unixNow()) != End::none;
+      });
+      continue;
+    }
     // The still that ends an interaction is not held by the fps limit: it replaces the
     // interactive part just sent (a slider's click showed one, then its still follows at once).
     if (wantFrame && (now >= nextFrameAt || wantStill)) {
@@ -297,7 +393,8 @@ bool StreamState::next(httplib::DataSink& sink) {
           scaleText.assign(text, ec == std::errc() ? end : text);
         } else if (video) {
           const Clock::time_point start = Clock::now();
-          videoFrames = shared().nextVideo(context, session, request, *video, interval);
+          videoFrames = shared().nextVideo(context, session, request, *video, interval,
+                                           [this] { return peer.gone(); });
           lastFrameTook = Clock::now() - start;
         } else if (context.shared != nullptr && !pipelined) {
           frame = context.shared->next(context, session, request, shownGeneration, interval);
@@ -320,6 +417,8 @@ bool StreamState::next(httplib::DataSink& sink) {
       } catch (const render::RenderQueueFullError&) {
         nextFrameAt = now + kQueueFullRetry;
         continue;
+      } catch (const SharedFrames::ViewerGone&) {
+        return false;  // the client left while its frame rendered: nothing to say to it
       } catch (const ProblemError&) {
         // The session closed while the frame rendered: said as at the top of the loop.
         {
@@ -463,12 +562,12 @@ httplib::ContentProviderWithoutLength makeStreamProvider(const SessionFrameConte
     video.height = state->request.settings.height;
     video.fps = state->request.fps;
     video.bitrateKbps = state->request.video->bitrateKbps;
-    // libvpx's VP8 threads spin-wait on each other: on a machine whose cores are busy (other
-    // streams, a CPU renderer) 4 threads were 17x slower than 1 (949 against 57 ms a 1080p frame
-    // on 2 shared cores). VP8 gets a thread per 4 cores; VP9's row-based threads block properly.
-    const unsigned cores = std::max(1u, std::thread::hardware_concurrency());
-    video.threads = std::clamp(video.codec == encode::VideoCodec::Vp8 ? cores / 4 : cores, 1u,
-                               kVideoEncoderThreads);
+    // The encoder's threads as encode::encoderThreadsFor chooses them for the host; a shared
+    // SharedFrames with the server's encoder pool chooses again from the pool's size and the
+    // encoders open (libvpx's VP8 threads spin-wait: at most one per 8 cores).
+    video.threads = encode::encoderThreadsFor(
+        video.codec, video.width, video.height,
+        std::max(1u, std::thread::hardware_concurrency()), 0);
     if (state->context.shared == nullptr) state->ownShared = std::make_unique<SharedFrames>();
     state->video = state->shared().joinVideo(state->session, state->request, video);
     if (state->request.video->container != encode::VideoContainer::Myriad) {

@@ -56,6 +56,17 @@ inline constexpr std::chrono::seconds kIdleResend{2};
 // 5 s of its buffers filling. A live reader on a slow link still takes some bytes every few
 // seconds; single frames keep connection::kDefaultWriteStall, since a big PNG takes a while.
 inline constexpr std::chrono::seconds kStreamWriteStall{3};
+// Delivery: a stream knows how much of what it wrote its client has acknowledged (the kernel's
+// count of unacknowledged bytes, PeerWatch::unacknowledged). A client whose oldest unacknowledged
+// write is older than kStreamLag plus two round trips is behind: its stream makes no frame for
+// it until it catches up, so what waits for a slow link is at most about kStreamLag of frames,
+// never the kernel's send buffer (megabytes: seconds of lag on a capped link), and no encode
+// runs for a client that is not reading. Behind for kStreamRateWindow, its link's rate is
+// measured from the acknowledged bytes; a video stream caps its channel's bitrate to it
+// (SharedFrames::capVideoBitrate). A client that acknowledges nothing for kStreamWriteStall with
+// bytes outstanding (stopped, or reading a byte now and then, which opens no TCP window) loses
+// the stream, as a failed write does: its place and its encoder go back.
+inline constexpr std::chrono::milliseconds kStreamLag{150};
 
 // The token a stream was opened with. The owner's ends only with its session; a viewer token's
 // stream also ends when that token is revoked (DELETE .../tokens, or pushed out by newer ones)
