@@ -28,6 +28,7 @@ build_packages=(
   libzip-dev               # zip uploads of a model with its files, read in the loader child
   libstb-dev               # stb_image's header: .hdr environment images, decoded in the loader child
   libssl-dev               # libcrypto: SHA-256 of session tokens in --state-dir
+  libpq-dev                # libpq: --state-store postgresql:// (server/service/store_postgres.cpp)
   doctest-dev
 )
 test_packages=(
@@ -40,6 +41,7 @@ test_packages=(
   clang                    # the fuzz preset's clang++ (tests/fuzz: libFuzzer harnesses)
   libclang-rt-14-dev       # libFuzzer and the ASan/UBSan runtimes clang links into the harnesses
   nginx                    # the front CTest runs deploy/nginx/myriad.conf (as the test's user)
+  postgresql               # store_postgres and chaos CTests start a cluster of their own (initdb)
   openssl                  # the front CTest makes its self-signed TLS certificate
   python3-yaml             # the k8s CTest parses the manifests
   # python_client: client/python pip-installed offline into a venv (--system-site-packages,

@@ -26,6 +26,8 @@
 #include "service/memory_budget.h"
 #include "service/options.h"
 #include "service/startup.h"
+#include "service/store_files.h"
+#include "service/store_postgres.h"
 
 namespace {
 
@@ -127,6 +129,7 @@ int run(const service::Options& options, const sigset_t& shutdownSignals) {
   config.host = options.host;
   config.port = options.port;
   config.threads = options.threads;
+  config.encodeThreads = options.encodeThreads;
   config.connections.maxConnections = descriptorsFor(options.maxConnections);
   config.connections.maxConnectionsPerClient = options.maxConnectionsPerClient;
   config.connections.headTimeout = std::chrono::seconds(options.headerTimeoutSeconds);
@@ -143,18 +146,22 @@ int run(const service::Options& options, const sigset_t& shutdownSignals) {
   }
   config.models = models.get();
   std::unique_ptr<service::StateStore> state;
-  if (options.stateDir) {
+  if (options.stateDir || options.stateStore) {
+    // Read back no larger than this server writes: a record over that was not written by it.
+    const service::StateLimits limits = service::stateLimitsFor(
+        options.maxUploadBytes, options.maxLightsPerSession, options.maxObjectsPerSession);
     try {
-      // Read back no larger than this server writes: a file over that was not written by it.
-      state = std::make_unique<service::StateStore>(
-          *options.stateDir,
-          service::stateLimitsFor(options.maxUploadBytes, options.maxLightsPerSession,
-                                  options.maxObjectsPerSession));
+      if (options.stateStore) {
+        state = std::make_unique<service::PostgresStateStore>(*options.stateStore, limits);
+      } else {
+        state = std::make_unique<service::FileStateStore>(*options.stateDir, limits);
+      }
     } catch (const std::exception& e) {
       return fail(e.what());
     }
     config.state = state.get();
     config.stateRetention = std::chrono::hours(options.stateRetentionHours);
+    config.leaseTime = std::chrono::milliseconds(options.leaseMs);
   }
   config.nodeId = options.nodeId;
   config.jsonAccessLog = options.jsonAccessLog;

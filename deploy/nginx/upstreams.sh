@@ -1,7 +1,8 @@
 #!/bin/sh
 # Writes the nginx upstreams of a Myriad cluster (the file deploy/nginx/myriad.conf includes as
 # myriad/upstreams.conf) for the nodes given as NODE_ID=HOST:PORT, each server started with
-# --node-id NODE_ID (0-255) and one shared --state-dir:
+# --node-id NODE_ID (0-255) and one state store (--state-dir on one machine, --state-store
+# postgresql://... on many):
 #
 #   deploy/nginx/upstreams.sh 0=10.0.0.10:8080 1=10.0.0.11:8080 2=10.0.0.12:8080 > upstreams.conf
 #
@@ -9,7 +10,7 @@
 # myriad_any      every node, least connections first: new sessions, /v1/frame, /v1/info, ...
 # myriad_failover every node, consistent hash of the session id: where a session goes while its
 #                 node does not answer (the same survivor for all its requests; it restores the
-#                 session from the shared state directory)
+#                 session from the store once its lease on the dead node lapses)
 # (keepalive_timeout 1 s: below the server's own 2 s, so nginx never reuses a connection the
 # server is closing.)
 # $myriad_home    the upstream of a session path's node (from $myriad_node, set in myriad.conf)

@@ -76,10 +76,12 @@ struct ApiContext {
   render::RenderQueue& renderThread;  // the render thread, seen through its queue
   SessionManager& sessions;
   loader::ModelLibrary* models = nullptr;  // null without --models
-  StateStore* state = nullptr;             // null without --state-dir
+  StateStore* state = nullptr;             // null without --state-dir / --state-store
   MemoryBudget* memory = nullptr;          // --max-memory; null in unit tests (no limit)
   // What the connection layer has done (GET /metrics); empty in unit tests.
   std::function<ConnectionCounts()> connectionCounts;
+  // The lease owner this server writes to `state` as (session_sync.h).
+  uint32_t stateNode = 0;
 };
 
 // Reserves `bytes` of the memory budget for `what` (memory_budget.h): a held reservation, or the

@@ -574,12 +574,17 @@ SessionPtr restoreSnapshot(ApiContext& context, const StoredSession& stored,
     }
     // A write between populate() and here lacked these: the next one is complete.
     session->persisted.savedVersion = UINT64_MAX;
+    // Served under the lease the restore took, going on from the stored version (a store refuses
+    // a write that would go back).
+    session->persisted.epoch = stored.epoch;
+    session->persisted.storedVersion = int64_t(stored.version);
+    session->version = std::max(session->version, stored.version);
     for (const StoredSession::Viewer& v : stored.viewers) {
       session->viewerTokens.push_back({v.tokenHash, v.expiresAtUnix});
     }
   }
-  std::fprintf(stderr, "myriad-server: session %s restored from the state directory (%s)\n",
-               session->id.c_str(), source.c_str());
+  std::fprintf(stderr, "myriad-server: session %s restored from %s (%s)\n",
+               session->id.c_str(), context.state->describe().c_str(), source.c_str());
   return session;
 }
 
@@ -646,8 +651,35 @@ void addSessionRoutes(Routes& routes, ApiContext& context) {
              [&context](const httplib::Request& req, httplib::Response& res) {
                SessionPtr session = authorizeSession(context, req);
                checkQuery(req, {});
-               // Deleting ends the session everywhere: its state file goes too (expiry keeps it).
-               if (context.state != nullptr) context.state->forget(session->id);
+               // Deleting ends the session everywhere: its record goes too (expiry keeps it), if
+               // this node still holds its lease.
+               if (context.state != nullptr) {
+                 uint64_t epoch = 0;
+                 {
+                   std::lock_guard lock(session->mutex);
+                   epoch = session->persisted.epoch;
+                 }
+                 bool forgotten = false;
+                 try {
+                   forgotten = context.state->forget(session->id, context.stateNode, epoch);
+                 } catch (const StoreUnavailable& e) {
+                   Problem problem = serverBusy("The session could not be deleted from " +
+                                                context.state->describe() + ": " + e.what());
+                   problem.retryAfterSeconds = 1;
+                   throw ProblemError(problem);
+                 }
+                 if (!forgotten) {
+                   context.sessions.removeIf(session->id, session,
+                                             Session::CloseReason::reloaded);
+                   throw ProblemError(conflict("The session " + quoteClientText(session->id) +
+                                               " is served by another node now; send the "
+                                               "DELETE there."));
+                 }
+                 // Deleted in the store: the lease keeper may have closed the copy already.
+                 context.sessions.remove(session->id);
+                 res.status = 204;
+                 return;
+               }
                // Returns after the render thread has destroyed the GPU scene.
                if (!context.sessions.remove(session->id)) {
                  throw ProblemError(notFoundDetail("The session " + quoteClientText(session->id) +

@@ -2,6 +2,7 @@
 
 #include <httplib.h>
 #include <sys/socket.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <array>
@@ -25,6 +26,7 @@
 #include "service/api_frames.h"
 #include "service/frame_query.h"
 #include "service/problem.h"
+#include "service/session_sync.h"
 
 namespace myriad::service {
 namespace {
@@ -161,7 +163,7 @@ struct HttpServer::State {
                  [&r](Session& session) { releaseScene(r, session); }),
         api{c.api, r, sessions, c.models, c.state, &memory},
         routes(server, api),
-        frames(c.api.limits.maxStreams) {}
+        frames(c.api.limits.maxStreams, c.encodeThreads) {}
 
   static ConnectionLimits connectionLimits(const HttpConfig& c) {
     ConnectionLimits limits = c.connections;
@@ -191,46 +193,9 @@ struct HttpServer::State {
 
   void handleInfo(httplib::Response& res) const;
 
-  // With --state-dir: what changed since it was last written, one StoredSession per session.
-  std::vector<StoredSession> changedSessions() {
-    std::vector<StoredSession> changed;
-    for (const SessionPtr& session : sessions.all()) {
-      std::lock_guard lock(session->mutex);
-      // A session still being created has no GPU scene yet; a closed one is gone (or going).
-      if (session->closed || session->sceneId == 0) continue;
-      if (session->version == session->persisted.savedVersion &&
-          !session->persisted.tokensChanged) {
-        continue;
-      }
-      StoredSession stored;
-      stored.id = session->id;
-      stored.tokenHash = session->tokenHash;
-      for (const ViewerToken& v : session->viewerTokens) {
-        stored.viewers.push_back({v.hash, v.expiresAtUnix});
-      }
-      session->persisted.tokensChanged = false;
-      stored.snapshot = session->scene.snapshot();
-      stored.model = session->persisted.model;
-      // The uploads behind the scene's uploaded assets but the model's (those deleted since are
-      // forgotten here).
-      std::map<std::string, StoredUpload>& uploads = session->persisted.assets;
-      const SceneGraph& graph = session->scene.graph();
-      std::erase_if(uploads, [&](const auto& entry) { return !graph.findAsset(entry.first); });
-      for (const auto& [assetId, upload] : uploads) {
-        if (!stored.model || assetIdOfBlob(stored.model->blob) != assetId) {
-          stored.assets.push_back(upload);
-        }
-      }
-      stored.environmentBlob = session->persisted.environmentBlob;
-      stored.lightIds = session->scene.lightIds();
-      stored.nextLightId = session->scene.nextLightId();
-      session->persisted.savedVersion = session->version;
-      changed.push_back(std::move(stored));
-    }
-    return changed;
-  }
-  // Declared last: it is destroyed first (flushing), while the sessions are still open.
-  std::unique_ptr<StatePersister> persister;
+  // With a state store (session_sync.h): writes, leases, restores. Declared last: it is
+  // destroyed first (flushing, giving back leases), while the sessions are still open.
+  std::unique_ptr<SessionSync> sync;
 
   // GET /v1/openapi.json: built once, from protocol/ and the renderer's targets.
   const std::string openApi = protocol::openApiDocument({MYRIAD_VERSION, targetNames()}).dump(2);
@@ -280,18 +245,13 @@ HttpServer::HttpServer(const HttpConfig& config, render::RenderQueue& renderThre
                          scene.meshes.size()};
   if (config.nodeId) s.sessions.setNode(*config.nodeId);
   if (config.state != nullptr) {
-    // Every successful edit is written before its response (the post-routing handler below);
-    // the persister's own pass every 250 ms catches changes no request made. A session not open
-    // here is looked for in the state directory on its first request, and one open here is
-    // reloaded from there when another server sharing the directory wrote it since.
-    s.persister = std::make_unique<StatePersister>(
-        *config.state, [&s] { return s.changedSessions(); }, std::chrono::milliseconds(250),
-        config.stateRetention);
-    s.sessions.setRestorer([&s](std::string_view id, const std::string& token) {
-      return restoreStoredSession(s.api, id, token);
-    });
-    s.sessions.setStaleCheck(
-        [store = config.state](std::string_view id) { return store->changedElsewhere(id); });
+    // Lease owner: the node's number, else one no node id (0-255) can be (several servers
+    // sharing a store without --node-id still fence each other).
+    const uint32_t owner = config.nodeId ? *config.nodeId : 256 + uint32_t(::getpid());
+    s.api.stateNode = owner;
+    s.sync = std::make_unique<SessionSync>(s.sessions, s.api, *config.state, owner,
+                                           config.leaseTime, config.stateRetention);
+    s.frames.metrics.setExtraSeries([&s] { return s.sync->exposition(""); });
   }
 
   httplib::Server& server = s.server;
@@ -337,6 +297,14 @@ HttpServer::HttpServer(const HttpConfig& config, render::RenderQueue& renderThre
         std::string what = "unknown exception";
         try {
           std::rethrow_exception(thrown);
+        } catch (const StoreUnavailable& e) {
+          // The session store went away (a database restarting): this request waits for it,
+          // the server serves everyone else.
+          Problem problem = serverBusy(std::string("The session store cannot be reached: ") +
+                                       e.what() + ". Retry shortly.");
+          problem.retryAfterSeconds = 1;
+          sendProblem(res, problem);
+          return;
         } catch (const std::exception& e) {
           what = e.what();
         } catch (...) {
@@ -349,19 +317,16 @@ HttpServer::HttpServer(const HttpConfig& config, render::RenderQueue& renderThre
 
   // Every response passes here before it is written, whether a handler, the route table or
   // httplib itself produced it: counted under its route's template.
-  // With --state-dir, a successful edit (any method but GET, HEAD, OPTIONS) reaches the state
-  // directory here, before its response is written: a server killed after answering loses nothing
-  // it answered.
+  // With a state store, a successful edit (any method but GET, HEAD, OPTIONS) reaches the store
+  // here, before its response is written, or the response says it did not (SessionSync::
+  // confirmEdit): a server killed after answering loses nothing it answered.
   const std::string nodeName =
       config.nodeId ? std::to_string(*config.nodeId) : std::string();
   s.frames.metrics.setNodeLabel(nodeName);
   server.set_post_routing_handler([&s, nodeName](const httplib::Request& req,
                                                  httplib::Response& res) {
+    if (s.sync) s.sync->confirmEdit(req, res);
     s.frames.metrics.countRequest(s.routes.routeOf(req.path, req.method), res.status);
-    if (s.persister && res.status >= 200 && res.status < 300 && req.method != "GET" &&
-        req.method != "HEAD" && req.method != "OPTIONS") {
-      s.persister->flush();
-    }
     if (!nodeName.empty()) res.set_header(std::string(protocol::headers::kNode), nodeName);
     const std::string requestId(protocol::headers::kRequestId);
     const std::string given = req.get_header_value(requestId);
@@ -447,7 +412,7 @@ void HttpServer::stop() {
   // on a client that never disconnects. The registry refuses streams that arrive after this.
   s.frames.streams.shutdown();
   // What changed since the last write goes to the state directory before the sessions close.
-  if (s.persister) s.persister->flush();
+  if (s.sync) s.sync->flush();
   s.sessions.closeAll();
   if (!s.serveEntered) return;
   // httplib's stop() does nothing until listen has marked itself running; wait for that (or for

@@ -18,6 +18,7 @@ struct HttpConfig {
   std::string host;
   uint16_t port = 0;  // 0 = any free port
   uint32_t threads = 8;
+  uint32_t encodeThreads = 0;  // the video encoder pool's threads (encode/encode_pool.h); 0: host's
   // Bounds on connections and request heads (service/http_connections.h); `threads` sets its
   // workers.
   ConnectionLimits connections;
@@ -26,11 +27,13 @@ struct HttpConfig {
   render::Technique technique = render::Technique::Clustered;  // unless a request names one
   ApiConfig api;                                   // sessions: limits, key, CORS
   loader::ModelLibrary* models = nullptr;          // --models; must outlive the server
-  // --state-dir: sessions written there and restored from there (service/state_store.h); null
-  // = sessions live in memory only. Must outlive the server. Files not written for
-  // stateRetention are removed.
+  // --state-dir or --state-store: sessions written there and restored from there
+  // (service/state_store.h); null = sessions live in memory only. Must outlive the server.
+  // Records not written for stateRetention are removed. Each session is served under a lease of
+  // leaseTime (--lease-ms; service/lease.h).
   StateStore* state = nullptr;
   std::chrono::seconds stateRetention{std::chrono::hours(24 * 7)};
+  std::chrono::milliseconds leaseTime{2000};
   // --node-id: session ids start with it and every response names it (X-Myriad-Node).
   std::optional<uint32_t> nodeId;
   // The access log's form (--log-format): JSON lines (AccessLog in http_server.cpp), else text.

@@ -38,6 +38,11 @@ void single(std::string& out, std::string_view name, std::string_view type, std:
   family(out, name, type, help);
   out += std::string(name) + " " + std::to_string(value) + "\n";
 }
+void single(std::string& out, std::string_view name, std::string_view type, std::string_view help,
+            double value) {
+  family(out, name, type, help);
+  out += std::string(name) + " " + number(value) + "\n";
+}
 
 }  // namespace
 
@@ -62,14 +67,16 @@ void observe(std::array<uint64_t, Metrics::kFrameBuckets.size()>& buckets, uint6
   sum += seconds;
 }
 
-// A histogram of Metrics::kFrameBuckets in the exposition format.
+// A histogram of `bounds` (Metrics::kFrameBuckets unless given) in the exposition format.
 void histogram(std::string& out, std::string_view name,
                const std::array<uint64_t, Metrics::kFrameBuckets.size()>& buckets,
-               uint64_t count, double sum) {
+               uint64_t count, double sum,
+               const std::array<double, Metrics::kFrameBuckets.size()>& bounds =
+                   Metrics::kFrameBuckets) {
   uint64_t cumulative = 0;
-  for (size_t i = 0; i < Metrics::kFrameBuckets.size(); ++i) {
+  for (size_t i = 0; i < bounds.size(); ++i) {
     cumulative += buckets[i];
-    out += std::string(name) + "_bucket{le=\"" + number(Metrics::kFrameBuckets[i]) + "\"} " +
+    out += std::string(name) + "_bucket{le=\"" + number(bounds[i]) + "\"} " +
            std::to_string(cumulative) + "\n";
   }
   out += std::string(name) + "_bucket{le=\"+Inf\"} " + std::to_string(count) + "\n";
@@ -164,6 +171,25 @@ std::string Metrics::exposition(const MetricGauges& gauges) const {
   single(out, "myriad_video_resyncs_total", "counter",
          "Video stream clients that fell behind and skipped to a key frame (each lowers the bitrate).",
          gauges.videoResyncs);
+  single(out, "myriad_video_encoders_created_total", "counter",
+         "Video encoders made (one per channel opened).", gauges.videoEncodersCreated);
+  single(out, "myriad_video_encoders_freed_total", "counter",
+         "Video encoders freed (their channel's last stream ended); made minus freed are alive.",
+         gauges.videoEncodersFreed);
+  single(out, "myriad_encode_threads", "gauge",
+         "Threads of the video encoder pool every session's streams share (--encode-threads).",
+         gauges.encodeThreads);
+  single(out, "myriad_encode_queue_depth", "gauge",
+         "Video encodes waiting for their session's turn on the encoder pool.", gauges.encodeQueued);
+  single(out, "myriad_encode_running", "gauge", "Video encodes running on the encoder pool.",
+         gauges.encodeRunning);
+  family(out, "myriad_encode_seconds", "histogram",
+         "Time one video frame's encode took on the encoder pool (its turn's wait not included).");
+  histogram(out, "myriad_encode_seconds", gauges.encodeBucketCounts, gauges.encodeJobs,
+            gauges.encodeSecondsSum, gauges.encodeBuckets);
+  single(out, "myriad_encode_wait_seconds_total", "counter",
+         "Time video encodes waited for their session's turn on the encoder pool, summed.",
+         gauges.encodeWaitSecondsSum);
   single(out, "myriad_connections", "gauge", "HTTP connections open now (waiting or in a request).",
          gauges.connectionsOpen);
   single(out, "myriad_connections_accepted_total", "counter", "HTTP connections accepted.",
@@ -191,6 +217,7 @@ std::string Metrics::exposition(const MetricGauges& gauges) const {
   single(out, "myriad_validation_messages_total", "counter",
          "Vulkan validation messages since start-up (0 unless --validate).",
          gauges.validationMessages);
+  if (extra_) out += extra_();
   return node_.empty() ? out : withLabel(out, "node", node_);
 }
 

@@ -4,6 +4,7 @@
 
 #include <array>
 #include <cstdint>
+#include <functional>
 #include <map>
 #include <mutex>
 #include <string>
@@ -22,6 +23,18 @@ struct MetricGauges {
   uint64_t videoEncodes = 0;        // frames encoded by video streams' shared encoders
   uint64_t videoEncoders = 0;       // video stream encoders open now (one per channel)
   uint64_t videoResyncs = 0;        // video viewers that fell behind and skipped to a key frame
+  uint64_t videoEncodersCreated = 0;  // video encoders made since the start
+  uint64_t videoEncodersFreed = 0;    // and freed (made - freed: alive now)
+  // The encoder pool (encode/encode_pool.h): threads, jobs waiting and running, and how long
+  // each job ran (buckets of encodeBuckets, not cumulative) and waited for its turn.
+  uint64_t encodeThreads = 0;
+  uint64_t encodeQueued = 0;
+  uint64_t encodeRunning = 0;
+  std::array<double, 12> encodeBuckets{};
+  std::array<uint64_t, 12> encodeBucketCounts{};
+  uint64_t encodeJobs = 0;
+  double encodeSecondsSum = 0.0;
+  double encodeWaitSecondsSum = 0.0;
   // The connection layer (service/http_connections.h) and the memory budget.
   uint64_t connectionsOpen = 0;
   uint64_t connectionsAccepted = 0;
@@ -56,12 +69,16 @@ class Metrics {
   // A label every series carries (--node-id: node="N"), so that the series of several servers
   // scraped through one front stay apart. Set before serving.
   void setNodeLabel(std::string node) { node_ = std::move(node); }
+  // More series from elsewhere (the lease series, service/lease.h), appended to every exposition
+  // without labels (the node label is added to them too). Set before serving.
+  void setExtraSeries(std::function<std::string()> extra) { extra_ = std::move(extra); }
 
   // The count so far for one route and status (tests and logs).
   uint64_t requests(std::string_view routeTemplate, int status) const;
 
  private:
   std::string node_;  // "" = no node label
+  std::function<std::string()> extra_;
   mutable std::mutex mutex_;
   std::map<std::pair<std::string, int>, uint64_t> requests_;
   std::array<uint64_t, kFrameBuckets.size()> frameBucketCounts_{};  // not cumulative

@@ -113,6 +113,10 @@ const std::vector<Flag>& flags() {
        [](Options& o, std::string_view v) {
          o.threads = parseUnsigned<uint32_t>("--threads", v, 1, kMaxThreads);
        }},
+      {"--encode-threads", true,
+       [](Options& o, std::string_view v) {
+         o.encodeThreads = parseUnsigned<uint32_t>("--encode-threads", v, 1, kMaxThreads);
+       }},
       {"--max-connections", true,
        [](Options& o, std::string_view v) {
          o.maxConnections = parseUnsigned<uint32_t>("--max-connections", v, 16, kMaxCountLimit);
@@ -229,6 +233,17 @@ const std::vector<Flag>& flags() {
          if (v.empty()) throw UsageError("--state-dir expects a directory.");
          o.stateDir = std::string(v);
        }},
+      {"--state-store", true,
+       [](Options& o, std::string_view v) {
+         if (!v.starts_with("postgresql://") && !v.starts_with("postgres://")) {
+           throw UsageError("--state-store expects a PostgreSQL URL (postgresql://...).");
+         }
+         o.stateStore = std::string(v);
+       }},
+      {"--lease-ms", true,
+       [](Options& o, std::string_view v) {
+         o.leaseMs = parseUnsigned<uint32_t>("--lease-ms", v, 200, 600000);
+       }},
       {"--state-retention-hours", true,
        [](Options& o, std::string_view v) {
          o.stateRetentionHours =
@@ -322,6 +337,9 @@ Options parseOptions(std::span<const std::string_view> args) {
   if (options.maxStreamsPerSession == 0) {
     options.maxStreamsPerSession = std::max(1u, (options.maxStreams + 1) / 2);
   }
+  if (options.stateDir && options.stateStore) {
+    throw UsageError("--state-dir and --state-store are two stores; give one.");
+  }
   return options;
 }
 
@@ -347,6 +365,9 @@ materials and lights (protocol/reference.md), and the stateless GET /v1/frame.
                            the device)
   --threads N              HTTP worker threads (default 32; keep well above --max-streams plus
                            --max-queued-frames: each stream and waiting frame holds one)
+  --encode-threads N       video encoder pool threads, shared by every session's streams with
+                           fair turns; an encoder's own threads (libvpx row-mt and tiles,
+                           OpenH264 slices) come from this (default: the hardware threads)
   --max-memory BYTES       what requests may take the process to (1GiB, 512MiB, ...): larger
                            bodies, frames and light generations wait, then 503 + Retry-After,
                            or 413 when one could never fit (default: the cgroup's memory.max,
@@ -395,6 +416,12 @@ materials and lights (protocol/reference.md), and the stateless GET /v1/frame.
                            response to each change; tokens as SHA-256 hashes) and restore a session
                            from it on its first request after a restart, expiry, or on another
                            server sharing DIR
+  --state-store URL        keep sessions in PostgreSQL instead (postgresql://USER@HOST/DB, or
+                           ?host=/socket/dir): servers on many machines share them, one owner
+                           per session under a lease (docs/deploy.md); the password belongs in
+                           ~/.pgpass or PGPASSWORD, not the URL (ps shows arguments)
+  --lease-ms MS            how long a session's lease lasts unrenewed (default 2000): a crashed
+                           node's sessions move to another within it
   --state-retention-hours H  remove state files unused for H hours (default 168)
   --node-id N              this server's number (0-255) among several behind one front
                            (docs/deploy.md): session ids start with it, responses name it in

@@ -31,6 +31,9 @@ struct Options {
   // long as it runs, so this must stay well above maxStreams + maxQueuedFrames + 1 for other
   // requests to stay answerable with every stream open and the render queue full.
   uint32_t threads = 32;
+  // Video encoder pool threads, shared by every session's streams with fair turns
+  // (encode/encode_pool.h). 0: the host's hardware threads.
+  uint32_t encodeThreads = 0;
   // Connections (service/http_connections.h): open in all and from one address (the longest-waiting
   // idle or partial one gives way to a new one at the cap), and how long a request head may take.
   uint32_t maxConnections = 4096;
@@ -89,6 +92,10 @@ struct Options {
   std::optional<std::string> modelsDir;   // --models: the library of loadable model files
   std::optional<std::string> stateDir;    // --state-dir: sessions persisted there
   uint32_t stateRetentionHours = 168;     // --state-retention-hours: files kept this long unused
+  // --state-store postgresql://...: sessions in PostgreSQL, shared by servers on many machines
+  // (service/store_postgres.h); instead of --state-dir.
+  std::optional<std::string> stateStore;
+  uint32_t leaseMs = 2000;                // --lease-ms: a session's lease time (service/lease.h)
   // --node-id N (0-255): this server's number among several behind one front. Session ids then
   // start with it ("s-" + 2 hex digits of N + 14 random ones) so the front routes a session's
   // requests to the node that made it, and every response names the node (X-Myriad-Node).

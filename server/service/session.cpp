@@ -110,6 +110,7 @@ SessionPtr SessionManager::create(SessionScene scene) {
     id = "s-" + nodeHex_ + randomHex(kIdBytes).substr(nodeHex_.size());
   } while (sessions_.contains(id));
   auto session = std::make_shared<Session>(id, randomHex(kTokenBytes), std::move(scene));
+  session->persisted.fresh = true;  // its first write takes a new lease (session_sync.h)
   sessions_.emplace(id, session);
   return session;
 }
@@ -130,6 +131,7 @@ SessionPtr SessionManager::createWithIdentity(std::string id, std::string token,
   }
   auto session = std::make_shared<Session>(id, std::move(token), std::move(tokenHash),
                                           std::move(scene));
+  session->restoring = true;  // until authorize()'s restorer returns it
   sessions_.emplace(std::move(id), session);
   return session;
 }
@@ -147,6 +149,36 @@ SessionPtr SessionManager::find(std::string_view id) const {
   auto it = sessions_.find(id);
   return it == sessions_.end() ? nullptr : it->second;
 }
+
+// The restore lock of one id, held for its scope; the map forgets an id no one holds.
+class SessionManager::RestoreLock {
+ public:
+  RestoreLock(SessionManager& manager, std::string_view id) : manager_(manager), id_(id) {
+    {
+      std::lock_guard lock(manager_.restoreLocksMutex_);
+      std::shared_ptr<std::mutex>& slot = manager_.restoreLocks_[id_];
+      if (!slot) slot = std::make_shared<std::mutex>();
+      mutex_ = slot;
+    }
+    mutex_->lock();
+  }
+  ~RestoreLock() {
+    mutex_->unlock();
+    std::lock_guard lock(manager_.restoreLocksMutex_);
+    mutex_.reset();
+    auto it = manager_.restoreLocks_.find(id_);
+    if (it != manager_.restoreLocks_.end() && it->second.use_count() == 1) {
+      manager_.restoreLocks_.erase(it);
+    }
+  }
+  RestoreLock(const RestoreLock&) = delete;
+  RestoreLock& operator=(const RestoreLock&) = delete;
+
+ private:
+  SessionManager& manager_;
+  std::string id_;
+  std::shared_ptr<std::mutex> mutex_;
+};
 
 SessionPtr SessionManager::authorize(std::string_view id, const Credentials& credentials,
                                      bool allowQueryToken, Role needed, Role* role) {
@@ -190,18 +222,38 @@ SessionPtr SessionManager::authorize(std::string_view id, const Credentials& cre
       if (matches) otherSession = true;
     }
   }
+  if (session) {
+    bool restoring = false;
+    {
+      std::lock_guard lock(session->mutex);
+      restoring = session->restoring;
+    }
+    if (restoring) {
+      // Another request is restoring it: wait for that (restores hold the id's restore lock).
+      RestoreLock waiting(*this, id);
+      session = find(id);
+    }
+  }
   if (session && staleCheck_ && staleCheck_(id)) {
     // Another server wrote (or deleted) this session since: the copy here is out of date.
-    std::fprintf(stderr, "myriad-server: session %s changed on another server; reloading it\n",
+    std::fprintf(stderr,
+                 "myriad-server: session %s is no longer this server's to serve (its lease lapsed "
+                 "or moved); reloading it\n",
                  session->id.c_str());
     removeIf(id, session, Session::CloseReason::reloaded);
     session = nullptr;
   }
   if (!session && restorer_) {
     // Not open here: perhaps in the state directory (a restart, another node, idle expiry).
-    std::lock_guard restoring(restoreMutex_);
+    RestoreLock restoring(*this, id);
     session = find(id);
-    if (!session) session = restorer_(id, *token);
+    if (!session) {
+      session = restorer_(id, *token);
+      if (session) {
+        std::lock_guard lock(session->mutex);
+        session->restoring = false;
+      }
+    }
   }
   if (!session) {
     throw ProblemError(notFoundDetail("There is no session " + quoteClientText(id) +
@@ -278,6 +330,7 @@ bool SessionManager::removeIf(std::string_view id, const SessionPtr& expected,
     session->changed.notify_all();
   }
   if (release_) release_(*session);
+  if (onClosed_) onClosed_(*session);
   return true;
 }
 

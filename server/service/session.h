@@ -74,6 +74,10 @@ struct Session {
   // only): their 401 says "revoked", not just "not a token", so a viewer's page can tell its user.
   std::vector<std::string> revokedViewerHashes;
 
+  // Being restored from the state store (createWithIdentity until its restorer returns): a
+  // request that finds it waits for the restore rather than use a half-made session.
+  bool restoring = false;
+
   // Event streams open on it (GET .../events; at most kMaxEventStreamsPerSession).
   uint32_t eventStreams = 0;
 
@@ -97,6 +101,13 @@ struct Session {
     std::optional<std::string> environmentBlob;
     uint64_t savedVersion = UINT64_MAX;
     bool tokensChanged = false;  // viewer tokens added or revoked since the last write
+    // The session's lease (lease.h): the epoch this copy is served under; 0 until it has one.
+    // `fresh`: created here (POST /v1/sessions), so its first write takes a new lease; a restored
+    // copy gets the epoch its restore took. `storedVersion`: the highest version the store
+    // confirmed (-1: none yet), which an edit's response waits for (session_sync.h).
+    uint64_t epoch = 0;
+    bool fresh = false;
+    int64_t storedVersion = -1;
   };
   Persisted persisted;
 
@@ -155,15 +166,19 @@ class SessionManager {
   // With --state-dir: how a session that is not open is looked for, given a token. Returns the
   // restored session (now open), or null when there is nothing to restore; throws ProblemError
   // (403 for a token that does not match the stored hash, 422 for a model that no longer loads).
-  // Called by authorize() with no lock held, one restore at a time.
+  // Called by authorize() with no lock held, one restore of an id at a time.
   using Restorer = std::function<SessionPtr(std::string_view id, const std::string& token)>;
   void setRestorer(Restorer restorer) { restorer_ = std::move(restorer); }
 
-  // With --state-dir shared by several servers: whether an open session's state file was written
-  // by another server since this one last wrote or read it. authorize() then closes the stale copy
-  // here and restores the session from the file (or answers 404 when the file is gone).
+  // With a state store: whether an open session's copy here may no longer be served (its lease
+  // lapsed or went to another node). authorize() then closes the stale copy here and restores
+  // the session from the store (or answers 404 when it is gone, 409 naming its owner).
   using StaleCheck = std::function<bool(std::string_view id)>;
   void setStaleCheck(StaleCheck check) { staleCheck_ = std::move(check); }
+  // Told of every session closed here, after its GPU scene is released (its lease is given back).
+  // Set before serving, like the restorer.
+  using Closed = std::function<void(const Session&)>;
+  void setOnClosed(Closed closed) { onClosed_ = std::move(closed); }
 
   // --node-id: new session ids start with the node's number as 2 hex digits ("s-" + 2 + 14 random
   // hex digits), which the front routes by.
@@ -213,8 +228,13 @@ class SessionManager {
   const SceneReleaser release_;
   Restorer restorer_;
   StaleCheck staleCheck_;
+  Closed onClosed_;
   std::string nodeHex_;  // "" without --node-id
-  mutable std::mutex restoreMutex_;  // one restore at a time (two requests may race for one id)
+  // One restore of an id at a time (two requests may race for one id); restores of different ids
+  // run side by side, so that one waiting for a lease (session_sync.h) holds up no other.
+  class RestoreLock;
+  std::mutex restoreLocksMutex_;
+  std::map<std::string, std::shared_ptr<std::mutex>, std::less<>> restoreLocks_;
 
   mutable std::mutex mutex_;
   std::map<std::string, SessionPtr, std::less<>> sessions_;

@@ -1,28 +1,27 @@
-// Sessions that survive the process (--state-dir DIR): each session's snapshot, its token as a
-// SHA-256 hash, and the bytes its uploads came from, in files under DIR, so that a restarted
-// server (or another server sharing DIR) restores a session on its first request.
+// The state store: where sessions survive the process and are shared between servers. An
+// interface with two implementations, chosen by --state-store (main.cpp):
 //
-//   DIR/sessions/<id>.json   one StoredSession, replaced atomically (temporary file, fsync, rename)
-//   DIR/blobs/<sha256>       uploaded model and asset bytes and decoded environment images, by
-//                            content
+//   FileStateStore      (store_files.h)    --state-dir DIR: files under DIR, the embedded default
+//                                          for one machine (several servers on it may share DIR)
+//   PostgresStateStore  (store_postgres.h) --state-store postgresql://...: rows in PostgreSQL,
+//                                          for servers on many machines
 //
-// The token itself is never written: a restore needs a request that carries it, and checks it
-// against the hash. Deleting a session removes its file; idle expiry only frees memory (the file
-// stays for the retention period, --state-retention-hours). Blobs no session names are removed
-// with the retention sweep.
+// Both keep the same things: each session's record (StoredSession: its snapshot, its token as a
+// SHA-256 hash, its version), the bytes its uploads came from (blobs, by content), and one lease
+// per session: which node serves it (owner), an epoch bumped whenever the lease changes hands, and
+// an expiry the owner keeps pushing back (lease.h). Every write of a record carries the epoch it
+// was made under and the session's version, and the store refuses it, in the same transaction
+// that would write it, when the lease is no longer that epoch's (another node took the session
+// over: a stale owner) or when the record there is at a later version (it would go back).
 //
-// What is in DIR is untrusted input, like a request body: anyone who can write there (another
-// process, a shared volume, a restored backup) could have put anything there. Only regular files
-// are opened (no links, FIFOs or devices: O_NOFOLLOW | O_NONBLOCK, then fstat), never more bytes
-// than the largest file this server writes (StateLimits), and a record is checked member by member
-// before use; the snapshot in it goes through the protocol's schema at restore, as a POSTed one
-// does. A refused file is one line on stderr (once per version of the file, when the file itself
-// is at fault) and is treated as absent: its session answers 404.
+// The token itself is never written. What a store holds is untrusted input, like a request body:
+// a record is checked member by member before use (recordFromJson), and the snapshot in it goes
+// through the protocol's schema at restore, as a POSTed one does. A refused record is one line on
+// stderr and is treated as absent: its session answers 404.
 #pragma once
 
 #include <chrono>
 #include <cstdint>
-#include <filesystem>
 #include <functional>
 #include <map>
 #include <memory>
@@ -34,6 +33,8 @@
 #include <thread>
 #include <vector>
 #include <condition_variable>
+#include <stdexcept>
+#include <utility>
 
 #include <nlohmann/json.hpp>
 
@@ -56,6 +57,11 @@ inline std::string assetIdOfBlob(std::string_view blob) {
 
 struct StoredSession {
   std::string id;
+  // The session's version (Session::version) when this record was taken: a store never replaces
+  // a record by one of a lower version.
+  uint64_t version = 0;
+  // Not part of the record: the lease epoch a write is made under, and the one a load found.
+  uint64_t epoch = 0;
   std::string tokenHash;   // sha256Hex(token)
   // protocol::Snapshot: with its scene (assets by id and source, objects, semantic classes).
   nlohmann::json snapshot;
@@ -76,8 +82,8 @@ struct StoredSession {
   std::vector<Viewer> viewers;
 };
 
-// The most the store reads of one file: a file over these is refused unread (fstat), and a read
-// that passes them is cut off, so a file that grows while read cannot take the memory either.
+// The most the store reads of one record or blob: a file over these is refused unread (fstat), a
+// read that passes them is cut off, and a row over them is refused.
 struct StateLimits {
   uint64_t recordBytes = 256ull << 20;  // DIR/sessions/<id>.json
   uint64_t blobBytes = 64ull << 20;     // DIR/blobs/<sha256>
@@ -93,77 +99,105 @@ StateLimits stateLimitsFor(uint64_t maxUploadBytes, uint64_t maxLightsPerSession
 // Lower-case hex SHA-256 of `bytes` (OpenSSL).
 std::string sha256Hex(std::string_view bytes);
 
-// Which version of a file: its inode changes with every atomic replacement; mtime and size
-// besides, since a freed inode may be reused.
-struct StateFileStamp {
-  uint64_t inode = 0;
-  int64_t mtimeNs = 0;
-  int64_t size = 0;
-  bool operator==(const StateFileStamp&) const = default;
+// The hex digits of a SHA-256 (a blob's key), and a session id ("s-" + 16 hex digits): anything
+// else never names a file or a row.
+bool isHexKey(std::string_view key);
+bool isSessionId(std::string_view id);
+
+// A record as JSON and back (fromJson checks every member against `limits`; throws
+// std::runtime_error naming the member as a JSON Pointer).
+nlohmann::json recordToJson(const StoredSession& session);
+StoredSession recordFromJson(const nlohmann::json& record, const StateLimits& limits);
+// The blob keys a record's text names, without building its snapshot; nothing for non-JSON.
+void blobNamesOfRecord(std::string_view text, std::set<std::string>& named);
+// The blob keys a record names.
+std::vector<std::string> blobKeysOf(const StoredSession& session);
+
+// A session's lease as the store has it. `owner` is a node id (--node-id; 0 without one).
+struct Lease {
+  uint32_t owner = 0;
+  uint64_t epoch = 0;        // 0: no lease (none was ever taken, or the session was deleted)
+  int64_t expiresInMs = 0;   // how long it still runs on the store's clock; <= 0: expired
+  bool deleted = false;      // the session was deleted: no node takes the lease again
+};
+
+// What acquire() gives: the lease now, and whether the node asking holds it (it did not when
+// another node's lease has not expired).
+struct LeaseGrant {
+  bool held = false;
+  Lease lease;
+};
+
+enum class WriteOutcome {
+  written,  // the record is stored at its version
+  fenced,   // the lease is no longer this write's epoch: another node owns the session (`owner`)
+  stale,    // the record there is at a later version than this write's
+  gone,     // the session was deleted (no lease, no record)
+  failed,   // the store could not be reached or refused the write (`detail`)
+};
+struct WriteResult {
+  WriteOutcome outcome = WriteOutcome::written;
+  uint32_t owner = 0;   // fenced: the lease's owner now
+  std::string detail;   // failed: why, in words (no connection string, no token)
+};
+
+// Thrown by a store that cannot be reached (a database that went away): the request that needed
+// it is answered 503 naming the store, and the server serves everyone else.
+class StoreUnavailable : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
 };
 
 class StateStore {
  public:
-  // Creates DIR/sessions and DIR/blobs (mode 0700) when missing. Throws std::runtime_error with
-  // one sentence when DIR cannot be used.
-  explicit StateStore(std::filesystem::path dir, StateLimits limits = {});
-  ~StateStore();
+  virtual ~StateStore() = default;
 
-  const std::filesystem::path& dir() const { return dir_; }
-  const StateLimits& limits() const { return limits_; }
+  // What the store is, for log lines and problems ("the state directory /srv/state",
+  // "PostgreSQL database myriad on /run/postgresql"): never a password.
+  virtual std::string describe() const = 0;
+  virtual const StateLimits& limits() const = 0;
 
-  // Stores `bytes` under their hash (once: the same bytes are written once; a blob already there
-  // has its mtime renewed, so that the sweep keeps it) and returns the key.
-  std::string putBlob(std::string_view bytes);
-  // The bytes of `key`; nullopt when missing, not a key, not a regular file, over the limit or
-  // not the bytes the key hashes, with the reason in `why` when given.
-  std::optional<std::string> blob(std::string_view key, std::string* why = nullptr) const;
+  // Stores `bytes` under their hash (once) and returns the key. Throws on failure.
+  virtual std::string putBlob(std::string_view bytes) = 0;
+  // The bytes of `key`; nullopt when missing, not a key, over the limit or not the bytes the key
+  // hashes, with the reason in `why` when given.
+  virtual std::optional<std::string> blob(std::string_view key, std::string* why = nullptr) const = 0;
 
-  // Writes the session's file, replacing the previous one atomically.
-  void save(const StoredSession& session);
-  // The session's file, or nullopt when there is none or it is refused (not a regular file, over
-  // the limit, not a record: reported with refuse()).
-  std::optional<StoredSession> load(std::string_view id) const;
-  // The session's file, as log lines name it.
-  std::filesystem::path sessionPath(std::string_view id) const;
-  // Reports on stderr (one line) that the session's file is refused, and why. `remember`: the
-  // file's own content is at fault (not a record, not the schema), so load() treats the version
-  // it last read as absent from now on, without reading it again or another line (a request a
-  // second for a damaged file is not a line a second); a new version is read anew. Without it
-  // (a model that no longer loads, which a change to the library may mend) the next request
-  // tries again.
-  void refuse(std::string_view id, std::string_view reason, bool remember) const;
-  void remove(std::string_view id);
-  // remove(), and save() of this id is refused from now on (a write already collected when the
-  // session was deleted must not bring its file back).
-  void forget(std::string_view id);
+  // Writes the session's record under `session.epoch` (the lease the writer holds, as `node`) at
+  // `session.version`, refused as WriteResult says. Throws only for a record over the limits.
+  virtual WriteResult save(const StoredSession& session, uint32_t node) = 0;
+  // The session's record, or nullopt when there is none or it is refused (reported with
+  // refuse()). `epoch` of the result: its lease's epoch now. Throws StoreUnavailable.
+  virtual std::optional<StoredSession> load(std::string_view id) const = 0;
+  // Reports on stderr (one line) that the session's record is refused, and why. `remember`: the
+  // record itself is at fault, so load() treats this version as absent without another line.
+  virtual void refuse(std::string_view id, std::string_view reason, bool remember) const = 0;
+  // Deletes the session (record and lease) if `node` holds its lease at `epoch`; a write of this
+  // id is refused from then on (WriteOutcome::gone). False when the lease is another's.
+  virtual bool forget(std::string_view id, uint32_t node, uint64_t epoch) = 0;
 
-  // True when the session's file is no longer the one this process last wrote or read: another
-  // server sharing DIR wrote it (or deleted it) since. A session open here is then stale and must
-  // be restored from the file again. False for a session this process never wrote nor read.
-  bool changedElsewhere(std::string_view id) const;
+  // Takes the session's lease for `node` for `ttl` when it is free, expired or already this
+  // node's; each time it is taken the epoch goes up by one (a node that takes its own lease again
+  // after a restart fences its former self too). `fresh`: for a session just created (no record
+  // yet). `handover`: when another node's lease is live, ask it to hand the session over (the
+  // session's home node taking it back): renew() tells the owner, which closes its copy and
+  // releases the lease, and a later acquire takes it. Throws StoreUnavailable.
+  virtual LeaseGrant acquire(std::string_view id, uint32_t node, std::chrono::milliseconds ttl,
+                             bool fresh, bool handover = false) = 0;
+  // Extends the leases `node` holds (id and epoch) by `ttl`; returns those it no longer holds
+  // (taken over, deleted), and in `wanted` those another node asked to be handed over. Throws
+  // StoreUnavailable.
+  virtual std::vector<std::string> renew(uint32_t node,
+                                         const std::vector<std::pair<std::string, uint64_t>>& held,
+                                         std::chrono::milliseconds ttl,
+                                         std::vector<std::string>* wanted = nullptr) = 0;
+  // Ends a lease `node` holds at `epoch` now (a session closed here: expiry, shutdown), so that
+  // another node may take it at once. Nothing when it is no longer that lease.
+  virtual void release(std::string_view id, uint32_t node, uint64_t epoch) = 0;
 
-  // The retention sweep, a batch at a time: removes session files not written for `retention`,
-  // then blobs no remaining file names. Each call looks at up to `entries` directory entries and
-  // returns true when the sweep is complete (the next call starts another). The store's lock is
-  // taken per file removed, never for the listing, so saves and restores go on meanwhile.
-  bool sweepSome(std::chrono::seconds retention, size_t entries);
-
- private:
-  struct Sweep;
-  // Removes the entry `name` of the directory the sweep lists if it is still the version `seen`.
-  bool removeIfUnchanged(const char* name, const StateFileStamp& seen);
-
-  std::filesystem::path dir_;
-  StateLimits limits_;
-  mutable std::mutex mutex_;  // one writer of a path at a time; sweep against save
-  std::set<std::string, std::less<>> forgotten_;
-  // What each session file was when this process last wrote or read it.
-  mutable std::map<std::string, StateFileStamp, std::less<>> stamps_;
-  // The version of each session file refused (refuse()), so that it is reported once.
-  mutable std::map<std::string, StateFileStamp, std::less<>> refused_;
-  std::mutex sweepMutex_;  // one sweep at a time
-  std::unique_ptr<Sweep> sweep_;  // the sweep in progress; null between sweeps
+  // The retention sweep, a batch at a time: removes records not written for `retention` whose
+  // lease has expired, then blobs no record names. Returns true when a sweep is complete.
+  virtual bool sweepSome(std::chrono::seconds retention, size_t entries) = 0;
 };
 
 // Writes every session whose version moved since it was last written, at most every `interval`
@@ -172,24 +206,29 @@ class StateStore {
 // flushes (StateStore::sweepSome), so a directory of 20,000 sessions delays neither.
 class StatePersister {
  public:
-  // `collect` returns the sessions to write now (it takes each one's lock and snapshot); the
-  // persister calls it from its thread.
+  // `collect` returns the sessions to write now (it takes each one's lock and snapshot);
+  // `written` is told how each write went (a fenced one closes the copy). The persister calls
+  // both from the thread that flushes, one flush at a time.
   using Collect = std::function<std::vector<StoredSession>()>;
-  StatePersister(StateStore& store, Collect collect, std::chrono::milliseconds interval,
-                 std::chrono::seconds retention);
+  using Written = std::function<void(const StoredSession&, const WriteResult&)>;
+  // Writes as lease owner `node`.
+  StatePersister(StateStore& store, uint32_t node, Collect collect, Written written,
+                 std::chrono::milliseconds interval, std::chrono::seconds retention);
   ~StatePersister();  // flushes, then stops
   StatePersister(const StatePersister&) = delete;
   StatePersister& operator=(const StatePersister&) = delete;
 
   // Writes what changed now. Callers on several threads are served one after the other, so a
-  // session's file never goes back to an older version.
+  // session's record never goes back to an older version.
   void flush();
 
  private:
   void loop();
 
   StateStore& store_;
+  const uint32_t node_;
   Collect collect_;
+  Written written_;
   const std::chrono::milliseconds interval_;
   const std::chrono::seconds retention_;
   std::mutex mutex_;  // guards stopping_

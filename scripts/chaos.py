@@ -1,0 +1,555 @@
+#!/usr/bin/env python3
+# Copyright 2026 The Myriad Authors. Licensed under the Apache License, Version 2.0.
+"""Chaos test of sessions at scale (issue 33): no acknowledged edit is lost.
+
+Starts a PostgreSQL cluster of its own (scripts/pg_cluster.py; Debian's postgresql), NODES
+myriad-servers (--node-id 1..N, one --state-store; or --store files: one shared --state-dir), and
+two fronts: small routing proxies in this process that route a session's requests to the node its
+id names, else by rendezvous hash of the id over the nodes. The first follows a 409's
+X-Myriad-Owner to the node that holds the session's lease; the second passes the 409 on (as the
+nginx front does), so its clients see refused edits. Clients add lights to sessions through both fronts (one
+edit in ten with an If-Match naming a version the session never had: a 412) while nodes are killed (SIGKILL, then restarted), stopped (SIGSTOP, then SIGCONT) and restarted (SIGTERM)
+at random. Then every session is read back and checked:
+
+  - every light answered 2xx is there, with the position it was added with (lost: must be 0);
+  - no light answered 4xx is there (a refused edit applied: must be 0);
+  - no light id was handed out twice (must be 0);
+  - 5xx and no answer are indeterminate (the edit may or may not have been made): counted.
+
+Prints a JSON report (edits, outcomes, failures injected, per-session reachability gaps: the
+longest time a session's requests went without a 2xx while its clients kept asking) and exits 0
+when nothing was lost, 1 otherwise, 77 when PostgreSQL's binaries are missing (CTest's skip).
+
+    scripts/chaos.py --server build/server/myriad-server --seconds 300          # the full test
+    scripts/chaos.py --server ... --seconds 40 --sessions 24 --clients 8         # CTest's
+"""
+
+import argparse
+import hashlib
+import http.client
+import json
+import os
+import random
+import shutil
+import signal
+import socket
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from pg_cluster import PostgresCluster, Unavailable  # noqa: E402
+
+SKIP = 77
+
+
+def free_port():
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+class Node:
+    """One myriad-server, restartable on the same port."""
+
+    def __init__(self, server, node_id, store_args, work, lease_ms):
+        self.server = server
+        self.id = node_id
+        self.port = free_port()
+        self.store_args = store_args
+        self.log_path = os.path.join(work, f"node{node_id}.log")
+        self.lease_ms = lease_ms
+        self.process = None
+        self.stopped = False
+        self.start()
+
+    def start(self):
+        log = open(self.log_path, "a")
+        self.process = subprocess.Popen(
+            [self.server, "--host", "127.0.0.1", "--port", str(self.port), "--node-id",
+             str(self.id), "--lights", "4", "--max-sessions", "64", "--lease-ms",
+             str(self.lease_ms), "--shutdown-grace", "2", "--log-format", "text"]
+            + self.store_args, stdout=log, stderr=log)
+        self.stopped = False
+
+    def wait_ready(self, timeout=60):
+        deadline = time.time() + timeout
+        while time.time() < deadline:
+            if self.process.poll() is not None:
+                raise RuntimeError(f"node {self.id} exited: " + open(self.log_path).read()[-3000:])
+            try:
+                c = http.client.HTTPConnection("127.0.0.1", self.port, timeout=2)
+                c.request("GET", "/v1/health")
+                if c.getresponse().status == 200:
+                    return
+            except OSError:
+                pass
+            time.sleep(0.1)
+        raise RuntimeError(f"node {self.id} not healthy in {timeout} s")
+
+    def alive(self):
+        return self.process is not None and self.process.poll() is None
+
+    def kill(self):
+        self.process.send_signal(signal.SIGKILL)
+        self.process.wait()
+
+    def terminate(self):
+        self.process.send_signal(signal.SIGTERM)
+        try:
+            self.process.wait(timeout=15)
+        except subprocess.TimeoutExpired:
+            self.process.kill()
+            self.process.wait()
+
+    def stop(self):
+        self.process.send_signal(signal.SIGSTOP)
+        self.stopped = True
+
+    def cont(self):
+        if self.alive():
+            self.process.send_signal(signal.SIGCONT)
+        self.stopped = False
+
+
+class Front:
+    """A stateless front: routes /v1/sessions/<id>... to the id's node, else by rendezvous hash of
+    the id over the nodes; follows a 409's X-Myriad-Owner; a node that does not answer is passed
+    over for a few seconds. Two fronts route every id alike (the same hash), as stateless replicas
+    do, but each learns owners and dead nodes on its own."""
+
+    CONNECT_TIMEOUT = 1.0
+    READ_TIMEOUT = 4.0
+    SUSPECT_SECONDS = 3.0
+    DEADLINE = 8.0
+
+    def __init__(self, nodes, follow_owner=True):
+        self.nodes = {n.id: n for n in nodes}
+        self.follow_owner = follow_owner
+        self.owner = {}     # session id -> node id that answered 409 naming it, or served it
+        self.suspect = {}   # node id -> time until which it is passed over
+        self.lock = threading.Lock()
+        front = self
+
+        class Handler(BaseHTTPRequestHandler):
+            protocol_version = "HTTP/1.1"
+
+            def log_message(self, *args):
+                pass
+
+            def handle_one(self, method):
+                length = int(self.headers.get("Content-Length") or 0)
+                body = self.rfile.read(length) if length else None
+                status, headers, data = front.forward(method, self.path, self.headers, body)
+                self.send_response(status)
+                for k, v in headers:
+                    if k.lower() not in ("transfer-encoding", "connection", "content-length"):
+                        self.send_header(k, v)
+                self.send_header("Content-Length", str(len(data)))
+                self.end_headers()
+                self.wfile.write(data)
+
+            def do_GET(self):
+                self.handle_one("GET")
+
+            def do_POST(self):
+                self.handle_one("POST")
+
+            def do_PATCH(self):
+                self.handle_one("PATCH")
+
+            def do_PUT(self):
+                self.handle_one("PUT")
+
+            def do_DELETE(self):
+                self.handle_one("DELETE")
+
+        self.server = ThreadingHTTPServer(("127.0.0.1", 0), Handler)
+        self.server.daemon_threads = True
+        self.port = self.server.server_address[1]
+        threading.Thread(target=self.server.serve_forever, daemon=True).start()
+
+    def candidates(self, path):
+        ids = sorted(self.nodes)
+        parts = path.split("?")[0].split("/")
+        sid = parts[3] if len(parts) > 3 and parts[1] == "v1" and parts[2] == "sessions" else None
+        if sid is None:
+            order = ids[:]
+            random.shuffle(order)
+            return None, order
+        ranked = sorted(ids, key=lambda n: hashlib.sha256(f"{sid}/{n}".encode()).digest())
+        order = []
+        with self.lock:
+            known = self.owner.get(sid)
+        if known is not None:
+            order.append(known)
+        try:
+            named = int(sid[2:4], 16)
+            if named in self.nodes and named not in order:
+                order.append(named)
+        except ValueError:
+            pass
+        order += [n for n in ranked if n not in order]
+        return sid, order
+
+    def forward(self, method, path, headers, body):
+        sid, order = self.candidates(path)
+        deadline = time.time() + self.DEADLINE
+        tried_owner = set()
+        last = (502, [], b'{"status":502,"detail":"no node answered"}')
+        while time.time() < deadline:
+            now = time.time()
+            with self.lock:
+                live = [n for n in order if self.suspect.get(n, 0) <= now]
+            if not live:
+                time.sleep(0.1)
+                continue
+            target = live[0]
+            node = self.nodes[target]
+            c = http.client.HTTPConnection("127.0.0.1", node.port, timeout=self.CONNECT_TIMEOUT)
+            try:
+                c.connect()
+            except OSError:
+                # Refused or not accepted: nothing was sent, so any node may take it.
+                with self.lock:
+                    self.suspect[target] = time.time() + self.SUSPECT_SECONDS
+                c.close()
+                continue
+            try:
+                c.sock.settimeout(self.READ_TIMEOUT)
+                fwd = {k: v for k, v in headers.items()
+                       if k.lower() in ("authorization", "content-type", "if-match",
+                                        "x-request-id")}
+                c.request(method, path, body=body, headers=fwd)
+                r = c.getresponse()
+                data = r.read()
+                resp_headers = r.getheaders()
+            except OSError:
+                with self.lock:
+                    self.suspect[target] = time.time() + self.SUSPECT_SECONDS
+                if method != "GET":
+                    # Sent: the node may have applied it before it died or stalled, so it is
+                    # not sent again elsewhere (the client sees an indeterminate 504).
+                    return 504, [], b'{"status":504,"detail":"the node did not answer"}'
+                continue
+            finally:
+                c.close()
+            if r.status == 409 and sid is not None and self.follow_owner:
+                owner = r.getheader("X-Myriad-Owner")
+                if owner is not None and int(owner) in self.nodes and int(owner) != target:
+                    owner = int(owner)
+                    with self.lock:
+                        self.owner[sid] = owner
+                    if owner not in tried_owner:
+                        tried_owner.add(owner)
+                        order = [owner] + [n for n in order if n != owner]
+                        continue
+                    # The owner was tried and sent us elsewhere, or is down: its lease will lapse.
+                    time.sleep(0.2)
+                    continue
+            if sid is not None and 200 <= r.status < 300:
+                with self.lock:
+                    self.owner[sid] = target
+            if sid is None and method == "POST" and r.status == 201:
+                with self.lock:
+                    try:
+                        self.owner[json.loads(data)["id"]] = target
+                    except (ValueError, KeyError):
+                        pass
+            return r.status, resp_headers, data
+        return last
+
+    def close(self):
+        self.server.shutdown()
+        self.server.server_close()
+
+
+def request(port, method, path, token=None, body=None, timeout=15, if_match=None):
+    c = http.client.HTTPConnection("127.0.0.1", port, timeout=timeout)
+    headers = {}
+    if if_match:
+        headers["If-Match"] = if_match
+    if token:
+        headers["Authorization"] = "Bearer " + token
+    data = None
+    if body is not None:
+        data = json.dumps(body).encode()
+        headers["Content-Type"] = "application/json"
+    try:
+        c.request(method, path, body=data, headers=headers)
+        r = c.getresponse()
+        payload = r.read()
+        return r.status, payload
+    except OSError:
+        return None, b""
+    finally:
+        c.close()
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--server", required=True, help="the myriad-server binary")
+    ap.add_argument("--store", choices=["postgresql", "files"], default="postgresql")
+    ap.add_argument("--nodes", type=int, default=3)
+    ap.add_argument("--sessions", type=int, default=24)
+    ap.add_argument("--clients", type=int, default=8)
+    ap.add_argument("--seconds", type=float, default=300)
+    ap.add_argument("--lease-ms", type=int, default=1500)
+    ap.add_argument("--seed", type=int, default=None)
+    ap.add_argument("--keep", action="store_true", help="keep the work directory (logs)")
+    ap.add_argument("--report", help="also write the JSON report to this file")
+    args = ap.parse_args()
+    seed = args.seed if args.seed is not None else random.randrange(1 << 30)
+    random.seed(seed)
+
+    work = tempfile.mkdtemp(prefix="myriad-chaos-")
+    passed = False
+    cluster = None
+    nodes = []
+    fronts = []
+    started = time.time()
+    try:
+        if args.store == "postgresql":
+            try:
+                cluster = PostgresCluster().start()
+            except Unavailable as e:
+                print(f"SKIP: {e}")
+                return SKIP
+            store_args = ["--state-store", cluster.url]
+        else:
+            store_args = ["--state-dir", os.path.join(work, "state")]
+        nodes = [Node(args.server, i + 1, store_args, work, args.lease_ms)
+                 for i in range(args.nodes)]
+        for n in nodes:
+            n.wait_ready()
+        # The second front does not follow X-Myriad-Owner (as deploy/nginx/myriad.conf does not):
+        # its clients see the 409s, so refused edits are counted and checked absent.
+        fronts = [Front(nodes), Front(nodes, follow_owner=False)]
+        setup_s = time.time() - started
+
+        # Sessions, made through both fronts.
+        sessions = []
+        while len(sessions) < args.sessions:
+            front = fronts[len(sessions) % 2]
+            status, data = request(front.port, "POST", "/v1/sessions", body={})
+            if status == 201:
+                j = json.loads(data)
+                sessions.append({"id": j["id"], "token": j["token"]})
+            elif time.time() - started > 120:
+                raise RuntimeError(f"sessions cannot be made: {status} {data[:300]}")
+
+        lock = threading.Lock()
+        acked = []          # (session index, light id, client, seq)
+        refused = []        # (session index, client, seq, status)
+        unknown = []        # (session index, client, seq, status)
+        outcomes = {}
+        # Per session: the times of 2xx answers and of failed attempts, for reachability gaps.
+        ok_times = [[] for _ in sessions]
+        fail_times = [[] for _ in sessions]
+        stop = threading.Event()
+
+        def client(c):
+            rng = random.Random(seed * 31 + c)
+            seq = 0
+            while not stop.is_set():
+                si = rng.randrange(len(sessions))
+                s = sessions[si]
+                front = fronts[rng.randrange(2)]
+                seq += 1
+                light = {"position": [float(c), float(seq), 0.0], "radius": 1.0,
+                         "color": [1.0, 1.0, 1.0], "intensity": 1.0, "falloff": 1.0}
+                # One edit in ten names a version the session never had: a 412, refused, which
+                # must not be in the final state.
+                stale_tag = '"0-00000000"' if rng.random() < 0.1 else None
+                t0 = time.time()
+                status, data = request(front.port, "POST", f"/v1/sessions/{s['id']}/lights",
+                                       s["token"], {"lights": [light]}, if_match=stale_tag)
+                t1 = time.time()
+                with lock:
+                    outcomes[str(status)] = outcomes.get(str(status), 0) + 1
+                    if status is not None and 200 <= status < 300:
+                        ids = json.loads(data)["ids"]
+                        acked.append((si, ids[0], c, seq))
+                        ok_times[si].append(t1)
+                    elif status is not None and 400 <= status < 500:
+                        refused.append((si, c, seq, status))
+                        fail_times[si].append(t0)
+                    else:
+                        unknown.append((si, c, seq, status))
+                        fail_times[si].append(t0)
+
+        injected = {"kill": 0, "stop": 0, "restart": 0}
+        events = []
+
+        def chaos():
+            rng = random.Random(seed)
+            while not stop.is_set():
+                if stop.wait(rng.uniform(1.5, 4.0)):
+                    break
+                victim = rng.choice(nodes)
+                action = rng.choice(["kill", "stop", "restart"])
+                t = round(time.time() - started, 2)
+                if action == "kill":
+                    victim.kill()
+                    injected["kill"] += 1
+                    stop.wait(rng.uniform(0.5, 3.0))
+                    victim.start()
+                elif action == "stop":
+                    victim.stop()
+                    injected["stop"] += 1
+                    stop.wait(rng.uniform(0.5, 4.0))
+                    victim.cont()
+                else:
+                    victim.terminate()
+                    injected["restart"] += 1
+                    victim.start()
+                events.append({"t": t, "node": victim.id, "action": action})
+                try:
+                    victim.wait_ready(60)
+                except RuntimeError as e:
+                    events.append({"t": round(time.time() - started, 2), "node": victim.id,
+                                   "error": str(e)[-500:]})
+
+        threads = [threading.Thread(target=client, args=(c,)) for c in range(args.clients)]
+        chaos_thread = threading.Thread(target=chaos)
+        run_started = time.time()
+        for t in threads:
+            t.start()
+        chaos_thread.start()
+        time.sleep(args.seconds)
+        stop.set()
+        chaos_thread.join()
+        for t in threads:
+            t.join()
+        run_s = time.time() - run_started
+        for n in nodes:
+            n.cont()
+            if not n.alive():
+                n.start()
+        for n in nodes:
+            n.wait_ready()
+
+        # The final state of every session, read through a front (whichever node owns it now).
+        final = []
+        for s in sessions:
+            lights = None
+            deadline = time.time() + 30
+            while time.time() < deadline and lights is None:
+                got, offset = [], 0
+                while True:
+                    status, data = request(fronts[0].port, "GET",
+                                           f"/v1/sessions/{s['id']}/lights?offset={offset}"
+                                           "&limit=1000", s["token"])
+                    if status != 200:
+                        break
+                    page = json.loads(data)
+                    got += page["lights"]
+                    offset += len(page["lights"])
+                    if offset >= page["total"] or not page["lights"]:
+                        lights = got
+                        break
+                if lights is None:
+                    time.sleep(0.3)
+            final.append(lights)
+
+        unreadable = [sessions[i]["id"] for i, f in enumerate(final) if f is None]
+        present = []  # per session: (client, seq) -> the ids of lights with that position
+        for f in final:
+            marks = {}
+            for light in f or []:
+                if light["position"][2] == 0.0:
+                    key = (round(light["position"][0]), round(light["position"][1]))
+                    marks.setdefault(key, []).append(light["id"])
+            present.append(marks)
+        lost = []
+        for si, lid, c, seq in acked:
+            if final[si] is None:
+                continue
+            if lid not in present[si].get((c, seq), []):
+                lost.append({"session": sessions[si]["id"], "light": lid, "client": c, "seq": seq,
+                             "found": present[si].get((c, seq))})
+        refused_present = [{"session": sessions[si]["id"], "client": c, "seq": seq, "status": st}
+                           for si, c, seq, st in refused if (c, seq) in present[si]]
+        unknown_present = sum(1 for si, c, seq, st in unknown if (c, seq) in present[si])
+        duplicates = []
+        for si in range(len(sessions)):
+            seen = {}
+            for s2, lid, c, seq in acked:
+                if s2 != si:
+                    continue
+                if lid in seen and seen[lid] != (c, seq):
+                    duplicates.append({"session": sessions[si]["id"], "light": lid})
+                seen[lid] = (c, seq)
+
+        # Reachability: per session, the longest stretch from a failed attempt to the next 2xx.
+        gaps = []
+        for si in range(len(sessions)):
+            oks = sorted(ok_times[si])
+            longest = 0.0
+            for tf in fail_times[si]:
+                later = [t for t in oks if t >= tf]
+                end = later[0] if later else run_started + run_s
+                longest = max(longest, end - tf)
+            gaps.append(round(longest, 2))
+        sorted_gaps = sorted(gaps)
+
+        def pct(p):
+            return sorted_gaps[min(len(sorted_gaps) - 1, int(p * len(sorted_gaps)))]
+
+        logged = "".join(open(n.log_path, errors="replace").read() for n in nodes)
+        report = {
+            "store": args.store, "nodes": args.nodes, "fronts": 2, "clients": args.clients,
+            "sessions": len(sessions), "seconds": round(run_s, 1), "seed": seed,
+            "setupSeconds": round(setup_s, 1),
+            "edits": len(acked) + len(refused) + len(unknown),
+            "acknowledged": len(acked), "refused": len(refused), "indeterminate": len(unknown),
+            "indeterminatePresent": unknown_present,
+            "outcomes": outcomes,
+            "failuresInjected": injected, "events": events,
+            "serverSide": {"writesFenced": logged.count("write refused by the store"),
+                           "leasesLost": logged.count("lost; closed here"),
+                           "restores": logged.count(" restored from ")},
+            "lostAcknowledged": len(lost), "refusedPresent": len(refused_present),
+            "duplicateIds": len(duplicates), "unreadableSessions": unreadable,
+            "reachabilityGapSeconds": {"perSession": dict(zip([s["id"] for s in sessions], gaps)),
+                                       "max": sorted_gaps[-1], "p50": pct(0.5),
+                                       "p90": pct(0.9)},
+            "examples": {"lost": lost[:5], "refusedPresent": refused_present[:5],
+                         "duplicates": duplicates[:5]},
+        }
+        print(json.dumps(report, indent=1))
+        if args.report:
+            with open(args.report, "w") as out:
+                json.dump(report, out, indent=1)
+        ok = (not lost and not refused_present and not duplicates and not unreadable
+              and len(acked) > 0)
+        print(f"chaos: {report['edits']} edits ({len(acked)} acknowledged, {len(refused)} "
+              f"refused, {len(unknown)} indeterminate), failures injected {injected}, "
+              f"lost acknowledged {len(lost)}, refused present {len(refused_present)}, "
+              f"duplicate ids {len(duplicates)}, max reachability gap {sorted_gaps[-1]} s: "
+              + ("PASS" if ok else "FAIL"))
+        if not ok or args.keep:
+            print(f"logs kept in {work}")
+        passed = ok
+        return 0 if ok else 1
+    finally:
+        for f in fronts:
+            f.close()
+        for n in nodes:
+            try:
+                n.cont()
+                if n.alive():
+                    n.terminate()
+            except Exception:
+                pass
+        if cluster is not None:
+            cluster.stop()
+        if not args.keep and passed:
+            shutil.rmtree(work, ignore_errors=True)
+
+
+if __name__ == "__main__":
+    sys.exit(main())
