@@ -18,6 +18,7 @@
 #define STBI_NO_STDIO
 #include <stb_image.h>
 
+#include "scene/bounded_reader.h"
 #include "scene/model_loader.h"
 
 namespace myriad::loader {
@@ -30,14 +31,6 @@ using Kind = scene::ModelLoadError::Kind;
   throw scene::ModelLoadError(sentence, kind);
 }
 
-// stb_image reads past the end of a truncated file as zeros without saying so; reading through
-// callbacks shows it: the decoder asking for bytes after the last one means the file is short.
-struct Reader {
-  std::string_view bytes;
-  size_t at = 0;
-  bool readPastEnd = false;
-};
-
 // The byte handed out past the end of the data: an RLE run of one. stb_image 2.27's run-length
 // scanline loop never advances on a zero count, and zeros are what it reads past the end by
 // itself, so a truncated run-length .hdr looped forever (the fuzz harness found it). checkPixelData
@@ -45,37 +38,6 @@ struct Reader {
 // and stb_image ever disagree: with runs of one every scanline ends, and the file is refused as
 // truncated.
 constexpr char kPastEndFill = char(0x81);
-
-int readBytes(void* user, char* out, int size) {
-  auto* r = static_cast<Reader*>(user);
-  const size_t left = r->bytes.size() - r->at;
-  if (left == 0) {
-    r->readPastEnd = true;
-    std::memset(out, kPastEndFill, size_t(size));
-    return size;
-  }
-  const size_t n = std::min(left, size_t(size));
-  std::memcpy(out, r->bytes.data() + r->at, n);
-  r->at += n;
-  return int(n);
-}
-
-void skipBytes(void* user, int n) {
-  auto* r = static_cast<Reader*>(user);
-  if (n < 0) {
-    r->at -= std::min(r->at, size_t(-n));
-  } else if (size_t(n) > r->bytes.size() - r->at) {
-    r->at = r->bytes.size();
-    r->readPastEnd = true;
-  } else {
-    r->at += size_t(n);
-  }
-}
-
-int atEnd(void* user) {
-  auto* r = static_cast<Reader*>(user);
-  return r->at >= r->bytes.size() ? 1 : 0;
-}
 
 // Where the pixel data starts, reading the header as stb_image does: the magic line, lines up to
 // an empty one, then the resolution line. npos when the header never ends.
@@ -181,8 +143,9 @@ scene::EnvironmentImage decodeHdr(std::string_view bytes, std::string_view name,
   }
   if (!problem.empty()) refuse(Kind::parse, file + " has corrupt pixel data: " + problem + ".");
 
-  Reader reader{bytes};
-  const stbi_io_callbacks callbacks{readBytes, skipBytes, atEnd};
+  scene::BoundedReader reader{bytes, 0, false, kPastEndFill};
+  const stbi_io_callbacks callbacks{scene::BoundedReader::read, scene::BoundedReader::skip,
+                                    scene::BoundedReader::eof};
   int w = 0, h = 0, n = 0;
   std::unique_ptr<float, StbFree> pixels(stbi_loadf_from_callbacks(&callbacks, &reader, &w, &h, &n, 3));
   if (!pixels) {

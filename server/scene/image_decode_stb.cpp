@@ -27,49 +27,14 @@
 #define STBI_MAX_DIMENSIONS (1 << 14)
 #include <stb_image.h>
 
+#include "scene/bounded_reader.h"
+
 namespace myriad::scene {
 
 namespace {
 
-struct Reader {
-  std::string_view bytes;
-  size_t at = 0;
-  bool readPastEnd = false;
-};
-
-// stb_image reads through a buffer of its own, asking for more than is left near the end (a
-// short read is normal); it asks again only once it needs a byte beyond the last one.
-int readBytes(void* user, char* out, int size) {
-  auto* r = static_cast<Reader*>(user);
-  const size_t left = r->bytes.size() - r->at;
-  if (left == 0) {
-    r->readPastEnd = true;
-    return 0;
-  }
-  const size_t n = std::min(left, size_t(std::max(size, 0)));
-  std::memcpy(out, r->bytes.data() + r->at, n);
-  r->at += n;
-  return int(n);
-}
-
-void skipBytes(void* user, int n) {
-  auto* r = static_cast<Reader*>(user);
-  if (n < 0) {
-    r->at -= std::min(r->at, size_t(-int64_t(n)));
-    return;
-  }
-  const size_t left = r->bytes.size() - r->at;
-  if (size_t(n) > left) r->readPastEnd = true;
-  r->at += std::min(left, size_t(n));
-}
-
-// Asked before a read, to know whether one could give more: not itself a read past the end.
-int atEnd(void* user) {
-  const auto* r = static_cast<const Reader*>(user);
-  return r->at >= r->bytes.size() ? 1 : 0;
-}
-
-constexpr stbi_io_callbacks kCallbacks{readBytes, skipBytes, atEnd};
+constexpr stbi_io_callbacks kCallbacks{BoundedReader::read, BoundedReader::skip,
+                                       BoundedReader::eof};
 
 }  // namespace
 
@@ -88,7 +53,7 @@ Image stbDecode(std::string_view bytes, std::string_view name, const StbHeader& 
   std::string quoted(1, '\'');
   quoted.append(name);
   quoted += '\'';
-  Reader reader{bytes};
+  BoundedReader reader{bytes};
   int width = 0, height = 0, channels = 0;
   std::unique_ptr<stbi_uc, void (*)(void*)> pixels(
       stbi_load_from_callbacks(&kCallbacks, &reader, &width, &height, &channels, 4),
