@@ -149,6 +149,22 @@ export class Api {
 
   get(path, options) { return this.request('GET', path, options); }
   // `end`: the last change of an interaction (a drag or a slider released), X-Myriad-Interaction.
+  // A PATCH over the resource as the page showed it: read again with the session's ETag, kept
+  // by `unchanged(current)` or not sent ({conflict: current}), and conditional on that ETag
+  // (If-Match), so nothing lands between the read and the write unseen; a 412 from an unrelated
+  // edit reads again (three tries). {updated}: the PATCH's answer.
+  async patchIfUnchanged(path, json, unchanged, {headers = {}} = {}) {
+    for (let attempt = 1; ; ++attempt) {
+      const {body: current, etag} = await this.request('GET', path, {tagged: true});
+      if (!unchanged(current)) return {conflict: current};
+      try {
+        return {updated: await this.request('PATCH', path, {json, ifMatch: etag, headers})};
+      } catch (e) {
+        if (e.status !== 412 || attempt === 3) throw e;
+      }
+    }
+  }
+
   patch(path, json, end = false) {
     return this.request('PATCH', path, {json, headers: end ? {'X-Myriad-Interaction': 'end'} : {}});
   }

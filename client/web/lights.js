@@ -288,29 +288,22 @@ export class LightsPanel {
     }
     if (Object.keys(patch).length === 0) return;
     const path = this.api.sessionPath(`/lights/${light.id}`);
+    const changedElsewhere = (current) => Object.keys(patch).filter(
+        (member) => JSON.stringify(current[member]) !== JSON.stringify(light[member]));
     try {
-      for (let attempt = 1; ; ++attempt) {
-        const {body: current, etag} = await this.api.request('GET', path, {tagged: true});
-        const changedElsewhere = Object.keys(patch).filter(
-            (member) => JSON.stringify(current[member]) !== JSON.stringify(light[member]));
-        if (changedElsewhere.length) {
-          this.replace(current);
-          this.select(current);
-          this.onProblem(new Error(
-              `Light #${light.id} was changed elsewhere while you edited it ` +
-              `(${changedElsewhere.join(', ')}): your change was not applied; the editor shows ` +
-              'the light as it is now.'));
-          return;
-        }
-        try {
-          const updated = await this.api.request('PATCH', path, {json: patch, ifMatch: etag});
-          this.replace(updated);
-          this.select(updated);
-          return;
-        } catch (e) {
-          if (e.status !== 412 || attempt === 3) throw e;
-        }
+      const {conflict, updated} = await this.api.patchIfUnchanged(
+          path, patch, (current) => changedElsewhere(current).length === 0);
+      if (conflict) {
+        this.replace(conflict);
+        this.select(conflict);
+        this.onProblem(new Error(
+            `Light #${light.id} was changed elsewhere while you edited it ` +
+            `(${changedElsewhere(conflict).join(', ')}): your change was not applied; the editor ` +
+            'shows the light as it is now.'));
+        return;
       }
+      this.replace(updated);
+      this.select(updated);
     } catch (e) {
       this.onProblem(e);
     }

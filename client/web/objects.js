@@ -248,27 +248,21 @@ export class ObjectsPanel {
     await this.edits;
   }
 
-  // The whole transform, but only over the one the editor showed: the object is read again with
-  // the session's ETag, and a transform changed elsewhere meanwhile (another page, a script, an
-  // event not yet seen here) stops the edit, which says so (the fields then show the object as it
-  // is); the PATCH is conditional on that ETag (If-Match), so nothing lands between the read and
-  // the write unseen. A 412 from an unrelated edit reads again. The object as the server has it.
+  // The whole transform, but only over the one the editor showed (api.patchIfUnchanged): a
+  // transform changed elsewhere meanwhile (another page, a script, an event not yet seen here)
+  // stops the edit, which says so (the fields then show the object as it is). The object as the
+  // server has it.
   async patchTransform(id, shown, transform) {
-    const path = this.api.sessionPath(`/objects/${id}`);
-    for (let attempt = 1; ; ++attempt) {
-      const {body: current, etag} = await this.api.request('GET', path, {tagged: true});
-      if (shown && JSON.stringify(current.transform) !== JSON.stringify(shown)) {
-        this.replace(current);
-        throw new Error(`Object #${id} was moved elsewhere while you edited it: your change was ` +
-                        'not applied; the fields show the object as it is now.');
-      }
-      try {
-        return await this.api.request('PATCH', path, {
-          json: {transform}, ifMatch: etag, headers: {'X-Myriad-Interaction': 'end'}});
-      } catch (e) {
-        if (e.status !== 412 || attempt === 3) throw e;
-      }
+    const {conflict, updated} = await this.api.patchIfUnchanged(
+        this.api.sessionPath(`/objects/${id}`), {transform},
+        (current) => !shown || JSON.stringify(current.transform) === JSON.stringify(shown),
+        {headers: {'X-Myriad-Interaction': 'end'}});
+    if (conflict) {
+      this.replace(conflict);
+      throw new Error(`Object #${id} was moved elsewhere while you edited it: your change was ` +
+                      'not applied; the fields show the object as it is now.');
     }
+    return updated;
   }
 
   async setVisible(id, visible) {
