@@ -371,7 +371,6 @@ bool StreamState::next(httplib::DataSink& sink) {
             cost += pending.submitted - *animatedCollectedAt;
           }
           quality->measured(motion, scale, cost);
-          animatedCollectedAt.reset();
           if (motion == InteractiveQuality::Motion::Animated) animatedCollectedAt = collected;
           // An interaction that ended while this part rendered (the drag released, the slider
           // let go) leaves it a picture nobody needs: its still is next. Not sent, so the client
