@@ -350,6 +350,10 @@ TEST_CASE("interactive quality: degraded while changes come, settles, scale foll
   small.measured(Q::Motion::Steered, 0.25, milliseconds(5000));
   CHECK(small.scale(Q::Motion::Steered) == Q::kMinScale);
   small.measured(Q::Motion::Steered, Q::kMinScale, milliseconds(18));
+  CHECK(small.scale(Q::Motion::Steered) == Q::kMinScale);  // one frame: not yet
+  small.measured(Q::Motion::Steered, Q::kMinScale, milliseconds(18));
+  CHECK(small.scale(Q::Motion::Steered) == doctest::Approx(0.1875));
+  small.measured(Q::Motion::Steered, 0.1875, milliseconds(30));
   CHECK(small.scale(Q::Motion::Steered) == doctest::Approx(0.1875));
   small.measured(Q::Motion::Steered, 0.1875, milliseconds(30));
   CHECK(small.scale(Q::Motion::Steered) == Q::kMinScale);
@@ -359,6 +363,20 @@ TEST_CASE("interactive quality: degraded while changes come, settles, scale foll
   }
   small.measured(Q::Motion::Steered, Q::kMinScale, milliseconds(18));
   CHECK(small.scale(Q::Motion::Steered) == doctest::Approx(0.1875));
+
+  // One slow frame among fitting ones (the page's own work on the renderer's cores) does not move
+  // a steered scale: it moves on the median of the last three frames at that scale.
+  Q steady(20);
+  steady.measured(Q::Motion::Steered, 0.5, milliseconds(160));  // 6.4x over: at once, to 3/8
+  REQUIRE(steady.scale(Q::Motion::Steered) == doctest::Approx(0.375));
+  for (int ms : {24, 23, 40, 24, 25, 41, 23, 24}) {
+    steady.measured(Q::Motion::Steered, 0.375, milliseconds(ms));
+    CHECK(steady.scale(Q::Motion::Steered) == doctest::Approx(0.375));
+  }
+  steady.measured(Q::Motion::Steered, 0.375, milliseconds(40));
+  CHECK(steady.scale(Q::Motion::Steered) == doctest::Approx(0.375));
+  steady.measured(Q::Motion::Steered, 0.375, milliseconds(40));  // two of the last three over
+  CHECK(steady.scale(Q::Motion::Steered) == doctest::Approx(0.3125));
 
   // Animation holds half the rate (10 fps: a 50 ms budget) with a scale of its own: a frame of
   // 50 ms at 0.5 keeps 0.5 there, while the steered scale (now at its floor) is untouched.

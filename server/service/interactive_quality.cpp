@@ -42,9 +42,12 @@ void InteractiveQuality::measured(Motion motion, double usedScale, Clock::durati
   if (!(ms > 0.0) || targetFps_ == 0) return;
   const double budgetMs = kBudgetShare * 1000.0 / targetFps(motion);
   const size_t m = index(motion);
+  const double cost = motion == Motion::Steered ? steeredCost(usedScale, ms, budgetMs) : ms;
+  ++frames_[m];
+  if (std::isnan(cost)) return;
   auto& times = stepTimes_[m];
-  times[stepOf(usedScale)] = {ms, ++frames_[m]};
-  const double ratio = budgetMs / ms;
+  times[stepOf(usedScale)] = {cost, frames_[m]};
+  const double ratio = budgetMs / cost;
   // Steered frames keep their scale within kTolerance of the budget either way; animated ones
   // hold it as a ceiling (the header says why): any frame over it steps down.
   const double over = motion == Motion::Animated ? 0.0 : kTolerance;
@@ -64,6 +67,27 @@ void InteractiveQuality::measured(Motion motion, double usedScale, Clock::durati
     stepped -= kScaleStep;
   }
   scales_[m] = stepped;
+}
+
+double InteractiveQuality::steeredCost(double scale, double ms, double budgetMs) {
+  if (scale != recentScale_) {
+    recentScale_ = scale;
+    recentCount_ = 0;
+  } else if (recentCount_ == kRecent) {
+    std::copy(recentMs_.begin() + 1, recentMs_.end(), recentMs_.begin());
+    --recentCount_;
+  }
+  recentMs_[recentCount_++] = ms;
+  if (recentCount_ == 1) {
+    const double ratio = budgetMs / ms;
+    return ratio < 1.0 / kFarOff || ratio > kFarOff ? ms : std::nan("");
+  }
+  const double low = std::min(recentMs_[0], recentMs_[1]);
+  const double high = std::max(recentMs_[0], recentMs_[1]);
+  // Two frames: both must be off the same way, so the one nearer the budget decides.
+  if (recentCount_ == 2) return low > budgetMs ? low : high < budgetMs ? high : budgetMs;
+  static_assert(kRecent == 3, "the median below is of three");
+  return std::clamp(recentMs_[2], low, high);
 }
 
 size_t InteractiveQuality::stepOf(double scale) {

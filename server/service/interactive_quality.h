@@ -59,6 +59,15 @@ class InteractiveQuality {
   // the write and the loop's turn before it: stream.cpp measures both): a frame over it steps
   // the scale down, and a scale is tried again upwards only where its last frame fitted
   // (kProbeFrames); the rate then stays at or above the target, at a scale about a step smaller.
+  // A steered scale moves on the median of the last kRecent frames at that scale, not on one
+  // frame: on a CPU renderer that shares its cores with the page, one frame in a dozen took half
+  // as long again as its neighbours (the browser's own work), and stepping down on it (then
+  // holding the smaller scale for kProbeFrames, the larger one's last frame having missed) kept
+  // the page's drags at 5/16 for seconds at a time where 6/16 held the rate (issue 30's page
+  // benchmark, docs/performance.md). Until two frames are measured at a scale it moves only when
+  // one is kFarOff off the budget either way (a new size's first frame also pays for its targets).
+  static constexpr size_t kRecent = 3;
+  static constexpr double kFarOff = 2.0;
   // An interactive frame's share of 1 / FPS: the rest is the wait for the change, the write and
   // the client's input, requests and decode. Half: on a CPU renderer a frame's wall time is all
   // of the machine's cores, and a client on the same machine (the web client on lavapipe) needs
@@ -126,6 +135,12 @@ class InteractiveQuality {
   };
   std::array<std::array<StepTime, kSteps>, 2> stepTimes_{};
   std::array<uint64_t, 2> frames_{};  // interactive frames measured, per Motion
+  // The last steered frames measured at recentScale_, newest last (at most kRecent).
+  std::array<double, kRecent> recentMs_{};
+  size_t recentCount_ = 0;
+  double recentScale_ = 0.0;
+  // The steered cost to decide on at `scale` (kRecent says how), or NaN: hold it.
+  double steeredCost(double scale, double ms, double budgetMs);
 };
 
 }  // namespace myriad::service
