@@ -60,10 +60,10 @@ class InteractiveQuality {
   // the scale down, and a scale is tried again upwards only where its last frame fitted
   // (kProbeFrames); the rate then stays at or above the target, at a scale about a step smaller.
   // A steered scale moves on the median of the last kRecent frames at that scale, not on one
-  // frame: on a CPU renderer that shares its cores with the page, one frame in a dozen took half
-  // as long again as its neighbours (the browser's own work), and stepping down on it (then
-  // holding the smaller scale for kProbeFrames, the larger one's last frame having missed) kept
-  // the page's drags at 5/16 for seconds at a time where 6/16 held the rate (issue 30's page
+  // frame: on a CPU renderer that shares its cores with the page, a frame now and then takes far
+  // longer than its neighbours (the browser's own work), and stepping down on one (then holding
+  // the smaller scale for kProbeFrames, the larger one's last frame having missed) kept the
+  // page's drags at 5/16 in one run where 6/16 held the rate in the next (issue 30's page
   // benchmark, docs/performance.md). Until two frames are measured at a scale it moves only when
   // one is kFarOff off the budget either way (a new size's first frame also pays for its targets).
   static constexpr size_t kRecent = 3;
