@@ -14,11 +14,15 @@
 //     before the change: the delay beyond the link's own); adaptation time is when the carried
 //     bitrate first fits the new cap (--cap-kbps), and the lag's growth is the last window's
 //     median minus that of the window 2 s after the change.
-// Prints one JSON object on stdout.
+//   --mode watch: the stream of an animated scene for --seconds, nothing edited: the pictures
+//     delivered a second and the bitrate they carry after the first --warmup seconds (what one
+//     of many sessions on a host gets: scripts/bench-sessions.py runs many probes at once).
+// With --scene SEED the session's lights are --lights generated ones with that seed first (each
+// probe of a run its own scene). Prints one JSON object on stdout.
 //
 // Usage: myriad-net-probe --url http://HOST:PORT --codec jpeg|vp9|h264 [--size WxH] [--fps F]
-//        [--bitrate KBPS] [--mode edits|cap] [--edits N] [--interval MS] [--seconds S]
-//        [--at S --run CMD --cap-kbps K] [--lights N]
+//        [--bitrate KBPS] [--mode edits|cap|watch] [--edits N] [--interval MS] [--seconds S]
+//        [--at S --run CMD --cap-kbps K] [--lights N --scene SEED] [--warmup S]
 #include <arpa/inet.h>
 #include <httplib.h>
 #include <netdb.h>
@@ -58,6 +62,8 @@ struct Args {
   double at = -1.0;
   std::string run;
   double capKbps = 0.0;
+  int scene = -1;  // the generated lights' seed; -1: the built-in scene's own lights
+  double warmup = 2.0;
 };
 
 [[noreturn]] void fail(const std::string& what) {
@@ -307,11 +313,16 @@ Args parse(int argc, char** argv) {
       a.run = v;
     } else if (flag == "--cap-kbps") {
       a.capKbps = std::stod(v);
+    } else if (flag == "--scene") {
+      a.scene = std::stoi(v);
+    } else if (flag == "--warmup") {
+      a.warmup = std::stod(v);
     } else {
       fail("unknown flag " + flag);
     }
   }
   if (a.codec != "jpeg" && a.codec != "vp9" && a.codec != "h264") fail("--codec jpeg|vp9|h264");
+  if (a.mode != "edits" && a.mode != "cap" && a.mode != "watch") fail("--mode edits|cap|watch");
   return a;
 }
 
@@ -449,6 +460,39 @@ json measure(const Args& a, httplib::Client& http, const std::string& path,
   return out;
 }
 
+// --mode watch: after --warmup s, for the rest of --seconds, the pictures delivered a second
+// (between the first and the last arrival), the bitrate they carry and the gaps between them.
+json watch(const Args& a, StreamReader& stream) {
+  const Clock::time_point start = Clock::now();
+  std::this_thread::sleep_until(start + std::chrono::duration_cast<Clock::duration>(
+                                            std::chrono::duration<double>(a.seconds)));
+  const Clock::time_point from = start + std::chrono::duration_cast<Clock::duration>(
+                                             std::chrono::duration<double>(a.warmup));
+  std::vector<Picture> counted;
+  for (const Picture& p : stream.pictures()) {
+    if (p.arrived >= from) counted.push_back(p);
+  }
+  json out = {{"pictures", counted.size()}, {"seconds", a.seconds - a.warmup}};
+  if (counted.size() < 2) {
+    out["deliveredFps"] = 0.0;
+    return out;
+  }
+  const double span = std::chrono::duration<double>(counted.back().arrived -
+                                                    counted.front().arrived).count();
+  double bytes = 0.0;
+  std::vector<double> gaps;
+  for (size_t i = 0; i < counted.size(); ++i) {
+    if (i > 0) {
+      bytes += double(counted[i].bytes);
+      gaps.push_back(ms(counted[i].arrived - counted[i - 1].arrived));
+    }
+  }
+  out["deliveredFps"] = double(counted.size() - 1) / span;
+  out["kbps"] = bytes * 8.0 / 1000.0 / span;
+  out["gapMs"] = latencies(gaps);
+  return out;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -464,9 +508,14 @@ int main(int argc, char** argv) {
   const std::string token = session["token"].get<std::string>();
   const httplib::Headers auth = {{"Authorization", "Bearer " + token}};
   const std::string settings =
-      a.mode == "cap" ? R"({"animate": true, "markers": false})" : R"({"markers": false})";
+      a.mode != "edits" ? R"({"animate": true, "markers": false})" : R"({"markers": false})";
   auto r = http.Patch(path + "/settings", auth, settings, "application/json");
   if (!r || r->status != 200) fail("PATCH settings failed");
+  if (a.scene >= 0) {
+    const json generate = {{"count", a.lights}, {"seed", a.scene}};
+    r = http.Post(path + "/lights/generate", auth, generate.dump(), "application/json");
+    if (!r || r->status / 100 != 2) fail("POST lights/generate failed");
+  }
   std::string target = path + "/stream?width=" + std::to_string(a.width) +
                        "&height=" + std::to_string(a.height) + "&fps=" + std::to_string(a.fps) +
                        "&token=" + token;
@@ -479,7 +528,7 @@ int main(int argc, char** argv) {
                  {"mode", a.mode}};
   {
     StreamReader stream(a, target);
-    report.update(measure(a, http, path, auth, stream));
+    report.update(a.mode == "watch" ? watch(a, stream) : measure(a, http, path, auth, stream));
     report["bytesRead"] = stream.bytesRead();
   }
   http.Delete(path, auth);
