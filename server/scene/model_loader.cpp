@@ -943,15 +943,23 @@ void dropUnusedMaterials(Scene& scene) {
 }
 
 // glTF lights follow the inverse-square law and arrive with Attenuation::InverseSquare, cut at the
-// file's `range` or, without one, where their illuminance falls to kLightCutoff. Radii guessed
-// from intensity are capped at the model's size, so one bright light does not make every tile of
-// the picture shade it. The window's C is set too, to r^2 (where (r^2 - d^2) / (C d^2 + r^2)
+// file's `range` or, without one, where their illuminance falls to kLightCutoff. A light without
+// a range has none in glTF (pure 1/d^2), and the renderer needs one (its lists are by volume), so
+// a guessed radius lies between kRangelessReach and kRangelessCap model sizes: the spec's falloff
+// within 1% out to twice the model's size from the light (the window (1 - (d/r)^4)^2 is 0.992 at
+// d = r/4), while one bright light still does not make every tile of
+// a far larger view shade it. The window's C is set too, to r^2 (where (r^2 - d^2) / (C d^2 + r^2)
 // approximates 1 / (1 + d^2) * (1 - d^2 / r^2)), for a user who switches a light to "window".
+constexpr float kRangelessReach = 8.0f;
+constexpr float kRangelessCap = 16.0f;
 void fitLightFalloff(Scene& scene, const std::vector<bool>& radiusGiven, float sceneSize) {
-  const float cap = std::max(sceneSize, 1e-3f);
+  const float size = std::max(sceneSize, 1e-3f);
   for (size_t i = 0; i < scene.lights.size(); ++i) {
     PointLight& light = scene.lights[i];
-    if (!radiusGiven[i]) light.radius = std::clamp(light.radius, 1e-3f * cap, cap);
+    if (!radiusGiven[i]) {
+      light.radius = std::min(std::clamp(light.radius, kRangelessReach * size, kRangelessCap * size),
+                              kMaxLightRadius);
+    }
     light.falloff = std::min(light.radius * light.radius, kMaxLightFalloff);
   }
 }
