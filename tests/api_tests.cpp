@@ -13,6 +13,7 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <future>
@@ -25,6 +26,7 @@
 #include <nlohmann/json.hpp>
 
 #include "api_client.h"
+#include "gltf_builder.h"
 #include "server_process.h"
 #include "zip_builder.h"
 
@@ -1377,6 +1379,93 @@ TEST_CASE("api: a glTF file's point, spot and directional lights and its cameras
   Reply frame = api.get(s.path() + "/frame?width=64&height=48&format=raw", s.token);
   REQUIRE(frame.status == 200);
   CHECK(api.get(s.path() + "/snapshot", s.token).json.at("settings").at("suns") == suns);
+  CHECK(myriad::test::validationMessages(api) == 0);
+  checkStopsCleanly(server);
+}
+
+namespace {
+
+// A 2 x 2 m floor (the model's size: its diagonal, 2.83 m) and one spot light of 1 cd without a
+// range, `height` above the floor's centre, pointing down, its outer cone 0.15 rad.
+std::string floorUnderSpot(float height) {
+  myriad::test::GltfBuilder b;
+  const int position = b.positions({-1, 0, -1, 1, 0, -1, 1, 0, 1, -1, 0, 1});
+  const int normal = b.floats({0, 1, 0, 0, 1, 0, 0, 1, 0, 0, 1, 0}, "VEC3", 3);
+  const int index = b.accessor(std::vector<uint16_t>{0, 2, 1, 0, 3, 2}, "SCALAR", 5123, 6);
+  b.meshes.push_back("{\"primitives\":[{\"attributes\":{\"POSITION\":" + std::to_string(position) +
+                     ",\"NORMAL\":" + std::to_string(normal) + "},\"indices\":" +
+                     std::to_string(index) + "}]}");
+  b.nodes.push_back(R"({"name": "floor", "mesh": 0})");
+  b.nodes.push_back(R"({"name": "spot", "translation": [0, )" + std::to_string(height) +
+                    R"(, 0], "rotation": [-0.70710678, 0, 0, 0.70710678],
+                       "extensions": {"KHR_lights_punctual": {"light": 0}}})");
+  b.sceneNodes = "[0, 1]";
+  std::string gltf = b.json();
+  const std::string lights = R"("extensionsUsed": ["KHR_lights_punctual"],
+    "extensions": {"KHR_lights_punctual": {"lights": [{"type": "spot", "color": [1, 1, 1],
+      "intensity": 1, "spot": {"innerConeAngle": 0.05, "outerConeAngle": 0.15}}]}},)";
+  return gltf.insert(1, lights);
+}
+
+std::vector<float> rawFloats(const Reply& reply) {
+  std::vector<float> values(reply.body.size() / sizeof(float));
+  std::memcpy(values.data(), reply.body.data(), values.size() * sizeof(float));
+  return values;
+}
+
+}  // namespace
+
+TEST_CASE("api: ?lights=model lights a file with its own lights alone; a light without a range falls off as 1/d^2") {
+  ServerProcess server({"--lights", "4"});
+  requireListening(server);
+  ApiClient api(server);
+  TestSession s = createSession(api);
+  const float modelSize = std::sqrt(8.0f);
+  REQUIRE(api.patch(s.path() + "/settings", R"({"markers": false})", s.token).status == 200);
+  const std::string view = "/frame?width=96&height=72&format=raw&eye=0,3,3&look_at=0,0,0";
+  // The centre pixel looks at the floor's centre, straight under the light in both placements:
+  // the same directions, so its radiance goes with the illuminance alone.
+  float centre[2] = {0.0f, 0.0f};
+  const float heights[2] = {0.5f * modelSize, 2.0f * modelSize};
+  for (int i = 0; i < 2; ++i) {
+    Reply loaded = api.put(s.path() + "/model?filename=spot.gltf&lights=model",
+                           floorUnderSpot(heights[i]), s.token, "application/octet-stream");
+    REQUIRE(loaded.status == 200);
+    CHECK(loaded.json.at("model").at("lights").at("spot") == 1);
+    // The file's light alone: no sun, no sky, no ambient (glTF has none of them).
+    const json settings = api.get(s.path() + "/settings", s.token).json;
+    CHECK(settings.at("sun").at("intensity") == 0);
+    CHECK(settings.at("environment").at("mode") == "none");
+    CHECK(settings.at("ambient") == json{0, 0, 0});
+    const json lights = api.get(s.path() + "/lights", s.token).json.at("lights");
+    REQUIRE(lights.size() == 1);
+    CHECK(lights[0].at("radius").get<double>() >= 8.0 * modelSize - 1e-3);
+    Reply final = api.get(s.path() + view, s.token);
+    Reply position = api.get(s.path() + view + "&target=position", s.token);
+    REQUIRE(final.status == 200);
+    REQUIRE(position.status == 200);
+    const std::vector<float> radiance = rawFloats(final), where = rawFloats(position);
+    REQUIRE(radiance.size() == size_t(96 * 72 * 3));
+    REQUIRE(where.size() == radiance.size());
+    centre[i] = radiance[(36 * 96 + 48) * 3 + 1];
+    // Floor outside the cone (more than 1 m from the centre, the cone's reach being 0.86 m at
+    // the larger height) is black: nothing else lights it.
+    int outside = 0, lit = 0, nonFinite = 0;
+    for (size_t p = 0; p < size_t(96 * 72); ++p) {
+      for (int c = 0; c < 3; ++c) nonFinite += std::isfinite(radiance[p * 3 + c]) ? 0 : 1;
+      const float x = where[p * 3], y = where[p * 3 + 1], z = where[p * 3 + 2];
+      if (std::abs(y) > 1e-3f || std::abs(x) > 1.0f || std::abs(z) > 1.0f) continue;
+      if (std::hypot(x, z) <= 1.0f) continue;
+      ++outside;
+      lit += radiance[p * 3] + radiance[p * 3 + 1] + radiance[p * 3 + 2] > 0.0f ? 1 : 0;
+    }
+    CHECK(nonFinite == 0);
+    CHECK(outside > 100);
+    CHECK(lit == 0);
+  }
+  // glTF's range-less light is 1/d^2: a quarter of the distance, 16 times the light, within 1%.
+  REQUIRE(centre[1] > 0.0f);
+  CHECK(centre[0] / centre[1] == doctest::Approx(16.0).epsilon(0.01));
   CHECK(myriad::test::validationMessages(api) == 0);
   checkStopsCleanly(server);
 }

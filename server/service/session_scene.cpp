@@ -111,6 +111,18 @@ std::shared_ptr<const scene::Scene> SessionScene::adopt(std::shared_ptr<scene::S
                                      ? render::EnvironmentMode::None
                                      : render::EnvironmentMode::Sky;
   }
+  // ?lights=model lights the model as its file does: where the file brings lights of its own,
+  // they shine alone (glTF has no sun and no environment: the session's sun goes dark, and the
+  // sky's or the constant ambient unless an environment was chosen), as in any glTF viewer. A
+  // file without lights keeps the session's sun and sky rather than coming out black.
+  const bool fileLit = !loaded->lights.empty() || !loaded->extraSuns.empty();
+  if (lights == Lights::model && fileLit && !adoption.lightingFromModel) {
+    settings_.sun.intensity = 0.0f;
+    if (!environmentChosen_) {
+      settings_.environment.mode = render::EnvironmentMode::None;
+      settings_.ambient = glm::vec3(0.0f);
+    }
+  }
   switch (lights) {
     case Lights::model:
       lights_ = loaded->lights;
