@@ -41,6 +41,7 @@ test_packages=(
   clang                    # the fuzz preset's clang++ (tests/fuzz: libFuzzer harnesses)
   libclang-rt-14-dev       # libFuzzer and the ASan/UBSan runtimes clang links into the harnesses
   nginx                    # the front CTest runs deploy/nginx/myriad.conf (as the test's user)
+  haproxy                  # the haproxy_* CTests run deploy/haproxy/myriad.cfg (as the test's user)
   postgresql               # store_postgres and chaos CTests start a cluster of their own (initdb)
   openssl                  # the front CTest makes its self-signed TLS certificate
   python3-yaml             # the k8s CTest parses the manifests
