@@ -135,6 +135,7 @@ const settings = new SettingsPanel(api, {
 });
 const stats = new StatsPanel(api, $('stats-graph'), $('stats-table'), {
   onProblem: showProblem,
+  onStats: (s) => settings.showShadowCost(s.frame),
   onRecovered: () => { if (messageIsUnreachable) hideMessage(); },
 });
 
@@ -331,6 +332,7 @@ async function boot() {
       return option;
     }));
     settings.setTechniques(info.techniques || []);
+    settings.setDevice(info.device);
     if (info.limits?.maxResolution) view.maxResolution = info.limits.maxResolution;
     view.isCpu = info.device?.isCpu === true;
     view.restoreLearnt(info.device?.name || '');

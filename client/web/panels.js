@@ -330,6 +330,8 @@ export class SettingsPanel {
     $('sun-shadows').addEventListener('change', (e) => this.edit({shadows: {sun: e.target.checked}}));
     $('shadow-map-size').addEventListener('change', (e) =>
         this.edit({shadows: {mapSize: Number(e.target.value)}}));
+    $('local-shadows').addEventListener('change', (e) =>
+        this.edit({shadows: {local: e.target.value}}));
     $('antialias').addEventListener('change', (e) =>
         this.edit({antialias: e.target.checked ? 'fxaa' : 'none'}));
     $('animate').addEventListener('change', (e) => this.edit({animate: e.target.checked}));
@@ -358,6 +360,40 @@ export class SettingsPanel {
 
   setTechniques(techniques) {
     fillSelect($('technique'), techniques.map((t) => ({value: t})));
+  }
+
+  // Stochastic shadows trace a ray a pixel through the scene's BVH in compute: cheap on a GPU,
+  // seconds a frame on a CPU renderer, so the page offers them only where the device is a GPU
+  // and says why not elsewhere (the API still takes them: a batch job may wait).
+  setDevice(device) {
+    this.gpu = device?.isCpu === false;
+    const option = $('local-shadows').querySelector('option[value="stochastic"]');
+    option.disabled = !this.gpu;
+    option.textContent = this.gpu ? 'stochastic (every light)' : 'stochastic (every light; needs a GPU)';
+    this.showShadowCost();
+  }
+
+  // What the local shadows cost, from the last frame's passes (GET .../stats, StatsPanel).
+  showShadowCost(frame = this.lastFrame) {
+    this.lastFrame = frame;
+    const local = this.settings?.shadows?.local;
+    const passMs = (name) => frame?.passes?.find((p) => p.name === name)?.ms;
+    let text;
+    if (local === 'stochastic') {
+      const rays = passMs('shadow-rays');
+      const bvh = passMs('bvh-build') ?? passMs('bvh-refit');
+      text = rays === undefined
+          ? 'Every light shadowed: one shadow ray a pixel (noisy: no denoiser yet).'
+          : `Every light shadowed: the shadow rays took ${rays.toFixed(2)} ms` +
+            (bvh === undefined ? '' : ` and the BVH ${bvh.toFixed(2)} ms`) +
+            ` of the last ${frame.width}\u00d7${frame.height} frame (one ray a pixel: noisy, no denoiser yet).`;
+    } else if (this.gpu === false) {
+      text = 'Stochastic shadows (every light) need a GPU: on this CPU renderer a frame takes seconds.';
+    } else {
+      text = local === 'maps' ? 'Shadow maps for the 16 most important lights; the rest unshadowed.'
+                              : local === 'none' ? 'Local lights unshadowed.' : '';
+    }
+    if ($('local-shadows-cost').textContent !== text) $('local-shadows-cost').textContent = text;
   }
 
   async refresh() {
@@ -399,6 +435,9 @@ export class SettingsPanel {
     $('sun-shadows').disabled = !s.shadows;
     if (s.shadows?.mapSize) $('shadow-map-size').value = String(s.shadows.mapSize);
     $('shadow-map-size').disabled = !s.shadows?.sun;
+    $('local-shadows').value = s.shadows?.local || 'maps';
+    $('local-shadows').disabled = !s.shadows?.local;
+    this.showShadowCost();
     $('antialias').checked = s.antialias !== 'none';
     $('animate').checked = s.animate;
     $('technique').value = s.technique;

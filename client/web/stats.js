@@ -10,12 +10,13 @@ const PALETTE = ['#5fa8ff', '#ffb454', '#7fd962', '#ff7a6b', '#c792ea', '#4dd0e1
                  '#ffd866', '#a6accd', '#89ddff'];
 
 export class StatsPanel {
-  constructor(api, canvas, table, {onProblem, onRecovered}) {
+  constructor(api, canvas, table, {onProblem, onRecovered, onStats = () => {}}) {
     this.api = api;
     this.canvas = canvas;
     this.table = table;
     this.onProblem = onProblem;
     this.onRecovered = onRecovered;  // the server answers again after a failure
+    this.onStats = onStats;          // (stats) each answer, for the panels that show a cost
     this.history = [];          // [{passes: Map(name -> ms)}]
     this.colors = new Map();    // pass name -> colour, stable for the page's life
     this.lastFrames = -1;
@@ -67,6 +68,7 @@ export class StatsPanel {
 
   show(stats) {
     this.latest = stats;
+    this.onStats(stats);
     // A sample per new frame only: an idle stream does not flatten the graph into the past.
     if (stats.frame && stats.frames !== this.lastFrames) {
       this.lastFrames = stats.frames;

@@ -1410,6 +1410,22 @@ try {
     check(inSight, 'the light editor opened out of sight');
   });
 
+  await step('local shadows: none / maps offered, stochastic only on a GPU (this is a CPU renderer) with why', async () => {
+    const settings = async () => (await api('GET', `/v1/sessions/${sessionId}/settings`, {token})).body;
+    check((await settings()).shadows.local === 'maps', 'the session does not start with shadows.local maps');
+    check(await page.inputValue('#local-shadows') === 'maps', 'the page does not show maps');
+    const stochastic = await page.$eval('#local-shadows option[value="stochastic"]',
+                                        (o) => ({disabled: o.disabled, text: o.textContent}));
+    check(stochastic.disabled, 'stochastic is offered on a CPU renderer');
+    check(/needs a GPU/.test(stochastic.text), `the stochastic option does not say why: "${stochastic.text}"`);
+    check(/need a GPU/.test(await page.textContent('#local-shadows-cost')),
+          `the cost line does not say why: "${await page.textContent('#local-shadows-cost')}"`);
+    await page.selectOption('#local-shadows', 'none');
+    await until('shadows.local none on the server', async () => (await settings()).shadows.local === 'none');
+    await page.selectOption('#local-shadows', 'maps');
+    await until('shadows.local maps on the server', async () => (await settings()).shadows.local === 'maps');
+  });
+
   await step('axe-core: no serious or critical WCAG 2.2 AA violations (page, light editor, help)', async () => {
     const audit = axeViolations;
     check(await page.isVisible('#light-editor'), 'the light editor is not open for the audit');
