@@ -175,12 +175,14 @@ std::vector<Operation> buildOperations() {
                  .id = "getWebClient",
                  .tag = "Web client",
                  .summary = "The web client's page",
+                 .anyQuery = true,
                  .responses = {{200, "The page (HTML).", {{"text/html", ""}}, {}}}});
   ops.push_back({.method = "GET",
                  .route = routes::kWebFile,
                  .id = "getWebClientFile",
                  .tag = "Web client",
                  .summary = "A file of the web client (scripts, styles)",
+                 .anyQuery = true,
                  .responses = {{200, "The file, with its media type.", {{"*/*", ""}}, {}}},
                  .problems = {404}});
 

@@ -49,6 +49,9 @@ struct Operation {
   std::string_view summary;
   Access access = Access::Public;
   std::vector<QueryParameter> query;  // every query parameter it takes (any other is a 400)
+  // The query string is not the server's to check: the web client's page and files are fetched
+  // with the page's own options (?stream=jpeg, a cache-busting ?v=), which its scripts read.
+  bool anyQuery = false;
   std::vector<Content> body;          // the request body's accepted forms; empty: none
   bool bodyRequired = true;
   std::vector<Response> responses;  // what success looks like

@@ -52,8 +52,14 @@ struct RequestScope {
   // The session version this request last held the lock at (SessionLock's release): a later
   // lockOpen of the same request refuses a session someone else changed in between.
   std::optional<uint64_t> seenVersion;
+  // The session the operation's access authorized (requestSession()); null on other routes.
+  SessionPtr session;
 };
 thread_local RequestScope* tRequest = nullptr;
+
+// Throws ProblemError 400 unknown-parameter for a query parameter not in `allowed` (the
+// operation's, from protocol/operations.cpp), and 400 invalid-parameter for one given twice.
+void checkQuery(const httplib::Request& req, const std::vector<std::string>& allowed);
 
 // This process's part of every entity tag (entityTag): random, so that a session restored by
 // another process (a restart, another node) never matches a tag its former copy gave out.
@@ -219,12 +225,24 @@ void Routes::add(std::string_view method, std::string_view routeTemplate, Handle
   // The body limit is per template; a method with a larger one (PUT model) raises it.
   existing->options.maxBodyBytes = std::max(existing->options.maxBodyBytes, options.maxBodyBytes);
 
-  // Everything but reading the body: the in-flight limit, the form refusal, problems. Called with
-  // the body already read (and bounded) by the caller.
-  auto serve = [this, handler = std::move(handler), options,
-                routeTemplate = std::string(routeTemplate)](const httplib::Request& req,
-                                                              httplib::Response& res,
-                                                              const auto& readBody) {
+  // What protocol/operations.cpp says of the route, applied here for every handler: who may call
+  // it (its access) and which query parameters it takes. A route the table lacks is not checked
+  // here: the server refuses to start on it (routeTableMismatch, HttpServer::bind).
+  const protocol::Operation* operation = protocol::findOperation(method, routeTemplate);
+  const protocol::Access access = operation ? operation->access : protocol::Access::Public;
+  std::vector<std::string> queryNames;
+  if (operation) {
+    for (std::string_view name : protocol::queryParameterNames(*operation)) {
+      queryNames.emplace_back(name);
+    }
+  }
+
+  // Everything but reading the body: the in-flight limit, the operation's access and query
+  // parameters, the form refusal, problems. Called with the body already read (and bounded) by
+  // the caller.
+  auto serve = [this, handler = std::move(handler), options, access,
+                checksQuery = operation != nullptr && !operation->anyQuery, queryNames = std::move(queryNames)](
+                   const httplib::Request& req, httplib::Response& res, const auto& readBody) {
     struct InFlight {
       std::atomic<uint32_t>* counter = nullptr;
       ~InFlight() {
@@ -254,13 +272,26 @@ void Routes::add(std::string_view method, std::string_view routeTemplate, Handle
       ~Scoped() { tRequest = nullptr; }
     } scoped(&scope);
     try {
+      // Before a byte of the body is read: refusing an unauthenticated upload costs neither
+      // memory nor time (the connection closes with the body unread).
+      switch (access) {
+        case protocol::Access::Public:
+          break;
+        case protocol::Access::ApiKeyWhenSet:
+          requireApiKey(context_, req);
+          break;
+        case protocol::Access::Session:
+        case protocol::Access::SessionOrQueryToken:
+          scope.session = authorizeSession(context_, req,
+                                           access == protocol::Access::SessionOrQueryToken);
+          break;
+      }
+      if (checksQuery) checkQuery(req, queryNames);
       // A conditional edit of a session: refused before its body is read when already stale.
       // (The handler's lockOpen checks again, under the lock its edit holds.)
-      if (scope.edits && scope.ifMatch && req.matches.size() > 1 &&
-          routeTemplate.starts_with(std::string(protocol::routes::kSessions) + "/")) {
-        SessionPtr session = authorizeSession(context_, req);
-        std::lock_guard lock(session->mutex);
-        checkPrecondition(scope, *session);
+      if (scope.edits && scope.ifMatch && scope.session) {
+        std::lock_guard lock(scope.session->mutex);
+        checkPrecondition(scope, *scope.session);
       }
       const httplib::Request& withBody = readBody();
       // httplib reads a form body into req.params, where it would pass for a query string; no
@@ -293,21 +324,12 @@ void Routes::add(std::string_view method, std::string_view routeTemplate, Handle
   // Bodies are read here, not by httplib, so that they are counted as they arrive and cut at the
   // route's limit: httplib 0.11 reads a chunked body (no Content-Length; the route table refuses
   // an oversized one before routing) whole into memory, however large.
-  const bool createsSession = routeTemplate == protocol::routes::kSessions;
   httplib::Server::HandlerWithContentReader reading =
-      [this, serve, options, createsSession](const httplib::Request& req, httplib::Response& res,
-                                             const httplib::ContentReader& reader) {
+      [this, serve, options](const httplib::Request& req, httplib::Response& res,
+                             const httplib::ContentReader& reader) {
         std::shared_ptr<httplib::Request> withBody;
         MemoryBudget::Reservation memory;  // held until the handler has answered
         serve(req, res, [&]() -> const httplib::Request& {
-          // The credentials are checked before a byte of the body is read: refusing an
-          // unauthenticated upload costs neither memory nor time (the connection closes with the
-          // body unread). The handler checks them again, with the body, as for any request.
-          if (createsSession) {
-            requireApiKey(context_, req);
-          } else if (req.matches.size() > 1) {
-            authorizeSession(context_, req);
-          }
           memory = reserveMemory(context_, bodyMemoryCost(req, options), "this request's body");
           withBody = readBounded(req, res, reader, options);
           return *withBody;
@@ -561,7 +583,16 @@ nlohmann::json jsonBody(const httplib::Request& req, std::string_view schemaName
   return std::move(parsed.json);
 }
 
-void checkQuery(const httplib::Request& req, std::initializer_list<std::string_view> allowed) {
+SessionPtr requestSession() {
+  if (tRequest == nullptr || !tRequest->session) {
+    throw std::logic_error("requestSession() on a route whose operation takes no session token");
+  }
+  return tRequest->session;
+}
+
+namespace {
+
+void checkQuery(const httplib::Request& req, const std::vector<std::string>& allowed) {
   std::set<std::string> seen;
   for (const auto& [name, value] : req.params) {
     if (std::find(allowed.begin(), allowed.end(), name) == allowed.end()) {
@@ -578,6 +609,8 @@ void checkQuery(const httplib::Request& req, std::initializer_list<std::string_v
     }
   }
 }
+
+}  // namespace
 
 Credentials credentialsOf(const httplib::Request& req) {
   Credentials credentials;

@@ -231,9 +231,11 @@ Credentials credentialsOf(const httplib::Request& req);
 nlohmann::json jsonBody(const httplib::Request& req, std::string_view schemaName,
                         std::optional<std::string_view> emptyBody = std::nullopt);
 
-// Throws ProblemError 400 unknown-parameter for a query parameter not in `allowed`, and 400
-// invalid-parameter for one given twice.
-void checkQuery(const httplib::Request& req, std::initializer_list<std::string_view> allowed);
+// The session the route table authorized for the request being served: Routes::add applies each
+// operation's access (protocol/operations.cpp) and query parameters before its handler runs, so
+// handlers neither authorize nor list parameters themselves. Throws std::logic_error on a route
+// whose operation takes no session token (a bug: the table and the handler disagree).
+SessionPtr requestSession();
 // Query parameter `name` as an integer in [min, max], `fallback` when absent; 400
 // invalid-parameter naming it otherwise.
 uint64_t unsignedParameter(const httplib::Request& req, const std::string& name, uint64_t fallback,

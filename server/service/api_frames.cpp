@@ -122,7 +122,7 @@ void handleBuiltinFrame(const ApiContext& context, FrameServices& frames,
 
 void handleSessionFrame(const ApiContext& context, FrameServices& frames,
                         const httplib::Request& req, httplib::Response& res) {
-  SessionPtr session = authorizeSession(context, req, /*allowQueryToken=*/true);
+  SessionPtr session = requestSession();
   FrameRequest request = parsedQuery(
       [&] { return parseSessionFrameQuery(req.params, context.config.limits.maxResolution); });
   const SessionFrameContext frameContext{context.renderThread, frames.stats, frames.metrics,
@@ -161,8 +161,7 @@ scene::PinholeView pinholeViewOf(const protocol::Labels& labels) {
 // GET .../labels: an instance-id frame of the session's camera, summed per object.
 void handleLabels(const ApiContext& context, FrameServices& frames, const httplib::Request& req,
                   httplib::Response& res) {
-  SessionPtr session = authorizeSession(context, req, /*allowQueryToken=*/true);
-  checkQuery(req, {"width", "height", "time", "token"});
+  SessionPtr session = requestSession();
   FrameRequest request = parsedQuery(
       [&] { return parseSessionFrameQuery(req.params, context.config.limits.maxResolution); });
   request.settings.target = render::Target::InstanceId;
@@ -315,7 +314,6 @@ void handleEvents(ApiContext& context, FrameServices& frames, const httplib::Req
   Role role = Role::owner;
   SessionPtr session = context.sessions.authorize(req.matches[1].str(), credentialsOf(req),
                                                   /*allowQueryToken=*/true, Role::viewer, &role);
-  checkQuery(req, {protocol::query::kToken});
   StreamCredential credential = streamCredential(req, *session, role);
   if (frames.streams.stopping()) throw ProblemError(serverBusy("The server is shutting down."));
   {
@@ -344,10 +342,9 @@ void handleEvents(ApiContext& context, FrameServices& frames, const httplib::Req
       makeEventStreamProvider(std::move(session), frames.streams, peer, std::move(credential)));
 }
 
-void handleStats(const ApiContext& context, FrameServices& frames, const httplib::Request& req,
+void handleStats(const ApiContext& /*context*/, FrameServices& frames, const httplib::Request& /*req*/,
                  httplib::Response& res) {
-  SessionPtr session = authorizeSession(context, req);
-  checkQuery(req, {});
+  SessionPtr session = requestSession();
   uint64_t lightCount = 0;
   bool animated = false;
   {
@@ -358,9 +355,8 @@ void handleStats(const ApiContext& context, FrameServices& frames, const httplib
   sendJson(res, nlohmann::json(frames.stats.statsOf(*session, lightCount, animated)));
 }
 
-void handleMetrics(const ApiContext& context, FrameServices& frames, const httplib::Request& req,
+void handleMetrics(const ApiContext& context, FrameServices& frames, const httplib::Request& /*req*/,
                    httplib::Response& res) {
-  checkQuery(req, {});
   MetricGauges gauges;
   gauges.sessions = context.sessions.count();
   gauges.streams = frames.streams.count();

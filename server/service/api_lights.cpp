@@ -27,9 +27,8 @@ std::future<void> queue(ApiContext& context, Session& session, render::LightUpda
   return uploaded;
 }
 
-void getPage(ApiContext& context, const httplib::Request& req, httplib::Response& res) {
-  SessionPtr session = authorizeSession(context, req);
-  checkQuery(req, {"offset", "limit"});
+void getPage(ApiContext& /*context*/, const httplib::Request& req, httplib::Response& res) {
+  SessionPtr session = requestSession();
   const uint64_t offset = unsignedParameter(req, "offset", 0, 0, UINT32_MAX);
   const uint64_t limit = unsignedParameter(req, "limit", kDefaultPageSize, 0, kMaxPageSize);
   auto lock = lockOpen(*session);
@@ -44,8 +43,7 @@ void getPage(ApiContext& context, const httplib::Request& req, httplib::Response
 }
 
 void addLights(ApiContext& context, const httplib::Request& req, httplib::Response& res) {
-  SessionPtr session = authorizeSession(context, req);
-  checkQuery(req, {});
+  SessionPtr session = requestSession();
   const auto body = jsonBody(req, protocol::schema_names::kLightsAdd).get<protocol::LightsAdd>();
   std::vector<scene::PointLight> lights;
   lights.reserve(body.lights.size());
@@ -64,9 +62,8 @@ void addLights(ApiContext& context, const httplib::Request& req, httplib::Respon
   sendJson(res, added, 201);
 }
 
-void clearLights(ApiContext& context, const httplib::Request& req, httplib::Response& res) {
-  SessionPtr session = authorizeSession(context, req);
-  checkQuery(req, {});
+void clearLights(ApiContext& context, const httplib::Request& /*req*/, httplib::Response& res) {
+  SessionPtr session = requestSession();
   std::future<void> uploaded;
   {
     auto lock = lockOpen(*session);
@@ -76,17 +73,15 @@ void clearLights(ApiContext& context, const httplib::Request& req, httplib::Resp
   res.status = 204;
 }
 
-void getLight(ApiContext& context, const httplib::Request& req, httplib::Response& res) {
-  SessionPtr session = authorizeSession(context, req);
-  checkQuery(req, {});
+void getLight(ApiContext& /*context*/, const httplib::Request& req, httplib::Response& res) {
+  SessionPtr session = requestSession();
   auto lock = lockOpen(*session);
   const uint32_t slot = session->scene.slotOf(req.matches[2].str());
   sendJson(res, toWire(session->scene.idAt(slot), session->scene.lightAt(slot)));
 }
 
 void patchLight(ApiContext& context, const httplib::Request& req, httplib::Response& res) {
-  SessionPtr session = authorizeSession(context, req);
-  checkQuery(req, {});
+  SessionPtr session = requestSession();
   const auto patch = jsonBody(req, protocol::schema_names::kLightPatch).get<protocol::LightPatch>();
   protocol::Light result;
   std::future<void> uploaded;
@@ -102,8 +97,7 @@ void patchLight(ApiContext& context, const httplib::Request& req, httplib::Respo
 }
 
 void deleteLight(ApiContext& context, const httplib::Request& req, httplib::Response& res) {
-  SessionPtr session = authorizeSession(context, req);
-  checkQuery(req, {});
+  SessionPtr session = requestSession();
   std::future<void> uploaded;
   {
     auto lock = lockOpen(*session);
@@ -115,8 +109,7 @@ void deleteLight(ApiContext& context, const httplib::Request& req, httplib::Resp
 }
 
 void generate(ApiContext& context, const httplib::Request& req, httplib::Response& res) {
-  SessionPtr session = authorizeSession(context, req);
-  checkQuery(req, {});
+  SessionPtr session = requestSession();
   const auto request =
       jsonBody(req, protocol::schema_names::kLightsGenerate).get<protocol::LightsGenerate>();
   if (auto error = protocol::checkLightsGenerate(request)) {
@@ -187,9 +180,8 @@ double numberParameter(const httplib::Request& req, const std::string& name, dou
 
 // GET .../lights/pick?x=&y=&width=&height=[&radius=]: the light whose marker is under the pixel,
 // found among all the session's lights (render/marker_pick.h), answered by id.
-void pick(ApiContext& context, const httplib::Request& req, httplib::Response& res) {
-  SessionPtr session = authorizeSession(context, req);
-  checkQuery(req, {"x", "y", "width", "height", "radius"});
+void pick(ApiContext& /*context*/, const httplib::Request& req, httplib::Response& res) {
+  SessionPtr session = requestSession();
   constexpr uint64_t kMaxSide = 16384;
   for (const char* required : {"width", "height"}) {
     if (!req.has_param(required)) {

@@ -126,9 +126,8 @@ Problem renumberedItem(Problem problem, const std::vector<size_t>& itemOf) {
 
 // ---- Assets.
 
-void listAssets(ApiContext& context, const httplib::Request& req, httplib::Response& res) {
-  SessionPtr session = authorizeSession(context, req);
-  checkQuery(req, {});
+void listAssets(ApiContext& /*context*/, const httplib::Request& /*req*/, httplib::Response& res) {
+  SessionPtr session = requestSession();
   auto lock = lockOpen(*session);
   const SceneGraph& graph = session->scene.graph();
   protocol::AssetsList list;
@@ -137,8 +136,7 @@ void listAssets(ApiContext& context, const httplib::Request& req, httplib::Respo
 }
 
 void addAsset(ApiContext& context, const httplib::Request& req, httplib::Response& res) {
-  SessionPtr session = authorizeSession(context, req);
-  checkQuery(req, {"filename", "entry"});
+  SessionPtr session = requestSession();
   // Loading takes from milliseconds to the loader's time limit; the session stays usable.
   LoadedModel model = loadModelRequest(context, req);
   std::future<void> uploaded;
@@ -165,17 +163,15 @@ void addAsset(ApiContext& context, const httplib::Request& req, httplib::Respons
   sendJson(res, answer, added ? 201 : 200);
 }
 
-void getAsset(ApiContext& context, const httplib::Request& req, httplib::Response& res) {
-  SessionPtr session = authorizeSession(context, req);
-  checkQuery(req, {});
+void getAsset(ApiContext& /*context*/, const httplib::Request& req, httplib::Response& res) {
+  SessionPtr session = requestSession();
   auto lock = lockOpen(*session);
   const SceneGraph& graph = session->scene.graph();
   sendJson(res, toWire(graph, graph.asset(req.matches[2].str())));
 }
 
 void deleteAsset(ApiContext& context, const httplib::Request& req, httplib::Response& res) {
-  SessionPtr session = authorizeSession(context, req);
-  checkQuery(req, {});
+  SessionPtr session = requestSession();
   std::future<void> uploaded;
   {
     auto lock = lockOpen(*session);
@@ -189,9 +185,8 @@ void deleteAsset(ApiContext& context, const httplib::Request& req, httplib::Resp
 
 // ---- Objects.
 
-void listObjects(ApiContext& context, const httplib::Request& req, httplib::Response& res) {
-  SessionPtr session = authorizeSession(context, req);
-  checkQuery(req, {"offset", "limit"});
+void listObjects(ApiContext& /*context*/, const httplib::Request& req, httplib::Response& res) {
+  SessionPtr session = requestSession();
   const uint64_t offset = unsignedParameter(req, "offset", 0, 0, UINT32_MAX);
   const uint64_t limit = unsignedParameter(req, "limit", protocol::query::kDefaultObjectsPageLimit,
                                            0, protocol::query::kMaxObjectsPageLimit);
@@ -211,8 +206,7 @@ void listObjects(ApiContext& context, const httplib::Request& req, httplib::Resp
 }
 
 void addObjects(ApiContext& context, const httplib::Request& req, httplib::Response& res) {
-  SessionPtr session = authorizeSession(context, req);
-  checkQuery(req, {});
+  SessionPtr session = requestSession();
   const auto body =
       jsonBody(req, protocol::schema_names::kObjectsAdd).get<protocol::ObjectsAdd>();
   std::vector<SceneObject> objects;
@@ -274,17 +268,15 @@ void addObjects(ApiContext& context, const httplib::Request& req, httplib::Respo
   sendJson(res, added, 201);
 }
 
-void getObject(ApiContext& context, const httplib::Request& req, httplib::Response& res) {
-  SessionPtr session = authorizeSession(context, req);
-  checkQuery(req, {});
+void getObject(ApiContext& /*context*/, const httplib::Request& req, httplib::Response& res) {
+  SessionPtr session = requestSession();
   auto lock = lockOpen(*session);
   const SceneGraph& graph = session->scene.graph();
   sendJson(res, toWire(session->scene, graph.object(graph.objectId(req.matches[2].str()))));
 }
 
 void patchObject(ApiContext& context, const httplib::Request& req, httplib::Response& res) {
-  SessionPtr session = authorizeSession(context, req);
-  checkQuery(req, {});
+  SessionPtr session = requestSession();
   const auto patch =
       jsonBody(req, protocol::schema_names::kObjectPatch).get<protocol::ObjectPatch>();
   std::future<void> uploaded;
@@ -305,8 +297,7 @@ void patchObject(ApiContext& context, const httplib::Request& req, httplib::Resp
 }
 
 void deleteObject(ApiContext& context, const httplib::Request& req, httplib::Response& res) {
-  SessionPtr session = authorizeSession(context, req);
-  checkQuery(req, {});
+  SessionPtr session = requestSession();
   std::future<void> uploaded;
   {
     auto lock = lockOpen(*session);
@@ -324,16 +315,14 @@ protocol::Clock toWire(const SessionScene::SceneClock& c) {
   return {c.time, c.playing, c.rate, c.duration};
 }
 
-void getClock(ApiContext& context, const httplib::Request& req, httplib::Response& res) {
-  SessionPtr session = authorizeSession(context, req);
-  checkQuery(req, {});
+void getClock(ApiContext& /*context*/, const httplib::Request& /*req*/, httplib::Response& res) {
+  SessionPtr session = requestSession();
   auto lock = lockOpen(*session);
   sendJson(res, toWire(session->scene.clock(Clock::now())));
 }
 
-void patchClock(ApiContext& context, const httplib::Request& req, httplib::Response& res) {
-  SessionPtr session = authorizeSession(context, req);
-  checkQuery(req, {});
+void patchClock(ApiContext& /*context*/, const httplib::Request& req, httplib::Response& res) {
+  SessionPtr session = requestSession();
   const auto patch = jsonBody(req, protocol::schema_names::kClockPatch).get<protocol::ClockPatch>();
   protocol::Clock answer;
   {

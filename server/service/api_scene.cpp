@@ -24,9 +24,8 @@ void requireNoBody(const httplib::Request& req) {
   }
 }
 
-void getCamera(ApiContext& context, const httplib::Request& req, httplib::Response& res) {
-  SessionPtr session = authorizeSession(context, req);
-  checkQuery(req, {});
+void getCamera(ApiContext& /*context*/, const httplib::Request& /*req*/, httplib::Response& res) {
+  SessionPtr session = requestSession();
   auto lock = lockOpen(*session);
   sendJson(res, toWire(session->scene.camera()));
 }
@@ -42,10 +41,9 @@ bool endsInteraction(const httplib::Request& req) {
 }
 
 // PUT (whole camera) and PATCH (any subset): both must leave a valid camera.
-void setCamera(ApiContext& context, const httplib::Request& req, httplib::Response& res,
+void setCamera(ApiContext& /*context*/, const httplib::Request& req, httplib::Response& res,
                bool patch) {
-  SessionPtr session = authorizeSession(context, req);
-  checkQuery(req, {});
+  SessionPtr session = requestSession();
   nlohmann::json body =
       jsonBody(req, patch ? protocol::schema_names::kCameraPatch : protocol::schema_names::kCamera);
   const bool ends = endsInteraction(req);
@@ -59,9 +57,8 @@ void setCamera(ApiContext& context, const httplib::Request& req, httplib::Respon
   sendJson(res, toWire(session->scene.camera()));
 }
 
-void frameCamera(ApiContext& context, const httplib::Request& req, httplib::Response& res) {
-  SessionPtr session = authorizeSession(context, req);
-  checkQuery(req, {});
+void frameCamera(ApiContext& /*context*/, const httplib::Request& req, httplib::Response& res) {
+  SessionPtr session = requestSession();
   requireNoBody(req);
   auto lock = lockOpen(*session);
   session->scene.frameModel(kFramingAspect);
@@ -69,9 +66,8 @@ void frameCamera(ApiContext& context, const httplib::Request& req, httplib::Resp
   sendJson(res, toWire(session->scene.camera()));
 }
 
-void selectCamera(ApiContext& context, const httplib::Request& req, httplib::Response& res) {
-  SessionPtr session = authorizeSession(context, req);
-  checkQuery(req, {});
+void selectCamera(ApiContext& /*context*/, const httplib::Request& req, httplib::Response& res) {
+  SessionPtr session = requestSession();
   const auto body =
       jsonBody(req, protocol::schema_names::kCameraSelect).get<protocol::CameraSelect>();
   auto lock = lockOpen(*session);
@@ -80,16 +76,14 @@ void selectCamera(ApiContext& context, const httplib::Request& req, httplib::Res
   sendJson(res, toWire(session->scene.camera()));
 }
 
-void getSettings(ApiContext& context, const httplib::Request& req, httplib::Response& res) {
-  SessionPtr session = authorizeSession(context, req);
-  checkQuery(req, {});
+void getSettings(ApiContext& /*context*/, const httplib::Request& /*req*/, httplib::Response& res) {
+  SessionPtr session = requestSession();
   auto lock = lockOpen(*session);
   sendJson(res, toWire(session->scene));
 }
 
-void patchSettings(ApiContext& context, const httplib::Request& req, httplib::Response& res) {
-  SessionPtr session = authorizeSession(context, req);
-  checkQuery(req, {});
+void patchSettings(ApiContext& /*context*/, const httplib::Request& req, httplib::Response& res) {
+  SessionPtr session = requestSession();
   const auto patch =
       jsonBody(req, protocol::schema_names::kSettingsPatch).get<protocol::SettingsPatch>();
   const bool ends = endsInteraction(req);
@@ -151,8 +145,7 @@ std::shared_ptr<const scene::EnvironmentImage> loadEnvironment(const ApiContext&
 }
 
 void putEnvironment(ApiContext& context, const httplib::Request& req, httplib::Response& res) {
-  SessionPtr session = authorizeSession(context, req);
-  checkQuery(req, {"filename"});
+  SessionPtr session = requestSession();
   std::string source;
   // Decoding takes the loader's time; the session stays usable meanwhile.
   std::shared_ptr<const scene::EnvironmentImage> image = loadEnvironment(context, req, source);
@@ -177,9 +170,8 @@ void putEnvironment(ApiContext& context, const httplib::Request& req, httplib::R
   sendJson(res, toWire(session->scene));
 }
 
-void getMaterials(ApiContext& context, const httplib::Request& req, httplib::Response& res) {
-  SessionPtr session = authorizeSession(context, req);
-  checkQuery(req, {});
+void getMaterials(ApiContext& /*context*/, const httplib::Request& /*req*/, httplib::Response& res) {
+  SessionPtr session = requestSession();
   auto lock = lockOpen(*session);
   const std::vector<scene::Material>& materials = session->scene.materials();
   protocol::MaterialsList list;
@@ -189,8 +181,7 @@ void getMaterials(ApiContext& context, const httplib::Request& req, httplib::Res
 }
 
 void patchMaterial(ApiContext& context, const httplib::Request& req, httplib::Response& res) {
-  SessionPtr session = authorizeSession(context, req);
-  checkQuery(req, {});
+  SessionPtr session = requestSession();
   const auto patch =
       jsonBody(req, protocol::schema_names::kMaterialPatch).get<protocol::MaterialPatch>();
   const bool ends = endsInteraction(req);

@@ -270,8 +270,6 @@ SessionPtr openSession(ApiContext& context, const std::string& source,
 }
 
 void createSession(ApiContext& context, const httplib::Request& req, httplib::Response& res) {
-  checkQuery(req, {});
-  requireApiKey(context, req);
   const protocol::SessionCreate body =
       jsonBody(req, protocol::schema_names::kSessionCreate, "{}").get<protocol::SessionCreate>();
   const std::optional<protocol::Snapshot>& snapshot = body.snapshot;
@@ -391,8 +389,7 @@ LoadedModel loadModelRequest(ApiContext& context, const httplib::Request& req) {
 namespace {
 
 void putModel(ApiContext& context, const httplib::Request& req, httplib::Response& res) {
-  SessionPtr session = authorizeSession(context, req);
-  checkQuery(req, {"filename", "lights", "entry"});
+  SessionPtr session = requestSession();
   // Without ?lights=: generated lights are fitted to the new model, edited ones kept.
   Adoption::Lights lights = Adoption::Lights::automatic;
   if (req.has_param("lights")) {
@@ -429,9 +426,8 @@ void putModel(ApiContext& context, const httplib::Request& req, httplib::Respons
 }
 
 // POST .../tokens: a viewer token, returned once and kept as its hash.
-void createToken(ApiContext& context, const httplib::Request& req, httplib::Response& res) {
-  SessionPtr session = authorizeSession(context, req);
-  checkQuery(req, {});
+void createToken(ApiContext& /*context*/, const httplib::Request& req, httplib::Response& res) {
+  SessionPtr session = requestSession();
   const auto body =
       jsonBody(req, protocol::schema_names::kTokenCreate).get<protocol::TokenCreate>();
   // The schema admits only the viewer role.
@@ -461,9 +457,8 @@ void createToken(ApiContext& context, const httplib::Request& req, httplib::Resp
   sendJson(res, created, 201);
 }
 
-void revokeTokens(ApiContext& context, const httplib::Request& req, httplib::Response& res) {
-  SessionPtr session = authorizeSession(context, req);
-  checkQuery(req, {});
+void revokeTokens(ApiContext& /*context*/, const httplib::Request& /*req*/, httplib::Response& res) {
+  SessionPtr session = requestSession();
   {
     auto lock = lockOpen(*session);
     std::vector<std::string>& revoked = session->revokedViewerHashes;
@@ -641,16 +636,14 @@ void addSessionRoutes(Routes& routes, ApiContext& context) {
     createSession(context, req, res);
   });
   routes.add("GET", protocol::routes::kSession,
-             [&context](const httplib::Request& req, httplib::Response& res) {
-               SessionPtr session = authorizeSession(context, req);
-               checkQuery(req, {});
+             [&context](const httplib::Request& /*req*/, httplib::Response& res) {
+               SessionPtr session = requestSession();
                auto lock = lockOpen(*session);
                sendState(context, res, *session);
              });
   routes.add("DELETE", protocol::routes::kSession,
-             [&context](const httplib::Request& req, httplib::Response& res) {
-               SessionPtr session = authorizeSession(context, req);
-               checkQuery(req, {});
+             [&context](const httplib::Request& /*req*/, httplib::Response& res) {
+               SessionPtr session = requestSession();
                // Deleting ends the session everywhere: its record goes too (expiry keeps it), if
                // this node still holds its lease.
                if (context.state != nullptr) {
@@ -693,9 +686,8 @@ void addSessionRoutes(Routes& routes, ApiContext& context) {
   upload.maxBodyBytes = context.config.limits.maxUploadBytes;
   upload.bodyLimitName = "maxUploadBytes";
   routes.add("GET", protocol::routes::kSessionSnapshot,
-             [&context](const httplib::Request& req, httplib::Response& res) {
-               SessionPtr session = authorizeSession(context, req);
-               checkQuery(req, {});
+             [&context](const httplib::Request& /*req*/, httplib::Response& res) {
+               SessionPtr session = requestSession();
                auto lock = lockOpen(*session);
                sendJson(res, session->scene.snapshot());
              });
@@ -703,8 +695,7 @@ void addSessionRoutes(Routes& routes, ApiContext& context) {
   routes.add(
       "PUT", protocol::routes::kSessionSnapshot,
       [&context](const httplib::Request& req, httplib::Response& res) {
-        SessionPtr session = authorizeSession(context, req);
-        checkQuery(req, {});
+        SessionPtr session = requestSession();
         const auto snapshot =
             jsonBody(req, protocol::schema_names::kSnapshot).get<protocol::Snapshot>();
         std::string current;
@@ -734,9 +725,8 @@ void addSessionRoutes(Routes& routes, ApiContext& context) {
         putModel(context, req, res);
       },
       upload);
-  routes.add("GET", protocol::routes::kModels, [&context](const httplib::Request& req,
+  routes.add("GET", protocol::routes::kModels, [&context](const httplib::Request& /*req*/,
                                             httplib::Response& res) {
-    checkQuery(req, {});
     protocol::ModelsList list;
     if (context.models != nullptr) {
       for (const loader::LibraryEntry& entry : context.models->list()) {

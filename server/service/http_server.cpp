@@ -349,8 +349,7 @@ HttpServer::HttpServer(const HttpConfig& config, render::RenderQueue& renderThre
       health);
   s.routes.add(
       "GET", r::kReady,
-      [&s](const httplib::Request& req, httplib::Response& res) {
-        checkQuery(req, {});
+      [&s](const httplib::Request&, httplib::Response& res) {
         if (s.stopRequested) throw ProblemError(serverBusy("draining: the server is shutting down."));
         const size_t open = s.sessions.count();
         if (open >= s.sessions.maxSessions()) {
