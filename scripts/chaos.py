@@ -4,24 +4,33 @@
 
 Starts a PostgreSQL cluster of its own (scripts/pg_cluster.py; Debian's postgresql), NODES
 myriad-servers (--node-id 1..N, one --state-store; or --store files: one shared --state-dir), and
-two fronts: small routing proxies in this process that route a session's requests to the node its
-id names, else by rendezvous hash of the id over the nodes. The first follows a 409's
-X-Myriad-Owner to the node that holds the session's lease; the second passes the 409 on (as the
-nginx front does), so its clients see refused edits. Clients add lights to sessions through both fronts (one
-edit in ten with an If-Match naming a version the session never had: a 412) while nodes are killed (SIGKILL, then restarted), stopped (SIGSTOP, then SIGCONT) and restarted (SIGTERM)
-at random. Then every session is read back and checked:
+two fronts. --front haproxy (the default): two HAProxy processes running deploy/haproxy/myriad.cfg
+with deploy/haproxy/nodes.sh's file, TLS, the nodes named by a DNS stub (tests/deploy/
+haproxy_cluster.py), as deployed: a session's requests go to the node its id names while that is
+up, else by consistent hash over the live nodes; 409s are passed to the client. --front proxy:
+small routing proxies in this process, the first following a 409's X-Myriad-Owner to the node that
+holds the session's lease, the second passing the 409 on. Clients add lights to sessions through
+both fronts (one edit in ten with an If-Match naming a version the session never had: a 412) while
+nodes are killed (SIGKILL, then restarted), stopped (SIGSTOP, then SIGCONT) and restarted
+(SIGTERM) at random. Then every session is read back and checked:
 
   - every light answered 2xx is there, with the position it was added with (lost: must be 0);
   - no light answered 4xx is there (a refused edit applied: must be 0);
   - no light id was handed out twice (must be 0);
   - 5xx and no answer are indeterminate (the edit may or may not have been made): counted.
 
-Prints a JSON report (edits, outcomes, failures injected, per-session reachability gaps: the
-longest time a session's requests went without a 2xx while its clients kept asking) and exits 0
-when nothing was lost, 1 otherwise, 77 when PostgreSQL's binaries are missing (CTest's skip).
+Prints a JSON report and exits 0 when nothing was lost, 1 otherwise, 77 when PostgreSQL's
+binaries (or, for --front haproxy, haproxy or openssl) are missing (CTest's skip). The report has
+the edits and their outcomes, the failures injected, and the reachability gaps: a session's
+stretches from a request that failed (or was answered after more than SLOW_S) to its next answer
+(2xx, or the 412 of a stale If-Match) while its clients kept asking; per session the longest, and
+per kind of failure, the kinds issue 33's failover targets name, the longest per session and
+failure: `crash` (SIGKILL and the restart after it), `hang` (SIGSTOP, SIGCONT), `restart`
+(SIGTERM, start). With PostgreSQL also the store's load: transactions and lease rows updated per
+second (each node renews all its leases in one statement every quarter of --lease-ms).
 
     scripts/chaos.py --server build/server/myriad-server --seconds 300          # the full test
-    scripts/chaos.py --server ... --seconds 40 --sessions 24 --clients 8         # CTest's
+    scripts/chaos.py --server ... --seconds 50 --sessions 24 --clients 8         # CTest's
 """
 
 import argparse
@@ -40,10 +49,17 @@ import threading
 import time
 from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
 
+REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from pg_cluster import PostgresCluster, Unavailable  # noqa: E402
 
 SKIP = 77
+# A gap is put down to the last failure injected before it began, or up to this long after: a
+# request sent just before a kill or a stop fails after it.
+GAP_SLACK_S = 0.5
+# An answer that took longer than this counts as a gap from when it was asked: a front may hold a
+# request while a session moves (--front proxy follows the owner), the client waits, not fails.
+SLOW_S = 1.0
 
 
 def free_port():
@@ -70,8 +86,9 @@ class Node:
         log = open(self.log_path, "a")
         self.process = subprocess.Popen(
             [self.server, "--host", "127.0.0.1", "--port", str(self.port), "--node-id",
-             str(self.id), "--lights", "4", "--max-sessions", "64", "--lease-ms",
-             str(self.lease_ms), "--shutdown-grace", "2", "--log-format", "text"]
+             str(self.id), "--lights", "4", "--max-sessions", "64", "--shutdown-grace", "2",
+             "--log-format", "text"]
+            + (["--lease-ms", str(self.lease_ms)] if self.lease_ms else [])
             + self.store_args, stdout=log, stderr=log)
         self.stopped = False
 
@@ -289,6 +306,81 @@ def request(port, method, path, token=None, body=None, timeout=15, if_match=None
         c.close()
 
 
+def proxy_caller(front):
+    """request() through one of this script's proxies."""
+    def call(method, path, token=None, body=None, timeout=15, if_match=None):
+        return request(front.port, method, path, token, body, timeout, if_match)
+    return call
+
+
+def haproxy_caller(front):
+    """request() through an HAProxy front (haproxy_cluster.Front: TLS, a kept-alive connection per
+    thread, as browsers hold them); no answer is (None, b"")."""
+    def call(method, path, token=None, body=None, timeout=15, if_match=None):
+        try:
+            status, _, payload = front.request(method, path, body, token, timeout,
+                                               {"If-Match": if_match} if if_match else None)
+            return status, payload
+        except OSError:
+            return None, b""
+    return call
+
+
+def haproxy_cluster():
+    """tests/deploy/haproxy_cluster.py, what the haproxy_* CTests run their fronts with."""
+    sys.path.insert(0, os.path.join(REPO, "tests", "deploy"))
+    import haproxy_cluster as hc
+    return hc
+
+
+def start_haproxy_fronts(nodes, work):
+    """Two HAProxy fronts over `nodes` (as tests/deploy/haproxy_cluster.py runs them: a DNS stub
+    naming every node 127.0.0.1, a self-signed certificate), returned once each sees every node UP:
+    (fronts, the DNS stub). None when haproxy or openssl is missing."""
+    hc = haproxy_cluster()
+    haproxy = hc.find_haproxy()
+    if haproxy is None or shutil.which("openssl") is None:
+        return None
+    dns = hc.DnsStub()
+    fronts = []
+    try:
+        for n in nodes:
+            dns.set(hc.node_name(n.id), "127.0.0.1")
+        cert_pem, context = hc.make_certificate(REPO, work)
+        ports = {n.id: n.port for n in nodes}
+        for k in range(2):
+            fronts.append(hc.Front(haproxy, REPO, work, f"front{k}", [n.id for n in nodes], ports,
+                                   dns, cert_pem, context))
+        for f in fronts:
+            if not f.wait_nodes([n.id for n in nodes], deadline_s=20):
+                raise RuntimeError(f"{f.name}: the nodes are not all UP within 20 s")
+    except BaseException:
+        for f in fronts:
+            f.stop()
+        dns.close()
+        raise
+    return fronts, dns
+
+
+def store_counters(cluster):
+    """(transactions committed, lease rows updated) in the store so far; PostgreSQL's statistics
+    lag by up to a second, which is noise over a run of tens of seconds."""
+    xacts = cluster.psql("SELECT xact_commit FROM pg_stat_database WHERE datname = 'myriad'")
+    leases = cluster.psql("SELECT coalesce(sum(n_tup_upd), 0) FROM pg_stat_user_tables "
+                          "WHERE relname = 'myriad_leases'")
+    return int(xacts.strip() or 0), int(leases.strip() or 0)
+
+
+def quantiles(values):
+    ordered = sorted(values)
+    if not ordered:
+        return {"count": 0}
+
+    def pct(p):
+        return ordered[min(len(ordered) - 1, int(p * len(ordered)))]
+    return {"count": len(ordered), "p50": pct(0.5), "p99": pct(0.99), "max": ordered[-1]}
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--server", required=True, help="the myriad-server binary")
@@ -297,7 +389,15 @@ def main():
     ap.add_argument("--sessions", type=int, default=24)
     ap.add_argument("--clients", type=int, default=8)
     ap.add_argument("--seconds", type=float, default=300)
-    ap.add_argument("--lease-ms", type=int, default=1500)
+    # HAProxy by default: it is the front deployed (docs/deploy.md), so its gaps are the ones
+    # issue 33's targets are about, and in 60 s runs with --lease-ms 1000 it answered more edits
+    # (15,582 against 11,634) and hung nodes sooner (gaps up to 2.7 s against 3.9 s: its health
+    # checks cut a hung node in 2.75 s, the proxies wait READ_TIMEOUT) than the proxies.
+    ap.add_argument("--front", choices=["haproxy", "proxy"], default="haproxy",
+                    help="the two fronts: HAProxy with deploy/haproxy (as deployed), or this "
+                         "script's proxies (no haproxy needed)")
+    ap.add_argument("--lease-ms", type=int, default=None,
+                    help="the nodes' --lease-ms (default: the server's own)")
     ap.add_argument("--seed", type=int, default=None)
     ap.add_argument("--keep", action="store_true", help="keep the work directory (logs)")
     ap.add_argument("--report", help="also write the JSON report to this file")
@@ -305,11 +405,18 @@ def main():
     seed = args.seed if args.seed is not None else random.randrange(1 << 30)
     random.seed(seed)
 
+    if args.front == "haproxy" and (haproxy_cluster().find_haproxy() is None
+                                    or shutil.which("openssl") is None):
+        print("SKIP: haproxy or openssl is not installed (scripts/install-deps.sh "
+              "--with-test-tools); --front proxy runs without")
+        return SKIP
     work = tempfile.mkdtemp(prefix="myriad-chaos-")
     passed = False
     cluster = None
     nodes = []
     fronts = []
+    haproxy_fronts = []
+    dns = None
     started = time.time()
     try:
         if args.store == "postgresql":
@@ -325,16 +432,27 @@ def main():
                  for i in range(args.nodes)]
         for n in nodes:
             n.wait_ready()
-        # The second front does not follow X-Myriad-Owner (as deploy/nginx/myriad.conf does not):
-        # its clients see the 409s, so refused edits are counted and checked absent.
-        fronts = [Front(nodes), Front(nodes, follow_owner=False)]
+        if args.front == "haproxy":
+            started_fronts = start_haproxy_fronts(nodes, work)
+            if started_fronts is None:
+                print("SKIP: haproxy or openssl is not installed (scripts/install-deps.sh "
+                      "--with-test-tools); --front proxy runs without")
+                return SKIP
+            haproxy_fronts, dns = started_fronts
+            callers = [haproxy_caller(f) for f in haproxy_fronts]
+        else:
+            # The second front does not follow X-Myriad-Owner (as deploy/nginx/myriad.conf and
+            # HAProxy do not): its clients see the 409s, so refused edits are counted and checked
+            # absent.
+            fronts = [Front(nodes), Front(nodes, follow_owner=False)]
+            callers = [proxy_caller(f) for f in fronts]
         setup_s = time.time() - started
 
         # Sessions, made through both fronts.
         sessions = []
         while len(sessions) < args.sessions:
-            front = fronts[len(sessions) % 2]
-            status, data = request(front.port, "POST", "/v1/sessions", body={})
+            call = callers[len(sessions) % 2]
+            status, data = call("POST", "/v1/sessions", body={})
             if status == 201:
                 j = json.loads(data)
                 sessions.append({"id": j["id"], "token": j["token"]})
@@ -346,7 +464,9 @@ def main():
         refused = []        # (session index, client, seq, status)
         unknown = []        # (session index, client, seq, status)
         outcomes = {}
-        # Per session: the times of 2xx answers and of failed attempts, for reachability gaps.
+        # Per session: when answers (2xx, or the 412 of a stale If-Match: the session's node
+        # answered it) came and when failed attempts (no answer, 5xx, 409 from a node that does
+        # not hold the session, 429) or slow ones (SLOW_S) were sent, for reachability gaps.
         ok_times = [[] for _ in sessions]
         fail_times = [[] for _ in sessions]
         stop = threading.Event()
@@ -357,7 +477,7 @@ def main():
             while not stop.is_set():
                 si = rng.randrange(len(sessions))
                 s = sessions[si]
-                front = fronts[rng.randrange(2)]
+                call = callers[rng.randrange(2)]
                 seq += 1
                 light = {"position": [float(c), float(seq), 0.0], "radius": 1.0,
                          "color": [1.0, 1.0, 1.0], "intensity": 1.0, "falloff": 1.0}
@@ -365,8 +485,8 @@ def main():
                 # must not be in the final state.
                 stale_tag = '"0-00000000"' if rng.random() < 0.1 else None
                 t0 = time.time()
-                status, data = request(front.port, "POST", f"/v1/sessions/{s['id']}/lights",
-                                       s["token"], {"lights": [light]}, if_match=stale_tag)
+                status, data = call("POST", f"/v1/sessions/{s['id']}/lights", s["token"],
+                                    {"lights": [light]}, if_match=stale_tag)
                 t1 = time.time()
                 with lock:
                     outcomes[str(status)] = outcomes.get(str(status), 0) + 1
@@ -374,15 +494,23 @@ def main():
                         ids = json.loads(data)["ids"]
                         acked.append((si, ids[0], c, seq))
                         ok_times[si].append(t1)
+                        if t1 - t0 > SLOW_S:
+                            fail_times[si].append(t0)
                     elif status is not None and 400 <= status < 500:
                         refused.append((si, c, seq, status))
-                        fail_times[si].append(t0)
+                        if status == 412:
+                            ok_times[si].append(t1)
+                            if t1 - t0 > SLOW_S:
+                                fail_times[si].append(t0)
+                        else:
+                            fail_times[si].append(t0)
                     else:
                         unknown.append((si, c, seq, status))
                         fail_times[si].append(t0)
 
         injected = {"kill": 0, "stop": 0, "restart": 0}
         events = []
+        signalled = []      # (time the signal was sent, kind of gap it causes, its event)
 
         def chaos():
             rng = random.Random(seed)
@@ -391,7 +519,13 @@ def main():
                     break
                 victim = rng.choice(nodes)
                 action = rng.choice(["kill", "stop", "restart"])
-                t = round(time.time() - started, 2)
+                now = time.time()
+                # When the signal was sent, when the node was started again or continued
+                # (`back`) and when it answered /v1/health again (`ready`), from the start.
+                event = {"t": round(now - started, 2), "node": victim.id, "action": action}
+                events.append(event)
+                signalled.append((now, {"kill": "crash", "stop": "hang",
+                                        "restart": "restart"}[action], event))
                 if action == "kill":
                     victim.kill()
                     injected["kill"] += 1
@@ -406,9 +540,10 @@ def main():
                     victim.terminate()
                     injected["restart"] += 1
                     victim.start()
-                events.append({"t": t, "node": victim.id, "action": action})
+                event["back"] = round(time.time() - started, 2)
                 try:
                     victim.wait_ready(60)
+                    event["ready"] = round(time.time() - started, 2)
                 except RuntimeError as e:
                     events.append({"t": round(time.time() - started, 2), "node": victim.id,
                                    "error": str(e)[-500:]})
@@ -418,6 +553,7 @@ def main():
         run_started = time.time()
         for t in threads:
             t.start()
+        counters = store_counters(cluster) if cluster is not None else None
         chaos_thread.start()
         time.sleep(args.seconds)
         stop.set()
@@ -425,6 +561,11 @@ def main():
         for t in threads:
             t.join()
         run_s = time.time() - run_started
+        store_load = None
+        if cluster is not None:
+            xacts, lease_rows = (b - a for a, b in zip(counters, store_counters(cluster)))
+            store_load = {"transactionsPerSecond": round(xacts / run_s, 1),
+                          "leaseRowsUpdatedPerSecond": round(lease_rows / run_s, 1)}
         for n in nodes:
             n.cont()
             if not n.alive():
@@ -440,9 +581,8 @@ def main():
             while time.time() < deadline and lights is None:
                 got, offset = [], 0
                 while True:
-                    status, data = request(fronts[0].port, "GET",
-                                           f"/v1/sessions/{s['id']}/lights?offset={offset}"
-                                           "&limit=1000", s["token"])
+                    status, data = callers[0]("GET", f"/v1/sessions/{s['id']}/lights?offset="
+                                              f"{offset}&limit=1000", s["token"])
                     if status != 200:
                         break
                     page = json.loads(data)
@@ -484,25 +624,52 @@ def main():
                     duplicates.append({"session": sessions[si]["id"], "light": lid})
                 seen[lid] = (c, seq)
 
-        # Reachability: per session, the longest stretch from a failed attempt to the next 2xx.
+        # Reachability: per session, stretches from a failed attempt to the next answer (failed
+        # attempts that the same answer ends are one stretch, from the first of them); each put
+        # down to the failure injected last before it began (GAP_SLACK_S), else to none. A
+        # failure can cost a session two stretches (moving away, coming home): per kind, the
+        # longest per session and failure, one figure per session that the failure reached.
         gaps = []
+        worst = {}  # (session, index in signalled or None) -> (longest stretch, its start)
+        run_end = run_started + run_s
         for si in range(len(sessions)):
             oks = sorted(ok_times[si])
-            longest = 0.0
+            stretches = {}  # end -> start
             for tf in fail_times[si]:
                 later = [t for t in oks if t >= tf]
-                end = later[0] if later else run_started + run_s
-                longest = max(longest, end - tf)
+                end = later[0] if later else run_end
+                stretches[end] = min(stretches.get(end, tf), tf)
+            longest = 0.0
+            for end, begin in stretches.items():
+                longest = max(longest, end - begin)
+                causes = [i for i, (t, _, _) in enumerate(signalled)
+                          if t <= begin + GAP_SLACK_S]
+                key = (si, causes[-1] if causes else None)
+                worst[key] = max(worst.get(key, (0.0, 0.0)), (end - begin, begin))
             gaps.append(round(longest, 2))
         sorted_gaps = sorted(gaps)
+        by_kind = {"crash": [], "hang": [], "restart": [], "none": []}
+        for (si, cause), (seconds, _) in worst.items():
+            by_kind["none" if cause is None else signalled[cause][1]].append(round(seconds, 2))
+        gaps_by_kind = {kind: quantiles(values) for kind, values in by_kind.items()}
+        # The ten longest, with the failure each is put down to, to tell a slow failover from a
+        # session caught by two failures or a machine too busy to answer.
+        longest_gaps = [
+            {"session": sessions[si]["id"], "t": round(begin - started, 2),
+             "seconds": round(seconds, 2),
+             "cause": None if cause is None else signalled[cause][2]}
+            for (si, cause), (seconds, begin)
+            in sorted(worst.items(), key=lambda kv: -kv[1][0])[:10]]
 
         def pct(p):
             return sorted_gaps[min(len(sorted_gaps) - 1, int(p * len(sorted_gaps)))]
 
         logged = "".join(open(n.log_path, errors="replace").read() for n in nodes)
         report = {
-            "store": args.store, "nodes": args.nodes, "fronts": 2, "clients": args.clients,
+            "store": args.store, "front": args.front, "leaseMs": args.lease_ms or "default",
+            "nodes": args.nodes, "fronts": 2, "clients": args.clients,
             "sessions": len(sessions), "seconds": round(run_s, 1), "seed": seed,
+            "loadAverage": [round(x, 2) for x in os.getloadavg()],
             "setupSeconds": round(setup_s, 1),
             "edits": len(acked) + len(refused) + len(unknown),
             "acknowledged": len(acked), "refused": len(refused), "indeterminate": len(unknown),
@@ -516,7 +683,9 @@ def main():
             "duplicateIds": len(duplicates), "unreadableSessions": unreadable,
             "reachabilityGapSeconds": {"perSession": dict(zip([s["id"] for s in sessions], gaps)),
                                        "max": sorted_gaps[-1], "p50": pct(0.5),
-                                       "p90": pct(0.9)},
+                                       "p90": pct(0.9), "byKind": gaps_by_kind,
+                                       "longest": longest_gaps},
+            "storeLoad": store_load,
             "examples": {"lost": lost[:5], "refusedPresent": refused_present[:5],
                          "duplicates": duplicates[:5]},
         }
@@ -529,8 +698,11 @@ def main():
         print(f"chaos: {report['edits']} edits ({len(acked)} acknowledged, {len(refused)} "
               f"refused, {len(unknown)} indeterminate), failures injected {injected}, "
               f"lost acknowledged {len(lost)}, refused present {len(refused_present)}, "
-              f"duplicate ids {len(duplicates)}, max reachability gap {sorted_gaps[-1]} s: "
-              + ("PASS" if ok else "FAIL"))
+              f"duplicate ids {len(duplicates)}, max reachability gap {sorted_gaps[-1]} s; "
+              "gaps p50/p99/max by kind: "
+              + ", ".join(f"{k} {q['p50']}/{q['p99']}/{q['max']} s ({q['count']})"
+                          for k, q in gaps_by_kind.items() if q["count"])
+              + ": " + ("PASS" if ok else "FAIL"))
         if not ok or args.keep:
             print(f"logs kept in {work}")
         passed = ok
@@ -538,6 +710,10 @@ def main():
     finally:
         for f in fronts:
             f.close()
+        for f in haproxy_fronts:
+            f.stop()
+        if dns is not None:
+            dns.close()
         for n in nodes:
             try:
                 n.cont()

@@ -33,7 +33,7 @@ struct HttpConfig {
   // leaseTime (--lease-ms; service/lease.h).
   StateStore* state = nullptr;
   std::chrono::seconds stateRetention{std::chrono::hours(24 * 7)};
-  std::chrono::milliseconds leaseTime{2000};
+  std::chrono::milliseconds leaseTime{1000};
   // --node-id: session ids start with it and every response names it (X-Myriad-Node).
   std::optional<uint32_t> nodeId;
   // The access log's form (--log-format): JSON lines (AccessLog in http_server.cpp), else text.

@@ -420,8 +420,9 @@ materials and lights (protocol/reference.md), and the stateless GET /v1/frame.
                            ?host=/socket/dir): servers on many machines share them, one owner
                            per session under a lease (docs/deploy.md); the password belongs in
                            ~/.pgpass or PGPASSWORD, not the URL (ps shows arguments)
-  --lease-ms MS            how long a session's lease lasts unrenewed (default 2000): a crashed
-                           node's sessions move to another within it
+  --lease-ms MS            how long a session's lease lasts unrenewed (default 1000): a crashed
+                           node's sessions move to another within it; more where the store
+                           may not answer for that long (a PostgreSQL failover)
   --state-retention-hours H  remove state files unused for H hours (default 168)
   --node-id N              this server's number (0-255) among several behind one front
                            (docs/deploy.md): session ids start with it, responses name it in

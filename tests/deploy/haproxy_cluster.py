@@ -1,6 +1,7 @@
-"""What the haproxy_* CTests share: Myriad nodes on loopback addresses named by a DNS stub
-(dns_stub.py), and HAProxy fronts running deploy/haproxy/myriad.cfg with the file
-deploy/haproxy/nodes.sh writes for them, as this user, TLS with a self-signed certificate.
+"""What the haproxy_* CTests (and scripts/chaos.py's HAProxy fronts) share: Myriad nodes on
+loopback addresses named by a DNS stub (dns_stub.py), and HAProxy fronts running
+deploy/haproxy/myriad.cfg with the file deploy/haproxy/nodes.sh writes for them, as this user, TLS
+with a self-signed certificate.
 
 A node is NAME = node<N>.myriad.test, answered by the stub with 127.0.0.<10 + N> (another address
 after a move); every node listens on a port of its own, fixed for the test, so that the DNS answer
@@ -58,6 +59,21 @@ def free_port(hosts):
 def percentile(values, p):
     ordered = sorted(values)
     return ordered[min(len(ordered) - 1, int(len(ordered) * p))] if ordered else float("nan")
+
+
+def make_certificate(repo, work):
+    """A self-signed certificate for localhost in `work` (deploy/nginx/self-signed-cert.sh): the
+    PEM file HAProxy's MYRIAD_FRONT_CERT names (certificate and key) and a client context trusting
+    it."""
+    subprocess.run([os.path.join(repo, "deploy", "nginx", "self-signed-cert.sh"), work, "1"],
+                   check=True, capture_output=True)
+    crt, key = os.path.join(work, "tls.crt"), os.path.join(work, "tls.key")
+    cert_pem = os.path.join(work, "tls.pem")
+    with open(cert_pem, "wb") as out:
+        for part in (crt, key):
+            with open(part, "rb") as f:
+                out.write(f.read())
+    return cert_pem, ssl.create_default_context(cafile=crt)
 
 
 class Node:
@@ -201,10 +217,13 @@ class Front:
         return self.wait_states({(b, f"node{i}"): status for b in backends for i in node_ids},
                                 deadline_s)
 
-    def request(self, method, path, body=None, token=None, timeout=60):
-        """(status, headers with lower-case names, body). A connection error raises OSError (or
-        http.client's); the next request opens a new connection."""
-        headers = {"Authorization": "Bearer " + token} if token else {}
+    def request(self, method, path, body=None, token=None, timeout=60, headers=None):
+        """(status, headers with lower-case names, body); `headers` are sent as well (If-Match). A
+        connection error raises OSError (or http.client's); the next request opens a new
+        connection."""
+        headers = dict(headers or {})
+        if token:
+            headers["Authorization"] = "Bearer " + token
         data = None
         if body is not None:
             data = json.dumps(body).encode()
@@ -259,15 +278,7 @@ class Cluster:
         self.work = tempfile.mkdtemp(prefix=prefix)
         self.state_dir = os.path.join(self.work, "state")
         self.dns = DnsStub()
-        subprocess.run([os.path.join(repo, "deploy", "nginx", "self-signed-cert.sh"), self.work,
-                        "1"], check=True, capture_output=True)
-        crt, key = os.path.join(self.work, "tls.crt"), os.path.join(self.work, "tls.key")
-        self.cert_pem = os.path.join(self.work, "tls.pem")
-        with open(self.cert_pem, "wb") as out:
-            for part in (crt, key):
-                with open(part, "rb") as f:
-                    out.write(f.read())
-        self.context = ssl.create_default_context(cafile=crt)
+        self.cert_pem, self.context = make_certificate(repo, self.work)
         self.nodes = {}
         self.ports = {}
         self.fronts = []
