@@ -27,6 +27,7 @@
 #include "scene/image_decode.h"
 #include "scene/memory_files.h"
 #include "scene/model_animation.h"
+#include "scene/tangents.h"
 
 namespace myriad::scene {
 
@@ -488,10 +489,15 @@ void readMaterialExtras(const aiMaterial& source, bool gltf, ImageCollector& ima
   readTexture(source, aiTextureType_EMISSIVE, images, material.emissiveTexture);
 }
 
+bool isGltf(const std::string& name);
+
 // Copies the triangles of `source` whose corners are all finite and in range, keeping only the
 // vertices they use: an unreferenced NaN vertex would otherwise still poison the bounds.
 // `sourceOf` receives, per kept vertex, the source vertex it came from (for skins and morphs).
-Mesh convertMesh(const aiMesh& source, size_t index, detail::SourceVertices& sourceOf) {
+// `normalMapUv`: its material has a normal map, sampled through this uv transform (linear part),
+// so tangents are made where the file has none.
+Mesh convertMesh(const aiMesh& source, size_t index, detail::SourceVertices& sourceOf,
+                 const std::optional<glm::mat2>& normalMapUv) {
   Mesh mesh;
   mesh.name =
       source.mName.length > 0 ? std::string(source.mName.C_Str()) : "mesh " + std::to_string(index);
@@ -576,6 +582,15 @@ Mesh convertMesh(const aiMesh& source, size_t index, detail::SourceVertices& sou
       const float length = glm::length(sums[v]);
       mesh.vertices[v].normal =
           length > 1e-20f && std::isfinite(length) ? sums[v] / length : glm::vec3(0.0f, 1.0f, 0.0f);
+    }
+  }
+  // glTF asks clients to make MikkTSpace tangents where a file has none, since normal maps are
+  // baked against them (scene/tangents.h). Only where a normal map uses them: elsewhere the
+  // vertices stay as the file has them. Split vertices keep their source (skins, morphs).
+  if (normalMapUv && source.mTangents == nullptr && uvs != nullptr) {
+    for (const uint32_t copied : generateTangents(mesh.vertices, mesh.indices, *normalMapUv)) {
+      const uint32_t from = sourceOf[copied];
+      sourceOf.push_back(from);
     }
   }
   return mesh;
@@ -755,7 +770,22 @@ class Flattener {
     if (index == kUnconverted) {
       const aiMesh& source = *source_.mMeshes[sourceMesh];
       detail::SourceVertices sourceOf;
-      Mesh mesh = convertMesh(source, sourceMesh, sourceOf);
+      const aiMaterial* material =
+          source_.mMaterials != nullptr && source.mMaterialIndex < source_.mNumMaterials
+              ? source_.mMaterials[source.mMaterialIndex]
+              : nullptr;
+      // readMaterialExtras reads normal maps of glTF files only. The tangents follow the map's
+      // KHR_texture_transform as the shader applies it (render/scene_upload.cpp), as the
+      // per-pixel frame does: a rotated map rotates its frame.
+      std::optional<glm::mat2> normalMapUv;
+      if (isGltf(name_) && material != nullptr &&
+          material->GetTextureCount(aiTextureType_NORMALS) > 0) {
+        TextureRef map;
+        readTextureTransform(*material, aiTextureType_NORMALS, map);
+        const float c = std::cos(map.rotation), s = std::sin(map.rotation);
+        normalMapUv = glm::mat2(c * map.scale.x, -s * map.scale.x, s * map.scale.y, c * map.scale.y);
+      }
+      Mesh mesh = convertMesh(source, sourceMesh, sourceOf, normalMapUv);
       std::string reason;
       if (!detail::readSkinWeights(source, sourceOf, mesh, reason) ||
           !detail::readMorphTargets(source, sourceOf, mesh, reason)) {

@@ -18,8 +18,9 @@ struct Vertex {
   glm::vec3 normal{0.0f, 1.0f, 0.0f};
   glm::vec2 uv{0.0f};
   // xyz the tangent (along +u), w the bitangent's sign (bitangent = w * cross(normal, tangent)),
-  // as glTF's TANGENT. w = 0: the file gave none; the G-buffer pass then derives a tangent frame
-  // per pixel from screen-space derivatives of position and uv.
+  // as glTF's TANGENT: the file's, or MikkTSpace's for a normal-mapped glTF primitive without
+  // them (scene/tangents.h). w = 0: none (no normal map, or no usable uvs); the G-buffer pass
+  // then derives a tangent frame per pixel from screen-space derivatives of position and uv.
   glm::vec4 tangent{0.0f};
   glm::vec4 color{1.0f};  // COLOR_0, linear RGBA (white where the file has none)
 };
