@@ -3,7 +3,10 @@
 // light per pixel). The scene: a floor split by a tall wall, 500 red lights on one side and 500
 // blue ones on the other, so that a pixel's red says which light reached it. Every frame is one
 // sample per pixel (one shadow ray); the mean of N frames (FrameSettings::sampleIndex 0..N-1)
-// must converge to the reference, and no frame may carry light through the wall.
+// must converge to the reference, and no frame may carry light through the wall. The same for the
+// built-in scene with 10,000 lights (112,470 triangles: the reference traces its exact shadows
+// through its own BVH, render/reference_bvh.h), where the lights inside its solids play the
+// lights behind the wall.
 #include <doctest/doctest.h>
 
 #include <algorithm>
@@ -17,6 +20,7 @@
 #include "gpu_test_support.h"
 #include "render/reference.h"
 #include "render/renderer.h"
+#include "scene/builtin_scene.h"
 #include "scene/primitives.h"
 
 using namespace myriad;
@@ -233,6 +237,278 @@ TEST_CASE("stochastic shadows: wall between 1,000 lights converges to exact shad
     MESSAGE(std::string(channel == 0 ? "red" : "blue") << " light: " << 100.0 * std::abs(m - r) / r
                                                          << "% off");
     CHECK(std::abs(m - r) <= 0.01 * r);
+  }
+}
+
+// The built-in scene (scene/builtin_scene.h: 28 spheres of 4,096 triangles, pillars, blocks, a
+// gem: 112,470 triangles) with 10,000 lights, from its own camera, lit by the lights alone (no
+// sun, ambient or background, so every bit of the error is theirs). A floor pixel has about 200
+// lights within reach and a cluster list of several hundred: the default tuning thins the list
+// to 32 candidates, so the noise is the thinning's and the resampling's as well as the shadows'.
+constexpr uint32_t kBuiltinLights = 10000;
+// Frames averaged: N. One sample a pixel among a few hundred lights is noisier than the wall's,
+// and heavy-tailed: a bright light that the thinning rarely draws weighs 1 / q when it is drawn
+// (the chrome gem's highlights), so the image's mean jumps now and then instead of settling as
+// 1 / sqrt(N). Measured on lavapipe, the image's mean off by 0.44%, 0.68%, 0.76% and 0.07% at 64,
+// 128, 192 and 256 frames (each colour within 0.23% at 256); with whole lists (M = 256) 0.72%,
+// 0.55%, 0.18% and 0.21% (colours within 0.23%). 256 frames keep the 1% bound with a margin.
+constexpr uint32_t kBuiltinFrames = 256;
+// The leak check's frames: a leak shows in one frame, so fewer suffice.
+constexpr uint32_t kBuiltinLeakFrames = 64;
+
+scene::Scene builtinScene() {
+  scene::Scene s = scene::makeBuiltinScene(kBuiltinLights, 1);
+  s.sun.intensity = 0.0f;
+  s.ambient = glm::vec3(0.0f);
+  s.background = glm::vec3(0.0f);
+  return s;
+}
+
+// Whether `p` is inside one of the built-in scene's closed solids (scene/builtin_scene.cpp's
+// meshes: 0 the unit sphere, 1 the unit cube, 3 the unit icosphere; 2 the floor) by more than
+// their facets' depth: a light there is hidden from every point outside it. About 2% of the
+// built-in scene's lights are: lights in walls, the classic leak of unshadowed many-light images.
+bool insideSolid(const scene::Scene& s, glm::vec3 p) {
+  for (const scene::Instance& instance : s.instances) {
+    const glm::vec3 local = glm::vec3(glm::inverse(instance.transform) * glm::vec4(p, 1.0f));
+    const float extent = std::max({std::abs(local.x), std::abs(local.y), std::abs(local.z)});
+    if ((instance.mesh == 0 && glm::length(local) < 0.95f) || (instance.mesh == 1 && extent < 0.45f) ||
+        (instance.mesh == 3 && glm::length(local) < 0.9f)) {
+      return true;
+    }
+  }
+  return false;
+}
+
+// Pixels that the lights of `channel` do not reach in the exact image, nor any of their 8
+// neighbours (a shadow's outline may differ by a pixel between the rasteriser and the
+// reference's rays, as the wall's top does), but do reach without shadows: where a frame's light
+// of that channel would be a leak.
+std::vector<size_t> hiddenPixels(const std::vector<glm::vec3>& reference,
+                                 const std::vector<glm::vec3>& unshadowed, int channel) {
+  std::vector<size_t> out;
+  for (int y = 1; y + 1 < int(kHeight); ++y) {
+    for (int x = 1; x + 1 < int(kWidth); ++x) {
+      const size_t p = size_t(y) * kWidth + size_t(x);
+      bool hidden = unshadowed[p][channel] > 0.0f;
+      for (int dy = -1; dy <= 1 && hidden; ++dy) {
+        for (int dx = -1; dx <= 1 && hidden; ++dx) {
+          hidden = reference[size_t(y + dy) * kWidth + size_t(x + dx)][channel] == 0.0f;
+        }
+      }
+      if (hidden) out.push_back(p);
+    }
+  }
+  return out;
+}
+
+// The scene's exact image (`radiance`) and the same without shadows.
+void referenceImages(const scene::Scene& s, const render::FrameSettings& f,
+                     std::vector<glm::vec3>& radiance, std::vector<glm::vec3>& unshadowed) {
+  render::FrameSettings exact = f;
+  exact.raw = false;
+  exact.takeLightingFrom(s);
+  render::renderReference(s, exact, nullptr, &radiance);
+  exact.shadows.local = render::LocalShadows::None;
+  render::renderReference(s, exact, nullptr, &unshadowed);
+}
+
+TEST_CASE("stochastic shadows: the built-in scene with 10,000 lights converges to exact shadows") {
+  test::GpuSuite& gpu = sharedGpu();
+  const scene::Scene s = builtinScene();
+  gpu.setScene(s);
+  render::FrameSettings f = frameSettings(render::LocalShadows::Stochastic);
+  f.camera = s.camera;
+  std::vector<glm::vec3> reference, unshadowed;
+  referenceImages(s, f, reference, unshadowed);
+  size_t shaded = 0;  // pixels the shadows darken by over a tenth
+  for (size_t p = 0; p < reference.size(); ++p) {
+    shaded += luminance(reference[p]) < 0.9f * luminance(unshadowed[p]) ? 1 : 0;
+  }
+  MESSAGE(shaded << " of " << kWidth * kHeight << " pixels lose over a tenth of their light to shadows");
+  REQUIRE(shaded > kWidth * kHeight / 20);
+
+  std::vector<std::vector<glm::vec3>> checkpoints;
+  const Frames frames = renderFrames(gpu, f, kBuiltinFrames, &checkpoints, kBuiltinFrames / 4);
+  CHECK(frames.nonFinite == 0);
+  // Every light of a pixel's cluster is a candidate (no list dropped any): what the reference sums.
+  CHECK(gpu.render(f).culling.clusterLightsDropped == 0);
+  CHECK(gpu.context->validationMessages.load() == 0);
+
+  const Error quarter = relativeError(checkpoints.front(), reference);
+  const Error all = relativeError(frames.mean, reference);
+  MESSAGE("built-in, mean of " << kBuiltinFrames / 4 << " frames: image " << 100.0 * quarter.image
+                               << "% off, per pixel " << 100.0 * quarter.perPixel << "%; of "
+                               << kBuiltinFrames << ": image " << 100.0 * all.image
+                               << "%, per pixel " << 100.0 * all.perPixel << "% (" << all.lit
+                               << " lit pixels)");
+  CHECK(all.image <= 0.01);
+  CHECK(all.perPixel < 0.65 * quarter.perPixel);
+  // Without shadows the image is far further off than the error allowed: the test can tell.
+  const Error none = relativeError(unshadowed, reference);
+  MESSAGE("unshadowed image: " << 100.0 * none.image << "% off");
+  CHECK(none.image > 0.05);
+  for (int channel : {0, 1, 2}) {
+    double m = 0.0, r = 0.0;
+    for (size_t p = 0; p < reference.size(); ++p) {
+      m += frames.mean[p][channel];
+      r += reference[p][channel];
+    }
+    MESSAGE("channel " << channel << ": " << 100.0 * std::abs(m - r) / r << "% off");
+    CHECK(std::abs(m - r) <= 0.01 * r);
+  }
+}
+
+TEST_CASE("stochastic shadows: the built-in scene's lights inside its solids leak nowhere") {
+  // The built-in scene with 10,000 lights, its lights recoloured (positions, reaches and
+  // intensities kept): those inside a sphere, block, pillar or the gem pure red, every other
+  // without red. Red then reaches no surface point in the exact image, and any red in a frame is
+  // light through a wall, as the wall scene's red behind the wall is.
+  test::GpuSuite& gpu = sharedGpu();
+  scene::Scene s = builtinScene();
+  size_t inside = 0;
+  for (scene::PointLight& l : s.lights) {
+    if (insideSolid(s, l.position)) {
+      l.color = glm::vec3(1.0f, 0.0f, 0.0f);
+      ++inside;
+    } else {
+      l.color.r = 0.0f;
+    }
+  }
+  gpu.setScene(s);
+  render::FrameSettings f = frameSettings(render::LocalShadows::Stochastic);
+  f.camera = s.camera;
+  std::vector<glm::vec3> reference, unshadowed;
+  referenceImages(s, f, reference, unshadowed);
+  size_t redInReference = 0;
+  for (const glm::vec3& c : reference) redInReference += c.r > 0.0f ? 1 : 0;
+  // Where the rasteriser shows the other side of a surface than the reference's ray meets (at a
+  // solid's outline a back face, its inside, may cover a pixel centre that the front face's edge
+  // misses), the frame's surface point is inside the solid, and the lights in there do see it:
+  // not a leak, and not judged (counted below).
+  std::vector<size_t> hidden;
+  size_t otherSide = 0;
+  {
+    render::FrameSettings normals = f;
+    normals.target = render::Target::Normal;
+    const render::Frame gpuNormals = gpu.render(normals);
+    normals.raw = false;
+    normals.takeLightingFrom(s);
+    const std::vector<uint8_t> exactNormals = render::renderReference(s, normals);
+    REQUIRE(gpuNormals.data.size() == size_t(kWidth) * kHeight * 4);
+    for (size_t p : hiddenPixels(reference, unshadowed, 0)) {
+      glm::vec3 exact, raster;
+      for (int c = 0; c < 3; ++c) {
+        exact[c] = exactNormals[4 * p + c] / 255.0f * 2.0f - 1.0f;
+        raster[c] = gpuNormals.data[4 * p + c];
+      }
+      if (glm::dot(exact, raster) < 0.0f) ++otherSide;
+      else hidden.push_back(p);
+    }
+  }
+  MESSAGE(inside << " lights inside solids; their light reaches " << hidden.size() << " of "
+                 << kWidth * kHeight << " pixels without shadows, " << redInReference
+                 << " in the exact image; " << otherSide
+                 << " more where the rasteriser shows another side of the surface");
+  CHECK(otherSide <= 10);
+  REQUIRE(inside > 50);
+  REQUIRE(hidden.size() > 300);
+
+  // Unshadowed, the GPU's lights shine through the solids: the leak test means something.
+  render::FrameSettings unshadowedFrame = f;
+  unshadowedFrame.shadows.local = render::LocalShadows::None;
+  const Frames none = renderFrames(gpu, unshadowedFrame, 1);
+  size_t through = 0;
+  for (size_t p : hidden) through += none.mean[p].r > 0.0f ? 1 : 0;
+  MESSAGE("unshadowed: " << through << " of " << hidden.size() << " pixels get red through a solid");
+  CHECK(through > hidden.size() / 2);
+
+  const Frames frames = renderFrames(gpu, f, kBuiltinLeakFrames);
+  CHECK(frames.nonFinite == 0);
+  CHECK(gpu.context->validationMessages.load() == 0);
+  size_t leaks = 0;
+  for (size_t p : hidden) leaks += frames.most[p].r > 0.0f ? 1 : 0;
+  MESSAGE("stochastic: " << leaks << " leaking pixels of " << hidden.size() << " in "
+                         << kBuiltinLeakFrames << " frames");
+  CHECK(leaks == 0);
+}
+
+TEST_CASE("stochastic shadows: a cut-out wall casts no traced shadow, as in the reference") {
+  // The wall of the wall scene made of an alpha-masked material whose alpha (0.2) is under its
+  // cutoff and that has no texture: the G-buffer discards it and the BVH marks it clear
+  // (shaders/bvh_triangles.comp), the reference's traced shadows skip it (render/reference_bvh.h
+  // Casters::Traced). Each side's light then reaches the other, in the frames as in the reference.
+  test::GpuSuite& gpu = sharedGpu();
+  scene::Scene s = wallScene();
+  s.materials[1].alphaMode = scene::AlphaMode::mask;
+  s.materials[1].alpha = 0.2f;
+  gpu.setScene(s);
+  const render::FrameSettings f = frameSettings(render::LocalShadows::Stochastic);
+  render::FrameSettings exact = f;
+  exact.raw = false;
+  exact.takeLightingFrom(s);
+  std::vector<glm::vec3> reference;
+  render::renderReference(s, exact, nullptr, &reference);
+  // The reference draws every triangle (it ignores alpha): where its rays meet the wall's top,
+  // or a neighbour's do, the rasteriser shows the floor instead. Those pixels are left out.
+  const std::vector<glm::uvec4> labels = render::referenceLabels(s, exact);
+  std::vector<glm::vec3> judged = reference;
+  std::vector<uint8_t> left(reference.size(), 0);
+  for (int y = 0; y < int(kHeight); ++y) {
+    for (int x = 0; x < int(kWidth); ++x) {
+      for (int dy = -1; dy <= 1; ++dy) {
+        for (int dx = -1; dx <= 1; ++dx) {
+          const int nx = std::clamp(x + dx, 0, int(kWidth) - 1), ny = std::clamp(y + dy, 0, int(kHeight) - 1);
+          const glm::uvec4 l = labels[size_t(ny) * kWidth + size_t(nx)];
+          if (l.w == 1u && l.z == 1u) left[size_t(y) * kWidth + size_t(x)] = 1;
+        }
+      }
+    }
+  }
+  size_t both = 0, wall = 0;
+  for (size_t p = 0; p < reference.size(); ++p) {
+    if (left[p]) {
+      judged[p] = glm::vec3(0.0f);
+      ++wall;
+    }
+    both += judged[p].r > 0.0f && judged[p].b > 0.0f ? 1 : 0;
+  }
+  MESSAGE(both << " pixels lit by both sides' lights in the reference; " << wall
+               << " on or beside the wall's top not judged");
+  REQUIRE(both > 300);  // the wall stops no light: each side's reaches past it (none, solid)
+
+  const Frames frames = renderFrames(gpu, f, kFrames);
+  CHECK(frames.nonFinite == 0);
+  CHECK(gpu.context->validationMessages.load() == 0);
+  std::vector<glm::vec3> mean = frames.mean;
+  for (size_t p = 0; p < mean.size(); ++p) {
+    if (left[p]) mean[p] = glm::vec3(0.0f);
+  }
+  const Error e = relativeError(mean, judged);
+  MESSAGE("cut-out wall, mean of " << kFrames << " frames: image " << 100.0 * e.image
+                                   << "% off, per pixel " << 100.0 * e.perPixel << "%");
+  CHECK(e.image <= 0.01);
+  // The light that crosses the cut-out: each colour where the solid wall lets none of it
+  // through (the other side's floor beside the wall). The frames carry it as the reference does.
+  scene::Scene solid = wallScene();
+  std::vector<glm::vec3> solidReference;
+  render::renderReference(solid, exact, nullptr, &solidReference);
+  for (int channel : {0, 2}) {
+    double m = 0.0, r = 0.0;
+    size_t pixels = 0;
+    for (size_t p = 0; p < mean.size(); ++p) {
+      if (left[p] || solidReference[p][channel] != 0.0f || !(judged[p][channel] > 0.0f)) continue;
+      m += mean[p][channel];
+      r += judged[p][channel];
+      ++pixels;
+    }
+    MESSAGE(std::string(channel == 0 ? "red" : "blue") << " light through the cut-out, " << pixels
+                                            << " pixels: the mean " << 100.0 * (m - r) / r
+                                            << "% off the reference");
+    CHECK(pixels > 100);
+    // A small share of those pixels' light, so noisier than the image's (measured -1.6% and -4.0%,
+    // whole lists -0.6% and +1.4%); a wall that still cast would be 100% off.
+    CHECK(std::abs(m - r) <= 0.1 * r);
   }
 }
 

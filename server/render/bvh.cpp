@@ -189,6 +189,9 @@ void Bvh::ensure(uint32_t triangles, uint32_t draws) {
   drawCapacity_ = uint32_t(d);
   triangles_ = 0;
   scene_ = nullptr;
+  // The geometry bound last may be gone (a replaced scene frees its buffers before the next frame
+  // grows these): the sets are written without it, and record() binds the scene's own again.
+  boundVertices_ = boundIndices_ = boundInstances_ = boundMaterials_ = VK_NULL_HANDLE;
   writeSets();
 }
 

@@ -1,14 +1,18 @@
 #include "render/reference.h"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
+#include <exception>
 #include <limits>
 #include <stdexcept>
 #include <string>
+#include <thread>
 
 #include <glm/gtc/packing.hpp>
 
 #include "render/light_packing.h"
+#include "render/reference_bvh.h"
 #include "render/shading.h"
 #include "render/shadows.h"
 #include "scene/camera.h"
@@ -16,6 +20,11 @@
 namespace myriad::render {
 
 namespace {
+
+using reference::Bvh;
+using reference::Casters;
+using reference::RayHit;
+using reference::Triangle;
 
 struct Hit {
   float t = std::numeric_limits<float>::max();
@@ -27,59 +36,19 @@ struct Hit {
   uint32_t semantic = 0;
 };
 
-struct Triangle {
-  glm::vec3 p[3];
-  glm::vec3 n[3];
-  glm::vec2 uv[3];
-  uint32_t material;
-  uint32_t object = 0;
-  uint32_t semantic = 0;
-};
-
-std::vector<Triangle> worldTriangles(const scene::Scene& scene) {
-  std::vector<Triangle> triangles;
-  for (const scene::Instance& instance : scene.instances) {
-    const scene::Mesh& mesh = scene.meshes.at(instance.mesh);
-    glm::mat3 normalMatrix = glm::transpose(glm::inverse(glm::mat3(instance.transform)));
-    for (size_t i = 0; i + 2 < mesh.indices.size(); i += 3) {
-      Triangle t;
-      for (int k = 0; k < 3; ++k) {
-        const scene::Vertex& v = mesh.vertices.at(mesh.indices[i + k]);
-        t.p[k] = glm::vec3(instance.transform * glm::vec4(v.position, 1.0f));
-        t.n[k] = normalMatrix * v.normal;
-        t.uv[k] = v.uv;
-      }
-      t.material = instance.material;
-      t.object = instance.object;
-      t.semantic = instance.semantic;
-      triangles.push_back(t);
-    }
-  }
-  return triangles;
-}
-
-// Möller-Trumbore; barycentric interpolation in world space equals the rasteriser's
-// perspective-correct interpolation at the same pixel centre.
-void intersect(const Triangle& tri, glm::vec3 origin, glm::vec3 dir, Hit& best) {
-  glm::vec3 e1 = tri.p[1] - tri.p[0];
-  glm::vec3 e2 = tri.p[2] - tri.p[0];
-  glm::vec3 pv = glm::cross(dir, e2);
-  float det = glm::dot(e1, pv);
-  if (std::abs(det) < 1e-12f) return;
-  float inv = 1.0f / det;
-  glm::vec3 tv = origin - tri.p[0];
-  float u = glm::dot(tv, pv) * inv;
-  if (u < 0.0f || u > 1.0f) return;
-  glm::vec3 qv = glm::cross(tv, e1);
-  float v = glm::dot(dir, qv) * inv;
-  if (v < 0.0f || u + v > 1.0f) return;
-  float t = glm::dot(e2, qv) * inv;
-  if (t <= 0.0f || t >= best.t) return;
-  float w = 1.0f - u - v;
-  best.t = t;
-  best.position = origin + dir * t;
+// The first triangle along a pixel's ray (render/reference_bvh.h: the Moller-Trumbore of every
+// triangle, through a BVH) and its surface there. Barycentric interpolation in world space equals
+// the rasteriser's perspective-correct interpolation at the same pixel centre.
+Hit firstHit(const Bvh& bvh, glm::vec3 origin, glm::vec3 dir) {
+  Hit best;
+  const RayHit ray = bvh.closest(origin, dir);
+  if (ray.triangle == RayHit::kNone) return best;
+  const Triangle& tri = bvh.triangles()[ray.triangle];
+  const float u = ray.u, v = ray.v, w = 1.0f - u - v;
+  best.t = ray.t;
+  best.position = origin + dir * ray.t;
   glm::vec3 n = w * tri.n[0] + u * tri.n[1] + v * tri.n[2];
-  glm::vec3 geometric = glm::cross(e1, e2);
+  const glm::vec3 geometric = glm::cross(tri.p[1] - tri.p[0], tri.p[2] - tri.p[0]);
   if (!(glm::dot(n, n) > 1e-12f)) n = geometric;
   n = glm::normalize(n);
   // Both sides are drawn; seen from the back (clockwise on screen) the normal flips, as on the GPU.
@@ -89,20 +58,34 @@ void intersect(const Triangle& tri, glm::vec3 origin, glm::vec3 dir, Hit& best) 
   best.material = tri.material;
   best.object = tri.object;
   best.semantic = tri.semantic;
+  return best;
 }
 
-// Whether any triangle crosses the ray from `origin` along `dir` (unit) at 0 < t < `reach`: the
-// analytic shadow test, exact where the GPU's shadow map is filtered (so they differ only in the
-// penumbra band). The sun's reach is unbounded; a local light's is its distance.
-bool occluded(const std::vector<Triangle>& triangles, glm::vec3 origin, glm::vec3 dir,
-              float reach = std::numeric_limits<float>::max()) {
-  for (const Triangle& tri : triangles) {
-    Hit hit;
-    hit.t = reach;
-    intersect(tri, origin, dir, hit);
-    if (hit.t < reach) return true;
+// Calls row(y) for every row on the machine's cores (at most one thread a core, rows handed out
+// in turn); each pixel is computed alone, so the image does not depend on the threads. An
+// exception a row throws is rethrown after all have run, the lowest row's, as one thread would
+// have thrown it first.
+template <typename Row>
+void forEachRow(uint32_t height, Row row) {
+  const uint32_t threads = std::clamp(std::thread::hardware_concurrency(), 1u, std::max(height, 1u));
+  std::atomic<uint32_t> next{0};
+  std::vector<std::exception_ptr> errors(height);
+  auto work = [&] {
+    for (uint32_t y; (y = next.fetch_add(1)) < height;) {
+      try {
+        row(y);
+      } catch (...) {
+        errors[y] = std::current_exception();
+      }
+    }
+  };
+  std::vector<std::thread> pool;
+  for (uint32_t i = 1; i < threads; ++i) pool.emplace_back(work);
+  work();
+  for (std::thread& t : pool) t.join();
+  for (const std::exception_ptr& e : errors) {
+    if (e) std::rethrow_exception(e);
   }
-  return false;
 }
 
 float quantizeSnorm16(float x) { return std::round(glm::clamp(x, -1.0f, 1.0f) * 32767.0f) / 32767.0f; }
@@ -209,23 +192,22 @@ EnvironmentMaps buildEnvironmentMaps(const FrameSettings& s, const scene::Enviro
 }
 
 std::vector<glm::uvec4> referenceLabels(const scene::Scene& scene, const FrameSettings& s) {
-  const std::vector<Triangle> triangles = worldTriangles(scene);
+  const Bvh bvh(reference::worldTriangles(scene));
   const float aspect = float(s.width) / float(s.height);
   const glm::mat4 viewProjection =
       scene::projectionMatrix(s.camera, aspect) * scene::viewMatrix(s.camera);
   const glm::mat4 inverse = glm::inverse(viewProjection);
   std::vector<glm::uvec4> labels(size_t(s.width) * s.height, glm::uvec4(0));
-  for (uint32_t y = 0; y < s.height; ++y) {
+  forEachRow(s.height, [&](uint32_t y) {
     for (uint32_t x = 0; x < s.width; ++x) {
       const PixelRay ray = pixelRay(inverse, x, y, s.width, s.height);
-      Hit hit;
-      for (const Triangle& tri : triangles) intersect(tri, ray.origin, ray.dir, hit);
+      const Hit hit = firstHit(bvh, ray.origin, ray.dir);
       if (hit.t == std::numeric_limits<float>::max()) continue;
       const glm::vec4 clip = viewProjection * glm::vec4(hit.position, 1.0f);
       if (clip.z / clip.w > 1.0f) continue;  // beyond the far plane
       labels[size_t(y) * s.width + x] = glm::uvec4(hit.object, hit.semantic, hit.material, 1u);
     }
-  }
+  });
   return labels;
 }
 
@@ -237,7 +219,7 @@ std::vector<uint8_t> renderReference(const scene::Scene& scene, const FrameSetti
     throw std::invalid_argument("the reference renderer draws no light-volumes, light-count or "
                                 "clusters view");
   }
-  const std::vector<Triangle> triangles = worldTriangles(scene);
+  const Bvh bvh(reference::worldTriangles(scene));
   const float aspect = float(s.width) / float(s.height);
   const glm::mat4 viewProjection =
       scene::projectionMatrix(s.camera, aspect) * scene::viewMatrix(s.camera);
@@ -265,6 +247,14 @@ std::vector<uint8_t> renderReference(const scene::Scene& scene, const FrameSetti
     // Stochastic shadows converge to every light's exact shadow: a ray per light per pixel.
     if (tracesLocalShadows(s)) std::fill(shadowed.begin(), shadowed.end(), uint8_t(1));
   }
+  // Shadow rays are the analytic test, exact where the GPU's shadow maps are filtered (so they
+  // differ only in the penumbra band), and where it traces (sun and local lights both) stopped by
+  // the triangles its BVH holds.
+  const Casters casters = tracesLocalShadows(s) ? Casters::Traced : Casters::All;
+  auto occluded = [&](glm::vec3 origin, glm::vec3 dir,
+                      float reach = std::numeric_limits<float>::max()) {
+    return bvh.occluded(origin, dir, reach, casters);
+  };
   const bool environmentOn = s.environment.mode != EnvironmentMode::None;
   EnvironmentMaps maps;
   if (environmentOn) maps = buildEnvironmentMaps(s, environmentImage);
@@ -272,17 +262,17 @@ std::vector<uint8_t> renderReference(const scene::Scene& scene, const FrameSetti
   const float rotation = s.environment.mode == EnvironmentMode::Hdr ? s.environment.rotation : 0.0f;
   const float rotationCos = std::cos(rotation);
   const float rotationSin = std::sin(rotation);
-  shading::environmentArrays = {maps.source.data(), maps.lighting.data(), maps.lut.data()};
 
   std::vector<uint8_t> image(size_t(s.width) * s.height * 4);
   if (radiance) radiance->assign(size_t(s.width) * s.height, glm::vec3(0.0f));
-  for (uint32_t y = 0; y < s.height; ++y) {
+  forEachRow(s.height, [&](uint32_t y) {
+    // Per thread (shading.h): the maps the environment's functions read.
+    shading::environmentArrays = {maps.source.data(), maps.lighting.data(), maps.lut.data()};
     for (uint32_t x = 0; x < s.width; ++x) {
       const PixelRay ray = pixelRay(inverse, x, y, s.width, s.height);
       const glm::vec3 origin = ray.origin;
       const glm::vec3 dir = ray.dir;
-      Hit hit;
-      for (const Triangle& tri : triangles) intersect(tri, origin, dir, hit);
+      const Hit hit = firstHit(bvh, origin, dir);
       bool found = hit.t < std::numeric_limits<float>::max();
       float depth = 1.0f;
       if (found) {
@@ -321,7 +311,7 @@ std::vector<uint8_t> renderReference(const scene::Scene& scene, const FrameSetti
             glm::vec3 V = glm::normalize(s.camera.eye - hit.position);
             glm::vec3 sunRadiance = s.sun.color * s.sun.intensity;
             if (sunShadows && glm::dot(hit.normal, sunDirection) > 0.0f &&
-                occluded(triangles, hit.position + hit.normal * shadowEpsilon, sunDirection)) {
+                occluded(hit.position + hit.normal * shadowEpsilon, sunDirection)) {
               sunRadiance = glm::vec3(0.0f);
             }
             shading::BrdfSurface b = shading::brdfSurface(normal, V, baseColor, metallic, roughness);
@@ -356,7 +346,7 @@ std::vector<uint8_t> renderReference(const scene::Scene& scene, const FrameSetti
                 const glm::vec3 toLight = glm::vec3(l.positionRadius) - hit.position;
                 const float distance = glm::length(toLight);
                 if (glm::dot(hit.normal, toLight) > 0.0f &&
-                    occluded(triangles, hit.position + hit.normal * shadowEpsilon, toLight / distance,
+                    occluded(hit.position + hit.normal * shadowEpsilon, toLight / distance,
                              distance)) {
                   c = glm::vec3(0.0f);
                 }
@@ -408,8 +398,8 @@ std::vector<uint8_t> renderReference(const scene::Scene& scene, const FrameSetti
       px[2] = toByte(color.b);
       px[3] = 255;
     }
-  }
-  shading::environmentArrays = {};
+    shading::environmentArrays = {};
+  });
   return image;
 }
 
