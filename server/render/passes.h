@@ -1,5 +1,7 @@
 // The frame's passes. Each pass is a function that records its commands and names, in its
-// signature and its barriers, what it reads and what it writes. renderer.cpp calls them in order.
+// signature and its barriers, what it reads and what it writes. frame_recording.cpp and
+// after_lighting.cpp call them in order; passes.cpp holds the raster ones and the markers,
+// output_passes.cpp the final pass and what follows it, frame_pipelines.cpp their pipelines.
 #pragma once
 
 #include <array>
@@ -8,6 +10,7 @@
 
 #include "gpu/context.h"
 #include "render/frame.h"
+#include "render/frame_pass.h"
 #include "render/frame_targets.h"
 #include "render/scene_buffers.h"
 
@@ -96,13 +99,13 @@ void recordMarkerPass(VkCommandBuffer cmd, const Pipelines& p, const FrameTarget
 // 5. Compute, one thread per pixel. `final`/`light-volumes`: reads HDR and (with `markers`) the
 //    marker keys, writes the tonemapped picture to the output, or when the frame is anti-aliased
 //    (`antialias`, as FrameUniforms.post.x says) to the LDR target for pass 5b. Other views: reads the G-buffer or light counts, writes the output.
-//    `hdrLayout` and `lightCountLayout` are where lighting (and blending) left them (GENERAL
-//    after compute, COLOR_ATTACHMENT after volumes or the blend pass). Leaves the output in
+//    `hdr` and `lightCount` are their last uses (render/frame_pass.h): the lighting's, the blend
+//    pass's or a registered pass's. Leaves hdr and lightCount sampled and the output in
 //    GENERAL. `first` and `count` select workgroups of the pass (finalPassGroups, row by row) for
 //    a split frame; the first range makes the layouts and empties the edge list.
 void recordFinalPass(VkCommandBuffer cmd, const Pipelines& p, const FrameTargets& t, Target target,
-                     bool markers, bool antialias, VkImageLayout hdrLayout,
-                     VkImageLayout lightCountLayout, uint32_t first = 0,
+                     bool markers, bool antialias, const ImageState& hdr,
+                     const ImageState& lightCount, uint32_t first = 0,
                      uint32_t count = UINT32_MAX);
 // The final pass's workgroups (across and down).
 VkExtent2D finalPassGroups(const Pipelines& p, const FrameTargets& t, Target target);
@@ -112,14 +115,14 @@ void recordAntialiasPass(VkCommandBuffer cmd, const Pipelines& p, const FrameTar
 //     Leaves the output as a colour attachment.
 void recordLightVolumeOverlayPass(VkCommandBuffer cmd, const Pipelines& p, const FrameTargets& t,
                                   const SceneBuffers& scene);
-// 6. Reads the output image (in `outputLayout`: GENERAL from compute, or COLOR_ATTACHMENT after
-//    the overlay); writes it to the host-visible readback buffer.
-// 5d. (FrameSettings::yuv420) Reads the 8-bit output (GENERAL, written by compute); writes its
+// 6. Reads the output image (`output`: its last use, GENERAL from compute, or COLOR_ATTACHMENT
+//    after the overlay); writes it to the host-visible readback buffer.
+// 5d. (FrameSettings::yuv420) Reads the 8-bit output (after `output`, its last use); writes its
 //     YCbCr 4:2:0 planes (t.planes) and copies them into `readback` for the host.
 void recordYuv420Readback(VkCommandBuffer cmd, const Pipelines& p, const FrameTargets& t,
-                          const gpu::Buffer& readback);
+                          const ImageState& output, const gpu::Buffer& readback);
 // Copies the output into `readback` (t.readback, or a buffer of the renderer's readback pool).
-void recordReadback(VkCommandBuffer cmd, const FrameTargets& t, VkImageLayout outputLayout,
+void recordReadback(VkCommandBuffer cmd, const FrameTargets& t, const ImageState& output,
                     const gpu::Buffer& readback);
 
 }  // namespace myriad::render

@@ -1,5 +1,6 @@
-// The deferred renderer: one frame function, passes top to bottom (see renderer.cpp), over any of
-// the scenes it holds on the GPU (one per session, plus the server's built-in one).
+// The deferred renderer: one frame function, passes top to bottom (frame_recording.cpp, then
+// after_lighting.cpp's steps), over any of the scenes it holds on the GPU (one per session, plus
+// the server's built-in one). renderer_state.h lists the files that implement it.
 // Not thread-safe: exactly one thread (the render thread) calls it. Every call but beginFrame is
 // synchronous (waits for its GPU work); beginFrame leaves its frame in flight, in a frame slot of
 // its own, until finishFrame (see "Frames in flight" below).
@@ -13,6 +14,7 @@
 
 #include "gpu/context.h"
 #include "render/frame.h"
+#include "render/frame_pass.h"
 #include "render/tuning.h"
 #include "scene/environment_map.h"
 #include "scene/scene.h"
@@ -225,9 +227,8 @@ class Renderer::SplitFrame {
   size_t step_ = 0;       // the next step to record
   uint32_t nextUnit_ = 0;  // its next unit
   size_t firstLightingStep_ = 0;
-  VkImageLayout lightingLayout_ = VK_IMAGE_LAYOUT_UNDEFINED;  // where the lighting leaves hdr
-  VkImageLayout hdrLayout_ = VK_IMAGE_LAYOUT_UNDEFINED;       // after the blend pass
-  VkImageLayout outputLayout_ = VK_IMAGE_LAYOUT_GENERAL;      // after the overlay pass
+  // Where the steps after the lighting left the images they hand on (render/frame_pass.h).
+  FrameImageStates images_;
   uint32_t submissions_ = 0;
   double elapsedMs_ = 0.0;
   bool listsGrew_ = false;

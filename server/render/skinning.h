@@ -122,6 +122,9 @@ struct BufferCopy {
 void writeBuffers(gpu::Context& context, gpu::CommandRecorder& recorder,
                   const std::vector<BufferCopy>& copies, const std::vector<BufferWrite>& writes);
 
+// Whether every element of `m` is finite: a pose's joints and an edit's transforms must be.
+bool finiteTransform(const glm::mat4& m);
+
 // The pre-pass's pipeline (one per renderer).
 class SkinningPass {
  public:

@@ -1,7 +1,7 @@
 // A lighting technique: how one frame's local lights get into the HDR and light-count targets.
 // Each technique is one file in this directory holding its pipelines, its buffers, its commands
-// and its culling report; the frame function (renderer.cpp) calls it through this interface and
-// knows none of them by name. registry.cpp lists them.
+// and its culling report; the frame function (frame_recording.cpp, split_frame.cpp) calls it
+// through this interface and knows none of them by name. registry.cpp lists them.
 #pragma once
 
 #include <cstdint>
