@@ -21,10 +21,10 @@ def check(condition, message):
     return condition
 
 
-def request(port, method, path, body=None, token=None, timeout=120):
+def request(port, method, path, body=None, token=None, timeout=120, host="127.0.0.1"):
     """One request; `body` sent as JSON (an edit without one sends an empty body).
     Returns (status, headers, payload)."""
-    c = http.client.HTTPConnection("127.0.0.1", port, timeout=timeout)
+    c = http.client.HTTPConnection(host, port, timeout=timeout)
     headers = {}
     if token:
         headers["Authorization"] = "Bearer " + token

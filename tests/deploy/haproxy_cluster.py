@@ -21,6 +21,7 @@ import threading
 import time
 
 sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+import server_script  # noqa: E402
 from server_script import check, failures  # noqa: E402,F401
 from dns_stub import DnsStub  # noqa: E402,F401
 
@@ -95,19 +96,10 @@ class Node:
         return self
 
     def request(self, method, path, body=None, token=None):
-        c = http.client.HTTPConnection(self.host, self.port, timeout=30)
-        headers = {"Authorization": "Bearer " + token} if token else {}
-        data = None
-        if body is not None:
-            data = json.dumps(body).encode()
-            headers["Content-Type"] = "application/json"
-        elif method in ("POST", "PUT", "PATCH"):
-            data = b""
-        c.request(method, path, body=data, headers=headers)
-        r = c.getresponse()
-        payload = r.read()
-        c.close()
-        return r.status, {k.lower(): v for k, v in r.getheaders()}, payload
+        """A request straight to this node: (status, headers with lower-case names, body)."""
+        status, headers, payload = server_script.request(self.port, method, path, body, token,
+                                                         timeout=30, host=self.host)
+        return status, {k.lower(): v for k, v in headers.items()}, payload
 
     def kill(self, sig=signal.SIGKILL):
         self.process.send_signal(sig)
