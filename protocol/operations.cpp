@@ -637,6 +637,11 @@ std::vector<Operation> buildOperations() {
                   {{"type", "number"}, {"minimum", 0}, {"maximum", 1e6}},
                   "Animation time in seconds: the objects' clips (the scene clock's time) and the "
                   "lights' animation. Default: the session's clocks."},
+                 {"sample",
+                  {{"type", "integer"}, {"minimum", 0}, {"maximum", 4294967295}},
+                  "Which sample stochastic shadows (settings shadows.local stochastic) draw: the "
+                  "same number the same picture, another an independent one, so the mean of "
+                  "samples 0..N-1 of a still view converges to the exact shadows. Default 0."},
                  {query::kDepthConvention,
                   {{"type", "string"}, {"enum", {"z", "distance"}}},
                   "With target=depth and format=raw: z (metres along the view axis, the default) "

@@ -1470,6 +1470,33 @@ TEST_CASE("api: ?lights=model lights a file with its own lights alone; a light w
   checkStopsCleanly(server);
 }
 
+TEST_CASE("api: ?sample= picks the stochastic shadows' sample: the same number the same bytes, another different") {
+  ServerProcess server({"--lights", "64"});
+  requireListening(server);
+  ApiClient api(server);
+  TestSession s = createSession(api);
+  REQUIRE(api.patch(s.path() + "/settings", R"({"shadows": {"local": "stochastic"}})", s.token)
+              .status == 200);
+  const std::string frame = s.path() + "/frame?width=64&height=48&format=raw";
+  Reply first = api.get(frame + "&sample=7", s.token);
+  Reply again = api.get(frame + "&sample=7", s.token);
+  Reply other = api.get(frame + "&sample=8", s.token);
+  Reply zero = api.get(frame, s.token);
+  REQUIRE(first.status == 200);
+  REQUIRE(again.status == 200);
+  REQUIRE(other.status == 200);
+  REQUIRE(zero.status == 200);
+  CHECK(first.body == again.body);
+  CHECK(first.body != other.body);
+  CHECK(zero.body == api.get(frame + "&sample=0", s.token).body);  // 0 is the default
+  for (const char* bad : {"-1", "4294967296", "1.5", "x"}) {
+    checkProblem(api.get(frame + "&sample=" + bad, s.token), 400, "invalid-parameter", bad,
+                 std::nullopt, std::nullopt, "sample");
+  }
+  CHECK(myriad::test::validationMessages(api) == 0);
+  checkStopsCleanly(server);
+}
+
 TEST_CASE("api: lights ask for shadows; maxShadowedLights is bounded; stats name the shadowed lights") {
   ServerProcess server({"--lights", "0"});
   requireListening(server);

@@ -395,6 +395,10 @@ FrameRequest parseSessionFrameQuery(const QueryParams& params, uint32_t maxResol
     }
     request.time = *time;
   }
+  if (const std::string* text = single(params, "sample")) {
+    request.sampleIndex = parseBoundedInteger("sample", *text, 0, UINT32_MAX,
+                                              "the stochastic shadows' sample to draw");
+  }
   if (const std::string* text = single(params, std::string(protocol::query::kDepthConvention))) {
     if (*text != "z" && *text != "distance") {
       throw FrameQueryError(std::string(protocol::query::kDepthConvention), "depth is z (along the view axis) or distance (to the "

@@ -28,9 +28,9 @@ inline constexpr std::array<std::string_view, 13> kFrameParameters = {
     protocol::query::kCompression};
 // GET /v1/sessions/{id}/frame: camera and settings come from the session.
 // eye, look_at, up, fov, near, far: a camera for this frame only (CameraOverride).
-inline constexpr std::array<std::string_view, 17> kSessionFrameParameters = {
-    "target", "format", "width", "height", "quality", "time", protocol::query::kDepthConvention,
-    protocol::query::kSpace, "token", protocol::query::kCompression, protocol::query::kPrecision,
+inline constexpr std::array<std::string_view, 18> kSessionFrameParameters = {
+    "target", "format", "width", "height", "quality", "time", "sample",
+    protocol::query::kDepthConvention, protocol::query::kSpace, "token", protocol::query::kCompression, protocol::query::kPrecision,
     "eye", "look_at", "up", "fov", "near", "far"};
 // GET /v1/sessions/{id}/stream.
 inline constexpr std::array<std::string_view, 11> kStreamParameters = {
@@ -93,6 +93,10 @@ struct FrameRequest {
   std::optional<uint64_t> version;
   int quality = kDefaultJpegQuality;  // JPEG only; accepted (and checked) but unused otherwise
   std::optional<double> time;         // session frames: animation time asked for, in seconds
+  // Session frames: which sample a stochastic technique draws (render::FrameSettings::
+  // sampleIndex): the same index the same picture, another an independent one, so a client
+  // averages frames 0..N-1 of a still view into the converged image.
+  uint32_t sampleIndex = 0;
   // Session frames, raw depth only: metres to the camera centre instead of along the view axis.
   bool depthDistance = false;
   // Session frames, raw position and normal only: in camera space (OpenCV axes, the frame's

@@ -505,6 +505,7 @@ PendingSessionFrame submitSessionFrame(const SessionFrameContext& context, const
     if (session->closed) throw ProblemError(notFoundDetail("Session " + session->id + " is gone."));
     pending.rendered.settings =
         session->scene.frameSettings(request.settings, request.time, Clock::now());
+    pending.rendered.settings.sampleIndex = request.sampleIndex;
     if (request.camera.any()) {
       try {
         request.camera.applyTo(pending.rendered.settings.camera);
