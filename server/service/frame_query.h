@@ -30,7 +30,8 @@ inline constexpr std::array<std::string_view, 13> kFrameParameters = {
 // eye, look_at, up, fov, near, far: a camera for this frame only (CameraOverride).
 inline constexpr std::array<std::string_view, 18> kSessionFrameParameters = {
     "target", "format", "width", "height", "quality", "time", "sample",
-    protocol::query::kDepthConvention, protocol::query::kSpace, "token", protocol::query::kCompression, protocol::query::kPrecision,
+    protocol::query::kDepthConvention, protocol::query::kSpace, "token",
+    protocol::query::kCompression, protocol::query::kPrecision,
     "eye", "look_at", "up", "fov", "near", "far"};
 // GET /v1/sessions/{id}/stream.
 inline constexpr std::array<std::string_view, 11> kStreamParameters = {
