@@ -67,10 +67,15 @@ class Server:
         shutil.rmtree(self.work, ignore_errors=True)
 
     def verdict(self):
-        """The exit status, after the time taken and PASS or the failure count."""
-        print(f"total {time.monotonic() - self.started:.1f} s")
-        if failures:
-            print(f"{len(failures)} failure(s)")
-            return 1
-        print("PASS")
-        return 0
+        return verdict(self.started)
+
+
+def verdict(started):
+    """The exit status of a test that began at `started` (time.monotonic()), after the time taken
+    and PASS or the failure count."""
+    print(f"total {time.monotonic() - started:.1f} s")
+    if failures:
+        print(f"{len(failures)} failure(s)")
+        return 1
+    print("PASS")
+    return 0

@@ -325,12 +325,7 @@ class Cluster:
         shutil.rmtree(self.work, ignore_errors=True)
 
     def verdict(self):
-        print(f"total {time.monotonic() - self.started:.1f} s")
-        if failures:
-            print(f"{len(failures)} failure(s)")
-            return 1
-        print("PASS")
-        return 0
+        return server_script.verdict(self.started)
 
 
 def wait_for(front, method, path, token, deadline_s, want=lambda st, h, b: st == 200, body=None,
