@@ -59,7 +59,23 @@ thread_local RequestScope* tRequest = nullptr;
 
 // Throws ProblemError 400 unknown-parameter for a query parameter not in `allowed` (the
 // operation's, from protocol/operations.cpp), and 400 invalid-parameter for one given twice.
-void checkQuery(const httplib::Request& req, const std::vector<std::string>& allowed);
+void checkQuery(const httplib::Request& req, const std::vector<std::string>& allowed) {
+  std::set<std::string> seen;
+  for (const auto& [name, value] : req.params) {
+    if (std::find(allowed.begin(), allowed.end(), name) == allowed.end()) {
+      std::string known;
+      for (std::string_view a : allowed) known += (known.empty() ? "" : ", ") + std::string(a);
+      throw ProblemError(unknownParameter(
+          name, "This route takes no query parameter " + quoteClientText(name) +
+                    (known.empty() ? std::string(" (it takes none).")
+                                   : "; it takes: " + known + ".")));
+    }
+    if (!seen.insert(name).second) {
+      throw ProblemError(
+          invalidParameter(name, "The parameter " + quoteClientText(name) + " is given twice."));
+    }
+  }
+}
 
 // This process's part of every entity tag (entityTag): random, so that a session restored by
 // another process (a restart, another node) never matches a tag its former copy gave out.
@@ -589,28 +605,6 @@ SessionPtr requestSession() {
   }
   return tRequest->session;
 }
-
-namespace {
-
-void checkQuery(const httplib::Request& req, const std::vector<std::string>& allowed) {
-  std::set<std::string> seen;
-  for (const auto& [name, value] : req.params) {
-    if (std::find(allowed.begin(), allowed.end(), name) == allowed.end()) {
-      std::string known;
-      for (std::string_view a : allowed) known += (known.empty() ? "" : ", ") + std::string(a);
-      throw ProblemError(unknownParameter(
-          name, "This route takes no query parameter " + quoteClientText(name) +
-                    (known.empty() ? std::string(" (it takes none).")
-                                   : "; it takes: " + known + ".")));
-    }
-    if (!seen.insert(name).second) {
-      throw ProblemError(
-          invalidParameter(name, "The parameter " + quoteClientText(name) + " is given twice."));
-    }
-  }
-}
-
-}  // namespace
 
 Credentials credentialsOf(const httplib::Request& req) {
   Credentials credentials;
