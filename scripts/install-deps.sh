@@ -45,6 +45,7 @@ test_packages=(
   postgresql               # store_postgres and chaos CTests start a cluster of their own (initdb)
   openssl                  # the front CTest makes its self-signed TLS certificate
   python3-yaml             # the k8s CTest parses the manifests
+  docker-compose           # deploy_doc_commands: `config` checks docker/compose*.yaml (no engine)
   # python_client: client/python pip-installed offline into a venv (--system-site-packages,
   # --no-build-isolation), its pytest suite reading frames with numpy and Pillow
   python3-venv python3-pip python3-setuptools python3-wheel

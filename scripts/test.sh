@@ -10,10 +10,11 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 scripts/install-deps.sh --with-test-tools --container-test
 # The npm packages of the browser test (playwright-core), of the openapi test (an OpenAPI 3.1
-# validator and ajv) and of the judge (three.js and playwright-core), each pinned by its folder's
+# validator and ajv), of the judge (three.js and playwright-core) and of the k8s_schema test
+# (kubernetes-models: the Kubernetes OpenAPI schemas, compiled), each pinned by its folder's
 # package-lock.json; installed only when node_modules is missing or older than the lock file.
 # Nothing downloads a browser.
-for npm_dir in tests/browser tests/openapi tests/judge; do
+for npm_dir in tests/browser tests/openapi tests/judge tests/k8s-schema; do
   if [[ ! -f $npm_dir/node_modules/.package-lock.json ||
         $npm_dir/package-lock.json -nt $npm_dir/node_modules/.package-lock.json ]]; then
     (cd "$npm_dir" && PLAYWRIGHT_SKIP_BROWSER_DOWNLOAD=1 npm ci --no-audit --no-fund)

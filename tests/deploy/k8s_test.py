@@ -9,7 +9,9 @@ the kinds the manifests use (v1, apps/v1, batch/v1) from a stub on loopback and 
 checked then: kubectl parses every object and maps every kind; the checks below cover what
 validation would have (the flags the pods pass exist in `myriad-server --help`, the probes'
 paths are the server's, the front's upstreams are what deploy/nginx/upstreams.sh writes for the
-StatefulSet's replicas, the Job is Indexed and runs --batch).
+StatefulSet's replicas, the Job is Indexed and runs --batch). Then docs/deploy.md's kubectl
+commands, read from the document and run as written against the stub (run_documented). The
+schemas themselves are the k8s_schema test's (k8s_schema_test.py).
 
 Usage: k8s_test.py MYRIAD_SERVER REPO_ROOT. Exit 0 pass, 1 fail, 77 skip (no kubectl).
 """
@@ -23,6 +25,9 @@ import subprocess
 import sys
 import tempfile
 import threading
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import doc_commands  # noqa: E402
 
 failures = []
 
@@ -61,19 +66,43 @@ DISCOVERY = {
 
 
 class Discovery(http.server.BaseHTTPRequestHandler):
-    def do_GET(self):
-        body = DISCOVERY.get(self.path.split("?")[0])
-        if body is None:
-            self.send_response(404)
-            self.send_header("Content-Length", "0")
-            self.end_headers()
-            return
-        data = json.dumps(body).encode()
-        self.send_response(200)
+    """The discovery documents above, and the few objects the documented commands read: OBJECTS
+    maps a path to an object (GET), a list of it (GET of its collection, as `kubectl wait` lists
+    and watches) and takes a PATCH of it (`kubectl rollout restart`), recorded in PATCHES."""
+    OBJECTS = {}
+    PATCHES = []
+
+    def send(self, status, body):
+        data = json.dumps(body).encode() if body is not None else b""
+        self.send_response(status)
         self.send_header("Content-Type", "application/json")
         self.send_header("Content-Length", str(len(data)))
         self.end_headers()
         self.wfile.write(data)
+
+    def do_GET(self):
+        path, _, query = self.path.partition("?")
+        if path in DISCOVERY:
+            return self.send(200, DISCOVERY[path])
+        if path in self.OBJECTS:
+            return self.send(200, self.OBJECTS[path])
+        items = [o for p, o in self.OBJECTS.items() if p.rsplit("/", 1)[0] == path]
+        if items and "watch=true" in query:
+            return self.send(200, {"type": "ADDED", "object": items[0]})
+        if items:
+            return self.send(200, {"kind": items[0]["kind"] + "List",
+                                   "apiVersion": items[0]["apiVersion"],
+                                   "metadata": {"resourceVersion": "1"}, "items": items})
+        self.send(404, {"kind": "Status", "apiVersion": "v1", "status": "Failure",
+                        "reason": "NotFound", "code": 404, "message": f"{path} not found"})
+
+    def do_PATCH(self):
+        path = self.path.split("?")[0]
+        body = self.rfile.read(int(self.headers.get("Content-Length", "0")))
+        if path not in self.OBJECTS:
+            return self.send(404, None)
+        self.PATCHES.append((path, self.headers.get("Content-Type"), json.loads(body)))
+        self.send(200, self.OBJECTS[path])
 
     def log_message(self, *args):
         pass
@@ -81,6 +110,100 @@ class Discovery(http.server.BaseHTTPRequestHandler):
 
 def containers(doc):
     return doc["spec"]["template"]["spec"]["containers"]
+
+
+def documented_kubectl(repo):
+    """docs/deploy.md's kubectl commands: its Kubernetes and batch sh blocks, and the inline
+    `kubectl rollout restart`, as written."""
+    text = doc_commands.read(repo)
+    commands = []
+    for needle in ("kubectl apply -f deploy/k8s/front.yaml", "kubectl wait"):
+        for command, comment in doc_commands.block_with(text, needle):
+            commands.append(command)
+            # "kubectl apply -f deploy/k8s/myriad-cpu.yaml   # or myriad-gpu.yaml": both.
+            m = re.fullmatch(r"or (\S+\.yaml)", comment)
+            if m and command.startswith("kubectl apply -f"):
+                commands.append(re.sub(r"[^/]+\.yaml$", m.group(1), command))
+    commands += [c for c in doc_commands.inline_commands(text) if c.startswith("kubectl rollout")]
+    return [c for c in commands if c.startswith("kubectl")]
+
+
+def run_documented(kubectl, env, repo, work, docs):
+    """Runs each of docs/deploy.md's kubectl commands against the stub: as written, with
+    `--dry-run=client -o json` added to those that make objects (and --validate=false to apply:
+    client-side validation would download the OpenAPI document; the k8s_schema test validates
+    against it), `kubectl wait` and `kubectl rollout restart` as they are. The files they name
+    exist where they run: the repository's paths from its root; tls.crt and tls.key (made by
+    deploy/nginx/self-signed-cert.sh) and my-spec.json in a work directory."""
+    subprocess.run([os.path.join(repo, "deploy", "nginx", "self-signed-cert.sh"), work, "1"],
+                   check=True, capture_output=True)
+    with open(os.path.join(work, "my-spec.json"), "w") as f:
+        json.dump({"snapshot": {}, "cameras": [], "frame": "width=64&height=64&format=png"}, f)
+    job = dict(docs[("batch-job.yaml", "Job")])
+    job["metadata"] = dict(job["metadata"], namespace="default", resourceVersion="1")
+    job["status"] = {"conditions": [{"type": "Complete", "status": "True"}]}
+    front = dict(docs[("front.yaml", "Deployment")])
+    front["metadata"] = dict(front["metadata"], namespace="default", resourceVersion="1")
+    Discovery.OBJECTS = {"/apis/batch/v1/namespaces/default/jobs/myriad-batch": job,
+                         "/apis/apps/v1/namespaces/default/deployments/myriad-front": front}
+    Discovery.PATCHES = []
+    front_spec = front["spec"]["template"]["spec"]
+    job_spec = job["spec"]["template"]["spec"]
+    commands = documented_kubectl(repo)
+    check(len(commands) >= 8, f"docs/deploy.md: only {len(commands)} kubectl commands: {commands}")
+    for command in commands:
+        argv = command.split()
+        cwd = repo
+        if argv[1] == "apply":
+            argv += ["--dry-run=client", "--validate=false", "-o", "name"]
+        elif argv[1] == "create":
+            argv += ["--dry-run=client", "-o", "json"]
+            if argv[2] == "secret" or "my-spec.json" in command:
+                cwd = work
+        elif argv[1:3] not in (["wait", "--for=condition=complete"], ["rollout", "restart"]):
+            check(False, f"k8s_test.py does not know how to run `{command}` (docs/deploy.md)")
+            continue
+        r = subprocess.run([kubectl] + argv[1:], capture_output=True, text=True, env=env,
+                           cwd=cwd, timeout=60)
+        print(f"$ {command}\n  -> exit {r.returncode}: "
+              f"{' '.join((r.stdout if argv[1] != 'create' else '').split())[:200]}"
+              f"{r.stderr.strip()[:300] if r.returncode else ''}", flush=True)
+        if not check(r.returncode == 0, f"`{command}`: {r.stderr.strip()}"):
+            continue
+        if argv[1] == "apply":
+            file = os.path.basename(argv[argv.index("-f") + 1])
+            kinds = sorted(k for f, k in docs if f == file)
+            check(len(r.stdout.split()) == len(kinds), f"`{command}`: {r.stdout}, expected {kinds}")
+        elif argv[1:3] == ["create", "secret"]:
+            made = json.loads(r.stdout)
+            check(made["type"] == "kubernetes.io/tls" and
+                  sorted(made["data"]) == ["tls.crt", "tls.key"], f"`{command}`: {made}")
+            mounted = [v["secret"]["secretName"] for v in front_spec["volumes"] if "secret" in v]
+            check([made["metadata"]["name"]] == mounted,
+                  f"the front mounts the secrets {mounted}, the document makes {made['metadata']}")
+        elif argv[1:3] == ["create", "configmap"]:
+            made = json.loads(r.stdout)
+            name, keys = made["metadata"]["name"], sorted(made["data"])
+            mounts = {"myriad-front": front_spec, "myriad-batch-spec": job_spec}
+            check(name in mounts, f"`{command}`: no manifest mounts a ConfigMap {name}")
+            volumes = [v["configMap"] for v in mounts.get(name, {}).get("volumes", [])
+                       if v.get("configMap", {}).get("name") == name]
+            wanted = sorted({i["key"] for v in volumes for i in v.get("items", [])}) or None
+            check(volumes and (wanted is None or wanted == keys),
+                  f"`{command}`: the manifest mounts {wanted} of {name}, the ConfigMap holds {keys}")
+            print(f"  configmap {name}: {keys}", flush=True)
+            if name == "myriad-batch-spec":
+                mount = [m["mountPath"] for m in job_spec["containers"][0]["volumeMounts"]
+                         if m["name"] in [v["name"] for v in job_spec["volumes"]
+                                          if v.get("configMap", {}).get("name") == name]]
+                check(mount and f"--batch={mount[0]}/{keys[0]}" in job_spec["containers"][0]["args"],
+                      f"the Job's --batch does not read {keys} where {name} is mounted ({mount})")
+        elif argv[1] == "wait":
+            check("condition met" in r.stdout, f"`{command}`: {r.stdout}")
+        elif argv[1] == "rollout":
+            patched = [p for p in Discovery.PATCHES if p[0].endswith("/deployments/myriad-front")]
+            check(patched and "kubectl.kubernetes.io/restartedAt" in json.dumps(patched[-1][2]),
+                  f"`{command}` did not patch the front's pod template: {Discovery.PATCHES}")
 
 
 def main():
@@ -170,20 +293,7 @@ current-context: stub
             check(r.returncode == 0, f"kubectl refuses {path}: {r.stderr.strip()}")
             kinds = sorted(kind for f, kind in docs if f == os.path.basename(path))
             check(len(names) == len(kinds), f"{path}: kubectl made {names}, the file has {kinds}")
-        # The objects made from files, as docs/deploy.md makes them.
-        r = subprocess.run([kubectl, "create", "configmap", "myriad-front", "--dry-run=client",
-                            "-o", "json",
-                            "--from-file=" + os.path.join(repo, "deploy", "nginx", "myriad.conf"),
-                            "--from-file=" + os.path.join(k8s, "upstreams.conf"),
-                            "--from-file=" + os.path.join(k8s, "listen.conf")],
-                           capture_output=True, text=True, env=env, timeout=60)
-        ok = check(r.returncode == 0, f"kubectl create configmap myriad-front: {r.stderr.strip()}")
-        if ok:
-            keys = sorted(json.loads(r.stdout)["data"])
-            front = docs[("front.yaml", "Deployment")]["spec"]["template"]["spec"]["volumes"]
-            wanted = sorted(i["key"] for v in front if "configMap" in v for i in v["configMap"]["items"])
-            check(keys == wanted, f"the front mounts {wanted}, the ConfigMap holds {keys}")
-            print(f"configmap myriad-front: {keys}", flush=True)
+        run_documented(kubectl, env, repo, work, docs)
     finally:
         stub.shutdown()
         shutil.rmtree(work, ignore_errors=True)
