@@ -33,11 +33,46 @@ struct Array {
 // padded with spaces to a multiple of 64 bytes with its newline, then the data. Throws
 // std::invalid_argument when bytes.size() does not match the shape.
 std::string writeNpy(const Array& array);
+// The header alone (magic to newline; a multiple of 64 bytes) of an array of `dtype` and `shape`
+// named `name` (named in a problem only).
+std::string npyHeader(const std::string& name, Dtype dtype, const std::vector<size_t>& shape);
 
 // An .npz: a zip archive (stored, no compression: the arrays are mostly noise to deflate, and
-// numpy.load reads them in place) holding `<name>.npy` per array, CRC-32s by zlib. Throws
-// std::invalid_argument past the zip format's 4 GiB or 65,535 members (no Zip64).
+// numpy.load reads them in place) holding `<name>.npy` per array. Throws std::invalid_argument
+// past the zip format's 4 GiB or 65,535 members (no Zip64).
 std::string writeNpz(std::span<const Array> arrays);
+
+// An .npz written in place, for frames of several large arrays: the members are laid out first
+// (their headers written, the archive allocated once), then each member's data is written by the
+// caller straight into the archive (`data(i)`), then finish() adds the CRC-32s (libdeflate's) and
+// the central directory. No array is held or copied besides the archive itself.
+class NpzWriter {
+ public:
+  struct Member {
+    std::string name;  // without ".npy"
+    Dtype dtype = Dtype::F4;
+    std::vector<size_t> shape;
+  };
+  // Throws std::invalid_argument past the zip format's limits.
+  explicit NpzWriter(std::span<const Member> members);
+  // Where member i's data goes: exactly elements x dtype bytes, uninitialised (zeros) until
+  // written.
+  std::span<uint8_t> data(size_t i);
+  // The archive; the writer is spent.
+  std::string finish() &&;
+
+ private:
+  struct Placed {
+    std::string file;   // "<name>.npy"
+    size_t local = 0;   // offset of its local header
+    size_t start = 0;   // offset of its .npy (header then data)
+    size_t header = 0;  // bytes of the .npy header
+    size_t size = 0;    // bytes of the whole .npy
+  };
+  std::vector<Placed> placed_;
+  size_t directory_ = 0;
+  std::string out_;
+};
 
 // A read back of writeNpz's archives (tests): each member's name and bytes. Checks the
 // signatures, sizes and CRC-32s; throws std::invalid_argument otherwise.

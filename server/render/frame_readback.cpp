@@ -2,7 +2,6 @@
 // pixels and report, and the frame memory released when idle and counted for /metrics.
 #include <algorithm>
 #include <chrono>
-#include <cstring>
 
 #include "render/extra_targets.h"
 #include "render/renderer_state.h"
@@ -153,16 +152,16 @@ Frame Renderer::State::readFrame(const FrameSlot& slot, const Frame& meta,
                                     : size_t(t.extent.width) * t.extent.height * 4;
   const auto copyStart = std::chrono::steady_clock::now();
   if (settings.raw) {
-    frame.data.resize(size_t(t.extent.width) * t.extent.height * 4);
-    std::memcpy(frame.data.data(), t.readback.mapped, frame.data.size() * sizeof(float));
+    const auto* values = static_cast<const float*>(t.readback.mapped);
+    frame.data.assign(values, values + size_t(t.extent.width) * t.extent.height * 4);
   } else if (PooledReadback* pooled = slot.readback) {
     // Lent out: the encoder reads the mapped memory; dropping the frame gives it back.
     frame.borrowed = std::make_shared<const BorrowedPixels>(
         static_cast<const uint8_t*>(pooled->buffer.mapped), bytes,
         [pooled] { pooled->held.store(false, std::memory_order_release); });
   } else {
-    frame.rgba.resize(bytes);
-    std::memcpy(frame.rgba.data(), t.readback.mapped, frame.rgba.size());
+    const auto* pixels = static_cast<const uint8_t*>(t.readback.mapped);
+    frame.rgba.assign(pixels, pixels + bytes);
   }
   readExtraTargets(t, settings, frame);
   frame.times.copyMs = Milliseconds(std::chrono::steady_clock::now() - copyStart).count();

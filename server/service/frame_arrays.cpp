@@ -51,35 +51,47 @@ const std::vector<float>& valuesOf(const render::Frame& frame, const FrameReques
   throw std::logic_error("the frame did not read back " + std::string(render::targetName(target)));
 }
 
-encode::Array targetArray(const render::Frame& frame, const FrameRequest& request,
-                          render::Target target) {
+encode::NpzWriter::Member targetLayout(const render::Frame& frame, const FrameRequest& request,
+                                       render::Target target) {
+  const size_t w = frame.width, h = frame.height;
+  encode::NpzWriter::Member m;
+  m.name = std::string(render::targetName(target));
+  if (target == render::Target::Final && !request.settings.raw) {
+    m.dtype = encode::Dtype::U1;  // the 8-bit sRGB picture
+    m.shape = {h, w, 3};
+  } else if (render::isLabel(target)) {
+    m.dtype = encode::Dtype::U4;
+    m.shape = {h, w};
+  } else {
+    const size_t channels = render::rawChannels(target).size();
+    m.dtype = encode::Dtype::F4;
+    m.shape = channels == 1 ? std::vector<size_t>{h, w} : std::vector<size_t>{h, w, channels};
+  }
+  return m;
+}
+
+void writeTarget(const render::Frame& frame, const FrameRequest& request, render::Target target,
+                 std::span<uint8_t> out) {
   const uint32_t w = frame.width, h = frame.height;
   const size_t pixels = size_t(w) * h;
-  encode::Array array;
-  array.name = std::string(render::targetName(target));
-  array.channels = exrChannels(target);
   if (target == render::Target::Final && !request.settings.raw) {
-    // The 8-bit sRGB picture (RGBA read back; alpha dropped).
+    // RGBA read back; alpha dropped. Four bytes stored a pixel, the fourth overwritten by the
+    // next pixel's red: one store instead of three.
     const std::span<const uint8_t> rgba = frame.pixels();
     if (rgba.size() < pixels * 4) throw std::invalid_argument("final frame too small");
-    array.dtype = encode::Dtype::U1;
-    array.shape = {h, w, 3};
-    array.bytes.resize(pixels * 3);
-    for (size_t i = 0; i < pixels; ++i) std::memcpy(&array.bytes[i * 3], &rgba[i * 4], 3);
-    return array;
+    if (out.size() != pixels * 3) throw std::logic_error("writeTarget: final's size");
+    for (size_t i = 0; i + 1 < pixels; ++i) std::memcpy(&out[i * 3], &rgba[i * 4], 4);
+    if (pixels > 0) std::memcpy(&out[(pixels - 1) * 3], &rgba[(pixels - 1) * 4], 3);
+    return;
   }
   const std::vector<float>& values = valuesOf(frame, request, target);
   if (values.size() < pixels * 4) throw std::invalid_argument("target values too small");
   if (render::isLabel(target)) {
+    if (out.size() != pixels * 4) throw std::logic_error("writeTarget: a label's size");
     const size_t c = labelComponent(target);
-    array.dtype = encode::Dtype::U4;
-    array.shape = {h, w};
-    array.bytes.resize(pixels * 4);
-    for (size_t i = 0; i < pixels; ++i) {
-      const uint32_t id = std::bit_cast<uint32_t>(values[i * 4 + c]);
-      std::memcpy(&array.bytes[i * 4], &id, 4);  // little-endian host (as format=raw)
-    }
-    return array;
+    // The uint32 ids travel as the floats' bits: copied as they are (little-endian, as raw).
+    for (size_t i = 0; i < pixels; ++i) std::memcpy(&out[i * 4], &values[i * 4 + c], 4);
+    return;
   }
   // Floats, with the session's conversions.
   std::vector<float> converted;
@@ -94,14 +106,29 @@ encode::Array targetArray(const render::Frame& frame, const FrameRequest& reques
     source = &converted;
   }
   const size_t channels = render::rawChannels(target).size();
-  array.dtype = encode::Dtype::F4;
-  array.shape = channels == 1 ? std::vector<size_t>{h, w} : std::vector<size_t>{h, w, channels};
-  array.bytes.resize(pixels * channels * 4);
-  uint8_t* out = array.bytes.data();
-  for (size_t i = 0; i < pixels; ++i) {
-    std::memcpy(out, &(*source)[i * 4], channels * 4);
-    out += channels * 4;
+  if (out.size() != pixels * channels * 4) throw std::logic_error("writeTarget: a view's size");
+  const float* in = source->data();
+  auto copy = [&]<size_t C>() {
+    for (size_t i = 0; i < pixels; ++i) std::memcpy(&out[i * C * 4], in + i * 4, C * 4);
+  };
+  switch (channels) {
+    case 1: copy.template operator()<1>(); break;
+    case 2: copy.template operator()<2>(); break;
+    case 3: copy.template operator()<3>(); break;
+    default: copy.template operator()<4>(); break;
   }
+}
+
+encode::Array targetArray(const render::Frame& frame, const FrameRequest& request,
+                          render::Target target) {
+  encode::NpzWriter::Member m = targetLayout(frame, request, target);
+  encode::Array array;
+  array.name = std::move(m.name);
+  array.dtype = m.dtype;
+  array.shape = std::move(m.shape);
+  array.channels = exrChannels(target);
+  array.bytes.resize(array.elements() * encode::dtypeBytes(array.dtype));
+  writeTarget(frame, request, target, array.bytes);
   return array;
 }
 

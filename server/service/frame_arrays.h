@@ -22,6 +22,12 @@ namespace myriad::service {
 // applied. Channel names for EXR: R,G,B / X,Y,Z / U,V / Z (depth) / Y (one value) / id.
 encode::Array targetArray(const render::Frame& frame, const FrameRequest& request,
                           render::Target target);
+// The same in two steps, for an archive written in place (encode::NpzWriter): the array's
+// name, dtype and shape; then its bytes written into `out` (exactly that many).
+encode::NpzWriter::Member targetLayout(const render::Frame& frame, const FrameRequest& request,
+                                       render::Target target);
+void writeTarget(const render::Frame& frame, const FrameRequest& request, render::Target target,
+                 std::span<uint8_t> out);
 
 // K (3x3 float64: fx 0 cx / 0 fy cy / 0 0 1) and world_from_camera (4x4 float64, OpenCV camera
 // axes: X-Myriad-Pose's matrix), the npz members K.npy and world_from_camera.npy.
