@@ -248,16 +248,46 @@ std::vector<uint32_t> SceneGraph::addObjects(std::vector<SceneObject> objects, u
   for (auto& [pendingId, o] : pending) added.push_back(&o);
   assignClasses(std::move(added), pointer, true);
   objects_.merge(pending);
+  // New ids are above every id there is: appended, each list stays ascending.
+  for (uint32_t added : ids) {
+    if (const uint32_t parent = objects_.at(added).parent; parent != 0) {
+      children_[parent].push_back(added);
+    }
+  }
   nextId_ = id;
   return ids;
 }
 
 void SceneGraph::replaceObject(const SceneObject& next, uint32_t materials) {
-  object(next.id);
+  const uint32_t parent = object(next.id).parent;
   check(next, materials, {}, "");
   SceneObject taken = next;
   assignClasses({&taken}, "", false);
   objects_[next.id] = std::move(taken);
+  if (parent != next.parent) {
+    unlinkChild(parent, next.id);
+    linkChild(next.parent, next.id);
+  }
+}
+
+void SceneGraph::indexChildren() {
+  children_.clear();
+  for (const auto& [id, o] : objects_) {
+    if (o.parent != 0) children_[o.parent].push_back(id);
+  }
+}
+
+void SceneGraph::unlinkChild(uint32_t parent, uint32_t child) {
+  const auto it = children_.find(parent);
+  if (parent == 0 || it == children_.end()) return;
+  std::erase(it->second, child);
+  if (it->second.empty()) children_.erase(it);
+}
+
+void SceneGraph::linkChild(uint32_t parent, uint32_t child) {
+  if (parent == 0) return;
+  std::vector<uint32_t>& list = children_[parent];
+  list.insert(std::lower_bound(list.begin(), list.end(), child), child);
 }
 
 void SceneGraph::assignClasses(std::vector<SceneObject*> objects, std::string_view pointer,
@@ -308,7 +338,11 @@ void SceneGraph::assignClasses(std::vector<SceneObject*> objects, std::string_vi
 size_t SceneGraph::removeObject(uint32_t id) {
   object(id);
   const std::vector<uint32_t> gone = subtree(id);
-  for (uint32_t g : gone) objects_.erase(g);
+  unlinkChild(object(id).parent, id);
+  for (uint32_t g : gone) {
+    objects_.erase(g);
+    children_.erase(g);
+  }
   return gone.size();
 }
 
@@ -357,6 +391,7 @@ void SceneGraph::restoreObjects(std::vector<SceneObject> objects, uint32_t nextI
   for (auto& [id, o] : all) restored.push_back(&o);
   next.assignClasses(std::move(restored), pointer, true);
   objects_ = std::move(all);
+  indexChildren();
   nextId_ = nextId;
   classes_ = std::move(next.classes_);
 }
@@ -364,25 +399,25 @@ void SceneGraph::restoreObjects(std::vector<SceneObject> objects, uint32_t nextI
 void SceneGraph::clear() {
   assets_.clear();
   objects_.clear();
+  children_.clear();
   placements_.clear();
   placed_.clear();
   flattenedFrom_.clear();
 }
 
 std::vector<uint32_t> SceneGraph::subtree(uint32_t id) const {
-  // One scan of the objects per level of the tree (at most kMaxDepth), without building an index:
-  // a move of one object among 100,000 (no children) costs one pass over a map, not a hash
-  // table of every object's children (measured on the H200 host: 7.5 ms a PATCH before).
+  // Level by level (at most kMaxDepth), each level ascending, from the children index: a move
+  // of one object among 100,000 looks at its own children only.
   std::vector<uint32_t> out{id};
   std::vector<uint32_t> level{id};
   while (!level.empty()) {
-    std::sort(level.begin(), level.end());
     std::vector<uint32_t> next;
-    for (const auto& [childId, o] : objects_) {
-      if (o.parent != 0 && std::binary_search(level.begin(), level.end(), o.parent)) {
-        next.push_back(childId);
+    for (uint32_t parent : level) {
+      if (const auto it = children_.find(parent); it != children_.end()) {
+        next.insert(next.end(), it->second.begin(), it->second.end());
       }
     }
+    std::sort(next.begin(), next.end());
     out.insert(out.end(), next.begin(), next.end());
     level = std::move(next);
   }

@@ -210,6 +210,13 @@ class SceneGraph {
   uint32_t maxObjects_;
   std::vector<Asset> assets_;
   std::map<uint32_t, SceneObject> objects_;
+  // Each parent's children, ascending (objects without children have no entry): kept with
+  // objects_ by every edit, so a move of one object among 100,000 finds its subtree without a
+  // pass over them all (that pass was most of a PATCH: 9 ms on the H100 host).
+  std::unordered_map<uint32_t, std::vector<uint32_t>> children_;
+  void indexChildren();  // children_ from objects_, afresh
+  void unlinkChild(uint32_t parent, uint32_t child);
+  void linkChild(uint32_t parent, uint32_t child);
   uint32_t nextId_ = 1;
   std::map<std::string, uint32_t, std::less<>> classes_;
 
