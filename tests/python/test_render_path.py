@@ -189,3 +189,42 @@ def test_a_server_taking_the_camera_in_the_query_needs_no_copies(client, session
     assert all(q["look_at"] == "0.0,0.5,0.0" for q in seen)
     for frame, camera in zip(path, cameras):
         assert np.allclose(frame.world_from_camera[:3, 3], camera["eye"], atol=1e-4)
+
+
+def test_concurrency_is_lowered_to_what_the_renderer_takes(client, session, in_flight):
+    room = client.info()["limits"]["maxQueuedFrames"] + 1
+    with pytest.warns(RuntimeWarning, match=f"rendering with {room} of {room + 3} workers"):
+        frames = list(session.render_path(orbit(2 * room), TARGETS, W, H,
+                                          concurrency=room + 3))
+    assert [f.index for f in frames] == list(range(2 * room))
+    assert in_flight["most"] <= room
+
+
+def test_a_busy_renderer_is_asked_again(session, monkeypatch):
+    """A 503 server-busy (the render queue full of other clients' frames) is retried after a
+    pause; any other problem is raised at once."""
+    original = myriad.path._render
+    refusals = {"left": 3, "asked": 0}
+
+    def busy_at_first(*args, **kwargs):
+        refusals["asked"] += 1
+        if refusals["left"] > 0:
+            refusals["left"] -= 1
+            raise myriad.MyriadError(503, {
+                "type": "https://myriad.dev/problems/server-busy", "title": "Server busy",
+                "status": 503, "detail": "The renderer is busy."}, retry_after=1.0)
+        return original(*args, **kwargs)
+
+    monkeypatch.setattr(myriad.path, "_render", busy_at_first)
+    frames = list(session.render_path(orbit(2), TARGETS, W, H))
+    assert [f.index for f in frames] == [0, 1] and refusals["asked"] == 5
+
+    def refused(*args, **kwargs):
+        raise myriad.MyriadError(413, {
+            "type": "https://myriad.dev/problems/limit-exceeded", "title": "Too large",
+            "status": 413, "detail": "Too many pixels."})
+
+    monkeypatch.setattr(myriad.path, "_render", refused)
+    with pytest.raises(myriad.MyriadError) as raised:
+        list(session.render_path(orbit(2), TARGETS, W, H))
+    assert raised.value.status == 413

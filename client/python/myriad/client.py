@@ -563,7 +563,10 @@ class Session:
                 when the path starts.
             targets, width, height, **options: as for :meth:`frame`.
             concurrency: frames requested at once, each over a connection (and thread) of its
-                own.
+                own; at most what the server's renderer takes at once (``/v1/info``
+                ``limits.maxQueuedFrames`` + 1: more is lowered to it, with a RuntimeWarning).
+                A frame refused for a full render queue (503 ``server-busy``, other clients'
+                frames) is asked again after a short pause, for up to a minute.
             times: an animation time per frame (zipped with ``cameras``), or None.
 
         Yields:

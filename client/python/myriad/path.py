@@ -16,6 +16,7 @@ from __future__ import annotations
 import collections
 import itertools
 import queue
+import time as _time
 import warnings
 from concurrent.futures import Future, ThreadPoolExecutor
 from typing import TYPE_CHECKING, Any, Deque, Dict, Iterable, Iterator, List, Mapping, Optional
@@ -71,6 +72,14 @@ def _light_body(light: Mapping[str, Any]) -> Dict[str, Any]:
     return {key: value for key, value in light.items() if key != "id"}
 
 
+# A frame the renderer refused for a full queue (503 server-busy: other clients' frames took the
+# room) is asked again after a pause that doubles from the first to the last, for at most
+# _BUSY_GIVE_UP_SECONDS in all; then the 503 is raised.
+_BUSY_FIRST_PAUSE = 0.005
+_BUSY_LAST_PAUSE = 0.5
+_BUSY_GIVE_UP_SECONDS = 60.0
+
+
 class _Worker:
     """A session a thread renders in; ``own_camera``: set its camera before each frame."""
 
@@ -81,12 +90,35 @@ class _Worker:
     def render(self, index: int, camera: Dict[str, Any], time: Optional[float],
                targets: List[str], width: Optional[int], height: Optional[int],
                options: Mapping[str, Any]) -> Frame:
+        pause = _BUSY_FIRST_PAUSE
+        waited = 0.0
+        while True:
+            try:
+                return self._render_once(index, camera, time, targets, width, height, options)
+            except MyriadError as error:
+                if error.status != 503 or error.name != "server-busy" or \
+                        waited >= _BUSY_GIVE_UP_SECONDS:
+                    raise
+            _time.sleep(pause)
+            waited += pause
+            pause = min(pause * 2, _BUSY_LAST_PAUSE)
+
+    def _render_once(self, index: int, camera: Dict[str, Any], time: Optional[float],
+                     targets: List[str], width: Optional[int], height: Optional[int],
+                     options: Mapping[str, Any]) -> Frame:
         if self.own_camera:
             self.session.set_camera(camera)
             frame = _render(self.session, targets, width, height, time, options, None, index)
             frame.camera = dict(camera)
             return frame
         return _render(self.session, targets, width, height, time, options, camera, index)
+
+
+def _renderer_room(session: "Session") -> Optional[int]:
+    """Frames the server's renderer takes at once (one rendering plus ``maxQueuedFrames``
+    waiting), or None when /v1/info does not say."""
+    queued = session.client.info().get("limits", {}).get("maxQueuedFrames")
+    return int(queued) + 1 if isinstance(queued, int) else None
 
 
 def render_path(session: "Session", cameras: Iterable[Mapping[str, Any]], targets: List[str],
@@ -108,6 +140,13 @@ def _generate(session: "Session", cameras: Iterable[Mapping[str, Any]], targets:
               options: Mapping[str, Any]) -> Iterator[Frame]:
     base_camera = session.camera()
     in_query = camera_in_query(session)
+    room = _renderer_room(session)
+    if room is not None and concurrency > room:
+        # More would only be refused (503) and asked again: the renderer's queue is the limit.
+        warnings.warn(f"render_path: the server renders {room} frames at once (one and "
+                      f"maxQueuedFrames waiting); rendering with {room} of {concurrency} "
+                      f"workers.", RuntimeWarning, stacklevel=3)
+        concurrency = room
     workers: "queue.Queue[_Worker]" = queue.Queue()
     copies: List["Session"] = []
     pool: Optional[ThreadPoolExecutor] = None
