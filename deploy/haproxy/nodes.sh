@@ -85,17 +85,27 @@ cat <<'CFG'
   hold refused 300s
   hold timeout 300s
 
-# Health checks. A crashed node refuses the check's connection: down after 2 failed checks, the
-# second 250 ms after the first (fastinter), so within 0.75 s; a hung node (SIGSTOPped, swapped
-# out, deadlocked: its socket still accepts) fails a check after `timeout check` (1 s,
-# myriad.cfg): down within 0.5 + 1 + 0.25 + 1 = 2.75 s. The requests still open on a node when it
-# goes down are cut then (on-marked-down), so that none waits `timeout server` on a hung node.
-# Back after 2 good checks (1 s). The nodes answer /v1/health and /v1/ready on workers of their
-# own, so a busy node is not taken for a hung one. (Not `observe layer4`: marking a node down on
-# a request's refused connection cuts that very request while it is being sent to another node.)
+# Health checks every 250 ms. A crashed node refuses the check's connection: down after 2 failed
+# checks, the second 250 ms after the first (fastinter), so within 0.5 s, well inside the lease
+# (--lease-ms 1000) a survivor waits out before it restores the node's sessions; on a loaded
+# machine HAProxy's timers run late, and with checks every 500 ms the detection alone took up to
+# 1.3 s. A hung node (SIGSTOPped, swapped out, deadlocked: its socket still accepts) fails a check
+# after `timeout check` (1 s, myriad.cfg): down within 0.25 + 1 + 0.25 + 1 = 2.5 s. The requests
+# still open on a node when it goes down are cut then (on-marked-down), so that none waits
+# `timeout server` on a hung node.
+# A node that is down is checked every 250 ms too (downinter) and is back after 2 good checks,
+# 250 ms apart: within 0.5 s of answering again. Quickly, because a node taken for dead may still
+# hold its sessions' leases (a hung node continued just after its checks failed renews them):
+# until the fronts route to it again, a survivor asked for one of its sessions waits out the lease
+# and answers 409 (with downinter 1 s such a hang's gap was 4.6-5.9 s in scripts/chaos.py); and
+# two fronts disagree about a node that came back for up to one interval, a survivor answering
+# 409 to one front while the node serves the other. 48 checks a second for 3 nodes and 2 fronts,
+# answered by the nodes on workers of their own (so a busy node is not taken for a hung one).
+# (Not `observe layer4`: marking a node down on a request's refused connection cuts that very
+# request while it is being sent to another node.)
 CFG
 server_options='resolvers myriad_dns resolve-prefer ipv4 init-addr last,libc,none'
-check_options='check inter 500ms fastinter 250ms downinter 1s fall 2 rise 2 on-marked-down shutdown-sessions'
+check_options='check inter 250ms fastinter 250ms downinter 250ms fall 2 rise 2 on-marked-down shutdown-sessions'
 
 cat <<'CFG'
 

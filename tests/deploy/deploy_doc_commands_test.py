@@ -106,9 +106,15 @@ COMMANDS = {
         [("haproxy_dns", (D + "haproxy_cluster.py", '"--resolver"'))],
     "ctest --test-dir build/release -L haproxy --output-on-failure": [(SELF, None)],
     # Kubernetes
-    "docker build -t REGISTRY/myriad -f docker/Dockerfile . && docker push REGISTRY/myriad":
-        [("container", ("tests/container/container_test.sh", "-f docker/Dockerfile ."))],
-    "kubectl apply -f deploy/k8s/myriad-cpu.yaml":
+    "docker build -t REGISTRY/myriad:0.1.0 -f docker/Dockerfile . && "
+    "docker push REGISTRY/myriad:0.1.0":
+        [("container", ("tests/container/container_test.sh", "-f docker/Dockerfile .")),
+         ("k8s", (D + "k8s_sources.py", "def project_version"))],
+    "kubectl kustomize deploy/k8s/overlays/gpu":
+        [("k8s", (D + "k8s_test.py", 'argv[1] == "kustomize"')),
+         ("k8s_schema", (D + "k8s_schema_test.py", "k8s_sources.text"))],
+    "kubectl kustomize": [("k8s", (D + "k8s_sources.py", '"kustomize"')), ("k8s_schema", None)],
+    "kubectl apply -k deploy/k8s/overlays/cpu":
         [("k8s", (D + "k8s_test.py", '"apply"')), ("k8s_schema", None)],
     "kubectl create secret tls myriad-tls --cert=tls.crt --key=tls.key":
         [("k8s", (D + "k8s_test.py", '"secret"'))],
@@ -124,7 +130,7 @@ COMMANDS = {
     "nodes.sh 0=myriad-0.myriad-nodes:8080 ...":
         [("haproxy_dns", (D + "haproxy_cluster.py", '"nodes.sh"'))],
     "myriad-server --help": [("k8s", (D + "k8s_test.py", '"--help"'))],
-    "kubectl create --dry-run=client --validate=false -f": [("k8s", None)],
+    "kubectl create --dry-run=client --validate=false": [("k8s", None)],
     "kubectl wait": [("k8s", None)],
     # Batch
     "myriad-server --batch SPEC --index I --out DIR":

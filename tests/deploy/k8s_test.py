@@ -1,15 +1,21 @@
 #!/usr/bin/env python3
 """The Kubernetes manifests of deploy/k8s: valid YAML, consistent with the server and the front,
-and accepted by `kubectl create --dry-run=client`.
+and accepted by `kubectl create --dry-run=client`. The kustomizations (base, overlays/cpu,
+overlays/gpu) are checked as `kubectl kustomize` renders them, which is what `kubectl apply -k`
+applies (k8s_sources.py).
 
 kubectl needs an API server's discovery (which kinds exist, under which group) even for a
 client-side dry run, and none is reachable in a test. This test serves the discovery documents of
-the kinds the manifests use (v1, apps/v1, batch/v1) from a stub on loopback and runs kubectl with
---validate=false (schema validation would download the cluster's OpenAPI document). What is
-checked then: kubectl parses every object and maps every kind; the checks below cover what
+the kinds the manifests use (v1, apps/v1, batch/v1, policy/v1) from a stub on loopback and runs
+kubectl with --validate=false (schema validation would download the cluster's OpenAPI document).
+What is checked then: kubectl parses every object and maps every kind; the checks below cover what
 validation would have (the flags the pods pass exist in `myriad-server --help`, the probes'
 paths are the server's, the front's upstreams are what deploy/nginx/upstreams.sh writes for the
-StatefulSet's replicas, the Job is Indexed and runs --batch). Then docs/deploy.md's kubectl
+StatefulSet's replicas, the Job is Indexed and runs --batch), and what issue 33 asks of them:
+every image pinned (a tag, not latest; Myriad's the project's version), every container with CPU
+and memory requests and limits, every replicated workload under a PodDisruptionBudget that lets
+one pod go and keeps one, the GPU overlay on GPU nodes (nodeSelector, the nvidia.com/gpu
+toleration and limit, --device=NVIDIA) and the CPU overlay off GPUs. Then docs/deploy.md's kubectl
 commands, read from the document and run as written against the stub (run_documented). The
 schemas themselves are the k8s_schema test's (k8s_schema_test.py).
 
@@ -28,6 +34,7 @@ import threading
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import doc_commands  # noqa: E402
+import k8s_sources  # noqa: E402
 
 failures = []
 
@@ -51,7 +58,7 @@ DISCOVERY = {
     "/apis": {"kind": "APIGroupList", "apiVersion": "v1", "groups": [
         {"name": group, "versions": [{"groupVersion": f"{group}/v1", "version": "v1"}],
          "preferredVersion": {"groupVersion": f"{group}/v1", "version": "v1"}}
-        for group in ("apps", "batch")]},
+        for group in ("apps", "batch", "policy")]},
     "/api/v1": {"kind": "APIResourceList", "groupVersion": "v1", "resources": [
         resource("configmaps", "ConfigMap"), resource("services", "Service"),
         resource("persistentvolumeclaims", "PersistentVolumeClaim"),
@@ -61,6 +68,9 @@ DISCOVERY = {
                                     resource("statefulsets", "StatefulSet")]},
     "/apis/batch/v1": {"kind": "APIResourceList", "apiVersion": "v1", "groupVersion": "batch/v1",
                        "resources": [resource("jobs", "Job")]},
+    "/apis/policy/v1": {"kind": "APIResourceList", "apiVersion": "v1",
+                        "groupVersion": "policy/v1",
+                        "resources": [resource("poddisruptionbudgets", "PodDisruptionBudget")]},
     "/version": {"major": "1", "minor": "30", "gitVersion": "v1.30.0"},
 }
 
@@ -120,10 +130,10 @@ def documented_kubectl(repo):
     for needle in ("kubectl apply -f deploy/k8s/front.yaml", "kubectl wait"):
         for command, comment in doc_commands.block_with(text, needle):
             commands.append(command)
-            # "kubectl apply -f deploy/k8s/myriad-cpu.yaml   # or myriad-gpu.yaml": both.
-            m = re.fullmatch(r"or (\S+\.yaml)", comment)
-            if m and command.startswith("kubectl apply -f"):
-                commands.append(re.sub(r"[^/]+\.yaml$", m.group(1), command))
+            # "kubectl apply -k deploy/k8s/overlays/cpu   # or overlays/gpu": both.
+            m = re.match(r"or (\S+)", comment)
+            if m and command.startswith("kubectl apply -k deploy/k8s/"):
+                commands.append("kubectl apply -k deploy/k8s/" + m.group(1))
     commands += [c for c in doc_commands.inline_commands(text) if c.startswith("kubectl rollout")]
     return [c for c in commands if c.startswith("kubectl")]
 
@@ -160,19 +170,31 @@ def run_documented(kubectl, env, repo, work, docs):
             argv += ["--dry-run=client", "-o", "json"]
             if argv[2] == "secret" or "my-spec.json" in command:
                 cwd = work
+        elif argv[1] == "kustomize":
+            pass  # offline: the objects an overlay applies, checked below
         elif argv[1:3] not in (["wait", "--for=condition=complete"], ["rollout", "restart"]):
             check(False, f"k8s_test.py does not know how to run `{command}` (docs/deploy.md)")
             continue
         r = subprocess.run([kubectl] + argv[1:], capture_output=True, text=True, env=env,
                            cwd=cwd, timeout=60)
+        shown = r.stdout if argv[1] not in ("create", "kustomize") else ""
         print(f"$ {command}\n  -> exit {r.returncode}: "
-              f"{' '.join((r.stdout if argv[1] != 'create' else '').split())[:200]}"
+              f"{' '.join(shown.split())[:200]}"
               f"{r.stderr.strip()[:300] if r.returncode else ''}", flush=True)
         if not check(r.returncode == 0, f"`{command}`: {r.stderr.strip()}"):
             continue
-        if argv[1] == "apply":
-            file = os.path.basename(argv[argv.index("-f") + 1])
-            kinds = sorted(k for f, k in docs if f == file)
+        if argv[1] == "kustomize":
+            import yaml  # python3-yaml
+            source = os.path.relpath(argv[2], "deploy/k8s")
+            made = sorted(d["kind"] for d in yaml.safe_load_all(r.stdout) if d)
+            kinds = sorted(k for f, k in docs if f == source)
+            check(made and made == kinds, f"`{command}`: {made}, expected {kinds}")
+            print(f"  {made}", flush=True)
+        elif argv[1] == "apply":
+            option = "-f" if "-f" in argv else "-k"
+            source = os.path.relpath(argv[argv.index(option) + 1], "deploy/k8s")
+            kinds = sorted(k for f, k in docs if f == source)
+            check(kinds, f"`{command}`: deploy/k8s/{source} is not a source the test knows")
             check(len(r.stdout.split()) == len(kinds), f"`{command}`: {r.stdout}, expected {kinds}")
         elif argv[1:3] == ["create", "secret"]:
             made = json.loads(r.stdout)
@@ -206,25 +228,118 @@ def run_documented(kubectl, env, repo, work, docs):
                   f"`{command}` did not patch the front's pod template: {Discovery.PATCHES}")
 
 
+def workloads(docs):
+    return {(source, kind): d for (source, kind), d in docs.items()
+            if kind in ("Deployment", "StatefulSet", "Job")}
+
+
+def selects(selector, labels):
+    wanted = (selector or {}).get("matchLabels") or {}
+    return bool(wanted) and all(labels.get(k) == v for k, v in wanted.items())
+
+
+def check_issue33(docs, sources, version):
+    """Pinned images, resources, disruption budgets, GPU scheduling (the module's docstring)."""
+    for (source, kind), d in workloads(docs).items():
+        for c in containers(d):
+            for problem in k8s_sources.image_problems(c.get("image", ""), version):
+                check(False, f"{source} {kind} container {c['name']}: {problem}")
+            res = c.get("resources") or {}
+            for part in ("requests", "limits"):
+                missing = [r for r in ("cpu", "memory") if r not in (res.get(part) or {})]
+                check(not missing, f"{source} {kind} container {c['name']}: no {part} {missing}")
+    budgets = 0
+    for (source, kind), d in workloads(docs).items():
+        replicas = d["spec"].get("replicas", 1)
+        if kind == "Job" or replicas < 2:
+            continue
+        labels = d["spec"]["template"]["metadata"].get("labels") or {}
+        pdbs = [p for (s2, k2), p in docs.items()
+                if s2 == source and k2 == "PodDisruptionBudget" and
+                selects(p["spec"].get("selector"), labels)]
+        if not check(len(pdbs) == 1, f"{source}: {len(pdbs)} PodDisruptionBudgets select the pods "
+                                     f"of {kind} {d['metadata']['name']}, expected 1"):
+            continue
+        spec = pdbs[0]["spec"]
+        check(pdbs[0]["apiVersion"] == "policy/v1", f"{source}: the budget is not policy/v1")
+        check(isinstance(spec.get("maxUnavailable", spec.get("minAvailable")), int),
+              f"{source}: the budget's figure is not a number of pods: {spec}")
+        can_go = (spec["maxUnavailable"] if "maxUnavailable" in spec
+                  else replicas - spec["minAvailable"])
+        check(1 <= can_go < replicas, f"{source}: the budget of {kind} {d['metadata']['name']} "
+              f"({spec}) lets {can_go} of {replicas} pods go: at least one, not all")
+        budgets += 1
+        print(f"{source}: {kind} {d['metadata']['name']} x{replicas}, budget {spec}", flush=True)
+    check(budgets >= 2, f"only {budgets} replicated workloads under a budget (nodes, front)")
+    for source in sources:
+        s = docs.get((source, "StatefulSet"))
+        if s is None:
+            continue
+        pod = s["spec"]["template"]["spec"]
+        c = pod["containers"][0]
+        gpu = "gpu" in os.path.basename(source)
+        limit = c["resources"]["limits"].get("nvidia.com/gpu")
+        tolerated = [t for t in pod.get("tolerations") or [] if t.get("key") == "nvidia.com/gpu"]
+        selector = pod.get("nodeSelector") or {}
+        if gpu:
+            check(limit == 1, f"{source}: GPU variant without a GPU (limits {c['resources']})")
+            check("--device=NVIDIA" in [a.split()[0] for a in c["args"]],
+                  f"{source}: GPU variant without --device=NVIDIA")
+            check(any(k.startswith("nvidia.com/") for k in selector),
+                  f"{source}: GPU variant without a GPU nodeSelector: {selector}")
+            check(tolerated and all(t.get("operator") == "Exists" or "value" in t
+                                    for t in tolerated),
+                  f"{source}: GPU variant does not tolerate the nvidia.com/gpu taint: "
+                  f"{pod.get('tolerations')}")
+            check("LP_NUM_THREADS" not in [e["name"] for e in c.get("env", [])],
+                  f"{source}: lavapipe's LP_NUM_THREADS on a GPU pod")
+        else:
+            check(limit is None and not tolerated and not selector.get("nvidia.com/gpu.present"),
+                  f"{source}: the CPU variant asks for GPUs or GPU nodes")
+        print(f"{source}: nodeSelector {selector}, tolerations {pod.get('tolerations')}, "
+              f"limits {c['resources']['limits']}, image {c['image']}", flush=True)
+
+
 def main():
     server, repo = sys.argv[1], sys.argv[2]
     import yaml  # python3-yaml
 
     k8s = os.path.join(repo, "deploy", "k8s")
-    manifests = sorted(glob.glob(os.path.join(k8s, "*.yaml")))
+    kubectl = shutil.which("kubectl")
     help_text = subprocess.run([server, "--help"], capture_output=True, text=True).stdout
     flags = set(re.findall(r"^\s+(--[a-z-]+)", help_text, re.M))
+    version = k8s_sources.project_version(repo)
+    check(version, "CMakeLists.txt names no project version (the image tag)")
+    # The files applied with -f and the kustomizations rendered, or without kubectl the base's
+    # file as it is (the CPU variant).
+    kustomized = k8s_sources.kustomizations(repo)
+    check(set(kustomized) >= {"base", "overlays/cpu", "overlays/gpu"},
+          f"deploy/k8s: kustomizations {kustomized}, expected base, overlays/cpu, overlays/gpu")
+    sources = k8s_sources.files(repo) + (kustomized if kubectl else ["base/myriad.yaml"])
+    variants = k8s_sources.overlays(repo) if kubectl else ["base/myriad.yaml"]
     docs = {}
-    for path in manifests:
-        with open(path) as f:
-            loaded = [d for d in yaml.safe_load_all(f) if d]
-        check(loaded, f"{path} holds no object")
+    for source in sources:
+        try:
+            loaded = [d for d in yaml.safe_load_all(k8s_sources.text(repo, kubectl, source)) if d]
+        except (RuntimeError, yaml.YAMLError) as e:
+            check(False, f"deploy/k8s/{source}: {e}")
+            continue
+        check(loaded, f"deploy/k8s/{source} holds no object")
         for d in loaded:
             check(all(k in d for k in ("apiVersion", "kind", "metadata")),
-                  f"{path}: an object without apiVersion/kind/metadata")
-            docs[(os.path.basename(path), d["kind"])] = d
-    print(f"{len(manifests)} manifests, {len(docs)} objects: "
+                  f"{source}: an object without apiVersion/kind/metadata")
+            check((source, d.get("kind")) not in docs,
+                  f"{source}: two objects of kind {d.get('kind')}")
+            docs[(source, d["kind"])] = d
+    print(f"{len(sources)} sources, {len(docs)} objects: "
           f"{sorted(f'{f}:{k}' for f, k in docs)}", flush=True)
+    # Every file under the kustomizations is a kustomization or named by one (no manifest left
+    # that no command applies).
+    named = k8s_sources.referenced(repo, yaml)
+    for path in glob.glob(os.path.join(k8s, "*", "**", "*.yaml"), recursive=True):
+        rel = os.path.relpath(path, k8s)
+        check(os.path.basename(rel) == "kustomization.yaml" or rel in named,
+              f"deploy/k8s/{rel} is named by no kustomization.yaml")
 
     # The pods' flags exist; the probes ask the server's routes.
     for (name, kind), d in docs.items():
@@ -235,7 +350,7 @@ def main():
                 flag = arg.split("=")[0]
                 if flag.startswith("--"):
                     check(flag in flags, f"{name}: {flag} is not a myriad-server flag")
-    for variant in ("myriad-cpu.yaml", "myriad-gpu.yaml"):
+    for variant in variants:
         s = docs.get((variant, "StatefulSet"))
         if not check(s is not None, f"{variant} has no StatefulSet"):
             continue
@@ -247,9 +362,6 @@ def main():
               c["livenessProbe"]["httpGet"]["path"] == "/v1/health", f"{variant}: probes")
         check(docs[(variant, "PersistentVolumeClaim")]["spec"]["accessModes"] == ["ReadWriteMany"],
               f"{variant}: the state volume must be ReadWriteMany")
-        if variant == "myriad-gpu.yaml":
-            check(c["resources"]["limits"].get("nvidia.com/gpu") == 1, "GPU variant without a GPU")
-            check("--device=NVIDIA" in [a.split()[0] for a in args], "GPU variant without --device")
         replicas = s["spec"]["replicas"]
         nodes = [f"{i}=myriad-{i}.myriad-nodes:8080" for i in range(replicas)]
         expected = subprocess.run([os.path.join(repo, "deploy", "nginx", "upstreams.sh")] + nodes,
@@ -257,6 +369,10 @@ def main():
         with open(os.path.join(k8s, "upstreams.conf")) as f:
             check(f.read() == expected,
                   f"deploy/k8s/upstreams.conf is not upstreams.sh's output for {replicas} replicas")
+    if kubectl:
+        check_issue33(docs, variants, version)
+        gpu = [v for v in variants if "gpu" in v]
+        check(len(gpu) == 1 and len(variants) == 2, f"overlays {variants}: one CPU, one GPU")
     job = docs.get(("batch-job.yaml", "Job"))
     if check(job is not None, "batch-job.yaml has no Job"):
         check(job["spec"].get("completionMode") == "Indexed", "the Job is not Indexed")
@@ -284,15 +400,18 @@ current-context: stub
         version = subprocess.run([kubectl, "version", "--client"], capture_output=True, text=True,
                                  env=env).stdout.strip().splitlines()
         print(f"kubectl: {version[0] if version else '?'}", flush=True)
-        for path in manifests:
-            r = subprocess.run([kubectl, "create", "--dry-run=client", "--validate=false", "-f", path,
-                                "-o", "name"], capture_output=True, text=True, env=env, timeout=60)
+        for source in sources:
+            option = "-f" if source.endswith(".yaml") else "-k"
+            path = os.path.join("deploy", "k8s", source)
+            r = subprocess.run([kubectl, "create", "--dry-run=client", "--validate=false", option,
+                                path, "-o", "name"], capture_output=True, text=True, env=env,
+                               timeout=60, cwd=repo)
             names = r.stdout.split()
-            print(f"kubectl create --dry-run=client -f {os.path.relpath(path, repo)}: "
+            print(f"kubectl create --dry-run=client {option} {path}: "
                   f"exit {r.returncode}, {names}", flush=True)
             check(r.returncode == 0, f"kubectl refuses {path}: {r.stderr.strip()}")
-            kinds = sorted(kind for f, kind in docs if f == os.path.basename(path))
-            check(len(names) == len(kinds), f"{path}: kubectl made {names}, the file has {kinds}")
+            kinds = sorted(kind for f, kind in docs if f == source)
+            check(len(names) == len(kinds), f"{path}: kubectl made {names}, the source has {kinds}")
         run_documented(kubectl, env, repo, work, docs)
     finally:
         stub.shutdown()
