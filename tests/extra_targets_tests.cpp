@@ -33,16 +33,15 @@ render::FrameSettings base(const scene::Scene& s, render::Target target, bool ra
   return f;
 }
 
-const std::vector<float>& extraOf(const render::Frame& frame, render::Target target) {
+std::span<const float> extraOf(const render::Frame& frame, render::Target target) {
   for (const render::Frame::TargetValues& v : frame.extras) {
     if (v.target == target) return v.data;
   }
   FAIL("no extra for ", render::targetName(target));
-  static const std::vector<float> none;
-  return none;
+  return {};
 }
 
-bool sameBits(const std::vector<float>& a, const std::vector<float>& b) {
+bool sameBits(std::span<const float> a, std::span<const float> b) {
   return a.size() == b.size() && std::memcmp(a.data(), b.data(), a.size() * sizeof(float)) == 0;
 }
 
@@ -69,7 +68,8 @@ void checkAgainstSingles(test::GpuSuite& gpu, const render::FrameSettings& multi
     const render::Frame expected = gpu.render(single);
     if (render::isLabel(t)) {
       // One readback holds the label pass's four uint32s for every id target.
-      const std::vector<float>& labels = render::isLabel(multi.target) ? frame.data : frame.labels;
+      const std::span<const float> labels =
+          render::isLabel(multi.target) ? std::span<const float>(frame.data) : frame.labels;
       CHECK(sameBits(labels, expected.data));
       labelsChecked = true;
     } else {

@@ -147,7 +147,9 @@ void Renderer::State::recordAfterStep(VkCommandBuffer cmd, const FrameSlot& slot
                     static_cast<const uint8_t*>(slot.uniforms.mapped) + offsetof(FrameUniforms, flags),
                     sizeof hostFlags);
         recordExtraTargets(cmd, p, t, settings, slot.uniforms, offsetof(FrameUniforms, flags),
-                           hostFlags, p.layout, slot.rawTargetSet);
+                           hostFlags, p.layout, slot.rawTargetSet,
+                           slot.readback ? ExtraDestination{&readback, extrasOffset(settings)}
+                                         : ExtraDestination{&t.extraReadback, 0});
       }
       break;
     }

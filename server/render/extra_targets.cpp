@@ -54,7 +54,7 @@ void checkExtras(const FrameSettings& settings) {
 void recordExtraTargets(VkCommandBuffer cmd, const Pipelines& p, const FrameTargets& t,
                         const FrameSettings& settings, const gpu::Buffer& uniforms,
                         VkDeviceSize flagsOffset, const uint32_t hostFlags[4],
-                        VkPipelineLayout layout, VkDescriptorSet rawSet) {
+                        VkPipelineLayout layout, VkDescriptorSet rawSet, ExtraDestination to) {
   checkExtras(settings);
   const ExtraRegions regions = extraRegionsOf(settings);
   if (regions.count == 0) return;
@@ -95,11 +95,11 @@ void recordExtraTargets(VkCommandBuffer cmd, const Pipelines& p, const FrameTarg
                                        VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL}};
     gpu::barrier(cmd, toCopy);
     VkBufferImageCopy region{};
-    region.bufferOffset = t.regionBytes() * VkDeviceSize(regions.region[i]);
+    region.bufferOffset = to.offset + t.regionBytes() * VkDeviceSize(regions.region[i]);
     region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
     region.imageExtent = {t.extent.width, t.extent.height, 1};
     vkCmdCopyImageToBuffer(cmd, output.image, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL,
-                           t.extraReadback.buffer, 1, &region);
+                           to.buffer->buffer, 1, &region);
     firstView = false;
   }
   (void)firstView;
@@ -111,37 +111,40 @@ void recordExtraTargets(VkCommandBuffer cmd, const Pipelines& p, const FrameTarg
                                        VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL}};
     gpu::barrier(cmd, toCopy);
     VkBufferImageCopy region{};
-    region.bufferOffset = t.regionBytes() * VkDeviceSize(regions.labels);
+    region.bufferOffset = to.offset + t.regionBytes() * VkDeviceSize(regions.labels);
     region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
     region.imageExtent = {t.extent.width, t.extent.height, 1};
     vkCmdCopyImageToBuffer(cmd, t.labels.image, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL,
-                           t.extraReadback.buffer, 1, &region);
+                           to.buffer->buffer, 1, &region);
   }
-  gpu::bufferBarrier(cmd, t.extraReadback, VK_PIPELINE_STAGE_2_COPY_BIT,
+  gpu::bufferBarrier(cmd, *to.buffer, VK_PIPELINE_STAGE_2_COPY_BIT,
                      VK_ACCESS_2_TRANSFER_WRITE_BIT, VK_PIPELINE_STAGE_2_HOST_BIT,
                      VK_ACCESS_2_HOST_READ_BIT);
 }
 
-void readExtraTargets(const FrameTargets& t, const FrameSettings& settings, Frame& frame) {
+void readExtraTargets(const FrameTargets& t, const FrameSettings& settings, Frame& frame,
+                      const uint8_t* lent) {
   frame.extras.clear();
-  frame.labels.clear();
+  frame.labels = {};
+  frame.extrasCopy.reset();
   const ExtraRegions regions = extraRegionsOf(settings);
   if (regions.count == 0) return;
   const size_t floats = size_t(t.extent.width) * t.extent.height * 4;
-  const auto* base = static_cast<const uint8_t*>(t.extraReadback.mapped);
+  const float* base = reinterpret_cast<const float*>(lent);
+  if (base == nullptr) {
+    // Copied once, every region together (a vector of the size would be zeroed first: a second
+    // pass over 16 bytes a pixel, on the render thread).
+    const auto* mapped = static_cast<const float*>(t.extraReadback.mapped);
+    auto copy = std::make_shared<const std::vector<float>>(mapped, mapped + floats * regions.count);
+    base = copy->data();
+    frame.extrasCopy = std::move(copy);
+  }
   for (size_t i = 0; i < settings.alsoRead.size(); ++i) {
     if (isLabel(settings.alsoRead[i]) || regions.region[i] < 0) continue;
-    // Copied once (a vector of the size would be zeroed first: a second pass over 16 bytes a
-    // pixel, on the render thread).
-    const auto* values = reinterpret_cast<const float*>(
-        base + t.regionBytes() * size_t(regions.region[i]));
-    frame.extras.push_back({settings.alsoRead[i], std::vector<float>(values, values + floats)});
+    frame.extras.push_back({settings.alsoRead[i],
+                            {base + floats * size_t(regions.region[i]), floats}});
   }
-  if (regions.labels >= 0) {
-    const auto* labels = reinterpret_cast<const float*>(
-        base + t.regionBytes() * size_t(regions.labels));
-    frame.labels.assign(labels, labels + floats);
-  }
+  if (regions.labels >= 0) frame.labels = {base + floats * size_t(regions.labels), floats};
 }
 
 }  // namespace myriad::render

@@ -23,6 +23,13 @@ struct ExtraRegions {
 };
 ExtraRegions extraRegionsOf(const FrameSettings& settings);
 
+// Where the extras are copied: `buffer` from `offset` on, a region of t.regionBytes() each (the
+// frame's lent readback buffer after its pixels, or t.extraReadback from 0).
+struct ExtraDestination {
+  const gpu::Buffer* buffer = nullptr;
+  VkDeviceSize offset = 0;
+};
+
 // Records the extra views and copies. `uniforms` is the frame's uniform buffer (its view index
 // is rewritten on the GPU timeline for each view, then left so), `hostFlags` FrameUniforms::flags
 // as the host wrote them; `rawSet` the target set whose output binding is t.extraOutput (for an
@@ -32,9 +39,12 @@ ExtraRegions extraRegionsOf(const FrameSettings& settings);
 void recordExtraTargets(VkCommandBuffer cmd, const Pipelines& p, const FrameTargets& t,
                         const FrameSettings& settings, const gpu::Buffer& uniforms,
                         VkDeviceSize flagsOffset, const uint32_t hostFlags[4], VkPipelineLayout layout,
-                        VkDescriptorSet rawSet);
+                        VkDescriptorSet rawSet, ExtraDestination to);
 
-// After the frame's fence: the extras out of t.extraReadback into frame.extras / frame.labels.
-void readExtraTargets(const FrameTargets& t, const FrameSettings& settings, Frame& frame);
+// After the frame's fence: frame.extras and frame.labels. `lent`: the mapped regions in the
+// frame's lent readback memory (they stay there, no copy); null: copied out of t.extraReadback
+// into frame.extrasCopy.
+void readExtraTargets(const FrameTargets& t, const FrameSettings& settings, Frame& frame,
+                      const uint8_t* lent);
 
 }  // namespace myriad::render

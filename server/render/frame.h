@@ -244,14 +244,27 @@ struct Frame {
   // channels hold per target is rawChannels(target).
   std::vector<float> data;
   // FrameSettings::alsoRead's views (not labels), in its order: 4 floats a pixel, as `data`.
+  // With borrowPixels they stay in the frame's lent readback memory (valid while `borrowed` is
+  // held: no copy on the render thread); otherwise they point into `extrasCopy`.
   struct TargetValues {
     Target target = Target::Depth;
-    std::vector<float> data;
+    std::span<const float> data;
   };
   std::vector<TargetValues> extras;
   // With a label in FrameSettings::alsoRead (and `target` not a label): the label pass's four
-  // uint32 bit patterns a pixel, as `data` holds them for a label target.
-  std::vector<float> labels;
+  // uint32 bit patterns a pixel, as `data` holds them for a label target (lent or copied, as
+  // `extras`).
+  std::span<const float> labels;
+  std::shared_ptr<const std::vector<float>> extrasCopy;
+  // Gives the lent readback memory back now: pixels() is empty after, and so are the extras and
+  // labels that were in it.
+  void giveBackReadback() {
+    if (borrowed && !extrasCopy) {
+      extras.clear();
+      labels = {};
+    }
+    borrowed.reset();
+  }
   std::vector<PassTiming> passes;
   // How long the frame waited before its work began: from its submission to the render queue to
   // the start of its first GPU work, including the time behind other frames' submissions

@@ -163,7 +163,12 @@ Frame Renderer::State::readFrame(const FrameSlot& slot, const Frame& meta,
     const auto* pixels = static_cast<const uint8_t*>(t.readback.mapped);
     frame.rgba.assign(pixels, pixels + bytes);
   }
-  readExtraTargets(t, settings, frame);
+  // Extras stay in the lent buffer after the pixels (readbackBytes), or are copied out.
+  readExtraTargets(t, settings, frame,
+                   slot.readback != nullptr && !settings.raw
+                       ? static_cast<const uint8_t*>(slot.readback->buffer.mapped) +
+                             extrasOffset(settings)
+                       : nullptr);
   frame.times.copyMs = Milliseconds(std::chrono::steady_clock::now() - copyStart).count();
   for (auto& [name, ms] : slot.timer->results()) frame.passes.push_back({name, ms});
   if (slot.timer->lastTick() > slot.timer->firstTick()) {

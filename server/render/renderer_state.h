@@ -19,6 +19,7 @@
 #include "gpu/commands.h"
 #include "gpu/resources.h"
 #include "render/environment.h"
+#include "render/extra_targets.h"
 #include "render/frame_pass.h"
 #include "render/frame_targets.h"
 #include "render/gpu_types.h"
@@ -87,10 +88,18 @@ struct Renderer::State {
   // Frees the pooled buffers not lent out, but one of `keep` bytes when keep > 0.
   void trimReadbacks(VkDeviceSize keep = 0);
   // The pooled readback size a frame of `settings` asks for (0: none, it is not lent out).
+  // A multi-target frame's extras follow the pixels in it (at extrasOffset), so they are lent out
+  // with them.
   static VkDeviceSize readbackBytes(const FrameSettings& settings) {
     if (!settings.borrowPixels || settings.raw) return 0;
-    return settings.yuv420Readback() ? yuv420Layout(settings.width, settings.height).bytes()
-                                     : VkDeviceSize(settings.width) * settings.height * 4;
+    return extrasOffset(settings) + VkDeviceSize(extraRegionsOf(settings).count) *
+                                        settings.width * settings.height * 16;
+  }
+  static VkDeviceSize extrasOffset(const FrameSettings& settings) {
+    const VkDeviceSize pixels = settings.yuv420Readback()
+                                    ? yuv420Layout(settings.width, settings.height).bytes()
+                                    : VkDeviceSize(settings.width) * settings.height * 4;
+    return (pixels + 15) / 16 * 16;  // a copy of 16-byte texels starts on a multiple of 16
   }
   // The GPU's last timestamp of the previous whole frame finished (FrameTimes::gpuIdleMs).
   uint64_t lastGpuEndTick = 0;

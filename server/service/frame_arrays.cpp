@@ -40,8 +40,8 @@ std::vector<std::string> exrChannels(render::Target target) {
 
 }  // namespace
 
-const std::vector<float>& valuesOf(const render::Frame& frame, const FrameRequest& request,
-                                   render::Target target) {
+std::span<const float> valuesOf(const render::Frame& frame, const FrameRequest& request,
+                                render::Target target) {
   const render::Target main = request.settings.target;
   if (target == main || (render::isLabel(target) && render::isLabel(main))) return frame.data;
   if (render::isLabel(target)) return frame.labels;
@@ -84,7 +84,7 @@ void writeTarget(const render::Frame& frame, const FrameRequest& request, render
     if (pixels > 0) std::memcpy(&out[(pixels - 1) * 3], &rgba[(pixels - 1) * 4], 3);
     return;
   }
-  const std::vector<float>& values = valuesOf(frame, request, target);
+  const std::span<const float> values = valuesOf(frame, request, target);
   if (values.size() < pixels * 4) throw std::invalid_argument("target values too small");
   if (render::isLabel(target)) {
     if (out.size() != pixels * 4) throw std::logic_error("writeTarget: a label's size");
@@ -95,19 +95,19 @@ void writeTarget(const render::Frame& frame, const FrameRequest& request, render
   }
   // Floats, with the session's conversions.
   std::vector<float> converted;
-  const std::vector<float>* source = &values;
+  std::span<const float> source = values;
   const scene::Camera& camera = request.settings.camera;
   if (target == render::Target::Depth && request.depthDistance) {
     converted = depthAsDistance(values, w, h, camera);
-    source = &converted;
+    source = converted;
   } else if (request.cameraSpace &&
              (target == render::Target::Position || target == render::Target::Normal)) {
     converted = inCameraSpace(values, w, h, camera, target == render::Target::Position);
-    source = &converted;
+    source = converted;
   }
   const size_t channels = render::rawChannels(target).size();
   if (out.size() != pixels * channels * 4) throw std::logic_error("writeTarget: a view's size");
-  const float* in = source->data();
+  const float* in = source.data();
   auto copy = [&]<size_t C>() {
     for (size_t i = 0; i < pixels; ++i) std::memcpy(&out[i * C * 4], in + i * 4, C * 4);
   };
@@ -174,7 +174,7 @@ double depthScale(const scene::Camera& camera) {
 
 std::vector<uint16_t> depthAsUint16(const render::Frame& frame, const FrameRequest& request,
                                     double scale) {
-  const std::vector<float>& values = valuesOf(frame, request, render::Target::Depth);
+  const std::span<const float> values = valuesOf(frame, request, render::Target::Depth);
   const size_t pixels = size_t(frame.width) * frame.height;
   if (values.size() < pixels * 4) throw std::invalid_argument("depth frame too small");
   const float far = request.settings.camera.farPlane;
@@ -194,7 +194,7 @@ std::vector<uint16_t> depthAsUint16(const render::Frame& frame, const FrameReque
 
 std::vector<uint16_t> labelsAsUint16(const render::Frame& frame, const FrameRequest& request,
                                      render::Target target) {
-  const std::vector<float>& values = valuesOf(frame, request, target);
+  const std::span<const float> values = valuesOf(frame, request, target);
   const size_t pixels = size_t(frame.width) * frame.height;
   if (values.size() < pixels * 4) throw std::invalid_argument("label frame too small");
   const size_t c = labelComponent(target);

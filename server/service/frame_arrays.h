@@ -48,7 +48,7 @@ std::vector<uint16_t> labelsAsUint16(const render::Frame& frame, const FrameRequ
                                      render::Target target);
 
 // The raw values `target` came back in: 4 floats a pixel (frame.data, an extra, or the labels).
-const std::vector<float>& valuesOf(const render::Frame& frame, const FrameRequest& request,
-                                   render::Target target);
+std::span<const float> valuesOf(const render::Frame& frame, const FrameRequest& request,
+                                render::Target target);
 
 }  // namespace myriad::service

@@ -566,7 +566,7 @@ SessionFrame collectSessionFrame(const SessionFrameContext& context, const Sessi
   delivered.encoded = encoder ? (*encoder)(delivered.frame)
                               : encodeFrame(delivered.frame, pending.rendered);
   // Encoded: borrowed pixels go back to the renderer now, not when the caller is done.
-  delivered.frame.borrowed.reset();
+  delivered.frame.giveBackReadback();
   context.metrics.observeFrame(
       std::chrono::duration<double>(Clock::now() - pending.submitted).count());
   context.metrics.observeQueueWait(delivered.frame.queueMs / 1000.0);
