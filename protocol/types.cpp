@@ -50,6 +50,12 @@ void get(const json& j, const char* key, Shadows& out) {
   out = it == j.end() ? Shadows{} : it->get<Shadows>();
 }
 
+// Settings' fog likewise (a snapshot from before fog): off.
+void get(const json& j, const char* key, Fog& out) {
+  auto it = j.find(key);
+  out = it == j.end() ? Fog{} : it->get<Fog>();
+}
+
 template <class T>
 void put(json& j, const char* key, const T& value) {
   j[key] = value;
@@ -112,6 +118,12 @@ void patchMembers(Tag<ShadowsPatch>, F f) {
 }
 
 template <class F>
+void patchMembers(Tag<FogPatch>, F f) {
+  f("density", &Fog::density, &FogPatch::density);
+  f("color", &Fog::color, &FogPatch::color);
+}
+
+template <class F>
 void patchMembers(Tag<SettingsPatch>, F f) {
   f("sun", &Settings::sun, &SettingsPatch::sun);
   f("suns", &Settings::suns, &SettingsPatch::suns);
@@ -124,6 +136,7 @@ void patchMembers(Tag<SettingsPatch>, F f) {
   f("background", &Settings::background, &SettingsPatch::background);
   f("environment", &Settings::environment, &SettingsPatch::environment);
   f("shadows", &Settings::shadows, &SettingsPatch::shadows);
+  f("fog", &Settings::fog, &SettingsPatch::fog);
 }
 
 template <class F>
@@ -179,6 +192,8 @@ template <class F> void members(Tag<Environment>, F f) {
 template <class F> void members(Tag<EnvironmentPatch>, F f) { patchedMembers<EnvironmentPatch>(f); }
 template <class F> void members(Tag<Shadows>, F f) { wholeMembers<ShadowsPatch>(f); }
 template <class F> void members(Tag<ShadowsPatch>, F f) { patchedMembers<ShadowsPatch>(f); }
+template <class F> void members(Tag<Fog>, F f) { wholeMembers<FogPatch>(f); }
+template <class F> void members(Tag<FogPatch>, F f) { patchedMembers<FogPatch>(f); }
 template <class F> void members(Tag<Settings>, F f) { wholeMembers<SettingsPatch>(f); }
 template <class F> void members(Tag<SettingsPatch>, F f) { patchedMembers<SettingsPatch>(f); }
 template <class F> void members(Tag<MaterialPatch>, F f) { patchedMembers<MaterialPatch>(f); }
@@ -733,6 +748,8 @@ MYRIAD_MEMBERWISE_JSON(Environment)
 MYRIAD_MEMBERWISE_JSON(EnvironmentPatch)
 MYRIAD_MEMBERWISE_JSON(Shadows)
 MYRIAD_MEMBERWISE_JSON(ShadowsPatch)
+MYRIAD_MEMBERWISE_JSON(Fog)
+MYRIAD_MEMBERWISE_JSON(FogPatch)
 MYRIAD_MEMBERWISE_JSON(Settings)
 MYRIAD_MEMBERWISE_JSON(SettingsPatch)
 MYRIAD_MEMBERWISE_JSON(MaterialTexture)

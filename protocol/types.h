@@ -90,6 +90,18 @@ struct ShadowsPatch {
   std::optional<std::string> local;
 };
 
+// Distance fog (aerial perspective): a surface d metres away keeps exp(-density * d) of its light
+// and takes the rest from the fog's colour. Optional in a body (a snapshot from before fog): off.
+struct Fog {
+  double density = 0;          // per metre, 0 to 10 (defs.schema.json fogDensity); 0: off
+  Color color{0.5, 0.6, 0.7};  // linear RGB (render::FogSettings' default)
+};
+
+struct FogPatch {
+  std::optional<double> density;
+  std::optional<Color> color;
+};
+
 struct Settings {
   Sun sun;
   std::vector<Sun> suns;  // more directional lights (a model's), at most kMaxExtraSuns
@@ -104,6 +116,7 @@ struct Settings {
   Color background{};
   Environment environment;
   Shadows shadows;
+  Fog fog;
 };
 
 inline constexpr size_t kMaxExtraSuns = 3;
@@ -120,6 +133,7 @@ struct SettingsPatch {
   std::optional<Color> background;
   std::optional<EnvironmentPatch> environment;
   std::optional<ShadowsPatch> shadows;
+  std::optional<FogPatch> fog;
 };
 Settings applied(Settings settings, const SettingsPatch& patch);
 
@@ -701,6 +715,8 @@ MYRIAD_PROTOCOL_JSON(Environment);
 MYRIAD_PROTOCOL_JSON(EnvironmentPatch);
 MYRIAD_PROTOCOL_JSON(Shadows);
 MYRIAD_PROTOCOL_JSON(ShadowsPatch);
+MYRIAD_PROTOCOL_JSON(Fog);
+MYRIAD_PROTOCOL_JSON(FogPatch);
 MYRIAD_PROTOCOL_JSON(Settings);
 MYRIAD_PROTOCOL_JSON(SettingsPatch);
 MYRIAD_PROTOCOL_JSON(MaterialTexture);

@@ -376,6 +376,9 @@ MYRIAD_STRUCT(FrameUniforms) {
   // candidates a pixel draws (tuning), z MYRIAD_STOCHASTIC_* bits (0: off), w the shadow ray's
   // offset off the surface (float bits, world units).
   uvec4 stochastic;
+  // Distance fog (settings fog; render/frame_passes/fog.cpp): rgb the fog's colour (linear), w
+  // its density per metre (0: off, and no pass reads it).
+  vec4 fog;
 };
 #define MYRIAD_STOCHASTIC_ON 1u
 #define MYRIAD_STOCHASTIC_TRACE_SUN 2u  // the sun casts shadows: traced too (no map is drawn)

@@ -217,7 +217,7 @@ TEST_CASE("messages: whole sentences that name the member, escaped pointers, sho
   CHECK(error->pointer == "/a~1b~0c");  // RFC 6901 escaping
   CHECK(error->message ==
         "\"a~1b~0c\" is not a member of the body; its members are ambient, animate, antialias, "
-        "background, environment, exposure, markers, shadows, sun, suns, technique.");
+        "background, environment, exposure, fog, markers, shadows, sun, suns, technique.");
 
   error = protocol::validate("camera", json::array());
   REQUIRE(error);

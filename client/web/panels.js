@@ -286,7 +286,7 @@ export class MaterialPanel {
 }
 
 // Settings: sun (as azimuth and elevation of the direction towards the sun), its colour and
-// intensity, ambient, exposure, markers, technique, animation, and the environment light.
+// intensity, ambient, exposure, fog, markers, technique, animation, and the environment light.
 export class SettingsPanel {
   constructor(api, {onProblem, onChange}) {
     this.api = api;
@@ -308,7 +308,8 @@ export class SettingsPanel {
     };
     // A slider or colour released: its still at once (PatchSender.end).
     for (const id of ['sun-azimuth', 'sun-elevation', 'sun-color', 'sun-intensity', 'ambient-color',
-                      'ambient-strength', 'exposure', 'env-intensity', 'env-rotation']) {
+                      'ambient-strength', 'exposure', 'fog-density', 'fog-color', 'env-intensity',
+                      'env-rotation']) {
       $(id).addEventListener('change', () => this.sender.end());
     }
     $('sun-azimuth').addEventListener('input', () => this.edit({sun: {direction: sunDirection()}}));
@@ -326,6 +327,10 @@ export class SettingsPanel {
     $('ambient-strength').addEventListener('input', () => this.edit({ambient: ambient()}));
     $('exposure').addEventListener('input', (e) =>
         this.edit({exposure: round(2 ** Number(e.target.value))}));
+    $('fog-density').addEventListener('input', (e) =>
+        this.edit({fog: {density: Number(e.target.value)}}));
+    $('fog-color').addEventListener('input', (e) =>
+        this.edit({fog: {color: hexToLinear(e.target.value)}}));
     $('markers').addEventListener('change', (e) => this.edit({markers: e.target.checked}));
     $('sun-shadows').addEventListener('change', (e) => this.edit({shadows: {sun: e.target.checked}}));
     $('shadow-map-size').addEventListener('change', (e) =>
@@ -430,6 +435,11 @@ export class SettingsPanel {
     $('ambient-strength').max = Math.max(1, ambient.strength);
     $('ambient-strength').value = ambient.strength;
     $('exposure').value = Math.log2(s.exposure);
+    if (s.fog) {
+      $('fog-density').max = Math.max(0.2, s.fog.density);
+      $('fog-density').value = s.fog.density;
+      $('fog-color').value = linearToHex(s.fog.color.map((c) => Math.min(c, 1)));
+    }
     $('markers').checked = s.markers;
     $('sun-shadows').checked = s.shadows?.sun === true;
     $('sun-shadows').disabled = !s.shadows;

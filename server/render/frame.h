@@ -23,6 +23,15 @@
 
 namespace myriad::render {
 
+// Distance fog (aerial perspective; settings "fog", render/frame_passes/fog.cpp): on the lit
+// picture, before tonemapping, a surface `d` metres from the camera keeps exp(-density * d) of its
+// radiance and takes the rest from `color`; where no surface is the picture is left as it was.
+struct FogSettings {
+  float density = 0.0f;  // per metre, 0 to kMaxFogDensity; 0: off (no pass runs)
+  glm::vec3 color{0.5f, 0.6f, 0.7f};  // linear radiance, a hazy sky's
+};
+inline constexpr float kMaxFogDensity = 10.0f;  // defs.schema.json fogDensity's maximum
+
 // What a scene is shown with, kept between frames: a session's settings (GET/PATCH .../settings)
 // are exactly this, and every frame starts from it. Scene-wide lighting comes with the frame, not
 // the scene upload, so a settings change needs no upload. The lighting defaults are
@@ -39,6 +48,7 @@ struct SceneSettings {
   bool animate = false;  // lights move (on the GPU) with the animation clock
   EnvironmentSettings environment;  // with mode None, `ambient` lights the scene; else not
   ShadowSettings shadows;
+  FogSettings fog;
 
   // Sets sun, ambient and background to `scene`'s (what the scene was authored with).
   SceneSettings& takeLightingFrom(const scene::Scene& scene) {

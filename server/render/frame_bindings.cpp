@@ -216,6 +216,7 @@ void Renderer::State::writeUniforms(FrameSlot& slot, const FrameSettings& s,
       u.lightShadow[i] = lightShadows.shadows[i];
     }
   }
+  u.fog = glm::vec4(s.fog.color, s.fog.density);
   technique.writeUniforms(u);
   stochastic.writeUniforms(u, s, scene);
   slot.shadingFeatures = shadingFeatures(u, scene);

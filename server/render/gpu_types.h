@@ -20,7 +20,8 @@ static_assert(sizeof(gpu_types::vec4) == 16 && sizeof(gpu_types::mat4) == 64);
 static_assert(sizeof(gpu_types::GpuLightShadow) == 64 + 3 * 16);
 static_assert(sizeof(FrameUniforms) == 4 * 64 + 16 * 16 + 2 * MYRIAD_MAX_EXTRA_SUNS * 16 + 64 + 16 +
                                            16 + MYRIAD_MAX_SHADOWED_LIGHTS / 4 * 16 +
-                                           MYRIAD_MAX_SHADOWED_LIGHTS * (64 + 3 * 16) + 16);
+                                           MYRIAD_MAX_SHADOWED_LIGHTS * (64 + 3 * 16) + 16 + 16);
+static_assert(offsetof(FrameUniforms, fog) == sizeof(FrameUniforms) - 16);
 static_assert(MYRIAD_MAX_SHADOWED_LIGHTS % 4 == 0);
 static_assert(MYRIAD_MAX_SHADOWED_LIGHTS == kMaxShadowedLights);
 static_assert(MYRIAD_SHADOWED_LIGHTS_DEFAULT == kDefaultShadowedLights);

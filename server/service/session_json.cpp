@@ -74,6 +74,8 @@ protocol::Settings toWire(const render::SceneSettings& s) {
   out.shadows.mapSize = s.shadows.mapSize;
   out.shadows.maxShadowedLights = s.shadows.maxShadowedLights;
   out.shadows.local = std::string(render::localShadowsName(s.shadows.local));
+  out.fog.density = wire(s.fog.density);
+  out.fog.color = toWire(s.fog.color);
   return out;
 }
 

@@ -327,6 +327,18 @@ const render::SceneSettings& SessionScene::patchSettings(const protocol::Setting
     }
     if (patch.shadows->local) s.shadows.local = localShadowsFromWire(*patch.shadows->local);
   }
+  if (patch.fog) {
+    if (patch.fog->density) {
+      // The schema bounds it; checked again for a caller that skipped it (a NaN would fog every
+      // surface to NaN).
+      const double density = *patch.fog->density;
+      if (!(density >= 0.0 && density <= render::kMaxFogDensity)) {
+        throw ProblemError(invalidBody("/fog/density", "\"density\" must be from 0 to 10 (per metre)."));
+      }
+      s.fog.density = float(density);
+    }
+    if (patch.fog->color) s.fog.color = fromWire(*patch.fog->color);
+  }
   if (s.animate && !settings_.animate) animationStart_ = now;
   if (patch.environment && patch.environment->mode) environmentChosen_ = true;
   settings_ = s;
@@ -535,6 +547,8 @@ SessionScene::Restored SessionScene::restore(const protocol::Snapshot& snapshot,
       snapshot.settings.shadows.sun, snapshot.settings.shadows.mapSize,
       snapshot.settings.shadows.maxShadowedLights.value_or(render::kDefaultShadowedLights),
       snapshot.settings.shadows.local.value_or(std::string(protocol::local_shadow_modes::kMaps))};
+  // A snapshot from before fog reads as fog off (protocol::Fog's default).
+  settings.fog = protocol::FogPatch{snapshot.settings.fog.density, snapshot.settings.fog.color};
   try {
     next.patchSettings(settings, now);
   } catch (const ProblemError& e) {
