@@ -1569,3 +1569,63 @@ TEST_CASE("api: lights ask for shadows; maxShadowedLights is bounded; stats name
   CHECK(myriad::test::validationMessages(api) == 0);
   checkStopsCleanly(server);
 }
+
+TEST_CASE("api: fog is off by default, PATCHed member by member, checked, kept by snapshots and timed") {
+  ServerProcess server({"--lights", "0"});
+  requireListening(server);
+  ApiClient api(server);
+  TestSession s = createSession(api);
+  const std::string settings = s.path() + "/settings";
+  Reply current = api.get(settings, s.token);
+  REQUIRE(current.status == 200);
+  CHECK(current.json["fog"]["density"] == 0);
+  CHECK(current.json["fog"]["color"] == json::array({0.5, 0.6, 0.7}));
+
+  Reply patched = api.patch(settings, R"({"fog": {"density": 0.02, "color": [0.25, 0.5, 1]}})", s.token);
+  REQUIRE(patched.status == 200);
+  CHECK(patched.json["fog"]["density"] == 0.02);
+  CHECK(patched.json["fog"]["color"] == json::array({0.25, 0.5, 1.0}));
+  // One member keeps the other.
+  patched = api.patch(settings, R"({"fog": {"density": 0.5}})", s.token);
+  REQUIRE(patched.status == 200);
+  CHECK(patched.json["fog"]["density"] == 0.5);
+  CHECK(patched.json["fog"]["color"] == json::array({0.25, 0.5, 1.0}));
+  CHECK(api.get(settings, s.token).json["fog"] == patched.json["fog"]);
+
+  // Out of [0, 10], or not a number: a 400 naming the member, the settings unchanged. A bare NaN
+  // is not JSON at all (refused while parsing, before any member is looked at).
+  for (const char* bad : {R"({"fog": {"density": -0.01}})", R"({"fog": {"density": 11}})",
+                          R"({"fog": {"density": "NaN"}})", R"({"fog": {"density": null}})"}) {
+    checkProblem(api.patch(settings, bad, s.token), 400, "invalid-body", bad, std::string("/fog/density"));
+  }
+  checkProblem(api.patch(settings, R"({"fog": {"density": NaN}})", s.token), 400, "invalid-body",
+               "NaN", std::string(""));
+  checkProblem(api.patch(settings, R"({"fog": {"color": [0.5, -1, 0.5]}})", s.token), 400,
+               "invalid-body", "negative colour", std::string("/fog/color/1"));
+  CHECK(api.get(settings, s.token).json["fog"] == patched.json["fog"]);
+
+  // A frame with fog runs the pass (Server-Timing names it); without, it does not.
+  const std::string frame = s.path() + "/frame?width=64&height=48&format=png";
+  Reply foggy = api.get(frame, s.token);
+  REQUIRE(foggy.status == 200);
+  CHECK(foggy.header("Server-Timing").find("fog;") != std::string::npos);
+
+  // Snapshots keep it; one without it (from before fog) restores it off.
+  Reply snapshot = api.get(s.path() + "/snapshot", s.token);
+  REQUIRE(snapshot.status == 200);
+  CHECK(snapshot.json["settings"]["fog"] == patched.json["fog"]);
+  TestSession copy = createSession(api);
+  REQUIRE(api.put(copy.path() + "/snapshot", snapshot.body, copy.token).status == 200);
+  CHECK(api.get(copy.path() + "/settings", copy.token).json["fog"] == patched.json["fog"]);
+  json old = snapshot.json;
+  old["settings"].erase("fog");
+  REQUIRE(api.put(copy.path() + "/snapshot", old.dump(), copy.token).status == 200);
+  CHECK(api.get(copy.path() + "/settings", copy.token).json["fog"]["density"] == 0);
+
+  REQUIRE(api.patch(settings, R"({"fog": {"density": 0}})", s.token).status == 200);
+  Reply clear = api.get(frame, s.token);
+  REQUIRE(clear.status == 200);
+  CHECK(clear.header("Server-Timing").find("fog;") == std::string::npos);
+  CHECK(myriad::test::validationMessages(api) == 0);
+  checkStopsCleanly(server);
+}
