@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cstdio>
+#include <optional>
 #include <vector>
 
 #include "service/problem.h"
@@ -67,7 +68,9 @@ uint64_t LeaseKeeper::acquire(std::string_view id, bool fresh) {
   // lease time away) or waits for a dead owner's lease to lapse: at most the lease time.
   const auto handoverDeadline =
       std::chrono::steady_clock::now() + ttl_ + std::chrono::milliseconds(100);
-  for (int attempt = 0;; ++attempt) {
+  // Another node's lease as first seen here: when it runs out (a live owner's moves later).
+  std::optional<std::chrono::steady_clock::time_point> othersExpiry;
+  for (;;) {
     const auto sent = std::chrono::steady_clock::now();
     LeaseGrant grant;
     try {
@@ -93,11 +96,18 @@ uint64_t LeaseKeeper::acquire(std::string_view id, bool fresh) {
       std::this_thread::sleep_for(std::chrono::milliseconds(25));
       continue;
     }
-    // Another node's lease: a crashed owner's runs out within the lease time; wait for that once.
-    const auto left = std::chrono::milliseconds(grant.lease.expiresInMs);
-    if (attempt == 0 && !fresh && left <= ttl_) {
-      std::this_thread::sleep_for(std::max(left, std::chrono::milliseconds(0)) +
-                                  std::chrono::milliseconds(20));
+    // Another node's lease: a crashed owner's runs out within the lease time; wait for that,
+    // looking again every quarter of the lease time. A lease that moved later was renewed: its
+    // owner is alive (a hung node continued, say), and the request is answered 409 naming it at
+    // once rather than after a whole lease time (as is every request queued behind this one).
+    const auto now = std::chrono::steady_clock::now();
+    const auto left = std::chrono::milliseconds(std::max<int64_t>(grant.lease.expiresInMs, 0));
+    if (!othersExpiry) othersExpiry = now + left;
+    const bool renewed = now + left > *othersExpiry + std::chrono::milliseconds(50);
+    if (!fresh && !renewed && left <= ttl_ &&
+        now < *othersExpiry + std::chrono::milliseconds(200)) {
+      std::this_thread::sleep_for(std::min(left + std::chrono::milliseconds(20),
+                                           std::max(ttl_ / 4, std::chrono::milliseconds(20))));
       continue;
     }
     ++refused_;
