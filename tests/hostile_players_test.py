@@ -290,8 +290,11 @@ def main():
                   f"encode queue depth {after.get('myriad_encode_queue_depth')} at rest")
             check(after.get("myriad_encode_seconds_count", 0) > base.get(
                 "myriad_encode_seconds_count", 0), "myriad_encode_seconds counted no encode")
-        check(rate >= 0.7 * baseline_rate,
-              f"100 dropped: the watcher got {rate:.1f} pictures/s, below 70% of "
+        # Half, not 70% as for the slow readers: 100 stream set-ups in a second share the two
+        # cores of the CI machine with the watcher's encodes (seen: 6.3 to 9.6 of 10 a second
+        # over six runs; 70% failed one run in five).
+        check(rate >= 0.5 * baseline_rate,
+              f"100 dropped: the watcher got {rate:.1f} pictures/s, below half of "
               f"{baseline_rate:.1f}")
 
         # Threads and memory.
