@@ -39,14 +39,8 @@ import yaml  # python3-yaml
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import k8s_sources  # noqa: E402
 
-failures = []
-
-
-def check(condition, message):
-    if not condition:
-        failures.append(message)
-        print("FAIL: " + message, flush=True)
-    return condition
+sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+from server_script import check, failures  # noqa: E402
 
 
 class StrictLoader(yaml.SafeLoader):
