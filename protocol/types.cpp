@@ -9,33 +9,10 @@ namespace {
 
 using nlohmann::json;
 
-// Readers and writers for one member; `get` is only called on validated JSON (see types.h).
-// An optional member is left out when absent, in both directions.
-template <class T>
-void get(const json& j, const char* key, T& out) {
-  j.at(key).get_to(out);
-}
-
-template <class T>
-void get(const json& j, const char* key, std::optional<T>& out) {
-  auto it = j.find(key);
-  if (it == j.end()) {
-    out.reset();
-  } else {
-    out = it->template get<T>();
-  }
-}
-
-// A list the schema lets a client leave out (settings' suns): absent reads as empty.
-template <class T>
-void get(const json& j, const char* key, std::vector<T>& out) {
-  auto it = j.find(key);
-  if (it == j.end()) {
-    out.clear();
-  } else {
-    it->get_to(out);
-  }
-}
+// Readers and writers for one member (protocol/members.h); `get` is only called on validated
+// JSON (see types.h). An optional member is left out when absent, in both directions.
+using members_json::get;
+using members_json::put;
 
 // Settings' environment may be absent from a body (a snapshot saved before environments
 // existed): it then reads as the default, mode none, which is how that snapshot looked.
@@ -56,16 +33,6 @@ void get(const json& j, const char* key, Fog& out) {
   out = it == j.end() ? Fog{} : it->get<Fog>();
 }
 
-template <class T>
-void put(json& j, const char* key, const T& value) {
-  j[key] = value;
-}
-
-template <class T>
-void put(json& j, const char* key, const std::optional<T>& value) {
-  if (value) j[key] = *value;
-}
-
 // A member that is null when absent (stats' frame and culling) rather than left out.
 template <class T>
 json orNull(const std::optional<T>& value) {
@@ -75,9 +42,6 @@ json orNull(const std::optional<T>& value) {
 // Each type names its members once, in a members() overload: f(JSON name, member pointer) for
 // each. A patch type names them in patchMembers(): f(JSON name, member of the whole type, the
 // patch's optional member), which gives its members() and applied() both.
-template <class T>
-struct Tag {};
-
 template <class F>
 void members(Tag<Bounds>, F f) {
   f("min", &Bounds::min);

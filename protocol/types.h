@@ -5,6 +5,8 @@
 // from_json assumes the JSON already passed its schema (validate.h): call it only after validate()
 // or on bodies the server itself wrote. Optional members that are absent stay std::nullopt, and
 // to_json leaves out what is nullopt, so a body survives the trip JSON -> struct -> JSON unchanged.
+// A type names its members once: a new one beside its struct here (a members() overload and
+// MYRIAD_PROTOCOL_MEMBERWISE, protocol/members.h), the older ones in types.cpp.
 #pragma once
 
 #include <array>
@@ -16,6 +18,7 @@
 #include <nlohmann/json.hpp>
 
 #include "protocol/constants.h"
+#include "protocol/members.h"
 
 namespace myriad::protocol {
 

@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <filesystem>
 #include <fstream>
 #include <functional>
 #include <map>
@@ -36,8 +37,16 @@ std::string readFile(const std::string& path) {
   return text.str();
 }
 
+// A body's example: protocol/examples/NAME.json, or (newer schemas) the schema's own first
+// `examples` item; one of the two, never both.
 json example(std::string_view name) {
-  return json::parse(readFile(std::string(MYRIAD_PROTOCOL_DIR) + "/examples/" + std::string(name) + ".json"));
+  const std::string path = std::string(MYRIAD_PROTOCOL_DIR) + "/examples/" + std::string(name) + ".json";
+  const json& inSchema = protocol::schema(name);
+  const bool inline_ = inSchema.contains("examples");
+  const bool file = std::filesystem::exists(path);
+  REQUIRE_MESSAGE(inline_ != file, name << ": an example in protocol/examples/ or in the schema's "
+                                           "\"examples\", exactly one of them");
+  return file ? json::parse(readFile(path)) : inSchema["examples"].at(0);
 }
 
 // JSON -> the schema's C++ type -> JSON.

@@ -54,6 +54,8 @@ struct RequestScope {
   std::optional<uint64_t> seenVersion;
   // The session the operation's access authorized (requestSession()); null on other routes.
   SessionPtr session;
+  // The route's entry of protocol/operations.cpp (jsonBody(req) reads its body schema).
+  const protocol::Operation* operation = nullptr;
 };
 thread_local RequestScope* tRequest = nullptr;
 
@@ -225,6 +227,17 @@ void sendJson(httplib::Response& res, const nlohmann::json& body, int status) {
 Routes::Routes(httplib::Server& server, ApiContext& context)
     : server_(server), context_(context) {}
 
+void Routes::add(std::string_view operationId, Handler handler, RouteOptions options) {
+  for (const protocol::Operation& operation : protocol::operations()) {
+    if (operation.id == operationId) {
+      add(operation.method, operation.route, std::move(handler), options);
+      return;
+    }
+  }
+  throw std::logic_error("Routes::add: protocol/operations.cpp has no operation " +
+                         std::string(operationId));
+}
+
 void Routes::add(std::string_view method, std::string_view routeTemplate, Handler handler,
                  RouteOptions options) {
   if (options.maxBodyBytes == 0) options.maxBodyBytes = context_.config.limits.maxBodyBytes;
@@ -256,7 +269,7 @@ void Routes::add(std::string_view method, std::string_view routeTemplate, Handle
   // Everything but reading the body: the in-flight limit, the operation's access and query
   // parameters, the form refusal, problems. Called with the body already read (and bounded) by
   // the caller.
-  auto serve = [this, handler = std::move(handler), options, access,
+  auto serve = [this, handler = std::move(handler), options, access, operation,
                 checksQuery = operation != nullptr && !operation->anyQuery, queryNames = std::move(queryNames)](
                    const httplib::Request& req, httplib::Response& res, const auto& readBody) {
     struct InFlight {
@@ -280,7 +293,8 @@ void Routes::add(std::string_view method, std::string_view routeTemplate, Handle
     RequestScope scope{.res = res,
                        .edits = req.method != "GET" && req.method != "HEAD",
                        .ifMatch = std::nullopt,
-                       .seenVersion = std::nullopt};
+                       .seenVersion = std::nullopt,
+                       .operation = operation};
     const std::string ifMatch(protocol::headers::kIfMatch);
     if (req.has_header(ifMatch)) scope.ifMatch = req.get_header_value(ifMatch);
     struct Scoped {
@@ -597,6 +611,21 @@ nlohmann::json jsonBody(const httplib::Request& req, std::string_view schemaName
   protocol::ParsedBody parsed = protocol::parseBody(schemaName, text);
   if (!parsed.ok()) throw ProblemError(invalidBody(parsed.error->pointer, parsed.error->message));
   return std::move(parsed.json);
+}
+
+nlohmann::json jsonBody(const httplib::Request& req) {
+  const protocol::Operation* operation = tRequest != nullptr ? tRequest->operation : nullptr;
+  if (operation != nullptr) {
+    for (const protocol::Content& content : operation->body) {
+      if (content.mediaType == protocol::kJsonContentType && !content.schema.empty()) {
+        // An operation whose body is optional reads no body as an empty object.
+        return jsonBody(req, content.schema,
+                        operation->bodyRequired ? std::nullopt
+                                                : std::optional<std::string_view>("{}"));
+      }
+    }
+  }
+  throw std::logic_error("jsonBody(req) on a route whose operation takes no JSON body");
 }
 
 SessionPtr requestSession() {

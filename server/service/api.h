@@ -139,6 +139,10 @@ class Routes {
   // in metrics; pass a protocol::routes constant.
   void add(std::string_view method, std::string_view routeTemplate, Handler handler,
            RouteOptions options = {});
+  // The same for the operation of protocol/operations.cpp with this operationId: its method and
+  // template come from the table, so a route only the table names needs no routes:: constant.
+  // Throws std::logic_error for an id the table lacks (a bug, found at start-up).
+  void add(std::string_view operationId, Handler handler, RouteOptions options = {});
 
   // For the pre-routing handler: answers 404 (no route has this path), 405 with Allow, OPTIONS
   // preflights (with CORS) and 413 on a Content-Length over the route's limit. True when it
@@ -230,6 +234,10 @@ Credentials credentialsOf(const httplib::Request& req);
 // given (POST /v1/sessions takes "{}"), else refused.
 nlohmann::json jsonBody(const httplib::Request& req, std::string_view schemaName,
                         std::optional<std::string_view> emptyBody = std::nullopt);
+// The same against the schema the route's operation names for its JSON body (the table's, so the
+// handler does not repeat it); no body is "{}" when the operation's body is optional. Throws
+// std::logic_error on an operation without a JSON body.
+nlohmann::json jsonBody(const httplib::Request& req);
 
 // The session the route table authorized for the request being served: Routes::add applies each
 // operation's access (protocol/operations.cpp) and query parameters before its handler runs, so

@@ -187,13 +187,14 @@ class SceneGraph {
     glm::mat4 transform{1.0f};
   };
   std::vector<PlacedMesh> placedMeshes(uint32_t id) const;
+  // Object `id` and the objects below it, parents first (from the children index: O(subtree)).
+  std::vector<uint32_t> subtree(uint32_t id) const;
 
  private:
   // Checks one object against the graph plus `pending` (objects being added), for addObjects,
   // replaceObject and restoreObjects; `pointer` is where its problems point.
   void check(const SceneObject& object, uint32_t materials,
              const std::map<uint32_t, SceneObject>& pending, const std::string& pointer) const;
-  std::vector<uint32_t> subtree(uint32_t id) const;  // id and its descendants, parents first
   // The instances of `asset` at or below node `node` (ascending) and the inverse of the node's
   // rest world transform (Placement).
   static std::pair<std::vector<uint32_t>, glm::mat4> nodeSubtree(const scene::Scene& asset,

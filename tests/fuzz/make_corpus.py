@@ -54,6 +54,14 @@ def json_bodies(out):
         if example.stem in SCHEMAS:
             write(d, "example-" + example.name, bytes([SCHEMAS.index(example.stem)]) + example.read_bytes())
             count += 1
+    # Newer schemas carry their example inline ("examples").
+    for schema in sorted((ROOT / "protocol" / "schemas").glob("*.schema.json")):
+        name = schema.name[:-len(".schema.json")]
+        for i, body in enumerate(json.loads(schema.read_text()).get("examples", [])):
+            if name in SCHEMAS:
+                data = json.dumps(body, separators=(",", ":")).encode()
+                write(d, "example-%s-%d.json" % (name, i), bytes([SCHEMAS.index(name)]) + data)
+                count += 1
     cases = json.loads((ROOT / "tests" / "protocol" / "cases.json").read_text())
     for i, case in enumerate(cases):
         if case["schema"] in SCHEMAS:

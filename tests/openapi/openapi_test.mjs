@@ -194,6 +194,15 @@ async function main() {
       const example = JSON.parse(fs.readFileSync(path.join(examplesDir, file), 'utf8'));
       check(validate(example), `examples/${file} fails components/schemas/${name}: ${ajv.errorsText(validate.errors)}`);
     }
+    // Newer schemas carry their examples inline: each passes its component schema too.
+    let inlineExamples = 0;
+    for (const [name, schema] of Object.entries(schemas)) {
+      const validate = ajv.getSchema(`urn:myriad:${name}`);
+      for (const example of schema.examples ?? []) {
+        inlineExamples++;
+        check(validate(example), `components/schemas/${name} "examples" fails it: ${ajv.errorsText(validate.errors)}`);
+      }
+    }
     const schemaFiles = fs.readdirSync(path.join(protocolDir, 'schemas')).map((f) => f.replace(/\.schema\.json$/, ''));
     const missing = schemaFiles.filter((n) => n !== 'defs' && !(n in schemas));
     check(missing.length === 0, `schemas missing from the components: ${missing.join(', ')}`);
@@ -221,7 +230,7 @@ async function main() {
     await probeRoutes(server.url, doc);
 
     console.log(`openapi: ${documented.length} operations on ${Object.keys(doc.paths).length} paths, ` +
-                `${Object.keys(schemas).length} component schemas, ${examples.length} examples, ` +
+                `${Object.keys(schemas).length} component schemas, ${examples.length + inlineExamples} examples, ` +
                 `${reference.length} reference endpoints`);
   } finally {
     const status = await server.stop();
