@@ -577,6 +577,22 @@ std::vector<Operation> buildOperations() {
                  .responses = {noContent("Removed.")},
                  .problems = kSessionProblems});
 
+  ops.push_back({.method = "POST",
+                 .route = "/v1/sessions/{id}/objects/{oid}/duplicate",
+                 .id = "duplicateObject",
+                 .tag = "Scene",
+                 .summary = "Copy an object (and the objects below it) as new objects, with "
+                            "another name, transform or parent if asked",
+                 .access = Access::Session,
+                 .body = {{kJsonContentType, "object-duplicate"}},
+                 .bodyRequired = false,
+                 .responses = {{201,
+                                "The copies' ids, the copy of the object first, then the copies "
+                                "of the objects below it (parents first); the object count now.",
+                                {{kJsonContentType, n::kObjectsAdded}},
+                                {}}},
+                 .problems = kSessionBodyProblems});
+
   ops.push_back({.method = "GET",
                  .route = routes::kSessionClock,
                  .id = "getClock",

@@ -115,7 +115,7 @@ std::vector<std::string_view> bodySchemas() {
 }  // namespace
 
 TEST_CASE("every schema is embedded as it is on disk and accepts its example") {
-  CHECK(bodySchemas().size() == 40);
+  CHECK(bodySchemas().size() == 41);
   for (std::string_view name : protocol::schemaNames()) {
     CAPTURE(name);
     std::string path = std::string(MYRIAD_PROTOCOL_DIR) + "/schemas/" + std::string(name) + ".schema.json";
@@ -130,9 +130,45 @@ TEST_CASE("every schema is embedded as it is on disk and accepts its example") {
   }
 }
 
+// Bodies only one server handler reads, declared in its file with protocol/members.h (their
+// members are exercised through the route by the API tests): POST .../objects/{oid}/duplicate.
+const std::set<std::string_view> kHandlerBodies = {"object-duplicate"};
+
+// A body declared as a handler file declares one (members.h), round-tripping the example it
+// mirrors: absent members stay absent, null stays null, nested types convert by their own lists.
+struct HandlerBody {
+  std::optional<std::string> name;
+  std::optional<protocol::Transform> transform;
+  std::optional<protocol::Nullable<uint64_t>> parent;
+  std::optional<bool> children;
+};
+template <class F>
+void members(protocol::Tag<HandlerBody>, F f) {
+  f("name", &HandlerBody::name);
+  f("transform", &HandlerBody::transform);
+  f("parent", &HandlerBody::parent);
+  f("children", &HandlerBody::children);
+}
+MYRIAD_PROTOCOL_MEMBERWISE(HandlerBody)
+
+TEST_CASE("a body declared with protocol/members.h survives JSON -> C++ type -> JSON") {
+  const json full = example("object-duplicate");
+  CHECK(full["parent"].is_null());
+  CHECK(json(full.get<HandlerBody>()) == full);
+  const json some = json::parse(R"({"transform": {"translation": [2, 0, 0]}, "parent": 7})");
+  const HandlerBody body = some.get<HandlerBody>();
+  CHECK_FALSE(body.name);
+  CHECK_FALSE(body.children);
+  REQUIRE(body.parent);
+  CHECK(body.parent->value == 7u);
+  CHECK(json(body) == some);
+  CHECK(json(json::object().get<HandlerBody>()) == json::object());
+}
+
 TEST_CASE("every example survives JSON -> C++ type -> JSON unchanged") {
   for (std::string_view name : bodySchemas()) {
     CAPTURE(name);
+    if (kHandlerBodies.contains(name)) continue;
     auto roundTrip = kRoundTrips.find(name);
     REQUIRE_MESSAGE(roundTrip != kRoundTrips.end(), "no C++ type for schema " << name);
     json original = example(name);

@@ -493,3 +493,94 @@ TEST_CASE("scene: semantic classes by name map to stable ids in labels, targets 
   CHECK(api.get(s.path() + "/snapshot", s.token).json == snapshot.json);
   CHECK(myriad::test::validationMessages(api) == 0);
 }
+
+TEST_CASE("scene: POST .../objects/{oid}/duplicate copies an object and the objects below it") {
+  ServerProcess server({"--lights", "4"});
+  requireListening(server);
+  ApiClient api(server);
+  TestSession s = createSession(api);
+  REQUIRE(api.put(s.path() + "/model?filename=tree.gltf", parentChildModel(), s.token,
+                  "application/octet-stream")
+              .status == 200);
+  plainScene(api, s);
+  // Objects 2 ("body", at (-1, 1, 0)) and 3 ("arm", its child, 2 units to its right).
+  const std::vector<uint32_t> before = rawIds(api, s, "instance-id");
+  const auto [bodyColumn, bodyPixels] = columnOf(before, 2);
+  const auto [armColumn, armPixels] = columnOf(before, 3);
+  REQUIRE(bodyPixels > 50);
+  REQUIRE(armPixels > 50);
+
+  // The body and its arm copied, the copy named and moved 1.5 units down: ids 4 (the body's
+  // copy) and 5 (the arm's, under 4), parents first.
+  Reply copied = api.post(s.path() + "/objects/2/duplicate",
+                          R"({"name": "copy", "transform": {"translation": [-1, -0.5, 0]}})", s.token);
+  INFO(copied.body.substr(0, 400));
+  REQUIRE(copied.status == 201);
+  CHECK(copied.json["ids"] == json{4, 5});
+  CHECK(copied.json["total"] == 4);
+  const json copy = api.get(s.path() + "/objects/4", s.token).json;
+  CHECK(copy["name"] == "copy");
+  CHECK(copy["parent"].is_null());
+  CHECK(copy["nodeName"] == "body");
+  CHECK(copy["transform"]["translation"] == json{-1.0, -0.5, 0.0});
+  const json armCopy = api.get(s.path() + "/objects/5", s.token).json;
+  CHECK(armCopy["parent"] == 4);
+  CHECK(armCopy["nodeName"] == "arm");
+  CHECK(armCopy["name"] == api.get(s.path() + "/objects/3", s.token).json["name"]);
+  CHECK(armCopy["transform"]["translation"] == json{2.0, 0.0, 0.0});
+  CHECK(armCopy["bounds"]["min"] == json{0.5, -1.0, 0.0});
+
+  // In the frame: the originals' pixels unchanged, the copies as many pixels, in the same
+  // columns, lower.
+  const std::vector<uint32_t> after = rawIds(api, s, "instance-id");
+  for (uint32_t id : {2u, 3u}) CHECK(columnOf(after, id) == columnOf(before, id));
+  const auto [copyColumn, copyPixels] = columnOf(after, 4);
+  const auto [armCopyColumn, armCopyPixels] = columnOf(after, 5);
+  MESSAGE("body " << bodyPixels << " px at column " << bodyColumn << ", its copy " << copyPixels
+                  << " px at " << copyColumn << "; arm " << armPixels << " at " << armColumn
+                  << ", its copy " << armCopyPixels << " at " << armCopyColumn);
+  CHECK(double(copyPixels) == doctest::Approx(double(bodyPixels)).epsilon(0.15));
+  CHECK(double(armCopyPixels) == doctest::Approx(double(armPixels)).epsilon(0.15));
+  CHECK(std::abs(copyColumn - bodyColumn) <= 1.0);
+  CHECK(std::abs(armCopyColumn - armColumn) <= 1.0);
+  auto meanRow = [&](const std::vector<uint32_t>& ids, uint32_t id) {
+    double sum = 0.0;
+    size_t n = 0;
+    for (size_t p = 0; p < ids.size(); ++p) {
+      if (ids[p] == id) sum += double(p / kWidth), ++n;
+    }
+    return n > 0 ? sum / double(n) : -1.0;
+  };
+  // 1.5 units at 6 units away, 50 degree field of view, 96 rows: 25.7 rows lower.
+  CHECK(meanRow(after, 4) - meanRow(after, 2) == doctest::Approx(25.7).epsilon(0.1));
+
+  // children false: the object alone, under its parent; no body: a copy as it is.
+  Reply alone = api.post(s.path() + "/objects/2/duplicate", R"({"children": false, "parent": 4})", s.token);
+  REQUIRE(alone.status == 201);
+  CHECK(alone.json["ids"] == json{6});
+  CHECK(api.get(s.path() + "/objects/6", s.token).json["parent"] == 4);
+  Reply bare = api.post(s.path() + "/objects/3/duplicate", "", s.token);
+  INFO(bare.body.substr(0, 300));
+  REQUIRE(bare.status == 201);
+  CHECK(bare.json["ids"] == json{7});
+  CHECK(api.get(s.path() + "/objects/7", s.token).json["parent"] == 2);
+
+  // Refusals name what is wrong, and change nothing.
+  checkProblem(api.post(s.path() + "/objects/99/duplicate", "{}", s.token), 404, "not-found",
+               "an unknown object");
+  checkProblem(api.post(s.path() + "/objects/2/duplicate", R"({"parent": 99})", s.token), 400,
+               "invalid-body", "an unknown parent", "/parent");
+  checkProblem(api.post(s.path() + "/objects/2/duplicate", R"({"colour": 1})", s.token), 400,
+               "invalid-body", "a member the schema lacks");
+  checkProblem(api.post(s.path() + "/objects/2/duplicate",
+                        R"({"transform": {"translation": [1, 0, 0], "matrix": [1,0,0,0, 0,1,0,0, 0,0,1,0, 0,0,0,1]}})",
+                        s.token),
+               400, "invalid-body", "TRS with a matrix", "/transform");
+  CHECK(api.get(s.path() + "/objects", s.token).json["total"] == 6);
+  // Deleting the copy deletes its copied children; the originals stay.
+  REQUIRE(api.del(s.path() + "/objects/4", s.token).status == 204);
+  CHECK(api.get(s.path() + "/objects", s.token).json["total"] == 3);
+  CHECK(api.get(s.path() + "/objects/5", s.token).status == 404);
+  CHECK(api.get(s.path() + "/objects/3", s.token).status == 200);
+  CHECK(myriad::test::validationMessages(api) == 0);
+}

@@ -4,6 +4,7 @@
 // queued before the lock is released, so a frame requested after the answer shows it.
 #include <algorithm>
 #include <cmath>
+#include <map>
 
 #include "protocol/constants.h"
 #include "render/render_queue.h"
@@ -296,6 +297,85 @@ void patchObject(ApiContext& context, const httplib::Request& req, httplib::Resp
   sendJson(res, answer);
 }
 
+// POST .../objects/{oid}/duplicate's body (object-duplicate.schema.json), read only here.
+struct ObjectDuplicate {
+  std::optional<std::string> name;
+  std::optional<protocol::Transform> transform;
+  std::optional<protocol::Nullable<uint64_t>> parent;
+  std::optional<bool> children;
+};
+template <class F>
+void members(protocol::Tag<ObjectDuplicate>, F f) {
+  f("name", &ObjectDuplicate::name);
+  f("transform", &ObjectDuplicate::transform);
+  f("parent", &ObjectDuplicate::parent);
+  f("children", &ObjectDuplicate::children);
+}
+MYRIAD_PROTOCOL_MEMBERWISE(ObjectDuplicate)
+
+// Copies of the object and (children) the objects below it, parents first, each copy's parent
+// the copy of its object's parent; the first is the object's copy, with what the body changes.
+std::vector<SceneObject> copiesOf(const SceneGraph& graph, uint32_t original,
+                                  const ObjectDuplicate& body) {
+  const std::vector<uint32_t> sources =
+      body.children.value_or(true) ? graph.subtree(original) : std::vector<uint32_t>{original};
+  constexpr size_t kMostCopies = 10000;  // objects-added.schema.json's ids, as POST .../objects
+  if (sources.size() > kMostCopies) {
+    throw ProblemError(invalidBody(
+        "/children", "The object and those below it are " + std::to_string(sources.size()) +
+                         " objects; one duplicate copies at most " + std::to_string(kMostCopies) +
+                         " (children false copies the object alone)."));
+  }
+  std::map<uint32_t, uint32_t> copyOf;  // an object -> the id its copy gets
+  std::vector<SceneObject> copies;
+  copies.reserve(sources.size());
+  for (uint32_t source : sources) {
+    SceneObject copy = graph.object(source);
+    copyOf.emplace(source, graph.nextObjectId() + uint32_t(copies.size()));
+    if (source != original) copy.parent = copyOf.at(copy.parent);
+    copies.push_back(std::move(copy));
+  }
+  SceneObject& root = copies.front();
+  if (body.name) root.name = *body.name;
+  if (body.transform) root.transform = fromWire(*body.transform);
+  // Under the object itself or one below it is fine: the copy is a new object, no cycle.
+  if (body.parent) root.parent = uint32_t(body.parent->value.value_or(0));
+  return copies;
+}
+
+void duplicateObject(ApiContext& context, const httplib::Request& req, httplib::Response& res) {
+  SessionPtr session = requestSession();
+  const auto body = jsonBody(req).get<ObjectDuplicate>();
+  std::vector<uint32_t> ids;
+  std::future<void> uploaded;
+  size_t total = 0;
+  {
+    auto lock = lockOpen(*session);
+    const SceneGraph& graph = session->scene.graph();
+    std::vector<SceneObject> copies =
+        copiesOf(graph, graph.objectId(req.matches[2].str()), body);
+    std::shared_ptr<const scene::Scene> scene;
+    try {
+      scene = session->scene.addObjects(std::move(copies), &ids);
+    } catch (const ProblemError& e) {
+      // SessionScene::addObjects names /objects/N/...: the body's member for the first copy.
+      Problem problem = e.problem();
+      if (problem.pointer && problem.pointer->starts_with("/objects/0/")) {
+        problem.pointer = problem.pointer->substr(std::string_view("/objects/0").size());
+      }
+      throw ProblemError(problem);
+    }
+    uploaded = context.renderThread.replaceScene(session->sceneId, std::move(scene));
+    total = session->scene.graph().objects().size();
+    session->bump();
+  }
+  uploaded.get();
+  protocol::ObjectsAdded added;
+  added.ids.assign(ids.begin(), ids.end());
+  added.total = total;
+  sendJson(res, added, 201);
+}
+
 void deleteObject(ApiContext& context, const httplib::Request& req, httplib::Response& res) {
   SessionPtr session = requestSession();
   std::future<void> uploaded;
@@ -350,6 +430,7 @@ void addObjectRoutes(Routes& routes, ApiContext& context) {
   routes.add("GET", protocol::routes::kSessionObject, bind(getObject));
   routes.add("PATCH", protocol::routes::kSessionObject, bind(patchObject));
   routes.add("DELETE", protocol::routes::kSessionObject, bind(deleteObject));
+  routes.add("duplicateObject", bind(duplicateObject));
   routes.add("GET", protocol::routes::kSessionClock, bind(getClock));
   routes.add("PATCH", protocol::routes::kSessionClock, bind(patchClock));
 }

@@ -172,6 +172,17 @@ def test_assets_and_objects(session):
     assert session.object(ids[0])["name"] == "cube0"
     moved = session.patch_object(ids[0], transform={"translation": [0, 0.5, 0]}, visible=False)
     assert moved["visible"] is False and moved["transform"]["translation"] == [0, 0.5, 0]
+    copies = session.duplicate_object(ids[1], name="cube1 copy",
+                                      transform={"translation": [0, 2, 0]})
+    assert len(copies) == 1 and copies[0] > ids[-1]
+    copy = session.object(copies[0])
+    assert copy["name"] == "cube1 copy" and copy["asset"] == asset["id"]
+    assert copy["transform"]["translation"] == [0, 2, 0] and copy["semantic"] == 7
+    assert session.duplicate_object(copies[0]) == [copies[0] + 1]
+    with pytest.raises(myriad.MyriadError) as caught:
+        session.duplicate_object(ids[1], parent=4000000)
+    assert caught.value.status == 400 and caught.value.pointer == "/parent"
+    ids += [copies[0], copies[0] + 1]
     with pytest.raises(myriad.MyriadError) as caught:
         session.delete_asset(asset["id"])
     assert caught.value.status == 409 and caught.value.name == "conflict"

@@ -364,6 +364,15 @@ class Session:
         """Removes an object and its children."""
         self._call("DELETE", f"/objects/{object_id}", ok=(204,))
 
+    @route("POST /v1/sessions/{id}/objects/{oid}/duplicate")
+    def duplicate_object(self, object_id: int, change: Optional[Mapping[str, Any]] = None,
+                         **members: Any) -> List[int]:
+        """Copies an object, and the objects below it unless ``children=False``, changing the
+        copy's ``name``, ``transform`` or ``parent`` if given; returns the copies' ids, the
+        object's copy first."""
+        return self._json("POST", f"/objects/{object_id}/duplicate",
+                          body={**(change or {}), **members}, ok=(201,))["ids"]
+
     @route("GET /v1/sessions/{id}/clock")
     def clock(self) -> JsonObject:
         """The scene clock the objects' animation clips play on:
