@@ -125,6 +125,15 @@ Problem renumberedItem(Problem problem, const std::vector<size_t>& itemOf) {
   return problem;
 }
 
+// The 201 answer of a request that added objects (objects-added): their ids, in the order added,
+// and how many objects the session has now.
+void sendAdded(httplib::Response& res, const std::vector<uint32_t>& ids, size_t total) {
+  protocol::ObjectsAdded added;
+  added.ids.assign(ids.begin(), ids.end());
+  added.total = total;
+  sendJson(res, added, 201);
+}
+
 // ---- Assets.
 
 void listAssets(ApiContext& /*context*/, const httplib::Request& /*req*/, httplib::Response& res) {
@@ -263,10 +272,7 @@ void addObjects(ApiContext& context, const httplib::Request& req, httplib::Respo
     session->bump();
   }
   uploaded.get();
-  protocol::ObjectsAdded added;
-  added.ids.assign(ids.begin(), ids.end());
-  added.total = total;
-  sendJson(res, added, 201);
+  sendAdded(res, ids, total);
 }
 
 void getObject(ApiContext& /*context*/, const httplib::Request& req, httplib::Response& res) {
@@ -370,10 +376,7 @@ void duplicateObject(ApiContext& context, const httplib::Request& req, httplib::
     session->bump();
   }
   uploaded.get();
-  protocol::ObjectsAdded added;
-  added.ids.assign(ids.begin(), ids.end());
-  added.total = total;
-  sendJson(res, added, 201);
+  sendAdded(res, ids, total);
 }
 
 void deleteObject(ApiContext& context, const httplib::Request& req, httplib::Response& res) {
