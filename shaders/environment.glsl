@@ -351,6 +351,28 @@ vec3 shadeEnvironmentWith(vec3 N, vec3 V, vec3 diffuseColor, vec3 F0, vec3 F90, 
   return (prefiltered * FssEss + (FmsEms + kD) * irradiance) * (intensity * occlusion);
 }
 
+// The environment light with the layers of b (withLayers) over `base`, the base's term
+// (shadeEnvironmentWith), approximated as three.js's MeshPhysicalMaterial does: the sheen adds
+// irradiance(N) x colour x E(N.V) (sheenDirectionalAlbedo) over the base scaled by
+// 1 - max(sheen) E(N.V); the coat adds clearcoat x its own split sum, prefiltered(R) at its
+// roughness times (0.04 A + B) from the table at (N.V, its roughness), over the rest scaled by
+// 1 - clearcoat x Fresnel(N.V). Occlusion and intensity scale the layers' terms as the base's.
+vec3 environmentThroughLayers(BrdfSurface b, vec3 base, float occlusion, float c, float s,
+                              float intensity) {
+  if (!MYRIAD_MAY_LAYERS || !b.layered) {
+    return base;
+  }
+  float nDotV = clamp(dot(b.N, b.V), 0.0f, 1.0f);
+  vec3 irradiance = environmentIrradiance(rotateAboutY(b.N, c, -s));
+  vec3 sheened = base * (1.0f - b.sheenMax * b.sheenAlbedoV) +
+                 irradiance * b.sheenColor * (b.sheenAlbedoV * intensity * occlusion);
+  vec3 R = b.N * (2.0f * dot(b.N, b.V)) - b.V;
+  vec2 ab = brdfLut(nDotV, b.coatRoughness);
+  vec3 coat = environmentSpecular(rotateAboutY(R, c, -s), b.coatRoughness) *
+              (b.clearcoat * (0.04f * ab.x + ab.y) * intensity * occlusion);
+  return sheened * (1.0f - b.coatFresnel) + coat;
+}
+
 vec3 shadeEnvironment(vec3 N, vec3 V, vec3 baseColor, float metallic, float roughness,
                       float occlusion, float c, float s, float intensity) {
   return shadeEnvironmentWith(N, V, mix(baseColor, vec3(0.0f), metallic),

@@ -33,6 +33,10 @@ void main() {
   s.reflectance = m.reflectance;
   s.dielectricF0 = m.dielectricF0;
   s.specular = m.specular;
+  s.clearcoat = clamp(m.clearcoat, 0.0, 1.0);
+  s.clearcoatRoughness = clamp(m.clearcoatRoughness, 0.0, 1.0);
+  s.sheenColor = clamp(m.sheenColor, 0.0, 1.0);
+  s.sheenRoughness = clamp(m.sheenRoughness, 0.0, 1.0);
   vec3 color = sunAndAmbient(s);
 #ifdef MYRIAD_FORWARD_CLUSTERED
   uvec2 tile = uvec2(gl_FragCoord.xy) / clusterTileSize();

@@ -12,6 +12,7 @@ bool shadingFeature(uint bit) { return (kShadingFeatures & bit) != 0u; }
 #define MYRIAD_MAY_SPOT shadingFeature(MYRIAD_FEATURE_SPOT_LIGHTS)
 #define MYRIAD_MAY_WINDOW_FALLOFF shadingFeature(MYRIAD_FEATURE_WINDOW_FALLOFF)
 #define MYRIAD_MAY_INVERSE_SQUARE shadingFeature(MYRIAD_FEATURE_INVERSE_SQUARE)
+#define MYRIAD_MAY_LAYERS shadingFeature(MYRIAD_FEATURE_LAYERS)
 #include "shading.glsl"
 
 #include "scene_set.glsl"
@@ -46,6 +47,7 @@ layout(set = MYRIAD_SET_TARGETS, binding = MYRIAD_BINDING_GBUFFER_UV) uniform sa
 layout(set = MYRIAD_SET_TARGETS, binding = MYRIAD_BINDING_HDR) uniform sampler2D hdrColor;
 layout(set = MYRIAD_SET_TARGETS, binding = MYRIAD_BINDING_LIGHT_COUNT) uniform sampler2D lightCount;
 layout(set = MYRIAD_SET_TARGETS, binding = MYRIAD_BINDING_GBUFFER_EMISSIVE) uniform sampler2D gbufferEmissive;
+layout(set = MYRIAD_SET_TARGETS, binding = MYRIAD_BINDING_GBUFFER_LAYERS) uniform usampler2D gbufferLayers;
 
 struct Surface {
   vec3 position;
@@ -58,7 +60,17 @@ struct Surface {
   float reflectance;  // scales all reflected light: 1 the glTF BRDF, 0 an unlit material's none
   float dielectricF0;  // the dielectric's Fresnel at normal incidence: 0.04 at glTF's ior 1.5
   float specular;      // and at grazing incidence (KHR_materials_specular's factor, else 1)
+  float clearcoat;           // KHR_materials_clearcoat's factor (0: none)
+  float clearcoatRoughness;
+  vec3 sheenColor;           // KHR_materials_sheen's colour (0: none)
+  float sheenRoughness;
 };
+
+// Whether this frame's surfaces may have a clear coat or a sheen (a material of the scene has
+// one: the layers target was written). Where not, no pixel pays for them.
+bool layersOn() {
+  return shadingFeature(MYRIAD_FEATURE_LAYERS) && (frame.written.x & MYRIAD_GBUFFER_LAYERS) != 0u;
+}
 
 
 #include "cluster_grid.glsl"  // worldFromDepth, and the cluster of a pixel
@@ -86,6 +98,14 @@ bool loadSurfaceWithDepth(ivec2 pixel, float depth, out Surface s) {
   s.emissive = emissive.rgb;
   s.reflectance = emissive.a < -0.5 ? 0.0 : 1.0;
   s.dielectricF0 = max(emissive.a + 0.04, 0.0);
+  // The layers target, where a material of the scene has a clear coat or a sheen
+  // (material_core.glsl's gbufferTexels).
+  uvec2 layers = layersOn() ? texelFetch(gbufferLayers, pixel, 0).rg : uvec2(0u);
+  vec4 coat = unpackUnorm4x8(layers.x);
+  s.clearcoat = coat.x;
+  s.clearcoatRoughness = coat.y;
+  s.sheenRoughness = coat.z;
+  s.sheenColor = unpackUnorm4x8(layers.y).rgb;
   return true;
 }
 
@@ -106,6 +126,9 @@ BrdfSurface brdfSurfaceOf(Surface s) {
   b.oneMinusF0 = mix(vec3(s.specular), vec3(1.0), s.metallic) * s.reflectance - b.F0;
   b.diffuseColor *= s.reflectance;
   b.diffuseOverPi *= s.reflectance;
+  if (layersOn()) {
+    b = withLayers(b, s.clearcoat, s.clearcoatRoughness, s.sheenColor, s.sheenRoughness);
+  }
   return b;
 }
 
@@ -156,11 +179,14 @@ vec3 sunAndAmbient(Surface s) {
   vec3 color = brdfCosineAt(b, frame.sunDirection.xyz) * sun;
   if (!environmentOn()) {
     // The BRDF's hemispherical integral under constant radiance, roughly (shadeSunAndAmbient).
-    color += frame.ambient.rgb * s.occlusion * (b.diffuseColor + b.F0);
+    vec3 ambient = frame.ambient.rgb * s.occlusion;
+    color += ambientThroughLayers(b, ambient * (b.diffuseColor + b.F0), ambient);
   } else {
-    color += shadeEnvironmentWith(b.N, b.V, b.diffuseColor, b.F0, b.F0 + b.oneMinusF0, s.roughness,
-                                  s.occlusion, frame.environmentRotation.x,
-                                  frame.environmentRotation.y, frame.environment.y);
+    vec3 base = shadeEnvironmentWith(b.N, b.V, b.diffuseColor, b.F0, b.F0 + b.oneMinusF0,
+                                     s.roughness, s.occlusion, frame.environmentRotation.x,
+                                     frame.environmentRotation.y, frame.environment.y);
+    color += environmentThroughLayers(b, base, s.occlusion, frame.environmentRotation.x,
+                                      frame.environmentRotation.y, frame.environment.y);
   }
   // A model's directional lights besides the sun (intensity 0: none).
   for (int i = 0; i < MYRIAD_MAX_EXTRA_SUNS && shadingFeature(MYRIAD_FEATURE_EXTRA_SUNS); ++i) {
@@ -169,7 +195,7 @@ vec3 sunAndAmbient(Surface s) {
                (frame.extraSunColor[i].rgb * frame.extraSunDirection[i].w);
     }
   }
-  return color + s.emissive;
+  return color + throughLayers(b, s.emissive);  // emission lies under the coat
 }
 
 // What a pixel with no geometry shows: the environment seen through it when the environment is

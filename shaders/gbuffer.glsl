@@ -17,6 +17,7 @@ layout(location = 1) out vec4 outBaseColor;  // RGBA8_SRGB
 layout(location = 2) out vec4 outMaterial;   // metallic, roughness, occlusion, specular: RGBA8_UNORM
 layout(location = 3) out vec2 outUv;         // RG16_SFLOAT
 layout(location = 4) out vec4 outEmissive;   // emitted radiance: RGBA16_SFLOAT
+layout(location = 5) out uvec2 outLayers;    // clear coat and sheen: RG32_UINT
 
 void main() {
   GpuMaterial material = materialFromTexels(inMaterial);
@@ -33,5 +34,6 @@ void main() {
   outMaterial = t.material;
   outUv = inUv;
   outEmissive = t.emissive;
+  outLayers = t.layers;
 }
 #endif

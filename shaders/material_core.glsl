@@ -16,6 +16,10 @@ struct MaterialSample {
   float reflectance;  // 1: the glTF BRDF reflects light; 0: none (unlit, emission only)
   float dielectricF0;  // the dielectric's Fresnel at normal incidence (0.04 at ior 1.5)
   float specular;      // the dielectric's Fresnel at grazing incidence (KHR_materials_specular)
+  float clearcoat;           // KHR_materials_clearcoat's factor (0: no coat)
+  float clearcoatRoughness;  // its perceptual roughness
+  vec3 sheenColor;           // KHR_materials_sheen's colour (0: no sheen)
+  float sheenRoughness;      // its roughness
 };
 
 // `color`: the interpolated vertex colour; `normal`: the interpolated normal (world space);
@@ -39,6 +43,10 @@ MaterialSample untexturedMaterial(GpuMaterial material, vec4 color, vec3 normal,
   m.reflectance = 1.0;
   m.dielectricF0 = uintBitsToFloat(material.flags.y);
   m.specular = uintBitsToFloat(material.flags.z);
+  m.clearcoat = material.layers.x;
+  m.clearcoatRoughness = material.layers.y;
+  m.sheenColor = material.sheenColor.rgb;
+  m.sheenRoughness = material.layers.z;
   return m;
 }
 
@@ -62,6 +70,8 @@ struct GBufferTexels {
   vec4 material;   // metallic, roughness, occlusion, specular (F90)
   vec4 emissive;   // emission, then the dielectric's F0 less glTF's 0.04 (so that the default
                    // is exact in half float), or -1 for an unlit surface
+  uvec2 layers;    // packUnorm4x8(clearcoat, its roughness, sheen roughness, 0), then
+                   // packUnorm4x8(sheen colour, 0): what a pixel's layers need, 8 bits each
 };
 
 GBufferTexels gbufferTexels(MaterialSample m) {
@@ -70,6 +80,8 @@ GBufferTexels gbufferTexels(MaterialSample m) {
   t.baseColor = vec4(clamp(m.baseColor.rgb, 0.0, 1.0), 1.0);
   t.material = clamp(vec4(m.metallic, m.roughness, m.occlusion, m.specular), 0.0, 1.0);
   t.emissive = vec4(m.emissive, m.reflectance > 0.0 ? m.dielectricF0 - 0.04 : -1.0);
+  t.layers = uvec2(packUnorm4x8(vec4(m.clearcoat, m.clearcoatRoughness, m.sheenRoughness, 0.0)),
+                   packUnorm4x8(vec4(m.sheenColor, 0.0)));
   return t;
 }
 

@@ -30,6 +30,9 @@ GpuMaterial materialFromTexels(uint m) {
   for (int i = 0; i < 2 * MYRIAD_TEXTURE_SLOTS; ++i) {
     material.uvTransform[i] = uintBitsToFloat(texelFetch(materialTexels, at + 4 + i));
   }
+  int layersAt = at + 4 + 2 * MYRIAD_TEXTURE_SLOTS;
+  material.layers = uintBitsToFloat(texelFetch(materialTexels, layersAt));
+  material.sheenColor = uintBitsToFloat(texelFetch(materialTexels, layersAt + 1));
   return material;
 }
 

@@ -3,7 +3,7 @@
 // The shaders #include this file; server/render/shading.h includes it inside a C++ namespace with
 // `using namespace glm`, and that copy is the reference the tests judge GPU images with. Rules for
 // editing: no swizzles, no in/out/inout parameters, float literals with an f suffix, and only
-// functions GLM also provides (dot, max, min, clamp, mix, sqrt, inversesqrt, pow, abs,
+// functions GLM also provides (dot, max, min, clamp, mix, sqrt, inversesqrt, pow, exp, abs,
 // normalize). Keep every argument inside its function's domain (pow's base >= 0, sqrt's >= 0,
 // inversesqrt's > 0, normalize's non-zero): GLSL leaves the rest undefined, and the C++ twin's pow
 // gives NaN there so tests catch it.
@@ -27,6 +27,10 @@ const float kMinRoughness = 0.045f;
 #endif
 #ifndef MYRIAD_MAY_INVERSE_SQUARE
 #define MYRIAD_MAY_INVERSE_SQUARE true
+#endif
+// Whether a surface may have a clear coat or a sheen (withLayers); false compiles the layers out.
+#ifndef MYRIAD_MAY_LAYERS
+#define MYRIAD_MAY_LAYERS true
 #endif
 
 // The seed's windowed falloff: exactly 0 at and beyond the radius, 1 at the light.
@@ -118,6 +122,21 @@ struct BrdfSurface {
   vec3 diffuseColor;   // base colour without the metal's part
   vec3 diffuseOverPi;  // diffuseColor / pi: the Lambert term
   float specularScale; // alpha2 / (pi visV): D Vis = specularScale / (denom^2 visL)
+  // The layers on top of the base (withLayers; brdfSurface leaves none): KHR_materials_sheen,
+  // then KHR_materials_clearcoat over both.
+  bool layered;           // false: the base BRDF alone, whatever the members below hold
+  float clearcoat;        // the coat's factor, [0, 1]
+  float coatRoughness;    // the coat's perceptual roughness (clamped as the base's)
+  float coatAlpha2;       // its GGX alpha squared
+  float coatScale;        // coatAlpha2 / (pi coatVisV), as specularScale
+  float coatFresnel;      // clearcoat x the coat's Fresnel at N.V: what the coat reflects, and
+                          // the share of the light the layers below lose to it
+  vec3 sheenColor;
+  float sheenRoughness;   // clamped to [kMinRoughness, 1]: the Charlie peak, (2 + 1/alpha) / 2pi,
+                          // would pass half floats' range near 0 (three.js goes down to 1e-4)
+  float sheenInverseAlpha;  // 1 / sheenRoughness^2
+  float sheenMax;         // the largest channel of sheenColor
+  float sheenAlbedoV;     // the sheen's directional albedo towards the eye, E(N.V)
 };
 
 BrdfSurface brdfSurface(vec3 N, vec3 V, vec3 baseColor, float metallic, float roughness) {
@@ -135,7 +154,105 @@ BrdfSurface brdfSurface(vec3 N, vec3 V, vec3 baseColor, float metallic, float ro
   b.diffuseColor = mix(baseColor, vec3(0.0f), metallic);
   b.diffuseOverPi = b.diffuseColor * (1.0f / kPi);
   b.specularScale = b.alpha2 / (kPi * b.visV);
+  b.layered = false;
+  b.clearcoat = 0.0f;
+  b.coatRoughness = 0.0f;
+  b.coatAlpha2 = 0.0f;
+  b.coatScale = 0.0f;
+  b.coatFresnel = 0.0f;
+  b.sheenColor = vec3(0.0f);
+  b.sheenRoughness = 1.0f;
+  b.sheenInverseAlpha = 1.0f;
+  b.sheenMax = 0.0f;
+  b.sheenAlbedoV = 0.0f;
   return b;
+}
+
+// The directional albedo E(cos) of the sheen BRDF (KHR_materials_sheen's albedo scaling: the
+// share of light the sheen takes from the layers below it): an exponential curve fitted to the
+// Charlie sheen with Neubelt visibility, E = exp(a cos + b) with a and b quadratic in the
+// roughness r plus a 1/(r + 0.1) term. The fit is the one three.js uses (its IBLSheenBRDF), so
+// the two renderers take the same light from the base; the spec leaves E to a table or a fit.
+float sheenDirectionalAlbedo(float cosine, float roughness) {
+  float r = roughness;
+  float r2 = r * r;
+  float inverse = 1.0f / (r + 0.1f);
+  float a = -1.9362f + 1.0678f * r + 0.4573f * r2 - 0.8469f * inverse;
+  float b = -0.6014f + 0.5538f * r - 0.4670f * r2 - 0.1255f * inverse;
+  return clamp(exp(a * clamp(cosine, 0.0f, 1.0f) + b), 0.0f, 1.0f);
+}
+
+// Schlick's Fresnel of the clear coat (ior 1.5: F0 0.04, F90 1) at cosine c.
+float coatFresnelAt(float c) {
+  float m = 1.0f - clamp(c, 0.0f, 1.0f);
+  float m2 = m * m;
+  return 0.04f + 0.96f * (m2 * m2 * m);
+}
+
+// The surface b with a clear coat (KHR_materials_clearcoat: factor, perceptual roughness; F0 0.04,
+// the base's normal) and a sheen (KHR_materials_sheen: colour, roughness) on top of it. With a
+// factor of 0 and a black sheen brdfCosineAt returns the base's value exactly.
+BrdfSurface withLayers(BrdfSurface b, float clearcoat, float coatRoughness, vec3 sheenColor,
+                       float sheenRoughness) {
+  b.layered = true;
+  float perceptual = clamp(coatRoughness, kMinRoughness, 1.0f);
+  b.coatRoughness = perceptual;
+  float alpha = perceptual * perceptual;
+  b.coatAlpha2 = alpha * alpha;
+  float coatVisV = b.NdotV + sqrt(b.coatAlpha2 + (1.0f - b.coatAlpha2) * b.NdotV * b.NdotV);
+  b.coatScale = b.coatAlpha2 / (kPi * coatVisV);
+  // The extension's clearcoat_fresnel, from N.V rather than V.H: one factor for the whole pixel,
+  // which also scales what the base reflects of the environment and what it emits.
+  b.clearcoat = clamp(clearcoat, 0.0f, 1.0f);
+  b.coatFresnel = b.clearcoat * coatFresnelAt(b.NdotV);
+  b.sheenColor = sheenColor;
+  b.sheenRoughness = clamp(sheenRoughness, kMinRoughness, 1.0f);
+  b.sheenInverseAlpha = 1.0f / (b.sheenRoughness * b.sheenRoughness);
+  b.sheenMax = max(sheenColor.x, max(sheenColor.y, sheenColor.z));
+  b.sheenAlbedoV = sheenDirectionalAlbedo(b.NdotV, b.sheenRoughness);
+  return b;
+}
+
+// The layers over `base` (the base BRDF times N.L) for light from L: the sheen (Charlie
+// distribution, Estevez and Kulla 2017, with the Neubelt visibility 1 / (4 (N.L + N.V - N.L N.V)),
+// which KHR_materials_sheen offers as its cheaper "Ashikhmin" visibility) added on top of the base
+// scaled by the albedo scaling min(1 - max(sheen) E(N.V), 1 - max(sheen) E(N.L)); then the coat,
+// a GGX lobe of its own roughness with the base's visibility, weighted by clearcoat x Fresnel(N.V),
+// over the rest scaled by 1 - that.
+vec3 layersCosineAt(BrdfSurface b, vec3 base, float NdotL, float NdotH) {
+  float sin2 = max(1.0f - NdotH * NdotH, 0.0078125f);
+  float sheenD =
+      (2.0f + b.sheenInverseAlpha) * pow(sin2, 0.5f * b.sheenInverseAlpha) * (0.5f / kPi);
+  float sheenVis = clamp(1.0f / (4.0f * (NdotL + b.NdotV - NdotL * b.NdotV)), 0.0f, 1.0f);
+  float sheenScaling =
+      1.0f - b.sheenMax * max(b.sheenAlbedoV, sheenDirectionalAlbedo(NdotL, b.sheenRoughness));
+  vec3 sheened = base * sheenScaling + b.sheenColor * (sheenD * sheenVis * NdotL);
+  float denom = NdotH * NdotH * (b.coatAlpha2 - 1.0f) + 1.0f;
+  float visL = NdotL + sqrt(b.coatAlpha2 + (1.0f - b.coatAlpha2) * NdotL * NdotL);
+  float coatDVis = b.coatScale / (denom * denom * visL);
+  return sheened * (1.0f - b.coatFresnel) + vec3(b.coatFresnel * coatDVis * NdotL);
+}
+
+// What the layers let through of light leaving the base under them (its emission): the coat's
+// 1 - clearcoat x Fresnel (the sheen, as in three.js, does not dim emission).
+vec3 throughLayers(BrdfSurface b, vec3 light) {
+  if (!MYRIAD_MAY_LAYERS || !b.layered) {
+    return light;
+  }
+  return light * (1.0f - b.coatFresnel);
+}
+
+// The constant ambient term (shadeSunAndAmbient's rough split sum) with the layers: `base` is the
+// base's term for radiance `ambient`; the sheen adds ambient x colour x E(N.V) over the base
+// scaled by 1 - max(sheen) E(N.V); the coat reflects ambient x clearcoat x Fresnel(N.V), what the
+// rest loses.
+vec3 ambientThroughLayers(BrdfSurface b, vec3 base, vec3 ambient) {
+  if (!MYRIAD_MAY_LAYERS || !b.layered) {
+    return base;
+  }
+  vec3 sheened =
+      base * (1.0f - b.sheenMax * b.sheenAlbedoV) + ambient * b.sheenColor * b.sheenAlbedoV;
+  return sheened * (1.0f - b.coatFresnel) + ambient * b.coatFresnel;
 }
 
 // glTF 2.0 metallic-roughness BRDF (specification, Appendix B), times the cosine term:
@@ -144,6 +261,7 @@ BrdfSurface brdfSurface(vec3 N, vec3 V, vec3 baseColor, float metallic, float ro
 // pair): the half vector's cosines come from N.V, N.L and V.L (|V + L|^2 = 2 + 2 V.L for unit
 // vectors) without forming H, the Fresnel power by multiplication, and D and Vis share one
 // division: f = (1 - F) diffuse / pi + F D Vis = diffuse / pi + F (D Vis - diffuse / pi).
+// A surface with layers (withLayers) has them added over that (layersCosineAt).
 vec3 brdfCosineAt(BrdfSurface b, vec3 L) {
   float NdotL = dot(b.N, L);
   if (NdotL <= 0.0f) {
@@ -175,7 +293,11 @@ vec3 brdfCosineAt(BrdfSurface b, vec3 L) {
   float visL = NdotL + sqrt(alpha2 + (1.0f - alpha2) * NdotL * NdotL);
   float DVis = b.specularScale / (denom * denom * visL);
 
-  return (b.diffuseOverPi + F * (vec3(DVis) - b.diffuseOverPi)) * NdotL;
+  vec3 base = (b.diffuseOverPi + F * (vec3(DVis) - b.diffuseOverPi)) * NdotL;
+  if (MYRIAD_MAY_LAYERS && b.layered) {
+    return layersCosineAt(b, base, NdotL, NdotH);
+  }
+  return base;
 }
 
 // The same for one light: N, V, L are unit vectors; V and L point away from the surface.

@@ -102,6 +102,8 @@ using mat4 = glm::mat4;
 #define MYRIAD_BINDING_YUV_PLANES 15          // storage buffer: final as YCbCr 4:2:0 planes (yuv420.comp)
 #define MYRIAD_BINDING_CLUSTER_MARKS 16       // storage buffer: a bit per cluster, set where it holds
                                               // visible geometry (clustered; FrameTargets)
+#define MYRIAD_BINDING_GBUFFER_LAYERS 17      // sampled: clear coat and sheen (RG32UI: two
+                                              // packUnorm4x8 words, material_core.glsl)
 
 // The G-buffer rasterised in compute (render/visibility.h; shaders/visibility.glsl): its pipelines'
 // set 1 (their layout is set 0 = the scene, set 1 = this; not the frame's targets set).
@@ -291,10 +293,12 @@ MYRIAD_STRUCT(MotionPush) {
 #define MYRIAD_ANTIALIAS_FXAA 1
 
 // The G-buffer targets a frame writes only when it needs them (FrameUniforms.written.x): the uv
-// target for the uv view, emission when a material emits or for the emissive view. Raster output
+// target for the uv view, emission when a material emits or for the emissive view, the layers
+// when a material has a clear coat or a sheen. Raster output
 // is what the G-buffer pass spends its time on where few units rasterize (docs/performance.md).
 #define MYRIAD_GBUFFER_UV 1u
 #define MYRIAD_GBUFFER_EMISSIVE 2u
+#define MYRIAD_GBUFFER_LAYERS 4u  // clear coat and sheen: when a material of the scene has either
 
 // What the compute G-buffer's resolve adds for the clustered technique (FrameUniforms.written.z,
 // bits; MYRIAD_BINDING_CLUSTER_MARKS): MARKS, the bit of each cluster holding geometry; BOUNDS,
@@ -318,7 +322,8 @@ MYRIAD_STRUCT(MotionPush) {
 #define MYRIAD_FEATURE_WINDOW_FALLOFF 0x20u // a light with the window falloff (radianceFalloff.w >= 0)
 #define MYRIAD_FEATURE_INVERSE_SQUARE 0x40u // a light with inverse-square falloff
 #define MYRIAD_FEATURE_LOCAL_SHADOWS 0x80u  // shadowed local lights (FrameUniforms.lightShadows.x)
-#define MYRIAD_FEATURES_ALL 0xFFu
+#define MYRIAD_FEATURE_LAYERS 0x100u        // clear coat and sheen (MYRIAD_GBUFFER_LAYERS)
+#define MYRIAD_FEATURES_ALL 0x1FFu
 
 // Directional lights besides the sun (scene::kMaxExtraSuns; render/gpu_types.h checks it).
 #define MYRIAD_MAX_EXTRA_SUNS 3
@@ -463,8 +468,11 @@ MYRIAD_STRUCT(GpuMaterial) {
                            // KHR_materials_specular's factor)
   // Per texture slot, two rows of the 2x3 KHR_texture_transform matrix: uv' = M * (uv, 1).
   vec4 uvTransform[2 * MYRIAD_TEXTURE_SLOTS];
+  vec4 layers;             // x KHR_materials_clearcoat's factor, y its roughness, z
+                           // KHR_materials_sheen's roughness, w unused
+  vec4 sheenColor;         // rgb KHR_materials_sheen's colour (0: no sheen), w unused
 };
-#define MYRIAD_MATERIAL_TEXELS (4 + 2 * MYRIAD_TEXTURE_SLOTS)  // texels of one GpuMaterial
+#define MYRIAD_MATERIAL_TEXELS (6 + 2 * MYRIAD_TEXTURE_SLOTS)  // texels of one GpuMaterial
 
 #ifdef __cplusplus
 }  // namespace myriad::gpu_types

@@ -1251,16 +1251,16 @@ TEST_CASE("api: --state-dir: a session survives a restart, token and upload incl
 }
 
 TEST_CASE("api: the model summary names the glTF extensions the server ignores") {
-  // A triangle whose material uses KHR_materials_sheen (not honoured) and
+  // A triangle whose material uses KHR_materials_transmission (not honoured) and
   // KHR_materials_emissive_strength (honoured), with a made-up extension listed as used.
   const std::string gltf = R"({
     "asset": {"version": "2.0"},
-    "extensionsUsed": ["KHR_materials_emissive_strength", "KHR_materials_sheen", "EXT_made_up"],
+    "extensionsUsed": ["KHR_materials_emissive_strength", "KHR_materials_transmission", "EXT_made_up"],
     "scene": 0,
     "scenes": [{"nodes": [0]}],
     "nodes": [{"name": "triangle", "mesh": 0}],
     "materials": [{"name": "velvet", "emissiveFactor": [1, 0, 0],
-                   "extensions": {"KHR_materials_sheen": {"sheenColorFactor": [1, 1, 1]},
+                   "extensions": {"KHR_materials_transmission": {"transmissionFactor": 1},
                                   "KHR_materials_emissive_strength": {"emissiveStrength": 3}}}],
     "meshes": [{"primitives": [{"attributes": {"POSITION": 0}, "material": 0}]}],
     "buffers": [{"byteLength": 36, "uri":
@@ -1277,10 +1277,10 @@ TEST_CASE("api: the model summary names the glTF extensions the server ignores")
                          "application/octet-stream");
   REQUIRE(loaded.status == 200);
   CHECK(loaded.json.at("model").at("ignoredExtensions") ==
-        json{"EXT_made_up", "KHR_materials_sheen"});
+        json{"EXT_made_up", "KHR_materials_transmission"});
   // GET says the same; the material's strength was read (3, not Assimp's 1).
   CHECK(api.get(s.path(), s.token).json.at("model").at("ignoredExtensions") ==
-        json{"EXT_made_up", "KHR_materials_sheen"});
+        json{"EXT_made_up", "KHR_materials_transmission"});
   const json materials = api.get(s.path() + "/materials", s.token).json.at("materials");
   REQUIRE(materials.size() == 1);
   CHECK(materials[0].at("emissiveStrength") == 3.0);

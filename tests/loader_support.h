@@ -70,6 +70,10 @@ inline void requireSameScene(const scene::Scene& a, const scene::Scene& b) {
     CHECK(a.materials[i].unlit == b.materials[i].unlit);
     CHECK(a.materials[i].ior == b.materials[i].ior);
     CHECK(a.materials[i].specular == b.materials[i].specular);
+    CHECK(a.materials[i].clearcoat == b.materials[i].clearcoat);
+    CHECK(a.materials[i].clearcoatRoughness == b.materials[i].clearcoatRoughness);
+    CHECK(a.materials[i].sheenColor == b.materials[i].sheenColor);
+    CHECK(a.materials[i].sheenRoughness == b.materials[i].sheenRoughness);
     // Textures by what they show, not by index or name (an image embedded in a .glb is "*N",
     // the same image beside a .gltf has its file name, and they may be found in another order).
     for (size_t slot = 0; slot < scene::Material::kTextureSlots; ++slot) {

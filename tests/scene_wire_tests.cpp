@@ -182,6 +182,10 @@ TEST_CASE("wire: spot lights, extra suns and cameras cross intact; broken ones a
   original.cameras = {camera};
   original.ignoredExtensions = {"KHR_materials_sheen", "KHR_texture_basisu"};
   original.materials.at(0).unlit = true;
+  original.materials.at(0).clearcoat = 0.75f;
+  original.materials.at(0).clearcoatRoughness = 0.125f;
+  original.materials.at(0).sheenColor = glm::vec3(0.5f, 0.25f, 1.0f);
+  original.materials.at(0).sheenRoughness = 0.375f;
   requireSameScene(loader::decodeScene(loader::encodeScene(original)), original);
 
   auto rejected = [](const scene::Scene& s) -> std::string {
@@ -219,4 +223,10 @@ TEST_CASE("wire: spot lights, extra suns and cameras cross intact; broken ones a
   cameras = original;
   cameras.cameras[0].yfov = 0.0f;
   CHECK(rejected(cameras).find("field of view") != std::string::npos);
+  scene::Scene layers = original;
+  layers.materials[0].clearcoat = 1.5f;
+  CHECK(rejected(layers).find("clearcoat factor") != std::string::npos);
+  layers = original;
+  layers.materials[0].sheenColor.g = -0.25f;
+  CHECK(rejected(layers).find("sheen colour") != std::string::npos);
 }

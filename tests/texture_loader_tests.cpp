@@ -584,7 +584,10 @@ std::string extensionsGltf() {
   replace("{\"pbrMetallicRoughness\":",
           "{\"name\":\"textured\",\"emissiveFactor\":[1,0.5,0.25],\"extensions\":{"
           "\"KHR_materials_emissive_strength\":{\"emissiveStrength\":5},"
-          "\"KHR_materials_sheen\":{\"sheenColorFactor\":[1,1,1]},"
+          "\"KHR_materials_sheen\":{\"sheenColorFactor\":[1,0.5,0.25],\"sheenRoughnessFactor\":0.25,"
+          "\"sheenColorTexture\":{\"index\":0}},"
+          "\"KHR_materials_clearcoat\":{\"clearcoatFactor\":0.5,\"clearcoatRoughnessFactor\":0.3},"
+          "\"KHR_materials_transmission\":{\"transmissionFactor\":1},"
           "\"KHR_materials_ior\":{\"ior\":1.8},\"KHR_materials_specular\":{\"specularFactor\":0.5}},"
           "\"pbrMetallicRoughness\":");
   // A second, unnamed and unlit material on a second mesh, drawn by the first node.
@@ -596,6 +599,7 @@ std::string extensionsGltf() {
   replace("\"scenes\":[{\"nodes\":[0]}]", "\"scenes\":[{\"nodes\":[0,1]}]");
   replace("{\"asset\":{\"version\":\"2.0\"},",
           "{\"asset\":{\"version\":\"2.0\"},\"extensionsUsed\":[\"KHR_materials_sheen\","
+          "\"KHR_materials_clearcoat\",\"KHR_materials_transmission\","
           "\"KHR_materials_emissive_strength\",\"KHR_texture_transform\",\"KHR_materials_unlit\","
           "\"EXT_made_up\"],");
   return gltf;
@@ -620,6 +624,15 @@ TEST_CASE("textures: glTF material extensions Assimp does not read arrive from t
   CHECK(textured->specular == 0.5f);
   CHECK(unlit->ior == 1.5f);
   CHECK(unlit->specular == 1.0f);
+  // KHR_materials_clearcoat's and _sheen's factors (their textures are named as ignored, below).
+  CHECK(textured->clearcoat == 0.5f);
+  CHECK(textured->clearcoatRoughness == doctest::Approx(0.3f));
+  CHECK(textured->sheenColor == glm::vec3(1.0f, 0.5f, 0.25f));
+  CHECK(textured->sheenRoughness == 0.25f);
+  CHECK(textured->layered());
+  CHECK(unlit->clearcoat == 0.0f);
+  CHECK(unlit->sheenColor == glm::vec3(0.0f));
+  CHECK(!unlit->layered());
   // KHR_materials_unlit, on the unnamed material (its factors tell it apart).
   CHECK(unlit->unlit);
   CHECK(unlit->emissiveStrength == 1.0f);
@@ -648,8 +661,11 @@ TEST_CASE("textures: glTF material extensions Assimp does not read arrive from t
     CHECK(e.ref.scale.y == doctest::Approx(e.scale.y));
     CHECK(e.ref.texCoord == 0);
   }
-  // What the file uses and Myriad does not honour, by name, sorted.
-  CHECK(scene.ignoredExtensions == std::vector<std::string>{"EXT_made_up", "KHR_materials_sheen"});
+  // What the file uses and Myriad does not honour, by name, sorted: whole extensions, and the
+  // part of an honoured one that is not read (a sheen colour texture).
+  CHECK(scene.ignoredExtensions ==
+        std::vector<std::string>{"EXT_made_up", "KHR_materials_sheen (sheenColorTexture)",
+                                 "KHR_materials_transmission"});
   // In this process too (the child's scene went over the wire).
   const scene::Scene local = scene::loadModelFromMemory(extensionsGltf(), "extensions.gltf");
   CHECK(local.ignoredExtensions == scene.ignoredExtensions);

@@ -97,7 +97,7 @@ VkPipeline createGraphicsPipeline(VkDevice device, VkPipelineLayout layout,
       {VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO, nullptr, 0, VK_SHADER_STAGE_VERTEX_BIT,
        vert, "main", nullptr},
       {VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO, nullptr, 0,
-       VK_SHADER_STAGE_FRAGMENT_BIT, frag, "main", nullptr},
+       VK_SHADER_STAGE_FRAGMENT_BIT, frag, "main", desc.fragmentSpecialization},
   };
 
   VkVertexInputBindingDescription binding{0, desc.vertexLayout.stride, VK_VERTEX_INPUT_RATE_VERTEX};

@@ -30,6 +30,7 @@ struct GraphicsPipelineDesc {
   bool depthClamp = false;  // requires the depthClamp feature
   VkCullModeFlags cullMode = VK_CULL_MODE_NONE;
   bool dynamicCullMode = false;  // set per draw with vkCmdSetCullMode (core in Vulkan 1.3)
+  const VkSpecializationInfo* fragmentSpecialization = nullptr;  // may be null
 };
 
 VkShaderModule createShaderModule(VkDevice device, std::span<const uint32_t> spirv);

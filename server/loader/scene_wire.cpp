@@ -374,6 +374,7 @@ std::string encodeScene(const scene::Scene& scene) {
     w.put(m.alpha), w.put(m.emissive), w.put(m.emissiveStrength), w.put(m.normalScale);
     w.put(m.occlusionStrength), w.put(uint8_t(m.alphaMode)), w.put(m.alphaCutoff);
     w.put(uint8_t(m.doubleSided)), w.put(uint8_t(m.unlit)), w.put(m.ior), w.put(m.specular);
+    w.put(m.clearcoat), w.put(m.clearcoatRoughness), w.put(m.sheenColor), w.put(m.sheenRoughness);
     for (size_t slot = 0; slot < scene::Material::kTextureSlots; ++slot) {
       const scene::TextureRef& t = m.texture(slot);
       w.put(t.image);
@@ -493,6 +494,14 @@ scene::Scene decodeScene(std::string_view bytes) {
     m.unlit = r.small("an unlit flag", 2) != 0;
     m.ior = r.inRange("an index of refraction", 1.0f, 10.0f);
     m.specular = r.inRange("a specular factor", 0.0f, 1.0f);
+    m.clearcoat = r.inRange("a clearcoat factor", 0.0f, 1.0f);
+    m.clearcoatRoughness = r.inRange("a clearcoat roughness", 0.0f, 1.0f);
+    m.sheenColor = r.vec3("a sheen colour");
+    if (glm::any(glm::lessThan(m.sheenColor, glm::vec3(0.0f))) ||
+        glm::any(glm::greaterThan(m.sheenColor, glm::vec3(1.0f)))) {
+      reject("a sheen colour out of range");
+    }
+    m.sheenRoughness = r.inRange("a sheen roughness", 0.0f, 1.0f);
     for (size_t slot = 0; slot < scene::Material::kTextureSlots; ++slot) {
       scene::TextureRef& t = m.texture(slot);
       t.image = r.get<uint32_t>();

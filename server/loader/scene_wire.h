@@ -6,7 +6,8 @@
 //         materials: u32 nameBytes, name, baseColor (3 f32), metallic, roughness, alpha,
 //                    emissive (3), emissiveStrength, normalScale, occlusionStrength,
 //                    u8 alphaMode, f32 alphaCutoff, u8 doubleSided, u8 unlit, f32 ior,
-//                    f32 specular, then 5 textures (baseColor,
+//                    f32 specular, f32 clearcoat, f32 clearcoatRoughness, sheenColor (3 f32),
+//                    f32 sheenRoughness, then 5 textures (baseColor,
 //                    metallicRoughness, normal, occlusion, emissive): u32 image (~0 = none),
 //                    u8 wrapS, wrapT, magFilter, minFilter, mipmaps, mipmapFilter,
 //                    offset (2 f32), scale (2), rotation, u32 texCoord
@@ -40,8 +41,9 @@
 namespace myriad::loader {
 
 // 2: lights' type, attenuation, cone; 3: materials' textures, images; 4: nodes, skins, morph
-// targets, animations; 5: materials' unlit flag, ior and specular factor, ignored glTF extensions
-inline constexpr uint32_t kSceneWireVersion = 5;
+// targets, animations; 5: materials' unlit flag, ior and specular factor, ignored glTF extensions;
+// 6: materials' clearcoat and sheen factors
+inline constexpr uint32_t kSceneWireVersion = 6;
 
 // The bytes were not a scene this version of the server wrote: what() says what was wrong.
 struct SceneWireError : std::runtime_error {

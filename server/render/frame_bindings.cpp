@@ -113,7 +113,14 @@ void Renderer::State::writeTargetSet(FrameSlot& slot) {
   VkWriteDescriptorSet markWrite = edgeWrite;
   markWrite.dstBinding = MYRIAD_BINDING_CLUSTER_MARKS;
   markWrite.pBufferInfo = &marks;
+  // 17: the clear coat and sheen target (sampled, READ_ONLY_OPTIMAL like the G-buffer's).
+  const VkDescriptorImageInfo layers{sampler, targets->layers.view,
+                                     VK_IMAGE_LAYOUT_READ_ONLY_OPTIMAL};
+  VkWriteDescriptorSet layersWrite = writes[MYRIAD_BINDING_GBUFFER_EMISSIVE];
+  layersWrite.dstBinding = MYRIAD_BINDING_GBUFFER_LAYERS;
+  layersWrite.pImageInfo = &layers;
   vkUpdateDescriptorSets(context.device, kBindings, writes, 0, nullptr);
+  vkUpdateDescriptorSets(context.device, 1, &layersWrite, 0, nullptr);
   vkUpdateDescriptorSets(context.device, 1, &edgeWrite, 0, nullptr);
   vkUpdateDescriptorSets(context.device, 1, &planeWrite, 0, nullptr);
   vkUpdateDescriptorSets(context.device, 1, &markWrite, 0, nullptr);
@@ -121,7 +128,7 @@ void Renderer::State::writeTargetSet(FrameSlot& slot) {
 
 void Renderer::State::writeRawTargetSet(FrameSlot& slot) {
   std::vector<VkCopyDescriptorSet> copies;
-  for (uint32_t binding = 0; binding <= MYRIAD_BINDING_CLUSTER_MARKS; ++binding) {
+  for (uint32_t binding = 0; binding <= MYRIAD_BINDING_GBUFFER_LAYERS; ++binding) {
     if (binding == MYRIAD_BINDING_OUTPUT) continue;
     VkCopyDescriptorSet copy{VK_STRUCTURE_TYPE_COPY_DESCRIPTOR_SET};
     copy.srcSet = slot.targetSet;

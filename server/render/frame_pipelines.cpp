@@ -45,13 +45,16 @@ Pipelines::Pipelines(gpu::Context& context) : device(context.device) {
   }};
   sceneSetLayout = gpu::createDescriptorSetLayout(device, sceneBindings);
   const VkShaderStageFlags readers = VK_SHADER_STAGE_FRAGMENT_BIT | VK_SHADER_STAGE_COMPUTE_BIT;
-  std::array<VkDescriptorSetLayoutBinding, 17> targetBindings{};
+  std::array<VkDescriptorSetLayoutBinding, 18> targetBindings{};
   for (uint32_t i = 0; i <= MYRIAD_BINDING_LIGHT_COUNT; ++i) {
     targetBindings[i] = {i, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, readers, nullptr};
   }
   targetBindings[MYRIAD_BINDING_GBUFFER_EMISSIVE] = {MYRIAD_BINDING_GBUFFER_EMISSIVE,
                                                      VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1,
                                                      readers, nullptr};
+  targetBindings[MYRIAD_BINDING_GBUFFER_LAYERS] = {MYRIAD_BINDING_GBUFFER_LAYERS,
+                                                   VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1,
+                                                   readers, nullptr};
   targetBindings[MYRIAD_BINDING_HDR_STORAGE] = {MYRIAD_BINDING_HDR_STORAGE,
                                                 VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, 1,
                                                 VK_SHADER_STAGE_COMPUTE_BIT, nullptr};
@@ -102,7 +105,8 @@ Pipelines::Pipelines(gpu::Context& context) : device(context.device) {
   d.vertexShader = spirv::gbuffer_vert;
   d.fragmentShader = spirv::gbuffer_frag;
   d.vertexLayout = surfaceVertexLayout();
-  d.colorFormats = {kNormalFormat, kBaseColorFormat, kMaterialFormat, kUvFormat, kEmissiveFormat};
+  d.colorFormats = {kNormalFormat,   kBaseColorFormat, kMaterialFormat,
+                    kUvFormat,       kEmissiveFormat,  kLayersFormat};
   d.depthFormat = kDepthFormat;
   d.depthTest = d.depthWrite = true;
   d.depthCompare = VK_COMPARE_OP_LESS;

@@ -36,6 +36,9 @@ FrameTargets::FrameTargets(gpu::Context& context, VkExtent2D size, bool rawOutpu
   material = arena.createImage2D(extent, kMaterialFormat, gbufferUsage | computeUsage);
   uv = arena.createImage2D(extent, kUvFormat, gbufferUsage | computeUsage);
   emissive = arena.createImage2D(extent, kEmissiveFormat, gbufferUsage | computeUsage);
+  // Not written by compute: a scene with layers takes the raster G-buffer
+  // (ComputeGBuffer::qualifies).
+  layers = arena.createImage2D(extent, kLayersFormat, gbufferUsage);
   // Compute lighting (tiled, clustered) stores into these; volumes blend into them.
   hdr = arena.createImage2D(extent, kHdrFormat, gbufferUsage | VK_IMAGE_USAGE_STORAGE_BIT);
   lightCount = arena.createImage2D(extent, kLightCountFormat, gbufferUsage | VK_IMAGE_USAGE_STORAGE_BIT);

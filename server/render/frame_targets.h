@@ -24,6 +24,10 @@ inline constexpr VkFormat kBaseColorStorageFormat = VK_FORMAT_R8G8B8A8_UNORM;  /
 inline constexpr VkFormat kMaterialFormat = VK_FORMAT_R8G8B8A8_UNORM;
 inline constexpr VkFormat kUvFormat = VK_FORMAT_R16G16_SFLOAT;
 inline constexpr VkFormat kEmissiveFormat = VK_FORMAT_R16G16B16A16_SFLOAT;
+// Clear coat and sheen (material_core.glsl's gbufferTexels): six [0,1] values in 8 bits each,
+// packed as two packUnorm4x8 words (one target: RGBA8 holds four, and integer RG32 is a
+// guaranteed colour attachment and sampled format).
+inline constexpr VkFormat kLayersFormat = VK_FORMAT_R32G32_UINT;
 inline constexpr VkFormat kHdrFormat = VK_FORMAT_R16G16B16A16_SFLOAT;
 inline constexpr VkFormat kOutputFormat = VK_FORMAT_R8G8B8A8_UNORM;
 inline constexpr VkFormat kRawOutputFormat = VK_FORMAT_R32G32B32A32_SFLOAT;
@@ -59,6 +63,7 @@ struct FrameTargets {
   gpu::Image material;
   gpu::Image uv;
   gpu::Image emissive;
+  gpu::Image layers;  // written only for scenes with a clear coat or a sheen (raster path only)
   gpu::Image hdr;
   gpu::Image lightCount;
   gpu::Image markerKeys;

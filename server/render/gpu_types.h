@@ -45,9 +45,11 @@ static_assert(sizeof(gpu_types::VisibilityLargeHeader) == 16 && sizeof(gpu_types
 static_assert(sizeof(GpuPointLight) == 48 && offsetof(GpuPointLight, radianceFalloff) == 16 &&
               offsetof(GpuPointLight, cone) == 32);
 static_assert(sizeof(GpuInstance) == 144 && offsetof(GpuInstance, material) == 128);
-static_assert(sizeof(GpuMaterial) == 64 + 16 * 2 * MYRIAD_TEXTURE_SLOTS &&
+static_assert(sizeof(GpuMaterial) == 96 + 16 * 2 * MYRIAD_TEXTURE_SLOTS &&
               offsetof(GpuMaterial, metallicRoughness) == 16 && offsetof(GpuMaterial, flags) == 48 &&
-              offsetof(GpuMaterial, uvTransform) == 64);
+              offsetof(GpuMaterial, uvTransform) == 64 &&
+              offsetof(GpuMaterial, layers) == 64 + 16 * 2 * MYRIAD_TEXTURE_SLOTS &&
+              offsetof(GpuMaterial, sheenColor) == 80 + 16 * 2 * MYRIAD_TEXTURE_SLOTS);
 // The texel views (MYRIAD_BINDING_LIGHT_TEXELS, _MATERIAL_TEXELS): one 16-byte texel a member.
 static_assert(sizeof(GpuPointLight) == 16 * MYRIAD_LIGHT_TEXELS &&
               sizeof(GpuMaterial) == 16 * MYRIAD_MATERIAL_TEXELS);

@@ -45,6 +45,7 @@ void recordGBufferPass(VkCommandBuffer cmd, const Pipelines& p, const FrameTarge
       discardForColorWrite(t.material, reader),
       discardForColorWrite(t.uv, reader),
       discardForColorWrite(t.emissive, reader),
+      discardForColorWrite(t.layers, reader),
       {&t.depth, reader | VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT, VK_ACCESS_2_NONE,
        VK_PIPELINE_STAGE_2_EARLY_FRAGMENT_TESTS_BIT | VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT,
        VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_READ_BIT | VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT,
@@ -52,17 +53,19 @@ void recordGBufferPass(VkCommandBuffer cmd, const Pipelines& p, const FrameTarge
   };
   gpu::barrier(cmd, before);
 
-  std::array<VkRenderingAttachmentInfo, 5> colors = {
+  std::array<VkRenderingAttachmentInfo, 6> colors = {
       colorAttachment(t.normal, VK_ATTACHMENT_LOAD_OP_CLEAR),
       colorAttachment(t.baseColor, VK_ATTACHMENT_LOAD_OP_CLEAR),
       colorAttachment(t.material, VK_ATTACHMENT_LOAD_OP_CLEAR),
       colorAttachment(t.uv, VK_ATTACHMENT_LOAD_OP_CLEAR),
-      colorAttachment(t.emissive, VK_ATTACHMENT_LOAD_OP_CLEAR)};
+      colorAttachment(t.emissive, VK_ATTACHMENT_LOAD_OP_CLEAR),
+      colorAttachment(t.layers, VK_ATTACHMENT_LOAD_OP_CLEAR)};  // uint: cleared to 0 words
   for (auto& c : colors) c.clearValue.color = {{0.0f, 0.0f, 0.0f, 0.0f}};
   // Optional targets the frame does not read are left unbound: their writes are discarded (and
   // their contents undefined; FrameUniforms.written tells the shaders).
   if ((written & MYRIAD_GBUFFER_UV) == 0) colors[3].imageView = VK_NULL_HANDLE;
   if ((written & MYRIAD_GBUFFER_EMISSIVE) == 0) colors[4].imageView = VK_NULL_HANDLE;
+  if ((written & MYRIAD_GBUFFER_LAYERS) == 0) colors[5].imageView = VK_NULL_HANDLE;
   VkRenderingAttachmentInfo depth{VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO};
   depth.imageView = t.depth.view;
   depth.imageLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
@@ -112,6 +115,7 @@ void recordGBufferPass(VkCommandBuffer cmd, const Pipelines& p, const FrameTarge
       colorWriteToSampled(t.material),
       colorWriteToSampled(t.uv),
       colorWriteToSampled(t.emissive),
+      colorWriteToSampled(t.layers),
       {&t.depth, VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT,
        VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT,
        VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT | VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT |

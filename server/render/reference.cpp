@@ -299,6 +299,14 @@ std::vector<uint8_t> renderReference(const scene::Scene& scene, const FrameSetti
       const float iorRatio = (material.ior - 1.0f) / (material.ior + 1.0f);
       const float dielectricF0 = std::min(iorRatio * iorRatio, 1.0f) * material.specular;
       const float specular = quantizeUnorm8(material.specular);
+      // KHR_materials_clearcoat and _sheen, 8 bits each as the layers target holds them.
+      const bool layered = material.layered();
+      const float clearcoat = quantizeUnorm8(material.clearcoat);
+      const float clearcoatRoughness = quantizeUnorm8(material.clearcoatRoughness);
+      const glm::vec3 sheenColor(quantizeUnorm8(material.sheenColor.r),
+                                 quantizeUnorm8(material.sheenColor.g),
+                                 quantizeUnorm8(material.sheenColor.b));
+      const float sheenRoughness = quantizeUnorm8(material.sheenRoughness);
       switch (s.target) {
         case Target::Final: {
           glm::vec3 hdr = half3(s.background);
@@ -319,14 +327,22 @@ std::vector<uint8_t> renderReference(const scene::Scene& scene, const FrameSetti
             b.oneMinusF0 = glm::mix(glm::vec3(specular), glm::vec3(1.0f), metallic) * reflectance - b.F0;
             b.diffuseColor *= reflectance;
             b.diffuseOverPi *= reflectance;
+            // A material without layers shades the same with them (withLayers says why), so
+            // only layered ones take them, wherever the scene's others are.
+            if (layered) {
+              b = shading::withLayers(b, clearcoat, clearcoatRoughness, sheenColor, sheenRoughness);
+            }
             glm::vec3 sunAndAmbient = shading::brdfCosineAt(b, sunDirection) * sunRadiance;
             if (!environmentOn) {
-              sunAndAmbient += s.ambient * (b.diffuseColor + b.F0);
+              sunAndAmbient += shading::ambientThroughLayers(b, s.ambient * (b.diffuseColor + b.F0),
+                                                             s.ambient);
             } else {
-              sunAndAmbient += shading::shadeEnvironmentWith(normal, V, b.diffuseColor, b.F0,
-                                                             b.F0 + b.oneMinusF0, roughness, 1.0f,
-                                                             rotationCos, rotationSin,
-                                                             s.environment.intensity);
+              const glm::vec3 base = shading::shadeEnvironmentWith(
+                  normal, V, b.diffuseColor, b.F0, b.F0 + b.oneMinusF0, roughness, 1.0f,
+                  rotationCos, rotationSin, s.environment.intensity);
+              sunAndAmbient += shading::environmentThroughLayers(b, base, 1.0f, rotationCos,
+                                                                 rotationSin,
+                                                                 s.environment.intensity);
             }
             for (const scene::Sun& extra : s.extraSuns) {
               if (extra.intensity > 0.0f) {
@@ -334,8 +350,9 @@ std::vector<uint8_t> renderReference(const scene::Scene& scene, const FrameSetti
                                  (extra.color * extra.intensity);
               }
             }
-            // Emission is added with the sun and ambient (or environment) term, as on the GPU.
-            hdr = half3(sunAndAmbient + emissive);
+            // Emission is added with the sun and ambient (or environment) term, as on the GPU,
+            // under the coat.
+            hdr = half3(sunAndAmbient + shading::throughLayers(b, emissive));
             for (size_t i = 0; i < lights.size(); ++i) {
               const GpuPointLight& l = lights[i];
               glm::vec3 c = shading::shadeLocalLightAt(

@@ -112,7 +112,8 @@ Renderer::Renderer(gpu::Context& context, const Tuning& tuning)
   const auto n = static_cast<uint32_t>(slots.size());
   VkDescriptorPoolSize sizes[] = {{VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, n * 1},
                                   {VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, n * 12},  // + the edge pixels, the YCbCr planes, the cluster marks (set 1, twice)
-                                  {VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, n * 22},  // + the shadow maps, the LDR target
+                                  // + the shadow maps, the LDR target, the layers target
+                                  {VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, n * 24},
                                   {VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, n * 10},
                                   {VK_DESCRIPTOR_TYPE_UNIFORM_TEXEL_BUFFER, n * 2}};  // lights, materials
   VkDescriptorPoolCreateInfo poolInfo{VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO};

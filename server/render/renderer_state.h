@@ -45,11 +45,13 @@ constexpr uint32_t kMaxTimedPasses = 24;  // + bvh-build or bvh-refit
 using Milliseconds = std::chrono::duration<double, std::milli>;
 
 // The optional G-buffer targets (MYRIAD_GBUFFER_*) a frame reads: uv only for the uv view,
-// emission for the emissive view and wherever a material emits.
+// emission for the emissive view and wherever a material emits, the layers (clear coat, sheen)
+// wherever a material has one.
 inline uint32_t gbufferWrites(const FrameSettings& s, const SceneBuffers& scene) {
   uint32_t written = 0;
   if (s.reads(Target::Uv)) written |= MYRIAD_GBUFFER_UV;
   if (s.reads(Target::Emissive) || scene.anyEmission()) written |= MYRIAD_GBUFFER_EMISSIVE;
+  if (scene.anyLayers()) written |= MYRIAD_GBUFFER_LAYERS;
   return written;
 }
 

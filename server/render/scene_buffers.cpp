@@ -208,6 +208,7 @@ SceneBuffers::SceneBuffers(gpu::Context& context, gpu::CommandRecorder& recorder
     blend.push_back(m.alphaMode == scene::AlphaMode::blend ? 1 : 0);
     alphaTest.push_back(m.alphaMode == scene::AlphaMode::mask ? 1 : 0);
     emits.push_back(emitsLight(m) ? 1 : 0);
+    layered.push_back(m.layered() ? 1 : 0);
     textured.push_back(hasTexture(m) ? 1 : 0);
   }
   textures = std::make_unique<MaterialTextures>(context, recorder, materialSetLayout, scene);

@@ -154,8 +154,11 @@ struct SceneBuffers {
   std::vector<uint8_t> blend;
   std::vector<uint8_t> alphaTest;     // per material: alphaMode MASK (the G-buffer's discarding pipeline)
   std::vector<uint8_t> emits;         // per material: whether its emission can be non-zero
+  std::vector<uint8_t> layered;       // per material: whether it has a clear coat or a sheen
   std::vector<uint8_t> textured;      // per material: whether it has any texture slot
   bool anyEmission() const;
+  // Whether a material has a clear coat or a sheen (the layers G-buffer target is written).
+  bool anyLayers() const;
   MeshRange lightProxy;  // icosphere circumscribing the unit sphere (volumes, markers)
   uint32_t lightCount = 0;
   uint32_t lightCapacity = 0;  // lights the two light buffers hold

@@ -261,12 +261,17 @@ void SceneBuffers::updateMaterials(gpu::CommandRecorder& recorder,
     blend[w.index] = w.material.alphaMode == scene::AlphaMode::blend ? 1 : 0;
     alphaTest[w.index] = w.material.alphaMode == scene::AlphaMode::mask ? 1 : 0;
     emits[w.index] = emitsLight(w.material) ? 1 : 0;
+    layered[w.index] = w.material.layered() ? 1 : 0;
     textured[w.index] = hasTexture(w.material) ? 1 : 0;
   }
 }
 
 bool SceneBuffers::anyEmission() const {
   return std::find(emits.begin(), emits.end(), uint8_t{1}) != emits.end();
+}
+
+bool SceneBuffers::anyLayers() const {
+  return std::find(layered.begin(), layered.end(), uint8_t{1}) != layered.end();
 }
 
 }  // namespace myriad::render

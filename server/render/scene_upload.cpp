@@ -91,6 +91,8 @@ GpuMaterial toGpu(const scene::Material& m) {
   if (m.unlit) flags |= MYRIAD_MATERIAL_UNLIT;
   g.flags = glm::uvec4(flags, std::bit_cast<uint32_t>(dielectricF0(m)),
                        std::bit_cast<uint32_t>(m.specular), 0);
+  g.layers = glm::vec4(m.clearcoat, m.clearcoatRoughness, m.sheenRoughness, 0.0f);
+  g.sheenColor = glm::vec4(m.sheenColor, 0.0f);
   return g;
 }
 

@@ -13,6 +13,7 @@ uint32_t shadingFeatures(const gpu_types::FrameUniforms& u, const SceneBuffers& 
     if (u.extraSunDirection[i].w > 0.0f) features |= MYRIAD_FEATURE_EXTRA_SUNS;
   }
   if ((u.written.x & MYRIAD_GBUFFER_EMISSIVE) != 0u) features |= MYRIAD_FEATURE_EMISSIVE;
+  if ((u.written.x & MYRIAD_GBUFFER_LAYERS) != 0u) features |= MYRIAD_FEATURE_LAYERS;
   if (u.lightShadows.x != 0u) features |= MYRIAD_FEATURE_LOCAL_SHADOWS;
   return features;
 }

@@ -111,7 +111,8 @@ bool ComputeGBuffer::qualifies(const SceneBuffers& scene, VkExtent2D extent) con
   for (const DrawItem& draw : scene.draws) {
     const uint32_t m = draw.material;
     if (scene.blend[m]) continue;  // the forward pass draws it, whichever path made the G-buffer
-    if (scene.alphaTest[m] || scene.textured[m]) return false;
+    // A clear coat or sheen needs the layers target, which only the raster path writes.
+    if (scene.alphaTest[m] || scene.textured[m] || scene.layered[m]) return false;
   }
   const VkDeviceSize keys = VkDeviceSize(extent.width) * extent.height * sizeof(uint64_t);
   return keys <= maxStorageRange_ && scene.vertices.size <= maxStorageRange_ &&
@@ -268,6 +269,10 @@ void ComputeGBuffer::record(VkCommandBuffer cmd, std::unique_ptr<Slot>& slot,
   const ImageTransition after[] = {
       toSampled(t.normal), toSampled(t.baseColor), toSampled(t.material), toSampled(t.uv),
       toSampled(t.emissive),
+      // Not written here (no draw has layers: qualifies), but read-only like the rest for the
+      // lighting's descriptor set.
+      {&t.layers, reader, VK_ACCESS_2_NONE, reader, VK_ACCESS_2_SHADER_SAMPLED_READ_BIT,
+       VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_READ_ONLY_OPTIMAL},
       {&t.depth, VK_PIPELINE_STAGE_2_COPY_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT,
        reader | VK_PIPELINE_STAGE_2_EARLY_FRAGMENT_TESTS_BIT |
            VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT,

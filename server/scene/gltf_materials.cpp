@@ -75,7 +75,50 @@ void readTransform(const json& textureInfo, TextureRef& ref) {
   ref.rotation = finiteNumber(member(*t, "rotation")).value_or(0.0f);
 }
 
-void readMaterial(const json& source, Material& material) {
+std::optional<glm::vec3> finiteColor(const json* value) {
+  if (value == nullptr || !value->is_array() || value->size() != 3) return std::nullopt;
+  glm::vec3 color;
+  for (int c = 0; c < 3; ++c) {
+    const std::optional<float> v = finiteNumber(&(*value)[size_t(c)]);
+    if (!v) return std::nullopt;
+    color[c] = std::clamp(*v, 0.0f, 1.0f);
+  }
+  return color;
+}
+
+// KHR_materials_clearcoat's and KHR_materials_sheen's factors onto `material`. Their textures
+// are not read: each one a material has is named in `partial` as "EXTENSION (member)", so that
+// the summary says the picture lacks it.
+void readLayers(const json& source, Material& material, std::set<std::string>& partial) {
+  auto unread = [&](const json& ext, const char* extensionName, const char* texture) {
+    if (const json* t = member(ext, texture); t != nullptr && t->is_object()) {
+      partial.insert(std::string(extensionName) + " (" + texture + ")");
+    }
+  };
+  auto unit = [](const json* value) {  // a factor in [0, 1], absent: the extensions' 0
+    return std::clamp(finiteNumber(value).value_or(0.0f), 0.0f, 1.0f);
+  };
+  const json* coat = extension(source, "KHR_materials_clearcoat");
+  if (coat != nullptr && coat->is_object()) {
+    material.clearcoat = unit(member(*coat, "clearcoatFactor"));
+    material.clearcoatRoughness = unit(member(*coat, "clearcoatRoughnessFactor"));
+    for (const char* texture :
+         {"clearcoatTexture", "clearcoatRoughnessTexture", "clearcoatNormalTexture"}) {
+      unread(*coat, "KHR_materials_clearcoat", texture);
+    }
+  }
+  const json* sheen = extension(source, "KHR_materials_sheen");
+  if (sheen != nullptr && sheen->is_object()) {
+    material.sheenColor = finiteColor(member(*sheen, "sheenColorFactor")).value_or(glm::vec3(0.0f));
+    material.sheenRoughness = unit(member(*sheen, "sheenRoughnessFactor"));
+    for (const char* texture : {"sheenColorTexture", "sheenRoughnessTexture"}) {
+      unread(*sheen, "KHR_materials_sheen", texture);
+    }
+  }
+}
+
+void readMaterial(const json& source, Material& material, std::set<std::string>& partial) {
+  readLayers(source, material, partial);
   if (const json* strength = extension(source, "KHR_materials_emissive_strength")) {
     if (const std::optional<float> value = finiteNumber(member(*strength, "emissiveStrength"))) {
       material.emissiveStrength = std::clamp(*value, 0.0f, 1e4f);
@@ -178,11 +221,13 @@ void addName(const json& value, std::set<std::string>& names) {
 const std::vector<std::string>& supportedGltfExtensions() {
   // KHR_lights_punctual and KHR_materials_pbrSpecularGlossiness (its diffuse and glossiness
   // factors, as the base colour and 1 - roughness) are read by Assimp; the rest here
-  // (KHR_materials_specular: its specularFactor; its colour factor and textures are not read).
+  // (KHR_materials_specular: its specularFactor; its colour factor and textures are not read;
+  // KHR_materials_clearcoat and _sheen: their factors; a texture of theirs that a material has is
+  // listed as ignored by name, readLayers).
   static const std::vector<std::string> supported = {
-      "KHR_lights_punctual", "KHR_materials_emissive_strength", "KHR_materials_ior",
-      "KHR_materials_pbrSpecularGlossiness", "KHR_materials_specular", "KHR_materials_unlit",
-      "KHR_texture_transform"};
+      "KHR_lights_punctual", "KHR_materials_clearcoat", "KHR_materials_emissive_strength",
+      "KHR_materials_ior", "KHR_materials_pbrSpecularGlossiness", "KHR_materials_sheen",
+      "KHR_materials_specular", "KHR_materials_unlit", "KHR_texture_transform"};
   return supported;
 }
 
@@ -193,6 +238,7 @@ void readGltfMaterialExtensions(const GltfFile& file, const std::vector<std::str
   if (root.is_discarded() || !root.is_object()) return;
 
   std::set<std::string> used;
+  std::set<std::string> partial;  // "EXTENSION (member)": an honoured extension's unread parts
   if (const json* list = member(root, "extensionsUsed"); list != nullptr && list->is_array()) {
     for (const json& name : *list) addName(name, used);
   }
@@ -213,16 +259,18 @@ void readGltfMaterialExtensions(const GltfFile& file, const std::vector<std::str
     for (size_t i = 0; i < materials.size() && i < assimpNames.size(); ++i) {
       const int64_t source = fileMaterialOf(*files, fileNames, assimpNames[i], i, materials[i]);
       if (source >= 0 && (*files)[size_t(source)].is_object()) {
-        readMaterial((*files)[size_t(source)], materials[i]);
+        readMaterial((*files)[size_t(source)], materials[i], partial);
       }
     }
   }
   const std::vector<std::string>& supported = supportedGltfExtensions();
+  std::set<std::string> listed = partial;
   for (const std::string& name : used) {
+    if (std::find(supported.begin(), supported.end(), name) == supported.end()) listed.insert(name);
+  }
+  for (const std::string& name : listed) {
     if (ignored.size() >= kMaxIgnoredExtensions) break;
-    if (std::find(supported.begin(), supported.end(), name) == supported.end()) {
-      ignored.push_back(name);
-    }
+    ignored.push_back(name);
   }
 }
 

@@ -124,6 +124,12 @@ struct Material {
   float ior = 1.5f;                 // KHR_materials_ior: the dielectric's F0, ((ior-1)/(ior+1))^2
   float specular = 1.0f;            // KHR_materials_specular's specularFactor: scales the
                                     // dielectric's reflection (F0 and F90)
+  float clearcoat = 0.0f;           // KHR_materials_clearcoat's clearcoatFactor (0: no coat)
+  float clearcoatRoughness = 0.0f;  // and its clearcoatRoughnessFactor (perceptual)
+  glm::vec3 sheenColor{0.0f};       // KHR_materials_sheen's sheenColorFactor (0: no sheen)
+  float sheenRoughness = 0.0f;      // and its sheenRoughnessFactor
+  // Whether the material has a clear coat or a sheen: what the layers G-buffer target is for.
+  bool layered() const { return clearcoat > 0.0f || sheenColor != glm::vec3(0.0f); }
   TextureRef baseColorTexture;          // sRGB, RGBA: colour and alpha
   TextureRef metallicRoughnessTexture;  // linear: B metallic, G roughness
   TextureRef normalTexture;             // linear: tangent-space normal

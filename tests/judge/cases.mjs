@@ -13,8 +13,8 @@
 
 import {readFileSync} from 'node:fs';
 import {animatedColumnGlb, morphCubeGltf} from './animated_fixtures.mjs';
-import {blendGlb, checkerGlb, emissiveStrengthGlb, iorSpecularGlb, maskGlb, normalMapGlb, spheresGlb,
-        spotGlb, textureTransformGlb, unlitGlb} from './fixtures.mjs';
+import {blendGlb, checkerGlb, clearcoatGlb, emissiveStrengthGlb, iorSpecularGlb, maskGlb, normalMapGlb,
+        sheenGlb, spheresGlb, spotGlb, textureTransformGlb, unlitGlb} from './fixtures.mjs';
 
 const HELMET = '/work/shared/assets/DamagedHelmet/DamagedHelmet.glb';
 const BOX_TEXTURED = '/usr/share/assimp/models/glTF2/BoxTextured-glTF-Binary/BoxTextured.glb';
@@ -114,4 +114,12 @@ export const CASES = [
    what: 'KHR_materials_ior and KHR_materials_specular (factor): five dark glossy dielectric spheres whose F0 and F90 they set, under the sun',
    width: 320, height: 96, camera: camera([0, 1, 11], [0, 0, 0], 28, 1, 40),
    sun: sun([-0.3, -0.5, -0.8], 3)},
+  {name: 'clearcoat', file: 'clearcoat.glb', bytes: () => clearcoatGlb(),
+   what: 'KHR_materials_clearcoat (factors): dark rough spheres with a smooth full coat, a half coat and none, and a coated rough gold, under the sun',
+   width: 256, height: 96, camera: camera([0, 1, 9.5], [0, 0, 0], 30, 1, 40),
+   sun: sun([-0.3, -0.5, -0.8], 3)},
+  {name: 'sheen', file: 'sheen.glb', bytes: () => sheenGlb(),
+   what: 'KHR_materials_sheen (factors): dark cloth-like spheres with pink, white and (coated) blue sheens and none, lit from the side and a little behind, so light and view graze the lit half',
+   width: 256, height: 96, camera: camera([0, 1, 9.5], [0, 0, 0], 30, 1, 40),
+   sun: sun([0.9, -0.35, 0.25], 4)},
 ];

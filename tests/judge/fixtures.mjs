@@ -463,16 +463,68 @@ export function unlitGlb() {
   return b.glb();
 }
 
-// A sphere whose material uses KHR_materials_sheen (which Myriad does not honour): the model
-// summary must name it.
+// A sphere whose material uses KHR_materials_transmission (which Myriad does not honour) and
+// KHR_materials_sheen with a colour texture (honoured, its texture not read): the model summary
+// must name both, the second as "KHR_materials_sheen (sheenColorTexture)".
+export function unsupportedGlb() {
+  const b = new GltfBuilder();
+  b.json.extensionsUsed = ['KHR_materials_sheen', 'KHR_materials_transmission'];
+  const texture = b.image(checkerTexture(4));
+  const glass = b.material({name: 'glass', extensions: {KHR_materials_transmission: {transmissionFactor: 1},
+                                                        KHR_materials_sheen: {sheenColorFactor: [1, 0.3, 0.3],
+                                                                              sheenColorTexture: {index: texture}}},
+                            pbrMetallicRoughness: {baseColorFactor: [0.3, 0.05, 0.1, 1], metallicFactor: 0,
+                                                   roughnessFactor: 0.8}});
+  b.node({name: 'ball', mesh: b.mesh(sphere(24, 16, false), glass)});
+  return b.glb();
+}
+
+// KHR_materials_clearcoat (factors): four dark, rough spheres, three of them coated (a smooth full
+// coat, a half coat, a rougher coat over a rough gold metal) beside an uncoated one, under the sun:
+// the coat's highlight over the base's broad one, and the base dimmed by the coat's Fresnel at the
+// rims.
+export function clearcoatGlb() {
+  const b = new GltfBuilder();
+  b.json.extensionsUsed = ['KHR_materials_clearcoat'];
+  const dark = {baseColorFactor: [0.25, 0.04, 0.05, 1], metallicFactor: 0, roughnessFactor: 0.7};
+  const variants = [
+    {name: 'uncoated', pbrMetallicRoughness: dark},
+    {name: 'coat-1-0.15', pbrMetallicRoughness: dark,
+     extensions: {KHR_materials_clearcoat: {clearcoatFactor: 1, clearcoatRoughnessFactor: 0.15}}},
+    {name: 'coat-0.5-0.3', pbrMetallicRoughness: dark,
+     extensions: {KHR_materials_clearcoat: {clearcoatFactor: 0.5, clearcoatRoughnessFactor: 0.3}}},
+    {name: 'gold-coat-0.8-0.4', pbrMetallicRoughness: {baseColorFactor: [1, 0.77, 0.33, 1], metallicFactor: 1,
+                                                      roughnessFactor: 0.6},
+     extensions: {KHR_materials_clearcoat: {clearcoatFactor: 0.8, clearcoatRoughnessFactor: 0.4}}},
+  ];
+  const geometry = sphere(48, 32, false);
+  variants.forEach((v, i) => {
+    b.node({name: v.name, mesh: b.mesh(geometry, b.material(v)), translation: [(i - 1.5) * 2.2, 0, 0]});
+  });
+  return b.glb();
+}
+
+// KHR_materials_sheen (factors): dark, rough, cloth-like spheres with a sheen (pink at roughness
+// 0.3, white at 0.7, a blue one at 0.5 under a clear coat too) beside one without, lit from the
+// side and a little behind: light and view graze the lit half, where the sheen's glow shows.
 export function sheenGlb() {
   const b = new GltfBuilder();
-  b.json.extensionsUsed = ['KHR_materials_sheen'];
-  const velvet = b.material({name: 'velvet', extensions: {KHR_materials_sheen: {sheenColorFactor: [1, 0.3, 0.3],
-                                                                               sheenRoughnessFactor: 0.5}},
-                             pbrMetallicRoughness: {baseColorFactor: [0.3, 0.05, 0.1, 1], metallicFactor: 0,
-                                                    roughnessFactor: 0.8}});
-  b.node({name: 'ball', mesh: b.mesh(sphere(24, 16, false), velvet)});
+  b.json.extensionsUsed = ['KHR_materials_sheen', 'KHR_materials_clearcoat'];
+  const cloth = {baseColorFactor: [0.08, 0.05, 0.1, 1], metallicFactor: 0, roughnessFactor: 0.9};
+  const variants = [
+    {name: 'plain', pbrMetallicRoughness: cloth},
+    {name: 'pink-0.3', pbrMetallicRoughness: cloth,
+     extensions: {KHR_materials_sheen: {sheenColorFactor: [1, 0.4, 0.6], sheenRoughnessFactor: 0.3}}},
+    {name: 'white-0.7', pbrMetallicRoughness: cloth,
+     extensions: {KHR_materials_sheen: {sheenColorFactor: [0.8, 0.8, 0.8], sheenRoughnessFactor: 0.7}}},
+    {name: 'blue-0.5-coated', pbrMetallicRoughness: cloth,
+     extensions: {KHR_materials_sheen: {sheenColorFactor: [0.3, 0.5, 1], sheenRoughnessFactor: 0.5},
+                  KHR_materials_clearcoat: {clearcoatFactor: 0.6, clearcoatRoughnessFactor: 0.3}}},
+  ];
+  const geometry = sphere(48, 32, false);
+  variants.forEach((v, i) => {
+    b.node({name: v.name, mesh: b.mesh(geometry, b.material(v)), translation: [(i - 1.5) * 2.2, 0, 0]});
+  });
   return b.glb();
 }
 

@@ -19,16 +19,26 @@ class Volumes final : public LightingTechnique {
  public:
   explicit Volumes(const TechniqueSetup& setup) : pipelines_(setup.context.device) {
     VkDevice device = setup.context.device;
-    gpu::GraphicsPipelineDesc d;
-    d.vertexShader = spirv::fullscreen_vert;
-    d.fragmentShader = spirv::sun_frag;
-    d.colorFormats = {kHdrFormat, kLightCountFormat};
-    sun_ = pipelines_.add(gpu::createGraphicsPipeline(device, setup.pipelines.layout, d));
+    // Each pipeline twice: with the clear coat and sheen code compiled out (frames whose scene
+    // has neither: llvmpipe would run it behind the uniform test too) and with every feature.
+    const VkSpecializationMapEntry entry{MYRIAD_SPEC_SHADING_FEATURES, 0, sizeof(uint32_t)};
+    const uint32_t withoutLayers = MYRIAD_FEATURES_ALL & ~MYRIAD_FEATURE_LAYERS;
+    const VkSpecializationInfo plain{1, &entry, sizeof(uint32_t), &withoutLayers};
+    for (const bool layered : {false, true}) {
+      gpu::GraphicsPipelineDesc d;
+      d.vertexShader = spirv::fullscreen_vert;
+      d.fragmentShader = spirv::sun_frag;
+      d.colorFormats = {kHdrFormat, kLightCountFormat};
+      d.fragmentSpecialization = layered ? nullptr : &plain;
+      const VkPipelineLayout layout = setup.pipelines.layout;
+      sun_[layered] = pipelines_.add(gpu::createGraphicsPipeline(device, layout, d));
 
-    d = lightVolumeDesc(setup.context);
-    d.fragmentShader = spirv::light_volume_frag;
-    d.colorFormats = {kHdrFormat, kLightCountFormat};
-    volumes_ = pipelines_.add(gpu::createGraphicsPipeline(device, setup.pipelines.layout, d));
+      d = lightVolumeDesc(setup.context);
+      d.fragmentShader = spirv::light_volume_frag;
+      d.colorFormats = {kHdrFormat, kLightCountFormat};
+      d.fragmentSpecialization = layered ? nullptr : &plain;
+      volumes_[layered] = pipelines_.add(gpu::createGraphicsPipeline(device, layout, d));
+    }
   }
 
   // Two steps: the sun (every pixel), then the lights. Each light is one instance of the proxy,
@@ -39,10 +49,11 @@ class Volumes final : public LightingTechnique {
 
   void recordStep(const LightingPass& pass, uint32_t step, uint32_t first,
                   uint32_t count) override {
+    const bool layered = (pass.shadingFeatures & MYRIAD_FEATURE_LAYERS) != 0u;
     if (step == 0) {
-      recordSun(pass.cmd, pass.targets);
+      recordSun(pass.cmd, pass.targets, layered);
     } else {
-      recordLights(pass.cmd, pass.targets, pass.scene, first, count);
+      recordLights(pass.cmd, pass.targets, pass.scene, first, count, layered);
     }
   }
 
@@ -51,7 +62,7 @@ class Volumes final : public LightingTechnique {
  private:
   // Reads the G-buffer; writes sun + ambient (or the background) into every HDR pixel and zero
   // light counts.
-  void recordSun(VkCommandBuffer cmd, const FrameTargets& t) const {
+  void recordSun(VkCommandBuffer cmd, const FrameTargets& t, bool layered) const {
     const gpu::ImageTransition before[] = {
         // Last read by the previous frame's final or views pass (compute).
         discardForColorWrite(t.hdr, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT),
@@ -62,7 +73,7 @@ class Volumes final : public LightingTechnique {
         colorAttachment(t.hdr, VK_ATTACHMENT_LOAD_OP_DONT_CARE),
         colorAttachment(t.lightCount, VK_ATTACHMENT_LOAD_OP_DONT_CARE)};
     beginRendering(cmd, t.extent, colors, nullptr);
-    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, sun_);
+    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, sun_[layered]);
     vkCmdDraw(cmd, 3, 1, 0, 0);
     vkCmdEndRendering(cmd);
   }
@@ -70,7 +81,7 @@ class Volumes final : public LightingTechnique {
   // Reads the G-buffer and lights [first, first + count); adds each light's contribution to HDR
   // inside its sphere, and 1 to the light count there.
   void recordLights(VkCommandBuffer cmd, const FrameTargets& t, const SceneBuffers& scene,
-                    uint32_t first, uint32_t count) const {
+                    uint32_t first, uint32_t count, bool layered) const {
     const gpu::ImageTransition before[] = {colorWriteToBlend(t.hdr), colorWriteToBlend(t.lightCount)};
     gpu::barrier(cmd, before);
     std::array<VkRenderingAttachmentInfo, 2> colors = {
@@ -78,14 +89,14 @@ class Volumes final : public LightingTechnique {
         colorAttachment(t.lightCount, VK_ATTACHMENT_LOAD_OP_LOAD)};
     VkRenderingAttachmentInfo depth = readOnlyDepth(t.depth);
     beginRendering(cmd, t.extent, colors, &depth);
-    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, volumes_);
+    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, volumes_[layered]);
     drawLightProxies(cmd, scene, first, count);
     vkCmdEndRendering(cmd);
   }
 
   PipelineList pipelines_;
-  VkPipeline sun_ = VK_NULL_HANDLE;
-  VkPipeline volumes_ = VK_NULL_HANDLE;
+  VkPipeline sun_[2] = {};      // [scene has layers]
+  VkPipeline volumes_[2] = {};
 };
 
 }  // namespace

@@ -37,6 +37,17 @@ const SPEC_PATCHES = [
   ['lights_physical_fragment',
    'float geometryRoughness = max( max( dxy.x, dxy.y ), dxy.z );',
    'float geometryRoughness = 0.0;', 1],
+  // KHR_materials_clearcoat's clearcoat_fresnel: Schlick's at N.V for the coat's own lobe too
+  // (three.js takes V.H there and N.V only for what the layers below lose).
+  ['lights_physical_pars_fragment',
+   `vec3 F = F_Schlick( f0, f90, dotVH );
+    float V = V_GGX_SmithCorrelated( alpha, dotNL, dotNV );
+    float D = D_GGX( alpha, dotNH );
+    return F * ( V * D );`,
+   `vec3 F = F_Schlick( f0, f90, dotNV );
+    float V = V_GGX_SmithCorrelated( alpha, dotNL, dotNV );
+    float D = D_GGX( alpha, dotNH );
+    return F * ( V * D );`, 1],
   // KHR_lights_punctual's recommended cone falloff: t = linear step between the cosines, t^2.
   ['lights_pars_begin',
    'return smoothstep( coneCosine, penumbraCosine, angleCosine );',
@@ -97,7 +108,8 @@ async function renderCase(spec) {
   // material's opacity, fileOrder: transparent surfaces drawn in the file's order, not sorted,
   // emissiveStrength: 0 for KHR_materials_emissive_strength ignored (intensity 1), noTextureTransform:
   // every map's KHR_texture_transform ignored, iorSpecular: false for KHR_materials_ior and
-  // _specular ignored}.
+  // _specular ignored, clearcoat: false for KHR_materials_clearcoat ignored, sheen: false for
+  // KHR_materials_sheen ignored}.
   const perturb = {light: 1, sunDegrees: 0, roughness: 1, fovY: 0, range: 1, coneRadians: 0, normalScale: 1,
                    opacity: 1, fileOrder: false, ...(spec.perturb || {})};
   let order = 0;
@@ -107,6 +119,8 @@ async function renderCase(spec) {
     if (o.material?.transparent && perturb.opacity !== 1) o.material.opacity = Math.min(1, o.material.opacity * perturb.opacity);
     if (o.isMesh && perturb.fileOrder) o.renderOrder = order++;  // draw in the file's order, unsorted
     if (o.material && perturb.emissiveStrength === 0) o.material.emissiveIntensity = 1;
+    if (o.material?.isMeshPhysicalMaterial && perturb.clearcoat === false) o.material.clearcoat = 0;
+    if (o.material?.isMeshPhysicalMaterial && perturb.sheen === false) o.material.sheen = 0;
     if (o.material?.isMeshPhysicalMaterial && perturb.iorSpecular === false) {
       o.material.ior = 1.5;
       o.material.specularIntensity = 1;
