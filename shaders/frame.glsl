@@ -3,6 +3,7 @@
 #ifndef MYRIAD_FRAME_GLSL
 #define MYRIAD_FRAME_GLSL
 
+#extension GL_EXT_control_flow_attributes : require
 #include "shared_types.h"
 
 // What this pipeline's shading may meet (MYRIAD_FEATURE_* bits, shared_types.h): every bit unless
@@ -118,18 +119,31 @@ bool environmentOn() {
 // The sun's shadow cascade for a surface point: the first whose far end (view depth; render/
 // cascades.cpp fitSunCascades, splitFar) reaches past the point, the last beyond them all; -1 when
 // the sun casts no shadows.
+//
+// The cascades' loops read each cascade's parameters at a run-time index ([[dont_unroll]]),
+// sunCascade[c].w saying whether cascade c is in use, and branch on nothing read from `frame` at
+// a fixed place: lavapipe (Mesa 22.3) replaces a uniform that decides a branch by its value and,
+// when that removes half of a shader, compiles the shader again at every bind, keeping every copy
+// until the pipeline goes (a 4096^2 raw frame's views pass grew the host's memory ~10 MiB a
+// frame; CTest api "host memory"). A load at an index known only when the shader runs is never
+// replaced.
 int sunShadowCascade(vec3 position) {
-  if (!shadingFeature(MYRIAD_FEATURE_SUN_SHADOW) || frame.sunShadow.x == 0.0) {
+  if (!shadingFeature(MYRIAD_FEATURE_SUN_SHADOW)) {
     return -1;
   }
-  int count = int(frame.sunShadow.x);
   float viewDepth = -(frame.view * vec4(position, 1.0)).z;
-  for (int c = 0; c < count - 1; ++c) {
-    if (viewDepth <= frame.sunCascade[c].z) {
-      return c;
+  int cascade = -1;
+  int last = -1;
+  [[dont_unroll]] for (int c = 0; c < MYRIAD_MAX_SUN_CASCADES; ++c) {
+    vec4 params = frame.sunCascade[c];
+    if (params.w > 0.5) {
+      last = c;
+      if (cascade < 0 && viewDepth <= params.z) {
+        cascade = c;
+      }
     }
   }
-  return count - 1;
+  return cascade < 0 ? last : cascade;
 }
 
 // How much of the sun reaches a surface point through cascade `cascade` (sunShadowCascade): 1
@@ -142,7 +156,7 @@ int sunShadowCascade(vec3 position) {
 // atlas; taps are clamped inside the cascade's tile, so a cascade never reads its neighbour's
 // depth. A point outside its cascade's square (only the normal offset can push it out: each
 // cascade's square holds its part of the view) tries the next cascade; outside them all, or
-// past the map's depth, the sun is unoccluded.
+// past the map's depth, the sun is unoccluded. (Its loop as sunShadowCascade's, for lavapipe.)
 float sunShadowFactorIn(int cascade, vec3 position, vec3 normal) {
   if (cascade < 0) {
     return 1.0;
@@ -155,8 +169,11 @@ float sunShadowFactorIn(int cascade, vec3 position, vec3 normal) {
   float tileTexels = frame.sunShadow.y;
   vec2 grid = frame.sunShadow.zw;
   float edge = 1.0 / tileTexels;  // a texel in from the tile's border: the 2x2 filter stays inside
-  for (int c = cascade; c < int(frame.sunShadow.x); ++c) {
+  [[dont_unroll]] for (int c = cascade; c < MYRIAD_MAX_SUN_CASCADES; ++c) {
     vec4 cascadeParams = frame.sunCascade[c];
+    if (cascadeParams.w < 0.5) {
+      break;  // past the frame's cascades
+    }
     vec3 p = position + normal * (cascadeParams.x * (0.5 + sinTheta));
     vec3 map = (frame.sunShadowMatrix[c] * vec4(p, 1.0)).xyz;
     if (map.x < edge || map.x > 1.0 - edge || map.y < edge || map.y > 1.0 - edge) {

@@ -263,6 +263,9 @@ MYRIAD_STRUCT(MotionPush) {
 // every branch, so the marker resolve and the anti-aliasing tile cost every pixel of a frame that
 // has them off unless they are compiled out. GPUs keep one pipeline that tests the uniforms.
 #define MYRIAD_SPEC_FINAL_PARTS 10  // constant_id
+// views_pass.glsl's kShadowView (constant_id): 1 in the pipelines of the `shadow` view alone
+// (Pipelines::viewsFor), 0 in the others, which so leave its code out.
+#define MYRIAD_SPEC_SHADOW_VIEW 11
 #define MYRIAD_FINAL_ANTIALIAS 0x1u
 #define MYRIAD_FINAL_MARKERS 0x2u
 #define MYRIAD_SCAN_GROUP 256
@@ -374,7 +377,8 @@ MYRIAD_STRUCT(FrameUniforms) {
                    // the atlas's columns and rows of tiles
   // Per cascade: x one texel in world units (the normal offset), y one texel of depth in map
   // depth units (the bias), z the cascade's far end (view depth; the last reaches past the
-  // scene), w unused.
+  // scene), w 1 for the frame's cascades, 0 past them (frame.glsl's loops read this, not
+  // sunShadow.x: sunShadowCascade says why).
   vec4 sunCascade[MYRIAD_MAX_SUN_CASCADES];
   // Local lights' shadows (render/shadows.cpp). x how many lights have a map this frame (0: none,
   // and no shader reads further), y tile size (texels), zw the atlas's size (texels).

@@ -213,8 +213,9 @@ void Renderer::State::writeUniforms(FrameSlot& slot, const FrameSettings& s,
                             float(grid.y));
     for (uint32_t c = 0; c < sunShadow->cascades; ++c) {
       u.sunShadowMatrix[c] = sunShadow->mapFromWorld[c];
+      // w: the cascade is in use (frame.glsl reads this, not sunShadow.x, in its loops).
       u.sunCascade[c] = glm::vec4(sunShadow->texelWorld[c], sunShadow->depthTexel[c],
-                                  sunShadow->splitFar[c], 0.0f);
+                                  sunShadow->splitFar[c], 1.0f);
     }
   }
   if (!lightShadows.empty()) {
