@@ -324,8 +324,11 @@ inline constexpr std::array kEnvironmentModes = {environment_modes::kNone, envir
 namespace antialias_modes {
 inline constexpr std::string_view kNone = environment_modes::kNone;  // the image as tonemapped
 inline constexpr std::string_view kFxaa = "fxaa";  // a luminance-edge post-process (compute)
+inline constexpr std::string_view kTaa = "taa";    // 8 jittered sub-frames, clamped and blended
+inline constexpr std::string_view kSsaa = "ssaa";  // rendered at 2x2 the size, box-downsampled
 }  // namespace antialias_modes
-inline constexpr std::array kAntialiasModes = {antialias_modes::kNone, antialias_modes::kFxaa};
+inline constexpr std::array kAntialiasModes = {antialias_modes::kNone, antialias_modes::kFxaa,
+                                               antialias_modes::kTaa, antialias_modes::kSsaa};
 // How local lights cast shadows (settings "shadows.local"): render::LocalShadows is an index
 // into kLocalShadowModes; defs.schema.json's localShadows enum mirrors it.
 namespace local_shadow_modes {
@@ -337,10 +340,10 @@ inline constexpr std::array kLocalShadowModes = {local_shadow_modes::kNone, loca
                                                  local_shadow_modes::kStochastic};
 // What a frame shows: ?target=, GET /v1/info "targets", X-Myriad-Target. In render::Target's order
 // (which the shaders' MYRIAD_VIEW_* values follow): the final image, then G-buffer and debug views.
-inline constexpr std::array<std::string_view, 17> kTargets = {
+inline constexpr std::array<std::string_view, 18> kTargets = {
     "final",     "albedo",      "normal",        "position",   "uv",          "metallic",
     "roughness", "depth",       "light-volumes", "light-count", "clusters",   "emissive",
-    "occlusion", "instance-id", "semantic-id",   "material-id", "motion"};
+    "occlusion", "instance-id", "semantic-id",   "material-id", "motion",     "shadow"};
 // Frame formats: png16 (16-bit grey: depth and the ids), npy (NumPy), exr (OpenEXR), npz
 // (several targets, NumPy's zip of .npy files); reference.md "Frame formats".
 inline constexpr std::array<std::string_view, 7> kFormats = {"png", "jpeg", "raw", "png16",

@@ -149,8 +149,8 @@ std::vector<Operation> buildOperations() {
                  {"technique", component("technique"),
                   "How local lights are shaded. Default: GET /v1/info defaultTechnique."},
                  {"antialias", component("antialias"),
-                  "Anti-aliasing of the final image (none or fxaa; data views and raw output are "
-                  "never filtered). Default fxaa."}},
+                  "Anti-aliasing of the final image (none, fxaa, taa or ssaa; data views and raw "
+                  "output are never filtered, jittered or supersampled). Default fxaa."}},
        .responses = {frameResponse()},
        .problems = {400, 500, 503}});
   ops.push_back({.method = "GET",
@@ -576,7 +576,6 @@ std::vector<Operation> buildOperations() {
                  .access = Access::Session,
                  .responses = {noContent("Removed.")},
                  .problems = kSessionProblems});
-
   ops.push_back({.method = "POST",
                  .route = "/v1/sessions/{id}/objects/{oid}/duplicate",
                  .id = "duplicateObject",

@@ -79,6 +79,7 @@ void patchMembers(Tag<ShadowsPatch>, F f) {
   f("mapSize", &Shadows::mapSize, &ShadowsPatch::mapSize);
   f("maxShadowedLights", &Shadows::maxShadowedLights, &ShadowsPatch::maxShadowedLights);
   f("local", &Shadows::local, &ShadowsPatch::local);
+  f("cascades", &Shadows::cascades, &ShadowsPatch::cascades);
 }
 
 template <class F>

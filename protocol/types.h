@@ -84,6 +84,9 @@ struct Shadows {
   // local_shadow_modes:: "none" | "maps" | "stochastic". The server always sends it; a body may
   // leave it out (a snapshot from before it): "maps" then.
   std::optional<std::string> local;
+  // The sun's cascades, 1..4 (defs.schema.json sunCascades). The server always sends it; a body
+  // may leave it out (a snapshot from before cascades): 4 then.
+  std::optional<uint32_t> cascades;
 };
 
 struct ShadowsPatch {
@@ -91,6 +94,7 @@ struct ShadowsPatch {
   std::optional<uint32_t> mapSize;
   std::optional<uint32_t> maxShadowedLights;
   std::optional<std::string> local;
+  std::optional<uint32_t> cascades;
 };
 
 // Distance fog (aerial perspective): a surface d metres away keeps exp(-density * d) of its light
@@ -111,7 +115,7 @@ struct Settings {
   Color ambient{};
   double exposure = 1;
   bool markers = false;
-  // antialias_modes:: "none" | "fxaa". The server always sends it; a body may leave it out (a
+  // antialias_modes:: "none" | "fxaa" | "taa" | "ssaa". The server always sends it; a body may leave it out (a
   // snapshot saved before anti-aliasing existed), which restores as a new session starts: "fxaa".
   std::optional<std::string> antialias;
   std::string technique;  // "volumes" | "tiled" | "clustered" (constants.h technique_names::)

@@ -45,6 +45,9 @@ bool lightClustersAt(vec4 light, out LightClusters b) {
     lo = min(lo, min(n0, n1));
     hi = max(hi, max(n0, n1));
   }
+  // A jittered projection (TAA's sub-frames) moves every point by -projection[2].xy in NDC.
+  lo -= vec2(frame.projection[2][0], frame.projection[2][1]);
+  hi -= vec2(frame.projection[2][0], frame.projection[2][1]);
   if (hi.x < -1.0 || hi.y < -1.0 || lo.x > 1.0 || lo.y > 1.0) return false;
   vec2 size = frame.viewport.xy;
   uvec2 t0 = uvec2(clamp((lo * 0.5 + 0.5) * size / float(clusterTileSize()), vec2(0.0), vec2(frame.grid.xy - 1u)));

@@ -3,6 +3,7 @@
 #ifndef MYRIAD_FRAME_GLSL
 #define MYRIAD_FRAME_GLSL
 
+#extension GL_EXT_control_flow_attributes : require
 #include "shared_types.h"
 
 // What this pipeline's shading may meet (MYRIAD_FEATURE_* bits, shared_types.h): every bit unless
@@ -30,8 +31,9 @@ layout(std430, set = MYRIAD_SET_SCENE, binding = MYRIAD_BINDING_ENVIRONMENT) rea
 layout(std430, set = MYRIAD_SET_SCENE, binding = MYRIAD_BINDING_BRDF_LUT) readonly buffer BrdfLutBlock {
   vec4 brdfLutTexels[];
 };
-// The sun's shadow map (render/shadows.cpp), a comparison sampler: LESS_OR_EQUAL, linear where
-// the device filters the depth format linearly (then each tap is a 2x2 PCF of its own).
+// The sun's shadow maps (render/shadows.cpp), its cascades' tiles side by side in one atlas, a
+// comparison sampler: LESS_OR_EQUAL, linear where the device filters the depth format linearly
+// (then each tap is a 2x2 PCF of its own).
 layout(set = MYRIAD_SET_SCENE, binding = MYRIAD_BINDING_SUN_SHADOW_MAP) uniform sampler2DShadow sunShadowMap;
 // Local lights' shadow tiles, all in one atlas (render/shadows.cpp), the same sampler.
 layout(set = MYRIAD_SET_SCENE, binding = MYRIAD_BINDING_LIGHT_SHADOW_ATLAS) uniform sampler2DShadow lightShadowAtlas;
@@ -137,15 +139,49 @@ bool environmentOn() {
   return shadingFeature(MYRIAD_FEATURE_ENVIRONMENT) && frame.environment.x != float(MYRIAD_ENV_NONE);
 }
 
-// How much of the sun reaches a surface point: 1 lit, 0 in shadow, between in the penumbra.
-// 3x3 taps a texel apart (percentage-closer filtering, Reeves et al. 1987), so the penumbra is
-// about three texels wide. Acne is kept off by a normal offset (Holbein 2011: the point moves
-// along its normal by more the more the surface grazes the light, where its texels stretch) plus
-// a depth bias of 1.5 texels of depth, more on slopes (2 tan(theta), at most 10 more: the 3x3 taps
-// reach a texel away, where a sloped receiver is that much nearer the light). Outside the map
-// (nothing of the scene is: the map covers the scene's bounds) the sun is unoccluded.
-float sunShadowFactor(vec3 position, vec3 normal) {
-  if (!shadingFeature(MYRIAD_FEATURE_SUN_SHADOW) || frame.sunShadow.x == 0.0) {
+// The sun's shadow cascade for a surface point: the first whose far end (view depth; render/
+// cascades.cpp fitSunCascades, splitFar) reaches past the point, the last beyond them all; -1 when
+// the sun casts no shadows.
+//
+// The cascades' loops read each cascade's parameters at a run-time index ([[dont_unroll]]),
+// sunCascade[c].w saying whether cascade c is in use, and branch on nothing read from `frame` at
+// a fixed place: lavapipe (Mesa 22.3) replaces a uniform that decides a branch by its value and,
+// when that removes half of a shader, compiles the shader again at every bind, keeping every copy
+// until the pipeline goes (a 4096^2 raw frame's views pass grew the host's memory ~10 MiB a
+// frame; CTest api "host memory"). A load at an index known only when the shader runs is never
+// replaced.
+int sunShadowCascade(vec3 position) {
+  if (!shadingFeature(MYRIAD_FEATURE_SUN_SHADOW)) {
+    return -1;
+  }
+  float viewDepth = -(frame.view * vec4(position, 1.0)).z;
+  int cascade = -1;
+  int last = -1;
+  [[dont_unroll]] for (int c = 0; c < MYRIAD_MAX_SUN_CASCADES; ++c) {
+    vec4 params = frame.sunCascade[c];
+    if (params.w > 0.5) {
+      last = c;
+      if (cascade < 0 && viewDepth <= params.z) {
+        cascade = c;
+      }
+    }
+  }
+  return cascade < 0 ? last : cascade;
+}
+
+// How much of the sun reaches a surface point through cascade `cascade` (sunShadowCascade): 1
+// lit, 0 in shadow, between in the penumbra. 3x3 taps a texel apart (percentage-closer filtering,
+// Reeves et al. 1987), so the penumbra is about three texels wide. Acne is kept off by a normal
+// offset (Holbein 2011: the point moves along its normal by more the more the surface grazes the
+// light, where its texels stretch) plus a depth bias of 1.5 texels of depth, more on slopes
+// (2 tan(theta), at most 10 more: the 3x3 taps reach a texel away, where a sloped receiver is that
+// much nearer the light); both are the cascade's own texel. The cascades live side by side in one
+// atlas; taps are clamped inside the cascade's tile, so a cascade never reads its neighbour's
+// depth. A point outside its cascade's square (only the normal offset can push it out: each
+// cascade's square holds its part of the view) tries the next cascade; outside them all, or
+// past the map's depth, the sun is unoccluded. (Its loop as sunShadowCascade's, for lavapipe.)
+float sunShadowFactorIn(int cascade, vec3 position, vec3 normal) {
+  if (cascade < 0) {
     return 1.0;
   }
   float cosTheta = dot(normal, frame.sunDirection.xyz);
@@ -153,20 +189,38 @@ float sunShadowFactor(vec3 position, vec3 normal) {
     return 1.0;  // facing away: the sun adds nothing here whatever the map says
   }
   float sinTheta = sqrt(max(1.0 - cosTheta * cosTheta, 0.0));
-  vec3 p = position + normal * (frame.sunShadow.y * (0.5 + sinTheta));
-  vec3 map = (frame.sunShadowMatrix * vec4(p, 1.0)).xyz;
-  if (map.x < 0.0 || map.x > 1.0 || map.y < 0.0 || map.y > 1.0 || map.z > 1.0) {
-    return 1.0;
-  }
-  float reference = map.z - frame.sunShadow.z * (1.5 + min(2.0 * sinTheta / cosTheta, 10.0));
-  float texel = frame.sunShadow.w;
-  float lit = 0.0;
-  for (int y = -1; y <= 1; ++y) {
-    for (int x = -1; x <= 1; ++x) {
-      lit += textureLod(sunShadowMap, vec3(map.xy + vec2(float(x), float(y)) * texel, reference), 0.0);
+  float tileTexels = frame.sunShadow.y;
+  vec2 grid = frame.sunShadow.zw;
+  float edge = 1.0 / tileTexels;  // a texel in from the tile's border: the 2x2 filter stays inside
+  [[dont_unroll]] for (int c = cascade; c < MYRIAD_MAX_SUN_CASCADES; ++c) {
+    vec4 cascadeParams = frame.sunCascade[c];
+    if (cascadeParams.w < 0.5) {
+      break;  // past the frame's cascades
     }
+    vec3 p = position + normal * (cascadeParams.x * (0.5 + sinTheta));
+    vec3 map = (frame.sunShadowMatrix[c] * vec4(p, 1.0)).xyz;
+    if (map.x < edge || map.x > 1.0 - edge || map.y < edge || map.y > 1.0 - edge) {
+      continue;
+    }
+    if (map.z > 1.0) {
+      return 1.0;
+    }
+    float reference = map.z - cascadeParams.y * (1.5 + min(2.0 * sinTheta / cosTheta, 10.0));
+    vec2 tile = vec2(float(c % int(grid.x)), float(c / int(grid.x)));
+    float lit = 0.0;
+    for (int y = -1; y <= 1; ++y) {
+      for (int x = -1; x <= 1; ++x) {
+        vec2 uv = clamp(map.xy + vec2(float(x), float(y)) / tileTexels, vec2(edge), vec2(1.0 - edge));
+        lit += textureLod(sunShadowMap, vec3((tile + uv) / grid, reference), 0.0);
+      }
+    }
+    return lit / 9.0;
   }
-  return lit / 9.0;
+  return 1.0;
+}
+
+float sunShadowFactor(vec3 position, vec3 normal) {
+  return sunShadowFactorIn(sunShadowCascade(position), position, normal);
 }
 
 // What every technique adds once per pixel besides its local lights: the sun, either the constant
@@ -398,7 +452,9 @@ void viewBoxOfRect(vec2 pixelLo, vec2 pixelHi, float z0, float z1, out vec3 lo, 
   vec2 ndc0 = pixelLo / size * 2.0 - 1.0;
   vec2 ndc1 = pixelHi / size * 2.0 - 1.0;
   vec2 scale = vec2(1.0 / frame.projection[0][0], 1.0 / frame.projection[1][1]);
-  vec2 a0 = ndc0 * scale, a1 = ndc1 * scale;  // view x/y per unit depth at the two edges
+  // projection[2].xy: a jittered projection's NDC offset (TAA's sub-frames; 0 otherwise).
+  vec2 offset = vec2(frame.projection[2][0], frame.projection[2][1]);
+  vec2 a0 = (ndc0 + offset) * scale, a1 = (ndc1 + offset) * scale;  // view x/y per unit depth
   vec2 xyLo = min(min(a0 * z0, a0 * z1), min(a1 * z0, a1 * z1));
   vec2 xyHi = max(max(a0 * z0, a0 * z1), max(a1 * z0, a1 * z1));
   lo = vec3(xyLo, -z1);

@@ -20,7 +20,9 @@ shared uint tileLights[MYRIAD_TILE_MAX_LIGHTS];
 
 // Direction through an NDC point in view space (the camera looks down -z).
 vec3 viewRay(vec2 ndc) {
-  return vec3(ndc.x / frame.projection[0][0], ndc.y / frame.projection[1][1], -1.0);
+  // (projection[2].xy: a jittered projection's offset, TAA's sub-frames; 0 otherwise.)
+  return vec3((ndc.x + frame.projection[2][0]) / frame.projection[0][0],
+              (ndc.y + frame.projection[2][1]) / frame.projection[1][1], -1.0);
 }
 
 void main() {

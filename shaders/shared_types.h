@@ -44,6 +44,9 @@ using mat4 = glm::mat4;
 #define MYRIAD_SHADOW_MAP_MIN 256
 #define MYRIAD_SHADOW_MAP_MAX 4096
 #define MYRIAD_SHADOW_MAP_DEFAULT 2048
+// The sun's shadow cascades at most (settings shadows.cascades 1..4; render/shadows.h).
+#define MYRIAD_MAX_SUN_CASCADES 4
+#define MYRIAD_SUN_CASCADES_DEFAULT 4
 // Local lights' shadows: at most this many lights a frame get a shadow map (settings.shadows.
 // maxShadowedLights, default below). Their depth lives in ONE atlas (no descriptor indexing): a
 // spot light takes one square tile (a perspective projection over its cone), a point light (or a
@@ -262,6 +265,9 @@ MYRIAD_STRUCT(MotionPush) {
 // every branch, so the marker resolve and the anti-aliasing tile cost every pixel of a frame that
 // has them off unless they are compiled out. GPUs keep one pipeline that tests the uniforms.
 #define MYRIAD_SPEC_FINAL_PARTS 10  // constant_id
+// views_pass.glsl's kShadowView (constant_id): 1 in the pipelines of the `shadow` view alone
+// (Pipelines::viewsFor), 0 in the others, which so leave its code out.
+#define MYRIAD_SPEC_SHADOW_VIEW 11
 #define MYRIAD_FINAL_ANTIALIAS 0x1u
 #define MYRIAD_FINAL_MARKERS 0x2u
 #define MYRIAD_SCAN_GROUP 256
@@ -287,6 +293,8 @@ MYRIAD_STRUCT(MotionPush) {
 #define MYRIAD_VIEW_CLUSTERS 10
 #define MYRIAD_VIEW_EMISSIVE 11
 #define MYRIAD_VIEW_OCCLUSION 12
+// 13-16 are the label and motion targets, drawn by their own passes.
+#define MYRIAD_VIEW_SHADOW 17  // the sun's shadow factor, tinted by cascade (views_pass.glsl)
 
 // Anti-aliasing of `final` (FrameUniforms.post.x): render::Antialias's values (gpu_types.h checks).
 #define MYRIAD_ANTIALIAS_NONE 0
@@ -367,10 +375,16 @@ MYRIAD_STRUCT(FrameUniforms) {
   // Directional lights besides the sun (a model's): xyz towards the light, w intensity (0: none).
   vec4 extraSunDirection[MYRIAD_MAX_EXTRA_SUNS];
   vec4 extraSunColor[MYRIAD_MAX_EXTRA_SUNS];  // rgb linear, w unused
-  // The sun's shadow map: world -> (u, v, depth) of the map (orthographic, so w = 1).
-  mat4 sunShadowMatrix;
-  vec4 sunShadow;  // x 1 when the sun casts shadows, y normal offset (world units), z depth bias
-                   // (map depth units), w one texel in uv (1 / map size)
+  // The sun's shadow cascades (render/shadows.h): world -> (u, v, depth) of cascade c's map
+  // (orthographic, so w = 1), u and v in [0, 1] across the cascade's own tile of the atlas.
+  mat4 sunShadowMatrix[MYRIAD_MAX_SUN_CASCADES];
+  vec4 sunShadow;  // x cascades (0: the sun casts no shadows), y a tile's size (texels), z and w
+                   // the atlas's columns and rows of tiles
+  // Per cascade: x one texel in world units (the normal offset), y one texel of depth in map
+  // depth units (the bias), z the cascade's far end (view depth; the last reaches past the
+  // scene), w 1 for the frame's cascades, 0 past them (frame.glsl's loops read this, not
+  // sunShadow.x: sunShadowCascade says why).
+  vec4 sunCascade[MYRIAD_MAX_SUN_CASCADES];
   // Local lights' shadows (render/shadows.cpp). x how many lights have a map this frame (0: none,
   // and no shader reads further), y tile size (texels), zw the atlas's size (texels).
   uvec4 lightShadows;

@@ -84,10 +84,29 @@ vec3 sliceColor(uint slice) {
 }
 
 
+// The `shadow` view: the sun's shadow factor as the lighting computes it, and the cascade it read.
+// Its own pipelines (kShadowView): inside the others' branch on the view, lavapipe (Mesa 22.3)
+// found that fixing the view removed half the shader, and compiled it again at every bind
+// (frame.glsl's sunShadowCascade tells the rest).
+layout(constant_id = MYRIAD_SPEC_SHADOW_VIEW) const bool kShadowView = false;
+vec4 shadowViewValue(ivec2 pixel, float depth, bool hasSurface) {
+  if (!hasSurface) return raw ? vec4(1.0, -1.0, 0.0, 0.0) : vec4(0.0, 0.0, 0.0, 1.0);
+  vec3 p = worldFromDepth(pixel, depth);
+  vec3 n = octahedralDecode(texelFetch(gbufferNormal, pixel, 0).rg);
+  int cascade = sunShadowCascade(p);
+  float lit = sunShadowFactorIn(cascade, p, n);
+  if (raw) return vec4(lit, float(cascade), 0.0, 0.0);
+  const vec3 tints[4] = vec3[4](vec3(1.0, 0.0, 0.0), vec3(0.0, 1.0, 0.0), vec3(0.0, 0.0, 1.0),
+                                vec3(1.0, 1.0, 0.0));
+  vec3 tint = cascade < 0 ? vec3(1.0) : tints[min(cascade, 3)];
+  return vec4(tint * lit, 1.0);
+}
+
 vec4 viewValue(ivec2 pixel) {
   uint view = frame.flags.x;
   float depth = texelFetch(gbufferDepth, pixel, 0).r;
   bool hasSurface = depth < 1.0;
+  if (kShadowView) return shadowViewValue(pixel, depth, hasSurface);
 
   if (view == MYRIAD_VIEW_LIGHT_COUNT) {
     float count = texelFetch(lightCount, pixel, 0).r;

@@ -1525,6 +1525,32 @@ TEST_CASE("api: lights ask for shadows; maxShadowedLights is bounded; stats name
   CHECK(traced.json["shadows"]["local"] == "stochastic");
   CHECK(traced.json["shadows"]["maxShadowedLights"] == 1);
   REQUIRE(api.patch(settings, R"({"shadows": {"local": "maps"}})", s.token).status == 200);
+  // shadows.cascades: 4 by default, 1 to 4, or a 400 naming the member.
+  CHECK(current.json["shadows"]["cascades"] == 4);
+  for (const char* bad : {R"({"shadows": {"cascades": 0}})", R"({"shadows": {"cascades": 5}})",
+                          R"({"shadows": {"cascades": 2.5}})"}) {
+    checkProblem(api.patch(settings, bad, s.token), 400, "invalid-body", bad,
+                 std::string("/shadows/cascades"));
+  }
+  Reply cascaded = api.patch(settings, R"({"shadows": {"cascades": 2}})", s.token);
+  REQUIRE(cascaded.status == 200);
+  CHECK(cascaded.json["shadows"]["cascades"] == 2);
+  // The shadow view, raw: the sun's shadow factor in [0, 1] and the cascade, 0 or 1 on a surface.
+  Reply shadowView = api.get(s.path() + "/frame?target=shadow&format=raw&width=64&height=48", s.token);
+  REQUIRE(shadowView.status == 200);
+  CHECK(shadowView.header("X-Myriad-Channels") == "lit,cascade");
+  REQUIRE(shadowView.body.size() == size_t(64) * 48 * 2 * sizeof(float));
+  std::vector<float> values(shadowView.body.size() / sizeof(float));
+  std::memcpy(values.data(), shadowView.body.data(), shadowView.body.size());
+  size_t surface = 0, bad = 0;
+  for (size_t i = 0; i < values.size(); i += 2) {
+    if (values[i + 1] < 0.0f) continue;  // no surface
+    ++surface;
+    bad += (values[i] >= 0.0f && values[i] <= 1.0f && (values[i + 1] == 0.0f || values[i + 1] == 1.0f)) ? 0 : 1;
+  }
+  CHECK(surface > 0);
+  CHECK(bad == 0);
+  REQUIRE(api.patch(settings, R"({"shadows": {"cascades": 4}})", s.token).status == 200);
 
   // Three lights over the scene's centre, two asking; the brighter of those gets the one map.
   const json lights = {
@@ -1626,6 +1652,52 @@ TEST_CASE("api: fog is off by default, PATCHed member by member, checked, kept b
   Reply clear = api.get(frame, s.token);
   REQUIRE(clear.status == 200);
   CHECK(clear.header("Server-Timing").find("fog;") == std::string::npos);
+  CHECK(myriad::test::validationMessages(api) == 0);
+  checkStopsCleanly(server);
+}
+
+TEST_CASE("api: antialias taa and ssaa: the same bytes twice, the resolve timed, data views as none's") {
+  ServerProcess server({"--lights", "4"});
+  requireListening(server);
+  ApiClient api(server);
+  TestSession s = createSession(api);
+  const std::string size = "&width=96&height=64";
+  // The stateless frame (?antialias=) and a session's (its setting).
+  const std::string stateless = "/v1/frame?format=png" + size;
+  const std::string sessionFrame = s.path() + "/frame?format=png" + size;
+  const std::string sessionDepth = s.path() + "/frame?format=raw&target=depth" + size;
+  REQUIRE(api.patch(s.path() + "/settings", R"({"antialias": "none"})", s.token).status == 200);
+  const Reply plain = api.get(stateless + "&antialias=none");
+  const Reply sessionPlain = api.get(sessionFrame, s.token);
+  const Reply depthNone = api.get(sessionDepth, s.token);
+  REQUIRE(plain.status == 200);
+  REQUIRE(sessionPlain.status == 200);
+  REQUIRE(depthNone.status == 200);
+  for (const std::string mode : {"taa", "ssaa"}) {
+    CAPTURE(mode);
+    const Reply a = api.get(stateless + "&antialias=" + mode);
+    const Reply b = api.get(stateless + "&antialias=" + mode);
+    REQUIRE(a.status == 200);
+    REQUIRE(b.status == 200);
+    CHECK(a.body == b.body);  // no state between frames: a still is the same bytes each time
+    CHECK(a.body != plain.body);
+    CHECK(a.header("Server-Timing").find("resolve-" + mode + ";") != std::string::npos);
+    // As the session's setting; a data view is none's, byte for byte.
+    const Reply patched = api.patch(s.path() + "/settings", json{{"antialias", mode}}.dump(), s.token);
+    REQUIRE(patched.status == 200);
+    CHECK(patched.json["antialias"] == mode);
+    const Reply c = api.get(sessionFrame, s.token);
+    REQUIRE(c.status == 200);
+    CHECK(c.body == api.get(sessionFrame, s.token).body);
+    CHECK(c.body != sessionPlain.body);
+    const Reply depth = api.get(sessionDepth, s.token);
+    REQUIRE(depth.status == 200);
+    CHECK(depth.body == depthNone.body);
+  }
+  checkProblem(api.get("/v1/frame?antialias=msaa"), 400, "invalid-parameter", "an unknown mode",
+               std::nullopt, std::nullopt, std::string("antialias"));
+  checkProblem(api.patch(s.path() + "/settings", R"({"antialias": "msaa"})", s.token), 400,
+               "invalid-body", "an unknown mode", std::string("/antialias"));
   CHECK(myriad::test::validationMessages(api) == 0);
   checkStopsCleanly(server);
 }

@@ -222,10 +222,17 @@ TEST_CASE("the sun's shadow of a box over a plane lies within 2 px of its analyt
     CHECK(overOffBand <= kWidth * kHeight / 200);
   }
 
-  // The kept map follows what it depends on: a camera move keeps it, another sun direction draws
-  // it again, and so does the first sun again (the map held the other one); a new scene draws its own.
+  // The kept maps follow what they depend on: a camera move draws the cascades (fitted to the
+  // view) again, and a camera that stays keeps them; one map over the scene (cascades 1) stays
+  // while the camera moves. Another sun direction draws it again, and so does the first sun again
+  // (the map held the other one); a new scene draws its own.
   render::FrameSettings moved = frameSettings(render::Technique::Clustered, true);
   moved.camera.eye += glm::vec3(0.5f, 0.0f, 0.0f);
+  CHECK(drewShadow(gpu.render(moved)));
+  CHECK_FALSE(drewShadow(gpu.render(moved)));
+  moved.shadows.cascades = 1;
+  CHECK(drewShadow(gpu.render(moved)));
+  moved.camera.eye += glm::vec3(0.3f, 0.0f, 0.0f);
   CHECK_FALSE(drewShadow(gpu.render(moved)));
   const scene::Sun sun = gpu.lighting.sun;
   gpu.lighting.sun.direction = glm::normalize(sun.direction + glm::vec3(0.2f, 0.0f, 0.0f));

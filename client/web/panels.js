@@ -337,8 +337,7 @@ export class SettingsPanel {
         this.edit({shadows: {mapSize: Number(e.target.value)}}));
     $('local-shadows').addEventListener('change', (e) =>
         this.edit({shadows: {local: e.target.value}}));
-    $('antialias').addEventListener('change', (e) =>
-        this.edit({antialias: e.target.checked ? 'fxaa' : 'none'}));
+    $('antialias').addEventListener('change', (e) => this.edit({antialias: e.target.value}));
     $('animate').addEventListener('change', (e) => this.edit({animate: e.target.checked}));
     $('technique').addEventListener('change', (e) => this.edit({technique: e.target.value}));
     // The environment light: mode, intensity, rotation (degrees here, radians on the wire),
@@ -448,7 +447,7 @@ export class SettingsPanel {
     $('local-shadows').value = s.shadows?.local || 'maps';
     $('local-shadows').disabled = !s.shadows?.local;
     this.showShadowCost();
-    $('antialias').checked = s.antialias !== 'none';
+    $('antialias').value = s.antialias || 'fxaa';
     $('animate').checked = s.animate;
     $('technique').value = s.technique;
     const env = s.environment;

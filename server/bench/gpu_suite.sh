@@ -54,6 +54,14 @@ for aa in fxaa none; do
   step "final-1080p-$aa" --techniques clustered --lights 1000 --markers --antialias "$aa" \
     --frames 50 --warmup 10
 done
+# taa and ssaa (issue 36): sub-frames rendered with none and resolved on the host; the passes
+# are the sub-frames' summed, plus "resolve-taa" / "resolve-ssaa" (the host's resolve).
+for aa in taa ssaa; do
+  step "final-1080p-$aa" --techniques clustered --lights 1000 --markers --antialias "$aa" \
+    --frames 20 --warmup 3
+  step "final-2160p-$aa" --width 3840 --height 2160 --techniques clustered --lights 1000 \
+    --markers --antialias "$aa" --frames 10 --warmup 2
+done
 step markers-1080p-1M --techniques clustered --lights 1000000 --markers --frames 30 --warmup 5
 # Validation on (core + synchronization): every technique once, and a million lights at both sizes.
 step validate-1080p --validate --lights 10000,1000000 --frames 5 --warmup 2

@@ -25,8 +25,9 @@ struct Plan {
   uint32_t timedFrames = 50;
   double maxSecondsPerConfig = 30.0;  // timed frames stop early past this (at least 3 are kept)
   bool markers = false;
-  // Anti-aliasing of the final image (the "antialias" pass); the renderer's default, as a
-  // session's, is fxaa.
+  // Anti-aliasing of the final image (fxaa: the "antialias" pass); the renderer's default, as a
+  // session's, is fxaa. taa and ssaa render sub-frames (render/sub_frames.h): a frame's passes are
+  // theirs summed, plus the host's "resolve-taa" or "resolve-ssaa" (host time, in the total too).
   render::Antialias antialias = render::Antialias::Fxaa;
   double frameSeconds = 1.0 / 60.0;  // animation time between frames
   // The environment light of every frame (none: the constant ambient, the seed's).

@@ -56,7 +56,7 @@ const char* const kUsage =
     "                    [--seed N] [--max-seconds S] [--volumes-max-lights N] [--markers]\n"
     "                    [--json PATH] [--validate] [--device INDEX|NAME]\n"
     "                    [--environment none|sky] [--environment-every-frame]\n"
-    "                    [--antialias none|fxaa]\n"
+    "                    [--antialias none|fxaa|taa|ssaa]\n"
     "                    [--sun-shadows 256|512|1024|2048|4096]\n"
     "                    [--shadowed-lights N [--shadowed-kind point|spot]]\n"
     "                    [--local-shadows none|maps|stochastic]\n"
@@ -67,7 +67,9 @@ const char* const kUsage =
     "defaults: 1920x1080, lights 1000,10000,100000,1000000, every technique,\n"
     "          50 frames after 10 warm-up, scene floor with 64 lights per point, volumes only up to\n"
     "          100000 lights, at most 30 s of timed frames per configuration, markers off,\n"
-    "          antialias fxaa (the final image's \"antialias\" pass; the server's default too).\n"
+    "          antialias fxaa (the final image's \"antialias\" pass; the server's default too;\n"
+    "          taa: 8 jittered sub-frames a frame, ssaa: one at 2x2 the size, each resolved on\n"
+    "          the host, timed as \"resolve-taa\" or \"resolve-ssaa\", the GPU passes summed).\n"
     "--validate enables VK_LAYER_KHRONOS_validation; any message makes the exit status 1.\n"
     "--gbuffer compute makes the G-buffer with compute shaders where the scene qualifies (opaque,\n"
     "untextured materials; 64-bit atomics), timed as \"visibility\" and \"resolve\" instead of\n"
@@ -183,7 +185,7 @@ Options parseOptions(const std::vector<std::string>& args) {
     } else if (flag == "--antialias") {
       std::string_view name = value();
       auto mode = render::parseAntialias(name);
-      if (!mode) throw UsageError("--antialias expects none or fxaa, not \"" + std::string(name) + "\".");
+      if (!mode) throw UsageError("--antialias expects none, fxaa, taa or ssaa, not \"" + std::string(name) + "\".");
       o.plan.antialias = *mode;
     } else if (flag == "--json") {
       std::string_view path = value();

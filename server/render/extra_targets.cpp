@@ -86,7 +86,7 @@ void recordExtraTargets(VkCommandBuffer cmd, const Pipelines& p, const FrameTarg
                                           VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
                                           VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_GENERAL}};
     gpu::barrier(cmd, toStorage);
-    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, p.viewsRaw);
+    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, p.viewsFor(target, true));
     vkCmdDispatch(cmd, gpu::groupCount(t.extent.width, MYRIAD_PIXEL_GROUP),
                   gpu::groupCount(t.extent.height, MYRIAD_PIXEL_GROUP), 1);
     const ImageTransition toCopy[] = {{&output, kCompute, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,

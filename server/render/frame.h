@@ -79,6 +79,9 @@ struct FrameSettings : SceneSettings {
   // frame draws. The same index gives the same image; frames averaged over indices 0..N-1
   // converge to the exact shadows (tests/stochastic_shadow_tests.cpp).
   uint32_t sampleIndex = 0;
+  // Sub-pixel offset of the projection, in pixels (x right, y down), each within +-0.5: TAA's
+  // sub-frames (render/sub_frames.h) set it; every other frame leaves it 0 (unjittered).
+  glm::vec2 jitter{0.0f, 0.0f};
   uint32_t heatMapMax = 0;  // light-count view: count shown as the hottest colour (0 = auto)
   bool raw = false;         // return the view's float values (Frame::data), not an image
   // The 8-bit pixels stay in the renderer's readback memory (Frame::borrowed) instead of being
@@ -124,9 +127,16 @@ struct FrameSettings : SceneSettings {
     return false;
   }
 
-  // Anti-aliasing filters the 8-bit `final` image only: never raw values or another view.
+  // Anti-aliasing filters the 8-bit `final` image only: never raw values or another view. This
+  // one: the FXAA pass runs on this frame's output (FrameUniforms.post.x).
   bool antialiased() const {
-    return antialias != Antialias::None && target == Target::Final && !raw;
+    return antialias == Antialias::Fxaa && target == Target::Final && !raw;
+  }
+  // The frame is made of sub-frames (Taa, Ssaa on the 8-bit `final`): the renderer renders them
+  // with Antialias::None and resolves their pixels (render/sub_frames.h).
+  bool resolvedFromSubFrames() const {
+    return (antialias == Antialias::Taa || antialias == Antialias::Ssaa) &&
+           target == Target::Final && !raw;
   }
 };
 
@@ -175,6 +185,7 @@ inline std::vector<std::string_view> rawChannels(Target target) {
     case Target::SemanticId: return {"semantic"};
     case Target::MaterialId: return {"material"};
     case Target::Motion: return {"dx", "dy"};  // pixels, from the previous time to this one
+    case Target::Shadow: return {"lit", "cascade"};  // the sun's shadow factor, its cascade
   }
   return {};
 }

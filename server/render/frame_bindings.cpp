@@ -171,6 +171,10 @@ void Renderer::State::writeUniforms(FrameSlot& slot, const FrameSettings& s,
   float aspect = float(s.width) / float(s.height);
   glm::mat4 view = scene::viewMatrix(s.camera);
   glm::mat4 projection = scene::projectionMatrix(s.camera, aspect);
+  // TAA's sub-pixel jitter (FrameSettings::jitter): clip x and y move by 2 * jitter / size of w,
+  // so every projected point moves by `jitter` pixels (y down in Vulkan's clip space).
+  projection[2][0] -= 2.0f * s.jitter.x / float(s.width);
+  projection[2][1] -= 2.0f * s.jitter.y / float(s.height);
   const scene::Bounds& bounds = scene.bounds;
 
   FrameUniforms u{};
@@ -209,11 +213,17 @@ void Renderer::State::writeUniforms(FrameSlot& slot, const FrameSettings& s,
   u.post = glm::uvec4(static_cast<uint32_t>(s.antialiased() ? s.antialias : Antialias::None),
                       s.markers ? 1 : 0, 0, 0);
   if (sunShadow) {
-    u.sunShadowMatrix = sunShadow->mapFromWorld;
-    // Offset: a texel along the normal (more at grazing angles, frame.glsl); bias: a texel of
-    // depth (the map's depth range is as deep as it is wide), scaled by the slope there.
-    u.sunShadow = glm::vec4(1.0f, sunShadow->texelWorld, 1.0f / float(s.shadows.mapSize),
-                            1.0f / float(s.shadows.mapSize));
+    // Per cascade, offset: a texel along the normal (more at grazing angles, frame.glsl); bias: a
+    // texel of depth, scaled by the slope there; and where the cascade ends.
+    const glm::uvec2 grid = sunAtlasGrid(sunShadow->cascades);
+    u.sunShadow = glm::vec4(float(sunShadow->cascades), float(sunShadow->tileSize), float(grid.x),
+                            float(grid.y));
+    for (uint32_t c = 0; c < sunShadow->cascades; ++c) {
+      u.sunShadowMatrix[c] = sunShadow->mapFromWorld[c];
+      // w: the cascade is in use (frame.glsl reads this, not sunShadow.x, in its loops).
+      u.sunCascade[c] = glm::vec4(sunShadow->texelWorld[c], sunShadow->depthTexel[c],
+                                  sunShadow->splitFar[c], 1.0f);
+    }
   }
   if (!lightShadows.empty()) {
     u.lightShadows = glm::uvec4(uint32_t(lightShadows.lights.size()), lightShadows.tileSize,
@@ -246,7 +256,7 @@ bool Renderer::State::prepareFrame(FrameSlot& slot, SceneBuffers& scene,
   // The sun's shadow map: fitted to this scene and sun, rendered this frame when on.
   const std::optional<SunShadowFit> sunShadow = sunShadowFor(scene, settings);
   if (sunShadow) {
-    slot.shadows->ensureSun(settings.shadows.mapSize);
+    slot.shadows->ensureSun(*sunShadow);
   } else {
     slot.shadows->ensureSunPlaceholder();
   }

@@ -44,6 +44,11 @@ enum class Target : uint32_t {
   // for camera, instance, skin and morph motion alike (render/motion.h). Raw: dx, dy, 1 where a
   // surface is (else all 0), 0; 8-bit: a false-colour picture. Drawn against the raster G-buffer.
   Motion,
+  // The sun's shadow factor at each surface (1 lit, 0 in shadow) and the cascade of the sun's
+  // map it came from (render/shadows.h): 8-bit, the factor tinted by cascade (0 red, 1 green,
+  // 2 blue, 3 yellow), black where there is no surface or the sun casts none; raw: lit, cascade
+  // (-1 where none). Read from the G-buffer by the views pass.
+  Shadow,
 };
 
 // Whether `target` is one of the label targets (InstanceId, SemanticId, MaterialId).
@@ -57,7 +62,7 @@ inline constexpr size_t kMaxExtraTargets = 7;
 
 // The names are the protocol's, defined once there.
 inline constexpr const auto& kTargetNames = protocol::kTargets;
-static_assert(kTargetNames.size() == static_cast<size_t>(Target::Motion) + 1);
+static_assert(kTargetNames.size() == static_cast<size_t>(Target::Shadow) + 1);
 
 inline std::string_view targetName(Target t) { return kTargetNames[static_cast<uint32_t>(t)]; }
 
@@ -154,10 +159,14 @@ inline std::optional<EnvironmentMode> parseEnvironmentMode(std::string_view name
 }
 
 // Anti-aliasing of the `final` view (8-bit output only: raw values and data views are never
-// filtered). Values index protocol::kAntialiasModes and equal MYRIAD_ANTIALIAS_* (gpu_types.h).
+// filtered, jittered or supersampled). Values index protocol::kAntialiasModes; None and Fxaa
+// equal MYRIAD_ANTIALIAS_* (gpu_types.h). Taa and Ssaa are made of sub-frames rendered with None
+// and resolved on the host (render/sub_frames.h): the GPU passes never see them.
 enum class Antialias : uint32_t {
   None = 0,  // the tonemapped image as it is
   Fxaa,      // luminance-edge detection and a directional blend after tonemapping (antialias.comp)
+  Taa,       // 8 sub-frames jittered on a Halton (2,3) sequence, clamped and blended (sub_frames.h)
+  Ssaa,      // rendered at 2x2 the size, box-downsampled in linear light (sub_frames.h)
 };
 
 inline std::string_view antialiasName(Antialias a) {
@@ -196,8 +205,14 @@ inline std::optional<LocalShadows> parseLocalShadows(std::string_view name) {
 // Shadows (render/shadows.h). Off by default at this level, so frames and tests that do not ask
 // for them stay as they were; sessions turn the sun's on for their scenes (service/session_scene).
 struct ShadowSettings {
-  bool sun = false;         // the sun casts shadows (one map over the scene's bounds)
-  uint32_t mapSize = 2048;  // the sun's map, texels across: kShadowMapSizes
+  bool sun = false;         // the sun casts shadows (cascades of maps, render/shadows.h)
+  uint32_t mapSize = 2048;  // each of the sun's maps, texels across: kShadowMapSizes
+  // The sun's cascades, 1..kMaxSunCascades: 1 is one map over the scene's bounds, fixed while
+  // the camera moves; more split the view's depth, each map fitted to its part of the view.
+  uint32_t cascades = 4;  // kDefaultSunCascades
+  // The cascades move by whole texels (render/shadows.h). Only tests turn it off, to show the
+  // shimmer it prevents; no request can.
+  bool snapCascades = true;
   // Local lights asking for shadows (scene::PointLight::castsShadows) that get a map this frame,
   // at most: 0..MYRIAD_MAX_SHADOWED_LIGHTS (kMaxShadowedLights); the rest are unshadowed.
   uint32_t maxShadowedLights = 4;  // kDefaultShadowedLights
@@ -211,6 +226,11 @@ struct ShadowSettings {
 // schema's maximum, checked by the protocol test).
 inline constexpr uint32_t kMaxShadowedLights = 16;
 inline constexpr uint32_t kDefaultShadowedLights = 4;
+
+// The sun's cascades at most, and by default (shaders/shared_types.h MYRIAD_MAX_SUN_CASCADES; the
+// schema's sunCascades).
+inline constexpr uint32_t kMaxSunCascades = 4;
+inline constexpr uint32_t kDefaultSunCascades = 4;
 
 // The sizes a shadow map may have (protocol/schemas/defs.schema.json's shadowMapSize).
 inline constexpr std::array<uint32_t, 5> kShadowMapSizes = {256, 512, 1024, 2048, 4096};

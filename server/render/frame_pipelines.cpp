@@ -189,9 +189,25 @@ VkPipeline Pipelines::finalFor(bool antialias, bool markers) const {
   return pipeline;
 }
 
+VkPipeline Pipelines::viewsFor(Target target, bool raw) const {
+  if (target != Target::Shadow) return raw ? viewsRaw : views;
+  VkPipeline& pipeline = shadowViews_[raw ? 1 : 0];
+  if (!pipeline) {
+    const VkBool32 shadowView = VK_TRUE;
+    const VkSpecializationMapEntry entry{MYRIAD_SPEC_SHADOW_VIEW, 0, sizeof(VkBool32)};
+    const VkSpecializationInfo spec{1, &entry, sizeof(shadowView), &shadowView};
+    pipeline = gpu::createComputePipeline(device, layout, raw ? spirv::views_raw_comp : spirv::views_comp,
+                                          &spec);
+  }
+  return pipeline;
+}
+
 Pipelines::~Pipelines() {
   for (VkPipeline p : finalParts_) {
     if (p && p != final) vkDestroyPipeline(device, p, nullptr);
+  }
+  for (VkPipeline p : shadowViews_) {
+    if (p) vkDestroyPipeline(device, p, nullptr);
   }
   for (VkPipeline p : {gbuffer, gbufferAlphaTest, gbufferUntextured, labels, forward, forwardClustered, shadow, lightVolumeOverlay, animateLights,
                       markerSplat, final, finalRaw, views, viewsRaw, antialias, antialiasEdges,

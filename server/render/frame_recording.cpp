@@ -82,15 +82,16 @@ void Renderer::State::recordBeforeLighting(VkCommandBuffer cmd, FrameSlot& slot,
     scene.lightsMoved = false;
   }
   if (const std::optional<SunShadowFit> sunShadow = sunShadowFor(scene, settings)) {
-    // Drawn again only when the scene or the fit changed (ShadowMaps::sunHolds): not for a camera
-    // move, a light, material or slider change, or animated lights.
+    // Drawn again only when the scene or the fit changed (ShadowMaps::sunHolds): not for a light,
+    // material or slider change, animated lights, or (one cascade) a camera move; cascades
+    // follow the camera, so a camera that stays keeps them.
     // After a few objects moved, only the texels under their old and new places (repairSun).
     slot.sunMap = Frame::SunMap::kept;
-    if (!slot.shadows->sunHolds(scene, sunShadow->viewProjection)) {
-      slot.timer->beginPass(cmd, "shadow");
+    if (!slot.shadows->sunHolds(scene, *sunShadow)) {
+      slot.timer->beginPass(cmd, "shadow");  // names-once: the pass, not the target
       slot.sunMap = Frame::SunMap::repaired;
-      if (!slot.shadows->repairSun(cmd, p, scene, sunShadow->viewProjection)) {
-        slot.shadows->recordSun(cmd, p, scene, sunShadow->viewProjection);
+      if (!slot.shadows->repairSun(cmd, p, scene, *sunShadow)) {
+        slot.shadows->recordSun(cmd, p, scene, *sunShadow);
         slot.sunMap = Frame::SunMap::drawn;
       }
     }

@@ -18,7 +18,8 @@ using gpu_types::LargeLightQueue;
 
 static_assert(sizeof(gpu_types::vec4) == 16 && sizeof(gpu_types::mat4) == 64);
 static_assert(sizeof(gpu_types::GpuLightShadow) == 64 + 3 * 16);
-static_assert(sizeof(FrameUniforms) == 4 * 64 + 16 * 16 + 2 * MYRIAD_MAX_EXTRA_SUNS * 16 + 64 + 16 +
+static_assert(sizeof(FrameUniforms) == 4 * 64 + 16 * 16 + 2 * MYRIAD_MAX_EXTRA_SUNS * 16 +
+                                           MYRIAD_MAX_SUN_CASCADES * (64 + 16) + 16 +
                                            16 + MYRIAD_MAX_SHADOWED_LIGHTS / 4 * 16 +
                                            MYRIAD_MAX_SHADOWED_LIGHTS * (64 + 3 * 16) + 16 + 16);
 static_assert(offsetof(FrameUniforms, fog) == sizeof(FrameUniforms) - 16);
@@ -76,5 +77,8 @@ static_assert(uint32_t(Target::LightCount) == MYRIAD_VIEW_LIGHT_COUNT);
 static_assert(uint32_t(Target::Clusters) == MYRIAD_VIEW_CLUSTERS);
 static_assert(uint32_t(Target::Emissive) == MYRIAD_VIEW_EMISSIVE);
 static_assert(uint32_t(Target::Occlusion) == MYRIAD_VIEW_OCCLUSION);
+static_assert(uint32_t(Target::Shadow) == MYRIAD_VIEW_SHADOW);
+static_assert(MYRIAD_MAX_SUN_CASCADES == kMaxSunCascades);
+static_assert(MYRIAD_SUN_CASCADES_DEFAULT == kDefaultSunCascades);
 
 }  // namespace myriad::render

@@ -43,7 +43,7 @@ void recordFinalPass(VkCommandBuffer cmd, const Pipelines& p, const FrameTargets
   constexpr VkPipelineStageFlags2 kCompute = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT;
   const bool picture = target == Target::Final || target == Target::LightVolumes;
   const VkPipeline pipeline = picture ? (t.raw ? p.finalRaw : p.finalFor(antialias, markers))
-                                      : (t.raw ? p.viewsRaw : p.views);
+                                      : p.viewsFor(target, t.raw);
   const VkExtent2D groups = finalPassGroups(p, t, target);
   if (first > 0) {
     // A later range of a split frame's pass: the first range made the layouts and the edge list.

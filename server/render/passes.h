@@ -56,6 +56,9 @@ struct Pipelines {
   VkPipeline finalRaw = VK_NULL_HANDLE;
   VkPipeline views = VK_NULL_HANDLE;
   VkPipeline viewsRaw = VK_NULL_HANDLE;
+  // The views pipeline of `target`, 8-bit or raw: `views` / `viewsRaw`, or for the `shadow` view
+  // the same shaders specialised to it alone (MYRIAD_SPEC_SHADOW_VIEW), made on first use.
+  VkPipeline viewsFor(Target target, bool raw) const;
   VkPipeline antialias = VK_NULL_HANDLE;
   // CPU devices: anti-aliasing's edge test as a pass of its own (antialias_edges.comp), which
   // their final pass leaves out; null on GPUs (their final pass tests the edges).
@@ -65,6 +68,7 @@ struct Pipelines {
  private:
   bool cpuFinal_ = false;
   mutable std::array<VkPipeline, 4> finalParts_{};  // CPU devices: by MYRIAD_FINAL_* bits
+  mutable std::array<VkPipeline, 2> shadowViews_{};  // the `shadow` view's: 8-bit, raw
 };
 
 // 1. Writes depth, normal, base colour, material, and uv and emissive where `written`

@@ -214,10 +214,12 @@ std::vector<glm::uvec4> referenceLabels(const scene::Scene& scene, const FrameSe
 std::vector<uint8_t> renderReference(const scene::Scene& scene, const FrameSettings& s,
                                      const scene::EnvironmentImage* environmentImage,
                                      std::vector<glm::vec3>* radiance) {
+  // The shadow view shows the sun's shadow maps and their cascades, which the reference (exact
+  // rays) has not.
   if (s.target == Target::LightVolumes || s.target == Target::LightCount ||
-      s.target == Target::Clusters || isLabel(s.target)) {
-    throw std::invalid_argument("the reference renderer draws no light-volumes, light-count or "
-                                "clusters view");
+      s.target == Target::Clusters || s.target == Target::Shadow || isLabel(s.target)) {
+    throw std::invalid_argument("the reference renderer draws no light-volumes, light-count, "
+                                "clusters or shadow-map view");
   }
   const Bvh bvh(reference::worldTriangles(scene));
   const float aspect = float(s.width) / float(s.height);
@@ -407,7 +409,8 @@ std::vector<uint8_t> renderReference(const scene::Scene& scene, const FrameSetti
         case Target::Motion:
         case Target::LightVolumes:
         case Target::LightCount:
-        case Target::Clusters: break;
+        case Target::Clusters:
+        case Target::Shadow: break;
       }
       uint8_t* px = &image[(size_t(y) * s.width + x) * 4];
       px[0] = toByte(color.r);

@@ -51,11 +51,12 @@ namespace myriad::render {
 // How long the render thread waits with nothing to do before it gives back the memory that only
 // frames use (Renderer::releaseFrameMemory, then the heap's free pages).
 inline constexpr std::chrono::seconds kIdleTrim{2};
-// What the idle trim keeps: the last frame's targets, sun map and readback buffer when together
-// they are at most this (a 1920x1080 frame's are about 150 MB), so that a stream's next still
+// What the idle trim keeps: the last frame's targets, sun maps and readback buffer when together
+// they are at most this (a 1920x1080 frame's are about 200 MB, 64 MiB of them the sun's four
+// 2048² cascades; below a 4096x4096 raw frame's 256 MiB readback), so that a stream's next still
 // after a pause does not make them again (on a CPU device, first touching new memory cost a
 // 1280x720 still tens of ms: bench/history/performance-2026-11-to-12.md); a larger frame's go back.
-inline constexpr uint64_t kIdleKeepBytes = 192ull << 20;
+inline constexpr uint64_t kIdleKeepBytes = 224ull << 20;
 
 class RenderThread final : public RenderQueue {
  public:

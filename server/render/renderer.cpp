@@ -309,7 +309,11 @@ std::optional<SunShadowFit> Renderer::State::sunShadowFor(const SceneBuffers& sc
     return std::nullopt;
   }
   if (tracesLocalShadows(settings)) return std::nullopt;  // traced instead (stochastic_shadows.h)
-  return fitSunShadow(scene.bounds, settings.sun.direction, settings.shadows.mapSize);
+  // The camera's, unjittered (TAA's sub-frames share their maps).
+  return fitSunCascades(scene.bounds, settings.sun.direction, settings.shadows.mapSize,
+                        settings.shadows.cascades, settings.camera,
+                        float(settings.width) / float(settings.height),
+                        settings.shadows.snapCascades);
 }
 
 // The scene's environment when the frame uses one; throws for hdr without an image.
@@ -346,7 +350,7 @@ bool Renderer::canBegin() const {
   return false;
 }
 
-uint32_t Renderer::beginFrame(SceneId id, const FrameSettings& settings) {
+uint32_t Renderer::beginWhole(SceneId id, const FrameSettings& settings) {
   State& s = *state_;
   SceneBuffers& scene = s.scene(id);
   checkSize(settings, maxDimension());
@@ -356,6 +360,7 @@ uint32_t Renderer::beginFrame(SceneId id, const FrameSettings& settings) {
   const uint32_t index = s.pickSlot(settings);
   if (index == s.framesInFlight) throw std::logic_error("every frame slot is in flight");
   State::FrameSlot& slot = *s.slots[index];
+  slot.resolve.reset();  // a whole frame of its own (beginFrame sets it for a frame's last part)
   slot.lastUsed = ++s.framesBegun;
   // The host may change what frames in flight use: wait for them first (Renderer's comment).
   const State::Shape shape{settings.technique, settings.width, settings.height, settings.raw,
@@ -409,7 +414,7 @@ bool Renderer::waitFrame(uint32_t index, uint64_t timeoutNs) const {
 // Reads the frame back; when the technique's lists overflowed but may still grow, grows them and
 // renders the frame once more: a frame with lights missing is never the answer while memory
 // allows.
-Frame Renderer::finishFrame(uint32_t index) {
+Frame Renderer::finishWhole(uint32_t index) {
   State& s = *state_;
   if (index >= s.slots.size() || !s.slots[index]->inFlight) {
     throw std::logic_error("frame slot " + std::to_string(index) + " is not in flight");

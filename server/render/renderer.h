@@ -21,6 +21,8 @@
 
 namespace myriad::render {
 
+class SubFrameResolve;  // render/sub_frames.h
+
 class Renderer {
  public:
   // `tuning`: the knobs (render/tuning.h), resolved here once for the context's device.
@@ -176,6 +178,11 @@ class Renderer {
   void limitListMemory(uint64_t bytes, uint64_t startBytes = 0);
 
  private:
+  // One frame of the GPU's (a sub-frame of a taa or ssaa frame, or any other frame): beginFrame
+  // and finishFrame around render/sub_frames.h's sub-frames.
+  uint32_t beginWhole(SceneId id, const FrameSettings& settings);
+  Frame finishWhole(uint32_t slot);
+
   struct State;
   std::unique_ptr<State> state_;
 };
@@ -233,6 +240,9 @@ class Renderer::SplitFrame {
   double elapsedMs_ = 0.0;
   bool listsGrew_ = false;
   std::vector<PassTiming> passes_;  // summed by name over the submissions
+  // A taa or ssaa frame: its sub-frames, run one after another (settings_ is the current one's).
+  std::shared_ptr<SubFrameResolve> resolve_;
+  double subFrameStartMs_ = 0.0;  // elapsedMs_ when the current sub-frame began
 };
 
 }  // namespace myriad::render

@@ -62,6 +62,7 @@ inline double pixelsOf(const FrameSettings& settings) {
 // What beginFrame and beginSplit refuse (std::invalid_argument): a size outside 1..maxDimension,
 // a label target not read raw, motion among alsoRead.
 void checkSize(const FrameSettings& settings, uint32_t maxDimension);
+class SubFrameResolve;  // render/sub_frames.h
 void checkLabels(const FrameSettings& settings);
 
 // Everything submitted before (earlier frames on the queue included) happens before what follows.
@@ -157,6 +158,9 @@ struct Renderer::State {
     SceneId scene = 0;
     FrameSettings settings;
     Frame meta;  // size, technique, light count, scene bytes; no pixels
+    // The frame in flight is the last sub-frame of a taa or ssaa frame: the others, resolved
+    // so far (render/sub_frames.h); finishFrame adds it and answers the resolved frame.
+    std::shared_ptr<SubFrameResolve> resolve;
   };
   std::vector<std::unique_ptr<FrameSlot>> slots;  // kMaxFramesInFlight; framesInFlight used
   uint64_t framesBegun = 0;  // whole frames begun so far (FrameSlot::lastUsed)
@@ -303,6 +307,9 @@ struct Renderer::State {
   // Records and submits the split frame's next part (ranges of its steps up to about a slice)
   // and waits for it; reads the lists' counters after the step that completes them.
   void runSplitPart(SplitFrame& frame);
+  // Prepares the split frame's slot for frame.settings_, makes its steps and runs its first part
+  // (beginSplit; again for each sub-frame of a taa or ssaa frame).
+  void startSplit(SplitFrame& frame);
   // After the slot's last submission completed: its pixels, timings and counters, with `meta`.
   Frame readFrame(const FrameSlot& slot, const Frame& meta, const FrameSettings& settings,
                   LightingTechnique& technique);

@@ -200,35 +200,6 @@ LightShadowPlan planLightShadows(const std::vector<ShadowCaster>& casters,
   return plan;
 }
 
-SunShadowFit fitSunShadow(const scene::Bounds& bounds, glm::vec3 direction, uint32_t size) {
-  const glm::vec3 lo = bounds.empty() ? glm::vec3(-1.0f) : bounds.min;
-  const glm::vec3 hi = bounds.empty() ? glm::vec3(1.0f) : bounds.max;
-  // The bounds' sphere: its square, seen from any direction, holds the whole scene, so the fit
-  // depends on the scene and the sun only. Snapped outwards to a grid of a 32nd of its radius
-  // (a power of two): an object moved a little past the bounds leaves the fit, and so the map,
-  // as it was (ShadowMaps::repairSun redraws only under it), for at most ~10% fewer texels a
-  // metre. A function of the bounds alone: the same scene always gets the same map.
-  const glm::vec3 exactCenter = 0.5f * (lo + hi);
-  const float exactRadius = std::max(0.5f * glm::length(hi - lo), 1e-3f);
-  const float step = std::exp2(std::ceil(std::log2(exactRadius / 32.0f)));
-  const glm::vec3 center = glm::round(exactCenter / step) * step;
-  const float radius = std::ceil((exactRadius + glm::length(exactCenter - center)) / step) * step;
-  const glm::vec3 d = glm::normalize(direction);
-  const glm::vec3 up = std::abs(d.y) > 0.99f ? glm::vec3(0.0f, 0.0f, 1.0f) : glm::vec3(0.0f, 1.0f, 0.0f);
-  // A little beyond the sphere so nothing touches the near or far plane.
-  const float reach = radius * 1.01f;
-  const glm::mat4 view = glm::lookAt(center - d * reach, center, up);
-  const glm::mat4 projection = glm::orthoRH_ZO(-reach, reach, -reach, reach, 0.0f, 2.0f * reach);
-  SunShadowFit fit;
-  fit.viewProjection = projection * view;
-  // Clip x, y in [-1, 1] -> u, v in [0, 1] (clip y = -1 is the map's first row, v = 0); depth as is.
-  const glm::mat4 toUv = glm::translate(glm::mat4(1.0f), glm::vec3(0.5f, 0.5f, 0.0f)) *
-                         glm::scale(glm::mat4(1.0f), glm::vec3(0.5f, 0.5f, 1.0f));
-  fit.mapFromWorld = toUv * fit.viewProjection;
-  fit.texelWorld = 2.0f * reach / float(size);
-  return fit;
-}
-
 ShadowMaps::ShadowMaps(gpu::Context& context)
     : context_(context), arena_(context, kShadowBlockSize), atlasArena_(context, kShadowBlockSize) {
   VkFormatProperties properties;
@@ -248,17 +219,25 @@ ShadowMaps::ShadowMaps(gpu::Context& context)
 
 ShadowMaps::~ShadowMaps() { vkDestroySampler(context_.device, sampler_, nullptr); }
 
-void ShadowMaps::ensureSun(uint32_t size) {
-  if (sun_.image != VK_NULL_HANDLE && sun_.extent.width == size) return;
+void ShadowMaps::ensureSun(const SunShadowFit& fit) {
+  const VkExtent2D extent = fit.atlas();
+  if (sun_.image != VK_NULL_HANDLE && sun_.extent.width == extent.width &&
+      sun_.extent.height == extent.height) {
+    return;
+  }
   arena_.release();
-  sun_ = arena_.createImage2D({size, size}, kDepthFormat,
+  sun_ = arena_.createImage2D(extent, kDepthFormat,
                               VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT | VK_IMAGE_USAGE_SAMPLED_BIT);
   sunReadable_ = false;
   sunScene_ = 0;
 }
 
 void ShadowMaps::ensureSunPlaceholder() {
-  if (sun_.image == VK_NULL_HANDLE) ensureSun(1);
+  if (sun_.image == VK_NULL_HANDLE) {
+    SunShadowFit placeholder;
+    placeholder.tileSize = 1;
+    ensureSun(placeholder);
+  }
 }
 
 void ShadowMaps::recordSunUnused(VkCommandBuffer cmd) {
@@ -275,92 +254,139 @@ VkDescriptorImageInfo ShadowMaps::sunDescriptor() const {
   return {sampler_, sun_.view, VK_IMAGE_LAYOUT_READ_ONLY_OPTIMAL};
 }
 
-void ShadowMaps::recordSun(VkCommandBuffer cmd, const Pipelines& p, const SceneBuffers& scene,
-                           const glm::mat4& viewProjection) {
-  beginShadowRendering(cmd, p, scene, sun_);
-  gpu_types::ShadowPush push{viewProjection};
-  vkCmdPushConstants(cmd, p.layout, VK_SHADER_STAGE_VERTEX_BIT, 0, sizeof(push), &push);
-  drawCasters(cmd, scene);
-  endShadowRendering(cmd, sun_);
-  sunReadable_ = true;
-  sunScene_ = scene.generation;
-  sunViewProjection_ = viewProjection;
-}
-
 namespace {
 
-// The texels of a `size`-wide map under a world-space sphere (centre, radius) seen through the
+// The texels of a `size`-wide map under world-space spheres (centre, radius) seen through the
 // orthographic `viewProjection`, grown by two texels (rasterisation rounding): x0, y0, x1, y1.
-glm::ivec4 texelsUnder(const glm::mat4& viewProjection, glm::vec4 sphere, uint32_t size) {
-  const glm::vec4 clip = viewProjection * glm::vec4(glm::vec3(sphere), 1.0f);
-  // An orthographic map: a world length along a row of the matrix scales by that row's length.
-  const glm::vec2 reach{sphere.w * glm::length(glm::vec3(glm::row(viewProjection, 0))),
-                        sphere.w * glm::length(glm::vec3(glm::row(viewProjection, 1)))};
-  const glm::vec2 lo = (glm::vec2(clip) - reach) * 0.5f + 0.5f;
-  const glm::vec2 hi = (glm::vec2(clip) + reach) * 0.5f + 0.5f;
-  const float texels = float(size);
-  return {int(std::floor(lo.x * texels)) - 2, int(std::floor(lo.y * texels)) - 2,
-          int(std::ceil(hi.x * texels)) + 2, int(std::ceil(hi.y * texels)) + 2};
-}
+struct TexelsUnder {
+  glm::mat4 viewProjection;
+  glm::vec2 scale;  // clip units per world unit across x and y
+  float texels;
+  TexelsUnder(const glm::mat4& vp, uint32_t size)
+      : viewProjection(vp),
+        // An orthographic map: a world length along a row of the matrix scales by that row's length.
+        scale(glm::length(glm::vec3(glm::row(vp, 0))), glm::length(glm::vec3(glm::row(vp, 1)))),
+        texels(float(size)) {}
+  glm::ivec4 operator()(glm::vec4 sphere) const {
+    const glm::vec4 clip = viewProjection * glm::vec4(glm::vec3(sphere), 1.0f);
+    const glm::vec2 reach = sphere.w * scale;
+    const glm::vec2 lo = (glm::vec2(clip) - reach) * 0.5f + 0.5f;
+    const glm::vec2 hi = (glm::vec2(clip) + reach) * 0.5f + 0.5f;
+    return {int(std::floor(lo.x * texels)) - 2, int(std::floor(lo.y * texels)) - 2,
+            int(std::ceil(hi.x * texels)) + 2, int(std::ceil(hi.y * texels)) + 2};
+  }
+};
 
 bool overlaps(const glm::ivec4& a, const glm::ivec4& b) {
   return a.x < b.z && b.x < a.z && a.y < b.w && b.y < a.w;
 }
 
-// Most moved spheres a repair takes, and the largest share of the map it redraws: past either,
-// drawing the map whole costs about the same.
+// Most moved spheres a repair takes, and the largest share of a cascade's map it redraws: past
+// either, drawing the maps whole costs about the same.
 constexpr size_t kMaxRepairSpheres = 256;
 constexpr double kMaxRepairShare = 0.25;
 
+// Points cascade `c`'s drawing at its tile of the atlas (viewport; `rect`, in the tile's texels,
+// the scissor) with its view-projection pushed.
+void beginCascade(VkCommandBuffer cmd, const Pipelines& p, const SunShadowFit& fit, uint32_t c,
+                  const glm::ivec4& rect) {
+  const glm::uvec2 grid = sunAtlasGrid(fit.cascades);
+  const int x = int((c % grid.x) * fit.tileSize);
+  const int y = int((c / grid.x) * fit.tileSize);
+  const float size = float(fit.tileSize);
+  const VkViewport viewport{float(x), float(y), size, size, 0.0f, 1.0f};
+  const VkRect2D scissor{{x + rect.x, y + rect.y},
+                         {uint32_t(rect.z - rect.x), uint32_t(rect.w - rect.y)}};
+  vkCmdSetViewport(cmd, 0, 1, &viewport);
+  vkCmdSetScissor(cmd, 0, 1, &scissor);
+  gpu_types::ShadowPush push{fit.viewProjection[c]};
+  vkCmdPushConstants(cmd, p.layout, VK_SHADER_STAGE_VERTEX_BIT, 0, sizeof(push), &push);
+}
+
+// Every caster whose sphere reaches into `rect` (texels) of cascade `c`'s map.
+void drawCastersInto(VkCommandBuffer cmd, const SceneBuffers& scene, const SunShadowFit& fit,
+                     uint32_t c, const glm::ivec4& rect) {
+  const TexelsUnder under(fit.viewProjection[c], fit.tileSize);
+  InstancedDraws draws(cmd);
+  for (const DrawItem& draw : scene.draws) {
+    if (overlaps(rect, under(glm::vec4(draw.centre, draw.radius)))) draws.add(draw.mesh, draw.instance);
+  }
+}
+
 }  // namespace
 
+// One rendering over the whole atlas (cleared once), a viewport per cascade: a cascade's clip
+// space maps onto its own tile, and clipping keeps every draw inside it.
+void ShadowMaps::recordSun(VkCommandBuffer cmd, const Pipelines& p, const SceneBuffers& scene,
+                           const SunShadowFit& fit) {
+  beginShadowRendering(cmd, p, scene, sun_);
+  const glm::ivec4 whole{0, 0, int(fit.tileSize), int(fit.tileSize)};
+  for (uint32_t c = 0; c < fit.cascades; ++c) {
+    beginCascade(cmd, p, fit, c, whole);
+    if (fit.cascades == 1) {
+      drawCasters(cmd, scene);  // the map holds the whole scene
+    } else {
+      drawCastersInto(cmd, scene, fit, c, whole);
+    }
+  }
+  endShadowRendering(cmd, sun_);
+  sunReadable_ = true;
+  sunScene_ = scene.generation;
+  sunFit_ = fit;
+}
+
 bool ShadowMaps::repairSun(VkCommandBuffer cmd, const Pipelines& p, const SceneBuffers& scene,
-                           const glm::mat4& viewProjection) {
-  if (!sunReadable_ || sunScene_ == 0 || sunViewProjection_ != viewProjection) return false;
+                           const SunShadowFit& fit) {
+  if (!sunReadable_ || sunScene_ == 0 || !sunFit_.sameMaps(fit)) return false;
   const std::optional<std::vector<glm::vec4>> moved =
       scene.movedSince(sunScene_, kMaxRepairSpheres);
   if (!moved) return false;
-  const uint32_t size = sun_.extent.width;
+  const uint32_t size = fit.tileSize;
   const int limit = int(size);
-  glm::ivec4 rect{limit, limit, 0, 0};
-  for (const glm::vec4& sphere : *moved) {
-    const glm::ivec4 under = texelsUnder(viewProjection, sphere, size);
-    rect = {std::min(rect.x, under.x), std::min(rect.y, under.y), std::max(rect.z, under.z),
-            std::max(rect.w, under.w)};
+  std::array<glm::ivec4, kMaxSunCascades> rects{};
+  bool any = false;
+  for (uint32_t c = 0; c < fit.cascades; ++c) {
+    glm::ivec4 rect{limit, limit, 0, 0};
+    const TexelsUnder texelsUnder(fit.viewProjection[c], size);
+    for (const glm::vec4& sphere : *moved) {
+      const glm::ivec4 under = texelsUnder(sphere);
+      rect = {std::min(rect.x, under.x), std::min(rect.y, under.y), std::max(rect.z, under.z),
+              std::max(rect.w, under.w)};
+    }
+    rects[c] = glm::clamp(rect, glm::ivec4(0), glm::ivec4(limit));
+    const glm::ivec4& r = rects[c];
+    if (r.x >= r.z || r.y >= r.w) continue;  // nothing moved within this cascade's map
+    const double share = double(r.z - r.x) * double(r.w - r.y) / (double(size) * size);
+    if (share > kMaxRepairShare) return false;
+    any = true;
   }
-  rect = glm::clamp(rect, glm::ivec4(0), glm::ivec4(limit));
-  if (rect.x >= rect.z || rect.y >= rect.w) {  // nothing moved within the map
+  if (!any) {  // nothing moved within the maps
     sunScene_ = scene.generation;
     return true;
   }
-  const double share = double(rect.z - rect.x) * double(rect.w - rect.y) / (double(size) * size);
-  if (share > kMaxRepairShare) return false;
 
   beginShadowRendering(cmd, p, scene, sun_, /*keep=*/true);
-  const VkRect2D scissor{{rect.x, rect.y}, {uint32_t(rect.z - rect.x), uint32_t(rect.w - rect.y)}};
-  VkClearAttachment clear{VK_IMAGE_ASPECT_DEPTH_BIT, 0, {}};
-  clear.clearValue.depthStencil = {1.0f, 0};
-  const VkClearRect clearRect{scissor, 0, 1};
-  vkCmdClearAttachments(cmd, 1, &clear, 1, &clearRect);
-  vkCmdSetScissor(cmd, 0, 1, &scissor);
-  gpu_types::ShadowPush push{viewProjection};
-  vkCmdPushConstants(cmd, p.layout, VK_SHADER_STAGE_VERTEX_BIT, 0, sizeof(push), &push);
-  {
-    InstancedDraws draws(cmd);
-    for (const DrawItem& draw : scene.draws) {
-      if (overlaps(rect, texelsUnder(viewProjection, glm::vec4(draw.centre, draw.radius), size))) {
-        draws.add(draw.mesh, draw.instance);
-      }
-    }
+  const glm::uvec2 grid = sunAtlasGrid(fit.cascades);
+  for (uint32_t c = 0; c < fit.cascades; ++c) {
+    const glm::ivec4& r = rects[c];
+    if (r.x >= r.z || r.y >= r.w) continue;
+    const int x = int((c % grid.x) * size);
+    const int y = int((c / grid.x) * size);
+    VkClearAttachment clear{VK_IMAGE_ASPECT_DEPTH_BIT, 0, {}};
+    clear.clearValue.depthStencil = {1.0f, 0};
+    const VkClearRect clearRect{
+        {{x + r.x, y + r.y}, {uint32_t(r.z - r.x), uint32_t(r.w - r.y)}}, 0, 1};
+    vkCmdClearAttachments(cmd, 1, &clear, 1, &clearRect);
+    beginCascade(cmd, p, fit, c, r);
+    drawCastersInto(cmd, scene, fit, c, r);
   }
   endShadowRendering(cmd, sun_);
   sunScene_ = scene.generation;
   return true;
 }
 
-bool ShadowMaps::sunHolds(const SceneBuffers& scene, const glm::mat4& viewProjection) const {
-  return sunReadable_ && sunScene_ != 0 && sunScene_ == scene.generation &&
-         sunViewProjection_ == viewProjection;
+bool ShadowMaps::sunHolds(const SceneBuffers& scene, const SunShadowFit& fit) const {
+  return sunReadable_ && sunScene_ != 0 && sunScene_ == scene.generation && sunFit_.sameMaps(fit);
 }
 
 void ShadowMaps::ensureAtlas(VkExtent2D extent) {

@@ -10,6 +10,7 @@
 
 #include "gpu/vk_check.h"
 #include "render/renderer_state.h"
+#include "render/sub_frames.h"
 
 namespace myriad::render {
 
@@ -85,6 +86,26 @@ double Renderer::estimateMilliseconds(SceneId id, const FrameSettings& settings)
 
 bool Renderer::shouldSplit(SceneId id, const FrameSettings& settings) const {
   const State& s = *state_;
+  if (settings.resolvedFromSubFrames()) {
+    // A taa or ssaa frame renders whole when its sub-frames together would (beginFrame renders
+    // them one after another, holding the queue meanwhile): their estimates summed, and those
+    // not measured yet judged as one frame of their pixels together.
+    double total = 0.0, unmeasuredPixels = 0.0;
+    for (const FrameSettings& sub : SubFrameResolve(settings, maxDimension()).frames()) {
+      const double estimate = estimateMilliseconds(id, sub);
+      if (estimate < 0.0) {
+        unmeasuredPixels += pixelsOf(sub);
+      } else {
+        total += estimate;
+      }
+    }
+    const double lights = double(s.scene(id).lightCount);
+    const bool unmeasuredSplits =
+        unmeasuredPixels > 0.0 &&
+        (lights > kUnmeasuredSplitLights || unmeasuredPixels > kUnmeasuredSplitPixels ||
+         unmeasuredPixels * lights > kUnmeasuredSplitPixelLights);
+    return unmeasuredSplits || total > s.wholeFrameMs;
+  }
   const double estimate = estimateMilliseconds(id, settings);
   if (estimate >= 0.0) return estimate > s.wholeFrameMs;
   const double lights = double(s.scene(id).lightCount);
@@ -127,31 +148,51 @@ double Renderer::SplitFrame::projectedMilliseconds() const {
 }
 
 std::unique_ptr<Renderer::SplitFrame> Renderer::beginSplit(SceneId id,
-                                                           const FrameSettings& settings) {
+                                                           const FrameSettings& asked) {
   State& s = *state_;
   if (s.splitBusy) throw std::logic_error("another split frame is unfinished");
+  checkSize(asked, maxDimension());
+  // A taa or ssaa frame: its sub-frames one after another (render/sub_frames.h).
+  std::shared_ptr<SubFrameResolve> resolve;
+  if (asked.resolvedFromSubFrames()) resolve = std::make_shared<SubFrameResolve>(asked, maxDimension());
+  const FrameSettings& settings = resolve ? resolve->frames().front() : asked;
   s.quiesce();  // its parts are waited for one by one; frames in flight go first
-  SceneBuffers& scene = s.scene(id);
+  s.scene(id);  // throws for an unknown id
   checkSize(settings, maxDimension());
   checkLabels(settings);
-  LightingTechnique& technique = s.splitTechnique(settings.technique);
-  SceneEnvironment* environment = s.environmentFor(id, settings);
+  s.splitTechnique(settings.technique);  // throws for an unknown technique
+  s.environmentFor(id, settings);        // throws for hdr without an image
   std::unique_ptr<SplitFrame> frame(new SplitFrame(*this, id, settings));
+  frame->resolve_ = std::move(resolve);
   s.splitBusy = true;  // until `frame` is destroyed
+  s.startSplit(*frame);
+  return frame;
+}
 
+void Renderer::State::startSplit(SplitFrame& splitFrame) {
+  State& s = *this;
+  SplitFrame* f = &splitFrame;
+  const FrameSettings& settings = f->settings_;
+  SceneBuffers& scene = s.scene(f->scene_);
+  LightingTechnique& technique = s.splitTechnique(settings.technique);
+  SceneEnvironment* environment = s.environmentFor(f->scene_, settings);
+  f->steps_.clear();
+  f->step_ = 0;
+  f->nextUnit_ = 0;
+  f->listsGrew_ = false;
+  f->passes_.clear();
   s.prepareFrame(s.split, scene, environment, settings, technique);
   // The steps, recorded in order: everything before the lighting (one unit), the technique's
   // steps, the passes after it. Scene, environment and technique stay as they are until the
   // frame ends (the render thread runs no edit of its scene meanwhile).
   State* state = &s;
-  SplitFrame* f = frame.get();
   SplitFrame::Step before;
   before.units = 1;
   before.record = [state, &scene, environment, f](VkCommandBuffer cmd, uint32_t, uint32_t) {
     state->recordBeforeLighting(cmd, state->split, scene, environment, f->settings_);
   };
-  frame->steps_.push_back(std::move(before));
-  frame->firstLightingStep_ = frame->steps_.size();
+  f->steps_.push_back(std::move(before));
+  f->firstLightingStep_ = f->steps_.size();
   const bool computeGBuffer = s.computeGBufferFor(scene, settings);
   const bool animate = settings.animate && technique.animatesLights();
   const bool traced = StochasticShadows::wanted(settings);
@@ -176,9 +217,9 @@ std::unique_ptr<Renderer::SplitFrame> Renderer::beginSplit(SceneId id,
       pass.timer.beginPass(cmd, name);
       technique.recordStep(pass, i, first, count);
     };
-    frame->steps_.push_back(std::move(step));
+    f->steps_.push_back(std::move(step));
   }
-  frame->images_ = State::afterLightingStates(technique.lightingLayout(), settings);
+  f->images_ = State::afterLightingStates(technique.lightingLayout(), settings);
   for (const State::AfterStep& after : s.afterSteps) {
     SplitFrame::Step step;
     step.units = s.afterUnits(after, s.split, scene, settings);
@@ -187,11 +228,10 @@ std::unique_ptr<Renderer::SplitFrame> Renderer::beginSplit(SceneId id,
       state->recordAfterStep(cmd, state->split, scene, f->settings_, technique, f->images_, after,
                              first, count);
     };
-    frame->steps_.push_back(std::move(step));
+    f->steps_.push_back(std::move(step));
   }
   // The first submission: everything before the lighting.
-  s.runSplitPart(*frame);
-  return frame;
+  s.runSplitPart(*f);
 }
 
 void Renderer::State::runSplitPart(SplitFrame& frame) {
@@ -386,8 +426,20 @@ std::optional<Frame> Renderer::continueSplit(SplitFrame& frame) {
   result.submissions = frame.submissions_;
   result.culling.listsGrew = frame.listsGrew_;
   s.costs[frame.scene_] = {settings.technique, pixelsOf(settings), scene.lightCount,
-                           frame.elapsedMs_};
-  return result;
+                           frame.elapsedMs_ - frame.subFrameStartMs_};
+  if (!frame.resolve_) return result;
+  // A sub-frame of a taa or ssaa frame: the next one starts (its first part), or the frame is
+  // resolved. The budget counts the sub-frames together (elapsedMs_ goes on).
+  SubFrameResolve& resolve = *frame.resolve_;
+  resolve.add(std::move(result));
+  if (resolve.added() < resolve.frames().size()) {
+    frame.settings_ = resolve.frames()[resolve.added()];
+    frame.submissions_ = 0;
+    frame.subFrameStartMs_ = frame.elapsedMs_;
+    s.startSplit(frame);
+    return std::nullopt;
+  }
+  return resolve.resolve();
 }
 
 }  // namespace myriad::render

@@ -85,7 +85,12 @@ MemoryBudget::Reservation reserveFrame(const ApiContext& context, const FrameReq
   // (its readback region, the frame's copy, its array and its share of the body).
   const uint64_t perPixel = (s.raw ? memory_cost::kRawFrameBytesPerPixel
                                    : memory_cost::kEncodedFrameBytesPerPixel) +
-                            s.alsoRead.size() * memory_cost::kRawFrameBytesPerPixel;
+                            s.alsoRead.size() * memory_cost::kRawFrameBytesPerPixel +
+                            // taa and ssaa: their sub-frames and the host's resolve.
+                            (!s.resolvedFromSubFrames() ? 0
+                             : s.antialias == render::Antialias::Ssaa
+                                 ? memory_cost::kSsaaExtraBytesPerPixel
+                                 : memory_cost::kTaaExtraBytesPerPixel);
   const std::string targets =
       s.alsoRead.empty() ? "" : " " + std::to_string(s.alsoRead.size() + 1) + "-target";
   return reserveMemory(context, uint64_t(s.width) * s.height * perPixel + memory_cost::kFrameFixedBytes,
@@ -128,6 +133,11 @@ void handleSessionFrame(const ApiContext& context, FrameServices& frames,
   const SessionFrameContext frameContext{context.renderThread, frames.stats, frames.metrics,
                                          nullptr, context.config.borrowPixels,
                                          context.config.yuvJpeg};
+  {
+    // The session's anti-aliasing (taa and ssaa cost more memory: reserveFrame).
+    std::lock_guard lock(session->mutex);
+    request.settings.antialias = session->scene.settings().antialias;
+  }
   const MemoryBudget::Reservation memory = reserveFrame(context, request);
   SessionFrame frame = withFrameProblems("frame of " + session->id, [&] {
     PendingSessionFrame pending =

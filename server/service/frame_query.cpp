@@ -615,7 +615,7 @@ FrameRequest parseFrameRequest(const QueryParams& params, const FrameDefaults& d
   if (const std::string* text = single(params, "antialias")) {
     std::optional<render::Antialias> antialias = render::parseAntialias(*text);
     if (!antialias) {
-      throw FrameQueryError("antialias", "antialias must be none or fxaa, got " +
+      throw FrameQueryError("antialias", "antialias must be none, fxaa, taa or ssaa, got " +
                                              quoteClientText(*text) + ".");
     }
     settings.antialias = *antialias;

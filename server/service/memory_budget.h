@@ -23,6 +23,12 @@ namespace memory_cost {
 inline constexpr uint64_t kRawFrameBytesPerPixel = 112;      // measured 105-119
 inline constexpr uint64_t kEncodedFrameBytesPerPixel = 56;   // PNG, JPEG: measured 49-52
 inline constexpr uint64_t kFrameFixedBytes = 16ull << 20;
+// What taa and ssaa add to an encoded frame (render/sub_frames.h), per pixel asked, computed (not
+// measured): ssaa's sub-frame has 4x the pixels (its targets: 3 more frames' worth) and its
+// readback and copy (32), the resolve's linear sum (16) and answer (4); taa's sub-frames are of
+// the frame's size: a readback and copy (8), the resolve's YCoCg (12) and history (16), answer (4).
+inline constexpr uint64_t kSsaaExtraBytesPerPixel = 3 * kEncodedFrameBytesPerPixel + 52;
+inline constexpr uint64_t kTaaExtraBytesPerPixel = 40;
 // A JSON body: the text, nlohmann's document of it and the C++ values made from it.
 inline constexpr uint64_t kJsonBodyFactor = 16;
 // An upload: its bytes, the part copies and the loaded scene on its way to the GPU.

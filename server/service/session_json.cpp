@@ -74,6 +74,7 @@ protocol::Settings toWire(const render::SceneSettings& s) {
   out.shadows.mapSize = s.shadows.mapSize;
   out.shadows.maxShadowedLights = s.shadows.maxShadowedLights;
   out.shadows.local = std::string(render::localShadowsName(s.shadows.local));
+  out.shadows.cascades = s.shadows.cascades;
   out.fog.density = wire(s.fog.density);
   out.fog.color = toWire(s.fog.color);
   return out;
@@ -95,7 +96,7 @@ render::EnvironmentMode environmentModeFromWire(std::string_view name) {
 
 render::Antialias antialiasFromWire(std::string_view name) {
   std::optional<render::Antialias> mode = render::parseAntialias(name);
-  if (!mode) throw ProblemError(invalidBody("/antialias", "\"antialias\" must be none or fxaa."));
+  if (!mode) throw ProblemError(invalidBody("/antialias", "\"antialias\" must be none, fxaa, taa or ssaa."));
   return *mode;
 }
 

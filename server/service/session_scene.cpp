@@ -326,6 +326,10 @@ const render::SceneSettings& SessionScene::patchSettings(const protocol::Setting
       s.shadows.maxShadowedLights = std::min(*patch.shadows->maxShadowedLights, render::kMaxShadowedLights);
     }
     if (patch.shadows->local) s.shadows.local = localShadowsFromWire(*patch.shadows->local);
+    // The schema bounds it to 1..render::kMaxSunCascades.
+    if (patch.shadows->cascades) {
+      s.shadows.cascades = std::clamp(*patch.shadows->cascades, 1u, render::kMaxSunCascades);
+    }
   }
   if (patch.fog) {
     if (patch.fog->density) {
@@ -546,7 +550,8 @@ SessionScene::Restored SessionScene::restore(const protocol::Snapshot& snapshot,
   settings.shadows = protocol::ShadowsPatch{
       snapshot.settings.shadows.sun, snapshot.settings.shadows.mapSize,
       snapshot.settings.shadows.maxShadowedLights.value_or(render::kDefaultShadowedLights),
-      snapshot.settings.shadows.local.value_or(std::string(protocol::local_shadow_modes::kMaps))};
+      snapshot.settings.shadows.local.value_or(std::string(protocol::local_shadow_modes::kMaps)),
+      snapshot.settings.shadows.cascades.value_or(render::kDefaultSunCascades)};
   // A snapshot from before fog reads as fog off (protocol::Fog's default).
   settings.fog = protocol::FogPatch{snapshot.settings.fog.density, snapshot.settings.fog.color};
   try {

@@ -11,6 +11,8 @@ target                            dtype         shape        values
 ``normal``, ``position``,         float32       H x W x 3    world space (camera space with
 ``albedo``, ``emissive``, ...                                ``space="camera"``), linear colour
 ``uv``                            float32       H x W x 2
+``shadow``                        float32       H x W x 2    the sun's shadow factor (1 lit),
+                                                             its cascade (-1: no surface)
 ``metallic``, ``roughness``,      float32       H x W
 ``occlusion``, ``light-count``
 ``instance-id``, ``semantic-id``, uint32        H x W        object id / class / material id
