@@ -194,7 +194,9 @@ def main():
 
         # 2. The cap drop.
         cap_rate = a.cap_rate or a.rate
-        for codec in a.cap_codecs.split(","):
+        for codec, attempt in ((c, n) for c in a.cap_codecs.split(",") for n in (1, 2)):
+            if attempt == 2 and (not a.ctest or codec == "jpeg" or not lag_grew):
+                continue
             link.shape(a, cap_rate)
             extra = ["--mode", "cap", "--seconds", str(a.cap_seconds), "--at", str(a.drop_at),
                      "--run", " ".join(link.shape_command(a, a.drop_rate)),
@@ -227,10 +229,17 @@ def main():
                       f"{codec}: fitted the new cap after {r['adaptedAfterS']} s (2 at most)")
                 # Lag that grows without bound shows as seconds more by the end; a few edits a
                 # window on 2 busy cores vary by a hundred milliseconds.
-                check(late["n"] > 0 and early["n"] > 0 and
-                      late["p50"] <= max(early["p50"] + 150, 1.5 * early["p50"]),
-                      f"{codec}: lag grew: edit p50 {early['p50']:.0f} ms 2-4 s after the drop, "
-                      f"{late['p50']:.0f} ms in the last 2 s")
+                # A window holds a few edits, so one stall of the 2 shared cores (a key frame,
+                # another test's process) can double its median: a lag that grows without
+                # bound grows again, so the cap drop is measured once more before failing.
+                lag_grew = not (late["n"] > 0 and early["n"] > 0 and
+                                late["p50"] <= max(early["p50"] + 150, 1.5 * early["p50"]))
+                lag_text = (f"{codec}: lag grew: edit p50 {early['p50']:.0f} ms 2-4 s after the "
+                            f"drop, {late['p50']:.0f} ms in the last 2 s")
+                if lag_grew and attempt == 1:
+                    print(f"  {lag_text}; measuring the cap drop once more", flush=True)
+                else:
+                    check(not lag_grew, lag_text)
                 check(late["n"] > 0 and late["max"] <= 1500,
                       f"{codec}: edits took up to {late['max']:.0f} ms at the end")
         link.shape(a, a.rate)
