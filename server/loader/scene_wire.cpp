@@ -189,6 +189,14 @@ class Reader {
     const float x = finite(what), y = finite(what), z = finite(what);
     return {x, y, z};
   }
+  // Three finite numbers each in [0, 1] (a colour): else "<what> out of range".
+  glm::vec3 unitVec3(const char* what) {
+    const glm::vec3 v = vec3(what);
+    if (glm::any(glm::lessThan(v, glm::vec3(0.0f))) || glm::any(glm::greaterThan(v, glm::vec3(1.0f)))) {
+      reject(std::string(what) + " out of range");
+    }
+    return v;
+  }
   glm::vec4 vec4(const char* what) {
     const float x = finite(what), y = finite(what), z = finite(what), w = finite(what);
     return {x, y, z, w};
@@ -472,19 +480,11 @@ scene::Scene decodeScene(std::string_view bytes) {
   for (uint32_t i = 0; i < materialCount; ++i) {
     scene::Material m;
     m.name = r.name();
-    m.baseColor = r.vec3("a base colour");
-    if (glm::any(glm::lessThan(m.baseColor, glm::vec3(0.0f))) ||
-        glm::any(glm::greaterThan(m.baseColor, glm::vec3(1.0f)))) {
-      reject("a base colour out of range");
-    }
+    m.baseColor = r.unitVec3("a base colour");
     m.metallic = r.inRange("a metallic factor", 0.0f, 1.0f);
     m.roughness = r.inRange("a roughness factor", 0.0f, 1.0f);
     m.alpha = r.inRange("a base colour alpha", 0.0f, 1.0f);
-    m.emissive = r.vec3("an emissive factor");
-    if (glm::any(glm::lessThan(m.emissive, glm::vec3(0.0f))) ||
-        glm::any(glm::greaterThan(m.emissive, glm::vec3(1.0f)))) {
-      reject("an emissive factor out of range");
-    }
+    m.emissive = r.unitVec3("an emissive factor");
     m.emissiveStrength = r.inRange("an emissive strength", 0.0f, 1e4f);
     m.normalScale = r.inRange("a normal scale", -100.0f, 100.0f);
     m.occlusionStrength = r.inRange("an occlusion strength", 0.0f, 1.0f);
@@ -496,11 +496,7 @@ scene::Scene decodeScene(std::string_view bytes) {
     m.specular = r.inRange("a specular factor", 0.0f, 1.0f);
     m.clearcoat = r.inRange("a clearcoat factor", 0.0f, 1.0f);
     m.clearcoatRoughness = r.inRange("a clearcoat roughness", 0.0f, 1.0f);
-    m.sheenColor = r.vec3("a sheen colour");
-    if (glm::any(glm::lessThan(m.sheenColor, glm::vec3(0.0f))) ||
-        glm::any(glm::greaterThan(m.sheenColor, glm::vec3(1.0f)))) {
-      reject("a sheen colour out of range");
-    }
+    m.sheenColor = r.unitVec3("a sheen colour");
     m.sheenRoughness = r.inRange("a sheen roughness", 0.0f, 1.0f);
     for (size_t slot = 0; slot < scene::Material::kTextureSlots; ++slot) {
       scene::TextureRef& t = m.texture(slot);
@@ -605,11 +601,7 @@ scene::Scene decodeScene(std::string_view bytes) {
     scene::Sun sun;
     sun.direction = r.vec3("a directional light");
     if (std::abs(glm::length(sun.direction) - 1.0f) > 1e-3f) reject("a directional light's direction that is not a unit vector");
-    sun.color = r.vec3("a directional light's colour");
-    if (glm::any(glm::lessThan(sun.color, glm::vec3(0.0f))) ||
-        glm::any(glm::greaterThan(sun.color, glm::vec3(1.0f)))) {
-      reject("a directional light's colour out of range");
-    }
+    sun.color = r.unitVec3("a directional light's colour");
     sun.intensity = r.inRange("a directional light's intensity", 0.0f, 1000.0f);
     scene.extraSuns.push_back(sun);
   }

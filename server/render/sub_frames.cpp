@@ -197,7 +197,8 @@ void SubFrameResolve::add(Frame frame) {
   } else {
     // TAA: the history (YCoCg and alpha, in color_) clamped to this sub-frame's neighbourhood,
     // then blended towards it.
-    std::vector<glm::vec3> current(size_t(w) * h);
+    std::vector<glm::vec3>& current = current_;
+    current.resize(size_t(w) * h);
     forRows(h, w, [&](uint32_t y0, uint32_t y1) {
       for (size_t i = size_t(y0) * w; i < size_t(y1) * w; ++i) {
         current[i] = toYCoCg({lin[px[4 * i]], lin[px[4 * i + 1]], lin[px[4 * i + 2]]});
@@ -295,6 +296,7 @@ Frame SubFrameResolve::resolve() {
   frame.submissions = submissions_;
   frame.madeTargets = madeTargets_;
   color_ = {};
+  current_ = {};
   return frame;
 }
 

@@ -74,6 +74,7 @@ class SubFrameResolve {
   size_t added_ = 0;
   uint32_t pictures_ = 0;  // picture sub-frames added
   std::vector<float> color_;  // linear RGBA at the asked size: the history or the sum
+  std::vector<glm::vec3> current_;  // taa: the sub-frame being added, YCoCg (one buffer for all 8)
   Frame base_;               // the data views' sub-frame, or the last picture's (metadata)
   std::vector<PassTiming> passes_;
   FrameTimes times_;
