@@ -30,6 +30,7 @@ render::FrameSettings frameSettings(const scene::Scene& scene, render::Technique
   f.shadows.sun = plan.sunShadowMap > 0;
   if (plan.sunShadowMap > 0) {
     f.shadows.mapSize = plan.sunShadowMap;
+    f.shadows.cascades = plan.sunCascades;
     // The renderer keeps a map whose scene and sun did not change (ShadowMaps::sunHolds); the sun
     // turns by 1e-4 rad every other frame so that each timed frame draws it, as --sun-shadows says.
     const float a = 1e-4f * float(frameIndex % 2);

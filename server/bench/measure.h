@@ -39,6 +39,8 @@ struct Plan {
   // The sun's shadow map, texels across (render::kShadowMapSizes); 0: no shadows. Timed as the
   // "shadow" pass.
   uint32_t sunShadowMap = 0;
+  // The sun's cascades (1..render::kMaxSunCascades; the server's default 4) when sunShadowMap > 0.
+  uint32_t sunCascades = render::kDefaultSunCascades;
   // Lights asking for shadows added to every scene (bench_scene.h addShadowedLights), all given a
   // map (maxShadowedLights = this); their tiles are timed as the "light-shadows" pass. The tile
   // size is a quarter of sunShadowMap (2048 when the sun has none: 512-texel tiles).

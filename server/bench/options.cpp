@@ -57,7 +57,7 @@ const char* const kUsage =
     "                    [--json PATH] [--validate] [--device INDEX|NAME]\n"
     "                    [--environment none|sky] [--environment-every-frame]\n"
     "                    [--antialias none|fxaa|taa|ssaa]\n"
-    "                    [--sun-shadows 256|512|1024|2048|4096]\n"
+    "                    [--sun-shadows 256|512|1024|2048|4096 [--sun-cascades 1-4]]\n"
     "                    [--shadowed-lights N [--shadowed-kind point|spot]]\n"
     "                    [--local-shadows none|maps|stochastic]\n"
     "                    [--model PATH [--textures on|off]] [--gbuffer raster|compute|auto]\n"
@@ -79,7 +79,8 @@ const char* const kUsage =
     "ambient); with --environment-every-frame its maps are rebuilt every frame, timed as the\n"
     "\"environment\" pass.\n"
     "--sun-shadows N renders the sun's shadow map (N texels across) every frame, timed as the\n"
-    "\"shadow\" pass (default: no shadows).\n"
+    "\"shadow\" pass (default: no shadows); --sun-cascades N (1-4, default 4, the server's) splits\n"
+    "the view's depth between N maps of that size.\n"
     "--shadowed-lights N (0-16) adds N lights asking for shadows over the scene (besides --lights),\n"
     "every one given a map each frame, timed as the \"light-shadows\" pass; --shadowed-kind spot\n"
     "makes them spots (one tile each) instead of point lights (six tiles, a cube).\n"
@@ -164,6 +165,8 @@ Options parseOptions(const std::vector<std::string>& args) {
                          std::string(text) + "\".");
       }
       o.plan.sunShadowMap = uint32_t(size);
+    } else if (flag == "--sun-cascades") {
+      o.plan.sunCascades = uint32_t(parseCount(flag, value(), 1, render::kMaxSunCascades));
     } else if (flag == "--shadowed-lights") {
       o.plan.shadowedLights = uint32_t(parseCount(flag, value(), 0, render::kMaxShadowedLights));
     } else if (flag == "--shadowed-kind") {

@@ -135,6 +135,7 @@ nlohmann::json toJson(const RunInfo& run, const std::vector<ConfigResult>& resul
       {"markers", run.plan.markers},
       {"antialias", render::antialiasName(run.plan.antialias)},
       {"sun_shadow_map", run.plan.sunShadowMap},
+      {"sun_cascades", run.plan.sunShadowMap > 0 ? run.plan.sunCascades : 0},
       {"shadowed_lights", run.plan.shadowedLights},
       {"shadowed_kind", run.plan.shadowedSpots ? "spot" : "point"},
       {"ceiling_pairs_per_second", kH200PairsPerSecondCeiling},

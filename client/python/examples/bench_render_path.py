@@ -20,6 +20,8 @@ On the GPU machine (../shared/device/README.md): pack the server here with
 import argparse
 import json
 import math
+import statistics
+import threading
 import os
 import select
 import signal
@@ -56,6 +58,79 @@ def orbit(count):
                "target": [0.0, 0.5, 0.0]}
 
 
+def server_timing(header):
+    """Server-Timing's metrics as {name: milliseconds} (pass names, readback, encode, queue)."""
+    metrics = {}
+    for part in (header or "").split(","):
+        fields = part.strip().split(";")
+        for field in fields[1:]:
+            if field.startswith("dur="):
+                metrics[fields[0]] = float(field[4:])
+    return metrics
+
+
+# Server-Timing metrics that are host work on the server, not GPU passes.
+HOST_METRICS = ("readback", "extra-targets", "encode", "queue")
+
+
+def timing_summary(frames_metrics):
+    """Medians of the GPU passes summed and of each host metric over the frames."""
+    if not frames_metrics:
+        return {}
+    gpu = [sum(v for k, v in m.items() if k not in HOST_METRICS) for m in frames_metrics]
+    summary = {"gpuPassesMs": round(statistics.median(gpu), 3)}
+    for name in HOST_METRICS:
+        values = [m[name] for m in frames_metrics if name in m]
+        if values:
+            summary[name + "Ms"] = round(statistics.median(values), 3)
+    return summary
+
+
+def client_split(session, targets, width, height, count):
+    """Per frame in the main thread, one at a time: the request and its body read, then the
+    npz decode, medians in ms (where the client's own time goes)."""
+    from myriad import frames as frames_module
+    fetch, decode = [], []
+    query = {"width": width, "height": height, "target": ",".join(targets), "format": "npz"}
+    for camera in orbit(count):
+        query.update({"eye": ",".join(map(repr, camera["eye"])),
+                      "look_at": ",".join(map(repr, camera["target"]))})
+        t0 = time.perf_counter()
+        answer = session._call("GET", "/frame", query=query, ok=(200,))
+        t1 = time.perf_counter()
+        frames_module.decode_npz(answer.body, targets)
+        t2 = time.perf_counter()
+        fetch.append((t1 - t0) * 1e3)
+        decode.append((t2 - t1) * 1e3)
+    return {"fetchMs": round(statistics.median(fetch), 3),
+            "decodeMs": round(statistics.median(decode), 3),
+            "bytes": len(answer.body)}
+
+
+def fetch_only(session, targets, width, height, count, concurrency):
+    """Frames a second of bare requests (bodies read, not decoded) over `concurrency`
+    connections: the server and transport ceiling, without the client's decoding."""
+    query = {"width": width, "height": height, "target": ",".join(targets), "format": "npz"}
+    left = [count]
+    lock = threading.Lock()
+
+    def work():
+        while True:
+            with lock:
+                if left[0] == 0:
+                    return
+                left[0] -= 1
+            session._call("GET", "/frame", query=query, ok=(200,))
+
+    threads = [threading.Thread(target=work) for _ in range(concurrency)]
+    start = time.monotonic()
+    for thread in threads:
+        thread.start()
+    for thread in threads:
+        thread.join()
+    return round(count / (time.monotonic() - start), 1)
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--url", help="a running server (else --server starts one)")
@@ -68,6 +143,9 @@ def main():
     parser.add_argument("--concurrency", default="1,2,4")
     parser.add_argument("--warmup", type=int, default=8, help="frames rendered before timing")
     parser.add_argument("--json", help="also write the results to this file")
+    parser.add_argument("--breakdown", action="store_true",
+                        help="also report the Server-Timing medians of each run, the client's "
+                             "fetch/decode split one frame at a time, and bare fetches a second")
     args = parser.parse_args()
     width, height = (int(v) for v in args.size.split("x"))
     targets = args.targets.split(",")
@@ -91,20 +169,35 @@ def main():
                                          concurrency=concurrency))
                 start = time.monotonic()
                 count = 0
+                metrics = []
                 for frame in session.render_path(orbit(args.frames), targets, width, height,
                                                  concurrency=concurrency):
                     assert frame.index == count
                     count += 1
+                    if args.breakdown:
+                        metrics.append(server_timing(frame.headers.get("server-timing")))
                 seconds = time.monotonic() - start
                 result = {"device": device, "size": f"{width}x{height}", "lights": args.lights,
                           "targets": targets, "frames": count, "concurrency": concurrency,
                           "seconds": round(seconds, 2),
                           "framesPerSecond": round(count / seconds, 1),
                           "npz": "npz" in client.formats()}
+                if args.breakdown:
+                    result["serverTiming"] = timing_summary(metrics)
+                    result["fetchOnlyFramesPerSecond"] = fetch_only(
+                        session, targets, width, height, min(args.frames, 200), concurrency)
                 results.append(result)
                 print(f"concurrency {concurrency}: {count} frames in {seconds:.1f} s = "
                       f"{count / seconds:.1f} frames/s ({device}, {width}x{height}, "
                       f"{args.lights} lights, {'+'.join(targets)})", flush=True)
+                if args.breakdown:
+                    print(f"  server timing medians: {result['serverTiming']}; bare fetches "
+                          f"(no decode): {result['fetchOnlyFramesPerSecond']} frames/s",
+                          flush=True)
+            if args.breakdown:
+                split = client_split(session, targets, width, height, 30)
+                results.append({"clientSplit": split})
+                print(f"one at a time: {split}", flush=True)
     finally:
         if process is not None:
             process.terminate()
