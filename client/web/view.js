@@ -21,11 +21,19 @@
 //
 // Video: where the browser decodes it (WebCodecs, in a secure context), the stream is VP9 video
 // (?codec=vp9, protocol/reference.md "Video streams") decoded into a <canvas id="video"> over the
-// <img>: far fewer bytes than JPEG at the same size (docs/performance.md). The page falls back to the JPEG stream where
-// VideoDecoder is missing or cannot decode it, when the page's address says ?stream=jpeg
-// (?stream=vp8 asks for VP8), and once it measured that video cannot hold the rate here even at
-// its smallest interaction scale (adaptive.js; remembered per renderer). #view's data-codec says
-// which is in use (vp8, vp9 or jpeg) and data-codec-why why JPEG was chosen.
+// <img>: far fewer bytes than JPEG at the same size (docs/performance.md). Where WebCodecs is
+// missing (an http page that is not localhost) or cannot decode it, the same video comes in live
+// WebM (?container=webm) and plays in a <video id="video"> through Media Source Extensions
+// (mse.js), where the browser's player takes it; else the JPEG stream. Media Source Extensions
+// show a picture later than WebCodecs (the element's own pipeline) and say less of it (no
+// session version or animation time per picture), hence second choice. The page's address may
+// ask: ?stream=jpeg the JPEG stream, ?stream=mse Media Source Extensions (with ?codec=vp8 or
+// h264), ?stream=vp8 VP8 (either player), ?stream=h264 H.264 in MP4 (Media Source Extensions
+// only: the server sends H.264 in MP4 alone). Once the page measured that video cannot hold the
+// rate here even at its smallest interaction scale (adaptive.js; remembered per renderer) it
+// takes the JPEG stream. #view's data-codec says which codec is in use (vp8, vp9, h264 or jpeg),
+// data-player which player (webcodecs, mse or jpeg; the status line on the view names it too) and
+// data-codec-why why the first choice was not taken.
 //
 // Why fetch and not <img src=stream>: an <img> shows a part only once the next part's headers
 // arrive (so a still stayed one part, up to the server's 2 s re-send, behind), gives no event
@@ -38,6 +46,7 @@ import {ApiError, SessionLostError, problemMessage} from './api.js';
 import {ImagePresenter} from './image.js';
 import {MultipartReader, multipartBoundary} from './multipart.js';
 import {ViewPerf} from './perf.js';
+import {MSE_FORMATS, MsePlayer, mseSupport} from './mse.js';
 import {VideoChunkReader, VideoPlayer, videoSupport} from './video.js';
 
 const FULL_QUALITY = 90;
@@ -64,6 +73,8 @@ const VIDEO_CODECS = {vp8: 'vp8', vp9: 'vp09.00.10.08'};
 // VP9: better pictures than VP8 at the same bitrate, and an encoder whose threads do not spin
 // (bench/history/performance-2026-11-to-12.md, "Stream bandwidth").
 const DEFAULT_CODEC = 'vp9';
+// How the status line names each player.
+const PLAYER_NAMES = {webcodecs: 'WebCodecs', mse: 'MSE'};
 
 export class LiveView {
   constructor(api, element, img, status) {
@@ -94,8 +105,13 @@ export class LiveView {
     this.onRecovered = () => {};    // a part shows again after onProblem
     this.troubled = false;          // onProblem was called and no part has shown since
     this.mode = null;               // 'video' or 'jpeg', once chooseMode() decided
-    this.codec = 'jpeg';            // 'vp8', 'vp9' or 'jpeg'
-    this.canvas = null;             // <canvas id="video"> in video mode
+    this.codec = 'jpeg';            // 'vp8', 'vp9', 'h264' or 'jpeg'
+    this.player = 'jpeg';           // video's player: 'webcodecs' or 'mse'; else 'jpeg'
+    this.canvas = null;             // <canvas id="video"> in video mode with WebCodecs
+    // Media Source Extensions: each stream plays in a <video> of its own (stream.player's),
+    // beneath the one shown until it shows its first picture, then in its place as #video: a
+    // new stream (a drag's smaller one, its full-size still) never blanks the view.
+    this.shownVideo = null;         // the MsePlayer whose <video> is #video
     this.bytesReceived = 0;         // stream bytes so far, all streams (for a bandwidth figure)
     this.framesShown = 0;           // pictures shown so far
     this.ready = this.chooseMode();
@@ -123,31 +139,58 @@ export class LiveView {
     }).observe(this.element);
   }
 
-  // Video when this browser decodes it, else JPEG (see the top of this file).
+  // Video when this browser decodes it (WebCodecs, else Media Source Extensions), else JPEG (see
+  // the top of this file).
   async chooseMode() {
-    const asked = new URLSearchParams(globalThis.location?.search || '').get('stream');
-    let why = '';
+    const params = new URLSearchParams(globalThis.location?.search || '');
+    const asked = params.get('stream');
+    const whys = [];
     if (asked === 'jpeg') {
-      why = 'asked for by ?stream=jpeg';
+      whys.push('asked for by ?stream=jpeg');
     } else {
-      const codec = asked in VIDEO_CODECS ? asked : DEFAULT_CODEC;
-      const support = await videoSupport(VIDEO_CODECS[codec]);
+      const mseOnly = asked === 'mse' || asked === 'h264';
+      const codec = asked === 'mse' ? (params.get('codec') in MSE_FORMATS ? params.get('codec') : DEFAULT_CODEC)
+                                    : asked in MSE_FORMATS ? asked : DEFAULT_CODEC;
+      if (asked === 'mse') whys.push('asked for by ?stream=mse');
+      else if (codec === 'h264') whys.push('H.264 comes in MP4 only, for Media Source Extensions');
+      if (!mseOnly) {
+        const support = await videoSupport(VIDEO_CODECS[codec]);
+        if (support.supported) {
+          this.useVideo(codec, 'webcodecs', '');
+          return;
+        }
+        whys.push(support.why);
+      }
+      const support = mseSupport(codec);
       if (support.supported) {
-        this.mode = 'video';
-        this.codec = codec;
-        this.canvas = document.createElement('canvas');
-        this.canvas.id = 'video';
-        this.canvas.setAttribute('aria-label', "The session's live video");
-        this.img.after(this.canvas);
-        this.element.dataset.codec = codec;
+        this.useVideo(codec, 'mse', whys.join('; '));
         return;
       }
-      why = support.why;
+      whys.push(support.why);
     }
     this.mode = 'jpeg';
     this.codec = 'jpeg';
+    this.player = 'jpeg';
     this.element.dataset.codec = 'jpeg';
-    this.element.dataset.codecWhy = why;
+    this.element.dataset.player = 'jpeg';
+    this.element.dataset.codecWhy = whys.join('; ');
+  }
+
+  // Video of `codec` played by `player` ('webcodecs': decoded onto a canvas made here; 'mse':
+  // each stream's <video> is made as it opens), and why the first choice was not taken.
+  useVideo(codec, player, why) {
+    this.mode = 'video';
+    this.codec = codec;
+    this.player = player;
+    if (player === 'webcodecs') {
+      this.canvas = document.createElement('canvas');
+      this.canvas.id = 'video';
+      this.canvas.setAttribute('aria-label', "The session's live video");
+      this.img.after(this.canvas);
+    }
+    this.element.dataset.codec = codec;
+    this.element.dataset.player = player;
+    if (why) this.element.dataset.codecWhy = why;
   }
 
   // The full-quality size: the element's size in device pixels, capped by what the renderer can
@@ -166,11 +209,17 @@ export class LiveView {
 
   streamParams() {
     const full = this.fullSize();
-    if (!this.interactive || this.mode !== 'video') return {...full, quality: FULL_QUALITY};
+    // H.264 (4:2:0, whole macroblock pairs of chroma) takes even sizes only: the <video> scales
+    // the one pixel lost up to the view.
+    const even = (side) => (this.codec === 'h264' ? side - (side % 2) : side);
+    if (!this.interactive || this.mode !== 'video') {
+      return this.mode === 'video' ? {width: even(full.width), height: even(full.height), quality: FULL_QUALITY}
+                                   : {...full, quality: FULL_QUALITY};
+    }
     const scale = this.learnt.scale.scale;
     return {
-      width: Math.max(MIN_SIDE, Math.round(full.width * scale)),
-      height: Math.max(MIN_SIDE, Math.round(full.height * scale)),
+      width: even(Math.max(MIN_SIDE, Math.round(full.width * scale))),
+      height: even(Math.max(MIN_SIDE, Math.round(full.height * scale))),
       quality: INTERACTIVE_QUALITY,
     };
   }
@@ -192,11 +241,15 @@ export class LiveView {
     }
     this.mode = 'jpeg';
     this.codec = 'jpeg';
+    this.player = 'jpeg';
     this.interactive = false;
     clearTimeout(this.settleTimer);
-    this.canvas.remove();
+    this.canvas?.remove();
     this.canvas = null;
+    this.shownVideo?.dispose();
+    this.shownVideo = null;
     this.element.dataset.codec = 'jpeg';
+    this.element.dataset.player = 'jpeg';
     this.element.dataset.codecWhy = why;
     if (this.stream) {
       this.close();
@@ -233,11 +286,13 @@ export class LiveView {
       return;
     }
     const p = this.streamParams();
-    // Video takes no quality: its bitrate follows the size (the server's default).
+    // Video takes no quality: its bitrate follows the size (the server's default). Media Source
+    // Extensions take a standard container (WebCodecs, Myriad's chunks: the default).
     const query = this.mode === 'video'
         ? {target: this.target, codec: this.codec, fps: STREAM_FPS, width: p.width, height: p.height}
         : {target: this.target, format: 'jpeg', fps: STREAM_FPS,
            width: p.width, height: p.height, quality: p.quality, interactive: this.learnt.rate.fps};
+    if (this.player === 'mse') query.container = MSE_FORMATS[this.codec].container;
     // The stream's address without the token (data-stream: what the view asks for now).
     const key = `${this.api.sessionPath('/stream')}?${new URLSearchParams(query)}`;
     // The same stream, open or waiting for its retry: nothing to do (and the retry stays due).
@@ -258,6 +313,8 @@ export class LiveView {
     this.close();
     this.images.clear();
     this.frame = null;
+    this.shownVideo?.dispose();  // nothing of the old session stays on screen
+    this.shownVideo = null;
     if (this.canvas) {
       this.canvas.width = 0;  // nothing of the old session stays on screen
       delete this.canvas.dataset.stream;
@@ -317,7 +374,8 @@ export class LiveView {
     }
 
     const reader = response.body.getReader();
-    const video = this.mode === 'video' ? this.startVideo(stream, response) : null;
+    const video = this.mode !== 'video' ? null
+        : this.player === 'mse' ? this.startMse(stream, response) : this.startVideo(stream, response);
     const parts = video || new MultipartReader(
         multipartBoundary(response.headers.get('content-type')) || 'myriad-frame');
     let silence = 0;
@@ -353,7 +411,9 @@ export class LiveView {
     } finally {
       clearTimeout(silence);
       reader.cancel().catch(() => {});
-      stream.player?.close();
+      // A <video> that shows no picture yet goes now; the one shown stays until the next shows.
+      if (stream.player instanceof MsePlayer && stream.player !== this.shownVideo) stream.player.dispose();
+      else stream.player?.close();
     }
     // Ended by the server (session deleted, server stopping) or gone silent: open it again; the
     // new request says why if it cannot be (a lost session, an unreachable server).
@@ -384,7 +444,13 @@ export class LiveView {
     const chunks = new VideoChunkReader();
     const codec = response.headers.get('x-myriad-codec') || VIDEO_CODECS[this.codec];
     stream.player = new VideoPlayer(this.canvas, codec, {
-      onPicture: (chunk) => this.showPicture(stream, chunk),
+      onPicture: (chunk) => {
+        if (this.stream !== stream) return;
+        this.canvas.dataset.shown = stream.key;
+        this.canvas.dataset.frame = String(chunk.sequence);
+        this.showPicture(stream, chunk, chunk.payload.byteLength);
+        this.checkAnimation(chunk);
+      },
       onError: (e) => {
         console.warn(`video: ${e.message}`);
         stream.abort.abort();
@@ -399,22 +465,61 @@ export class LiveView {
     };
   }
 
-  // A decoded video picture is on the canvas: as show() for an image.
-  showPicture(stream, chunk) {
-    if (this.stream !== stream) return;
-    this.canvas.dataset.shown = stream.key;
-    this.canvas.dataset.frame = String(chunk.sequence);
+  // A Media Source Extensions stream's reader: its bytes to a <video> of its own (see
+  // this.shownVideo), which takes the place of the one shown at its first picture. An error of the
+  // element ends the stream; read() then opens a new one. A picture's size and number come from
+  // the element's frame callback; the container carries no animation time, so the animated-rate
+  // check of the WebCodecs path (checkAnimation) has nothing to judge here (drags still do).
+  startMse(stream, response) {
+    const format = MSE_FORMATS[this.codec];
+    // The response's codec string: H.264's level is the server's choice (size, rate, bitrate).
+    const codecs = response.headers.get('x-myriad-codec') || format.codecs;
+    const video = document.createElement('video');
+    video.setAttribute('aria-label', "The session's live video");
+    video.dataset.stream = stream.key;
+    this.img.after(video);  // beneath the <video> shown now, which comes later in #view
+    const player = new MsePlayer(video, format, `${format.mime}; codecs="${codecs}"`, {
+      onPicture: (picture) => {
+        if (this.stream !== stream) return;
+        if (this.shownVideo !== player) {
+          const before = this.shownVideo;
+          this.shownVideo = player;
+          if (before) before.dispose();  // frees the id before it is taken
+          video.id = 'video';
+        }
+        video.dataset.shown = stream.key;
+        video.dataset.frame = String(picture.sequence);
+        this.showPicture(stream, picture, picture.bytes);
+      },
+      onError: (e) => {
+        console.warn(`video: ${e.message}`);
+        stream.abort.abort();
+      },
+    });
+    stream.player = player;
+    return {
+      feed: (bytes) => {
+        player.feed(bytes);
+        return [bytes];  // a keep-alive too: the stream is alive
+      },
+    };
+  }
+
+  // A video picture shows (decoded on the canvas, or presented by the <video>), {width, height,
+  // sequence}, with `bytes` of the stream it took: as show() for an image.
+  showPicture(stream, picture, bytes) {
     this.framesShown += 1;
     // The smaller stream of a moving camera counts as interactive, at its scale.
     const fullWidth = this.fullSize().width;
-    const id = frameId(stream, chunk.sequence);
-    this.frame = {id, width: chunk.width, height: chunk.height, sequence: chunk.sequence,
-                  interactive: chunk.width < fullWidth ? chunk.width / fullWidth : 0};
+    const id = frameId(stream, picture.sequence);
+    // (H.264's full size may be a pixel narrower: its sides are even.)
+    this.frame = {id, width: picture.width, height: picture.height, sequence: picture.sequence,
+                  interactive: picture.width < fullWidth - 1 ? picture.width / fullWidth : 0};
     this.perf.shown(this.frame);
-    this.onFrame({id, bytes: chunk.payload.byteLength, codec: this.codec});
-    this.checkAnimation(chunk);
-    this.status.textContent = `${chunk.width}\u00d7${chunk.height} ${this.codec.toUpperCase()}` +
-                              (this.interactive ? ' (moving)' : '');
+    this.onFrame({id, bytes, codec: `${this.codec} ${PLAYER_NAMES[this.player]}`});
+    const text = `${picture.width}\u00d7${picture.height} ${this.codec.toUpperCase()} via ` +
+                 `${PLAYER_NAMES[this.player]}${this.interactive ? ' (moving)' : ''}`;
+    if (this.status.textContent !== text) this.status.textContent = text;
     this.noteShown();
   }
 

@@ -1581,14 +1581,17 @@ try {
                   `${green(before).toFixed(1)} -> ${green(after).toFixed(1)}, largest cell change ` +
                   `${largestCellDifference(before, after).toFixed(1)}`);
       const counters = await other.evaluate(() => document.getElementById('view-status').textContent);
-      check(/VP9/.test(counters), `the status line names the codec: "${counters}"`);
+      check(/VP9 via WebCodecs/.test(counters), `the status line names the codec and player: "${counters}"`);
+      check(await other.getAttribute('#view', 'data-player') === 'webcodecs', 'data-player webcodecs');
     } finally {
       await own.close();
       if (opened) await api('DELETE', `/v1/sessions/${opened.id}`, {token: opened.token});
     }
   });
 
-  await step('video: without WebCodecs the page falls back to the JPEG stream and says so', async () => {
+  // Without WebCodecs alone the page plays video through Media Source Extensions
+  // (page_mse_test.mjs); without those too, it takes the JPEG stream.
+  await step('video: without WebCodecs and Media Source Extensions the page falls back to the JPEG stream and says so', async () => {
     // A context of its own: its own localStorage, so its own session.
     const own = await browser.newContext({viewport: VIEWPORT});
     const other = await own.newPage();
@@ -1598,7 +1601,10 @@ try {
     other.on('pageerror', (e) => consoleErrors.push(`uncaught: ${e.message}`));
     let opened = null;
     try {
-      await other.addInitScript(() => { delete globalThis.VideoDecoder; });
+      await other.addInitScript(() => {
+        delete globalThis.VideoDecoder;
+        delete globalThis.MediaSource;
+      });
       await other.goto(`${base}/`);
       const s = await until('a JPEG picture', async () => {
         const now = await other.evaluate(signatureInPage);
@@ -1606,8 +1612,9 @@ try {
       });
       check(s.codec === 'jpeg', `data-codec ${s.codec}`);
       const why = await other.getAttribute('#view', 'data-codec-why');
-      check(/WebCodecs is unavailable/.test(why), `why: "${why}"`);
-      check(await other.evaluate(() => document.getElementById('video') === null), 'no video canvas');
+      check(/WebCodecs is unavailable/.test(why) && /Media Source Extensions are unavailable/.test(why),
+            `why: "${why}"`);
+      check(await other.evaluate(() => document.getElementById('video') === null), 'no video canvas or element');
       opened = await other.evaluate(() => JSON.parse(localStorage.getItem('myriad.session')));
     } finally {
       await own.close();

@@ -19,7 +19,8 @@ export async function until(what, probe, timeoutMs = WAIT_MS, intervalMs = 150) 
 }
 
 // The picture in the view as 32x32 mean colours, from what shows it (same origin, so a canvas
-// can read it): the video canvas (#video) once it shows a decoded picture, else the <img> of the
+// can read it): the video canvas (#video, WebCodecs) once it shows a decoded picture, or the
+// <video id="video"> (Media Source Extensions) once it presents one, else the <img> of the
 // JPEG stream. What the user sees, not a screenshot of the page around it.
 export function signatureInPage() {
   const video = document.getElementById('video');
@@ -28,7 +29,13 @@ export function signatureInPage() {
   let width;
   let height;
   let shownFrom;
-  if (video && video.dataset.shown && video.width > 0) {
+  if (video instanceof HTMLVideoElement && video.dataset.shown && video.videoWidth > 0) {
+    // Media Source Extensions: the <video>'s current picture.
+    source = video;
+    width = video.videoWidth;
+    height = video.videoHeight;
+    shownFrom = video;
+  } else if (video && video.dataset.shown && video.width > 0) {
     source = video;
     width = video.width;
     height = video.height;

@@ -5,9 +5,12 @@
 //   default   the page as it opens, no query string (VP9 through WebCodecs where Chromium has
 //             it, which Debian's has on localhost)
 //   jpeg      ?stream=jpeg: the multipart JPEG stream (what the page falls back to without
-//             WebCodecs)
-//   fallback  the page as it opens with WebCodecs removed (VideoDecoder deleted before the page
-//             runs): the JPEG stream chosen by the page itself
+//             WebCodecs and Media Source Extensions)
+//   mse       ?stream=mse: VP9 in live WebM played by a <video> through Media Source Extensions
+//             (what the page takes without WebCodecs: client/web/mse.js)
+//   fallback  the page as it opens with WebCodecs and Media Source Extensions removed
+//             (VideoDecoder and MediaSource deleted before the page runs): the JPEG stream chosen
+//             by the page itself (before issue 35's MSE player, deleting VideoDecoder was enough)
 // Each path gets a fresh browser context (nothing learnt by an earlier page: client/web/adaptive.js
 // keeps its learnt interactive scale in localStorage) and a new session.
 //
@@ -61,10 +64,10 @@ const JSON_FILE = option('json', '');
 // page) or 'await' (each move waits for the page, then 16 ms: the loop before stop 17).
 const INPUT = option('input', 'clock');
 const PATHS = option('paths', 'default,jpeg').split(',').filter(Boolean);
-const PATH_QUERY = {default: '', jpeg: '?stream=jpeg', fallback: ''};
+const PATH_QUERY = {default: '', jpeg: '?stream=jpeg', mse: '?stream=mse', fallback: ''};
 for (const path of PATHS) {
   if (!(path in PATH_QUERY)) {
-    console.error(`page_bench: unknown path "${path}" (default, jpeg, fallback)`);
+    console.error(`page_bench: unknown path "${path}" (default, jpeg, mse, fallback)`);
     process.exit(2);
   }
 }
@@ -97,7 +100,12 @@ async function benchPath(path) {
   // The window is the view plus the 340 px panel; fitted so the view is exactly VIEW.
   const context = await browser.newContext({viewport: {width: VIEW.width + 340, height: VIEW.height},
                                             deviceScaleFactor: 1});
-  if (path === 'fallback') await context.addInitScript(() => { delete window.VideoDecoder; });
+  if (path === 'fallback') {
+    await context.addInitScript(() => {
+      delete window.VideoDecoder;
+      delete window.MediaSource;
+    });
+  }
   const page = await context.newPage();
   await page.goto(`${server.url}/${PATH_QUERY[path]}`);
   const view = await page.evaluate(() => ({width: document.getElementById('view').clientWidth,
