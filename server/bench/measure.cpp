@@ -28,7 +28,16 @@ render::FrameSettings frameSettings(const scene::Scene& scene, render::Technique
   f.environment.mode = plan.environment;
   if (plan.environmentEveryFrame) f.sun.color *= 1.0f + 1e-4f * float(frameIndex % 2);
   f.shadows.sun = plan.sunShadowMap > 0;
-  if (plan.sunShadowMap > 0) {
+  if (plan.orbitCamera) {
+    const float angle = glm::radians(kOrbitDegreesPerFrame * float(frameIndex));
+    const glm::vec3 arm = f.camera.eye - f.camera.target;
+    f.camera.eye = f.camera.target + glm::vec3(std::cos(angle) * arm.x + std::sin(angle) * arm.z, arm.y,
+                                               std::cos(angle) * arm.z - std::sin(angle) * arm.x);
+  }
+  if (plan.sunShadowMap > 0 && plan.orbitCamera) {
+    f.shadows.mapSize = plan.sunShadowMap;
+    f.shadows.cascades = plan.sunCascades;
+  } else if (plan.sunShadowMap > 0) {
     f.shadows.mapSize = plan.sunShadowMap;
     f.shadows.cascades = plan.sunCascades;
     // The renderer keeps a map whose scene and sun did not change (ShadowMaps::sunHolds); the sun
@@ -108,6 +117,9 @@ ConfigResult measure(render::Renderer& renderer, gpu::Context& context, render::
     }
     totals.push_back(total);
     lighting.push_back(lightingMilliseconds(frame));
+    r.sunMapsDrawn += frame.sunMap == render::Frame::SunMap::drawn ? 1 : 0;
+    r.sunMapsScrolled += frame.sunMap == render::Frame::SunMap::scrolled ? 1 : 0;
+    r.sunMapsKept += frame.sunMap == render::Frame::SunMap::kept ? 1 : 0;
 
     const render::CullingReport& c = frame.culling;
     if (c.overflowed()) ++r.framesOverflowed;

@@ -17,6 +17,8 @@ namespace myriad::bench {
 // evaluating the glTF BRDF with windowed attenuation for every (pixel, light) pair, no culling,
 // at 3840x2160 (../shared/device/README.md). Lighting time >= pairs / this.
 inline constexpr double kH200PairsPerSecondCeiling = 3.1e11;
+// Plan::orbitCamera's turn a frame: a whole orbit in 1,000 frames (bench_render_path.py's path).
+inline constexpr float kOrbitDegreesPerFrame = 0.36f;
 
 struct Plan {
   uint32_t width = 1920;
@@ -41,6 +43,11 @@ struct Plan {
   uint32_t sunShadowMap = 0;
   // The sun's cascades (1..render::kMaxSunCascades; the server's default 4) when sunShadowMap > 0.
   uint32_t sunCascades = render::kDefaultSunCascades;
+  // The camera turns about the scene's target by kOrbitDegreesPerFrame a frame (a path, as a
+  // fly-through or render_path moves it), and the sun stays: the cascades follow the camera
+  // (scrolled or drawn again), which is what the "shadow" pass then times. Off: a still camera
+  // and a sun that turns every other frame.
+  bool orbitCamera = false;
   // Lights asking for shadows added to every scene (bench_scene.h addShadowedLights), all given a
   // map (maxShadowedLights = this); their tiles are timed as the "light-shadows" pass. The tile
   // size is a quarter of sunShadowMap (2048 when the sun has none: 512-texel tiles).
@@ -77,6 +84,8 @@ struct ConfigResult {
   Summary totalMs;                  // sum of the passes of each frame
   Summary lightingMs;               // sun + lights (volumes) or lighting (compute, incl. assignment)
   Summary wallMs;                   // CPU wall time per frame: submit, wait, read back
+  // What the timed frames did with the sun's maps (render::Frame::SunMap), with sun shadows.
+  uint32_t sunMapsDrawn = 0, sunMapsScrolled = 0, sunMapsKept = 0;
 
   // Culling, over the timed frames: the worst frame for what must be zero, the last for the rest.
   uint32_t framesOverflowed = 0;

@@ -58,6 +58,7 @@ const char* const kUsage =
     "                    [--environment none|sky] [--environment-every-frame]\n"
     "                    [--antialias none|fxaa|taa|ssaa]\n"
     "                    [--sun-shadows 256|512|1024|2048|4096 [--sun-cascades 1-4]]\n"
+    "                    [--camera still|orbit]\n"
     "                    [--shadowed-lights N [--shadowed-kind point|spot]]\n"
     "                    [--local-shadows none|maps|stochastic]\n"
     "                    [--model PATH [--textures on|off]] [--gbuffer raster|compute|auto]\n"
@@ -80,7 +81,9 @@ const char* const kUsage =
     "\"environment\" pass.\n"
     "--sun-shadows N renders the sun's shadow map (N texels across) every frame, timed as the\n"
     "\"shadow\" pass (default: no shadows); --sun-cascades N (1-4, default 4, the server's) splits\n"
-    "the view's depth between N maps of that size.\n"
+    "the view's depth between N maps of that size. --camera orbit turns the camera about the scene\n"
+    "by 0.36 degrees a frame and keeps the sun (the maps follow the camera: scrolled or drawn; the\n"
+    "report counts which), instead of a still camera under a sun that turns every other frame.\n"
     "--shadowed-lights N (0-16) adds N lights asking for shadows over the scene (besides --lights),\n"
     "every one given a map each frame, timed as the \"light-shadows\" pass; --shadowed-kind spot\n"
     "makes them spots (one tile each) instead of point lights (six tiles, a cube).\n"
@@ -165,6 +168,12 @@ Options parseOptions(const std::vector<std::string>& args) {
                          std::string(text) + "\".");
       }
       o.plan.sunShadowMap = uint32_t(size);
+    } else if (flag == "--camera") {
+      const std::string_view mode = value();
+      if (mode != "still" && mode != "orbit") {
+        throw UsageError("--camera expects still or orbit, not \"" + std::string(mode) + "\".");
+      }
+      o.plan.orbitCamera = mode == "orbit";
     } else if (flag == "--sun-cascades") {
       o.plan.sunCascades = uint32_t(parseCount(flag, value(), 1, render::kMaxSunCascades));
     } else if (flag == "--shadowed-lights") {

@@ -56,6 +56,10 @@ void printResult(std::FILE* out, const ConfigResult& r) {
     std::fprintf(out, " %s %.3f/%.3f", p.name.c_str(), p.ms.median, p.ms.p90);
   }
   std::fprintf(out, "; wall %.2f ms\n", r.wallMs.median);
+  if (r.sunMapsDrawn + r.sunMapsScrolled + r.sunMapsKept > 0) {
+    std::fprintf(out, "    sun maps: drawn %u, scrolled %u, kept %u of the timed frames\n",
+                 r.sunMapsDrawn, r.sunMapsScrolled, r.sunMapsKept);
+  }
   if (r.shadowRays > 0) {
     std::fprintf(out, "    shadow rays: %llu a frame, %.3g rays/s over the shadow-rays pass\n",
                  static_cast<unsigned long long>(r.shadowRays), r.raysPerSecond);
@@ -92,6 +96,7 @@ nlohmann::json toJson(const RunInfo& run, const std::vector<ConfigResult>& resul
     c["frame_ms"] = summaryJson(r.totalMs);
     c["lighting_ms"] = summaryJson(r.lightingMs);
     c["wall_ms"] = summaryJson(r.wallMs);
+    c["sun_maps"] = {{"drawn", r.sunMapsDrawn}, {"scrolled", r.sunMapsScrolled}, {"kept", r.sunMapsKept}};
     c["culling"] = {{"frames_overflowed", r.framesOverflowed},
                     {"most_tiles_overflowed", r.mostTilesOverflowed},
                     {"most_tile_lights_dropped", r.mostTileLightsDropped},
@@ -136,6 +141,7 @@ nlohmann::json toJson(const RunInfo& run, const std::vector<ConfigResult>& resul
       {"antialias", render::antialiasName(run.plan.antialias)},
       {"sun_shadow_map", run.plan.sunShadowMap},
       {"sun_cascades", run.plan.sunShadowMap > 0 ? run.plan.sunCascades : 0},
+      {"camera", run.plan.orbitCamera ? "orbit" : "still"},
       {"shadowed_lights", run.plan.shadowedLights},
       {"shadowed_kind", run.plan.shadowedSpots ? "spot" : "point"},
       {"ceiling_pairs_per_second", kH200PairsPerSecondCeiling},

@@ -128,8 +128,16 @@ SunShadowFit fitSunCascades(const scene::Bounds& bounds, glm::vec3 direction, ui
     glm::vec2 center = glm::vec2(lightView * glm::vec4(camera.eye + forward * centerDepth, 1.0f));
     // Whole texels of the light's space: the map moves only by whole texels.
     if (snap) center = glm::floor(center / texel) * texel;
-    const glm::mat4 projection = glm::orthoRH_ZO(center.x - half, center.x + half,
-                                                 center.y - half, center.y + half, zNear, zFar);
+    // glm::orthoRH_ZO(center.x - half, center.x + half, ...) written out, so that its scale does
+    // not pick up the rounding of (center + half) - (center - half): two fits with the same
+    // splits then differ in the translation alone, by whole texels (ShadowMaps::scrollSun).
+    glm::mat4 projection(1.0f);
+    projection[0][0] = 1.0f / half;
+    projection[1][1] = 1.0f / half;
+    projection[2][2] = -1.0f / (zFar - zNear);
+    projection[3][0] = -center.x / half;
+    projection[3][1] = -center.y / half;
+    projection[3][2] = -zNear / (zFar - zNear);
     fit.viewProjection[c] = projection * lightView;
     fit.mapFromWorld[c] = uvFromClip() * fit.viewProjection[c];
     fit.texelWorld[c] = texel;

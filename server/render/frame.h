@@ -309,7 +309,9 @@ struct Frame {
   } lightShadows;
   // What the frame did with the sun's shadow map: none (sun shadows off), kept (it held this
   // scene already), repaired (drawn again under a few moved objects only) or drawn whole.
-  enum class SunMap : uint8_t { none, kept, repaired, drawn };
+  // kept: as it was; repaired: redrawn under moved objects; scrolled: shifted after a camera
+  // move, the uncovered strips drawn (ShadowMaps::scrollSun); drawn: whole.
+  enum class SunMap : uint8_t { none, kept, repaired, scrolled, drawn };
   SunMap sunMap = SunMap::none;
 };
 

@@ -91,8 +91,13 @@ void Renderer::State::recordBeforeLighting(VkCommandBuffer cmd, FrameSlot& slot,
       slot.timer->beginPass(cmd, "shadow");  // names-once: the pass, not the target
       slot.sunMap = Frame::SunMap::repaired;
       if (!slot.shadows->repairSun(cmd, p, scene, *sunShadow)) {
-        slot.shadows->recordSun(cmd, p, scene, *sunShadow);
-        slot.sunMap = Frame::SunMap::drawn;
+        // After a camera move, cascades keep what they still cover (scrollSun).
+        slot.sunMap = Frame::SunMap::scrolled;
+        if (!s.tuning.sunScroll.value_or(false) ||
+            !slot.shadows->scrollSun(cmd, p, scene, *sunShadow)) {
+          slot.shadows->recordSun(cmd, p, scene, *sunShadow);
+          slot.sunMap = Frame::SunMap::drawn;
+        }
       }
     }
   } else {

@@ -51,13 +51,16 @@ float luminance(glm::vec3 c) { return 0.2126f * c.r + 0.7152f * c.g + 0.0722f * 
 // Opens a depth-only rendering on `map` (the previous frame's lighting sampled it) with the
 // shadow pipeline and the scene's geometry bound: cleared and rewritten whole, or with `keep`
 // (a repair, ShadowMaps::repairSun) its contents loaded as they are.
+// `scrolled`: the map was last written by scrollSun's copies (in GENERAL), not read as a map.
 void beginShadowRendering(VkCommandBuffer cmd, const Pipelines& p, const SceneBuffers& scene,
-                          const gpu::Image& map, bool keep = false) {
+                          const gpu::Image& map, bool keep = false, bool scrolled = false) {
   const gpu::ImageTransition before[] = {
-      {&map, kShadowReaders, VK_ACCESS_2_NONE,
+      {&map, scrolled ? VK_PIPELINE_STAGE_2_COPY_BIT : kShadowReaders,
+       scrolled ? VK_ACCESS_2_TRANSFER_WRITE_BIT : VK_ACCESS_2_NONE,
        VK_PIPELINE_STAGE_2_EARLY_FRAGMENT_TESTS_BIT | VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT,
        VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_READ_BIT | VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT,
-       keep ? VK_IMAGE_LAYOUT_READ_ONLY_OPTIMAL : VK_IMAGE_LAYOUT_UNDEFINED,
+       scrolled ? VK_IMAGE_LAYOUT_GENERAL
+                : keep ? VK_IMAGE_LAYOUT_READ_ONLY_OPTIMAL : VK_IMAGE_LAYOUT_UNDEFINED,
        VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL}};
   gpu::barrier(cmd, before);
   VkRenderingAttachmentInfo depth{VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO};
@@ -201,7 +204,10 @@ LightShadowPlan planLightShadows(const std::vector<ShadowCaster>& casters,
 }
 
 ShadowMaps::ShadowMaps(gpu::Context& context)
-    : context_(context), arena_(context, kShadowBlockSize), atlasArena_(context, kShadowBlockSize) {
+    : context_(context),
+      arena_(context, kShadowBlockSize),
+      scrollArena_(context, kShadowBlockSize),
+      atlasArena_(context, kShadowBlockSize) {
   VkFormatProperties properties;
   vkGetPhysicalDeviceFormatProperties(context.physicalDevice, kDepthFormat, &properties);
   const bool linear =
@@ -226,8 +232,10 @@ void ShadowMaps::ensureSun(const SunShadowFit& fit) {
     return;
   }
   arena_.release();
+  // Transfers: scrollSun copies what a moved cascade keeps.
   sun_ = arena_.createImage2D(extent, kDepthFormat,
-                              VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT | VK_IMAGE_USAGE_SAMPLED_BIT);
+                              VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT | VK_IMAGE_USAGE_SAMPLED_BIT |
+                                  VK_IMAGE_USAGE_TRANSFER_SRC_BIT | VK_IMAGE_USAGE_TRANSFER_DST_BIT);
   sunReadable_ = false;
   sunScene_ = 0;
 }
@@ -285,6 +293,29 @@ bool overlaps(const glm::ivec4& a, const glm::ivec4& b) {
 // either, drawing the maps whole costs about the same.
 constexpr size_t kMaxRepairSpheres = 256;
 constexpr double kMaxRepairShare = 0.25;
+// The largest share of the maps a scroll draws again (the strips a camera move uncovered): past
+// it, drawing them whole costs about the same as the copies and strips.
+constexpr double kMaxScrollShare = 0.5;
+
+// How far cascade `c`'s map moved from `before` to `after` (its world -> clip transforms), in
+// whole texels of its `size`-texel tile (+x right, +y down): a world point's texel u becomes
+// u + shift. Only when the two differ by that alone (the same sun, texel size and depth range:
+// fitSunCascades then changes the translation only); nullopt otherwise.
+std::optional<glm::ivec2> texelShift(const glm::mat4& before, const glm::mat4& after,
+                                     uint32_t size) {
+  for (int column = 0; column < 4; ++column) {
+    for (int row = 0; row < 4; ++row) {
+      const bool translation = column == 3 && row < 2;
+      if (!translation && before[column][row] != after[column][row]) return std::nullopt;
+    }
+  }
+  // Clip x and y run -1..1 across the tile: a clip offset of t is t * size / 2 texels.
+  const glm::vec2 shift = (glm::vec2(after[3][0], after[3][1]) -
+                           glm::vec2(before[3][0], before[3][1])) * (0.5f * float(size));
+  const glm::vec2 whole = glm::round(shift);
+  if (std::abs(shift.x - whole.x) > 0.01f || std::abs(shift.y - whole.y) > 0.01f) return std::nullopt;
+  return glm::ivec2(whole);
+}
 
 // Points cascade `c`'s drawing at its tile of the atlas (viewport; `rect`, in the tile's texels,
 // the scissor) with its view-projection pushed.
@@ -385,6 +416,111 @@ bool ShadowMaps::repairSun(VkCommandBuffer cmd, const Pipelines& p, const SceneB
   return true;
 }
 
+bool ShadowMaps::scrollSun(VkCommandBuffer cmd, const Pipelines& p, const SceneBuffers& scene,
+                           const SunShadowFit& fit) {
+  if (!sunReadable_ || sunScene_ == 0 || sunScene_ != scene.generation) return false;
+  if (fit.cascades < 2 || fit.cascades != sunFit_.cascades || fit.tileSize != sunFit_.tileSize) {
+    return false;
+  }
+  const int size = int(fit.tileSize);
+  std::array<glm::ivec2, kMaxSunCascades> shifts{};
+  double uncovered = 0.0;
+  for (uint32_t c = 0; c < fit.cascades; ++c) {
+    const std::optional<glm::ivec2> shift =
+        texelShift(sunFit_.viewProjection[c], fit.viewProjection[c], fit.tileSize);
+    if (!shift || std::abs(shift->x) >= size || std::abs(shift->y) >= size) return false;
+    shifts[c] = *shift;
+    uncovered += double(size) * size - double(size - std::abs(shift->x)) * (size - std::abs(shift->y));
+  }
+  if (uncovered > kMaxScrollShare * double(size) * size * fit.cascades) return false;
+
+  if (scrollScratch_.image == VK_NULL_HANDLE || scrollScratch_.extent.width != fit.tileSize) {
+    scrollArena_.release();
+    scrollScratch_ = scrollArena_.createImage2D(
+        {fit.tileSize, fit.tileSize}, kDepthFormat,
+        // (The attachment usage only because every image here gets a view.)
+        VK_IMAGE_USAGE_TRANSFER_SRC_BIT | VK_IMAGE_USAGE_TRANSFER_DST_BIT |
+            VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT);
+  }
+  // Both images stay in GENERAL while the copies run (the atlas is source, then destination).
+  {
+    const gpu::ImageTransition toCopy[] = {
+        {&sun_, kShadowReaders, VK_ACCESS_2_NONE, VK_PIPELINE_STAGE_2_COPY_BIT,
+         VK_ACCESS_2_TRANSFER_READ_BIT | VK_ACCESS_2_TRANSFER_WRITE_BIT,
+         VK_IMAGE_LAYOUT_READ_ONLY_OPTIMAL, VK_IMAGE_LAYOUT_GENERAL},
+        {&scrollScratch_, VK_PIPELINE_STAGE_2_NONE, VK_ACCESS_2_NONE, VK_PIPELINE_STAGE_2_COPY_BIT,
+         VK_ACCESS_2_TRANSFER_WRITE_BIT, VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_GENERAL}};
+    gpu::barrier(cmd, toCopy);
+  }
+  // Copy and copy back, one cascade at a time through the scratch tile: a region may not be
+  // copied onto an overlapping region of the same image. What a cascade keeps lies at
+  // old texels [max(0, -s), size - max(0, s)), new ones [max(0, s), size - max(0, -s)).
+  const glm::uvec2 grid = sunAtlasGrid(fit.cascades);
+  const VkImageSubresourceLayers depthLayer{VK_IMAGE_ASPECT_DEPTH_BIT, 0, 0, 1};
+  const auto copyDependency = [&](VkAccessFlags2 scratchBefore, VkAccessFlags2 scratchAfter,
+                                  VkAccessFlags2 atlasBefore, VkAccessFlags2 atlasAfter) {
+    const gpu::ImageTransition between[] = {
+        {&scrollScratch_, VK_PIPELINE_STAGE_2_COPY_BIT, scratchBefore, VK_PIPELINE_STAGE_2_COPY_BIT,
+         scratchAfter, VK_IMAGE_LAYOUT_GENERAL, VK_IMAGE_LAYOUT_GENERAL},
+        {&sun_, VK_PIPELINE_STAGE_2_COPY_BIT, atlasBefore, VK_PIPELINE_STAGE_2_COPY_BIT, atlasAfter,
+         VK_IMAGE_LAYOUT_GENERAL, VK_IMAGE_LAYOUT_GENERAL}};
+    gpu::barrier(cmd, between);
+  };
+  bool first = true;
+  for (uint32_t c = 0; c < fit.cascades; ++c) {
+    const glm::ivec2 s = shifts[c];
+    if (s == glm::ivec2(0)) continue;
+    const glm::ivec2 tile{int((c % grid.x) * fit.tileSize), int((c / grid.x) * fit.tileSize)};
+    const glm::ivec2 from{std::max(0, -s.x), std::max(0, -s.y)};
+    const glm::ivec2 to{std::max(0, s.x), std::max(0, s.y)};
+    const VkExtent3D kept{uint32_t(size - std::abs(s.x)), uint32_t(size - std::abs(s.y)), 1};
+    if (!first) {  // the last copy back read the scratch and wrote the atlas
+      copyDependency(VK_ACCESS_2_TRANSFER_READ_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT,
+                     VK_ACCESS_2_TRANSFER_WRITE_BIT, VK_ACCESS_2_TRANSFER_READ_BIT);
+    }
+    first = false;
+    const VkImageCopy out{depthLayer, {tile.x + from.x, tile.y + from.y, 0}, depthLayer,
+                          {to.x, to.y, 0}, kept};
+    vkCmdCopyImage(cmd, sun_.image, VK_IMAGE_LAYOUT_GENERAL, scrollScratch_.image,
+                   VK_IMAGE_LAYOUT_GENERAL, 1, &out);
+    copyDependency(VK_ACCESS_2_TRANSFER_WRITE_BIT, VK_ACCESS_2_TRANSFER_READ_BIT,
+                   VK_ACCESS_2_TRANSFER_READ_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT);
+    const VkImageCopy back{depthLayer, {to.x, to.y, 0}, depthLayer,
+                           {tile.x + to.x, tile.y + to.y, 0}, kept};
+    vkCmdCopyImage(cmd, scrollScratch_.image, VK_IMAGE_LAYOUT_GENERAL, sun_.image,
+                   VK_IMAGE_LAYOUT_GENERAL, 1, &back);
+  }
+
+  // The uncovered strips: the columns the move opened on one side, the rows on the other
+  // (their corner twice: cleared and drawn again the same), each cleared and drawn with only the
+  // casters reaching into it.
+  beginShadowRendering(cmd, p, scene, sun_, /*keep=*/true, /*scrolled=*/true);
+  for (uint32_t c = 0; c < fit.cascades; ++c) {
+    const glm::ivec2 s = shifts[c];
+    std::array<glm::ivec4, 2> strips{};
+    size_t count = 0;
+    if (s.x > 0) strips[count++] = {0, 0, s.x, size};
+    if (s.x < 0) strips[count++] = {size + s.x, 0, size, size};
+    if (s.y > 0) strips[count++] = {0, 0, size, s.y};
+    if (s.y < 0) strips[count++] = {0, size + s.y, size, size};
+    const int x = int((c % grid.x) * fit.tileSize);
+    const int y = int((c / grid.x) * fit.tileSize);
+    for (size_t i = 0; i < count; ++i) {
+      const glm::ivec4& r = strips[i];
+      VkClearAttachment clear{VK_IMAGE_ASPECT_DEPTH_BIT, 0, {}};
+      clear.clearValue.depthStencil = {1.0f, 0};
+      const VkClearRect clearRect{
+          {{x + r.x, y + r.y}, {uint32_t(r.z - r.x), uint32_t(r.w - r.y)}}, 0, 1};
+      vkCmdClearAttachments(cmd, 1, &clear, 1, &clearRect);
+      beginCascade(cmd, p, fit, c, r);
+      drawCastersInto(cmd, scene, fit, c, r);
+    }
+  }
+  endShadowRendering(cmd, sun_);
+  sunFit_ = fit;
+  return true;
+}
+
 bool ShadowMaps::sunHolds(const SceneBuffers& scene, const SunShadowFit& fit) const {
   return sunReadable_ && sunScene_ != 0 && sunScene_ == scene.generation && sunFit_.sameMaps(fit);
 }
@@ -445,13 +581,15 @@ void ShadowMaps::release() {
   sun_ = {};
   sunReadable_ = false;
   sunScene_ = 0;
+  scrollArena_.release();
+  scrollScratch_ = {};
   atlasArena_.release();
   atlas_ = {};
   atlasReadable_ = false;
 }
 
 uint64_t ShadowMaps::gpuMemoryBytes() const {
-  return arena_.bytesAllocated() + atlasArena_.bytesAllocated();
+  return arena_.bytesAllocated() + scrollArena_.bytesAllocated() + atlasArena_.bytesAllocated();
 }
 
 }  // namespace myriad::render

@@ -125,6 +125,15 @@ class ShadowMaps {
   // cannot (then recordSun).
   bool repairSun(VkCommandBuffer cmd, const Pipelines& p, const SceneBuffers& scene,
                  const SunShadowFit& fit);
+  // The "shadow" pass after a camera move: cascades follow the camera by whole texels
+  // (fitSunCascades), so when the atlas holds this very scene drawn with maps of the same splits,
+  // each cascade's new map is its old one shifted by whole texels. Copies what both hold into its
+  // new place (through a tile-sized scratch image) and clears and draws only the strips the move
+  // uncovered, with only the casters reaching into them. Returns false, recording nothing, when
+  // it cannot (another scene generation, other splits or sun, one cascade, or moves that uncover
+  // more than kMaxScrollShare of the maps: then recordSun).
+  bool scrollSun(VkCommandBuffer cmd, const Pipelines& p, const SceneBuffers& scene,
+                 const SunShadowFit& fit);
 
   // The local lights' atlas: ensureAtlas before the descriptors are written (a new size is a new
   // image), or ensureAtlasPlaceholder (1x1) when no light has a map this frame; recordLights draws
@@ -148,6 +157,8 @@ class ShadowMaps {
   bool sunReadable_ = false;  // the map has been put into READ_ONLY_OPTIMAL at least once
   uint64_t sunScene_ = 0;    // what the map holds (sunHolds): the scene's generation, 0 nothing
   SunShadowFit sunFit_;      // and the maps it was drawn with
+  gpu::Arena scrollArena_;   // scrollSun's scratch tile, made on its first scroll
+  gpu::Image scrollScratch_;
   gpu::Arena atlasArena_;     // the atlas's own, so a new sun size keeps it (and the reverse)
   gpu::Image atlas_;
   bool atlasReadable_ = false;

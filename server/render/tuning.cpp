@@ -40,6 +40,7 @@ Tuning resolveTuning(const Tuning& asked, const gpu::DeviceInfo& device) {
 
   if (!t.assignGroups) t.assignGroups = device.multiprocessors > 0 ? device.multiprocessors : 128u;
   if (!t.pointTest) t.pointTest = device.isCpu ? 0u : 2u;
+  if (!t.sunScroll) t.sunScroll = device.isCpu;
   return t;
 }
 
