@@ -79,19 +79,22 @@ def timing_summary(frames_metrics):
         return {}
     gpu = [sum(v for k, v in m.items() if k not in HOST_METRICS) for m in frames_metrics]
     summary = {"gpuPassesMs": round(statistics.median(gpu), 3)}
-    for name in HOST_METRICS:
+    names = []
+    for m in frames_metrics:
+        names += [name for name in m if name not in names]
+    for name in names:  # each pass and host metric, in the header's order
         values = [m[name] for m in frames_metrics if name in m]
-        if values:
-            summary[name + "Ms"] = round(statistics.median(values), 3)
+        summary[name + "Ms"] = round(statistics.median(values), 3)
     return summary
 
 
-def client_split(session, targets, width, height, count):
+def client_split(session, targets, width, height, count, options):
     """Per frame in the main thread, one at a time: the request and its body read, then the
     npz decode, medians in ms (where the client's own time goes)."""
     from myriad import frames as frames_module
     fetch, decode = [], []
-    query = {"width": width, "height": height, "target": ",".join(targets), "format": "npz"}
+    query = {"width": width, "height": height, "target": ",".join(targets), "format": "npz",
+             **options}
     for camera in orbit(count):
         query.update({"eye": ",".join(map(repr, camera["eye"])),
                       "look_at": ",".join(map(repr, camera["target"]))})
@@ -107,10 +110,11 @@ def client_split(session, targets, width, height, count):
             "bytes": len(answer.body)}
 
 
-def fetch_only(session, targets, width, height, count, concurrency):
+def fetch_only(session, targets, width, height, count, concurrency, options):
     """Frames a second of bare requests (bodies read, not decoded) over `concurrency`
     connections: the server and transport ceiling, without the client's decoding."""
-    query = {"width": width, "height": height, "target": ",".join(targets), "format": "npz"}
+    query = {"width": width, "height": height, "target": ",".join(targets), "format": "npz",
+             **options}
     left = [count]
     lock = threading.Lock()
 
@@ -143,12 +147,19 @@ def main():
     parser.add_argument("--concurrency", default="1,2,4")
     parser.add_argument("--warmup", type=int, default=8, help="frames rendered before timing")
     parser.add_argument("--json", help="also write the results to this file")
+    parser.add_argument("--option", action="append", default=[], metavar="NAME=VALUE",
+                        help="a frame query parameter for every frame (repeatable), e.g. "
+                             "markers=false; the default path without it")
+    parser.add_argument("--settings", action="append", default=[], metavar="JSON",
+                        help="a settings patch applied before the runs (repeatable: each is "
+                             "a run of its own after the default one), e.g. '{\"markers\": false}'")
     parser.add_argument("--breakdown", action="store_true",
                         help="also report the Server-Timing medians of each run, the client's "
                              "fetch/decode split one frame at a time, and bare fetches a second")
     args = parser.parse_args()
     width, height = (int(v) for v in args.size.split("x"))
     targets = args.targets.split(",")
+    options = dict(item.split("=", 1) for item in args.option)
     process = None
     url = args.url
     # A SIGTERM (a timeout) still stops the server this script started.
@@ -164,14 +175,18 @@ def main():
         device = info["device"]["name"]
         with client.session() as session:
             session.generate_lights(args.lights, seed=1)
-            for concurrency in (int(c) for c in args.concurrency.split(",")):
+            runs = [(None, int(c)) for c in args.concurrency.split(",")]
+            runs += [(json.loads(p), int(args.concurrency.split(",")[-1])) for p in args.settings]
+            for patch, concurrency in runs:
+                if patch is not None:
+                    session.patch_settings(patch)
                 list(session.render_path(orbit(args.warmup), targets, width, height,
-                                         concurrency=concurrency))
+                                         concurrency=concurrency, **options))
                 start = time.monotonic()
                 count = 0
                 metrics = []
                 for frame in session.render_path(orbit(args.frames), targets, width, height,
-                                                 concurrency=concurrency):
+                                                 concurrency=concurrency, **options):
                     assert frame.index == count
                     count += 1
                     if args.breakdown:
@@ -181,13 +196,16 @@ def main():
                           "targets": targets, "frames": count, "concurrency": concurrency,
                           "seconds": round(seconds, 2),
                           "framesPerSecond": round(count / seconds, 1),
-                          "npz": "npz" in client.formats()}
+                          "npz": "npz" in client.formats(), "options": options,
+                          "settingsPatch": patch}
                 if args.breakdown:
                     result["serverTiming"] = timing_summary(metrics)
                     result["fetchOnlyFramesPerSecond"] = fetch_only(
-                        session, targets, width, height, min(args.frames, 200), concurrency)
+                        session, targets, width, height, min(args.frames, 200), concurrency,
+                        options)
                 results.append(result)
-                print(f"concurrency {concurrency}: {count} frames in {seconds:.1f} s = "
+                print(f"{'settings ' + json.dumps(patch) + ', ' if patch else ''}"
+                      f"concurrency {concurrency}: {count} frames in {seconds:.1f} s = "
                       f"{count / seconds:.1f} frames/s ({device}, {width}x{height}, "
                       f"{args.lights} lights, {'+'.join(targets)})", flush=True)
                 if args.breakdown:
@@ -195,7 +213,7 @@ def main():
                           f"(no decode): {result['fetchOnlyFramesPerSecond']} frames/s",
                           flush=True)
             if args.breakdown:
-                split = client_split(session, targets, width, height, 30)
+                split = client_split(session, targets, width, height, 30, options)
                 results.append({"clientSplit": split})
                 print(f"one at a time: {split}", flush=True)
     finally:
