@@ -105,9 +105,17 @@ def client_split(session, targets, width, height, count, options):
         t2 = time.perf_counter()
         fetch.append((t1 - t0) * 1e3)
         decode.append((t2 - t1) * 1e3)
+    # The lights each pixel's shading evaluated (the light-count view), at the path's first
+    # camera: the shading pass's work, pairs a pixel.
+    first = next(orbit(count))
+    counts = session.frame(["light-count"], width, height, **options,
+                           eye=",".join(map(repr, first["eye"])),
+                           look_at=",".join(map(repr, first["target"])))["light-count"]
     return {"fetchMs": round(statistics.median(fetch), 3),
             "decodeMs": round(statistics.median(decode), 3),
-            "bytes": len(answer.body)}
+            "bytes": len(answer.body),
+            "lightsPerPixelMean": round(float(counts.mean()), 2),
+            "lightsPerPixelMax": int(counts.max())}
 
 
 def fetch_only(session, targets, width, height, count, concurrency, options):
