@@ -117,6 +117,12 @@ void patchMembers(Tag<MaterialPatch>, F f) {
   f("alphaMode", &Material::alphaMode, &MaterialPatch::alphaMode);
   f("alphaCutoff", &Material::alphaCutoff, &MaterialPatch::alphaCutoff);
   f("doubleSided", &Material::doubleSided, &MaterialPatch::doubleSided);
+  f("clearcoat", &Material::clearcoat, &MaterialPatch::clearcoat);
+  f("clearcoatRoughness", &Material::clearcoatRoughness, &MaterialPatch::clearcoatRoughness);
+  f("sheenColor", &Material::sheenColor, &MaterialPatch::sheenColor);
+  f("sheenRoughness", &Material::sheenRoughness, &MaterialPatch::sheenRoughness);
+  f("ior", &Material::ior, &MaterialPatch::ior);
+  f("specular", &Material::specular, &MaterialPatch::specular);
 }
 
 template <class F>

@@ -168,6 +168,12 @@ struct Material {
   std::string alphaMode = "opaque";  // kAlphaModes
   double alphaCutoff = 0.5;
   bool doubleSided = true;
+  // KHR_materials_clearcoat, _sheen, _ior and _specular's factors. The server always sends them;
+  // a body may leave them out (a snapshot from before they could be edited): restoring it then
+  // gives the material the model file's own values.
+  std::optional<double> clearcoat, clearcoatRoughness;
+  std::optional<Color> sheenColor;
+  std::optional<double> sheenRoughness, ior, specular;
   std::vector<MaterialTexture> textures;  // read-only
 };
 
@@ -179,6 +185,9 @@ struct MaterialPatch {
   std::optional<std::string> alphaMode;
   std::optional<double> alphaCutoff;
   std::optional<bool> doubleSided;
+  std::optional<double> clearcoat, clearcoatRoughness;
+  std::optional<Color> sheenColor;
+  std::optional<double> sheenRoughness, ior, specular;
 };
 Material applied(Material material, const MaterialPatch& patch);
 

@@ -509,6 +509,9 @@ TEST_CASE("api: request bodies are checked against the schemas, naming the membe
       {"PATCH", "/materials/0", R"({"metallic": 2})", "/metallic"},
       {"PATCH", "/materials/0", R"({"baseColor": [0.5, 0.5, 1.5]})", "/baseColor/2"},
       {"PATCH", "/materials/0", R"({"name": "x"})", "/name"},
+      {"PATCH", "/materials/0", R"({"clearcoat": 1.5})", "/clearcoat"},
+      {"PATCH", "/materials/0", R"({"sheenColor": [0.5, 0.5, 1.5]})", "/sheenColor/2"},
+      {"PATCH", "/materials/0", R"({"ior": 0})", "/ior"},
       // Lights.
       {"POST", "/lights", R"({"lights": []})", "/lights"},
       {"POST", "/lights", R"({})", "/lights"},

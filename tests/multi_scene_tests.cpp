@@ -367,6 +367,60 @@ TEST_CASE("emission follows material edits both ways, though the emissive target
   CHECK(gpu.context->validationMessages.load() == 0);
 }
 
+// The layers target (clear coat, sheen) is written only while some material has one
+// (MYRIAD_GBUFFER_LAYERS, decided per frame from SceneBuffers::layered): an edit that gives a
+// scene without layers a coat or a sheen (PATCH .../materials) must draw it, in every technique,
+// as the reference does; one that takes it away must give the frame of before.
+TEST_CASE("a clear coat or sheen given by a material edit is drawn; taken away, the frame of before") {
+  Gpu& gpu = sharedGpu();
+  render::Renderer& r = *gpu.renderer;
+  scene::Scene s = sceneB();
+  for (const scene::Material& m : s.materials) REQUIRE_FALSE(m.layered());
+  render::SceneId id = r.createScene(s);
+  for (render::Technique technique :
+       {render::Technique::Clustered, render::Technique::Tiled, render::Technique::Volumes}) {
+    CAPTURE(render::techniqueName(technique));
+    const render::FrameSettings f = settingsFor(s, technique);
+    const render::Frame bare = r.render(id, f);
+    const std::vector<uint8_t> bareReference = render::renderReference(s, f);
+    // The pixels the edit changes, on the GPU and in the reference, by more than 2/255.
+    auto changedBy = [&](const render::Frame& edited) {
+      const size_t gpuChanged = pixelsOver(bare.rgba, edited.rgba, 2);
+      const size_t referenceChanged = pixelsOver(bareReference, render::renderReference(s, f), 2);
+      MESSAGE(gpuChanged << " of " << edited.rgba.size() / 4 << " pixels changed, "
+                         << referenceChanged << " in the reference");
+      CHECK(gpuChanged + 3 >= referenceChanged);  // the same pixels, but up to 3 on silhouettes
+      CHECK(gpuChanged <= referenceChanged + 3);
+      return gpuChanged;
+    };
+
+    s.materials[1].clearcoat = 1.0f;
+    s.materials[1].clearcoatRoughness = 0.1f;
+    r.updateMaterials(id, {{1, s.materials[1]}});
+    const render::Frame coated = r.render(id, f);
+    checkMatchesReference(coated, s, f);
+    const size_t coat = changedBy(coated);
+    CHECK(coat >= 25);                            // the block's lit faces
+    CHECK(coat < coated.rgba.size() / 4 / 2);     // not the floor's
+
+    s.materials[1].clearcoat = 0.0f;
+    s.materials[1].sheenColor = glm::vec3(1.0f, 0.4f, 0.6f);
+    s.materials[1].sheenRoughness = 0.5f;
+    r.updateMaterials(id, {{1, s.materials[1]}});
+    const render::Frame sheened = r.render(id, f);
+    checkMatchesReference(sheened, s, f);
+    const size_t sheen = changedBy(sheened);
+    CHECK(sheen >= 25);
+    CHECK(sheen < sheened.rgba.size() / 4 / 2);
+
+    s.materials[1].sheenColor = glm::vec3(0.0f);
+    r.updateMaterials(id, {{1, s.materials[1]}});
+    CHECK(r.render(id, f).rgba == bare.rgba);
+  }
+  r.destroyScene(id);
+  CHECK(gpu.context->validationMessages.load() == 0);
+}
+
 TEST_CASE("sun, ambient and background come from the frame settings, not the scene") {
   Gpu& gpu = sharedGpu();
   render::Renderer& r = *gpu.renderer;

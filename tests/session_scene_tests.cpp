@@ -551,6 +551,73 @@ TEST_CASE("session scene: a snapshot restores camera, settings, materials and li
   CHECK(json(copy.snapshot()) == json(good));
 }
 
+TEST_CASE("session scene: clear coat, sheen, ior and specular patch, snapshot, and restore as loaded when left out") {
+  // A model whose material 1 has every extension's factor (as a glTF file gives them).
+  std::shared_ptr<scene::Scene> loaded = model(0, 2);
+  scene::Material& file = loaded->materials[1];
+  file.clearcoat = 0.5f;
+  file.clearcoatRoughness = 0.25f;
+  file.sheenColor = glm::vec3(0.5f, 0.25f, 0.125f);
+  file.sheenRoughness = 0.75f;
+  file.ior = 1.25f;
+  file.specular = 0.5f;
+  SessionScene scene(5, {});
+  scene.adopt(loaded, "library:a.glb", Adoption{});
+  const protocol::Snapshot fresh = scene.snapshot();
+  const protocol::Material& wire = fresh.materials.at(1);
+  CHECK(wire.clearcoat == 0.5);
+  CHECK(wire.clearcoatRoughness == 0.25);
+  CHECK(wire.sheenColor == protocol::Color{0.5, 0.25, 0.125});
+  CHECK(wire.sheenRoughness == 0.75);
+  CHECK(wire.ior == 1.25);
+  CHECK(wire.specular == 0.5);
+  CHECK(fresh.materials.at(0).clearcoat == 0.0);
+  CHECK(fresh.materials.at(0).ior == 1.5);
+
+  // A patch sets exactly what it names, in the write the renderer gets.
+  protocol::MaterialPatch patch;
+  patch.clearcoat = 1.0;
+  patch.sheenColor = protocol::Color{0.0, 0.0, 0.0};
+  patch.ior = 3.0;
+  render::MaterialWrite write = scene.patchMaterial(1, patch);
+  CHECK(write.material.clearcoat == 1.0f);
+  CHECK(write.material.clearcoatRoughness == 0.25f);
+  CHECK(write.material.sheenColor == glm::vec3(0.0f));
+  CHECK(write.material.sheenRoughness == 0.75f);
+  CHECK(write.material.ior == 3.0f);
+  CHECK(write.material.specular == 0.5f);
+  CHECK(write.material.layered());
+  const protocol::Snapshot patched = scene.snapshot();
+  CHECK(patched.materials.at(1).clearcoat == 1.0);
+  CHECK(patched.materials.at(1).ior == 3.0);
+
+  // Restored onto a session of the same model: the patched values.
+  SessionScene other(5, {});
+  other.adopt(loaded, "library:a.glb", Adoption{});
+  SessionScene::Restored restored = other.restore(patched, "", Clock::now());
+  REQUIRE(restored.materials.size() == 2);
+  CHECK(restored.materials[1].material.clearcoat == 1.0f);
+  CHECK(other.materials()[1].ior == 3.0f);
+  CHECK(json(other.snapshot()) == json(patched));
+
+  // A snapshot from before these members (left out): the model file's values, even onto a
+  // session that has patched them.
+  protocol::Snapshot old = patched;
+  for (protocol::Material& m : old.materials) {
+    m.clearcoat.reset(), m.clearcoatRoughness.reset(), m.sheenColor.reset();
+    m.sheenRoughness.reset(), m.ior.reset(), m.specular.reset();
+  }
+  other.restore(old, "", Clock::now());
+  const scene::Material& back = other.materials()[1];
+  CHECK(back.clearcoat == 0.5f);
+  CHECK(back.clearcoatRoughness == 0.25f);
+  CHECK(back.sheenColor == glm::vec3(0.5f, 0.25f, 0.125f));
+  CHECK(back.sheenRoughness == 0.75f);
+  CHECK(back.ior == 1.25f);
+  CHECK(back.specular == 0.5f);
+  CHECK(json(other.snapshot().materials) == json(fresh.materials));
+}
+
 TEST_CASE("session scene: a model's directional lights join the sun unless its lights are kept; its cameras are selectable") {
   SessionScene scene(8, render::SceneSettings{});
   auto lit = model(1, 1);

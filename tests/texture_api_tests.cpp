@@ -1,7 +1,8 @@
 // Textures end to end against the real server (lavapipe, validation on): DamagedHelmet as a .glb
 // and as a zip of its files, judged pixel by pixel against its own images decoded here; the
 // textured boxes; and bad images (missing, 30,000 x 30,000, truncated, too many) answered 422
-// naming the problem, the server healthy and its memory bounded.
+// naming the problem, the server healthy and its memory bounded; the material API's clear coat,
+// sheen, ior and specular factors (refusals, snapshots, and the pixels of the material they edit).
 #include <doctest/doctest.h>
 
 #include <png.h>
@@ -20,6 +21,7 @@
 
 #include "api_client.h"
 #include "encode/png.h"
+#include "image_compare.h"
 #include "server_process.h"
 #include "zip_builder.h"
 
@@ -706,6 +708,222 @@ TEST_CASE("textures: the material API edits the glTF factors and the pictures fo
   REQUIRE(snapshot.status == 200);
   CHECK(snapshot.json["materials"][0]["emissiveStrength"] == 2.0);
   CHECK(snapshot.json["materials"][0]["alphaMode"] == "mask");
+  CHECK(validationMessages(api) == 0);
+  checkStopsCleanly(server);
+}
+
+namespace {
+
+// GET .../frame as 8-bit RGBA (final; with the session's anti-aliasing none, a pixel is its own
+// surface's).
+std::vector<uint8_t> finalPixels(ApiClient& api, const TestSession& s, int width, int height) {
+  Reply reply = api.get(s.path() + "/frame?format=png&width=" +
+                            std::to_string(width) + "&height=" + std::to_string(height),
+                        s.token);
+  REQUIRE(reply.status == 200);
+  return decodePng(reply.body).rgba;
+}
+
+// The material-id label per pixel (raw uint32).
+std::vector<uint32_t> materialIds(ApiClient& api, const TestSession& s, int width, int height) {
+  Reply reply = api.get(s.path() + "/frame?format=raw&target=material-id&width=" +
+                            std::to_string(width) + "&height=" + std::to_string(height),
+                        s.token);
+  REQUIRE(reply.status == 200);
+  REQUIRE(reply.header("X-Myriad-Dtype") == "uint32");
+  REQUIRE(reply.body.size() == size_t(width) * height * 4);
+  std::vector<uint32_t> ids(size_t(width) * height);
+  std::memcpy(ids.data(), reply.body.data(), reply.body.size());
+  return ids;
+}
+
+// Pixels whose R, G or B moved by more than 2/255, inside material `id` and outside it.
+struct Changed {
+  size_t inside = 0, outside = 0, material = 0;
+};
+Changed changedPixels(const std::vector<uint8_t>& a, const std::vector<uint8_t>& b,
+                      const std::vector<uint32_t>& ids, uint32_t id) {
+  REQUIRE(a.size() == b.size());
+  REQUIRE(a.size() == ids.size() * 4);
+  Changed c;
+  for (size_t p = 0; p < ids.size(); ++p) {
+    const bool mine = ids[p] == id;
+    c.material += mine;
+    if (pixelDifference(a, b, p) > 2) ++(mine ? c.inside : c.outside);
+  }
+  return c;
+}
+
+}  // namespace
+
+TEST_CASE("materials: clear coat, sheen, ior and specular: GET, PATCH, refusals, snapshots, pixels") {
+  ServerProcess server({"--lights", "8"});
+  requireListening(server);
+  ApiClient api(server);
+  TestSession s = createSession(api);
+  REQUIRE(api.patch(s.path() + "/settings", R"({"antialias": "none"})", s.token).status == 200);
+  // A light of its own, so that the snapshot lists the lights rather than naming the generator's
+  // recipe (a session restored from the built-in scene's recipe gets other lights).
+  REQUIRE(api.post(s.path() + "/lights",
+                   R"({"lights": [{"position": [6, 1, 4], "radius": 2, "color": [1, 1, 1], "intensity": 1, "falloff": 1}]})",
+                   s.token).status == 201);
+  const json list = api.get(s.path() + "/materials", s.token).json.at("materials");
+  // The built-in scene uses none of the extensions: every material has their defaults.
+  auto idNamed = [&](const std::string& name) {
+    for (const json& m : list) {
+      if (m.at("name") == name) return m.at("id").get<uint32_t>();
+    }
+    FAIL("no material named ", name);
+    return 0u;
+  };
+  for (const json& m : list) {
+    CHECK(m.at("clearcoat") == 0.0);
+    CHECK(m.at("clearcoatRoughness") == 0.0);
+    CHECK(m.at("sheenColor") == json{0.0, 0.0, 0.0});
+    CHECK(m.at("sheenRoughness") == 0.0);
+    CHECK(m.at("ior") == 1.5);
+    CHECK(m.at("specular") == 1.0);
+  }
+  const uint32_t rough = idNamed("sphere m0.00 r1.00");   // a rough dielectric, front row
+  const uint32_t cloth = idNamed("sphere m0.00 r0.60");
+  const uint32_t glossy = idNamed("sphere m0.00 r0.30");
+  const std::string roughPath = s.path() + "/materials/" + std::to_string(rough);
+
+  // Refusals: the schema's, naming the member's pointer; the material stays as it was.
+  struct Bad {
+    std::string body, pointer, detail;
+  };
+  const std::vector<Bad> bad = {
+      {R"({"clearcoat": -0.1})", "/clearcoat", R"("clearcoat" must be at least 0, got -0.1.)"},
+      {R"({"clearcoat": 1.5})", "/clearcoat", R"("clearcoat" must be at most 1, got 1.5.)"},
+      {R"({"clearcoat": "NaN"})", "/clearcoat", R"("clearcoat" must be a number, got the string "NaN".)"},
+      {R"({"clearcoat": null})", "/clearcoat", R"("clearcoat" must be a number, got null.)"},
+      {R"({"clearcoat": true})", "/clearcoat", R"("clearcoat" must be a number, got true.)"},
+      {R"({"clearcoatRoughness": -0.1})", "/clearcoatRoughness", R"("clearcoatRoughness" must be at least 0, got -0.1.)"},
+      {R"({"clearcoatRoughness": 1.5})", "/clearcoatRoughness", R"("clearcoatRoughness" must be at most 1, got 1.5.)"},
+      {R"({"clearcoatRoughness": "NaN"})", "/clearcoatRoughness", R"("clearcoatRoughness" must be a number, got the string "NaN".)"},
+      {R"({"clearcoatRoughness": null})", "/clearcoatRoughness", R"("clearcoatRoughness" must be a number, got null.)"},
+      {R"({"sheenColor": [0.5, 0.5, 1.5]})", "/sheenColor/2", R"("sheenColor/2" must be at most 1, got 1.5.)"},
+      {R"({"sheenColor": [-0.1, 0.5, 0.5]})", "/sheenColor/0", R"("sheenColor/0" must be at least 0, got -0.1.)"},
+      {R"({"sheenColor": [0.5, "NaN", 0.5]})", "/sheenColor/1", R"("sheenColor/1" must be a number, got the string "NaN".)"},
+      {R"({"sheenColor": [0.5, null, 0.5]})", "/sheenColor/1", R"("sheenColor/1" must be a number, got null.)"},
+      {R"({"sheenColor": null})", "/sheenColor", R"("sheenColor" must be an array, got null.)"},
+      {R"({"sheenColor": 0.5})", "/sheenColor", R"("sheenColor" must be an array, got 0.5.)"},
+      {R"({"sheenRoughness": -0.1})", "/sheenRoughness", R"("sheenRoughness" must be at least 0, got -0.1.)"},
+      {R"({"sheenRoughness": 1.5})", "/sheenRoughness", R"("sheenRoughness" must be at most 1, got 1.5.)"},
+      {R"({"sheenRoughness": "NaN"})", "/sheenRoughness", R"("sheenRoughness" must be a number, got the string "NaN".)"},
+      {R"({"sheenRoughness": null})", "/sheenRoughness", R"("sheenRoughness" must be a number, got null.)"},
+      {R"({"ior": 0.9})", "/ior", R"("ior" must be at least 1, got 0.9.)"},
+      {R"({"ior": 0})", "/ior", R"("ior" must be at least 1, got 0.)"},
+      {R"({"ior": 10.5})", "/ior", R"("ior" must be at most 10, got 10.5.)"},
+      {R"({"ior": "NaN"})", "/ior", R"("ior" must be a number, got the string "NaN".)"},
+      {R"({"ior": null})", "/ior", R"("ior" must be a number, got null.)"},
+      {R"({"specular": -0.1})", "/specular", R"("specular" must be at least 0, got -0.1.)"},
+      {R"({"specular": 1.5})", "/specular", R"("specular" must be at most 1, got 1.5.)"},
+      {R"({"specular": "NaN"})", "/specular", R"("specular" must be a number, got the string "NaN".)"},
+      {R"({"specular": null})", "/specular", R"("specular" must be a number, got null.)"},
+      {R"({"specular": [1]})", "/specular", R"("specular" must be a number, got an array.)"},
+      {R"({"specularColor": [1, 1, 1]})", "/specularColor", ""},  // not read by the renderer
+  };
+  for (const Bad& b : bad) {
+    Reply reply = api.patch(roughPath, b.body, s.token);
+    checkProblem(reply, 400, "invalid-body", b.body, b.pointer);
+    if (!b.detail.empty()) CHECK(reply.json.value("detail", "") == b.detail);
+  }
+  CHECK(api.get(s.path() + "/materials", s.token).json.at("materials") == list);
+
+  // Clear coat 0 -> 1 on the rough sphere: only its pixels change (a scene with no coat or sheen
+  // until now: the layers target must come on), and back to 0 gives the first frame exactly.
+  constexpr int kWidth = 192, kHeight = 108;
+  const std::vector<uint32_t> ids = materialIds(api, s, kWidth, kHeight);
+  const std::vector<uint8_t> before = finalPixels(api, s, kWidth, kHeight);
+  CHECK(finalPixels(api, s, kWidth, kHeight) == before);  // the frame is deterministic
+  Reply coated = api.patch(roughPath, R"({"clearcoat": 1})", s.token);
+  REQUIRE(coated.status == 200);
+  CHECK(coated.json.at("clearcoat") == 1.0);
+  CHECK(coated.json.at("clearcoatRoughness") == 0.0);
+  CHECK(coated.json.at("roughness") == 1.0);  // the rest as it was
+  const Changed coat = changedPixels(before, finalPixels(api, s, kWidth, kHeight), ids, rough);
+  MESSAGE("clear coat: ", coat.inside, " of the sphere's ", coat.material, " pixels changed, ",
+          coat.outside, " elsewhere");
+  CHECK(coat.material > 50);
+  CHECK(coat.inside * 4 > coat.material);  // a quarter of the sphere and more
+  CHECK(coat.outside == 0);
+  REQUIRE(api.patch(roughPath, R"({"clearcoat": 0})", s.token).status == 200);
+  CHECK(finalPixels(api, s, kWidth, kHeight) == before);
+
+  // Sheen on a cloth-rough sphere: its rim and lit side change.
+  const std::string clothPath = s.path() + "/materials/" + std::to_string(cloth);
+  Reply sheened = api.patch(clothPath, R"({"sheenColor": [1, 1, 1], "sheenRoughness": 0.5})", s.token);
+  REQUIRE(sheened.status == 200);
+  CHECK(sheened.json.at("sheenColor") == json{1.0, 1.0, 1.0});
+  const Changed sheen = changedPixels(before, finalPixels(api, s, kWidth, kHeight), ids, cloth);
+  MESSAGE("sheen: ", sheen.inside, " of the sphere's ", sheen.material, " pixels changed, ",
+          sheen.outside, " elsewhere");
+  CHECK(sheen.material > 50);
+  CHECK(sheen.inside * 4 > sheen.material);
+  CHECK(sheen.outside == 0);
+  REQUIRE(api.patch(clothPath, R"({"sheenColor": [0, 0, 0]})", s.token).status == 200);
+  CHECK(finalPixels(api, s, kWidth, kHeight) == before);
+
+  // ior 3 (F0 0.25, not 0.04) brightens the glossy sphere's reflections; specular 0 then removes
+  // the dielectric's reflection altogether.
+  const std::string glossyPath = s.path() + "/materials/" + std::to_string(glossy);
+  REQUIRE(api.patch(glossyPath, R"({"ior": 3})", s.token).status == 200);
+  const std::vector<uint8_t> ior3 = finalPixels(api, s, kWidth, kHeight);
+  const Changed ior = changedPixels(before, ior3, ids, glossy);
+  REQUIRE(api.patch(glossyPath, R"({"ior": 1.5, "specular": 0})", s.token).status == 200);
+  const Changed specular = changedPixels(before, finalPixels(api, s, kWidth, kHeight), ids, glossy);
+  MESSAGE("ior 3: ", ior.inside, " of ", ior.material, " pixels changed (", ior.outside,
+          " elsewhere); specular 0: ", specular.inside, " (", specular.outside, " elsewhere)");
+  CHECK(ior.inside * 4 > ior.material);
+  CHECK(ior.outside == 0);
+  CHECK(specular.inside > 0);  // F0 0.04 -> 0: only the highlights move by more than 2/255
+  CHECK(specular.outside == 0);
+  REQUIRE(api.patch(glossyPath, R"({"specular": 1})", s.token).status == 200);
+  CHECK(finalPixels(api, s, kWidth, kHeight) == before);
+
+  // Every member, set at once: GET says them back, the snapshot carries them, a new session from
+  // the snapshot has them and draws the same frame.
+  Reply all = api.patch(roughPath,
+                        R"({"clearcoat": 0.75, "clearcoatRoughness": 0.25, "sheenColor": [0.5, 0.25, 0.125],
+                            "sheenRoughness": 0.625, "ior": 1.25, "specular": 0.5})",
+                        s.token);
+  REQUIRE(all.status == 200);
+  CHECK(all.json.at("clearcoat") == 0.75);
+  CHECK(all.json.at("clearcoatRoughness") == 0.25);
+  CHECK(all.json.at("sheenColor") == json{0.5, 0.25, 0.125});
+  CHECK(all.json.at("sheenRoughness") == 0.625);
+  CHECK(all.json.at("ior") == 1.25);
+  CHECK(all.json.at("specular") == 0.5);
+  CHECK(api.get(s.path() + "/materials", s.token).json.at("materials").at(rough) == all.json);
+  const std::vector<uint8_t> layered = finalPixels(api, s, kWidth, kHeight);
+  Reply snapshot = api.get(s.path() + "/snapshot", s.token);
+  REQUIRE(snapshot.status == 200);
+  CHECK(snapshot.json.at("materials").at(rough) == all.json);
+  Reply created = api.post("/v1/sessions", json{{"snapshot", snapshot.json}}.dump());
+  REQUIRE(created.status == 201);
+  TestSession copy{created.json.at("id"), created.json.at("token"), created.json};
+  CHECK(api.get(copy.path() + "/materials", copy.token).json.at("materials").at(rough) == all.json);
+  CHECK(finalPixels(api, copy, kWidth, kHeight) == layered);
+
+  // A snapshot from before these members (without them) restores the model file's values: here
+  // the extensions' defaults, and the first frame again.
+  json old = snapshot.json;
+  for (json& m : old.at("materials")) {
+    for (const char* member :
+         {"clearcoat", "clearcoatRoughness", "sheenColor", "sheenRoughness", "ior", "specular"}) {
+      m.erase(member);
+    }
+  }
+  REQUIRE(api.put(copy.path() + "/snapshot", old.dump(), copy.token).status == 200);
+  CHECK(api.get(copy.path() + "/materials", copy.token).json.at("materials") == list);
+  CHECK(finalPixels(api, copy, kWidth, kHeight) == before);
+  // A bad member in a snapshot is named under its material.
+  json wrong = snapshot.json;
+  wrong["materials"][rough]["ior"] = 0.5;
+  checkProblem(api.put(copy.path() + "/snapshot", wrong.dump(), copy.token), 400, "invalid-body",
+               "snapshot ior 0.5", "/materials/" + std::to_string(rough) + "/ior");
   CHECK(validationMessages(api) == 0);
   checkStopsCleanly(server);
 }

@@ -134,6 +134,12 @@ protocol::Material toWire(uint32_t id, const scene::Material& m,
   out.alphaMode = std::string(protocol::kAlphaModes[size_t(m.alphaMode)]);
   out.alphaCutoff = wire(m.alphaCutoff);
   out.doubleSided = m.doubleSided;
+  out.clearcoat = wire(m.clearcoat);
+  out.clearcoatRoughness = wire(m.clearcoatRoughness);
+  out.sheenColor = toWire(m.sheenColor);
+  out.sheenRoughness = wire(m.sheenRoughness);
+  out.ior = wire(m.ior);
+  out.specular = wire(m.specular);
   for (size_t slot = 0; slot < scene::Material::kTextureSlots; ++slot) {
     const scene::TextureRef& t = m.texture(slot);
     if (!t.present() || t.image >= images.size()) continue;

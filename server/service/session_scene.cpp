@@ -568,10 +568,27 @@ SessionScene::Restored SessionScene::restore(const protocol::Snapshot& snapshot,
           "The session's model has no material " + std::to_string(m.id) + " (it has " +
               std::to_string(next.materials_.size()) + "): a snapshot restores onto its own model."));
     }
-    const protocol::MaterialPatch patch{m.baseColor,        m.metallic,    m.roughness,
-                                        m.alpha,            m.emissive,    m.emissiveStrength,
-                                        m.normalScale,      m.occlusionStrength, m.alphaMode,
-                                        m.alphaCutoff,      m.doubleSided};
+    // The layers, ior and specular a snapshot from before they could be edited leaves out are
+    // the model file's (what the session had then).
+    const scene::Material& loaded = next.loadedMaterial(m.id);
+    const protocol::MaterialPatch patch{
+        m.baseColor,
+        m.metallic,
+        m.roughness,
+        m.alpha,
+        m.emissive,
+        m.emissiveStrength,
+        m.normalScale,
+        m.occlusionStrength,
+        m.alphaMode,
+        m.alphaCutoff,
+        m.doubleSided,
+        m.clearcoat.value_or(loaded.clearcoat),
+        m.clearcoatRoughness.value_or(loaded.clearcoatRoughness),
+        m.sheenColor.value_or(toWire(loaded.sheenColor)),
+        m.sheenRoughness.value_or(loaded.sheenRoughness),
+        m.ior.value_or(loaded.ior),
+        m.specular.value_or(loaded.specular)};
     try {
       restored.materials.push_back(next.patchMaterial(m.id, patch));
     } catch (const ProblemError& e) {
@@ -678,6 +695,15 @@ void SessionScene::restoreScene(const protocol::SnapshotScene& scene, const std:
 
 // ---- Materials.
 
+const scene::Material& SessionScene::loadedMaterial(uint32_t id) const {
+  for (const Asset& a : graph_.assets()) {
+    if (id >= a.firstMaterial && id - a.firstMaterial < a.scene->materials.size()) {
+      return a.scene->materials[id - a.firstMaterial];
+    }
+  }
+  return materials_.at(id);  // (every material is an asset's)
+}
+
 uint32_t SessionScene::materialId(std::string_view text) const {
   std::optional<uint32_t> id = parseId<uint32_t>(text);
   if (!id || *id >= materials_.size()) {
@@ -702,6 +728,12 @@ render::MaterialWrite SessionScene::patchMaterial(uint32_t id,
   if (patch.alphaMode) material.alphaMode = alphaModeFromWire(*patch.alphaMode);
   if (patch.alphaCutoff) material.alphaCutoff = float(*patch.alphaCutoff);
   if (patch.doubleSided) material.doubleSided = *patch.doubleSided;
+  if (patch.clearcoat) material.clearcoat = float(*patch.clearcoat);
+  if (patch.clearcoatRoughness) material.clearcoatRoughness = float(*patch.clearcoatRoughness);
+  if (patch.sheenColor) material.sheenColor = fromWire(*patch.sheenColor);
+  if (patch.sheenRoughness) material.sheenRoughness = float(*patch.sheenRoughness);
+  if (patch.ior) material.ior = float(*patch.ior);
+  if (patch.specular) material.specular = float(*patch.specular);
   return render::MaterialWrite{id, material};
 }
 

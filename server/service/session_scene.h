@@ -197,6 +197,8 @@ class SessionScene {
   uint32_t materialId(std::string_view id) const;
   // Changes the members `patch` names of material `id` (from materialId).
   render::MaterialWrite patchMaterial(uint32_t id, const protocol::MaterialPatch& patch);
+  // Material `id` as its asset's model file gave it (before any patch).
+  const scene::Material& loadedMaterial(uint32_t id) const;
 
   // ---- Snapshots: the whole state but the model's bytes, as one document.
 

@@ -461,7 +461,13 @@ class Session:
     @route("PATCH /v1/sessions/{id}/materials/{mid}")
     def patch_material(self, material_id: int, patch: Optional[Mapping[str, Any]] = None,
                        **members: Any) -> JsonObject:
-        """Changes a material's factors; returns the material."""
+        """Changes a material's factors; returns the material.
+
+        Members (any subset): baseColor, metallic, roughness, alpha, emissive, emissiveStrength,
+        normalScale, occlusionStrength, alphaMode, alphaCutoff, doubleSided, clearcoat,
+        clearcoatRoughness, sheenColor, sheenRoughness, ior (1..10), specular, e.g.
+        ``session.patch_material(0, clearcoat=1, sheenColor=[0.6, 0.2, 0.3])``.
+        """
         return self._json("PATCH", f"/materials/{material_id}",
                           body={**(patch or {}), **members})
 
