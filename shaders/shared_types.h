@@ -183,6 +183,29 @@ MYRIAD_STRUCT(MotionPush) {
   uvec4 flags;  // x 1: per-instance vertex records are bound (posed scene); y 1: raw output
 };
 
+// Temporal anti-aliasing of a stream's frames (render/temporal.h, shaders/temporal_resolve.comp):
+// its own set 0 and push constant; the frame's sets are bound again after it.
+#define MYRIAD_TEMPORAL_BINDING_CURRENT 0        // sampler2D: the frame as the final pass left it
+                                                 // (copied into an RGBA8 sRGB image: linear reads)
+#define MYRIAD_TEMPORAL_BINDING_DEPTH 1          // sampler2D: the frame's depth (nearest)
+#define MYRIAD_TEMPORAL_BINDING_HISTORY 2        // sampler2D (linear): the history's YCoCg + count
+#define MYRIAD_TEMPORAL_BINDING_HISTORY_DEPTH 3  // sampler2D: the history's view depth (nearest)
+#define MYRIAD_TEMPORAL_BINDING_NEXT 4           // storage rgba16f: the new history (written)
+#define MYRIAD_TEMPORAL_BINDING_NEXT_DEPTH 5     // storage r32f: its view depth (written)
+#define MYRIAD_TEMPORAL_BINDING_OUTPUT 6         // storage rgba8: the frame's output (written)
+#define MYRIAD_TEMPORAL_BINDINGS 7
+MYRIAD_STRUCT(TemporalPush) {
+  // Unjittered NDC of this frame (x, y, depth, 1) -> the previous frame's clip position divided
+  // by this frame's view depth: previous viewProjection x inverse(this viewProjection).
+  mat4 reprojection;
+  vec4 jitter;  // xy: this frame's jitter in pixels (FrameSettings::jitter); zw: 1 / size
+  // x near, y far plane (this camera's: its view depth from the depth buffer); z 1 where the
+  // history holds an earlier frame, else 0; w the blend's least weight of the current frame.
+  vec4 params;
+  // x: the relative view-depth difference past which the history is a disocclusion; yzw unused.
+  vec4 limits;
+};
+
 // Descriptor set 2: light culling. Each compute technique binds its own set of this layout
 // (server/render/techniques/) and writes the bindings its shaders use.
 #define MYRIAD_SET_CULLING 2

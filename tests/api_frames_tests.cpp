@@ -748,6 +748,36 @@ TEST_CASE("streams: animated parts, idle re-sends, the end on DELETE, limits, st
   CHECK(validationMessages(api) == 0);
 }
 
+TEST_CASE("streams: antialias taa refines a still session's stream, then idles; its history goes with it") {
+  // A stream's taa (render/temporal.h): one jittered frame per part against the stream's
+  // history. While the session stays as it is the stream renders kTemporalRefineFrames (16)
+  // parts, each a new picture, then only re-sends the last one.
+  ServerProcess server({"--lights", "4"});
+  REQUIRE(server.start() == ServerProcess::Start::Listening);
+  auto client = clientFor(server);
+  ApiClient api(server);
+  TestSession session = createSession(api);
+  const std::string sessionPath = "/v1/sessions/" + session.id;
+  patchJson(*client, sessionPath + "/settings", session, {{"antialias", "taa"}});
+  {
+    MultipartReader reader(server, streamPath(session, "format=png&fps=30&width=64&height=48"),
+                           auth(session));
+    REQUIRE(reader.status() == 200);
+    std::vector<StreamPart> parts = reader.waitFor(17, std::chrono::seconds(120));
+    REQUIRE(parts.size() == 17);
+    for (size_t i = 0; i < 16; ++i) {
+      CAPTURE(i);
+      CHECK(parts[i].headers.at("X-Myriad-Frame") == std::to_string(i + 1));
+    }
+    // The 17th is the idle re-send of the 16th (about 2 s later), not a new picture.
+    CHECK(parts[16].headers.at("X-Myriad-Frame") == "16");
+    CHECK(parts[16].body == parts[15].body);
+    CHECK(parts[15].body != parts[0].body);  // refined: the first was one jittered frame
+  }
+  // The stream ended: its history goes (queued behind the scene's tasks).
+  CHECK(validationMessages(api) == 0);
+}
+
 TEST_CASE("/metrics counts responses by route template") {
   ServerProcess server({"--lights", "16"});
   REQUIRE(server.start() == ServerProcess::Start::Listening);

@@ -102,6 +102,15 @@ void Renderer::State::recordAfterStep(VkCommandBuffer cmd, const FrameSlot& slot
         slot.timer->beginPass(cmd, "antialias");
         recordAntialiasPass(cmd, p, t);  // the output's pixels on edges: still GENERAL, stored
       }
+      if (temporal->holds(slot.temporal, t.extent)) {
+        // A stream's taa frame: resolved against its history (render/temporal.h).
+        slot.timer->beginPass(cmd, "taa");
+        temporal->record(cmd, t, slot.temporal, slot.sceneSet);
+        // Its layout is not the frame's: the frame's sets go back.
+        VkDescriptorSet sets[] = {slot.sceneSet, slot.targetSet};
+        vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, p.layout, 0, 2, sets, 0, nullptr);
+        output = writtenIn(VK_IMAGE_LAYOUT_GENERAL);
+      }
       if (settings.target == Target::LightVolumes && !settings.raw) {
         slot.timer->beginPass(cmd, "overlay");
         recordLightVolumeOverlayPass(cmd, p, t, scene);

@@ -82,6 +82,10 @@ struct FrameSettings : SceneSettings {
   // Sub-pixel offset of the projection, in pixels (x right, y down), each within +-0.5: TAA's
   // sub-frames (render/sub_frames.h) set it; every other frame leaves it 0 (unjittered).
   glm::vec2 jitter{0.0f, 0.0f};
+  // A stream's key (0: none, every still): with antialias taa on the 8-bit `final` alone (no
+  // alsoRead), the frame is one jittered frame resolved against this key's history on the GPU
+  // (render/temporal.h) instead of 8 sub-frames. Other frames ignore it.
+  uint64_t historyKey = 0;
   uint32_t heatMapMax = 0;  // light-count view: count shown as the hottest colour (0 = auto)
   bool raw = false;         // return the view's float values (Frame::data), not an image
   // The 8-bit pixels stay in the renderer's readback memory (Frame::borrowed) instead of being
@@ -134,9 +138,16 @@ struct FrameSettings : SceneSettings {
   }
   // The frame is made of sub-frames (Taa, Ssaa on the 8-bit `final`): the renderer renders them
   // with Antialias::None and resolves their pixels (render/sub_frames.h).
+  // A temporalHistory() frame is not.
   bool resolvedFromSubFrames() const {
     return (antialias == Antialias::Taa || antialias == Antialias::Ssaa) &&
-           target == Target::Final && !raw;
+           target == Target::Final && !raw && !temporalHistory();
+  }
+  // A stream's taa frame: one jittered frame resolved against its history (render/temporal.h).
+  // Not a multi-target frame: its data views come from an unjittered render (sub-frames).
+  bool temporalHistory() const {
+    return antialias == Antialias::Taa && historyKey != 0 && target == Target::Final && !raw &&
+           alsoRead.empty();
   }
 };
 

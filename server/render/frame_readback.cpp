@@ -50,6 +50,8 @@ void Renderer::releaseFrameMemory(uint64_t keepBytes) {
     s.split.shadows->release();
   }
   s.trimReadbacks(kept ? keptReadback : 0);
+  // The streams' taa histories: a stream that renders again starts a new one.
+  s.temporal->releaseAll();
 }
 
 Renderer::State::PooledReadback* Renderer::State::acquireReadback(VkDeviceSize bytes) {
@@ -108,12 +110,17 @@ void Renderer::State::trimReadbacks(VkDeviceSize keep) {
   });
 }
 
+void Renderer::releaseHistory(uint64_t key) { state_->temporal->release(key); }
+size_t Renderer::historyCount() const { return state_->temporal->count(); }
+uint64_t Renderer::historyBytes() const { return state_->temporal->bytes(); }
+
 uint64_t Renderer::gpuMemoryBytes() const {
   const State& s = *state_;
   uint64_t total = s.uniformArena.bytesAllocated();
   for (const auto& [id, scene] : s.scenes) total += scene->bytes();
   for (const auto& [id, env] : s.environments) total += env->bytes();
   total += s.environmentPasses->gpuMemoryBytes();
+  total += s.temporal->bytes();
   for (const State::FrameSlot* slot : const_cast<State&>(s).allSlots()) {
     if (slot->targets) total += slot->targets->bytesAllocated();
     total += slot->shadows->gpuMemoryBytes();

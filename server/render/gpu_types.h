@@ -28,6 +28,7 @@ static_assert(MYRIAD_MAX_SHADOWED_LIGHTS == kMaxShadowedLights);
 static_assert(MYRIAD_SHADOWED_LIGHTS_DEFAULT == kDefaultShadowedLights);
 static_assert(offsetof(FrameUniforms, sunShadowMatrix) == 256 + 16 * 16 + 2 * MYRIAD_MAX_EXTRA_SUNS * 16);
 static_assert(sizeof(gpu_types::ShadowPush) == 64);
+static_assert(sizeof(gpu_types::TemporalPush) == 64 + 3 * 16);  // within 128 B of push constants
 static_assert(offsetof(FrameUniforms, environment) == 256 + 13 * 16);
 static_assert(offsetof(FrameUniforms, post) == 256 + 15 * 16);
 static_assert(offsetof(FrameUniforms, extraSunDirection) == 256 + 16 * 16);

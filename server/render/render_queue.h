@@ -90,6 +90,14 @@ class RenderQueue {
     return submit(defaultScene(), settings);
   }
 
+  // Frees a stream's taa history (FrameSettings::historyKey; Renderer::releaseHistory), queued
+  // behind scene `id`'s tasks (the stream's frames). Never refused; a queue without histories
+  // has nothing to free.
+  virtual void releaseHistory(SceneId id, uint64_t key) {
+    (void)id;
+    (void)key;
+  }
+
   // GPU memory the renderer holds (every scene, targets, lists), as of the last task finished.
   virtual uint64_t gpuMemoryBytes() const = 0;
 

@@ -148,6 +148,14 @@ std::future<void> RenderThread::destroyScene(SceneId id) {
   return enqueueWork<void>(id, [id](Renderer& r) { r.destroyScene(id); }, true);
 }
 
+void RenderThread::releaseHistory(SceneId id, uint64_t key) {
+  try {
+    enqueueWork<void>(id, [key](Renderer& r) { r.releaseHistory(key); });
+  } catch (const RenderQueueFullError&) {
+    // Stopping: the renderer and its histories go with it.
+  }
+}
+
 std::future<void> RenderThread::updateLights(SceneId id, LightUpdate update) {
   return enqueueWork<void>(id, [id, update = std::move(update)](Renderer& r) {
     r.updateLights(id, update);

@@ -94,6 +94,7 @@ class RenderThread final : public RenderQueue {
   std::future<Frame> submit(SceneId id, const FrameSettings& settings, FrameSource source,
                             std::shared_ptr<const std::atomic<bool>> drop) override;
   using RenderQueue::submit;  // submit(settings): the default scene
+  void releaseHistory(SceneId id, uint64_t key) override;
   uint64_t gpuMemoryBytes() const override { return gpuMemoryBytes_.load(); }
   // The most renderer time one frame may take (Renderer::setFrameBudgetMilliseconds; 0, the
   // default: no limit). A frame over it fails with FrameBudgetError. Any thread, any time: frames

@@ -106,6 +106,8 @@ Renderer::Renderer(gpu::Context& context, const Tuning& tuning)
   VK_CHECK(vkCreateSampler(device, &samplerInfo, nullptr, &s.sampler));
   samplerInfo.magFilter = samplerInfo.minFilter = VK_FILTER_LINEAR;
   VK_CHECK(vkCreateSampler(device, &samplerInfo, nullptr, &s.linearSampler));
+  s.temporal = std::make_unique<TemporalHistories>(context, s.sampler, s.linearSampler,
+                                                   [&s] { s.quiesce(); });
 
   // Sets 0 (scene) and 1 (targets, twice: rawTargetSet) of every frame slot; each technique
   // allocates its own set 2.
@@ -162,6 +164,7 @@ Renderer::~Renderer() {
   s.scenes.clear();
   s.environments.clear();
   s.environmentPasses.reset();
+  s.temporal.reset();
   for (const State::AfterStep& step : s.afterSteps) {
     if (step.pipeline) vkDestroyPipeline(s.context.device, step.pipeline, nullptr);
   }
@@ -350,16 +353,18 @@ bool Renderer::canBegin() const {
   return false;
 }
 
-uint32_t Renderer::beginWhole(SceneId id, const FrameSettings& settings) {
+uint32_t Renderer::beginWhole(SceneId id, const FrameSettings& asked) {
   State& s = *state_;
   SceneBuffers& scene = s.scene(id);
-  checkSize(settings, maxDimension());
-  checkLabels(settings);
-  s.technique(settings.technique);  // throws for an unknown technique
-  SceneEnvironment* environment = s.environmentFor(id, settings);
-  const uint32_t index = s.pickSlot(settings);
+  checkSize(asked, maxDimension());
+  checkLabels(asked);
+  s.technique(asked.technique);  // throws for an unknown technique
+  SceneEnvironment* environment = s.environmentFor(id, asked);
+  const uint32_t index = s.pickSlot(asked);
   if (index == s.framesInFlight) throw std::logic_error("every frame slot is in flight");
   State::FrameSlot& slot = *s.slots[index];
+  // A stream's taa frame: jittered, its history's next frame (render/temporal.h).
+  const FrameSettings settings = s.temporal->plan(asked, slot.temporal);
   slot.resolve.reset();  // a whole frame of its own (beginFrame sets it for a frame's last part)
   slot.lastUsed = ++s.framesBegun;
   // The host may change what frames in flight use: wait for them first (Renderer's comment).

@@ -167,6 +167,12 @@ class Renderer {
   // readback buffer when together they hold at most keepBytes (RenderThread's idle trim: the
   // next still of a stream at that size does not make them again).
   void releaseFrameMemory(uint64_t keepBytes = 0);
+  // Frees a stream's taa history (FrameSettings::historyKey, render/temporal.h) now, after the
+  // frames in flight; nothing when there is none. The histories held and their GPU memory
+  // (counted in gpuMemoryBytes too).
+  void releaseHistory(uint64_t key);
+  size_t historyCount() const;
+  uint64_t historyBytes() const;
 
   // The largest width or height render() accepts on this device.
   uint32_t maxDimension() const;

@@ -24,6 +24,7 @@
 #include "render/frame_targets.h"
 #include "render/gpu_types.h"
 #include "render/motion.h"
+#include "render/temporal.h"
 #include "render/passes.h"
 #include "render/renderer.h"
 #include "render/scene_buffers.h"
@@ -112,6 +113,8 @@ struct Renderer::State {
   SkinningPass skinning;          // skinned and morphed instances (render/skinning.h)
   MotionPass motion;              // Target::Motion (render/motion.h)
   StochasticShadows stochastic;   // settings.shadows.local stochastic (render/stochastic_shadows.h)
+  // The streams' taa histories on the GPU, per FrameSettings::historyKey (render/temporal.h).
+  std::unique_ptr<TemporalHistories> temporal;
   // Applies the frame's pose (and a motion frame's previous pose) to its scene where they differ
   // from what it holds, after the frames in flight finished with it.
   void applyPoses(SceneBuffers& scene, const FrameSettings& settings);
@@ -161,6 +164,8 @@ struct Renderer::State {
     // The frame in flight is the last sub-frame of a taa or ssaa frame: the others, resolved
     // so far (render/sub_frames.h); finishFrame adds it and answers the resolved frame.
     std::shared_ptr<SubFrameResolve> resolve;
+    // A stream's taa frame: its history's images and reprojection (render/temporal.h).
+    TemporalFramePlan temporal;
   };
   std::vector<std::unique_ptr<FrameSlot>> slots;  // kMaxFramesInFlight; framesInFlight used
   uint64_t framesBegun = 0;  // whole frames begun so far (FrameSlot::lastUsed)

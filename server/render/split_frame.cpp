@@ -155,13 +155,15 @@ std::unique_ptr<Renderer::SplitFrame> Renderer::beginSplit(SceneId id,
   // A taa or ssaa frame: its sub-frames one after another (render/sub_frames.h).
   std::shared_ptr<SubFrameResolve> resolve;
   if (asked.resolvedFromSubFrames()) resolve = std::make_shared<SubFrameResolve>(asked, maxDimension());
-  const FrameSettings& settings = resolve ? resolve->frames().front() : asked;
+  const FrameSettings& first = resolve ? resolve->frames().front() : asked;
   s.quiesce();  // its parts are waited for one by one; frames in flight go first
   s.scene(id);  // throws for an unknown id
-  checkSize(settings, maxDimension());
-  checkLabels(settings);
-  s.splitTechnique(settings.technique);  // throws for an unknown technique
-  s.environmentFor(id, settings);        // throws for hdr without an image
+  checkSize(first, maxDimension());
+  checkLabels(first);
+  s.splitTechnique(first.technique);  // throws for an unknown technique
+  s.environmentFor(id, first);        // throws for hdr without an image
+  // A stream's taa frame: jittered, its history's next frame (render/temporal.h).
+  const FrameSettings settings = s.temporal->plan(first, s.split.temporal);
   std::unique_ptr<SplitFrame> frame(new SplitFrame(*this, id, settings));
   frame->resolve_ = std::move(resolve);
   s.splitBusy = true;  // until `frame` is destroyed

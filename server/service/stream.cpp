@@ -1,6 +1,7 @@
 #include "service/stream.h"
 
 #include <algorithm>
+#include <atomic>
 #include <bit>
 #include <charconv>
 #include <cstdio>
@@ -30,6 +31,13 @@ constexpr size_t kMaxUnackedWrites = 256;
 constexpr std::chrono::milliseconds kStreamLagPoll{20};
 // How long a client must be behind before its link's rate is measured (and used).
 constexpr std::chrono::milliseconds kStreamRateWindow{500};
+
+// antialias=taa on a stream: each frame is one jittered frame resolved against the stream's
+// history on the GPU (render/temporal.h), keyed by a key of the stream's own. A session that
+// stays as it is still gets this many frames of it (at the fps limit), so that a still picture
+// converges (8 jitter offsets, then the history's exponential average settles).
+constexpr uint32_t kTemporalRefineFrames = 16;
+std::atomic<uint64_t> nextHistoryKey{1};
 
 // Everything one stream carries from part to part. Used only by the worker serving the stream.
 struct StreamState {
@@ -81,6 +89,10 @@ struct StreamState {
   // ?container=webm|mp4: the stream's own writer of a standard container (its header, then its
   // frames from its first key frame, timed from 0), instead of chunks. Null: Myriad's chunks.
   std::unique_ptr<encode::ContainerWriter> container;
+
+  // antialias=taa (its history key is request.settings.historyKey): how many frames of the
+  // version shown this image stream has sent in a row (kTemporalRefineFrames).
+  uint32_t refineFrames = 0;
 
   // Delivery (stream.h): what the client has taken of what was written, from the kernel's count
   // of unacknowledged bytes (PeerWatch::unacknowledged).
@@ -274,8 +286,10 @@ bool StreamState::next(httplib::DataSink& sink) {
     bool animate = false;
     uint64_t version = 0;
     bool ended = false;  // the newest change ends its interaction (X-Myriad-Interaction: end)
+    bool temporal = false;  // antialias=taa: frames of the stream's own, refined while still
     {
       std::lock_guard lock(session->mutex);
+      temporal = session->scene.settings().antialias == render::Antialias::Taa;
       ending = endNow(unixNow());
       animate = session->scene.moving();  // lights animate or the scene clock plays a clip
       version = session->version;
@@ -309,7 +323,10 @@ bool StreamState::next(httplib::DataSink& sink) {
     const InteractiveQuality::Motion motion =
         steered ? InteractiveQuality::Motion::Steered : InteractiveQuality::Motion::Animated;
     const bool wantStill = quality && lastInteractive && !moving;
-    const bool wantFrame = !hasFrame || version != shownVersion || animate || wantStill;
+    // (Not a video stream: its channel renders for all its viewers, when the session changes.)
+    const bool refining =
+        temporal && !video && hasFrame && !moving && refineFrames < kTemporalRefineFrames;
+    const bool wantFrame = !hasFrame || version != shownVersion || animate || wantStill || refining;
     // Delivery: a client more than lagLimit() behind gets no new frame until it catches up (the
     // newest state then, not the ones it missed: nothing queues in the kernel's buffers either),
     // and one that took nothing for kStreamWriteStall with bytes outstanding loses the stream
@@ -354,6 +371,8 @@ bool StreamState::next(httplib::DataSink& sink) {
         // which a shared render cannot (it would keep each stream's own frames in flight).
         // Video streams always share (their channel's encoder needs every frame in order).
         const bool pipelined = animate && (ahead || lastFrameTook >= interval);
+        // A taa stream renders its own frames (its history is its own), not shared ones.
+        const bool ownFrames = pipelined || temporal;
         if (!moving || motion != InteractiveQuality::Motion::Animated) animatedCollectedAt.reset();
         if (moving) {
           // A cheaper frame of the stream's own (its size is its own, so it is not shared); a
@@ -395,7 +414,7 @@ bool StreamState::next(httplib::DataSink& sink) {
           videoFrames = shared().nextVideo(context, session, request, *video, interval,
                                            [this] { return peer.gone(); });
           lastFrameTook = Clock::now() - start;
-        } else if (context.shared != nullptr && !pipelined) {
+        } else if (context.shared != nullptr && !ownFrames) {
           frame = context.shared->next(context, session, request, shownGeneration, interval);
           lastFrameTook = frame.took;
         } else {
@@ -440,6 +459,7 @@ bool StreamState::next(httplib::DataSink& sink) {
         shownVersion = videoFrames.back()->version;
         return writeVideo(sink, videoFrames);
       }
+      refineFrames = moving ? 0 : (frame.version == shownVersion ? refineFrames + 1 : 1);
       shownVersion = frame.version;
       shownGeneration = frame.generation;
       ++sequence;
@@ -575,10 +595,20 @@ httplib::ContentProviderWithoutLength makeStreamProvider(const SessionFrameConte
     }
   }
   if (state->request.interactiveFps > 0) state->quality.emplace(state->request.interactiveFps);
+  // The renderer uses the key only while the session's antialias is taa (FrameSettings::
+  // historyKey); the history goes when the stream ends.
+  state->request.settings.historyKey = nextHistoryKey.fetch_add(1);
   return [state](size_t /*offset*/, httplib::DataSink& sink) {
     const bool more = state->next(sink);
     if (!more) {
       state->settleAhead();
+      uint64_t sceneId = 0;
+      {
+        std::lock_guard lock(state->session->mutex);
+        sceneId = state->session->sceneId;
+      }
+      state->context.renderThread.releaseHistory(static_cast<render::SceneId>(sceneId),
+                                                 state->request.settings.historyKey);
       // The place goes back the moment the stream ends (a failed write included: a stalled
       // reader's frees it for the next stream), not whenever the HTTP layer destroys the response.
       state->slot.reset();
