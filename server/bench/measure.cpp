@@ -23,6 +23,7 @@ render::FrameSettings frameSettings(const scene::Scene& scene, render::Technique
   f.technique = technique;
   f.markers = plan.markers;
   f.antialias = plan.antialias;
+  if (plan.streamHistory) f.historyKey = 1;
   f.animate = true;
   f.time = frameIndex * plan.frameSeconds;
   f.environment.mode = plan.environment;

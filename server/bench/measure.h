@@ -48,6 +48,9 @@ struct Plan {
   // (scrolled or drawn again), which is what the "shadow" pass then times. Off: a still camera
   // and a sun that turns every other frame.
   bool orbitCamera = false;
+  // With antialias taa: every frame resolved against one history, as a stream's (FrameSettings::
+  // historyKey) instead of 8 sub-frames (--antialias taa-stream).
+  bool streamHistory = false;
   // Lights asking for shadows added to every scene (bench_scene.h addShadowedLights), all given a
   // map (maxShadowedLights = this); their tiles are timed as the "light-shadows" pass. The tile
   // size is a quarter of sunShadowMap (2048 when the sun has none: 512-texel tiles).

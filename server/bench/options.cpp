@@ -70,7 +70,9 @@ const char* const kUsage =
     "          100000 lights, at most 30 s of timed frames per configuration, markers off,\n"
     "          antialias fxaa (the final image's \"antialias\" pass; the server's default too;\n"
     "          taa: 8 jittered sub-frames a frame, ssaa: one at 2x2 the size, each resolved on\n"
-    "          the host, timed as \"resolve-taa\" or \"resolve-ssaa\", the GPU passes summed).\n"
+    "          the host, timed as \"resolve-taa\" or \"resolve-ssaa\", the GPU passes summed;\n"
+    "          taa-stream: a stream's taa, one jittered frame a frame resolved against its history\n"
+    "          on the GPU, timed as \"taa\").\n"
     "--validate enables VK_LAYER_KHRONOS_validation; any message makes the exit status 1.\n"
     "--gbuffer compute makes the G-buffer with compute shaders where the scene qualifies (opaque,\n"
     "untextured materials; 64-bit atomics), timed as \"visibility\" and \"resolve\" instead of\n"
@@ -196,8 +198,10 @@ Options parseOptions(const std::vector<std::string>& args) {
       o.plan.markers = true;
     } else if (flag == "--antialias") {
       std::string_view name = value();
-      auto mode = render::parseAntialias(name);
-      if (!mode) throw UsageError("--antialias expects none, fxaa, taa or ssaa, not \"" + std::string(name) + "\".");
+      // taa-stream: a stream's taa (one jittered frame resolved against a history), not a still's.
+      o.plan.streamHistory = name == "taa-stream";
+      auto mode = render::parseAntialias(o.plan.streamHistory ? "taa" : name);
+      if (!mode) throw UsageError("--antialias expects none, fxaa, taa, taa-stream or ssaa, not \"" + std::string(name) + "\".");
       o.plan.antialias = *mode;
     } else if (flag == "--json") {
       std::string_view path = value();

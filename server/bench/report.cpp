@@ -138,7 +138,7 @@ nlohmann::json toJson(const RunInfo& run, const std::vector<ConfigResult>& resul
       {"timed_frames", run.plan.timedFrames},
       {"max_seconds_per_config", run.plan.maxSecondsPerConfig},
       {"markers", run.plan.markers},
-      {"antialias", render::antialiasName(run.plan.antialias)},
+      {"antialias", run.plan.streamHistory ? "taa-stream" : render::antialiasName(run.plan.antialias)},
       {"sun_shadow_map", run.plan.sunShadowMap},
       {"sun_cascades", run.plan.sunShadowMap > 0 ? run.plan.sunCascades : 0},
       {"camera", run.plan.orbitCamera ? "orbit" : "still"},
