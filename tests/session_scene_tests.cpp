@@ -13,6 +13,7 @@
 #include <nlohmann/json.hpp>
 
 #include "scene/animation.h"
+#include "scene/builtin_scene.h"
 #include "service/problem.h"
 #include "service/session_scene.h"
 
@@ -810,6 +811,27 @@ TEST_CASE("session scene: shadows.local is maps by default, patched by name, che
   CHECK(scene.settings().shadows.maxShadowedLights == render::kDefaultShadowedLights);  // kept
   CHECK(scene.frameSettings(render::FrameSettings{}, std::nullopt, t0).shadows.local ==
         render::LocalShadows::Stochastic);
+}
+
+TEST_CASE("session scene: the built-in scene's own lights come back from its snapshot as they were") {
+  // A new session of the built-in model (api_sessions.cpp populate): the scene's lights, named by
+  // the recipe they were made from.
+  service::SessionScene original(100000, {});
+  original.adopt(std::make_shared<scene::Scene>(scene::makeBuiltinScene(64, 7)), "builtin:default",
+                 service::Adoption{.lights = service::Adoption::Lights::model,
+                          .recipe = service::LightRecipe{64, 7},
+                          .lightingFromModel = true});
+  const protocol::Snapshot snapshot = original.snapshot();
+  REQUIRE(snapshot.lights.generated.has_value());
+  CHECK(snapshot.lights.generated->count == 64);
+  service::SessionScene copy(100000, {});
+  copy.adopt(std::make_shared<scene::Scene>(scene::makeBuiltinScene(256, 1)), "builtin:default",
+             service::Adoption{});
+  copy.restore(snapshot, "", service::Clock::now());
+  REQUIRE(copy.lightCount() == 64);
+  size_t differ = 0;
+  for (uint32_t slot = 0; slot < 64; ++slot) differ += same(copy.lightAt(slot), original.lightAt(slot)) ? 0 : 1;
+  CHECK(differ == 0);  // before: generated again around the model's bounds instead
 }
 
 }  // namespace myriad

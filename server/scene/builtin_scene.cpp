@@ -46,6 +46,26 @@ glm::mat4 trs(glm::vec3 translation, float yawDegrees, glm::vec3 scale) {
 
 }  // namespace
 
+LightGeneration builtinLightGeneration(uint32_t count, uint64_t seed) {
+  // Tuned with a CPU preview of the design's BRDF at exposure 1. Low lights make tight bright spots
+  // and high ones broad soft pools. The steep falloff (C = 16) keeps each light's energy near its
+  // centre, so neighbouring pools stay distinct colours instead of summing to a pastel wash, and
+  // the intensities keep them clearly brighter than the sun-lit floor.
+  LightGeneration lights;
+  lights.count = count;
+  lights.seed = seed;
+  const float half = 0.5f * kFloorSize;
+  lights.bounds.min = {-half, 0.1f, -half};
+  lights.bounds.max = {half, 1.5f, half};
+  lights.minRadius = 1.0f;
+  lights.maxRadius = 3.0f;
+  lights.minIntensity = 1.5f;
+  lights.maxIntensity = 4.0f;
+  lights.falloff = 16.0f;
+  lights.saturation = 0.9f;
+  return lights;
+}
+
 Scene makeBuiltinScene(uint32_t lightCount, uint64_t seed) {
   Scene scene;
   const uint32_t sphere = addMesh(scene, makeSphere(64, 32));
@@ -96,23 +116,7 @@ Scene makeBuiltinScene(uint32_t lightCount, uint64_t seed) {
   scene.ambient = {0.020f, 0.024f, 0.032f};
   scene.background = {0.015f, 0.018f, 0.026f};
 
-  // Tuned with a CPU preview of the design's BRDF at exposure 1. Low lights make tight bright spots
-  // and high ones broad soft pools. The steep falloff (C = 16) keeps each light's energy near its
-  // centre, so neighbouring pools stay distinct colours instead of summing to a pastel wash, and
-  // the intensities keep them clearly brighter than the sun-lit floor.
-  LightGeneration lights;
-  lights.count = lightCount;
-  lights.seed = seed;
-  const float half = 0.5f * kFloorSize;
-  lights.bounds.min = {-half, 0.1f, -half};
-  lights.bounds.max = {half, 1.5f, half};
-  lights.minRadius = 1.0f;
-  lights.maxRadius = 3.0f;
-  lights.minIntensity = 1.5f;
-  lights.maxIntensity = 4.0f;
-  lights.falloff = 16.0f;
-  lights.saturation = 0.9f;
-  scene.lights = generateLights(lights);
+  scene.lights = generateLights(builtinLightGeneration(lightCount, seed));
 
   // Frame the sphere grid, not the whole floor (which would leave the grid a strip in the middle
   // distance), from a little above so the floor and its pools fill the lower half of the picture.
@@ -131,6 +135,7 @@ Scene makeBuiltinScene(uint32_t lightCount, uint64_t seed) {
   // The floor reaches behind and beyond the framed grid: near must clear the floor under the eye
   // and far must reach the floor's far corners.
   scene.camera.nearPlane = 0.1f;
+  const float half = 0.5f * kFloorSize;
   float farthest = 0.0f;
   for (float x : {-half, half}) {
     for (float z : {-half, half}) {

@@ -116,15 +116,17 @@ void generate(ApiContext& context, const httplib::Request& req, httplib::Respons
     throw ProblemError(invalidBody(error->pointer, error->message));
   }
   scene::Bounds modelBounds;
+  std::string modelSource;
   {
     auto lock = lockOpen(*session);
     // Checked before generating, so an absurd count costs nothing.
     session->scene.checkLightTotal(request.count, "This would leave the session with " +
                                                       std::to_string(request.count) + " lights");
     modelBounds = session->scene.model().bounds;
+    modelSource = session->scene.model().source;
   }
   scene::LightGeneration generation =
-      lightGenerationAround(modelBounds, uint32_t(request.count), request.seed);
+      defaultLightGeneration(modelSource, modelBounds, uint32_t(request.count), request.seed);
   if (request.bounds) generation.bounds = fromWire(*request.bounds);
   if (request.radius) {
     generation.minRadius = float(request.radius->min);

@@ -131,7 +131,8 @@ std::shared_ptr<const scene::Scene> SessionScene::adopt(std::shared_ptr<scene::S
       break;
     case Lights::fit: {
       const LightRecipe recipe = recipe_.value_or(LightRecipe{uint32_t(lights_.size()), 1});
-      lights_ = scene::generateLights(lightGenerationAround(model_.bounds, recipe.count, recipe.seed));
+      lights_ = scene::generateLights(
+          defaultLightGeneration(model_.source, model_.bounds, recipe.count, recipe.seed));
       relink(0);
       recipe_ = recipe;
       loaded->lights = lights_;
@@ -608,7 +609,7 @@ SessionScene::Restored SessionScene::restore(const protocol::Snapshot& snapshot,
                                                       " lights");
     const LightRecipe recipe{uint32_t(lights.generated->count), lights.generated->seed};
     const std::vector<scene::PointLight> generated = scene::generateLights(
-        lightGenerationAround(next.model_.bounds, recipe.count, recipe.seed));
+        defaultLightGeneration(next.model_.source, next.model_.bounds, recipe.count, recipe.seed));
     restored.lights = next.replaceLights(generated, recipe);
   } else {
     std::vector<scene::PointLight> list;

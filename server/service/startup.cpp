@@ -3,6 +3,7 @@
 #include <glm/glm.hpp>
 
 #include "loader/loader.h"
+#include "protocol/constants.h"
 #include "scene/builtin_scene.h"
 #include "scene/light_generator.h"
 #include "scene/model_loader.h"
@@ -28,6 +29,13 @@ scene::Scene buildScene(const Options& options) {
   std::vector<scene::PointLight> generated = scene::generateLights(lights);
   scene.lights.insert(scene.lights.end(), generated.begin(), generated.end());
   return scene;
+}
+
+scene::LightGeneration defaultLightGeneration(std::string_view modelSource,
+                                              const scene::Bounds& bounds, uint32_t count,
+                                              uint64_t seed) {
+  if (modelSource == protocol::kBuiltinModel) return scene::builtinLightGeneration(count, seed);
+  return lightGenerationAround(bounds, count, seed);
 }
 
 scene::LightGeneration lightGenerationAround(const scene::Bounds& bounds, uint32_t count,

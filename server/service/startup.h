@@ -3,6 +3,7 @@
 #pragma once
 
 #include <string>
+#include <string_view>
 
 #include "render/device_summary.h"
 #include "scene/light_generator.h"
@@ -22,6 +23,15 @@ scene::Scene buildScene(const Options& options);
 // use unless told otherwise.
 scene::LightGeneration lightGenerationAround(const scene::Bounds& bounds, uint32_t count,
                                              uint64_t seed);
+
+// The lights a session's model gets when only a count and a seed are named (POST .../lights/
+// generate with the defaults, a snapshot's lights.generated, lights fitted to a new model): the
+// built-in scene's own layout for the built-in model (scene::builtinLightGeneration, so that a
+// snapshot of a new session restores the very lights it started with), lightGenerationAround
+// the model's bounds for every other.
+scene::LightGeneration defaultLightGeneration(std::string_view modelSource,
+                                              const scene::Bounds& bounds, uint32_t count,
+                                              uint64_t seed);
 
 // "llvmpipe (LLVM 15.0.6, 256 bits) [device 0, cpu], driver llvmpipe (Mesa 22.3.6), Vulkan 1.3.230"
 std::string describeDevice(const render::DeviceSummary& device);
