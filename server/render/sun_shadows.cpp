@@ -102,6 +102,23 @@ void drawCastersInto(VkCommandBuffer cmd, const SceneBuffers& scene, const SunSh
   }
 }
 
+// Clears `rect` (texels) of cascade `c`'s tile and draws into it again: the casters reaching in,
+// clipped to it (a repair's or a scroll's part of the maps; a rendering with the atlas loaded is
+// open).
+void redrawRect(VkCommandBuffer cmd, const Pipelines& p, const SceneBuffers& scene,
+                const SunShadowFit& fit, uint32_t c, const glm::ivec4& rect) {
+  const glm::uvec2 grid = sunAtlasGrid(fit.cascades);
+  const int x = int((c % grid.x) * fit.tileSize);
+  const int y = int((c / grid.x) * fit.tileSize);
+  VkClearAttachment clear{VK_IMAGE_ASPECT_DEPTH_BIT, 0, {}};
+  clear.clearValue.depthStencil = {1.0f, 0};
+  const VkClearRect clearRect{
+      {{x + rect.x, y + rect.y}, {uint32_t(rect.z - rect.x), uint32_t(rect.w - rect.y)}}, 0, 1};
+  vkCmdClearAttachments(cmd, 1, &clear, 1, &clearRect);
+  beginCascade(cmd, p, fit, c, rect);
+  drawCastersInto(cmd, scene, fit, c, rect);
+}
+
 }  // namespace
 
 // One rendering over the whole atlas (cleared once), a viewport per cascade: a cascade's clip
@@ -155,19 +172,10 @@ bool ShadowMaps::repairSun(VkCommandBuffer cmd, const Pipelines& p, const SceneB
   }
 
   beginShadowRendering(cmd, p, scene, sun_, /*keep=*/true);
-  const glm::uvec2 grid = sunAtlasGrid(fit.cascades);
   for (uint32_t c = 0; c < fit.cascades; ++c) {
     const glm::ivec4& r = rects[c];
     if (r.x >= r.z || r.y >= r.w) continue;
-    const int x = int((c % grid.x) * size);
-    const int y = int((c / grid.x) * size);
-    VkClearAttachment clear{VK_IMAGE_ASPECT_DEPTH_BIT, 0, {}};
-    clear.clearValue.depthStencil = {1.0f, 0};
-    const VkClearRect clearRect{
-        {{x + r.x, y + r.y}, {uint32_t(r.z - r.x), uint32_t(r.w - r.y)}}, 0, 1};
-    vkCmdClearAttachments(cmd, 1, &clear, 1, &clearRect);
-    beginCascade(cmd, p, fit, c, r);
-    drawCastersInto(cmd, scene, fit, c, r);
+    redrawRect(cmd, p, scene, fit, c, r);
   }
   endShadowRendering(cmd, sun_);
   sunScene_ = scene.generation;
@@ -261,18 +269,7 @@ bool ShadowMaps::scrollSun(VkCommandBuffer cmd, const Pipelines& p, const SceneB
     if (s.x < 0) strips[count++] = {size + s.x, 0, size, size};
     if (s.y > 0) strips[count++] = {0, 0, size, s.y};
     if (s.y < 0) strips[count++] = {0, size + s.y, size, size};
-    const int x = int((c % grid.x) * fit.tileSize);
-    const int y = int((c / grid.x) * fit.tileSize);
-    for (size_t i = 0; i < count; ++i) {
-      const glm::ivec4& r = strips[i];
-      VkClearAttachment clear{VK_IMAGE_ASPECT_DEPTH_BIT, 0, {}};
-      clear.clearValue.depthStencil = {1.0f, 0};
-      const VkClearRect clearRect{
-          {{x + r.x, y + r.y}, {uint32_t(r.z - r.x), uint32_t(r.w - r.y)}}, 0, 1};
-      vkCmdClearAttachments(cmd, 1, &clear, 1, &clearRect);
-      beginCascade(cmd, p, fit, c, r);
-      drawCastersInto(cmd, scene, fit, c, r);
-    }
+    for (size_t i = 0; i < count; ++i) redrawRect(cmd, p, scene, fit, c, strips[i]);
   }
   endShadowRendering(cmd, sun_);
   sunFit_ = fit;
